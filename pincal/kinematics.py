@@ -1,0 +1,261 @@
+"""Closed-loop kinematics: forward and inverse solvers and derivatives through the loops.
+
+FK holds the actuated joints at their commanded values and drives the loop residual ``c(q)`` to
+zero over the passive joints by damped Gauss–Newton on the configuration manifold (Pinocchio's
+``integrate``). Cold starts, and warm starts that fail, fall back on continuation: the actuated
+values are moved from the start's own values to the target in small steps, each closed in turn, so
+the solution stays on the assembly branch of the start.
+
+Derivatives through the loops follow the implicit-function theorem: with
+``C = dc/dv = [C_a C_p]``, the passive velocities are ``v_p = -C_p⁺ C_a v_a``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.closure import LoopClosure
+
+Array = npt.NDArray[np.float64]
+
+#: Largest change of any actuated value in one continuation step [rad or m].
+CONTINUATION_STEP = 0.2
+
+
+@dataclass(frozen=True)
+class SolveReport:
+    """Outcome of one Newton solve: the configuration, the residual reached and the iterations."""
+
+    q: Array
+    residual: float
+    iterations: int
+    converged: bool
+
+
+@dataclass(frozen=True)
+class ActuatedJoint:
+    """Where one actuated joint sits in ``q`` and ``v``; ``nq`` is 2 for unbounded revolutes."""
+
+    name: str
+    joint_id: int
+    idx_q: int
+    idx_v: int
+    nq: int
+
+
+class ClosedLoopKinematics:
+    """Newton solvers for a tree plus loop closures, with a fixed set of actuated joints.
+
+    Args:
+        model: Pinocchio model of the cut tree.
+        closure: Its loop closures.
+        actuated: The actuated joints, in the order of ``q_actuated`` vectors.
+    """
+
+    def __init__(self, model: pin.Model, closure: LoopClosure, actuated: list[ActuatedJoint]) -> None:
+        self.model = model
+        self.data = model.createData()
+        self.closure = closure
+        self.actuated = actuated
+        self.actuated_v = np.array([a.idx_v for a in actuated], dtype=int)
+        mask = np.ones(model.nv, dtype=bool)
+        mask[self.actuated_v] = False
+        self.passive_v = np.flatnonzero(mask)
+
+    # --- actuated coordinates -------------------------------------------------------------------
+    def set_actuated(self, q: Array, q_actuated: Array) -> None:
+        """Write actuated values [rad or m] into ``q`` in place."""
+        for joint, value in zip(self.actuated, q_actuated, strict=True):
+            if joint.nq == 1:
+                q[joint.idx_q] = value
+            else:
+                q[joint.idx_q] = math.cos(value)
+                q[joint.idx_q + 1] = math.sin(value)
+
+    def actuated_values(self, q: Array) -> Array:
+        """Actuated values [rad or m] read from ``q``."""
+        out = np.empty(len(self.actuated))
+        for k, joint in enumerate(self.actuated):
+            if joint.nq == 1:
+                out[k] = q[joint.idx_q]
+            else:
+                out[k] = math.atan2(q[joint.idx_q + 1], q[joint.idx_q])
+        return out
+
+    # --- residuals ------------------------------------------------------------------------------
+    def closure_residual(self, q: Array) -> Array:
+        """Stacked loop residual at ``q`` [m, rad]."""
+        pin.forwardKinematics(self.model, self.data, q)
+        return self.closure.residual(self.data)
+
+    def closure_jacobian(self, q: Array) -> tuple[Array, Array]:
+        """Residual and its Jacobian ``dc/dv`` at ``q``."""
+        pin.computeJointJacobians(self.model, self.data, q)
+        return self.closure.residual_and_jacobian(self.data)
+
+    # --- forward kinematics ---------------------------------------------------------------------
+    def close_loops(self, q: Array, tol: float, max_iter: int = 30, max_step: float = 0.5) -> SolveReport:
+        """Damped Gauss–Newton over the passive joints from ``q`` (actuated values held)."""
+        model, data, passive = self.model, self.data, self.passive_v
+        if self.closure.rows == 0:
+            return SolveReport(q, 0.0, 0, True)
+        dv = np.zeros(model.nv)
+        eye = np.eye(passive.size)
+        norm = math.inf
+        for it in range(max_iter + 1):
+            pin.computeJointJacobians(model, data, q)
+            r, jac = self.closure.residual_and_jacobian(data)
+            norm = float(np.max(np.abs(r)))
+            if norm <= tol:
+                return SolveReport(q, norm, it, True)
+            if it == max_iter or not math.isfinite(norm) or norm > 1e3:
+                break
+            cp = jac[:, passive]
+            h = cp.T @ cp
+            h += (1e-12 * (1.0 + float(np.trace(h)) / passive.size)) * eye
+            step = -np.linalg.solve(h, cp.T @ r)
+            size = float(np.linalg.norm(step))
+            if size > max_step:
+                step *= max_step / size
+            dv[passive] = step
+            q = pin.integrate(model, q, dv)
+        return SolveReport(q, norm, max_iter, False)
+
+    def continuation(self, start: Array, q_actuated: Array, tol: float, steps: int) -> SolveReport:
+        """Close the loops along a straight path of actuated values from ``start``'s to ``q_actuated``."""
+        q = start.copy()
+        origin = self.actuated_values(start)
+        report = SolveReport(q, math.inf, 0, False)
+        total = 0
+        for k in range(1, steps + 1):
+            self.set_actuated(q, origin + (q_actuated - origin) * (k / steps))
+            report = self.close_loops(q, tol if k == steps else max(tol, 1e-8), max_iter=20)
+            total += report.iterations
+            if not report.converged:
+                return SolveReport(report.q, report.residual, total, False)
+            q = report.q
+        return SolveReport(report.q, report.residual, total, True)
+
+    def solve_fk(self, q_actuated: Array, start: Array, warm: bool, tol: float) -> SolveReport:
+        """Full configuration with the loops closed for ``q_actuated``, from ``start``.
+
+        A warm start tries Newton directly; a cold start, or a failed warm start, uses continuation
+        with 1, 4 and 16 times ``max|Δq_a| / CONTINUATION_STEP`` steps.
+        """
+        if warm:
+            q = start.copy()
+            self.set_actuated(q, q_actuated)
+            report = self.close_loops(q, tol)
+            if report.converged:
+                return report
+        span = float(np.max(np.abs(q_actuated - self.actuated_values(start)), initial=0.0))
+        base = max(1, math.ceil(span / CONTINUATION_STEP))
+        report = SolveReport(start, math.inf, 0, False)
+        for factor in (1, 4, 16):
+            report = self.continuation(start, q_actuated, tol, base * factor)
+            if report.converged:
+                return report
+        return report
+
+    # --- derivatives through the loops -----------------------------------------------------------
+    def configuration_jacobian(self, q: Array) -> Array:
+        """``dv/dq_a`` (nv × na) on the closed-loop manifold at ``q`` (implicit-function theorem)."""
+        _, jac = self.closure_jacobian(q)
+        return self.tangent_from_jacobian(jac)
+
+    def tangent_from_jacobian(self, jac: Array) -> Array:
+        """``dv/dq_a`` from a closure Jacobian ``jac`` (rows × nv): ``v_p = -C_p⁺ C_a v_a``."""
+        na = len(self.actuated)
+        tangent = np.zeros((self.model.nv, na))
+        tangent[self.actuated_v, np.arange(na)] = 1.0
+        if self.closure.rows:
+            cp = jac[:, self.passive_v]
+            ca = jac[:, self.actuated_v]
+            tangent[self.passive_v] = -np.linalg.lstsq(cp, ca, rcond=None)[0]
+        return tangent
+
+    def frame_jacobian(self, q: Array, frame_id: int, reference: pin.ReferenceFrame) -> Array:
+        """Frame Jacobian (6 × nv) at ``q`` in ``reference``; the closure Jacobian is left in data."""
+        pin.computeJointJacobians(self.model, self.data, q)
+        pin.updateFramePlacement(self.model, self.data, frame_id)
+        return pin.getFrameJacobian(self.model, self.data, frame_id, reference)
+
+    def frame_jacobian_actuated(self, q: Array, frame_id: int,
+                                reference: pin.ReferenceFrame = pin.LOCAL_WORLD_ALIGNED) -> Array:
+        """Twist of a frame per unit actuated velocity (6 × na), through the loops."""
+        jf = self.frame_jacobian(q, frame_id, reference)
+        if self.closure.rows == 0:
+            return jf[:, self.actuated_v]
+        _, jac = self.closure.residual_and_jacobian(self.data)
+        return jf @ self.tangent_from_jacobian(jac)
+
+    # --- inverse kinematics ---------------------------------------------------------------------
+    def task_error(self, q: Array, frame_id: int, target: pin.SE3 | Array) -> tuple[Array, Array, Array]:
+        """Closure and frame-target residual stacked, with the Jacobian over all of ``v``.
+
+        For an SE3 target the frame rows are ``p - p_t`` [m] and ``log3(R_tᵀ R)`` [rad]; for a
+        position target only ``p - p_t``.
+        """
+        jf = self.frame_jacobian(q, frame_id, pin.LOCAL_WORLD_ALIGNED)
+        placement = self.data.oMf[frame_id]
+        r, jac = self.closure.residual_and_jacobian(self.data)
+        if isinstance(target, pin.SE3):
+            rel = target.rotation.T @ placement.rotation
+            err = np.concatenate([placement.translation - target.translation, pin.log3(rel)])
+            jt = np.vstack([jf[:3], pin.Jlog3(rel) @ placement.rotation.T @ jf[3:]])
+        else:
+            err = placement.translation - target
+            jt = jf[:3]
+        return np.concatenate([r, err]), np.vstack([jac, jt]), err
+
+    def solve_ik_newton(self, q: Array, frame_id: int, target: pin.SE3 | Array, tol: float,
+                        max_iter: int = 40, max_step: float = 0.5) -> SolveReport:
+        """Damped Gauss–Newton over all joints towards a frame target with the loops closed."""
+        nv = self.model.nv
+        eye = np.eye(nv)
+        norm = math.inf
+        for it in range(max_iter + 1):
+            e, jac, _ = self.task_error(q, frame_id, target)
+            norm = float(np.max(np.abs(e)))
+            if norm <= tol:
+                return SolveReport(q, norm, it, True)
+            if it == max_iter or not math.isfinite(norm) or norm > 1e3:
+                break
+            h = jac.T @ jac
+            h += (1e-10 * (1.0 + float(np.trace(h)) / nv)) * eye
+            step = -np.linalg.solve(h, jac.T @ e)
+            size = float(np.linalg.norm(step))
+            if size > max_step:
+                step *= max_step / size
+            q = pin.integrate(self.model, q, step)
+        return SolveReport(q, norm, max_iter, False)
+
+    def solve_ik(self, target: pin.SE3 | Array, frame_id: int, start: Array, tol: float) -> SolveReport:
+        """Configuration placing the frame at ``target``: direct Newton, then continuation in space."""
+        report = self.solve_ik_newton(start.copy(), frame_id, target, tol)
+        if report.converged:
+            return report
+        pin.forwardKinematics(self.model, self.data, start)
+        here = pin.updateFramePlacement(self.model, self.data, frame_id).copy()
+        goal = target if isinstance(target, pin.SE3) else pin.SE3(here.rotation, np.asarray(target))
+        delta = pin.log6(here.actInv(goal)).vector
+        span = max(float(np.linalg.norm(delta[:3])), float(np.linalg.norm(delta[3:])))
+        base = max(2, math.ceil(span / 0.05))
+        for factor in (1, 4):
+            steps = base * factor
+            q = start.copy()
+            for k in range(1, steps + 1):
+                waypoint = here * pin.exp6(delta * (k / steps))
+                sub = waypoint if isinstance(target, pin.SE3) else waypoint.translation
+                report = self.solve_ik_newton(q, frame_id, sub, tol if k == steps else max(tol, 1e-8))
+                if not report.converged:
+                    break
+                q = report.q
+            if report.converged:
+                return report
+        return report

@@ -1,0 +1,312 @@
+"""The :class:`Robot`: a Pinocchio model of the cut tree, its loop closures and its actuation.
+
+Load one with :func:`load_robot` from a URDF path or a known robot name.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.closure import LoopClosure
+from pincal.errors import ConvergenceError, LoopError, NotFoundError, RobotFileError, listing
+from pincal.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveReport
+from pincal.library import robot_path
+from pincal.urdf import LoopSpec, check_finite_origins, read_extensions
+
+Array = npt.NDArray[np.float64]
+
+#: Largest closure residual accepted at the reference configuration [m, rad].
+REFERENCE_TOLERANCE = 1e-9
+#: Default FK/IK tolerance on the largest residual component [m, rad].
+SOLVE_TOLERANCE = 1e-11
+#: Names tried, in order, for the default end-effector frame.
+END_EFFECTOR_NAMES = ("end_effector", "tool0", "panda_hand", "arm_tool_link", "ee_link")
+
+
+class Robot:
+    """A robot with optional closed kinematic loops.
+
+    Attributes:
+        name: Robot name from the URDF.
+        model: Pinocchio model of the cut tree (the loops are not in it).
+        loops: Loop declarations, anchors in link frames [m, rad].
+        actuated_joints: Names of the actuated joints, the order of ``q_actuated`` vectors.
+        source: Path of the URDF file this robot was loaded from, if any.
+        q_reference: The reference configuration (Pinocchio's neutral, where the file is assembled).
+
+    A Robot owns one ``pinocchio.Data``: its methods are not thread-safe; use one Robot per thread.
+    """
+
+    def __init__(self, model: pin.Model, loops: list[LoopSpec], actuated_joints: list[str],
+                 name: str = "robot", source: Path | None = None) -> None:
+        self.name = name
+        self.model = model
+        self.loops = list(loops)
+        self.actuated_joints = list(actuated_joints)
+        self.source = source
+        self.closure = LoopClosure(model, self.loops)
+        actuated = []
+        for joint in self.actuated_joints:
+            if not model.existJointName(joint):
+                raise NotFoundError(f"actuated joint '{joint}' is not in the model; joints are: "
+                                    f"{listing(model.names[1:])}")
+            jid = model.getJointId(joint)
+            jm = model.joints[jid]
+            if jm.nv != 1:
+                raise LoopError(f"actuated joint '{joint}' has {jm.nv} degrees of freedom; actuated "
+                                "joints must be revolute, continuous or prismatic")
+            actuated.append(ActuatedJoint(joint, jid, jm.idx_q, jm.idx_v, jm.nq))
+        self.kinematics = ClosedLoopKinematics(model, self.closure, actuated)
+        self.q_reference = pin.neutral(model)
+
+    # --- structure ------------------------------------------------------------------------------
+    @property
+    def is_closed_loop(self) -> bool:
+        """True when the robot has at least one loop closure."""
+        return bool(self.loops)
+
+    @property
+    def n_actuated(self) -> int:
+        return len(self.actuated_joints)
+
+    def frame_id(self, frame: str) -> int:
+        """Pinocchio frame id of a frame or link name; NotFoundError lists the frames otherwise."""
+        if not self.model.existFrame(frame):
+            names = [f.name for f in self.model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP)]
+            raise NotFoundError(f"frame '{frame}' does not exist in robot '{self.name}'; frames are: "
+                                f"{listing(names)}")
+        return int(self.model.getFrameId(frame))
+
+    @property
+    def end_effector(self) -> str:
+        """The default end-effector frame name (``end_effector`` in pincal's robot files)."""
+        for name in END_EFFECTOR_NAMES:
+            if self.model.existFrame(name):
+                return name
+        return str(self.model.frames[len(self.model.frames) - 1].name)
+
+    def mobility(self, q: Array | None = None, tol: float = 1e-8) -> int:
+        """Degrees of freedom ``nv - rank(dc/dv)`` at ``q`` (default: the reference configuration)."""
+        if not self.loops:
+            return int(self.model.nv)
+        _, jac = self.kinematics.closure_jacobian(self.q_reference if q is None else q)
+        return int(self.model.nv - np.linalg.matrix_rank(jac, tol=tol))
+
+    # --- configurations -------------------------------------------------------------------------
+    def actuated_values(self, q: Array) -> Array:
+        """Actuated joint values in ``q`` [rad or m], in ``actuated_joints`` order."""
+        return self.kinematics.actuated_values(np.asarray(q, dtype=float))
+
+    def closure_residual(self, q: Array) -> Array:
+        """Stacked loop-closure residual at ``q`` [m for positions, rad for angles]."""
+        return self.kinematics.closure_residual(self._q(q))
+
+    def placement(self, q: Array, frame: str) -> pin.SE3:
+        """Placement of ``frame`` in the world frame at configuration ``q`` [m, rad]."""
+        fid = self.frame_id(frame)
+        pin.forwardKinematics(self.model, self.kinematics.data, self._q(q))
+        return pin.updateFramePlacement(self.model, self.kinematics.data, fid).copy()
+
+    def _q(self, q: Array) -> Array:
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.model.nq,):
+            raise ValueError(f"configuration has shape {q.shape}, expected ({self.model.nq},)")
+        return q
+
+    def _qa(self, q_actuated: Array | float) -> Array:
+        qa = np.atleast_1d(np.asarray(q_actuated, dtype=float))
+        if qa.shape != (self.n_actuated,):
+            raise ValueError(f"actuated values have shape {qa.shape}, expected ({self.n_actuated},) for "
+                             f"{listing(self.actuated_joints)}")
+        if not np.all(np.isfinite(qa)):
+            raise ValueError(f"actuated values contain NaN or infinity: {qa}")
+        return qa
+
+    # --- kinematics -----------------------------------------------------------------------------
+    def solve_fk_report(self, q_actuated: Array, q_guess: Array | None = None,
+                        tol: float = SOLVE_TOLERANCE) -> SolveReport:
+        """Like :meth:`solve_fk` but returns the solver report instead of raising."""
+        qa = self._qa(q_actuated)
+        if q_guess is None:
+            return self.kinematics.solve_fk(qa, self.q_reference, warm=False, tol=tol)
+        return self.kinematics.solve_fk(qa, self._q(q_guess), warm=True, tol=tol)
+
+    def solve_fk(self, q_actuated: Array, q_guess: Array | None = None,
+                 tol: float = SOLVE_TOLERANCE) -> Array:
+        """Full configuration with every loop closed for the given actuated values.
+
+        Args:
+            q_actuated: Actuated joint values [rad or m], in ``actuated_joints`` order.
+            q_guess: A nearby configuration (warm start); the reference configuration otherwise.
+            tol: Largest accepted closure residual component [m, rad].
+
+        Returns:
+            The configuration q (nq,).
+
+        Raises:
+            ConvergenceError: the loops could not be closed; says the residual and the input.
+        """
+        report = self.solve_fk_report(q_actuated, q_guess, tol)
+        if not report.converged:
+            raise ConvergenceError(
+                f"forward kinematics of '{self.name}' did not converge for actuated values "
+                f"{np.array2string(np.asarray(q_actuated, dtype=float), precision=6)} "
+                f"({listing(self.actuated_joints)}): closure residual {report.residual:.3g} after "
+                f"{report.iterations} iterations. The input may be outside the workspace or near a "
+                "singularity; try a q_guess from a nearby solution.")
+        return report.q
+
+    def solve_fk_batch(self, q_actuated: Array, q_guess: Array | None = None,
+                       tol: float = SOLVE_TOLERANCE) -> Array:
+        """Forward kinematics of many samples, (N, na) -> (N, nq).
+
+        Args:
+            q_actuated: Actuated values, one sample per row [rad or m].
+            q_guess: One configuration used for every sample, or (N, nq) guesses, one per sample;
+                None for cold starts from the reference configuration.
+            tol: Largest accepted closure residual component [m, rad].
+
+        Raises:
+            ConvergenceError: naming the first sample (row index) that failed.
+        """
+        qa = np.atleast_2d(np.asarray(q_actuated, dtype=float))
+        guesses = None if q_guess is None else np.asarray(q_guess, dtype=float)
+        out = np.empty((qa.shape[0], self.model.nq))
+        for k, row in enumerate(qa):
+            guess = None if guesses is None else (guesses if guesses.ndim == 1 else guesses[k])
+            try:
+                out[k] = self.solve_fk(row, guess, tol)
+            except ConvergenceError as exc:
+                raise ConvergenceError(f"sample {k}: {exc}") from None
+        return out
+
+    def solve_ik(self, target: pin.SE3 | Array, frame: str | None = None, q_guess: Array | None = None,
+                 tol: float = SOLVE_TOLERANCE) -> Array:
+        """Full configuration, actuated joints included, placing ``frame`` at ``target``.
+
+        Args:
+            target: A ``pinocchio.SE3`` in the world frame [m, rad], or a position (3,) [m] for
+                translational robots (orientation left free).
+            frame: End-effector frame; default :attr:`end_effector`.
+            q_guess: Start configuration; the reference configuration otherwise.
+            tol: Largest accepted residual component (closure and target) [m, rad].
+
+        Raises:
+            ConvergenceError: the target was not reached (unreachable, or a bad guess).
+        """
+        name = frame or self.end_effector
+        fid = self.frame_id(name)
+        goal: pin.SE3 | Array
+        if isinstance(target, pin.SE3):
+            goal = target
+        else:
+            goal = np.asarray(target, dtype=float).reshape(3)
+        start = self.q_reference if q_guess is None else self._q(q_guess)
+        report = self.kinematics.solve_ik(goal, fid, start, tol)
+        if not report.converged:
+            raise ConvergenceError(
+                f"inverse kinematics of '{self.name}' did not reach the target of frame '{name}': "
+                f"largest residual {report.residual:.3g} after {report.iterations} iterations. The "
+                "target may be unreachable (or, for a robot with fewer than 6 DOF, over-specified: "
+                "give a position).")
+        return report.q
+
+    def configuration_jacobian(self, q: Array) -> Array:
+        """``dv/dq_a`` (nv × na): joint velocities per unit actuated velocity, through the loops."""
+        return self.kinematics.configuration_jacobian(self._q(q))
+
+    def frame_jacobian_actuated(self, q: Array, frame: str | None = None,
+                                reference: pin.ReferenceFrame = pin.LOCAL_WORLD_ALIGNED) -> Array:
+        """Jacobian (6 × na) of a frame's twist (linear [m], angular [rad]) w.r.t. the actuated joints.
+
+        Computed through the loops by the implicit-function theorem; ``q`` must be closed.
+        """
+        return self.kinematics.frame_jacobian_actuated(self._q(q), self.frame_id(frame or self.end_effector),
+                                                       reference)
+
+    def __repr__(self) -> str:
+        return (f"Robot('{self.name}', nq={self.model.nq}, nv={self.model.nv}, loops={len(self.loops)}, "
+                f"actuated={self.actuated_joints})")
+
+
+def _build_model(text: str, source: str) -> pin.Model:
+    try:
+        return pin.buildModelFromXML(text)
+    except (RuntimeError, ValueError, IndexError) as exc:
+        raise RobotFileError(f"{source}: Pinocchio cannot build the model: {exc}") from None
+
+
+def load_robot(path: str | Path) -> Robot:
+    """Load a robot from a URDF file, or by name (``delta``, ``hexapod``, ``ur10``, ``panda``, ...).
+
+    Loops come from ``<loop>`` elements and actuated joints from ``<transmission>`` elements. A
+    robot without loops is serial: all its one-DOF joints are actuated.
+
+    The file must be assembled at the reference configuration (Pinocchio's neutral, every joint at
+    zero): the closure residual there must be below 1e-9 and the mobility (nv minus the rank of the
+    closure Jacobian) must equal the number of actuated joints.
+
+    Raises:
+        RobotFileError: unreadable or invalid file; LoopError for loop and actuation problems.
+        NotFoundError: neither a file nor a known robot name.
+    """
+    p = Path(path)
+    if not p.is_file():
+        if p.suffix or "/" in str(path):
+            raise RobotFileError(f"robot file '{path}' does not exist")
+        p = robot_path(str(path))
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RobotFileError(f"cannot read '{p}': {exc}") from None
+    return robot_from_urdf_text(text, source=p)
+
+
+def robot_from_urdf_text(text: str, source: Path | None = None) -> Robot:
+    """Build and check a :class:`Robot` from URDF text (see :func:`load_robot`)."""
+    where = str(source) if source else "URDF"
+    ext = read_extensions(text, where)
+    check_finite_origins(text, where)
+    model = _build_model(text, where)
+    if ext.loops:
+        actuated = ext.transmitted_joints
+    else:
+        multi = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv > 1]
+        if multi:
+            raise RobotFileError(f"{where}: serial robot with multi-DOF joints {listing(multi)}; a serial "
+                                 "robot's joints must be revolute, continuous or prismatic")
+        actuated = [model.names[j] for j in range(1, model.njoints)]
+    robot = Robot(model, ext.loops, actuated, name=ext.robot_name, source=source)
+    check_reference_assembly(robot, where)
+    return robot
+
+
+def check_reference_assembly(robot: Robot, where: str = "URDF") -> None:
+    """Refuse a robot whose loops do not close at the reference configuration or whose mobility
+    does not match its actuation."""
+    if not robot.loops:
+        return
+    r, jac = robot.kinematics.closure_jacobian(robot.q_reference)
+    for name, rows in robot.closure.loop_slices().items():
+        worst = float(np.max(np.abs(r[rows])))
+        if worst > REFERENCE_TOLERANCE:
+            raise LoopError(f"{where}: loop '{name}' does not close at the reference configuration (all "
+                            f"joints zero): residual {worst:.3g} m/rad > {REFERENCE_TOLERANCE:g}. Assemble "
+                            "the file so that every loop closes with every joint at zero.")
+    rank = int(np.linalg.matrix_rank(jac, tol=1e-8))
+    mobility = robot.model.nv - rank
+    if mobility != robot.n_actuated:
+        raise LoopError(f"{where}: mobility is {mobility} (nv {robot.model.nv} minus closure rank {rank}) but "
+                        f"{robot.n_actuated} joints are actuated ({listing(robot.actuated_joints) or 'none'}); "
+                        "declare one <transmission> per actuated joint")
+    passive = jac[:, robot.kinematics.passive_v]
+    rank_p = int(np.linalg.matrix_rank(passive, tol=1e-8))
+    if rank_p < robot.kinematics.passive_v.size:
+        raise LoopError(f"{where}: the actuated joints ({listing(robot.actuated_joints)}) do not determine the "
+                        f"passive joints at the reference configuration (passive closure rank {rank_p} < "
+                        f"{robot.kinematics.passive_v.size}): a singular reference or a wrong choice of "
+                        "actuated joints")

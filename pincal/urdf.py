@@ -1,0 +1,200 @@
+"""Reading pincal's URDF extensions: ``<loop>`` closures and ``<transmission>`` actuation.
+
+The convention (DESIGN.md, after the URDF+ proposal of Chignoli et al., 2024)::
+
+    <loop name="leg1_platform" type="spherical">
+      <predecessor link="forearm_1"><origin xyz="0 0 -0.48" rpy="0 0 0"/></predecessor>
+      <successor link="platform"><origin xyz="0.03 0 0" rpy="0 0 0"/></successor>
+      <axis xyz="1 0 0"/>   <!-- revolute / prismatic only, in the predecessor anchor frame -->
+    </loop>
+
+Lengths are in metres, angles in radians. Plain URDF readers ignore these elements, so every file
+still loads as a tree elsewhere.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from pincal.errors import LoopError, RobotFileError, listing
+
+#: Loop types and the number of closure rows each contributes.
+LOOP_ROWS: dict[str, int] = {"spherical": 3, "revolute": 5, "prismatic": 5, "fixed": 6}
+
+#: URDF joint types that carry one degree of freedom and may be actuated.
+SCALAR_JOINT_TYPES = ("revolute", "continuous", "prismatic")
+
+
+@dataclass(frozen=True)
+class LoopSpec:
+    """One loop closure as declared in the file.
+
+    Attributes:
+        name: Loop name.
+        type: ``spherical``, ``revolute``, ``prismatic`` or ``fixed``.
+        predecessor: Link carrying the first anchor.
+        predecessor_origin: Anchor placement in the predecessor link frame [m, rad].
+        successor: Link carrying the second anchor.
+        successor_origin: Anchor placement in the successor link frame [m, rad].
+        axis: Unit axis of relative motion in the predecessor anchor frame (revolute/prismatic).
+    """
+
+    name: str
+    type: str
+    predecessor: str
+    predecessor_origin: pin.SE3
+    successor: str
+    successor_origin: pin.SE3
+    axis: np.ndarray
+
+    @property
+    def rows(self) -> int:
+        """Number of scalar closure equations of this loop."""
+        return LOOP_ROWS[self.type]
+
+    def with_origins(self, predecessor_origin: pin.SE3, successor_origin: pin.SE3) -> LoopSpec:
+        """A copy with new anchor placements (used when anchors are calibrated)."""
+        return LoopSpec(self.name, self.type, self.predecessor, predecessor_origin.copy(),
+                        self.successor, successor_origin.copy(), self.axis.copy())
+
+
+@dataclass(frozen=True)
+class UrdfExtensions:
+    """What pincal reads from a URDF beyond the tree: loops, actuated joints and the link/joint names."""
+
+    robot_name: str
+    loops: list[LoopSpec]
+    transmitted_joints: list[str]
+    links: list[str]
+    joints: dict[str, str]  # joint name -> URDF type
+
+
+def _floats(text: str | None, count: int, what: str) -> np.ndarray:
+    if text is None:
+        return np.zeros(count)
+    parts = text.split()
+    try:
+        values = np.array([float(p) for p in parts])
+    except ValueError:
+        raise RobotFileError(f"{what}: '{text}' is not {count} numbers") from None
+    if values.size != count:
+        raise RobotFileError(f"{what}: '{text}' has {values.size} numbers, expected {count}")
+    if not np.all(np.isfinite(values)):
+        raise RobotFileError(f"{what}: '{text}' contains NaN or infinity")
+    return values
+
+
+def origin_to_se3(element: ET.Element | None, what: str) -> pin.SE3:
+    """The placement given by an ``<origin xyz rpy>`` element (identity when absent) [m, rad]."""
+    if element is None:
+        return pin.SE3.Identity()
+    xyz = _floats(element.get("xyz"), 3, f"{what} origin xyz")
+    rpy = _floats(element.get("rpy"), 3, f"{what} origin rpy")
+    return pin.SE3(pin.rpy.rpyToMatrix(*rpy), xyz)
+
+
+def _anchor(loop: ET.Element, tag: str, name: str, links: set[str], link_list: list[str]
+            ) -> tuple[str, pin.SE3]:
+    node = loop.find(tag)
+    if node is None:
+        raise LoopError(f"loop '{name}' has no <{tag}> element")
+    link = node.get("link")
+    if not link:
+        raise LoopError(f"loop '{name}': <{tag}> has no link attribute")
+    if link not in links:
+        raise LoopError(f"loop '{name}' names link '{link}' as {tag}; links are: {listing(link_list)}")
+    return link, origin_to_se3(node.find("origin"), f"loop '{name}' {tag}")
+
+
+def _loop(node: ET.Element, links: set[str], link_list: list[str]) -> LoopSpec:
+    name = node.get("name")
+    if not name:
+        raise LoopError("a <loop> element has no name attribute")
+    kind = node.get("type")
+    if kind not in LOOP_ROWS:
+        raise LoopError(f"loop '{name}' has type '{kind}'; valid types are: {listing(LOOP_ROWS)}")
+    pred, pred_origin = _anchor(node, "predecessor", name, links, link_list)
+    succ, succ_origin = _anchor(node, "successor", name, links, link_list)
+    if pred == succ:
+        raise LoopError(f"loop '{name}' joins link '{pred}' to itself")
+    axis_node = node.find("axis")
+    axis = _floats(axis_node.get("xyz") if axis_node is not None else None, 3, f"loop '{name}' axis")
+    if axis_node is None:
+        axis = np.array([1.0, 0.0, 0.0])
+    norm = float(np.linalg.norm(axis))
+    if norm < 1e-12:
+        raise LoopError(f"loop '{name}' has a zero axis")
+    return LoopSpec(name, kind, pred, pred_origin, succ, succ_origin, axis / norm)
+
+
+def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
+    """Parse the tree's names and pincal's ``<loop>``/``<transmission>`` elements from URDF text.
+
+    Raises:
+        RobotFileError: the text is not a URDF document.
+        LoopError: a loop or transmission is malformed or names a missing link or joint.
+    """
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise RobotFileError(f"{source} is not well-formed XML: {exc}") from None
+    if root.tag != "robot":
+        raise RobotFileError(f"{source}: root element is <{root.tag}>, expected <robot>")
+    link_list = [n.get("name", "") for n in root.findall("link")]
+    joints = {n.get("name", ""): n.get("type", "") for n in root.findall("joint")}
+    for kind, names in (("link", link_list), ("joint", list(joints))):
+        seen: set[str] = set()
+        for n in names:
+            if not n:
+                raise RobotFileError(f"{source}: a <{kind}> element has no name")
+            if n in seen:
+                raise RobotFileError(f"{source}: duplicate {kind} name '{n}'")
+            seen.add(n)
+    if len(joints) != len(root.findall("joint")):
+        raise RobotFileError(f"{source}: duplicate joint names")
+    links = set(link_list)
+
+    loops: list[LoopSpec] = []
+    for node in root.findall("loop"):
+        loop = _loop(node, links, link_list)
+        if any(existing.name == loop.name for existing in loops):
+            raise LoopError(f"duplicate loop name '{loop.name}'")
+        loops.append(loop)
+
+    transmitted: list[str] = []
+    movable = [j for j, t in joints.items() if t in SCALAR_JOINT_TYPES]
+    for node in root.findall("transmission"):
+        tname = node.get("name", "?")
+        joint_nodes = node.findall("joint")
+        if not joint_nodes:
+            raise LoopError(f"transmission '{tname}' names no joint")
+        for jn in joint_nodes:
+            jname = jn.get("name", "")
+            if jname not in joints:
+                raise LoopError(f"transmission '{tname}' names joint '{jname}', which does not exist; "
+                                f"movable joints are: {listing(movable)}")
+            if joints[jname] not in SCALAR_JOINT_TYPES:
+                raise LoopError(f"transmission '{tname}' names joint '{jname}' of type "
+                                f"'{joints[jname]}'; only revolute, continuous and prismatic joints "
+                                "can be actuated")
+            if jname in transmitted:
+                raise LoopError(f"joint '{jname}' is named by two transmissions")
+            transmitted.append(jname)
+    return UrdfExtensions(root.get("name", "robot"), loops, transmitted, link_list, joints)
+
+
+def check_finite_origins(text: str, source: str = "URDF") -> None:
+    """Refuse joint origins with NaN/inf or non-numeric values (Pinocchio would read them silently)."""
+    root = ET.fromstring(text)
+    for joint in root.findall("joint"):
+        origin_to_se3(joint.find("origin"), f"{source}: joint '{joint.get('name')}'")
+        axis = joint.find("axis")
+        if axis is not None:
+            values = _floats(axis.get("xyz"), 3, f"{source}: joint '{joint.get('name')}' axis")
+            if joint.get("type") in SCALAR_JOINT_TYPES and math.isclose(float(np.linalg.norm(values)), 0):
+                raise RobotFileError(f"{source}: joint '{joint.get('name')}' has a zero axis")

@@ -1,0 +1,1 @@
+"""The reference robots shipped with pincal (URDF with ``<loop>`` and ``<transmission>`` elements)."""
