@@ -5,6 +5,11 @@ Load one with :func:`load_robot` from a URDF path or a known robot name.
 
 from __future__ import annotations
 
+import contextlib
+import os
+import sys
+import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -76,7 +81,7 @@ class Robot:
     def frame_id(self, frame: str) -> int:
         """Pinocchio frame id of a frame or link name; NotFoundError lists the frames otherwise."""
         if not self.model.existFrame(frame):
-            names = [f.name for f in self.model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP)]
+            names = [f.name for f in self.model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)]
             raise NotFoundError(f"frame '{frame}' does not exist in robot '{self.name}'; frames are: "
                                 f"{listing(names)}")
         return int(self.model.getFrameId(frame))
@@ -233,11 +238,36 @@ class Robot:
                 f"actuated={self.actuated_joints})")
 
 
-def _build_model(text: str, source: str) -> pin.Model:
+@contextlib.contextmanager
+def _captured_stderr() -> Iterator[list[str]]:
+    """Capture what C++ code (urdfdom) writes to file descriptor 2, to put it in our error instead."""
+    lines: list[str] = []
     try:
-        return pin.buildModelFromXML(text)
-    except (RuntimeError, ValueError, IndexError) as exc:
-        raise RobotFileError(f"{source}: Pinocchio cannot build the model: {exc}") from None
+        saved = os.dup(2)
+    except OSError:  # no usable stderr: nothing to capture
+        yield lines
+        return
+    with tempfile.TemporaryFile(mode="w+b") as sink:
+        sys.stderr.flush()
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield lines
+        finally:
+            sys.stderr.flush()
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            lines.extend(line.strip() for line in sink.read().decode(errors="replace").splitlines())
+
+
+def _build_model(text: str, source: str) -> pin.Model:
+    with _captured_stderr() as messages:
+        try:
+            return pin.buildModelFromXML(text)
+        except (RuntimeError, ValueError, IndexError) as exc:
+            error: Exception = exc
+    detail = "; ".join(m for m in messages if m and not m.startswith("at line")) or str(error)
+    raise RobotFileError(f"{source}: Pinocchio cannot build the model: {detail}")
 
 
 def load_robot(path: str | Path) -> Robot:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from tools.urdfgen.common import UrdfWriter, box, cylinder, sphere  # noqa: E402
+from tools.urdfgen.common import UrdfWriter, box, cylinder, sphere
 
 LA = 0.260  # arm length [m]
 LB = 0.480  # rod (parallelogram) length [m]

@@ -1,0 +1,129 @@
+"""Loading robots: the checks on the file, serial robots by name, and every shipped file as a tree."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+import yourdfpy
+from conftest import ROBOTS
+
+import pincal
+
+
+def _write(tmp_path: Path, text: str, name: str = "robot.urdf") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_delta_structure(delta: pincal.Robot) -> None:
+    assert [loop.name for loop in delta.loops] == ["leg_1_platform", "leg_2_platform", "leg_3_platform"]
+    assert {loop.type for loop in delta.loops} == {"spherical"}
+    assert delta.closure.rows == 9
+    assert delta.is_closed_loop
+
+
+@pytest.mark.parametrize(
+    ("edit", "error", "message"),
+    [
+        (('predecessor link="rod_2"', 'predecessor link="rodd_2"'), pincal.LoopError,
+         r"loop 'leg_2_platform' names link 'rodd_2'.*links are: base, arm_1"),
+        (('type="spherical"', 'type="ball"'), pincal.LoopError,
+         r"type 'ball'; valid types are: spherical, revolute, prismatic, fixed"),
+        (('xyz="0.0 0.0 -0.48" rpy="0.0 0.0 0.0"/></predecessor>',
+          'xyz="0.0 0.0 -0.47" rpy="0.0 0.0 0.0"/></predecessor>'), pincal.LoopError,
+         r"loop 'leg_1_platform' does not close at the reference configuration"),
+        (('<joint name="arm_3_joint"><hardwareInterface>', '<joint name="arm_4_joint"><hardwareInterface>'),
+         pincal.LoopError, r"transmission 'arm_3_joint_transmission' names joint 'arm_4_joint', which does "
+                           r"not exist; movable joints are: arm_1_joint"),
+        (('successor link="platform"', 'successor link="rod_1"'), pincal.LoopError,
+         r"loop 'leg_1_platform' joins link 'rod_1' to itself"),
+        (('<loop name="leg_2_platform"', '<loop name="leg_1_platform"'), pincal.LoopError,
+         r"duplicate loop name 'leg_1_platform'"),
+        (('"rod_1"><origin xyz="0.0 0.0 -0.48"', '"rod_1"><origin xyz="0.0 zero -0.48"'), pincal.RobotFileError,
+         r"loop 'leg_1_platform' predecessor origin xyz: '0.0 zero -0.48' is not 3 numbers"),
+        (('"rod_1"><origin xyz="0.0 0.0 -0.48"', '"rod_1"><origin xyz="0.0 nan -0.48"'), pincal.RobotFileError,
+         r"contains NaN"),
+        (('<link name="rod_1_cross"', '<link name="rod_2"'), pincal.RobotFileError,
+         r"duplicate link name 'rod_2'"),
+    ],
+)
+def test_malformed_files_name_the_culprit(tmp_path: Path, delta_text: str, edit: tuple[str, str],
+                                          error: type, message: str) -> None:
+    old, new = edit
+    assert old in delta_text
+    path = _write(tmp_path, delta_text.replace(old, new, 1))
+    with pytest.raises(error, match=message):
+        pincal.load_robot(path)
+
+
+def test_missing_transmission_reports_the_mobility(tmp_path: Path, delta_text: str) -> None:
+    start = delta_text.index('<transmission name="arm_3_joint_transmission">')
+    end = delta_text.index("</transmission>", start) + len("</transmission>")
+    path = _write(tmp_path, delta_text[:start] + delta_text[end:])
+    with pytest.raises(pincal.LoopError, match=r"mobility is 3 .* but 2 joints are actuated"):
+        pincal.load_robot(path)
+
+
+def test_transmission_on_a_fixed_joint_is_refused(tmp_path: Path, delta_text: str) -> None:
+    text = delta_text.replace('<joint name="arm_3_joint"><hardwareInterface>',
+                              '<joint name="end_effector_joint"><hardwareInterface>')
+    with pytest.raises(pincal.LoopError, match="'end_effector_joint' of type 'fixed'"):
+        pincal.load_robot(_write(tmp_path, text))
+
+
+def test_joint_origin_with_nan_is_refused(tmp_path: Path, delta_text: str) -> None:
+    text = delta_text.replace('rpy="0.0 1.08292', 'rpy="nan 1.08292', 1)
+    assert text != delta_text
+    with pytest.raises(pincal.RobotFileError, match=r"joint 'rod_1_pitch' origin rpy.*NaN"):
+        pincal.load_robot(_write(tmp_path, text))
+
+
+def test_not_a_urdf(tmp_path: Path) -> None:
+    with pytest.raises(pincal.RobotFileError, match="not well-formed XML"):
+        pincal.load_robot(_write(tmp_path, "<robot><link name='a'></robot>"))
+    with pytest.raises(pincal.RobotFileError, match="root element is <sdf>"):
+        pincal.load_robot(_write(tmp_path, "<sdf/>"))
+    with pytest.raises(pincal.RobotFileError, match="does not exist"):
+        pincal.load_robot(tmp_path / "missing.urdf")
+    with pytest.raises(pincal.NotFoundError, match=r"known robots are: .*delta.*ur10"):
+        pincal.load_robot("no_such_robot")
+
+
+@pytest.mark.parametrize(("name", "n_joints", "frame"), [("ur10", 6, "tool0"), ("panda", 9, "panda_hand")])
+def test_example_robot_data_serial_robots(name: str, n_joints: int, frame: str) -> None:
+    robot = pincal.load_robot(name)
+    assert robot.source is not None and "example-robot-data" in str(robot.source)
+    assert not robot.loops and robot.n_actuated == n_joints and robot.end_effector == frame
+    rng = np.random.default_rng(0)
+    q = pin.randomConfiguration(robot.model)
+    assert robot.solve_fk(robot.actuated_values(q)) == pytest.approx(q, abs=1e-15)
+    target = robot.placement(q, frame)
+    q_ik = robot.solve_ik(target, q_guess=q + rng.normal(scale=0.05, size=q.size))
+    err = pin.log6(target.actInv(robot.placement(q_ik, frame))).vector
+    assert np.max(np.abs(err)) < 1e-10
+    # serial Jacobian w.r.t. actuated joints equals Pinocchio's frame Jacobian
+    data = robot.model.createData()
+    expected = pin.computeFrameJacobian(robot.model, data, q, robot.frame_id(frame), pin.LOCAL_WORLD_ALIGNED)
+    np.testing.assert_allclose(robot.frame_jacobian_actuated(q, frame), expected, atol=1e-12)
+
+
+def test_unknown_frame_lists_frames(delta: pincal.Robot) -> None:
+    with pytest.raises(pincal.NotFoundError, match=r"frame 'tcp' does not exist.*end_effector"):
+        delta.placement(delta.q_reference, "tcp")
+
+
+@pytest.mark.parametrize("path", sorted(ROBOTS.glob("*.urdf")), ids=lambda p: p.stem)
+def test_shipped_files_load_as_trees_elsewhere(path: Path) -> None:
+    model = pin.buildModelFromUrdf(str(path))
+    tree = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False)
+    assert len(tree.joint_map) == model.njoints - 1 + sum(
+        1 for j in tree.joint_map.values() if j.type == "fixed")
+    robot = pincal.load_robot(path)
+    assert "end_effector" in [f.name for f in robot.model.frames]
+    assert np.max(np.abs(robot.closure_residual(robot.q_reference)), initial=0.0) < 1e-9
+    assert robot.mobility() == robot.n_actuated
+    assert "<!--" in path.read_text()[:200], "each robot file starts with a comment block giving its source"
