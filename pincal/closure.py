@@ -54,6 +54,12 @@ class _Loop:
     start: int
     basis: Array  # 3×2 basis normal to the axis (revolute, prismatic)
     axis_cross: Array  # [a]×
+    stop: int = 0
+    spherical: bool = False
+
+    def __post_init__(self) -> None:
+        self.stop = self.start + self.spec.rows
+        self.spherical = self.spec.type == "spherical"
 
 
 class LoopClosure:
@@ -95,9 +101,13 @@ class LoopClosure:
     def residual(self, data: pin.Data) -> Array:
         """Stacked residual [m, rad]; requires ``forwardKinematics`` on ``data`` first."""
         r = np.empty(self.rows)
+        model = self.model
         for lp in self._loops:
-            lp.cmodel.calc(self.model, data, lp.cdata)
-            r[lp.start:lp.start + lp.spec.rows] = self._rows(lp, lp.cdata.c1Mc2)
+            lp.cmodel.calc(model, data, lp.cdata)
+            if lp.spherical:
+                r[lp.start:lp.stop] = lp.cdata.c1Mc2.translation
+            else:
+                r[lp.start:lp.stop] = self._rows(lp, lp.cdata.c1Mc2)
         return r
 
     def _rows(self, lp: _Loop, m: pin.SE3) -> Array:

@@ -12,12 +12,14 @@ Derivatives through the loops follow the implicit-function theorem: with
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
+from scipy.linalg import lapack
 
 from pincal.closure import LoopClosure
 
@@ -25,6 +27,46 @@ Array = npt.NDArray[np.float64]
 
 #: Largest change of any actuated value in one continuation step [rad or m].
 CONTINUATION_STEP = 0.2
+
+
+def damped_pseudo_inverse(jac: Array, damping: float = 1e-12) -> Array | None:
+    """``(JᵀJ + μI)⁻¹ Jᵀ`` with ``μ = damping · (1 + tr(JᵀJ)/n)``; None if singular.
+
+    A square, well-conditioned ``J`` (most parallel robots' passive closure Jacobian) is inverted
+    directly by LU, which is several times cheaper for these small sizes.
+    """
+    rows, cols = jac.shape
+    if rows == cols:
+        _, _, inverse, info = lapack.dgesv(jac, _identity(rows))
+        if info == 0 and float(abs(inverse).max()) < 1e8:
+            return inverse  # type: ignore[no-any-return]
+    h = jac.T @ jac
+    n = h.shape[0]
+    h.flat[:: n + 1] += damping * (1.0 + float(np.trace(h)) / n)
+    _, _, gain, info = lapack.dgesv(h, jac.T, overwrite_a=1)
+    return None if info != 0 else gain  # type: ignore[no-any-return]
+
+
+@functools.cache
+def _identity(n: int) -> Array:
+    eye = np.eye(n)
+    eye.flags.writeable = False
+    return eye
+
+
+def damped_gauss_newton_step(jac: Array, residual: Array, damping: float = 1e-12) -> Array | None:
+    """Step ``-(JᵀJ + μI)⁻¹ Jᵀ r`` with ``μ = damping · (1 + tr(JᵀJ)/n)``; None if singular.
+
+    LAPACK's ``dgesv`` directly: for the small systems of closed-loop kinematics (n ≈ 10-30),
+    ``numpy.linalg.solve``'s overhead would be most of the cost.
+    """
+    h = jac.T @ jac
+    n = h.shape[0]
+    h.flat[:: n + 1] += damping * (1.0 + float(np.trace(h)) / n)
+    _, _, step, info = lapack.dgesv(h, jac.T @ residual, overwrite_a=1, overwrite_b=1)
+    if info != 0:
+        return None
+    return -step  # type: ignore[no-any-return]
 
 
 @dataclass(frozen=True)
@@ -66,10 +108,16 @@ class ClosedLoopKinematics:
         mask = np.ones(model.nv, dtype=bool)
         mask[self.actuated_v] = False
         self.passive_v = np.flatnonzero(mask)
+        # fast path when every actuated joint has nq == 1 (no unbounded revolutes)
+        self._scalar_q = np.array([a.idx_q for a in actuated], dtype=int)
+        self._all_scalar = all(a.nq == 1 for a in actuated)
 
     # --- actuated coordinates -------------------------------------------------------------------
     def set_actuated(self, q: Array, q_actuated: Array) -> None:
         """Write actuated values [rad or m] into ``q`` in place."""
+        if self._all_scalar:
+            q[self._scalar_q] = q_actuated
+            return
         for joint, value in zip(self.actuated, q_actuated, strict=True):
             if joint.nq == 1:
                 q[joint.idx_q] = value
@@ -79,6 +127,8 @@ class ClosedLoopKinematics:
 
     def actuated_values(self, q: Array) -> Array:
         """Actuated values [rad or m] read from ``q``."""
+        if self._all_scalar:
+            return q[self._scalar_q].copy()  # type: ignore[no-any-return]
         out = np.empty(len(self.actuated))
         for k, joint in enumerate(self.actuated):
             if joint.nq == 1:
@@ -100,30 +150,39 @@ class ClosedLoopKinematics:
 
     # --- forward kinematics ---------------------------------------------------------------------
     def close_loops(self, q: Array, tol: float, max_iter: int = 30, max_step: float = 0.5) -> SolveReport:
-        """Damped Gauss–Newton over the passive joints from ``q`` (actuated values held)."""
-        model, data, passive = self.model, self.data, self.passive_v
-        if self.closure.rows == 0:
+        """Newton over the passive joints from ``q`` (actuated values held), with chord steps.
+
+        The closure Jacobian is rebuilt only when the residual stops falling fast (by 10× per
+        step); otherwise the last damped pseudo-inverse is reused and each iteration costs one
+        forward-kinematics pass. Warm starts typically take one Jacobian and two cheap steps.
+        """
+        model, data, passive, closure = self.model, self.data, self.passive_v, self.closure
+        if closure.rows == 0:
             return SolveReport(q, 0.0, 0, True)
         dv = np.zeros(model.nv)
-        eye = np.eye(passive.size)
-        norm = math.inf
+        pin.computeJointJacobians(model, data, q)
+        r, jac = closure.residual_and_jacobian(data)
+        norm = float(abs(r).max())
+        gain = damped_pseudo_inverse(jac[:, passive])
         for it in range(max_iter + 1):
-            pin.computeJointJacobians(model, data, q)
-            r, jac = self.closure.residual_and_jacobian(data)
-            norm = float(np.max(np.abs(r)))
             if norm <= tol:
                 return SolveReport(q, norm, it, True)
-            if it == max_iter or not math.isfinite(norm) or norm > 1e3:
+            if it == max_iter or gain is None or not math.isfinite(norm) or norm > 1e3:
                 break
-            cp = jac[:, passive]
-            h = cp.T @ cp
-            h += (1e-12 * (1.0 + float(np.trace(h)) / passive.size)) * eye
-            step = -np.linalg.solve(h, cp.T @ r)
-            size = float(np.linalg.norm(step))
+            step = -(gain @ r)
+            size = math.sqrt(float(step @ step))
             if size > max_step:
                 step *= max_step / size
             dv[passive] = step
             q = pin.integrate(model, q, dv)
+            previous = norm
+            pin.forwardKinematics(model, data, q)
+            r = closure.residual(data)
+            norm = float(abs(r).max())
+            if tol < norm > 0.1 * previous:  # slow progress: rebuild the Jacobian (a true Newton step)
+                pin.computeJointJacobians(model, data, q)
+                r, jac = closure.residual_and_jacobian(data)
+                gain = damped_pseudo_inverse(jac[:, passive])
         return SolveReport(q, norm, max_iter, False)
 
     def continuation(self, start: Array, q_actuated: Array, tol: float, steps: int) -> SolveReport:
@@ -216,8 +275,6 @@ class ClosedLoopKinematics:
     def solve_ik_newton(self, q: Array, frame_id: int, target: pin.SE3 | Array, tol: float,
                         max_iter: int = 40, max_step: float = 0.5) -> SolveReport:
         """Damped Gauss–Newton over all joints towards a frame target with the loops closed."""
-        nv = self.model.nv
-        eye = np.eye(nv)
         norm = math.inf
         for it in range(max_iter + 1):
             e, jac, _ = self.task_error(q, frame_id, target)
@@ -226,9 +283,9 @@ class ClosedLoopKinematics:
                 return SolveReport(q, norm, it, True)
             if it == max_iter or not math.isfinite(norm) or norm > 1e3:
                 break
-            h = jac.T @ jac
-            h += (1e-10 * (1.0 + float(np.trace(h)) / nv)) * eye
-            step = -np.linalg.solve(h, jac.T @ e)
+            step = damped_gauss_newton_step(jac, e, damping=1e-10)
+            if step is None:
+                break
             size = float(np.linalg.norm(step))
             if size > max_step:
                 step *= max_step / size
