@@ -39,12 +39,12 @@ def damped_pseudo_inverse(jac: Array, damping: float = 1e-12) -> Array | None:
     if rows == cols:
         _, _, inverse, info = lapack.dgesv(jac, _identity(rows))
         if info == 0 and float(abs(inverse).max()) < 1e8:
-            return inverse  # type: ignore[no-any-return]
+            return inverse
     h = jac.T @ jac
     n = h.shape[0]
     h.flat[:: n + 1] += damping * (1.0 + float(np.trace(h)) / n)
     _, _, gain, info = lapack.dgesv(h, jac.T, overwrite_a=1)
-    return None if info != 0 else gain  # type: ignore[no-any-return]
+    return None if info != 0 else gain
 
 
 @functools.cache
@@ -66,7 +66,7 @@ def damped_gauss_newton_step(jac: Array, residual: Array, damping: float = 1e-12
     _, _, step, info = lapack.dgesv(h, jac.T @ residual, overwrite_a=1, overwrite_b=1)
     if info != 0:
         return None
-    return -step  # type: ignore[no-any-return]
+    return -step
 
 
 @dataclass(frozen=True)
@@ -128,7 +128,7 @@ class ClosedLoopKinematics:
     def actuated_values(self, q: Array) -> Array:
         """Actuated values [rad or m] read from ``q``."""
         if self._all_scalar:
-            return q[self._scalar_q].copy()  # type: ignore[no-any-return]
+            return q[self._scalar_q].copy()
         out = np.empty(len(self.actuated))
         for k, joint in enumerate(self.actuated):
             if joint.nq == 1:
