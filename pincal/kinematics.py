@@ -294,7 +294,7 @@ class ClosedLoopKinematics:
 
     def solve_ik(self, target: pin.SE3 | Array, frame_id: int, start: Array, tol: float) -> SolveReport:
         """Configuration placing the frame at ``target``: direct Newton, then continuation in space."""
-        report = self.solve_ik_newton(start.copy(), frame_id, target, tol)
+        report = attempt = self.solve_ik_newton(start.copy(), frame_id, target, tol)
         if report.converged:
             return report
         pin.forwardKinematics(self.model, self.data, start)
@@ -315,4 +315,7 @@ class ClosedLoopKinematics:
                 q = report.q
             if report.converged:
                 return report
-        return report
+        # report the distance to the requested target, not to the waypoint where continuation stopped
+        gaps = [(float(abs(self.task_error(rep.q, frame_id, target)[0]).max()), rep) for rep in (attempt, report)]
+        gap, best = min(gaps, key=lambda item: item[0])
+        return SolveReport(best.q, gap, best.iterations, False)
