@@ -130,20 +130,44 @@ class LoopClosure:
         for lp in self._loops:
             lp.cmodel.calc(self.model, data, lp.cdata)
             m = lp.cdata.c1Mc2
-            rows = slice(lp.start, lp.start + lp.spec.rows)
-            r[rows] = self._rows(lp, m)
+            rows = slice(lp.start, lp.stop)
             j = lp.cmodel.jacobian(self.model, data, lp.cdata)
-            if lp.spec.type == "spherical":
+            if lp.spherical:
+                r[rows] = m.translation
                 jac[rows] = j
-                continue
-            body = m.inverse().action @ j  # body twist of c2 relative to c1, in c2
-            rot = m.rotation
-            lin = rot @ body[:3]
-            kind = lp.spec.type
-            if kind == "fixed":
-                jac[rows] = np.vstack([lin, pin.Jlog3(rot) @ body[3:]])
-            elif kind == "revolute":
-                jac[rows] = np.vstack([lin, -lp.basis.T @ rot @ lp.axis_cross @ body[3:]])
             else:
-                jac[rows] = np.vstack([lp.basis.T @ lin, pin.Jlog3(rot) @ body[3:]])
+                r[rows] = self._rows(lp, m)
+                jac[rows] = self._rows_from_twist(lp, m, j)
         return r, jac
+
+    def _rows_from_twist(self, lp: _Loop, m: pin.SE3, twist: Array) -> Array:
+        body = m.inverse().action @ twist  # body twist of c2 relative to c1, in c2
+        rot = m.rotation
+        lin = rot @ body[:3]
+        kind = lp.spec.type
+        if kind == "spherical":
+            return lin
+        if kind == "fixed":
+            return np.vstack([lin, pin.Jlog3(rot) @ body[3:]])
+        if kind == "revolute":
+            return np.vstack([lin, -lp.basis.T @ rot @ lp.axis_cross @ body[3:]])
+        return np.vstack([lp.basis.T @ lin, pin.Jlog3(rot) @ body[3:]])
+
+    def anchors(self) -> list[tuple[int, pin.SE3, int, pin.SE3]]:
+        """Per loop: (joint id, placement in that joint) of the predecessor and successor anchors."""
+        return [(int(lp.cmodel.joint1_id), lp.cmodel.joint1_placement.copy(), int(lp.cmodel.joint2_id),
+                 lp.cmodel.joint2_placement.copy()) for lp in self._loops]
+
+    def rows_from_relative_twist(self, data: pin.Data, twists: list[Array]) -> Array:
+        """Residual derivative (rows × k) from each loop's relative twist of c2 w.r.t. c1, in c1 (6 × k).
+
+        Requires :meth:`residual` or :meth:`residual_and_jacobian` at the current configuration.
+        """
+        out = np.empty((self.rows, twists[0].shape[1] if twists else 0))
+        for lp, twist in zip(self._loops, twists, strict=True):
+            out[lp.start:lp.stop] = self._rows_from_twist(lp, lp.cdata.c1Mc2, twist)
+        return out
+
+    def relative_placements(self) -> list[pin.SE3]:
+        """``c1Mc2`` of each loop at the last evaluated configuration."""
+        return [lp.cdata.c1Mc2.copy() for lp in self._loops]

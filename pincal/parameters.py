@@ -1,0 +1,332 @@
+"""Calibration parameters: which placements, offsets and constants are unknown, and vector ↔ model.
+
+Every chosen placement M becomes ``M · exp6(δ)``, δ = (tx, ty, tz, rx, ry, rz) in M's own frame
+([m] and [rad]; the convention of Pinocchio's ``computeFrameKinematicRegressor(LOCAL)``). Names:
+
+- ``<joint>.<c>``: the URDF origin of a joint (movable or fixed), c in tx, ty, tz, rx, ry, rz;
+- ``<loop>.predecessor.<c>`` / ``<loop>.successor.<c>``: a loop anchor's origin;
+- ``<joint>.offset``: a joint reading offset, ``q_true = q_read + δq`` [rad or m];
+- ``base.<c>``: the robot base in the measurement frame (``world = base · exp6(δ) · robot``);
+- ``marker.<frame>.<x|y|z>``: a measured point's offset in ``frame`` [m];
+- device constants named by their measurement model (e.g. ``scale.zero``).
+
+The values of a :class:`ParameterSet` are deviations from the nominal robot (zero = nominal).
+"""
+
+from __future__ import annotations
+
+import fnmatch
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.errors import NotFoundError, listing
+from pincal.robot import Robot
+
+Array = npt.NDArray[np.float64]
+
+COMPONENTS = ("tx", "ty", "tz", "rx", "ry", "rz")
+AXES = ("x", "y", "z")
+#: Default parameter scales: the typical size of a geometric error [m] and [rad].
+LENGTH_SCALE = 1e-3
+ANGLE_SCALE = 1e-3
+#: Parameter kinds that change the robot model itself (the others act in the measurement models).
+KINEMATIC_KINDS = ("joint", "anchor")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One scalar unknown.
+
+    Attributes:
+        name: Unique name (see module docstring).
+        kind: ``joint``, ``anchor``, ``offset``, ``base``, ``marker`` or ``device``.
+        target: Joint name, loop name, frame name, or device constant name.
+        component: Index in (tx, ty, tz, rx, ry, rz) for placements, in (x, y, z) for markers.
+        side: ``predecessor`` or ``successor`` for anchors.
+        unit: ``m`` or ``rad``.
+    """
+
+    name: str
+    kind: str
+    target: str
+    component: int = 0
+    side: str = ""
+    unit: str = "m"
+
+    @property
+    def scale(self) -> float:
+        """Typical size [m or rad], used to scale the identification problem."""
+        return LENGTH_SCALE if self.unit == "m" else ANGLE_SCALE
+
+    @property
+    def group(self) -> tuple[str, str, str]:
+        """The placement this parameter belongs to: (kind, target, side)."""
+        return (self.kind, self.target, self.side)
+
+
+def placement_parameters(kind: str, target: str, side: str = "",
+                         components: Sequence[str] = COMPONENTS) -> list[Parameter]:
+    """The parameters of one placement (a joint origin, a loop anchor, the base)."""
+    prefix = {"joint": target, "anchor": f"{target}.{side}", "base": "base"}[kind]
+    return [Parameter(f"{prefix}.{c}", kind, target, COMPONENTS.index(c), side,
+                      "m" if c.startswith("t") else "rad") for c in components]
+
+
+def offset_parameter(joint: str, unit: str) -> Parameter:
+    return Parameter(f"{joint}.offset", "offset", joint, 0, "", unit)
+
+
+def marker_parameters(frame: str) -> list[Parameter]:
+    return [Parameter(f"marker.{frame}.{a}", "marker", frame, k, "", "m") for k, a in enumerate(AXES)]
+
+
+@dataclass
+class ParameterSet:
+    """An ordered set of parameters; its vectors hold deviations from the nominal robot."""
+
+    parameters: list[Parameter] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        names = [p.name for p in self.parameters]
+        if len(set(names)) != len(names):
+            dup = sorted({n for n in names if names.count(n) > 1})
+            raise ValueError(f"duplicate parameters: {listing(dup)}")
+        self._index = {p.name: k for k, p in enumerate(self.parameters)}
+
+    def __len__(self) -> int:
+        return len(self.parameters)
+
+    def __iter__(self):  # type: ignore[no-untyped-def]
+        return iter(self.parameters)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._index
+
+    @property
+    def names(self) -> list[str]:
+        return [p.name for p in self.parameters]
+
+    @property
+    def scales(self) -> Array:
+        """Typical sizes [m or rad], one per parameter."""
+        return np.array([p.scale for p in self.parameters])
+
+    def index(self, name: str) -> int:
+        try:
+            return self._index[name]
+        except KeyError:
+            raise NotFoundError(f"no parameter '{name}'; parameters are: {listing(self.names)}") from None
+
+    def of_kind(self, *kinds: str) -> list[int]:
+        """Indices of the parameters of the given kinds."""
+        return [k for k, p in enumerate(self.parameters) if p.kind in kinds]
+
+    def groups(self, *kinds: str) -> dict[tuple[str, str, str], list[int]]:
+        """Indices per placement (kind, target, side), for the given kinds."""
+        out: dict[tuple[str, str, str], list[int]] = {}
+        for k, p in enumerate(self.parameters):
+            if p.kind in kinds:
+                out.setdefault(p.group, []).append(k)
+        return out
+
+    def subset(self, indices: Iterable[int]) -> ParameterSet:
+        return ParameterSet([self.parameters[k] for k in indices])
+
+    def select(self, patterns: Sequence[str]) -> ParameterSet:
+        """The parameters whose names match any shell-style pattern (``arm_*.t?``, ``*.offset``).
+
+        A pattern starting with ``!`` removes what it matches. Raises NotFoundError for a pattern
+        matching nothing.
+        """
+        keep: list[bool] = [False] * len(self.parameters)
+        for pattern in patterns:
+            negate = pattern.startswith("!")
+            pat = pattern[1:] if negate else pattern
+            hits = [k for k, p in enumerate(self.parameters) if fnmatch.fnmatchcase(p.name, pat)]
+            if not hits:
+                raise NotFoundError(f"parameter pattern '{pattern}' matches nothing; parameters are: "
+                                    f"{listing(self.names)}")
+            for k in hits:
+                keep[k] = not negate
+        return ParameterSet([p for p, k in zip(self.parameters, keep, strict=True) if k])
+
+    def vector(self, values: dict[str, float] | None = None) -> Array:
+        """A parameter vector, zero (nominal) except for the given ``{name: value}``."""
+        x = np.zeros(len(self))
+        for name, value in (values or {}).items():
+            x[self.index(name)] = value
+        return x
+
+    def as_dict(self, x: Array) -> dict[str, float]:
+        return {p.name: float(v) for p, v in zip(self.parameters, x, strict=True)}
+
+    def placement_delta(self, x: Array, indices: list[int]) -> Array:
+        """The 6-vector δ of one placement group from the parameter vector."""
+        delta = np.zeros(6)
+        for k in indices:
+            delta[self.parameters[k].component] = x[k]
+        return delta
+
+
+# --- candidate parameters of a robot ---------------------------------------------------------------
+def movable_joints(robot: Robot) -> list[str]:
+    return [str(n) for n in robot.model.names[1:]]
+
+
+def fixed_joints(robot: Robot) -> list[str]:
+    return [f.name for f in robot.model.frames if f.type == pin.FrameType.FIXED_JOINT and f.name != "universe"]
+
+
+def joint_unit(robot: Robot, joint: str) -> str:
+    """``m`` for prismatic joints, ``rad`` otherwise."""
+    short = robot.model.joints[robot.model.getJointId(joint)].shortname()
+    return "m" if "Prismatic" in short or short.startswith("JointModelP") else "rad"
+
+
+def candidate_parameters(robot: Robot, frames: Sequence[str] = (), offsets: Sequence[str] | None = None,
+                         base: bool = False, markers: bool = False) -> ParameterSet:
+    """Every geometric parameter that could matter: a superset the identifiability analysis prunes.
+
+    Args:
+        robot: The robot.
+        frames: Measured frames; fixed joints on their path (tool, marker frames) are included.
+        offsets: Joints whose reading offsets are unknown; default: the actuated joints.
+        base: Include the base placement in the measurement frame (6 parameters).
+        markers: Include a point offset for each measured frame (3 parameters each).
+    """
+    params: list[Parameter] = []
+    model = robot.model
+    for joint in movable_joints(robot):
+        params += placement_parameters("joint", joint)
+    for name in fixed_joints(robot):
+        fid = model.getFrameId(name, pin.FrameType.FIXED_JOINT)
+        if any(_descends(model, model.getFrameId(f), fid) for f in frames):
+            params += placement_parameters("joint", name)
+    for loop in robot.loops:
+        comps = COMPONENTS[:3] if loop.type == "spherical" else COMPONENTS
+        params += placement_parameters("anchor", loop.name, "predecessor", comps)
+        params += placement_parameters("anchor", loop.name, "successor", comps)
+    for joint in robot.actuated_joints if offsets is None else offsets:
+        params.append(offset_parameter(joint, joint_unit(robot, joint)))
+    if base:
+        params += placement_parameters("base", "base")
+    if markers:
+        for f in frames:
+            params += marker_parameters(f)
+    return ParameterSet(params)
+
+
+def _descends(model: pin.Model, frame_id: int, ancestor_id: int) -> bool:
+    """True if ``frame_id`` is ``ancestor_id`` or below it in the frame tree."""
+    f = frame_id
+    while True:
+        if f == ancestor_id:
+            return True
+        parent = int(model.frames[f].parentFrame)
+        if parent == f or f == 0:
+            return False
+        f = parent
+
+
+# --- named physical parameter sets -----------------------------------------------------------------
+def model24(robot: Robot) -> ParameterSet:
+    """The Delta's "Model 24" of study 000, Eq. 3.6: per leg i, P_i = [Dx, Dy, Dz, θ, α, Lax, Lay, Lb].
+
+    Mapping onto pincal's placements (delta.urdf): Dx, Dy, Dz = ``arm_i_joint.tx/ty/tz`` (motor axis
+    position A_i); θ = ``arm_i_joint.rz`` (leg direction about z); α = ``arm_i_joint.offset`` (arm
+    angle zero); Lax, Lay = ``rod_i_pitch.tx/ty`` (elbow position along and across the arm);
+    Lb = ``leg_i_platform.predecessor.tz`` (rod length: the rod runs along its frame's -z).
+    """
+    names = []
+    for i in (1, 2, 3):
+        names += [f"arm_{i}_joint.tx", f"arm_{i}_joint.ty", f"arm_{i}_joint.tz", f"arm_{i}_joint.rz",
+                  f"arm_{i}_joint.offset", f"rod_{i}_pitch.tx", f"rod_{i}_pitch.ty",
+                  f"leg_{i}_platform.predecessor.tz"]
+    return _named(robot, names, "model24")
+
+
+def hexapod42(robot: Robot, device: bool = False) -> ParameterSet:
+    """The 42 parameters of study 001 (per leg: base U centre 3, platform S centre 3, length offset 1).
+
+    With ``device=True``, the measuring device's D0 (``device_lvdt.tz``: the link's fixed length) and
+    ψ (``device_incl_x.rz``: the inclinometer's second axis turned in the first axis' normal plane).
+    """
+    names = []
+    for i in range(1, 7):
+        names += [f"leg_{i}_u1.tx", f"leg_{i}_u1.ty", f"leg_{i}_u1.tz",
+                  f"leg_{i}_platform.successor.tx", f"leg_{i}_platform.successor.ty",
+                  f"leg_{i}_platform.successor.tz", f"leg_{i}_prismatic.offset"]
+    if device:
+        names += ["device_lvdt.tz", "device_incl_x.rz"]
+    return _named(robot, names, "hexapod44" if device else "hexapod42")
+
+
+def _named(robot: Robot, names: list[str], set_name: str) -> ParameterSet:
+    pool = candidate_parameters(robot, offsets=movable_joints(robot))
+    missing = [n for n in names if n not in pool]
+    if missing:
+        raise NotFoundError(f"parameter set '{set_name}' needs {listing(missing)}, which robot "
+                            f"'{robot.name}' does not have")
+    return ParameterSet([pool.parameters[pool.index(n)] for n in names])
+
+
+NAMED_SETS = {"model24": model24, "hexapod42": hexapod42,
+              "hexapod44": lambda robot: hexapod42(robot, device=True)}
+
+
+# --- applying parameters ---------------------------------------------------------------------------
+def apply_parameters(robot: Robot, pset: ParameterSet, x: Array) -> Robot:
+    """A new Robot with the joint and anchor deviations ``x`` applied; ``robot`` is untouched.
+
+    Offsets, base, markers and device constants do not change the model: the measurement models
+    apply them.
+    """
+    model = pin.Model(robot.model)
+    loops = {loop.name: loop for loop in robot.loops}
+    for (kind, target, side), idx in pset.groups(*KINEMATIC_KINDS).items():
+        exp = pin.exp6(pset.placement_delta(x, idx))
+        if kind == "joint":
+            if model.existJointName(target):
+                jid = model.getJointId(target)
+                model.jointPlacements[jid] = model.jointPlacements[jid] * exp
+            else:
+                move_fixed_joint(model, target, exp)
+        else:
+            loop = loops[target]
+            pred, succ = loop.predecessor_origin, loop.successor_origin
+            if side == "predecessor":
+                pred = pred * exp
+            else:
+                succ = succ * exp
+            loops[target] = loop.with_origins(pred, succ)
+    return Robot(model, [loops[loop.name] for loop in robot.loops], robot.actuated_joints, robot.name,
+                 robot.source)
+
+
+def move_fixed_joint(model: pin.Model, joint: str, exp: pin.SE3) -> None:
+    """Right-multiply a fixed joint's origin by ``exp`` and carry its subtree along (in place)."""
+    if not model.existFrame(joint, pin.FrameType.FIXED_JOINT):
+        raise NotFoundError(f"no joint '{joint}' in the model; joints are: {listing(model.names[1:])}, "
+                            f"fixed: {listing(f.name for f in model.frames if f.type == pin.FrameType.FIXED_JOINT)}")
+    fid = model.getFrameId(joint, pin.FrameType.FIXED_JOINT)
+    frame = model.frames[fid]
+    parent_joint = frame.parentJoint
+    old = frame.placement.copy()
+    new = old * exp
+    move = new * old.inverse()
+    for g in range(len(model.frames)):
+        f = model.frames[g]
+        if g == fid or not _descends(model, g, fid):
+            continue
+        if f.type == pin.FrameType.JOINT:
+            jid = model.getJointId(f.name)
+            if model.parents[jid] == parent_joint:
+                model.jointPlacements[jid] = move * model.jointPlacements[jid]
+                f.placement = model.jointPlacements[jid]
+        elif f.parentJoint == parent_joint:
+            f.placement = move * f.placement
+    frame.placement = new

@@ -1,0 +1,114 @@
+"""Analytic derivatives of frame placements and loop residuals w.r.t. the kinematic parameters.
+
+A *probe* is a frame rigidly attached to a joint: a measured frame or a loop anchor. Its local
+twist per unit parameter comes from Pinocchio's kinematic regressor (the adjoint of a virtual
+6-DOF joint at each joint placement, the ``M · exp6(δ)`` convention), chained with the right
+Jacobian of ``exp6`` at the current deviation. Fixed-joint origins move their subtree: joints
+below them get the perturbation carried by an adjoint, frames on the same joint a direct term.
+
+Through the loops (implicit-function theorem, actuated joints held): with closure ``c(q, θ) = 0``,
+``dv_p/dθ = -C_p⁺ ∂c/∂θ``, where ``∂c/∂θ`` comes from the anchors' relative twist.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.parameters import ParameterSet, _descends
+from pincal.robot import Robot
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Probe:
+    """A frame rigidly attached to ``joint`` at ``placement`` (relative to the joint), on link frame
+    ``link_frame`` (for the frame-tree descent test of fixed-joint parameters)."""
+
+    joint: int
+    placement: pin.SE3
+    link_frame: int
+
+
+def frame_probe(robot: Robot, frame_id: int) -> Probe:
+    frame = robot.model.frames[frame_id]
+    return Probe(int(frame.parentJoint), frame.placement.copy(), frame_id)
+
+
+def right_jacobian(delta: Array, components: list[int]) -> Array:
+    """Columns of ``Jexp6(δ)`` for the given components: local motion per unit parameter change."""
+    return np.asarray(pin.Jexp6(pin.Motion(delta)))[:, components]
+
+
+class KinematicSensitivity:
+    """Parameter derivatives for one estimate ``x`` (the robot with ``x`` applied).
+
+    Args:
+        robot: The robot with the kinematic deviations of ``x`` already applied.
+        pset: The full parameter set (non-kinematic parameters get zero columns here).
+        x: The parameter vector (deviations from nominal).
+    """
+
+    def __init__(self, robot: Robot, pset: ParameterSet, x: Array) -> None:
+        self.robot = robot
+        model = robot.model
+        self.model = model
+        n = len(pset)
+        self.n = n
+        self.joint_map = np.zeros((6 * (model.njoints - 1), n))
+        self.fixed: list[tuple[int, pin.SE3, int, list[int], Array]] = []
+        self.anchor_terms: dict[tuple[str, str], tuple[list[int], Array]] = {}
+        for (kind, target, side), idx in pset.groups("joint", "anchor").items():
+            comps = [pset.parameters[k].component for k in idx]
+            jexp = right_jacobian(pset.placement_delta(x, idx), comps)
+            if kind == "anchor":
+                self.anchor_terms[(target, side)] = (idx, jexp)
+            elif model.existJointName(target):
+                jid = model.getJointId(target)
+                self.joint_map[6 * (jid - 1):6 * jid, idx] += jexp
+            else:
+                fid = model.getFrameId(target, pin.FrameType.FIXED_JOINT)
+                frame = model.frames[fid]
+                parent = int(frame.parentJoint)
+                placement = frame.placement.copy()
+                for jid in range(1, model.njoints):
+                    jframe = model.getFrameId(model.names[jid], pin.FrameType.JOINT)
+                    if model.parents[jid] == parent and _descends(model, jframe, fid):
+                        local = placement.inverse() * model.jointPlacements[jid]
+                        self.joint_map[6 * (jid - 1):6 * jid, idx] += local.inverse().action @ jexp
+                self.fixed.append((fid, placement, parent, idx, jexp))
+        anchors = robot.closure.anchors()
+        self.anchor_probes = []
+        for loop, (j1, m1, j2, m2) in zip(robot.loops, anchors, strict=True):
+            l1 = model.getFrameId(loop.predecessor)
+            l2 = model.getFrameId(loop.successor)
+            self.anchor_probes.append((Probe(j1, m1, l1), Probe(j2, m2, l2)))
+
+    def probe_twist(self, data: pin.Data, probe: Probe) -> Array:
+        """Local twist (6 × n) of a probe per unit parameter; needs forward kinematics on ``data``."""
+        regressor = pin.computeJointKinematicRegressor(self.model, data, probe.joint, pin.LOCAL, probe.placement)
+        twist = regressor @ self.joint_map
+        for fid, placement, parent, idx, jexp in self.fixed:
+            if parent == probe.joint and _descends(self.model, probe.link_frame, fid):
+                local = placement.inverse() * probe.placement
+                twist[:, idx] += local.inverse().action @ jexp
+        return twist
+
+    def closure_derivative(self, data: pin.Data) -> Array:
+        """``∂c/∂θ`` (rows × n) at the configuration last evaluated by the robot's closure."""
+        closure = self.robot.closure
+        twists = []
+        for loop, (p1, p2), c1c2 in zip(self.robot.loops, self.anchor_probes, closure.relative_placements(),
+                                         strict=True):
+            nu1 = self.probe_twist(data, p1)
+            nu2 = self.probe_twist(data, p2)
+            for side, nu in (("predecessor", nu1), ("successor", nu2)):
+                term = self.anchor_terms.get((loop.name, side))
+                if term is not None:
+                    nu[:, term[0]] += term[1]
+            twists.append(c1c2.action @ nu2 - nu1)
+        return closure.rows_from_relative_twist(data, twists)
