@@ -1,0 +1,472 @@
+"""Measurement datasets: the CSV table of joint readings and measurements that calibration consumes.
+
+One row per sample (robot posture). Columns:
+
+- a joint name (``arm_1_joint``): that joint's reading [rad or m]. The actuated joints are required;
+  instrumented passive joints (a linear scale, an LVDT, an encoder) are optional extra readings;
+- ``<kind>:<frame>:<component>``: a measurement, one of
+
+  =====================================  ==================  ========================================
+  column                                 unit                meaning
+  =====================================  ==================  ========================================
+  ``position:<frame>:x|y|z``             m                   frame origin in the measurement frame
+  ``pose:<frame>:x|y|z|qx|qy|qz|qw``     m, unit quaternion  frame placement in the measurement frame
+  ``distance:<frameA>-<frameB>:d``       m                   distance between the two frame origins
+  ``distance_increment:<A>-<B>:d``       m                   change of that distance since the previous
+                                                             sample (scale reset); empty on the first row
+  =====================================  ==================  ========================================
+
+- optional ``sample`` (an id) and ``set`` (``train`` or ``test``; default ``train``).
+
+Lines starting with ``#`` are comments; those before the header may carry metadata as
+``# key: value`` (``# robot: delta``, ``# sigma position: 1e-5``). SI units everywhere.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.errors import DataError, listing
+
+Array = npt.NDArray[np.float64]
+
+#: Measurement kinds and their components, in column (and array) order.
+MEASUREMENT_COMPONENTS: dict[str, tuple[str, ...]] = {
+    "position": ("x", "y", "z"),
+    "pose": ("x", "y", "z", "qx", "qy", "qz", "qw"),
+    "distance": ("d",),
+    "distance_increment": ("d",),
+}
+SAMPLE_COLUMN = "sample"
+SET_COLUMN = "set"
+SET_NAMES = ("train", "test")
+#: Lengths beyond this are taken for millimetres [m].
+MAX_PLAUSIBLE_LENGTH = 20.0
+#: Revolute readings beyond this, on most rows, are taken for degrees [rad].
+MAX_PLAUSIBLE_ANGLE = 4.0 * math.pi
+#: Largest accepted deviation of a quaternion's norm from 1.
+QUATERNION_NORM_TOLERANCE = 1e-3
+
+
+def parse_measurement_key(key: str) -> tuple[str, tuple[str, ...]]:
+    """Split a measurement key (``position:end_effector``, ``distance:O1-O2``) into kind and frames.
+
+    Raises:
+        DataError: unknown kind, or a distance key that does not name two frames as ``A-B``.
+    """
+    kind, sep, frames = key.partition(":")
+    if not sep or not frames:
+        raise DataError(f"measurement '{key}' is not '<kind>:<frame>'; kinds are: {listing(MEASUREMENT_COMPONENTS)}")
+    if kind not in MEASUREMENT_COMPONENTS:
+        raise DataError(f"measurement '{key}' has unknown kind '{kind}'; kinds are: "
+                        f"{listing(MEASUREMENT_COMPONENTS)}")
+    if kind.startswith("distance"):
+        pair = frames.split("-")
+        if len(pair) != 2 or not all(pair):
+            raise DataError(f"measurement '{key}' must name two frames as '{kind}:<frameA>-<frameB>' "
+                            "(frame names containing '-' cannot be used here)")
+        return kind, (pair[0], pair[1])
+    return kind, (frames,)
+
+
+def _is_increment(key: str) -> bool:
+    return key.startswith("distance_increment:")
+
+
+def _rebased_increments(increments: Array, indices: npt.NDArray[np.intp]) -> Array:
+    """Increments between consecutive selected samples: the sums of the original ones in between."""
+    out = np.full(indices.size, np.nan)
+    for k in range(1, indices.size):
+        a, b = int(indices[k - 1]), int(indices[k])
+        if b > a:
+            out[k] = math.fsum(increments[a + 1:b + 1])
+        elif b < a:
+            out[k] = -math.fsum(increments[b + 1:a + 1])
+        else:
+            out[k] = 0.0
+    return out
+
+
+@dataclass
+class Dataset:
+    """Joint readings and measurements, one row per sample.
+
+    Attributes:
+        joint_names: Names of the joint-reading columns, the column order of ``joints``.
+        joints: (N, nj) joint readings [rad or m].
+        measurements: Measurement key (``position:end_effector``, ``distance:O1-O2``) -> (N, k)
+            array, k = 3 (position [m]), 7 (pose: x, y, z [m], qx, qy, qz, qw) or 1 (distances [m]).
+            The first row of a ``distance_increment`` measurement is NaN.
+        sample_ids: N sample ids.
+        sets: N set names, ``train`` or ``test``.
+        metadata: ``# key: value`` header comments.
+    """
+
+    joint_names: list[str]
+    joints: Array
+    measurements: dict[str, Array]
+    sample_ids: list[str]
+    sets: list[str]
+    metadata: dict[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.joint_names = list(self.joint_names)
+        self.joints = np.asarray(self.joints, dtype=float).reshape(-1, len(self.joint_names))
+        self.sample_ids = [str(s) for s in self.sample_ids]
+        self.sets = list(self.sets)
+        n = self.joints.shape[0]
+        if len(set(self.joint_names)) != len(self.joint_names):
+            raise DataError(f"duplicated joint names in {listing(self.joint_names)}")
+        measurements = {}
+        for key, values in self.measurements.items():
+            kind, _ = parse_measurement_key(key)
+            width = len(MEASUREMENT_COMPONENTS[kind])
+            array = np.asarray(values, dtype=float)
+            if array.shape != (n, width):
+                raise DataError(f"measurement '{key}' has shape {array.shape}, expected ({n}, {width})")
+            if _is_increment(key) and n and not np.isnan(array[0, 0]):
+                raise DataError(f"measurement '{key}': the first row must be NaN (no previous sample), "
+                                f"not {float(array[0, 0])!r}")
+            measurements[key] = array
+        self.measurements = measurements
+        if len(self.sample_ids) != n or len(self.sets) != n:
+            raise DataError(f"{n} joint rows but {len(self.sample_ids)} sample ids and {len(self.sets)} set names")
+        wrong = sorted({s for s in self.sets if s not in SET_NAMES})
+        if wrong:
+            raise DataError(f"set names {listing(repr(s) for s in wrong)} are not valid; sets are: "
+                            f"{listing(SET_NAMES)}")
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples N."""
+        return int(self.joints.shape[0])
+
+    def joint_column(self, name: str) -> Array:
+        """(N,) readings of joint ``name`` [rad or m]."""
+        if name not in self.joint_names:
+            raise DataError(f"no readings of joint '{name}'; joint columns are: {listing(self.joint_names)}")
+        return self.joints[:, self.joint_names.index(name)]
+
+    def subset(self, mask_or_indices: npt.ArrayLike) -> Dataset:
+        """The samples selected by a boolean mask of length N or by integer indices, in that order.
+
+        ``distance_increment`` measurements are re-based so that each stays the change since the
+        previous *selected* sample (the sum of the original increments in between); the first is NaN.
+        """
+        selector = np.asarray(mask_or_indices)
+        if selector.dtype == bool:
+            if selector.shape != (self.n_samples,):
+                raise DataError(f"mask has shape {selector.shape}, expected ({self.n_samples},)")
+            indices = np.flatnonzero(selector)
+        else:
+            if selector.size and not np.issubdtype(selector.dtype, np.integer):
+                raise DataError(f"subset takes a boolean mask or integer indices, not {selector.dtype}")
+            indices = selector.astype(np.intp).reshape(-1)
+            bad = indices[(indices < 0) | (indices >= self.n_samples)]
+            if bad.size:
+                raise DataError(f"sample indices {listing(str(i) for i in bad)} are out of range "
+                                f"0..{self.n_samples - 1}")
+        measurements = {}
+        for key, values in self.measurements.items():
+            if _is_increment(key):
+                measurements[key] = _rebased_increments(values[:, 0], indices)[:, None]
+            else:
+                measurements[key] = values[indices].copy()
+        return Dataset(list(self.joint_names), self.joints[indices].copy(), measurements,
+                       [self.sample_ids[i] for i in indices], [self.sets[i] for i in indices],
+                       dict(self.metadata))
+
+    def of_set(self, name: str) -> Dataset:
+        """The samples of set ``name`` (``train`` or ``test``)."""
+        if name not in SET_NAMES:
+            raise DataError(f"set '{name}' is not valid; sets are: {listing(SET_NAMES)}")
+        return self.subset(np.array([s == name for s in self.sets], dtype=bool))
+
+
+# --- reading ------------------------------------------------------------------------------------
+@dataclass
+class _Layout:
+    """Where each quantity sits among the file's columns."""
+
+    joints: dict[str, int]
+    groups: dict[str, dict[str, int]]  # measurement key -> component -> column index
+    sample: int | None
+    set: int | None
+
+
+def _layout(header: list[str], line: int, required: Sequence[str], known: Sequence[str] | None) -> _Layout:
+    where = f"header (line {line})"
+    seen: dict[str, int] = {}
+    for i, name in enumerate(header):
+        if not name:
+            raise DataError(f"{where}: column {i + 1} has no name")
+        if name in seen:
+            raise DataError(f"{where}: column '{name}' appears twice (columns {seen[name] + 1} and {i + 1})")
+        seen[name] = i
+    joints: dict[str, int] = {}
+    groups: dict[str, dict[str, int]] = {}
+    for i, name in enumerate(header):
+        if name in (SAMPLE_COLUMN, SET_COLUMN):
+            continue
+        if ":" not in name:
+            joints[name] = i
+            continue
+        key, _, component = name.rpartition(":")
+        kind = key.partition(":")[0]
+        if ":" not in key:
+            raise DataError(f"{where}: column '{name}' is not a joint name nor '<kind>:<frame>:<component>'; "
+                            "kinds are: " + listing(MEASUREMENT_COMPONENTS))
+        if kind not in MEASUREMENT_COMPONENTS:
+            raise DataError(f"{where}: column '{name}' has unknown kind '{kind}'; measurement columns are "
+                            "'<kind>:<frame>:<component>' with kinds: " + listing(MEASUREMENT_COMPONENTS))
+        try:
+            parse_measurement_key(key)
+        except DataError as exc:
+            raise DataError(f"{where}: column '{name}': {exc}") from None
+        valid = MEASUREMENT_COMPONENTS[kind]
+        if component not in valid:
+            raise DataError(f"{where}: column '{name}' has component '{component}'; a {kind} has "
+                            f"components: {listing(valid)}")
+        groups.setdefault(key, {})[component] = i
+    for key, columns in groups.items():
+        valid = MEASUREMENT_COMPONENTS[key.partition(":")[0]]
+        missing = [c for c in valid if c not in columns]
+        if missing:
+            raise DataError(f"{where}: measurement '{key}' has columns {listing(c for c in valid if c in columns)} "
+                            f"but not {listing(missing)}; a {key.partition(':')[0]} needs {listing(valid)}")
+    absent = [j for j in required if j not in joints]
+    if absent:
+        raise DataError(f"{where}: missing joint columns {listing(absent)}; joint columns present: "
+                        f"{listing(joints) or 'none'}")
+    if known is not None:
+        unknown = [j for j in joints if j not in known]
+        if unknown:
+            raise DataError(f"{where}: columns {listing(unknown)} are neither joints of the robot nor "
+                            f"'<kind>:<frame>:<component>' measurements; joints are: {listing(known)}")
+    return _Layout(joints, groups, seen.get(SAMPLE_COLUMN), seen.get(SET_COLUMN))
+
+
+def _number(cell: str, column: str, line: int, first_increment: bool = False) -> float:
+    """The number in one cell; empty or NaN only on the first row of a distance_increment column."""
+    try:
+        value = float(cell) if cell else math.nan
+    except ValueError:
+        raise DataError(f"column '{column}', line {line}: '{cell}' is not a number") from None
+    if first_increment:
+        if not math.isnan(value):
+            raise DataError(f"column '{column}', line {line}: {cell} on the first row; a distance increment "
+                            "has no previous sample there, so the cell must be empty or NaN")
+        return value
+    if math.isnan(value):
+        what = "is empty" if not cell else f"is '{cell}'"
+        raise DataError(f"column '{column}', line {line}: the cell {what}; every reading and measurement "
+                        "needs a number (only the first row of a distance_increment column may be empty)")
+    if not math.isfinite(value):
+        raise DataError(f"column '{column}', line {line}: '{cell}' is not finite")
+    return value
+
+
+def _split(text: str) -> tuple[dict[str, str], int, list[str], list[tuple[int, list[str]]]]:
+    """Metadata, header line number, header cells and (line number, cells) of each data row."""
+    metadata: dict[str, str] = {}
+    metadata_lines: dict[str, int] = {}
+    header: list[str] | None = None
+    header_line = 0
+    rows: list[tuple[int, list[str]]] = []
+    for number, raw in enumerate(text.splitlines(), start=1):
+        stripped = raw.strip()
+        if not stripped:
+            continue
+        if stripped.startswith("#"):
+            key, sep, value = stripped[1:].partition(":")
+            if header is None and sep and key.strip():
+                key = key.strip()
+                if key in metadata:
+                    raise DataError(f"line {number}: metadata '{key}' is given twice (lines "
+                                    f"{metadata_lines[key]} and {number})")
+                metadata[key], metadata_lines[key] = value.strip(), number
+            continue
+        cells = [c.strip() for c in next(csv.reader([raw]))]
+        if header is None:
+            header, header_line = cells, number
+        else:
+            rows.append((number, cells))
+    if header is None:
+        raise DataError("no header line: the first line that is not a '#' comment must name the columns")
+    return metadata, header_line, header, rows
+
+
+def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = None, min_samples: int = 1,
+                 *, joint_kinds: dict[str, str] | None = None,
+                 known_joints: Sequence[str] | None = None) -> Dataset:
+    """Read and check a measurement CSV file (format in this module's docstring).
+
+    Args:
+        path: CSV file.
+        joint_names_required: Joint columns that must be present (the actuated joints).
+        min_samples: Fewest rows accepted.
+        joint_kinds: URDF joint type by joint name; ``revolute`` and ``prismatic`` readings are
+            checked for degrees and millimetres.
+        known_joints: If given, every joint column must be one of these.
+
+    Raises:
+        DataError: naming the column, the line and the value at fault, for missing or unknown columns,
+            incomplete measurements, non-numbers, empty/NaN cells, duplicated columns or rows, too few
+            rows, non-unit quaternions, and values that look like millimetres or degrees.
+    """
+    source = Path(path)
+    try:
+        text = source.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DataError(f"cannot read dataset '{source}': {exc}") from None
+    try:
+        return _parse(text, joint_names_required or [], min_samples, joint_kinds or {}, known_joints)
+    except DataError as exc:
+        raise DataError(f"{source.name}: {exc}") from None
+
+
+def _parse(text: str, required: Sequence[str], min_samples: int, kinds: dict[str, str],
+           known: Sequence[str] | None) -> Dataset:
+    metadata, header_line, header, rows = _split(text)
+    layout = _layout(header, header_line, required, known)
+    if len(rows) < min_samples:
+        raise DataError(f"{len(rows)} samples; at least {min_samples} are needed")
+    n = len(rows)
+    joints = np.empty((n, len(layout.joints)))
+    measurements = {key: np.empty((n, len(cols))) for key, cols in layout.groups.items()}
+    ids: list[str] = []
+    sets: list[str] = []
+    lines = [line for line, _ in rows]
+    for r, (line, cells) in enumerate(rows):
+        if len(cells) != len(header):
+            raise DataError(f"line {line} has {len(cells)} cells; the header (line {header_line}) has {len(header)}")
+        for c, (name, i) in enumerate(layout.joints.items()):
+            joints[r, c] = _number(cells[i], name, line)
+        for key, cols in layout.groups.items():
+            kind = key.partition(":")[0]
+            for c, component in enumerate(MEASUREMENT_COMPONENTS[kind]):
+                measurements[key][r, c] = _number(cells[cols[component]], f"{key}:{component}", line,
+                                                  first_increment=r == 0 and kind == "distance_increment")
+        ids.append(cells[layout.sample] if layout.sample is not None else str(r))
+        if layout.sample is not None and not ids[-1]:
+            raise DataError(f"column '{SAMPLE_COLUMN}', line {line}: the sample id is empty")
+        sets.append(cells[layout.set] if layout.set is not None else "train")
+        if sets[-1] not in SET_NAMES:
+            raise DataError(f"column '{SET_COLUMN}', line {line}: '{sets[-1]}' is not a set; sets are: "
+                            f"{listing(SET_NAMES)}")
+    dataset = Dataset(list(layout.joints), joints, measurements, ids, sets, metadata)
+    _check_rows(dataset, lines)
+    _check_units(dataset, lines, kinds)
+    return dataset
+
+
+def _check_rows(data: Dataset, lines: list[int]) -> None:
+    first_line: dict[str, int] = {}
+    for r, sample in enumerate(data.sample_ids):
+        if sample in first_line:
+            raise DataError(f"column '{SAMPLE_COLUMN}': sample id '{sample}' is used twice (lines "
+                            f"{first_line[sample]} and {lines[r]})")
+        first_line[sample] = lines[r]
+    table = np.hstack([data.joints, *data.measurements.values()]) if data.measurements else data.joints
+    table = np.where(np.isnan(table), 0.0, table) + 0.0  # NaN and -0.0 compare as equal rows
+    seen: dict[bytes, int] = {}
+    duplicates: list[str] = []
+    for r in range(data.n_samples):
+        row_key = table[r].tobytes()
+        if row_key in seen:
+            duplicates.append(f"line {lines[r]} repeats line {seen[row_key]}")
+        else:
+            seen[row_key] = lines[r]
+    if duplicates:
+        raise DataError("duplicated samples (identical joint readings and measurements): " + listing(duplicates, 10))
+    for key, values in data.measurements.items():
+        if key.startswith("pose:"):
+            norms = np.linalg.norm(values[:, 3:], axis=1)
+            bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_NORM_TOLERANCE)
+            if bad.size:
+                r = int(bad[0])
+                raise DataError(f"measurement '{key}', line {lines[r]}: quaternion (qx, qy, qz, qw) = "
+                                f"{tuple(float(v) for v in values[r, 3:])} has norm {norms[r]:.6g}; a unit "
+                                f"quaternion is needed (|norm - 1| <= {QUATERNION_NORM_TOLERANCE:g}; "
+                                f"{bad.size} rows in all)")
+
+
+def _check_units(data: Dataset, lines: list[int], kinds: dict[str, str]) -> None:
+    mm = "looks like millimetres; pincal expects metres"
+    for key, values in data.measurements.items():
+        kind = key.partition(":")[0]
+        components = MEASUREMENT_COMPONENTS[kind]
+        for c, component in enumerate(components[:3]):
+            column = values[:, c]
+            big = np.flatnonzero(np.abs(np.nan_to_num(column)) > MAX_PLAUSIBLE_LENGTH)
+            if big.size:
+                r = int(big[0])
+                raise DataError(f"column '{key}:{component}', line {lines[r]}: {float(column[r])!r} {mm} "
+                                f"(|value| > {MAX_PLAUSIBLE_LENGTH:g} m on {big.size} of {data.n_samples} rows)")
+    if data.n_samples == 0:
+        return
+    for c, name in enumerate(data.joint_names):
+        column = np.abs(data.joints[:, c])
+        joint_kind = kinds.get(name)
+        if joint_kind == "prismatic" and float(np.median(column)) > MAX_PLAUSIBLE_LENGTH:
+            raise DataError(f"column '{name}' (prismatic joint): median |reading| {float(np.median(column)):g} "
+                            f"{mm} (median > {MAX_PLAUSIBLE_LENGTH:g} m)")
+        if joint_kind == "revolute":
+            big = np.flatnonzero(column > MAX_PLAUSIBLE_ANGLE)
+            if big.size * 2 > data.n_samples:
+                r = int(big[0])
+                raise DataError(f"column '{name}' (revolute joint), line {lines[r]}: "
+                                f"{float(data.joints[r, c])!r} looks like degrees; pincal expects radians "
+                                f"(|reading| > 4 pi on {big.size} of {data.n_samples} rows)")
+
+
+# --- writing ------------------------------------------------------------------------------------
+def _format(value: float) -> str:
+    return "" if math.isnan(value) else repr(float(value))
+
+
+def write_dataset(dataset: Dataset, path: str | Path) -> None:
+    """Write ``dataset`` as CSV; :func:`read_dataset` gives it back exactly (floats as ``repr``).
+
+    Raises:
+        DataError: metadata, sample ids or values that could not be read back as written.
+    """
+    for key, value in dataset.metadata.items():
+        if not key.strip() or key != key.strip() or ":" in key or "\n" in key or "\n" in value \
+                or value != value.strip():
+            raise DataError(f"metadata '{key}': '{value}' cannot be written as '# key: value' (keys without ':', "
+                            "no newlines, no surrounding spaces)")
+    for sample in dataset.sample_ids:
+        if not sample or sample != sample.strip() or sample.startswith("#") or "\n" in sample:
+            raise DataError(f"sample id {sample!r} cannot be written (empty, padded, multi-line or starting "
+                            "with '#')")
+    for key, values in dataset.measurements.items():
+        body = values[1:] if _is_increment(key) else values
+        if not np.all(np.isfinite(body)):
+            raise DataError(f"measurement '{key}' holds NaN or infinite values")
+    if not np.all(np.isfinite(dataset.joints)):
+        raise DataError("joint readings hold NaN or infinite values")
+
+    header = [SAMPLE_COLUMN, SET_COLUMN, *dataset.joint_names]
+    for key in dataset.measurements:
+        components = MEASUREMENT_COMPONENTS[key.partition(":")[0]]
+        header.extend(f"{key}:{c}" for c in components)
+    buffer = io.StringIO()
+    for key, value in dataset.metadata.items():
+        buffer.write(f"# {key}: {value}\n")
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(header)
+    for r in range(dataset.n_samples):
+        row = [dataset.sample_ids[r], dataset.sets[r], *(_format(v) for v in dataset.joints[r])]
+        for values in dataset.measurements.values():
+            row.extend(_format(v) for v in values[r])
+        writer.writerow(row)
+    Path(path).write_text(buffer.getvalue(), encoding="utf-8")
