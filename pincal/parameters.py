@@ -187,6 +187,47 @@ def joint_unit(robot: Robot, joint: str) -> str:
     return "m" if "Prismatic" in short or short.startswith("JointModelP") else "rad"
 
 
+def planar_normal(robot: Robot, tol: float = 1e-9) -> Array | None:
+    """The plane normal if the robot is planar (all revolute axes along n, prismatic axes across it,
+    loops revolute about n), else None. Evaluated at the reference configuration, world frame."""
+    if not robot.loops:
+        return None
+    model, data = robot.model, robot.model.createData()
+    pin.computeJointJacobians(model, data, robot.q_reference)
+    normal: Array | None = None
+    across: list[Array] = []
+    for jid in range(1, model.njoints):
+        joint = model.joints[jid]
+        if joint.nv != 1:
+            return None
+        col = pin.getJointJacobian(model, data, jid, pin.LOCAL_WORLD_ALIGNED)[:, joint.idx_v]
+        if np.linalg.norm(col[3:]) > tol:
+            axis = col[3:] / np.linalg.norm(col[3:])
+            if normal is None:
+                normal = axis
+            elif abs(abs(float(axis @ normal)) - 1.0) > tol:
+                return None
+        else:
+            across.append(col[:3] / np.linalg.norm(col[:3]))
+    if normal is None or any(abs(float(a @ normal)) > tol for a in across):
+        return None
+    for loop in robot.loops:
+        if loop.type != "revolute":
+            return None
+        frame = model.frames[model.getFrameId(loop.predecessor)]
+        world = data.oMi[frame.parentJoint] * frame.placement * loop.predecessor_origin
+        if abs(abs(float((world.rotation @ loop.axis) @ normal)) - 1.0) > tol:
+            return None
+    return normal
+
+
+def _in_plane(placement_world: pin.SE3, normal: Array | None, tol: float = 1e-9) -> Sequence[str]:
+    """Components of a placement that keep a planar robot planar (tx, ty, rz when its z is the normal)."""
+    if normal is None or abs(abs(float(placement_world.rotation[:, 2] @ normal)) - 1.0) > tol:
+        return COMPONENTS
+    return ("tx", "ty", "rz")
+
+
 def candidate_parameters(robot: Robot, frames: Sequence[str] = (), offsets: Sequence[str] | None = None,
                          base: bool = False, markers: bool = False) -> ParameterSet:
     """Every geometric parameter that could matter: a superset the identifiability analysis prunes.
@@ -200,16 +241,23 @@ def candidate_parameters(robot: Robot, frames: Sequence[str] = (), offsets: Sequ
     """
     params: list[Parameter] = []
     model = robot.model
+    normal = planar_normal(robot)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, robot.q_reference)
     for joint in movable_joints(robot):
-        params += placement_parameters("joint", joint)
+        jid = model.getJointId(joint)
+        params += placement_parameters("joint", joint, components=_in_plane(data.oMi[jid], normal))
     for name in fixed_joints(robot):
         fid = model.getFrameId(name, pin.FrameType.FIXED_JOINT)
         if any(_descends(model, model.getFrameId(f), fid) for f in frames):
-            params += placement_parameters("joint", name)
+            params += placement_parameters("joint", name, components=_in_plane(data.oMf[fid], normal))
     for loop in robot.loops:
-        comps = COMPONENTS[:3] if loop.type == "spherical" else COMPONENTS
-        params += placement_parameters("anchor", loop.name, "predecessor", comps)
-        params += placement_parameters("anchor", loop.name, "successor", comps)
+        for side, link, origin in (("predecessor", loop.predecessor, loop.predecessor_origin),
+                                   ("successor", loop.successor, loop.successor_origin)):
+            comps = _in_plane(data.oMf[model.getFrameId(link)] * origin, normal)
+            if loop.type == "spherical":
+                comps = COMPONENTS[:3]
+            params += placement_parameters("anchor", loop.name, side, comps)
     for joint in robot.actuated_joints if offsets is None else offsets:
         params.append(offset_parameter(joint, joint_unit(robot, joint)))
     if base:
@@ -238,13 +286,17 @@ def model24(robot: Robot) -> ParameterSet:
 
     Mapping onto pincal's placements (delta.urdf): Dx, Dy, Dz = ``arm_i_joint.tx/ty/tz`` (motor axis
     position A_i); θ = ``arm_i_joint.rz`` (leg direction about z); α = ``arm_i_joint.offset`` (arm
-    angle zero); Lax, Lay = ``rod_i_pitch.tx/ty`` (elbow position along and across the arm);
+    angle zero); Lax, Lay = ``rod_i_pitch.tx/tz`` (the elbow's position in the arm's plane of motion: along the
+    arm, and across it);
     Lb = ``leg_i_platform.predecessor.tz`` (rod length: the rod runs along its frame's -z).
+
+    With position data, Lay_i and α_i act only through one combination (turning the elbow about the
+    motor axis is an arm-angle offset): 21 of the 24 are identifiable, and the analysis says so.
     """
     names = []
     for i in (1, 2, 3):
         names += [f"arm_{i}_joint.tx", f"arm_{i}_joint.ty", f"arm_{i}_joint.tz", f"arm_{i}_joint.rz",
-                  f"arm_{i}_joint.offset", f"rod_{i}_pitch.tx", f"rod_{i}_pitch.ty",
+                  f"arm_{i}_joint.offset", f"rod_{i}_pitch.tx", f"rod_{i}_pitch.tz",
                   f"leg_{i}_platform.predecessor.tz"]
     return _named(robot, names, "model24")
 

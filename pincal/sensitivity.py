@@ -90,8 +90,11 @@ class KinematicSensitivity:
 
     def probe_twist(self, data: pin.Data, probe: Probe) -> Array:
         """Local twist (6 × n) of a probe per unit parameter; needs forward kinematics on ``data``."""
-        regressor = pin.computeJointKinematicRegressor(self.model, data, probe.joint, pin.LOCAL, probe.placement)
-        twist = regressor @ self.joint_map
+        if probe.joint == 0:  # on the base: only fixed-joint origins there can move it
+            twist = np.zeros((6, self.n))
+        else:
+            regressor = pin.computeJointKinematicRegressor(self.model, data, probe.joint, pin.LOCAL, probe.placement)
+            twist = regressor @ self.joint_map
         for fid, placement, parent, idx, jexp in self.fixed:
             if parent == probe.joint and _descends(self.model, probe.link_frame, fid):
                 local = placement.inverse() * probe.placement

@@ -1,0 +1,245 @@
+"""Identification: Levenberg–Marquardt on the analytic Jacobian, with TSVD and ridge variants and a
+robust loss.
+
+The problem is solved in scaled variables ``z = x / s`` (s: typical sizes, metres and radians differ
+by orders of magnitude), by default on the identifiable (base) parameters only: the others stay at
+their starting values and are reported as combinations the data cannot separate.
+
+Steps: ``lm`` solves ``(JᵀJ + λ diag(JᵀJ)) δz = -Jᵀr`` (Marquardt); ``tsvd`` truncates the SVD of the
+scaled Jacobian (study 003); ``ridge`` solves ``(JᵀJ + μI) δz = -Jᵀr``. The robust loss re-weights
+whole samples (IRLS, Cauchy weights) with a scale estimated from the median residual, so no
+threshold is set by hand.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.analysis import Identifiability, analyse, correlations, covariance
+from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
+from pincal.problem import CalibrationProblem, Prediction
+
+Array = npt.NDArray[np.float64]
+
+SOLVERS = ("lm", "tsvd", "ridge")
+LOSSES = ("linear", "cauchy")
+CAUCHY_C = 2.3849  # 95 % efficiency under Gaussian noise
+
+
+@dataclass
+class CalibrationResult:
+    """What identification found, and how well.
+
+    Attributes:
+        names: Parameter names; ``x`` their estimates (deviations from nominal) [m or rad].
+        std: Standard deviations [m or rad] (NaN for parameters not identified).
+        identified: Indices of the parameters that were estimated (the identifiable set by default).
+        identifiability: Rank, condition number, base parameters and unidentifiable combinations.
+        correlation: Correlations among the identified parameters.
+        iterations, converged, message: The solver's account.
+        cost_history: ``½‖r‖²`` (weighted) after each accepted iteration.
+        errors_before, errors_after: Per measurement key, per-sample errors (predicted − measured).
+        sample_weights: Robust-loss weights per sample (1 = fully trusted).
+        sigma2: A-posteriori variance factor (≈ 1 when the stated σ are right).
+        seconds: Wall time of identification.
+    """
+
+    names: list[str]
+    x0: Array
+    x: Array
+    std: Array
+    identified: list[int]
+    identifiability: Identifiability
+    correlation: Array
+    iterations: int
+    converged: bool
+    message: str
+    cost_history: list[float]
+    errors_before: dict[str, Array]
+    errors_after: dict[str, Array]
+    sample_weights: Array
+    sigma2: float
+    seconds: float
+    solver: str = "lm"
+    loss: str = "linear"
+    extra: dict[str, object] = field(default_factory=dict)
+
+    @property
+    def unidentified(self) -> list[str]:
+        return [n for k, n in enumerate(self.names) if k not in set(self.identified)]
+
+    def down_weighted(self, threshold: float = 0.5) -> list[int]:
+        """Samples whose robust weight fell below ``threshold``."""
+        return [int(k) for k in np.flatnonzero(self.sample_weights < threshold)]
+
+
+def error_norms(errors: dict[str, Array], keys: list[str] | None = None) -> Array:
+    """Per-sample error magnitudes [m] of the length-type measurements (position, pose position, distance)."""
+    parts = []
+    for key, err in errors.items():
+        if keys is not None and key not in keys:
+            continue
+        kind = key.split(":", 1)[0]
+        if kind in ("position", "pose"):
+            parts.append(np.linalg.norm(err[:, :3], axis=1))
+        elif kind.startswith("distance"):
+            parts.append(np.abs(err[:, 0]))
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def rms(values: Array) -> float:
+    return float(np.sqrt(np.mean(values**2))) if values.size else float("nan")
+
+
+def calibration_gain(x_true: Array, x_nominal: Array, x_calibrated: Array) -> float:
+    """Study 000, Eq. 4.1: ``G = 100 (‖Pr − Pn‖ − ‖Pr − Pc‖) / ‖Pr − Pn‖`` [%]."""
+    before = float(np.linalg.norm(x_true - x_nominal))
+    if before == 0.0:
+        return float("nan")
+    return 100.0 * (before - float(np.linalg.norm(x_true - x_calibrated))) / before
+
+
+def _sample_weights(problem: CalibrationProblem, pred: Prediction, loss: str) -> Array:
+    n = problem.observations.n_samples
+    if loss == "linear":
+        return np.ones(n)
+    per_sample = np.zeros(n)
+    for m in problem.measurements:
+        err = pred.errors[m.key]
+        sig = np.array([m.sigma] * 3 + [getattr(m, "sigma_angle", m.sigma)] * 3)[: err.shape[1]] if err.shape[1] == 6 \
+            else np.full(err.shape[1], m.sigma)
+        per_sample += np.sum((err / sig) ** 2, axis=1)
+    norms = np.sqrt(per_sample)
+    scale = float(np.median(norms)) / 0.6745 if np.median(norms) > 0 else 1.0
+    scale = max(scale, 1e-300)
+    return 1.0 / (1.0 + (norms / (CAUCHY_C * scale)) ** 2)
+
+
+def _row_weights(problem: CalibrationProblem, sample_weights: Array) -> Array:
+    """Expand per-sample weights to the residual rows (the problem's row order: by measurement, then sample)."""
+    n = problem.observations.n_samples
+    rows = []
+    for m in problem.measurements:
+        w = sample_weights[1:] if m.incremental else sample_weights
+        rows.append(np.repeat(w, m.size))
+    del n
+    return np.concatenate(rows)
+
+
+def _step(js: Array, r: Array, solver: str, lam: float, rcond: float, ridge: float) -> Array:
+    if solver == "tsvd":
+        u, s, vt = np.linalg.svd(js, full_matrices=False)
+        keep = s > rcond * s[0] if s.size else np.zeros(0, dtype=bool)
+        return -(vt[keep].T @ ((u[:, keep].T @ r) / s[keep]))
+    h = js.T @ js
+    g = js.T @ r
+    if solver == "ridge":
+        h[np.diag_indices_from(h)] += ridge
+    else:
+        h[np.diag_indices_from(h)] *= 1.0 + lam
+        h[np.diag_indices_from(h)] += 1e-15 * (1.0 + float(np.trace(h)))
+    return -np.linalg.solve(h, g)
+
+
+def identify(problem: CalibrationProblem, x0: Array | None = None, solver: str = "lm", loss: str = "linear",
+             identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-12, rank_tol: float = 1e-8,
+             tsvd_rcond: float = 1e-6, ridge: float = 1e-6) -> CalibrationResult:
+    """Estimate the parameters from the data.
+
+    Args:
+        problem: Robot, parameters, measurements and data.
+        x0: Starting deviations [m, rad]; zero (the nominal robot) by default.
+        solver: ``lm``, ``tsvd`` or ``ridge``.
+        loss: ``linear`` (least squares) or ``cauchy`` (robust to gross outliers).
+        identifiable_only: Estimate only the base parameters (recommended); otherwise all, with LM
+            damping absorbing the unidentifiable directions.
+        max_iter: Iteration limit.
+        tol: Stop when the relative cost decrease or the scaled step falls below ``tol``.
+        rank_tol: Relative singular-value threshold for identifiability (see :mod:`pincal.analysis`).
+        tsvd_rcond: TSVD truncation, relative to the largest singular value.
+        ridge: Ridge parameter in scaled units.
+
+    Raises:
+        DataError: unknown solver or loss, or fewer residuals than identifiable parameters.
+        ConvergenceError: the model cannot be evaluated at the starting point.
+    """
+    if solver not in SOLVERS:
+        raise DataError(f"unknown solver '{solver}'; solvers are: {', '.join(SOLVERS)}")
+    if loss not in LOSSES:
+        raise DataError(f"unknown loss '{loss}'; losses are: {', '.join(LOSSES)}")
+    start = time.perf_counter()
+    pset = problem.parameters
+    scales = pset.scales
+    x = np.zeros(len(pset)) if x0 is None else np.array(x0, dtype=float)
+    pred = problem.evaluate(x)
+    assert pred.jacobian is not None
+    errors_before = pred.errors
+    ident = analyse(pred.jacobian, pset.names, scales, tol=rank_tol)
+    active = ident.base_indices if identifiable_only else list(range(len(pset)))
+    if not active:
+        raise IdentifiabilityError("the data identifies none of the parameters (rank 0)")
+    if pred.residual.size < len(active):
+        raise DataError(f"{pred.residual.size} residuals cannot identify {len(active)} parameters: add samples")
+    d = scales[active]
+    weights = _sample_weights(problem, pred, loss)
+    rw = np.sqrt(_row_weights(problem, weights))
+    cost = 0.5 * float(np.sum((rw * pred.residual) ** 2))
+    history = [cost]
+    lam, converged, message, it = 1e-3, False, "iteration limit reached", 0
+    for it in range(1, max_iter + 1):
+        js = pred.jacobian[:, active] * d * rw[:, None]
+        dz = _step(js, rw * pred.residual, solver, lam, tsvd_rcond, ridge)
+        accepted = False
+        shrink = 1.0
+        for _ in range(12):
+            trial = x.copy()
+            trial[active] += d * dz * shrink
+            try:
+                new = problem.evaluate(trial)
+            except ConvergenceError:
+                new = None
+            if new is not None:
+                new_cost = 0.5 * float(np.sum((rw * new.residual) ** 2))
+                if new_cost <= cost:
+                    accepted = True
+                    break
+            if solver == "lm":
+                lam *= 10.0
+                dz = _step(js, rw * pred.residual, solver, lam, tsvd_rcond, ridge)
+            else:
+                shrink *= 0.5
+        if not accepted or new is None:
+            message = "no step decreases the cost (a local minimum, or the model cannot be evaluated nearby)"
+            converged = bool(np.linalg.norm(js.T @ (rw * pred.residual)) <= 1e-6 * (1.0 + math.sqrt(2 * cost)))
+            break
+        decrease = cost - new_cost
+        step_size = float(np.linalg.norm(dz * shrink))
+        x, pred, cost = trial, new, new_cost
+        assert pred.jacobian is not None
+        if loss != "linear":
+            weights = _sample_weights(problem, pred, loss)
+            rw = np.sqrt(_row_weights(problem, weights))
+            cost = 0.5 * float(np.sum((rw * pred.residual) ** 2))
+        history.append(cost)
+        lam = max(lam / 10.0, 1e-12)
+        if decrease <= tol * max(cost, 1e-300) or step_size <= tol or cost <= 1e-30:
+            converged, message = True, "converged"
+            break
+    jac = pred.jacobian[:, active] * rw[:, None]
+    dof = max(pred.residual.size - len(active), 1)
+    sigma2 = float(np.sum((rw * pred.residual) ** 2)) / dof
+    std = np.full(len(pset), np.nan)
+    try:
+        cov = covariance(jac, sigma2, names=[pset.names[k] for k in active])
+        std[active] = np.sqrt(np.diag(cov))
+        corr = correlations(cov)
+    except IdentifiabilityError:
+        corr = np.full((len(active), len(active)), np.nan)
+    return CalibrationResult(pset.names, np.zeros(len(pset)) if x0 is None else np.array(x0, dtype=float), x, std,
+                             list(active), ident, corr, it, converged, message, history, errors_before, pred.errors,
+                             weights, sigma2, time.perf_counter() - start, solver, loss)

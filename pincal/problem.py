@@ -1,0 +1,277 @@
+"""The calibration problem: weighted residuals and their analytic Jacobian over a dataset.
+
+Forward (FKM) formulation (study 000, Eq. 3.4): for each sample, the loops are closed for the
+actuated readings (plus their offsets) with the current parameters, each measurement model
+predicts its reading, and the residual is ``(predicted - measured) / σ``. Derivatives are exact:
+kinematic regressors for the placements, the implicit-function theorem through the loops,
+configuration Jacobians for the offsets. FK is warm-started from the previous evaluation of the
+same sample, so each evaluation inside Levenberg–Marquardt costs about one Newton step per sample.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.errors import ConvergenceError, DataError, NotFoundError, listing
+from pincal.kinematics import damped_pseudo_inverse
+from pincal.measurements import Distance, JointReading, Measurement, Pose, Position, point_derivative
+from pincal.parameters import KINEMATIC_KINDS, ParameterSet, apply_parameters
+from pincal.robot import Robot
+from pincal.sensitivity import KinematicSensitivity, frame_probe, right_jacobian
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass
+class Observations:
+    """What was read and measured, one row per sample.
+
+    Attributes:
+        actuated: (N, na) actuated joint readings [rad or m], in ``robot.actuated_joints`` order.
+        values: measurement key -> (N, k): position (N, 3) [m]; pose (N, 7) as x, y, z [m] and a unit
+            quaternion qx, qy, qz, qw; distance (N, 1) [m]; joint reading (N, 1) [rad or m]. For
+            ``distance_increment`` the first row is ignored.
+    """
+
+    actuated: Array
+    values: dict[str, Array]
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.actuated.shape[0])
+
+    def subset(self, rows: Sequence[int] | Array) -> Observations:
+        return Observations(self.actuated[rows], {k: v[rows] for k, v in self.values.items()})
+
+
+@dataclass
+class Prediction:
+    """Residuals (weighted), their Jacobian, and unweighted errors per sample and measurement."""
+
+    residual: Array
+    jacobian: Array | None
+    errors: dict[str, Array]  # key -> (N, rows) predicted - measured [m, rad]
+
+
+class CalibrationProblem:
+    """Residuals and Jacobians of one robot, parameter set, measurement set and dataset.
+
+    Args:
+        robot: The nominal robot.
+        parameters: The unknowns (deviations from nominal).
+        measurements: The measurement models; their keys index ``observations.values``.
+        observations: The data.
+    """
+
+    def __init__(self, robot: Robot, parameters: ParameterSet, measurements: Sequence[Measurement],
+                 observations: Observations) -> None:
+        self.robot = robot
+        self.parameters = parameters
+        self.measurements = list(measurements)
+        self.observations = observations
+        self._check()
+        self.kinematic = parameters.of_kind(*KINEMATIC_KINDS)
+        self.kinematic_set = parameters.subset(self.kinematic)
+        actuated = {name: k for k, name in enumerate(robot.actuated_joints)}
+        self.actuated_offsets = [(actuated[p.target], k) for k, p in enumerate(parameters)
+                                 if p.kind == "offset" and p.target in actuated]
+        self.reading_offsets = {p.target: k for k, p in enumerate(parameters)
+                                if p.kind == "offset" and p.target not in actuated}
+        self.base = parameters.groups("base").get(("base", "base", ""), [])
+        self.markers = {p.target: [] for p in parameters if p.kind == "marker"}
+        for k, p in enumerate(parameters):
+            if p.kind == "marker":
+                self.markers[p.target].append(k)
+        self.frames = sorted({f for m in self.measurements for f in m.frames})
+        self.frame_ids = {f: robot.frame_id(f) for f in self.frames}
+        self._q_cache: list[Array | None] = [None] * observations.n_samples
+        self.rows_per_sample = sum(m.size for m in self.measurements)
+
+    def _check(self) -> None:
+        obs, robot = self.observations, self.robot
+        if obs.actuated.ndim != 2 or obs.actuated.shape[1] != robot.n_actuated:
+            raise DataError(f"actuated readings have shape {obs.actuated.shape}; expected (N, {robot.n_actuated}) "
+                            f"for {listing(robot.actuated_joints)}")
+        if not np.all(np.isfinite(obs.actuated)):
+            row = int(np.argwhere(~np.isfinite(obs.actuated))[0, 0])
+            raise DataError(f"actuated readings of sample {row} contain NaN or infinity")
+        width = {Position: 3, Pose: 7, Distance: 1, JointReading: 1}
+        for m in self.measurements:
+            if m.key not in obs.values:
+                raise DataError(f"no data for measurement '{m.key}'; data has {listing(obs.values)}")
+            values = obs.values[m.key]
+            if values.shape != (obs.n_samples, width[type(m)]):
+                raise DataError(f"data for '{m.key}' has shape {values.shape}; expected "
+                                f"({obs.n_samples}, {width[type(m)]})")
+            check = values[1:] if m.incremental else values
+            if not np.all(np.isfinite(check)):
+                row = int(np.argwhere(~np.isfinite(check))[0, 0]) + (1 if m.incremental else 0)
+                raise DataError(f"measurement '{m.key}' of sample {row} is NaN or infinite")
+            for f in m.frames:
+                robot.frame_id(f)
+            if isinstance(m, JointReading) and not robot.model.existJointName(m.joint):
+                raise NotFoundError(f"measurement '{m.key}' reads joint '{m.joint}', which does not exist; joints "
+                                    f"are: {listing(robot.model.names[1:])}")
+
+    # --- evaluation -----------------------------------------------------------------------------
+    def robot_at(self, x: Array) -> Robot:
+        """The robot with the kinematic deviations of ``x`` applied (the calibrated robot at the end)."""
+        return apply_parameters(self.robot, self.kinematic_set, x[self.kinematic])
+
+    def actuated_values(self, x: Array) -> Array:
+        """Actuated joint values [rad or m] with the offsets of ``x`` applied, (N, na)."""
+        qa = self.observations.actuated.copy()
+        for joint, k in self.actuated_offsets:
+            qa[:, joint] += x[k]
+        return qa
+
+    def configurations(self, x: Array) -> Array:
+        """Closed configurations (N, nq) of every sample at ``x`` (FK, warm-started)."""
+        robot = self.robot_at(x)
+        qa = self.actuated_values(x)
+        return np.array([self._solve(robot, k, qa[k]) for k in range(qa.shape[0])])
+
+    def _solve(self, robot: Robot, k: int, qa: Array) -> Array:
+        cached = self._q_cache[k]
+        report = robot.solve_fk_report(qa, cached)
+        if not report.converged and cached is not None:
+            report = robot.solve_fk_report(qa)
+        if not report.converged:
+            raise ConvergenceError(f"sample {k}: forward kinematics did not converge for actuated readings "
+                                   f"{np.array2string(qa, precision=6)} (closure residual {report.residual:.3g}); "
+                                   "the sample may be outside the workspace or the parameters far off")
+        self._q_cache[k] = report.q
+        return report.q
+
+    def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
+        """Weighted residual ``(predicted - measured)/σ`` and its Jacobian w.r.t. ``x``."""
+        robot = self.robot_at(x)
+        model, data, kin = robot.model, robot.kinematics.data, robot.kinematics
+        n, p = self.observations.n_samples, len(self.parameters)
+        sens = KinematicSensitivity(robot, self.parameters, x) if jacobian else None
+        probes = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
+        base_delta = self.parameters.placement_delta(x, self.base) if self.base else np.zeros(6)
+        base = pin.exp6(base_delta)
+        base_jac = right_jacobian(base_delta, [self.parameters.parameters[k].component for k in self.base])
+        markers = {f: x[idx] for f, idx in self.markers.items()}
+        qa_all = self.actuated_values(x)
+        preds: dict[str, Array] = {m.key: np.empty((n, m.size)) for m in self.measurements}
+        dpreds: dict[str, Array] = {m.key: np.zeros((n, m.size, p)) for m in self.measurements} if jacobian else {}
+        passive, act_v = kin.passive_v, kin.actuated_v
+        for k in range(n):
+            q = self._solve(robot, k, qa_all[k])
+            dv = None
+            if jacobian:
+                assert sens is not None
+                pin.computeJointJacobians(model, data, q)
+                pin.updateFramePlacements(model, data)
+                dv = np.zeros((model.nv, p))
+                for joint, col in self.actuated_offsets:
+                    dv[act_v[joint], col] = 1.0
+                if robot.loops:
+                    _, cjac = robot.closure.residual_and_jacobian(data)
+                    gain = damped_pseudo_inverse(cjac[:, passive])
+                    if gain is None:
+                        raise ConvergenceError(f"sample {k} is at a singular configuration: the passive joints are "
+                                               "not determined by the actuated ones")
+                    rhs = sens.closure_derivative(data)
+                    for joint, col in self.actuated_offsets:
+                        rhs[:, col] += cjac[:, act_v[joint]]
+                    dv[passive] = -gain @ rhs
+            else:
+                pin.framesForwardKinematics(model, data, q)
+            twists = {}
+            if jacobian:
+                assert sens is not None and dv is not None
+                for f, fid in self.frame_ids.items():
+                    local = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
+                    twists[f] = sens.probe_twist(data, probes[f]) + local @ dv
+            for m in self.measurements:
+                self._predict(m, x, k, q, robot, data, base, base_jac, markers, twists, dv, preds, dpreds)
+        return self._assemble(preds, dpreds, jacobian)
+
+    def _point(self, frame: str, data: pin.Data, markers: dict[str, Array]) -> tuple[pin.SE3, Array]:
+        placement = data.oMf[self.frame_ids[frame]]
+        marker = markers.get(frame, np.zeros(3))
+        return placement, marker
+
+    def _predict(self, m: Measurement, x: Array, k: int, q: Array, robot: Robot, data: pin.Data, base: pin.SE3,
+                 base_jac: Array, markers: dict[str, Array], twists: dict[str, Array], dv: Array | None,
+                 preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
+        block = dpreds.get(m.key)
+        jac = None if block is None else block[k]  # (rows, n_parameters) view of this sample
+        if isinstance(m, (Position, Pose)):
+            placement, marker = self._point(m.frame, data, markers if isinstance(m, Position) else {})
+            local_point = placement.act(marker)
+            preds[m.key][k, :3] = base.act(local_point)
+            if isinstance(m, Pose):
+                meas_rot = pin.Quaternion(*self.observations.values[m.key][k, [6, 3, 4, 5]]).normalized().matrix()
+                rel = meas_rot.T @ base.rotation @ placement.rotation
+                preds[m.key][k, 3:] = pin.log3(rel)
+            if jac is not None:
+                twist = twists[m.frame]
+                jac[:3] = base.rotation @ point_derivative(placement, twist, marker)
+                if isinstance(m, Position) and m.frame in self.markers:
+                    jac[:3, self.markers[m.frame]] = base.rotation @ placement.rotation
+                if self.base:
+                    jac[:3, self.base] = base.rotation @ np.hstack([np.eye(3), -pin.skew(local_point)]) @ base_jac
+                if isinstance(m, Pose):
+                    jlog = pin.Jlog3(rel)
+                    jac[3:] = jlog @ twist[3:]
+                    if self.base:
+                        jac[3:, self.base] = jlog @ placement.rotation.T @ base_jac[3:]
+        elif isinstance(m, Distance):
+            pa, ma = self._point(m.frame_a, data, markers)
+            pb, mb = self._point(m.frame_b, data, markers)
+            diff = pa.act(ma) - pb.act(mb)
+            dist = float(np.linalg.norm(diff))
+            preds[m.key][k, 0] = dist
+            if jac is not None:
+                u = diff / dist
+                jac[0] = u @ (point_derivative(pa, twists[m.frame_a], ma) - point_derivative(pb, twists[m.frame_b], mb))
+        elif isinstance(m, JointReading):
+            jm = robot.model.joints[robot.model.getJointId(m.joint)]
+            offset = self.reading_offsets.get(m.joint)
+            value = q[jm.idx_q] if jm.nq == 1 else np.arctan2(q[jm.idx_q + 1], q[jm.idx_q])
+            preds[m.key][k, 0] = value
+            if jac is not None and dv is not None:
+                jac[0] = dv[jm.idx_v]
+            if offset is not None:  # q_true = q_read + δq: the sensor reads q_true - δq
+                preds[m.key][k, 0] = value - x[offset]
+                if jac is not None:
+                    jac[0, offset] -= 1.0
+
+    def _assemble(self, preds: dict[str, Array], dpreds: dict[str, Array], jacobian: bool) -> Prediction:
+        n = self.observations.n_samples
+        errors: dict[str, Array] = {}
+        blocks, jblocks = [], []
+        for m in self.measurements:
+            measured = self.observations.values[m.key]
+            if isinstance(m, Pose):
+                err = preds[m.key].copy()
+                err[:, :3] -= measured[:, :3]
+                weights = np.array([m.sigma] * 3 + [m.sigma_angle] * 3)
+            else:
+                err = preds[m.key] - measured
+                weights = np.full(m.size, m.sigma)
+            jac = dpreds.get(m.key)
+            if m.incremental:
+                err = np.vstack([np.zeros((1, m.size)), preds[m.key][1:] - preds[m.key][:-1] - measured[1:]])
+                if jac is not None:
+                    jac = np.concatenate([np.zeros((1, *jac.shape[1:])), jac[1:] - jac[:-1]])
+                rows = slice(1, n)
+            else:
+                rows = slice(0, n)
+            errors[m.key] = err
+            blocks.append((err[rows] / weights).reshape(-1))
+            if jacobian and jac is not None:
+                jblocks.append((jac[rows] / weights[None, :, None]).reshape(-1, jac.shape[-1]))
+        residual = np.concatenate(blocks)
+        full = np.vstack(jblocks) if jacobian else None
+        return Prediction(residual, full, errors)
+
