@@ -1,0 +1,113 @@
+"""Simulated calibration data: a true robot (nominal + known errors), reachable postures, noisy readings.
+
+Units: perturbation and noise scales are standard deviations in metres for lengths and radians for
+angles (``perturb=1e-3`` means 1 mm and 1 mrad).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.errors import ConvergenceError, DataError
+from pincal.measurements import JointReading, Measurement, Pose
+from pincal.parameters import ParameterSet
+from pincal.problem import CalibrationProblem, Observations
+from pincal.robot import Robot
+
+Array = npt.NDArray[np.float64]
+
+#: Default half-range of random actuated values around the reference [rad or m], per robot name.
+SPREAD = {"delta": 0.6, "five_bar": 0.35, "hexapod": 0.12, "hexapod_device": 0.12, "ucr3": 0.04}
+
+
+def perturbation(parameters: ParameterSet, scale: float, rng: np.random.Generator) -> Array:
+    """Random true deviations: normal with standard deviation ``scale`` [m or rad] per parameter."""
+    return rng.normal(scale=scale, size=len(parameters))
+
+
+def random_actuated(robot: Robot, n: int, rng: np.random.Generator, spread: float | None = None,
+                    max_condition: float = 1e4) -> tuple[Array, Array]:
+    """``n`` random reachable actuated inputs (N, na) and their closed configurations (N, nq).
+
+    Inputs are uniform within ``±spread`` of the reference (clipped to the joint limits); samples whose
+    FK fails or whose passive closure Jacobian is ill-conditioned (near a singularity) are redrawn.
+    """
+    half = SPREAD.get(robot.name, 0.5 if robot.loops else np.pi) if spread is None else spread
+    model = robot.model
+    lower = np.array([model.lowerPositionLimit[a.idx_q] if a.nq == 1 else -np.pi for a in robot.kinematics.actuated])
+    upper = np.array([model.upperPositionLimit[a.idx_q] if a.nq == 1 else np.pi for a in robot.kinematics.actuated])
+    lo = np.maximum(lower, -half)
+    hi = np.minimum(upper, half)
+    qa_out, q_out = [], []
+    attempts = 0
+    while len(qa_out) < n:
+        attempts += 1
+        if attempts > 50 * n + 100:
+            raise ConvergenceError(f"only {len(qa_out)} of {n} random postures of '{robot.name}' were reachable "
+                                   f"within ±{half} of the reference; try a smaller spread")
+        qa = rng.uniform(lo, hi)
+        report = robot.solve_fk_report(qa)
+        if not report.converged:
+            continue
+        if robot.loops:
+            _, jac = robot.kinematics.closure_jacobian(report.q)
+            s = np.linalg.svd(jac[:, robot.kinematics.passive_v], compute_uv=False)
+            if s[-1] <= 0 or s[0] / s[-1] > max_condition:
+                continue
+        qa_out.append(qa)
+        q_out.append(report.q)
+    return np.array(qa_out), np.array(q_out)
+
+
+def simulate_observations(robot: Robot, parameters: ParameterSet, x_true: Array, measurements: Sequence[Measurement],
+                          actuated: Array, rng: np.random.Generator, noise: float = 0.0,
+                          joint_noise: float = 0.0) -> Observations:
+    """Readings and measurements of the true robot (nominal + ``x_true``) at the given actuated values.
+
+    Args:
+        robot: Nominal robot.
+        parameters: The parameters ``x_true`` refers to.
+        x_true: True deviations [m, rad].
+        measurements: What is measured.
+        actuated: Actuated readings (N, na) [rad or m]; the true robot adds its offsets from ``x_true``.
+        rng: Random generator (noise).
+        noise: Measurement noise σ [m] (and [rad] for pose angles and angle readings).
+        joint_noise: Noise σ on the actuated readings [rad or m].
+    """
+    if noise < 0 or joint_noise < 0:
+        raise DataError("noise must be non-negative")
+    n = actuated.shape[0]
+    blank: dict[str, Array] = {}
+    for m in measurements:
+        width = 7 if isinstance(m, Pose) else m.size
+        blank[m.key] = np.zeros((n, width))
+        if isinstance(m, Pose):
+            blank[m.key][:, 6] = 1.0
+    problem = CalibrationProblem(robot, parameters, measurements, Observations(actuated, blank))
+    pred = problem.evaluate(x_true, jacobian=False)
+    values: dict[str, Array] = {}
+    for m in measurements:
+        err = pred.errors[m.key]  # predicted - 0
+        if isinstance(m, Pose):
+            out = np.empty((n, 7))
+            out[:, :3] = err[:, :3] + rng.normal(scale=noise, size=(n, 3))
+            for k in range(n):
+                rot = pin.exp3(err[k, 3:]) @ pin.exp3(rng.normal(scale=noise, size=3))
+                quat = pin.Quaternion(rot)
+                out[k, 3:] = [quat.x, quat.y, quat.z, quat.w]
+            values[m.key] = out
+        elif m.incremental:
+            absolute = err[:, 0]
+            inc = np.full((n, 1), np.nan)
+            inc[1:, 0] = np.diff(absolute) + rng.normal(scale=noise, size=n - 1)
+            values[m.key] = inc
+        elif isinstance(m, JointReading):
+            values[m.key] = err + rng.normal(scale=noise, size=err.shape)
+        else:
+            values[m.key] = err + rng.normal(scale=noise, size=err.shape)
+    readings = actuated + rng.normal(scale=joint_noise, size=actuated.shape) if joint_noise else actuated.copy()
+    return Observations(readings, values)
