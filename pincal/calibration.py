@@ -21,7 +21,7 @@ import pinocchio as pin
 from pincal.errors import ConvergenceError, DataError, RobotFileError, listing
 from pincal.identification import CalibrationResult, calibration_gain, error_norms, rms
 from pincal.measurements import JointReading, Measurement, joint_reading, parse_key
-from pincal.parameters import NAMED_SETS, KINEMATIC_KINDS, ParameterSet, candidate_parameters
+from pincal.parameters import KINEMATIC_KINDS, NAMED_SETS, ParameterSet, candidate_parameters
 from pincal.problem import CalibrationProblem, Observations
 from pincal.robot import Robot, _build_model, check_reference_assembly
 from pincal.urdf import origin_to_se3, read_extensions
@@ -122,7 +122,8 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
             loop_origins[(target, side)] = base * exp
     for k, p in enumerate(parameters):
         if p.kind == "offset" and p.target in robot.actuated_joints and x[k] != 0.0:
-            joint_origins[p.target] = joint_origins.get(p.target, root[p.target]) * _joint_axis_motion(robot, p.target, x[k])
+            motion = _joint_axis_motion(robot, p.target, x[k])
+            joint_origins[p.target] = joint_origins.get(p.target, root[p.target]) * motion
     text = calibrated_urdf_text(source_text, joint_origins, loop_origins)
     shifts: dict[str, float] = {}
     if ext.loops:
@@ -158,7 +159,8 @@ def _xml_joint_origins(text: str) -> dict[str, pin.SE3]:
     import xml.etree.ElementTree as ET
 
     root = ET.fromstring(text)
-    return {j.get("name", ""): origin_to_se3(j.find("origin"), f"joint '{j.get('name')}'") for j in root.findall("joint")}
+    return {j.get("name", ""): origin_to_se3(j.find("origin"), f"joint '{j.get('name')}'")
+            for j in root.findall("joint")}
 
 
 def source_text(robot: Robot) -> str:

@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -50,6 +52,92 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def _mm(value: float | None) -> str:
+    return "-" if value is None or value != value else f"{value * 1e3:.4f} mm"
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    from pincal.workflow import simulate, write_simulation
+
+    robot = load_robot(args.robot)
+    sim = simulate(robot, args.measure, args.samples, args.test_samples, frame=args.frame, perturb=args.perturb,
+                   noise=args.noise, seed=args.seed, parameter_spec=args.parameters)
+    paths = write_simulation(sim, Path(args.out))
+    print(f"simulated {args.samples} + {args.test_samples} postures of '{robot.name}' with errors of "
+          f"σ {args.perturb:g} "
+          f"(m, rad) on {len(sim.parameters)} parameters; measurement noise σ {args.noise:g}")
+    for path in paths:
+        print(f"wrote {path}")
+    return 0
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from pincal.workflow import calibrate_files
+
+    cal = calibrate_files(args.robot, args.data, args.out, args.report, parameter_spec=args.parameters,
+                          solver=args.solver, loss=args.loss, sigma=args.sigma)
+    print(_summary(cal.report))
+    for path in (args.out, args.report):
+        if path:
+            print(f"wrote {path}")
+    return 0 if cal.result.converged else 1
+
+
+def _summary(report: dict[str, Any]) -> str:
+    lines = [f"samples {report['n_samples']}, parameters {report['n_parameters']}, "
+             f"identifiable {report['n_identifiable']}, "
+             f"condition number {report['condition_number']:.3g}" if report["condition_number"] else "",
+             f"solver {report['solver']} ({report['loss']} loss): {report['message']} after {report['iterations']} "
+             f"iterations, {report['seconds']:.3f} s",
+             "",
+             f"{'':32}{'before':>14}{'after':>14}",
+             f"{'RMS position error (fit)':32}{_mm(report['rms_before']):>14}{_mm(report['rms_after']):>14}",
+             f"{'max position error (fit)':32}{_mm(report['max_before']):>14}{_mm(report['max_after']):>14}"]
+    if "test_rms_before" in report:
+        lines += [f"{'RMS position error (held out)':32}{_mm(report['test_rms_before']):>14}"
+                  f"{_mm(report['test_rms_after']):>14}",
+                  f"{'max position error (held out)':32}{_mm(report['test_max_before']):>14}"
+                  f"{_mm(report['test_max_after']):>14}"]
+    if report.get("calibration_gain") is not None:
+        lines.append(f"{'calibration gain G (study 000)':32}{'':>14}{report['calibration_gain']:>12.1f} %")
+    if report["unidentifiable"]:
+        lines.append("")
+        lines.append(f"not identifiable from these data ({len(report['unidentifiable'])}):")
+        lines += [f"  - {text}" for text in report["unidentifiable"][:6]]
+        if len(report["unidentifiable"]) > 6:
+            lines.append(f"  ... and {len(report['unidentifiable']) - 6} more (see the report)")
+    return "\n".join(line for line in lines if line is not None)
+
+
+DEMO_TEXT = """pincal demo: geometric calibration of the Delta robot of study 000 (robots_urdf/delta.urdf)
+  truth:   the nominal robot with random errors of 1 mm / 1 mrad on the 24 parameters of the paper's Model 24
+  data:    {n_train} postures measured by a laser tracker (platform position, noise σ = {noise_um:g} µm),
+           {n_test} more held out for validation
+  method:  forward-kinematics (FKM) residuals, analytic Jacobians through the loops, Levenberg–Marquardt
+"""
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from pincal.calibration import write_json
+    from pincal.library import robot_path
+    from pincal.workflow import calibrate, simulate, write_simulation
+
+    robot = load_robot(robot_path("delta"))
+    sim = simulate(robot, ["position"], args.samples, args.test_samples, perturb=1e-3, noise=args.noise,
+                   seed=args.seed, parameter_spec=["model24"])
+    out = Path(args.out)
+    write_simulation(sim, out)
+    cal = calibrate(robot, sim.dataset, parameter_spec=["model24"], x_true=sim.x_true)
+    urdf = out / "delta_calibrated.urdf"
+    urdf.write_text(cal.urdf_text, encoding="utf-8")
+    write_json(out / "report.json", cal.report)
+    print(DEMO_TEXT.format(n_train=args.samples, n_test=args.test_samples, noise_um=args.noise * 1e6))
+    print(_summary(cal.report))
+    print()
+    print(f"wrote {out}/: delta_calibrated.urdf (the calibrated robot), report.json, measurements.csv, truth.urdf")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="pincal",
@@ -64,6 +152,53 @@ def build_parser() -> argparse.ArgumentParser:
                           epilog="example: pincal info robots_urdf/delta.urdf")
     info.add_argument("robot", help="URDF file or known robot name")
     info.set_defaults(func=cmd_info)
+
+    sim = sub.add_parser("simulate", help="simulate a calibration dataset with known errors",
+                         description="Perturb the robot's geometry (the truth), draw reachable postures, "
+                                     "measure them with noise; write DIR/measurements.csv, DIR/truth.urdf, "
+                                     "DIR/truth.json.",
+                         epilog="example: pincal simulate delta --samples 60 --measure position --perturb 1e-3 "
+                                "--noise 1e-5 --seed 1 --out sim/")
+    sim.add_argument("robot", help="URDF file or known robot name")
+    sim.add_argument("--samples", type=int, default=60, help="postures to calibrate from (default 60)")
+    sim.add_argument("--test-samples", type=int, default=0, help="extra postures held out for validation")
+    sim.add_argument("--measure", nargs="+", default=["position"],
+                     help="position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME")
+    sim.add_argument("--frame", help="measured frame for position/pose (default: the end effector)")
+    sim.add_argument("--perturb", type=float, default=1e-3, help="σ of the true errors [m and rad] (default 1e-3)")
+    sim.add_argument("--noise", type=float, default=1e-5, help="σ of the measurement noise [m, rad] (default 1e-5)")
+    sim.add_argument("--seed", type=int, default=0, help="random seed")
+    sim.add_argument("--parameters", nargs="+", help="parameters with errors: a named set (model24, hexapod42, "
+                                                    "hexapod44) or name patterns (default: all candidates)")
+    sim.add_argument("--out", required=True, help="output directory")
+    sim.set_defaults(func=cmd_simulate)
+
+    cal = sub.add_parser("calibrate", help="identify the geometry from a dataset; write a calibrated URDF",
+                         description="Levenberg-Marquardt identification (forward-kinematics residuals, analytic "
+                                     "Jacobians) on the identifiable parameters; rows with set=test are held out.",
+                         epilog="example: pincal calibrate delta sim/measurements.csv --out delta_cal.urdf "
+                                "--report report.json")
+    cal.add_argument("robot", help="URDF file or known robot name")
+    cal.add_argument("data", help="measurement CSV (see docs/dataset.md)")
+    cal.add_argument("--out", help="calibrated URDF to write")
+    cal.add_argument("--report", help="report JSON to write")
+    cal.add_argument("--parameters", nargs="+", help="a named set or name patterns (default: all candidates)")
+    cal.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm")
+    cal.add_argument("--loss", choices=["linear", "cauchy"], default="linear", help="cauchy: robust to outliers")
+    cal.add_argument("--sigma", type=float, help="measurement σ [m] for weighting (default 1e-5)")
+    cal.add_argument("--formulation", choices=["fkm"], default="fkm",
+                     help="residual formulation (fkm: measured - predicted by forward kinematics)")
+    cal.set_defaults(func=cmd_calibrate)
+
+    demo = sub.add_parser("demo", help="simulate and calibrate the Delta robot; print before/after",
+                          description="The main job on an embedded default: the Delta of study 000.",
+                          epilog="example: pincal demo --out pincal-demo")
+    demo.add_argument("--out", default="pincal-demo", help="output directory (default ./pincal-demo)")
+    demo.add_argument("--samples", type=int, default=60, help="calibration postures (default 60)")
+    demo.add_argument("--test-samples", type=int, default=40, help="validation postures (default 40)")
+    demo.add_argument("--noise", type=float, default=1e-5, help="tracker noise σ [m] (default 1e-5)")
+    demo.add_argument("--seed", type=int, default=1, help="random seed")
+    demo.set_defaults(func=cmd_demo)
     return parser
 
 

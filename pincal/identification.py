@@ -143,7 +143,8 @@ def _step(js: Array, r: Array, solver: str, lam: float, rank: int, rcond: float,
     if solver == "ridge":
         h = js.T @ js
         h[np.diag_indices_from(h)] += ridge
-        return -np.linalg.solve(h, js.T @ r)
+        ridge_step: Array = -np.linalg.solve(h, js.T @ r)
+        return ridge_step
     u, s, vt = np.linalg.svd(js, full_matrices=False)
     if not s.size or s[0] == 0.0:
         return np.zeros(js.shape[1])
@@ -152,7 +153,7 @@ def _step(js: Array, r: Array, solver: str, lam: float, rank: int, rcond: float,
         keep &= np.arange(s.size) < rank
     s_k = s[keep]
     damping = lam * s[0] ** 2 if solver == "lm" else 0.0
-    return -(vt[keep].T @ ((u[:, keep].T @ r) * s_k / (s_k**2 + damping)))
+    return np.asarray(-(vt[keep].T @ ((u[:, keep].T @ r) * s_k / (s_k**2 + damping))), dtype=np.float64)
 
 
 def identify(problem: CalibrationProblem, x0: Array | None = None, solver: str = "lm", loss: str = "linear",
@@ -202,7 +203,7 @@ def identify(problem: CalibrationProblem, x0: Array | None = None, solver: str =
     cost = 0.5 * float(np.sum((rw * pred.residual) ** 2))
     history = [cost]
     lam, converged, message, it = 1e-3, False, "iteration limit reached", 0
-    for it in range(1, max_iter + 1):
+    for it in range(1, max_iter + 1):  # noqa: B007 (it is reported after the loop)
         js = pred.jacobian[:, moving] * d * rw[:, None]
         cut = (rank_tol if identifiable_only else 1e-15) if solver == "lm" else tsvd_rcond
         dz = _step(js, rw * pred.residual, solver, lam, rank, cut, ridge)
@@ -250,6 +251,7 @@ def identify(problem: CalibrationProblem, x0: Array | None = None, solver: str =
             break
     # identifiability at the estimate: a special nominal geometry (parallel axes) can hide directions
     # that the generic true robot shows
+    assert pred.jacobian is not None
     ident = analyse(pred.jacobian, pset.names, scales, tol=rank_tol)
     active = ident.base_indices
     jac = pred.jacobian[:, active] * rw[:, None]

@@ -16,7 +16,7 @@ The values of a :class:`ParameterSet` are deviations from the nominal robot (zer
 from __future__ import annotations
 
 import fnmatch
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -100,7 +100,7 @@ class ParameterSet:
     def __len__(self) -> int:
         return len(self.parameters)
 
-    def __iter__(self):  # type: ignore[no-untyped-def]
+    def __iter__(self) -> Iterator[Parameter]:
         return iter(self.parameters)
 
     def __contains__(self, name: object) -> bool:

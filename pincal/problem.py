@@ -83,7 +83,7 @@ class CalibrationProblem:
         self.reading_offsets = {p.target: k for k, p in enumerate(parameters)
                                 if p.kind == "offset" and p.target not in actuated}
         self.base = parameters.groups("base").get(("base", "base", ""), [])
-        self.markers = {p.target: [] for p in parameters if p.kind == "marker"}
+        self.markers: dict[str, list[int]] = {p.target: [] for p in parameters if p.kind == "marker"}
         for k, p in enumerate(parameters):
             if p.kind == "marker":
                 self.markers[p.target].append(k)

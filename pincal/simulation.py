@@ -42,7 +42,8 @@ def random_actuated(robot: Robot, n: int, rng: np.random.Generator, spread: floa
     upper = np.array([model.upperPositionLimit[a.idx_q] if a.nq == 1 else np.pi for a in robot.kinematics.actuated])
     lo = np.maximum(lower, -half)
     hi = np.minimum(upper, half)
-    qa_out, q_out = [], []
+    qa_out: list[Array] = []
+    q_out: list[Array] = []
     attempts = 0
     while len(qa_out) < n:
         attempts += 1

@@ -1,0 +1,156 @@
+"""End-to-end jobs behind the command line: simulate a dataset, calibrate from a dataset.
+
+Files are SI throughout (m, rad). ``simulate`` writes ``measurements.csv`` (train and test
+postures), ``truth.urdf`` (the true robot) and ``truth.json`` (the true parameter deviations);
+``calibrate`` writes the calibrated URDF and the report JSON.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.calibration import (
+    calibrated_robot_text,
+    choose_parameters,
+    measurements_for,
+    observations_from,
+    report_dict,
+    source_text,
+    write_json,
+)
+from pincal.dataset import Dataset, read_dataset, write_dataset
+from pincal.errors import DataError
+from pincal.identification import CalibrationResult, error_norms, identify, rms
+from pincal.measurements import JointReading, Measurement, Pose, parse_key
+from pincal.parameters import ParameterSet
+from pincal.problem import CalibrationProblem
+from pincal.robot import Robot, load_robot
+from pincal.simulation import perturbation, random_actuated, simulate_observations
+
+Array = npt.NDArray[np.float64]
+
+
+def measurement_models(robot: Robot, kinds: Sequence[str], frame: str | None, sigma: float) -> list[Measurement]:
+    """Models from CLI words: ``position``/``pose`` (of ``frame``), or full keys such as
+    ``distance:frameA-frameB``, ``distance_increment:a-b``, ``joint:device_lvdt``."""
+    frame = frame or robot.end_effector
+    out = []
+    for kind in kinds:
+        key = f"{kind}:{frame}" if kind in ("position", "pose") else kind
+        out.append(parse_key(key, sigma))
+    return out
+
+
+@dataclass
+class Simulation:
+    robot: Robot
+    parameters: ParameterSet
+    x_true: Array
+    dataset: Dataset
+    measurements: list[Measurement]
+
+
+def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, frame: str | None = None,
+             perturb: float = 1e-3, noise: float = 1e-5, seed: int = 0,
+             parameter_spec: Sequence[str] | None = None) -> Simulation:
+    """Simulate a calibration campaign on ``robot`` with random true errors.
+
+    Args:
+        kinds: Measurement kinds (see :func:`measurement_models`).
+        n_train, n_test: Postures to calibrate from and to validate on.
+        perturb: σ of the true errors [m and rad].
+        noise: σ of the measurement noise [m, and rad for angles].
+        seed: Random seed (same seed, same files).
+        parameter_spec: Which parameters carry errors (named set or patterns); default: all
+            candidates.
+    """
+    if n_train < 1 or n_test < 0:
+        raise DataError(f"need at least one training sample (got {n_train}) and no negative test count")
+    rng = np.random.default_rng(seed)
+    models = measurement_models(robot, kinds, frame, max(noise, 1e-9))
+    pset = choose_parameters(robot, models, parameter_spec)
+    x_true = perturbation(pset, perturb, rng)
+    qa, _ = random_actuated(robot, n_train + n_test, rng)
+    obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise)
+    joint_names = list(robot.actuated_joints)
+    joints = [obs.actuated]
+    measured: dict[str, Array] = {}
+    for m in models:
+        if isinstance(m, JointReading):
+            joint_names.append(m.joint)
+            joints.append(obs.values[m.key])
+        else:
+            measured[m.key] = obs.values[m.key]
+    n = n_train + n_test
+    dataset = Dataset(joint_names, np.hstack(joints), measured, [str(k) for k in range(n)],
+                      ["train"] * n_train + ["test"] * n_test,
+                      {"robot": robot.name, "units": "SI (m, rad)", "noise": repr(noise), "perturb": repr(perturb),
+                       "seed": str(seed)})
+    return Simulation(robot, pset, x_true, dataset, models)
+
+
+def write_simulation(sim: Simulation, out: Path) -> list[Path]:
+    """Write measurements.csv, truth.urdf and truth.json into ``out``; returns the paths."""
+    out.mkdir(parents=True, exist_ok=True)
+    paths = [out / "measurements.csv", out / "truth.urdf", out / "truth.json"]
+    write_dataset(sim.dataset, paths[0])
+    text, shifts = calibrated_robot_text(sim.robot, source_text(sim.robot), sim.parameters, sim.x_true,
+                                         note="the TRUE robot of a pincal simulation (nominal + known errors)")
+    paths[1].write_text(text, encoding="utf-8")
+    write_json(paths[2], {"robot": sim.robot.name, "units": "SI: m, rad",
+                          "parameters": sim.parameters.as_dict(sim.x_true), "reference_shifts": shifts})
+    return paths
+
+
+@dataclass
+class Calibration:
+    problem: CalibrationProblem
+    result: CalibrationResult
+    report: dict[str, Any]
+    urdf_text: str
+
+
+def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | None = None, solver: str = "lm",
+              loss: str = "linear", sigma: float | None = None, x_true: Array | None = None,
+              pose_sigma_angle: float | None = None) -> Calibration:
+    """Identify ``robot``'s parameters from the ``train`` samples; evaluate on the ``test`` samples."""
+    train = dataset.of_set("train") if "train" in dataset.sets else dataset
+    models = measurements_for(robot, list(dataset.measurements), dataset.joint_names, sigma)
+    if pose_sigma_angle is not None:
+        models = [Pose(m.key, m.size, m.sigma, m.frame, pose_sigma_angle) if isinstance(m, Pose) else m for m in models]
+    pset = choose_parameters(robot, models, parameter_spec)
+    obs = observations_from(robot, train.joint_names, train.joints, train.measurements, models)
+    problem = CalibrationProblem(robot, pset, models, obs)
+    result = identify(problem, solver=solver, loss=loss)
+    text, shifts = calibrated_robot_text(robot, source_text(robot), pset, result.x,
+                                         note=f"calibrated by pincal from {obs.n_samples} samples "
+                                              f"({', '.join(m.key for m in models)})")
+    report = report_dict(result, problem, x_true, shifts)
+    if "test" in dataset.sets:
+        test = dataset.of_set("test")
+        tobs = observations_from(robot, test.joint_names, test.joints, test.measurements, models)
+        tprob = CalibrationProblem(robot, pset, models, tobs)
+        before = error_norms(tprob.evaluate(np.zeros(len(pset)), jacobian=False).errors)
+        after = error_norms(tprob.evaluate(result.x, jacobian=False).errors)
+        report.update({"n_test_samples": tobs.n_samples, "test_rms_before": rms(before), "test_rms_after": rms(after),
+                       "test_max_before": float(before.max()) if before.size else None,
+                       "test_max_after": float(after.max()) if after.size else None})
+    return Calibration(problem, result, report, text)
+
+
+def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, report_path: str | None,
+                    **options: Any) -> Calibration:
+    robot = load_robot(robot_path)
+    dataset = read_dataset(data_path, robot.actuated_joints, min_samples=2)
+    cal = calibrate(robot, dataset, **options)
+    if out_urdf:
+        Path(out_urdf).write_text(cal.urdf_text, encoding="utf-8")
+    if report_path:
+        write_json(report_path, cal.report)
+    return cal
