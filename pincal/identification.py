@@ -143,7 +143,7 @@ def _step(js: Array, r: Array, solver: str, lam: float, rank: int, rcond: float,
     if solver == "ridge":
         h = js.T @ js
         h[np.diag_indices_from(h)] += ridge
-        ridge_step: Array = -np.linalg.solve(h, js.T @ r)
+        ridge_step: Array = np.asarray(-np.linalg.solve(h, js.T @ r), dtype=np.float64)
         return ridge_step
     u, s, vt = np.linalg.svd(js, full_matrices=False)
     if not s.size or s[0] == 0.0:
