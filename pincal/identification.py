@@ -158,7 +158,7 @@ def _step(js: Array, r: Array, solver: str, lam: float, rank: int, rcond: float,
 
 def identify(problem: CalibrationProblem, x0: Array | None = None, solver: str = "lm", loss: str = "linear",
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-12, rank_tol: float = 1e-8,
-             tsvd_rcond: float = 1e-6, ridge: float = 1e-6) -> CalibrationResult:
+             tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False) -> CalibrationResult:
     """Estimate the parameters from the data.
 
     Args:
@@ -173,6 +173,7 @@ def identify(problem: CalibrationProblem, x0: Array | None = None, solver: str =
         rank_tol: Relative singular-value threshold for identifiability (see :mod:`pincal.analysis`).
         tsvd_rcond: TSVD truncation, relative to the largest singular value.
         ridge: Ridge parameter in scaled units.
+        strict: Refuse (IdentifiabilityError) when not every parameter is identifiable.
 
     Raises:
         DataError: unknown solver or loss, or fewer residuals than identifiable parameters.
@@ -191,10 +192,17 @@ def identify(problem: CalibrationProblem, x0: Array | None = None, solver: str =
     errors_before = pred.errors
     ident = analyse(pred.jacobian, pset.names, scales, tol=rank_tol)
     active = ident.base_indices
+    if strict and ident.rank < len(pset):
+        words = "; ".join(c.description for c in ident.unidentifiable[:5])
+        more = f" (and {len(ident.unidentifiable) - 5} more)" if len(ident.unidentifiable) > 5 else ""
+        raise IdentifiabilityError(f"{ident.rank} of {len(pset)} parameters are identifiable from these data; not "
+                                   f"identifiable: {words}{more}. Add postures or measurements, or choose fewer "
+                                   "parameters.")
     if not active:
         raise IdentifiabilityError("the data identifies none of the parameters (rank 0)")
-    if pred.residual.size < len(active):
-        raise DataError(f"{pred.residual.size} residuals cannot identify {len(active)} parameters: add samples")
+    if pred.residual.size < len(pset):
+        raise DataError(f"{pred.residual.size} residuals cannot identify {len(pset)} parameters (study 000: the "
+                        "number of measured values must be at least the number of parameters); add samples")
     rank = len(pset)
     moving = list(range(len(pset)))
     d = scales
@@ -259,9 +267,9 @@ def identify(problem: CalibrationProblem, x0: Array | None = None, solver: str =
     sigma2 = float(np.sum((rw * pred.residual) ** 2)) / dof
     std = np.full(len(pset), np.nan)
     try:
-        cov = covariance(jac, sigma2, names=[pset.names[k] for k in active])
-        std[active] = np.sqrt(np.diag(cov))
-        corr = correlations(cov)
+        shape = covariance(jac, 1.0, names=[pset.names[k] for k in active])  # (JᵀJ)⁻¹: σ² scales it
+        std[active] = np.sqrt(sigma2 * np.diag(shape))
+        corr = correlations(shape)
     except IdentifiabilityError:
         corr = np.full((len(active), len(active)), np.nan)
     return CalibrationResult(pset.names, np.zeros(len(pset)) if x0 is None else np.array(x0, dtype=float), x, std,

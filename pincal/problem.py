@@ -56,6 +56,7 @@ class Prediction:
     residual: Array
     jacobian: Array | None
     errors: dict[str, Array]  # key -> (N, rows) predicted - measured [m, rad]
+    predicted: dict[str, Array]  # key -> (N, rows) absolute predictions (pose: p, log3(R_measᵀ R))
 
 
 class CalibrationProblem:
@@ -234,6 +235,9 @@ class CalibrationProblem:
             if jac is not None:
                 u = diff / dist
                 jac[0] = u @ (point_derivative(pa, twists[m.frame_a], ma) - point_derivative(pb, twists[m.frame_b], mb))
+                for frame, placement, sign in ((m.frame_a, pa, 1.0), (m.frame_b, pb, -1.0)):
+                    if frame in self.markers:
+                        jac[0, self.markers[frame]] += sign * (u @ placement.rotation)
         elif isinstance(m, JointReading):
             jm = robot.model.joints[robot.model.getJointId(m.joint)]
             offset = self.reading_offsets.get(m.joint)
@@ -273,5 +277,5 @@ class CalibrationProblem:
                 jblocks.append((jac[rows] / weights[None, :, None]).reshape(-1, jac.shape[-1]))
         residual = np.concatenate(blocks)
         full = np.vstack(jblocks) if jacobian else None
-        return Prediction(residual, full, errors)
+        return Prediction(residual, full, errors, preds)
 

@@ -92,7 +92,7 @@ def simulate_observations(robot: Robot, parameters: ParameterSet, x_true: Array,
     pred = problem.evaluate(x_true, jacobian=False)
     values: dict[str, Array] = {}
     for m in measurements:
-        err = pred.errors[m.key]  # predicted - 0
+        err = pred.predicted[m.key]  # absolute predictions (the blank measurements are zero)
         if isinstance(m, Pose):
             out = np.empty((n, 7))
             out[:, :3] = err[:, :3] + rng.normal(scale=noise, size=(n, 3))
