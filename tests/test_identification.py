@@ -53,7 +53,7 @@ def _setup(name: str, models: list, spec: list[str] | None, n: int, seed: int = 
 @pytest.mark.parametrize(("name", "models", "spec", "n"), CASES,
                          ids=[f"{c[0]}-{c[1]()[0].key.split(':')[0]}" for c in CASES])
 def test_identifiable_parameters_come_back(name: str, models, spec, n: int) -> None:
-    robot, pset, x_true, problem = _setup(name, models(), spec, n)
+    _robot, pset, x_true, problem = _setup(name, models(), spec, n)
     for start in (np.zeros(len(pset)), x_true):
         result = identify(problem, x0=start)
         assert result.converged, result.message
@@ -65,7 +65,7 @@ def test_identifiable_parameters_come_back(name: str, models, spec, n: int) -> N
 def test_hexapod_device_identifies_all_44_parameters() -> None:
     """Study 001's claim: with the measuring device, the 42 robot parameters plus D0 and ψ are all
     identifiable."""
-    robot, pset, x_true, problem = _setup("hexapod_device", DEVICE, ["hexapod44"], 40)
+    _robot, pset, _x_true, problem = _setup("hexapod_device", DEVICE, ["hexapod44"], 40)
     assert len(pset) == 44
     result = identify(problem)
     assert result.identifiability.rank == 44 and result.identifiability.condition_number < 1e4
@@ -106,7 +106,7 @@ def test_noisy_fit_reports_standard_deviations() -> None:
 
 @pytest.mark.parametrize("solver", ["tsvd", "ridge"])
 def test_tsvd_and_ridge_variants_recover(solver: str) -> None:
-    _, pset, x_true, problem = _setup("five_bar", [ms.distance("base_link", "end_effector", increment=True)],
+    _, _pset, x_true, problem = _setup("five_bar", [ms.distance("base_link", "end_effector", increment=True)],
                                       ["*.offset"], 12)
     result = identify(problem, solver=solver, ridge=1e-12)
     np.testing.assert_allclose(result.x, x_true, atol=1e-9, rtol=0)
@@ -124,9 +124,10 @@ def test_bad_data_raises_a_pincal_error() -> None:
     with pytest.raises(DataError, match="no data for measurement 'position:end_effector'"):
         CalibrationProblem(robot, pset, models, Observations(qa, {}))
     with pytest.raises(DataError, match=r"actuated readings have shape \(3, 2\)"):
-        CalibrationProblem(robot, pset, models, Observations(np.zeros((3, 2)), {"position:end_effector": np.zeros((3, 3))}))
-    # too few samples for the identifiable parameters
-    one = CalibrationProblem(robot, pset, models, Observations(np.zeros((1, 3)), {"position:end_effector": np.zeros((1, 3))}))
+        CalibrationProblem(robot, pset, models, Observations(np.zeros((3, 2)), {"position:end_effector": qa}))
+    # too few samples for the parameters (3 measured values, 24 parameters)
+    single = Observations(np.zeros((1, 3)), {"position:end_effector": np.zeros((1, 3))})
+    one = CalibrationProblem(robot, pset, models, single)
     with pytest.raises(DataError, match="residuals cannot identify"):
         identify(one)
     with pytest.raises(DataError, match="unknown solver 'gauss'"):
