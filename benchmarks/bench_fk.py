@@ -4,8 +4,8 @@ Run: ``python benchmarks/bench_fk.py`` (add ``--quick`` for a short run). Prints
 timed repetitions, measured side by side in one run, as a Markdown table.
 
 - bare FK: one ``pinocchio.forwardKinematics`` call on the same model (the floor: no loops closed);
-- warm start: FK along a trajectory of actuated inputs 1 mrad/1 mm apart, each solve started from
-  the previous solution (the calibration loop's case: the same sample, slightly changed parameters);
+- warm start: FK along a straight trajectory of 200 inputs between two reachable ones (steps of a few
+  mrad or mm), each solve started from the previous solution (the calibration loop's case: the same sample, slightly changed parameters);
 - batch warm: the same through ``solve_fk_batch`` with per-sample guesses;
 - cold start: FK from the reference configuration to random reachable inputs.
 """
@@ -59,9 +59,8 @@ def bench_robot(name: str, quick: bool) -> dict[str, float]:
     q0 = qs[0]
     bare = median_time(lambda: pin.forwardKinematics(model, data, q0), repeats, 1000)
 
-    # a trajectory with small steps, solved warm
-    direction = np.sign(qa[1] - qa[0]) * 1e-3
-    traj = qa[0] + np.outer(np.arange(n), direction)
+    # a trajectory of n small steps between two reachable inputs, solved warm
+    traj = qa[0] + np.outer(np.linspace(0.0, 1.0, n), qa[1] - qa[0])
     guesses = np.empty((n, model.nq))
     q = qs[0]
     for k, a in enumerate(traj):

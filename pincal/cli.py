@@ -100,6 +100,9 @@ def _summary(report: dict[str, Any]) -> str:
                   f"{_mm(report['test_max_after']):>14}"]
     if report.get("calibration_gain") is not None:
         lines.append(f"{'calibration gain G (study 000)':32}{'':>14}{report['calibration_gain']:>12.1f} %")
+        if report["unidentifiable"]:
+            lines.append("  (G compares every parameter with the truth; parameters the data cannot separate stay at "
+                         "minimum-norm values, which caps G: the position errors are the measure that counts)")
     if report["unidentifiable"]:
         lines.append("")
         lines.append(f"not identifiable from these data ({len(report['unidentifiable'])}):")
