@@ -141,6 +141,8 @@ class LoopClosure:
         return r, jac
 
     def _rows_from_twist(self, lp: _Loop, m: pin.SE3, twist: Array) -> Array:
+        if lp.spherical:  # velocity of c2's origin in c1: v + ω × p
+            return twist[:3] - pin.skew(m.translation) @ twist[3:]
         body = m.inverse().action @ twist  # body twist of c2 relative to c1, in c2
         rot = m.rotation
         lin = rot @ body[:3]

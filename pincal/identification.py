@@ -157,7 +157,7 @@ def _step(js: Array, r: Array, solver: str, lam: float, rank: int, rcond: float,
 
 
 def identify(problem: CalibrationProblem, x0: Array | None = None, solver: str = "lm", loss: str = "linear",
-             identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-12, rank_tol: float = 1e-8,
+             identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False) -> CalibrationResult:
     """Estimate the parameters from the data.
 

@@ -1,0 +1,40 @@
+"""Identification time for the Delta of study 000 (issue 3 target: ≤ 0.1 s from 60 samples).
+
+Run: ``python benchmarks/bench_calibration.py``. Simulates 60 laser-tracker postures (Model 24 errors of
+1 mm / 1 mrad, 10 µm noise) and times ``identify`` (problem construction included), median of 7 runs.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import pincal
+from pincal.calibration import choose_parameters, measurements_for, observations_from
+from pincal.identification import error_norms, identify, rms
+from pincal.problem import CalibrationProblem
+from pincal.workflow import simulate
+
+
+def main() -> None:
+    robot = pincal.load_robot("delta")
+    for n in (20, 60):
+        sim = simulate(robot, ["position"], n, 0, perturb=1e-3, noise=1e-5, seed=1, parameter_spec=["model24"])
+        ds = sim.dataset
+        models = measurements_for(robot, list(ds.measurements), ds.joint_names, None)
+        pset = choose_parameters(robot, models, ["model24"])
+        times, result = [], None
+        for _ in range(7):
+            start = time.perf_counter()
+            problem = CalibrationProblem(robot, pset, models,
+                                         observations_from(robot, ds.joint_names, ds.joints, ds.measurements, models))
+            result = identify(problem)
+            times.append(time.perf_counter() - start)
+        assert result is not None
+        print(f"Delta Model 24, {n} samples: median {statistics.median(times) * 1e3:.1f} ms, "
+              f"{result.iterations} LM iterations, RMS {rms(error_norms(result.errors_before)) * 1e3:.3f} mm -> "
+              f"{rms(error_norms(result.errors_after)) * 1e3:.4f} mm")
+
+
+if __name__ == "__main__":
+    main()
