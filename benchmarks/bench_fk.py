@@ -5,7 +5,8 @@ timed repetitions, measured side by side in one run, as a Markdown table.
 
 - bare FK: one ``pinocchio.forwardKinematics`` call on the same model (the floor: no loops closed);
 - warm start: FK along a straight trajectory of 200 inputs between two reachable ones (steps of a few
-  mrad or mm), each solve started from the previous solution (the calibration loop's case: the same sample, slightly changed parameters);
+  mrad or mm), each solve started from the previous solution (the calibration loop's case: the same
+  sample, slightly changed parameters);
 - batch warm: the same through ``solve_fk_batch`` with per-sample guesses;
 - cold start: FK from the reference configuration to random reachable inputs.
 """
