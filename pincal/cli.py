@@ -7,6 +7,7 @@ Every command reports problems as one line ``pincal: error: ...`` and exits with
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -18,6 +19,8 @@ from pincal.errors import PincalError
 from pincal.robot import Robot, load_robot
 
 EXIT_ERROR = 2
+#: Modules that add subcommands through ``register(subparsers)`` (skipped while absent).
+EXTENSIONS = ("pincal.viewer", "pincal.report")
 
 
 def _describe(robot: Robot) -> str:
@@ -202,6 +205,16 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--noise", type=float, default=1e-5, help="tracker noise σ [m] (default 1e-5)")
     demo.add_argument("--seed", type=int, default=1, help="random seed")
     demo.set_defaults(func=cmd_demo)
+
+    # commands contributed by higher-level modules (viewer, report, studies) register themselves here
+    for module in EXTENSIONS:
+        try:
+            registered = importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name != module:
+                raise
+            continue
+        registered.register(sub)
     return parser
 
 
