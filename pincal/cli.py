@@ -78,7 +78,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from pincal.workflow import calibrate_files
 
     cal = calibrate_files(args.robot, args.data, args.out, args.report, parameter_spec=args.parameters,
-                          solver=args.solver, loss=args.loss, sigma=args.sigma)
+                          solver=args.solver, loss=args.loss, sigma=args.sigma, formulation=args.formulation)
     print(_summary(cal.report))
     for path in (args.out, args.report):
         if path:
@@ -192,8 +192,9 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm")
     cal.add_argument("--loss", choices=["linear", "cauchy"], default="linear", help="cauchy: robust to outliers")
     cal.add_argument("--sigma", type=float, help="measurement σ [m] for weighting (default 1e-5)")
-    cal.add_argument("--formulation", choices=["fkm"], default="fkm",
-                     help="residual formulation (fkm: measured - predicted by forward kinematics)")
+    cal.add_argument("--formulation", choices=["fkm", "ikm"], default="fkm",
+                     help="fkm: measured - predicted by forward kinematics; ikm: implicit loop residuals with the "
+                          "measured pose held fixed (study 000; closed-loop robots)")
     cal.set_defaults(func=cmd_calibrate)
 
     demo = sub.add_parser("demo", help="simulate and calibrate the Delta robot; print before/after",

@@ -26,7 +26,7 @@ import numpy.typing as npt
 
 from pincal.analysis import Identifiability, analyse, correlations, covariance
 from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
-from pincal.problem import CalibrationProblem, Prediction
+from pincal.problem import Prediction, Problem
 
 Array = npt.NDArray[np.float64]
 
@@ -110,31 +110,21 @@ def calibration_gain(x_true: Array, x_nominal: Array, x_calibrated: Array) -> fl
     return 100.0 * (before - float(np.linalg.norm(x_true - x_calibrated))) / before
 
 
-def _sample_weights(problem: CalibrationProblem, pred: Prediction, loss: str) -> Array:
+def _sample_weights(problem: Problem, pred: Prediction, loss: str) -> Array:
+    """Per-sample robust weights (IRLS). Cauchy: ``w = 1 / (1 + (e / (c·s))²)`` with ``e`` a sample's
+    weighted residual norm and ``s`` its median over samples / 0.6745 — no threshold set by hand."""
     n = problem.observations.n_samples
     if loss == "linear":
         return np.ones(n)
-    per_sample = np.zeros(n)
-    for m in problem.measurements:
-        err = pred.errors[m.key]
-        sig = np.array([m.sigma] * 3 + [getattr(m, "sigma_angle", m.sigma)] * 3)[: err.shape[1]] if err.shape[1] == 6 \
-            else np.full(err.shape[1], m.sigma)
-        per_sample += np.sum((err / sig) ** 2, axis=1)
-    norms = np.sqrt(per_sample)
-    scale = float(np.median(norms)) / 0.6745 if np.median(norms) > 0 else 1.0
+    norms = np.sqrt(np.bincount(problem.row_samples(), weights=pred.residual**2, minlength=n))
+    scale = float(np.median(norms)) / 0.6745
     scale = max(scale, 1e-300)
-    return 1.0 / (1.0 + (norms / (CAUCHY_C * scale)) ** 2)
+    return np.asarray(1.0 / (1.0 + (norms / (CAUCHY_C * scale)) ** 2), dtype=np.float64)
 
 
-def _row_weights(problem: CalibrationProblem, sample_weights: Array) -> Array:
-    """Expand per-sample weights to the residual rows (the problem's row order: by measurement, then sample)."""
-    n = problem.observations.n_samples
-    rows = []
-    for m in problem.measurements:
-        w = sample_weights[1:] if m.incremental else sample_weights
-        rows.append(np.repeat(w, m.size))
-    del n
-    return np.concatenate(rows)
+def _row_weights(problem: Problem, sample_weights: Array) -> Array:
+    """Per-sample weights expanded to the residual rows."""
+    return np.asarray(sample_weights[problem.row_samples()], dtype=np.float64)
 
 
 def _step(js: Array, r: Array, solver: str, lam: float, rank: int, rcond: float, ridge: float) -> Array:
@@ -156,7 +146,7 @@ def _step(js: Array, r: Array, solver: str, lam: float, rank: int, rcond: float,
     return np.asarray(-(vt[keep].T @ ((u[:, keep].T @ r) * s_k / (s_k**2 + damping))), dtype=np.float64)
 
 
-def identify(problem: CalibrationProblem, x0: Array | None = None, solver: str = "lm", loss: str = "linear",
+def identify(problem: Problem, x0: Array | None = None, solver: str = "lm", loss: str = "linear",
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False) -> CalibrationResult:
     """Estimate the parameters from the data.

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -25,6 +26,7 @@ from pincal.robot import Robot
 from pincal.sensitivity import KinematicSensitivity, frame_probe, right_jacobian
 
 Array = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
 
 
 @dataclass
@@ -57,6 +59,17 @@ class Prediction:
     jacobian: Array | None
     errors: dict[str, Array]  # key -> (N, rows) predicted - measured [m, rad]
     predicted: dict[str, Array]  # key -> (N, rows) absolute predictions (pose: p, log3(R_measᵀ R))
+
+
+class Problem(Protocol):
+    """What identification needs of a problem (FKM, IKM, or one IKM chain)."""
+
+    parameters: ParameterSet
+    observations: Observations
+
+    def evaluate(self, x: Array, jacobian: bool = True) -> Prediction: ...
+
+    def row_samples(self) -> IntArray: ...
 
 
 class CalibrationProblem:
@@ -92,6 +105,15 @@ class CalibrationProblem:
         self.frame_ids = {f: robot.frame_id(f) for f in self.frames}
         self._q_cache: list[Array | None] = [None] * observations.n_samples
         self.rows_per_sample = sum(m.size for m in self.measurements)
+
+    def row_samples(self) -> IntArray:
+        """The sample index of each residual row (the row order of :meth:`evaluate`)."""
+        n = self.observations.n_samples
+        rows = []
+        for m in self.measurements:
+            first = 1 if m.incremental else 0
+            rows.append(np.repeat(np.arange(first, n), m.size))
+        return np.concatenate(rows).astype(np.int64)
 
     def _check(self) -> None:
         obs, robot = self.observations, self.robot

@@ -27,6 +27,7 @@ from pincal.calibration import (
 from pincal.dataset import Dataset, read_dataset, write_dataset
 from pincal.errors import DataError
 from pincal.identification import CalibrationResult, error_norms, identify, rms
+from pincal.implicit import ImplicitProblem
 from pincal.measurements import JointReading, Measurement, Pose, parse_key
 from pincal.parameters import ParameterSet
 from pincal.problem import CalibrationProblem
@@ -118,8 +119,15 @@ class Calibration:
 
 def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | None = None, solver: str = "lm",
               loss: str = "linear", sigma: float | None = None, x_true: Array | None = None,
-              pose_sigma_angle: float | None = None) -> Calibration:
-    """Identify ``robot``'s parameters from the ``train`` samples; evaluate on the ``test`` samples."""
+              pose_sigma_angle: float | None = None, formulation: str = "fkm") -> Calibration:
+    """Identify ``robot``'s parameters from the ``train`` samples; evaluate on the ``test`` samples.
+
+    ``formulation``: ``fkm`` (measured − predicted by forward kinematics) or ``ikm`` (implicit loop
+    residuals with the measured pose held fixed, study 000). Errors before/after are position errors
+    by forward kinematics in both cases, so the two can be compared.
+    """
+    if formulation not in ("fkm", "ikm"):
+        raise DataError(f"unknown formulation '{formulation}'; formulations are: fkm, ikm")
     train = dataset.of_set("train") if "train" in dataset.sets else dataset
     models = measurements_for(robot, list(dataset.measurements), dataset.joint_names, sigma)
     if pose_sigma_angle is not None:
@@ -127,11 +135,19 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     pset = choose_parameters(robot, models, parameter_spec)
     obs = observations_from(robot, train.joint_names, train.joints, train.measurements, models)
     problem = CalibrationProblem(robot, pset, models, obs)
-    result = identify(problem, solver=solver, loss=loss)
+    if formulation == "ikm":
+        result = identify(ImplicitProblem(robot, pset, models, obs), solver=solver, loss=loss)
+        result.extra["closure_before"] = result.errors_before
+        result.extra["closure_after"] = result.errors_after
+        result.errors_before = problem.evaluate(result.x0, jacobian=False).errors
+        result.errors_after = problem.evaluate(result.x, jacobian=False).errors
+    else:
+        result = identify(problem, solver=solver, loss=loss)
     text, shifts = calibrated_robot_text(robot, source_text(robot), pset, result.x,
                                          note=f"calibrated by pincal from {obs.n_samples} samples "
                                               f"({', '.join(m.key for m in models)})")
     report = report_dict(result, problem, x_true, shifts)
+    report["formulation"] = formulation
     if "test" in dataset.sets:
         test = dataset.of_set("test")
         tobs = observations_from(robot, test.joint_names, test.joints, test.measurements, models)

@@ -76,3 +76,15 @@ def test_demo_writes_its_files(tmp_path: Path, capsys: pytest.CaptureFixture[str
     report = json.loads((tmp_path / "demo" / "report.json").read_text())
     assert report["test_rms_after"] < 0.1 * report["test_rms_before"]
     assert pincal.load_robot(tmp_path / "demo" / "delta_calibrated.urdf").mobility() == 3
+
+
+def test_calibrate_with_the_implicit_formulation(tmp_path: Path) -> None:
+    sim = tmp_path / "sim"
+    assert main(["simulate", "delta", "--samples", "30", "--test-samples", "10", "--noise", "0", "--seed", "4",
+                 "--parameters", "model24", "--out", str(sim)]) == 0
+    report = tmp_path / "r.json"
+    assert main(["calibrate", "delta", str(sim / "measurements.csv"), "--parameters", "model24", "--formulation", "ikm",
+                 "--report", str(report)]) == 0
+    data = json.loads(report.read_text())
+    assert data["formulation"] == "ikm" and data["converged"]
+    assert data["test_rms_after"] < 1e-9 < 1e-4 < data["test_rms_before"]
