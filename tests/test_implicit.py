@@ -38,7 +38,8 @@ def _finite_differences(problem: ImplicitProblem, x: np.ndarray, eps: float = 1e
     for k in range(x.size):
         step = np.zeros(x.size)
         step[k] = eps
-        cols.append((problem.evaluate(x + step, False).residual - problem.evaluate(x - step, False).residual) / (2 * eps))
+        plus, minus = problem.evaluate(x + step, False), problem.evaluate(x - step, False)
+        cols.append((plus.residual - minus.residual) / (2 * eps))
     return np.column_stack(cols)
 
 
