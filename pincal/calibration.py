@@ -20,7 +20,7 @@ import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, RobotFileError, listing
 from pincal.identification import CalibrationResult, calibration_gain, error_norms, rms
-from pincal.measurements import JointReading, Measurement, joint_reading, parse_key
+from pincal.measurements import JointReading, Measurement, Pose, joint_reading, parse_key
 from pincal.parameters import KINEMATIC_KINDS, NAMED_SETS, ParameterSet, candidate_parameters
 from pincal.problem import CalibrationProblem, Observations
 from pincal.robot import Robot, _build_model, check_reference_assembly
@@ -31,17 +31,47 @@ Array = npt.NDArray[np.float64]
 
 
 # --- dataset <-> problem ---------------------------------------------------------------------------
+def channel_sigma(key: str, metadata: dict[str, str], default: float | None, angle: bool = False) -> float | None:
+    """σ of a measurement channel from dataset metadata: ``# sigma <kind> <name>: value`` (e.g.
+    ``# sigma position end_effector: 1e-5``, ``# sigma joint device_lvdt: 1e-6``), else
+    ``# sigma <kind>: value``; ``# sigma pose angle: ...`` for pose orientations [m or rad]."""
+    kind, _, name = key.partition(":")
+    candidates = [f"sigma {kind} angle"] if angle else [f"sigma {kind} {name}", f"sigma {kind}"]
+    for candidate in candidates:
+        if candidate in metadata:
+            try:
+                value = float(metadata[candidate])
+            except ValueError:
+                raise DataError(f"metadata '{candidate}' is '{metadata[candidate]}', not a number") from None
+            if not value > 0:
+                raise DataError(f"metadata '{candidate}' must be a positive standard deviation, got {value}")
+            return value
+    return default
+
+
 def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_columns: Sequence[str],
-                     sigma: float | None = None) -> list[Measurement]:
+                     sigma: float | None = None, metadata: dict[str, str] | None = None) -> list[Measurement]:
     """Measurement models for a dataset: its measurement columns, plus a joint reading for every
-    non-actuated joint column (instrumented passive joints: encoders, LVDTs, scales)."""
-    models = [parse_key(key, sigma) for key in measurement_keys]
+    non-actuated joint column (instrumented passive joints: encoders, LVDTs, scales).
+
+    Weights: ``sigma`` [m, rad] if given (overrides everything), else per-channel σ from the
+    dataset's metadata (:func:`channel_sigma`), else the models' defaults.
+    """
+    meta = metadata or {}
+    models = []
+    for key in measurement_keys:
+        model = parse_key(key, sigma or channel_sigma(key, meta, None))
+        if isinstance(model, Pose):
+            angle = sigma or channel_sigma(key, meta, None, angle=True)
+            if angle:
+                model = Pose(model.key, model.size, model.sigma, model.frame, angle)
+        models.append(model)
     for joint in joint_columns:
         if joint not in robot.actuated_joints:
             if not robot.model.existJointName(joint):
                 raise DataError(f"column '{joint}' is not a joint of '{robot.name}'; joints are: "
                                 f"{listing(robot.model.names[1:])}")
-            models.append(joint_reading(joint, sigma or 1e-5))
+            models.append(joint_reading(joint, sigma or channel_sigma(f"joint:{joint}", meta, None) or 1e-5))
     return models
 
 

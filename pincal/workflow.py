@@ -91,8 +91,9 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
     n = n_train + n_test
     dataset = Dataset(joint_names, np.hstack(joints), measured, [str(k) for k in range(n)],
                       ["train"] * n_train + ["test"] * n_test,
-                      {"robot": robot.name, "units": "SI (m, rad)", "noise": repr(noise), "perturb": repr(perturb),
-                       "seed": str(seed)})
+                      {"robot": robot.name, "units": "SI (m, rad)", "perturb": repr(perturb), "seed": str(seed),
+                       **{f"sigma {m.key.split(':', 1)[0]} {m.key.split(':', 1)[1]}": repr(max(noise, 1e-9))
+                          for m in models}})
     return Simulation(robot, pset, x_true, dataset, models)
 
 
@@ -129,7 +130,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     if formulation not in ("fkm", "ikm"):
         raise DataError(f"unknown formulation '{formulation}'; formulations are: fkm, ikm")
     train = dataset.of_set("train") if "train" in dataset.sets else dataset
-    models = measurements_for(robot, list(dataset.measurements), dataset.joint_names, sigma)
+    models = measurements_for(robot, list(dataset.measurements), dataset.joint_names, sigma, dataset.metadata)
     if pose_sigma_angle is not None:
         models = [Pose(m.key, m.size, m.sigma, m.frame, pose_sigma_angle) if isinstance(m, Pose) else m for m in models]
     pset = choose_parameters(robot, models, parameter_spec)

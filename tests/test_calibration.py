@@ -1,0 +1,49 @@
+"""Dataset-to-problem plumbing: per-channel σ from metadata, parameter choice, report fields."""
+
+from __future__ import annotations
+
+import pytest
+
+import pincal
+from pincal.calibration import channel_sigma, choose_parameters, measurements_for
+from pincal.errors import DataError, NotFoundError
+from pincal.measurements import JointReading, Pose
+
+
+def test_channel_sigma_from_metadata() -> None:
+    meta = {"sigma position end_effector": "2e-5", "sigma pose": "3e-5", "sigma pose angle": "1e-4",
+            "sigma joint device_lvdt": "1e-6"}
+    assert channel_sigma("position:end_effector", meta, None) == 2e-5
+    assert channel_sigma("pose:tool0", meta, None) == 3e-5
+    assert channel_sigma("pose:tool0", meta, None, angle=True) == 1e-4
+    assert channel_sigma("distance:a-b", meta, 7e-6) == 7e-6
+    with pytest.raises(DataError, match="'sigma position' is 'abc', not a number"):
+        channel_sigma("position:x", {"sigma position": "abc"}, None)
+    with pytest.raises(DataError, match="positive standard deviation"):
+        channel_sigma("position:x", {"sigma position": "-1"}, None)
+
+
+def test_measurements_for_weights_each_channel() -> None:
+    robot = pincal.load_robot("hexapod_device")
+    meta = {"sigma pose": "1e-5", "sigma pose angle": "2e-5", "sigma joint device_lvdt": "3e-6"}
+    models = measurements_for(robot, ["pose:end_effector"], [*robot.actuated_joints, "device_lvdt"], None, meta)
+    pose = next(m for m in models if isinstance(m, Pose))
+    lvdt = next(m for m in models if isinstance(m, JointReading))
+    assert (pose.sigma, pose.sigma_angle, lvdt.sigma) == (1e-5, 2e-5, 3e-6)
+    # an explicit σ overrides the metadata
+    models = measurements_for(robot, ["pose:end_effector"], ["device_lvdt"], 5e-5, meta)
+    assert {m.sigma for m in models} == {5e-5}
+    with pytest.raises(DataError, match="column 'device_lvdtt' is not a joint"):
+        measurements_for(robot, [], ["device_lvdtt"])
+
+
+def test_parameter_choice_named_patterns_and_default() -> None:
+    robot = pincal.load_robot("delta")
+    models = measurements_for(robot, ["position:end_effector"], robot.actuated_joints)
+    assert len(choose_parameters(robot, models, ["model24"])) == 24
+    offsets = choose_parameters(robot, models, ["*.offset"])
+    assert offsets.names == ["arm_1_joint.offset", "arm_2_joint.offset", "arm_3_joint.offset"]
+    everything = choose_parameters(robot, models)
+    assert "base.tx" in everything and "leg_1_platform.predecessor.tz" in everything
+    with pytest.raises(NotFoundError, match="pattern 'leg_9_*' matches nothing"):
+        choose_parameters(robot, models, ["leg_9_*"])
