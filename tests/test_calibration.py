@@ -45,5 +45,5 @@ def test_parameter_choice_named_patterns_and_default() -> None:
     assert offsets.names == ["arm_1_joint.offset", "arm_2_joint.offset", "arm_3_joint.offset"]
     everything = choose_parameters(robot, models)
     assert "base.tx" in everything and "leg_1_platform.predecessor.tz" in everything
-    with pytest.raises(NotFoundError, match="pattern 'leg_9_*' matches nothing"):
+    with pytest.raises(NotFoundError, match=r"pattern 'leg_9_\*' matches nothing"):
         choose_parameters(robot, models, ["leg_9_*"])
