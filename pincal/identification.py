@@ -74,6 +74,7 @@ class CalibrationResult:
     solver: str = "lm"
     loss: str = "linear"
     extra: dict[str, object] = field(default_factory=dict)
+    std_apriori: Array | None = None  # from the stated σ alone: sqrt(diag((JᵀJ)⁻¹)) [m or rad]
 
     @property
     def unidentified(self) -> list[str]:
@@ -259,9 +260,12 @@ def identify(problem: Problem, x0: Array | None = None, solver: str = "lm", loss
     try:
         shape = covariance(jac, 1.0, names=[pset.names[k] for k in active])  # (JᵀJ)⁻¹: σ² scales it
         std[active] = np.sqrt(sigma2 * np.diag(shape))
+        apriori = np.full(len(pset), np.nan)
+        apriori[active] = np.sqrt(np.diag(shape))
         corr = correlations(shape)
     except IdentifiabilityError:
         corr = np.full((len(active), len(active)), np.nan)
+        apriori = np.full(len(pset), np.nan)
     return CalibrationResult(pset.names, np.zeros(len(pset)) if x0 is None else np.array(x0, dtype=float), x, std,
                              list(active), ident, corr, it, converged, message, history, errors_before, pred.errors,
-                             weights, sigma2, time.perf_counter() - start, solver, loss)
+                             weights, sigma2, time.perf_counter() - start, solver, loss, std_apriori=apriori)

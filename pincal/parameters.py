@@ -301,6 +301,21 @@ def model24(robot: Robot) -> ParameterSet:
     return _named(robot, names, "model24")
 
 
+def model24_identifiable(robot: Robot) -> ParameterSet:
+    """Model 24 with Lay_i replaced by the motor axis' tilt ``arm_i_joint.rx`` [rad].
+
+    Per leg, position data see exactly eight independent errors: the motor axis' position (3) and
+    direction (2), the arm length, the arm-angle zero and the rod length. Every reading of Lay as a
+    length duplicates one of them; the axis tilt is the eighth. All 24 are identifiable.
+    """
+    names = []
+    for i in (1, 2, 3):
+        names += [f"arm_{i}_joint.tx", f"arm_{i}_joint.ty", f"arm_{i}_joint.tz", f"arm_{i}_joint.rz",
+                  f"arm_{i}_joint.offset", f"rod_{i}_pitch.tx", f"arm_{i}_joint.rx",
+                  f"leg_{i}_platform.predecessor.tz"]
+    return _named(robot, names, "model24i")
+
+
 def hexapod42(robot: Robot, device: bool = False) -> ParameterSet:
     """The 42 parameters of study 001 (per leg: base U centre 3, platform S centre 3, length offset 1).
 
@@ -326,7 +341,7 @@ def _named(robot: Robot, names: list[str], set_name: str) -> ParameterSet:
     return ParameterSet([pool.parameters[pool.index(n)] for n in names])
 
 
-NAMED_SETS = {"model24": model24, "hexapod42": hexapod42,
+NAMED_SETS = {"model24": model24, "model24i": model24_identifiable, "hexapod42": hexapod42,
               "hexapod44": lambda robot: hexapod42(robot, device=True)}
 
 

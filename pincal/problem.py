@@ -21,7 +21,7 @@ import pinocchio as pin
 from pincal.errors import ConvergenceError, DataError, NotFoundError, listing
 from pincal.kinematics import damped_pseudo_inverse
 from pincal.measurements import Distance, JointReading, Measurement, Pose, Position, point_derivative
-from pincal.parameters import KINEMATIC_KINDS, ParameterSet, apply_parameters
+from pincal.parameters import KINEMATIC_KINDS, ParameterSet, apply_parameters, joint_unit, offset_parameter
 from pincal.robot import Robot
 from pincal.sensitivity import KinematicSensitivity, frame_probe, right_jacobian
 
@@ -83,12 +83,20 @@ class CalibrationProblem:
     """
 
     def __init__(self, robot: Robot, parameters: ParameterSet, measurements: Sequence[Measurement],
-                 observations: Observations) -> None:
+                 observations: Observations, joint_sigma: float | Sequence[float] | None = None) -> None:
         self.robot = robot
         self.parameters = parameters
         self.measurements = list(measurements)
         self.observations = observations
         self._check()
+        self.joint_sigma = self._joint_sigma(joint_sigma)
+        if self.joint_sigma is not None:
+            # the readings' noise enters each sample's covariance through d(prediction)/d(reading), which
+            # the actuated offset columns give: add those missing as nuisance columns (dropped on output)
+            present = {p.target for p in parameters if p.kind == "offset"}
+            extra = [offset_parameter(j, joint_unit(robot, j)) for j in robot.actuated_joints if j not in present]
+            parameters = ParameterSet(list(parameters.parameters) + extra)
+        self._all = parameters
         self.kinematic = parameters.of_kind(*KINEMATIC_KINDS)
         self.kinematic_set = parameters.subset(self.kinematic)
         actuated = {name: k for k, name in enumerate(robot.actuated_joints)}
@@ -105,6 +113,19 @@ class CalibrationProblem:
         self.frame_ids = {f: robot.frame_id(f) for f in self.frames}
         self._q_cache: list[Array | None] = [None] * observations.n_samples
         self.rows_per_sample = sum(m.size for m in self.measurements)
+
+    def _joint_sigma(self, joint_sigma: float | Sequence[float] | None) -> Array | None:
+        if joint_sigma is None:
+            return None
+        values = np.broadcast_to(np.asarray(joint_sigma, dtype=float), (self.robot.n_actuated,)).copy()
+        if not np.all(np.isfinite(values)) or np.any(values < 0):
+            raise DataError(f"joint_sigma must be non-negative standard deviations [rad or m], got {values}")
+        return None if not np.any(values > 0) else values
+
+    def _augment(self, x: Array) -> Array:
+        """Pad a parameter vector with the nuisance offset columns (zero)."""
+        extra = len(self._all) - len(self.parameters)
+        return x if extra == 0 or x.size == len(self._all) else np.concatenate([x, np.zeros(extra)])
 
     def row_samples(self) -> IntArray:
         """The sample index of each residual row (the row order of :meth:`evaluate`)."""
@@ -144,11 +165,12 @@ class CalibrationProblem:
     # --- evaluation -----------------------------------------------------------------------------
     def robot_at(self, x: Array) -> Robot:
         """The robot with the kinematic deviations of ``x`` applied (the calibrated robot at the end)."""
-        return apply_parameters(self.robot, self.kinematic_set, x[self.kinematic])
+        return apply_parameters(self.robot, self.kinematic_set, self._augment(np.asarray(x, dtype=float))[self.kinematic])
 
     def actuated_values(self, x: Array) -> Array:
         """Actuated joint values [rad or m] with the offsets of ``x`` applied, (N, na)."""
         qa = self.observations.actuated.copy()
+        x = self._augment(np.asarray(x, dtype=float))
         for joint, k in self.actuated_offsets:
             qa[:, joint] += x[k]
         return qa
@@ -172,15 +194,24 @@ class CalibrationProblem:
         return report.q
 
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
-        """Weighted residual ``(predicted - measured)/σ`` and its Jacobian w.r.t. ``x``."""
+        """Weighted residual and its Jacobian w.r.t. ``x``.
+
+        Each sample's rows are whitened by their covariance ``Σ = diag(σ²) + G Σ_q Gᵀ``, where ``Σ_q`` holds
+        the actuated readings' variances (``joint_sigma``) and ``G = d(prediction)/d(reading)``; without
+        ``joint_sigma`` that is ``(predicted − measured)/σ``. The covariance is re-evaluated at each call
+        and held constant in the Jacobian, as iteratively re-weighted least squares does.
+        """
+        x = self._augment(np.asarray(x, dtype=float))
+        output_jacobian = jacobian
+        jacobian = jacobian or self.joint_sigma is not None
         robot = self.robot_at(x)
         model, data, kin = robot.model, robot.kinematics.data, robot.kinematics
-        n, p = self.observations.n_samples, len(self.parameters)
-        sens = KinematicSensitivity(robot, self.parameters, x) if jacobian else None
+        n, p = self.observations.n_samples, len(self._all)
+        sens = KinematicSensitivity(robot, self._all, x) if jacobian else None
         probes = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
-        base_delta = self.parameters.placement_delta(x, self.base) if self.base else np.zeros(6)
+        base_delta = self._all.placement_delta(x, self.base) if self.base else np.zeros(6)
         base = pin.exp6(base_delta)
-        base_jac = right_jacobian(base_delta, [self.parameters.parameters[k].component for k in self.base])
+        base_jac = right_jacobian(base_delta, [self._all.parameters[k].component for k in self.base])
         markers = {f: x[idx] for f, idx in self.markers.items()}
         qa_all = self.actuated_values(x)
         preds: dict[str, Array] = {m.key: np.empty((n, m.size)) for m in self.measurements}
@@ -216,7 +247,7 @@ class CalibrationProblem:
                     twists[f] = sens.probe_twist(data, probes[f]) + local @ dv
             for m in self.measurements:
                 self._predict(m, x, k, q, robot, data, base, base_jac, markers, twists, dv, preds, dpreds)
-        return self._assemble(preds, dpreds, jacobian)
+        return self._assemble(preds, dpreds, output_jacobian)
 
     def _point(self, frame: str, data: pin.Data, markers: dict[str, Array]) -> tuple[pin.SE3, Array]:
         placement = data.oMf[self.frame_ids[frame]]
@@ -294,10 +325,34 @@ class CalibrationProblem:
             else:
                 rows = slice(0, n)
             errors[m.key] = err
-            blocks.append((err[rows] / weights).reshape(-1))
-            if jacobian and jac is not None:
-                jblocks.append((jac[rows] / weights[None, :, None]).reshape(-1, jac.shape[-1]))
+            keep = len(self.parameters)
+            if self.joint_sigma is None or jac is None:
+                blocks.append((err[rows] / weights).reshape(-1))
+                if jacobian and jac is not None:
+                    jblocks.append((jac[rows][..., :keep] / weights[None, :, None]).reshape(-1, keep))
+                continue
+            white_err, white_jac = self._whiten(err[rows], jac[rows], weights, dpreds[m.key], m.incremental)
+            blocks.append(white_err.reshape(-1))
+            if jacobian:
+                jblocks.append(white_jac[..., :keep].reshape(-1, keep))
         residual = np.concatenate(blocks)
         full = np.vstack(jblocks) if jacobian else None
         return Prediction(residual, full, errors, preds)
+
+    def _whiten(self, err: Array, jac: Array, weights: Array, absolute_jac: Array,
+                incremental: bool) -> tuple[Array, Array]:
+        """Whiten each sample's rows by ``L⁻¹``, ``L Lᵀ = diag(σ²) + G Σ_q Gᵀ`` (G from the offset columns)."""
+        assert self.joint_sigma is not None
+        columns = [col for _, col in sorted(self.actuated_offsets)]
+        g = absolute_jac[..., columns] * self.joint_sigma  # (N, rows, na), scaled by σ_q
+        if incremental:  # a difference of two samples: independent reading noise at each (diagonal only)
+            var = np.sum(g[1:] ** 2, axis=2) + np.sum(g[:-1] ** 2, axis=2) + weights**2
+            scale = np.sqrt(var)
+            return err / scale, jac / scale[..., None]
+        cov = g @ np.swapaxes(g, 1, 2)
+        cov[:, np.arange(weights.size), np.arange(weights.size)] += weights**2
+        chol = np.linalg.cholesky(cov)
+        white_err = np.linalg.solve(chol, err[..., None])[..., 0]
+        white_jac = np.linalg.solve(chol, jac)
+        return white_err, white_jac
 

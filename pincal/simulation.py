@@ -21,7 +21,7 @@ from pincal.robot import Robot
 Array = npt.NDArray[np.float64]
 
 #: Default half-range of random actuated values around the reference [rad or m], per robot name.
-SPREAD = {"delta": 0.6, "five_bar": 0.35, "hexapod": 0.12, "hexapod_device": 0.12, "ucr3": 0.04}
+SPREAD = {"delta": 1.0, "five_bar": 0.35, "hexapod": 0.12, "hexapod_device": 0.12, "ucr3": 0.04}
 
 
 def perturbation(parameters: ParameterSet, scale: float, rng: np.random.Generator) -> Array:
