@@ -160,7 +160,8 @@ def main() -> None:
              "held-out RMS before → after, FKM / IKM | std / error | time FKM / IKM |",
              "|---|---|---|---|---|---|---|---|---|"]
     print(f"Study 000, Delta robot: median over {len(seeds)} random draws per case (G: Eq. 4.1; mean gain: mean "
-          "per-parameter gain; std / error: the identified parameters' a-priori σ over the size of the errors sought)\n")
+          "per-parameter gain; std / error: the identified parameters' a-priori σ over the size of the errors "
+          "sought)\n")
     for set_name in ("model24", "model24i"):
         lines.append(f"| **parameter set {set_name}** | | | | | | | | |")
         for case in cases:
@@ -208,7 +209,8 @@ Reading the table:
   milliseconds against the paper's seconds.
 - Noisy cases: the encoder noise (0.01° ≈ 45 µm at the platform) dominates the 1 µm tracker noise.
   The column *std / error* is the identified parameters' median a-priori standard deviation (from the
-  stated noise, √diag((JᵀJ)⁻¹) of the whitened Jacobian) divided by the size of the errors sought. Where it exceeds about 1, the data
+  stated noise, √diag((JᵀJ)⁻¹) of the whitened Jacobian) divided by the size of the errors sought.
+  Where it exceeds about 1, the data
   cannot pin the parameters down better than their initial error, so a negative G is what *any*
   unbiased estimator gets: the paper's positive gains at 20–60 configurations cannot be matched
   under these noise levels as stated (its configuration set and G averaging are not given). What the

@@ -165,7 +165,8 @@ class CalibrationProblem:
     # --- evaluation -----------------------------------------------------------------------------
     def robot_at(self, x: Array) -> Robot:
         """The robot with the kinematic deviations of ``x`` applied (the calibrated robot at the end)."""
-        return apply_parameters(self.robot, self.kinematic_set, self._augment(np.asarray(x, dtype=float))[self.kinematic])
+        full = self._augment(np.asarray(x, dtype=float))
+        return apply_parameters(self.robot, self.kinematic_set, full[self.kinematic])
 
     def actuated_values(self, x: Array) -> Array:
         """Actuated joint values [rad or m] with the offsets of ``x`` applied, (N, na)."""
