@@ -110,6 +110,24 @@ def choose_parameters(robot: Robot, models: Sequence[Measurement], spec: Sequenc
     return pool.select(list(spec))
 
 
+def unusable_samples(robot: Robot, actuated: Array, max_condition: float = 1e8) -> list[tuple[int, str]]:
+    """Samples the nominal robot cannot assemble (FK does not converge) or that sit at a singularity
+    (the passive joints are not determined by the actuated readings), with the reason for each."""
+    out: list[tuple[int, str]] = []
+    for k, qa in enumerate(np.asarray(actuated, dtype=float)):
+        report = robot.solve_fk_report(qa)
+        if not report.converged:
+            out.append((k, f"forward kinematics did not converge (closure residual {report.residual:.3g})"))
+            continue
+        if robot.loops:
+            _, jac = robot.kinematics.closure_jacobian(report.q)
+            s = np.linalg.svd(jac[:, robot.kinematics.passive_v], compute_uv=False)
+            if s[-1] <= 0.0 or s[0] / s[-1] > max_condition:
+                out.append((k, f"singular configuration (passive closure Jacobian condition number "
+                               f"{(s[0] / s[-1]) if s[-1] > 0 else float('inf'):.3g})"))
+    return out
+
+
 # --- calibrated URDF -------------------------------------------------------------------------------
 def _joint_axis_motion(robot: Robot, joint: str, value: float) -> pin.SE3:
     """The joint's own motion for ``value`` [rad or m], as a placement (1-DOF joints)."""

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -31,7 +32,10 @@ from pincal.problem import Prediction, Problem
 Array = npt.NDArray[np.float64]
 
 SOLVERS = ("lm", "tsvd", "ridge")
-LOSSES = ("linear", "cauchy")
+LOSSES = ("auto", "linear", "cauchy")
+#: Outlier test of ``loss="auto"``: a sample is suspect when its squared residual norm exceeds this
+#: quantile of the χ² law scaled by the data's own (median-based) noise level.
+OUTLIER_QUANTILE = 0.999
 CAUCHY_C = 2.3849  # 95 % efficiency under Gaussian noise
 #: Largest error [m, rad] counted as an exact fit: FK closes loops to 1e-11, so fits end near 1e-12.
 NUMERICAL_FLOOR = 1e-9
@@ -123,6 +127,29 @@ def _sample_weights(problem: Problem, pred: Prediction, loss: str) -> Array:
     return np.asarray(1.0 / (1.0 + (norms / (CAUCHY_C * scale)) ** 2), dtype=np.float64)
 
 
+def outlier_samples(problem: Problem, pred: Prediction) -> list[int]:
+    """Samples whose residual is implausible given the noise level the data themselves show.
+
+    With ``e_k`` a sample's weighted residual norm over ``d_k`` rows, the noise scale is
+    ``s² = median(e_k² / m_k)`` (``m_k`` the median of χ²_{d_k}), and a sample is flagged when
+    ``e_k² > s² · χ²_{d_k}(OUTLIER_QUANTILE)``. Nothing here is set by hand in data units.
+    """
+    from scipy.stats import chi2
+
+    samples = problem.row_samples()
+    n = problem.observations.n_samples
+    sq = np.bincount(samples, weights=pred.residual**2, minlength=n)
+    dims = np.bincount(samples, minlength=n)
+    used = dims > 0
+    if used.sum() < 3:
+        return []
+    scale2 = float(np.median(sq[used] / chi2.median(dims[used])))
+    if scale2 <= 0.0:
+        return []
+    limit = scale2 * chi2.ppf(OUTLIER_QUANTILE, np.maximum(dims, 1))
+    return [int(k) for k in np.flatnonzero(used & (sq > limit))]
+
+
 def _row_weights(problem: Problem, sample_weights: Array) -> Array:
     """Per-sample weights expanded to the residual rows."""
     return np.asarray(sample_weights[problem.row_samples()], dtype=np.float64)
@@ -147,7 +174,33 @@ def _step(js: Array, r: Array, solver: str, lam: float, rank: int, rcond: float,
     return np.asarray(-(vt[keep].T @ ((u[:, keep].T @ r) * s_k / (s_k**2 + damping))), dtype=np.float64)
 
 
-def identify(problem: Problem, x0: Array | None = None, solver: str = "lm", loss: str = "linear",
+def identify(problem: Problem, x0: Array | None = None, solver: str = "lm", loss: str = "auto",
+             **options: Any) -> CalibrationResult:
+    """Estimate the parameters from the data (see :func:`_identify` for the options).
+
+    ``loss="auto"`` (the default) fits by least squares, tests every sample against the noise level the
+    fit shows (:func:`outlier_samples`) and, if any sample is implausible, refits from there with the
+    Cauchy loss; the result lists the samples it down-weighted.
+    """
+    if loss != "auto":
+        return _identify(problem, x0, solver, loss, **options)
+    first = _identify(problem, x0, solver, "linear", **options)
+    suspects = outlier_samples(problem, problem.evaluate(first.x, jacobian=False))
+    first.extra["outlier_test"] = suspects
+    if not suspects:
+        return first
+    second = _identify(problem, first.x, solver, "cauchy", **options)
+    second.x0 = first.x0
+    second.errors_before = first.errors_before
+    second.iterations += first.iterations
+    second.cost_history = first.cost_history + second.cost_history
+    second.seconds += first.seconds
+    second.loss = "auto (cauchy)"
+    second.extra["outlier_test"] = suspects
+    return second
+
+
+def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", loss: str = "linear",
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False) -> CalibrationResult:
     """Estimate the parameters from the data.
@@ -156,7 +209,8 @@ def identify(problem: Problem, x0: Array | None = None, solver: str = "lm", loss
         problem: Robot, parameters, measurements and data.
         x0: Starting deviations [m, rad]; zero (the nominal robot) by default.
         solver: ``lm``, ``tsvd`` or ``ridge``.
-        loss: ``linear`` (least squares) or ``cauchy`` (robust to gross outliers).
+        loss: ``linear`` (least squares) or ``cauchy`` (robust to gross outliers); :func:`identify`
+            also takes ``auto``.
         identifiable_only: Move only along directions identifiable at the current estimate
             (recommended); otherwise LM damping alone keeps the unidentifiable directions in check.
         max_iter: Iteration limit.

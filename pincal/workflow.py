@@ -22,6 +22,7 @@ from pincal.calibration import (
     observations_from,
     report_dict,
     source_text,
+    unusable_samples,
     write_json,
 )
 from pincal.dataset import Dataset, read_dataset, write_dataset
@@ -134,6 +135,15 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     if pose_sigma_angle is not None:
         models = [Pose(m.key, m.size, m.sigma, m.frame, pose_sigma_angle) if isinstance(m, Pose) else m for m in models]
     pset = choose_parameters(robot, models, parameter_spec)
+    actuated_cols = [train.joint_names.index(j) for j in robot.actuated_joints if j in train.joint_names]
+    complete = len(actuated_cols) == robot.n_actuated
+    dropped = unusable_samples(robot, train.joints[:, actuated_cols]) if complete else []
+    if dropped:  # listed in the report, never silently
+        bad = {k for k, _ in dropped}
+        dropped_info = [{"sample": train.sample_ids[k], "reason": reason} for k, reason in dropped]
+        train = train.subset([k for k in range(train.n_samples) if k not in bad])
+    else:
+        dropped_info = []
     obs = observations_from(robot, train.joint_names, train.joints, train.measurements, models)
     problem = CalibrationProblem(robot, pset, models, obs)
     if formulation == "ikm":
@@ -149,6 +159,10 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
                                               f"({', '.join(m.key for m in models)})")
     report = report_dict(result, problem, x_true, shifts)
     report["formulation"] = formulation
+    report["dropped_samples"] = dropped_info
+    report["down_weighted_samples"] = [train.sample_ids[k] for k in result.down_weighted()]
+    suspects = result.extra.get("outlier_test", [])
+    report["outlier_test"] = [train.sample_ids[k] for k in suspects] if isinstance(suspects, list) else []
     if "test" in dataset.sets:
         test = dataset.of_set("test")
         tobs = observations_from(robot, test.joint_names, test.joints, test.measurements, models)

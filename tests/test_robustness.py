@@ -1,0 +1,54 @@
+"""Shop-floor data: gross outliers handled with no hand-set threshold, unusable samples listed."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import pincal
+from pincal import measurements as ms
+from pincal.calibration import choose_parameters
+from pincal.dataset import Dataset
+from pincal.identification import error_norms, identify, rms
+from pincal.problem import CalibrationProblem, Observations
+from pincal.simulation import perturbation, random_actuated, simulate_observations
+from pincal.workflow import calibrate, simulate
+
+
+def test_five_percent_gross_outliers_are_down_weighted_by_default() -> None:
+    robot = pincal.load_robot("ur10")
+    models = [ms.position("tool0", sigma=1e-5)]
+    rng = np.random.default_rng(1)
+    pset = choose_parameters(robot, models)
+    x_true = perturbation(pset, 1e-3, rng)
+    qa, _ = random_actuated(robot, 100, rng)
+    obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=1e-5)
+    train, test = obs.subset(np.arange(60)), obs.subset(np.arange(60, 100))
+    clean = identify(CalibrationProblem(robot, pset, models, train))
+    assert clean.extra["outlier_test"] == []  # nothing flagged in clean data
+    values = train.values["position:tool0"].copy()
+    corrupted = sorted(rng.choice(60, 3, replace=False).tolist())  # 5 %
+    direction = rng.normal(size=(3, 3))
+    values[corrupted] += direction / np.linalg.norm(direction, axis=1)[:, None] * rng.uniform(0.02, 0.04, (3, 1))
+    dirty = identify(CalibrationProblem(robot, pset, models, Observations(train.actuated, {"position:tool0": values})))
+    held_out = CalibrationProblem(robot, pset, models, test)
+    rms_clean = rms(error_norms(held_out.evaluate(clean.x, jacobian=False).errors))
+    rms_dirty = rms(error_norms(held_out.evaluate(dirty.x, jacobian=False).errors))
+    assert rms_dirty <= 1.5 * rms_clean
+    assert dirty.down_weighted() == corrupted and dirty.loss == "auto (cauchy)"
+    # plain least squares is ruined by the same data
+    plain = identify(CalibrationProblem(robot, pset, models, Observations(train.actuated, {"position:tool0": values})),
+                     loss="linear")
+    assert rms(error_norms(held_out.evaluate(plain.x, jacobian=False).errors)) > 10 * rms_clean
+
+
+def test_unreachable_samples_are_dropped_and_listed() -> None:
+    robot = pincal.load_robot("hexapod")
+    sim = simulate(robot, ["pose"], 30, 0, perturb=1e-4, noise=1e-6, seed=2, parameter_spec=["*.offset"])
+    ds = sim.dataset
+    joints = ds.joints.copy()
+    joints[4, :6] = [2.0, 0.0, 0.0, 0.0, 0.0, 0.0]  # one leg 2 m longer: no platform pose fits
+    bad = Dataset(ds.joint_names, joints, ds.measurements, ds.sample_ids, ds.sets, ds.metadata)
+    cal = calibrate(robot, bad, parameter_spec=["*.offset"])
+    assert [d["sample"] for d in cal.report["dropped_samples"]] == ["4"]
+    assert "forward kinematics did not converge" in cal.report["dropped_samples"][0]["reason"]
+    assert cal.report["n_samples"] == 29 and cal.result.converged
