@@ -203,16 +203,17 @@ class ClosedLoopKinematics:
     def solve_fk(self, q_actuated: Array, start: Array, warm: bool, tol: float) -> SolveReport:
         """Full configuration with the loops closed for ``q_actuated``, from ``start``.
 
-        A warm start tries Newton directly; a cold start, or a failed warm start, uses continuation
-        with 1, 4 and 16 times ``max|Δq_a| / CONTINUATION_STEP`` steps.
+        A warm start within one continuation step tries Newton directly; otherwise (a cold start, a far
+        guess, or a failed Newton) continuation runs from ``start`` with 1, 4 and 16 times
+        ``max|Δq_a| / CONTINUATION_STEP`` steps.
         """
-        if warm:
+        span = float(np.max(np.abs(q_actuated - self.actuated_values(start)), initial=0.0))
+        if warm and span <= CONTINUATION_STEP:  # a far guess goes straight to continuation from it
             q = start.copy()
             self.set_actuated(q, q_actuated)
             report = self.close_loops(q, tol)
             if report.converged:
                 return report
-        span = float(np.max(np.abs(q_actuated - self.actuated_values(start)), initial=0.0))
         base = max(1, math.ceil(span / CONTINUATION_STEP))
         report = SolveReport(start, math.inf, 0, False)
         for factor in (1, 4, 16):

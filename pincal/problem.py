@@ -184,6 +184,8 @@ class CalibrationProblem:
 
     def _solve(self, robot: Robot, k: int, qa: Array) -> Array:
         cached = self._q_cache[k]
+        if cached is None:
+            cached = self._nearest_solution(robot, qa)
         report = robot.solve_fk_report(qa, cached)
         if not report.converged and cached is not None:
             report = robot.solve_fk_report(qa)
@@ -193,6 +195,17 @@ class CalibrationProblem:
                                    "the sample may be outside the workspace or the parameters far off")
         self._q_cache[k] = report.q
         return report.q
+
+    def _nearest_solution(self, robot: Robot, qa: Array) -> Array | None:
+        """A solved sample closer (in actuated values) than the reference, to warm-start a first solve."""
+        solved = [(k, q) for k, q in enumerate(self._q_cache) if q is not None]
+        if not solved:
+            return None
+        reference = float(np.max(np.abs(qa - robot.actuated_values(robot.q_reference))))
+        best_k, best_q = min(solved, key=lambda item: float(np.max(np.abs(robot.actuated_values(item[1]) - qa))))
+        del best_k
+        gap = float(np.max(np.abs(robot.actuated_values(best_q) - qa)))
+        return best_q if gap < reference else None
 
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
         """Weighted residual and its Jacobian w.r.t. ``x``.
