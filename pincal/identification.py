@@ -128,12 +128,13 @@ def _sample_weights(problem: Problem, pred: Prediction, loss: str) -> Array:
     return np.asarray(1.0 / (1.0 + (norms / (CAUCHY_C * scale)) ** 2), dtype=np.float64)
 
 
-def outlier_samples(problem: Problem, pred: Prediction) -> list[int]:
+def outlier_samples(problem: Problem, pred: Prediction, n_fitted: int = 0) -> list[int]:
     """Samples whose residual is implausible given the noise level the data themselves show.
 
     With ``e_k`` a sample's weighted residual norm over ``d_k`` rows, the noise scale is
     ``s² = median(e_k² / m_k)`` (``m_k`` the median of χ²_{d_k}), and a sample is flagged when
-    ``e_k² > s² · χ²_{d_k}(1 − α/N)``, α = ``OUTLIER_FALSE_ALARM``: clean data raise a false alarm in
+    ``e_k² > s² · χ²_{d_k}(1 − α/N)``, α = ``OUTLIER_FALSE_ALARM``; ``s²`` is corrected by
+    ``rows / (rows − n_fitted)`` for the degrees of freedom the fit used: clean data raise a false alarm in
     about one dataset in a thousand. Nothing here is set by hand in data units.
     """
     from scipy.stats import chi2
@@ -146,6 +147,9 @@ def outlier_samples(problem: Problem, pred: Prediction) -> list[int]:
     if used.sum() < 3:
         return []
     scale2 = float(np.median(sq[used] / chi2.median(dims[used])))
+    rows = int(dims.sum())
+    if rows > n_fitted:  # fitted residuals are smaller than the noise by the fitted degrees of freedom
+        scale2 *= rows / (rows - n_fitted)
     if scale2 <= 0.0:
         return []
     limit = scale2 * chi2.ppf(1.0 - OUTLIER_FALSE_ALARM / int(used.sum()), np.maximum(dims, 1))
@@ -194,7 +198,7 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: str, loss: str, *
     if loss != "auto":
         return _identify(problem, x0, solver, loss, **options)
     first = _identify(problem, x0, solver, "linear", **options)
-    suspects = outlier_samples(problem, problem.evaluate(first.x, jacobian=False))
+    suspects = outlier_samples(problem, problem.evaluate(first.x, jacobian=False), first.identifiability.rank)
     first.extra["outlier_test"] = suspects
     if not suspects:
         return first
@@ -216,7 +220,8 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
 
     Args:
         problem: Robot, parameters, measurements and data.
-        x0: Starting deviations [m, rad]; zero (the nominal robot) by default.
+        x0: Starting deviations [m, rad]; by default the problem's initial guess (the nominal robot,
+            with an unknown measurement frame registered in closed form).
         solver: ``lm``, ``tsvd`` or ``ridge``.
         loss: ``linear`` (least squares) or ``cauchy`` (robust to gross outliers); :func:`identify`
             also takes ``auto``.
@@ -240,7 +245,8 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
     start = time.perf_counter()
     pset = problem.parameters
     scales = pset.scales
-    x = np.zeros(len(pset)) if x0 is None else np.array(x0, dtype=float)
+    x = problem.initial_guess() if x0 is None else np.array(x0, dtype=float)
+    start_x = x.copy()
     pred = problem.evaluate(x)
     assert pred.jacobian is not None
     errors_before = pred.errors
@@ -329,6 +335,6 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
     except IdentifiabilityError:
         corr = np.full((len(active), len(active)), np.nan)
         apriori = np.full(len(pset), np.nan)
-    return CalibrationResult(pset.names, np.zeros(len(pset)) if x0 is None else np.array(x0, dtype=float), x, std,
+    return CalibrationResult(pset.names, start_x, x, std,
                              list(active), ident, corr, it, converged, message, history, errors_before, pred.errors,
                              weights, sigma2, time.perf_counter() - start, solver, loss, std_apriori=apriori)

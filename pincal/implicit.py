@@ -223,6 +223,9 @@ class ChainProblem:
     def row_samples(self) -> IntArray:
         return self._samples
 
+    def initial_guess(self) -> Array:
+        return self.x_fixed[self.columns].copy()
+
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
         full = self.x_fixed.copy()
         full[self.columns] = x

@@ -27,6 +27,8 @@ Array = npt.NDArray[np.float64]
 
 #: Largest change of any actuated value in one continuation step [rad or m].
 CONTINUATION_STEP = 0.2
+#: Most continuation steps a solve may take (a larger span is refused at once: far outside any workspace).
+MAX_CONTINUATION_STEPS = 400
 
 
 def damped_pseudo_inverse(jac: Array, damping: float = 1e-12) -> Array | None:
@@ -207,6 +209,10 @@ class ClosedLoopKinematics:
         guess, or a failed Newton) continuation runs from ``start`` with 1, 4 and 16 times
         ``max|Δq_a| / CONTINUATION_STEP`` steps.
         """
+        if self.closure.rows == 0:  # a tree: nothing to close
+            q = start.copy()
+            self.set_actuated(q, q_actuated)
+            return SolveReport(q, 0.0, 0, True)
         span = float(np.max(np.abs(q_actuated - self.actuated_values(start)), initial=0.0))
         if warm and span <= CONTINUATION_STEP:  # a far guess goes straight to continuation from it
             q = start.copy()
@@ -214,9 +220,13 @@ class ClosedLoopKinematics:
             report = self.close_loops(q, tol)
             if report.converged:
                 return report
+        if not math.isfinite(span) or span > MAX_CONTINUATION_STEPS * CONTINUATION_STEP:
+            return SolveReport(start, math.inf, 0, False)
         base = max(1, math.ceil(span / CONTINUATION_STEP))
         report = SolveReport(start, math.inf, 0, False)
         for factor in (1, 4, 16):
+            if base * factor > 16 * MAX_CONTINUATION_STEPS:
+                break
             report = self.continuation(start, q_actuated, tol, base * factor)
             if report.converged:
                 return report

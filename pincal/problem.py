@@ -71,6 +71,8 @@ class Problem(Protocol):
 
     def row_samples(self) -> IntArray: ...
 
+    def initial_guess(self) -> Array: ...
+
 
 class CalibrationProblem:
     """Residuals and Jacobians of one robot, parameter set, measurement set and dataset.
@@ -195,6 +197,30 @@ class CalibrationProblem:
                                    "the sample may be outside the workspace or the parameters far off")
         self._q_cache[k] = report.q
         return report.q
+
+    def initial_guess(self) -> Array:
+        """A starting point: zero, except an unknown measurement frame (all six ``base.*``) registered in
+        closed form to the measured positions (Kabsch: measured ≈ R · predicted + t, least squares)."""
+        x = np.zeros(len(self.parameters))
+        if len(self.base) != 6 or any(k >= len(self.parameters) for k in self.base):
+            return x
+        pred = CalibrationProblem.evaluate(self, x, jacobian=False)  # forward predictions, for IKM too
+        model, measured = [], []
+        for m in self.measurements:
+            if isinstance(m, (Position, Pose)):
+                model.append(pred.predicted[m.key][:, :3])
+                measured.append(self.observations.values[m.key][:, :3])
+        if not model or sum(len(a) for a in model) < 3:
+            return x
+        a, b = np.vstack(model), np.vstack(measured)
+        ca, cb = a.mean(axis=0), b.mean(axis=0)
+        u, _, vt = np.linalg.svd((a - ca).T @ (b - cb))
+        d = np.sign(np.linalg.det(vt.T @ u.T))
+        rot = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+        delta = pin.log6(pin.SE3(rot, cb - rot @ ca)).vector
+        for k in self.base:
+            x[k] = delta[self.parameters.parameters[k].component]
+        return x
 
     def _nearest_solution(self, robot: Robot, qa: Array) -> Array | None:
         """A solved sample closer (in actuated values) than the reference, to warm-start a first solve."""

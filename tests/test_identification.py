@@ -9,6 +9,7 @@ and the unidentifiable combinations must be reported, not silently fitted.
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import pincal
@@ -143,3 +144,23 @@ def test_rank_deficient_pose_set_is_reported_in_strict_mode() -> None:
     obs = simulate_observations(robot, pset, np.zeros(len(pset)), models, qa, np.random.default_rng(0))
     with pytest.raises(IdentifiabilityError, match=r"3 of 24 parameters are identifiable.*not identifiable"):
         identify(CalibrationProblem(robot, pset, models, obs), strict=True)
+
+
+def test_unknown_measurement_frame_far_away_is_registered_in_closed_form() -> None:
+    """A tracker 1.8 m away and turned 2.5 rad: the Kabsch start makes it an ordinary fit."""
+    robot = pincal.load_robot("ur10")
+    models = [ms.position("tool0")]
+    pool = choose_parameters(robot, models)  # includes base.* (the tracker frame)
+    rng = np.random.default_rng(12)
+    x_true = perturbation(pool, 1e-3, rng)
+    base = pool.placement_delta(x_true, [pool.index(f"base.{c}") for c in ("tx", "ty", "tz", "rx", "ry", "rz")])
+    far = pin.log6(pin.SE3(pin.utils.rotate("z", 2.5), np.array([1.8, -0.4, 0.3])) * pin.exp6(base)).vector
+    for c, value in zip(("tx", "ty", "tz", "rx", "ry", "rz"), far, strict=True):
+        x_true[pool.index(f"base.{c}")] = value
+    qa, _ = random_actuated(robot, 50, rng)
+    problem = CalibrationProblem(robot, pool, models, simulate_observations(robot, pool, x_true, models, qa, rng))
+    guess = problem.initial_guess()
+    assert np.max(error_norms(problem.evaluate(guess, jacobian=False).errors)) < 0.05  # registered to cm level
+    result = identify(problem)
+    assert result.converged and result.iterations <= 15
+    assert np.max(error_norms(result.errors_after)) < 1e-9
