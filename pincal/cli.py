@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from pincal.errors import PincalError
+from pincal.errors import DataError, PincalError
 from pincal.robot import Robot, load_robot
 
 EXIT_ERROR = 2
@@ -144,6 +144,31 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_fleet(args: argparse.Namespace) -> int:
+    from pincal.fleet import calibrate_fleet, jobs_from_directory
+
+    jobs = jobs_from_directory(args.robot, args.data_dir, args.out, parameter_spec=args.parameters,
+                               formulation=args.formulation)
+    if not jobs:
+        raise DataError(f"no *.csv files in '{args.data_dir}'")
+    if args.scheduler:
+        from dask.distributed import Client
+
+        with Client(args.scheduler) as client:
+            results = calibrate_fleet(jobs, executor=client.get_executor())
+    else:
+        results = calibrate_fleet(jobs, workers=args.workers)
+    print(f"{'robot':<24}{'RMS before':>14}{'RMS after':>14}  status")
+    for r in results:
+        if r.report is None:
+            print(f"{r.name:<24}{'-':>14}{'-':>14}  failed: {r.error}")
+        else:
+            print(f"{r.name:<24}{_mm(r.report['rms_before']):>14}{_mm(r.report['rms_after']):>14}  "
+                  f"{'converged' if r.report['converged'] else r.report['message']}")
+    print(f"wrote {args.out}/ (one calibrated URDF and one report JSON per robot)")
+    return 0 if all(r.ok for r in results) else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="pincal",
@@ -206,6 +231,19 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--noise", type=float, default=1e-5, help="tracker noise σ [m] (default 1e-5)")
     demo.add_argument("--seed", type=int, default=1, help="random seed")
     demo.set_defaults(func=cmd_demo)
+
+    fleet = sub.add_parser("fleet", help="calibrate many robots, one CSV each, in parallel",
+                           description="One calibration per *.csv in DATA_DIR on the same nominal robot, in a "
+                                       "process pool (or on a Dask cluster with --scheduler).",
+                           epilog="example: pincal fleet delta measurements/ --out calibrated/ --workers 2")
+    fleet.add_argument("robot", help="URDF file or known robot name (the nominal model)")
+    fleet.add_argument("data_dir", help="directory of measurement CSV files, one per robot")
+    fleet.add_argument("--out", required=True, help="output directory")
+    fleet.add_argument("--parameters", nargs="+", help="a named set or name patterns (default: all candidates)")
+    fleet.add_argument("--formulation", choices=["fkm", "ikm"], default="fkm")
+    fleet.add_argument("--workers", type=int, help="processes (default: the machine's cores)")
+    fleet.add_argument("--scheduler", help="address of a Dask scheduler (pip install 'pincal[dask]')")
+    fleet.set_defaults(func=cmd_fleet)
 
     # commands contributed by higher-level modules (viewer, report, studies) register themselves here
     for module in EXTENSIONS:
