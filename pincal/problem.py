@@ -19,7 +19,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, NotFoundError, listing
-from pincal.kinematics import damped_pseudo_inverse
+from pincal.kinematics import CONTINUATION_STEP, damped_pseudo_inverse
 from pincal.measurements import Distance, JointReading, Measurement, Pose, Position, point_derivative
 from pincal.parameters import KINEMATIC_KINDS, ParameterSet, apply_parameters, joint_unit, offset_parameter
 from pincal.robot import Robot
@@ -223,15 +223,19 @@ class CalibrationProblem:
         return x
 
     def _nearest_solution(self, robot: Robot, qa: Array) -> Array | None:
-        """A solved sample closer (in actuated values) than the reference, to warm-start a first solve."""
-        solved = [(k, q) for k, q in enumerate(self._q_cache) if q is not None]
-        if not solved:
-            return None
-        reference = float(np.max(np.abs(qa - robot.actuated_values(robot.q_reference))))
-        best_k, best_q = min(solved, key=lambda item: float(np.max(np.abs(robot.actuated_values(item[1]) - qa))))
-        del best_k
-        gap = float(np.max(np.abs(robot.actuated_values(best_q) - qa)))
-        return best_q if gap < reference else None
+        """A solved sample within one continuation step (in actuated values), to warm-start a first solve.
+
+        Only that close: from a farther neighbour the path of actuated values can cross a singularity and
+        land on another assembly mode, which a cold start from the reference (the file's assembly) avoids.
+        """
+        best: Array | None = None
+        best_gap = CONTINUATION_STEP
+        for q in self._q_cache:
+            if q is not None:
+                gap = float(np.max(np.abs(robot.actuated_values(q) - qa)))
+                if gap <= best_gap:
+                    best, best_gap = q, gap
+        return best
 
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
         """Weighted residual and its Jacobian w.r.t. ``x``.
