@@ -123,8 +123,10 @@ def figures(robot: pincal.Robot, out: Path, seed: int) -> list[Path]:
         ax.bar(idx + (k - 0.5) * width, np.clip(runs[method]["per_param"], -200, 100), width, label=method)
     ax.set_xticks(idx, [n.replace("_joint", "").replace("_platform.predecessor", "") for n in names],
                   rotation=75, fontsize=7)
-    ax.set_ylabel("calibration gain per parameter [%] (clipped at −200)")
-    ax.set_title("Study 000, Delta: per-parameter gain, 60 configurations, 0.1 mm errors, 1 µm / 0.01° noise")
+    ax.set_ylabel("gain per parameter [%]")
+    ax.set_xlabel("parameter (Model 24, identifiable reading model24i)")
+    ax.set_title("Study 000, Delta: per-parameter gain, 60 configurations, 0.1 mm errors, 1 µm / 0.01° noise "
+                 "(bars clipped at −200 %)", fontsize=10)
     ax.axhline(0, color="black", linewidth=0.5)
     ax.legend()
     fig.tight_layout()
