@@ -114,6 +114,7 @@ class CalibrationProblem:
         self.frames = sorted({f for m in self.measurements for f in m.frames})
         self.frame_ids = {f: robot.frame_id(f) for f in self.frames}
         self._q_cache: list[Array | None] = [None] * observations.n_samples
+        self._qa_solved = np.full((observations.n_samples, robot.n_actuated), np.nan)
         self.rows_per_sample = sum(m.size for m in self.measurements)
 
     def _joint_sigma(self, joint_sigma: float | Sequence[float] | None) -> Array | None:
@@ -196,6 +197,7 @@ class CalibrationProblem:
                                    f"{np.array2string(qa, precision=6)} (closure residual {report.residual:.3g}); "
                                    "the sample may be outside the workspace or the parameters far off")
         self._q_cache[k] = report.q
+        self._qa_solved[k] = qa
         return report.q
 
     def initial_guess(self) -> Array:
@@ -228,14 +230,11 @@ class CalibrationProblem:
         Only that close: from a farther neighbour the path of actuated values can cross a singularity and
         land on another assembly mode, which a cold start from the reference (the file's assembly) avoids.
         """
-        best: Array | None = None
-        best_gap = CONTINUATION_STEP
-        for q in self._q_cache:
-            if q is not None:
-                gap = float(np.max(np.abs(robot.actuated_values(q) - qa)))
-                if gap <= best_gap:
-                    best, best_gap = q, gap
-        return best
+        if not robot.loops:
+            return None
+        gaps = np.max(np.abs(self._qa_solved - qa), axis=1)  # NaN rows (unsolved) compare False
+        k = int(np.nanargmin(gaps)) if np.any(gaps <= CONTINUATION_STEP) else -1
+        return None if k < 0 else self._q_cache[k]
 
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
         """Weighted residual and its Jacobian w.r.t. ``x``.
