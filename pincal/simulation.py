@@ -13,7 +13,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError
-from pincal.measurements import JointReading, Measurement, Pose
+from pincal.measurements import Measurement, Pose
 from pincal.parameters import ParameterSet
 from pincal.problem import CalibrationProblem, Observations
 from pincal.robot import Robot
@@ -65,7 +65,7 @@ def random_actuated(robot: Robot, n: int, rng: np.random.Generator, spread: floa
 
 
 def simulate_observations(robot: Robot, parameters: ParameterSet, x_true: Array, measurements: Sequence[Measurement],
-                          actuated: Array, rng: np.random.Generator, noise: float = 0.0,
+                          actuated: Array, rng: np.random.Generator, noise: float | dict[str, float] = 0.0,
                           joint_noise: float = 0.0) -> Observations:
     """Readings and measurements of the true robot (nominal + ``x_true``) at the given actuated values.
 
@@ -76,10 +76,16 @@ def simulate_observations(robot: Robot, parameters: ParameterSet, x_true: Array,
         measurements: What is measured.
         actuated: Actuated readings (N, na) [rad or m]; the true robot adds its offsets from ``x_true``.
         rng: Random generator (noise).
-        noise: Measurement noise σ [m] (and [rad] for pose angles and angle readings).
+        noise: Measurement noise σ [m] (and [rad] for pose angles and angle readings), or one σ per
+            measurement key (``{"joint:device_lvdt": 1e-6, "joint:device_incl_x": 2e-5}``; missing keys 0).
         joint_noise: Noise σ on the actuated readings [rad or m].
     """
-    if noise < 0 or joint_noise < 0:
+    sigmas = noise if isinstance(noise, dict) else {m.key: noise for m in measurements}
+    unknown = sorted(set(sigmas) - {m.key for m in measurements})
+    if unknown:
+        raise DataError(f"noise given for {', '.join(unknown)}, which is not measured; measurements are: "
+                        f"{', '.join(m.key for m in measurements)}")
+    if any(v < 0 for v in sigmas.values()) or joint_noise < 0:
         raise DataError("noise must be non-negative")
     n = actuated.shape[0]
     blank: dict[str, Array] = {}
@@ -92,23 +98,20 @@ def simulate_observations(robot: Robot, parameters: ParameterSet, x_true: Array,
     pred = problem.evaluate(x_true, jacobian=False)
     values: dict[str, Array] = {}
     for m in measurements:
-        err = pred.predicted[m.key]  # absolute predictions (the blank measurements are zero)
+        sigma = sigmas.get(m.key, 0.0)
+        value = pred.predicted[m.key]  # absolute predictions (the blank measurements are zero)
         if isinstance(m, Pose):
             out = np.empty((n, 7))
-            out[:, :3] = err[:, :3] + rng.normal(scale=noise, size=(n, 3))
+            out[:, :3] = value[:, :3] + rng.normal(scale=sigma, size=(n, 3))
             for k in range(n):
-                rot = pin.exp3(err[k, 3:]) @ pin.exp3(rng.normal(scale=noise, size=3))
-                quat = pin.Quaternion(rot)
+                quat = pin.Quaternion(pin.exp3(value[k, 3:]) @ pin.exp3(rng.normal(scale=sigma, size=3)))
                 out[k, 3:] = [quat.x, quat.y, quat.z, quat.w]
             values[m.key] = out
         elif m.incremental:
-            absolute = err[:, 0]
             inc = np.full((n, 1), np.nan)
-            inc[1:, 0] = np.diff(absolute) + rng.normal(scale=noise, size=n - 1)
+            inc[1:, 0] = np.diff(value[:, 0]) + rng.normal(scale=sigma, size=n - 1)
             values[m.key] = inc
-        elif isinstance(m, JointReading):
-            values[m.key] = err + rng.normal(scale=noise, size=err.shape)
         else:
-            values[m.key] = err + rng.normal(scale=noise, size=err.shape)
+            values[m.key] = value + rng.normal(scale=sigma, size=value.shape)
     readings = actuated + rng.normal(scale=joint_noise, size=actuated.shape) if joint_noise else actuated.copy()
     return Observations(readings, values)

@@ -47,3 +47,24 @@ def test_parameter_choice_named_patterns_and_default() -> None:
     assert "base.tx" in everything and "leg_1_platform.predecessor.tz" in everything
     with pytest.raises(NotFoundError, match=r"pattern 'leg_9_\*' matches nothing"):
         choose_parameters(robot, models, ["leg_9_*"])
+
+
+def test_simulated_noise_per_measurement() -> None:
+    import numpy as np
+
+    from pincal import measurements as ms
+    from pincal.simulation import random_actuated, simulate_observations
+
+    robot = pincal.load_robot("hexapod_device")
+    models = [ms.joint_reading("device_lvdt"), ms.joint_reading("device_incl_x")]
+    pset = choose_parameters(robot, models, ["hexapod44"])
+    rng = np.random.default_rng(0)
+    qa, _ = random_actuated(robot, 200, rng)
+    clean = simulate_observations(robot, pset, np.zeros(len(pset)), models, qa, np.random.default_rng(1))
+    noisy = simulate_observations(robot, pset, np.zeros(len(pset)), models, qa, np.random.default_rng(1),
+                                  noise={"joint:device_lvdt": 1e-6, "joint:device_incl_x": 1e-4})
+    lvdt = noisy.values["joint:device_lvdt"] - clean.values["joint:device_lvdt"]
+    incl = noisy.values["joint:device_incl_x"] - clean.values["joint:device_incl_x"]
+    assert 0.7e-6 < lvdt.std() < 1.3e-6 and 0.7e-4 < incl.std() < 1.3e-4
+    with pytest.raises(DataError, match="noise given for joint:device_rotary, which is not measured"):
+        simulate_observations(robot, pset, np.zeros(len(pset)), models, qa, rng, noise={"joint:device_rotary": 1.0})
