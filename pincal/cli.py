@@ -126,6 +126,7 @@ DEMO_TEXT = """pincal demo: geometric calibration of the Delta robot of study 00
 def cmd_demo(args: argparse.Namespace) -> int:
     from pincal.calibration import write_json
     from pincal.library import robot_path
+    from pincal.report import write_demo_report
     from pincal.workflow import calibrate, simulate, write_simulation
 
     robot = load_robot(robot_path("delta"))
@@ -137,10 +138,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
     urdf = out / "delta_calibrated.urdf"
     urdf.write_text(cal.urdf_text, encoding="utf-8")
     write_json(out / "report.json", cal.report)
+    report_html = write_demo_report(cal, sim.dataset, out)  # reads out/truth.json, written above
     print(DEMO_TEXT.format(n_train=args.samples, n_test=args.test_samples, noise_um=args.noise * 1e6))
     print(_summary(cal.report, cal.result.seconds))
     print()
-    print(f"wrote {out}/: delta_calibrated.urdf (the calibrated robot), report.json, measurements.csv, truth.urdf")
+    print(f"wrote {out}/: delta_calibrated.urdf (the calibrated robot), {report_html.name} (open it in a "
+          "browser), report.json, measurements.csv, truth.urdf")
     return 0
 
 

@@ -1,0 +1,150 @@
+"""The report's figures, drawn with matplotlib's object API (no pyplot state, no display needed).
+
+Inputs are SI (m, rad); the axes show millimetres and degrees. Each function returns a
+``matplotlib.figure.Figure``; :func:`png_bytes` renders one.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+from matplotlib.figure import Figure
+
+Array = npt.NDArray[np.float64]
+
+BEFORE = "#c0392b"
+AFTER = "#1e8449"
+TRUTH = "#1f3a93"
+MM = 1e3
+DEG = 180.0 / np.pi
+
+
+def png_bytes(figure: Figure, dpi: int = 100) -> bytes:
+    """The figure as PNG bytes."""
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=dpi)
+    return buffer.getvalue()
+
+
+def _rms(values: Array) -> float:
+    return float(np.sqrt(np.mean(np.square(values)))) if len(values) else float("nan")
+
+
+def error_histograms(before: Array, after: Array, test_before: Array | None = None,
+                     test_after: Array | None = None) -> Figure:
+    """Histograms of the per-sample position errors [m] before and after calibration, on a log axis
+    (the two differ by orders of magnitude); held-out samples as outlines."""
+    figure = Figure(figsize=(7.5, 3.6), layout="constrained")
+    ax = figure.subplots()
+    series = [v for v in (before, after, test_before, test_after) if v is not None and len(v)]
+    positive = np.concatenate(series) * MM
+    positive = positive[positive > 0]
+    low, high = (positive.min() / 1.5, positive.max() * 1.5) if positive.size else (1e-6, 1.0)
+    bins = np.logspace(np.log10(low), np.log10(high), 45).tolist()
+    ax.hist(np.maximum(before * MM, low), bins, color=BEFORE, alpha=0.7,
+            label=f"before, fit samples (RMS {_rms(before) * MM:.3g} mm)")
+    ax.hist(np.maximum(after * MM, low), bins, color=AFTER, alpha=0.7,
+            label=f"after, fit samples (RMS {_rms(after) * MM:.3g} mm)")
+    if test_before is not None and test_after is not None and len(test_before):
+        ax.hist(np.maximum(test_before * MM, low), bins, histtype="step", color=BEFORE, linewidth=1.6,
+                linestyle="--", label=f"before, held out (RMS {_rms(test_before) * MM:.3g} mm)")
+        ax.hist(np.maximum(test_after * MM, low), bins, histtype="step", color=AFTER, linewidth=1.6,
+                linestyle="--", label=f"after, held out (RMS {_rms(test_after) * MM:.3g} mm)")
+    ax.set_xscale("log")
+    ax.set_xlabel("position error of a sample [mm] (log scale)")
+    ax.set_ylabel("number of samples")
+    ax.set_title("Position errors before and after calibration")
+    ax.legend(fontsize=8, loc="upper center")
+    ax.grid(True, which="major", alpha=0.3)
+    return figure
+
+
+def errors_per_sample(before: Array, after: Array, test_before: Array | None = None,
+                      test_after: Array | None = None) -> Figure:
+    """Each sample's position error [m] before and after, fit samples then held-out ones."""
+    figure = Figure(figsize=(7.5, 3.4), layout="constrained")
+    ax = figure.subplots()
+    n = len(before)
+    index = np.arange(n)
+    ax.vlines(index, after * MM, before * MM, color="#bbbbbb", linewidth=0.8)
+    ax.plot(index, before * MM, "o", color=BEFORE, markersize=3.5, label="before calibration")
+    ax.plot(index, after * MM, "o", color=AFTER, markersize=3.5, label="after calibration")
+    if test_before is not None and test_after is not None and len(test_before):
+        held = np.arange(n, n + len(test_before))
+        ax.vlines(held, test_after * MM, test_before * MM, color="#bbbbbb", linewidth=0.8)
+        ax.plot(held, test_before * MM, "s", mfc="none", color=BEFORE, markersize=3.5, label="before (held out)")
+        ax.plot(held, test_after * MM, "s", mfc="none", color=AFTER, markersize=3.5, label="after (held out)")
+        ax.axvline(n - 0.5, color="#555555", linestyle=":", linewidth=1)
+        ax.text(n - 0.5, 1.0, "  held out →", transform=ax.get_xaxis_transform(), va="top", fontsize=8)
+    ax.set_yscale("log")
+    ax.set_xlabel("sample")
+    ax.set_ylabel("position error [mm] (log scale)")
+    ax.set_title("Error of each sample")
+    ax.legend(fontsize=8, ncol=2, loc="center right")
+    ax.grid(True, which="major", alpha=0.3)
+    return figure
+
+
+def parameter_estimates(names: Sequence[str], units: Sequence[str], values: Array, std: Array,
+                        identified: Sequence[bool], truth: Array | None = None, limit: int = 80) -> Figure:
+    """Estimated deviations with ±2σ error bars, lengths [mm] and angles [deg] in two panels.
+
+    Args:
+        names, units: Parameter names and units (``m``, ``rad``; others shown as is).
+        values, std: Estimates and standard deviations [SI]; NaN std for parameters not identified.
+        identified: Which parameters the data identifies (the others: hollow markers, no bar).
+        truth: True deviations, if known (a simulation).
+        limit: At most this many parameters, the largest relative to their σ or value first.
+    """
+    values, std = np.asarray(values, float), np.asarray(std, float)
+    order = list(range(len(names)))
+    if len(order) > limit:
+        size = np.abs(values) / np.where(np.isfinite(std) & (std > 0), std, np.abs(values).max() or 1.0)
+        order = sorted(int(k) for k in np.argsort(-size)[:limit])
+    panels = [(unit, [k for k in order if units[k] == unit]) for unit in ("m", "rad")]
+    others = [k for k in order if units[k] not in ("m", "rad")]
+    panels = [p for p in panels if p[1]] + ([("other", others)] if others else [])
+    rows = max((len(p[1]) for p in panels), default=1)
+    figure = Figure(figsize=(4.2 * len(panels) + 1.6, 0.24 * rows + 1.8), layout="constrained")
+    axes = np.atleast_1d(figure.subplots(1, max(len(panels), 1), squeeze=False)[0])
+    scale = {"m": (MM, "deviation [mm]"), "rad": (DEG, "deviation [deg]"), "other": (1.0, "deviation [SI]")}
+    for ax, (unit, ks) in zip(axes, panels, strict=False):
+        factor, label = scale[unit]
+        y = rows - 1 - np.arange(len(ks))  # same row spacing in every panel, from the top
+        for yi, k in zip(y, ks, strict=True):
+            ok = identified[k] and np.isfinite(std[k])
+            ax.errorbar(values[k] * factor, yi, xerr=2 * std[k] * factor if ok else None, fmt="o",
+                        color=AFTER if ok else "#888888", mfc=None if ok else "none", markersize=4, capsize=2)
+            if truth is not None:
+                ax.plot(truth[k] * factor, yi, "x", color=TRUTH, markersize=6)
+        ax.set_yticks(y, [names[k] for k in ks], fontsize=7)
+        ax.set_ylim(-0.7, rows - 0.3)
+        ax.axvline(0, color="#555555", linewidth=0.8)
+        ax.set_xlabel(label)
+        ax.grid(True, axis="x", alpha=0.3)
+    handles = [axes[0].errorbar([], [], xerr=[], fmt="o", color=AFTER, capsize=2, label="estimate ± 2σ"),
+               axes[0].plot([], [], "o", color="#888888", mfc="none", label="not identifiable (minimum norm)")[0]]
+    if truth is not None:
+        handles.append(axes[0].plot([], [], "x", color=TRUTH, label="truth (simulation)")[0])
+    figure.legend(handles=handles, loc="outside lower center", ncol=len(handles), fontsize=8, frameon=False)
+    title = "Estimated parameter deviations from the nominal robot"
+    if len(order) < len(names):
+        title += f" ({len(order)} of {len(names)} shown)"
+    figure.suptitle(title, fontsize=11)
+    return figure
+
+
+def convergence(cost_history: Sequence[float]) -> Figure:
+    """The weighted cost ½‖r‖² after each accepted iteration (log scale)."""
+    figure = Figure(figsize=(4.5, 3.0), layout="constrained")
+    ax = figure.subplots()
+    cost = np.asarray(cost_history, float)
+    ax.semilogy(np.arange(len(cost)), np.maximum(cost, 1e-300), "o-", color="#34495e", markersize=4)
+    ax.set_xlabel("iteration")
+    ax.set_ylabel("cost ½‖r‖² (weighted, log scale)")
+    ax.set_title("Convergence")
+    ax.grid(True, which="major", alpha=0.3)
+    return figure

@@ -1,0 +1,383 @@
+"""One offline HTML file per calibration: how much better the calibrated robot is, and why to trust it.
+
+The page holds the headline before/after errors, a summary (samples, parameters, identifiable count,
+condition number, RMS and max errors, held-out errors), the 3D scene of :mod:`pincal.viewer`, the
+figures of :mod:`pincal.plots` as embedded PNGs, the parameter table with standard deviations, and
+the combinations the data cannot separate, in words. Nothing is fetched: it opens from a file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import base64
+import html
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.calibration import observations_from
+from pincal.dataset import Dataset
+from pincal.errors import DataError
+from pincal.problem import CalibrationProblem
+from pincal.viewer import CalibrationView, Progress, add_calibration_options, load_view, static_scene
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass
+class ReportContent:
+    """Everything the report shows.
+
+    Attributes:
+        view: The calibration (fit samples, estimates, results dictionary, errors).
+        test_before, test_after: Per-sample error sizes [m] of the held-out samples, if any.
+        truth: True deviations by parameter name [m, rad], when known (a simulation's truth.json).
+        sources: What the report was made from (robot, data), shown in the header.
+    """
+
+    view: CalibrationView
+    test_before: Array | None = None
+    test_after: Array | None = None
+    truth: dict[str, float] | None = None
+    sources: tuple[str, ...] = ()
+
+
+def held_out_errors(view: CalibrationView, dataset: Dataset) -> tuple[Array | None, Array | None]:
+    """Per-sample error sizes [m] of the dataset's ``test`` rows at the nominal robot and at the estimate."""
+    if "test" not in dataset.sets:
+        return None, None
+    problem = view.problem
+    test = dataset.of_set("test")
+    obs = observations_from(problem.robot, test.joint_names, test.joints, test.measurements, problem.measurements)
+    tprob = CalibrationProblem(problem.robot, problem.parameters, problem.measurements, obs)
+    before = tprob.evaluate(np.zeros(len(problem.parameters)), jacobian=False).errors
+    after = tprob.evaluate(view.x, jacobian=False).errors
+    held = CalibrationView(tprob, view.x, view.report, before, after)
+    return held.sample_errors()
+
+
+def read_truth(path: str | Path) -> dict[str, float]:
+    """True deviations from a simulation's ``truth.json`` (``pincal simulate``)."""
+    try:
+        content = json.loads(Path(path).read_text(encoding="utf-8"))
+        return {str(k): float(v) for k, v in content["parameters"].items()}
+    except (OSError, json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise DataError(f"cannot read true parameters from '{path}' (expected the truth.json of pincal "
+                        f"simulate): {exc}") from None
+
+
+# --- formatting ------------------------------------------------------------------------------------
+def _mm(value: float | None, digits: int = 4) -> str:
+    return "–" if value is None or not math.isfinite(value) else f"{value * 1e3:.{digits}f} mm"
+
+
+def _in_unit(value: float | None, unit: str) -> str:
+    if value is None or not math.isfinite(value):
+        return "–"
+    if unit == "m":
+        return f"{value * 1e3:+.4f}"
+    if unit == "rad":
+        return f"{math.degrees(value):+.5f}"
+    return f"{value:+.6g}"
+
+
+def _spread(value: float | None, unit: str) -> str:
+    """A standard deviation in the display unit, three significant digits."""
+    if value is None or not math.isfinite(value):
+        return "–"
+    return f"{value * {'m': 1e3, 'rad': 180.0 / math.pi}.get(unit, 1.0):.3g}"
+
+
+def _display_unit(unit: str) -> str:
+    return {"m": "mm", "rad": "deg"}.get(unit, unit)
+
+
+def _ratio(before: float | None, after: float | None) -> str:
+    if not before or not after or not math.isfinite(before) or not math.isfinite(after) or after <= 0:
+        return ""
+    return f"{before / after:.3g}× smaller" if before >= after else f"{after / before:.3g}× larger"
+
+
+def _png(figure: Any, alt: str) -> str:
+    from pincal.plots import png_bytes
+
+    data = base64.b64encode(png_bytes(figure)).decode("ascii")
+    return f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}"></figure>'
+
+
+STYLE = """
+body { font: 14px/1.45 system-ui, -apple-system, "Segoe UI", sans-serif; color: #1d2733; margin: 0;
+  background: #f4f6f9; }
+main { max-width: 1120px; margin: 0 auto; padding: 18px 24px 40px; }
+h1 { font-size: 24px; margin: 6px 0 2px; } h2 { font-size: 18px; margin: 28px 0 8px; }
+.sub { color: #5b6775; margin: 0 0 14px; }
+.cards { display: flex; gap: 12px; flex-wrap: wrap; }
+.card { background: #fff; border-radius: 8px; padding: 10px 14px; box-shadow: 0 1px 3px rgba(0,0,0,.12);
+  flex: 1 1 220px; }
+.card .what { color: #5b6775; font-size: 12px; text-transform: uppercase; letter-spacing: .03em; }
+.card .nums { font-size: 20px; font-variant-numeric: tabular-nums; }
+.before { color: #c0392b; } .after { color: #1e8449; } .gain { font-size: 13px; color: #1e8449; }
+.verdict { background: #eaf6ee; border-left: 4px solid #1e8449; padding: 8px 12px; margin: 14px 0; }
+.warn { background: #fdf1e6; border-left: 4px solid #e67e22; padding: 8px 12px; margin: 14px 0; }
+iframe { width: 100%; height: 560px; border: 0; border-radius: 8px; box-shadow: 0 1px 3px rgba(0,0,0,.15);
+  background: #fff; }
+.caption { color: #5b6775; font-size: 12px; margin: 4px 0 0; }
+table { border-collapse: collapse; background: #fff; font-variant-numeric: tabular-nums; }
+th, td { padding: 3px 10px; border-bottom: 1px solid #e3e7ec; text-align: right; }
+th:first-child, td:first-child { text-align: left; }
+th { background: #eef1f5; font-weight: 600; }
+tr.unidentified td { color: #8a939e; }
+figure { margin: 8px 0; background: #fff; border-radius: 8px; padding: 6px; display: inline-block;
+  box-shadow: 0 1px 3px rgba(0,0,0,.12); }
+figure img { max-width: 100%; display: block; }
+ul.combos li { margin: 3px 0; }
+code { background: #eef1f5; padding: 0 3px; border-radius: 3px; }
+"""
+
+SCENE_LISTENER = """
+window.addEventListener("message", function (e) {
+  if (!e.data || !e.data.pincalScene) return;
+  var s = e.data.pincalScene, out = document.getElementById("scene-status");
+  out.setAttribute("data-status", JSON.stringify(s));
+  out.textContent = "3D scene loaded: " + s.robot_calibrated + " shapes per robot (" + s.frames.join(", ") +
+    "), " + s.points + " samples" + (s.webgl ? "" : " — WebGL unavailable in this browser");
+});
+"""
+
+
+def _cards(report: dict[str, Any]) -> str:
+    rows = [("RMS position error, fit samples", report.get("rms_before"), report.get("rms_after"))]
+    if "test_rms_before" in report:
+        rows.append(("RMS position error, held-out samples", report.get("test_rms_before"),
+                     report.get("test_rms_after")))
+        rows.append(("largest error, held-out samples", report.get("test_max_before"), report.get("test_max_after")))
+    else:
+        rows.append(("largest error, fit samples", report.get("max_before"), report.get("max_after")))
+    cards = []
+    for what, before, after in rows:
+        cards.append(f'<div class="card"><div class="what">{html.escape(what)}</div>'
+                     f'<div class="nums"><span class="before">{_mm(before)}</span> → '
+                     f'<span class="after">{_mm(after)}</span></div>'
+                     f'<div class="gain">{_ratio(before, after)}</div></div>')
+    return '<div class="cards">' + "".join(cards) + "</div>"
+
+
+def _verdict(report: dict[str, Any]) -> str:
+    held = "test_rms_before" in report
+    before = report.get("test_rms_before" if held else "rms_before")
+    after = report.get("test_rms_after" if held else "rms_after")
+    if before is None or after is None:
+        return ""
+    where = f"on {report.get('n_test_samples')} held-out poses the calibration never saw" if held else \
+        "on the samples it was fitted to (no held-out samples: add rows with set=test to check it)"
+    if not report.get("converged", True):
+        return (f'<p class="warn">The solver did not converge ({html.escape(str(report.get("message")))}): '
+                f"treat these numbers with care. RMS error {where}: {_mm(before)} → {_mm(after)}.</p>")
+    change = (1 - after / before) * 100 if before else 0.0
+    kind = "verdict" if after < before else "warn"
+    return (f'<p class="{kind}">The calibrated model predicts the robot\'s positions with an error '
+            f"{_ratio(before, after) or 'as large'} than the nominal model {where}: RMS {_mm(before)} → "
+            f"{_mm(after)} ({abs(change):.1f} % {'less' if change >= 0 else 'more'}).</p>")
+
+
+def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
+    cond = report.get("condition_number")
+    rows: list[tuple[str, str, str]] = [
+        ("samples (fit / held out)", f"{report.get('n_samples')} / {n_test if n_test is not None else 0}", ""),
+        ("measurements", ", ".join(report.get("measurements", [])), ""),
+        ("parameters", str(report.get("n_parameters")), ""),
+        ("identifiable", f"{report.get('n_identifiable')} of {report.get('n_parameters')}", ""),
+        ("condition number (scaled)", f"{cond:.3g}" if cond else "–", ""),
+        ("solver", f"{report.get('solver')} ({report.get('loss')} loss): {report.get('message')}, "
+                   f"{report.get('iterations')} iterations", ""),  # no wall time: same inputs, same file
+        ("a-posteriori variance factor σ²", f"{report['sigma2']:.3g}" if report.get("sigma2") else "–", ""),
+    ]
+    table = ['<table><tr><th></th><th>before</th><th>after</th></tr>']
+    numbers = [("RMS position error (fit)", "rms_before", "rms_after"),
+               ("max position error (fit)", "max_before", "max_after")]
+    if "test_rms_before" in report:
+        numbers += [("RMS position error (held out)", "test_rms_before", "test_rms_after"),
+                    ("max position error (held out)", "test_max_before", "test_max_after")]
+    for label, b, a in numbers:
+        table.append(f"<tr><td>{label}</td><td class='before'>{_mm(report.get(b))}</td>"
+                     f"<td class='after'>{_mm(report.get(a))}</td></tr>")
+    if report.get("calibration_gain") is not None:
+        table.append(f"<tr><td>calibration gain G (study 000, vs the truth)</td><td></td>"
+                     f"<td>{report['calibration_gain']:.1f} %</td></tr>")
+    table.append("</table>")
+    facts = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(v)}</td></tr>" for k, v, _ in rows)
+    down = report.get("down_weighted_samples") or []
+    if down:
+        facts += (f"<tr><td>down-weighted samples (robust loss)</td>"
+                  f"<td>{html.escape(', '.join(map(str, down)))}</td></tr>")
+    return (f'<div class="cards"><div><table>{facts}</table></div><div>{"".join(table)}</div></div>')
+
+
+def _parameter_table(content: ReportContent) -> str:
+    view, truth = content.view, content.truth
+    report = view.report["parameters"]
+    head = "<tr><th>parameter</th><th>unit</th><th>estimate</th><th>σ</th><th>identifiable</th>"
+    head += "<th>truth</th><th>error</th></tr>" if truth else "</tr>"
+    rows = [head]
+    for p in view.problem.parameters:
+        entry = report.get(p.name, {})
+        value, std = entry.get("value"), entry.get("std")
+        ident = bool(entry.get("identified"))
+        cells = [html.escape(p.name), _display_unit(p.unit), _in_unit(value, p.unit),
+                 _spread(std, p.unit) if ident else "–", "yes" if ident else "no"]
+        if truth:
+            true = truth.get(p.name)
+            cells += [_in_unit(true, p.unit),
+                      _in_unit(value - true, p.unit) if true is not None and value is not None else "–"]
+        css = "" if ident else ' class="unidentified"'
+        rows.append(f"<tr{css}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    return "<table>" + "".join(rows) + "</table>"
+
+
+def _combinations(report: dict[str, Any]) -> str:
+    combos = report.get("unidentifiable") or []
+    if not combos:
+        return "<p>Every parameter is identifiable from these data.</p>"
+    items = "".join(f"<li>{html.escape(c)}</li>" for c in combos)
+    return (f"<p>{len(combos)} direction(s) of the parameter space leave every measurement unchanged, so no data "
+            "of this kind can separate them. The calibration keeps the minimum-norm split (it predicts the "
+            "measured quantities just as well); to pin them down, measure something else (another frame, "
+            "an orientation, a joint reading) or fix them from a drawing.</p>"
+            f'<ul class="combos">{items}</ul>')
+
+
+def render_report(content: ReportContent, quiet: bool = True) -> str:
+    """The report as one self-contained HTML page."""
+    from pincal import __version__, plots
+
+    view, report = content.view, content.view.report
+    problem = view.problem
+    before, after = view.sample_errors()
+    has_lengths = view.has_lengths
+    figures: list[str] = []
+    names = problem.parameters.names
+    units = [p.unit for p in problem.parameters]
+    values = np.array([report["parameters"][n]["value"] for n in names], dtype=float)
+    std = np.array([np.nan if report["parameters"][n]["std"] is None else report["parameters"][n]["std"]
+                    for n in names], dtype=float)
+    identified = [bool(report["parameters"][n]["identified"]) for n in names]
+    truth = None if content.truth is None else np.array([content.truth.get(n, np.nan) for n in names])
+    with Progress("figures", 4, quiet) as progress:
+        if has_lengths:
+            figures.append(_png(plots.error_histograms(before, after, content.test_before, content.test_after),
+                                "histograms of the position errors before and after calibration"))
+            progress.advance()
+            figures.append(_png(plots.errors_per_sample(before, after, content.test_before, content.test_after),
+                                "position error of each sample before and after calibration"))
+            progress.advance()
+        figures.append(_png(plots.parameter_estimates(names, units, values, std, identified, truth),
+                            "estimated parameter deviations with error bars"))
+        progress.advance()
+        if report.get("cost_history"):
+            figures.append(_png(plots.convergence(report["cost_history"]), "cost per iteration"))
+        progress.advance()
+    scene, summary = static_scene(view, quiet=quiet)
+    srcdoc = html.escape(scene, quote=True)
+    notes = "".join(f"<li>{html.escape(n)}</li>" for n in summary.notes)
+    shifts = report.get("reference_shifts") or {}
+    shift_text = ""
+    if shifts:
+        listed = ", ".join(f"{html.escape(k)} {v:+.6g}" for k, v in shifts.items())
+        shift_text = (f"<p>The calibrated URDF is re-assembled at zero actuated readings; the passive joints' "
+                      f"zero moved by (rad or m): {listed}. Subtract these from readings of instrumented "
+                      "passive joints.</p>")
+    tied = (", and the parameters tied to them (see below) may then differ from the truth while predicting the "
+            "measurements just as well") if report.get("unidentifiable") and content.truth else ""
+    n_test = None if content.test_before is None else len(content.test_before)
+    title = f"Calibration of {report.get('robot', problem.robot.name)}"
+    sources = " · ".join(html.escape(s) for s in content.sources)
+    magnified = (f"errors magnified ×{summary.magnification:g}, coloured by size on the scale of the largest error "
+                 f"({summary.error_scale * 1e3:.3g} mm)") if summary.has_points else "no 3D measurements"
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><meta name="viewport" content="width=device-width">
+<title>{html.escape(title)} — pincal report</title><style>{STYLE}</style></head>
+<body><main>
+<h1>{html.escape(title)}</h1>
+<p class="sub">{report.get('n_samples')} fit samples{f', {n_test} held out' if n_test else ''} ·
+{html.escape(', '.join(report.get('measurements', [])))} · {report.get('n_parameters')} parameters ·
+pincal {__version__}{' · ' + sources if sources else ''}</p>
+{_cards(report)}
+{_verdict(report)}
+<h2>The robot in 3D</h2>
+<iframe id="scene" title="3D scene: nominal and calibrated robot with the sample errors" srcdoc="{srcdoc}"></iframe>
+<p class="caption">Orange: the calibrated robot; blue ghost: the nominal one (they differ by millimetres);
+black dots: measured points; segments: each sample's error, {magnified}. Use the slider (or ← →) to step through
+the samples; drag to orbit, scroll to zoom.</p>
+<p class="caption" id="scene-status">3D scene: waiting for the viewer (needs JavaScript and WebGL).</p>
+{f'<ul class="caption">{notes}</ul>' if notes else ''}
+<h2>Summary</h2>
+{_summary_table(report, n_test)}
+<h2>Errors</h2>
+{''.join(figures[:2]) if has_lengths else '<p>No length-type measurement: see the parameter estimates.</p>'}
+<h2>Parameters</h2>
+{''.join(figures[2:] if has_lengths else figures)}
+<p>Deviations from the nominal robot (lengths in mm, angles in degrees); σ is the standard deviation of the
+estimate (±2σ bars in the figure). Parameters that are not identifiable keep minimum-norm values{tied}.</p>
+{_parameter_table(content)}
+{shift_text}
+<h2>What the data cannot separate</h2>
+{_combinations(report)}
+</main>
+<script>{SCENE_LISTENER}</script>
+</body></html>
+"""
+
+
+def write_report(content: ReportContent, out: str | Path, quiet: bool = True) -> Path:
+    """Write the report of ``content`` to ``out`` (parents created); returns the path."""
+    path = Path(out)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(render_report(content, quiet), encoding="utf-8")
+    return path
+
+
+def write_demo_report(calibration: Any, dataset: Dataset, out_dir: str | Path) -> Path:
+    """``out_dir/report.html`` for ``pincal demo`` (with the truth from ``out_dir/truth.json`` if present)."""
+    out = Path(out_dir)
+    view = CalibrationView.from_calibration(calibration)
+    test_before, test_after = held_out_errors(view, dataset)
+    truth_path = out / "truth.json"
+    truth = read_truth(truth_path) if truth_path.is_file() else None
+    content = ReportContent(view, test_before, test_after, truth, ("pincal demo", str(out / "measurements.csv")))
+    return write_report(content, out / "report.html")
+
+
+# --- command line ----------------------------------------------------------------------------------
+def cmd_report(args: argparse.Namespace) -> int:
+    view, dataset, calibration = load_view(args)
+    test_before, test_after = held_out_errors(view, dataset)
+    truth = read_truth(args.truth) if args.truth else None
+    content = ReportContent(view, test_before, test_after, truth, (str(args.robot), str(args.data)))
+    path = write_report(content, args.out, args.quiet)
+    report = view.report
+    held = f"; held out {_mm(report['test_rms_before'])} → {_mm(report['test_rms_after'])}" \
+        if "test_rms_before" in report else ""
+    print(f"RMS position error {_mm(report.get('rms_before'))} → {_mm(report.get('rms_after'))}{held}")
+    print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): open it in a browser, no network needed")
+    return 0 if calibration is None or calibration.result.converged else 1
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``report`` command."""
+    report = sub.add_parser(
+        "report", help="calibrate and write one offline HTML report (numbers, figures, 3D scene)",
+        description="Calibrate (or read --result) and write one self-contained HTML file: errors before and "
+                    "after (fit and held-out samples), identifiability, the parameter table with standard "
+                    "deviations, the combinations the data cannot separate, figures, and the 3D scene.",
+        epilog="example: pincal report delta sim/measurements.csv --parameters model24 --truth sim/truth.json "
+               "--out report.html")
+    add_calibration_options(report)
+    report.add_argument("--out", required=True, help="HTML file to write")
+    report.add_argument("--truth", metavar="TRUTH.json",
+                        help="true parameters (truth.json of pincal simulate) to compare the estimates with")
+    report.set_defaults(func=cmd_report)

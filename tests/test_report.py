@@ -1,0 +1,148 @@
+"""The offline HTML report: its numbers, tables, combinations, figures and scene, in a real browser too."""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from browser import orange_pixels, pixel_variance, render, served
+from conftest import ROBOTS
+from PIL import Image
+
+import pincal
+from pincal.cli import main
+from pincal.report import write_demo_report
+from pincal.workflow import calibrate, simulate, write_simulation
+
+N_TRAIN, N_TEST = 30, 10
+
+
+@pytest.fixture(scope="module")
+def case(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """A simulated Delta campaign, its calibration JSON (calibrate) and its HTML report (report)."""
+    folder = tmp_path_factory.mktemp("report")
+    robot = pincal.load_robot(ROBOTS / "delta.urdf")
+    sim = simulate(robot, ["position"], N_TRAIN, N_TEST, perturb=1e-3, noise=1e-5, seed=5, parameter_spec=["model24"])
+    write_simulation(sim, folder)
+    data, truth = folder / "measurements.csv", folder / "truth.json"
+    result, report = folder / "result.json", folder / "report.html"
+    assert main(["calibrate", "delta", str(data), "--parameters", "model24", "--report", str(result)]) == 0
+    assert main(["report", "delta", str(data), "--parameters", "model24", "--truth", str(truth),
+                 "--out", str(report), "--quiet"]) == 0
+    return {"folder": folder, "data": data, "truth": truth, "result": result, "report": report}
+
+
+def _mm(value: float) -> str:
+    return f"{value * 1e3:.4f} mm"
+
+
+def test_report_states_the_summary_numbers(case: dict[str, Path]) -> None:
+    page = case["report"].read_text(encoding="utf-8")
+    result = json.loads(case["result"].read_text())
+    for key in ("rms_before", "rms_after", "max_before", "max_after", "test_rms_before", "test_rms_after",
+                "test_max_before", "test_max_after"):
+        assert _mm(result[key]) in page, key
+    assert f"{N_TRAIN} / {N_TEST}" in page  # fit / held-out samples
+    assert f"<td>identifiable</td><td>{result['n_identifiable']} of {result['n_parameters']}</td>" in page
+    assert f"<td>condition number (scaled)</td><td>{result['condition_number']:.3g}</td>" in page
+    ratio = result["test_rms_before"] / result["test_rms_after"]
+    assert f"{ratio:.3g}× smaller" in page  # the headline a person reads first
+
+
+def test_report_parameter_table_and_combinations(case: dict[str, Path]) -> None:
+    page = case["report"].read_text(encoding="utf-8")
+    result = json.loads(case["result"].read_text())
+    truth = json.loads(case["truth"].read_text())["parameters"]
+    rows = dict(re.findall(r"<tr(?: class=\"unidentified\")?><td>([^<]+)</td>((?:<td>[^<]*</td>){6})</tr>", page))
+    assert set(rows) == set(result["parameters"]) and len(rows) == 24
+    for name, entry in result["parameters"].items():
+        cells = re.findall(r"<td>([^<]*)</td>", rows[name])
+        unit, estimate, std, identifiable, true = cells[0], cells[1], cells[2], cells[3], cells[4]
+        factor = 1e3 if unit == "mm" else 180 / np.pi
+        assert unit == ("deg" if name.endswith((".rz", ".offset")) else "mm")
+        assert float(estimate) == pytest.approx(entry["value"] * factor, abs=1e-4)
+        assert float(true) == pytest.approx(truth[name] * factor, abs=1e-4)
+        assert identifiable == ("yes" if entry["identified"] else "no")
+        if entry["identified"]:
+            assert float(std) == pytest.approx(entry["std"] * factor, rel=6e-3)
+    assert len(result["unidentifiable"]) == 3
+    for combination in result["unidentifiable"]:
+        assert f"<li>{html.escape(combination)}</li>" in page
+
+
+def test_report_figures_are_embedded_pngs_with_content(case: dict[str, Path]) -> None:
+    page = case["report"].read_text(encoding="utf-8")
+    images = re.findall(r'<img alt="([^"]+)" src="data:image/png;base64,([^"]+)"', page)
+    assert len(images) == 4  # histograms, per sample, parameters, convergence
+    for alt, data in images:
+        image = np.asarray(Image.open(io.BytesIO(base64.b64decode(data))).convert("RGB"))
+        assert image.shape[0] > 200 and image.shape[1] > 300, alt
+        assert pixel_variance(image) > 100, f"figure '{alt}' is blank"
+        colours = image[..., 0].astype(np.int64) << 16 | image[..., 1].astype(np.int64) << 8 | image[..., 2]
+        assert len(np.unique(colours)) > 20, f"figure '{alt}' has almost no content"
+
+
+def test_report_embeds_the_scene_and_needs_no_network(case: dict[str, Path]) -> None:
+    page = case["report"].read_text(encoding="utf-8")
+    match = re.search(r'<iframe id="scene"[^>]*srcdoc="([^"]*)"', page)
+    assert match, "no embedded scene"
+    scene = html.unescape(match.group(1))
+    assert "MeshCat.Viewer" in scene and "pincal-scene-status" in scene and "pincal-sample" in scene
+    for document in (page, scene):
+        assert not re.search(r"""(?:src|href)\s*=\s*["']?\s*(?:https?:)?//""", document)
+        assert "url(http" not in document and "@import" not in document
+
+
+def test_report_in_a_real_browser(case: dict[str, Path], tmp_path: Path) -> None:
+    with served(case["folder"]) as base:
+        shown = render(f"{base}report.html", tmp_path / "report.png")
+    assert "Calibration of delta" in shown.dom
+    match = re.search(r'id="scene-status" data-status="([^"]*)"', shown.dom)
+    assert match, "the embedded scene did not report back to the report page"
+    status = json.loads(html.unescape(match.group(1)))
+    assert status["webgl"] and status["robot_calibrated"] == status["robot_nominal"] == 15
+    assert {"arm_1", "rod_1", "platform"} <= set(status["frames"])
+    assert status["points"] == status["error_before"] == status["error_after"] == N_TRAIN
+    assert pixel_variance(shown.screenshot) > 100
+    # the scene sits below the headline numbers, in the first screen: the robot is drawn there
+    assert orange_pixels(shown.screenshot[330:]) > 2000
+
+
+def test_report_from_a_saved_result_matches(case: dict[str, Path], tmp_path: Path) -> None:
+    again = tmp_path / "again.html"
+    assert main(["report", "delta", str(case["data"]), "--parameters", "model24", "--result", str(case["result"]),
+                 "--out", str(again), "--quiet"]) == 0
+    table = re.compile(r"<h2>Parameters</h2>.*?(<table>.*?</table>)", re.S)
+    first, second = table.search(case["report"].read_text()), table.search(again.read_text())
+    assert first and second and first.group(1).replace("<th>truth</th><th>error</th>", "").count("<tr") == \
+        second.group(1).count("<tr")
+    estimates = re.compile(r"<tr(?: class=\"unidentified\")?><td>([^<]+)</td><td>[^<]*</td><td>([^<]*)</td>")
+    assert estimates.findall(first.group(1)) == estimates.findall(second.group(1))
+
+
+def test_bad_truth_file_is_one_line(case: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+                                    ) -> None:
+    bad = tmp_path / "truth.json"
+    bad.write_text('{"robot": "delta"}')
+    assert main(["report", "delta", str(case["data"]), "--parameters", "model24", "--result", str(case["result"]),
+                 "--truth", str(bad), "--out", str(tmp_path / "r.html"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "truth.json of pincal simulate" in err[0]
+
+
+def test_demo_report(tmp_path: Path) -> None:
+    robot = pincal.load_robot(ROBOTS / "delta.urdf")
+    sim = simulate(robot, ["position"], 20, 5, perturb=1e-3, noise=1e-5, seed=1, parameter_spec=["model24"])
+    write_simulation(sim, tmp_path)
+    cal = calibrate(robot, sim.dataset, parameter_spec=["model24"], x_true=sim.x_true)
+    path = write_demo_report(cal, sim.dataset, tmp_path)
+    assert path == tmp_path / "report.html"
+    page = path.read_text(encoding="utf-8")
+    assert "Calibration of delta" in page and "held-out samples" in page and "<th>truth</th>" in page
+    assert _mm(cal.report["test_rms_after"]) in page

@@ -1,0 +1,215 @@
+"""The 3D scene: URDF visuals as meshcat shapes, the recorded scene, the static page in a real browser,
+the same drawing sent to a live meshcat window, and the ``view`` command."""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+import re
+from pathlib import Path
+from typing import Any
+
+import meshcat
+import numpy as np
+import pytest
+import umsgpack
+from browser import orange_pixels, pixel_variance, render, served
+from conftest import ROBOTS
+
+import pincal
+from pincal.cli import main
+from pincal.dataset import write_dataset
+from pincal.viewer import (
+    CalibrationView,
+    Progress,
+    StaticScene,
+    configurations,
+    draw_calibration,
+    resolve_mesh,
+    robot_visuals,
+    static_scene,
+)
+from pincal.workflow import Calibration, Simulation, calibrate, simulate
+
+N_TRAIN = 30
+LINKS_WITH_VISUALS = {"base", "arm_1", "rod_1", "arm_2", "rod_2", "arm_3", "rod_3", "platform", "end_effector"}
+
+
+@pytest.fixture(scope="module")
+def delta_case() -> tuple[Simulation, Calibration]:
+    robot = pincal.load_robot(ROBOTS / "delta.urdf")
+    sim = simulate(robot, ["position"], N_TRAIN, 10, perturb=1e-3, noise=1e-5, seed=3, parameter_spec=["model24"])
+    return sim, calibrate(robot, sim.dataset, parameter_spec=["model24"], x_true=sim.x_true)
+
+
+def _commands(page: str) -> list[dict[str, Any]]:
+    """The meshcat commands embedded in a static page, decoded as the viewer's JavaScript does."""
+    match = re.search(r"var commands = (\[.*?\]), samples =", page)
+    assert match, "no command buffer in the page"
+    return [umsgpack.unpackb(base64.b64decode(c)) for c in json.loads(match.group(1))]
+
+
+def test_urdf_visuals_become_meshcat_shapes(delta: pincal.Robot, delta_text: str) -> None:
+    import meshcat.geometry as mg
+
+    visuals, notes = robot_visuals(delta)
+    assert notes == []
+    assert len(visuals) == delta_text.count("<visual>") == 15
+    kinds = [type(v.geometry) for v in visuals]
+    assert kinds.count(mg.Box) == 1 and kinds.count(mg.Cylinder) == 7 and kinds.count(mg.Sphere) == 7
+    # arm_1's cylinder: URDF axis z turned by rpy (0, π/2, 0) runs along the link's x; meshcat's runs along y
+    arm = next(v for v in visuals if delta.model.frames[v.frame_id].name == "arm_1" and v.name == "visual_0")
+    np.testing.assert_allclose(arm.placement[:3, 1], [1.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(arm.placement[:3, 3], [0.13, 0.0, 0.0], atol=1e-12)
+
+
+def test_meshes_embedded_from_local_files_or_replaced() -> None:
+    import meshcat.geometry as mg
+
+    ur10 = pincal.load_robot("ur10")
+    visuals, notes = robot_visuals(ur10)
+    # the visual .dae files are over the size budget: the links' collision .stl files stand in
+    assert notes == [] and len(visuals) == 7
+    assert all(isinstance(v.geometry, mg.MeshGeometry) and v.geometry.mesh_format == "stl" for v in visuals)
+    visuals, notes = robot_visuals(ur10, max_mesh_bytes=0)
+    assert len([n for n in notes if "not drawn" in n]) == 7 and "skeleton" in notes[-1]
+    assert len([v for v in visuals if v.name == "joint"]) == ur10.model.njoints - 1
+
+
+def test_package_uris_resolve_beside_the_urdf(tmp_path: Path) -> None:
+    mesh = tmp_path / "share" / "my_robot" / "meshes" / "link.stl"
+    mesh.parent.mkdir(parents=True)
+    mesh.write_bytes(b"solid x\nendsolid x\n")
+    urdf_dir = tmp_path / "share" / "my_robot" / "urdf"
+    urdf_dir.mkdir()
+    assert resolve_mesh("package://my_robot/meshes/link.stl", urdf_dir) == mesh
+    assert resolve_mesh("../meshes/link.stl", urdf_dir) == urdf_dir / "../meshes/link.stl"
+    assert resolve_mesh(f"file://{mesh}", urdf_dir) == mesh
+    assert resolve_mesh("package://other_robot/meshes/link.stl", urdf_dir) is None
+
+
+def test_static_scene_holds_robots_samples_and_one_frame_per_sample(delta_case: tuple[Simulation, Calibration]
+                                                                    ) -> None:
+    _, cal = delta_case
+    page, summary = static_scene(CalibrationView.from_calibration(cal))
+    assert summary.n_samples == N_TRAIN and summary.n_visuals == 15 and set(summary.frames) == LINKS_WITH_VISUALS
+    # errors of ~2 mm on a robot of ~0.8 m: magnified to be seen, by a round factor
+    assert summary.magnification in (10.0, 20.0, 50.0)
+    commands = _commands(page)
+    objects = {c["path"] for c in commands if c["type"] == "set_object"}
+    for group in ("robot_nominal", "robot_calibrated"):
+        assert {p for p in objects if p.startswith(f"/meshcat/pincal/{group}/")} == {
+            f"/meshcat/pincal/{group}/{delta_frame}/{visual}"
+            for delta_frame, visual in _visual_paths(cal.problem.robot)}
+    for group in ("points", "error_before", "error_after"):
+        assert {p for p in objects if p.startswith(f"/meshcat/pincal/samples/{group}/")} == {
+            f"/meshcat/pincal/samples/{group}/{k:03d}" for k in range(N_TRAIN)}
+    ghost = next(c for c in commands if c["path"] == "/meshcat/pincal/robot_nominal/platform/visual_0")
+    solid = next(c for c in commands if c["path"] == "/meshcat/pincal/robot_calibrated/platform/visual_0")
+    assert ghost["object"]["materials"][0]["transparent"] and ghost["object"]["materials"][0]["opacity"] < 1
+    assert not solid["object"]["materials"][0]["transparent"]
+    (animation,) = [c for c in commands if c["type"] == "set_animation"]
+    clips = {a["path"]: a["clip"] for a in animation["animations"]}
+    assert "/meshcat/pincal/robot_calibrated/platform" in clips and "/meshcat/pincal/samples/current" in clips
+    times = [key["time"] for key in clips["/meshcat/pincal/samples/current"]["tracks"][0]["keys"]]
+    assert times[::2] == list(range(N_TRAIN))  # one held frame per sample: time = sample index
+    # offline: the page loads nothing from anywhere
+    assert not re.search(r"""(?:src|href)\s*=\s*["']?\s*(?:https?:)?//""", page)
+    assert "MeshCat.Viewer" in page
+
+
+def _visual_paths(robot: pincal.Robot) -> set[tuple[str, str]]:
+    visuals, _ = robot_visuals(robot)
+    return {(str(robot.model.frames[v.frame_id].name), v.name) for v in visuals}
+
+
+class _LiveWindow:
+    """Stands in for meshcat's ViewerWindow (a running server): it receives each command."""
+
+    def __init__(self) -> None:
+        self.received: list[dict[str, Any]] = []
+
+    def send(self, command: Any) -> None:
+        self.received.append(command.lower())
+
+
+def test_the_same_drawing_goes_to_a_live_meshcat_window(delta_case: tuple[Simulation, Calibration]) -> None:
+    _, cal = delta_case
+    view = CalibrationView.from_calibration(cal)
+    live = _LiveWindow()
+    draw_calibration(meshcat.Visualizer(window=live), view)
+    recorded = StaticScene()
+    draw_calibration(recorded.visualizer(), view)
+    assert [(c["type"], c.get("path")) for c in live.received] == \
+        [(c["type"], c.get("path")) for c in (cmd.lower() for cmd in recorded.commands)]
+    replayed = _LiveWindow()
+    recorded.replay(meshcat.Visualizer(window=replayed))
+    assert len(replayed.received) == len(recorded.commands) > 3 * N_TRAIN
+
+
+def test_scene_in_a_real_browser(tmp_path: Path, delta_case: tuple[Simulation, Calibration]) -> None:
+    sim, cal = delta_case
+    view = CalibrationView.from_calibration(cal)
+    page, summary = static_scene(view)
+    (tmp_path / "scene.html").write_text(page, encoding="utf-8")
+    k = 17
+    with served(tmp_path) as base:
+        shown = render(f"{base}scene.html#sample={k}", tmp_path / "scene.png")
+    match = re.search(r'<pre id="pincal-scene-status"[^>]*>(.*?)</pre>', shown.dom, re.S)
+    assert match and match.group(1), "the page's script did not report the scene it built"
+    status = json.loads(html.unescape(match.group(1)))
+    assert status["webgl"], "no WebGL in the browser: nothing could be drawn"
+    # the browser built the robots' parts and every sample's marker and error segments
+    assert status["robot_nominal"] == status["robot_calibrated"] == summary.n_visuals == 15
+    assert set(status["frames"]) == LINKS_WITH_VISUALS
+    assert status["points"] == status["error_before"] == status["error_after"] == N_TRAIN
+    assert status["animation_seconds"] == pytest.approx(N_TRAIN - 1 + 0.9, abs=1e-5)
+    # stepping to sample k moved the highlight to its measured point and the robot to its pose there
+    assert status["sample"] == k
+    measured = sim.dataset.of_set("train").measurements["position:end_effector"][k]
+    np.testing.assert_allclose(status["current_point"], measured, atol=1e-6)
+    _, _, calibrated, q_calibrated = configurations(view)
+    platform = calibrated.placement(q_calibrated[k], "platform").translation
+    np.testing.assert_allclose(status["calibrated_frames"]["platform"], platform, atol=1e-6)
+    assert np.linalg.norm(status["calibrated_frames"]["platform"] - measured) < 1e-4  # the calibration fits
+    # and it is on the screen: not blank, and the orange robot fills part of the view below the legend
+    assert pixel_variance(shown.screenshot) > 30
+    assert orange_pixels(shown.screenshot[240:]) > 3000
+
+
+def test_progress_bar_draws_unless_quiet() -> None:
+    stream = io.StringIO()
+    with Progress("forward kinematics", 4, stream=stream) as progress:
+        for _ in range(4):
+            progress.advance()
+    assert stream.getvalue().endswith(f"forward kinematics [{'#' * 30}] 4/4\n")
+    silent = io.StringIO()
+    with Progress("forward kinematics", 4, quiet=True, stream=silent) as progress:
+        progress.advance(4)
+    assert silent.getvalue() == ""
+
+
+def test_view_command_and_result_reuse(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                       delta_case: tuple[Simulation, Calibration]) -> None:
+    sim, cal = delta_case
+    data, result, scene = tmp_path / "measurements.csv", tmp_path / "result.json", tmp_path / "scene.html"
+    write_dataset(sim.dataset, data)
+    assert main(["calibrate", "delta", str(data), "--parameters", "model24", "--report", str(result)]) == 0
+    capsys.readouterr()
+    assert main(["view", "delta", str(data), "--parameters", "model24", "--result", str(result),
+                 "--out", str(scene), "--quiet"]) == 0
+    out = capsys.readouterr()
+    assert f"wrote {scene}" in out.out and "15 shapes per robot" in out.out and f"{N_TRAIN} samples" in out.out
+    assert out.err == ""  # --quiet
+    assert "pincal-scene-status" in scene.read_text(encoding="utf-8")
+    # the result read back gives the calibration's own errors
+    view = CalibrationView.from_result(cal.problem.robot, sim.dataset, json.loads(result.read_text()), ["model24"])
+    np.testing.assert_allclose(view.x, cal.result.x, atol=1e-15)
+    key = "position:end_effector"
+    np.testing.assert_allclose(view.errors_after[key], cal.result.errors_after[key], atol=1e-9)
+    # a result made with other parameters than those asked for: one line, saying what to do
+    assert main(["view", "delta", str(data), "--result", str(result), "--out", str(scene), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("pincal: error:") and "--parameters" in err[0]
