@@ -40,6 +40,8 @@ OUTLIER_FALSE_ALARM = 1e-3
 CAUCHY_C = 2.3849  # 95 % efficiency under Gaussian noise
 #: Largest error [m, rad] counted as an exact fit: FK closes loops to 1e-11, so fits end near 1e-12.
 NUMERICAL_FLOOR = 1e-9
+#: Relative cost change per step below which three steps in a row count as a stationary cost.
+STATIONARY = 1e-6
 
 
 @dataclass
@@ -161,9 +163,19 @@ def _row_weights(problem: Problem, sample_weights: Array) -> Array:
     return np.asarray(sample_weights[problem.row_samples()], dtype=np.float64)
 
 
-def _step(js: Array, r: Array, solver: str, lam: float, rank: int, rcond: float, ridge: float) -> Array:
+def _practical_tol(jacobian: Array, scales: Array, rank_tol: float, min_information: float) -> float:
+    """Relative rank tolerance with an absolute floor ``min_information`` on the singular values."""
+    largest = float(np.linalg.norm(jacobian * scales, 2)) if jacobian.size else 0.0
+    if largest <= 0.0:
+        return rank_tol
+    return min(max(rank_tol, min_information / largest), 0.5)
+
+
+def _step(js: Array, r: Array, solver: str, lam: float, rank: int, rcond: float, ridge: float,
+          floor: float = 0.0) -> Array:
     """One scaled step (see the module docstring); the ``lm`` step keeps singular values above
-    ``rcond`` (the rank tolerance) relative to the largest, at most ``rank`` of them."""
+    ``rcond`` (the rank tolerance) relative to the largest and above ``floor`` (absolute), at most
+    ``rank`` of them."""
     if solver == "ridge":
         h = js.T @ js
         h[np.diag_indices_from(h)] += ridge
@@ -172,7 +184,7 @@ def _step(js: Array, r: Array, solver: str, lam: float, rank: int, rcond: float,
     u, s, vt = np.linalg.svd(js, full_matrices=False)
     if not s.size or s[0] == 0.0:
         return np.zeros(js.shape[1])
-    keep = s > rcond * s[0]
+    keep = s > max(rcond * s[0], floor)
     if solver == "lm":
         keep &= np.arange(s.size) < rank
     s_k = s[keep]
@@ -215,6 +227,7 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: str, loss: str, *
 
 def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", loss: str = "linear",
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
+             min_information: float = 0.0,
              tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False) -> CalibrationResult:
     """Estimate the parameters from the data.
 
@@ -230,6 +243,10 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
         max_iter: Iteration limit.
         tol: Stop when the relative cost decrease or the scaled step falls below ``tol``.
         rank_tol: Relative singular-value threshold for identifiability (see :mod:`pincal.analysis`).
+        min_information: Absolute floor on the singular values of the weighted, scaled Jacobian: a
+            direction below it has an a-priori standard deviation over 1/min_information times the
+            parameters' typical size (e.g. 1e-2: 100 × 1 mm or 1 mrad), so these data do not identify it
+            in practice, whatever its numerical rank. Off (0) by default.
         tsvd_rcond: TSVD truncation, relative to the largest singular value.
         ridge: Ridge parameter in scaled units.
         strict: Refuse (IdentifiabilityError) when not every parameter is identifiable.
@@ -250,7 +267,8 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
     pred = problem.evaluate(x)
     assert pred.jacobian is not None
     errors_before = pred.errors
-    ident = analyse(pred.jacobian, pset.names, scales, tol=rank_tol)
+    ident = analyse(pred.jacobian, pset.names, scales, tol=_practical_tol(pred.jacobian, scales, rank_tol,
+                                                                          min_information))
     active = ident.base_indices
     if strict and ident.rank < len(pset):
         words = "; ".join(c.description for c in ident.unidentifiable[:5])
@@ -270,11 +288,12 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
     rw = np.sqrt(_row_weights(problem, weights))
     cost = 0.5 * float(np.sum((rw * pred.residual) ** 2))
     history = [cost]
-    lam, converged, message, it = 1e-3, False, "iteration limit reached", 0
+    lam, converged, message, it, slow = 1e-3, False, "iteration limit reached", 0, 0
     for it in range(1, max_iter + 1):  # noqa: B007 (it is reported after the loop)
         js = pred.jacobian[:, moving] * d * rw[:, None]
         cut = (rank_tol if identifiable_only else 1e-15) if solver == "lm" else tsvd_rcond
-        dz = _step(js, rw * pred.residual, solver, lam, rank, cut, ridge)
+        floor = min_information if identifiable_only and solver == "lm" else 0.0
+        dz = _step(js, rw * pred.residual, solver, lam, rank, cut, ridge, floor)
         accepted = False
         shrink = 1.0
         for _ in range(12):
@@ -291,7 +310,7 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
                     break
             if solver == "lm":
                 lam *= 10.0
-                dz = _step(js, rw * pred.residual, solver, lam, rank, cut, ridge)
+                dz = _step(js, rw * pred.residual, solver, lam, rank, cut, ridge, floor)
             else:
                 shrink *= 0.5
         if not accepted or new is None:
@@ -317,10 +336,20 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
         if decrease <= tol * max(cost, 1e-300) or step_size <= tol or cost <= 1e-30:
             converged, message = True, "converged"
             break
+        # weakly identifiable directions can keep LM creeping for many iterations with no effect on the
+        # predictions: three steps in a row that change the cost by < 1e-6 relative, or — once the residual
+        # is at the noise level (½χ² comparable to the number of rows) — by < 0.01 in ½χ², which no test
+        # could tell from noise, make a stationary cost
+        noise_level = cost > 0.05 * pred.residual.size
+        slow = slow + 1 if decrease <= STATIONARY * max(cost, 1e-300) or (noise_level and decrease < 1e-2) else 0
+        if slow >= 3:
+            converged, message = True, "converged (cost stationary)"
+            break
     # identifiability at the estimate: a special nominal geometry (parallel axes) can hide directions
     # that the generic true robot shows
     assert pred.jacobian is not None
-    ident = analyse(pred.jacobian, pset.names, scales, tol=rank_tol)
+    ident = analyse(pred.jacobian, pset.names, scales,
+                    tol=_practical_tol(pred.jacobian, scales, rank_tol, min_information))
     active = ident.base_indices
     jac = pred.jacobian[:, active] * rw[:, None]
     dof = max(pred.residual.size - len(active), 1)

@@ -24,7 +24,8 @@ from pincal.calibration import observations_from
 from pincal.dataset import Dataset
 from pincal.errors import DataError
 from pincal.problem import CalibrationProblem
-from pincal.viewer import CalibrationView, Progress, add_calibration_options, load_view, static_scene
+from pincal.progress import Progress
+from pincal.viewer import CalibrationView, add_calibration_options, load_view, static_scene
 
 Array = npt.NDArray[np.float64]
 
