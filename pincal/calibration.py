@@ -110,7 +110,7 @@ def choose_parameters(robot: Robot, models: Sequence[Measurement], spec: Sequenc
     return pool.select(list(spec))
 
 
-def unusable_samples(robot: Robot, actuated: Array, max_condition: float = 1e8) -> list[tuple[int, str]]:
+def unusable_samples(robot: Robot, actuated: Array, max_condition: float = 1e5) -> list[tuple[int, str]]:
     """Samples the nominal robot cannot assemble (FK does not converge) or that sit at a singularity
     (the passive joints are not determined by the actuated readings), with the reason for each."""
     out: list[tuple[int, str]] = []

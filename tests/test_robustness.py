@@ -52,3 +52,22 @@ def test_unreachable_samples_are_dropped_and_listed() -> None:
     assert [d["sample"] for d in cal.report["dropped_samples"]] == ["4"]
     assert "forward kinematics did not converge" in cal.report["dropped_samples"][0]["reason"]
     assert cal.report["n_samples"] == 29 and cal.result.converged
+
+
+def test_singular_samples_are_named() -> None:
+    """A four-bar at the end of its crank's range (coupler and rocker aligned): the passive joints are no
+    longer determined by the crank, so the sample is refused as singular, with the reason."""
+    import math
+
+    from mechanisms import FOUR_BAR, FOUR_BAR_CRANK_HOME, four_bar_urdf
+
+    from pincal.calibration import unusable_samples
+    from pincal.robot import robot_from_urdf_text
+
+    robot = robot_from_urdf_text(four_bar_urdf())
+    a, b, c, d = (FOUR_BAR[k] for k in "abcd")
+    limit = math.acos((a * a + d * d - (b + c) ** 2) / (2 * a * d)) - FOUR_BAR_CRANK_HOME  # crank reading
+    bad = unusable_samples(robot, np.array([[0.1], [limit], [0.3], [limit + 0.2]]))
+    assert [k for k, _ in bad] == [1, 3]
+    assert bad[0][1].startswith("singular configuration")
+    assert "did not converge" in bad[1][1]  # beyond the range: no assembly at all
