@@ -19,8 +19,6 @@ mean and worst case.
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import sys
 import time
@@ -29,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from study_cli import study_main  # examples/ is on sys.path when run as a script
 
 import pincal
 from pincal import measurements as ms
@@ -600,22 +599,7 @@ def _figures(figures: Path, ns: list[int], kappa: dict[str, tuple[list[float], l
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
-    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="fewer seeds (a few seconds)")
-    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "results", help="output directory")
-    parser.add_argument("--json", type=Path, help="also write the numbers as JSON here")
-    parser.add_argument("--serial", action="store_true", help="no process pool")
-    args = parser.parse_args(argv)
-    summary = run(args.quick, args.out, None if args.serial else "process")
-    if args.json:
-        args.json.write_text(json.dumps(summary, indent=1, default=_jsonable), encoding="utf-8")
-    return summary
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    return float(value)
+    return study_main(run, __doc__, "fewer seeds (a few seconds)", argv)
 
 
 if __name__ == "__main__":

@@ -14,8 +14,6 @@ the text extraction, a fixed pattern is used), stopped at ‖ΔE‖ < 0.01 (mm a
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import sys
 import time
@@ -25,6 +23,7 @@ from typing import Any
 
 import numpy as np
 import pinocchio as pin
+from study_cli import study_main  # examples/ is on sys.path when run as a script
 
 import pincal
 from pincal import measurements as ms
@@ -549,16 +548,7 @@ def _figures(figures: Path, sens: Any, runs: dict[str, dict[str, Any]]) -> None:
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
-    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="fewer workspace samples and candidates (seconds)")
-    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "results", help="output directory")
-    parser.add_argument("--json", type=Path, help="also write the numbers as JSON here")
-    parser.add_argument("--serial", action="store_true", help="no process pool")
-    args = parser.parse_args(argv)
-    summary = run(args.quick, args.out, None if args.serial else "process")
-    if args.json:
-        args.json.write_text(json.dumps(summary, indent=1, default=float), encoding="utf-8")
-    return summary
+    return study_main(run, __doc__, "fewer workspace samples and candidates (seconds)", argv)
 
 
 if __name__ == "__main__":

@@ -20,7 +20,7 @@ from pincal.robot import Robot, load_robot
 
 EXIT_ERROR = 2
 #: Modules that add subcommands through ``register(subparsers)`` (skipped while absent).
-EXTENSIONS = ("pincal.viewer", "pincal.report")
+EXTENSIONS = ("pincal.viewer", "pincal.report", "pincal.study_commands")
 
 
 def _describe(robot: Robot) -> str:

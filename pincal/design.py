@@ -35,6 +35,7 @@ from pincal.analysis import base_parameters
 from pincal.errors import DataError
 from pincal.measurements import Pose
 from pincal.problem import CalibrationProblem
+from pincal.progress import Progress
 
 Array = npt.NDArray[np.float64]
 Indices = Sequence[int] | npt.NDArray[np.int_]
@@ -206,7 +207,8 @@ def _scaled_subset(blocks: npt.ArrayLike, indices: Indices, scales: npt.ArrayLik
 def select_poses(candidates: CalibrationProblem | npt.ArrayLike, k: int, criterion: str = "condition",
                  scales: npt.ArrayLike | None = None, columns: Sequence[int] | None = None,
                  names: Sequence[str] | None = None, initial: Sequence[int] = (), exchange: bool = True,
-                 max_passes: int = 3, difference: bool = False, screen: int | None = 64) -> PoseSelection:
+                 max_passes: int = 3, difference: bool = False, screen: int | None = 64,
+                 progress: bool = False) -> PoseSelection:
     """Choose ``k`` poses among the candidates by condition number or D-optimality.
 
     Args:
@@ -224,6 +226,8 @@ def select_poses(candidates: CalibrationProblem | npt.ArrayLike, k: int, criteri
         difference: Rows are differences of consecutive poses (incremental measurement).
         screen: For ``condition``, score exactly only this many candidates per step, those adding the
             most information where the set is weakest (None: all; the search is then slower).
+        progress: Show a progress bar on stderr (when it is a terminal): one tick per greedy addition
+            and per exchange step (a pose position tried in a pass); passes not needed are skipped.
 
     Raises:
         DataError: unknown criterion, ``k`` out of range, or malformed blocks.
@@ -254,15 +258,18 @@ def select_poses(candidates: CalibrationProblem | npt.ArrayLike, k: int, criteri
         selected = [int(np.argmax(np.einsum("nii->n", gram)))]
     info = _set_information(b, gram, selected, difference)
     history: list[float] = []
-    while len(selected) < k:
-        regular, value, info_of = _candidates(b, gram, info, selected, None, criterion, ridge, difference, screen)
-        best = _best(regular, value, selected)
-        selected.append(best)
-        info = info_of(best)
-        history.append(_reported(bool(regular[best]), float(value[best]), criterion))
-    exchanges = 0
-    if exchange:
-        for _ in range(max_passes):
+    steps = (k - len(selected)) + (max_passes * (k - len(fixed)) if exchange else 0)
+    with Progress("pose selection", steps, quiet=not progress) as bar:
+        while len(selected) < k:
+            regular, value, info_of = _candidates(b, gram, info, selected, None, criterion, ridge, difference,
+                                                  screen)
+            best = _best(regular, value, selected)
+            selected.append(best)
+            info = info_of(best)
+            history.append(_reported(bool(regular[best]), float(value[best]), criterion))
+            bar.advance()
+        exchanges = 0
+        for _ in range(max_passes if exchange else 0):
             changed = 0
             for pos in range(len(fixed), len(selected)):
                 reg_now, val_now = _score(info, criterion, ridge)
@@ -275,9 +282,11 @@ def select_poses(candidates: CalibrationProblem | npt.ArrayLike, k: int, criteri
                     selected[pos] = best
                     info = info_of(best)
                     changed += 1
+                bar.advance()
             exchanges += changed
             if not changed:
                 break
+        bar.finish()
     return PoseSelection(selected, criterion, condition_number(b, selected, difference=difference),
                          log_det(b, selected, difference=difference), list(cols), dropped, history, exchanges)
 

@@ -15,7 +15,7 @@ import functools
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -27,6 +27,7 @@ from pincal.errors import ConvergenceError, DataError
 from pincal.identification import calibration_gain, error_norms, identify, rms
 from pincal.measurements import parse_key
 from pincal.problem import CalibrationProblem
+from pincal.progress import Progress
 from pincal.robot import Robot, load_robot
 from pincal.simulation import perturbation, random_actuated, simulate_observations
 
@@ -118,7 +119,8 @@ def _timed(trial: Trial, seed: int, level: Any) -> tuple[dict[str, float], float
 
 
 def run_monte_carlo(trial: Trial, seeds: Sequence[int], levels: Sequence[Any] = (None,),
-                    executor: Executor | str | None = "process", max_workers: int | None = None) -> MonteCarloResult:
+                    executor: Executor | str | None = "process", max_workers: int | None = None,
+                    progress: bool = False) -> MonteCarloResult:
     """Run ``trial(seed, level)`` for every level and seed.
 
     Args:
@@ -129,6 +131,7 @@ def run_monte_carlo(trial: Trial, seeds: Sequence[int], levels: Sequence[Any] = 
         executor: An Executor to submit to (left open), ``"process"`` for a new process pool (closed
             at the end), or None to run serially in this process.
         max_workers: Workers of the pool created for ``"process"``.
+        progress: Show a progress bar on stderr (when it is a terminal), one tick per finished trial.
 
     Returns:
         The records in (level, seed) order; identical whichever executor ran them, for a trial
@@ -140,22 +143,33 @@ def run_monte_carlo(trial: Trial, seeds: Sequence[int], levels: Sequence[Any] = 
         raise DataError("a Monte Carlo study needs at least one seed and one level")
     jobs = [(level, seed) for level in levels for seed in seeds]
     result = MonteCarloResult(levels, seeds)
-    if executor is None:
-        outcomes = [_timed(trial, seed, level) for level, seed in jobs]
-    elif isinstance(executor, str):
-        if executor != "process":
-            raise DataError(f"executor must be an Executor, 'process' or None; got '{executor}'")
-        with ProcessPoolExecutor(max_workers=max_workers) as pool:
-            outcomes = _submit(pool, trial, jobs)
-    else:
-        outcomes = _submit(executor, trial, jobs)
+    if isinstance(executor, str) and executor != "process":
+        raise DataError(f"executor must be an Executor, 'process' or None; got '{executor}'")
+    with Progress("Monte Carlo trials", len(jobs), quiet=not progress) as bar:
+        if executor is None:
+            outcomes = []
+            for level, seed in jobs:
+                outcomes.append(_timed(trial, seed, level))
+                bar.advance()
+        elif isinstance(executor, str):
+            with ProcessPoolExecutor(max_workers=max_workers) as pool:
+                outcomes = _submit(pool, trial, jobs, bar)
+        else:
+            outcomes = _submit(executor, trial, jobs, bar)
     result.records = [TrialRecord(level, seed, metrics, seconds)
                       for (level, seed), (metrics, seconds) in zip(jobs, outcomes, strict=True)]
     return result
 
 
-def _submit(executor: Executor, trial: Trial, jobs: list[tuple[Any, int]]) -> list[tuple[dict[str, float], float]]:
-    futures = [executor.submit(_timed, trial, seed, level) for level, seed in jobs]
+def _submit(executor: Executor, trial: Trial, jobs: list[tuple[Any, int]],
+            bar: Progress) -> list[tuple[dict[str, float], float]]:
+    """The trials' outcomes in ``jobs`` order; the bar ticks as they finish, in whatever order, and the
+    first trial to fail raises at once."""
+    futures: list[Future[tuple[dict[str, float], float]]] = [executor.submit(_timed, trial, seed, level)
+                                                            for level, seed in jobs]
+    for done in as_completed(futures):
+        done.result()
+        bar.advance()
     return [f.result() for f in futures]
 
 

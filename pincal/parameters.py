@@ -239,6 +239,8 @@ def candidate_parameters(robot: Robot, frames: Sequence[str] = (), offsets: Sequ
         base: Include the base placement in the measurement frame (6 parameters).
         markers: Include a point offset for each measured frame (3 parameters each).
     """
+    for f in frames:
+        robot.frame_id(f)  # NotFoundError naming the frame and listing the valid ones
     params: list[Parameter] = []
     model = robot.model
     normal = planar_normal(robot)

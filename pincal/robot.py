@@ -321,20 +321,26 @@ def check_reference_assembly(robot: Robot, where: str = "URDF") -> None:
     if not robot.loops:
         return
     r, jac = robot.kinematics.closure_jacobian(robot.q_reference)
+    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
+        raise LoopError(f"{where}: the loop closures evaluate to non-finite numbers at the reference "
+                        "configuration: an origin, axis or length is out of range")
     for name, rows in robot.closure.loop_slices().items():
         worst = float(np.max(np.abs(r[rows])))
         if worst > REFERENCE_TOLERANCE:
             raise LoopError(f"{where}: loop '{name}' does not close at the reference configuration (all "
                             f"joints zero): residual {worst:.3g} m/rad > {REFERENCE_TOLERANCE:g}. Assemble "
                             "the file so that every loop closes with every joint at zero.")
-    rank = int(np.linalg.matrix_rank(jac, tol=1e-8))
+    try:
+        rank = int(np.linalg.matrix_rank(jac, tol=1e-8))
+        rank_p = int(np.linalg.matrix_rank(jac[:, robot.kinematics.passive_v], tol=1e-8))
+    except np.linalg.LinAlgError:
+        raise LoopError(f"{where}: the closure Jacobian at the reference configuration cannot be decomposed "
+                        "(numbers out of range)") from None
     mobility = robot.model.nv - rank
     if mobility != robot.n_actuated:
         raise LoopError(f"{where}: mobility is {mobility} (nv {robot.model.nv} minus closure rank {rank}) but "
                         f"{robot.n_actuated} joints are actuated ({listing(robot.actuated_joints) or 'none'}); "
                         "declare one <transmission> per actuated joint")
-    passive = jac[:, robot.kinematics.passive_v]
-    rank_p = int(np.linalg.matrix_rank(passive, tol=1e-8))
     if rank_p < robot.kinematics.passive_v.size:
         raise LoopError(f"{where}: the actuated joints ({listing(robot.actuated_joints)}) do not determine the "
                         f"passive joints at the reference configuration (passive closure rank {rank_p} < "

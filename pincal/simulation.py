@@ -16,6 +16,7 @@ from pincal.errors import ConvergenceError, DataError
 from pincal.measurements import Measurement, Pose
 from pincal.parameters import ParameterSet
 from pincal.problem import CalibrationProblem, Observations
+from pincal.progress import Progress
 from pincal.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -30,11 +31,12 @@ def perturbation(parameters: ParameterSet, scale: float, rng: np.random.Generato
 
 
 def random_actuated(robot: Robot, n: int, rng: np.random.Generator, spread: float | None = None,
-                    max_condition: float = 1e4) -> tuple[Array, Array]:
+                    max_condition: float = 1e4, progress: bool = False) -> tuple[Array, Array]:
     """``n`` random reachable actuated inputs (N, na) and their closed configurations (N, nq).
 
     Inputs are uniform within ``±spread`` of the reference (clipped to the joint limits); samples whose
     FK fails or whose passive closure Jacobian is ill-conditioned (near a singularity) are redrawn.
+    ``progress`` shows a bar on stderr (when it is a terminal), one tick per accepted sample.
     """
     half = SPREAD.get(robot.name, 0.5 if robot.loops else np.pi) if spread is None else spread
     model = robot.model
@@ -45,22 +47,24 @@ def random_actuated(robot: Robot, n: int, rng: np.random.Generator, spread: floa
     qa_out: list[Array] = []
     q_out: list[Array] = []
     attempts = 0
-    while len(qa_out) < n:
-        attempts += 1
-        if attempts > 50 * n + 100:
-            raise ConvergenceError(f"only {len(qa_out)} of {n} random postures of '{robot.name}' were reachable "
-                                   f"within ±{half} of the reference; try a smaller spread")
-        qa = rng.uniform(lo, hi)
-        report = robot.solve_fk_report(qa)
-        if not report.converged:
-            continue
-        if robot.loops:
-            _, jac = robot.kinematics.closure_jacobian(report.q)
-            s = np.linalg.svd(jac[:, robot.kinematics.passive_v], compute_uv=False)
-            if s[-1] <= 0 or s[0] / s[-1] > max_condition:
+    with Progress(f"postures of '{robot.name}'", n, quiet=not progress) as bar:
+        while len(qa_out) < n:
+            attempts += 1
+            if attempts > 50 * n + 100:
+                raise ConvergenceError(f"only {len(qa_out)} of {n} random postures of '{robot.name}' were "
+                                       f"reachable within ±{half} of the reference; try a smaller spread")
+            qa = rng.uniform(lo, hi)
+            report = robot.solve_fk_report(qa)
+            if not report.converged:
                 continue
-        qa_out.append(qa)
-        q_out.append(report.q)
+            if robot.loops:
+                _, jac = robot.kinematics.closure_jacobian(report.q)
+                s = np.linalg.svd(jac[:, robot.kinematics.passive_v], compute_uv=False)
+                if s[-1] <= 0 or s[0] / s[-1] > max_condition:
+                    continue
+            qa_out.append(qa)
+            q_out.append(report.q)
+            bar.advance()
     return np.array(qa_out), np.array(q_out)
 
 

@@ -120,6 +120,9 @@ def _loop(node: ET.Element, links: set[str], link_list: list[str]) -> LoopSpec:
         raise LoopError(f"loop '{name}' has type '{kind}'; valid types are: {listing(LOOP_ROWS)}")
     pred, pred_origin = _anchor(node, "predecessor", name, links, link_list)
     succ, succ_origin = _anchor(node, "successor", name, links, link_list)
+    for side, origin in (("predecessor", pred_origin), ("successor", succ_origin)):
+        if float(np.max(np.abs(origin.translation))) > MAX_ORIGIN:
+            raise LoopError(f"loop '{name}' {side} origin is beyond {MAX_ORIGIN:g} m: a typo or a unit error")
     if pred == succ:
         raise LoopError(f"loop '{name}' joins link '{pred}' to itself")
     axis_node = node.find("axis")
@@ -188,11 +191,20 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
     return UrdfExtensions(root.get("name", "robot"), loops, transmitted, link_list, joints)
 
 
+#: Largest plausible joint-origin translation [m]: beyond it a value is a typo or a unit error.
+MAX_ORIGIN = 1e4
+
+
 def check_finite_origins(text: str, source: str = "URDF") -> None:
-    """Refuse joint origins with NaN/inf or non-numeric values (Pinocchio would read them silently)."""
+    """Refuse joint origins with NaN/inf, non-numeric or implausibly large values (Pinocchio would
+    read them silently)."""
     root = ET.fromstring(text)
     for joint in root.findall("joint"):
-        origin_to_se3(joint.find("origin"), f"{source}: joint '{joint.get('name')}'")
+        placement = origin_to_se3(joint.find("origin"), f"{source}: joint '{joint.get('name')}'")
+        if float(np.max(np.abs(placement.translation))) > MAX_ORIGIN:
+            raise RobotFileError(f"{source}: joint '{joint.get('name')}' origin xyz "
+                                 f"{np.array2string(placement.translation, precision=4)} m is beyond {MAX_ORIGIN:g} m: "
+                                 "a typo or a unit error (URDF lengths are in metres)")
         axis = joint.find("axis")
         if axis is not None:
             values = _floats(axis.get("xyz"), 3, f"{source}: joint '{joint.get('name')}' axis")

@@ -88,3 +88,9 @@ def test_calibrate_with_the_implicit_formulation(tmp_path: Path) -> None:
     data = json.loads(report.read_text())
     assert data["formulation"] == "ikm" and data["converged"]
     assert data["test_rms_after"] < 1e-9 < 1e-4 < data["test_rms_before"]
+
+
+def test_unknown_frame_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["simulate", "delta", "--measure", "pose", "--frame", "nope", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "frame 'nope' does not exist" in err[0] and "end_effector" in err[0]

@@ -49,6 +49,10 @@ def test_delta_structure(delta: pincal.Robot) -> None:
          r"contains NaN"),
         (('<link name="rod_1_cross"', '<link name="rod_2"'), pincal.RobotFileError,
          r"duplicate link name 'rod_2'"),
+        (('"rod_1"><origin xyz="0.0 0.0 -0.48"', '"rod_1"><origin xyz="0.0 0.0 -1.3e154"'), pincal.LoopError,
+         r"loop 'leg_1_platform' predecessor origin is beyond 10000 m"),
+        (('<origin xyz="0.26 0.0 0.0"', '<origin xyz="260.0e3 0.0 0.0"'), pincal.RobotFileError,
+         r"joint 'rod_1_pitch' origin xyz \[260000.*beyond 10000 m: a typo or a unit error"),
     ],
 )
 def test_malformed_files_name_the_culprit(tmp_path: Path, delta_text: str, edit: tuple[str, str],

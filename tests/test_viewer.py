@@ -21,16 +21,10 @@ from conftest import ROBOTS
 import pincal
 from pincal.cli import main
 from pincal.dataset import write_dataset
-from pincal.viewer import (
-    CalibrationView,
-    Progress,
-    StaticScene,
-    configurations,
-    draw_calibration,
-    resolve_mesh,
-    robot_visuals,
-    static_scene,
-)
+from pincal.progress import Progress
+from pincal.static_page import StaticScene
+from pincal.viewer import CalibrationView, configurations, draw_calibration, static_scene
+from pincal.visuals import resolve_mesh, robot_visuals
 from pincal.workflow import Calibration, Simulation, calibrate, simulate
 
 N_TRAIN = 30

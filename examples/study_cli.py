@@ -1,0 +1,32 @@
+"""The command line shared by the study examples: ``--quick``, ``--out``, ``--json``, ``--serial``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _jsonable(value: Any) -> Any:
+    return value.tolist() if isinstance(value, np.ndarray) else float(value)
+
+
+def study_main(run: Callable[[bool, Path, str | None], dict[str, Any]], doc: str | None, quick_help: str,
+               argv: list[str] | None = None) -> dict[str, Any]:
+    """Parse the common options, call ``run(quick, out, executor)`` and optionally write its numbers as JSON."""
+    parser = argparse.ArgumentParser(description=(doc or "").split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help=quick_help)
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "results", help="output directory")
+    parser.add_argument("--json", type=Path, help="also write the numbers as JSON here")
+    parser.add_argument("--serial", action="store_true", help="no process pool")
+    args = parser.parse_args(argv)
+    summary = run(args.quick, args.out, None if args.serial else "process")
+    if args.json:
+        args.json.write_text(json.dumps(summary, indent=1, default=_jsonable), encoding="utf-8")
+    return summary

@@ -1,0 +1,194 @@
+"""The 3D scene as one self-contained HTML file: a recording meshcat window and the page around it.
+
+:class:`StaticScene` is a meshcat window that records the drawing commands instead of sending them to
+a server; :func:`scene_page` writes them with the viewer JavaScript shipped in the meshcat package (so
+the file needs no network), a legend, and a slider that steps through the samples. The page also
+writes what the browser built into ``#pincal-scene-status`` (JSON), for people and for tests.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.errors import PincalError
+from pincal.visuals import CALIBRATED_COLOR, ERROR_COLORMAP, NOMINAL_COLOR, POINT_COLOR
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass
+class SceneSummary:
+    """What :func:`pincal.viewer.draw_calibration` drew: what the legend shows and the browser test checks.
+
+    Attributes:
+        frames: Robot frames carrying shapes (node names under ``robot_nominal``/``robot_calibrated``).
+        n_visuals: Shapes per robot.
+        n_samples: Samples (markers, error segments and animation frames).
+        magnification: Factor applied to the error segments.
+        error_scale: Error [m] mapped to the top of the colour map.
+        sample_before, sample_after: Per-sample error sizes [m] (for the step-through label).
+        notes: What could not be drawn.
+        has_points: Whether 3D points are measured (else the markers are the calibrated end effector).
+        has_lengths: Whether the sample errors are lengths (else there are none to show).
+    """
+
+    frames: list[str]
+    n_visuals: int
+    n_samples: int
+    magnification: float
+    error_scale: float
+    sample_before: Array
+    sample_after: Array
+    notes: list[str]
+    has_points: bool
+    has_lengths: bool
+
+
+class StaticScene:
+    """A meshcat window that records drawing commands instead of sending them to a server.
+
+    ``meshcat.Visualizer(window=StaticScene())`` draws as usual; :meth:`replay` sends the recording to
+    a live visualizer and :func:`scene_page` writes it as a self-contained page.
+    """
+
+    def __init__(self) -> None:
+        self.commands: list[Any] = []
+
+    def send(self, command: Any) -> None:
+        self.commands.append(command)
+
+    def visualizer(self) -> Any:
+        import meshcat
+
+        return meshcat.Visualizer(window=self)
+
+    def packed(self) -> list[bytes]:
+        """The commands as the msgpack buffers meshcat's JavaScript decodes."""
+        import umsgpack
+
+        return [umsgpack.packb(command.lower()) for command in self.commands]
+
+    def replay(self, vis: Any) -> None:
+        """Send every recorded command to ``vis`` (e.g. ``meshcat.Visualizer()``)."""
+        for command in self.commands:
+            vis.window.send(command)
+
+
+def meshcat_javascript() -> str:
+    """The meshcat viewer bundle shipped in the meshcat package (three.js included; no network)."""
+    import meshcat
+
+    path = Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"
+    try:
+        return path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise PincalError(f"the meshcat viewer JavaScript is missing ({path}): reinstall meshcat") from exc
+
+
+PAGE_STYLE = """
+body { margin: 0; font: 13px/1.35 system-ui, sans-serif; background: linear-gradient(#fbfcfd, #c9d3df); }
+#meshcat-pane { width: 100vw; height: 100vh; overflow: hidden; }
+#pincal-panel { position: absolute; left: 10px; top: 10px; max-width: 390px; padding: 8px 10px;
+  background: rgba(255,255,255,.88); border-radius: 6px; box-shadow: 0 1px 4px rgba(0,0,0,.25); }
+#pincal-panel h1 { font-size: 14px; margin: 0 0 4px; }
+#pincal-panel .key { display: inline-block; width: 11px; height: 11px; border-radius: 2px; vertical-align: -1px; }
+#pincal-panel .bar { height: 9px; border-radius: 2px; margin: 2px 0 0; }
+#pincal-panel .ticks { display: flex; justify-content: space-between; font-size: 11px; color: #444; }
+#pincal-panel input[type=range] { width: 190px; vertical-align: middle; }
+#pincal-panel button { padding: 0 6px; }
+#pincal-sample-label { font-variant-numeric: tabular-nums; }
+"""
+
+PAGE_SCRIPT = """
+var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
+(function () {
+  var commands = %(commands)s, samples = %(samples)s;
+  commands.forEach(function (c) {
+    var bytes = Uint8Array.from(atob(c), function (ch) { return ch.charCodeAt(0); });
+    viewer.handle_command_bytearray(bytes);
+  });
+  var animator = viewer.animator;
+  animator.play(); animator.pause();  // activate the per-sample animation, stopped at sample 0
+  var slider = document.getElementById("pincal-sample"), label = document.getElementById("pincal-sample-label");
+  function show(k) {
+    k = Math.max(0, Math.min(samples.count - 1, k));
+    slider.value = k; animator.seek(k); animator.display_progress(k);
+    var errors = samples.before ? ": " + samples.before[k] + " \\u2192 " + samples.after[k] + " mm" : "";
+    label.textContent = "sample " + k + errors;
+  }
+  slider.addEventListener("input", function () { show(+slider.value); });
+  document.getElementById("pincal-prev").onclick = function () { show(+slider.value - 1); };
+  document.getElementById("pincal-next").onclick = function () { show(+slider.value + 1); };
+  document.addEventListener("keydown", function (e) {
+    if (e.key === "ArrowLeft") show(+slider.value - 1);
+    if (e.key === "ArrowRight") show(+slider.value + 1);
+  });
+  var start = /sample=(\\d+)/.exec(window.location.hash);
+  show(start ? +start[1] : 0);
+  // what the browser built, for people and for tests
+  function node(path) { return viewer.scene_tree.find(["meshcat", "pincal"].concat(path)); }
+  function meshes(path) { var n = 0; node(path).object.traverse(function (o) { if (o.isMesh) n++; }); return n; }
+  function where(path) { return node(path).object.position.toArray(); }
+  var frames = Object.keys(node(["robot_calibrated"]).children), placed = {};
+  frames.forEach(function (f) { placed[f] = where(["robot_calibrated", f]); });
+  var status = {
+    robot_nominal: meshes(["robot_nominal"]), robot_calibrated: meshes(["robot_calibrated"]), frames: frames,
+    points: meshes(["samples", "points"]), error_before: meshes(["samples", "error_before"]),
+    error_after: meshes(["samples", "error_after"]), animation_seconds: animator.duration,
+    sample: +slider.value, current_point: where(["samples", "current"]), calibrated_frames: placed,
+    webgl: !!(viewer.renderer && viewer.renderer.getContext())
+  };
+  var out = document.getElementById("pincal-scene-status");
+  out.textContent = JSON.stringify(status);
+  if (window.parent !== window) window.parent.postMessage({pincalScene: status}, "*");
+})();
+"""
+
+
+def _legend(summary: SceneSummary, title: str) -> str:
+    from matplotlib import colormaps
+
+    cmap = colormaps[ERROR_COLORMAP]
+    stops = ", ".join("#{:02x}{:02x}{:02x}".format(*(int(255 * c) for c in cmap(t)[:3])) for t in np.linspace(0, 1, 6))
+    scale_mm = summary.error_scale * 1e3
+    ticks = "".join(f"<span>{v:.3g}</span>" for v in np.linspace(0, scale_mm, 5))
+    points = "measured point" if summary.has_points else "calibrated end effector (no 3D measurement)"
+    segments = (f"<div>each sample's error, from the measured point towards each model's prediction, "
+                f"magnified ×{summary.magnification:g} and coloured by size [mm]: long before calibration, "
+                "short after</div>"
+                f"<div class='bar' style='background: linear-gradient(to right, {stops})'></div>"
+                f"<div class='ticks'>{ticks}</div>") if summary.has_points else ""
+    return f"""<div id="pincal-panel">
+<h1>{html.escape(title)}</h1>
+<div><span class="key" style="background:#{NOMINAL_COLOR:06x};opacity:.45"></span> nominal robot (ghost)
+ &nbsp;<span class="key" style="background:#{CALIBRATED_COLOR:06x}"></span> calibrated robot
+ &nbsp;<span class="key" style="background:#{POINT_COLOR:06x};border-radius:50%"></span> {points}</div>
+{segments}
+<div style="margin-top:4px"><button id="pincal-prev" title="previous sample (←)">&#9664;</button>
+<input type="range" id="pincal-sample" min="0" max="{summary.n_samples - 1}" value="0">
+<button id="pincal-next" title="next sample (→)">&#9654;</button>
+<span id="pincal-sample-label"></span></div>
+<div class="ticks">steps through the {summary.n_samples} samples (error before → after); drag to orbit</div>
+<pre id="pincal-scene-status" hidden></pre>
+</div>"""
+
+
+def scene_page(scene: StaticScene, summary: SceneSummary, title: str) -> str:
+    """A self-contained HTML page of the recorded scene, with a legend and a sample slider."""
+    commands = json.dumps([base64.b64encode(c).decode("ascii") for c in scene.packed()])
+    samples = json.dumps({"count": summary.n_samples,
+                          "before": [f"{v * 1e3:.4g}" for v in summary.sample_before] if summary.has_lengths else None,
+                          "after": [f"{v * 1e3:.4g}" for v in summary.sample_after] if summary.has_lengths else None})
+    script = PAGE_SCRIPT % {"commands": commands, "samples": samples}
+    return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
+            f"<style>{PAGE_STYLE}</style></head>\n<body>\n<div id=\"meshcat-pane\"></div>\n"
+            f"{_legend(summary, title)}\n<script>{meshcat_javascript()}</script>\n<script>{script}</script>\n"
+            "</body></html>\n")

@@ -1,0 +1,267 @@
+"""The study commands: ``pincal design`` (which postures to measure) and ``pincal montecarlo`` (how well a
+calibration campaign recovers the geometry, over random seeds and noise levels).
+
+``design`` draws random reachable candidate postures, stacks each one's rows of the identification
+Jacobian (:func:`pincal.design.jacobian_blocks`), chooses the requested number by condition number or
+D-optimality (:func:`pincal.design.select_poses`) and compares the choice with random sets of the same
+size; the chosen actuated values go to a CSV a user can drive the robot to. ``montecarlo`` repeats
+:class:`pincal.montecarlo.SimulatedCalibration` over seeds and noise levels in a process pool and prints
+one row per noise level. SI units throughout: m, rad.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.calibration import choose_parameters
+from pincal.dataset import Dataset, write_dataset
+from pincal.design import CRITERIA, PoseSelection, condition_number, jacobian_blocks, log_det, select_poses
+from pincal.errors import DataError, NotFoundError, listing
+from pincal.measurements import Distance, JointReading, Measurement, Pose
+from pincal.montecarlo import MonteCarloResult, SimulatedCalibration, run_monte_carlo
+from pincal.problem import CalibrationProblem, Observations
+from pincal.robot import Robot, load_robot
+from pincal.simulation import random_actuated
+from pincal.workflow import measurement_models
+
+Array = npt.NDArray[np.float64]
+
+#: Random pose sets the selection is compared with.
+RANDOM_SETS = 200
+
+
+def checked_measurements(robot: Robot, kinds: list[str], frame: str | None) -> list[Measurement]:
+    """The measurement models of ``--measure``/``--frame``, every frame and joint they name checked.
+
+    Raises:
+        NotFoundError: a named frame or joint is not in the robot (the valid ones are listed).
+    """
+    models = measurement_models(robot, kinds, frame, 1e-5)
+    for m in models:
+        for name in m.frames:
+            robot.frame_id(name)
+        if isinstance(m, JointReading) and not robot.model.existJointName(m.joint):
+            joints = [str(name) for name in robot.model.names[1:]]
+            raise NotFoundError(f"measurement '{m.key}' reads joint '{m.joint}', which is not in robot "
+                                f"'{robot.name}'; joints are: {listing(joints)}")
+    return models
+
+
+# --- design --------------------------------------------------------------------------------------
+def joint_unit(robot: Robot, joint: str) -> str:
+    """``m`` for a prismatic joint, ``rad`` otherwise."""
+    model = robot.model
+    shortname = model.joints[model.getJointId(joint)].shortname()
+    return "m" if shortname.startswith("JointModelP") and "Planar" not in shortname else "rad"
+
+
+def blank_observations(measurements: list[Measurement], actuated: Array) -> Observations:
+    """Observations at ``actuated`` (N, na) with every measured value zero (an identity quaternion for
+    poses): enough to linearise the problem there, whose Jacobian does not depend on the readings."""
+    n = actuated.shape[0]
+    values: dict[str, Array] = {}
+    for m in measurements:
+        values[m.key] = np.zeros((n, 7 if isinstance(m, Pose) else m.size))
+        if isinstance(m, Pose):
+            values[m.key][:, 6] = 1.0
+    return Observations(actuated, values)
+
+
+def _absolute(measurements: list[Measurement]) -> tuple[list[Measurement], bool]:
+    """The measurements with incremental distances made absolute, and whether they were incremental.
+
+    A scale reset between readings sees differences of consecutive postures: the design is then made
+    on the absolute rows with ``difference=True`` (:mod:`pincal.design`). That needs every measurement
+    to be incremental.
+    """
+    incremental = [m for m in measurements if m.incremental]
+    if not incremental:
+        return measurements, False
+    if len(incremental) != len(measurements):
+        raise DataError(f"cannot design for incremental ({listing(m.key for m in incremental)}) and absolute "
+                        "measurements together: choose poses for one kind at a time")
+    return [Distance(m.key.replace("distance_increment:", "distance:", 1), m.size, m.sigma, m.frame_a, m.frame_b)
+            for m in incremental if isinstance(m, Distance)], True
+
+
+def random_set_baseline(blocks: Array, k: int, selection: PoseSelection, scales: Array, difference: bool,
+                        rng: np.random.Generator, count: int = RANDOM_SETS) -> tuple[float, float]:
+    """Median κ and median ``log det`` of ``count`` random ``k``-sets of the candidates, on the columns
+    the selection was made for (an unidentifiable random set counts as κ = ∞, log det = −∞)."""
+    n = blocks.shape[0]
+    kappas, logdets = [], []
+    for _ in range(count):
+        indices = rng.choice(n, k, replace=False)
+        kappas.append(condition_number(blocks, indices, scales, selection.columns, difference))
+        logdets.append(log_det(blocks, indices, scales, selection.columns, difference))
+    return float(np.median(kappas)), float(np.median(logdets))
+
+
+def cmd_design(args: argparse.Namespace) -> int:
+    robot = load_robot(args.robot)
+    if args.candidates < 1 or not 1 <= args.poses <= args.candidates:
+        raise DataError(f"cannot choose {args.poses} of {args.candidates} candidate postures: need "
+                        "1 <= --poses <= --candidates")
+    models, difference = _absolute(checked_measurements(robot, args.measure, args.frame))
+    pset = choose_parameters(robot, models, args.parameters)
+    rng = np.random.default_rng(args.seed)
+    qa, _ = random_actuated(robot, args.candidates, rng, progress=not args.quiet)
+    problem = CalibrationProblem(robot, pset, models, blank_observations(models, qa))
+    blocks = jacobian_blocks(problem)
+    scales = np.asarray(pset.scales, dtype=float)
+    selection = select_poses(blocks, args.poses, args.criterion, scales=scales, names=pset.names,
+                             difference=difference, progress=not args.quiet)
+    kappa_random, logdet_random = random_set_baseline(blocks, args.poses, selection, scales, difference, rng)
+
+    keys = ", ".join(m.key.replace("distance:", "distance_increment:", 1) if difference else m.key
+                     for m in models)
+    print(f"design for '{robot.name}': {args.poses} of {args.candidates} random reachable postures "
+          f"(seed {args.seed}), measuring {keys}, by {args.criterion}")
+    print(f"parameters: {len(pset)}; designed for the {len(selection.columns)} the candidates can identify")
+    if selection.dropped:
+        print(f"  left out, not separable from the others at any candidate ({len(selection.dropped)}): "
+              f"{listing(selection.dropped, 8)}")
+    finite = np.isfinite([selection.condition_number, kappa_random]).all()
+    print(f"{'scaled identification Jacobian':40}{'chosen':>12}{'random (median)':>18}")
+    print(f"{'condition number κ (lower is better)':40}{selection.condition_number:>12.4g}{kappa_random:>18.4g}"
+          + (f"   {kappa_random / selection.condition_number:.1f}× lower" if finite else ""))
+    print(f"{'log det(JᵀJ) (higher is better)':40}{selection.log_det:>12.4g}{logdet_random:>18.4g}")
+    print(f"  (random: median over {RANDOM_SETS} random sets of {args.poses} of the same candidates)")
+    chosen = qa[selection.indices]
+    units = [joint_unit(robot, j) for j in robot.actuated_joints]
+    if args.out:
+        out = Path(args.out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_dataset(Dataset(list(robot.actuated_joints), chosen, {}, [str(k) for k in range(len(chosen))],
+                              ["train"] * len(chosen),
+                              {"robot": robot.name, "units": "SI (m, rad)", "design": args.criterion,
+                               "condition number": f"{selection.condition_number:.6g}",
+                               "candidates": str(args.candidates), "seed": str(args.seed),
+                               "measure": keys}), out)
+        print(f"wrote {out}: {len(chosen)} postures (in measuring order) × {len(units)} actuated joints "
+              f"({', '.join(f'{j} [{u}]' for j, u in zip(robot.actuated_joints, units, strict=True))})")
+    else:
+        print("chosen postures, in measuring order (actuated values):")
+        print("  " + "".join(f"{f'{j} [{u}]':>22}" for j, u in zip(robot.actuated_joints, units, strict=True)))
+        for row in chosen:
+            print("  " + "".join(f"{v:>22.9f}" for v in row))
+    return 0
+
+
+# --- Monte Carlo ---------------------------------------------------------------------------------
+#: The table's metrics: name, heading, factor to the printed unit, format.
+TABLE = (("rms_before", "RMS before [mm]", 1e3, "{:.4f}"), ("rms_after", "RMS after [mm]", 1e3, "{:.4f}"),
+         ("gain", "G [%]", 1.0, "{:.1f}"), ("iterations", "iterations", 1.0, "{:.0f}"))
+
+
+def monte_carlo_table(result: MonteCarloResult) -> str:
+    """One row per noise level: median [min, max] over the trials of the held-out RMS errors before and
+    after calibration, the calibration gain G and the solver's iterations, and how many converged."""
+    headings = [heading for _, heading, _, _ in TABLE]
+    lines = [f"{'noise σ [m, rad]':>16}" + "".join(f"  {h:>23}" for h in headings) + f"{'converged':>11}"]
+    for level in result.levels:
+        cells = []
+        for name, _, factor, fmt in TABLE:
+            s = result.summary(name, level)
+            if not s.n:
+                cells.append("-")
+                continue
+            cells.append(f"{fmt.format(s.median * factor)} [{fmt.format(s.minimum * factor)}, "
+                         f"{fmt.format(s.maximum * factor)}]")
+        converged = result.values("converged", level)
+        lines.append(f"{level:>16g}" + "".join(f"  {c:>23}" for c in cells)
+                     + f"{f'{int(np.nansum(converged))}/{converged.size}':>11}")
+    return "\n".join(lines)
+
+
+def cmd_montecarlo(args: argparse.Namespace) -> int:
+    robot = load_robot(args.robot)  # fails here, once, on a bad name rather than in every worker
+    if args.trials < 1:
+        raise DataError(f"--trials must be at least 1, not {args.trials}")
+    if args.samples < 1 or args.test_samples < 1:
+        raise DataError(f"--samples and --test-samples must be at least 1 (got {args.samples}, "
+                        f"{args.test_samples}): the table compares held-out errors")
+    if args.workers is not None and args.workers < 1:
+        raise DataError(f"--workers must be at least 1, not {args.workers}")
+    if any(not np.isfinite(v) or v < 0 for v in args.noise) or not args.perturb >= 0:
+        raise DataError("--noise and --perturb must be non-negative σ values [m, rad]")
+    models = checked_measurements(robot, args.measure, args.frame)
+    n_parameters = len(choose_parameters(robot, models, args.parameters))  # a bad pattern fails here, once
+    source = str(Path(args.robot).resolve()) if Path(args.robot).is_file() else args.robot
+    trial = SimulatedCalibration(source, tuple(m.key for m in models),
+                                 tuple(args.parameters) if args.parameters else None, n_train=args.samples,
+                                 n_test=args.test_samples, perturb=args.perturb, solver=args.solver)
+    seeds = list(range(args.seed, args.seed + args.trials))
+    start = time.perf_counter()
+    result = run_monte_carlo(trial, seeds, list(args.noise), executor=None if args.workers == 1 else "process",
+                             max_workers=args.workers, progress=not args.quiet)
+    print(f"Monte Carlo on '{robot.name}': {args.trials} trials (seeds {seeds[0]}..{seeds[-1]}) per noise level; "
+          f"true errors σ {args.perturb:g} (m, rad) on {n_parameters} parameters")
+    print(f"measuring {', '.join(m.key for m in models)}; {args.samples} postures to calibrate, "
+          f"{args.test_samples} held out")
+    print("cells: median [min, max] over the trials. RMS: held-out length errors. G: calibration gain of study 000 "
+          "Eq. 4.1 over all parameters (capped when some cannot be identified)")
+    print(monte_carlo_table(result))
+    if not args.quiet:
+        print(f"{len(result.records)} calibrations in {time.perf_counter() - start:.1f} s", file=sys.stderr)
+    return 0
+
+
+# --- command line --------------------------------------------------------------------------------
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``design`` and ``montecarlo`` commands."""
+    design = sub.add_parser(
+        "design", help="choose the postures to measure: best conditioned among random candidates",
+        description="Draw N random reachable postures, linearise the calibration at each, and choose K of them "
+                    "minimising the condition number of the scaled identification Jacobian (or maximising "
+                    "log det, d-optimal). Prints κ of the choice against random sets of K and writes the chosen "
+                    "actuated values (SI: rad, m) as a CSV to drive the robot to; add the measurement columns "
+                    "once measured and calibrate from it.",
+        epilog="example: pincal design delta --candidates 300 --poses 12 --measure position --parameters model24 "
+               "--out poses.csv")
+    design.add_argument("robot", help="URDF file or known robot name")
+    design.add_argument("--candidates", type=int, default=300, help="random candidate postures (default 300)")
+    design.add_argument("--poses", type=int, required=True, help="postures to choose")
+    design.add_argument("--measure", nargs="+", default=["position"],
+                        help="position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME")
+    design.add_argument("--frame", help="measured frame for position/pose (default: the end effector)")
+    design.add_argument("--parameters", nargs="+", help="a named set or name patterns (default: all candidates)")
+    design.add_argument("--criterion", choices=CRITERIA, default="condition",
+                        help="condition: minimise κ (default); d-optimal: maximise log det(JᵀJ)")
+    design.add_argument("--seed", type=int, default=0, help="random seed of the candidates")
+    design.add_argument("--out", metavar="CSV",
+                        help="CSV of the chosen actuated values [rad or m] (default: print them)")
+    design.add_argument("--quiet", action="store_true", help="no progress bars")
+    design.set_defaults(func=cmd_design)
+
+    mc = sub.add_parser(
+        "montecarlo", help="repeat a simulated calibration over seeds and noise levels; table of results",
+        description="For each noise level and each of T seeds: draw true errors (σ --perturb), random postures "
+                    "and noisy measurements (σ = the level), calibrate, and measure the held-out errors. Prints "
+                    "per noise level the median and range of the held-out RMS error before and after, of the "
+                    "calibration gain G and of the iterations. Trials run in a process pool (--workers 1: "
+                    "serially); the table depends only on the seed. Units: m, rad.",
+        epilog="example: pincal montecarlo delta --trials 20 --samples 60 --measure position --parameters model24 "
+               "--perturb 1e-3 --noise 1e-5 1e-4 --workers 4")
+    mc.add_argument("robot", help="URDF file or known robot name")
+    mc.add_argument("--trials", type=int, default=10, help="seeds per noise level (default 10)")
+    mc.add_argument("--samples", type=int, default=60, help="postures to calibrate from (default 60)")
+    mc.add_argument("--test-samples", type=int, default=20, help="held-out postures per trial (default 20)")
+    mc.add_argument("--measure", nargs="+", default=["position"],
+                    help="position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME")
+    mc.add_argument("--frame", help="measured frame for position/pose (default: the end effector)")
+    mc.add_argument("--perturb", type=float, default=1e-3, help="σ of the true errors [m and rad] (default 1e-3)")
+    mc.add_argument("--noise", type=float, nargs="+", default=[1e-5],
+                    help="measurement noise σ levels [m, rad] (default 1e-5)")
+    mc.add_argument("--parameters", nargs="+", help="a named set or name patterns (default: all candidates)")
+    mc.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm")
+    mc.add_argument("--workers", type=int, help="processes (default: the machine's cores; 1: serial)")
+    mc.add_argument("--seed", type=int, default=0, help="first seed (trials use seed, seed+1, ...)")
+    mc.add_argument("--quiet", action="store_true", help="no progress bar or timing")
+    mc.set_defaults(func=cmd_montecarlo)

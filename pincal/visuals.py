@@ -1,0 +1,210 @@
+"""How pincal draws in meshcat: a robot's URDF visuals as meshcat shapes, and the scene's colours.
+
+Boxes, cylinders and spheres become meshcat primitives; meshes are embedded from local files only
+(``package://``, ``file://`` or relative to the URDF; nothing is ever downloaded) and only when small
+enough to keep a static page light, else the link's collision mesh stands in. A robot with nothing
+drawable is drawn as a skeleton of its joints. Poses are (4, 4) homogeneous matrices [m].
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.errors import RobotFileError
+from pincal.robot import Robot
+from pincal.urdf import origin_to_se3
+
+Array = npt.NDArray[np.float64]
+
+NOMINAL_COLOR = 0x4f86c6
+CALIBRATED_COLOR = 0xe8833a
+POINT_COLOR = 0x1e1e1e
+CURRENT_COLOR = 0xffd21f
+GHOST_OPACITY = 0.3
+#: Colour map of the error segments, from 0 to the largest error before calibration.
+ERROR_COLORMAP = "RdYlGn_r"
+#: Mesh files larger than this are not embedded (the link's collision mesh is tried instead).
+MAX_MESH_BYTES = 400_000
+
+
+def error_colors(values: Array, scale: float) -> list[int]:
+    """Colours (0xRRGGBB) of errors ``values`` [m] on :data:`ERROR_COLORMAP` from 0 to ``scale``."""
+    import matplotlib
+
+    cmap = matplotlib.colormaps[ERROR_COLORMAP]
+    rgba = cmap(np.clip(np.asarray(values) / (scale or 1.0), 0.0, 1.0))
+    return [int(r * 255) << 16 | int(g * 255) << 8 | int(b * 255) for r, g, b, _ in np.atleast_2d(rgba)]
+
+
+@dataclass(frozen=True)
+class Visual:
+    """One shape fixed to a Pinocchio frame.
+
+    Attributes:
+        frame_id: The frame (a URDF link, or a joint for the skeleton fallback).
+        name: Node name, unique within the frame.
+        geometry: A ``meshcat.geometry`` geometry.
+        placement: (4, 4) pose of the shape in the frame [m] (mesh scale included).
+    """
+
+    frame_id: int
+    name: str
+    geometry: Any
+    placement: Array
+
+
+def _cylinder_along_z(origin: pin.SE3) -> Array:
+    # meshcat cylinders run along y, URDF ones along z
+    return origin.homogeneous @ pin.SE3(pin.utils.rotate("x", math.pi / 2), np.zeros(3)).homogeneous
+
+
+def resolve_mesh(uri: str, urdf_dir: Path) -> Path | None:
+    """Local file of a URDF mesh reference (``package://``, ``file://`` or relative); None if absent.
+
+    ``package://pkg/rest`` is looked for as ``pkg/rest`` beside the URDF file and in each of its parent
+    directories (the layout of example-robot-data); nothing is ever downloaded.
+    """
+    if uri.startswith("file://"):
+        path = Path(uri[len("file://"):])
+        return path if path.is_file() else None
+    if uri.startswith("package://"):
+        package, _, rest = uri[len("package://"):].partition("/")
+        for folder in (urdf_dir, *urdf_dir.parents):
+            for candidate in (folder / package / rest, folder / rest if folder.name == package else None):
+                if candidate is not None and candidate.is_file():
+                    return candidate
+        return None
+    path = urdf_dir / uri
+    return path if path.is_file() else None
+
+
+def _mesh_geometry(path: Path) -> Any:
+    import meshcat.geometry as mg
+
+    loaders = {".stl": mg.StlMeshGeometry, ".obj": mg.ObjMeshGeometry, ".dae": mg.DaeMeshGeometry}
+    return loaders[path.suffix.lower()].from_file(str(path))
+
+
+def _mesh_visual(link: ET.Element, visual: ET.Element, urdf_dir: Path, budget: int) -> tuple[Any, Array] | None:
+    """The visual's mesh, or the link's collision mesh, that meshcat can load within ``budget`` bytes.
+
+    STL and OBJ come first: three.js's Collada loader re-orients Z-up files.
+    """
+    candidates = [visual, *link.findall("collision")]
+    found = []
+    for element in candidates:
+        mesh = element.find("geometry/mesh")
+        if mesh is None:
+            continue
+        path = resolve_mesh(mesh.get("filename", ""), urdf_dir)
+        if path is None or path.suffix.lower() not in (".stl", ".obj", ".dae") or path.stat().st_size > budget:
+            continue
+        scale = [float(v) for v in mesh.get("scale", "1 1 1").split()]
+        placement = origin_to_se3(element.find("origin"), f"link '{link.get('name')}' mesh").homogeneous
+        found.append((path.suffix.lower() == ".dae", path, placement @ np.diag([*scale, 1.0])))
+    if not found:
+        return None
+    _, path, placement = min(found, key=lambda item: item[0])
+    return _mesh_geometry(path), placement
+
+
+def robot_visuals(robot: Robot, max_mesh_bytes: int = MAX_MESH_BYTES) -> tuple[list[Visual], list[str]]:
+    """The robot's URDF visuals as meshcat shapes, and notes on what could not be drawn.
+
+    Boxes, cylinders and spheres are drawn as such; meshes are embedded when their file is found
+    locally and is small enough, else the link's collision mesh, else they are skipped (noted). A robot
+    with nothing drawable gets a skeleton: a sphere per joint and a rod to each child joint.
+    """
+    import meshcat.geometry as mg
+
+    model = robot.model
+    visuals: list[Visual] = []
+    notes: list[str] = []
+    root = None
+    if robot.source is not None:
+        try:
+            root = ET.fromstring(Path(robot.source).read_text(encoding="utf-8"))
+        except (OSError, ET.ParseError) as exc:
+            raise RobotFileError(f"cannot read the visuals of '{robot.source}': {exc}") from None
+    for link in root.findall("link") if root is not None else []:
+        name = link.get("name", "")
+        if not model.existFrame(name, pin.FrameType.BODY):
+            continue
+        fid = int(model.getFrameId(name, pin.FrameType.BODY))
+        for k, visual in enumerate(link.findall("visual")):
+            origin = origin_to_se3(visual.find("origin"), f"link '{name}' visual")
+            shape = visual.find("geometry/*")
+            tag = shape.tag if shape is not None else "none"
+            values = [float(v) for v in (shape.get("size") or "").split()] if shape is not None else []
+            if shape is not None and tag == "box" and len(values) == 3:
+                visuals.append(Visual(fid, f"visual_{k}", mg.Box(values), origin.homogeneous))
+            elif shape is not None and tag == "cylinder":
+                cylinder = mg.Cylinder(float(shape.get("length", 0)), float(shape.get("radius", 0)))
+                visuals.append(Visual(fid, f"visual_{k}", cylinder, _cylinder_along_z(origin)))
+            elif shape is not None and tag == "sphere":
+                visuals.append(Visual(fid, f"visual_{k}", mg.Sphere(float(shape.get("radius", 0))),
+                                      origin.homogeneous))
+            elif tag == "mesh" and robot.source is not None:
+                mesh = _mesh_visual(link, visual, Path(robot.source).parent, max_mesh_bytes)
+                if mesh is None:
+                    notes.append(f"link '{name}': mesh '{shape.get('filename') if shape is not None else ''}' "
+                                 f"not drawn (not found locally, or over {max_mesh_bytes // 1000} kB)")
+                else:
+                    visuals.append(Visual(fid, f"visual_{k}", *mesh))
+            else:
+                notes.append(f"link '{name}': visual {k} ({tag}) not drawn")
+    if not visuals:
+        visuals = _skeleton(robot)
+        notes.append("no drawable visuals: the robot is drawn as a skeleton of its joints")
+    return visuals, notes
+
+
+def _skeleton(robot: Robot) -> list[Visual]:
+    import meshcat.geometry as mg
+
+    model = robot.model
+    data = model.createData()
+    pin.forwardKinematics(model, data, robot.q_reference)
+    size = max((float(np.linalg.norm(data.oMi[j].translation)) for j in range(model.njoints)), default=0.0) or 1.0
+    radius = 0.012 * size
+    out = []
+    for j in range(1, model.njoints):
+        fid = int(model.getFrameId(model.names[j], pin.FrameType.JOINT))
+        out.append(Visual(fid, "joint", mg.Sphere(2 * radius), np.eye(4)))
+        offset = model.jointPlacements[j].translation
+        if np.linalg.norm(offset) > 1e-9:
+            parent = model.parents[j]
+            parent_frame = 0 if parent == 0 else int(model.getFrameId(model.names[parent], pin.FrameType.JOINT))
+            rod = mg.Cylinder(float(np.linalg.norm(offset)), radius)
+            out.append(Visual(parent_frame, f"rod_to_{model.names[j]}", rod, segment_pose(np.zeros(3), offset)))
+    return out
+
+
+def segment_pose(start: Array, end: Array) -> Array:
+    """Pose of a meshcat cylinder (axis y, centred) spanning ``start`` → ``end``."""
+    axis = end - start
+    length = float(np.linalg.norm(axis))
+    y = axis / length if length > 0 else np.array([0.0, 0.0, 1.0])
+    helper = np.array([1.0, 0.0, 0.0]) if abs(y[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, y)
+    x /= np.linalg.norm(x)
+    pose = np.eye(4)
+    pose[:3, :3] = np.column_stack([x, y, np.cross(x, y)])
+    pose[:3, 3] = (start + end) / 2
+    return pose
+
+
+def translation_pose(p: Array) -> Array:
+    """Pose (4, 4) of a pure translation by ``p`` (3,) [m]."""
+    pose = np.eye(4)
+    pose[:3, 3] = p
+    return pose
+

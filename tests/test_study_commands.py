@@ -1,0 +1,158 @@
+"""The study commands ``pincal design`` and ``pincal montecarlo``, run through ``pincal.cli.main``; and the
+progress bars of long work: shown on a terminal unless ``--quiet``, never by library defaults."""
+
+from __future__ import annotations
+
+import io
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pincal
+import pincal.cli
+from pincal import measurements as ms
+from pincal.calibration import choose_parameters
+from pincal.cli import main
+from pincal.dataset import read_dataset
+from pincal.design import jacobian_blocks, select_poses
+from pincal.montecarlo import run_monte_carlo
+from pincal.problem import CalibrationProblem
+from pincal.simulation import random_actuated
+from pincal.study_commands import blank_observations
+
+DESIGN = ["design", "delta", "--candidates", "150", "--poses", "12", "--measure", "position",
+          "--parameters", "model24", "--seed", "1"]
+MONTE_CARLO = ["montecarlo", "five_bar", "--trials", "3", "--samples", "10", "--test-samples", "5",
+               "--measure", "distance:base_link-end_effector", "--parameters", "*.offset",
+               "--noise", "0", "1e-6", "1e-5", "--seed", "4"]
+
+
+class Terminal(io.StringIO):
+    """A stderr that says it is a terminal, so progress bars draw into it."""
+
+    def isatty(self) -> bool:
+        return True
+
+
+@pytest.fixture(autouse=True)
+def study_commands(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The commands as the CLI will have them once ``pincal.study_commands`` is among its extensions."""
+    if "pincal.study_commands" not in pincal.cli.EXTENSIONS:
+        monkeypatch.setattr(pincal.cli, "EXTENSIONS", (*pincal.cli.EXTENSIONS, "pincal.study_commands"))
+
+
+def _number(line: str, position: int) -> float:
+    return float(re.findall(r"-?[\d.]+(?:e[-+]?\d+)?", line)[position])
+
+
+def test_design_beats_random_sets_and_writes_the_chosen_postures(tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "poses.csv"
+    assert main([*DESIGN, "--out", str(out), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    kappa_line = next(line for line in text.splitlines() if line.startswith("condition number κ"))
+    chosen, random_median = _number(kappa_line, 0), _number(kappa_line, 1)
+    assert chosen < 0.5 * random_median
+    # the CSV: K rows of the actuated joints only, SI, readable by pincal (measurement columns to be filled in)
+    robot = pincal.load_robot("delta")
+    data = read_dataset(out, robot.actuated_joints)
+    assert data.n_samples == 12 and data.joint_names == list(robot.actuated_joints) and data.measurements == {}
+    assert out.read_text(encoding="utf-8").splitlines()[7] == "sample,set,arm_1_joint,arm_2_joint,arm_3_joint"
+    assert data.metadata["robot"] == "delta" and data.metadata["units"] == "SI (m, rad)"
+    # they are the candidates the library's selection chooses, and their κ is the one printed
+    models = [ms.position("end_effector", 1e-5)]
+    pset = choose_parameters(robot, models, ["model24"])
+    qa, _ = random_actuated(robot, 150, np.random.default_rng(1))
+    blocks = jacobian_blocks(CalibrationProblem(robot, pset, models, blank_observations(models, qa)))
+    selection = select_poses(blocks, 12, scales=pset.scales)
+    np.testing.assert_array_equal(data.joints, qa[selection.indices])
+    assert chosen == pytest.approx(selection.condition_number, rel=1e-3)
+
+
+def test_design_for_a_scale_reset_uses_differences_and_prints_without_out(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["design", "five_bar", "--candidates", "40", "--poses", "6", "--measure",
+                 "distance_increment:scale_body-scale_slider", "--parameters", "*.offset", "--criterion", "d-optimal",
+                 "--quiet"])
+    text = capsys.readouterr().out
+    assert code == 0 and "measuring distance_increment:scale_body-scale_slider, by d-optimal" in text
+    log_det = next(line for line in text.splitlines() if line.startswith("log det"))
+    assert _number(log_det, 0) > _number(log_det, 1)
+    rows = text.splitlines()[text.splitlines().index("chosen postures, in measuring order (actuated values):") + 2:]
+    assert len(rows) == 6 and all(len(row.split()) == 2 for row in rows)
+
+
+def _table(text: str) -> list[list[str]]:
+    lines = text.splitlines()
+    start = next(k for k, line in enumerate(lines) if line.lstrip().startswith("noise σ"))
+    return [re.split(r"\s{2,}", line.strip()) for line in lines[start + 1:]]
+
+
+def test_monte_carlo_table_has_a_row_per_noise_level_and_depends_only_on_the_seed(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    assert main([*MONTE_CARLO, "--workers", "1", "--quiet"]) == 0
+    serial = capsys.readouterr()
+    assert main([*MONTE_CARLO, "--workers", "2", "--quiet"]) == 0
+    pooled = capsys.readouterr()
+    assert serial.out == pooled.out and serial.err == pooled.err == ""
+    rows = _table(serial.out)
+    assert [float(row[0]) for row in rows] == [0.0, 1e-6, 1e-5]
+    for row in rows:
+        before, after, _, _, converged = row[1:]
+        assert converged == "3/3"
+        assert _number(after, 0) < _number(before, 0)  # medians [mm]
+    # noise-free: the offsets come back exactly; the gain drops as the noise grows
+    assert rows[0][2].startswith("0.0000") and rows[0][3].startswith("100.0")
+    assert _number(rows[2][3], 0) < _number(rows[1][3], 0) <= 100.0
+
+
+def test_progress_shows_on_a_terminal_and_quiet_silences_it(monkeypatch: pytest.MonkeyPatch,
+                                                           capsys: pytest.CaptureFixture[str]) -> None:
+    for args, bars in ((DESIGN, ["postures of 'delta' [", "pose selection ["]),
+                       ([*MONTE_CARLO[:3], "1", *MONTE_CARLO[4:], "--workers", "1"], ["Monte Carlo trials ["])):
+        terminal = Terminal()
+        monkeypatch.setattr(sys, "stderr", terminal)
+        assert main(args) == 0
+        assert all(bar in terminal.getvalue() for bar in bars)
+        terminal = Terminal()
+        monkeypatch.setattr(sys, "stderr", terminal)
+        assert main([*args, "--quiet"]) == 0
+        assert terminal.getvalue() == ""
+    capsys.readouterr()
+
+
+def test_library_functions_stay_silent_unless_asked(monkeypatch: pytest.MonkeyPatch) -> None:
+    terminal = Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    robot = pincal.load_robot("five_bar")
+    random_actuated(robot, 5, np.random.default_rng(0))
+    select_poses(np.random.default_rng(0).normal(size=(20, 2, 3)), 4)
+    run_monte_carlo(lambda seed, level: {"x": float(seed)}, [0, 1], executor=None)
+    assert terminal.getvalue() == ""
+    random_actuated(robot, 5, np.random.default_rng(0), progress=True)
+    assert "postures of 'five_bar' [" in terminal.getvalue()
+
+
+@pytest.mark.parametrize("args", [["design", "deltax", "--poses", "4"], ["montecarlo", "deltax"],
+                                  ["montecarlo", "delta", "--measure", "pose", "--frame", "tool0"],
+                                  ["design", "delta", "--poses", "20", "--candidates", "10"]])
+def test_bad_requests_exit_2_with_one_line(args: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(args) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert len(captured.err.splitlines()) == 1 and captured.err.startswith("pincal: error: ")
+    assert ("known robots are: delta" in captured.err or "frames are: base" in captured.err
+            or "cannot choose 20 of 10" in captured.err)
+
+
+@pytest.mark.parametrize("command", ["design", "montecarlo"])
+def test_help_has_an_example_and_units(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main([command, "--help"])
+    text = capsys.readouterr().out
+    assert exit_info.value.code == 0
+    assert f"example: pincal {command} " in text
+    assert re.search(r"\[(m|rad)\b[^\]]*\]", text) and "rad" in text  # units stated
