@@ -24,9 +24,12 @@ a set are then ``B_{k+1} − B_k`` in selection order.
 
 from __future__ import annotations
 
+import concurrent.futures
 import itertools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -47,7 +50,8 @@ FULL_RANK = 1e-12
 PARTIAL_RIDGE = 1e-9
 
 
-def jacobian_blocks(problem: CalibrationProblem, x: Array | None = None, weighted: bool = True) -> Array:
+def jacobian_blocks(problem: CalibrationProblem, x: Array | None = None, weighted: bool = True,
+                    executor: concurrent.futures.Executor | None = None, chunk: int = 200) -> Array:
     """Each sample's rows of the identification Jacobian, (N, rows per sample, p).
 
     Args:
@@ -55,6 +59,9 @@ def jacobian_blocks(problem: CalibrationProblem, x: Array | None = None, weighte
         x: Parameter estimate to linearise at [m, rad]; nominal (zero) by default.
         weighted: Rows divided by each measurement's σ (as in the residual); otherwise in measurement
             units per parameter unit [m/m, rad/m, ...].
+        executor: Any ``concurrent.futures.Executor`` (a process pool, a Dask client's
+            ``get_executor()``) to compute chunks of ``chunk`` candidates in parallel; each worker rebuilds
+            the robot from its URDF file, so the robot must come from one.
 
     Raises:
         DataError: the problem has an incremental measurement (rows of pairs, not of poses).
@@ -65,6 +72,15 @@ def jacobian_blocks(problem: CalibrationProblem, x: Array | None = None, weighte
                         "poses. Build the candidate problem with the absolute measurement (e.g. "
                         "distance(a, b, increment=False)) and select with difference=True")
     p = len(problem.parameters)
+    n_all = problem.observations.n_samples
+    if executor is not None and n_all > chunk:
+        if problem.robot.source is None:
+            raise DataError(f"robot '{problem.robot.name}' was not loaded from a file: parallel Jacobian blocks "
+                            "rebuild it in each worker from its URDF")
+        text = Path(problem.robot.source).read_text(encoding="utf-8")
+        jobs = [(text, problem.parameters, problem.measurements, problem.observations.subset(np.arange(a, min(a + chunk,
+                n_all))), x, weighted) for a in range(0, n_all, chunk)]
+        return np.concatenate(list(executor.map(_blocks_job, jobs)), axis=0)
     pred = problem.evaluate(np.zeros(p) if x is None else np.asarray(x, dtype=float))
     assert pred.jacobian is not None
     n = problem.observations.n_samples
@@ -78,6 +94,15 @@ def jacobian_blocks(problem: CalibrationProblem, x: Array | None = None, weighte
         parts.append(block)
         start += rows
     return np.concatenate(parts, axis=1)
+
+
+def _blocks_job(job: tuple[str, Any, Any, Any, Array | None, bool]) -> Array:
+    """A worker's share of :func:`jacobian_blocks` (top level, so it pickles)."""
+    from pincal.robot import robot_from_urdf_text
+
+    text, parameters, measurements, observations, x, weighted = job
+    robot = robot_from_urdf_text(text)
+    return jacobian_blocks(CalibrationProblem(robot, parameters, measurements, observations), x, weighted)
 
 
 @dataclass
@@ -106,9 +131,10 @@ class PoseSelection:
 
 
 def _as_blocks(candidates: CalibrationProblem | npt.ArrayLike, scales: npt.ArrayLike | None,
-               names: Sequence[str] | None) -> tuple[Array, Array, list[str]]:
+               names: Sequence[str] | None,
+               executor: concurrent.futures.Executor | None = None) -> tuple[Array, Array, list[str]]:
     if isinstance(candidates, CalibrationProblem):
-        blocks = jacobian_blocks(candidates)
+        blocks = jacobian_blocks(candidates, executor=executor)
         s = candidates.parameters.scales if scales is None else np.asarray(scales, dtype=float)
         labels = list(candidates.parameters.names) if names is None else list(names)
     else:
@@ -208,10 +234,11 @@ def select_poses(candidates: CalibrationProblem | npt.ArrayLike, k: int, criteri
                  scales: npt.ArrayLike | None = None, columns: Sequence[int] | None = None,
                  names: Sequence[str] | None = None, initial: Sequence[int] = (), exchange: bool = True,
                  max_passes: int = 3, difference: bool = False, screen: int | None = 64,
-                 progress: bool = False) -> PoseSelection:
+                 progress: bool = False, executor: concurrent.futures.Executor | None = None) -> PoseSelection:
     """Choose ``k`` poses among the candidates by condition number or D-optimality.
 
     Args:
+        executor: Passed to :func:`jacobian_blocks` when ``candidates`` is a problem (large candidate sets).
         candidates: A :class:`CalibrationProblem` over the candidate poses, or their Jacobian row blocks
             (N, rows, p) as from :func:`jacobian_blocks`.
         k: Number of poses to choose.
@@ -234,7 +261,7 @@ def select_poses(candidates: CalibrationProblem | npt.ArrayLike, k: int, criteri
     """
     if criterion not in CRITERIA:
         raise DataError(f"unknown design criterion '{criterion}'; criteria are: {', '.join(CRITERIA)}")
-    blocks, s, labels = _as_blocks(candidates, scales, names)
+    blocks, s, labels = _as_blocks(candidates, scales, names, executor)
     n = blocks.shape[0]
     fixed = [int(i) for i in initial]
     if not 1 <= k <= n or len(fixed) > k or any(not 0 <= i < n for i in fixed):

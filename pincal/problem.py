@@ -47,7 +47,7 @@ class Observations:
     def n_samples(self) -> int:
         return int(self.actuated.shape[0])
 
-    def subset(self, rows: Sequence[int] | Array) -> Observations:
+    def subset(self, rows: Sequence[int] | npt.NDArray[np.integer] | Array) -> Observations:
         return Observations(self.actuated[rows], {k: v[rows] for k, v in self.values.items()})
 
 

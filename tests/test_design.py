@@ -104,3 +104,28 @@ def test_bad_requests_raise_data_errors(delta_candidates) -> None:
     with pytest.raises(DataError, match="scales"):
         select_poses(blocks, 5, scales=np.ones(3))
     assert condition_number(blocks, [0]) == float("inf")  # 3 rows cannot condition 24 columns
+
+
+def test_jacobian_blocks_through_an_executor_equal_the_serial_ones() -> None:
+    """Large candidate sets: chunks computed in a process pool give the same blocks, and the same choice."""
+    import concurrent.futures
+
+    import pincal
+    from pincal import measurements as ms
+    from pincal.calibration import choose_parameters
+    from pincal.design import jacobian_blocks, select_poses
+    from pincal.problem import CalibrationProblem
+    from pincal.simulation import random_actuated, simulate_observations
+
+    robot = pincal.load_robot("delta")
+    models = [ms.position("end_effector")]
+    pset = choose_parameters(robot, models, ["model24i"])
+    rng = np.random.default_rng(5)
+    qa, _ = random_actuated(robot, 450, rng)
+    obs = simulate_observations(robot, pset, np.zeros(len(pset)), models, qa, rng)
+    serial = jacobian_blocks(CalibrationProblem(robot, pset, models, obs))
+    with concurrent.futures.ProcessPoolExecutor(max_workers=2) as pool:
+        pooled = jacobian_blocks(CalibrationProblem(robot, pset, models, obs), executor=pool, chunk=100)
+        choice = select_poses(CalibrationProblem(robot, pset, models, obs), 24, executor=pool)
+    np.testing.assert_allclose(pooled, serial, rtol=0, atol=1e-9 * np.max(np.abs(serial)))
+    assert choice.indices == select_poses(serial, 24, scales=pset.scales).indices
