@@ -149,8 +149,9 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
     if root.tag != "robot":
         raise RobotFileError(f"{source}: root element is <{root.tag}>, expected <robot>")
     link_list = [n.get("name", "") for n in root.findall("link")]
+    joint_list = [n.get("name", "") for n in root.findall("joint")]
     joints = {n.get("name", ""): n.get("type", "") for n in root.findall("joint")}
-    for kind, names in (("link", link_list), ("joint", list(joints))):
+    for kind, names in (("link", link_list), ("joint", joint_list)):
         seen: set[str] = set()
         for n in names:
             if not n:
@@ -158,8 +159,6 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
             if n in seen:
                 raise RobotFileError(f"{source}: duplicate {kind} name '{n}'")
             seen.add(n)
-    if len(joints) != len(root.findall("joint")):
-        raise RobotFileError(f"{source}: duplicate joint names")
     links = set(link_list)
 
     loops: list[LoopSpec] = []
