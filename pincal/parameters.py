@@ -295,12 +295,16 @@ def model24(robot: Robot) -> ParameterSet:
     With position data, Lay_i and α_i act only through one combination (turning the elbow about the
     motor axis is an arm-angle offset): 21 of the 24 are identifiable, and the analysis says so.
     """
+    return _named(robot, _model24_names("rod_{i}_pitch.tz"), "model24")
+
+
+def _model24_names(lay: str) -> list[str]:
+    """Model 24's names per leg i = 1, 2, 3, with ``lay`` (a format string in i) as the seventh."""
     names = []
     for i in (1, 2, 3):
         names += [f"arm_{i}_joint.tx", f"arm_{i}_joint.ty", f"arm_{i}_joint.tz", f"arm_{i}_joint.rz",
-                  f"arm_{i}_joint.offset", f"rod_{i}_pitch.tx", f"rod_{i}_pitch.tz",
-                  f"leg_{i}_platform.predecessor.tz"]
-    return _named(robot, names, "model24")
+                  f"arm_{i}_joint.offset", f"rod_{i}_pitch.tx", lay.format(i=i), f"leg_{i}_platform.predecessor.tz"]
+    return names
 
 
 def model24_identifiable(robot: Robot) -> ParameterSet:
@@ -310,12 +314,7 @@ def model24_identifiable(robot: Robot) -> ParameterSet:
     direction (2), the arm length, the arm-angle zero and the rod length. Every reading of Lay as a
     length duplicates one of them; the axis tilt is the eighth. All 24 are identifiable.
     """
-    names = []
-    for i in (1, 2, 3):
-        names += [f"arm_{i}_joint.tx", f"arm_{i}_joint.ty", f"arm_{i}_joint.tz", f"arm_{i}_joint.rz",
-                  f"arm_{i}_joint.offset", f"rod_{i}_pitch.tx", f"arm_{i}_joint.rx",
-                  f"leg_{i}_platform.predecessor.tz"]
-    return _named(robot, names, "model24i")
+    return _named(robot, _model24_names("arm_{i}_joint.rx"), "model24i")
 
 
 def hexapod42(robot: Robot, device: bool = False) -> ParameterSet:
