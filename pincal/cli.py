@@ -64,7 +64,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     robot = load_robot(args.robot)
     sim = simulate(robot, args.measure, args.samples, args.test_samples, frame=args.frame, perturb=args.perturb,
-                   noise=args.noise, seed=args.seed, parameter_spec=args.parameters)
+                   noise=args.noise, seed=args.seed, parameter_spec=args.parameters, progress=not args.quiet)
     paths = write_simulation(sim, Path(args.out))
     print(f"simulated {args.samples} + {args.test_samples} postures of '{robot.name}' with errors of "
           f"σ {args.perturb:g} "
@@ -205,6 +205,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--parameters", nargs="+", help="parameters with errors: a named set (model24, hexapod42, "
                                                     "hexapod44) or name patterns (default: all candidates)")
     sim.add_argument("--out", required=True, help="output directory")
+    sim.add_argument("--quiet", action="store_true", help="no progress bar")
     sim.set_defaults(func=cmd_simulate)
 
     cal = sub.add_parser("calibrate", help="identify the geometry from a dataset; write a calibrated URDF",

@@ -60,7 +60,7 @@ class Simulation:
 
 def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, frame: str | None = None,
              perturb: float = 1e-3, noise: float = 1e-5, seed: int = 0,
-             parameter_spec: Sequence[str] | None = None) -> Simulation:
+             parameter_spec: Sequence[str] | None = None, progress: bool = False) -> Simulation:
     """Simulate a calibration campaign on ``robot`` with random true errors.
 
     Args:
@@ -71,6 +71,7 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
         seed: Random seed (same seed, same files).
         parameter_spec: Which parameters carry errors (named set or patterns); default: all
             candidates.
+        progress: Show a progress bar while drawing postures (on a terminal).
     """
     if n_train < 1 or n_test < 0:
         raise DataError(f"need at least one training sample (got {n_train}) and no negative test count")
@@ -78,7 +79,7 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
     models = measurement_models(robot, kinds, frame, max(noise, 1e-9))
     pset = choose_parameters(robot, models, parameter_spec)
     x_true = perturbation(pset, perturb, rng)
-    qa, _ = random_actuated(robot, n_train + n_test, rng)
+    qa, _ = random_actuated(robot, n_train + n_test, rng, progress=progress)
     obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise)
     joint_names = list(robot.actuated_joints)
     joints = [obs.actuated]
