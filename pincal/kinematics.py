@@ -115,6 +115,7 @@ class ClosedLoopKinematics:
         # fast path when every actuated joint has nq == 1 (no unbounded revolutes)
         self._scalar_q = np.array([a.idx_q for a in actuated], dtype=int)
         self._all_scalar = all(a.nq == 1 for a in actuated)
+        self._continuous = np.array([a.nq == 2 for a in actuated], dtype=bool)
 
     # --- actuated coordinates -------------------------------------------------------------------
     def set_actuated(self, q: Array, q_actuated: Array) -> None:
@@ -128,6 +129,14 @@ class ClosedLoopKinematics:
             else:
                 q[joint.idx_q] = math.cos(value)
                 q[joint.idx_q + 1] = math.sin(value)
+
+    def actuated_delta(self, target: Array, current: Array) -> Array:
+        """``target - current`` [rad or m], wrapped into (-π, π] for unbounded (continuous) joints."""
+        delta = np.asarray(target, dtype=float) - current
+        if not self._all_scalar:
+            wrap = self._continuous
+            delta[wrap] = np.remainder(delta[wrap] + np.pi, 2.0 * np.pi) - np.pi
+        return delta
 
     def actuated_values(self, q: Array) -> Array:
         """Actuated values [rad or m] read from ``q``."""
@@ -193,10 +202,11 @@ class ClosedLoopKinematics:
         """Close the loops along a straight path of actuated values from ``start``'s to ``q_actuated``."""
         q = start.copy()
         origin = self.actuated_values(start)
+        path = self.actuated_delta(q_actuated, origin)  # the short way round for continuous joints
         report = SolveReport(q, math.inf, 0, False)
         total = 0
         for k in range(1, steps + 1):
-            self.set_actuated(q, origin + (q_actuated - origin) * (k / steps))
+            self.set_actuated(q, origin + path * (k / steps))
             report = self.close_loops(q, tol if k == steps else max(tol, 1e-8), max_iter=20)
             total += report.iterations
             if not report.converged:
@@ -215,7 +225,8 @@ class ClosedLoopKinematics:
             q = start.copy()
             self.set_actuated(q, q_actuated)
             return SolveReport(q, 0.0, 0, True)
-        span = float(abs(q_actuated - self.actuated_values(start)).max()) if len(self.actuated) else 0.0
+        span = float(abs(self.actuated_delta(q_actuated, self.actuated_values(start))).max()) \
+            if len(self.actuated) else 0.0
         if warm and span <= CONTINUATION_STEP:  # a far guess goes straight to continuation from it
             q = start.copy()
             self.set_actuated(q, q_actuated)

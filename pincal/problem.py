@@ -232,7 +232,11 @@ class CalibrationProblem:
         """
         if not robot.loops:
             return None
-        gaps = np.max(np.abs(self._qa_solved - qa), axis=1)  # NaN rows (unsolved) compare False
+        diff = qa - self._qa_solved
+        wrap = robot.kinematics._continuous
+        if wrap.any():  # continuous joints: the short way round
+            diff[:, wrap] = np.remainder(diff[:, wrap] + np.pi, 2.0 * np.pi) - np.pi
+        gaps = np.max(np.abs(diff), axis=1)  # NaN rows (unsolved) compare False
         k = int(np.nanargmin(gaps)) if np.any(gaps <= CONTINUATION_STEP) else -1
         return None if k < 0 else self._q_cache[k]
 
@@ -359,6 +363,8 @@ class CalibrationProblem:
             else:
                 err = preds[m.key] - measured
                 weights = np.full(m.size, m.sigma)
+                if isinstance(m, JointReading) and self.robot.model.joints[self.robot.model.getJointId(m.joint)].nq == 2:
+                    err = np.remainder(err + np.pi, 2.0 * np.pi) - np.pi  # a continuous joint's reading wraps
             jac = dpreds.get(m.key)
             if m.incremental:
                 err = np.vstack([np.zeros((1, m.size)), preds[m.key][1:] - preds[m.key][:-1] - measured[1:]])

@@ -35,17 +35,20 @@ FOUR_BAR = {"a": 0.25, "b": 0.22, "c": 0.12, "d": 0.30}
 FOUR_BAR_CRANK_HOME = math.pi / 4  # crank angle at the reference configuration [rad]
 
 
-def four_bar_urdf() -> str:
-    """Four-bar with a revolute loop between the coupler end and the rocker end."""
-    a, b, c, d = (FOUR_BAR[k] for k in "abcd")
-    home = FOUR_BAR_CRANK_HOME
+def four_bar_urdf(lengths: dict[str, float] | None = None, home: float = FOUR_BAR_CRANK_HOME,
+                  crank: str = "revolute") -> str:
+    """Four-bar with a revolute loop between the coupler end and the rocker end.
+
+    ``crank="continuous"`` makes the actuated crank an unbounded revolute (nq = 2 in Pinocchio).
+    """
+    a, b, c, d = ((lengths or FOUR_BAR)[k] for k in "abcd")
     pb = a * np.array([math.cos(home), math.sin(home)])
     pc = _circle_intersection(pb, b, np.array([d, 0.0]), c)
     coupler_yaw = math.atan2(*(pc - pb)[::-1]) - home
     rocker_yaw = math.atan2(*(pc - np.array([d, 0.0]))[::-1])
     return f"""<robot name="four_bar">
 <link name="ground"/><link name="crank"/><link name="coupler"/><link name="rocker"/>
-{_joint("crank_joint", "revolute", "ground", "crank", yaw=home)}
+{_joint("crank_joint", crank, "ground", "crank", yaw=home)}
 {_joint("coupler_joint", "revolute", "crank", "coupler", x=a, yaw=coupler_yaw)}
 {_joint("rocker_joint", "revolute", "ground", "rocker", x=d, yaw=rocker_yaw)}
 <loop name="coupler_rocker" type="revolute">

@@ -91,3 +91,27 @@ def test_slider_crank_jacobian_through_the_loop() -> None:
         eps = 1e-6
         fd = (slider_position(home + crank + eps) - slider_position(home + crank - eps)) / (2 * eps)
         np.testing.assert_allclose(jac[:, 0], [fd, 0, 0, 0, 0, 0], atol=1e-8)
+
+
+def test_continuous_crank_takes_the_short_way_round() -> None:
+    """An unbounded crank (nq = 2): readings past ±π are the same angle, not a full turn away."""
+    from pincal import measurements as ms
+    from pincal.parameters import candidate_parameters
+    from pincal.problem import CalibrationProblem, Observations
+
+    crank_rocker = {"a": 0.1, "b": 0.3, "c": 0.25, "d": 0.3}  # Grashof, crank shortest: it turns fully
+    robot = pincal.robot.robot_from_urdf_text(four_bar_urdf(crank_rocker, home=0.0, crank="continuous"))
+    assert robot.model.joints[robot.model.getJointId("crank_joint")].nq == 2
+    q = robot.solve_fk(np.array([3.0]))
+    across = robot.solve_fk_report(np.array([-3.0]), q)  # 0.28 rad further on, across ±π
+    assert across.converged and across.iterations <= 10
+    direct = robot.solve_fk(np.array([2 * math.pi - 3.0]))
+    for link in ("coupler", "rocker"):  # the same mechanism pose (passive angles may differ by 2π)
+        np.testing.assert_allclose(robot.placement(across.q, link).homogeneous,
+                                   robot.placement(direct, link).homogeneous, atol=1e-9)
+    # an encoder on the crank that counts past π reads 3.2 where atan2 gives 3.2 - 2π: no 2π residual
+    pset = candidate_parameters(robot, offsets=[])
+    reading = ms.joint_reading("crank_joint")
+    problem = CalibrationProblem(robot, pset, [reading],
+                                 Observations(np.array([[3.2]]), {reading.key: np.array([[3.2]])}))
+    assert np.max(np.abs(problem.evaluate(np.zeros(len(pset)), jacobian=False).residual)) < 1e-6
