@@ -129,8 +129,15 @@ def unusable_samples(robot: Robot, actuated: Array, max_condition: float = 1e5) 
 
 
 # --- calibrated URDF -------------------------------------------------------------------------------
+def joint_motion(model: pin.Model, jid: int, q: Array) -> pin.SE3:
+    """The motion of joint ``jid`` at configuration ``q`` as a placement (``liMi = placement · motion``)."""
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    return model.jointPlacements[jid].inverse() * data.liMi[jid]
+
+
 def _joint_axis_motion(robot: Robot, joint: str, value: float) -> pin.SE3:
-    """The joint's own motion for ``value`` [rad or m], as a placement (1-DOF joints)."""
+    """A one-DOF joint's motion for ``value`` [rad or m], as a placement."""
     model = robot.model
     jid = model.getJointId(joint)
     q = pin.neutral(model)
@@ -139,9 +146,7 @@ def _joint_axis_motion(robot: Robot, joint: str, value: float) -> pin.SE3:
         q[jm.idx_q] = value
     else:
         q[jm.idx_q:jm.idx_q + 2] = [math.cos(value), math.sin(value)]
-    data = model.createData()
-    pin.forwardKinematics(model, data, q)
-    return model.jointPlacements[jid].inverse() * data.liMi[jid]  # liMi = placement · motion
+    return joint_motion(model, jid, q)
 
 
 def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterSet, x: Array,
@@ -187,9 +192,8 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
             jm = model.joints[jid]
             if name in robot.actuated_joints:
                 continue
-            if jm.nq == 7:
-                placement = pin.XYZQUATToSE3(q[jm.idx_q:jm.idx_q + 7])
-                joint_origins[name] = joint_origins.get(name, root[name]) * placement
+            if jm.nv > 1:  # floating, planar, ...: fold the joint's whole motion into its origin
+                joint_origins[name] = joint_origins.get(name, root[name]) * joint_motion(loose.model, jid, q)
                 continue
             value = q[jm.idx_q] if jm.nq == 1 else math.atan2(q[jm.idx_q + 1], q[jm.idx_q])
             if value != 0.0:

@@ -363,7 +363,7 @@ class CalibrationProblem:
             else:
                 err = preds[m.key] - measured
                 weights = np.full(m.size, m.sigma)
-                if isinstance(m, JointReading) and self.robot.model.joints[self.robot.model.getJointId(m.joint)].nq == 2:
+                if isinstance(m, JointReading) and self._continuous_reading(m.joint):
                     err = np.remainder(err + np.pi, 2.0 * np.pi) - np.pi  # a continuous joint's reading wraps
             jac = dpreds.get(m.key)
             if m.incremental:
@@ -387,6 +387,9 @@ class CalibrationProblem:
         residual = np.concatenate(blocks)
         full = np.vstack(jblocks) if jacobian else None
         return Prediction(residual, full, errors, preds)
+
+    def _continuous_reading(self, joint: str) -> bool:
+        return bool(self.robot.model.joints[self.robot.model.getJointId(joint)].nq == 2)
 
     def _whiten(self, err: Array, jac: Array, weights: Array, absolute_jac: Array,
                 incremental: bool) -> tuple[Array, Array]:

@@ -97,3 +97,28 @@ def slider_position(crank: float) -> float:
     """Closed form: block position on x [m] for a crank angle [rad] (block on the +x side)."""
     a, b = SLIDER["a"], SLIDER["b"]
     return a * math.cos(crank) + math.sqrt(b**2 - (a * math.sin(crank)) ** 2)
+
+
+def planar_coupler_urdf() -> str:
+    """The four-bar with its coupler on a planar joint (nq = 4) from the ground, closed at both ends."""
+    a, b, c, d = (FOUR_BAR[k] for k in "abcd")
+    home = FOUR_BAR_CRANK_HOME
+    pb = a * np.array([math.cos(home), math.sin(home)])
+    pc = _circle_intersection(pb, b, np.array([d, 0.0]), c)
+    coupler_yaw = math.atan2(*(pc - pb)[::-1])
+    rocker_yaw = math.atan2(*(pc - np.array([d, 0.0]))[::-1])
+    return f"""<robot name="planar_coupler">
+<link name="ground"/><link name="crank"/><link name="coupler"/><link name="rocker"/>
+{_joint("crank_joint", "revolute", "ground", "crank", yaw=home)}
+{_joint("coupler_planar", "planar", "ground", "coupler", x=pb[0], y=pb[1], yaw=coupler_yaw)}
+{_joint("rocker_joint", "revolute", "ground", "rocker", x=d, yaw=rocker_yaw)}
+<loop name="crank_coupler" type="revolute">
+  <predecessor link="crank"><origin xyz="{a!r} 0 0"/></predecessor>
+  <successor link="coupler"><origin xyz="0 0 0"/></successor><axis xyz="0 0 1"/>
+</loop>
+<loop name="coupler_rocker" type="revolute">
+  <predecessor link="coupler"><origin xyz="{b!r} 0 0"/></predecessor>
+  <successor link="rocker"><origin xyz="{c!r} 0 0"/></successor><axis xyz="0 0 1"/>
+</loop>
+<transmission name="t"><joint name="crank_joint"/></transmission>
+</robot>"""

@@ -98,3 +98,25 @@ def test_written_urdf_reproduces_the_calibrated_model(name: str, frame: str) -> 
         expected = calibrated.placement(calibrated.solve_fk(readings_true[k]), frame)
         got = reloaded.placement(reloaded.solve_fk(qa[k]), frame)  # the file takes raw readings
         np.testing.assert_allclose(got.homogeneous, expected.homogeneous, atol=1e-12, rtol=0)
+
+
+def test_calibrated_urdf_folds_a_planar_passive_joint() -> None:
+    """Re-assembly folds a multi-DOF passive joint's motion (here planar, nq = 4) into its origin."""
+    import numpy as np
+    from mechanisms import planar_coupler_urdf
+
+    from pincal.calibration import calibrated_robot_text
+    from pincal.parameters import ParameterSet, apply_parameters, candidate_parameters
+    from pincal.robot import robot_from_urdf_text
+
+    text = planar_coupler_urdf()
+    robot = robot_from_urdf_text(text)
+    pset = ParameterSet([p for p in candidate_parameters(robot)
+                         if p.name in ("coupler_rocker.predecessor.tx", "crank_joint.offset")])
+    x = np.array([0.002, 0.01])
+    calibrated = robot_from_urdf_text(calibrated_robot_text(robot, text, pset, x)[0])  # closes at zero: loads
+    truth = apply_parameters(robot, pset, x)
+    for crank in (-0.1, 0.0, 0.2):
+        expected = truth.placement(truth.solve_fk(np.array([crank + 0.01])), "coupler")
+        got = calibrated.placement(calibrated.solve_fk(np.array([crank])), "coupler")
+        np.testing.assert_allclose(got.homogeneous, expected.homogeneous, atol=1e-12)
