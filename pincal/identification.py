@@ -266,6 +266,9 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
     start_x = x.copy()
     pred = problem.evaluate(x)
     assert pred.jacobian is not None
+    if not (np.all(np.isfinite(pred.residual)) and np.all(np.isfinite(pred.jacobian))):
+        raise DataError("the residuals or their Jacobian are not finite at the starting point: check the data "
+                        "for values out of range")
     errors_before = pred.errors
     ident = analyse(pred.jacobian, pset.names, scales, tol=_practical_tol(pred.jacobian, scales, rank_tol,
                                                                           min_information))

@@ -23,7 +23,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.errors import NotFoundError, listing
+from pincal.errors import DataError, NotFoundError, listing
 from pincal.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -94,7 +94,7 @@ class ParameterSet:
         names = [p.name for p in self.parameters]
         if len(set(names)) != len(names):
             dup = sorted({n for n in names if names.count(n) > 1})
-            raise ValueError(f"duplicate parameters: {listing(dup)}")
+            raise DataError(f"duplicate parameters: {listing(dup)}")
         self._index = {p.name: k for k, p in enumerate(self.parameters)}
 
     def __len__(self) -> int:
@@ -139,10 +139,11 @@ class ParameterSet:
     def select(self, patterns: Sequence[str]) -> ParameterSet:
         """The parameters whose names match any shell-style pattern (``arm_*.t?``, ``*.offset``).
 
-        A pattern starting with ``!`` removes what it matches. Raises NotFoundError for a pattern
-        matching nothing.
+        A pattern starting with ``!`` removes what it matches; patterns that are all exclusions start
+        from every parameter. Raises NotFoundError for a pattern matching nothing, or when nothing is left.
         """
-        keep: list[bool] = [False] * len(self.parameters)
+        only_exclusions = all(pattern.startswith("!") for pattern in patterns)
+        keep: list[bool] = [only_exclusions] * len(self.parameters)  # "!base.*" alone: everything but the base
         for pattern in patterns:
             negate = pattern.startswith("!")
             pat = pattern[1:] if negate else pattern
@@ -152,7 +153,10 @@ class ParameterSet:
                                     f"{listing(self.names)}")
             for k in hits:
                 keep[k] = not negate
-        return ParameterSet([p for p, k in zip(self.parameters, keep, strict=True) if k])
+        chosen = [p for p, k in zip(self.parameters, keep, strict=True) if k]
+        if not chosen:
+            raise NotFoundError(f"the patterns {' '.join(patterns)} leave no parameter to identify")
+        return ParameterSet(chosen)
 
     def vector(self, values: dict[str, float] | None = None) -> Array:
         """A parameter vector, zero (nominal) except for the given ``{name: value}``."""

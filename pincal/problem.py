@@ -331,6 +331,9 @@ class CalibrationProblem:
             pb, mb = self._point(m.frame_b, data, markers)
             diff = pa.act(ma) - pb.act(mb)
             dist = float(np.linalg.norm(diff))
+            if dist < 1e-12:
+                raise DataError(f"measurement '{m.key}': frames '{m.frame_a}' and '{m.frame_b}' coincide at sample {k} "
+                                "(a zero distance has no direction): measure between two distinct points")
             preds[m.key][k, 0] = dist
             if jac is not None:
                 u = diff / dist

@@ -145,6 +145,9 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
         train = train.subset([k for k in range(train.n_samples) if k not in bad])
     else:
         dropped_info = []
+    if train.n_samples == 0:
+        raise DataError(f"none of the {len(dropped_info)} training samples can be used: "
+                        f"{dropped_info[0]['reason'] if dropped_info else 'no data'}")
     obs = observations_from(robot, train.joint_names, train.joints, train.measurements, models)
     problem = CalibrationProblem(robot, pset, models, obs)
     if formulation == "ikm":
@@ -166,6 +169,11 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     report["outlier_test"] = [train.sample_ids[k] for k in suspects] if isinstance(suspects, list) else []
     if "test" in dataset.sets:
         test = dataset.of_set("test")
+        bad_test = unusable_samples(robot, test.joints[:, [test.joint_names.index(j) for j in robot.actuated_joints]]) \
+            if complete else []
+        if bad_test:  # listed, never silently
+            report["dropped_test_samples"] = [{"sample": test.sample_ids[k], "reason": r} for k, r in bad_test]
+            test = test.subset([k for k in range(test.n_samples) if k not in {i for i, _ in bad_test}])
         tobs = observations_from(robot, test.joint_names, test.joints, test.measurements, models)
         tprob = CalibrationProblem(robot, pset, models, tobs)
         before = error_norms(tprob.evaluate(np.zeros(len(pset)), jacobian=False).errors)

@@ -71,3 +71,34 @@ def test_singular_samples_are_named() -> None:
     assert [k for k, _ in bad] == [1, 3]
     assert bad[0][1].startswith("singular configuration")
     assert "did not converge" in bad[1][1]  # beyond the range: no assembly at all
+
+
+def test_unreachable_held_out_samples_are_listed_not_fatal() -> None:
+    robot = pincal.load_robot("hexapod")
+    sim = simulate(robot, ["pose"], 20, 5, perturb=1e-4, noise=1e-6, seed=3, parameter_spec=["*.offset"])
+    ds = sim.dataset
+    joints = ds.joints.copy()
+    joints[22, :6] = [2.0, 0.0, 0.0, 0.0, 0.0, 0.0]  # a held-out sample no platform pose fits
+    cal = calibrate(robot, Dataset(ds.joint_names, joints, ds.measurements, ds.sample_ids, ds.sets, ds.metadata),
+                    parameter_spec=["*.offset"])
+    assert [d["sample"] for d in cal.report["dropped_test_samples"]] == ["22"]
+    assert cal.report["n_test_samples"] == 4 and cal.result.converged
+
+
+def test_coincident_frames_in_a_distance_are_named() -> None:
+    import pytest
+
+    robot = pincal.load_robot("delta")
+    models = [ms.distance("platform", "end_effector")]  # the end effector sits at the platform centre
+    pset = choose_parameters(robot, [ms.position("end_effector")], ["*.offset"])
+    problem = CalibrationProblem(robot, pset, models, Observations(np.zeros((2, 3)), {models[0].key: np.ones((2, 1))}))
+    with pytest.raises(pincal.DataError, match="frames 'platform' and 'end_effector' coincide"):
+        identify(problem)
+
+
+def test_a_selection_that_leaves_nothing_is_refused() -> None:
+    import pytest
+
+    robot = pincal.load_robot("delta")
+    with pytest.raises(pincal.NotFoundError, match="leave no parameter to identify"):
+        choose_parameters(robot, [ms.position("end_effector")], ["arm_1_joint.tx", "!arm_1_joint.tx"])
