@@ -154,8 +154,9 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     """URDF text of ``robot`` with deviations ``x`` applied and re-assembled at zero readings.
 
     Returns:
-        The text, and the reference shift of each passive joint [rad or m] (the new zero is the old
-        value plus this shift: subtract it from readings of instrumented passive joints).
+        The text, and the reference shift of each passive joint [rad or m]: the new zero is the old
+        value plus this shift. A reading of an instrumented passive joint in the new file's terms is
+        ``reading + δ − shift``, with δ its estimated reading offset (``<joint>.offset``) if any.
 
     Raises:
         ConvergenceError: the calibrated loops cannot be closed at zero actuated readings.

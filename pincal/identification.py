@@ -3,7 +3,8 @@ robust loss.
 
 The problem is solved in scaled variables ``z = x / s`` (s: typical sizes, metres and radians differ
 by orders of magnitude). By default the steps move only along the directions the data can see: the
-scaled Jacobian's SVD truncated at the rank found by the identifiability analysis. Parameters caught
+SVD of the scaled (and robust-weighted) Jacobian at the current iterate, truncated at ``rank_tol``
+relative to its largest singular value (and at ``min_information`` absolute, if set). Parameters caught
 in unidentifiable combinations then take minimum-norm values, and the report names the
 combinations. (Pinning the dependent parameters at their start instead would leave a second-order
 misfit: the symmetry orbits are curved, so that linear section misses the truth.)

@@ -109,7 +109,10 @@ class ImplicitProblem(CalibrationProblem):
             a = cp @ null
             z = -np.linalg.lstsq(a, c + cp @ step_t, rcond=None)[0] if a.size else np.zeros(0)
             step = step_t + null @ z
-            if float(np.max(np.abs(t))) <= tol and float(np.max(np.abs(step))) <= 1e-12:
+            # converged when the step vanishes and the part of the task the passive joints can act on is met
+            # (a Delta cannot turn its platform: a measured orientation's rows lie outside T_p's range)
+            reachable = tp @ (tp_pinv @ t)
+            if float(np.max(np.abs(reachable))) <= tol and float(np.max(np.abs(step))) <= 1e-12:
                 self._q_cache[k] = q
                 return q
             size = float(np.linalg.norm(step))
@@ -134,6 +137,8 @@ class ImplicitProblem(CalibrationProblem):
         jac_out = np.zeros((n, rows, p)) if jacobian else None
         passive, act_v = kin.passive_v, kin.actuated_v
         probe = frame_probe(robot, self.frame_ids[self.target.frame])
+        preds = {self.target.key: np.empty((n, self.target.size))}  # buffers reused by every sample
+        dpreds = {self.target.key: np.zeros((n, self.target.size, p))}
         for k in range(n):
             q = self._close(k, robot, qa_all[k], base, markers)
             pin.computeJointJacobians(model, data, q)
@@ -152,8 +157,7 @@ class ImplicitProblem(CalibrationProblem):
                 dc[:, col] += cjac[:, act_v[joint]]
             local = pin.getFrameJacobian(model, data, self.frame_ids[self.target.frame], pin.LOCAL)
             twist = sens.probe_twist(data, probe) + local @ dv
-            preds = {self.target.key: np.empty((n, self.target.size))}
-            dpreds = {self.target.key: np.zeros((n, self.target.size, p))}
+            dpreds[self.target.key][k] = 0.0
             self._predict(self.target, x, k, q, robot, data, base, base_jac, markers, {self.target.frame: twist},
                           dv, preds, dpreds)
             dt = dpreds[self.target.key][k]

@@ -28,6 +28,10 @@ from pincal.sensitivity import KinematicSensitivity, frame_probe, right_jacobian
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
+#: Largest entry of the passive joints' response to the loops (C_p⁺) before a sample counts as singular
+#: (an identification step that takes a sample there is rejected).
+SINGULAR_GAIN = 1e8
+
 
 @dataclass
 class Observations:
@@ -243,10 +247,13 @@ class CalibrationProblem:
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
         """Weighted residual and its Jacobian w.r.t. ``x``.
 
-        Each sample's rows are whitened by their covariance ``Σ = diag(σ²) + G Σ_q Gᵀ``, where ``Σ_q`` holds
-        the actuated readings' variances (``joint_sigma``) and ``G = d(prediction)/d(reading)``; without
-        ``joint_sigma`` that is ``(predicted − measured)/σ``. The covariance is re-evaluated at each call
-        and held constant in the Jacobian, as iteratively re-weighted least squares does.
+        With ``joint_sigma``, each measurement's rows of each sample are whitened by their covariance
+        ``Σ = diag(σ²) + G Σ_q Gᵀ``, where ``Σ_q`` holds the actuated readings' variances and
+        ``G = d(prediction)/d(reading)``; the correlation the shared reading noise creates *between*
+        two measurements of one sample, and between consecutive incremental readings, is neglected.
+        Without ``joint_sigma`` the residual is ``(predicted − measured)/σ``. The covariance is
+        re-evaluated at each call and held constant in the Jacobian, as iteratively re-weighted least
+        squares does.
         """
         x = self._augment(np.asarray(x, dtype=float))
         output_jacobian = jacobian
@@ -277,13 +284,15 @@ class CalibrationProblem:
                 if robot.loops:
                     _, cjac = robot.closure.residual_and_jacobian(data)
                     gain = damped_pseudo_inverse(cjac[:, passive])
-                    if gain is None:
+                    if gain is None or float(np.abs(gain).max()) > SINGULAR_GAIN:
                         raise ConvergenceError(f"sample {k} is at a singular configuration: the passive joints are "
-                                               "not determined by the actuated ones")
+                                               "not determined by the actuated ones (with these parameters)")
                     rhs = sens.closure_derivative(data)
                     for joint, col in self.actuated_offsets:
                         rhs[:, col] += cjac[:, act_v[joint]]
                     dv[passive] = -gain @ rhs
+            elif robot.loops:  # the loop solve ended with forward kinematics at q
+                pin.updateFramePlacements(model, data)
             else:
                 pin.framesForwardKinematics(model, data, q)
             twists = {}

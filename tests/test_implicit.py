@@ -104,3 +104,18 @@ def test_ikm_refuses_serial_robots_and_extra_measurements() -> None:
     two = [ms.position("end_effector"), ms.pose("end_effector")]
     with pytest.raises(DataError, match="exactly one position or pose"):
         ImplicitProblem(problem.robot, pset, two, problem.observations)
+
+
+def test_ikm_with_a_pose_target_on_a_robot_that_cannot_turn_its_platform() -> None:
+    """The Delta's platform keeps its orientation: the measured orientation's rows are outside what the
+    passive joints can act on, and the implicit solve must converge on the rest."""
+    robot = pincal.load_robot("delta")
+    pose = [ms.pose("end_effector", sigma=1e-5, sigma_angle=1e-5)]
+    pset = choose_parameters(robot, [ms.position("end_effector")], ["model24i"])
+    rng = np.random.default_rng(0)
+    x_true = perturbation(pset, 1e-3, rng)
+    qa, _ = random_actuated(robot, 30, rng)
+    obs = simulate_observations(robot, pset, x_true, pose, qa, rng, noise=1e-5)
+    result = identify(ImplicitProblem(robot, pset, pose, obs))
+    assert result.converged
+    assert np.max(np.abs(result.x - x_true)) < 1e-3  # noisy: near the truth, far from the 1 mm start errors
