@@ -266,7 +266,7 @@ def observability_indices(singular_values: Array, n_residuals: int) -> dict[str,
         "O1": float(np.exp(np.mean(np.log(sv))) / np.sqrt(n_residuals)),  # log-mean: no overflow at large r
         "O2": low / high,
         "O3": low,
-        "O4": low**2 / high,
+        "O4": low * (low / high),  # not low**2: Python floats raise OverflowError where numpy gives inf
         "O5": float(1.0 / np.sum(1.0 / sv)),
     }
 

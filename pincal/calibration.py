@@ -43,8 +43,9 @@ def channel_sigma(key: str, metadata: dict[str, str], default: float | None, ang
                 value = float(metadata[candidate])
             except ValueError:
                 raise DataError(f"metadata '{candidate}' is '{metadata[candidate]}', not a number") from None
-            if not value > 0:
-                raise DataError(f"metadata '{candidate}' must be a positive standard deviation, got {value}")
+            if not 1e-15 <= value <= 1e3:
+                raise DataError(f"metadata '{candidate}' is {value!r}: a standard deviation [m or rad] must lie "
+                                "between 1e-15 and 1e3")
             return value
     return default
 

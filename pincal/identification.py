@@ -304,8 +304,8 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
             trial = x.copy()
             trial[moving] += d * dz * shrink
             try:
-                new = problem.evaluate(trial)
-            except ConvergenceError:
+                new = problem.evaluate(trial) if np.all(np.isfinite(trial)) else None
+            except (ConvergenceError, DataError):  # an unusable step: rejected like one that raises the cost
                 new = None
             if new is not None:
                 new_cost = 0.5 * float(np.sum((rw * new.residual) ** 2))

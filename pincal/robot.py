@@ -17,7 +17,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.closure import LoopClosure
-from pincal.errors import ConvergenceError, LoopError, NotFoundError, RobotFileError, listing
+from pincal.errors import ConvergenceError, DataError, LoopError, NotFoundError, RobotFileError, listing
 from pincal.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveReport
 from pincal.library import robot_path
 from pincal.urdf import LoopSpec, check_finite_origins, read_extensions
@@ -119,16 +119,16 @@ class Robot:
     def _q(self, q: Array) -> Array:
         q = np.asarray(q, dtype=float)
         if q.shape != (self.model.nq,):
-            raise ValueError(f"configuration has shape {q.shape}, expected ({self.model.nq},)")
+            raise DataError(f"configuration has shape {q.shape}, expected ({self.model.nq},)")
         return q
 
     def _qa(self, q_actuated: Array | float) -> Array:
         qa = np.atleast_1d(np.asarray(q_actuated, dtype=float))
         if qa.shape != (self.n_actuated,):
-            raise ValueError(f"actuated values have shape {qa.shape}, expected ({self.n_actuated},) for "
+            raise DataError(f"actuated values have shape {qa.shape}, expected ({self.n_actuated},) for "
                              f"{listing(self.actuated_joints)}")
         if not np.all(np.isfinite(qa)):
-            raise ValueError(f"actuated values contain NaN or infinity: {qa}")
+            raise DataError(f"actuated values contain NaN or infinity: {qa}")
         return qa
 
     # --- kinematics -----------------------------------------------------------------------------

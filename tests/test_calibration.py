@@ -19,7 +19,7 @@ def test_channel_sigma_from_metadata() -> None:
     assert channel_sigma("distance:a-b", meta, 7e-6) == 7e-6
     with pytest.raises(DataError, match="'sigma position' is 'abc', not a number"):
         channel_sigma("position:x", {"sigma position": "abc"}, None)
-    with pytest.raises(DataError, match="positive standard deviation"):
+    with pytest.raises(DataError, match="must lie between 1e-15 and 1e3"):
         channel_sigma("position:x", {"sigma position": "-1"}, None)
 
 

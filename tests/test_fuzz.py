@@ -92,3 +92,28 @@ def test_mutated_csv_reads_and_calibrates_or_raises_a_pincal_error(tmp_path: Pat
             assert np.all(np.isfinite(cal.result.x))
     except pincal.PincalError:
         return
+
+
+def test_cases_fuzzing_found(tmp_path: Path) -> None:
+    """Kept as plain tests: a σ of 2e-192 in the metadata (weights of 1e191 overflowed the observability
+    indices) and a reading of 5.6e158 (LM steps went to NaN and hit a plain ValueError)."""
+    robot = pincal.load_robot("five_bar")
+    path = tmp_path / "m.csv"
+    for old, new in (("# sigma position end_effector: 1e-06", "# sigma position end_effector: 2.088823138205281e-192"),
+                     (None, "5.6040353164045e+158")):
+        write_dataset(_base_dataset(), path)
+        text = path.read_text()
+        if old is None:  # replace the first reading of the first motor
+            header, first, *rest = [line for line in text.splitlines() if not line.startswith("#")]
+            cells = first.split(",")
+            cells[header.split(",").index("theta_1_joint")] = new
+            text = text.replace(first, ",".join(cells))
+        else:
+            assert old in text
+            text = text.replace(old, new)
+        path.write_text(text)
+        try:
+            cal = calibrate(robot, read_dataset(path, robot.actuated_joints, min_samples=2), parameter_spec=["*.offset"])
+        except pincal.PincalError:
+            continue
+        assert np.all(np.isfinite(cal.result.x))
