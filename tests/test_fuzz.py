@@ -104,7 +104,7 @@ def test_cases_fuzzing_found(tmp_path: Path) -> None:
         write_dataset(_base_dataset(), path)
         text = path.read_text()
         if old is None:  # replace the first reading of the first motor
-            header, first, *rest = [line for line in text.splitlines() if not line.startswith("#")]
+            header, first, *_ = [line for line in text.splitlines() if not line.startswith("#")]
             cells = first.split(",")
             cells[header.split(",").index("theta_1_joint")] = new
             text = text.replace(first, ",".join(cells))
@@ -113,7 +113,8 @@ def test_cases_fuzzing_found(tmp_path: Path) -> None:
             text = text.replace(old, new)
         path.write_text(text)
         try:
-            cal = calibrate(robot, read_dataset(path, robot.actuated_joints, min_samples=2), parameter_spec=["*.offset"])
+            dataset = read_dataset(path, robot.actuated_joints, min_samples=2)
+            cal = calibrate(robot, dataset, parameter_spec=["*.offset"])
         except pincal.PincalError:
             continue
         assert np.all(np.isfinite(cal.result.x))
