@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from pincal.cli_options import add_measurement, add_parameters, add_perturb, add_robot
 from pincal.errors import DataError, PincalError
 from pincal.robot import Robot, load_robot
 
@@ -184,7 +185,7 @@ def build_parser() -> argparse.ArgumentParser:
                           description="Print links, joints, loops, actuated joints, mobility and the "
                                       "closure residual at the reference configuration.",
                           epilog="example: pincal info robots_urdf/delta.urdf")
-    info.add_argument("robot", help="URDF file or known robot name")
+    add_robot(info)
     info.set_defaults(func=cmd_info)
 
     sim = sub.add_parser("simulate", help="simulate a calibration dataset with known errors",
@@ -193,16 +194,14 @@ def build_parser() -> argparse.ArgumentParser:
                                      "DIR/truth.json.",
                          epilog="example: pincal simulate delta --samples 60 --measure position --perturb 1e-3 "
                                 "--noise 1e-5 --seed 1 --out sim/")
-    sim.add_argument("robot", help="URDF file or known robot name")
+    add_robot(sim)
     sim.add_argument("--samples", type=int, default=60, help="postures to calibrate from (default 60)")
     sim.add_argument("--test-samples", type=int, default=0, help="extra postures held out for validation")
-    sim.add_argument("--measure", nargs="+", default=["position"],
-                     help="position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME")
-    sim.add_argument("--frame", help="measured frame for position/pose (default: the end effector)")
-    sim.add_argument("--perturb", type=float, default=1e-3, help="σ of the true errors [m and rad] (default 1e-3)")
+    add_measurement(sim)
+    add_perturb(sim)
     sim.add_argument("--noise", type=float, default=1e-5, help="σ of the measurement noise [m, rad] (default 1e-5)")
     sim.add_argument("--seed", type=int, default=0, help="random seed")
-    sim.add_argument("--parameters", nargs="+", help="parameters with errors: a named set (model24, hexapod42, "
+    add_parameters(sim, "parameters with errors: a named set (model24, hexapod42, "
                                                     "hexapod44) or name patterns (default: all candidates)")
     sim.add_argument("--out", required=True, help="output directory")
     sim.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -213,11 +212,11 @@ def build_parser() -> argparse.ArgumentParser:
                                      "Jacobians) on the identifiable parameters; rows with set=test are held out.",
                          epilog="example: pincal calibrate delta sim/measurements.csv --out delta_cal.urdf "
                                 "--report report.json")
-    cal.add_argument("robot", help="URDF file or known robot name")
+    add_robot(cal)
     cal.add_argument("data", help="measurement CSV (see docs/dataset.md)")
     cal.add_argument("--out", help="calibrated URDF to write")
     cal.add_argument("--report", help="report JSON to write")
-    cal.add_argument("--parameters", nargs="+", help="a named set or name patterns (default: all candidates)")
+    add_parameters(cal)
     cal.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm")
     cal.add_argument("--loss", choices=["linear", "cauchy"], default="linear", help="cauchy: robust to outliers")
     cal.add_argument("--sigma", type=float, help="measurement σ [m] for weighting (default 1e-5)")
@@ -240,10 +239,10 @@ def build_parser() -> argparse.ArgumentParser:
                            description="One calibration per *.csv in DATA_DIR on the same nominal robot, in a "
                                        "process pool (or on a Dask cluster with --scheduler).",
                            epilog="example: pincal fleet delta measurements/ --out calibrated/ --workers 2")
-    fleet.add_argument("robot", help="URDF file or known robot name (the nominal model)")
+    add_robot(fleet, "the nominal model")
     fleet.add_argument("data_dir", help="directory of measurement CSV files, one per robot")
     fleet.add_argument("--out", required=True, help="output directory")
-    fleet.add_argument("--parameters", nargs="+", help="a named set or name patterns (default: all candidates)")
+    add_parameters(fleet)
     fleet.add_argument("--formulation", choices=["fkm", "ikm"], default="fkm")
     fleet.add_argument("--workers", type=int, help="processes (default: the machine's cores)")
     fleet.add_argument("--scheduler", help="address of a Dask scheduler (pip install 'pincal[dask]')")

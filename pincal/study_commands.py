@@ -20,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration import choose_parameters
+from pincal.cli_options import add_measurement, add_parameters, add_perturb, add_robot
 from pincal.dataset import Dataset, write_dataset
 from pincal.design import CRITERIA, PoseSelection, condition_number, jacobian_blocks, log_det, select_poses
 from pincal.errors import DataError, NotFoundError, listing
@@ -225,13 +226,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "once measured and calibrate from it.",
         epilog="example: pincal design delta --candidates 300 --poses 12 --measure position --parameters model24 "
                "--out poses.csv")
-    design.add_argument("robot", help="URDF file or known robot name")
+    add_robot(design)
     design.add_argument("--candidates", type=int, default=300, help="random candidate postures (default 300)")
     design.add_argument("--poses", type=int, required=True, help="postures to choose")
-    design.add_argument("--measure", nargs="+", default=["position"],
-                        help="position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME")
-    design.add_argument("--frame", help="measured frame for position/pose (default: the end effector)")
-    design.add_argument("--parameters", nargs="+", help="a named set or name patterns (default: all candidates)")
+    add_measurement(design)
+    add_parameters(design)
     design.add_argument("--criterion", choices=CRITERIA, default="condition",
                         help="condition: minimise κ (default); d-optimal: maximise log det(JᵀJ)")
     design.add_argument("--seed", type=int, default=0, help="random seed of the candidates")
@@ -249,17 +248,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "serially); the table depends only on the seed. Units: m, rad.",
         epilog="example: pincal montecarlo delta --trials 20 --samples 60 --measure position --parameters model24 "
                "--perturb 1e-3 --noise 1e-5 1e-4 --workers 4")
-    mc.add_argument("robot", help="URDF file or known robot name")
+    add_robot(mc)
     mc.add_argument("--trials", type=int, default=10, help="seeds per noise level (default 10)")
     mc.add_argument("--samples", type=int, default=60, help="postures to calibrate from (default 60)")
     mc.add_argument("--test-samples", type=int, default=20, help="held-out postures per trial (default 20)")
-    mc.add_argument("--measure", nargs="+", default=["position"],
-                    help="position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME")
-    mc.add_argument("--frame", help="measured frame for position/pose (default: the end effector)")
-    mc.add_argument("--perturb", type=float, default=1e-3, help="σ of the true errors [m and rad] (default 1e-3)")
+    add_measurement(mc)
+    add_perturb(mc)
     mc.add_argument("--noise", type=float, nargs="+", default=[1e-5],
                     help="measurement noise σ levels [m, rad] (default 1e-5)")
-    mc.add_argument("--parameters", nargs="+", help="a named set or name patterns (default: all candidates)")
+    add_parameters(mc)
     mc.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm")
     mc.add_argument("--workers", type=int, help="processes (default: the machine's cores; 1: serial)")
     mc.add_argument("--seed", type=int, default=0, help="first seed (trials use seed, seed+1, ...)")

@@ -26,6 +26,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.calibration import choose_parameters, measurements_for, observations_from
+from pincal.cli_options import add_robot
 from pincal.dataset import Dataset, read_dataset
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.measurements import Pose, Position
@@ -320,7 +321,7 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
 
 def add_calibration_options(parser: argparse.ArgumentParser) -> None:
     """ROBOT, DATA and the calibration options shared by ``view`` and ``report``."""
-    parser.add_argument("robot", help="URDF file or known robot name")
+    add_robot(parser)
     parser.add_argument("data", help="measurement CSV (rows with set=test are held out)")
     parser.add_argument("--parameters", nargs="+", help="a named set or name patterns, as for calibrate")
     parser.add_argument("--result", metavar="REPORT.json",

@@ -1,0 +1,29 @@
+"""Command-line options shared by several ``pincal`` commands, spelled once so they cannot drift."""
+
+from __future__ import annotations
+
+import argparse
+
+MEASURE_HELP = "position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME"
+PARAMETERS_HELP = "a named set or name patterns (default: all candidates)"
+
+
+def add_robot(parser: argparse.ArgumentParser, note: str = "") -> None:
+    """The positional ROBOT: a URDF path or a known robot name."""
+    parser.add_argument("robot", help="URDF file or known robot name" + (f" ({note})" if note else ""))
+
+
+def add_measurement(parser: argparse.ArgumentParser) -> None:
+    """``--measure`` and ``--frame``."""
+    parser.add_argument("--measure", nargs="+", default=["position"], help=MEASURE_HELP)
+    parser.add_argument("--frame", help="measured frame for position/pose (default: the end effector)")
+
+
+def add_perturb(parser: argparse.ArgumentParser) -> None:
+    """``--perturb``: σ of the simulated true errors [m and rad]."""
+    parser.add_argument("--perturb", type=float, default=1e-3, help="σ of the true errors [m and rad] (default 1e-3)")
+
+
+def add_parameters(parser: argparse.ArgumentParser, help_text: str = PARAMETERS_HELP) -> None:
+    """``--parameters``: a named set or shell-style name patterns."""
+    parser.add_argument("--parameters", nargs="+", help=help_text)
