@@ -166,6 +166,8 @@ def _row_weights(problem: Problem, sample_weights: Array) -> Array:
 
 def _practical_tol(jacobian: Array, scales: Array, rank_tol: float, min_information: float) -> float:
     """Relative rank tolerance with an absolute floor ``min_information`` on the singular values."""
+    if min_information <= 0.0:  # no floor: no need for the Jacobian's norm (an SVD)
+        return rank_tol
     largest = float(np.linalg.norm(jacobian * scales, 2)) if jacobian.size else 0.0
     if largest <= 0.0:
         return rank_tol
