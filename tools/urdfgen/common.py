@@ -9,6 +9,7 @@ Floats are written with ``repr(float(x))``: numpy 2 reprs (``np.float64(0.1)``) 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -42,10 +43,11 @@ def sphere(radius: float, xyz: Sequence[float] = (0, 0, 0)) -> str:
 
 def rod_rpy(direction: Sequence[float]) -> tuple[float, float, float]:
     """rpy [rad] of a frame whose local +z axis points along ``direction`` (for cylinder visuals)."""
-    d = np.asarray(direction, dtype=float)
-    d = d / np.linalg.norm(d)
-    pitch = float(np.arctan2(np.hypot(d[0], d[1]), d[2]))
-    yaw = float(np.arctan2(d[1], d[0]))
+    # math, not numpy: numpy's norm and arctan2 may differ in the last bit from one CPU's SIMD kernels to
+    # another's, and the generated files must be the same on every machine
+    x, y, z = (float(v) for v in direction)
+    pitch = math.atan2(math.hypot(x, y), z)
+    yaw = math.atan2(y, x)
     # R = Rz(yaw) Ry(pitch) maps z to d; URDF rpy = (roll, pitch, yaw) means Rz(yaw) Ry(pitch) Rx(roll).
     return (0.0, pitch, yaw)
 

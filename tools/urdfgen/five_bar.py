@@ -105,7 +105,9 @@ Mechanism as modelled:
 def rod(start: np.ndarray, end: np.ndarray, radius: float, frame_origin: np.ndarray) -> str:
     """A cylinder visual from ``start`` to ``end`` (world points at home) in a world-aligned link frame."""
     mid = 0.5 * (start + end) - frame_origin
-    return cylinder(radius, float(np.linalg.norm(end - start)), xyz=mid, rpy=rod_rpy(end - start))
+    # math.hypot, not np.linalg.norm: its result does not depend on the CPU's SIMD kernels, so the
+    # generated file is the same on every machine
+    return cylinder(radius, math.hypot(*(end - start)), xyz=mid, rpy=rod_rpy(end - start))
 
 
 def build() -> UrdfWriter:
