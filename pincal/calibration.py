@@ -224,6 +224,23 @@ def source_text(robot: Robot) -> str:
 
 
 # --- report ----------------------------------------------------------------------------------------
+BEFORE_MEANS_REGISTERED = ("the nominal robot, with the measurement frame registered to the training data in "
+                           "closed form (Kabsch), for fit and held-out samples alike")
+BEFORE_MEANS_NOMINAL = "the nominal robot in the nominal measurement frame, for fit and held-out samples alike"
+
+
+def registered_base(parameters: ParameterSet) -> bool:
+    """True when the measurement frame is estimated whole (all six ``base.*``), so that the starting point
+    registers it in closed form (:meth:`CalibrationProblem.initial_guess`)."""
+    return len(parameters.groups("base").get(("base", "base", ""), [])) == 6
+
+
+def angle_error_norms(errors: dict[str, Array]) -> Array:
+    """Per-sample orientation error angles [rad] of the pose measurements (norm of ``log3(R_measᵀ R_pred)``)."""
+    parts = [np.linalg.norm(err[:, 3:6], axis=1) for key, err in errors.items() if key.split(":", 1)[0] == "pose"]
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
 def report_dict(result: CalibrationResult, problem: CalibrationProblem, x_true: Array | None = None,
                 shifts: dict[str, float] | None = None) -> dict[str, Any]:
     """The results JSON: errors before/after [m], identifiability, estimates with std, solver account.
@@ -233,6 +250,8 @@ def report_dict(result: CalibrationResult, problem: CalibrationProblem, x_true: 
     before = error_norms(result.errors_before)
     after = error_norms(result.errors_after)
     ident = result.identifiability
+    angles_before = angle_error_norms(result.errors_before)
+    angles_after = angle_error_norms(result.errors_after)
 
     def clean(v: float) -> float | None:
         return None if not math.isfinite(v) else float(v)
@@ -249,6 +268,7 @@ def report_dict(result: CalibrationResult, problem: CalibrationProblem, x_true: 
         "rms_after": clean(rms(after)),
         "max_before": clean(float(before.max())) if before.size else None,
         "max_after": clean(float(after.max())) if after.size else None,
+        "before_means": BEFORE_MEANS_REGISTERED if registered_base(problem.parameters) else BEFORE_MEANS_NOMINAL,
         "iterations": result.iterations,
         "converged": result.converged,
         "message": result.message,
@@ -263,6 +283,10 @@ def report_dict(result: CalibrationResult, problem: CalibrationProblem, x_true: 
         "down_weighted_samples": result.down_weighted(),
         "reference_shifts": shifts or {},
     }
+    if angles_before.size:
+        out.update({"rms_angle_before": clean(rms(angles_before)), "rms_angle_after": clean(rms(angles_after)),
+                    "max_angle_before": clean(float(angles_before.max())),
+                    "max_angle_after": clean(float(angles_after.max()))})
     if x_true is not None:
         out["calibration_gain"] = clean(calibration_gain(x_true, result.x0, result.x))
         out["parameter_errors_before"] = float(np.linalg.norm(x_true - result.x0))

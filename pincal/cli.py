@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -79,7 +80,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from pincal.workflow import calibrate_files
 
     cal = calibrate_files(args.robot, args.data, args.out, args.report, parameter_spec=args.parameters,
-                          solver=args.solver, loss=args.loss, sigma=args.sigma, formulation=args.formulation)
+                          solver=args.solver, loss=args.loss, sigma=args.sigma, formulation=args.formulation,
+                          max_iter=args.max_iter)
     print(_summary(cal.report, cal.result.seconds))
     for path in (args.out, args.report):
         if path:
@@ -87,8 +89,23 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     return 0 if cal.result.converged else 1
 
 
+def _positive_int(text: str) -> int:
+    """An argparse type: a whole number ≥ 1 (argparse turns the ValueError into a one-line usage error)."""
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is not a positive whole number")
+    return value
+
+
+def _mrad(value: float | None) -> str:
+    return "-" if value is None or value != value else f"{value * 1e3:.4f} mrad"
+
+
 def _summary(report: dict[str, Any], seconds: float) -> str:
-    lines = [f"samples {report['n_samples']}, parameters {report['n_parameters']}, "
+    lines = [f"NOT CONVERGED: {report['message']} after {report['iterations']} iterations; the estimate below is "
+             "where the solver stopped, not a calibration (try --max-iter, fewer --parameters or more samples)"
+             if not report["converged"] else None,
+             f"samples {report['n_samples']}, parameters {report['n_parameters']}, "
              f"identifiable {report['n_identifiable']}, "
              f"condition number {report['condition_number']:.3g}" if report["condition_number"] else "",
              f"solver {report['solver']} ({report['loss']} loss): {report['message']} after {report['iterations']} "
@@ -97,11 +114,23 @@ def _summary(report: dict[str, Any], seconds: float) -> str:
              f"{'':32}{'before':>14}{'after':>14}",
              f"{'RMS position error (fit)':32}{_mm(report['rms_before']):>14}{_mm(report['rms_after']):>14}",
              f"{'max position error (fit)':32}{_mm(report['max_before']):>14}{_mm(report['max_after']):>14}"]
+    if "rms_angle_before" in report:
+        lines += [f"{'RMS orientation error (fit)':32}{_mrad(report['rms_angle_before']):>14}"
+                  f"{_mrad(report['rms_angle_after']):>14}",
+                  f"{'max orientation error (fit)':32}{_mrad(report['max_angle_before']):>14}"
+                  f"{_mrad(report['max_angle_after']):>14}"]
     if "test_rms_before" in report:
         lines += [f"{'RMS position error (held out)':32}{_mm(report['test_rms_before']):>14}"
                   f"{_mm(report['test_rms_after']):>14}",
                   f"{'max position error (held out)':32}{_mm(report['test_max_before']):>14}"
                   f"{_mm(report['test_max_after']):>14}"]
+    if "test_rms_angle_before" in report:
+        lines += [f"{'RMS orientation error (held out)':32}{_mrad(report['test_rms_angle_before']):>14}"
+                  f"{_mrad(report['test_rms_angle_after']):>14}",
+                  f"{'max orientation error (held out)':32}{_mrad(report['test_max_angle_before']):>14}"
+                  f"{_mrad(report['test_max_angle_after']):>14}"]
+    if report.get("before_means"):
+        lines.append(f"(before: {report['before_means']})")
     if report.get("calibration_gain") is not None:
         lines.append(f"{'calibration gain G (study 000)':32}{'':>14}{report['calibration_gain']:>12.1f} %")
         if report["unidentifiable"]:
@@ -220,6 +249,8 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm")
     cal.add_argument("--loss", choices=["linear", "cauchy"], default="linear", help="cauchy: robust to outliers")
     cal.add_argument("--sigma", type=float, help="measurement σ [m] for weighting (default 1e-5)")
+    cal.add_argument("--max-iter", type=_positive_int, default=100,
+                     help="iteration limit of the solver (default 100); a run that reaches it exits 1")
     cal.add_argument("--formulation", choices=["fkm", "ikm"], default="fkm",
                      help="fkm: measured - predicted by forward kinematics; ikm: implicit loop residuals with the "
                           "measured pose held fixed (study 000; closed-loop robots)")
@@ -274,6 +305,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("pincal: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # `pincal ... | head`: the reader left; say nothing more, as Unix tools do
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration import (
+    angle_error_norms,
     calibrated_robot_text,
     choose_parameters,
     measurements_for,
@@ -122,16 +123,27 @@ class Calibration:
 
 def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | None = None, solver: str = "lm",
               loss: str = "linear", sigma: float | None = None, x_true: Array | None = None,
-              pose_sigma_angle: float | None = None, formulation: str = "fkm") -> Calibration:
+              pose_sigma_angle: float | None = None, formulation: str = "fkm", max_iter: int = 100) -> Calibration:
     """Identify ``robot``'s parameters from the ``train`` samples; evaluate on the ``test`` samples.
 
     ``formulation``: ``fkm`` (measured − predicted by forward kinematics) or ``ikm`` (implicit loop
     residuals with the measured pose held fixed, study 000). Errors before/after are position errors
-    by forward kinematics in both cases, so the two can be compared.
+    [m] (and, for poses, orientation errors [rad]) by forward kinematics in both cases, so the two can be
+    compared. "Before" is the same model for the fit and the held-out samples: the nominal robot, with
+    the measurement frame registered to the training data in closed form when all of ``base.*`` is
+    estimated (``report["before_means"]`` says which). ``max_iter`` bounds the solver's iterations.
+
+    Raises:
+        DataError: no training sample (every row is ``set=test``, or none can be assembled).
     """
     if formulation not in ("fkm", "ikm"):
         raise DataError(f"unknown formulation '{formulation}'; formulations are: fkm, ikm")
-    train = dataset.of_set("train") if "train" in dataset.sets else dataset
+    if max_iter < 1:
+        raise DataError(f"max_iter is {max_iter}: at least one iteration is needed")
+    if "train" not in dataset.sets:
+        raise DataError(f"all {dataset.n_samples} samples are marked set=test: there is nothing to fit on; mark "
+                        "the samples to calibrate from set=train (or leave the set column out)")
+    train = dataset.of_set("train")
     models = measurements_for(robot, list(dataset.measurements), dataset.joint_names, sigma, dataset.metadata)
     if pose_sigma_angle is not None:
         models = [Pose(m.key, m.size, m.sigma, m.frame, pose_sigma_angle) if isinstance(m, Pose) else m for m in models]
@@ -151,15 +163,16 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     obs = observations_from(robot, train.joint_names, train.joints, train.measurements, models)
     problem = CalibrationProblem(robot, pset, models, obs)
     if formulation == "ikm":
-        result = identify(ImplicitProblem(robot, pset, models, obs), solver=solver, loss=loss)
+        result = identify(ImplicitProblem(robot, pset, models, obs), solver=solver, loss=loss, max_iter=max_iter)
         result.extra["closure_before"] = result.errors_before
         result.extra["closure_after"] = result.errors_after
         result.errors_before = problem.evaluate(result.x0, jacobian=False).errors
         result.errors_after = problem.evaluate(result.x, jacobian=False).errors
     else:
-        result = identify(problem, solver=solver, loss=loss)
+        result = identify(problem, solver=solver, loss=loss, max_iter=max_iter)
+    status = "" if result.converged else f"NOT CONVERGED ({result.message} after {result.iterations} iterations): "
     text, shifts = calibrated_robot_text(robot, source_text(robot), pset, result.x,
-                                         note=f"calibrated by pincal from {obs.n_samples} samples "
+                                         note=f"{status}calibrated by pincal from {obs.n_samples} samples "
                                               f"({', '.join(m.key for m in models)})")
     report = report_dict(result, problem, x_true, shifts)
     report["formulation"] = formulation
@@ -176,11 +189,17 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
             test = test.subset([k for k in range(test.n_samples) if k not in {i for i, _ in bad_test}])
         tobs = observations_from(robot, test.joint_names, test.joints, test.measurements, models)
         tprob = CalibrationProblem(robot, pset, models, tobs)
-        before = error_norms(tprob.evaluate(np.zeros(len(pset)), jacobian=False).errors)
-        after = error_norms(tprob.evaluate(result.x, jacobian=False).errors)
+        errors_before = tprob.evaluate(result.x0, jacobian=False).errors  # the same "before" as the fit's
+        errors_after = tprob.evaluate(result.x, jacobian=False).errors
+        before, after = error_norms(errors_before), error_norms(errors_after)
         report.update({"n_test_samples": tobs.n_samples, "test_rms_before": rms(before), "test_rms_after": rms(after),
                        "test_max_before": float(before.max()) if before.size else None,
                        "test_max_after": float(after.max()) if after.size else None})
+        angles_before, angles_after = angle_error_norms(errors_before), angle_error_norms(errors_after)
+        if angles_before.size:
+            report.update({"test_rms_angle_before": rms(angles_before), "test_rms_angle_after": rms(angles_after),
+                           "test_max_angle_before": float(angles_before.max()),
+                           "test_max_angle_after": float(angles_after.max())})
     return Calibration(problem, result, report, text)
 
 

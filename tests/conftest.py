@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -10,6 +12,13 @@ import pincal
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOTS = ROOT / "robots_urdf"
+#: The installed console script, beside the interpreter running the tests (the venv's bin/).
+PINCAL = Path(sys.executable).parent / "pincal"
+
+
+def run_pincal(*args: str, timeout: float = 300) -> subprocess.CompletedProcess[str]:
+    """``pincal ARGS`` as a user runs it: the console script in a subprocess, output captured as text."""
+    return subprocess.run([str(PINCAL), *args], capture_output=True, text=True, timeout=timeout, check=False)
 
 
 @pytest.fixture(scope="session")
