@@ -71,15 +71,50 @@ class StaticScene:
         return meshcat.Visualizer(window=self)
 
     def packed(self) -> list[bytes]:
-        """The commands as the msgpack buffers meshcat's JavaScript decodes."""
+        """The commands as the msgpack buffers meshcat's JavaScript decodes.
+
+        meshcat names geometries and materials by time-based ``uuid1`` values; they are renamed here
+        ``pincal-1``, ``pincal-2``, ... in order of appearance, so the same scene gives the same bytes.
+        """
         import umsgpack
 
-        return [umsgpack.packb(command.lower()) for command in self.commands]
+        names: dict[str, str] = {}
+        return [umsgpack.packb(_stable_ids(command.lower(), names)) for command in self.commands]
 
     def replay(self, vis: Any) -> None:
         """Send every recorded command to ``vis`` (e.g. ``meshcat.Visualizer()``)."""
         for command in self.commands:
             vis.window.send(command)
+
+
+def _collect_ids(value: Any, names: dict[str, str]) -> None:
+    """Name every ``uuid`` value in ``value`` (a lowered meshcat command) not yet in ``names``."""
+    if isinstance(value, dict):
+        uid = value.get("uuid")
+        if isinstance(uid, str) and uid not in names:
+            names[uid] = f"pincal-{len(names) + 1}"
+        items: Any = value.values()
+    elif isinstance(value, list | tuple):
+        items = value
+    else:
+        return
+    for item in items:
+        _collect_ids(item, names)
+
+
+def _renamed(value: Any, names: dict[str, str]) -> Any:
+    """``value`` with every string that is a named uuid (a definition or a reference) replaced by its name."""
+    if isinstance(value, dict):
+        return {key: _renamed(item, names) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return type(value)(_renamed(item, names) for item in value)
+    return names.get(value, value) if isinstance(value, str) else value
+
+
+def _stable_ids(command: Any, names: dict[str, str]) -> Any:
+    """``command`` with meshcat's uuids replaced by ``pincal-N`` names, numbered in order of appearance."""
+    _collect_ids(command, names)
+    return _renamed(command, names)
 
 
 def meshcat_javascript() -> str:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from conftest import run_pincal
+
 from pincal.cli import main
 
 
@@ -27,3 +29,21 @@ def test_another_seed_other_data(tmp_path: Path) -> None:
     b = tmp_path / "b"
     assert main(["simulate", "delta", "--samples", "5", "--seed", "2", "--out", str(b)]) == 0
     assert (a / "measurements.csv").read_bytes() != (b / "measurements.csv").read_bytes()
+
+
+def test_report_and_scene_pages_are_byte_identical_across_runs(tmp_path: Path) -> None:
+    """meshcat names objects by time-based uuids: the pages must not depend on when they were written."""
+    sim = tmp_path / "sim"
+    assert run_pincal("simulate", "five_bar", "--samples", "12", "--test-samples", "4", "--seed", "1", "--quiet",
+                      "--out", str(sim)).returncode == 0
+    pages = []
+    for run in ("a", "b"):
+        for command in ("view", "report"):
+            out = tmp_path / f"{command}_{run}.html"
+            done = run_pincal(command, "five_bar", str(sim / "measurements.csv"), "--parameters", "*.offset",
+                              "--quiet", "--out", str(out))
+            assert done.returncode == 0, done.stderr
+            pages.append(out.read_bytes())
+    scene_a, report_a, scene_b, report_b = pages
+    assert scene_a == scene_b and report_a == report_b
+    assert b"MeshCat.Viewer" in scene_a and len(scene_a) > 100_000  # a real scene, not an empty page
