@@ -16,7 +16,16 @@ from typing import Any
 
 import numpy as np
 
-from pincal.cli_options import add_measurement, add_parameters, add_perturb, add_robot
+from pincal.cli_options import (
+    add_measurement,
+    add_parameters,
+    add_perturb,
+    add_robot,
+    non_negative_float,
+    non_negative_int,
+    positive_float,
+    positive_int,
+)
 from pincal.errors import DataError, PincalError
 from pincal.robot import Robot, load_robot
 
@@ -87,14 +96,6 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         if path:
             print(f"wrote {path}")
     return 0 if cal.result.converged else 1
-
-
-def _positive_int(text: str) -> int:
-    """An argparse type: a whole number ≥ 1 (argparse turns the ValueError into a one-line usage error)."""
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{value} is not a positive whole number")
-    return value
 
 
 def _mrad(value: float | None) -> str:
@@ -224,12 +225,13 @@ def build_parser() -> argparse.ArgumentParser:
                          epilog="example: pincal simulate delta --samples 60 --measure position --perturb 1e-3 "
                                 "--noise 1e-5 --seed 1 --out sim/")
     add_robot(sim)
-    sim.add_argument("--samples", type=int, default=60, help="postures to calibrate from (default 60)")
-    sim.add_argument("--test-samples", type=int, default=0, help="extra postures held out for validation")
+    sim.add_argument("--samples", type=positive_int, default=60, help="postures to calibrate from (default 60)")
+    sim.add_argument("--test-samples", type=non_negative_int, default=0, help="extra postures held out for validation")
     add_measurement(sim)
     add_perturb(sim)
-    sim.add_argument("--noise", type=float, default=1e-5, help="σ of the measurement noise [m, rad] (default 1e-5)")
-    sim.add_argument("--seed", type=int, default=0, help="random seed")
+    sim.add_argument("--noise", type=non_negative_float, default=1e-5,
+                     help="σ of the measurement noise [m, rad] (default 1e-5)")
+    sim.add_argument("--seed", type=non_negative_int, default=0, help="random seed")
     add_parameters(sim, "parameters with errors: a named set (model24, hexapod42, "
                                                     "hexapod44) or name patterns (default: all candidates)")
     sim.add_argument("--out", required=True, help="output directory")
@@ -248,8 +250,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_parameters(cal)
     cal.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm")
     cal.add_argument("--loss", choices=["linear", "cauchy"], default="linear", help="cauchy: robust to outliers")
-    cal.add_argument("--sigma", type=float, help="measurement σ [m] for weighting (default 1e-5)")
-    cal.add_argument("--max-iter", type=_positive_int, default=100,
+    cal.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
+    cal.add_argument("--max-iter", type=positive_int, default=100,
                      help="iteration limit of the solver (default 100); a run that reaches it exits 1")
     cal.add_argument("--formulation", choices=["fkm", "ikm"], default="fkm",
                      help="fkm: measured - predicted by forward kinematics; ikm: implicit loop residuals with the "
@@ -260,10 +262,10 @@ def build_parser() -> argparse.ArgumentParser:
                           description="The main job on an embedded default: the Delta of study 000.",
                           epilog="example: pincal demo --out pincal-demo")
     demo.add_argument("--out", default="pincal-demo", help="output directory (default ./pincal-demo)")
-    demo.add_argument("--samples", type=int, default=60, help="calibration postures (default 60)")
-    demo.add_argument("--test-samples", type=int, default=40, help="validation postures (default 40)")
-    demo.add_argument("--noise", type=float, default=1e-5, help="tracker noise σ [m] (default 1e-5)")
-    demo.add_argument("--seed", type=int, default=1, help="random seed")
+    demo.add_argument("--samples", type=positive_int, default=60, help="calibration postures (default 60)")
+    demo.add_argument("--test-samples", type=non_negative_int, default=40, help="validation postures (default 40)")
+    demo.add_argument("--noise", type=non_negative_float, default=1e-5, help="tracker noise σ [m] (default 1e-5)")
+    demo.add_argument("--seed", type=non_negative_int, default=1, help="random seed")
     demo.set_defaults(func=cmd_demo)
 
     fleet = sub.add_parser("fleet", help="calibrate many robots, one CSV each, in parallel",
@@ -275,7 +277,7 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.add_argument("--out", required=True, help="output directory")
     add_parameters(fleet)
     fleet.add_argument("--formulation", choices=["fkm", "ikm"], default="fkm")
-    fleet.add_argument("--workers", type=int, help="processes (default: the machine's cores)")
+    fleet.add_argument("--workers", type=positive_int, help="processes (default: the machine's cores)")
     fleet.add_argument("--scheduler", help="address of a Dask scheduler (pip install 'pincal[dask]')")
     fleet.set_defaults(func=cmd_fleet)
 

@@ -8,6 +8,38 @@ MEASURE_HELP = "position, pose, or keys such as distance:A-B, distance_increment
 PARAMETERS_HELP = "a named set or name patterns (default: all candidates)"
 
 
+def positive_int(text: str) -> int:
+    """An argparse type: a whole number ≥ 1 (argparse turns the error into a one-line usage message)."""
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is not a positive whole number")
+    return value
+
+
+def non_negative_int(text: str) -> int:
+    """An argparse type: a whole number ≥ 0 (counts, random seeds)."""
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{value} is negative; a whole number ≥ 0 is needed")
+    return value
+
+
+def positive_float(text: str) -> float:
+    """An argparse type: a finite number > 0 (a standard deviation used as a weight [m, rad])."""
+    value = float(text)
+    if not 0.0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text} is not a finite number > 0")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    """An argparse type: a finite number ≥ 0 (a noise or error size [m, rad]; 0 for none)."""
+    value = float(text)
+    if not 0.0 <= value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text} is not a finite number ≥ 0")
+    return value
+
+
 def add_robot(parser: argparse.ArgumentParser, note: str = "") -> None:
     """The positional ROBOT: a URDF path or a known robot name."""
     parser.add_argument("robot", help="URDF file or known robot name" + (f" ({note})" if note else ""))
@@ -21,7 +53,8 @@ def add_measurement(parser: argparse.ArgumentParser) -> None:
 
 def add_perturb(parser: argparse.ArgumentParser) -> None:
     """``--perturb``: σ of the simulated true errors [m and rad]."""
-    parser.add_argument("--perturb", type=float, default=1e-3, help="σ of the true errors [m and rad] (default 1e-3)")
+    parser.add_argument("--perturb", type=non_negative_float, default=1e-3,
+                        help="σ of the true errors [m and rad] (default 1e-3)")
 
 
 def add_parameters(parser: argparse.ArgumentParser, help_text: str = PARAMETERS_HELP) -> None:

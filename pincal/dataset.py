@@ -257,6 +257,8 @@ def _layout(header: list[str], line: int, required: Sequence[str], known: Sequen
 def _number(cell: str, column: str, line: int, first_increment: bool = False) -> float:
     """The number in one cell; empty or NaN only on the first row of a distance_increment column."""
     try:
+        if "_" in cell:  # Python's float() reads "0.1_0" as 0.1; a measuring system never writes it
+            raise ValueError(cell)
         value = float(cell) if cell else math.nan
     except ValueError:
         raise DataError(f"column '{column}', line {line}: '{cell}' is not a number") from None
@@ -324,7 +326,7 @@ def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = 
     """
     source = Path(path)
     try:
-        text = source.read_text(encoding="utf-8")
+        text = source.read_text(encoding="utf-8-sig")  # -sig: spreadsheets start UTF-8 files with a BOM
     except (OSError, UnicodeDecodeError) as exc:
         raise DataError(f"cannot read dataset '{source}': {exc}") from None
     try:

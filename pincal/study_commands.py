@@ -20,7 +20,15 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration import choose_parameters
-from pincal.cli_options import add_measurement, add_parameters, add_perturb, add_robot
+from pincal.cli_options import (
+    add_measurement,
+    add_parameters,
+    add_perturb,
+    add_robot,
+    non_negative_float,
+    non_negative_int,
+    positive_int,
+)
 from pincal.dataset import Dataset, write_dataset
 from pincal.design import CRITERIA, PoseSelection, condition_number, jacobian_blocks, log_det, select_poses
 from pincal.errors import DataError, NotFoundError, listing
@@ -227,13 +235,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog="example: pincal design delta --candidates 300 --poses 12 --measure position --parameters model24 "
                "--out poses.csv")
     add_robot(design)
-    design.add_argument("--candidates", type=int, default=300, help="random candidate postures (default 300)")
-    design.add_argument("--poses", type=int, required=True, help="postures to choose")
+    design.add_argument("--candidates", type=positive_int, default=300, help="random candidate postures (default 300)")
+    design.add_argument("--poses", type=positive_int, required=True, help="postures to choose")
     add_measurement(design)
     add_parameters(design)
     design.add_argument("--criterion", choices=CRITERIA, default="condition",
                         help="condition: minimise κ (default); d-optimal: maximise log det(JᵀJ)")
-    design.add_argument("--seed", type=int, default=0, help="random seed of the candidates")
+    design.add_argument("--seed", type=non_negative_int, default=0, help="random seed of the candidates")
     design.add_argument("--out", metavar="CSV",
                         help="CSV of the chosen actuated values [rad or m] (default: print them)")
     design.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -249,16 +257,17 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog="example: pincal montecarlo delta --trials 20 --samples 60 --measure position --parameters model24 "
                "--perturb 1e-3 --noise 1e-5 1e-4 --workers 4")
     add_robot(mc)
-    mc.add_argument("--trials", type=int, default=10, help="seeds per noise level (default 10)")
-    mc.add_argument("--samples", type=int, default=60, help="postures to calibrate from (default 60)")
-    mc.add_argument("--test-samples", type=int, default=20, help="held-out postures per trial (default 20)")
+    mc.add_argument("--trials", type=positive_int, default=10, help="seeds per noise level (default 10)")
+    mc.add_argument("--samples", type=positive_int, default=60, help="postures to calibrate from (default 60)")
+    mc.add_argument("--test-samples", type=non_negative_int, default=20,
+                    help="held-out postures per trial (default 20)")
     add_measurement(mc)
     add_perturb(mc)
-    mc.add_argument("--noise", type=float, nargs="+", default=[1e-5],
+    mc.add_argument("--noise", type=non_negative_float, nargs="+", default=[1e-5],
                     help="measurement noise σ levels [m, rad] (default 1e-5)")
     add_parameters(mc)
     mc.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm")
-    mc.add_argument("--workers", type=int, help="processes (default: the machine's cores; 1: serial)")
-    mc.add_argument("--seed", type=int, default=0, help="first seed (trials use seed, seed+1, ...)")
+    mc.add_argument("--workers", type=positive_int, help="processes (default: the machine's cores; 1: serial)")
+    mc.add_argument("--seed", type=non_negative_int, default=0, help="first seed (trials use seed, seed+1, ...)")
     mc.add_argument("--quiet", action="store_true", help="no progress bar or timing")
     mc.set_defaults(func=cmd_montecarlo)

@@ -26,7 +26,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.calibration import choose_parameters, measurements_for, observations_from
-from pincal.cli_options import add_robot
+from pincal.cli_options import add_robot, positive_float
 from pincal.dataset import Dataset, read_dataset
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.measurements import Pose, Position
@@ -328,7 +328,7 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
                         help="reuse the results JSON of 'pincal calibrate --report' instead of calibrating again")
     parser.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm")
     parser.add_argument("--loss", choices=["linear", "cauchy"], default="linear", help="cauchy: robust to outliers")
-    parser.add_argument("--sigma", type=float, help="measurement σ [m] for weighting (default 1e-5)")
+    parser.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
 
 

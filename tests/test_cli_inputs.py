@@ -1,0 +1,82 @@
+"""Bad or unusual input on the command line, as a user meets it: one line naming the culprit, exit 2, no
+traceback; files as spreadsheets write them are read."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import pytest
+from conftest import PINCAL, run_pincal
+
+
+@pytest.fixture(scope="module")
+def five_bar_data(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("five_bar")
+    done = run_pincal("simulate", "five_bar", "--samples", "12", "--seed", "1", "--quiet", "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    return out / "measurements.csv"
+
+
+def one_line_error(done: subprocess.CompletedProcess[str]) -> str:
+    """The single stderr line of a refused command (exit 2, no traceback)."""
+    assert done.returncode == 2, (done.stdout, done.stderr)
+    assert "Traceback" not in done.stderr
+    lines = [line for line in done.stderr.splitlines() if line.strip() and not line.startswith(("usage:", " "))]
+    assert len(lines) == 1, done.stderr
+    return lines[0]
+
+
+@pytest.mark.parametrize(("args", "culprit"), [
+    (["simulate", "five_bar", "--seed", "-1", "--out", "unused"], "--seed: -1 is negative"),
+    (["simulate", "five_bar", "--samples", "0", "--out", "unused"], "--samples: 0 is not a positive whole number"),
+    (["simulate", "five_bar", "--noise=-1e-5", "--out", "unused"], "--noise: -1e-5 is not a finite number ≥ 0"),
+    (["simulate", "five_bar", "--perturb", "nan", "--out", "unused"], "--perturb: nan is not a finite number ≥ 0"),
+    (["montecarlo", "five_bar", "--trials", "0"], "--trials: 0 is not a positive whole number"),
+    (["design", "five_bar", "--poses", "-3"], "--poses: -3 is not a positive whole number"),
+])
+def test_out_of_range_numbers_are_refused_by_name(args: list[str], culprit: str) -> None:
+    assert culprit in one_line_error(run_pincal(*args))
+
+
+@pytest.mark.parametrize("sigma", ["0", "-1", "inf"])
+def test_sigma_must_be_positive(five_bar_data: Path, sigma: str) -> None:
+    line = one_line_error(run_pincal("calibrate", "five_bar", str(five_bar_data), f"--sigma={sigma}"))
+    assert f"--sigma: {sigma} is not a finite number > 0" in line
+
+
+def test_a_300_character_robot_name_is_named_not_a_traceback() -> None:
+    line = one_line_error(run_pincal("info", "x" * 300))
+    assert line.startswith("pincal: error: no robot file or known robot named 'xxx")
+
+
+def test_a_utf8_bom_as_spreadsheets_write_is_accepted(five_bar_data: Path, tmp_path: Path) -> None:
+    with_bom = tmp_path / "bom.csv"
+    with_bom.write_bytes(b"\xef\xbb\xbf" + five_bar_data.read_bytes())
+    reports = []
+    for name, data in (("plain", five_bar_data), ("bom", with_bom)):
+        report = tmp_path / f"{name}.json"
+        done = run_pincal("calibrate", "five_bar", str(data), "--parameters", "*.offset", "--report", str(report))
+        assert done.returncode == 0, done.stderr
+        reports.append(json.loads(report.read_text()))
+    assert reports[0]["parameters"] == reports[1]["parameters"] and reports[0]["n_samples"] == 12
+
+
+def test_a_number_with_an_underscore_is_refused(five_bar_data: Path, tmp_path: Path) -> None:
+    lines = five_bar_data.read_text().splitlines()
+    row = next(k for k, line in enumerate(lines) if line.startswith("3,"))
+    cells = lines[row].split(",")
+    cells[2] = cells[2].replace(".", "_", 1) if "." in cells[2] else cells[2] + "_0"
+    lines[row] = ",".join(cells)
+    bad = tmp_path / "underscore.csv"
+    bad.write_text("\n".join(lines) + "\n")
+    line = one_line_error(run_pincal("calibrate", "five_bar", str(bad)))
+    assert f"line {row + 1}: '{cells[2]}' is not a number" in line
+
+
+def test_a_closed_pipe_ends_quietly(five_bar_data: Path) -> None:
+    """``pincal ... | head -1``: the reader leaves early; pincal must not print a BrokenPipeError traceback."""
+    done = subprocess.run(["bash", "-c", f"'{PINCAL}' calibrate five_bar '{five_bar_data}' --parameters '*.offset' "
+                                         "| head -c 1"], capture_output=True, text=True, timeout=300, check=False)
+    assert done.stdout and "Traceback" not in done.stderr and "BrokenPipe" not in done.stderr
