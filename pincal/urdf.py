@@ -160,6 +160,14 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
                 raise RobotFileError(f"{source}: duplicate {kind} name '{n}'")
             seen.add(n)
     links = set(link_list)
+    for tag in ("loop", "transmission"):  # Pinocchio ignores them anywhere; pincal reads only top-level ones
+        top = {id(n) for n in root.findall(tag)}
+        for parent in root.iter():
+            for child in parent:
+                if child.tag == tag and id(child) not in top:
+                    raise RobotFileError(f"{source}: <{tag} name='{child.get('name', '')}'> is inside <{parent.tag} "
+                                         f"name='{parent.get('name', '')}'>; <{tag}> elements must be children of "
+                                         "<robot>")
 
     loops: list[LoopSpec] = []
     for node in root.findall("loop"):
@@ -204,6 +212,15 @@ def check_finite_origins(text: str, source: str = "URDF") -> None:
             raise RobotFileError(f"{source}: joint '{joint.get('name')}' origin xyz "
                                  f"{np.array2string(placement.translation, precision=4)} m is beyond {MAX_ORIGIN:g} m: "
                                  "a typo or a unit error (URDF lengths are in metres)")
+        limit = joint.find("limit")
+        if limit is not None and joint.get("type") in ("revolute", "prismatic"):
+            bounds = [limit.get(k) for k in ("lower", "upper")]
+            if None not in bounds:
+                what = f"{source}: joint '{joint.get('name')}' limit"
+                lower, upper = (float(_floats(text, 1, what)[0]) for text in bounds)
+                if lower > upper:
+                    raise RobotFileError(f"{source}: joint '{joint.get('name')}' has limit lower {lower:g} > upper "
+                                         f"{upper:g}")
         axis = joint.find("axis")
         if axis is not None:
             values = _floats(axis.get("xyz"), 3, f"{source}: joint '{joint.get('name')}' axis")
