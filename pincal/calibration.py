@@ -19,6 +19,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, RobotFileError, listing
+from pincal.files import write_text
 from pincal.identification import CalibrationResult, calibration_gain, error_norms, rms
 from pincal.measurements import JointReading, Measurement, Pose, joint_reading, parse_key
 from pincal.parameters import KINEMATIC_KINDS, NAMED_SETS, ParameterSet, candidate_parameters
@@ -295,4 +296,4 @@ def report_dict(result: CalibrationResult, problem: CalibrationProblem, x_true: 
 
 
 def write_json(path: str | Path, content: dict[str, Any]) -> None:
-    Path(path).write_text(json.dumps(content, indent=2, sort_keys=False) + "\n", encoding="utf-8")
+    write_text(path, json.dumps(content, indent=2, sort_keys=False) + "\n")

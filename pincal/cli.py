@@ -27,6 +27,7 @@ from pincal.cli_options import (
     positive_int,
 )
 from pincal.errors import DataError, PincalError
+from pincal.files import make_directory, write_text
 from pincal.robot import Robot, load_robot
 
 EXIT_ERROR = 2
@@ -161,13 +162,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from pincal.workflow import calibrate, simulate, write_simulation
 
     robot = load_robot(robot_path("delta"))
+    out = make_directory(args.out, "--out")  # before any work
     sim = simulate(robot, ["position"], args.samples, args.test_samples, perturb=1e-3, noise=args.noise,
                    seed=args.seed, parameter_spec=["model24"])
-    out = Path(args.out)
     write_simulation(sim, out)
     cal = calibrate(robot, sim.dataset, parameter_spec=["model24"], x_true=sim.x_true)
     urdf = out / "delta_calibrated.urdf"
-    urdf.write_text(cal.urdf_text, encoding="utf-8")
+    write_text(urdf, cal.urdf_text)
     write_json(out / "report.json", cal.report)
     report_html = write_demo_report(cal, sim.dataset, out)  # reads out/truth.json, written above
     print(DEMO_TEXT.format(n_train=args.samples, n_test=args.test_samples, noise_um=args.noise * 1e6))

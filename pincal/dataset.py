@@ -35,6 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError, listing
+from pincal.files import write_text
 
 Array = npt.NDArray[np.float64]
 
@@ -471,4 +472,4 @@ def write_dataset(dataset: Dataset, path: str | Path) -> None:
         for values in dataset.measurements.values():
             row.extend(_format(v) for v in values[r])
         writer.writerow(row)
-    Path(path).write_text(buffer.getvalue(), encoding="utf-8")
+    write_text(path, buffer.getvalue())

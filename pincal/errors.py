@@ -32,6 +32,10 @@ class IdentifiabilityError(PincalError):
     """The data cannot identify what was asked of it."""
 
 
+class OutputError(PincalError):
+    """An output path cannot be written, or would overwrite an input or another output."""
+
+
 class NotFoundError(PincalError, KeyError):
     """A named robot, frame, joint or link does not exist."""
 

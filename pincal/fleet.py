@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from pincal.errors import PincalError
+from pincal.files import make_directory
 
 
 @dataclass(frozen=True)
@@ -90,7 +91,6 @@ def calibrate_fleet(jobs: Sequence[FleetJob], executor: concurrent.futures.Execu
 def jobs_from_directory(robot: str, directory: str | Path, out: str | Path, **options: Any) -> list[FleetJob]:
     """One job per ``*.csv`` in ``directory`` (sorted), all on the same nominal robot; outputs named
     after each CSV in ``out``."""
-    out_dir = Path(out)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = make_directory(out, "--out")
     return [FleetJob(p.stem, robot, str(p), str(out_dir / f"{p.stem}.urdf"), str(out_dir / f"{p.stem}.json"), options)
             for p in sorted(Path(directory).glob("*.csv"))]

@@ -23,6 +23,7 @@ import numpy.typing as npt
 from pincal.calibration import observations_from
 from pincal.dataset import Dataset
 from pincal.errors import DataError
+from pincal.files import make_directory, write_text
 from pincal.problem import CalibrationProblem
 from pincal.progress import Progress
 from pincal.viewer import CalibrationView, add_calibration_options, load_view, static_scene
@@ -337,9 +338,8 @@ estimate (±2σ bars in the figure). Parameters that are not identifiable keep m
 def write_report(content: ReportContent, out: str | Path, quiet: bool = True) -> Path:
     """Write the report of ``content`` to ``out`` (parents created); returns the path."""
     path = Path(out)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(render_report(content, quiet), encoding="utf-8")
-    return path
+    make_directory(path.parent, f"report '{path}'")
+    return write_text(path, render_report(content, quiet))
 
 
 def write_demo_report(calibration: Any, dataset: Dataset, out_dir: str | Path) -> Path:

@@ -285,7 +285,11 @@ def load_robot(path: str | Path) -> Robot:
         NotFoundError: neither a file nor a known robot name.
     """
     p = Path(path)
-    if not p.is_file():
+    try:
+        is_file = p.is_file()
+    except OSError:  # e.g. a name longer than the file system allows
+        is_file = False
+    if not is_file:
         if p.suffix or "/" in str(path):
             raise RobotFileError(f"robot file '{path}' does not exist")
         p = robot_path(str(path))

@@ -32,6 +32,7 @@ from pincal.cli_options import (
 from pincal.dataset import Dataset, write_dataset
 from pincal.design import CRITERIA, PoseSelection, condition_number, jacobian_blocks, log_det, select_poses
 from pincal.errors import DataError, NotFoundError, listing
+from pincal.files import check_outputs
 from pincal.measurements import Distance, JointReading, Measurement, Pose
 from pincal.montecarlo import MonteCarloResult, SimulatedCalibration, run_monte_carlo
 from pincal.problem import CalibrationProblem, Observations
@@ -114,6 +115,8 @@ def random_set_baseline(blocks: Array, k: int, selection: PoseSelection, scales:
 
 def cmd_design(args: argparse.Namespace) -> int:
     robot = load_robot(args.robot)
+    if args.out:
+        check_outputs([("--out", args.out)], [robot.source] if robot.source else [])
     if args.candidates < 1 or not 1 <= args.poses <= args.candidates:
         raise DataError(f"cannot choose {args.poses} of {args.candidates} candidate postures: need "
                         "1 <= --poses <= --candidates")
@@ -146,7 +149,6 @@ def cmd_design(args: argparse.Namespace) -> int:
     units = [joint_unit(robot, j) for j in robot.actuated_joints]
     if args.out:
         out = Path(args.out)
-        out.parent.mkdir(parents=True, exist_ok=True)
         write_dataset(Dataset(list(robot.actuated_joints), chosen, {}, [str(k) for k in range(len(chosen))],
                               ["train"] * len(chosen),
                               {"robot": robot.name, "units": "SI (m, rad)", "design": args.criterion,

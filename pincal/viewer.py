@@ -29,6 +29,7 @@ from pincal.calibration import choose_parameters, measurements_for, observations
 from pincal.cli_options import add_robot, positive_float
 from pincal.dataset import Dataset, read_dataset
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
+from pincal.files import check_outputs, write_text
 from pincal.measurements import Pose, Position
 from pincal.problem import CalibrationProblem
 from pincal.progress import Progress
@@ -305,6 +306,8 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
     from pincal.workflow import calibrate
 
     robot = load_robot(args.robot)
+    inputs = (robot.source, args.data, args.result, getattr(args, "truth", None))
+    check_outputs([("--out", args.out)], [p for p in inputs if p is not None])  # before any work
     dataset = read_dataset(args.data, robot.actuated_joints, min_samples=2)
     if args.result:
         try:
@@ -335,9 +338,7 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
 def cmd_view(args: argparse.Namespace) -> int:
     view, _, calibration = load_view(args)
     page, summary = static_scene(view, quiet=args.quiet)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(page, encoding="utf-8")
+    out = write_text(args.out, page)
     errors = f", errors magnified ×{summary.magnification:g}" if summary.has_points else ""
     print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB): {summary.n_visuals} shapes per robot, "
           f"{summary.n_samples} samples{errors}; open it in a browser")

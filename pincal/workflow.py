@@ -28,6 +28,7 @@ from pincal.calibration import (
 )
 from pincal.dataset import Dataset, read_dataset, write_dataset
 from pincal.errors import DataError
+from pincal.files import check_outputs, write_text
 from pincal.identification import CalibrationResult, error_norms, identify, rms
 from pincal.implicit import ImplicitProblem
 from pincal.measurements import JointReading, Measurement, Pose, parse_key
@@ -205,11 +206,15 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
 
 def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, report_path: str | None,
                     **options: Any) -> Calibration:
+    """:func:`calibrate` from files: the outputs are checked before the fit (never over an input, parents
+    created) and each is written whole or not at all."""
     robot = load_robot(robot_path)
+    outputs = [(what, path) for what, path in (("--out", out_urdf), ("--report", report_path)) if path]
+    check_outputs(outputs, [p for p in (robot.source, data_path) if p is not None])
     dataset = read_dataset(data_path, robot.actuated_joints, min_samples=2)
     cal = calibrate(robot, dataset, **options)
     if out_urdf:
-        Path(out_urdf).write_text(cal.urdf_text, encoding="utf-8")
+        write_text(out_urdf, cal.urdf_text)
     if report_path:
         write_json(report_path, cal.report)
     return cal

@@ -1,0 +1,98 @@
+"""Output files: written whole or not at all, never over an input.
+
+Every file pincal writes goes through :func:`write_text`: the text is written to a temporary file in
+the target's directory and renamed over the target, so an interrupted run or a full disk leaves the
+previous file intact. :func:`check_outputs` runs before any work: it refuses an output that resolves to
+an input or to another output, or that is a directory, and creates missing parent directories (or
+says why it cannot), so that no error surfaces after a long fit.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Iterable
+from pathlib import Path
+
+from pincal.errors import OutputError
+
+
+def _resolved(path: str | Path) -> Path:
+    return Path(path).expanduser().resolve()
+
+
+def check_outputs(outputs: Iterable[tuple[str, str | Path]], inputs: Iterable[str | Path] = ()) -> None:
+    """Refuse unusable outputs before any work, and create their missing parent directories.
+
+    Args:
+        outputs: (what, path) pairs, e.g. ``("--out", "cal.urdf")``: the files to be written.
+        inputs: Paths that will be read (robot file, data file, result JSON); an output may be none of them.
+
+    Raises:
+        OutputError: an output is an input, two outputs are the same file, an output is a directory, or its
+            directory cannot be created or written.
+    """
+    read = {_resolved(p): str(p) for p in inputs}
+    seen: dict[Path, str] = {}
+    for what, path in outputs:
+        target = _resolved(path)
+        if target in read:
+            raise OutputError(f"{what} '{path}' is the input file '{read[target]}': pincal never writes over its "
+                              "input; choose another output name")
+        if target in seen:
+            raise OutputError(f"{what} '{path}' is the same file as {seen[target]}; give each output its own name")
+        seen[target] = f"{what} '{path}'"
+        if target.is_dir():
+            raise OutputError(f"{what} '{path}' is a directory; give a file name")
+        make_directory(target.parent, f"{what} '{path}'")
+
+
+def make_directory(directory: str | Path, what: str) -> Path:
+    """``directory``, created with its parents if missing, and checked to be writable.
+
+    Raises:
+        OutputError: it is a file, cannot be created, or cannot be written.
+    """
+    folder = Path(directory)
+    if folder.exists() and not folder.is_dir():
+        raise OutputError(f"{what}: '{folder}' is a file, not a directory")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{what}: cannot create directory '{folder}': {exc.strerror or exc}") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OutputError(f"{what}: directory '{folder}' is not writable")
+    return folder
+
+
+def write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` whole or not at all: a temporary file in the same directory, then
+    renamed over ``path`` (an existing file keeps its permissions). Returns the path.
+
+    Raises:
+        OutputError: the directory is missing or not writable, or the disk is full (the old file is kept).
+    """
+    target = Path(path)
+    if target.is_dir():
+        raise OutputError(f"output '{target}' is a directory; give a file name")
+    try:
+        mode = target.stat().st_mode & 0o7777
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        mode = 0o666 & ~umask
+    try:
+        handle, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".part")
+    except OSError as exc:
+        raise OutputError(f"cannot write '{target}': {exc.strerror or exc}") from None
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
+            stream.write(text)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.chmod(temporary, mode)
+        os.replace(temporary, target)
+    except OSError as exc:
+        Path(temporary).unlink(missing_ok=True)
+        raise OutputError(f"cannot write '{target}': {exc.strerror or exc}; any previous file is unchanged") from None
+    return target

@@ -1,0 +1,99 @@
+"""Outputs are written whole or not at all, and never over an input — through the API and the CLI."""
+
+from __future__ import annotations
+
+import errno
+import os
+from pathlib import Path
+
+import pytest
+from conftest import ROBOTS, run_pincal
+
+from pincal.errors import OutputError
+from pincal.files import check_outputs, write_text
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("five_bar")
+    done = run_pincal("simulate", "five_bar", "--samples", "12", "--seed", "2", "--quiet", "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    return out / "measurements.csv"
+
+
+def test_a_failed_write_keeps_the_old_file_and_leaves_no_debris(tmp_path: Path,
+                                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    target = tmp_path / "report.json"
+    target.write_text('{"good": true}\n')
+
+    def disk_full(fd: int) -> None:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(os, "fsync", disk_full)
+    with pytest.raises(OutputError, match="No space left on device; any previous file is unchanged"):
+        write_text(target, '{"new": ' + "1" * 100_000 + "}\n")
+    assert target.read_text() == '{"good": true}\n'
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.json"]
+
+
+def test_a_new_file_gets_ordinary_permissions_and_an_old_one_keeps_its_own(tmp_path: Path) -> None:
+    umask = os.umask(0o022)
+    try:
+        fresh = write_text(tmp_path / "new.txt", "x")
+        kept = tmp_path / "kept.txt"
+        kept.write_text("old")
+        kept.chmod(0o600)
+        write_text(kept, "new")
+    finally:
+        os.umask(umask)
+    assert fresh.stat().st_mode & 0o777 == 0o644
+    assert kept.stat().st_mode & 0o777 == 0o600 and kept.read_text() == "new"
+
+
+def test_outputs_are_checked_against_inputs_and_each_other(tmp_path: Path) -> None:
+    data = tmp_path / "data.csv"
+    data.write_text("x")
+    with pytest.raises(OutputError, match="is the input file"):
+        check_outputs([("--out", tmp_path / "." / "data.csv")], [data])
+    with pytest.raises(OutputError, match="is the same file as --out"):
+        check_outputs([("--out", tmp_path / "a"), ("--report", tmp_path / "sub" / ".." / "a")], [data])
+    check_outputs([("--out", tmp_path / "new" / "deeper" / "cal.urdf")], [data])
+    assert (tmp_path / "new" / "deeper").is_dir()
+
+
+@pytest.mark.parametrize(("out", "culprit"), [
+    ("DATA", "--out '{out}' is the input file"),
+    ("/proc/pincal/cal.urdf", "cannot create directory '/proc/pincal'"),
+    ("DIR", "is a directory; give a file name"),
+])
+def test_calibrate_refuses_unusable_outputs_before_fitting(data: Path, out: str, culprit: str) -> None:
+    out = {"DATA": str(data), "DIR": str(data.parent)}.get(out, out)
+    before = data.read_bytes()
+    done = run_pincal("calibrate", "five_bar", str(data), "--parameters", "*.offset", "--out", out)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert culprit.format(out=out) in done.stderr and done.stdout == ""  # refused before any fit
+    assert data.read_bytes() == before
+
+
+def test_calibrate_creates_missing_directories_and_refuses_one_file_for_two_outputs(data: Path,
+                                                                                    tmp_path: Path) -> None:
+    same = tmp_path / "same.json"
+    done = run_pincal("calibrate", "five_bar", str(data), "--parameters", "*.offset", "--out", str(same),
+                      "--report", str(same))
+    assert done.returncode == 2 and "is the same file as --out" in done.stderr and not same.exists()
+    deep = tmp_path / "a" / "b" / "cal.urdf"
+    done = run_pincal("calibrate", "five_bar", str(data), "--parameters", "*.offset", "--out", str(deep))
+    assert done.returncode == 0, done.stderr
+    assert deep.read_text().startswith("<?xml") and [p.name for p in deep.parent.iterdir()] == ["cal.urdf"]
+
+
+def test_view_report_and_design_never_write_over_their_inputs(data: Path, tmp_path: Path) -> None:
+    robot_copy = tmp_path / "five_bar.urdf"
+    robot_copy.write_text((ROBOTS / "five_bar.urdf").read_text())
+    before = robot_copy.read_bytes(), data.read_bytes()
+    for args in (("view", str(robot_copy), str(data), "--out", str(data)),
+                 ("report", str(robot_copy), str(data), "--out", str(robot_copy)),
+                 ("design", str(robot_copy), "--poses", "3", "--candidates", "20", "--out", str(robot_copy))):
+        done = run_pincal(*args)
+        assert done.returncode == 2 and "is the input file" in done.stderr, args
+    assert (robot_copy.read_bytes(), data.read_bytes()) == before
