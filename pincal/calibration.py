@@ -3,13 +3,17 @@
 The calibrated URDF is the nominal file with its joint and anchor origins edited, actuated offsets
 folded into the actuated joints' origins, and the tree re-assembled: the closed configuration of the
 calibrated robot at zero actuated readings becomes the new all-zero configuration (each passive
-joint's value is folded into its origin), so the file obeys pincal's convention and loads back.
+joint's value is folded into its origin), so the file obeys pincal's convention and loads back. The
+measurement frame becomes its root link, each calibrated marker a link, and each instrumented passive
+joint's sensor a ``<joint_sensor>``: the file reproduces every prediction of the calibrated model
+(docs/calibrated_urdf.md).
 """
 
 from __future__ import annotations
 
 import json
 import math
+import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -18,15 +22,16 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.errors import ConvergenceError, DataError, RobotFileError, listing
+from pincal.errors import ConvergenceError, DataError, NotFoundError, RobotFileError, listing
 from pincal.files import write_text
 from pincal.identification import CalibrationResult, calibration_gain, error_norms, rms
+from pincal.library import resolve_mesh_file
 from pincal.measurements import JointReading, Measurement, Pose, joint_reading, parse_key
 from pincal.parameters import KINEMATIC_KINDS, NAMED_SETS, ParameterSet, candidate_parameters
 from pincal.problem import CalibrationProblem, Observations
 from pincal.robot import Robot, _build_model, check_reference_assembly
 from pincal.urdf import origin_to_se3, read_extensions
-from pincal.urdf_writer import calibrated_urdf_text
+from pincal.urdf_writer import FixedLink, calibrated_urdf_text
 
 Array = npt.NDArray[np.float64]
 
@@ -131,6 +136,25 @@ def unusable_samples(robot: Robot, actuated: Array, max_condition: float = 1e5) 
 
 
 # --- calibrated URDF -------------------------------------------------------------------------------
+#: Default name of the measurement frame's link, the root of a calibrated URDF that estimates ``base.*``.
+MEASUREMENT_FRAME = "measurement_frame"
+#: Parameter kinds a calibrated URDF carries (all of pincal's kinds).
+WRITTEN_KINDS = ("joint", "anchor", "offset", "base", "marker")
+
+
+def marker_link(frame: str) -> str:
+    """Name of the link a calibrated marker on ``frame`` becomes in the calibrated URDF (``<frame>_marker``)."""
+    return f"{frame}_marker"
+
+
+def written_frame(measurement: Measurement, frame: str, parameters: ParameterSet) -> str:
+    """The frame of the calibrated URDF whose origin (and orientation, for poses) ``measurement`` reads on
+    ``frame``: the marker link when ``parameters`` calibrate a marker on ``frame`` and the measurement
+    reads points (positions and distances; a pose reads the frame itself), else ``frame``."""
+    marked = any(p.kind == "marker" and p.target == frame for p in parameters)
+    return marker_link(frame) if marked and not isinstance(measurement, Pose) else frame
+
+
 def joint_motion(model: pin.Model, jid: int, q: Array) -> pin.SE3:
     """The motion of joint ``jid`` at configuration ``q`` as a placement (``liMi = placement · motion``)."""
     data = model.createData()
@@ -152,8 +176,42 @@ def _joint_axis_motion(robot: Robot, joint: str, value: float) -> pin.SE3:
 
 
 def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterSet, x: Array,
-                          note: str = "") -> tuple[str, dict[str, float]]:
-    """URDF text of ``robot`` with deviations ``x`` applied and re-assembled at zero readings.
+                          note: str = "", read_joints: Sequence[str] = (),
+                          measurement_frame: str = MEASUREMENT_FRAME) -> tuple[str, dict[str, float]]:
+    """URDF text of the calibrated robot: every estimate of ``x`` in the file, re-assembled at zero readings.
+
+    What the file carries (docs/calibrated_urdf.md):
+
+    - joint (movable and fixed) and loop-anchor placements: their origins, edited in place;
+    - actuated-joint offsets (``q_true = q_read + δq``): folded into the joints' origins, so the file
+      takes raw readings;
+    - the re-assembly: the calibrated robot's closed configuration at zero actuated readings is the
+      file's all-zero configuration (each passive joint's value folded into its origin);
+    - the measurement frame (``base.*``, ``world = base · exp6(δ) · robot``): a new root link
+      ``measurement_frame`` and a fixed joint ``measurement_frame_joint`` to the robot's old root,
+      whose origin is ``exp6(δ)``. A file whose root already is that link gets the estimate composed
+      into that joint (recalibrating a calibrated file);
+    - markers (``marker.<frame>.*``, a measured point's offset in ``frame``): a link
+      ``<frame>_marker`` on ``frame``'s link by a fixed joint ``<frame>_marker_joint`` (an existing
+      one, from an earlier calibration, gets the new offset);
+    - instrumented passive joints (``<joint>.offset`` of a non-actuated joint, and ``read_joints``):
+      ``<joint_sensor joint="..." zero="z"/>``: the sensor reads ``q + z``, q the joint's value in the
+      file, ``z = shift − δq`` [m or rad];
+    - mesh files: ``package://`` and relative names that resolve to local files are written as
+      ``file://`` absolute paths (:func:`pincal.library.resolve_mesh_file`), so plain loaders find them.
+
+    Loading the file and running forward kinematics at the raw actuated readings then reproduces the
+    calibrated model's prediction of every measured quantity, in the measurement frame.
+
+    Args:
+        robot: The nominal robot (loaded from ``source_text``).
+        source_text: The URDF text ``robot`` was loaded from.
+        parameters: The parameter set ``x`` refers to.
+        x: Deviations from the nominal robot [m, rad], one per parameter.
+        note: Text of a comment at the top of the file (nothing when empty).
+        read_joints: Passive joints whose sensors are read (``joint:<name>`` measurements) besides those
+            with an offset parameter; each gets a ``<joint_sensor>``.
+        measurement_frame: Name of the measurement frame's link.
 
     Returns:
         The text, and the reference shift of each passive joint [rad or m]: the new zero is the old
@@ -162,7 +220,17 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
 
     Raises:
         ConvergenceError: the calibrated loops cannot be closed at zero actuated readings.
+        RobotFileError: a parameter of a kind a URDF cannot hold, or a name the new elements need is taken.
+        DataError: ``x`` does not match ``parameters``.
+        NotFoundError: a marker's frame is neither a link nor a joint of the file.
     """
+    x = np.asarray(x, dtype=float)
+    if x.shape != (len(parameters),):
+        raise DataError(f"parameter vector has shape {x.shape}, expected ({len(parameters)},) for the parameter set")
+    foreign = [p.name for p in parameters if p.kind not in WRITTEN_KINDS]
+    if foreign:
+        raise RobotFileError(f"parameters {listing(foreign)} are of a kind a calibrated URDF cannot hold; kinds it "
+                             f"holds: {listing(WRITTEN_KINDS)}")
     ext = read_extensions(source_text)
     root = _xml_joint_origins(source_text)
     joint_origins: dict[str, pin.SE3] = {}
@@ -180,42 +248,162 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
         if p.kind == "offset" and p.target in robot.actuated_joints and x[k] != 0.0:
             motion = _joint_axis_motion(robot, p.target, x[k])
             joint_origins[p.target] = joint_origins.get(p.target, root[p.target]) * motion
-    text = calibrated_urdf_text(source_text, joint_origins, loop_origins)
-    shifts: dict[str, float] = {}
+    shifts = _reassemble(robot, source_text, joint_origins, loop_origins, root) if ext.loops else {}
+    tree = ET.fromstring(source_text)
+    fixed_links = _measurement_frame_link(tree, parameters, x, joint_origins, root, measurement_frame)
+    fixed_links += _marker_links(tree, parameters, x, joint_origins, root)
+    offsets = {p.target: float(x[k]) for k, p in enumerate(parameters) if p.kind == "offset"}
+    read = [j for j in dict.fromkeys([*read_joints, *offsets]) if j not in robot.actuated_joints]
+    sensor_zeros = {j: shifts.get(j, 0.0) - offsets.get(j, 0.0) for j in read}
+    meshes = loadable_mesh_filenames(tree, robot.source.parent if robot.source is not None else None)
+    text = calibrated_urdf_text(source_text, joint_origins, loop_origins, header_note=note, fixed_links=fixed_links,
+                                sensor_zeros=sensor_zeros, mesh_filenames=meshes)
     if ext.loops:
-        model = _build_model(text, "calibrated URDF")
-        loose = Robot(model, read_extensions(text).loops, robot.actuated_joints, robot.name)
-        report = loose.solve_fk_report(np.zeros(loose.n_actuated))
-        if not report.converged:
-            raise ConvergenceError(f"the calibrated loops do not close at zero actuated readings (residual "
-                                   f"{report.residual:.3g}): the estimate is far from the nominal robot")
-        q = report.q
-        for jid in range(1, model.njoints):
-            name = str(model.names[jid])
-            jm = model.joints[jid]
-            if name in robot.actuated_joints:
-                continue
-            if jm.nv > 1:  # floating, planar, ...: fold the joint's whole motion into its origin
-                joint_origins[name] = joint_origins.get(name, root[name]) * joint_motion(loose.model, jid, q)
-                continue
-            value = q[jm.idx_q] if jm.nq == 1 else math.atan2(q[jm.idx_q + 1], q[jm.idx_q])
-            if value != 0.0:
-                shifts[name] = float(value)
-                joint_origins[name] = joint_origins.get(name, root[name]) * _joint_axis_motion(loose, name, value)
-        text = calibrated_urdf_text(source_text, joint_origins, loop_origins, header_note=note)
         check_reference_assembly(Robot(_build_model(text, "calibrated URDF"), read_extensions(text).loops,
                                        robot.actuated_joints, robot.name), "calibrated URDF")
-    elif note:
-        text = calibrated_urdf_text(source_text, joint_origins, loop_origins, header_note=note)
     return text, shifts
 
 
-def _xml_joint_origins(text: str) -> dict[str, pin.SE3]:
-    import xml.etree.ElementTree as ET
+def _reassemble(robot: Robot, source_text: str, joint_origins: dict[str, pin.SE3],
+                loop_origins: dict[tuple[str, str], pin.SE3], root: dict[str, pin.SE3]) -> dict[str, float]:
+    """Fold the calibrated robot's closed configuration at zero actuated readings into the passive joints'
+    origins (``joint_origins`` is updated); returns each one-DOF passive joint's shift [rad or m]."""
+    text = calibrated_urdf_text(source_text, joint_origins, loop_origins)
+    model = _build_model(text, "calibrated URDF")
+    loose = Robot(model, read_extensions(text).loops, robot.actuated_joints, robot.name)
+    report = loose.solve_fk_report(np.zeros(loose.n_actuated))
+    if not report.converged:
+        raise ConvergenceError(f"the calibrated loops do not close at zero actuated readings (residual "
+                               f"{report.residual:.3g}): the estimate is far from the nominal robot")
+    q = report.q
+    shifts: dict[str, float] = {}
+    for jid in range(1, model.njoints):
+        name = str(model.names[jid])
+        jm = model.joints[jid]
+        if name in robot.actuated_joints:
+            continue
+        if jm.nv > 1:  # floating, planar, ...: fold the joint's whole motion into its origin
+            joint_origins[name] = joint_origins.get(name, root[name]) * joint_motion(loose.model, jid, q)
+            continue
+        value = q[jm.idx_q] if jm.nq == 1 else math.atan2(q[jm.idx_q + 1], q[jm.idx_q])
+        if value != 0.0:
+            shifts[name] = float(value)
+            joint_origins[name] = joint_origins.get(name, root[name]) * _joint_axis_motion(loose, name, value)
+    return shifts
 
-    root = ET.fromstring(text)
+
+def _root_link(tree: ET.Element) -> str:
+    children = {c.get("link") for c in tree.findall("joint/child")}
+    roots = [name for name in (link.get("name", "") for link in tree.findall("link")) if name not in children]
+    if len(roots) != 1:
+        raise RobotFileError(f"the URDF has {len(roots)} root links ({listing(roots) or 'none'}); a robot has one")
+    return roots[0]
+
+
+def _fixed_joint(tree: ET.Element, joint: str, parent: str, child: str) -> bool:
+    """True if ``joint`` is a fixed joint from ``parent`` to ``child``; RobotFileError if it exists otherwise."""
+    for node in tree.findall("joint"):
+        if node.get("name") == joint:
+            ends = [e.get("link") if e is not None else None for e in (node.find("parent"), node.find("child"))]
+            if node.get("type") != "fixed" or ends != [parent, child]:
+                raise RobotFileError(f"joint '{joint}' exists but is not a fixed joint from '{parent}' to '{child}': "
+                                     "rename it, or pass another frame name")
+            return True
+    return False
+
+
+def _measurement_frame_link(tree: ET.Element, parameters: ParameterSet, x: Array, joint_origins: dict[str, pin.SE3],
+                            root: dict[str, pin.SE3], name: str) -> list[FixedLink]:
+    """The measurement frame as a new root (or composed into the file's own measurement frame joint)."""
+    idx = parameters.groups("base").get(("base", "base", ""), [])
+    if not idx:
+        return []
+    base = pin.exp6(parameters.placement_delta(x, idx))  # world = base · robot (problem._predict)
+    old_root = _root_link(tree)
+    joint = f"{name}_joint"
+    if old_root == name:  # recalibrating a calibrated file: its measurement frame is the robot's parent
+        child = next((j.find("child") for j in tree.findall("joint")
+                      if j.get("name") == joint), None)
+        if child is None or not _fixed_joint(tree, joint, name, child.get("link", "")):
+            raise RobotFileError(f"the root link is '{name}' but it has no fixed joint '{joint}' to the robot; pass "
+                                 "another measurement frame name")
+        joint_origins[joint] = base * joint_origins.get(joint, root[joint])
+        return []
+    links = {link.get("name") for link in tree.findall("link")}
+    if name in links or joint in root:
+        raise RobotFileError(f"the URDF already has a link '{name}' or a joint '{joint}' that is not its root; pass "
+                             "another measurement frame name")
+    comment = (f"pincal: the measurement frame (e.g. the tracker's), the root. The fixed joint {joint} places the "
+               f"robot's base '{old_root}' in it: the calibrated registration. With the robot's base as the "
+               f"reference, take '{old_root}' as the root (docs/calibrated_urdf.md)")
+    return [FixedLink(joint, name, old_root, base, comment)]
+
+
+def _frame_link(tree: ET.Element, frame: str) -> str:
+    """The link whose frame is ``frame`` (a link, or a joint: its child link's frame is the joint's)."""
+    links = [link.get("name", "") for link in tree.findall("link")]
+    if frame in links:
+        return frame
+    for node in tree.findall("joint"):
+        child = node.find("child")
+        if node.get("name") == frame and child is not None:
+            return child.get("link", "")
+    raise NotFoundError(f"frame '{frame}' is neither a link nor a joint of the URDF; links are: {listing(links)}")
+
+
+def _marker_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_origins: dict[str, pin.SE3],
+                  root: dict[str, pin.SE3]) -> list[FixedLink]:
+    """Each calibrated marker as a link on its frame's link (or composed into an existing marker joint)."""
+    out = []
+    offsets: dict[str, Array] = {}
+    for k, p in enumerate(parameters):
+        if p.kind == "marker":
+            offsets.setdefault(p.target, np.zeros(3))[p.component] = x[k]
+    for frame, offset in offsets.items():
+        link, joint = marker_link(frame), f"{marker_link(frame)}_joint"
+        parent = _frame_link(tree, frame)
+        placement = pin.SE3(np.eye(3), offset)
+        if _fixed_joint(tree, joint, parent, link):  # the marker of an earlier calibration: re-estimated
+            if joint in joint_origins:
+                raise RobotFileError(f"link '{link}' cannot be both the marker on '{frame}' (marker.{frame}.*) and a "
+                                     f"calibrated frame of its own ({joint}.*): choose one")
+            joint_origins[joint] = placement
+            continue
+        out.append(FixedLink(joint, parent, link, placement,
+                             f"pincal: the calibrated marker on '{frame}', the point measured there"))
+    return out
+
+
+def loadable_mesh_filenames(tree: ET.Element, urdf_dir: Path | None) -> dict[str, str]:
+    """Mesh file name -> ``file://`` absolute path, for the ``package://`` and relative names of the URDF that
+    resolve to local files (a plain loader resolves neither from elsewhere); others are left out."""
+    out = {}
+    for mesh in tree.findall("link/*/geometry/mesh"):
+        name = mesh.get("filename", "")
+        if name.startswith("package://") or not (name.startswith("file://") or Path(name).is_absolute()):
+            found = resolve_mesh_file(name, urdf_dir)
+            if found is not None:
+                out[name] = f"file://{found.as_posix()}"
+    return out
+
+
+def joint_sensor_zeros(text: str) -> dict[str, float]:
+    """The ``<joint_sensor joint zero>`` elements of a calibrated URDF: joint -> z [m or rad], the sensor
+    reading when the joint is at zero in that file (``reading = q + z``)."""
+    out = {}
+    for node in ET.fromstring(text).findall("joint_sensor"):
+        try:
+            out[node.get("joint", "")] = float(node.get("zero", ""))
+        except ValueError:
+            raise RobotFileError(f"<joint_sensor joint='{node.get('joint')}'> has zero '{node.get('zero')}', not a "
+                                 "number") from None
+    return out
+
+
+def _xml_joint_origins(text: str) -> dict[str, pin.SE3]:
+    tree = ET.fromstring(text)
     return {j.get("name", ""): origin_to_se3(j.find("origin"), f"joint '{j.get('name')}'")
-            for j in root.findall("joint")}
+            for j in tree.findall("joint")}
 
 
 def source_text(robot: Robot) -> str:

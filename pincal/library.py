@@ -1,13 +1,15 @@
 """Robots reachable by name: the reference robots shipped with pincal and example-robot-data's URDFs.
 
 example-robot-data 6 ships URDF files but no Python loader; its data directory is found through the
-installed distribution's file list (``importlib.metadata``), never through a hard-coded path.
+installed distribution's file list (``importlib.metadata``), never through a hard-coded path. The
+same lookup resolves its ``package://example-robot-data/...`` mesh references to local files.
 """
 
 from __future__ import annotations
 
 import importlib.metadata
 import importlib.resources
+import os
 from functools import cache
 from pathlib import Path
 
@@ -73,3 +75,53 @@ def robot_path(name: str) -> Path:
         return path
     raise NotFoundError(f"no robot file or known robot named '{name}'; known robots are: "
                         f"{listing(known_robot_names())}")
+
+
+def package_directories(package: str, near: Path | None = None) -> list[Path]:
+    """Local directories that may hold ROS package ``package``, most likely first.
+
+    Looked for: a directory of that name holding ``near`` (a URDF's directory) or beside one of its
+    parents (the layouts of example-robot-data and of ROS workspaces); the installed
+    example-robot-data's data directory for ``example-robot-data``; each ``ROS_PACKAGE_PATH`` entry.
+    Nothing is downloaded.
+    """
+    out: list[Path] = []
+    if near is not None:
+        for folder in (near, *near.parents):
+            out += [folder] if folder.name == package else [folder / package]
+    if package == "example-robot-data":
+        robots = example_robot_data_dir()
+        if robots is not None:
+            out.append(robots.parent)
+    for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep):
+        if entry:
+            out += [Path(entry)] if Path(entry).name == package else [Path(entry) / package]
+    return [folder for folder in dict.fromkeys(out) if folder.is_dir()]
+
+
+def resolve_mesh_file(filename: str, urdf_dir: Path | None = None) -> Path | None:
+    """The local file a URDF ``<mesh filename>`` refers to, or None if it cannot be found here.
+
+    Args:
+        filename: ``package://<package>/<path>``, ``file://<absolute path>``, an absolute path, or a
+            path relative to the URDF's directory.
+        urdf_dir: Directory of the URDF the file name comes from (for relative names and to find
+            packages beside it); None if unknown.
+    """
+    if filename.startswith("file://"):
+        path = Path(filename[len("file://"):])
+        return path if path.is_absolute() and path.is_file() else None
+    if filename.startswith("package://"):
+        package, _, rest = filename[len("package://"):].partition("/")
+        for folder in package_directories(package, urdf_dir):
+            if (folder / rest).is_file():
+                return (folder / rest).resolve()
+        return None
+    if "://" in filename:  # another scheme (http, ...): never fetched
+        return None
+    path = Path(filename)
+    if not path.is_absolute():
+        if urdf_dir is None:
+            return None
+        path = urdf_dir / path
+    return path.resolve() if path.is_file() else None

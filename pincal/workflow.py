@@ -19,6 +19,7 @@ from pincal.calibration import (
     angle_error_norms,
     calibrated_robot_text,
     choose_parameters,
+    joint_sensor_zeros,
     measurements_for,
     observations_from,
     report_dict,
@@ -102,15 +103,24 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
 
 
 def write_simulation(sim: Simulation, out: Path) -> list[Path]:
-    """Write measurements.csv, truth.urdf and truth.json into ``out``; returns the paths."""
+    """Write measurements.csv, truth.urdf and truth.json into ``out``; returns the paths.
+
+    ``truth.urdf`` is the true robot written as a calibrated URDF (docs/calibrated_urdf.md): its forward
+    kinematics at the actuated readings of ``measurements.csv``, in its root frame (the measurement frame
+    when ``base.*`` carries errors), reproduces the measurements up to the noise; the sensors of read
+    passive joints read ``q + zero`` (its ``<joint_sensor>`` elements, also in ``truth.json``).
+    """
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "measurements.csv", out / "truth.urdf", out / "truth.json"]
     write_dataset(sim.dataset, paths[0])
+    read = [m.joint for m in sim.measurements if isinstance(m, JointReading)]
     text, shifts = calibrated_robot_text(sim.robot, source_text(sim.robot), sim.parameters, sim.x_true,
-                                         note="the TRUE robot of a pincal simulation (nominal + known errors)")
+                                         note="the TRUE robot of a pincal simulation (nominal + known errors)",
+                                         read_joints=read)
     paths[1].write_text(text, encoding="utf-8")
     write_json(paths[2], {"robot": sim.robot.name, "units": "SI: m, rad",
-                          "parameters": sim.parameters.as_dict(sim.x_true), "reference_shifts": shifts})
+                          "parameters": sim.parameters.as_dict(sim.x_true), "reference_shifts": shifts,
+                          "joint_sensor_zeros": joint_sensor_zeros(text)})
     return paths
 
 

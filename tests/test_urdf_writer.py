@@ -15,7 +15,14 @@ from hypothesis import strategies as st
 import pincal
 from pincal.errors import RobotFileError
 from pincal.urdf import read_extensions
-from pincal.urdf_writer import calibrated_urdf_text, format_float, write_calibrated_urdf
+from pincal.urdf_writer import (
+    SENSOR_COMMENT,
+    FixedLink,
+    calibrated_urdf_text,
+    format_float,
+    origin_attributes,
+    write_calibrated_urdf,
+)
 
 DELTA = Path(__file__).resolve().parents[1] / "robots_urdf" / "delta.urdf"
 NEW_JOINT = pin.SE3(pin.rpy.rpyToMatrix(0.01, -0.02, 0.03), np.array([0.1951, -0.0007, 0.0012]))
@@ -146,3 +153,83 @@ def test_any_placement_round_trips(xyz: tuple[float, float, float], rotation: tu
     model = pin.buildModelFromXML(text)
     assert _gap(model.jointPlacements[model.getJointId("rod_2_pitch")], m) <= 1e-12
     assert _gap(read_extensions(text).loops[2].successor_origin, m) <= 1e-12
+
+
+_SMALL = ("<?xml version='1.0'?>\n<robot name='r'>\n  <material name='grey'><color rgba='.5 .5 .5 1'/></material>\n"
+          "  <link name='a'><visual><geometry><mesh filename='package://p/a.stl'/></geometry></visual></link>\n"
+          "  <link name='b'>\n    <collision><geometry><mesh filename=\"m/b &amp; c.stl\" scale='1 1 1'/></geometry>"
+          "</collision>\n  </link>\n"
+          "  <joint name='j' type='revolute'><parent link='a'/><child link='b'/><axis xyz='0 0 1'/>"
+          "<limit lower='-1' upper='1' effort='1' velocity='1'/></joint>\n"
+          "</robot>\n")
+
+
+def test_new_root_and_child_links_are_inserted_and_nothing_else_changes() -> None:
+    m = pin.SE3(pin.rpy.rpyToMatrix(0.1, -0.2, 0.3), np.array([1.0, -2.0, 0.5]))
+    links = [FixedLink("tracker_joint", "tracker", "a", m, comment="the tracker"),
+             FixedLink("b_marker_joint", "b", "b_marker", pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.01])))]
+    text = calibrated_urdf_text(_SMALL, {}, {}, fixed_links=links, sensor_zeros={"j": -0.25})
+    xyz, rpy = origin_attributes(m)
+    added = ["  <!-- the tracker -->", '  <link name="tracker"/>',
+             f'  <joint name="tracker_joint" type="fixed"><parent link="tracker"/><child link="a"/>'
+             f'<origin xyz="{xyz}" rpy="{rpy}"/></joint>',
+             '  <link name="b_marker"/>',
+             '  <joint name="b_marker_joint" type="fixed"><parent link="b"/><child link="b_marker"/>'
+             '<origin xyz="0.0 0.0 0.01" rpy="0.0 0.0 0.0"/></joint>',
+             f"  <!-- {SENSOR_COMMENT} -->", '  <joint_sensor joint="j" zero="-0.25"/>']
+    lines = text.splitlines()
+    assert [line for line in lines if line not in _SMALL.splitlines()] == added
+    assert [line for line in lines if line not in added] == _SMALL.splitlines()
+    assert lines.index(added[1]) < lines.index("  <link name='a'><visual><geometry><mesh "
+                                               "filename='package://p/a.stl'/></geometry></visual></link>")
+    model = pin.buildModelFromXML(text)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, pin.neutral(model))
+    assert _gap(data.oMf[model.getFrameId("a")], m) <= 1e-15  # the new root is the world frame
+    marker = data.oMf[model.getFrameId("b_marker")].translation
+    np.testing.assert_allclose(marker, m.act(np.array([0.0, 0.0, 0.01])), atol=1e-15)
+    again = calibrated_urdf_text(text, {}, {}, sensor_zeros={"j": 0.5})
+    assert again == text.replace('zero="-0.25"', 'zero="0.5"')  # an existing sensor element gets the new value
+
+
+def test_one_line_files_get_inline_elements() -> None:
+    source = "<robot name='r'><link name='a'/><link name='b'/><joint name='j' type='fixed'><parent link='a'/>" \
+             "<child link='b'/></joint></robot>"
+    text = calibrated_urdf_text(source, {}, {}, fixed_links=[FixedLink("w_j", "w", "a", pin.SE3.Identity())])
+    assert text.startswith("<robot name='r'><link name=\"w\"/> <joint name=\"w_j\" type=\"fixed\">")
+    assert text.count("\n") == 0 and pin.buildModelFromXML(text).frames[1].name == "w"
+
+
+def test_mesh_file_names_are_rewritten_with_quoting() -> None:
+    text = calibrated_urdf_text(_SMALL, {}, {}, mesh_filenames={"package://p/a.stl": "file:///x/a.stl",
+                                                                "m/b & c.stl": "file:///y/b & \"c\".stl"})
+    assert '<mesh filename="file:///x/a.stl"/>' in text
+    assert '<mesh filename="file:///y/b &amp; &quot;c&quot;.stl" scale=\'1 1 1\'/>' in text
+    names = [e.get("filename") for e in ET.fromstring(text).iter("mesh")]
+    assert names == ["file:///x/a.stl", 'file:///y/b & "c".stl']
+    with pytest.raises(RobotFileError, match=r"mesh files package://p/z.stl are not in the URDF; meshes are: "
+                                             r"m/b & c.stl, package://p/a.stl"):
+        calibrated_urdf_text(_SMALL, {}, {}, mesh_filenames={"package://p/z.stl": "x"})
+
+
+def test_bad_new_elements_are_refused() -> None:
+    one = pin.SE3.Identity()
+    with pytest.raises(RobotFileError, match=r"cannot give link 'b' the new parent 'w': it already has parent joint "
+                                             r"'j'; only the root link \(a\) can"):
+        calibrated_urdf_text(_SMALL, {}, {}, fixed_links=[FixedLink("w_j", "w", "b", one)])
+    with pytest.raises(RobotFileError, match="exactly one of the two links must be new, both exist"):
+        calibrated_urdf_text(_SMALL, {}, {}, fixed_links=[FixedLink("w_j", "a", "b", one)])
+    with pytest.raises(RobotFileError, match="exactly one of the two links must be new, neither exists"):
+        calibrated_urdf_text(_SMALL, {}, {}, fixed_links=[FixedLink("w_j", "v", "w", one)])
+    with pytest.raises(RobotFileError, match="cannot add joint 'j': the URDF already has a joint of that name"):
+        calibrated_urdf_text(_SMALL, {}, {}, fixed_links=[FixedLink("j", "b", "c", one)])
+    with pytest.raises(RobotFileError, match="cannot add link 'c' twice"):
+        calibrated_urdf_text(_SMALL, {}, {}, fixed_links=[FixedLink("j1", "b", "c", one),
+                                                          FixedLink("j2", "a", "c", one)])
+    with pytest.raises(RobotFileError, match="cannot add a second new root 'v': a URDF has one root"):
+        calibrated_urdf_text(_SMALL, {}, {}, fixed_links=[FixedLink("w_j", "w", "a", one),
+                                                          FixedLink("v_j", "v", "a", one)])
+    with pytest.raises(RobotFileError, match="joint sensor of joint 'k': no such joint; joints are: j"):
+        calibrated_urdf_text(_SMALL, {}, {}, sensor_zeros={"k": 0.0})
+    with pytest.raises(ValueError, match="cannot be an XML comment"):
+        calibrated_urdf_text(_SMALL, {}, {}, fixed_links=[FixedLink("w_j", "w", "a", one, comment="a -- b")])

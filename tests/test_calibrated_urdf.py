@@ -1,0 +1,364 @@
+"""The calibrated URDF is the calibrated model: loading it and running forward kinematics reproduces every
+measured quantity the model predicts, in the measurement frame (DESIGN.md, "What the calibrated output must
+contain").
+
+"Reproduces" means, for raw actuated readings ``qa`` and the written file loaded back (``pincal.load_robot``;
+for trees also plain Pinocchio), with ``q`` its forward kinematics at ``qa``:
+
+- ``position:f``: the origin of frame ``f`` (of ``f_marker`` when a marker on ``f`` is calibrated) in the
+  file's root frame;
+- ``pose:f``: the placement of ``f`` in the root frame;
+- ``distance:a-b`` and ``distance_increment:a-b``: the distance between the two origins (increments are its
+  differences, so they follow);
+- ``joint:j``: ``q[j] + zero``, with ``zero`` read from the file's ``<joint_sensor joint="j" zero=.../>``.
+
+The expected values are the calibration problem's own predictions for a parameter vector x — the model the
+fit works with — so the property is about the writer: x is random (1 mm, 1 mrad), and the match must hold to
+1e-9 (m, rad) on inputs drawn for the test.
+"""
+
+from __future__ import annotations
+
+import json
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import run_pincal
+
+import pincal
+from pincal.calibration import MEASUREMENT_FRAME, calibrated_robot_text, choose_parameters, source_text
+from pincal.dataset import read_dataset
+from pincal.measurements import Distance, JointReading, Measurement, Pose, Position, parse_key
+from pincal.parameters import ParameterSet, candidate_parameters
+from pincal.problem import CalibrationProblem, Observations
+from pincal.robot import Robot
+from pincal.simulation import perturbation, random_actuated
+from pincal.workflow import simulate, write_simulation
+
+Array = np.ndarray
+TOLERANCE = 1e-9  # [m, rad]
+SAMPLES = 6
+
+#: Per robot, the measurement kinds that apply: external (position, pose: the default set then includes the
+#: measurement frame ``base.*``), internal (distances between two of its frames, absolute and incremental),
+#: and joint readings of instrumented passive joints.
+CASES = [
+    ("delta", ["position:end_effector", "pose:end_effector", "joint:rod_1_pitch"]),
+    ("delta", ["distance:end_effector-base", "distance_increment:end_effector-arm_1"]),
+    ("hexapod", ["position:end_effector", "pose:platform"]),
+    ("hexapod", ["distance:end_effector-base", "distance_increment:platform-base"]),
+    ("hexapod_device", ["pose:end_effector", "joint:device_lvdt", "joint:device_incl_x", "joint:device_incl_y",
+                        "joint:device_rotary"]),
+    ("hexapod_device", ["joint:device_lvdt", "joint:device_incl_x", "joint:device_incl_y"]),
+    ("five_bar", ["position:end_effector", "pose:end_effector"]),
+    ("five_bar", ["distance_increment:base_link-end_effector", "distance:proximal_1-platform", "joint:scale_joint"]),
+    ("ucr3", ["position:end_effector", "pose:end_effector"]),
+    ("ucr3", ["distance:end_effector-base_link", "distance_increment:end_effector-base_link"]),
+    ("ur10", ["position:tool0", "pose:tool0"]),
+    ("ur10", ["distance:tool0-base_link", "distance_increment:tool0-world"]),
+    ("panda", ["position:panda_hand_tcp", "pose:panda_hand"]),
+    ("panda", ["distance:panda_hand_tcp-panda_link0", "distance_increment:panda_hand-panda_link0"]),
+]
+
+
+def _blank(m: Measurement, n: int) -> Array:
+    values = np.zeros((n, 7 if isinstance(m, Pose) else m.size))
+    if isinstance(m, Pose):
+        values[:, 6] = 1.0  # identity quaternion: the prediction is then log3 of the absolute rotation
+    return values
+
+
+def _predictions(robot: Robot, pset: ParameterSet, models: list[Measurement], x: Array, qa: Array
+                 ) -> dict[str, Array]:
+    """The calibration model's absolute predictions at ``x`` (pose: position, log3 of the rotation)."""
+    obs = Observations(qa, {m.key: _blank(m, qa.shape[0]) for m in models})
+    return CalibrationProblem(robot, pset, models, obs).evaluate(x, jacobian=False).predicted
+
+
+def _sensor_zeros(text: str) -> dict[str, float]:
+    return {node.get("joint", ""): float(node.get("zero", "nan")) for node in ET.fromstring(text).iter("joint_sensor")}
+
+
+def _point_frame(m: Measurement, frame: str, pset: ParameterSet) -> str:
+    marked = any(p.kind == "marker" and p.target == frame for p in pset)
+    return f"{frame}_marker" if marked and not isinstance(m, Pose) else frame
+
+
+def _file_values(model: pin.Model, q: Array, m: Measurement, pset: ParameterSet, zeros: dict[str, float]) -> Array:
+    """What measurement ``m`` reads on the written file's model at configuration ``q``."""
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+
+    def placement(frame: str) -> pin.SE3:
+        assert model.existFrame(frame), frame
+        return data.oMf[model.getFrameId(frame)]
+
+    if isinstance(m, Pose):
+        p = placement(m.frame)
+        return np.concatenate([p.translation, pin.log3(p.rotation)])
+    if isinstance(m, Position):
+        return placement(_point_frame(m, m.frame, pset)).translation.copy()
+    if isinstance(m, Distance):
+        a = placement(_point_frame(m, m.frame_a, pset)).translation
+        b = placement(_point_frame(m, m.frame_b, pset)).translation
+        return np.array([np.linalg.norm(a - b)])
+    assert isinstance(m, JointReading)
+    jm = model.joints[model.getJointId(m.joint)]
+    return np.array([q[jm.idx_q] + zeros[m.joint]])
+
+
+def _gap(m: Measurement, got: Array, expected: Array) -> float:
+    if isinstance(m, Pose):  # compare rotations, not their logs (the same near ±π)
+        rotation = float(np.abs(pin.exp3(got[3:]) - pin.exp3(expected[3:])).max())
+        return max(float(np.abs(got[:3] - expected[:3]).max()), rotation)
+    return float(np.abs(got - expected).max())
+
+
+def _tree_configuration(model: pin.Model, robot: Robot, qa: Array) -> Array:
+    """A plain Pinocchio configuration with the actuated joints at ``qa``."""
+    q = pin.neutral(model)
+    for joint, value in zip(robot.actuated_joints, qa, strict=True):
+        jm = model.joints[model.getJointId(joint)]
+        if jm.nq == 1:
+            q[jm.idx_q] = value
+        else:
+            q[jm.idx_q:jm.idx_q + 2] = [np.cos(value), np.sin(value)]
+    return q
+
+
+def _worst_gap(robot: Robot, pset: ParameterSet, models: list[Measurement], x: Array, path: Path,
+               seed: int = 1) -> float:
+    """Largest gap between the model's predictions at ``x`` and the file at ``path``, over fresh inputs (drawn
+    where the calibrated robot assembles: near its workspace's edge, the nominal robot's may not)."""
+    written = pincal.load_robot(path)
+    qa, _ = random_actuated(written, SAMPLES, np.random.default_rng(seed))
+    expected = _predictions(robot, pset, models, x, qa)
+    text = path.read_text(encoding="utf-8")
+    zeros = _sensor_zeros(text)
+    plain = pin.buildModelFromUrdf(str(path)) if not robot.loops else None
+    worst = 0.0
+    for k in range(SAMPLES):
+        q = written.solve_fk(qa[k], tol=1e-13)  # the file takes the raw readings
+        for m in models:
+            worst = max(worst, _gap(m, _file_values(written.model, q, m, pset, zeros), expected[m.key][k]))
+            if plain is not None:
+                q_plain = _tree_configuration(plain, robot, qa[k])
+                worst = max(worst, _gap(m, _file_values(plain, q_plain, m, pset, zeros), expected[m.key][k]))
+    return worst
+
+
+def _roots(text: str) -> set[str]:
+    tree = ET.fromstring(text)
+    return {link.get("name", "") for link in tree.iter("link")} - {c.get("link", "") for c in tree.iter("child")}
+
+
+def _write(robot: Robot, pset: ParameterSet, x: Array, models: list[Measurement], path: Path) -> str:
+    read = [m.joint for m in models if isinstance(m, JointReading)]
+    text, _ = calibrated_robot_text(robot, source_text(robot), pset, x, note="test", read_joints=read)
+    path.write_text(text, encoding="utf-8")
+    return text
+
+
+@pytest.mark.parametrize(("name", "keys"), CASES, ids=[f"{n}-{'+'.join(k.split(':')[0] for k in keys)}"
+                                                       for n, keys in CASES])
+def test_the_file_reproduces_every_measured_quantity(name: str, keys: list[str], tmp_path: Path) -> None:
+    robot = pincal.load_robot(name)
+    models = [parse_key(k) for k in keys]
+    pset = choose_parameters(robot, models)  # the default set: every candidate
+    kinds = {p.kind for p in pset}
+    external = any(isinstance(m, (Position, Pose)) for m in models)
+    assert ("base" in kinds) == external and "offset" in kinds and ("anchor" in kinds) == bool(robot.loops)
+    read = [m.joint for m in models if isinstance(m, JointReading)]
+    assert all(f"{j}.offset" in pset for j in read)  # read passive joints' offsets are estimated too
+    x = perturbation(pset, 1e-3, np.random.default_rng(0))
+    text = _write(robot, pset, x, models, tmp_path / "cal.urdf")
+    assert _worst_gap(robot, pset, models, x, tmp_path / "cal.urdf") <= TOLERANCE
+    assert set(_sensor_zeros(text)) == set(read)
+    assert _roots(text) == ({MEASUREMENT_FRAME} if external else _roots(source_text(robot)))
+
+
+@pytest.mark.parametrize("name", ["delta", "ur10"])
+def test_the_measurement_frame_is_the_root_and_matters(name: str, tmp_path: Path) -> None:
+    """The base placement is in the file (the robot alone misses the measurements by about a millimetre), the
+    robot's own names survive, and deleting the two added elements gives the robot in its own base frame."""
+    robot = pincal.load_robot(name)
+    frame = robot.end_effector
+    models = [parse_key(f"position:{frame}")]
+    pset = choose_parameters(robot, models)
+    x = perturbation(pset, 1e-3, np.random.default_rng(2))
+    text = _write(robot, pset, x, models, tmp_path / "cal.urdf")
+    source = ET.fromstring(source_text(robot))
+    tree = ET.fromstring(text)
+    for tag in ("link", "joint", "loop", "transmission"):
+        names = [e.get("name") for e in source.findall(tag)]
+        assert set(names) <= {e.get("name") for e in tree.findall(tag)}, tag
+    assert len(tree.findall("link/visual")) == len(source.findall("link/visual"))
+    (old_root,) = _roots(source_text(robot))
+    joint = tree.find(f"joint[@name='{MEASUREMENT_FRAME}_joint']")
+    assert joint is not None and joint.get("type") == "fixed"
+    assert joint.find(f"parent[@link='{MEASUREMENT_FRAME}']") is not None
+    assert joint.find(f"child[@link='{old_root}']") is not None
+
+    qa, _ = random_actuated(robot, SAMPLES, np.random.default_rng(3))
+    expected = _predictions(robot, pset, models, x, qa)[models[0].key]
+    base = pin.exp6(pset.placement_delta(x, pset.groups("base")[("base", "base", "")]))
+    written = pincal.load_robot(tmp_path / "cal.urdf")
+    frame_link = tree.find(f"link[@name='{MEASUREMENT_FRAME}']")
+    assert frame_link is not None
+    tree.remove(frame_link)  # the robot's base as the reference: drop the measurement frame and its joint
+    tree.remove(joint)
+    (tmp_path / "robot_frame.urdf").write_text(ET.tostring(tree, encoding="unicode"), encoding="utf-8")
+    robot_frame = pincal.load_robot(tmp_path / "robot_frame.urdf")
+    gaps = []
+    for k in range(SAMPLES):
+        in_tracker = written.placement(written.solve_fk(qa[k], tol=1e-13), frame).translation
+        in_base = robot_frame.placement(robot_frame.solve_fk(qa[k], tol=1e-13), frame).translation
+        np.testing.assert_allclose(in_tracker, expected[k], atol=TOLERANCE, rtol=0)
+        np.testing.assert_allclose(in_base, base.actInv(expected[k]), atol=TOLERANCE, rtol=0)
+        gaps.append(float(np.linalg.norm(in_base - expected[k])))
+    assert min(gaps) > 1e-4  # dropping the measurement frame would be a millimetre-scale error
+
+
+@pytest.mark.parametrize(("name", "keys"), [("delta", ["position:end_effector", "distance:end_effector-rod_1"]),
+                                            ("ur10", ["position:tool0", "position:wrist_3_joint", "pose:tool0"])])
+def test_markers_become_frames_named_after_their_measurement(name: str, keys: list[str], tmp_path: Path) -> None:
+    robot = pincal.load_robot(name)
+    models = [parse_key(k) for k in keys]
+    frames = sorted({f for m in models for f in m.frames})
+    pset = candidate_parameters(robot, frames=frames, base=True, markers=True)
+    x = perturbation(pset, 1e-3, np.random.default_rng(4))
+    text = _write(robot, pset, x, models, tmp_path / "cal.urdf")
+    links = {link.get("name") for link in ET.fromstring(text).findall("link")}
+    assert {f"{f}_marker" for f in frames} <= links
+    assert _worst_gap(robot, pset, models, x, tmp_path / "cal.urdf") <= TOLERANCE
+
+
+@pytest.mark.parametrize(("name", "keys"), [("delta", ["position:end_effector", "joint:rod_1_pitch"]),
+                                            ("ur10", ["position:tool0", "pose:tool0"])])
+def test_recalibrating_a_calibrated_file(name: str, keys: list[str], tmp_path: Path) -> None:
+    """A calibrated file calibrated again: the new measurement frame is composed into its root joint, the
+    marker and the joint sensor get their new values, and nothing is added twice."""
+    models = [parse_key(k) for k in keys]
+    frames = sorted({f for m in models for f in m.frames})
+    read = [m.joint for m in models if isinstance(m, JointReading)]
+    path = tmp_path / "first.urdf"
+    for step, robot in enumerate((pincal.load_robot(name), None)):
+        robot = robot or pincal.load_robot(path)
+        pset = candidate_parameters(robot, frames=frames, base=True, markers=True,
+                                    offsets=list(robot.actuated_joints) + read)
+        x = perturbation(pset, 1e-3, np.random.default_rng(5 + step))
+        out = tmp_path / ("first.urdf" if step == 0 else "second.urdf")
+        text = _write(robot, pset, x, models, out)
+        assert _worst_gap(robot, pset, models, x, out) <= TOLERANCE
+    tree = ET.fromstring(text)
+    assert [link.get("name") for link in tree.findall("link")].count(MEASUREMENT_FRAME) == 1
+    assert len(tree.findall("joint_sensor")) == len(read)
+
+
+def test_mesh_files_are_found_by_plain_loaders(tmp_path: Path) -> None:
+    """example-robot-data's ``package://`` meshes become ``file://`` paths: yourdfpy loads a calibrated UR10's
+    meshes from wherever the file is written, as it does the original's from its own directory."""
+    import yourdfpy
+
+    for name in ("ur10", "panda"):
+        robot = pincal.load_robot(name)
+        models = [parse_key(f"position:{robot.end_effector}")]
+        pset = choose_parameters(robot, models)
+        text = _write(robot, pset, np.zeros(len(pset)), models, tmp_path / f"{name}.urdf")
+        names = [mesh.get("filename", "") for mesh in ET.fromstring(text).iter("mesh")]
+        assert names and all(n.startswith("file:///") and Path(n[len("file://"):]).is_file() for n in names), name
+        assert "package://" in source_text(robot)
+    original = yourdfpy.URDF.load(str(pincal.load_robot("ur10").source), load_meshes=True)
+    calibrated = yourdfpy.URDF.load(str(tmp_path / "ur10.urdf"), load_meshes=True)
+    assert len(calibrated.scene.geometry) == len(original.scene.geometry) > 0
+
+
+def test_relative_and_package_meshes_resolve_to_local_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A mesh relative to the source file, a ``package://`` mesh of the package holding the file, one from a
+    ``ROS_PACKAGE_PATH`` entry: all written as ``file://`` paths; a mesh found nowhere is left as written."""
+    package = tmp_path / "ws" / "my_robot"
+    (package / "urdf").mkdir(parents=True)
+    (package / "meshes").mkdir()
+    (package / "meshes" / "a.stl").write_text("solid a\nendsolid a\n")
+    (tmp_path / "ros" / "other").mkdir(parents=True)
+    (tmp_path / "ros" / "other" / "b.stl").write_text("solid b\nendsolid b\n")
+    monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "ros"))
+    meshes = ["../meshes/a.stl", "package://my_robot/meshes/a.stl", "package://other/b.stl", "package://gone/c.stl"]
+    visuals = "".join(f"<visual><geometry><mesh filename='{m}'/></geometry></visual>" for m in meshes)
+    (package / "urdf" / "r.urdf").write_text(
+        f"<robot name='r'><link name='a'>{visuals}</link><link name='b'/>"
+        "<joint name='j' type='revolute'><parent link='a'/><child link='b'/><origin xyz='0 0 0.1'/>"
+        "<axis xyz='0 0 1'/><limit lower='-1' upper='1' effort='1' velocity='1'/></joint></robot>")
+    robot = pincal.load_robot(package / "urdf" / "r.urdf")
+    pset = choose_parameters(robot, [parse_key("position:b")])
+    text, _ = calibrated_robot_text(robot, source_text(robot), pset, np.zeros(len(pset)))
+    a, b = (package / "meshes" / "a.stl").resolve(), (tmp_path / "ros" / "other" / "b.stl").resolve()
+    assert [m.get("filename") for m in ET.fromstring(text).iter("mesh")] == \
+        [f"file://{a}", f"file://{a}", f"file://{b}", "package://gone/c.stl"]
+
+
+@pytest.mark.parametrize(("name", "kinds"), [
+    ("delta", ["position"]),
+    ("hexapod", ["pose"]),
+    ("hexapod_device", ["pose", "joint:device_lvdt", "joint:device_incl_x", "joint:device_incl_y"]),
+    ("five_bar", ["distance_increment:base_link-end_effector", "joint:scale_joint"]),
+    ("ur10", ["position", "pose"]),
+])
+def test_simulated_truth_reproduces_its_measurements(name: str, kinds: list[str], tmp_path: Path) -> None:
+    """``truth.urdf`` of a noise-free simulation reproduces ``measurements.csv``: positions and poses in its root
+    (the measurement frame), distances, and joint readings through its ``<joint_sensor>`` zeros."""
+    robot = pincal.load_robot(name)
+    sim = simulate(robot, kinds, 6, 2, noise=0.0, seed=3)
+    write_simulation(sim, tmp_path)
+    truth = pincal.load_robot(tmp_path / "truth.urdf")
+    zeros = _sensor_zeros((tmp_path / "truth.urdf").read_text(encoding="utf-8"))
+    assert json.loads((tmp_path / "truth.json").read_text())["joint_sensor_zeros"] == pytest.approx(zeros, abs=0)
+    data = read_dataset(tmp_path / "measurements.csv", robot.actuated_joints)
+    columns = [data.joint_names.index(j) for j in robot.actuated_joints]
+    for k in range(data.n_samples):
+        q = truth.solve_fk(data.joints[k, columns], tol=1e-13)
+        for m in sim.measurements:
+            got = _file_values(truth.model, q, m, sim.parameters, zeros)
+            if isinstance(m, JointReading):
+                assert abs(got[0] - data.joints[k, data.joint_names.index(m.joint)]) <= TOLERANCE
+            elif isinstance(m, Pose):
+                measured = data.measurements[m.key][k]
+                rotation = pin.Quaternion(measured[6], *measured[3:6]).matrix()
+                assert np.abs(got[:3] - measured[:3]).max() <= TOLERANCE
+                assert np.abs(pin.exp3(got[3:]) - rotation).max() <= TOLERANCE
+            elif m.incremental:
+                if k > 0:
+                    previous = _file_values(truth.model, truth.solve_fk(data.joints[k - 1, columns], tol=1e-13), m,
+                                            sim.parameters, zeros)
+                    assert abs(got[0] - previous[0] - data.measurements[m.key][k, 0]) <= TOLERANCE
+            else:
+                assert np.abs(got - data.measurements[m.key][k]).max() <= TOLERANCE
+
+
+@pytest.mark.parametrize(("name", "kinds", "samples"), [("delta", ["position"], "40"),
+                                                        ("ur10", ["position", "pose"], "20")])
+def test_simulate_then_calibrate_reproduces_the_truth(name: str, kinds: list[str], samples: str,
+                                                      tmp_path: Path) -> None:
+    """Noise-free ``pincal simulate`` then ``pincal calibrate``: on the held-out postures, the calibrated file
+    predicts what the true file predicts, in the measurement frame (whatever the parameters it chose among the
+    ones the data cannot tell apart)."""
+    sim = run_pincal("simulate", name, "--samples", samples, "--test-samples", "10", "--measure", *kinds,
+                  "--noise", "0", "--seed", "1", "--out", str(tmp_path / "sim"), "--quiet")
+    assert sim.returncode == 0, sim.stderr
+    cal = run_pincal("calibrate", name, str(tmp_path / "sim" / "measurements.csv"), "--out", str(tmp_path / "cal.urdf"))
+    assert cal.returncode in (0, 1), cal.stderr  # 1: the iteration limit; the file is written either way
+    truth, calibrated = pincal.load_robot(tmp_path / "sim" / "truth.urdf"), pincal.load_robot(tmp_path / "cal.urdf")
+    data = read_dataset(tmp_path / "sim" / "measurements.csv", truth.actuated_joints).of_set("test")
+    frame = truth.end_effector
+    worst = [0.0, 0.0]
+    for qa in data.joints[:, [data.joint_names.index(j) for j in truth.actuated_joints]]:
+        a = truth.placement(truth.solve_fk(qa, tol=1e-13), frame)
+        b = calibrated.placement(calibrated.solve_fk(qa, tol=1e-13), frame)
+        worst[0] = max(worst[0], float(np.abs(a.translation - b.translation).max()))
+        worst[1] = max(worst[1], float(np.linalg.norm(pin.log3(a.rotation.T @ b.rotation))))
+    assert worst[0] <= 1e-7  # [m]
+    if "pose" in kinds:
+        assert worst[1] <= 1e-7  # [rad]
