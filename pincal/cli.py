@@ -96,7 +96,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     for path in (args.out, args.report):
         if path:
             print(f"wrote {path}")
-    return 0 if cal.result.converged else 1
+    return 0 if cal.result.converged and not cal.report.get("worse_than_nominal") else 1
 
 
 def _mrad(value: float | None) -> str:
@@ -107,6 +107,10 @@ def _summary(report: dict[str, Any], seconds: float) -> str:
     lines = [f"NOT CONVERGED: {report['message']} after {report['iterations']} iterations; the estimate below is "
              "where the solver stopped, not a calibration (try --max-iter, fewer --parameters or more samples)"
              if not report["converged"] else None,
+             f"WORSE THAN NOMINAL: the calibrated model predicts the held-out samples worse than the nominal one "
+             f"(RMS {_mm(report['test_rms_after'])} against {_mm(report['test_rms_before'])}); keep the nominal model, "
+             "or fit fewer parameters, or measure postures that cover the held-out range"
+             if report.get("worse_than_nominal") else None,
              f"samples {report['n_samples']}, parameters {report['n_parameters']}, "
              f"identifiable {report['n_identifiable']}, "
              f"condition number {report['condition_number']:.3g}" if report["condition_number"] else "",
@@ -133,6 +137,7 @@ def _summary(report: dict[str, Any], seconds: float) -> str:
                   f"{_mrad(report['test_max_angle_after']):>14}"]
     if report.get("before_means"):
         lines.append(f"(before: {report['before_means']})")
+    lines += _accounting(report)
     if report.get("calibration_gain") is not None:
         lines.append(f"{'calibration gain G (study 000)':32}{'':>14}{report['calibration_gain']:>12.1f} %")
         if report["unidentifiable"]:
@@ -145,6 +150,39 @@ def _summary(report: dict[str, Any], seconds: float) -> str:
         if len(report["unidentifiable"]) > 6:
             lines.append(f"  ... and {len(report['unidentifiable']) - 6} more (see the report)")
     return "\n".join(line for line in lines if line is not None)
+
+
+#: Most samples listed one per line in the summary; the report JSON lists them all.
+LISTED = 10
+
+
+def _accounting(report: dict[str, Any]) -> list[str]:
+    """Where every sample of the file went, and whether the residuals agree with the stated noise."""
+    dropped = report.get("dropped_samples", []) + report.get("dropped_test_samples", [])
+    weighted = report.get("down_weighted", [])
+    held = report.get("n_test_samples", 0)
+    total = report.get("n_samples_in_file", report["n_samples"] + held + len(dropped))
+    lines = ["", f"samples in the file {total}: fitted {report['n_samples']}, held out {held}, dropped {len(dropped)}"
+                 + (f", down-weighted {len(weighted)} of the fitted" if weighted else "")]
+    if dropped:
+        lines.append(f"dropped ({len(dropped)}):")
+        lines += [f"  - sample {d['sample']}: {d['reason']}" for d in dropped[:LISTED]]
+    if weighted:
+        lines.append(f"down-weighted by the robust loss ({len(weighted)}):")
+        lines += [f"  - sample {w['sample']}: weight {w['weight']:.3g}"
+                  + (f", error {_mm(w['error_after'])} after calibration" if w["error_after"] is not None else "")
+                  for w in weighted[:LISTED]]
+    if len(dropped) > LISTED or len(weighted) > LISTED:
+        lines.append(f"  (the first {LISTED} of each are listed; --report writes them all)")
+    sigma2 = report.get("sigma2")
+    if sigma2 is not None and sigma2 > 0:
+        ratio = sigma2**0.5
+        lines.append(f"a-posteriori σ: {ratio:.3g} × the stated σ (σ² factor {sigma2:.4g}); the standard deviations "
+                     "use it")
+        if not 1 / 3 <= ratio <= 3:
+            lines.append(f"warning: the residuals are {ratio:.3g} × the stated noise: the stated σ (--sigma or the "
+                         "file's '# sigma' lines) is wrong, or the model misses an effect")
+    return lines
 
 
 DEMO_TEXT = """pincal demo: geometric calibration of the Delta robot of study 000 (robots_urdf/delta.urdf)

@@ -27,7 +27,7 @@ import pinocchio as pin
 
 from pincal.calibration import choose_parameters, measurements_for, observations_from
 from pincal.cli_options import add_robot, positive_float
-from pincal.dataset import Dataset, read_dataset
+from pincal.dataset import Dataset
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.files import check_outputs, write_text
 from pincal.measurements import Pose, Position
@@ -303,12 +303,12 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
 
     Returns the view, the dataset and the :class:`pincal.workflow.Calibration` (None with ``--result``).
     """
-    from pincal.workflow import calibrate
+    from pincal.workflow import calibrate, read_robot_dataset
 
     robot = load_robot(args.robot)
     inputs = (robot.source, args.data, args.result, getattr(args, "truth", None))
     check_outputs([("--out", args.out)], [p for p in inputs if p is not None])  # before any work
-    dataset = read_dataset(args.data, robot.actuated_joints, min_samples=2)
+    dataset = read_robot_dataset(args.data, robot)
     if args.result:
         try:
             report = json.loads(Path(args.result).read_text(encoding="utf-8"))

@@ -7,6 +7,7 @@ postures), ``truth.urdf`` (the true robot) and ``truth.json`` (the true paramete
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,7 +34,7 @@ from pincal.files import check_outputs, write_text
 from pincal.identification import CalibrationResult, error_norms, identify, rms
 from pincal.implicit import ImplicitProblem
 from pincal.measurements import JointReading, Measurement, Pose, parse_key
-from pincal.parameters import ParameterSet
+from pincal.parameters import ParameterSet, joint_unit
 from pincal.problem import CalibrationProblem
 from pincal.robot import Robot, load_robot
 from pincal.simulation import perturbation, random_actuated, simulate_observations
@@ -159,15 +160,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     if pose_sigma_angle is not None:
         models = [Pose(m.key, m.size, m.sigma, m.frame, pose_sigma_angle) if isinstance(m, Pose) else m for m in models]
     pset = choose_parameters(robot, models, parameter_spec)
-    actuated_cols = [train.joint_names.index(j) for j in robot.actuated_joints if j in train.joint_names]
-    complete = len(actuated_cols) == robot.n_actuated
-    dropped = unusable_samples(robot, train.joints[:, actuated_cols]) if complete else []
-    if dropped:  # listed in the report, never silently
-        bad = {k for k, _ in dropped}
-        dropped_info = [{"sample": train.sample_ids[k], "reason": reason} for k, reason in dropped]
-        train = train.subset([k for k in range(train.n_samples) if k not in bad])
-    else:
-        dropped_info = []
+    train, dropped_info = usable_part(robot, train)
     if train.n_samples == 0:
         raise DataError(f"none of the {len(dropped_info)} training samples can be used: "
                         f"{dropped_info[0]['reason'] if dropped_info else 'no data'}")
@@ -189,15 +182,18 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     report["formulation"] = formulation
     report["dropped_samples"] = dropped_info
     report["down_weighted_samples"] = [train.sample_ids[k] for k in result.down_weighted()]
+    lengths = sample_length_errors(result.errors_after, obs.n_samples)
+    report["down_weighted"] = [{"sample": train.sample_ids[k], "weight": float(result.sample_weights[k]),
+                                "error_after": float(lengths[k]) if lengths is not None else None}
+                               for k in result.down_weighted()]
+    report["n_samples_in_file"] = dataset.n_samples
     suspects = result.extra.get("outlier_test", [])
     report["outlier_test"] = [train.sample_ids[k] for k in suspects] if isinstance(suspects, list) else []
     if "test" in dataset.sets:
         test = dataset.of_set("test")
-        bad_test = unusable_samples(robot, test.joints[:, [test.joint_names.index(j) for j in robot.actuated_joints]]) \
-            if complete else []
-        if bad_test:  # listed, never silently
-            report["dropped_test_samples"] = [{"sample": test.sample_ids[k], "reason": r} for k, r in bad_test]
-            test = test.subset([k for k in range(test.n_samples) if k not in {i for i, _ in bad_test}])
+        test, dropped_test = usable_part(robot, test)
+        if dropped_test:  # listed, never silently
+            report["dropped_test_samples"] = dropped_test
         tobs = observations_from(robot, test.joint_names, test.joints, test.measurements, models)
         tprob = CalibrationProblem(robot, pset, models, tobs)
         errors_before = tprob.evaluate(result.x0, jacobian=False).errors  # the same "before" as the fit's
@@ -211,7 +207,76 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
             report.update({"test_rms_angle_before": rms(angles_before), "test_rms_angle_after": rms(angles_after),
                            "test_max_angle_before": float(angles_before.max()),
                            "test_max_angle_after": float(angles_after.max())})
+        report["worse_than_nominal"] = bool(rms(after) > rms(before))
     return Calibration(problem, result, report, text)
+
+
+def sample_length_errors(errors: dict[str, Array], n: int) -> Array | None:
+    """Each sample's length-type error [m] (position, pose position and distance rows together), or None
+    when nothing length-like is measured."""
+    squares = np.zeros(n)
+    found = False
+    for key, err in errors.items():
+        kind = key.split(":", 1)[0]
+        width = 3 if kind in ("position", "pose") else 1 if kind.startswith("distance") else 0
+        if width:
+            squares += np.sum(np.nan_to_num(err[:, :width]) ** 2, axis=1)
+            found = True
+    return np.sqrt(squares) if found else None
+
+
+def joint_kinds(robot: Robot) -> dict[str, str]:
+    """``revolute`` or ``prismatic`` for each one-DOF joint of ``robot`` (the kinds whose readings
+    :func:`~pincal.dataset.read_dataset` checks for degrees and millimetres; continuous joints are left out)."""
+    model = robot.model
+    names = [str(model.names[jid]) for jid in range(1, model.njoints) if model.joints[jid].nq == 1]
+    return {name: "prismatic" if joint_unit(robot, name) == "m" else "revolute" for name in names}
+
+
+def read_robot_dataset(path: str | Path, robot: Robot, min_samples: int = 2) -> Dataset:
+    """:func:`~pincal.dataset.read_dataset` for ``robot``: its actuated joints required, and the readings
+    of its revolute and prismatic joints checked for degrees and millimetres. Every command reads data
+    through here."""
+    return read_dataset(path, robot.actuated_joints, min_samples, joint_kinds=joint_kinds(robot))
+
+
+def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, str]]]:
+    """The samples of ``part`` that can be used, and each dropped one with its reason.
+
+    Dropped: readings outside the URDF joint limits (a reading the robot cannot have is a wrong
+    reading), and postures the nominal robot cannot assemble or that sit at a singularity
+    (:func:`~pincal.calibration.unusable_samples`).
+    """
+    reasons: dict[int, str] = {}
+    for k, reason in out_of_limits(robot, part):
+        reasons[k] = f"{reasons[k]}; {reason}" if k in reasons else reason
+    columns = [part.joint_names.index(j) for j in robot.actuated_joints if j in part.joint_names]
+    if len(columns) == robot.n_actuated:
+        inside = [k for k in range(part.n_samples) if k not in reasons]
+        for k, reason in unusable_samples(robot, part.joints[inside][:, columns]):
+            reasons[inside[k]] = reason
+    dropped = [{"sample": part.sample_ids[k], "reason": reasons[k]} for k in sorted(reasons)]
+    return part.subset([k for k in range(part.n_samples) if k not in reasons]), dropped
+
+
+def out_of_limits(robot: Robot, part: Dataset, tol: float = 1e-9) -> list[tuple[int, str]]:
+    """Samples with a joint reading outside that joint's URDF limits (one-DOF joints with a range), and why."""
+    model = robot.model
+    found: list[tuple[int, str]] = []
+    for c, name in enumerate(part.joint_names):
+        if not model.existJointName(name):
+            continue
+        joint = model.joints[model.getJointId(name)]
+        if joint.nq != 1:
+            continue
+        lower, upper = float(model.lowerPositionLimit[joint.idx_q]), float(model.upperPositionLimit[joint.idx_q])
+        if not (math.isfinite(lower) and math.isfinite(upper) and lower < upper):
+            continue
+        unit = joint_unit(robot, name)
+        for k in np.flatnonzero((part.joints[:, c] < lower - tol) | (part.joints[:, c] > upper + tol)):
+            found.append((int(k), f"joint '{name}' reads {part.joints[k, c]:.6g} {unit}, outside its URDF limits "
+                                  f"[{lower:.6g}, {upper:.6g}] {unit}"))
+    return sorted(found, key=lambda item: item[0])
 
 
 def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, report_path: str | None,
@@ -221,7 +286,7 @@ def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, repor
     robot = load_robot(robot_path)
     outputs = [(what, path) for what, path in (("--out", out_urdf), ("--report", report_path)) if path]
     check_outputs(outputs, [p for p in (robot.source, data_path) if p is not None])
-    dataset = read_dataset(data_path, robot.actuated_joints, min_samples=2)
+    dataset = read_robot_dataset(data_path, robot)
     cal = calibrate(robot, dataset, **options)
     if out_urdf:
         write_text(out_urdf, cal.urdf_text)

@@ -46,7 +46,7 @@ def test_unreachable_samples_are_dropped_and_listed() -> None:
     sim = simulate(robot, ["pose"], 30, 0, perturb=1e-4, noise=1e-6, seed=2, parameter_spec=["*.offset"])
     ds = sim.dataset
     joints = ds.joints.copy()
-    joints[4, :6] = [2.0, 0.0, 0.0, 0.0, 0.0, 0.0]  # one leg 2 m longer: no platform pose fits
+    joints[4, :6] = [0.79, 0.0, 0.0, 0.0, 0.0, 0.0]  # one leg 0.79 m longer, within its limits: no pose fits
     bad = Dataset(ds.joint_names, joints, ds.measurements, ds.sample_ids, ds.sets, ds.metadata)
     cal = calibrate(robot, bad, parameter_spec=["*.offset"])
     assert [d["sample"] for d in cal.report["dropped_samples"]] == ["4"]
@@ -102,3 +102,16 @@ def test_a_selection_that_leaves_nothing_is_refused() -> None:
     robot = pincal.load_robot("delta")
     with pytest.raises(pincal.NotFoundError, match="leave no parameter to identify"):
         choose_parameters(robot, [ms.position("end_effector")], ["arm_1_joint.tx", "!arm_1_joint.tx"])
+
+
+def test_readings_beyond_the_joint_limits_are_dropped_with_that_reason() -> None:
+    robot = pincal.load_robot("hexapod")
+    sim = simulate(robot, ["pose"], 30, 0, perturb=1e-4, noise=1e-6, seed=2, parameter_spec=["*.offset"])
+    ds = sim.dataset
+    joints = ds.joints.copy()
+    joints[4, :6] = [2.0, 0.0, 0.0, 0.0, 0.0, 0.0]  # one leg 2 m longer: beyond its 0.8 m limit
+    bad = Dataset(ds.joint_names, joints, ds.measurements, ds.sample_ids, ds.sets, ds.metadata)
+    cal = calibrate(robot, bad, parameter_spec=["*.offset"])
+    assert cal.report["dropped_samples"] == [
+        {"sample": "4", "reason": "joint 'leg_1_prismatic' reads 2 m, outside its URDF limits [-0.55, 0.8] m"}]
+    assert cal.report["n_samples"] == 29 and cal.result.converged

@@ -129,3 +129,87 @@ def test_max_iter_must_be_a_positive_whole_number(tmp_path: Path) -> None:
     done = run_pincal("calibrate", "delta", str(tmp_path / "none.csv"), "--max-iter", "0")
     assert done.returncode == 2 and "--max-iter: 0 is not a positive whole number" in done.stderr
     assert "Traceback" not in done.stderr
+
+
+@pytest.fixture(scope="module")
+def delta_model24(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A Delta dataset with Model 24 errors: 40 fitted + 20 held-out postures, 10 µm tracker noise."""
+    out = tmp_path_factory.mktemp("delta_model24")
+    done = run_pincal("simulate", "delta", "--samples", "40", "--test-samples", "20", "--seed", "5",
+                      "--parameters", "model24", "--quiet", "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    return out / "measurements.csv"
+
+
+def _edit_rows(source: Path, target: Path, rows: dict[int, dict[str, str]]) -> None:
+    """Copy a dataset with some cells replaced: ``rows`` maps a data row index to {column: text}."""
+    lines = source.read_text().splitlines()
+    header = next(k for k, line in enumerate(lines) if line.startswith("sample,"))
+    columns = lines[header].split(",")
+    for row, cells in rows.items():
+        values = lines[header + 1 + row].split(",")
+        for column, text in cells.items():
+            values[columns.index(column)] = text
+        lines[header + 1 + row] = ",".join(values)
+    target.write_text("\n".join(lines) + "\n")
+
+
+def test_readings_outside_the_joint_limits_are_dropped_and_named(delta_model24: Path, tmp_path: Path) -> None:
+    """Two rows at 2.9 rad against the arm's 1.6 rad limit once took the fit to 51 mm."""
+    bad = tmp_path / "limits.csv"
+    _edit_rows(delta_model24, bad, {3: {"arm_1_joint": "2.9"}, 9: {"arm_2_joint": "2.9"}})
+    report = tmp_path / "report.json"
+    done = run_pincal("calibrate", "delta", str(bad), "--parameters", "model24", "--report", str(report))
+    assert done.returncode == 0, done.stderr
+    assert "samples in the file 60: fitted 38, held out 20, dropped 2" in done.stdout
+    assert "sample 3: joint 'arm_1_joint' reads 2.9 rad, outside its URDF limits [-1.2, 1.6] rad" in done.stdout
+    assert "sample 9: joint 'arm_2_joint' reads 2.9 rad" in done.stdout
+    data = json.loads(report.read_text())
+    assert [d["sample"] for d in data["dropped_samples"]] == ["3", "9"]
+    assert data["test_rms_after"] < 5e-5  # the fit is that of the 38 good samples: tens of micrometres
+
+
+def test_a_file_in_degrees_is_refused_on_the_calibrate_path(delta_model24: Path, tmp_path: Path) -> None:
+    lines = delta_model24.read_text().splitlines()
+    header = next(k for k, line in enumerate(lines) if line.startswith("sample,"))
+    for k in range(header + 1, len(lines)):
+        cells = lines[k].split(",")
+        cells[2:5] = [repr(float(np.degrees(float(c)))) for c in cells[2:5]]
+        lines[k] = ",".join(cells)
+    degrees = tmp_path / "degrees.csv"
+    degrees.write_text("\n".join(lines) + "\n")
+    done = run_pincal("calibrate", "delta", str(degrees), "--parameters", "model24")
+    assert done.returncode == 2 and "(revolute joint)" in done.stderr and "looks like degrees" in done.stderr
+
+
+def test_the_a_posteriori_sigma_is_printed_and_a_wrong_stated_sigma_is_flagged(delta_model24: Path) -> None:
+    right = run_pincal("calibrate", "delta", str(delta_model24), "--parameters", "model24")
+    assert right.returncode == 0, right.stderr
+    ratio = float(right.stdout.split("a-posteriori σ: ")[1].split(" ×")[0])
+    assert 0.6 < ratio < 1.6 and "warning: the residuals" not in right.stdout
+    wrong = run_pincal("calibrate", "delta", str(delta_model24), "--parameters", "model24", "--sigma", "1e-7")
+    assert "warning: the residuals are" in wrong.stdout and "× the stated noise" in wrong.stdout
+    assert 60 < float(wrong.stdout.split("a-posteriori σ: ")[1].split(" ×")[0]) < 160  # 10 µm read as 0.1 µm
+
+
+def test_a_calibration_worse_than_nominal_on_held_out_data_says_so_and_fails(tmp_path: Path) -> None:
+    """A robot already at its nominal geometry: a fit of 24 parameters to noise can only generalize worse."""
+    sim = tmp_path / "sim"
+    assert run_pincal("simulate", "delta", "--perturb", "0", "--samples", "40", "--test-samples", "20", "--seed", "3",
+                      "--quiet", "--out", str(sim)).returncode == 0
+    report = tmp_path / "report.json"
+    done = run_pincal("calibrate", "delta", str(sim / "measurements.csv"), "--parameters", "model24", "--report",
+                      str(report))
+    data = json.loads(report.read_text())
+    assert data["test_rms_after"] > data["test_rms_before"] and data["worse_than_nominal"] is True
+    assert done.returncode == 1 and done.stdout.startswith("WORSE THAN NOMINAL")
+
+
+def test_down_weighted_samples_are_listed_with_their_error(delta_model24: Path, tmp_path: Path) -> None:
+    bad = tmp_path / "outliers.csv"
+    _edit_rows(delta_model24, bad, {k: {"position:end_effector:z": "-0.70"} for k in (4, 11, 30)})
+    done = run_pincal("calibrate", "delta", str(bad), "--parameters", "model24", "--loss", "cauchy")
+    assert "down-weighted by the robust loss (3):" in done.stdout
+    listed = [line for line in done.stdout.splitlines() if line.startswith("  - sample ") and "weight" in line]
+    assert [line.split(":")[0] for line in listed] == ["  - sample 4", "  - sample 11", "  - sample 30"]
+    assert all(float(line.split("error ")[1].split(" mm")[0]) > 10 for line in listed)
