@@ -291,8 +291,9 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
     if shifts:
         listed = ", ".join(f"{html.escape(k)} {v:+.6g}" for k, v in shifts.items())
         shift_text = (f"<p>The calibrated URDF is re-assembled at zero actuated readings; the passive joints' "
-                      f"zero moved by (rad or m): {listed}. Subtract these from readings of instrumented "
-                      "passive joints.</p>")
+                      f"zero moved by (rad or m): {listed}. What the sensor of an instrumented passive joint reads "
+                      "in the new file's terms is in its <code>&lt;joint_sensor joint=… zero=…&gt;</code> element "
+                      "(the sensor reads q + zero; see docs/calibrated_urdf.md).</p>")
     tied = (", and the parameters tied to them (see below) may then differ from the truth while predicting the "
             "measurements just as well") if report.get("unidentifiable") and content.truth else ""
     n_test = None if content.test_before is None else len(content.test_before)

@@ -19,6 +19,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import RobotFileError
+from pincal.library import resolve_mesh_file
 from pincal.robot import Robot
 from pincal.urdf import origin_to_se3
 
@@ -66,26 +67,6 @@ def _cylinder_along_z(origin: pin.SE3) -> Array:
     return origin.homogeneous @ pin.SE3(pin.utils.rotate("x", math.pi / 2), np.zeros(3)).homogeneous
 
 
-def resolve_mesh(uri: str, urdf_dir: Path) -> Path | None:
-    """Local file of a URDF mesh reference (``package://``, ``file://`` or relative); None if absent.
-
-    ``package://pkg/rest`` is looked for as ``pkg/rest`` beside the URDF file and in each of its parent
-    directories (the layout of example-robot-data); nothing is ever downloaded.
-    """
-    if uri.startswith("file://"):
-        path = Path(uri[len("file://"):])
-        return path if path.is_file() else None
-    if uri.startswith("package://"):
-        package, _, rest = uri[len("package://"):].partition("/")
-        for folder in (urdf_dir, *urdf_dir.parents):
-            for candidate in (folder / package / rest, folder / rest if folder.name == package else None):
-                if candidate is not None and candidate.is_file():
-                    return candidate
-        return None
-    path = urdf_dir / uri
-    return path if path.is_file() else None
-
-
 def _mesh_geometry(path: Path) -> Any:
     import meshcat.geometry as mg
 
@@ -104,7 +85,7 @@ def _mesh_visual(link: ET.Element, visual: ET.Element, urdf_dir: Path, budget: i
         mesh = element.find("geometry/mesh")
         if mesh is None:
             continue
-        path = resolve_mesh(mesh.get("filename", ""), urdf_dir)
+        path = resolve_mesh_file(mesh.get("filename", ""), urdf_dir)
         if path is None or path.suffix.lower() not in (".stl", ".obj", ".dae") or path.stat().st_size > budget:
             continue
         scale = [float(v) for v in mesh.get("scale", "1 1 1").split()]

@@ -177,7 +177,8 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     status = "" if result.converged else f"NOT CONVERGED ({result.message} after {result.iterations} iterations): "
     text, shifts = calibrated_robot_text(robot, source_text(robot), pset, result.x,
                                          note=f"{status}calibrated by pincal from {obs.n_samples} samples "
-                                              f"({', '.join(m.key for m in models)})")
+                                              f"({', '.join(m.key for m in models)})",
+                                         read_joints=[m.joint for m in models if isinstance(m, JointReading)])
     report = report_dict(result, problem, x_true, shifts)
     report["formulation"] = formulation
     report["dropped_samples"] = dropped_info

@@ -21,10 +21,11 @@ from conftest import ROBOTS
 import pincal
 from pincal.cli import main
 from pincal.dataset import write_dataset
+from pincal.library import resolve_mesh_file
 from pincal.progress import Progress
 from pincal.static_page import StaticScene
 from pincal.viewer import CalibrationView, configurations, draw_calibration, static_scene
-from pincal.visuals import resolve_mesh, robot_visuals
+from pincal.visuals import robot_visuals
 from pincal.workflow import Calibration, Simulation, calibrate, simulate
 
 N_TRAIN = 30
@@ -78,10 +79,10 @@ def test_package_uris_resolve_beside_the_urdf(tmp_path: Path) -> None:
     mesh.write_bytes(b"solid x\nendsolid x\n")
     urdf_dir = tmp_path / "share" / "my_robot" / "urdf"
     urdf_dir.mkdir()
-    assert resolve_mesh("package://my_robot/meshes/link.stl", urdf_dir) == mesh
-    assert resolve_mesh("../meshes/link.stl", urdf_dir) == urdf_dir / "../meshes/link.stl"
-    assert resolve_mesh(f"file://{mesh}", urdf_dir) == mesh
-    assert resolve_mesh("package://other_robot/meshes/link.stl", urdf_dir) is None
+    assert resolve_mesh_file("package://my_robot/meshes/link.stl", urdf_dir) == mesh
+    assert resolve_mesh_file("../meshes/link.stl", urdf_dir) == (urdf_dir / "../meshes/link.stl").resolve() == mesh
+    assert resolve_mesh_file(f"file://{mesh}", urdf_dir) == mesh
+    assert resolve_mesh_file("package://other_robot/meshes/link.stl", urdf_dir) is None
 
 
 def test_static_scene_holds_robots_samples_and_one_frame_per_sample(delta_case: tuple[Simulation, Calibration]
