@@ -31,6 +31,8 @@ from pincal.files import make_directory, write_text
 from pincal.robot import Robot, load_robot
 
 EXIT_ERROR = 2
+#: Exit code of an unexpected exception (a bug), printed as one line; ``--debug`` shows the traceback.
+EXIT_BUG = 3
 #: Modules that add subcommands through ``register(subparsers)`` (skipped while absent).
 EXTENSIONS = ("pincal.viewer", "pincal.report", "pincal.study_commands")
 
@@ -72,9 +74,10 @@ def _mm(value: float | None) -> str:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    from pincal.workflow import simulate, write_simulation
+    from pincal.workflow import simulate, simulation_outputs, write_simulation
 
     robot = load_robot(args.robot)
+    simulation_outputs(robot, args.out)  # refused before any work: a file, an unwritable place, the robot's URDF
     sim = simulate(robot, args.measure, args.samples, args.test_samples, frame=args.frame, perturb=args.perturb,
                    noise=args.noise, seed=args.seed, parameter_spec=args.parameters, progress=not args.quiet)
     paths = write_simulation(sim, Path(args.out))
@@ -349,6 +352,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # `pincal ... | head`: the reader left; say nothing more, as Unix tools do
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    except MemoryError:
+        print("pincal: error: out of memory: the data or the parameter set is too large for this machine",
+              file=sys.stderr)
+        return EXIT_ERROR
+    except Exception as exc:  # a bug: one line for the user, the traceback with --debug
+        if args.debug:
+            raise
+        print(f"pincal: internal error: {type(exc).__name__}: {exc} (a bug in pincal: run again with --debug and "
+              "report the traceback)", file=sys.stderr)
+        return EXIT_BUG
 
 
 if __name__ == "__main__":

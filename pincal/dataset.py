@@ -27,6 +27,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,6 +56,11 @@ MAX_PLAUSIBLE_LENGTH = 20.0
 MAX_PLAUSIBLE_ANGLE = 4.0 * math.pi
 #: Largest accepted deviation of a quaternion's norm from 1.
 QUATERNION_NORM_TOLERANCE = 1e-3
+#: Most rows one calibration takes: beyond it the fit would run for many minutes without a word (a closed-loop
+#: robot costs about 0.2 ms per sample and iteration), so a larger file is refused at once, before parsing.
+MAX_SAMPLES = 20_000
+#: Largest file read at all [bytes]: far more than MAX_SAMPLES rows of any measurement set.
+MAX_FILE_BYTES = 256 * 1024 * 1024
 
 
 def parse_measurement_key(key: str) -> tuple[str, tuple[str, ...]]:
@@ -297,7 +303,10 @@ def _split(text: str) -> tuple[dict[str, str], int, list[str], list[tuple[int, l
                                     f"{metadata_lines[key]} and {number})")
                 metadata[key], metadata_lines[key] = value.strip(), number
             continue
-        cells = [c.strip() for c in next(csv.reader([raw]))]
+        try:
+            cells = [c.strip() for c in next(csv.reader([raw]))]
+        except csv.Error as exc:  # e.g. a cell over the csv module's 131072-character field limit
+            raise DataError(f"line {number}: {exc} (a cell of {max(map(len, raw.split(',')))} characters)") from None
         if header is None:
             header, header_line = cells, number
         else:
@@ -327,7 +336,19 @@ def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = 
     """
     source = Path(path)
     try:
-        text = source.read_text(encoding="utf-8-sig")  # -sig: spreadsheets start UTF-8 files with a BOM
+        size = source.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise DataError(f"dataset '{source}' is {size / 2**20:.0f} MiB; pincal reads at most "
+                            f"{MAX_FILE_BYTES // 2**20} MiB and calibrates at most {MAX_SAMPLES} samples in one run: "
+                            "split or thin the file")
+        raw = source.read_bytes()
+        lines = raw.count(b"\n") + 1
+        if lines > MAX_SAMPLES + 1:  # rows, less the header, comments and blank lines
+            rows = lines - 1 - len(re.findall(rb"^[ \t\r]*(?:#|$)", raw, re.M))
+            if rows > MAX_SAMPLES:
+                raise DataError(f"dataset '{source}' has {rows} rows; pincal calibrates at most {MAX_SAMPLES} "
+                                "samples in one run (time grows with the samples): split or thin the file")
+        text = raw.decode("utf-8-sig")  # -sig: spreadsheets start UTF-8 files with a BOM
     except (OSError, UnicodeDecodeError) as exc:
         raise DataError(f"cannot read dataset '{source}': {exc}") from None
     try:

@@ -336,6 +336,10 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
 
 
 def cmd_view(args: argparse.Namespace) -> int:
+    if args.open == "" and not sys.stdin.isatty():  # before any work: the server would wait for an Enter
+        raise PincalError("--open without a ZMQ_URL starts a meshcat server that runs until Enter is pressed, but "
+                          "standard input is not a terminal; give the address of a running meshcat server "
+                          "(--open tcp://127.0.0.1:6000) or run from a terminal")
     view, _, calibration = load_view(args)
     page, summary = static_scene(view, quiet=args.quiet)
     out = write_text(args.out, page)
@@ -361,7 +365,10 @@ def open_in_meshcat(view: CalibrationView, zmq_url: str | None, quiet: bool = Tr
     draw_calibration(vis, view, quiet)
     print(f"meshcat: {vis.url()}  (Animations › default › time = sample index)")
     if zmq_url is None:
-        input("press Enter to stop the meshcat server ")
+        try:
+            input("press Enter to stop the meshcat server ")
+        except EOFError:  # standard input closed meanwhile: stop as if Enter was pressed
+            print()
 
 
 def register(sub: argparse._SubParsersAction) -> None:

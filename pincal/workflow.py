@@ -30,7 +30,7 @@ from pincal.calibration import (
 )
 from pincal.dataset import Dataset, read_dataset, write_dataset
 from pincal.errors import DataError
-from pincal.files import check_outputs, write_text
+from pincal.files import check_outputs, make_directory, write_text
 from pincal.identification import CalibrationResult, error_norms, identify, rms
 from pincal.implicit import ImplicitProblem
 from pincal.measurements import JointReading, Measurement, Pose, parse_key
@@ -103,6 +103,22 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
     return Simulation(robot, pset, x_true, dataset, models)
 
 
+SIMULATION_FILES = ("measurements.csv", "truth.urdf", "truth.json")
+
+
+def simulation_outputs(robot: Robot, out: str | Path) -> list[Path]:
+    """The files :func:`write_simulation` writes into ``out``, checked (:func:`~pincal.files.check_outputs`):
+    ``out`` is a directory or can be made one, and none of the files is the robot's own URDF.
+
+    Raises:
+        OutputError: ``out`` is a file or cannot be created, or a file would replace the robot's URDF.
+    """
+    folder = make_directory(out, "--out")
+    paths = [folder / name for name in SIMULATION_FILES]
+    check_outputs([("--out", p) for p in paths], [robot.source] if robot.source is not None else [])
+    return paths
+
+
 def write_simulation(sim: Simulation, out: Path) -> list[Path]:
     """Write measurements.csv, truth.urdf and truth.json into ``out``; returns the paths.
 
@@ -111,14 +127,13 @@ def write_simulation(sim: Simulation, out: Path) -> list[Path]:
     when ``base.*`` carries errors), reproduces the measurements up to the noise; the sensors of read
     passive joints read ``q + zero`` (its ``<joint_sensor>`` elements, also in ``truth.json``).
     """
-    out.mkdir(parents=True, exist_ok=True)
-    paths = [out / "measurements.csv", out / "truth.urdf", out / "truth.json"]
+    paths = simulation_outputs(sim.robot, out)
     write_dataset(sim.dataset, paths[0])
     read = [m.joint for m in sim.measurements if isinstance(m, JointReading)]
     text, shifts = calibrated_robot_text(sim.robot, source_text(sim.robot), sim.parameters, sim.x_true,
                                          note="the TRUE robot of a pincal simulation (nominal + known errors)",
                                          read_joints=read)
-    paths[1].write_text(text, encoding="utf-8")
+    write_text(paths[1], text)
     write_json(paths[2], {"robot": sim.robot.name, "units": "SI: m, rad",
                           "parameters": sim.parameters.as_dict(sim.x_true), "reference_shifts": shifts,
                           "joint_sensor_zeros": joint_sensor_zeros(text)})

@@ -80,3 +80,46 @@ def test_a_closed_pipe_ends_quietly(five_bar_data: Path) -> None:
     done = subprocess.run(["bash", "-c", f"'{PINCAL}' calibrate five_bar '{five_bar_data}' --parameters '*.offset' "
                                          "| head -c 1"], capture_output=True, text=True, timeout=300, check=False)
     assert done.stdout and "Traceback" not in done.stderr and "BrokenPipe" not in done.stderr
+
+
+def test_a_csv_cell_over_the_field_limit_is_named(tmp_path: Path) -> None:
+    big = tmp_path / "big.csv"
+    big.write_text("sample,set,arm_1_joint,arm_2_joint,arm_3_joint\n0,train," + "1" * 140_000 + ",0,0\n")
+    line = one_line_error(run_pincal("calibrate", "delta", str(big)))
+    assert "line 2: field larger than field limit (131072) (a cell of 140000 characters)" in line
+
+
+def test_a_file_with_too_many_rows_is_refused_at_once_with_the_size_it_can_take(tmp_path: Path) -> None:
+    from pincal.dataset import MAX_SAMPLES
+
+    rows = MAX_SAMPLES + 1
+    big = tmp_path / "big.csv"
+    big.write_text("# robot: delta\nsample,set,arm_1_joint,arm_2_joint,arm_3_joint,position:end_effector:x,"
+                   "position:end_effector:y,position:end_effector:z\n"
+                   + "".join(f"{k},train,0.1,0.2,0.3,0.0,0.0,-0.5\n" for k in range(rows)))
+    line = one_line_error(run_pincal("calibrate", "delta", str(big)))
+    assert f"has {rows} rows; pincal calibrates at most {MAX_SAMPLES} samples in one run" in line
+
+
+def test_view_open_without_a_terminal_is_refused_before_any_work(five_bar_data: Path, tmp_path: Path) -> None:
+    done = subprocess.run([str(PINCAL), "view", "five_bar", str(five_bar_data), "--out", str(tmp_path / "v.html"),
+                           "--open"], stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=300,
+                          check=False)
+    line = one_line_error(done)
+    assert "--open without a ZMQ_URL starts a meshcat server" in line and not (tmp_path / "v.html").exists()
+
+
+def test_an_unexpected_exception_is_one_line_and_exit_3(monkeypatch: pytest.MonkeyPatch,
+                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    import pincal.cli
+
+    def broken(args: object) -> int:
+        raise RuntimeError("something pincal did not foresee")
+
+    monkeypatch.setattr(pincal.cli, "cmd_info", broken)
+    assert pincal.cli.main(["info", "delta"]) == pincal.cli.EXIT_BUG == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["pincal: internal error: RuntimeError: something pincal did not foresee (a bug in pincal: run "
+                   "again with --debug and report the traceback)"]
+    with pytest.raises(RuntimeError):
+        pincal.cli.main(["--debug", "info", "delta"])

@@ -97,3 +97,16 @@ def test_view_report_and_design_never_write_over_their_inputs(data: Path, tmp_pa
         done = run_pincal(*args)
         assert done.returncode == 2 and "is the input file" in done.stderr, args
     assert (robot_copy.read_bytes(), data.read_bytes()) == before
+
+
+@pytest.mark.parametrize("case", ["a file", "the robot's own URDF", "an unwritable place"])
+def test_simulate_refuses_unusable_outputs_before_simulating(tmp_path: Path, case: str) -> None:
+    robot = tmp_path / "truth.urdf"
+    robot.write_text((ROBOTS / "five_bar.urdf").read_text())
+    before = robot.read_bytes()
+    out, culprit = {"a file": (str(robot), "is a file, not a directory"),
+                    "the robot's own URDF": (str(tmp_path), "is the input file"),
+                    "an unwritable place": ("/proc/pincal-sim", "cannot create directory")}[case]
+    done = run_pincal("simulate", str(robot), "--samples", "3", "--quiet", "--out", out)
+    assert done.returncode == 2 and culprit in done.stderr and "Traceback" not in done.stderr
+    assert robot.read_bytes() == before and done.stdout == ""
