@@ -21,6 +21,7 @@ from pincal.cli_options import (
     add_parameters,
     add_perturb,
     add_robot,
+    add_solver_and_loss,
     non_negative_float,
     non_negative_int,
     positive_float,
@@ -290,8 +291,7 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--out", help="calibrated URDF to write")
     cal.add_argument("--report", help="report JSON to write")
     add_parameters(cal)
-    cal.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm")
-    cal.add_argument("--loss", choices=["linear", "cauchy"], default="linear", help="cauchy: robust to outliers")
+    add_solver_and_loss(cal)
     cal.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
     cal.add_argument("--max-iter", type=positive_int, default=100,
                      help="iteration limit of the solver (default 100); a run that reaches it exits 1")

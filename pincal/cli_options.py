@@ -57,6 +57,16 @@ def add_perturb(parser: argparse.ArgumentParser) -> None:
                         help="σ of the true errors [m and rad] (default 1e-3)")
 
 
+def add_solver_and_loss(parser: argparse.ArgumentParser) -> None:
+    """``--solver`` and ``--loss`` of the commands that fit (calibrate, view, report)."""
+    parser.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm",
+                        help="lm: Levenberg-Marquardt on the identifiable directions (default); tsvd; ridge")
+    parser.add_argument("--loss", choices=["auto", "linear", "cauchy"], default="auto",
+                        help="auto (default): least squares, then a robust (Cauchy) refit if the data hold samples "
+                             "their own noise level makes implausible, which are listed; linear: least squares only; "
+                             "cauchy: robust from the start")
+
+
 def add_parameters(parser: argparse.ArgumentParser, help_text: str = PARAMETERS_HELP) -> None:
     """``--parameters``: a named set or shell-style name patterns."""
     parser.add_argument("--parameters", nargs="+", help=help_text)

@@ -26,7 +26,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.calibration import choose_parameters, measurements_for, observations_from
-from pincal.cli_options import add_robot, positive_float
+from pincal.cli_options import add_robot, add_solver_and_loss, positive_float
 from pincal.dataset import Dataset
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.files import check_outputs, write_text
@@ -329,8 +329,7 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--parameters", nargs="+", help="a named set or name patterns, as for calibrate")
     parser.add_argument("--result", metavar="REPORT.json",
                         help="reuse the results JSON of 'pincal calibrate --report' instead of calibrating again")
-    parser.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm")
-    parser.add_argument("--loss", choices=["linear", "cauchy"], default="linear", help="cauchy: robust to outliers")
+    add_solver_and_loss(parser)
     parser.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
 

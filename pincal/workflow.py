@@ -149,7 +149,7 @@ class Calibration:
 
 
 def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | None = None, solver: str = "lm",
-              loss: str = "linear", sigma: float | None = None, x_true: Array | None = None,
+              loss: str = "auto", sigma: float | None = None, x_true: Array | None = None,
               pose_sigma_angle: float | None = None, formulation: str = "fkm", max_iter: int = 100) -> Calibration:
     """Identify ``robot``'s parameters from the ``train`` samples; evaluate on the ``test`` samples.
 
@@ -159,6 +159,8 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     compared. "Before" is the same model for the fit and the held-out samples: the nominal robot, with
     the measurement frame registered to the training data in closed form when all of ``base.*`` is
     estimated (``report["before_means"]`` says which). ``max_iter`` bounds the solver's iterations.
+    ``loss``: ``auto`` (default; least squares, then a Cauchy refit when the data hold implausible samples,
+    which the report lists), ``linear`` or ``cauchy`` (see :func:`pincal.identification.identify`).
 
     Raises:
         DataError: no training sample (every row is ``set=test``, or none can be assembled).

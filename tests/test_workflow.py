@@ -213,3 +213,25 @@ def test_down_weighted_samples_are_listed_with_their_error(delta_model24: Path, 
     listed = [line for line in done.stdout.splitlines() if line.startswith("  - sample ") and "weight" in line]
     assert [line.split(":")[0] for line in listed] == ["  - sample 4", "  - sample 11", "  - sample 30"]
     assert all(float(line.split("error ")[1].split(" mm")[0]) > 10 for line in listed)
+
+
+def test_the_robust_loss_is_on_by_default_in_the_cli(delta_model24: Path, tmp_path: Path) -> None:
+    """3 of 40 samples moved 20–40 mm: the default command fits as if they were not there, and names them."""
+    lines = delta_model24.read_text().splitlines()
+    header = next(k for k, line in enumerate(lines) if line.startswith("sample,"))
+    column = lines[header].split(",").index("position:end_effector:z")
+    for row, shift in ((2, 0.020), (17, 0.031), (33, 0.040)):
+        cells = lines[header + 1 + row].split(",")
+        cells[column] = repr(float(cells[column]) + shift)
+        lines[header + 1 + row] = ",".join(cells)
+    dirty = tmp_path / "outliers.csv"
+    dirty.write_text("\n".join(lines) + "\n")
+    reports = {}
+    for name, data in (("clean", delta_model24), ("dirty", dirty)):
+        report = tmp_path / f"{name}.json"
+        done = run_pincal("calibrate", "delta", str(data), "--parameters", "model24", "--report", str(report))
+        assert done.returncode == 0, done.stderr
+        reports[name] = json.loads(report.read_text())
+    assert reports["dirty"]["loss"] == "auto (cauchy)"
+    assert reports["dirty"]["down_weighted_samples"] == ["2", "17", "33"]
+    assert reports["dirty"]["test_rms_after"] <= 1.5 * reports["clean"]["test_rms_after"]
