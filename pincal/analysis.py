@@ -27,6 +27,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg
 
+from pincal import linalg
 from pincal.errors import DataError, IdentifiabilityError, listing
 
 Array = npt.NDArray[np.float64]
@@ -180,7 +181,7 @@ def _describe(dependent: str, bases: list[str], coefficients: list[float]) -> st
 
 
 def _singular_values(matrix: Array) -> Array:
-    return np.linalg.svd(matrix, compute_uv=False).astype(np.float64, copy=False)
+    return linalg.singular_values(matrix, "the scaled identification Jacobian")
 
 
 def _rank(singular_values: Array, tol: float) -> int:
@@ -198,6 +199,10 @@ def _base_from_scaled(
     base = pivots[:rank]
     dependents = pivots[rank:]
     if rank:
+        pivot = np.abs(np.diag(R[:rank, :rank]))
+        if not np.all(pivot > 0.0):  # the SVD's rank and the pivoted QR disagree: an exactly dependent column
+            raise IdentifiabilityError(f"the QR pivot of {names[base[int(np.argmin(pivot))]]} is zero although the "
+                                       f"singular values give rank {rank}; pass a larger tol")
         C = scipy.linalg.solve_triangular(R[:rank, :rank], R[:rank, rank:p])
     else:
         C = np.zeros((0, dependents.size))
@@ -358,8 +363,7 @@ def covariance(
         if norm == 0.0:
             raise IdentifiabilityError(f"{labels[j]} is invisible to the data (zero Jacobian column); drop it")
     equilibrated = sub / norms  # unit columns: the singularity test does not depend on units
-    _, sv, Vt = np.linalg.svd(equilibrated, full_matrices=False)
-    sv = sv.astype(np.float64, copy=False)
+    _, sv, Vt = linalg.svd(equilibrated, "the identification Jacobian on the chosen columns")
     if sv.size < len(columns) or sv[-1] <= tol * sv[0]:
         rank = _rank(sv, tol)
         _, culprits = _base_from_scaled(equilibrated, [labels[j] for j in columns], 1.0 / norms, rank, tol)

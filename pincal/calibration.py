@@ -22,6 +22,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, NotFoundError, RobotFileError, listing
 from pincal.files import write_text
 from pincal.identification import CalibrationResult, calibration_gain, error_norms, rms
@@ -128,7 +129,7 @@ def unusable_samples(robot: Robot, actuated: Array, max_condition: float = 1e5) 
             continue
         if robot.loops:
             _, jac = robot.kinematics.closure_jacobian(report.q)
-            s = np.linalg.svd(jac[:, robot.kinematics.passive_v], compute_uv=False)
+            s = linalg.singular_values(jac[:, robot.kinematics.passive_v], "the passive closure Jacobian")
             if s[-1] <= 0.0 or s[0] / s[-1] > max_condition:
                 out.append((k, f"singular configuration (passive closure Jacobian condition number "
                                f"{(s[0] / s[-1]) if s[-1] > 0 else float('inf'):.3g})"))

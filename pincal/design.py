@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.analysis import base_parameters
 from pincal.errors import DataError
 from pincal.measurements import Pose
@@ -166,7 +167,7 @@ def _score(info: Array, criterion: str, ridge: float) -> tuple[Array, Array]:
     ``value`` is κ (condition) or ``-log det`` (d-optimal) for a regular set; a singular set is ranked
     by its regularised ``-log det`` (how close it comes to identifying every column).
     """
-    eig = np.linalg.eigvalsh(info)
+    eig: Any = linalg.eigvalsh(info, "the information matrix of a candidate pose set")  # regular below is boolean
     top = np.maximum(eig[..., -1], 1e-300)
     regular = eig[..., 0] > FULL_RANK * top
     neg_logdet = -np.sum(np.log(np.maximum(eig, 0.0) + ridge), axis=-1)
@@ -204,7 +205,7 @@ def condition_number(blocks: npt.ArrayLike, indices: Indices, scales: npt.ArrayL
         difference: Rows are differences of consecutive poses (reset scale).
     """
     jac = _scaled_subset(blocks, indices, scales, columns, difference)
-    sv = np.linalg.svd(jac, compute_uv=False)
+    sv = linalg.singular_values(jac, "the scaled Jacobian of the pose set")
     if sv.size < jac.shape[1] or sv[-1] <= 1e-14 * sv[0]:
         return float("inf")
     return float(sv[0] / sv[-1])
@@ -214,7 +215,7 @@ def log_det(blocks: npt.ArrayLike, indices: Indices, scales: npt.ArrayLike | Non
             columns: Sequence[int] | None = None, difference: bool = False) -> float:
     """``log det(J_sᵀ J_s)`` of a pose set (``-inf`` if singular); arguments as :func:`condition_number`."""
     jac = _scaled_subset(blocks, indices, scales, columns, difference)
-    sv = np.linalg.svd(jac, compute_uv=False)
+    sv = linalg.singular_values(jac, "the scaled Jacobian of the pose set")
     if sv.size < jac.shape[1] or sv[-1] == 0.0:
         return float("-inf")
     return float(2.0 * np.sum(np.log(sv)))
@@ -338,7 +339,7 @@ def _candidates(b: Array, gram: Array, info: Array, selected: list[int], pos: in
         count = n if screen is None else screen
         # matrix determinant lemma: log det(M + BᵀB) = log det M + log det(I + B M⁻¹ Bᵀ), r × r per candidate
         regularised = base + ridge * np.eye(base.shape[0])
-        inverse = np.linalg.inv(regularised)
+        inverse = linalg.inverse(regularised, "the regularised information matrix of the chosen poses")
         small = np.matmul(b @ inverse, b.transpose(0, 2, 1)) + np.eye(b.shape[1])
         gain = np.linalg.slogdet(small)[1]
         if criterion == "d-optimal":

@@ -14,6 +14,14 @@ Steps: ``lm`` is Levenberg's damping of that truncated Gauss–Newton step,
 (study 003); ``ridge`` solves ``(JᵀJ + μI) δz = -Jᵀr`` over all parameters. The robust loss re-weights
 whole samples (IRLS, Cauchy weights) with a scale estimated from the median residual, so no
 threshold is set by hand.
+
+Weakly identifiable directions are strongly nonlinear (moving 0.1 mm along one changes the predictions
+more at second order than at first), so plain LM crawls there: each smaller λ is rejected. From the first
+rejected step on, ``lm`` adds Transtrum & Sethna's geodesic acceleration (one residual evaluation per
+trial, :func:`pincal.lm.accelerated`). Two stops end the crawl once it cannot matter
+(:func:`pincal.lm.settled`): an exact fit (every error within 100 × the FK tolerance, 1 nm) and, for noisy
+data, a cost at the noise level whose remaining Gauss–Newton improvement along the practically identified
+directions is below one unit of χ². Every SVD goes through :mod:`pincal.linalg` (no ``LinAlgError``).
 """
 
 from __future__ import annotations
@@ -27,8 +35,9 @@ import numpy as np
 import numpy.typing as npt
 from threadpoolctl import threadpool_limits
 
+from pincal import linalg, lm
 from pincal.analysis import Identifiability, analyse, correlations, covariance
-from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
+from pincal.errors import DataError, IdentifiabilityError
 from pincal.problem import Prediction, Problem
 
 Array = npt.NDArray[np.float64]
@@ -39,8 +48,6 @@ LOSSES = ("auto", "linear", "cauchy")
 #: alarm anywhere in the dataset (Bonferroni: each sample is tested at this level over N).
 OUTLIER_FALSE_ALARM = 1e-3
 CAUCHY_C = 2.3849  # 95 % efficiency under Gaussian noise
-#: Largest error [m, rad] counted as an exact fit: FK closes loops to 1e-11, so fits end near 1e-12.
-NUMERICAL_FLOOR = 1e-9
 #: Relative cost change per step below which three steps in a row count as a stationary cost.
 STATIONARY = 1e-6
 
@@ -61,6 +68,9 @@ class CalibrationResult:
         sample_weights: Robust-loss weights per sample (1 = fully trusted).
         sigma2: A-posteriori variance factor (≈ 1 when the stated σ are right).
         seconds: Wall time of identification.
+        extra: Further records; the solver's counters ``rejected_steps``, ``evaluations`` (of the model),
+            ``accelerated_steps`` (trials with geodesic acceleration) and ``rank_changes`` (iterations at
+            which the number of directions moved along changed).
     """
 
     names: list[str]
@@ -168,31 +178,11 @@ def _practical_tol(jacobian: Array, scales: Array, rank_tol: float, min_informat
     """Relative rank tolerance with an absolute floor ``min_information`` on the singular values."""
     if min_information <= 0.0:  # no floor: no need for the Jacobian's norm (an SVD)
         return rank_tol
-    largest = float(np.linalg.norm(jacobian * scales, 2)) if jacobian.size else 0.0
+    largest = float(linalg.singular_values(jacobian * scales, "the scaled identification Jacobian")[0]) \
+        if jacobian.size else 0.0
     if largest <= 0.0:
         return rank_tol
     return min(max(rank_tol, min_information / largest), 0.5)
-
-
-def _step(js: Array, r: Array, solver: str, lam: float, rank: int, rcond: float, ridge: float,
-          floor: float = 0.0) -> Array:
-    """One scaled step (see the module docstring); the ``lm`` step keeps singular values above
-    ``rcond`` (the rank tolerance) relative to the largest and above ``floor`` (absolute), at most
-    ``rank`` of them."""
-    if solver == "ridge":
-        h = js.T @ js
-        h[np.diag_indices_from(h)] += ridge
-        ridge_step: Array = np.asarray(-np.linalg.solve(h, js.T @ r), dtype=np.float64)
-        return ridge_step
-    u, s, vt = np.linalg.svd(js, full_matrices=False)
-    if not s.size or s[0] == 0.0:
-        return np.zeros(js.shape[1])
-    keep = s > max(rcond * s[0], floor)
-    if solver == "lm":
-        keep &= np.arange(s.size) < rank
-    s_k = s[keep]
-    damping = lam * s[0] ** 2 if solver == "lm" else 0.0
-    return np.asarray(-(vt[keep].T @ ((u[:, keep].T @ r) * s_k / (s_k**2 + damping))), dtype=np.float64)
 
 
 def identify(problem: Problem, x0: Array | None = None, solver: str = "lm", loss: str = "auto",
@@ -213,6 +203,9 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: str, loss: str, *
     if loss != "auto":
         return _identify(problem, x0, solver, loss, **options)
     first = _identify(problem, x0, solver, "linear", **options)
+    if lm.at_floor(first.errors_after, lm.exact_fit_floors(problem, lm.FLOOR_SIGMA_FRACTION)):  # nothing to reject
+        first.extra["outlier_test"] = []
+        return first
     suspects = outlier_samples(problem, problem.evaluate(first.x, jacobian=False), first.identifiability.rank)
     first.extra["outlier_test"] = suspects
     if not suspects:
@@ -223,6 +216,9 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: str, loss: str, *
     second.iterations += first.iterations
     second.cost_history = first.cost_history + second.cost_history
     second.seconds += first.seconds
+    for key in ("rejected_steps", "evaluations", "accelerated_steps", "rank_changes"):
+        second.extra[key] = int(first.extra.get(key, 0)) + int(second.extra.get(key, 0))  # type: ignore[call-overload]
+    second.extra["first_pass_iterations"] = first.iterations
     second.loss = "auto (cauchy)"
     second.extra["outlier_test"] = suspects
     return second
@@ -243,8 +239,11 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
             also takes ``auto``.
         identifiable_only: Move only along directions identifiable at the current estimate
             (recommended); otherwise LM damping alone keeps the unidentifiable directions in check.
-        max_iter: Iteration limit.
-        tol: Stop when the relative cost decrease or the scaled step falls below ``tol``.
+        max_iter: Iteration limit (steps taken); reaching it is reported as not converged.
+        tol: Stop when the relative cost decrease or the scaled step falls below ``tol``. When no step
+            decreases the cost, the fit counts as converged at a first-order optimum or when every error
+            is within ``max(FLOOR_SIGMA_FRACTION · σ, FK_AMPLIFICATION · SOLVE_TOLERANCE)`` [m, rad]
+            (:mod:`pincal.lm`), σ the measurement's stated standard deviation.
         rank_tol: Relative singular-value threshold for identifiability (see :mod:`pincal.analysis`).
         min_information: Absolute floor on the singular values of the weighted, scaled Jacobian: a
             direction below it has an a-priori standard deviation over 1/min_information times the
@@ -256,7 +255,8 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
 
     Raises:
         DataError: unknown solver or loss, or fewer residuals than identifiable parameters.
-        ConvergenceError: the model cannot be evaluated at the starting point.
+        ConvergenceError: the model cannot be evaluated at the starting point, or an SVD fails with both
+            LAPACK drivers (:mod:`pincal.linalg`).
     """
     if solver not in SOLVERS:
         raise DataError(f"unknown solver '{solver}'; solvers are: {', '.join(SOLVERS)}")
@@ -287,51 +287,64 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
     if pred.residual.size < len(pset):
         raise DataError(f"{pred.residual.size} residuals cannot identify {len(pset)} parameters (study 000: the "
                         "number of measured values must be at least the number of parameters); add samples")
-    rank = len(pset)
-    moving = list(range(len(pset)))
     d = scales
     weights = _sample_weights(problem, pred, loss)
     rw = np.sqrt(_row_weights(problem, weights))
     cost = 0.5 * float(np.sum((rw * pred.residual) ** 2))
     history = [cost]
-    lam, converged, message, it, slow = 1e-3, False, "iteration limit reached", 0, 0
-    for it in range(1, max_iter + 1):  # noqa: B007 (it is reported after the loop)
-        js = pred.jacobian[:, moving] * d * rw[:, None]
-        cut = (rank_tol if identifiable_only else 1e-15) if solver == "lm" else tsvd_rcond
-        floor = min_information if identifiable_only and solver == "lm" else 0.0
-        dz = _step(js, rw * pred.residual, solver, lam, rank, cut, ridge, floor)
+    floors = lm.exact_fit_floors(problem, lm.FLOOR_SIGMA_FRACTION)
+    numerical = lm.exact_fit_floors(problem, 0.0, lm.EXACT_FIT_AMPLIFICATION)
+    cut = (rank_tol if identifiable_only else 1e-15) if solver == "lm" else tsvd_rcond
+    info_floor = min_information if identifiable_only and solver == "lm" else 0.0
+    lam, converged, message, iterations, slow = 1e-3, False, "iteration limit reached", 0, 0
+    accelerate = False  # geodesic acceleration: on from the first rejected LM step
+    counts = {"rejected": 0, "evaluations": 1, "accelerated": 0}
+    kept: list[int] = []
+    for it in range(1, max_iter + 1):
+        js = pred.jacobian * d * rw[:, None]
+        r = rw * pred.residual
+        steps = lm.Steps(js, solver, cut, ridge, info_floor)
+        kept.append(steps.kept)
+        if it > 1 and solver == "lm":
+            settled = lm.settled(steps, lam, r, cost, pred.errors, numerical, accelerate)
+            if settled:
+                converged, message = True, settled
+                break
+        iterations = it
         accepted = False
         shrink = 1.0
+        dz: Array | None = None
+        new: Prediction | None = None
         for _ in range(12):
-            trial = x.copy()
-            trial[moving] += d * dz * shrink
-            try:
-                new = problem.evaluate(trial) if np.all(np.isfinite(trial)) else None
-            except (ConvergenceError, DataError):  # an unusable step: rejected like one that raises the cost
-                new = None
+            dz = steps.solve(r, lam) * shrink
+            if accelerate:
+                counts["evaluations"] += 1
+                dz = lm.accelerated(problem, x, d, rw, r, js, dz, steps, lam)
+                counts["accelerated"] += int(dz is not None)
+            new = lm.evaluated(problem, x + d * dz) if dz is not None else None
+            counts["evaluations"] += int(dz is not None)
             if new is not None:
                 new_cost = 0.5 * float(np.sum((rw * new.residual) ** 2))
                 if new_cost <= cost:
                     accepted = True
                     break
+            counts["rejected"] += 1
             if solver == "lm":
                 lam *= 10.0
-                dz = _step(js, rw * pred.residual, solver, lam, rank, cut, ridge, floor)
+                accelerate = True
             else:
                 shrink *= 0.5
-        if not accepted or new is None:
+        if not accepted or new is None or dz is None:
             message = "no step decreases the cost (a local minimum, or the model cannot be evaluated nearby)"
-            # at a first-order optimum (gradient negligible against ‖J‖‖r‖) this is convergence at the
-            # numerical floor (FK closes loops to ~1e-11), not a failure
-            grad = float(np.linalg.norm(js.T @ (rw * pred.residual)))
-            scale = float(np.linalg.norm(js, 2)) * math.sqrt(2 * cost)
-            worst = max(float(np.max(np.abs(e[np.isfinite(e)]), initial=0.0)) for e in pred.errors.values())
-            if grad <= 1e-4 * scale or worst <= NUMERICAL_FLOOR:
+            # at a first-order optimum (gradient negligible against ‖J‖‖r‖), or with every error below what
+            # the measurements resolve and FK reproduces, this is convergence, not a failure
+            grad = float(np.linalg.norm(js.T @ r))
+            if grad <= 1e-4 * steps.largest * math.sqrt(2 * cost) or lm.at_floor(pred.errors, floors):
                 converged, message = True, "converged (no further decrease at the numerical floor)"
             break
         decrease = cost - new_cost
-        step_size = float(np.linalg.norm(dz * shrink))
-        x, pred, cost = trial, new, new_cost
+        step_size = float(np.linalg.norm(dz))
+        x, pred, cost = x + d * dz, new, new_cost
         assert pred.jacobian is not None
         if loss != "linear":
             weights = _sample_weights(problem, pred, loss)
@@ -370,6 +383,9 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
     except IdentifiabilityError:
         corr = np.full((len(active), len(active)), np.nan)
         apriori = np.full(len(pset), np.nan)
-    return CalibrationResult(pset.names, start_x, x, std,
-                             list(active), ident, corr, it, converged, message, history, errors_before, pred.errors,
-                             weights, sigma2, time.perf_counter() - start, solver, loss, std_apriori=apriori)
+    return CalibrationResult(pset.names, start_x, x, std, list(active), ident, corr, iterations, converged, message,
+                             history, errors_before, pred.errors,
+                             weights, sigma2, time.perf_counter() - start, solver, loss, std_apriori=apriori,
+                             extra={"rejected_steps": counts["rejected"], "evaluations": counts["evaluations"],
+                                    "accelerated_steps": counts["accelerated"],
+                                    "rank_changes": int(np.count_nonzero(np.diff(kept)))})

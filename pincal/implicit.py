@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
 from pincal.identification import CalibrationResult
 from pincal.measurements import Measurement, Pose, Position
@@ -40,7 +41,7 @@ CLOSURE_KEY = "ikm:closure"
 
 def _split(jac: Array, tol: float = 1e-10) -> tuple[Array, Array]:
     """Pseudo-inverse of ``jac`` and an orthonormal basis of its null space."""
-    u, s, vt = np.linalg.svd(jac)
+    u, s, vt = linalg.svd(jac, "the task Jacobian over the passive joints (IKM)", full_matrices=True)
     rank = int(np.sum(s > tol * (s[0] if s.size else 1.0)))
     pinv = vt[:rank].T @ np.diag(1.0 / s[:rank]) @ u[:, :rank].T
     return pinv, vt[rank:].T
@@ -107,7 +108,8 @@ class ImplicitProblem(CalibrationProblem):
             tp_pinv, null = _split(tp)
             step_t = -tp_pinv @ t
             a = cp @ null
-            z = -np.linalg.lstsq(a, c + cp @ step_t, rcond=None)[0] if a.size else np.zeros(0)
+            z = -linalg.pseudo_inverse(a, "the closure Jacobian on the task null space (IKM)") @ (c + cp @ step_t) \
+                if a.size else np.zeros(0)
             step = step_t + null @ z
             # converged when the step vanishes and the part of the task the passive joints can act on is met
             # (a Delta cannot turn its platform: a measured orientation's rows lie outside T_p's range)
@@ -164,7 +166,8 @@ class ImplicitProblem(CalibrationProblem):
             cp, tp = cjac[:, passive], tjac[:, passive]
             tp_pinv, null = _split(tp)
             a = cp @ null
-            projector = np.eye(rows) - a @ np.linalg.pinv(a) if a.size else np.eye(rows)
+            closure_pinv = linalg.pseudo_inverse(a, "the closure Jacobian on the task null space (IKM)", 1e-15)
+            projector = np.eye(rows) - a @ closure_pinv if a.size else np.eye(rows)
             jac_out[k] = projector @ (dc - cp @ (tp_pinv @ dt))
         sigma = self.target.sigma
         out_res = (residual / sigma).reshape(-1)

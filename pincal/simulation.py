@@ -12,6 +12,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
 from pincal.measurements import Measurement, Pose
 from pincal.parameters import ParameterSet
@@ -59,7 +60,7 @@ def random_actuated(robot: Robot, n: int, rng: np.random.Generator, spread: floa
                 continue
             if robot.loops:
                 _, jac = robot.kinematics.closure_jacobian(report.q)
-                s = np.linalg.svd(jac[:, robot.kinematics.passive_v], compute_uv=False)
+                s = linalg.singular_values(jac[:, robot.kinematics.passive_v], "the passive closure Jacobian")
                 if s[-1] <= 0 or s[0] / s[-1] > max_condition:
                     continue
             qa_out.append(qa)

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.errors import DataError
 from pincal.measurements import Measurement
 from pincal.parameters import ParameterSet
@@ -112,7 +113,7 @@ def tsvd_step(jacobian: Array, residual: Array, scales: Array, rank: int | None 
         number of singular values kept: ``rank`` if given, else those above ``rcond · σ_1``.
     """
     js = jacobian * scales
-    u, s, vt = np.linalg.svd(js, full_matrices=False)
+    u, s, vt = linalg.svd(js, "the scaled identification matrix G")
     if not s.size or s[0] == 0.0:
         raise DataError("the identification matrix is zero: the measurements do not see the parameters")
     keep = int(np.count_nonzero(s > rcond * s[0])) if rank is None else min(int(rank), s.size)

@@ -164,3 +164,58 @@ def test_unknown_measurement_frame_far_away_is_registered_in_closed_form() -> No
     result = identify(problem)
     assert result.converged and result.iterations <= 15
     assert np.max(error_norms(result.errors_after)) < 1e-9
+
+
+def test_numpy_svd_failure_falls_back_to_gesvd_with_the_same_result(monkeypatch: pytest.MonkeyPatch) -> None:
+    """numpy's SVD can fail ("SVD did not converge") on Jacobians with many near-zero singular values; LM,
+    the identifiability analysis and the covariance then use SciPy's gesvd and give the same answer."""
+    robot = pincal.load_robot("ur10")
+    models = [ms.position("tool0")]
+    pset = choose_parameters(robot, models, ["*_joint.*"])  # redundant: many exactly zero singular values
+    rng = np.random.default_rng(21)
+    x_true = perturbation(pset, 1e-3, rng)
+    qa, _ = random_actuated(robot, 25, rng)
+    obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=1e-5)
+    reference = identify(CalibrationProblem(robot, pset, models, obs), x0=np.zeros(len(pset)), loss="linear")
+    calls: list[int] = []
+
+    def failing(*args: object, **kwargs: object) -> None:
+        calls.append(1)
+        raise np.linalg.LinAlgError("SVD did not converge")
+
+    monkeypatch.setattr(np.linalg, "svd", failing)
+    fallback = identify(CalibrationProblem(robot, pset, models, obs), x0=np.zeros(len(pset)), loss="linear")
+    assert calls
+    assert fallback.iterations == reference.iterations and fallback.converged == reference.converged
+    assert fallback.identifiability.rank == reference.identifiability.rank < len(pset)
+    np.testing.assert_allclose(fallback.identifiability.singular_values, reference.identifiability.singular_values,
+                               rtol=1e-9, atol=1e-12 * reference.identifiability.singular_values[0])
+    np.testing.assert_allclose(fallback.x, reference.x, atol=1e-12, rtol=0)
+    np.testing.assert_allclose(fallback.std, reference.std, rtol=1e-6, equal_nan=True)
+
+
+class _Stated:
+    """A stand-in problem carrying only the measurement models (their stated σ)."""
+
+    def __init__(self, models: list) -> None:
+        self.measurements = models
+
+
+@pytest.mark.parametrize(("sigma", "error", "exact"), [
+    (1e-9, 1.5e-9, True),  # a 1.5 nm fit of noise-free data stated at σ = 1 nm: the FK floor (1e-8) holds it
+    (1e-9, 5e-8, False),  # 50 nm is above both floors
+    (1e-5, 5e-7, True),  # below a tenth of the stated σ: no such instrument could tell it from zero
+    (1e-5, 5e-6, False),
+])
+def test_exact_fit_floor_follows_the_stated_sigma_and_the_fk_tolerance(sigma: float, error: float,
+                                                                        exact: bool) -> None:
+    from pincal.lm import FLOOR_SIGMA_FRACTION, at_floor, exact_fit_floors
+
+    problem = _Stated([ms.position("tool0", sigma), ms.pose("flange", sigma, 10 * sigma)])
+    floors = exact_fit_floors(problem, FLOOR_SIGMA_FRACTION)  # type: ignore[arg-type]
+    errors = {"position:tool0": np.full((4, 3), 0.1 * error), "pose:flange": np.zeros((4, 6))}
+    errors["position:tool0"][2, 1] = -error
+    assert at_floor(errors, floors) is exact
+    # the orientation rows of the pose are held to their own σ (10 × here)
+    errors["pose:flange"][1, 4] = 5.0 * error
+    assert at_floor(errors, floors) is (exact and 5.0 * error <= max(FLOOR_SIGMA_FRACTION * 10 * sigma, 1e-8))

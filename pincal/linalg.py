@@ -1,0 +1,110 @@
+"""Dense linear algebra that does not fail on identification matrices.
+
+numpy's SVD uses LAPACK's divide-and-conquer driver (``gesdd``), which is fast but can stop with
+``LinAlgError: SVD did not converge`` on matrices with many (near-)zero singular values — a 306 × 74
+TIAGo Jacobian with three mocap markers and 35 near-zero singular values did. LAPACK's one-sided
+QR-iteration driver (``gesvd``, through SciPy) handles such matrices. Every SVD, pseudo-inverse and
+symmetric eigen-decomposition pincal runs on an identification matrix goes through this module: the fast
+driver first, the robust one when it fails, and a :class:`~pincal.errors.PincalError` naming the matrix
+(``what``) when nothing can be done (non-finite entries, or both drivers failing).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+import scipy.linalg
+
+from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
+
+Array = npt.NDArray[np.float64]
+
+
+def _finite(matrix: Array, what: str) -> None:
+    if not np.all(np.isfinite(matrix)):
+        bad = np.argwhere(~np.isfinite(matrix))
+        raise DataError(f"{what} has {len(bad)} NaN/inf entries (first at index {tuple(int(i) for i in bad[0])}); "
+                        "its decomposition is undefined")
+
+
+def svd(matrix: npt.ArrayLike, what: str, full_matrices: bool = False) -> tuple[Array, Array, Array]:
+    """``U, s, Vᵀ`` of ``matrix`` (m × n), s descending; numpy's ``gesdd``, else SciPy's ``gesvd``.
+
+    Args:
+        matrix: The matrix (any units; the factors carry them).
+        what: What the matrix is, for error messages (e.g. ``"the scaled identification Jacobian"``).
+        full_matrices: Square ``U`` (m × m) and ``Vᵀ`` (n × n) instead of the economy factors.
+
+    Raises:
+        DataError: the matrix has NaN or infinite entries.
+        ConvergenceError: neither driver converged.
+    """
+    a = np.asarray(matrix, dtype=np.float64)
+    try:
+        u, s, vt = np.linalg.svd(a, full_matrices=full_matrices)
+    except np.linalg.LinAlgError:
+        _finite(a, what)
+        try:
+            u, s, vt = scipy.linalg.svd(a, full_matrices=full_matrices, lapack_driver="gesvd", check_finite=False)
+        except np.linalg.LinAlgError as exc:
+            raise ConvergenceError(f"the SVD of {what} ({a.shape[0]} × {a.shape[1]}) did not converge with "
+                                   f"LAPACK's gesdd nor gesvd: {exc}") from exc
+    return np.asarray(u, np.float64), np.asarray(s, np.float64), np.asarray(vt, np.float64)
+
+
+def singular_values(matrix: npt.ArrayLike, what: str) -> Array:
+    """Singular values of ``matrix``, descending (robust as :func:`svd`)."""
+    a = np.asarray(matrix, dtype=np.float64)
+    try:
+        return np.asarray(np.linalg.svd(a, compute_uv=False), np.float64)
+    except np.linalg.LinAlgError:
+        _finite(a, what)
+        try:
+            return np.asarray(scipy.linalg.svd(a, compute_uv=False, lapack_driver="gesvd", check_finite=False),
+                              np.float64)
+        except np.linalg.LinAlgError as exc:
+            raise ConvergenceError(f"the singular values of {what} ({a.shape[0]} × {a.shape[1]}) did not converge "
+                                   f"with LAPACK's gesdd nor gesvd: {exc}") from exc
+
+
+def pseudo_inverse(matrix: npt.ArrayLike, what: str, rcond: float | None = None) -> Array:
+    """Moore–Penrose pseudo-inverse by :func:`svd`: singular values up to ``rcond · s_max`` count as zero
+    (default ``max(m, n) · eps``, numpy's ``lstsq`` and ``pinv`` cut)."""
+    a = np.asarray(matrix, dtype=np.float64)
+    if a.size == 0:
+        return np.zeros(a.shape[::-1])
+    u, s, vt = svd(a, what)
+    cut = (max(a.shape) * np.finfo(np.float64).eps if rcond is None else rcond) * (s[0] if s.size else 0.0)
+    keep = s > cut
+    return np.asarray((vt[keep].T / s[keep]) @ u[:, keep].T, np.float64)
+
+
+def eigvalsh(matrices: npt.ArrayLike, what: str) -> Array:
+    """Eigenvalues, ascending, of a symmetric matrix or a stack of them (..., p, p): numpy's ``syevd``,
+    else SciPy's QR-iteration driver ``syev`` matrix by matrix."""
+    a = np.asarray(matrices, dtype=np.float64)
+    try:
+        return np.asarray(np.linalg.eigvalsh(a), np.float64)
+    except np.linalg.LinAlgError:
+        _finite(a, what)
+        flat = a.reshape(-1, *a.shape[-2:])
+        try:
+            values = [scipy.linalg.eigh(m, eigvals_only=True, driver="ev", check_finite=False) for m in flat]
+        except np.linalg.LinAlgError as exc:
+            raise ConvergenceError(f"the eigenvalues of {what} did not converge with LAPACK's syevd nor syev: "
+                                   f"{exc}") from exc
+        return np.asarray(values, np.float64).reshape(a.shape[:-1])
+
+
+def inverse(matrix: npt.ArrayLike, what: str) -> Array:
+    """Inverse of a regular square matrix.
+
+    Raises:
+        IdentifiabilityError: the matrix is singular (the message names ``what``).
+    """
+    a = np.asarray(matrix, dtype=np.float64)
+    try:
+        return np.asarray(np.linalg.inv(a), np.float64)
+    except np.linalg.LinAlgError as exc:
+        _finite(a, what)
+        raise IdentifiabilityError(f"{what} is singular: it cannot be inverted ({exc})") from exc

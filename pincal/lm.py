@@ -1,0 +1,178 @@
+"""Levenberg–Marquardt machinery behind :func:`pincal.identification.identify`: the steps one SVD of the
+scaled Jacobian gives, Transtrum & Sethna's geodesic acceleration, and when a fit is done.
+
+Weakly identifiable directions are strongly nonlinear: moving 0.1 mm along one changes the predictions more
+at second order than at first (measured on a hexapod with pose data, κ 5e7), so plain LM crawls, each
+smaller λ being rejected. :func:`accelerated` corrects the step for that curvature; :func:`settled` ends
+the crawl once it cannot matter (an exact fit, or a cost at the noise level).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal import linalg
+from pincal.errors import ConvergenceError, DataError
+from pincal.measurements import Pose
+from pincal.problem import Prediction, Problem
+from pincal.robot import SOLVE_TOLERANCE
+
+Array = npt.NDArray[np.float64]
+
+#: An error below this fraction of its measurement's stated σ counts as an exact fit when no step
+#: decreases the cost: no measurement of that instrument could tell it from zero.
+FLOOR_SIGMA_FRACTION = 0.1
+#: FK closes the loops to ``SOLVE_TOLERANCE`` (1e-11 m, rad); the predictions carry that error amplified
+#: through the passive joints and the arm (C_p⁺, lever arms). Errors up to this multiple of the FK
+#: tolerance (1e-8 m, rad) are numerical, whatever the stated σ.
+FK_AMPLIFICATION = 1e3
+#: A fit LM is still crawling on stops once every error is within this multiple of the FK tolerance (1e-9 m,
+#: rad): tighter than the floor above, so that what a user takes home reproduces the data to ~1 nm.
+EXACT_FIT_AMPLIFICATION = 1e2
+#: Geodesic acceleration (Transtrum & Sethna 2012): finite-difference step ``h`` of the directional second
+#: derivative (their recommended 0.1), and the largest ``2‖a‖/‖v‖`` kept (their α; see :func:`accelerated`).
+GEODESIC_H = 0.1
+GEODESIC_ALPHA = 0.1
+#: Once the cost is at the noise level, a remaining Gauss–Newton improvement of χ² below this is
+#: statistically nil: the optimum lies inside the estimate's 1σ confidence region.
+NOISE_LEVEL_DECREMENT = 1.0
+#: ... over the directions the data identify in practice: singular value of the weighted, scaled Jacobian at
+#: least 1, i.e. an a-priori standard deviation at most the parameters' typical size. Along the others a
+#: fit at the noise level only chases noise.
+PRACTICAL_INFORMATION = 1.0
+
+
+class Steps:
+    """The SVD of the scaled, weighted Jacobian ``J_s`` at one iterate, and the steps it gives.
+
+    One decomposition serves every trial of an iteration (each damping λ) and the geodesic acceleration
+    (a second right-hand side). ``lm`` and ``tsvd`` keep the singular values above ``rcond · s₁`` and
+    above ``floor`` (absolute); ``ridge`` keeps them all.
+    """
+
+    def __init__(self, js: Array, solver: str, rcond: float, ridge: float, floor: float = 0.0) -> None:
+        u, s, vt = linalg.svd(js, "the scaled identification Jacobian")
+        self.largest = float(s[0]) if s.size else 0.0
+        keep = s > (0.0 if solver == "ridge" else max(rcond * self.largest, floor))
+        self.u, self.s, self.vt = u[:, keep], s[keep], vt[keep]
+        self.solver = solver
+        self.ridge = ridge
+
+    @property
+    def smallest_damping(self) -> float:
+        """The λ at which LM damping halves the step along the weakest kept direction: ``(s_k / s₁)²``."""
+        return float((self.s[-1] / self.largest) ** 2) if self.s.size else 0.0
+
+    @property
+    def kept(self) -> int:
+        """Number of directions the steps move along."""
+        return int(self.s.size)
+
+    def solve(self, r: Array, lam: float) -> Array:
+        """The scaled step for residual ``r``: ``-Σ_i v_i s_i/(s_i² + μ) u_iᵀ r`` with ``μ = λ s₁²``
+        (``lm``), 0 (``tsvd``) or the ridge parameter (``ridge``: ``(J_sᵀJ_s + μI) δz = -J_sᵀ r``)."""
+        if not self.s.size:
+            return np.zeros(self.vt.shape[1])
+        damping = {"lm": lam * self.largest**2, "tsvd": 0.0}.get(self.solver, self.ridge)
+        gain = self.s / (self.s**2 + damping)
+        return np.asarray(-(self.vt.T @ ((self.u.T @ r) * gain)), dtype=np.float64)
+
+    def decrement(self, r: Array, information: float = 0.0) -> float:
+        """``‖U_kᵀ r‖²``: twice the cost decrease a full Gauss–Newton step would predict, and the squared
+        length of that step in the metric of the parameters' covariance (in σ units when the rows are
+        weighted by 1/σ) — the Newton decrement [dimensionless]. Only over the directions whose singular
+        value is at least ``information`` (a-priori standard deviation at most 1/information typical sizes)."""
+        chosen = self.s >= information
+        return float(np.sum((self.u[:, chosen].T @ r) ** 2))
+
+
+def evaluated(problem: Problem, x: Array, jacobian: bool = True) -> Prediction | None:
+    """The problem at ``x``, or None where it cannot be evaluated (FK fails, a sample turns singular)."""
+    if not np.all(np.isfinite(x)):
+        return None
+    try:
+        return problem.evaluate(x, jacobian=jacobian)
+    except (ConvergenceError, DataError):  # an unusable step: rejected like one that raises the cost
+        return None
+
+
+def accelerated(problem: Problem, x: Array, d: Array, rw: Array, r: Array, js: Array, v: Array, steps: Steps,
+                lam: float) -> Array | None:
+    """The LM step ``v`` (scaled) with Transtrum & Sethna's geodesic acceleration, ``v + a/2``; None if the
+    model cannot be evaluated along ``v``.
+
+    Transtrum & Sethna, "Geodesic acceleration and the small-curvature approximation for nonlinear least
+    squares" (2012): ``a = -(J_sᵀJ_s + μ)⁻¹ J_sᵀ r_vv`` with the directional second derivative
+    ``r_vv ≈ (2/h)((r(z + h v) − r(z))/h − J_s v)`` (one residual evaluation, no Jacobian). They accept the
+    step only if ``2‖a‖/‖v‖ ≤ α``. Here the curvature that moving along a weakly identifiable direction
+    creates is mostly undone by the well identified ones, while the weak components of ``a`` (``r_vv``
+    amplified by ``1/s``) are not to be trusted: instead of rejecting the step, ``a`` is damped (μ raised
+    from ``λ s₁²`` by tens) until it is a small correction, ``2‖a‖ ≤ α‖v‖``; the cost test then decides.
+    """
+    norm_v = float(np.linalg.norm(v))
+    ahead = evaluated(problem, x + GEODESIC_H * d * v, jacobian=False)
+    if ahead is None:
+        return None
+    r_vv = (2.0 / GEODESIC_H) * ((rw * ahead.residual - r) / GEODESIC_H - js @ v)
+    damping = lam
+    while damping < 1.0:
+        a = steps.solve(r_vv, damping)
+        if 2.0 * float(np.linalg.norm(a)) <= GEODESIC_ALPHA * norm_v:
+            return np.asarray(v + 0.5 * a, dtype=np.float64)
+        damping *= 10.0
+    return v
+
+
+def exact_fit_floors(problem: Problem, sigma_fraction: float,
+                     amplification: float = FK_AMPLIFICATION) -> dict[str, Array]:
+    """Per measurement key, per error column: the error [m, rad] up to which a fit counts as exact,
+    ``max(sigma_fraction · σ, amplification · SOLVE_TOLERANCE)`` with σ the measurement's stated
+    standard deviation (``sigma_fraction`` 0: the numerical floor alone). Keys the problem names no
+    measurement for (IKM closure rows) take the smallest floor, under the key ``""``."""
+    numerical = amplification * SOLVE_TOLERANCE
+    floors: dict[str, Array] = {}
+    for m in getattr(problem, "measurements", []):
+        sigma = np.array([m.sigma] * 3 + [m.sigma_angle] * 3) if isinstance(m, Pose) else np.full(m.size, m.sigma)
+        floors[m.key] = np.maximum(sigma_fraction * sigma, numerical)
+    floors[""] = np.array([min((float(np.min(f)) for f in floors.values()), default=numerical)])
+    return floors
+
+
+def at_floor(errors: dict[str, Array], floors: dict[str, Array]) -> bool:
+    """Every finite error within its floor (see :func:`exact_fit_floors`)."""
+    for key, err in errors.items():
+        e = np.abs(np.asarray(err, dtype=float)).reshape(len(err), -1)
+        floor = floors.get(key, floors[""])
+        if floor.size != e.shape[1]:
+            floor = np.full(e.shape[1], float(np.min(floor)))
+        if np.any(np.isfinite(e) & (e > floor)):
+            return False
+    return True
+
+
+def settled(steps: Steps, lam: float, r: Array, cost: float, errors: dict[str, Array],
+            numerical: dict[str, Array], rejected: bool) -> str:
+    """Why the fit needs no more LM steps, or ``""`` (``r``: weighted residual, ``cost`` ½‖r‖²).
+
+    These stops are for the crawl along weakly identifiable, strongly nonlinear directions, where LM goes
+    on decreasing the cost by little for many iterations; a well-conditioned fit ends by the usual tests.
+
+    - An exact fit: LM still damps the weakest kept direction (``λ ≥ (s_k/s₁)²``) and every error is within
+      the numerical floor (what is left is below what FK reproduces).
+    - At the noise level: LM has had to reject a step (``rejected``: the model is nonlinear on the scale
+      of its steps) or some kept direction is hidden by the noise (singular value below
+      :data:`PRACTICAL_INFORMATION`), the cost is at the noise level (½χ² at least ¼ of the degrees of
+      freedom, i.e. χ² at least half what noise of the stated σ gives; never with no degree of freedom left,
+      where an exact fit is due), and the Gauss–Newton model's whole
+      remaining improvement of χ² along the directions the data do identify in practice, the decrement
+      ``‖U_kᵀ r‖²`` over them, is below :data:`NOISE_LEVEL_DECREMENT`: no test could tell the estimate from
+      the optimum, and the rest would only fit noise.
+    """
+    if lam >= steps.smallest_damping and at_floor(errors, numerical):
+        return "converged (exact fit: every error within the numerical floor)"
+    dof = r.size - steps.kept  # none (as many residuals as kept directions): an exact fit is due, not noise
+    if steps.kept and dof > 0 and (rejected or steps.s[-1] < PRACTICAL_INFORMATION) and cost >= 0.25 * dof \
+            and steps.decrement(r, PRACTICAL_INFORMATION) <= NOISE_LEVEL_DECREMENT:
+        return "converged (what remains to gain is below the noise)"
+    return ""

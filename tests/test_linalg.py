@@ -1,0 +1,111 @@
+"""The robust linear algebra: numpy's driver first, SciPy's gesvd when it fails, a PincalError otherwise."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+import scipy.linalg
+from threadpoolctl import threadpool_limits
+
+from pincal import linalg
+from pincal.analysis import analyse, covariance
+from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
+
+
+@pytest.fixture(autouse=True)
+def _single_threaded_blas() -> Iterator[None]:
+    """As ``identify`` runs: multi-threaded BLAS on these small matrices is only overhead (40× on 2 cores)."""
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield
+
+
+def _rank_deficient(m: int = 306, n: int = 74, rank: int = 39, seed: int = 5) -> np.ndarray:
+    """An m × n matrix of the given rank (n − rank exactly zero singular values), like the TIAGo
+    three-marker Jacobian that made numpy's SVD fail (306 × 74, 35 near-zero singular values)."""
+    rng = np.random.default_rng(seed)
+    return rng.normal(size=(m, rank)) @ rng.normal(size=(rank, n))
+
+
+def _numpy_svd_fails(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    calls: list[int] = []
+
+    def failing(*args: object, **kwargs: object) -> None:
+        calls.append(1)
+        raise np.linalg.LinAlgError("SVD did not converge")
+
+    monkeypatch.setattr(np.linalg, "svd", failing)
+    return calls
+
+
+def test_fallback_equals_scipy_gesvd(monkeypatch: pytest.MonkeyPatch) -> None:
+    a = _rank_deficient()
+    u_ref, s_ref, vt_ref = scipy.linalg.svd(a, full_matrices=False, lapack_driver="gesvd")
+    calls = _numpy_svd_fails(monkeypatch)
+    u, s, vt = linalg.svd(a, "a test matrix")
+    assert calls, "numpy's SVD was not tried first"
+    np.testing.assert_array_equal(s, s_ref)
+    np.testing.assert_array_equal(u, u_ref)
+    np.testing.assert_array_equal(vt, vt_ref)
+    np.testing.assert_array_equal(linalg.singular_values(a, "a test matrix"),
+                                  scipy.linalg.svd(a, compute_uv=False, lapack_driver="gesvd"))
+    u_full, _, vt_full = linalg.svd(a, "a test matrix", full_matrices=True)
+    assert u_full.shape == (306, 306) and vt_full.shape == (74, 74)
+
+
+def test_rank_deficient_matrix_with_many_zero_singular_values(monkeypatch: pytest.MonkeyPatch) -> None:
+    a = _rank_deficient()
+    for patched in (False, True):
+        if patched:
+            _numpy_svd_fails(monkeypatch)
+        u, s, vt = linalg.svd(a, "a test matrix")
+        np.testing.assert_allclose((u * s) @ vt, a, atol=1e-10 * np.abs(a).max())
+        assert np.count_nonzero(s > 1e-10 * s[0]) == 39  # 35 of 74 are zero
+        pinv = linalg.pseudo_inverse(a, "a test matrix", rcond=1e-10)
+        np.testing.assert_allclose(a @ pinv @ a, a, atol=1e-9 * np.abs(a).max())
+        # the identifiability analysis sees the rank and names every dependent column
+        ident = analyse(a, [f"p{k}" for k in range(74)], np.ones(74))
+        assert ident.rank == 39 and len(ident.base_indices) == 39 and len(ident.unidentifiable) == 35
+        with pytest.raises(IdentifiabilityError, match="singular on the chosen columns"):
+            covariance(a, 1.0)
+
+
+def test_non_finite_matrix_is_a_data_error_naming_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    a = _rank_deficient(12, 5, 3)
+    a[4, 2] = np.nan
+    _numpy_svd_fails(monkeypatch)
+    with pytest.raises(DataError, match=r"the widget Jacobian has 1 NaN/inf entries \(first at index \(4, 2\)\)"):
+        linalg.svd(a, "the widget Jacobian")
+
+
+def test_both_drivers_failing_is_a_convergence_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    _numpy_svd_fails(monkeypatch)
+
+    def also_failing(*args: object, **kwargs: object) -> None:
+        raise np.linalg.LinAlgError("SVD did not converge")
+
+    monkeypatch.setattr(scipy.linalg, "svd", also_failing)
+    with pytest.raises(ConvergenceError, match=r"SVD of the widget Jacobian \(6 × 4\) did not converge"):
+        linalg.svd(np.ones((6, 4)), "the widget Jacobian")
+    with pytest.raises(ConvergenceError, match=r"singular values of the widget Jacobian"):
+        linalg.singular_values(np.ones((6, 4)), "the widget Jacobian")
+
+
+def test_eigenvalues_fall_back_matrix_by_matrix(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(2)
+    b = rng.normal(size=(3, 8, 5))
+    info = np.einsum("nri,nrj->nij", b, b)
+    expected = np.linalg.eigvalsh(info)
+
+    def failing(*args: object, **kwargs: object) -> None:
+        raise np.linalg.LinAlgError("Eigenvalues did not converge")
+
+    monkeypatch.setattr(np.linalg, "eigvalsh", failing)
+    np.testing.assert_allclose(linalg.eigvalsh(info, "information matrices"), expected, rtol=1e-10, atol=1e-12)
+
+
+def test_singular_inverse_names_the_matrix() -> None:
+    with pytest.raises(IdentifiabilityError, match="the widget information matrix is singular"):
+        linalg.inverse(np.zeros((3, 3)), "the widget information matrix")
+    np.testing.assert_allclose(linalg.inverse(np.diag([2.0, 4.0]), "a diagonal matrix"), np.diag([0.5, 0.25]))
