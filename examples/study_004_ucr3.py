@@ -44,8 +44,8 @@ SQRT3 = math.sqrt(3.0)
 DIRECTIONS = np.array([[0.0, 1.0, 0.0], [SQRT3 / 2, -0.5, 0.0], [-SQRT3 / 2, -0.5, 0.0]])
 R_REFERENCE = 0.30053951487283664  # [m] limb length at the reference configuration (ucr3.urdf)
 Z_RANGE = (0.25, 0.35)  # [m] platform centre height of the workspace
-# [rad] platform tilt of the workspace. Beyond ~55°, a first FK solve warm-started from a neighbouring
-# sample (pincal.problem) can land on another assembly of the true robot; 50° stays clear of it.
+# [rad] platform tilt of the workspace. (Chosen when a warm start from a neighbouring sample could put a
+# pose beyond ~55° on another assembly; FK now always answers the reference assembly, see pincal.kinematics.)
 MAX_TILT = 50.0 * DEG
 
 # Study 004 Table 2: r1, r2, r3 [mm], xE, yE, zE [mm], q0, q1, q2, q3; Table 3: r1, r2, r3, xE, yE, zE, q1, q2, q3.

@@ -2,9 +2,14 @@
 
 FK holds the actuated joints at their commanded values and drives the loop residual ``c(q)`` to
 zero over the passive joints by damped Gauss–Newton on the configuration manifold (Pinocchio's
-``integrate``). Cold starts, and warm starts that fail, fall back on continuation: the actuated
-values are moved from the start's own values to the target in small steps, each closed in turn, so
-the solution stays on the assembly branch of the start.
+``integrate``). Its answer is always the **reference assembly**: the configuration that continuation
+from the reference configuration reaches (the actuated values moved from the reference's to the target
+in steps of at most :data:`CONTINUATION_STEP`, each closed in turn). A warm start is only a shortcut to
+that answer: Newton from the guess is kept when it converges without moving any passive coordinate by
+more than one continuation step; a larger move is a jump (onto another assembly mode, or another branch
+of a joint) and the solve falls back on continuation from the reference. A guess that is itself a
+reference-assembly answer (at nearby inputs, or at slightly different parameters) therefore gives the
+same answer as a cold solve, and the answer does not depend on the order in which samples are solved.
 
 Derivatives through the loops follow the implicit-function theorem: with
 ``C = dc/dv = [C_a C_p]``, the passive velocities are ``v_p = -C_p⁺ C_a v_a``.
@@ -26,8 +31,9 @@ from pincal.closure import LoopClosure
 Array = npt.NDArray[np.float64]
 
 #: Largest change of any actuated value in one continuation step [rad or m]; also the largest jump a
-#: warm start tries by direct Newton. The cold-start tests (2000 samples per reference robot, checked
-#: against closed forms for the assembly branch) pass at this size.
+#: warm start tries by direct Newton, and the largest move of a passive coordinate a warm start may make
+#: before it counts as a jump to another assembly. The cold-start tests (2000 samples per reference robot,
+#: checked against closed forms for the assembly branch) pass at this size.
 CONTINUATION_STEP = 0.5
 #: Most continuation steps a solve may take (a larger span is refused at once: far outside any workspace).
 MAX_CONTINUATION_STEPS = 400
@@ -101,10 +107,14 @@ class ClosedLoopKinematics:
         model: Pinocchio model of the cut tree.
         closure: Its loop closures.
         actuated: The actuated joints, in the order of ``q_actuated`` vectors.
+        reference: The reference configuration (nq,), where the loops close and every FK answer's
+            continuation starts; Pinocchio's neutral configuration by default.
     """
 
-    def __init__(self, model: pin.Model, closure: LoopClosure, actuated: list[ActuatedJoint]) -> None:
+    def __init__(self, model: pin.Model, closure: LoopClosure, actuated: list[ActuatedJoint],
+                 reference: Array | None = None) -> None:
         self.model = model
+        self.reference = pin.neutral(model) if reference is None else np.asarray(reference, dtype=float)
         self.data = model.createData()
         self.closure = closure
         self.actuated = actuated
@@ -162,12 +172,21 @@ class ClosedLoopKinematics:
         return self.closure.residual_and_jacobian(self.data)
 
     # --- forward kinematics ---------------------------------------------------------------------
-    def close_loops(self, q: Array, tol: float, max_iter: int = 30, max_step: float = 0.5) -> SolveReport:
+    def close_loops(self, q: Array, tol: float, max_iter: int = 30, max_step: float = 0.5,
+                    max_move: float = math.inf) -> SolveReport:
         """Newton over the passive joints from ``q`` (actuated values held), with chord steps.
 
         The closure Jacobian is rebuilt only when the residual stops falling fast (by 10× per
         step); otherwise the last damped pseudo-inverse is reused and each iteration costs one
         forward-kinematics pass. Warm starts typically take one Jacobian and two cheap steps.
+
+        Args:
+            q: Start configuration (nq,), actuated values already set.
+            tol: Largest accepted closure residual component [m, rad].
+            max_iter: Most Newton iterations.
+            max_step: Largest norm of one step over the passive velocities [rad or m].
+            max_move: Largest change of any passive coordinate from ``q`` [rad or m] (in the tangent
+                space, ``difference(q, ·)``); a solve that goes farther stops unconverged at once (a jump).
         """
         model, data, passive, closure = self.model, self.data, self.passive_v, self.closure
         if closure.rows == 0:
@@ -177,6 +196,7 @@ class ClosedLoopKinematics:
         r, jac = closure.residual_and_jacobian(data)
         norm = float(abs(r).max())
         gain = damped_pseudo_inverse(jac[:, passive])
+        start, path = q, 0.0  # path: the steps' summed norms, a bound on any coordinate's change
         for it in range(max_iter + 1):
             if norm <= tol:
                 return SolveReport(q, norm, it, True)
@@ -186,8 +206,11 @@ class ClosedLoopKinematics:
             size = math.sqrt(float(step @ step))
             if size > max_step:
                 step *= max_step / size
+            path += min(size, max_step)
             dv[passive] = step
             q = pin.integrate(model, q, dv)
+            if path > max_move and float(abs(pin.difference(model, start, q)[passive]).max()) > max_move:
+                return SolveReport(q, norm, it + 1, False)
             previous = norm
             pin.forwardKinematics(model, data, q)
             r = closure.residual(data)
@@ -214,29 +237,66 @@ class ClosedLoopKinematics:
             q = report.q
         return SolveReport(report.q, report.residual, total, True)
 
-    def solve_fk(self, q_actuated: Array, start: Array, warm: bool, tol: float) -> SolveReport:
-        """Full configuration with the loops closed for ``q_actuated``, from ``start``.
+    def solve_fk(self, q_actuated: Array, guess: Array | None, tol: float) -> SolveReport:
+        """Full configuration on the reference assembly with the loops closed for ``q_actuated``.
 
-        A warm start within one continuation step tries Newton directly; otherwise (a cold start, a far
-        guess, or a failed Newton) continuation runs from ``start`` with 1, 4 and 16 times
-        ``max|Δq_a| / CONTINUATION_STEP`` steps.
+        Args:
+            q_actuated: Actuated values [rad or m].
+            guess: A configuration (nq,) to warm-start from, or None (cold start).
+            tol: Largest accepted closure residual component [m, rad].
+
+        A guess within one continuation step of actuated values tries Newton directly
+        (:meth:`warm_solve`); the result is kept if it did not jump. Otherwise (a cold start, a far
+        guess, a failed or jumped Newton) :meth:`reference_continuation` gives the answer. A guess
+        is only a shortcut to the reference assembly when it lies on it (a previous answer, at nearby
+        inputs or parameters): a guess on another assembly that Newton can close without a jump
+        stays there.
         """
         if self.closure.rows == 0:  # a tree: nothing to close
-            q = start.copy()
+            q = (self.reference if guess is None else guess).copy()
             self.set_actuated(q, q_actuated)
             return SolveReport(q, 0.0, 0, True)
-        span = float(abs(self.actuated_delta(q_actuated, self.actuated_values(start))).max()) \
-            if len(self.actuated) else 0.0
-        if warm and span <= CONTINUATION_STEP:  # a far guess goes straight to continuation from it
-            q = start.copy()
-            self.set_actuated(q, q_actuated)
-            report = self.close_loops(q, tol)
-            if report.converged:
+        if guess is not None:
+            report = self.warm_solve(q_actuated, guess, tol)
+            if report is not None:
                 return report
+        return self.reference_continuation(q_actuated, tol)
+
+    def warm_solve(self, q_actuated: Array, guess: Array, tol: float) -> SolveReport | None:
+        """Newton from ``guess`` with the actuated values set; None if it is not a safe shortcut.
+
+        None when the guess is more than :data:`CONTINUATION_STEP` away in actuated values, when
+        Newton fails, or when it moves a passive coordinate by more than :data:`CONTINUATION_STEP`
+        [rad or m] from the guess (stopped as soon as it does): such a move is a jump, which can land
+        on another assembly mode or another branch of a joint, so only continuation from the
+        reference can say which is right.
+        """
+        span = self.actuated_span(q_actuated, guess)
+        if not span <= CONTINUATION_STEP:  # NaN compares False: refused too
+            return None
+        start = guess.copy()
+        self.set_actuated(start, q_actuated)
+        report = self.close_loops(start, tol, max_move=CONTINUATION_STEP)
+        return report if report.converged else None
+
+    def actuated_span(self, q_actuated: Array, q: Array) -> float:
+        """Largest change of an actuated value from ``q``'s to ``q_actuated`` [rad or m]."""
+        if not self.actuated:
+            return 0.0
+        return float(abs(self.actuated_delta(q_actuated, self.actuated_values(q))).max())
+
+    def reference_continuation(self, q_actuated: Array, tol: float) -> SolveReport:
+        """The reference assembly: continuation from the reference configuration to ``q_actuated``.
+
+        Runs with 1, 4 and 16 times ``max|Δq_a| / CONTINUATION_STEP`` steps (Δq_a from the reference's
+        actuated values), the first that closes the loops giving the answer.
+        """
+        start = self.reference
+        span = self.actuated_span(q_actuated, start)
         if not math.isfinite(span) or span > MAX_CONTINUATION_STEPS * CONTINUATION_STEP:
-            return SolveReport(start, math.inf, 0, False)
+            return SolveReport(start.copy(), math.inf, 0, False)
         base = max(1, math.ceil(span / CONTINUATION_STEP))
-        report = SolveReport(start, math.inf, 0, False)
+        report = SolveReport(start.copy(), math.inf, 0, False)
         for factor in (1, 4, 16):
             if base * factor > 16 * MAX_CONTINUATION_STEPS:
                 break

@@ -5,7 +5,9 @@ actuated readings (plus their offsets) with the current parameters, each measure
 predicts its reading, and the residual is ``(predicted - measured) / σ``. Derivatives are exact:
 kinematic regressors for the placements, the implicit-function theorem through the loops,
 configuration Jacobians for the offsets. FK is warm-started from the previous evaluation of the
-same sample, so each evaluation inside Levenberg–Marquardt costs about one Newton step per sample.
+same sample, so each evaluation inside Levenberg–Marquardt costs about one Newton step per sample;
+the kinematics layer refuses a warm start that jumps to another assembly, so every sample is solved
+on the reference assembly, whatever the order of the samples.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from pincal.errors import ConvergenceError, DataError, NotFoundError, listing
 from pincal.kinematics import CONTINUATION_STEP, damped_pseudo_inverse
 from pincal.measurements import Distance, JointReading, Measurement, Pose, Position, point_derivative
 from pincal.parameters import KINEMATIC_KINDS, ParameterSet, apply_parameters, joint_unit, offset_parameter
-from pincal.robot import Robot
+from pincal.robot import SOLVE_TOLERANCE, Robot
 from pincal.sensitivity import KinematicSensitivity, frame_probe, right_jacobian
 
 Array = npt.NDArray[np.float64]
@@ -117,6 +119,8 @@ class CalibrationProblem:
                 self.markers[p.target].append(k)
         self.frames = sorted({f for m in self.measurements for f in m.frames})
         self.frame_ids = {f: robot.frame_id(f) for f in self.frames}
+        # each sample's configuration at its last solve and the actuated values it was solved for: the
+        # warm start of its next solve (of a first solve, a solved sample's: see _nearest_solution)
         self._q_cache: list[Array | None] = [None] * observations.n_samples
         self._qa_solved = np.full((observations.n_samples, robot.n_actuated), np.nan)
         self.rows_per_sample = sum(m.size for m in self.measurements)
@@ -184,18 +188,23 @@ class CalibrationProblem:
         return qa
 
     def configurations(self, x: Array) -> Array:
-        """Closed configurations (N, nq) of every sample at ``x`` (FK, warm-started)."""
+        """Closed configurations (N, nq) of every sample at ``x``, on the reference assembly."""
         robot = self.robot_at(x)
         qa = self.actuated_values(x)
         return np.array([self._solve(robot, k, qa[k]) for k in range(qa.shape[0])])
 
     def _solve(self, robot: Robot, k: int, qa: Array) -> Array:
-        cached = self._q_cache[k]
-        if cached is None:
-            cached = self._nearest_solution(robot, qa)
-        report = robot.solve_fk_report(qa, cached)
-        if not report.converged and cached is not None:
-            report = robot.solve_fk_report(qa)
+        """Sample ``k``'s configuration on the reference assembly for actuated values ``qa`` [rad or m].
+
+        Warm-started from the sample's own last configuration (at the previous parameters), or for a
+        first solve from the nearest solved sample's; the kinematics layer refuses a warm start that
+        jumps and then answers by continuation from the reference, so the configuration found does
+        not depend on the order of the samples.
+        """
+        guess = self._q_cache[k]
+        if guess is None:
+            guess = self._nearest_solution(robot, qa)
+        report = robot.kinematics.solve_fk(qa, guess, SOLVE_TOLERANCE)
         if not report.converged:
             raise ConvergenceError(f"sample {k}: forward kinematics did not converge for actuated readings "
                                    f"{np.array2string(qa, precision=6)} (closure residual {report.residual:.3g}); "
@@ -229,10 +238,12 @@ class CalibrationProblem:
         return x
 
     def _nearest_solution(self, robot: Robot, qa: Array) -> Array | None:
-        """A solved sample within one continuation step (in actuated values), to warm-start a first solve.
+        """The configuration of the solved sample nearest in actuated values, if within one continuation
+        step, to warm-start a first solve (None otherwise: a cold start).
 
-        Only that close: from a farther neighbour the path of actuated values can cross a singularity and
-        land on another assembly mode, which a cold start from the reference (the file's assembly) avoids.
+        Only a shortcut: a neighbour's configuration is on the reference assembly, and a Newton solve
+        from it that jumps (moves a passive joint by more than one continuation step) is refused by
+        :meth:`pincal.kinematics.ClosedLoopKinematics.solve_fk`, which then continues from the reference.
         """
         if not robot.loops:
             return None

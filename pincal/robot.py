@@ -65,8 +65,8 @@ class Robot:
                 raise LoopError(f"actuated joint '{joint}' has {jm.nv} degrees of freedom; actuated "
                                 "joints must be revolute, continuous or prismatic")
             actuated.append(ActuatedJoint(joint, jid, jm.idx_q, jm.idx_v, jm.nq))
-        self.kinematics = ClosedLoopKinematics(model, self.closure, actuated)
         self.q_reference = pin.neutral(model)
+        self.kinematics = ClosedLoopKinematics(model, self.closure, actuated, self.q_reference)
 
     # --- structure ------------------------------------------------------------------------------
     @property
@@ -136,17 +136,21 @@ class Robot:
                         tol: float = SOLVE_TOLERANCE) -> SolveReport:
         """Like :meth:`solve_fk` but returns the solver report instead of raising."""
         qa = self._qa(q_actuated)
-        if q_guess is None:
-            return self.kinematics.solve_fk(qa, self.q_reference, warm=False, tol=tol)
-        return self.kinematics.solve_fk(qa, self._q(q_guess), warm=True, tol=tol)
+        return self.kinematics.solve_fk(qa, None if q_guess is None else self._q(q_guess), tol)
 
     def solve_fk(self, q_actuated: Array, q_guess: Array | None = None,
                  tol: float = SOLVE_TOLERANCE) -> Array:
         """Full configuration with every loop closed for the given actuated values.
 
+        The answer is the reference assembly: the configuration that continuation from
+        :attr:`q_reference` reaches (see :mod:`pincal.kinematics`). A guess only makes the solve
+        cheaper: Newton from it is kept unless it jumps (moves a passive joint by more than
+        ``CONTINUATION_STEP``), and a guess farther than that in actuated values is not used. Give a
+        previous answer as the guess (a guess placed on another assembly by hand can stay there).
+
         Args:
             q_actuated: Actuated joint values [rad or m], in ``actuated_joints`` order.
-            q_guess: A nearby configuration (warm start); the reference configuration otherwise.
+            q_guess: A nearby closed configuration (warm start); None for a cold start.
             tol: Largest accepted closure residual component [m, rad].
 
         Returns:
