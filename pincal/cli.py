@@ -158,6 +158,8 @@ def _summary(report: dict[str, Any], seconds: float) -> str:
 
 #: Most samples listed one per line in the summary; the report JSON lists them all.
 LISTED = 10
+#: Share of down-weighted samples from which the summary warns that the robust fit is stretched.
+ROBUST_WARNING_FRACTION = 0.25
 
 
 def _accounting(report: dict[str, Any]) -> list[str]:
@@ -176,6 +178,10 @@ def _accounting(report: dict[str, Any]) -> list[str]:
         lines += [f"  - sample {w['sample']}: weight {w['weight']:.3g}"
                   + (f", error {_mm(w['error_after'])} after calibration" if w["error_after"] is not None else "")
                   for w in weighted[:LISTED]]
+    if weighted and len(weighted) >= ROBUST_WARNING_FRACTION * report["n_samples"]:
+        lines.append(f"warning: {len(weighted)} of the {report['n_samples']} fitted samples "
+                     f"({len(weighted) / report['n_samples']:.0%}) were down-weighted: a robust fit is not meant for "
+                     "that many; check the measuring set-up and the model before using the result")
     if len(dropped) > LISTED or len(weighted) > LISTED:
         lines.append(f"  (the first {LISTED} of each are listed; --report writes them all)")
     sigma2 = report.get("sigma2")

@@ -232,6 +232,64 @@ def test_the_robust_loss_is_on_by_default_in_the_cli(delta_model24: Path, tmp_pa
         done = run_pincal("calibrate", "delta", str(data), "--parameters", "model24", "--report", str(report))
         assert done.returncode == 0, done.stderr
         reports[name] = json.loads(report.read_text())
-    assert reports["dirty"]["loss"] == "auto (cauchy)"
+    assert reports["dirty"]["loss"] == "auto (cauchy)" and reports["clean"]["loss"] == "auto (linear)"
     assert reports["dirty"]["down_weighted_samples"] == ["2", "17", "33"]
     assert reports["dirty"]["test_rms_after"] <= 1.5 * reports["clean"]["test_rms_after"]
+
+
+OUTLIER_SETS = {"random 5%": 0.05, "random 15%": 0.15, "random 30%": 0.30, "clustered 20%": 0.20}
+
+
+@pytest.fixture(scope="module")
+def delta_outliers(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, tuple[Path, list[str]]]]:
+    """A clean Delta dataset (60 + 40 postures, Model 24 errors, 10 µm noise) and corrupted copies: 5, 15 and
+    30 % of the fitted samples moved 20–40 mm in random directions, and the 20 % of one region (largest x)
+    all moved +z by 20–40 mm (one-sided, clustered)."""
+    out = tmp_path_factory.mktemp("outliers")
+    done = run_pincal("simulate", "delta", "--samples", "60", "--test-samples", "40", "--seed", "11",
+                      "--parameters", "model24", "--quiet", "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    clean = out / "measurements.csv"
+    lines = clean.read_text().splitlines()
+    header = next(k for k, line in enumerate(lines) if line.startswith("sample,"))
+    names = lines[header].split(",")
+    xyz = [names.index(f"position:end_effector:{a}") for a in "xyz"]
+    rows = [line.split(",") for line in lines[header + 1:]]
+    train = [k for k, row in enumerate(rows) if row[1] == "train"]
+    rng = np.random.default_rng(5)
+    sets = {}
+    for name, fraction in OUTLIER_SETS.items():
+        count = round(fraction * len(train))
+        if name.startswith("clustered"):
+            chosen = sorted(train, key=lambda k: -float(rows[k][xyz[0]]))[:count]
+        else:
+            chosen = sorted(rng.choice(train, count, replace=False).tolist())
+        corrupted = [list(row) for row in rows]
+        for k in chosen:
+            direction = np.array([0.0, 0.0, 1.0]) if name.startswith("clustered") else rng.normal(size=3)
+            move = direction / np.linalg.norm(direction) * rng.uniform(0.020, 0.040)
+            for column, delta in zip(xyz, move, strict=True):
+                corrupted[k][column] = repr(float(corrupted[k][column]) + float(delta))
+        path = out / f"{name.replace(' ', '_').replace('%', 'pc')}.csv"
+        path.write_text("\n".join(lines[:header + 1] + [",".join(row) for row in corrupted]) + "\n")
+        sets[name] = (path, sorted((rows[k][0] for k in chosen), key=int))
+    return clean, sets
+
+
+@pytest.mark.parametrize("case", list(OUTLIER_SETS))
+def test_the_default_command_survives_random_and_clustered_outliers(
+        delta_outliers: tuple[Path, dict[str, tuple[Path, list[str]]]], case: str, tmp_path: Path) -> None:
+    clean, sets = delta_outliers
+    path, corrupted = sets[case]
+    reports = {}
+    for name, data in (("clean", clean), ("dirty", path)):
+        report = tmp_path / f"{name}.json"
+        done = run_pincal("calibrate", "delta", str(data), "--parameters", "model24", "--report", str(report))
+        assert done.returncode == 0, done.stderr
+        reports[name] = json.loads(report.read_text())
+    dirty = reports["dirty"]
+    assert dirty["test_rms_after"] <= 1.5 * reports["clean"]["test_rms_after"]
+    assert sorted(dirty["down_weighted_samples"], key=int) == corrupted  # exactly the corrupted samples
+    assert dirty["converged"] and dirty["loss"] == "auto (cauchy)"
+    warned = "were down-weighted: a robust fit is not meant for that many" in done.stdout
+    assert warned == (len(corrupted) >= 0.25 * dirty["n_samples"])
