@@ -344,6 +344,17 @@ def check_reference_assembly(robot: Robot, where: str = "URDF") -> None:
     except np.linalg.LinAlgError:
         raise LoopError(f"{where}: the closure Jacobian at the reference configuration cannot be decomposed "
                         "(numbers out of range)") from None
+    redundant = []
+    for name, rows in robot.closure.loop_slices().items():
+        others = np.ones(jac.shape[0], dtype=bool)
+        others[rows] = False
+        if int(np.linalg.matrix_rank(jac[others], tol=1e-8)) == rank:
+            redundant.append(name)
+    if redundant:
+        several = len(redundant) > 1
+        raise LoopError(f"{where}: loop{'s' if several else ''} {listing(redundant)} add{'' if several else 's'} no "
+                        f"constraint that the other loops do not already impose (closure rank {rank} with or without "
+                        f"{'each' if several else 'it'}): a duplicated or redundant loop; remove it")
     mobility = robot.model.nv - rank
     if mobility != robot.n_actuated:
         raise LoopError(f"{where}: mobility is {mobility} (nv {robot.model.nv} minus closure rank {rank}) but "

@@ -51,3 +51,18 @@ def test_limits_with_lower_above_upper_are_refused_at_load(tmp_path: Path) -> No
     done = run_pincal("simulate", str(bad), "--samples", "5", "--out", str(tmp_path / "sim"))
     assert done.returncode == 2 and f"joint '{name}' has limit lower" in done.stderr
     assert not (tmp_path / "sim").exists()
+
+
+def test_a_duplicated_loop_is_refused_at_load_not_at_simulate(tmp_path: Path) -> None:
+    """Two identical loops: the closure has more rows but no more rank. Once, `info` said mobility 2 and
+    `simulate` failed later with a misleading non-convergence message."""
+    text = (ROBOTS / "five_bar.urdf").read_text()
+    loop = re.search(r'<loop name="([^"]+)".*?</loop>', text, re.S)
+    assert loop is not None
+    again = loop.group(0).replace(f'name="{loop.group(1)}"', f'name="{loop.group(1)}_again"', 1)
+    bad = tmp_path / "duplicated.urdf"
+    bad.write_text(text.replace(loop.group(0), loop.group(0) + "\n  " + again, 1))
+    with pytest.raises(pincal.LoopError, match=f"loops {loop.group(1)}, {loop.group(1)}_again add no constraint"):
+        pincal.load_robot(bad)
+    done = run_pincal("simulate", str(bad), "--samples", "3", "--quiet", "--out", str(tmp_path / "sim"))
+    assert done.returncode == 2 and "a duplicated or redundant loop" in done.stderr
