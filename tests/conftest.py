@@ -22,6 +22,15 @@ def run_pincal(*args: str, timeout: float = 300) -> subprocess.CompletedProcess[
 
 
 @pytest.fixture(scope="session")
+def five_bar_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A five-bar dataset written by ``pincal simulate`` (12 postures, seed 1): read-only for the tests."""
+    out = tmp_path_factory.mktemp("five_bar")
+    done = run_pincal("simulate", "five_bar", "--samples", "12", "--seed", "1", "--quiet", "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    return out / "measurements.csv"
+
+
+@pytest.fixture(scope="session")
 def delta() -> pincal.Robot:
     return pincal.load_robot(ROBOTS / "delta.urdf")
 

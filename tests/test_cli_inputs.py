@@ -12,11 +12,8 @@ from conftest import PINCAL, run_pincal
 
 
 @pytest.fixture(scope="module")
-def five_bar_data(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("five_bar")
-    done = run_pincal("simulate", "five_bar", "--samples", "12", "--seed", "1", "--quiet", "--out", str(out))
-    assert done.returncode == 0, done.stderr
-    return out / "measurements.csv"
+def five_bar_data(five_bar_csv: Path) -> Path:
+    return five_bar_csv
 
 
 def one_line_error(done: subprocess.CompletedProcess[str]) -> str:

@@ -14,11 +14,8 @@ from pincal.files import check_outputs, write_text
 
 
 @pytest.fixture(scope="module")
-def data(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("five_bar")
-    done = run_pincal("simulate", "five_bar", "--samples", "12", "--seed", "2", "--quiet", "--out", str(out))
-    assert done.returncode == 0, done.stderr
-    return out / "measurements.csv"
+def data(five_bar_csv: Path) -> Path:
+    return five_bar_csv
 
 
 def test_a_failed_write_keeps_the_old_file_and_leaves_no_debris(tmp_path: Path,
