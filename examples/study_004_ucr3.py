@@ -490,14 +490,20 @@ def _report(quick: bool, table2: list[dict[str, Any]], table3: list[dict[str, An
         f"to within {four['parameter_error_mm']:.1g} mm (four random poses lose more: rank "
         f"{runs['4 random poses']['rank']}). But four poses leave the problem barely "
         f"determined: κ ≈ {four['design_kappa']:.2g}, and only {four['practical_rank']} of the 21 directions lie "
-        "above 1e-4 of the largest singular value. With 10 µm of measurement noise those weak directions take "
-        f"the noise: the parameters come back {par4:.2g} mm off on average (the errors being calibrated are "
-        f"0.1 mm) and the held-out poses improve only to {min(val4):.2f}-{max(val4):.2f} mm (from "
-        f"{four['validation_position_before_mm']:.2f} mm). Twenty poses chosen by κ bring every direction above "
+        "above 1e-4 of the largest singular value. "
+        + (f"With 10 µm of measurement noise those weak directions take the noise: the parameters come back "
+           f"{par4:.2g} mm off on average (the errors being calibrated are 0.1 mm) and the held-out poses improve "
+           f"only to {min(val4):.3f}-{max(val4):.3f} mm (from {four['validation_position_before_mm']:.2f} mm). "
+           if par4 > 0.1 else
+           "With 10 µm of measurement noise LM stops once what is left to gain is below the noise, instead of "
+           f"fitting the noise along those weak directions: the parameters come back {par4:.2g} mm off on average "
+           f"(the errors being calibrated are 0.1 mm) and the held-out poses improve to "
+           f"{min(val4):.3f}-{max(val4):.3f} mm (from {four['validation_position_before_mm']:.2f} mm). ")
+        + f"Twenty poses chosen by κ bring every direction above "
         f"the noise: held-out poses at {val20:.4f} mm, and the parameters' worst error {par20:.2f} mm (the weakest "
-        "direction still amplifies the noise by its κ). The "
-        "paper's Fig. 5 shows the four-pose symptom: \"some errors of calibrated kinematic parameters ... are "
-        "increasing\".",
+        "direction still amplifies the noise by its κ)."
+        + (" The paper's Fig. 5 shows the four-pose symptom: \"some errors of calibrated kinematic parameters ... "
+           "are increasing\"." if par4 > 0.1 else ""),
         "",
         "The paper's sensitivity conversion (Eq. 28: each column divided by its τ) is a column scaling: it "
         "does not change a full-rank least-squares solution, only which minimum-norm split of the "
