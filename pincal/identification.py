@@ -359,8 +359,10 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
             # at a first-order optimum (gradient negligible against ‖J‖‖r‖), or with every error below what
             # the measurements resolve and FK reproduces, this is convergence, not a failure
             grad = float(np.linalg.norm(js.T @ r))
-            if grad <= 1e-4 * steps.largest * math.sqrt(2 * cost) or lm.at_floor(pred.errors, floors):
+            if lm.at_floor(pred.errors, floors):
                 converged, message = True, "converged (no further decrease at the numerical floor)"
+            elif grad <= 1e-4 * steps.largest * math.sqrt(2 * cost):
+                converged, message = True, "converged (at the least-squares optimum: no step decreases the cost)"
             break
         decrease = cost - new_cost
         step_size = float(np.linalg.norm(dz))
