@@ -118,7 +118,7 @@ def _summary(report: dict[str, Any], seconds: float) -> str:
              f"samples {report['n_samples']}, parameters {report['n_parameters']}, "
              f"identifiable {report['n_identifiable']}, "
              f"condition number {report['condition_number']:.3g}" if report["condition_number"] else "",
-             f"solver {report['solver']} ({report['loss']} loss): {report['message']} after {report['iterations']} "
+             f"solver {report['solver']}, loss {report['loss']}: {report['message']} after {report['iterations']} "
              f"iterations, {seconds:.3f} s",
              "",
              f"{'':32}{'before':>14}{'after':>14}",
@@ -237,7 +237,11 @@ def cmd_fleet(args: argparse.Namespace) -> int:
     if args.scheduler:
         from dask.distributed import Client
 
-        with Client(args.scheduler) as client:
+        try:
+            client = Client(args.scheduler)
+        except OSError as exc:  # unreachable, refused, timed out
+            raise PincalError(f"cannot reach the Dask scheduler at '{args.scheduler}': {exc}") from None
+        with client:
             results = calibrate_fleet(jobs, executor=client.get_executor())
     else:
         results = calibrate_fleet(jobs, workers=args.workers)

@@ -90,9 +90,14 @@ class CalibrationView:
             DataError: the JSON is not a pincal report, or its parameters are not those chosen by
                 ``parameter_spec`` (pass the same ``--parameters`` as for the calibration).
         """
-        if not isinstance(report.get("parameters"), dict):
-            raise DataError("the result JSON has no 'parameters': expected a report written by "
-                            "'pincal calibrate --report'")
+        parameters = report.get("parameters") if isinstance(report, dict) else None
+        def number(entry: Any) -> bool:
+            return isinstance(entry, dict) and isinstance(entry.get("value"), int | float) \
+                and math.isfinite(entry["value"])
+
+        if not isinstance(parameters, dict) or not all(number(entry) for entry in parameters.values()):
+            raise DataError("the result JSON has no 'parameters' of the form {name: {\"value\": number}}: expected a "
+                            "report written by 'pincal calibrate --report'")
         train = dataset.of_set("train") if "train" in dataset.sets else dataset
         models = measurements_for(robot, list(dataset.measurements), dataset.joint_names, sigma)
         pset = choose_parameters(robot, models, parameter_spec)

@@ -29,7 +29,7 @@ from pincal.calibration import (
     write_json,
 )
 from pincal.dataset import Dataset, read_dataset, write_dataset
-from pincal.errors import DataError
+from pincal.errors import DataError, NotFoundError, listing
 from pincal.files import check_outputs, make_directory, write_text
 from pincal.identification import CalibrationResult, error_norms, identify, rms
 from pincal.implicit import ImplicitProblem
@@ -49,7 +49,13 @@ def measurement_models(robot: Robot, kinds: Sequence[str], frame: str | None, si
     out = []
     for kind in kinds:
         key = f"{kind}:{frame}" if kind in ("position", "pose") else kind
-        out.append(parse_key(key, sigma))
+        model = parse_key(key, sigma)
+        if isinstance(model, JointReading) and not robot.model.existJointName(model.joint):
+            raise NotFoundError(f"measurement '{key}' reads joint '{model.joint}', which '{robot.name}' does not "
+                                f"have; joints are: {listing(robot.model.names[1:])}")
+        for name in model.frames:
+            robot.frame_id(name)  # NotFoundError naming the frame and the valid ones
+        out.append(model)
     return out
 
 

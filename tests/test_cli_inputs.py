@@ -120,3 +120,18 @@ def test_an_unexpected_exception_is_one_line_and_exit_3(monkeypatch: pytest.Monk
                    "again with --debug and report the traceback)"]
     with pytest.raises(RuntimeError):
         pincal.cli.main(["--debug", "info", "delta"])
+
+
+def test_a_joint_reading_of_a_missing_joint_is_named_by_simulate(tmp_path: Path) -> None:
+    line = one_line_error(run_pincal("simulate", "delta", "--samples", "5", "--measure", "joint:nojoint", "--out",
+                                     str(tmp_path / "sim")))
+    assert "measurement 'joint:nojoint' reads joint 'nojoint', which 'delta' does not have" in line
+
+
+@pytest.mark.parametrize("content", ["[]", '{"parameters": 1.5}', '{"parameters": {"a": {"value": "abc"}}}'])
+def test_a_result_json_that_is_not_a_report_is_named(five_bar_data: Path, tmp_path: Path, content: str) -> None:
+    result = tmp_path / "result.json"
+    result.write_text(content)
+    line = one_line_error(run_pincal("view", "five_bar", str(five_bar_data), "--result", str(result), "--out",
+                                     str(tmp_path / "v.html")))
+    assert "the result JSON has no 'parameters' of the form" in line
