@@ -26,6 +26,7 @@ import numpy.typing as npt
 import pinocchio as pin
 from scipy.linalg import lapack
 
+from pincal import linalg
 from pincal.closure import LoopClosure
 
 Array = npt.NDArray[np.float64]
@@ -319,7 +320,7 @@ class ClosedLoopKinematics:
         if self.closure.rows:
             cp = jac[:, self.passive_v]
             ca = jac[:, self.actuated_v]
-            tangent[self.passive_v] = -np.linalg.lstsq(cp, ca, rcond=None)[0]
+            tangent[self.passive_v] = -linalg.pseudo_inverse(cp, "the passive closure Jacobian") @ ca
         return tangent
 
     def frame_jacobian(self, q: Array, frame_id: int, reference: pin.ReferenceFrame) -> Array:

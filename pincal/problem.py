@@ -20,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, NotFoundError, listing
 from pincal.kinematics import CONTINUATION_STEP, damped_pseudo_inverse
 from pincal.measurements import Distance, JointReading, Measurement, Pose, Position, point_derivative
@@ -229,7 +230,7 @@ class CalibrationProblem:
             return x
         a, b = np.vstack(model), np.vstack(measured)
         ca, cb = a.mean(axis=0), b.mean(axis=0)
-        u, _, vt = np.linalg.svd((a - ca).T @ (b - cb))
+        u, _, vt = linalg.svd((a - ca).T @ (b - cb), "the Kabsch cross-covariance of the measured positions")
         d = np.sign(np.linalg.det(vt.T @ u.T))
         rot = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
         delta = pin.log6(pin.SE3(rot, cb - rot @ ca)).vector
@@ -426,7 +427,11 @@ class CalibrationProblem:
             return err / scale, jac / scale[..., None]
         cov = g @ np.swapaxes(g, 1, 2)
         cov[:, np.arange(weights.size), np.arange(weights.size)] += weights**2
-        chol = np.linalg.cholesky(cov)
+        try:
+            chol = np.linalg.cholesky(cov)  # diag(σ²) + G Σ_q Gᵀ, σ > 0: positive definite unless out of range
+        except np.linalg.LinAlgError:
+            raise DataError("a sample's measurement covariance (stated σ and the joint readings' noise) is not "
+                            "positive definite: a σ or a reading is out of range") from None
         white_err = np.linalg.solve(chol, err[..., None])[..., 0]
         white_jac = np.linalg.solve(chol, jac)
         return white_err, white_jac
