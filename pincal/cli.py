@@ -12,7 +12,7 @@ import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -75,9 +75,10 @@ def _mm(value: float | None) -> str:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    from pincal.workflow import simulate, simulation_outputs, write_simulation
+    from pincal.workflow import check_sample_counts, simulate, simulation_outputs, write_simulation
 
     robot = load_robot(args.robot)
+    check_sample_counts(args.samples, args.test_samples)
     simulation_outputs(robot, args.out)  # refused before any work: a file, an unwritable place, the robot's URDF
     sim = simulate(robot, args.measure, args.samples, args.test_samples, frame=args.frame, perturb=args.perturb,
                    noise=args.noise, seed=args.seed, parameter_spec=args.parameters, progress=not args.quiet)
@@ -256,8 +257,17 @@ def cmd_fleet(args: argparse.Namespace) -> int:
     return 0 if all(r.ok for r in results) else 1
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with pincal's error form: one line, ``pincal: error: ...``, exit 2 (no usage block)."""
+
+    def error(self, message: str) -> NoReturn:
+        command = self.prog.removeprefix("pincal").strip()
+        where = f"{command}: " if command else ""
+        self.exit(EXIT_ERROR, f"pincal: error: {where}{message} (see '{self.prog} --help')\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="pincal",
         description="Geometric calibration of closed-loop and serial robots described in URDF.",
         epilog="Units are SI everywhere (m, rad). Robots: a URDF path, or a name such as delta, hexapod, "

@@ -28,7 +28,7 @@ from pincal.calibration import (
     unusable_samples,
     write_json,
 )
-from pincal.dataset import Dataset, read_dataset, write_dataset
+from pincal.dataset import MAX_SAMPLES, Dataset, read_dataset, write_dataset
 from pincal.errors import DataError, NotFoundError, listing
 from pincal.files import check_outputs, make_directory, write_text
 from pincal.identification import CalibrationResult, error_norms, identify, rms
@@ -68,6 +68,19 @@ class Simulation:
     measurements: list[Measurement]
 
 
+def check_sample_counts(n_train: int, n_test: int) -> None:
+    """Refuse sample counts :func:`simulate` cannot give: no training sample, or more than a calibration takes.
+
+    Raises:
+        DataError: naming the counts.
+    """
+    if n_train < 1 or n_test < 0:
+        raise DataError(f"need at least one training sample (got {n_train}) and no negative test count")
+    if n_train + n_test > MAX_SAMPLES:
+        raise DataError(f"{n_train} + {n_test} samples: pincal calibrates at most {MAX_SAMPLES} samples in one run, "
+                        "so it simulates no more")
+
+
 def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, frame: str | None = None,
              perturb: float = 1e-3, noise: float = 1e-5, seed: int = 0,
              parameter_spec: Sequence[str] | None = None, progress: bool = False) -> Simulation:
@@ -83,8 +96,7 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
             candidates.
         progress: Show a progress bar while drawing postures (on a terminal).
     """
-    if n_train < 1 or n_test < 0:
-        raise DataError(f"need at least one training sample (got {n_train}) and no negative test count")
+    check_sample_counts(n_train, n_test)
     rng = np.random.default_rng(seed)
     models = measurement_models(robot, kinds, frame, max(noise, 1e-9))
     pset = choose_parameters(robot, models, parameter_spec)

@@ -135,3 +135,17 @@ def test_a_result_json_that_is_not_a_report_is_named(five_bar_data: Path, tmp_pa
     line = one_line_error(run_pincal("view", "five_bar", str(five_bar_data), "--result", str(result), "--out",
                                      str(tmp_path / "v.html")))
     assert "the result JSON has no 'parameters' of the form" in line
+
+
+def test_argparse_errors_are_one_line_in_pincal_form() -> None:
+    done = run_pincal("calibrate", "delta")
+    assert done.returncode == 2 and done.stderr == (
+        "pincal: error: calibrate: the following arguments are required: data (see 'pincal calibrate --help')\n")
+
+
+def test_simulate_refuses_more_samples_than_calibrate_takes(tmp_path: Path) -> None:
+    from pincal.dataset import MAX_SAMPLES
+
+    line = one_line_error(run_pincal("simulate", "five_bar", "--samples", str(MAX_SAMPLES), "--test-samples", "1",
+                                     "--out", str(tmp_path / "sim")))
+    assert f"pincal calibrates at most {MAX_SAMPLES} samples in one run" in line and not (tmp_path / "sim").exists()
