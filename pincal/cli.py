@@ -116,6 +116,10 @@ def _summary(report: dict[str, Any], seconds: float) -> str:
              f"(RMS {_mm(report['test_rms_after'])} against {_mm(report['test_rms_before'])}); keep the nominal model, "
              "or fit fewer parameters, or measure postures that cover the held-out range"
              if report.get("worse_than_nominal") else None,
+             # said first: "converged" must not read as "fits the data"
+             f"THE FIT DOES NOT REACH THE STATED NOISE: residuals {report['sigma2'] ** 0.5:.3g} × σ after calibration; "
+             "either the stated σ is wrong or the model cannot fit these data (see the warning below)"
+             if (report.get("sigma2") or 0.0) > 9.0 else None,
              f"samples {report['n_samples']}, parameters {report['n_parameters']}, "
              f"identifiable {report['n_identifiable']}, "
              f"condition number {report['condition_number']:.3g}" if report["condition_number"] else "",

@@ -189,6 +189,7 @@ def test_the_a_posteriori_sigma_is_printed_and_a_wrong_stated_sigma_is_flagged(d
     assert 0.6 < ratio < 1.6 and "warning: the residuals" not in right.stdout
     wrong = run_pincal("calibrate", "delta", str(delta_model24), "--parameters", "model24", "--sigma", "1e-7")
     assert "warning: the residuals are" in wrong.stdout and "× the stated noise" in wrong.stdout
+    assert wrong.stdout.startswith("THE FIT DOES NOT REACH THE STATED NOISE") and "THE FIT" not in right.stdout
     assert 60 < float(wrong.stdout.split("a-posteriori σ: ")[1].split(" ×")[0]) < 160  # 10 µm read as 0.1 µm
 
 
@@ -293,3 +294,21 @@ def test_the_default_command_survives_random_and_clustered_outliers(
     assert dirty["converged"] and dirty["loss"] == "auto (cauchy)"
     warned = "were down-weighted: a robust fit is not meant for that many" in done.stdout
     assert warned == (len(corrupted) >= 0.25 * dirty["n_samples"])
+
+
+def test_a_model_that_cannot_fit_says_so_first(delta_model24: Path, tmp_path: Path) -> None:
+    """Positions measured in a mirrored frame (x negated): no Delta geometry fits them."""
+    lines = delta_model24.read_text().splitlines()
+    header = next(k for k, line in enumerate(lines) if line.startswith("sample,"))
+    column = lines[header].split(",").index("position:end_effector:x")
+    for k in range(header + 1, len(lines)):
+        cells = lines[k].split(",")
+        cells[column] = repr(-float(cells[column]))
+        lines[k] = ",".join(cells)
+    mirrored = tmp_path / "mirrored.csv"
+    mirrored.write_text("\n".join(lines) + "\n")
+    done = run_pincal("calibrate", "delta", str(mirrored), "--parameters", "model24")
+    head = done.stdout.splitlines()[:2]  # the verdicts come first: worse than nominal, and no fit to the noise
+    assert head[0].startswith("WORSE THAN NOMINAL") and done.returncode == 1
+    assert head[1].startswith("THE FIT DOES NOT REACH THE STATED NOISE: residuals ")
+    assert float(head[1].split("residuals ")[1].split(" ×")[0]) > 100
