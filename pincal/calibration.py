@@ -485,4 +485,10 @@ def report_dict(result: CalibrationResult, problem: CalibrationProblem, x_true: 
 
 
 def write_json(path: str | Path, content: dict[str, Any]) -> None:
-    write_text(path, json.dumps(content, indent=2, sort_keys=False) + "\n")
+    """Write ``content`` as indented JSON (:func:`json_text`), whole or not at all."""
+    write_text(path, json_text(content))
+
+
+def json_text(content: dict[str, Any]) -> str:
+    """``content`` as the indented JSON text of pincal's report files."""
+    return json.dumps(content, indent=2, sort_keys=False) + "\n"

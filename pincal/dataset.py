@@ -458,7 +458,12 @@ def _format(value: float) -> str:
 
 
 def write_dataset(dataset: Dataset, path: str | Path) -> None:
-    """Write ``dataset`` as CSV; :func:`read_dataset` gives it back exactly (floats as ``repr``).
+    """Write ``dataset`` as CSV (:func:`dataset_text`) to ``path``, whole or not at all."""
+    write_text(path, dataset_text(dataset))
+
+
+def dataset_text(dataset: Dataset) -> str:
+    """``dataset`` as CSV text; :func:`read_dataset` gives it back exactly (floats as ``repr``).
 
     Raises:
         DataError: metadata, sample ids or values that could not be read back as written.
@@ -493,4 +498,4 @@ def write_dataset(dataset: Dataset, path: str | Path) -> None:
         for values in dataset.measurements.values():
             row.extend(_format(v) for v in values[r])
         writer.writerow(row)
-    write_text(path, buffer.getvalue())
+    return buffer.getvalue()

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from pincal.errors import OutputError
@@ -72,7 +72,31 @@ def write_text(path: str | Path, text: str) -> Path:
     Raises:
         OutputError: the directory is missing or not writable, or the disk is full (the old file is kept).
     """
-    target = Path(path)
+    return write_texts([(path, text)])[0]
+
+
+def write_texts(files: Sequence[tuple[str | Path, str]]) -> list[Path]:
+    """Write several files as one: every text goes to a temporary file first, and only when all are on disk
+    are they renamed over their targets, so a failure (a full disk) leaves every old file in place.
+
+    Raises:
+        OutputError: as :func:`write_text`; no target has been touched.
+    """
+    staged: list[tuple[str, Path]] = []
+    try:
+        for path, text in files:
+            staged.append((_staged(Path(path), text), Path(path)))
+    except OutputError:
+        for temporary, _ in staged:
+            Path(temporary).unlink(missing_ok=True)
+        raise
+    for temporary, target in staged:
+        os.replace(temporary, target)
+    return [target for _, target in staged]
+
+
+def _staged(target: Path, text: str) -> str:
+    """``text`` written to a temporary file beside ``target``, with ``target``'s permissions; its path."""
     if target.is_dir():
         raise OutputError(f"output '{target}' is a directory; give a file name")
     try:
@@ -91,8 +115,8 @@ def write_text(path: str | Path, text: str) -> Path:
             stream.flush()
             os.fsync(stream.fileno())
         os.chmod(temporary, mode)
-        os.replace(temporary, target)
     except OSError as exc:
         Path(temporary).unlink(missing_ok=True)
-        raise OutputError(f"cannot write '{target}': {exc.strerror or exc}; any previous file is unchanged") from None
-    return target
+        raise OutputError(f"cannot write '{target}': {exc.strerror or exc}; every previous output is "
+                          "unchanged") from None
+    return temporary

@@ -21,16 +21,16 @@ from pincal.calibration import (
     calibrated_robot_text,
     choose_parameters,
     joint_sensor_zeros,
+    json_text,
     measurements_for,
     observations_from,
     report_dict,
     source_text,
     unusable_samples,
-    write_json,
 )
-from pincal.dataset import MAX_SAMPLES, Dataset, read_dataset, write_dataset
+from pincal.dataset import MAX_SAMPLES, Dataset, dataset_text, read_dataset
 from pincal.errors import DataError, NotFoundError, listing
-from pincal.files import check_outputs, make_directory, write_text
+from pincal.files import check_outputs, make_directory, write_texts
 from pincal.identification import CalibrationResult, error_norms, identify, rms
 from pincal.implicit import ImplicitProblem
 from pincal.measurements import JointReading, Measurement, Pose, parse_key
@@ -146,16 +146,13 @@ def write_simulation(sim: Simulation, out: Path) -> list[Path]:
     passive joints read ``q + zero`` (its ``<joint_sensor>`` elements, also in ``truth.json``).
     """
     paths = simulation_outputs(sim.robot, out)
-    write_dataset(sim.dataset, paths[0])
     read = [m.joint for m in sim.measurements if isinstance(m, JointReading)]
     text, shifts = calibrated_robot_text(sim.robot, source_text(sim.robot), sim.parameters, sim.x_true,
                                          note="the TRUE robot of a pincal simulation (nominal + known errors)",
                                          read_joints=read)
-    write_text(paths[1], text)
-    write_json(paths[2], {"robot": sim.robot.name, "units": "SI: m, rad",
-                          "parameters": sim.parameters.as_dict(sim.x_true), "reference_shifts": shifts,
-                          "joint_sensor_zeros": joint_sensor_zeros(text)})
-    return paths
+    truth = {"robot": sim.robot.name, "units": "SI: m, rad", "parameters": sim.parameters.as_dict(sim.x_true),
+             "reference_shifts": shifts, "joint_sensor_zeros": joint_sensor_zeros(text)}
+    return write_texts(list(zip(paths, (dataset_text(sim.dataset), text, json_text(truth)), strict=True)))
 
 
 @dataclass
@@ -324,8 +321,6 @@ def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, repor
     check_outputs(outputs, [p for p in (robot.source, data_path) if p is not None])
     dataset = read_robot_dataset(data_path, robot)
     cal = calibrate(robot, dataset, **options)
-    if out_urdf:
-        write_text(out_urdf, cal.urdf_text)
-    if report_path:
-        write_json(report_path, cal.report)
+    texts = ((out_urdf, cal.urdf_text), (report_path, json_text(cal.report) if report_path else ""))
+    write_texts([(path, text) for path, text in texts if path])  # both or neither
     return cal

@@ -10,7 +10,7 @@ import pytest
 from conftest import ROBOTS, run_pincal
 
 from pincal.errors import OutputError
-from pincal.files import check_outputs, write_text
+from pincal.files import check_outputs, write_text, write_texts
 
 
 @pytest.fixture(scope="module")
@@ -27,7 +27,7 @@ def test_a_failed_write_keeps_the_old_file_and_leaves_no_debris(tmp_path: Path,
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
     monkeypatch.setattr(os, "fsync", disk_full)
-    with pytest.raises(OutputError, match="No space left on device; any previous file is unchanged"):
+    with pytest.raises(OutputError, match="No space left on device; every previous output is unchanged"):
         write_text(target, '{"new": ' + "1" * 100_000 + "}\n")
     assert target.read_text() == '{"good": true}\n'
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.json"]
@@ -107,3 +107,26 @@ def test_simulate_refuses_unusable_outputs_before_simulating(tmp_path: Path, cas
     done = run_pincal("simulate", str(robot), "--samples", "3", "--quiet", "--out", out)
     assert done.returncode == 2 and culprit in done.stderr and "Traceback" not in done.stderr
     assert robot.read_bytes() == before and done.stdout == ""
+
+
+def test_a_set_of_outputs_is_written_all_or_none(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """simulate's three files and calibrate's URDF and report go together: a disk that fills up on the second
+    leaves the first one old as well (no new CSV beside an old truth.urdf)."""
+    first, second = tmp_path / "measurements.csv", tmp_path / "truth.urdf"
+    first.write_text("old csv\n")
+    second.write_text("old urdf\n")
+    calls = []
+
+    def fills_up(fd: int) -> None:
+        calls.append(fd)
+        if len(calls) == 2:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(os, "fsync", fills_up)
+    with pytest.raises(OutputError, match=f"cannot write '{second}'.*every previous output is unchanged"):
+        write_texts([(first, "new csv\n"), (second, "new urdf\n")])
+    assert (first.read_text(), second.read_text()) == ("old csv\n", "old urdf\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["measurements.csv", "truth.urdf"]
+    monkeypatch.undo()
+    assert write_texts([(first, "new csv\n"), (second, "new urdf\n")]) == [first, second]
+    assert (first.read_text(), second.read_text()) == ("new csv\n", "new urdf\n")
