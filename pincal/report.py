@@ -22,7 +22,7 @@ import numpy.typing as npt
 
 from pincal.calibration import observations_from
 from pincal.dataset import Dataset
-from pincal.errors import DataError
+from pincal.errors import DataError, listing
 from pincal.files import make_directory, write_text
 from pincal.problem import CalibrationProblem
 from pincal.progress import Progress
@@ -356,9 +356,14 @@ def write_demo_report(calibration: Any, dataset: Dataset, out_dir: str | Path) -
 
 # --- command line ----------------------------------------------------------------------------------
 def cmd_report(args: argparse.Namespace) -> int:
+    truth = read_truth(args.truth) if args.truth else None  # before any work: an unreadable file stops it
     view, dataset, calibration = load_view(args)
     test_before, test_after = held_out_errors(view, dataset)
-    truth = read_truth(args.truth) if args.truth else None
+    if truth is not None:
+        names = set(view.problem.parameters.names)
+        if not names & set(truth):  # e.g. the truth.json of another robot: a column of dashes, said nowhere
+            raise DataError(f"--truth '{args.truth}' holds none of the {len(names)} parameters fitted here (it lists "
+                            f"{listing(sorted(truth)) or 'none'}): give the truth.json of this robot's simulation")
     content = ReportContent(view, test_before, test_after, truth, (str(args.robot), str(args.data)))
     path = write_report(content, args.out, args.quiet)
     report = view.report

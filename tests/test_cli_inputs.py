@@ -149,3 +149,12 @@ def test_simulate_refuses_more_samples_than_calibrate_takes(tmp_path: Path) -> N
     line = one_line_error(run_pincal("simulate", "five_bar", "--samples", str(MAX_SAMPLES), "--test-samples", "1",
                                      "--out", str(tmp_path / "sim")))
     assert f"pincal calibrates at most {MAX_SAMPLES} samples in one run" in line and not (tmp_path / "sim").exists()
+
+
+def test_a_truth_file_of_another_robot_is_refused_by_report(five_bar_data: Path, tmp_path: Path) -> None:
+    other = tmp_path / "sim"
+    assert run_pincal("simulate", "ucr3", "--samples", "3", "--quiet", "--out", str(other)).returncode == 0
+    line = one_line_error(run_pincal("report", "five_bar", str(five_bar_data), "--parameters", "*.offset", "--truth",
+                                     str(other / "truth.json"), "--quiet", "--out", str(tmp_path / "r.html")))
+    assert f"--truth '{other / 'truth.json'}' holds none of the 2 parameters fitted here" in line
+    assert not (tmp_path / "r.html").exists()
