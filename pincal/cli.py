@@ -183,6 +183,10 @@ def _accounting(report: dict[str, Any]) -> list[str]:
         lines += [f"  - sample {w['sample']}: weight {w['weight']:.3g}"
                   + (f", error {_mm(w['error_after'])} after calibration" if w["error_after"] is not None else "")
                   for w in weighted[:LISTED]]
+    strange = report.get("held_out_outliers", [])
+    if strange:
+        lines.append(f"held-out samples the calibrated model cannot explain ({len(strange)}; they weigh on the "
+                     f"held-out figures): {', '.join(strange[:LISTED])}" + (" ..." if len(strange) > LISTED else ""))
     if weighted and len(weighted) >= ROBUST_WARNING_FRACTION * report["n_samples"]:
         lines.append(f"warning: {len(weighted)} of the {report['n_samples']} fitted samples "
                      f"({len(weighted) / report['n_samples']:.0%}) were down-weighted: a robust fit is not meant for "

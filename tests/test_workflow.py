@@ -312,3 +312,22 @@ def test_a_model_that_cannot_fit_says_so_first(delta_model24: Path, tmp_path: Pa
     assert head[0].startswith("WORSE THAN NOMINAL") and done.returncode == 1
     assert head[1].startswith("THE FIT DOES NOT REACH THE STATED NOISE: residuals ")
     assert float(head[1].split("residuals ")[1].split(" ×")[0]) > 100
+
+
+def test_held_out_samples_the_model_cannot_explain_are_named(delta_model24: Path, tmp_path: Path) -> None:
+    lines = delta_model24.read_text().splitlines()
+    header = next(k for k, line in enumerate(lines) if line.startswith("sample,"))
+    held = [k for k in range(header + 1, len(lines)) if lines[k].split(",")[1] == "test"]
+    _edit_rows(delta_model24, tmp_path / "bad_test.csv",
+               {k - header - 1: {"position:end_effector:z": repr(float(lines[k].split(",")[
+                   lines[header].split(",").index("position:end_effector:z")]) + 0.03)} for k in held[3:5]})
+    names = [lines[k].split(",")[0] for k in held[3:5]]
+    reports = {}
+    for name, data in (("clean", delta_model24), ("bad", tmp_path / "bad_test.csv")):
+        report = tmp_path / f"{name}.json"
+        done = run_pincal("calibrate", "delta", str(data), "--parameters", "model24", "--report", str(report))
+        reports[name] = json.loads(report.read_text())
+    assert reports["clean"]["held_out_outliers"] == []
+    assert reports["bad"]["held_out_outliers"] == names
+    assert f"held-out samples the calibrated model cannot explain (2; they weigh on the held-out figures): " \
+           f"{', '.join(names)}" in done.stdout
