@@ -357,14 +357,24 @@ def cmd_view(args: argparse.Namespace) -> int:
     return 0 if calibration is None or calibration.result.converged else 1
 
 
+#: Longest wait for a reply of the meshcat server [ms].
+MESHCAT_REPLY_MS = 10_000
+
+
 def open_in_meshcat(view: CalibrationView, zmq_url: str | None, quiet: bool = True) -> None:
     """Draw ``view`` in a meshcat server: the one at ``zmq_url``, or a new one kept until Enter."""
     import meshcat
+    import zmq
+    from meshcat.visualizer import ViewerWindow
 
+    # meshcat waits for every reply without a bound: an address where no server answers would hang forever
+    ViewerWindow.context.setsockopt(zmq.RCVTIMEO, MESHCAT_REPLY_MS)
+    ViewerWindow.context.setsockopt(zmq.LINGER, 0)
     try:
         vis = meshcat.Visualizer(zmq_url=zmq_url)
     except Exception as exc:  # zmq and tornado raise their own types
-        raise PincalError(f"cannot reach a meshcat server{' at ' + zmq_url if zmq_url else ''}: {exc}") from None
+        reason = f"no answer within {MESHCAT_REPLY_MS / 1000:g} s" if isinstance(exc, zmq.Again) else str(exc)
+        raise PincalError(f"cannot reach a meshcat server{' at ' + zmq_url if zmq_url else ''}: {reason}") from None
     vis["pincal"].delete()
     draw_calibration(vis, view, quiet)
     print(f"meshcat: {vis.url()}  (Animations › default › time = sample index)")

@@ -158,3 +158,12 @@ def test_a_truth_file_of_another_robot_is_refused_by_report(five_bar_data: Path,
                                      str(other / "truth.json"), "--quiet", "--out", str(tmp_path / "r.html")))
     assert f"--truth '{other / 'truth.json'}' holds none of the 2 parameters fitted here" in line
     assert not (tmp_path / "r.html").exists()
+
+
+def test_view_open_to_an_address_where_no_meshcat_answers_ends_with_one_line(five_bar_data: Path,
+                                                                             tmp_path: Path) -> None:
+    done = run_pincal("view", "five_bar", str(five_bar_data), "--parameters", "*.offset", "--quiet", "--out",
+                      str(tmp_path / "v.html"), "--open", "tcp://127.0.0.1:1", timeout=120)
+    line = one_line_error(done)
+    assert line == "pincal: error: cannot reach a meshcat server at tcp://127.0.0.1:1: no answer within 10 s"
+    assert (tmp_path / "v.html").exists()  # the page was written before meshcat was tried
