@@ -56,6 +56,9 @@ MAX_PLAUSIBLE_LENGTH = 20.0
 MAX_PLAUSIBLE_ANGLE = 4.0 * math.pi
 #: Largest accepted deviation of a quaternion's norm from 1.
 QUATERNION_NORM_TOLERANCE = 1e-3
+#: Unit words that, in a file's ``# units:`` line, mean its numbers are not SI.
+FOREIGN_UNITS = ("mm", "cm", "millimetre", "millimetres", "millimeter", "millimeters", "deg", "degree", "degrees",
+                 "°", "inch", "inches")
 #: Most rows one calibration takes: beyond it the fit would run for many minutes without a word (a closed-loop
 #: robot costs about 0.2 ms per sample and iteration), so a larger file is refused at once, before parsing.
 MAX_SAMPLES = 20_000
@@ -360,6 +363,11 @@ def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = 
 def _parse(text: str, required: Sequence[str], min_samples: int, kinds: dict[str, str],
            known: Sequence[str] | None) -> Dataset:
     metadata, header_line, header, rows = _split(text)
+    units = re.findall(r"[a-zµ°]+", metadata.get("units", "").lower())
+    foreign = sorted({u for u in units if u in FOREIGN_UNITS})
+    if foreign:  # the file says so itself: a '# units: mm' line is never read as metres
+        raise DataError(f"metadata 'units: {metadata['units']}' names {', '.join(foreign)}; pincal reads metres and "
+                        "radians: convert the file to SI, and state '# units: SI (m, rad)'")
     layout = _layout(header, header_line, required, known)
     if len(rows) < min_samples:
         raise DataError(f"{len(rows)} samples; at least {min_samples} are needed")

@@ -167,3 +167,13 @@ def test_view_open_to_an_address_where_no_meshcat_answers_ends_with_one_line(fiv
     line = one_line_error(done)
     assert line == "pincal: error: cannot reach a meshcat server at tcp://127.0.0.1:1: no answer within 10 s"
     assert (tmp_path / "v.html").exists()  # the page was written before meshcat was tried
+
+
+@pytest.mark.parametrize("units", ["mm", "mm, deg", "millimetres and degrees"])
+def test_a_file_that_says_its_units_are_not_si_is_refused(five_bar_data: Path, tmp_path: Path, units: str) -> None:
+    text = five_bar_data.read_text()
+    assert "# units: SI (m, rad)" in text
+    other = tmp_path / "units.csv"
+    other.write_text(text.replace("# units: SI (m, rad)", f"# units: {units}"))
+    line = one_line_error(run_pincal("calibrate", "five_bar", str(other)))
+    assert f"metadata 'units: {units}' names" in line and "pincal reads metres and radians" in line
