@@ -296,8 +296,14 @@ def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, st
     return part.subset([k for k in range(part.n_samples) if k not in reasons]), dropped
 
 
-def out_of_limits(robot: Robot, part: Dataset, tol: float = 1e-9) -> list[tuple[int, str]]:
-    """Samples with a joint reading outside that joint's URDF limits (one-DOF joints with a range), and why."""
+#: A reading counts as outside a joint's URDF limits beyond this share of its range: URDF limits are nominal,
+#: and a real encoder may read a little past them (the TIAGo data's torso reads 0.350184 m against 0.35 m).
+LIMIT_MARGIN = 0.01
+
+
+def out_of_limits(robot: Robot, part: Dataset, margin: float = LIMIT_MARGIN) -> list[tuple[int, str]]:
+    """Samples with a joint reading outside that joint's URDF limits by more than ``margin`` of its range
+    (one-DOF joints with a range), and why."""
     model = robot.model
     found: list[tuple[int, str]] = []
     for c, name in enumerate(part.joint_names):
@@ -310,6 +316,7 @@ def out_of_limits(robot: Robot, part: Dataset, tol: float = 1e-9) -> list[tuple[
         if not (math.isfinite(lower) and math.isfinite(upper) and lower < upper):
             continue
         unit = joint_unit(robot, name)
+        tol = margin * (upper - lower)
         for k in np.flatnonzero((part.joints[:, c] < lower - tol) | (part.joints[:, c] > upper + tol)):
             found.append((int(k), f"joint '{name}' reads {part.joints[k, c]:.6g} {unit}, outside its URDF limits "
                                   f"[{lower:.6g}, {upper:.6g}] {unit}"))

@@ -115,3 +115,15 @@ def test_readings_beyond_the_joint_limits_are_dropped_with_that_reason() -> None
     assert cal.report["dropped_samples"] == [
         {"sample": "4", "reason": "joint 'leg_1_prismatic' reads 2 m, outside its URDF limits [-0.55, 0.8] m"}]
     assert cal.report["n_samples"] == 29 and cal.result.converged
+
+
+def test_a_reading_just_past_a_nominal_limit_is_kept_and_one_well_past_is_dropped() -> None:
+    """URDF limits are nominal: the real TIAGo torso reads 0.350184 m against a 0.35 m limit."""
+    from pincal.workflow import out_of_limits
+
+    robot = pincal.load_robot("delta")  # arm limits [-1.2, 1.6] rad: 1 % of the range is 0.028 rad
+    joints = np.array([[0.1, 0.2, 0.3], [1.62, 0.2, 0.3], [1.7, 0.2, 0.3], [0.1, -1.25, 0.3]])
+    data = Dataset(list(robot.actuated_joints), joints, {}, ["a", "b", "c", "d"], ["train"] * 4, {})
+    found = out_of_limits(robot, data)
+    assert [k for k, _ in found] == [2, 3]
+    assert found[0][1] == "joint 'arm_1_joint' reads 1.7 rad, outside its URDF limits [-1.2, 1.6] rad"
