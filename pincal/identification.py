@@ -41,6 +41,7 @@ from pincal.errors import DataError, IdentifiabilityError
 from pincal.problem import Prediction, Problem
 
 Array = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
 
 SOLVERS = ("lm", "tsvd", "ridge")
 LOSSES = ("auto", "linear", "cauchy")
@@ -129,13 +130,21 @@ def calibration_gain(x_true: Array, x_nominal: Array, x_calibrated: Array) -> fl
     return 100.0 * (before - float(np.linalg.norm(x_true - x_calibrated))) / before
 
 
+def sample_squares(problem: Problem, residual: Array) -> tuple[Array, IntArray]:
+    """Each sample's squared weighted residual norm and its number of rows (0: the sample has no rows)."""
+    samples = problem.row_samples()
+    n = problem.observations.n_samples
+    squares = np.asarray(np.bincount(samples, weights=residual**2, minlength=n), dtype=np.float64)
+    return squares, np.bincount(samples, minlength=n).astype(np.int64)
+
+
 def _sample_weights(problem: Problem, pred: Prediction, loss: str) -> Array:
     """Per-sample robust weights (IRLS). Cauchy: ``w = 1 / (1 + (e / (c·s))²)`` with ``e`` a sample's
     weighted residual norm and ``s`` its median over samples / 0.6745 — no threshold set by hand."""
     n = problem.observations.n_samples
     if loss == "linear":
         return np.ones(n)
-    norms = np.sqrt(np.bincount(problem.row_samples(), weights=pred.residual**2, minlength=n))
+    norms = np.sqrt(sample_squares(problem, pred.residual)[0])
     scale = float(np.median(norms)) / 0.6745
     scale = max(scale, 1e-300)
     return np.asarray(1.0 / (1.0 + (norms / (CAUCHY_C * scale)) ** 2), dtype=np.float64)
@@ -152,10 +161,7 @@ def outlier_samples(problem: Problem, pred: Prediction, n_fitted: int = 0) -> li
     """
     from scipy.stats import chi2
 
-    samples = problem.row_samples()
-    n = problem.observations.n_samples
-    sq = np.bincount(samples, weights=pred.residual**2, minlength=n)
-    dims = np.bincount(samples, minlength=n)
+    sq, dims = sample_squares(problem, pred.residual)
     used = dims > 0
     if used.sum() < 3:
         return []
@@ -237,11 +243,8 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: str, loss: str, *
 def _median_sample_residual(problem: Problem, x: Array) -> float:
     """Median over samples of the squared weighted residual norm at ``x`` (the least-median-of-squares
     criterion: blind to up to half the samples being off)."""
-    residual = problem.evaluate(x, jacobian=False).residual
-    n = problem.observations.n_samples
-    squares = np.bincount(problem.row_samples(), weights=residual**2, minlength=n)
-    used = np.bincount(problem.row_samples(), minlength=n) > 0
-    return float(np.median(squares[used]))
+    squares, dims = sample_squares(problem, problem.evaluate(x, jacobian=False).residual)
+    return float(np.median(squares[dims > 0]))
 
 
 def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", loss: str = "linear",
