@@ -104,17 +104,17 @@ class CalibrationResult:
         return [int(k) for k in np.flatnonzero(self.sample_weights < threshold)]
 
 
+def length_columns(key: str) -> int:
+    """How many leading error columns of measurement ``key`` are lengths [m]: 3 for a position or a pose, 1 for
+    a distance, 0 otherwise."""
+    kind = key.split(":", 1)[0]
+    return 3 if kind in ("position", "pose") else 1 if kind.startswith("distance") else 0
+
+
 def error_norms(errors: dict[str, Array], keys: list[str] | None = None) -> Array:
     """Per-sample error magnitudes [m] of the length-type measurements (position, pose position, distance)."""
-    parts = []
-    for key, err in errors.items():
-        if keys is not None and key not in keys:
-            continue
-        kind = key.split(":", 1)[0]
-        if kind in ("position", "pose"):
-            parts.append(np.linalg.norm(err[:, :3], axis=1))
-        elif kind.startswith("distance"):
-            parts.append(np.abs(err[:, 0]))
+    parts = [np.linalg.norm(err[:, :length_columns(key)], axis=1) for key, err in errors.items()
+             if length_columns(key) and (keys is None or key in keys)]
     return np.concatenate(parts) if parts else np.zeros(0)
 
 

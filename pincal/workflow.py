@@ -31,7 +31,7 @@ from pincal.calibration import (
 from pincal.dataset import MAX_SAMPLES, Dataset, dataset_text, read_dataset
 from pincal.errors import DataError, NotFoundError, listing
 from pincal.files import check_outputs, make_directory, write_texts
-from pincal.identification import CalibrationResult, error_norms, identify, outlier_samples, rms
+from pincal.identification import CalibrationResult, error_norms, identify, length_columns, outlier_samples, rms
 from pincal.implicit import ImplicitProblem
 from pincal.measurements import JointReading, Measurement, Pose, parse_key
 from pincal.parameters import ParameterSet, joint_unit
@@ -251,15 +251,11 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
 def sample_length_errors(errors: dict[str, Array], n: int) -> Array | None:
     """Each sample's length-type error [m] (position, pose position and distance rows together), or None
     when nothing length-like is measured."""
-    squares = np.zeros(n)
-    found = False
-    for key, err in errors.items():
-        kind = key.split(":", 1)[0]
-        width = 3 if kind in ("position", "pose") else 1 if kind.startswith("distance") else 0
-        if width:
-            squares += np.sum(np.nan_to_num(err[:, :width]) ** 2, axis=1)
-            found = True
-    return np.sqrt(squares) if found else None
+    widths = {key: length_columns(key) for key in errors}
+    if not any(widths.values()):
+        return None
+    return np.sqrt(sum((np.sum(np.nan_to_num(err[:, :widths[key]]) ** 2, axis=1) for key, err in errors.items()),
+                       np.zeros(n)))
 
 
 def joint_kinds(robot: Robot) -> dict[str, str]:
