@@ -1,4 +1,13 @@
-"""pincal: geometric calibration of closed-loop and serial robots described in URDF, on Pinocchio."""
+"""pincal: geometric calibration of closed-loop and serial robots described in URDF, on Pinocchio.
+
+The names below load on first use, so that ``import pincal`` (and the ``pincal`` command's start,
+which an early Ctrl-C may interrupt) does not import Pinocchio until it is needed.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 from pincal.errors import (
     ConvergenceError,
@@ -9,10 +18,20 @@ from pincal.errors import (
     PincalError,
     RobotFileError,
 )
-from pincal.library import known_robot_names, robot_path
-from pincal.robot import Robot, load_robot
+
+if TYPE_CHECKING:
+    from pincal.library import known_robot_names, robot_path
+    from pincal.robot import Robot, load_robot
 
 __version__ = "0.1.0"
+
+#: Public name -> the module that defines it (imported on first access).
+_LAZY: dict[str, str] = {
+    "known_robot_names": "pincal.library",
+    "robot_path": "pincal.library",
+    "Robot": "pincal.robot",
+    "load_robot": "pincal.robot",
+}
 
 __all__ = [
     "ConvergenceError",
@@ -28,3 +47,16 @@ __all__ = [
     "load_robot",
     "robot_path",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'pincal' has no attribute '{name}'")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -163,9 +163,8 @@ def joint_motion(model: pin.Model, jid: int, q: Array) -> pin.SE3:
     return model.jointPlacements[jid].inverse() * data.liMi[jid]
 
 
-def _joint_axis_motion(robot: Robot, joint: str, value: float) -> pin.SE3:
+def _joint_axis_motion(model: pin.Model, joint: str, value: float) -> pin.SE3:
     """A one-DOF joint's motion for ``value`` [rad or m], as a placement."""
-    model = robot.model
     jid = model.getJointId(joint)
     q = pin.neutral(model)
     jm = model.joints[jid]
@@ -245,10 +244,17 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
             loop = loops[target]
             base = loop.predecessor_origin if side == "predecessor" else loop.successor_origin
             loop_origins[(target, side)] = base * exp
+    free_model: pin.Model | None = None
     for k, p in enumerate(parameters):
         if p.kind == "offset" and p.target in robot.actuated_joints and x[k] != 0.0:
-            motion = _joint_axis_motion(robot, p.target, x[k])
+            motion = _joint_axis_motion(robot.model, p.target, x[k])
             joint_origins[p.target] = joint_origins.get(p.target, root[p.target]) * motion
+            for follower, (leader, multiplier) in ext.mimics.items():  # a follower moves with its leader's offset
+                if leader == p.target:
+                    if free_model is None:
+                        free_model = pin.buildModelFromXML(source_text)  # the follower as a joint of its own
+                    motion = _joint_axis_motion(free_model, follower, multiplier * x[k])
+                    joint_origins[follower] = joint_origins.get(follower, root[follower]) * motion
     shifts = _reassemble(robot, source_text, joint_origins, loop_origins, root) if ext.loops else {}
     tree = ET.fromstring(source_text)
     fixed_links = _measurement_frame_link(tree, parameters, x, joint_origins, root, measurement_frame)
@@ -289,7 +295,7 @@ def _reassemble(robot: Robot, source_text: str, joint_origins: dict[str, pin.SE3
         value = q[jm.idx_q] if jm.nq == 1 else math.atan2(q[jm.idx_q + 1], q[jm.idx_q])
         if value != 0.0:
             shifts[name] = float(value)
-            joint_origins[name] = joint_origins.get(name, root[name]) * _joint_axis_motion(loose, name, value)
+            joint_origins[name] = joint_origins.get(name, root[name]) * _joint_axis_motion(loose.model, name, value)
     return shifts
 
 

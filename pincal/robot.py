@@ -267,7 +267,7 @@ def _captured_stderr() -> Iterator[list[str]]:
 def _build_model(text: str, source: str) -> pin.Model:
     with _captured_stderr() as messages:
         try:
-            return pin.buildModelFromXML(text)
+            return pin.buildModelFromXML(text, mimic=True)  # a <mimic> joint follows its leader
         except (RuntimeError, ValueError, IndexError) as exc:
             error: Exception = exc
     detail = "; ".join(m for m in messages if m and not m.startswith("at line")) or str(error)
@@ -317,7 +317,7 @@ def robot_from_urdf_text(text: str, source: Path | None = None) -> Robot:
         if multi:
             raise RobotFileError(f"{where}: serial robot with multi-DOF joints {listing(multi)}; a serial "
                                  "robot's joints must be revolute, continuous or prismatic")
-        actuated = [model.names[j] for j in range(1, model.njoints)]
+        actuated = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv == 1]  # not mimics
     robot = Robot(model, ext.loops, actuated, name=ext.robot_name, source=source)
     check_reference_assembly(robot, where)
     return robot

@@ -60,6 +60,7 @@ class KinematicSensitivity:
         n = len(pset)
         self.n = n
         self.joint_map = np.zeros((6 * (model.njoints - 1), n))
+        self.has_mimic = any(model.joints[j].nv == 0 for j in range(1, model.njoints))  # <mimic> joints
         self.fixed: list[tuple[int, pin.SE3, int, list[int], Array]] = []
         self.anchor_terms: dict[tuple[str, str], tuple[list[int], Array]] = {}
         for (kind, target, side), idx in pset.groups("joint", "anchor").items():
@@ -93,13 +94,27 @@ class KinematicSensitivity:
         if probe.joint == 0:  # on the base: only fixed-joint origins there can move it
             twist = np.zeros((6, self.n))
         else:
-            regressor = pin.computeJointKinematicRegressor(self.model, data, probe.joint, pin.LOCAL, probe.placement)
-            twist = regressor @ self.joint_map
+            twist = self._regressor(data, probe) @ self.joint_map
         for fid, placement, parent, idx, jexp in self.fixed:
             if parent == probe.joint and _descends(self.model, probe.link_frame, fid):
                 local = placement.inverse() * probe.placement
                 twist[:, idx] += local.inverse().action @ jexp
         return twist
+
+    def _regressor(self, data: pin.Data, probe: Probe) -> Array:
+        """Local twist of a probe (6 × 6(njoints - 1)) per unit local motion of each joint placement."""
+        if not self.has_mimic:
+            return np.asarray(pin.computeJointKinematicRegressor(self.model, data, probe.joint, pin.LOCAL,
+                                                                  probe.placement))
+        # Pinocchio's regressor refuses mimic joints; it is the adjoint from each supporting joint's
+        # placement (before its motion) to the probe
+        model = self.model
+        regressor = np.zeros((6, 6 * (model.njoints - 1)))
+        probe_inverse = (data.oMi[probe.joint] * probe.placement).inverse()
+        for jid in list(model.supports[probe.joint])[1:]:
+            origin = data.oMi[model.parents[jid]] * model.jointPlacements[jid]
+            regressor[:, 6 * (jid - 1):6 * jid] = (probe_inverse * origin).action
+        return regressor
 
     def closure_derivative(self, data: pin.Data) -> Array:
         """``∂c/∂θ`` (rows × n) at the configuration last evaluated by the robot's closure."""

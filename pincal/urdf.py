@@ -72,6 +72,7 @@ class UrdfExtensions:
     transmitted_joints: list[str]
     links: list[str]
     joints: dict[str, str]  # joint name -> URDF type
+    mimics: dict[str, tuple[str, float]]  # follower joint -> (leader joint, multiplier), from <mimic>
 
 
 def _floats(text: str | None, count: int, what: str) -> np.ndarray:
@@ -195,7 +196,35 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
             if jname in transmitted:
                 raise LoopError(f"joint '{jname}' is named by two transmissions")
             transmitted.append(jname)
-    return UrdfExtensions(root.get("name", "robot"), loops, transmitted, link_list, joints)
+    mimics = _mimics(root, joints, source)
+    if mimics and loops:
+        raise RobotFileError(f"{source}: joint {listing(list(mimics))} has a <mimic> element; pincal supports mimic "
+                             "joints in serial robots only, not in robots with <loop> elements")
+    return UrdfExtensions(root.get("name", "robot"), loops, transmitted, link_list, joints, mimics)
+
+
+def _mimics(root: ET.Element, joints: dict[str, str], source: str) -> dict[str, tuple[str, float]]:
+    """``<mimic joint= multiplier= offset=>`` elements: a follower joint at ``multiplier · leader + offset``."""
+    mimics: dict[str, tuple[str, float]] = {}
+    for joint in root.findall("joint"):
+        node = joint.find("mimic")
+        if node is None:
+            continue
+        name, leader = joint.get("name", ""), node.get("joint", "")
+        what = f"{source}: joint '{name}' <mimic>"
+        if leader not in joints or joints[leader] not in SCALAR_JOINT_TYPES:
+            raise RobotFileError(f"{what} follows '{leader}', which is not a revolute, continuous or prismatic joint "
+                                 "of the file")
+        if joints[name] not in SCALAR_JOINT_TYPES:
+            raise RobotFileError(f"{what}: only revolute, continuous and prismatic joints can mimic")
+        multiplier = float(_floats(node.get("multiplier", "1"), 1, f"{what} multiplier")[0])
+        _floats(node.get("offset", "0"), 1, f"{what} offset")
+        mimics[name] = (leader, multiplier)
+    for name, (leader, _) in mimics.items():
+        if leader in mimics:
+            raise RobotFileError(f"{source}: joint '{name}' mimics '{leader}', which mimics another joint; a leader "
+                                 "must be a joint of its own")
+    return mimics
 
 
 #: Largest plausible joint-origin translation [m]: beyond it a value is a typo or a unit error.

@@ -269,8 +269,14 @@ def joint_kinds(robot: Robot) -> dict[str, str]:
 def read_robot_dataset(path: str | Path, robot: Robot, min_samples: int = 2) -> Dataset:
     """:func:`~pincal.dataset.read_dataset` for ``robot``: its actuated joints required, and the readings
     of its revolute and prismatic joints checked for degrees and millimetres. Every command reads data
-    through here."""
-    return read_dataset(path, robot.actuated_joints, min_samples, joint_kinds=joint_kinds(robot))
+    through here. A file whose ``# robot:`` line names another robot is refused."""
+    dataset = read_dataset(path, robot.actuated_joints, min_samples, joint_kinds=joint_kinds(robot))
+    recorded = dataset.metadata.get("robot")
+    if recorded is not None and recorded != robot.name:
+        raise DataError(f"{path}: its '# robot: {recorded}' line says the data are of robot '{recorded}', not of "
+                        f"'{robot.name}' (the <robot name> of the URDF); give the robot the data were taken on, or "
+                        "correct that line")
+    return dataset
 
 
 def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, str]]]:

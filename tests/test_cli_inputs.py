@@ -4,7 +4,9 @@ traceback; files as spreadsheets write them are read."""
 from __future__ import annotations
 
 import json
+import signal
 import subprocess
+import time
 from pathlib import Path
 
 import pytest
@@ -177,3 +179,23 @@ def test_a_file_that_says_its_units_are_not_si_is_refused(five_bar_data: Path, t
     other.write_text(text.replace("# units: SI (m, rad)", f"# units: {units}"))
     line = one_line_error(run_pincal("calibrate", "five_bar", str(other)))
     assert f"metadata 'units: {units}' names" in line and "pincal reads metres and radians" in line
+
+
+@pytest.mark.parametrize("delay", [0.05, 0.15, 0.3])
+def test_ctrl_c_at_any_moment_of_the_start_is_one_line(five_bar_data: Path, delay: float) -> None:
+    """An interrupt while Pinocchio and NumPy are still importing, or while the data are read, ends with one
+    line and exit 130 (once, a Ctrl-C during the imports printed a traceback)."""
+    process = subprocess.Popen([str(PINCAL), "calibrate", "five_bar", str(five_bar_data)], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    time.sleep(delay)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130 and err == "pincal: interrupted\n"
+
+
+def test_data_recorded_on_another_robot_are_refused_by_name(tmp_path: Path) -> None:
+    """A UR10 file has the UR5's joint names: only its '# robot:' line tells them apart."""
+    done = run_pincal("simulate", "ur10", "--samples", "12", "--quiet", "--out", str(tmp_path / "sim"))
+    assert done.returncode == 0, done.stderr
+    line = one_line_error(run_pincal("calibrate", "ur5", str(tmp_path / "sim" / "measurements.csv")))
+    assert "its '# robot: ur10' line says the data are of robot 'ur10', not of 'ur5'" in line

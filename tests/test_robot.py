@@ -102,7 +102,7 @@ def test_not_a_urdf(tmp_path: Path) -> None:
         pincal.load_robot("no_such_robot")
 
 
-@pytest.mark.parametrize(("name", "n_joints", "frame"), [("ur10", 6, "tool0"), ("panda", 9, "panda_hand")])
+@pytest.mark.parametrize(("name", "n_joints", "frame"), [("ur10", 6, "tool0"), ("panda", 8, "panda_hand")])
 def test_example_robot_data_serial_robots(name: str, n_joints: int, frame: str) -> None:
     robot = pincal.load_robot(name)
     assert robot.source is not None and "example-robot-data" in str(robot.source)

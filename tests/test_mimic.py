@@ -1,0 +1,99 @@
+"""``<mimic>`` joints: a follower moves with its leader (Panda's fingers), in the model, its derivatives, the
+calibrated URDF and the command line; where pincal does not support them, the file is refused by name."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import ROBOTS, run_pincal
+
+import pincal
+from pincal import measurements as ms
+from pincal.calibration import choose_parameters
+from pincal.dataset import read_dataset
+from pincal.problem import CalibrationProblem
+from pincal.simulation import random_actuated, simulate_observations
+
+FINGERS = ["position:panda_rightfinger", "position:panda_leftfinger"]
+
+
+def test_a_follower_is_not_actuated_and_moves_with_its_leader() -> None:
+    panda = pincal.load_robot("panda")
+    assert "panda_finger_joint1" in panda.actuated_joints and "panda_finger_joint2" not in panda.actuated_joints
+    for opening in (0.0, 0.01, 0.04):
+        qa = np.zeros(panda.n_actuated)
+        qa[panda.actuated_joints.index("panda_finger_joint1")] = opening
+        q = panda.solve_fk(qa)
+        left = panda.placement(q, "panda_leftfinger").translation
+        right = panda.placement(q, "panda_rightfinger").translation
+        assert np.linalg.norm(left - right) == pytest.approx(2 * opening, abs=1e-12)  # both fingers open
+
+
+def test_parameter_jacobian_through_a_follower_matches_finite_differences() -> None:
+    panda = pincal.load_robot("panda")
+    models = [ms.pose("panda_rightfinger"), ms.position("panda_leftfinger")]
+    pool = choose_parameters(panda, models)
+    assert {"panda_finger_joint2.tx", "panda_finger_joint1.offset"} <= set(pool.names)
+    rng = np.random.default_rng(1)
+    qa, _ = random_actuated(panda, 4, rng)
+    problem = CalibrationProblem(panda, pool, models, simulate_observations(panda, pool, np.zeros(len(pool)),
+                                                                            models, qa, rng))
+    x = rng.normal(scale=1e-3, size=len(pool))
+    jac = problem.evaluate(x).jacobian
+    assert jac is not None
+    step = 1e-7
+    fd = np.empty_like(jac)
+    for k in range(len(x)):
+        e = np.zeros(len(x))
+        e[k] = step
+        fd[:, k] = (problem.evaluate(x + e, False).residual - problem.evaluate(x - e, False).residual) / (2 * step)
+    assert np.abs(jac - fd).max() <= 1e-7 * np.abs(jac).max()
+
+
+def test_fingers_calibrate_through_the_cli_and_the_file_keeps_the_follower(tmp_path: Path) -> None:
+    sim = tmp_path / "sim"
+    done = run_pincal("simulate", "panda", "--samples", "40", "--test-samples", "10", "--measure", *FINGERS,
+                      "--seed", "2", "--quiet", "--out", str(sim))
+    assert done.returncode == 0, done.stderr
+    data = read_dataset(sim / "measurements.csv")
+    assert "panda_finger_joint1" in data.joint_names and "panda_finger_joint2" not in data.joint_names
+    done = run_pincal("calibrate", "panda", str(sim / "measurements.csv"), "--out", str(tmp_path / "cal.urdf"))
+    assert done.returncode == 0, done.stderr
+    held_out = next(line for line in done.stdout.splitlines() if line.startswith("RMS position error (held out)"))
+    before, after = (float(v) for v in held_out.split()[-4::2])
+    assert after < 0.05 and before > 50 * after  # [mm]
+    text = (tmp_path / "cal.urdf").read_text()
+    assert '<mimic joint="panda_finger_joint1"' in text
+    assert "panda_finger_joint2" not in pincal.load_robot(tmp_path / "cal.urdf").actuated_joints
+    assert pin.buildModelFromUrdf(str(tmp_path / "cal.urdf"), mimic=True).nv == 8
+
+
+@pytest.mark.parametrize(("edit", "message"), [
+    ('<mimic joint="panda_finger_joint1"/>', "follows 'no_such_joint', which is not a revolute, continuous or "
+                                             "prismatic joint of the file"),
+    ('<mimic joint="panda_finger_joint1"/>', "multiplier: 'two' is not 1 numbers"),
+])
+def test_a_bad_mimic_is_named(tmp_path: Path, edit: str, message: str) -> None:
+    text = pincal.robot_path("panda").read_text()
+    assert edit in text
+    bad = edit.replace('"/>', '" multiplier="two"/>') if "multiplier" in message else \
+        edit.replace("panda_finger_joint1", "no_such_joint")
+    path = tmp_path / "panda.urdf"
+    path.write_text(text.replace(edit, bad))
+    with pytest.raises(pincal.RobotFileError, match=f"joint 'panda_finger_joint2' <mimic>.*{message}"):
+        pincal.load_robot(path)
+
+
+def test_a_mimic_in_a_closed_loop_robot_is_refused_by_name(tmp_path: Path) -> None:
+    text = (ROBOTS / "five_bar.urdf").read_text()
+    start = text.index('<joint name="distal_2_joint"')
+    end = text.index("</joint>", start)
+    path = tmp_path / "five_bar_mimic.urdf"
+    path.write_text(text[:end] + '<mimic joint="distal_1_joint"/>' + text[end:])
+    done = run_pincal("info", str(path))
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert "joint distal_2_joint has a <mimic> element; pincal supports mimic joints in serial robots only" \
+        in done.stderr
