@@ -10,9 +10,10 @@ import statistics
 import time
 
 import pincal
-from pincal.calibration import choose_parameters, measurements_for, observations_from
-from pincal.identification import error_norms, identify, rms
-from pincal.problem import CalibrationProblem
+from pincal.identify.parameters import choose_parameters
+from pincal.identify.problem import CalibrationProblem
+from pincal.identify.solver import error_norms, identify, rms
+from pincal.io.adapters import measurements_for, observations_from
 from pincal.workflow import simulate
 
 

@@ -37,10 +37,11 @@ from typing import Any  # noqa: E402
 import numpy as np  # noqa: E402
 
 import pincal  # noqa: E402
-import pincal.identification  # noqa: E402
-from pincal.calibration import choose_parameters, measurements_for, observations_from  # noqa: E402
-from pincal.measurements import position  # noqa: E402
-from pincal.problem import CalibrationProblem, Observations  # noqa: E402
+import pincal.identify.solver  # noqa: E402
+from pincal.identify.measurements import position  # noqa: E402
+from pincal.identify.parameters import choose_parameters  # noqa: E402
+from pincal.identify.problem import CalibrationProblem, Observations  # noqa: E402
+from pincal.io.adapters import measurements_for, observations_from  # noqa: E402
 from pincal.workflow import simulate  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -101,7 +102,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     args = parser.parse_args(argv)
     before = module_at(args.before)
-    after = pincal.identification
+    after = pincal.identify.solver
     print("| case | before: iterations, median CPU time | after: iterations, median CPU time | after / before |")
     print("|---|---|---|---|")
     for name in args.cases:

@@ -13,8 +13,8 @@ import time
 from pathlib import Path
 
 import pincal
-from pincal.dataset import write_dataset
 from pincal.fleet import calibrate_fleet, jobs_from_directory
+from pincal.io.dataset import write_dataset
 from pincal.workflow import simulate
 
 

@@ -14,7 +14,7 @@ over all parameters, in the units the error sizes are read in; "mean per-paramet
 of the per-parameter gains, which is how the paper words its noisy cases.
 
 The paper leaves two things open, and the variants try both: which configurations are measured
-(random, or chosen D-optimally from random candidates with :func:`pincal.design.select_poses`), and in
+(random, or chosen D-optimally from random candidates with :func:`pincal.study.pose_selection.select_poses`), and in
 which unit its angle errors are stated ("1 mm" read as 1 mm and 1 mrad, or as 1 mm and 1°, the
 reading of its Fig. 4 caption: "0.1mm/degrees for lengths/angles").
 """
@@ -36,15 +36,15 @@ import numpy as np
 import numpy.typing as npt
 
 import pincal
-from pincal import measurements as ms
-from pincal.analysis import RANK_TOLERANCE, analyse
-from pincal.design import jacobian_blocks, select_poses
 from pincal.errors import PincalError
-from pincal.identification import calibration_gain, error_norms, identify
-from pincal.implicit import ImplicitProblem
-from pincal.parameters import NAMED_SETS, ParameterSet
-from pincal.problem import CalibrationProblem, Observations
-from pincal.simulation import SPREAD, random_actuated, simulate_observations
+from pincal.identify import measurements as ms
+from pincal.identify.identifiability import RANK_TOLERANCE, analyse
+from pincal.identify.ikm import ImplicitProblem
+from pincal.identify.parameters import NAMED_SETS, ParameterSet
+from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.identify.solver import calibration_gain, error_norms, identify
+from pincal.study.pose_selection import jacobian_blocks, select_poses
+from pincal.study.simulation import SPREAD, random_actuated, simulate_observations
 
 Array = npt.NDArray[np.float64]
 ROOT = Path(__file__).resolve().parents[1]
@@ -479,7 +479,8 @@ def page(study: Study, figure_names: Sequence[str] = ()) -> str:
         "computed in the units of the reading (mm and mrad, or mm and degrees), so that every parameter's error "
         "counts alike; the mean per-parameter gain (in parentheses) does not depend on units. *D-optimal* "
         f"configurations are chosen, per draw, from {study.n_candidates} random candidates by "
-        "`pincal.design.select_poses(..., criterion=\"d-optimal\")` on the FKM's information (nominal parameters, "
+        "`pincal.study.pose_selection.select_poses(..., criterion=\"d-optimal\")` on the FKM's information "
+        "(nominal parameters, "
         "rows whitened by each sample's covariance, encoder noise included); the held-out configurations stay "
         "random. *floor*: the held-out RMS error at the true parameters (the test readings' own noise). "
         "*std / error*: the FKM-identified parameters' median a-priori standard deviation (from the stated noise, "

@@ -31,14 +31,14 @@ import pinocchio as pin
 from study_cli import study_main  # examples/ is on sys.path when run as a script
 
 import pincal
-from pincal import measurements as ms
-from pincal.analysis import analyse
-from pincal.design import condition_number, jacobian_blocks, select_poses
-from pincal.identification import identify
-from pincal.montecarlo import run_monte_carlo
-from pincal.parameters import apply_parameters, hexapod42
-from pincal.problem import CalibrationProblem, Observations
-from pincal.simulation import simulate_observations
+from pincal.identify import measurements as ms
+from pincal.identify.identifiability import analyse
+from pincal.identify.parameters import apply_parameters, hexapod42
+from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.identify.solver import identify
+from pincal.study.montecarlo import run_monte_carlo
+from pincal.study.pose_selection import condition_number, jacobian_blocks, select_poses
+from pincal.study.simulation import simulate_observations
 
 ROOT = Path(__file__).resolve().parents[1]
 DEG = math.pi / 180.0
@@ -63,7 +63,7 @@ def robot() -> pincal.Robot:
 
 
 @lru_cache(maxsize=1)
-def parameters() -> pincal.parameters.ParameterSet:
+def parameters() -> pincal.identify.parameters.ParameterSet:
     return hexapod42(robot(), device=True)
 
 
@@ -224,7 +224,7 @@ def error_set_run(error_set: int, readings: np.ndarray, validation: np.ndarray) 
 def identifiability_table(readings: np.ndarray) -> list[tuple[str, int, int, float, list[str]]]:
     """Rank of the identification Jacobian for subsets of the device's readings (and a tracker)."""
     r = robot()
-    cases: list[tuple[str, pincal.parameters.ParameterSet, list[ms.Measurement]]] = [
+    cases: list[tuple[str, pincal.identify.parameters.ParameterSet, list[ms.Measurement]]] = [
         ("full device: 2 inclinometer axes, LVDT, rotary sensor", hexapod42(r, device=True), device_models()),
         ("inclinometer + LVDT (no rotary sensor)", hexapod42(r, device=True), device_models()[:3]),
         ("inclinometer only", hexapod42(r, device=True), device_models()[:2]),
@@ -317,7 +317,8 @@ def _report(quick: bool, counts: dict[str, int], n_candidates: int, max_angle: f
         f"cold-start FK finds another assembly, {counts['true robot']} where a true robot (error sets below) "
         "does not assemble). The URDF was designed for ±20°; its joint limits (U joints and device ±1 rad) cut the "
         "extreme ±40° corners, so the candidates cover what the robot file can reach.",
-        f"- 60 postures chosen by condition number (`pincal.design.select_poses`) against 60 random ones; "
+        "- 60 postures chosen by condition number (`pincal.study.pose_selection.select_poses`) against 60 random "
+        "ones; "
         f"{N_VALIDATION} random validation postures (another draw).",
         "- The paper's geometry and its error tables are lost: pincal's hexapod (base radius 0.9 m, platform "
         "0.5 m, height 0.85 m) and three error sets chosen here — uniform errors within ±1, ±3 and ±10 mm on "

@@ -30,14 +30,14 @@ import numpy as np
 from study_cli import study_main  # examples/ is on sys.path when run as a script
 
 import pincal
-from pincal import measurements as ms
-from pincal.analysis import analyse
-from pincal.design import condition_number, jacobian_blocks, select_poses
-from pincal.montecarlo import run_monte_carlo
-from pincal.parameters import ParameterSet, candidate_parameters
-from pincal.problem import CalibrationProblem, Observations
-from pincal.simulation import simulate_observations
-from pincal.zero_offset import identify_zero_offsets
+from pincal.identify import measurements as ms
+from pincal.identify.identifiability import analyse
+from pincal.identify.parameters import ParameterSet, candidate_parameters
+from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.study.montecarlo import run_monte_carlo
+from pincal.study.pose_selection import condition_number, jacobian_blocks, select_poses
+from pincal.study.simulation import simulate_observations
+from pincal.study.zero_offset import identify_zero_offsets
 
 ROOT = Path(__file__).resolve().parents[1]
 DEG = math.pi / 180.0
@@ -397,7 +397,7 @@ def _report(quick: bool, seeds: list[int], mc: Any, ns: list[int], kappa: dict[s
         "(the paper's constant d).",
         "- Identification model of Eq. 28: columns (Δθ1, Δθ2, Δr_Mx, Δr_My), TSVD (Eq. 29, all 4 singular "
         "values: rank 4), compensation and Δr_M update (Eq. 30), stop at μ ≤ 0.1° (Eq. 32). pincal linearises "
-        "its exact closed-loop model at the current estimate (`pincal.zero_offset.identify_zero_offsets`).",
+        "its exact closed-loop model at the current estimate (`pincal.study.zero_offset.identify_zero_offsets`).",
         f"- The paper shows one noisy draw per group; pincal runs {len(seeds)} seeds per group and gives the mean "
         "(and the worst case).",
         "- Two noise settings: **paper** (ω and ξ as stated) and **scale** (ω only: the measuring mechanism's "

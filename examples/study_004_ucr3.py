@@ -26,15 +26,15 @@ import pinocchio as pin
 from study_cli import study_main  # examples/ is on sys.path when run as a script
 
 import pincal
-from pincal import measurements as ms
-from pincal.analysis import analyse
-from pincal.design import condition_number, jacobian_blocks, select_poses
-from pincal.identification import identify
-from pincal.montecarlo import run_monte_carlo
-from pincal.parameters import ParameterSet, candidate_parameters
-from pincal.problem import CalibrationProblem
-from pincal.sensitivity_stats import pose_error_jacobians, statistical_sensitivity
-from pincal.simulation import simulate_observations
+from pincal.identify import measurements as ms
+from pincal.identify.identifiability import analyse
+from pincal.identify.parameters import ParameterSet, candidate_parameters
+from pincal.identify.problem import CalibrationProblem
+from pincal.identify.solver import identify
+from pincal.study.montecarlo import run_monte_carlo
+from pincal.study.pose_selection import condition_number, jacobian_blocks, select_poses
+from pincal.study.simulation import simulate_observations
+from pincal.study.workspace_stats import pose_error_jacobians, statistical_sensitivity
 
 ROOT = Path(__file__).resolve().parents[1]
 DEG = math.pi / 180.0
@@ -45,7 +45,7 @@ DIRECTIONS = np.array([[0.0, 1.0, 0.0], [SQRT3 / 2, -0.5, 0.0], [-SQRT3 / 2, -0.
 R_REFERENCE = 0.30053951487283664  # [m] limb length at the reference configuration (ucr3.urdf)
 Z_RANGE = (0.25, 0.35)  # [m] platform centre height of the workspace
 # [rad] platform tilt of the workspace. (Chosen when a warm start from a neighbouring sample could put a
-# pose beyond ~55° on another assembly; FK now always answers the reference assembly, see pincal.kinematics.)
+# pose beyond ~55° on another assembly; FK now always answers the reference assembly, see pincal.model.kinematics.)
 MAX_TILT = 50.0 * DEG
 
 # Study 004 Table 2: r1, r2, r3 [mm], xE, yE, zE [mm], q0, q1, q2, q3; Table 3: r1, r2, r3, xE, yE, zE, q1, q2, q3.
@@ -388,7 +388,7 @@ def _report(quick: bool, table2: list[dict[str, Any]], table3: list[dict[str, An
         f"T_R (pose error of E per parameter error, at fixed limb lengths) at {n_samples} poses uniform in "
         f"z_O' ∈ [{Z_RANGE[0] * 1e3:.0f}, {Z_RANGE[1] * 1e3:.0f}] mm and tilt ≤ {MAX_TILT / DEG:.0f}°; rows in mm "
         "and quaternion components (q1, q2, q3), columns per mm of parameter error, as in the paper "
-        f"(`pincal.sensitivity_stats`, {t_sens:.1f} s).",
+        f"(`pincal.study.workspace_stats`, {t_sens:.1f} s).",
         "",
         "| parameter | sensitivity [%] | parameter | sensitivity [%] | parameter | sensitivity [%] |",
         "|---|---|---|---|---|---|",

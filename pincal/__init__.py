@@ -20,17 +20,17 @@ from pincal.errors import (
 )
 
 if TYPE_CHECKING:
-    from pincal.library import known_robot_names, robot_path
-    from pincal.robot import Robot, load_robot
+    from pincal.model.catalog import known_robot_names, robot_path
+    from pincal.model.robot import Robot, load_robot
 
 __version__ = "0.1.0"
 
 #: Public name -> the module that defines it (imported on first access).
 _LAZY: dict[str, str] = {
-    "known_robot_names": "pincal.library",
-    "robot_path": "pincal.library",
-    "Robot": "pincal.robot",
-    "load_robot": "pincal.robot",
+    "known_robot_names": "pincal.model.catalog",
+    "robot_path": "pincal.model.catalog",
+    "Robot": "pincal.model.robot",
+    "load_robot": "pincal.model.robot",
 }
 
 __all__ = [

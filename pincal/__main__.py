@@ -7,9 +7,9 @@ import sys
 
 
 def main() -> int:
-    """Run the command line (:func:`pincal.cli.main`); an interrupt at any point ends with exit code 130."""
+    """Run the command line (:func:`pincal.cli.app.main`); an interrupt at any point ends with exit code 130."""
     try:
-        from pincal.cli import main as run
+        from pincal.cli.app import main as run
 
         return run()
     except KeyboardInterrupt:

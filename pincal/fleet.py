@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from pincal.errors import PincalError
-from pincal.files import make_directory
+from pincal.io.files import make_directory
 
 
 @dataclass(frozen=True)

@@ -16,28 +16,19 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration import (
-    angle_error_norms,
-    calibrated_robot_text,
-    choose_parameters,
-    joint_sensor_zeros,
-    json_text,
-    measurements_for,
-    observations_from,
-    report_dict,
-    source_text,
-    unusable_samples,
-)
-from pincal.dataset import MAX_SAMPLES, Dataset, dataset_text, read_dataset
 from pincal.errors import DataError, NotFoundError, listing
-from pincal.files import check_outputs, make_directory, write_texts
-from pincal.identification import CalibrationResult, error_norms, identify, length_columns, outlier_samples, rms
-from pincal.implicit import ImplicitProblem
-from pincal.measurements import JointReading, Measurement, Pose, parse_key
-from pincal.parameters import ParameterSet, joint_unit
-from pincal.problem import CalibrationProblem
-from pincal.robot import Robot, load_robot
-from pincal.simulation import perturbation, random_actuated, simulate_observations
+from pincal.identify.ikm import ImplicitProblem
+from pincal.identify.measurements import JointReading, Measurement, Pose, parse_key
+from pincal.identify.parameters import ParameterSet, choose_parameters, joint_unit
+from pincal.identify.problem import CalibrationProblem
+from pincal.identify.solver import CalibrationResult, error_norms, identify, length_columns, outlier_samples, rms
+from pincal.io.adapters import measurements_for, observations_from
+from pincal.io.calibrated_urdf import calibrated_robot_text, joint_sensor_zeros, source_text
+from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text, read_dataset
+from pincal.io.files import check_outputs, make_directory, write_texts
+from pincal.io.report_data import angle_error_norms, json_text, report_dict
+from pincal.model.robot import Robot, load_robot, unusable_samples
+from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 Array = npt.NDArray[np.float64]
 
@@ -125,7 +116,7 @@ SIMULATION_FILES = ("measurements.csv", "truth.urdf", "truth.json")
 
 
 def simulation_outputs(robot: Robot, out: str | Path) -> list[Path]:
-    """The files :func:`write_simulation` writes into ``out``, checked (:func:`~pincal.files.check_outputs`):
+    """The files :func:`write_simulation` writes into ``out``, checked (:func:`~pincal.io.files.check_outputs`):
     ``out`` is a directory or can be made one, and none of the files is the robot's own URDF.
 
     Raises:
@@ -175,7 +166,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     the measurement frame registered to the training data in closed form when all of ``base.*`` is
     estimated (``report["before_means"]`` says which). ``max_iter`` bounds the solver's iterations.
     ``loss``: ``auto`` (default; least squares, then a Cauchy refit when the data hold implausible samples,
-    which the report lists), ``linear`` or ``cauchy`` (see :func:`pincal.identification.identify`).
+    which the report lists), ``linear`` or ``cauchy`` (see :func:`pincal.identify.solver.identify`).
 
     Raises:
         DataError: no training sample (every row is ``set=test``, or none can be assembled).
@@ -260,14 +251,14 @@ def sample_length_errors(errors: dict[str, Array], n: int) -> Array | None:
 
 def joint_kinds(robot: Robot) -> dict[str, str]:
     """``revolute`` or ``prismatic`` for each one-DOF joint of ``robot`` (the kinds whose readings
-    :func:`~pincal.dataset.read_dataset` checks for degrees and millimetres; continuous joints are left out)."""
+    :func:`~pincal.io.dataset.read_dataset` checks for degrees and millimetres; continuous joints are left out)."""
     model = robot.model
     names = [str(model.names[jid]) for jid in range(1, model.njoints) if model.joints[jid].nq == 1]
     return {name: "prismatic" if joint_unit(robot, name) == "m" else "revolute" for name in names}
 
 
 def read_robot_dataset(path: str | Path, robot: Robot, min_samples: int = 2) -> Dataset:
-    """:func:`~pincal.dataset.read_dataset` for ``robot``: its actuated joints required, and the readings
+    """:func:`~pincal.io.dataset.read_dataset` for ``robot``: its actuated joints required, and the readings
     of its revolute and prismatic joints checked for degrees and millimetres. Every command reads data
     through here. A file whose ``# robot:`` line names another robot is refused."""
     dataset = read_dataset(path, robot.actuated_joints, min_samples, joint_kinds=joint_kinds(robot))
@@ -284,7 +275,7 @@ def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, st
 
     Dropped: readings outside the URDF joint limits (a reading the robot cannot have is a wrong
     reading), and postures the nominal robot cannot assemble or that sit at a singularity
-    (:func:`~pincal.calibration.unusable_samples`).
+    (:func:`~pincal.model.robot.unusable_samples`).
     """
     reasons: dict[int, str] = {}
     for k, reason in out_of_limits(robot, part):

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pincal.analysis import (
+from pincal.errors import DataError, IdentifiabilityError
+from pincal.identify.identifiability import (
     RANK_TOLERANCE,
     Combination,
     analyse,
@@ -13,7 +14,6 @@ from pincal.analysis import (
     correlations,
     covariance,
 )
-from pincal.errors import DataError, IdentifiabilityError
 
 NAMES6 = ["a.tx", "a.ty", "a.rz", "b.offset", "base.tz", "device.psi"]
 

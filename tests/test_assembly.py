@@ -18,12 +18,12 @@ import pinocchio as pin
 import pytest
 
 import pincal
-from pincal import measurements as ms
-from pincal.identification import identify
-from pincal.kinematics import CONTINUATION_STEP
-from pincal.parameters import ParameterSet, apply_parameters, candidate_parameters
-from pincal.problem import CalibrationProblem, Observations
-from pincal.simulation import random_actuated, simulate_observations
+from pincal.identify import measurements as ms
+from pincal.identify.parameters import ParameterSet, apply_parameters, candidate_parameters
+from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.identify.solver import identify
+from pincal.model.kinematics import CONTINUATION_STEP
+from pincal.study.simulation import random_actuated, simulate_observations
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "examples"))

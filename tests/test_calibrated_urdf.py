@@ -29,13 +29,13 @@ import pytest
 from conftest import run_pincal
 
 import pincal
-from pincal.calibration import MEASUREMENT_FRAME, calibrated_robot_text, choose_parameters, source_text
-from pincal.dataset import read_dataset
-from pincal.measurements import Distance, JointReading, Measurement, Pose, Position, parse_key
-from pincal.parameters import ParameterSet, candidate_parameters
-from pincal.problem import CalibrationProblem, Observations
-from pincal.robot import Robot
-from pincal.simulation import perturbation, random_actuated
+from pincal.identify.measurements import Distance, JointReading, Measurement, Pose, Position, parse_key
+from pincal.identify.parameters import ParameterSet, candidate_parameters, choose_parameters
+from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.io.calibrated_urdf import MEASUREMENT_FRAME, calibrated_robot_text, source_text
+from pincal.io.dataset import read_dataset
+from pincal.model.robot import Robot
+from pincal.study.simulation import perturbation, random_actuated
 from pincal.workflow import simulate, write_simulation
 
 Array = np.ndarray

@@ -5,9 +5,10 @@ from __future__ import annotations
 import pytest
 
 import pincal
-from pincal.calibration import channel_sigma, choose_parameters, measurements_for
 from pincal.errors import DataError, NotFoundError
-from pincal.measurements import JointReading, Pose
+from pincal.identify.measurements import JointReading, Pose
+from pincal.identify.parameters import choose_parameters
+from pincal.io.adapters import channel_sigma, measurements_for
 
 
 def test_channel_sigma_from_metadata() -> None:
@@ -52,8 +53,8 @@ def test_parameter_choice_named_patterns_and_default() -> None:
 def test_simulated_noise_per_measurement() -> None:
     import numpy as np
 
-    from pincal import measurements as ms
-    from pincal.simulation import random_actuated, simulate_observations
+    from pincal.identify import measurements as ms
+    from pincal.study.simulation import random_actuated, simulate_observations
 
     robot = pincal.load_robot("hexapod_device")
     models = [ms.joint_reading("device_lvdt"), ms.joint_reading("device_incl_x")]
@@ -76,11 +77,11 @@ def test_written_urdf_reproduces_the_calibrated_model(name: str, frame: str) -> 
     """Load the calibrated URDF back: FK equals the calibrated model's (offsets folded in) to 1e-12."""
     import numpy as np
 
-    from pincal import measurements as ms
-    from pincal.calibration import calibrated_robot_text, source_text
-    from pincal.problem import CalibrationProblem, Observations
-    from pincal.robot import robot_from_urdf_text
-    from pincal.simulation import perturbation, random_actuated
+    from pincal.identify import measurements as ms
+    from pincal.identify.problem import CalibrationProblem, Observations
+    from pincal.io.calibrated_urdf import calibrated_robot_text, source_text
+    from pincal.model.robot import robot_from_urdf_text
+    from pincal.study.simulation import perturbation, random_actuated
 
     robot = pincal.load_robot(name)
     models = [ms.position(frame)]
@@ -106,9 +107,9 @@ def test_calibrated_urdf_folds_a_planar_passive_joint() -> None:
     import numpy as np
     from mechanisms import planar_coupler_urdf
 
-    from pincal.calibration import calibrated_robot_text
-    from pincal.parameters import ParameterSet, apply_parameters, candidate_parameters
-    from pincal.robot import robot_from_urdf_text
+    from pincal.identify.parameters import ParameterSet, apply_parameters, candidate_parameters
+    from pincal.io.calibrated_urdf import calibrated_robot_text
+    from pincal.model.robot import robot_from_urdf_text
 
     text = planar_coupler_urdf()
     robot = robot_from_urdf_text(text)

@@ -10,7 +10,7 @@ import pytest
 from conftest import ROBOTS
 
 import pincal
-from pincal.cli import main
+from pincal.cli.app import main
 
 
 def test_info_describes_the_delta(capsys: pytest.CaptureFixture[str]) -> None:

@@ -17,8 +17,8 @@ from mechanisms import (
 )
 
 import pincal
-from pincal.closure import LoopClosure
-from pincal.urdf import LOOP_ROWS, LoopSpec
+from pincal.model.closure import LoopClosure
+from pincal.model.urdf import LOOP_ROWS, LoopSpec
 
 
 def _random_se3(rng: np.random.Generator) -> pin.SE3:
@@ -54,7 +54,7 @@ def test_loop_jacobian_matches_finite_differences(kind: str) -> None:
 
 
 def test_four_bar_revolute_loop_against_closed_form() -> None:
-    robot = pincal.robot.robot_from_urdf_text(four_bar_urdf())
+    robot = pincal.model.robot.robot_from_urdf_text(four_bar_urdf())
     assert robot.mobility() == 1
     for crank in np.linspace(FOUR_BAR_CRANK_HOME - 0.35, FOUR_BAR_CRANK_HOME + 0.35, 21):
         q = robot.solve_fk(np.array([crank - FOUR_BAR_CRANK_HOME]))
@@ -66,13 +66,13 @@ def test_four_bar_revolute_loop_against_closed_form() -> None:
 
 
 def test_four_bar_unreachable_crank_angle_raises() -> None:
-    robot = pincal.robot.robot_from_urdf_text(four_bar_urdf())
+    robot = pincal.model.robot.robot_from_urdf_text(four_bar_urdf())
     with pytest.raises(pincal.ConvergenceError, match=r"crank_joint.*closure residual"):
         robot.solve_fk(np.array([math.pi]))
 
 
 def test_slider_crank_prismatic_loop_against_closed_form() -> None:
-    robot = pincal.robot.robot_from_urdf_text(slider_crank_urdf())
+    robot = pincal.model.robot.robot_from_urdf_text(slider_crank_urdf())
     assert robot.mobility() == 1
     for crank in np.linspace(-math.pi, math.pi, 37):
         q = robot.solve_fk(np.array([crank]), q_guess=None)
@@ -83,7 +83,7 @@ def test_slider_crank_prismatic_loop_against_closed_form() -> None:
 
 
 def test_slider_crank_jacobian_through_the_loop() -> None:
-    robot = pincal.robot.robot_from_urdf_text(slider_crank_urdf())
+    robot = pincal.model.robot.robot_from_urdf_text(slider_crank_urdf())
     home = math.pi / 2
     for crank in (-1.0, 0.3, 2.0):
         q = robot.solve_fk(np.array([crank]))
@@ -95,12 +95,12 @@ def test_slider_crank_jacobian_through_the_loop() -> None:
 
 def test_continuous_crank_takes_the_short_way_round() -> None:
     """An unbounded crank (nq = 2): readings past ±π are the same angle, not a full turn away."""
-    from pincal import measurements as ms
-    from pincal.parameters import candidate_parameters
-    from pincal.problem import CalibrationProblem, Observations
+    from pincal.identify import measurements as ms
+    from pincal.identify.parameters import candidate_parameters
+    from pincal.identify.problem import CalibrationProblem, Observations
 
     crank_rocker = {"a": 0.1, "b": 0.3, "c": 0.25, "d": 0.3}  # Grashof, crank shortest: it turns fully
-    robot = pincal.robot.robot_from_urdf_text(four_bar_urdf(crank_rocker, home=0.0, crank="continuous"))
+    robot = pincal.model.robot.robot_from_urdf_text(four_bar_urdf(crank_rocker, home=0.0, crank="continuous"))
     assert robot.model.joints[robot.model.getJointId("crank_joint")].nq == 2
     q = robot.solve_fk(np.array([3.0]))
     across = robot.solve_fk_report(np.array([-3.0]), q)  # 0.28 rad further on, across ±π

@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal.calibration import choose_parameters, measurements_for, observations_from
-from pincal.identification import error_norms, identify
-from pincal.problem import CalibrationProblem
+from pincal.identify.parameters import choose_parameters
+from pincal.identify.problem import CalibrationProblem
+from pincal.identify.solver import error_norms, identify
+from pincal.io.adapters import measurements_for, observations_from
 from pincal.workflow import simulate
 
 #: robot, measured kind, frame (None: the end effector), samples — enough rows for every candidate.

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal import measurements as ms
-from pincal.calibration import choose_parameters
-from pincal.design import condition_number, jacobian_blocks, log_det, select_poses
 from pincal.errors import DataError
-from pincal.problem import CalibrationProblem
-from pincal.simulation import random_actuated, simulate_observations
+from pincal.identify import measurements as ms
+from pincal.identify.parameters import choose_parameters
+from pincal.identify.problem import CalibrationProblem
+from pincal.study.pose_selection import condition_number, jacobian_blocks, log_det, select_poses
+from pincal.study.simulation import random_actuated, simulate_observations
 
 
 @pytest.fixture(scope="module")
@@ -111,11 +111,11 @@ def test_jacobian_blocks_through_an_executor_equal_the_serial_ones() -> None:
     import concurrent.futures
 
     import pincal
-    from pincal import measurements as ms
-    from pincal.calibration import choose_parameters
-    from pincal.design import jacobian_blocks, select_poses
-    from pincal.problem import CalibrationProblem
-    from pincal.simulation import random_actuated, simulate_observations
+    from pincal.identify import measurements as ms
+    from pincal.identify.parameters import choose_parameters
+    from pincal.identify.problem import CalibrationProblem
+    from pincal.study.pose_selection import jacobian_blocks, select_poses
+    from pincal.study.simulation import random_actuated, simulate_observations
 
     robot = pincal.load_robot("delta")
     models = [ms.position("end_effector")]

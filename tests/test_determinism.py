@@ -6,7 +6,7 @@ from pathlib import Path
 
 from conftest import run_pincal
 
-from pincal.cli import main
+from pincal.cli.app import main
 
 
 def _run(out: Path) -> dict[str, bytes]:

@@ -10,7 +10,7 @@ import pytest
 from conftest import ROBOTS, run_pincal
 
 from pincal.errors import OutputError
-from pincal.files import check_outputs, write_text, write_texts
+from pincal.io.files import check_outputs, write_text, write_texts
 
 
 @pytest.fixture(scope="module")

@@ -10,8 +10,8 @@ import pytest
 from dask.distributed import Client, LocalCluster
 
 import pincal
-from pincal.dataset import write_dataset
 from pincal.fleet import FleetJob, calibrate_fleet, jobs_from_directory
+from pincal.io.dataset import write_dataset
 from pincal.workflow import simulate
 
 

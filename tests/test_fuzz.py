@@ -11,8 +11,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import pincal
-from pincal.dataset import Dataset, read_dataset, write_dataset
-from pincal.robot import robot_from_urdf_text
+from pincal.io.dataset import Dataset, read_dataset, write_dataset
+from pincal.model.robot import robot_from_urdf_text
 from pincal.workflow import calibrate
 
 NUMBER = re.compile(r"-?\d+\.?\d*(?:e-?\d+)?")

@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal import measurements as ms
-from pincal.analysis import analyse
-from pincal.calibration import choose_parameters
 from pincal.errors import DataError
-from pincal.identification import identify
-from pincal.implicit import ImplicitProblem, chain_blocks, identify_chains
-from pincal.problem import CalibrationProblem
-from pincal.simulation import perturbation, random_actuated, simulate_observations
+from pincal.identify import measurements as ms
+from pincal.identify.identifiability import analyse
+from pincal.identify.ikm import ImplicitProblem, chain_blocks
+from pincal.identify.parameters import choose_parameters
+from pincal.identify.problem import CalibrationProblem
+from pincal.identify.solver import identify, identify_chains
+from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 
 def _delta(n: int, seed: int, base_only: bool = True):

@@ -10,8 +10,8 @@ import scipy.linalg
 from threadpoolctl import threadpool_limits
 
 from pincal import linalg
-from pincal.analysis import analyse, covariance
 from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
+from pincal.identify.identifiability import analyse, covariance
 
 
 @pytest.fixture(autouse=True)

@@ -11,11 +11,11 @@ import pytest
 from conftest import ROBOTS, run_pincal
 
 import pincal
-from pincal import measurements as ms
-from pincal.calibration import choose_parameters
-from pincal.dataset import read_dataset
-from pincal.problem import CalibrationProblem
-from pincal.simulation import random_actuated, simulate_observations
+from pincal.identify import measurements as ms
+from pincal.identify.parameters import choose_parameters
+from pincal.identify.problem import CalibrationProblem
+from pincal.io.dataset import read_dataset
+from pincal.study.simulation import random_actuated, simulate_observations
 
 FINGERS = ["position:panda_rightfinger", "position:panda_leftfinger"]
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pincal.errors import DataError
-from pincal.montecarlo import SimulatedCalibration, run_monte_carlo
+from pincal.study.montecarlo import SimulatedCalibration, run_monte_carlo
 
 FIVE_BAR = SimulatedCalibration("five_bar", ("distance_increment:base_link-end_effector",), ("*.offset",),
                                 n_train=10, n_test=5, joint_noise=1.0)

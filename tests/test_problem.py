@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal import measurements as ms
-from pincal.parameters import candidate_parameters
-from pincal.problem import CalibrationProblem, Observations
-from pincal.simulation import random_actuated
+from pincal.identify import measurements as ms
+from pincal.identify.parameters import candidate_parameters
+from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.study.simulation import random_actuated
 
 DEVICE = ("device_incl_x", "device_incl_y", "device_lvdt", "device_rotary")
 

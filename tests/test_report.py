@@ -16,8 +16,8 @@ from conftest import ROBOTS
 from PIL import Image
 
 import pincal
-from pincal.cli import main
-from pincal.report import write_demo_report
+from pincal.cli.app import main
+from pincal.viz.html_report import write_demo_report
 from pincal.workflow import calibrate, simulate, write_simulation
 
 N_TRAIN, N_TEST = 30, 10

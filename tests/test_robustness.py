@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 import pincal
-from pincal import measurements as ms
-from pincal.calibration import choose_parameters
-from pincal.dataset import Dataset
-from pincal.identification import error_norms, identify, rms
-from pincal.problem import CalibrationProblem, Observations
-from pincal.simulation import perturbation, random_actuated, simulate_observations
+from pincal.identify import measurements as ms
+from pincal.identify.parameters import choose_parameters
+from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.identify.solver import error_norms, identify, rms
+from pincal.io.dataset import Dataset
+from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 from pincal.workflow import calibrate, simulate
 
 
@@ -61,8 +61,7 @@ def test_singular_samples_are_named() -> None:
 
     from mechanisms import FOUR_BAR, FOUR_BAR_CRANK_HOME, four_bar_urdf
 
-    from pincal.calibration import unusable_samples
-    from pincal.robot import robot_from_urdf_text
+    from pincal.model.robot import robot_from_urdf_text, unusable_samples
 
     robot = robot_from_urdf_text(four_bar_urdf())
     a, b, c, d = (FOUR_BAR[k] for k in "abcd")

@@ -7,12 +7,12 @@ import pinocchio as pin
 import pytest
 
 import pincal
-from pincal import measurements as ms
-from pincal.calibration import choose_parameters
 from pincal.errors import DataError
-from pincal.problem import CalibrationProblem
-from pincal.sensitivity_stats import pose_error_jacobians, quaternion_rows, statistical_sensitivity
-from pincal.simulation import random_actuated, simulate_observations
+from pincal.identify import measurements as ms
+from pincal.identify.parameters import choose_parameters
+from pincal.identify.problem import CalibrationProblem
+from pincal.study.simulation import random_actuated, simulate_observations
+from pincal.study.workspace_stats import pose_error_jacobians, quaternion_rows, statistical_sensitivity
 
 
 def test_percentages_follow_eq_20_and_21() -> None:

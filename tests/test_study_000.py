@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal import measurements as ms
-from pincal.parameters import NAMED_SETS
-from pincal.problem import CalibrationProblem
-from pincal.simulation import random_actuated, simulate_observations
+from pincal.identify import measurements as ms
+from pincal.identify.parameters import NAMED_SETS
+from pincal.identify.problem import CalibrationProblem
+from pincal.study.simulation import random_actuated, simulate_observations
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "study_000_delta.py"
 

@@ -1,4 +1,4 @@
-"""The study commands ``pincal design`` and ``pincal montecarlo``, run through ``pincal.cli.main``; and the
+"""The study commands ``pincal design`` and ``pincal montecarlo``, run through ``pincal.cli.app.main``; and the
 progress bars of long work: shown on a terminal unless ``--quiet``, never by library defaults."""
 
 from __future__ import annotations
@@ -12,16 +12,16 @@ import numpy as np
 import pytest
 
 import pincal
-import pincal.cli
-from pincal import measurements as ms
-from pincal.calibration import choose_parameters
-from pincal.cli import main
-from pincal.dataset import read_dataset
-from pincal.design import jacobian_blocks, select_poses
-from pincal.montecarlo import run_monte_carlo
-from pincal.problem import CalibrationProblem
-from pincal.simulation import random_actuated
-from pincal.study_commands import blank_observations
+import pincal.cli.app
+from pincal.cli.app import main
+from pincal.cli.study import blank_observations
+from pincal.identify import measurements as ms
+from pincal.identify.parameters import choose_parameters
+from pincal.identify.problem import CalibrationProblem
+from pincal.io.dataset import read_dataset
+from pincal.study.montecarlo import run_monte_carlo
+from pincal.study.pose_selection import jacobian_blocks, select_poses
+from pincal.study.simulation import random_actuated
 
 DESIGN = ["design", "delta", "--candidates", "150", "--poses", "12", "--measure", "position",
           "--parameters", "model24", "--seed", "1"]
@@ -35,13 +35,6 @@ class Terminal(io.StringIO):
 
     def isatty(self) -> bool:
         return True
-
-
-@pytest.fixture(autouse=True)
-def study_commands(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The commands as the CLI will have them once ``pincal.study_commands`` is among its extensions."""
-    if "pincal.study_commands" not in pincal.cli.EXTENSIONS:
-        monkeypatch.setattr(pincal.cli, "EXTENSIONS", (*pincal.cli.EXTENSIONS, "pincal.study_commands"))
 
 
 def _number(line: str, position: int) -> float:

@@ -14,8 +14,8 @@ from hypothesis import strategies as st
 
 import pincal
 from pincal.errors import RobotFileError
-from pincal.urdf import read_extensions
-from pincal.urdf_writer import (
+from pincal.model.urdf import read_extensions
+from pincal.model.urdf_writer import (
     SENSOR_COMMENT,
     FixedLink,
     calibrated_urdf_text,

@@ -19,13 +19,13 @@ from browser import orange_pixels, pixel_variance, render, served
 from conftest import ROBOTS
 
 import pincal
-from pincal.cli import main
-from pincal.dataset import write_dataset
-from pincal.library import resolve_mesh_file
+from pincal.cli.app import main
+from pincal.io.dataset import write_dataset
+from pincal.model.catalog import resolve_mesh_file
 from pincal.progress import Progress
-from pincal.static_page import StaticScene
-from pincal.viewer import CalibrationView, configurations, draw_calibration, static_scene
-from pincal.visuals import robot_visuals
+from pincal.viz.scene import CalibrationView, configurations, draw_calibration, static_scene
+from pincal.viz.static_page import StaticScene
+from pincal.viz.visuals import robot_visuals
 from pincal.workflow import Calibration, Simulation, calibrate, simulate
 
 N_TRAIN = 30

@@ -14,8 +14,8 @@ import pytest
 from conftest import run_pincal
 
 import pincal
-from pincal.dataset import read_dataset
 from pincal.errors import DataError
+from pincal.io.dataset import read_dataset
 from pincal.workflow import calibrate, simulate, write_simulation
 
 

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal import measurements as ms
 from pincal.errors import DataError
-from pincal.parameters import candidate_parameters
-from pincal.problem import Observations
-from pincal.simulation import simulate_observations
-from pincal.zero_offset import compensation_accuracy, identify_zero_offsets, tsvd_step
+from pincal.identify import measurements as ms
+from pincal.identify.parameters import candidate_parameters
+from pincal.identify.problem import Observations
+from pincal.study.simulation import simulate_observations
+from pincal.study.zero_offset import compensation_accuracy, identify_zero_offsets, tsvd_step
 
 DEG = math.pi / 180.0
 SCALE = [ms.distance("scale_body", "scale_slider", sigma=1e-6, increment=True)]

@@ -18,8 +18,8 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.parameters import ParameterSet, _descends
-from pincal.robot import Robot
+from pincal.identify.parameters import ParameterSet, _descends
+from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
 

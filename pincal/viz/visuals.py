@@ -19,9 +19,9 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import RobotFileError
-from pincal.library import resolve_mesh_file
-from pincal.robot import Robot
-from pincal.urdf import origin_to_se3
+from pincal.model.catalog import resolve_mesh_file
+from pincal.model.robot import Robot
+from pincal.model.urdf import origin_to_se3
 
 Array = npt.NDArray[np.float64]
 

@@ -26,10 +26,10 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.design import jacobian_blocks
 from pincal.errors import DataError
-from pincal.measurements import Pose
-from pincal.problem import CalibrationProblem
+from pincal.identify.measurements import Pose
+from pincal.identify.problem import CalibrationProblem
+from pincal.study.pose_selection import jacobian_blocks
 
 Array = npt.NDArray[np.float64]
 
@@ -125,7 +125,7 @@ def pose_error_jacobians(problem: CalibrationProblem, x: Array | None = None,
     is the identity at zero error).
 
     Args:
-        problem: Problem over workspace samples with a :class:`~pincal.measurements.Pose` measurement.
+        problem: Problem over workspace samples with a :class:`~pincal.identify.measurements.Pose` measurement.
         x: Parameters to linearise at (nominal by default).
         orientation: ``rotation`` (local rotation vector [rad]) or ``quaternion`` (study 004's
             q1, q2, q3, dimensionless).

@@ -1,7 +1,7 @@
 """Measurement models: what a sensor reads for a robot configuration, and its parameter derivative.
 
 Each model predicts a small vector per sample from the sample's closed configuration and the local
-twists of the frames it looks at (computed by :mod:`pincal.problem`). All in SI units: positions
+twists of the frames it looks at (computed by :mod:`pincal.identify.problem`). All in SI units: positions
 [m] in the measurement frame, orientations as rotation vectors [rad], joint readings [rad or m].
 
 Keys (also the dataset column prefixes): ``position:<frame>``, ``pose:<frame>``,

@@ -27,7 +27,7 @@ import pinocchio as pin
 from scipy.linalg import lapack
 
 from pincal import linalg
-from pincal.closure import LoopClosure
+from pincal.model.closure import LoopClosure
 
 Array = npt.NDArray[np.float64]
 

@@ -19,14 +19,14 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import PincalError
-from pincal.visuals import CALIBRATED_COLOR, ERROR_COLORMAP, NOMINAL_COLOR, POINT_COLOR
+from pincal.viz.visuals import CALIBRATED_COLOR, ERROR_COLORMAP, NOMINAL_COLOR, POINT_COLOR
 
 Array = npt.NDArray[np.float64]
 
 
 @dataclass
 class SceneSummary:
-    """What :func:`pincal.viewer.draw_calibration` drew: what the legend shows and the browser test checks.
+    """What :func:`pincal.viz.scene.draw_calibration` drew: what the legend shows and the browser test checks.
 
     Attributes:
         frames: Robot frames carrying shapes (node names under ``robot_nominal``/``robot_calibrated``).

@@ -23,7 +23,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import LoopError, listing
-from pincal.urdf import LoopSpec
+from pincal.model.urdf import LoopSpec
 
 Array = npt.NDArray[np.float64]
 

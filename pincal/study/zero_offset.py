@@ -31,10 +31,10 @@ import numpy.typing as npt
 
 from pincal import linalg
 from pincal.errors import DataError
-from pincal.measurements import Measurement
-from pincal.parameters import ParameterSet
-from pincal.problem import CalibrationProblem, Observations
-from pincal.robot import Robot
+from pincal.identify.measurements import Measurement
+from pincal.identify.parameters import ParameterSet
+from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
 

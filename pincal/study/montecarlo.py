@@ -22,14 +22,14 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration import choose_parameters
 from pincal.errors import ConvergenceError, DataError
-from pincal.identification import calibration_gain, error_norms, identify, rms
-from pincal.measurements import parse_key
-from pincal.problem import CalibrationProblem
+from pincal.identify.measurements import parse_key
+from pincal.identify.parameters import choose_parameters
+from pincal.identify.problem import CalibrationProblem
+from pincal.identify.solver import calibration_gain, error_norms, identify, rms
+from pincal.model.robot import Robot, load_robot
 from pincal.progress import Progress
-from pincal.robot import Robot, load_robot
-from pincal.simulation import perturbation, random_actuated, simulate_observations
+from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 Array = npt.NDArray[np.float64]
 
@@ -197,7 +197,7 @@ class SimulatedCalibration:
     Attributes:
         robot: Robot name or URDF path.
         measurements: Measurement keys (``position:end_effector``, ``joint:device_lvdt``, ...).
-        parameters: Named set or patterns (see :func:`pincal.calibration.choose_parameters`); None: all.
+        parameters: Named set or patterns (see :func:`pincal.identify.parameters.choose_parameters`); None: all.
         n_train, n_test: Postures to calibrate from and to validate on.
         perturb: σ of the true parameter errors [m and rad].
         joint_noise: σ of the actuated readings' noise [m or rad] per unit of ``level`` (0: exact).

@@ -7,7 +7,6 @@ Every command reports problems as one line ``pincal: error: ...`` and exits with
 from __future__ import annotations
 
 import argparse
-import importlib
 import os
 import sys
 from collections.abc import Sequence
@@ -16,7 +15,8 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from pincal.cli_options import (
+from pincal.cli import report, study, view
+from pincal.cli.options import (
     add_measurement,
     add_parameters,
     add_perturb,
@@ -28,14 +28,12 @@ from pincal.cli_options import (
     positive_int,
 )
 from pincal.errors import DataError, PincalError
-from pincal.files import make_directory, write_text
-from pincal.robot import Robot, load_robot
+from pincal.io.files import make_directory, write_text
+from pincal.model.robot import Robot, load_robot
 
 EXIT_ERROR = 2
 #: Exit code of an unexpected exception (a bug), printed as one line; ``--debug`` shows the traceback.
 EXIT_BUG = 3
-#: Modules that add subcommands through ``register(subparsers)`` (skipped while absent).
-EXTENSIONS = ("pincal.viewer", "pincal.report", "pincal.study_commands")
 
 
 def _describe(robot: Robot) -> str:
@@ -213,9 +211,9 @@ DEMO_TEXT = """pincal demo: geometric calibration of the Delta robot of study 00
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from pincal.calibration import write_json
-    from pincal.library import robot_path
-    from pincal.report import write_demo_report
+    from pincal.io.report_data import write_json
+    from pincal.model.catalog import robot_path
+    from pincal.viz.html_report import write_demo_report
     from pincal.workflow import calibrate, simulate, write_simulation
 
     robot = load_robot(robot_path("delta"))
@@ -351,15 +349,8 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.add_argument("--scheduler", help="address of a Dask scheduler (pip install 'pincal[dask]')")
     fleet.set_defaults(func=cmd_fleet)
 
-    # commands contributed by higher-level modules (viewer, report, studies) register themselves here
-    for module in EXTENSIONS:
-        try:
-            registered = importlib.import_module(module)
-        except ModuleNotFoundError as exc:
-            if exc.name != module:
-                raise
-            continue
-        registered.register(sub)
+    for module in (view, report, study):  # command groups of their own
+        module.register(sub)
     return parser
 
 

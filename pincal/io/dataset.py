@@ -36,7 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError, listing
-from pincal.files import write_text
+from pincal.io.files import write_text
 
 Array = npt.NDArray[np.float64]
 

@@ -2,10 +2,10 @@
 calibration campaign recovers the geometry, over random seeds and noise levels).
 
 ``design`` draws random reachable candidate postures, stacks each one's rows of the identification
-Jacobian (:func:`pincal.design.jacobian_blocks`), chooses the requested number by condition number or
-D-optimality (:func:`pincal.design.select_poses`) and compares the choice with random sets of the same
+Jacobian (:func:`pincal.study.pose_selection.jacobian_blocks`), chooses the requested number by condition number or
+D-optimality (:func:`pincal.study.pose_selection.select_poses`) and compares the choice with random sets of the same
 size; the chosen actuated values go to a CSV a user can drive the robot to. ``montecarlo`` repeats
-:class:`pincal.montecarlo.SimulatedCalibration` over seeds and noise levels in a process pool and prints
+:class:`pincal.study.montecarlo.SimulatedCalibration` over seeds and noise levels in a process pool and prints
 one row per noise level. SI units throughout: m, rad.
 """
 
@@ -19,8 +19,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration import choose_parameters
-from pincal.cli_options import (
+from pincal.cli.options import (
     add_measurement,
     add_parameters,
     add_perturb,
@@ -29,15 +28,23 @@ from pincal.cli_options import (
     non_negative_int,
     positive_int,
 )
-from pincal.dataset import Dataset, write_dataset
-from pincal.design import CRITERIA, PoseSelection, condition_number, jacobian_blocks, log_det, select_poses
 from pincal.errors import DataError, NotFoundError, listing
-from pincal.files import check_outputs
-from pincal.measurements import Distance, JointReading, Measurement, Pose
-from pincal.montecarlo import MonteCarloResult, SimulatedCalibration, run_monte_carlo
-from pincal.problem import CalibrationProblem, Observations
-from pincal.robot import Robot, load_robot
-from pincal.simulation import random_actuated
+from pincal.identify.measurements import Distance, JointReading, Measurement, Pose
+from pincal.identify.parameters import choose_parameters
+from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.io.dataset import Dataset, write_dataset
+from pincal.io.files import check_outputs
+from pincal.model.robot import Robot, load_robot
+from pincal.study.montecarlo import MonteCarloResult, SimulatedCalibration, run_monte_carlo
+from pincal.study.pose_selection import (
+    CRITERIA,
+    PoseSelection,
+    condition_number,
+    jacobian_blocks,
+    log_det,
+    select_poses,
+)
+from pincal.study.simulation import random_actuated
 from pincal.workflow import measurement_models
 
 Array = npt.NDArray[np.float64]
@@ -87,7 +94,7 @@ def _absolute(measurements: list[Measurement]) -> tuple[list[Measurement], bool]
     """The measurements with incremental distances made absolute, and whether they were incremental.
 
     A scale reset between readings sees differences of consecutive postures: the design is then made
-    on the absolute rows with ``difference=True`` (:mod:`pincal.design`). That needs every measurement
+    on the absolute rows with ``difference=True`` (:mod:`pincal.study.pose_selection`). That needs every measurement
     to be incremental.
     """
     incremental = [m for m in measurements if m.incremental]

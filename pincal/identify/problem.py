@@ -22,11 +22,11 @@ import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, NotFoundError, listing
-from pincal.kinematics import CONTINUATION_STEP, damped_pseudo_inverse
-from pincal.measurements import Distance, JointReading, Measurement, Pose, Position, point_derivative
-from pincal.parameters import KINEMATIC_KINDS, ParameterSet, apply_parameters, joint_unit, offset_parameter
-from pincal.robot import SOLVE_TOLERANCE, Robot
-from pincal.sensitivity import KinematicSensitivity, frame_probe, right_jacobian
+from pincal.identify.derivatives import KinematicSensitivity, frame_probe, right_jacobian
+from pincal.identify.measurements import Distance, JointReading, Measurement, Pose, Position, point_derivative
+from pincal.identify.parameters import KINEMATIC_KINDS, ParameterSet, apply_parameters, joint_unit, offset_parameter
+from pincal.model.kinematics import CONTINUATION_STEP, damped_pseudo_inverse
+from pincal.model.robot import SOLVE_TOLERANCE, Robot
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -244,7 +244,7 @@ class CalibrationProblem:
 
         Only a shortcut: a neighbour's configuration is on the reference assembly, and a Newton solve
         from it that jumps (moves a passive joint by more than one continuation step) is refused by
-        :meth:`pincal.kinematics.ClosedLoopKinematics.solve_fk`, which then continues from the reference.
+        :meth:`pincal.model.kinematics.ClosedLoopKinematics.solve_fk`, which then continues from the reference.
         """
         if not robot.loops:
             return None

@@ -1,14 +1,13 @@
 """One offline HTML file per calibration: how much better the calibrated robot is, and why to trust it.
 
 The page holds the headline before/after errors, a summary (samples, parameters, identifiable count,
-condition number, RMS and max errors, held-out errors), the 3D scene of :mod:`pincal.viewer`, the
-figures of :mod:`pincal.plots` as embedded PNGs, the parameter table with standard deviations, and
+condition number, RMS and max errors, held-out errors), the 3D scene of :mod:`pincal.viz.scene`, the
+figures of :mod:`pincal.viz.plots` as embedded PNGs, the parameter table with standard deviations, and
 the combinations the data cannot separate, in words. Nothing is fetched: it opens from a file.
 """
 
 from __future__ import annotations
 
-import argparse
 import base64
 import html
 import json
@@ -20,13 +19,13 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration import observations_from
-from pincal.dataset import Dataset
-from pincal.errors import DataError, listing
-from pincal.files import make_directory, write_text
-from pincal.problem import CalibrationProblem
+from pincal.errors import DataError
+from pincal.identify.problem import CalibrationProblem
+from pincal.io.adapters import observations_from
+from pincal.io.dataset import Dataset
+from pincal.io.files import make_directory, write_text
 from pincal.progress import Progress
-from pincal.viewer import CalibrationView, add_calibration_options, load_view, static_scene
+from pincal.viz.scene import CalibrationView, static_scene
 
 Array = npt.NDArray[np.float64]
 
@@ -74,7 +73,8 @@ def read_truth(path: str | Path) -> dict[str, float]:
 
 
 # --- formatting ------------------------------------------------------------------------------------
-def _mm(value: float | None, digits: int = 4) -> str:
+def mm_text(value: float | None, digits: int = 4) -> str:
+    """A length [m] as text in mm, "–" when missing or not finite."""
     return "–" if value is None or not math.isfinite(value) else f"{value * 1e3:.{digits}f} mm"
 
 
@@ -106,7 +106,7 @@ def _ratio(before: float | None, after: float | None) -> str:
 
 
 def _png(figure: Any, alt: str) -> str:
-    from pincal.plots import png_bytes
+    from pincal.viz.plots import png_bytes
 
     data = base64.b64encode(png_bytes(figure)).decode("ascii")
     return f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}"></figure>'
@@ -163,8 +163,8 @@ def _cards(report: dict[str, Any]) -> str:
     cards = []
     for what, before, after in rows:
         cards.append(f'<div class="card"><div class="what">{html.escape(what)}</div>'
-                     f'<div class="nums"><span class="before">{_mm(before)}</span> → '
-                     f'<span class="after">{_mm(after)}</span></div>'
+                     f'<div class="nums"><span class="before">{mm_text(before)}</span> → '
+                     f'<span class="after">{mm_text(after)}</span></div>'
                      f'<div class="gain">{_ratio(before, after)}</div></div>')
     return '<div class="cards">' + "".join(cards) + "</div>"
 
@@ -179,12 +179,12 @@ def _verdict(report: dict[str, Any]) -> str:
         "on the samples it was fitted to (no held-out samples: add rows with set=test to check it)"
     if not report.get("converged", True):
         return (f'<p class="warn">The solver did not converge ({html.escape(str(report.get("message")))}): '
-                f"treat these numbers with care. RMS error {where}: {_mm(before)} → {_mm(after)}.</p>")
+                f"treat these numbers with care. RMS error {where}: {mm_text(before)} → {mm_text(after)}.</p>")
     change = (1 - after / before) * 100 if before else 0.0
     kind = "verdict" if after < before else "warn"
     return (f'<p class="{kind}">The calibrated model predicts the robot\'s positions with an error '
-            f"{_ratio(before, after) or 'as large'} than the nominal model {where}: RMS {_mm(before)} → "
-            f"{_mm(after)} ({abs(change):.1f} % {'less' if change >= 0 else 'more'}).</p>")
+            f"{_ratio(before, after) or 'as large'} than the nominal model {where}: RMS {mm_text(before)} → "
+            f"{mm_text(after)} ({abs(change):.1f} % {'less' if change >= 0 else 'more'}).</p>")
 
 
 def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
@@ -206,8 +206,8 @@ def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
         numbers += [("RMS position error (held out)", "test_rms_before", "test_rms_after"),
                     ("max position error (held out)", "test_max_before", "test_max_after")]
     for label, b, a in numbers:
-        table.append(f"<tr><td>{label}</td><td class='before'>{_mm(report.get(b))}</td>"
-                     f"<td class='after'>{_mm(report.get(a))}</td></tr>")
+        table.append(f"<tr><td>{label}</td><td class='before'>{mm_text(report.get(b))}</td>"
+                     f"<td class='after'>{mm_text(report.get(a))}</td></tr>")
     if report.get("calibration_gain") is not None:
         table.append(f"<tr><td>calibration gain G (study 000, vs the truth)</td><td></td>"
                      f"<td>{report['calibration_gain']:.1f} %</td></tr>")
@@ -255,7 +255,8 @@ def _combinations(report: dict[str, Any]) -> str:
 
 def render_report(content: ReportContent, quiet: bool = True) -> str:
     """The report as one self-contained HTML page."""
-    from pincal import __version__, plots
+    from pincal import __version__
+    from pincal.viz import plots
 
     view, report = content.view, content.view.report
     problem = view.problem
@@ -352,39 +353,3 @@ def write_demo_report(calibration: Any, dataset: Dataset, out_dir: str | Path) -
     truth = read_truth(truth_path) if truth_path.is_file() else None
     content = ReportContent(view, test_before, test_after, truth, ("pincal demo", str(out / "measurements.csv")))
     return write_report(content, out / "report.html")
-
-
-# --- command line ----------------------------------------------------------------------------------
-def cmd_report(args: argparse.Namespace) -> int:
-    truth = read_truth(args.truth) if args.truth else None  # before any work: an unreadable file stops it
-    view, dataset, calibration = load_view(args)
-    test_before, test_after = held_out_errors(view, dataset)
-    if truth is not None:
-        names = set(view.problem.parameters.names)
-        if not names & set(truth):  # e.g. the truth.json of another robot: a column of dashes, said nowhere
-            raise DataError(f"--truth '{args.truth}' holds none of the {len(names)} parameters fitted here (it lists "
-                            f"{listing(sorted(truth)) or 'none'}): give the truth.json of this robot's simulation")
-    content = ReportContent(view, test_before, test_after, truth, (str(args.robot), str(args.data)))
-    path = write_report(content, args.out, args.quiet)
-    report = view.report
-    held = f"; held out {_mm(report['test_rms_before'])} → {_mm(report['test_rms_after'])}" \
-        if "test_rms_before" in report else ""
-    print(f"RMS position error {_mm(report.get('rms_before'))} → {_mm(report.get('rms_after'))}{held}")
-    print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): open it in a browser, no network needed")
-    return 0 if calibration is None or calibration.result.converged else 1
-
-
-def register(sub: argparse._SubParsersAction) -> None:
-    """Add the ``report`` command."""
-    report = sub.add_parser(
-        "report", help="calibrate and write one offline HTML report (numbers, figures, 3D scene)",
-        description="Calibrate (or read --result) and write one self-contained HTML file: errors before and "
-                    "after (fit and held-out samples), identifiability, the parameter table with standard "
-                    "deviations, the combinations the data cannot separate, figures, and the 3D scene.",
-        epilog="example: pincal report delta sim/measurements.csv --parameters model24 --truth sim/truth.json "
-               "--out report.html")
-    add_calibration_options(report)
-    report.add_argument("--out", required=True, help="HTML file to write")
-    report.add_argument("--truth", metavar="TRUTH.json",
-                        help="true parameters (truth.json of pincal simulate) to compare the estimates with")
-    report.set_defaults(func=cmd_report)

@@ -18,8 +18,8 @@ threshold is set by hand.
 Weakly identifiable directions are strongly nonlinear (moving 0.1 mm along one changes the predictions
 more at second order than at first), so plain LM crawls there: each smaller λ is rejected. From the first
 rejected step on, ``lm`` adds Transtrum & Sethna's geodesic acceleration (one residual evaluation per
-trial, :func:`pincal.lm.accelerated`). Two stops end the crawl once it cannot matter
-(:func:`pincal.lm.settled`): an exact fit (every error within 100 × the FK tolerance, 1 nm) and, for noisy
+trial, :func:`pincal.identify.lm.accelerated`). Two stops end the crawl once it cannot matter
+(:func:`pincal.identify.lm.settled`): an exact fit (every error within 100 × the FK tolerance, 1 nm) and, for noisy
 data, a cost at the noise level whose remaining Gauss–Newton improvement along the practically identified
 directions is below one unit of χ². Every SVD goes through :mod:`pincal.linalg` (no ``LinAlgError``).
 """
@@ -35,10 +35,12 @@ import numpy as np
 import numpy.typing as npt
 from threadpoolctl import threadpool_limits
 
-from pincal import linalg, lm
-from pincal.analysis import Identifiability, analyse, correlations, covariance
+from pincal import linalg
 from pincal.errors import DataError, IdentifiabilityError
-from pincal.problem import Prediction, Problem
+from pincal.identify import lm
+from pincal.identify.identifiability import Identifiability, analyse, correlations, covariance
+from pincal.identify.ikm import ChainProblem, ImplicitProblem, chain_blocks
+from pincal.identify.problem import Prediction, Problem
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -266,8 +268,8 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
         tol: Stop when the relative cost decrease or the scaled step falls below ``tol``. When no step
             decreases the cost, the fit counts as converged at a first-order optimum or when every error
             is within ``max(FLOOR_SIGMA_FRACTION · σ, FK_AMPLIFICATION · SOLVE_TOLERANCE)`` [m, rad]
-            (:mod:`pincal.lm`), σ the measurement's stated standard deviation.
-        rank_tol: Relative singular-value threshold for identifiability (see :mod:`pincal.analysis`).
+            (:mod:`pincal.identify.lm`), σ the measurement's stated standard deviation.
+        rank_tol: Relative singular-value threshold for identifiability (see :mod:`pincal.identify.identifiability`).
         min_information: Absolute floor on the singular values of the weighted, scaled Jacobian: a
             direction below it has an a-priori standard deviation over 1/min_information times the
             parameters' typical size (e.g. 1e-2: 100 × 1 mm or 1 mrad), so these data do not identify it
@@ -414,3 +416,24 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
                              extra={"rejected_steps": counts["rejected"], "evaluations": counts["evaluations"],
                                     "accelerated_steps": counts["accelerated"],
                                     "rank_changes": int(np.count_nonzero(np.diff(kept)))})
+
+
+def identify_chains(problem: ImplicitProblem, x0: Array | None = None,
+                    **options: object) -> list[tuple[list[str], CalibrationResult]]:
+    """Identify each independent chain on its own (study 000's segment-by-segment IKM calibration),
+    with :func:`identify`'s options.
+
+    Returns:
+        Per chain: the loop names and its :class:`~pincal.identify.solver.CalibrationResult`.
+    """
+    x = np.zeros(len(problem.parameters)) if x0 is None else np.asarray(x0, dtype=float).copy()
+    jac = problem.evaluate(x).jacobian
+    assert jac is not None
+    names = list(problem.robot.closure.loop_slices())
+    out = []
+    for columns, loops in chain_blocks(problem, jac):
+        chain = ChainProblem(problem, columns, loops, x)
+        result = identify(chain, x0=x[columns], **options)  # type: ignore[arg-type]  # options are identify's
+        x[columns] = result.x
+        out.append(([names[i] for i in loops], result))
+    return out

@@ -25,12 +25,11 @@ import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
-from pincal.identification import CalibrationResult
-from pincal.measurements import Measurement, Pose, Position
-from pincal.parameters import ParameterSet
-from pincal.problem import CalibrationProblem, Observations, Prediction
-from pincal.robot import Robot
-from pincal.sensitivity import KinematicSensitivity, frame_probe, right_jacobian
+from pincal.identify.derivatives import KinematicSensitivity, frame_probe, right_jacobian
+from pincal.identify.measurements import Measurement, Pose, Position
+from pincal.identify.parameters import ParameterSet
+from pincal.identify.problem import CalibrationProblem, Observations, Prediction
+from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -239,25 +238,3 @@ class ChainProblem:
         pred = self.full.evaluate(full, jacobian)
         jac = None if pred.jacobian is None else pred.jacobian[np.ix_(self.rows, self.columns)]
         return Prediction(pred.residual[self.rows], jac, pred.errors, pred.predicted)
-
-
-def identify_chains(problem: ImplicitProblem, x0: Array | None = None,
-                    **options: object) -> list[tuple[list[str], CalibrationResult]]:
-    """Identify each independent chain on its own (study 000's segment-by-segment IKM calibration).
-
-    Returns:
-        Per chain: the loop names and its :class:`~pincal.identification.CalibrationResult`.
-    """
-    from pincal.identification import identify
-
-    x = np.zeros(len(problem.parameters)) if x0 is None else np.asarray(x0, dtype=float).copy()
-    jac = problem.evaluate(x).jacobian
-    assert jac is not None
-    names = list(problem.robot.closure.loop_slices())
-    out = []
-    for columns, loops in chain_blocks(problem, jac):
-        chain = ChainProblem(problem, columns, loops, x)
-        result = identify(chain, x0=x[columns], **options)  # type: ignore[arg-type]  # options are identify's
-        x[columns] = result.x
-        out.append(([names[i] for i in loops], result))
-    return out

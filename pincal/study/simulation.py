@@ -14,11 +14,11 @@ import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
-from pincal.measurements import Measurement, Pose
-from pincal.parameters import ParameterSet
-from pincal.problem import CalibrationProblem, Observations
+from pincal.identify.measurements import Measurement, Pose
+from pincal.identify.parameters import ParameterSet
+from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.model.robot import Robot
 from pincal.progress import Progress
-from pincal.robot import Robot
 
 Array = npt.NDArray[np.float64]
 

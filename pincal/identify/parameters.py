@@ -24,7 +24,8 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import DataError, NotFoundError, listing
-from pincal.robot import Robot
+from pincal.identify.measurements import JointReading, Measurement
+from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
 
@@ -402,3 +403,23 @@ def move_fixed_joint(model: pin.Model, joint: str, exp: pin.SE3) -> None:
         elif f.parentJoint == parent_joint:
             f.placement = move * f.placement
     frame.placement = new
+
+
+def choose_parameters(robot: Robot, models: Sequence[Measurement], spec: Sequence[str] | None = None) -> ParameterSet:
+    """The unknowns: a named set (``model24``, ``hexapod42``, ``hexapod44``), shell patterns over the
+    candidates, or by default every candidate parameter (the identifiability analysis then keeps the
+    identifiable ones).
+
+    Candidates: all joint and anchor placements, fixed joints leading to measured frames, offsets of
+    the actuated and of the read passive joints, and the base placement when positions or poses are
+    measured in an external frame.
+    """
+    frames = sorted({f for m in models for f in m.frames})
+    read = [m.joint for m in models if isinstance(m, JointReading)]
+    external = any(m.key.split(":", 1)[0] in ("position", "pose") for m in models)
+    pool = candidate_parameters(robot, frames=frames, offsets=list(robot.actuated_joints) + read, base=external)
+    if not spec:
+        return pool
+    if len(spec) == 1 and spec[0] in NAMED_SETS:
+        return NAMED_SETS[spec[0]](robot)
+    return pool.select(list(spec))

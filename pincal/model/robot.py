@@ -16,11 +16,12 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.closure import LoopClosure
+from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, LoopError, NotFoundError, RobotFileError, listing
-from pincal.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveReport
-from pincal.library import robot_path
-from pincal.urdf import LoopSpec, check_finite_origins, read_extensions
+from pincal.model.catalog import robot_path
+from pincal.model.closure import LoopClosure
+from pincal.model.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveReport
+from pincal.model.urdf import LoopSpec, check_finite_origins, read_extensions
 
 Array = npt.NDArray[np.float64]
 
@@ -143,7 +144,7 @@ class Robot:
         """Full configuration with every loop closed for the given actuated values.
 
         The answer is the reference assembly: the configuration that continuation from
-        :attr:`q_reference` reaches (see :mod:`pincal.kinematics`). A guess only makes the solve
+        :attr:`q_reference` reaches (see :mod:`pincal.model.kinematics`). A guess only makes the solve
         cheaper: Newton from it is kept unless it jumps (moves a passive joint by more than
         ``CONTINUATION_STEP``), and a guess farther than that in actuated values is not used. Give a
         previous answer as the guess (a guess placed on another assembly by hand can stay there).
@@ -365,3 +366,21 @@ def check_reference_assembly(robot: Robot, where: str = "URDF") -> None:
                         f"passive joints at the reference configuration (passive closure rank {rank_p} < "
                         f"{robot.kinematics.passive_v.size}): a singular reference or a wrong choice of "
                         "actuated joints")
+
+
+def unusable_samples(robot: Robot, actuated: Array, max_condition: float = 1e5) -> list[tuple[int, str]]:
+    """Samples the nominal robot cannot assemble (FK does not converge) or that sit at a singularity
+    (the passive joints are not determined by the actuated readings), with the reason for each."""
+    out: list[tuple[int, str]] = []
+    for k, qa in enumerate(np.asarray(actuated, dtype=float)):
+        report = robot.solve_fk_report(qa)
+        if not report.converged:
+            out.append((k, f"forward kinematics did not converge (closure residual {report.residual:.3g})"))
+            continue
+        if robot.loops:
+            _, jac = robot.kinematics.closure_jacobian(report.q)
+            s = linalg.singular_values(jac[:, robot.kinematics.passive_v], "the passive closure Jacobian")
+            if s[-1] <= 0.0 or s[0] / s[-1] > max_condition:
+                out.append((k, f"singular configuration (passive closure Jacobian condition number "
+                               f"{(s[0] / s[-1]) if s[-1] > 0 else float('inf'):.3g})"))
+    return out

@@ -5,7 +5,7 @@ every candidate (:func:`jacobian_blocks`), the blocks make any pose set's inform
 ``M = Σ B_kᵀ B_k`` a sum, so a greedy search can score thousands of candidates per step.
 
 Columns are scaled by each parameter's typical size before anything is compared (as in
-:mod:`pincal.analysis`: ``J_s = J diag(s)``), so metres and radians compare. Criteria:
+:mod:`pincal.identify.identifiability`: ``J_s = J diag(s)``), so metres and radians compare. Criteria:
 
 - ``condition``: minimise the condition number ``κ = σ_max / σ_min`` of the scaled Jacobian
   (study 001 §4.2, study 003 §5: "selected ... by minimising the condition number of the
@@ -35,10 +35,10 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal import linalg
-from pincal.analysis import base_parameters
 from pincal.errors import DataError
-from pincal.measurements import Pose
-from pincal.problem import CalibrationProblem
+from pincal.identify.identifiability import base_parameters
+from pincal.identify.measurements import Pose
+from pincal.identify.problem import CalibrationProblem
 from pincal.progress import Progress
 
 Array = npt.NDArray[np.float64]
@@ -99,7 +99,7 @@ def jacobian_blocks(problem: CalibrationProblem, x: Array | None = None, weighte
 
 def _blocks_job(job: tuple[str, Any, Any, Any, Array | None, bool]) -> Array:
     """A worker's share of :func:`jacobian_blocks` (top level, so it pickles)."""
-    from pincal.robot import robot_from_urdf_text
+    from pincal.model.robot import robot_from_urdf_text
 
     text, parameters, measurements, observations, x, weighted = job
     robot = robot_from_urdf_text(text)

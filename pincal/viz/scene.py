@@ -2,8 +2,8 @@
 points, and each sample's error before and after calibration as a short segment coloured by its size.
 
 The same drawing goes to a running meshcat server (``meshcat.Visualizer()``) or into one
-self-contained HTML file (:mod:`pincal.static_page`); the shapes come from the robot's URDF visuals
-(:mod:`pincal.visuals`). One animation frame per sample steps through the samples: in meshcat's
+self-contained HTML file (:mod:`pincal.viz.static_page`); the shapes come from the robot's URDF visuals
+(:mod:`pincal.viz.visuals`). One animation frame per sample steps through the samples: in meshcat's
 controls, ``Animations › default › time`` is the sample index; the static page adds a slider.
 
 Errors are millimetres on a robot of decimetres, so the segments are magnified by a round factor
@@ -13,29 +13,24 @@ identity base, the calibrated one at its calibrated base.
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
-import sys
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.calibration import choose_parameters, measurements_for, observations_from
-from pincal.cli_options import add_robot, add_solver_and_loss, positive_float
-from pincal.dataset import Dataset
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
-from pincal.files import check_outputs, write_text
-from pincal.measurements import Pose, Position
-from pincal.problem import CalibrationProblem
+from pincal.identify.measurements import Pose, Position
+from pincal.identify.parameters import choose_parameters
+from pincal.identify.problem import CalibrationProblem
+from pincal.io.adapters import measurements_for, observations_from
+from pincal.io.dataset import Dataset
+from pincal.model.robot import Robot
 from pincal.progress import Progress
-from pincal.robot import Robot, load_robot
-from pincal.static_page import SceneSummary, StaticScene, scene_page
-from pincal.visuals import (
+from pincal.viz.static_page import SceneSummary, StaticScene, scene_page
+from pincal.viz.visuals import (
     CALIBRATED_COLOR,
     CURRENT_COLOR,
     GHOST_OPACITY,
@@ -64,7 +59,7 @@ class CalibrationView:
     Attributes:
         problem: The calibration samples (the ``train`` set) and models.
         x: Estimated deviations [m, rad], in ``problem.parameters`` order.
-        report: The results dictionary (:func:`pincal.calibration.report_dict`).
+        report: The results dictionary (:func:`pincal.io.report_data.report_dict`).
         errors_before, errors_after: Per measurement key, (N, rows) predicted − measured [m, rad] at
             the nominal robot and at ``x``.
     """
@@ -302,61 +297,6 @@ def static_scene(view: CalibrationView, title: str | None = None, quiet: bool = 
     return scene_page(scene, summary, name), summary
 
 
-# --- command line ----------------------------------------------------------------------------------
-def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
-    """Robot, data and calibration from the common options: calibrate, or read ``--result``.
-
-    Returns the view, the dataset and the :class:`pincal.workflow.Calibration` (None with ``--result``).
-    """
-    from pincal.workflow import calibrate, read_robot_dataset
-
-    robot = load_robot(args.robot)
-    inputs = (robot.source, args.data, args.result, getattr(args, "truth", None))
-    check_outputs([("--out", args.out)], [p for p in inputs if p is not None])  # before any work
-    dataset = read_robot_dataset(args.data, robot)
-    if args.result:
-        try:
-            report = json.loads(Path(args.result).read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
-            raise DataError(f"cannot read the result JSON '{args.result}': {exc}") from None
-        return CalibrationView.from_result(robot, dataset, report, args.parameters, args.sigma), dataset, None
-    if not args.quiet:
-        print(f"calibrating '{robot.name}' from {dataset.n_samples} samples ...", file=sys.stderr)
-    calibration = calibrate(robot, dataset, parameter_spec=args.parameters, solver=args.solver, loss=args.loss,
-                            sigma=args.sigma)
-    return CalibrationView.from_calibration(calibration), dataset, calibration
-
-
-def add_calibration_options(parser: argparse.ArgumentParser) -> None:
-    """ROBOT, DATA and the calibration options shared by ``view`` and ``report``."""
-    add_robot(parser)
-    parser.add_argument("data", help="measurement CSV (rows with set=test are held out)")
-    parser.add_argument("--parameters", nargs="+", help="a named set or name patterns, as for calibrate")
-    parser.add_argument("--result", metavar="REPORT.json",
-                        help="reuse the results JSON of 'pincal calibrate --report' instead of calibrating again")
-    add_solver_and_loss(parser)
-    parser.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
-    parser.add_argument("--quiet", action="store_true", help="no progress output")
-
-
-def cmd_view(args: argparse.Namespace) -> int:
-    if args.open == "" and not sys.stdin.isatty():  # before any work: the server would wait for an Enter
-        raise PincalError("--open without a ZMQ_URL starts a meshcat server that runs until Enter is pressed, but "
-                          "standard input is not a terminal; give the address of a running meshcat server "
-                          "(--open tcp://127.0.0.1:6000) or run from a terminal")
-    view, _, calibration = load_view(args)
-    page, summary = static_scene(view, quiet=args.quiet)
-    out = write_text(args.out, page)
-    errors = f", errors magnified ×{summary.magnification:g}" if summary.has_points else ""
-    print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB): {summary.n_visuals} shapes per robot, "
-          f"{summary.n_samples} samples{errors}; open it in a browser")
-    for note in summary.notes:
-        print(f"  note: {note}")
-    if args.open is not None:
-        open_in_meshcat(view, args.open or None, args.quiet)
-    return 0 if calibration is None or calibration.result.converged else 1
-
-
 #: Longest wait for a reply of the meshcat server [ms].
 MESHCAT_REPLY_MS = 10_000
 
@@ -383,20 +323,3 @@ def open_in_meshcat(view: CalibrationView, zmq_url: str | None, quiet: bool = Tr
             input("press Enter to stop the meshcat server ")
         except EOFError:  # standard input closed meanwhile: stop as if Enter was pressed
             print()
-
-
-def register(sub: argparse._SubParsersAction) -> None:
-    """Add the ``view`` command."""
-    view = sub.add_parser(
-        "view", help="3D scene: nominal vs calibrated robot, measured points, errors (HTML or meshcat)",
-        description="Calibrate (or read --result), then draw the nominal robot ghosted, the calibrated robot "
-                    "solid, the measured points and each sample's error before and after calibration as "
-                    "magnified segments coloured by size, one animation frame per sample. Writes one "
-                    "self-contained HTML file (no network needed); --open also shows it in meshcat.",
-        epilog="example: pincal view delta sim/measurements.csv --parameters model24 --out scene.html")
-    add_calibration_options(view)
-    view.add_argument("--out", required=True, help="HTML file to write")
-    view.add_argument("--open", nargs="?", const="", metavar="ZMQ_URL",
-                      help="also draw in meshcat: a running server (e.g. tcp://127.0.0.1:6000) or, without a "
-                           "URL, a new one kept until Enter")
-    view.set_defaults(func=cmd_view)

@@ -1,0 +1,44 @@
+"""``pincal report``: calibrate (or read a result) and write one offline HTML report."""
+
+from __future__ import annotations
+
+import argparse
+
+from pincal.cli.view import add_calibration_options, load_view
+from pincal.errors import DataError, listing
+from pincal.viz.html_report import ReportContent, held_out_errors, mm_text, read_truth, write_report
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    truth = read_truth(args.truth) if args.truth else None  # before any work: an unreadable file stops it
+    view, dataset, calibration = load_view(args)
+    test_before, test_after = held_out_errors(view, dataset)
+    if truth is not None:
+        names = set(view.problem.parameters.names)
+        if not names & set(truth):  # e.g. the truth.json of another robot: a column of dashes, said nowhere
+            raise DataError(f"--truth '{args.truth}' holds none of the {len(names)} parameters fitted here (it lists "
+                            f"{listing(sorted(truth)) or 'none'}): give the truth.json of this robot's simulation")
+    content = ReportContent(view, test_before, test_after, truth, (str(args.robot), str(args.data)))
+    path = write_report(content, args.out, args.quiet)
+    report = view.report
+    held = f"; held out {mm_text(report['test_rms_before'])} → {mm_text(report['test_rms_after'])}" \
+        if "test_rms_before" in report else ""
+    print(f"RMS position error {mm_text(report.get('rms_before'))} → {mm_text(report.get('rms_after'))}{held}")
+    print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): open it in a browser, no network needed")
+    return 0 if calibration is None or calibration.result.converged else 1
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``report`` command."""
+    report = sub.add_parser(
+        "report", help="calibrate and write one offline HTML report (numbers, figures, 3D scene)",
+        description="Calibrate (or read --result) and write one self-contained HTML file: errors before and "
+                    "after (fit and held-out samples), identifiability, the parameter table with standard "
+                    "deviations, the combinations the data cannot separate, figures, and the 3D scene.",
+        epilog="example: pincal report delta sim/measurements.csv --parameters model24 --truth sim/truth.json "
+               "--out report.html")
+    add_calibration_options(report)
+    report.add_argument("--out", required=True, help="HTML file to write")
+    report.add_argument("--truth", metavar="TRUTH.json",
+                        help="true parameters (truth.json of pincal simulate) to compare the estimates with")
+    report.set_defaults(func=cmd_report)

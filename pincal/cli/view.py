@@ -1,0 +1,86 @@
+"""``pincal view``: the 3D scene of a calibration, and the options it shares with ``pincal report``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from pincal.cli.options import add_robot, add_solver_and_loss, positive_float
+from pincal.errors import DataError, PincalError
+from pincal.io.dataset import Dataset
+from pincal.io.files import check_outputs, write_text
+from pincal.model.robot import load_robot
+from pincal.viz.scene import CalibrationView, open_in_meshcat, static_scene
+from pincal.workflow import calibrate, read_robot_dataset
+
+
+def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
+    """Robot, data and calibration from the common options: calibrate, or read ``--result``.
+
+    Returns the view, the dataset and the :class:`pincal.workflow.Calibration` (None with ``--result``).
+    """
+    robot = load_robot(args.robot)
+    inputs = (robot.source, args.data, args.result, getattr(args, "truth", None))
+    check_outputs([("--out", args.out)], [p for p in inputs if p is not None])  # before any work
+    dataset = read_robot_dataset(args.data, robot)
+    if args.result:
+        try:
+            report = json.loads(Path(args.result).read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            raise DataError(f"cannot read the result JSON '{args.result}': {exc}") from None
+        return CalibrationView.from_result(robot, dataset, report, args.parameters, args.sigma), dataset, None
+    if not args.quiet:
+        print(f"calibrating '{robot.name}' from {dataset.n_samples} samples ...", file=sys.stderr)
+    calibration = calibrate(robot, dataset, parameter_spec=args.parameters, solver=args.solver, loss=args.loss,
+                            sigma=args.sigma)
+    return CalibrationView.from_calibration(calibration), dataset, calibration
+
+
+def add_calibration_options(parser: argparse.ArgumentParser) -> None:
+    """ROBOT, DATA and the calibration options shared by ``view`` and ``report``."""
+    add_robot(parser)
+    parser.add_argument("data", help="measurement CSV (rows with set=test are held out)")
+    parser.add_argument("--parameters", nargs="+", help="a named set or name patterns, as for calibrate")
+    parser.add_argument("--result", metavar="REPORT.json",
+                        help="reuse the results JSON of 'pincal calibrate --report' instead of calibrating again")
+    add_solver_and_loss(parser)
+    parser.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
+    parser.add_argument("--quiet", action="store_true", help="no progress output")
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    if args.open == "" and not sys.stdin.isatty():  # before any work: the server would wait for an Enter
+        raise PincalError("--open without a ZMQ_URL starts a meshcat server that runs until Enter is pressed, but "
+                          "standard input is not a terminal; give the address of a running meshcat server "
+                          "(--open tcp://127.0.0.1:6000) or run from a terminal")
+    view, _, calibration = load_view(args)
+    page, summary = static_scene(view, quiet=args.quiet)
+    out = write_text(args.out, page)
+    errors = f", errors magnified ×{summary.magnification:g}" if summary.has_points else ""
+    print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB): {summary.n_visuals} shapes per robot, "
+          f"{summary.n_samples} samples{errors}; open it in a browser")
+    for note in summary.notes:
+        print(f"  note: {note}")
+    if args.open is not None:
+        open_in_meshcat(view, args.open or None, args.quiet)
+    return 0 if calibration is None or calibration.result.converged else 1
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``view`` command."""
+    view = sub.add_parser(
+        "view", help="3D scene: nominal vs calibrated robot, measured points, errors (HTML or meshcat)",
+        description="Calibrate (or read --result), then draw the nominal robot ghosted, the calibrated robot "
+                    "solid, the measured points and each sample's error before and after calibration as "
+                    "magnified segments coloured by size, one animation frame per sample. Writes one "
+                    "self-contained HTML file (no network needed); --open also shows it in meshcat.",
+        epilog="example: pincal view delta sim/measurements.csv --parameters model24 --out scene.html")
+    add_calibration_options(view)
+    view.add_argument("--out", required=True, help="HTML file to write")
+    view.add_argument("--open", nargs="?", const="", metavar="ZMQ_URL",
+                      help="also draw in meshcat: a running server (e.g. tcp://127.0.0.1:6000) or, without a "
+                           "URL, a new one kept until Enter")
+    view.set_defaults(func=cmd_view)

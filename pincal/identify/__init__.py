@@ -1,0 +1,1 @@
+"""Identification: parameters, measurement models, FKM/IKM problems, solvers, identifiability."""

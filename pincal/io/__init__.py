@@ -1,0 +1,1 @@
+"""Files in and out: datasets, safe writes, calibrated URDF text, reports as data."""

@@ -1,0 +1,77 @@
+"""Dataset columns to measurement models and observations: σ per channel from the metadata, joint readings of
+instrumented passive joints."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.errors import DataError, listing
+from pincal.identify.measurements import JointReading, Measurement, Pose, joint_reading, parse_key
+from pincal.identify.problem import Observations
+from pincal.model.robot import Robot
+
+Array = npt.NDArray[np.float64]
+
+
+
+def channel_sigma(key: str, metadata: dict[str, str], default: float | None, angle: bool = False) -> float | None:
+    """σ of a measurement channel from dataset metadata: ``# sigma <kind> <name>: value`` (e.g.
+    ``# sigma position end_effector: 1e-5``, ``# sigma joint device_lvdt: 1e-6``), else
+    ``# sigma <kind>: value``; ``# sigma pose angle: ...`` for pose orientations [m or rad]."""
+    kind, _, name = key.partition(":")
+    candidates = [f"sigma {kind} angle"] if angle else [f"sigma {kind} {name}", f"sigma {kind}"]
+    for candidate in candidates:
+        if candidate in metadata:
+            try:
+                value = float(metadata[candidate])
+            except ValueError:
+                raise DataError(f"metadata '{candidate}' is '{metadata[candidate]}', not a number") from None
+            if not 1e-15 <= value <= 1e3:
+                raise DataError(f"metadata '{candidate}' is {value!r}: a standard deviation [m or rad] must lie "
+                                "between 1e-15 and 1e3")
+            return value
+    return default
+
+
+def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_columns: Sequence[str],
+                     sigma: float | None = None, metadata: dict[str, str] | None = None) -> list[Measurement]:
+    """Measurement models for a dataset: its measurement columns, plus a joint reading for every
+    non-actuated joint column (instrumented passive joints: encoders, LVDTs, scales).
+
+    Weights: ``sigma`` [m, rad] if given (overrides everything), else per-channel σ from the
+    dataset's metadata (:func:`channel_sigma`), else the models' defaults.
+    """
+    meta = metadata or {}
+    models = []
+    for key in measurement_keys:
+        model = parse_key(key, sigma or channel_sigma(key, meta, None))
+        if isinstance(model, Pose):
+            angle = sigma or channel_sigma(key, meta, None, angle=True)
+            if angle:
+                model = Pose(model.key, model.size, model.sigma, model.frame, angle)
+        models.append(model)
+    for joint in joint_columns:
+        if joint not in robot.actuated_joints:
+            if not robot.model.existJointName(joint):
+                raise DataError(f"column '{joint}' is not a joint of '{robot.name}'; joints are: "
+                                f"{listing(robot.model.names[1:])}")
+            models.append(joint_reading(joint, sigma or channel_sigma(f"joint:{joint}", meta, None) or 1e-5))
+    return models
+
+
+def observations_from(robot: Robot, joint_names: Sequence[str], joints: Array, measurements: dict[str, Array],
+                      models: Sequence[Measurement]) -> Observations:
+    """Observations for ``models`` from dataset columns."""
+    missing = [j for j in robot.actuated_joints if j not in joint_names]
+    if missing:
+        raise DataError(f"the data has no column for actuated joint(s) {listing(missing)}; joint columns are: "
+                        f"{listing(joint_names) or 'none'}")
+    cols = [list(joint_names).index(j) for j in robot.actuated_joints]
+    values = dict(measurements)
+    for m in models:
+        if isinstance(m, JointReading):
+            values[m.key] = joints[:, [list(joint_names).index(m.joint)]]
+    return Observations(np.asarray(joints, dtype=float)[:, cols], values)

@@ -1,0 +1,1 @@
+"""The robot: URDF with loops, closure, kinematics, robots by name, URDF text editing."""

@@ -1,0 +1,1 @@
+"""Pictures: plots, the meshcat scene, static pages, the HTML report."""
