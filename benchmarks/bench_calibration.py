@@ -10,9 +10,9 @@ import statistics
 import time
 
 import pincal
-from pincal.identify.parameters import choose_parameters
-from pincal.identify.problem import CalibrationProblem
-from pincal.identify.solver import error_norms, identify, rms
+from pincal.identification.parameters import choose_parameters
+from pincal.identification.problem import CalibrationProblem
+from pincal.identification.solver import error_norms, identify, rms
 from pincal.io.adapters import measurements_for, observations_from
 from pincal.workflow import simulate
 

@@ -1,8 +1,10 @@
 """Levenberg–Marquardt before/after: one identification module against another on the same problems.
 
 Run: ``python benchmarks/bench_lm.py [--before REV] [--repeats 7] [--cases delta60 ur10]``. "before" is
-``pincal/identification.py`` as committed at git revision REV (default ``HEAD``), loaded beside the working
-copy's; everything else (problems, FK, analysis) is shared, and the two run interleaved in one process, so
+the solver module (``pincal/identification/solver.py``) as committed at git revision REV (default ``HEAD``),
+loaded beside the working copy's; REV must be one with the same package layout (the figures in RESULTS.md
+were measured before the restructuring, when the module was ``pincal/identification.py``, by this script as
+committed then); everything else (problems, FK, analysis) is shared, and the two run interleaved in one process, so
 a loaded machine slows both alike. Times are medians of this process's CPU time (single-threaded BLAS, as
 ``identify`` itself sets), problem construction included as in ``bench_calibration.py``.
 
@@ -37,10 +39,10 @@ from typing import Any  # noqa: E402
 import numpy as np  # noqa: E402
 
 import pincal  # noqa: E402
-import pincal.identify.solver  # noqa: E402
-from pincal.identify.measurements import position  # noqa: E402
-from pincal.identify.parameters import choose_parameters  # noqa: E402
-from pincal.identify.problem import CalibrationProblem, Observations  # noqa: E402
+import pincal.identification.solver  # noqa: E402
+from pincal.identification.measurements import position  # noqa: E402
+from pincal.identification.parameters import choose_parameters  # noqa: E402
+from pincal.identification.problem import CalibrationProblem, Observations  # noqa: E402
 from pincal.io.adapters import measurements_for, observations_from  # noqa: E402
 from pincal.workflow import simulate  # noqa: E402
 
@@ -48,8 +50,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def module_at(revision: str) -> ModuleType:
-    """``pincal/identification.py`` as committed at ``revision``, as a module of its own."""
-    text = subprocess.run(["git", "show", f"{revision}:pincal/identification.py"], cwd=ROOT, check=True,
+    """``pincal/identification/solver.py`` as committed at ``revision``, as a module of its own."""
+    text = subprocess.run(["git", "show", f"{revision}:pincal/identification/solver.py"], cwd=ROOT, check=True,
                           capture_output=True, text=True).stdout
     path = Path(tempfile.mkdtemp(prefix="pincal_lm_")) / "identification_before.py"
     path.write_text(text, encoding="utf-8")
@@ -102,7 +104,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     args = parser.parse_args(argv)
     before = module_at(args.before)
-    after = pincal.identify.solver
+    after = pincal.identification.solver
     print("| case | before: iterations, median CPU time | after: iterations, median CPU time | after / before |")
     print("|---|---|---|---|")
     for name in args.cases:

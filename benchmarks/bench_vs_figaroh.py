@@ -64,10 +64,10 @@ import numpy.typing as npt  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
 import pincal  # noqa: E402
-from pincal.identify.measurements import Measurement, pose, position  # noqa: E402
-from pincal.identify.parameters import ParameterSet, choose_parameters  # noqa: E402
-from pincal.identify.problem import CalibrationProblem, Observations  # noqa: E402
-from pincal.identify.solver import identify  # noqa: E402
+from pincal.identification.measurements import Measurement, pose, position  # noqa: E402
+from pincal.identification.parameters import ParameterSet, choose_parameters  # noqa: E402
+from pincal.identification.problem import CalibrationProblem, Observations  # noqa: E402
+from pincal.identification.solver import identify  # noqa: E402
 from pincal.study.simulation import random_actuated, simulate_observations  # noqa: E402
 
 Array = npt.NDArray[np.float64]

@@ -2,9 +2,9 @@
 
 Run: ``python examples/study_000_delta.py`` (full: about 8 CPU-minutes, spread over 2 processes) or
 ``--quick`` (seconds, one process).
-Prints the tables and the whole results page; the full run writes ``docs/results/000_delta.md`` and two
-figures under ``docs/results/figures/`` (``--out`` to write elsewhere). ``--quick`` writes nothing
-unless ``--out`` is given.
+Prints the tables and the whole results page; the full run writes ``results/000_delta.md`` and two
+figures under ``results/figures/`` (``--out DIR`` to write elsewhere, ``--publish`` for ``docs/results``).
+``--quick`` writes nothing unless ``--out`` is given.
 
 Settings follow the paper (Section 4): Delta with La = 260 mm, Lb = 480 mm, Rb = 194 mm, Rn = 30 mm;
 Model 24 parameters; random configurations in the workspace; initial parameter errors of the stated
@@ -37,12 +37,12 @@ import numpy.typing as npt
 
 import pincal
 from pincal.errors import PincalError
-from pincal.identify import measurements as ms
-from pincal.identify.identifiability import RANK_TOLERANCE, analyse
-from pincal.identify.ikm import ImplicitProblem
-from pincal.identify.parameters import NAMED_SETS, ParameterSet
-from pincal.identify.problem import CalibrationProblem, Observations
-from pincal.identify.solver import calibration_gain, error_norms, identify
+from pincal.identification import measurements as ms
+from pincal.identification.identifiability import RANK_TOLERANCE, analyse
+from pincal.identification.ikm import ImplicitProblem
+from pincal.identification.parameters import NAMED_SETS, ParameterSet
+from pincal.identification.problem import CalibrationProblem, Observations
+from pincal.identification.solver import calibration_gain, error_norms, identify
 from pincal.study.pose_selection import jacobian_blocks, select_poses
 from pincal.study.simulation import SPREAD, random_actuated, simulate_observations
 
@@ -651,8 +651,11 @@ def main() -> None:
                         f"D-optimal design (default {N_CANDIDATES})")
     parser.add_argument("--workers", type=int, default=2, help="processes, one draw each at a time (default 2; "
                         "1: serial)")
-    parser.add_argument("--out", type=Path, help="write the page (and, full run only, the figures) here; "
-                        "default: docs/results for the full run, nothing for --quick")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--out", type=Path, help="write the page (and, full run only, the figures) here; "
+                       "default: ./results for the full run, nothing for --quick")
+    where.add_argument("--publish", action="store_true", help="write the committed page and figures under "
+                       "docs/results instead")
     args = parser.parse_args()
     start = time.perf_counter()
     robot = pincal.load_robot("delta")
@@ -717,7 +720,9 @@ def main() -> None:
     variants = {v: summaries[VARIANT_TITLES[v]] for v in VARIANTS}
 
     study = Study(len(seeds), len(variant_seeds), n_candidates, ident, spread, main_rows, variants)
-    out = args.out if args.out is not None else (None if args.quick else ROOT / "docs" / "results")
+    out = ROOT / "docs" / "results" if args.publish else args.out
+    if out is None and not args.quick:
+        out = Path("results")
     figs = figures(robot, out / "figures", seed=7) if out is not None and not args.quick else []
     study.seconds = time.perf_counter() - start
     study.workers = workers

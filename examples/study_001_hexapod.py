@@ -1,8 +1,8 @@
 """Study 001 (Gough-Stewart hexapod calibrated with a passive measuring device).
 
 Run: ``python examples/study_001_hexapod.py`` (full, a few minutes on 2 cores) or ``--quick`` (seconds).
-Prints the paper-vs-pincal tables, writes ``docs/results/001_hexapod.md`` and figures under
-``docs/results/figures/`` (``--out`` to write elsewhere, ``--json`` for the numbers).
+Prints the paper-vs-pincal tables, writes ``results/001_hexapod.md`` and figures under
+``results/figures/`` (``--out DIR`` to write elsewhere, ``--publish`` for ``docs/results``, ``--json`` for the numbers).
 
 Settings are the paper's (§4.2) where it states them: 42 robot parameters (per leg: base U centre,
 platform S centre, leg-length offset) + the device's fixed length D0 and inclinometer axis angle ψ
@@ -31,11 +31,11 @@ import pinocchio as pin
 from study_cli import study_main  # examples/ is on sys.path when run as a script
 
 import pincal
-from pincal.identify import measurements as ms
-from pincal.identify.identifiability import analyse
-from pincal.identify.parameters import apply_parameters, hexapod42
-from pincal.identify.problem import CalibrationProblem, Observations
-from pincal.identify.solver import identify
+from pincal.identification import measurements as ms
+from pincal.identification.identifiability import analyse
+from pincal.identification.parameters import apply_parameters, hexapod42
+from pincal.identification.problem import CalibrationProblem, Observations
+from pincal.identification.solver import identify
 from pincal.study.montecarlo import run_monte_carlo
 from pincal.study.pose_selection import condition_number, jacobian_blocks, select_poses
 from pincal.study.simulation import simulate_observations
@@ -63,7 +63,7 @@ def robot() -> pincal.Robot:
 
 
 @lru_cache(maxsize=1)
-def parameters() -> pincal.identify.parameters.ParameterSet:
+def parameters() -> pincal.identification.parameters.ParameterSet:
     return hexapod42(robot(), device=True)
 
 
@@ -224,7 +224,7 @@ def error_set_run(error_set: int, readings: np.ndarray, validation: np.ndarray) 
 def identifiability_table(readings: np.ndarray) -> list[tuple[str, int, int, float, list[str]]]:
     """Rank of the identification Jacobian for subsets of the device's readings (and a tracker)."""
     r = robot()
-    cases: list[tuple[str, pincal.identify.parameters.ParameterSet, list[ms.Measurement]]] = [
+    cases: list[tuple[str, pincal.identification.parameters.ParameterSet, list[ms.Measurement]]] = [
         ("full device: 2 inclinometer axes, LVDT, rotary sensor", hexapod42(r, device=True), device_models()),
         ("inclinometer + LVDT (no rotary sensor)", hexapod42(r, device=True), device_models()[:3]),
         ("inclinometer only", hexapod42(r, device=True), device_models()[:2]),

@@ -1,8 +1,8 @@
 """Study 003 (planar 2-DOF parallel robot, zero-offset calibration with a reset linear scale).
 
 Run: ``python examples/study_003_five_bar.py`` (full, about a minute) or ``--quick`` (a few seconds).
-Prints the paper-vs-pincal tables, writes ``docs/results/003_five_bar.md`` and figures under
-``docs/results/figures/`` (``--out`` to write elsewhere, ``--json`` for the numbers).
+Prints the paper-vs-pincal tables, writes ``results/003_five_bar.md`` and figures under
+``results/figures/`` (``--out DIR`` to write elsewhere, ``--publish`` for ``docs/results``, ``--json`` for the numbers).
 
 Settings are the paper's (§5-6): Table 1 geometry; K = 2n = 6 positions, n = 3 evenly spaced on the
 upper and on the lower boundary of the workspace (corners included, the boundary traced as a loop:
@@ -30,10 +30,10 @@ import numpy as np
 from study_cli import study_main  # examples/ is on sys.path when run as a script
 
 import pincal
-from pincal.identify import measurements as ms
-from pincal.identify.identifiability import analyse
-from pincal.identify.parameters import ParameterSet, candidate_parameters
-from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.identification import measurements as ms
+from pincal.identification.identifiability import analyse
+from pincal.identification.parameters import ParameterSet, candidate_parameters
+from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.study.montecarlo import run_monte_carlo
 from pincal.study.pose_selection import condition_number, jacobian_blocks, select_poses
 from pincal.study.simulation import simulate_observations

@@ -1,8 +1,8 @@
 """Study 004 (3-UCR parallel manipulator: statistical sensitivity and structure calibration).
 
 Run: ``python examples/study_004_ucr3.py`` (full, well under a minute) or ``--quick`` (seconds).
-Prints the paper-vs-pincal tables, writes ``docs/results/004_ucr3.md`` and figures under
-``docs/results/figures/`` (``--out`` to write elsewhere, ``--json`` for the numbers).
+Prints the paper-vs-pincal tables, writes ``results/004_ucr3.md`` and figures under
+``results/figures/`` (``--out DIR`` to write elsewhere, ``--publish`` for ``docs/results``, ``--json`` for the numbers).
 
 Settings are the paper's: Table 1 geometry (A_i at 68 mm, a_i at 50 mm, L_O'E = 220 mm;
 ``robots_urdf/ucr3.urdf``); the 23 parameters of its Eq. 13 (L_O'E, L_m, and per limb r_i, a_i and
@@ -26,11 +26,11 @@ import pinocchio as pin
 from study_cli import study_main  # examples/ is on sys.path when run as a script
 
 import pincal
-from pincal.identify import measurements as ms
-from pincal.identify.identifiability import analyse
-from pincal.identify.parameters import ParameterSet, candidate_parameters
-from pincal.identify.problem import CalibrationProblem
-from pincal.identify.solver import identify
+from pincal.identification import measurements as ms
+from pincal.identification.identifiability import analyse
+from pincal.identification.parameters import ParameterSet, candidate_parameters
+from pincal.identification.problem import CalibrationProblem
+from pincal.identification.solver import identify
 from pincal.study.montecarlo import run_monte_carlo
 from pincal.study.pose_selection import condition_number, jacobian_blocks, select_poses
 from pincal.study.simulation import simulate_observations

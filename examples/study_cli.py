@@ -22,7 +22,11 @@ def study_main(run: Callable[[bool, Path, str | None], dict[str, Any]], doc: str
     """Parse the common options, call ``run(quick, out, executor)`` and optionally write its numbers as JSON."""
     parser = argparse.ArgumentParser(description=(doc or "").split("\n")[0])
     parser.add_argument("--quick", action="store_true", help=quick_help)
-    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "results", help="output directory")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--out", type=Path, default=Path("results"),
+                       help="output directory for the page and its figures (default: ./results)")
+    where.add_argument("--publish", action="store_const", const=ROOT / "docs" / "results", dest="out",
+                       help="write the committed page and figures under docs/results instead")
     parser.add_argument("--json", type=Path, help="also write the numbers as JSON here")
     parser.add_argument("--serial", action="store_true", help="no process pool")
     args = parser.parse_args(argv)

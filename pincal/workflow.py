@@ -11,17 +11,26 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError, NotFoundError, listing
-from pincal.identify.ikm import ImplicitProblem
-from pincal.identify.measurements import JointReading, Measurement, Pose, parse_key
-from pincal.identify.parameters import ParameterSet, choose_parameters, joint_unit
-from pincal.identify.problem import CalibrationProblem
-from pincal.identify.solver import CalibrationResult, error_norms, identify, length_columns, outlier_samples, rms
+from pincal.identification.ikm import ImplicitProblem
+from pincal.identification.measurements import JointReading, Measurement, Pose, parse_key
+from pincal.identification.parameters import ParameterSet, choose_parameters, joint_unit
+from pincal.identification.problem import CalibrationProblem
+from pincal.identification.solver import (
+    CalibrationResult,
+    Loss,
+    Solver,
+    error_norms,
+    identify,
+    length_columns,
+    outlier_samples,
+    rms,
+)
 from pincal.io.adapters import measurements_for, observations_from
 from pincal.io.calibrated_urdf import calibrated_robot_text, joint_sensor_zeros, source_text
 from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text, read_dataset
@@ -31,6 +40,10 @@ from pincal.model.robot import Robot, load_robot, unusable_samples
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 Array = npt.NDArray[np.float64]
+
+#: How the residuals are formed: forward kinematics (measured − predicted) or implicit loop residuals (IKM).
+Formulation = Literal["fkm", "ikm"]
+FORMULATIONS: tuple[Formulation, ...] = get_args(Formulation)
 
 
 def measurement_models(robot: Robot, kinds: Sequence[str], frame: str | None, sigma: float) -> list[Measurement]:
@@ -154,9 +167,10 @@ class Calibration:
     urdf_text: str
 
 
-def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | None = None, solver: str = "lm",
-              loss: str = "auto", sigma: float | None = None, x_true: Array | None = None,
-              pose_sigma_angle: float | None = None, formulation: str = "fkm", max_iter: int = 100) -> Calibration:
+def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | None = None, solver: Solver = "lm",
+              loss: Loss = "auto", sigma: float | None = None, x_true: Array | None = None,
+              pose_sigma_angle: float | None = None, formulation: Formulation = "fkm",
+              max_iter: int = 100) -> Calibration:
     """Identify ``robot``'s parameters from the ``train`` samples; evaluate on the ``test`` samples.
 
     ``formulation``: ``fkm`` (measured − predicted by forward kinematics) or ``ikm`` (implicit loop
@@ -166,13 +180,13 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     the measurement frame registered to the training data in closed form when all of ``base.*`` is
     estimated (``report["before_means"]`` says which). ``max_iter`` bounds the solver's iterations.
     ``loss``: ``auto`` (default; least squares, then a Cauchy refit when the data hold implausible samples,
-    which the report lists), ``linear`` or ``cauchy`` (see :func:`pincal.identify.solver.identify`).
+    which the report lists), ``linear`` or ``cauchy`` (see :func:`pincal.identification.solver.identify`).
 
     Raises:
         DataError: no training sample (every row is ``set=test``, or none can be assembled).
     """
-    if formulation not in ("fkm", "ikm"):
-        raise DataError(f"unknown formulation '{formulation}'; formulations are: fkm, ikm")
+    if formulation not in FORMULATIONS:
+        raise DataError(f"unknown formulation '{formulation}'; formulations are: {listing(FORMULATIONS)}")
     if max_iter < 1:
         raise DataError(f"max_iter is {max_iter}: at least one iteration is needed")
     if "train" not in dataset.sets:

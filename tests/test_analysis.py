@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pincal.errors import DataError, IdentifiabilityError
-from pincal.identify.identifiability import (
+from pincal.identification.identifiability import (
     RANK_TOLERANCE,
     Combination,
     analyse,

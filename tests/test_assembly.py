@@ -18,10 +18,10 @@ import pinocchio as pin
 import pytest
 
 import pincal
-from pincal.identify import measurements as ms
-from pincal.identify.parameters import ParameterSet, apply_parameters, candidate_parameters
-from pincal.identify.problem import CalibrationProblem, Observations
-from pincal.identify.solver import identify
+from pincal.identification import measurements as ms
+from pincal.identification.parameters import ParameterSet, apply_parameters, candidate_parameters
+from pincal.identification.problem import CalibrationProblem, Observations
+from pincal.identification.solver import identify
 from pincal.model.kinematics import CONTINUATION_STEP
 from pincal.study.simulation import random_actuated, simulate_observations
 

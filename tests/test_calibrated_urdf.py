@@ -29,9 +29,9 @@ import pytest
 from conftest import run_pincal
 
 import pincal
-from pincal.identify.measurements import Distance, JointReading, Measurement, Pose, Position, parse_key
-from pincal.identify.parameters import ParameterSet, candidate_parameters, choose_parameters
-from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.identification.measurements import Distance, JointReading, Measurement, Pose, Position, parse_key
+from pincal.identification.parameters import ParameterSet, candidate_parameters, choose_parameters
+from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.io.calibrated_urdf import MEASUREMENT_FRAME, calibrated_robot_text, source_text
 from pincal.io.dataset import read_dataset
 from pincal.model.robot import Robot

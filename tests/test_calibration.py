@@ -6,8 +6,8 @@ import pytest
 
 import pincal
 from pincal.errors import DataError, NotFoundError
-from pincal.identify.measurements import JointReading, Pose
-from pincal.identify.parameters import choose_parameters
+from pincal.identification.measurements import JointReading, Pose
+from pincal.identification.parameters import choose_parameters
 from pincal.io.adapters import channel_sigma, measurements_for
 
 
@@ -53,7 +53,7 @@ def test_parameter_choice_named_patterns_and_default() -> None:
 def test_simulated_noise_per_measurement() -> None:
     import numpy as np
 
-    from pincal.identify import measurements as ms
+    from pincal.identification import measurements as ms
     from pincal.study.simulation import random_actuated, simulate_observations
 
     robot = pincal.load_robot("hexapod_device")
@@ -77,8 +77,8 @@ def test_written_urdf_reproduces_the_calibrated_model(name: str, frame: str) -> 
     """Load the calibrated URDF back: FK equals the calibrated model's (offsets folded in) to 1e-12."""
     import numpy as np
 
-    from pincal.identify import measurements as ms
-    from pincal.identify.problem import CalibrationProblem, Observations
+    from pincal.identification import measurements as ms
+    from pincal.identification.problem import CalibrationProblem, Observations
     from pincal.io.calibrated_urdf import calibrated_robot_text, source_text
     from pincal.model.robot import robot_from_urdf_text
     from pincal.study.simulation import perturbation, random_actuated
@@ -107,7 +107,7 @@ def test_calibrated_urdf_folds_a_planar_passive_joint() -> None:
     import numpy as np
     from mechanisms import planar_coupler_urdf
 
-    from pincal.identify.parameters import ParameterSet, apply_parameters, candidate_parameters
+    from pincal.identification.parameters import ParameterSet, apply_parameters, candidate_parameters
     from pincal.io.calibrated_urdf import calibrated_robot_text
     from pincal.model.robot import robot_from_urdf_text
 

@@ -95,9 +95,9 @@ def test_slider_crank_jacobian_through_the_loop() -> None:
 
 def test_continuous_crank_takes_the_short_way_round() -> None:
     """An unbounded crank (nq = 2): readings past ±π are the same angle, not a full turn away."""
-    from pincal.identify import measurements as ms
-    from pincal.identify.parameters import candidate_parameters
-    from pincal.identify.problem import CalibrationProblem, Observations
+    from pincal.identification import measurements as ms
+    from pincal.identification.parameters import candidate_parameters
+    from pincal.identification.problem import CalibrationProblem, Observations
 
     crank_rocker = {"a": 0.1, "b": 0.3, "c": 0.25, "d": 0.3}  # Grashof, crank shortest: it turns fully
     robot = pincal.model.robot.robot_from_urdf_text(four_bar_urdf(crank_rocker, home=0.0, crank="continuous"))

@@ -7,9 +7,9 @@ import pytest
 
 import pincal
 from pincal.errors import DataError
-from pincal.identify import measurements as ms
-from pincal.identify.parameters import choose_parameters
-from pincal.identify.problem import CalibrationProblem
+from pincal.identification import measurements as ms
+from pincal.identification.parameters import choose_parameters
+from pincal.identification.problem import CalibrationProblem
 from pincal.study.pose_selection import condition_number, jacobian_blocks, log_det, select_poses
 from pincal.study.simulation import random_actuated, simulate_observations
 
@@ -111,9 +111,9 @@ def test_jacobian_blocks_through_an_executor_equal_the_serial_ones() -> None:
     import concurrent.futures
 
     import pincal
-    from pincal.identify import measurements as ms
-    from pincal.identify.parameters import choose_parameters
-    from pincal.identify.problem import CalibrationProblem
+    from pincal.identification import measurements as ms
+    from pincal.identification.parameters import choose_parameters
+    from pincal.identification.problem import CalibrationProblem
     from pincal.study.pose_selection import jacobian_blocks, select_poses
     from pincal.study.simulation import random_actuated, simulate_observations
 

@@ -14,11 +14,11 @@ import pytest
 
 import pincal
 from pincal.errors import DataError, IdentifiabilityError
-from pincal.identify import measurements as ms
-from pincal.identify.identifiability import analyse
-from pincal.identify.parameters import choose_parameters
-from pincal.identify.problem import CalibrationProblem, Observations
-from pincal.identify.solver import error_norms, identify
+from pincal.identification import measurements as ms
+from pincal.identification.identifiability import analyse
+from pincal.identification.parameters import choose_parameters
+from pincal.identification.problem import CalibrationProblem, Observations
+from pincal.identification.solver import error_norms, identify
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 DEVICE = [ms.joint_reading(j) for j in ("device_incl_x", "device_incl_y", "device_lvdt", "device_rotary")]
@@ -209,7 +209,7 @@ class _Stated:
 ])
 def test_exact_fit_floor_follows_the_stated_sigma_and_the_fk_tolerance(sigma: float, error: float,
                                                                         exact: bool) -> None:
-    from pincal.identify.lm import FLOOR_SIGMA_FRACTION, at_floor, exact_fit_floors
+    from pincal.identification.lm import FLOOR_SIGMA_FRACTION, at_floor, exact_fit_floors
 
     problem = _Stated([ms.position("tool0", sigma), ms.pose("flange", sigma, 10 * sigma)])
     floors = exact_fit_floors(problem, FLOOR_SIGMA_FRACTION)  # type: ignore[arg-type]

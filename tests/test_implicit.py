@@ -7,12 +7,12 @@ import pytest
 
 import pincal
 from pincal.errors import DataError
-from pincal.identify import measurements as ms
-from pincal.identify.identifiability import analyse
-from pincal.identify.ikm import ImplicitProblem, chain_blocks
-from pincal.identify.parameters import choose_parameters
-from pincal.identify.problem import CalibrationProblem
-from pincal.identify.solver import identify, identify_chains
+from pincal.identification import measurements as ms
+from pincal.identification.identifiability import analyse
+from pincal.identification.ikm import ImplicitProblem, chain_blocks
+from pincal.identification.parameters import choose_parameters
+from pincal.identification.problem import CalibrationProblem
+from pincal.identification.solver import identify, identify_chains
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 

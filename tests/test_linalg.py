@@ -11,7 +11,7 @@ from threadpoolctl import threadpool_limits
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
-from pincal.identify.identifiability import analyse, covariance
+from pincal.identification.identifiability import analyse, covariance
 
 
 @pytest.fixture(autouse=True)

@@ -11,9 +11,9 @@ import pytest
 from conftest import ROBOTS, run_pincal
 
 import pincal
-from pincal.identify import measurements as ms
-from pincal.identify.parameters import choose_parameters
-from pincal.identify.problem import CalibrationProblem
+from pincal.identification import measurements as ms
+from pincal.identification.parameters import choose_parameters
+from pincal.identification.problem import CalibrationProblem
 from pincal.io.dataset import read_dataset
 from pincal.study.simulation import random_actuated, simulate_observations
 

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal.identify import measurements as ms
-from pincal.identify.parameters import candidate_parameters
-from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.identification import measurements as ms
+from pincal.identification.parameters import candidate_parameters
+from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.study.simulation import random_actuated
 
 DEVICE = ("device_incl_x", "device_incl_y", "device_lvdt", "device_rotary")
@@ -28,8 +28,9 @@ CASES = {
 def _blank(models: list, n: int) -> dict[str, np.ndarray]:
     out = {}
     for m in models:
-        width = 7 if isinstance(m, ms.Pose) else m.size
-        values = np.zeros((n, width)) if width != 7 else np.tile([0.0, 0, 0, 0, 0, 0, 1], (n, 1))
+        values = np.zeros((n, len(m.columns)))
+        if isinstance(m, ms.Pose):
+            values[:, 6] = 1.0  # qw: the identity rotation
         if m.incremental:
             values[0] = np.nan
         out[m.key] = values

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 import pincal
-from pincal.identify import measurements as ms
-from pincal.identify.parameters import choose_parameters
-from pincal.identify.problem import CalibrationProblem, Observations
-from pincal.identify.solver import error_norms, identify, rms
+from pincal.identification import measurements as ms
+from pincal.identification.parameters import choose_parameters
+from pincal.identification.problem import CalibrationProblem, Observations
+from pincal.identification.solver import error_norms, identify, rms
 from pincal.io.dataset import Dataset
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 from pincal.workflow import calibrate, simulate

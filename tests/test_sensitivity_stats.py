@@ -8,9 +8,9 @@ import pytest
 
 import pincal
 from pincal.errors import DataError
-from pincal.identify import measurements as ms
-from pincal.identify.parameters import choose_parameters
-from pincal.identify.problem import CalibrationProblem
+from pincal.identification import measurements as ms
+from pincal.identification.parameters import choose_parameters
+from pincal.identification.problem import CalibrationProblem
 from pincal.study.simulation import random_actuated, simulate_observations
 from pincal.study.workspace_stats import pose_error_jacobians, quaternion_rows, statistical_sensitivity
 

@@ -28,17 +28,31 @@ def studies(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, d
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MPLBACKEND="Agg")
     running = {}
     for key, script in STUDIES.items():
-        directory = out / key
-        command = [sys.executable, str(ROOT / "examples" / script), "--quick", "--serial", "--out", str(directory),
-                   "--json", str(out / f"{key}.json")]
-        running[key] = (directory, subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                                    text=True))
+        command = [sys.executable, str(ROOT / "examples" / script), "--quick", "--serial", "--json",
+                   str(out / f"{key}.json")]
+        if key == "004":  # the default place: ./results of the working directory
+            cwd = out / "cwd_004"
+            cwd.mkdir()
+            directory = cwd / "results"
+        else:
+            cwd, directory = out, out / key
+            command += ["--out", str(directory)]
+        running[key] = (directory, subprocess.Popen(command, env=env, cwd=cwd, stdout=subprocess.PIPE,
+                                                    stderr=subprocess.PIPE, text=True))
     results = {}
     for key, (directory, process) in running.items():
         _, stderr = process.communicate(timeout=300)
         assert process.returncode == 0, f"study {key} failed:\n{stderr[-3000:]}"
         results[key] = (directory, json.loads((out / f"{key}.json").read_text(encoding="utf-8")))
     return results
+
+
+PUBLISHED = {path: path.read_bytes() for path in sorted((ROOT / "docs" / "results").rglob("*")) if path.is_file()}
+
+
+def test_quick_runs_leave_the_published_pages_untouched(studies) -> None:
+    """Once, ``--quick`` without ``--out`` overwrote the committed page and figures under docs/results."""
+    assert {path: path.read_bytes() for path in PUBLISHED} == PUBLISHED
 
 
 @pytest.mark.parametrize("key", list(STUDIES))

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal.identify import measurements as ms
-from pincal.identify.parameters import NAMED_SETS
-from pincal.identify.problem import CalibrationProblem
+from pincal.identification import measurements as ms
+from pincal.identification.parameters import NAMED_SETS
+from pincal.identification.problem import CalibrationProblem
 from pincal.study.simulation import random_actuated, simulate_observations
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "study_000_delta.py"

@@ -15,9 +15,9 @@ import pincal
 import pincal.cli.app
 from pincal.cli.app import main
 from pincal.cli.study import blank_observations
-from pincal.identify import measurements as ms
-from pincal.identify.parameters import choose_parameters
-from pincal.identify.problem import CalibrationProblem
+from pincal.identification import measurements as ms
+from pincal.identification.parameters import choose_parameters
+from pincal.identification.problem import CalibrationProblem
 from pincal.io.dataset import read_dataset
 from pincal.study.montecarlo import run_monte_carlo
 from pincal.study.pose_selection import jacobian_blocks, select_poses

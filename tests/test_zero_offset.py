@@ -9,9 +9,9 @@ import pytest
 
 import pincal
 from pincal.errors import DataError
-from pincal.identify import measurements as ms
-from pincal.identify.parameters import candidate_parameters
-from pincal.identify.problem import Observations
+from pincal.identification import measurements as ms
+from pincal.identification.parameters import candidate_parameters
+from pincal.identification.problem import Observations
 from pincal.study.simulation import simulate_observations
 from pincal.study.zero_offset import compensation_accuracy, identify_zero_offsets, tsvd_step
 

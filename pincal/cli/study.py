@@ -29,12 +29,12 @@ from pincal.cli.options import (
     positive_int,
 )
 from pincal.errors import DataError, NotFoundError, listing
-from pincal.identify.measurements import Distance, JointReading, Measurement, Pose
-from pincal.identify.parameters import choose_parameters
-from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.identification.measurements import Distance, JointReading, Measurement, Pose
+from pincal.identification.parameters import choose_parameters
+from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.io.dataset import Dataset, write_dataset
 from pincal.io.files import check_outputs
-from pincal.model.robot import Robot, load_robot
+from pincal.model.robot import Robot, joint_unit, load_robot
 from pincal.study.montecarlo import MonteCarloResult, SimulatedCalibration, run_monte_carlo
 from pincal.study.pose_selection import (
     CRITERIA,
@@ -71,13 +71,6 @@ def checked_measurements(robot: Robot, kinds: list[str], frame: str | None) -> l
 
 
 # --- design --------------------------------------------------------------------------------------
-def joint_unit(robot: Robot, joint: str) -> str:
-    """``m`` for a prismatic joint, ``rad`` otherwise."""
-    model = robot.model
-    shortname = model.joints[model.getJointId(joint)].shortname()
-    return "m" if shortname.startswith("JointModelP") and "Planar" not in shortname else "rad"
-
-
 def blank_observations(measurements: list[Measurement], actuated: Array) -> Observations:
     """Observations at ``actuated`` (N, na) with every measured value zero (an identity quaternion for
     poses): enough to linearise the problem there, whose Jacobian does not depend on the readings."""

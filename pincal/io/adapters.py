@@ -9,8 +9,8 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError, listing
-from pincal.identify.measurements import JointReading, Measurement, Pose, joint_reading, parse_key
-from pincal.identify.problem import Observations
+from pincal.identification.measurements import JointReading, Measurement, Pose, joint_reading, parse_key
+from pincal.identification.problem import Observations
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]

@@ -21,8 +21,8 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, NotFoundError, RobotFileError, listing
-from pincal.identify.measurements import Measurement, Pose
-from pincal.identify.parameters import KINEMATIC_KINDS, ParameterSet
+from pincal.identification.measurements import Measurement, Pose
+from pincal.identification.parameters import KINEMATIC_KINDS, ParameterSet
 from pincal.model.catalog import resolve_mesh_file
 from pincal.model.robot import Robot, _build_model, check_reference_assembly
 from pincal.model.urdf import origin_to_se3, read_extensions

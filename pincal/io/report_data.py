@@ -10,9 +10,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.identify.parameters import ParameterSet
-from pincal.identify.problem import CalibrationProblem
-from pincal.identify.solver import CalibrationResult, calibration_gain, error_norms, rms
+from pincal.identification.parameters import ParameterSet
+from pincal.identification.problem import CalibrationProblem
+from pincal.identification.solver import CalibrationResult, calibration_gain, error_norms, rms
 from pincal.io.files import write_text
 
 Array = npt.NDArray[np.float64]

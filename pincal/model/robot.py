@@ -11,6 +11,7 @@ import sys
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -24,6 +25,9 @@ from pincal.model.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveRe
 from pincal.model.urdf import LoopSpec, check_finite_origins, read_extensions
 
 Array = npt.NDArray[np.float64]
+
+#: The unit of a joint value, and of a length or angle parameter.
+Unit = Literal["m", "rad"]
 
 #: Largest closure residual accepted at the reference configuration [m, rad].
 REFERENCE_TOLERANCE = 1e-9
@@ -384,3 +388,9 @@ def unusable_samples(robot: Robot, actuated: Array, max_condition: float = 1e5) 
                 out.append((k, f"singular configuration (passive closure Jacobian condition number "
                                f"{(s[0] / s[-1]) if s[-1] > 0 else float('inf'):.3g})"))
     return out
+
+
+def joint_unit(robot: Robot, joint: str) -> Unit:
+    """``m`` for a prismatic joint (its value is a length), ``rad`` for any other joint."""
+    shortname = robot.model.joints[robot.model.getJointId(joint)].shortname()
+    return "m" if shortname.startswith("JointModelP") and "Planar" not in shortname else "rad"

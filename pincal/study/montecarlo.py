@@ -23,10 +23,10 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import ConvergenceError, DataError
-from pincal.identify.measurements import parse_key
-from pincal.identify.parameters import choose_parameters
-from pincal.identify.problem import CalibrationProblem
-from pincal.identify.solver import calibration_gain, error_norms, identify, rms
+from pincal.identification.measurements import parse_key
+from pincal.identification.parameters import choose_parameters
+from pincal.identification.problem import CalibrationProblem
+from pincal.identification.solver import Solver, calibration_gain, error_norms, identify, rms
 from pincal.model.robot import Robot, load_robot
 from pincal.progress import Progress
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
@@ -197,7 +197,7 @@ class SimulatedCalibration:
     Attributes:
         robot: Robot name or URDF path.
         measurements: Measurement keys (``position:end_effector``, ``joint:device_lvdt``, ...).
-        parameters: Named set or patterns (see :func:`pincal.identify.parameters.choose_parameters`); None: all.
+        parameters: Named set or patterns (see :func:`pincal.identification.parameters.choose_parameters`); None: all.
         n_train, n_test: Postures to calibrate from and to validate on.
         perturb: σ of the true parameter errors [m and rad].
         joint_noise: σ of the actuated readings' noise [m or rad] per unit of ``level`` (0: exact).
@@ -212,7 +212,7 @@ class SimulatedCalibration:
     n_test: int = 20
     perturb: float = 1e-3
     joint_noise: float = 0.0
-    solver: str = "lm"
+    solver: Solver = "lm"
     spread: float | None = None
 
     def __call__(self, seed: int, level: Any) -> dict[str, float]:

@@ -5,7 +5,7 @@ every candidate (:func:`jacobian_blocks`), the blocks make any pose set's inform
 ``M = Σ B_kᵀ B_k`` a sum, so a greedy search can score thousands of candidates per step.
 
 Columns are scaled by each parameter's typical size before anything is compared (as in
-:mod:`pincal.identify.identifiability`: ``J_s = J diag(s)``), so metres and radians compare. Criteria:
+:mod:`pincal.identification.identifiability`: ``J_s = J diag(s)``), so metres and radians compare. Criteria:
 
 - ``condition``: minimise the condition number ``κ = σ_max / σ_min`` of the scaled Jacobian
   (study 001 §4.2, study 003 §5: "selected ... by minimising the condition number of the
@@ -36,9 +36,9 @@ import numpy.typing as npt
 
 from pincal import linalg
 from pincal.errors import DataError
-from pincal.identify.identifiability import base_parameters
-from pincal.identify.measurements import Pose
-from pincal.identify.problem import CalibrationProblem
+from pincal.identification.identifiability import base_parameters
+from pincal.identification.measurements import Pose
+from pincal.identification.problem import CalibrationProblem
 from pincal.progress import Progress
 
 Array = npt.NDArray[np.float64]

@@ -14,9 +14,9 @@ import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
-from pincal.identify.measurements import Measurement, Pose
-from pincal.identify.parameters import ParameterSet
-from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.identification.measurements import Measurement, Pose
+from pincal.identification.parameters import ParameterSet
+from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.model.robot import Robot
 from pincal.progress import Progress
 

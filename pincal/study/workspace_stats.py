@@ -27,8 +27,8 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import DataError
-from pincal.identify.measurements import Pose
-from pincal.identify.problem import CalibrationProblem
+from pincal.identification.measurements import Pose
+from pincal.identification.problem import CalibrationProblem
 from pincal.study.pose_selection import jacobian_blocks
 
 Array = npt.NDArray[np.float64]
@@ -125,7 +125,7 @@ def pose_error_jacobians(problem: CalibrationProblem, x: Array | None = None,
     is the identity at zero error).
 
     Args:
-        problem: Problem over workspace samples with a :class:`~pincal.identify.measurements.Pose` measurement.
+        problem: Problem over workspace samples with a :class:`~pincal.identification.measurements.Pose` measurement.
         x: Parameters to linearise at (nominal by default).
         orientation: ``rotation`` (local rotation vector [rad]) or ``quaternion`` (study 004's
             q1, q2, q3, dimensionless).

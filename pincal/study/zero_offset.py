@@ -31,9 +31,9 @@ import numpy.typing as npt
 
 from pincal import linalg
 from pincal.errors import DataError
-from pincal.identify.measurements import Measurement
-from pincal.identify.parameters import ParameterSet
-from pincal.identify.problem import CalibrationProblem, Observations
+from pincal.identification.measurements import Measurement
+from pincal.identification.parameters import ParameterSet
+from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]

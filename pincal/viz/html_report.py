@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError
-from pincal.identify.problem import CalibrationProblem
+from pincal.identification.problem import CalibrationProblem
 from pincal.io.adapters import observations_from
 from pincal.io.dataset import Dataset
 from pincal.io.files import make_directory, write_text

@@ -22,9 +22,9 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
-from pincal.identify.measurements import Pose, Position
-from pincal.identify.parameters import choose_parameters
-from pincal.identify.problem import CalibrationProblem
+from pincal.identification.measurements import Pose, Position
+from pincal.identification.parameters import choose_parameters
+from pincal.identification.problem import CalibrationProblem
 from pincal.io.adapters import measurements_for, observations_from
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot

@@ -1,4 +1,4 @@
-"""Levenberg–Marquardt machinery behind :func:`pincal.identify.solver.identify`: the steps one SVD of the
+"""Levenberg–Marquardt machinery behind :func:`pincal.identification.solver.identify`: the steps one SVD of the
 scaled Jacobian gives, Transtrum & Sethna's geodesic acceleration, and when a fit is done.
 
 Weakly identifiable directions are strongly nonlinear: moving 0.1 mm along one changes the predictions more
@@ -14,8 +14,8 @@ import numpy.typing as npt
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
-from pincal.identify.measurements import Pose
-from pincal.identify.problem import Prediction, Problem
+from pincal.identification.measurements import Pose
+from pincal.identification.problem import Prediction, Problem
 from pincal.model.robot import SOLVE_TOLERANCE
 
 Array = npt.NDArray[np.float64]

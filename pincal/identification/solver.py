@@ -18,8 +18,9 @@ threshold is set by hand.
 Weakly identifiable directions are strongly nonlinear (moving 0.1 mm along one changes the predictions
 more at second order than at first), so plain LM crawls there: each smaller λ is rejected. From the first
 rejected step on, ``lm`` adds Transtrum & Sethna's geodesic acceleration (one residual evaluation per
-trial, :func:`pincal.identify.lm.accelerated`). Two stops end the crawl once it cannot matter
-(:func:`pincal.identify.lm.settled`): an exact fit (every error within 100 × the FK tolerance, 1 nm) and, for noisy
+trial, :func:`pincal.identification.lm.accelerated`). Two stops end the crawl once it cannot matter
+(:func:`pincal.identification.lm.settled`): an exact fit (every error within 100 × the FK tolerance,
+1 nm) and, for noisy
 data, a cost at the noise level whose remaining Gauss–Newton improvement along the practically identified
 directions is below one unit of χ². Every SVD goes through :mod:`pincal.linalg` (no ``LinAlgError``).
 """
@@ -29,7 +30,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 import numpy.typing as npt
@@ -37,16 +38,20 @@ from threadpoolctl import threadpool_limits
 
 from pincal import linalg
 from pincal.errors import DataError, IdentifiabilityError
-from pincal.identify import lm
-from pincal.identify.identifiability import Identifiability, analyse, correlations, covariance
-from pincal.identify.ikm import ChainProblem, ImplicitProblem, chain_blocks
-from pincal.identify.problem import Prediction, Problem
+from pincal.identification import lm
+from pincal.identification.identifiability import Identifiability, analyse, correlations, covariance
+from pincal.identification.ikm import ChainProblem, ImplicitProblem, chain_blocks
+from pincal.identification.problem import Prediction, Problem
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
-SOLVERS = ("lm", "tsvd", "ridge")
-LOSSES = ("auto", "linear", "cauchy")
+#: Identification solvers: Levenberg–Marquardt, truncated SVD, ridge (Tikhonov).
+Solver = Literal["lm", "tsvd", "ridge"]
+#: Losses: least squares, Cauchy (robust), or ``auto`` (least squares, then Cauchy if a sample is implausible).
+Loss = Literal["auto", "linear", "cauchy"]
+SOLVERS: tuple[Solver, ...] = get_args(Solver)
+LOSSES: tuple[Loss, ...] = get_args(Loss)
 #: Outlier test of ``loss="auto"``: the probability that clean data (Gaussian noise) raise a false
 #: alarm anywhere in the dataset (Bonferroni: each sample is tested at this level over N).
 OUTLIER_FALSE_ALARM = 1e-3
@@ -193,9 +198,11 @@ def _practical_tol(jacobian: Array, scales: Array, rank_tol: float, min_informat
     return min(max(rank_tol, min_information / largest), 0.5)
 
 
-def identify(problem: Problem, x0: Array | None = None, solver: str = "lm", loss: str = "auto",
-             **options: Any) -> CalibrationResult:
-    """Estimate the parameters from the data (see :func:`_identify` for the options).
+def identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: Loss = "auto", *,
+             identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
+             min_information: float = 0.0, tsvd_rcond: float = 1e-6, ridge: float = 1e-6,
+             strict: bool = False) -> CalibrationResult:
+    """Estimate the parameters from the data (the arguments are described at :func:`_identify`).
 
     ``loss="auto"`` (the default) fits by least squares, tests every sample against the noise level the
     fit shows (:func:`outlier_samples`) and, if any sample is implausible, refits with the Cauchy loss
@@ -206,10 +213,12 @@ def identify(problem: Problem, x0: Array | None = None, solver: str = "lm", loss
     # the dense algebra here is small (hundreds × tens): multi-threaded BLAS only adds overhead, and
     # on a loaded 2-core machine it made identification ten times slower
     with threadpool_limits(limits=1, user_api="blas"):
+        options = {"identifiable_only": identifiable_only, "max_iter": max_iter, "tol": tol, "rank_tol": rank_tol,
+                   "min_information": min_information, "tsvd_rcond": tsvd_rcond, "ridge": ridge, "strict": strict}
         return _identify_auto(problem, x0, solver, loss, **options)
 
 
-def _identify_auto(problem: Problem, x0: Array | None, solver: str, loss: str, **options: Any) -> CalibrationResult:
+def _identify_auto(problem: Problem, x0: Array | None, solver: Solver, loss: Loss, **options: Any) -> CalibrationResult:
     if loss != "auto":
         return _identify(problem, x0, solver, loss, **options)
     first = _identify(problem, x0, solver, "linear", **options)
@@ -249,7 +258,7 @@ def _median_sample_residual(problem: Problem, x: Array) -> float:
     return float(np.median(squares[dims > 0]))
 
 
-def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", loss: str = "linear",
+def _identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: Loss = "linear",
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              min_information: float = 0.0,
              tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False) -> CalibrationResult:
@@ -268,8 +277,9 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
         tol: Stop when the relative cost decrease or the scaled step falls below ``tol``. When no step
             decreases the cost, the fit counts as converged at a first-order optimum or when every error
             is within ``max(FLOOR_SIGMA_FRACTION · σ, FK_AMPLIFICATION · SOLVE_TOLERANCE)`` [m, rad]
-            (:mod:`pincal.identify.lm`), σ the measurement's stated standard deviation.
-        rank_tol: Relative singular-value threshold for identifiability (see :mod:`pincal.identify.identifiability`).
+            (:mod:`pincal.identification.lm`), σ the measurement's stated standard deviation.
+        rank_tol: Relative singular-value threshold for identifiability (see
+            :mod:`pincal.identification.identifiability`).
         min_information: Absolute floor on the singular values of the weighted, scaled Jacobian: a
             direction below it has an a-priori standard deviation over 1/min_information times the
             parameters' typical size (e.g. 1e-2: 100 × 1 mm or 1 mrad), so these data do not identify it
@@ -419,12 +429,12 @@ def _identify(problem: Problem, x0: Array | None = None, solver: str = "lm", los
 
 
 def identify_chains(problem: ImplicitProblem, x0: Array | None = None,
-                    **options: object) -> list[tuple[list[str], CalibrationResult]]:
+                    **options: Any) -> list[tuple[list[str], CalibrationResult]]:
     """Identify each independent chain on its own (study 000's segment-by-segment IKM calibration),
     with :func:`identify`'s options.
 
     Returns:
-        Per chain: the loop names and its :class:`~pincal.identify.solver.CalibrationResult`.
+        Per chain: the loop names and its :class:`~pincal.identification.solver.CalibrationResult`.
     """
     x = np.zeros(len(problem.parameters)) if x0 is None else np.asarray(x0, dtype=float).copy()
     jac = problem.evaluate(x).jacobian
@@ -433,7 +443,7 @@ def identify_chains(problem: ImplicitProblem, x0: Array | None = None,
     out = []
     for columns, loops in chain_blocks(problem, jac):
         chain = ChainProblem(problem, columns, loops, x)
-        result = identify(chain, x0=x[columns], **options)  # type: ignore[arg-type]  # options are identify's
+        result = identify(chain, x0=x[columns], **options)
         x[columns] = result.x
         out.append(([names[i] for i in loops], result))
     return out

@@ -21,10 +21,16 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal import linalg
-from pincal.errors import ConvergenceError, DataError, NotFoundError, listing
-from pincal.identify.derivatives import KinematicSensitivity, frame_probe, right_jacobian
-from pincal.identify.measurements import Distance, JointReading, Measurement, Pose, Position, point_derivative
-from pincal.identify.parameters import KINEMATIC_KINDS, ParameterSet, apply_parameters, joint_unit, offset_parameter
+from pincal.errors import ConvergenceError, DataError, listing
+from pincal.identification.derivatives import KinematicSensitivity, frame_probe, right_jacobian
+from pincal.identification.measurements import Measurement, SampleContext
+from pincal.identification.parameters import (
+    KINEMATIC_KINDS,
+    ParameterSet,
+    apply_parameters,
+    joint_unit,
+    offset_parameter,
+)
 from pincal.model.kinematics import CONTINUATION_STEP, damped_pseudo_inverse
 from pincal.model.robot import SOLVE_TOLERANCE, Robot
 
@@ -156,23 +162,18 @@ class CalibrationProblem:
         if not np.all(np.isfinite(obs.actuated)):
             row = int(np.argwhere(~np.isfinite(obs.actuated))[0, 0])
             raise DataError(f"actuated readings of sample {row} contain NaN or infinity")
-        width = {Position: 3, Pose: 7, Distance: 1, JointReading: 1}
         for m in self.measurements:
             if m.key not in obs.values:
                 raise DataError(f"no data for measurement '{m.key}'; data has {listing(obs.values)}")
             values = obs.values[m.key]
-            if values.shape != (obs.n_samples, width[type(m)]):
+            if values.shape != (obs.n_samples, len(m.columns)):
                 raise DataError(f"data for '{m.key}' has shape {values.shape}; expected "
-                                f"({obs.n_samples}, {width[type(m)]})")
+                                f"({obs.n_samples}, {len(m.columns)}) for {listing(m.columns)}")
             check = values[1:] if m.incremental else values
             if not np.all(np.isfinite(check)):
                 row = int(np.argwhere(~np.isfinite(check))[0, 0]) + (1 if m.incremental else 0)
                 raise DataError(f"measurement '{m.key}' of sample {row} is NaN or infinite")
-            for f in m.frames:
-                robot.frame_id(f)
-            if isinstance(m, JointReading) and not robot.model.existJointName(m.joint):
-                raise NotFoundError(f"measurement '{m.key}' reads joint '{m.joint}', which does not exist; joints "
-                                    f"are: {listing(robot.model.names[1:])}")
+            m.check(robot)
 
     # --- evaluation -----------------------------------------------------------------------------
     def robot_at(self, x: Array) -> Robot:
@@ -223,7 +224,7 @@ class CalibrationProblem:
         pred = CalibrationProblem.evaluate(self, x, jacobian=False)  # forward predictions, for IKM too
         model, measured = [], []
         for m in self.measurements:
-            if isinstance(m, (Position, Pose)):
+            if m.locates_point:
                 model.append(pred.predicted[m.key][:, :3])
                 measured.append(self.observations.values[m.key][:, :3])
         if not model or sum(len(a) for a in model) < 3:
@@ -276,9 +277,7 @@ class CalibrationProblem:
         sens = KinematicSensitivity(robot, self._all, x) if jacobian else None
         probes = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
         base_delta = self._all.placement_delta(x, self.base) if self.base else np.zeros(6)
-        base = pin.exp6(base_delta)
-        base_jac = right_jacobian(base_delta, [self._all.parameters[k].component for k in self.base])
-        markers = {f: x[idx] for f, idx in self.markers.items()}
+        ctx = self._context(model, data, x, base_delta)
         qa_all = self.actuated_values(x)
         preds: dict[str, Array] = {m.key: np.empty((n, m.size)) for m in self.measurements}
         dpreds: dict[str, Array] = {m.key: np.zeros((n, m.size, p)) for m in self.measurements} if jacobian else {}
@@ -313,66 +312,17 @@ class CalibrationProblem:
                 for f, fid in self.frame_ids.items():
                     local = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
                     twists[f] = sens.probe_twist(data, probes[f]) + local @ dv
+            ctx.sample, ctx.q, ctx.twists, ctx.dv = k, q, twists, dv
             for m in self.measurements:
-                self._predict(m, x, k, q, robot, data, base, base_jac, markers, twists, dv, preds, dpreds)
+                m.predict(ctx, preds[m.key][k], dpreds[m.key][k] if jacobian else None)
         return self._assemble(preds, dpreds, output_jacobian)
 
-    def _point(self, frame: str, data: pin.Data, markers: dict[str, Array]) -> tuple[pin.SE3, Array]:
-        placement = data.oMf[self.frame_ids[frame]]
-        marker = markers.get(frame, np.zeros(3))
-        return placement, marker
-
-    def _predict(self, m: Measurement, x: Array, k: int, q: Array, robot: Robot, data: pin.Data, base: pin.SE3,
-                 base_jac: Array, markers: dict[str, Array], twists: dict[str, Array], dv: Array | None,
-                 preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
-        block = dpreds.get(m.key)
-        jac = None if block is None else block[k]  # (rows, n_parameters) view of this sample
-        if isinstance(m, (Position, Pose)):
-            placement, marker = self._point(m.frame, data, markers if isinstance(m, Position) else {})
-            local_point = placement.act(marker)
-            preds[m.key][k, :3] = base.act(local_point)
-            if isinstance(m, Pose):
-                meas_rot = pin.Quaternion(*self.observations.values[m.key][k, [6, 3, 4, 5]]).normalized().matrix()
-                rel = meas_rot.T @ base.rotation @ placement.rotation
-                preds[m.key][k, 3:] = pin.log3(rel)
-            if jac is not None:
-                twist = twists[m.frame]
-                jac[:3] = base.rotation @ point_derivative(placement, twist, marker)
-                if isinstance(m, Position) and m.frame in self.markers:
-                    jac[:3, self.markers[m.frame]] = base.rotation @ placement.rotation
-                if self.base:
-                    jac[:3, self.base] = base.rotation @ np.hstack([np.eye(3), -pin.skew(local_point)]) @ base_jac
-                if isinstance(m, Pose):
-                    jlog = pin.Jlog3(rel)
-                    jac[3:] = jlog @ twist[3:]
-                    if self.base:
-                        jac[3:, self.base] = jlog @ placement.rotation.T @ base_jac[3:]
-        elif isinstance(m, Distance):
-            pa, ma = self._point(m.frame_a, data, markers)
-            pb, mb = self._point(m.frame_b, data, markers)
-            diff = pa.act(ma) - pb.act(mb)
-            dist = float(np.linalg.norm(diff))
-            if dist < 1e-12:
-                raise DataError(f"measurement '{m.key}': frames '{m.frame_a}' and '{m.frame_b}' coincide at sample {k} "
-                                "(a zero distance has no direction): measure between two distinct points")
-            preds[m.key][k, 0] = dist
-            if jac is not None:
-                u = diff / dist
-                jac[0] = u @ (point_derivative(pa, twists[m.frame_a], ma) - point_derivative(pb, twists[m.frame_b], mb))
-                for frame, placement, sign in ((m.frame_a, pa, 1.0), (m.frame_b, pb, -1.0)):
-                    if frame in self.markers:
-                        jac[0, self.markers[frame]] += sign * (u @ placement.rotation)
-        elif isinstance(m, JointReading):
-            jm = robot.model.joints[robot.model.getJointId(m.joint)]
-            offset = self.reading_offsets.get(m.joint)
-            value = q[jm.idx_q] if jm.nq == 1 else np.arctan2(q[jm.idx_q + 1], q[jm.idx_q])
-            preds[m.key][k, 0] = value
-            if jac is not None and dv is not None:
-                jac[0] = dv[jm.idx_v]
-            if offset is not None:  # q_true = q_read + δq: the sensor reads q_true - δq
-                preds[m.key][k, 0] = value - x[offset]
-                if jac is not None:
-                    jac[0, offset] -= 1.0
+    def _context(self, model: pin.Model, data: pin.Data, x: Array, base_delta: Array) -> SampleContext:
+        """The measurement models' context for one evaluation at ``x`` (per-sample fields unset)."""
+        base_jacobian = right_jacobian(base_delta, [self._all.parameters[k].component for k in self.base])
+        return SampleContext(model, data, x, pin.exp6(base_delta), base_jacobian, self.base,
+                             {f: x[idx] for f, idx in self.markers.items()}, self.markers, self.reading_offsets,
+                             self.frame_ids, self.observations.values)
 
     def _assemble(self, preds: dict[str, Array], dpreds: dict[str, Array], jacobian: bool) -> Prediction:
         n = self.observations.n_samples
@@ -380,15 +330,8 @@ class CalibrationProblem:
         blocks, jblocks = [], []
         for m in self.measurements:
             measured = self.observations.values[m.key]
-            if isinstance(m, Pose):
-                err = preds[m.key].copy()
-                err[:, :3] -= measured[:, :3]
-                weights = np.array([m.sigma] * 3 + [m.sigma_angle] * 3)
-            else:
-                err = preds[m.key] - measured
-                weights = np.full(m.size, m.sigma)
-                if isinstance(m, JointReading) and self._continuous_reading(m.joint):
-                    err = np.remainder(err + np.pi, 2.0 * np.pi) - np.pi  # a continuous joint's reading wraps
+            err = m.error(preds[m.key], measured, self.robot.model)
+            weights = m.row_sigmas()
             jac = dpreds.get(m.key)
             if m.incremental:
                 err = np.vstack([np.zeros((1, m.size)), preds[m.key][1:] - preds[m.key][:-1] - measured[1:]])
@@ -411,9 +354,6 @@ class CalibrationProblem:
         residual = np.concatenate(blocks)
         full = np.vstack(jblocks) if jacobian else None
         return Prediction(residual, full, errors, preds)
-
-    def _continuous_reading(self, joint: str) -> bool:
-        return bool(self.robot.model.joints[self.robot.model.getJointId(joint)].nq == 2)
 
     def _whiten(self, err: Array, jac: Array, weights: Array, absolute_jac: Array,
                 incremental: bool) -> tuple[Array, Array]:

@@ -18,14 +18,15 @@ from __future__ import annotations
 import fnmatch
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import DataError, NotFoundError, listing
-from pincal.identify.measurements import JointReading, Measurement
-from pincal.model.robot import Robot
+from pincal.identification.measurements import JointReading, Measurement
+from pincal.model.robot import Robot, Unit, joint_unit
 
 Array = npt.NDArray[np.float64]
 
@@ -34,8 +35,11 @@ AXES = ("x", "y", "z")
 #: Default parameter scales: the typical size of a geometric error [m] and [rad].
 LENGTH_SCALE = 1e-3
 ANGLE_SCALE = 1e-3
+#: What a parameter is: a joint origin's placement component, a loop anchor's, a joint reading's offset, the
+#: measurement frame's placement component, or a marker's offset component.
+ParameterKind = Literal["joint", "anchor", "offset", "base", "marker"]
 #: Parameter kinds that change the robot model itself (the others act in the measurement models).
-KINEMATIC_KINDS = ("joint", "anchor")
+KINEMATIC_KINDS: tuple[ParameterKind, ...] = ("joint", "anchor")
 
 
 @dataclass(frozen=True)
@@ -44,7 +48,7 @@ class Parameter:
 
     Attributes:
         name: Unique name (see module docstring).
-        kind: ``joint``, ``anchor``, ``offset``, ``base``, ``marker`` or ``device``.
+        kind: ``joint``, ``anchor``, ``offset``, ``base`` or ``marker``.
         target: Joint name, loop name, frame name, or device constant name.
         component: Index in (tx, ty, tz, rx, ry, rz) for placements, in (x, y, z) for markers.
         side: ``predecessor`` or ``successor`` for anchors.
@@ -52,11 +56,11 @@ class Parameter:
     """
 
     name: str
-    kind: str
+    kind: ParameterKind
     target: str
     component: int = 0
     side: str = ""
-    unit: str = "m"
+    unit: Unit = "m"
 
     @property
     def scale(self) -> float:
@@ -69,7 +73,7 @@ class Parameter:
         return (self.kind, self.target, self.side)
 
 
-def placement_parameters(kind: str, target: str, side: str = "",
+def placement_parameters(kind: ParameterKind, target: str, side: str = "",
                          components: Sequence[str] = COMPONENTS) -> list[Parameter]:
     """The parameters of one placement (a joint origin, a loop anchor, the base)."""
     prefix = {"joint": target, "anchor": f"{target}.{side}", "base": "base"}[kind]
@@ -77,7 +81,8 @@ def placement_parameters(kind: str, target: str, side: str = "",
                       "m" if c.startswith("t") else "rad") for c in components]
 
 
-def offset_parameter(joint: str, unit: str) -> Parameter:
+def offset_parameter(joint: str, unit: Unit) -> Parameter:
+    """The reading offset ``δq`` of a joint [m or rad]: ``q_true = q_read + δq``."""
     return Parameter(f"{joint}.offset", "offset", joint, 0, "", unit)
 
 
@@ -184,12 +189,6 @@ def movable_joints(robot: Robot) -> list[str]:
 
 def fixed_joints(robot: Robot) -> list[str]:
     return [f.name for f in robot.model.frames if f.type == pin.FrameType.FIXED_JOINT and f.name != "universe"]
-
-
-def joint_unit(robot: Robot, joint: str) -> str:
-    """``m`` for prismatic joints, ``rad`` otherwise."""
-    short = robot.model.joints[robot.model.getJointId(joint)].shortname()
-    return "m" if "Prismatic" in short or short.startswith("JointModelP") else "rad"
 
 
 def planar_normal(robot: Robot, tol: float = 1e-9) -> Array | None:

@@ -18,6 +18,7 @@ curvature of c times the residual is neglected, as in every Gauss–Newton metho
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
@@ -25,10 +26,10 @@ import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
-from pincal.identify.derivatives import KinematicSensitivity, frame_probe, right_jacobian
-from pincal.identify.measurements import Measurement, Pose, Position
-from pincal.identify.parameters import ParameterSet
-from pincal.identify.problem import CalibrationProblem, Observations, Prediction
+from pincal.identification.derivatives import KinematicSensitivity, frame_probe
+from pincal.identification.measurements import Measurement, SampleContext
+from pincal.identification.parameters import ParameterSet
+from pincal.identification.problem import CalibrationProblem, Observations, Prediction
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -54,7 +55,7 @@ class ImplicitProblem(CalibrationProblem):
                  observations: Observations) -> None:
         if not robot.loops:
             raise DataError(f"the implicit (IKM) formulation needs closed loops; '{robot.name}' has none: use FKM")
-        targets = [m for m in measurements if isinstance(m, (Position, Pose))]
+        targets = [m for m in measurements if m.locates_point]
         if len(targets) != 1 or len(measurements) != 1:
             raise DataError("the implicit (IKM) formulation takes exactly one position or pose measurement of the "
                             f"end effector; got {', '.join(m.key for m in measurements) or 'none'}")
@@ -64,31 +65,17 @@ class ImplicitProblem(CalibrationProblem):
     def row_samples(self) -> IntArray:
         return np.repeat(np.arange(self.observations.n_samples, dtype=np.int64), self.robot.closure.rows)
 
-    def _task(self, k: int, robot: Robot, data: pin.Data, base: pin.SE3, markers: dict[str, Array],
-              jac_v: bool) -> tuple[Array, Array | None]:
-        """Task residual (predicted − measured) of sample k and, optionally, its Jacobian over v."""
-        m = self.target
-        measured = self.observations.values[m.key][k]
-        placement = data.oMf[self.frame_ids[m.frame]]
-        marker = markers.get(m.frame, np.zeros(3)) if isinstance(m, Position) else np.zeros(3)
-        point = placement.act(marker)
-        rows = [base.act(point) - measured[:3]]
-        rel = None
-        if isinstance(m, Pose):
-            meas_rot = pin.Quaternion(*measured[[6, 3, 4, 5]]).normalized().matrix()
-            rel = meas_rot.T @ base.rotation @ placement.rotation
-            rows.append(pin.log3(rel))
-        t = np.concatenate(rows)
-        if not jac_v:
-            return t, None
-        local = pin.getFrameJacobian(robot.model, data, self.frame_ids[m.frame], pin.LOCAL)
-        lin = base.rotation @ placement.rotation @ (local[:3] - pin.skew(marker) @ local[3:])
-        if rel is None:
-            return t, lin
-        return t, np.vstack([lin, pin.Jlog3(rel) @ local[3:]])
+    def _task(self, over_v: SampleContext) -> tuple[Array, Array]:
+        """Task residual (predicted − measured) of the context's sample and its Jacobian over v: the target's
+        own model, given each frame's local Jacobian as its twist and no parameter columns (``over_v``)."""
+        m, model = self.target, over_v.model
+        over_v.twists = {f: pin.getFrameJacobian(model, over_v.data, over_v.frame_ids[f], pin.LOCAL) for f in m.frames}
+        predicted, jac = np.empty(m.size), np.zeros((m.size, model.nv))
+        m.predict(over_v, predicted, jac)
+        return m.error(predicted[None], over_v.measured(m.key)[None], model)[0], jac
 
-    def _close(self, k: int, robot: Robot, qa: Array, base: pin.SE3, markers: dict[str, Array],
-               tol: float = 1e-12, max_iter: int = 50) -> Array:
+    def _close(self, k: int, robot: Robot, qa: Array, over_v: SampleContext, tol: float = 1e-12,
+               max_iter: int = 50) -> Array:
         kin, model, data = robot.kinematics, robot.model, robot.kinematics.data
         cached = self._q_cache[k]
         q = (robot.q_reference if cached is None else cached).copy()
@@ -101,8 +88,8 @@ class ImplicitProblem(CalibrationProblem):
             pin.computeJointJacobians(model, data, q)
             pin.updateFramePlacements(model, data)
             c, cjac = robot.closure.residual_and_jacobian(data)
-            t, tjac = self._task(k, robot, data, base, markers, jac_v=True)
-            assert tjac is not None
+            over_v.q = q
+            t, tjac = self._task(over_v)
             cp, tp = cjac[:, passive], tjac[:, passive]
             tp_pinv, null = _split(tp)
             step_t = -tp_pinv @ t
@@ -130,38 +117,35 @@ class ImplicitProblem(CalibrationProblem):
         n, p, rows = self.observations.n_samples, len(self.parameters), robot.closure.rows
         sens = KinematicSensitivity(robot, self.parameters, x) if jacobian else None
         base_delta = self.parameters.placement_delta(x, self.base) if self.base else np.zeros(6)
-        base = pin.exp6(base_delta)
-        base_jac = right_jacobian(base_delta, [self.parameters.parameters[k].component for k in self.base])
-        markers = {f: x[idx] for f, idx in self.markers.items()}
+        ctx = self._context(model, data, x, base_delta)
+        over_v = replace(ctx, base_columns=[], marker_columns={}, reading_offsets={})  # task rows over v
         qa_all = self.actuated_values(x)
         residual = np.empty((n, rows))
         jac_out = np.zeros((n, rows, p)) if jacobian else None
         passive, act_v = kin.passive_v, kin.actuated_v
-        probe = frame_probe(robot, self.frame_ids[self.target.frame])
-        preds = {self.target.key: np.empty((n, self.target.size))}  # buffers reused by every sample
-        dpreds = {self.target.key: np.zeros((n, self.target.size, p))}
+        probes = {f: frame_probe(robot, self.frame_ids[f]) for f in self.target.frames}
         for k in range(n):
-            q = self._close(k, robot, qa_all[k], base, markers)
+            over_v.sample = ctx.sample = k
+            q = self._close(k, robot, qa_all[k], over_v)
             pin.computeJointJacobians(model, data, q)
             pin.updateFramePlacements(model, data)
             c, cjac = robot.closure.residual_and_jacobian(data)
             residual[k] = c
             if jac_out is None or sens is None:
                 continue
-            _, tjac = self._task(k, robot, data, base, markers, jac_v=True)
-            assert tjac is not None
+            over_v.q = ctx.q = q
+            _, tjac = self._task(over_v)
             # direct parameter sensitivities of the closure and of the task (passive joints held)
             dc = sens.closure_derivative(data)
             dv = np.zeros((model.nv, p))
             for joint, col in self.actuated_offsets:
                 dv[act_v[joint], col] = 1.0
                 dc[:, col] += cjac[:, act_v[joint]]
-            local = pin.getFrameJacobian(model, data, self.frame_ids[self.target.frame], pin.LOCAL)
-            twist = sens.probe_twist(data, probe) + local @ dv
-            dpreds[self.target.key][k] = 0.0
-            self._predict(self.target, x, k, q, robot, data, base, base_jac, markers, {self.target.frame: twist},
-                          dv, preds, dpreds)
-            dt = dpreds[self.target.key][k]
+            ctx.dv = dv
+            ctx.twists = {f: sens.probe_twist(data, probes[f])
+                          + pin.getFrameJacobian(model, data, self.frame_ids[f], pin.LOCAL) @ dv for f in probes}
+            dt = np.zeros((self.target.size, p))
+            self.target.predict(ctx, np.empty(self.target.size), dt)
             cp, tp = cjac[:, passive], tjac[:, passive]
             tp_pinv, null = _split(tp)
             a = cp @ null

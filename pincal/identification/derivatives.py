@@ -18,7 +18,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.identify.parameters import ParameterSet, _descends
+from pincal.identification.parameters import ParameterSet, _descends
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]

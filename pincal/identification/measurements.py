@@ -1,0 +1,368 @@
+"""Measurement models: what a sensor reads for a robot configuration, and its parameter derivative.
+
+Each model owns its maths: it predicts a small vector per sample from the sample's closed
+configuration and the local twists of the frames it looks at (a :class:`SampleContext`, built by
+:mod:`pincal.identification.problem`), writes that prediction's analytic Jacobian rows, and says how its
+error is formed from the measured values. The problem stacks whatever models it is given and never
+asks which kind: a new sensor is one subclass of :class:`Measurement`. All in SI units: positions
+[m] in the measurement frame, orientations as rotation vectors [rad], joint readings [rad or m].
+
+Keys (also the dataset column prefixes): ``position:<frame>``, ``pose:<frame>``,
+``distance:<a>-<b>``, ``distance_increment:<a>-<b>``, ``joint:<joint>``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.errors import DataError, NotFoundError, listing
+from pincal.model.robot import Robot
+
+Array = npt.NDArray[np.float64]
+
+#: Measurement kind (the key's prefix) -> the model that parses it, filled by each subclass's ``kinds``.
+KINDS: dict[str, type[Measurement]] = {}
+
+
+@dataclass
+class SampleContext:
+    """What a measurement model predicts from: one sample's kinematic state and the parameter columns.
+
+    The problem builds one per evaluation and sets the per-sample fields (``sample``, ``q``,
+    ``twists``, ``dv``) before each sample's predictions.
+
+    Attributes:
+        model: The robot model at the evaluated parameters.
+        data: Its data, frame placements (``oMf``) at ``q``.
+        x: (p,) parameter vector [m, rad], Jacobian columns in this order.
+        base: The placement of the robot in the measurement frame (world ← robot).
+        base_jacobian: (6, len(base_columns)) right Jacobian of ``base`` w.r.t. its parameters.
+        base_columns: Columns of the base parameters (empty: the base is known).
+        markers: Frame -> marker offset [m] in that frame (frames with marker parameters only).
+        marker_columns: Frame -> the columns of its marker offset.
+        reading_offsets: Joint -> the column of the zero offset of its (non-actuated) reading.
+        frame_ids: Frame name -> Pinocchio frame id, for every frame a model looks at.
+        values: Measurement key -> (N, width) measured values (row ``sample`` is this sample's).
+        sample: The sample's index.
+        q: (nq,) the sample's closed configuration.
+        twists: Frame -> (6, p) its local twist per unit parameter (empty without Jacobian).
+        dv: (nv, p) the configuration's velocity per unit parameter (None without Jacobian).
+    """
+
+    model: pin.Model
+    data: pin.Data
+    x: Array
+    base: pin.SE3
+    base_jacobian: Array
+    base_columns: list[int]
+    markers: dict[str, Array]
+    marker_columns: dict[str, list[int]]
+    reading_offsets: dict[str, int]
+    frame_ids: dict[str, int]
+    values: dict[str, Array]
+    sample: int = 0
+    q: Array = field(default_factory=lambda: np.zeros(0))
+    twists: dict[str, Array] = field(default_factory=dict)
+    dv: Array | None = None
+
+    def placement(self, frame: str) -> pin.SE3:
+        """The frame's placement in the robot's world frame at ``q``."""
+        return self.data.oMf[self.frame_ids[frame]]
+
+    def marker(self, frame: str) -> Array:
+        """The frame's marker offset [m] in the frame (zero without marker parameters)."""
+        return self.markers.get(frame, np.zeros(3))
+
+    def measured(self, key: str) -> Array:
+        """This sample's measured values of measurement ``key``."""
+        return self.values[key][self.sample]
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """Base class: ``key`` names the data columns, ``size`` the values per sample, ``sigma`` the
+    standard deviation of each value (same units) used to weight the residual.
+
+    A subclass implements :meth:`predict` (the prediction and its Jacobian rows) and, where they
+    differ from the defaults, the data columns, the error, the row units and σ, and :meth:`from_key`
+    with the ``kinds`` it parses.
+    """
+
+    kinds: ClassVar[tuple[str, ...]] = ()
+    #: Names of the data columns' components (``<key>:<component>``); empty: one per row, numbered.
+    components: ClassVar[tuple[str, ...]] = ()
+
+    key: str
+    size: int
+    sigma: float
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        for kind in cls.__dict__.get("kinds", ()):
+            KINDS[kind] = cls
+
+    @classmethod
+    def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
+        """The model of key ``kind:rest`` (``sigma`` None: the kind's default)."""
+        raise NotImplementedError(f"{cls.__name__} cannot be built from a key")
+
+    @property
+    def frames(self) -> tuple[str, ...]:
+        return ()
+
+    @property
+    def incremental(self) -> bool:
+        return False
+
+    @property
+    def locates_point(self) -> bool:
+        """Whether the first three values are a point's position [m] in the measurement frame (what
+        registers an unknown measurement frame, and what the IKM formulation holds fixed)."""
+        return False
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """The dataset's column names of this measurement, in the order of its values."""
+        names = self.components or tuple(str(i) for i in range(self.size))
+        return tuple(f"{self.key}:{c}" for c in names)
+
+    def row_units(self) -> list[str]:
+        return ["m"] * self.size
+
+    def row_sigmas(self) -> Array:
+        """σ of each residual row (same units as the row)."""
+        return np.full(self.size, self.sigma)
+
+    def check(self, robot: Robot) -> None:
+        """Raise NotFoundError if the robot lacks what this model looks at."""
+        for f in self.frames:
+            robot.frame_id(f)
+
+    def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
+        """Write the sample's prediction into ``out`` (size,) and, if ``jac`` is given, its derivative
+        w.r.t. the parameters into ``jac`` (size, p), which arrives zeroed."""
+        raise NotImplementedError(f"{type(self).__name__} does not predict")
+
+    def error(self, predicted: Array, measured: Array, model: pin.Model) -> Array:
+        """Predicted − measured, (N, size), from the predictions (N, size) and the data (N, width)."""
+        return predicted - measured
+
+
+@dataclass(frozen=True)
+class Position(Measurement):
+    """3D position of a frame's origin (plus an optional marker offset), e.g. by a laser tracker."""
+
+    kinds: ClassVar[tuple[str, ...]] = ("position",)
+    components: ClassVar[tuple[str, ...]] = ("x", "y", "z")
+
+    frame: str = ""
+
+    @classmethod
+    def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
+        return position(rest, sigma or 1e-5)
+
+    @property
+    def frames(self) -> tuple[str, ...]:
+        return (self.frame,)
+
+    @property
+    def locates_point(self) -> bool:
+        return True
+
+    def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
+        _predict_point(ctx, self.frame, ctx.marker(self.frame), out, jac)
+        if jac is not None and self.frame in ctx.marker_columns:
+            jac[:3, ctx.marker_columns[self.frame]] = ctx.base.rotation @ ctx.placement(self.frame).rotation
+
+
+@dataclass(frozen=True)
+class Pose(Measurement):
+    """6D pose of a frame: position [m] then the rotation vector ``log3(R_measᵀ R)`` [rad].
+
+    ``sigma`` weights the position rows; ``sigma_angle`` the orientation rows.
+    """
+
+    kinds: ClassVar[tuple[str, ...]] = ("pose",)
+    components: ClassVar[tuple[str, ...]] = ("x", "y", "z", "qx", "qy", "qz", "qw")
+
+    frame: str = ""
+    sigma_angle: float = 1e-4
+
+    @classmethod
+    def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
+        return pose(rest, sigma or 1e-5, sigma or 1e-5)
+
+    @property
+    def frames(self) -> tuple[str, ...]:
+        return (self.frame,)
+
+    @property
+    def locates_point(self) -> bool:
+        return True
+
+    def row_units(self) -> list[str]:
+        return ["m", "m", "m", "rad", "rad", "rad"]
+
+    def row_sigmas(self) -> Array:
+        return np.array([self.sigma] * 3 + [self.sigma_angle] * 3)
+
+    def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
+        """Position as :class:`Position` (no marker: a pose is of the frame itself), then
+        ``log3(R_measᵀ R_base R)`` with derivative ``Jlog3 · ω`` (ω: the frame's local angular twist)."""
+        placement = ctx.placement(self.frame)
+        _predict_point(ctx, self.frame, np.zeros(3), out, jac)
+        meas_rot = pin.Quaternion(*ctx.measured(self.key)[[6, 3, 4, 5]]).normalized().matrix()
+        rel = meas_rot.T @ ctx.base.rotation @ placement.rotation
+        out[3:] = pin.log3(rel)
+        if jac is not None:
+            jlog = pin.Jlog3(rel)
+            jac[3:] = jlog @ ctx.twists[self.frame][3:]
+            if ctx.base_columns:
+                jac[3:, ctx.base_columns] = jlog @ placement.rotation.T @ ctx.base_jacobian[3:]
+
+    def error(self, predicted: Array, measured: Array, model: pin.Model) -> Array:
+        """The position rows less the measured position; the rotation rows are already relative."""
+        err = predicted.copy()
+        err[:, :3] -= measured[:, :3]
+        return err
+
+
+@dataclass(frozen=True)
+class Distance(Measurement):
+    """Distance between two frames' origins [m]; ``increment`` for a scale reset between readings
+    (each value is the change since the previous sample, so the scale's zero drops out)."""
+
+    kinds: ClassVar[tuple[str, ...]] = ("distance", "distance_increment")
+    components: ClassVar[tuple[str, ...]] = ("d",)
+
+    frame_a: str = ""
+    frame_b: str = ""
+    increment: bool = False
+
+    @classmethod
+    def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
+        a, sep, b = rest.partition("-")
+        if not sep:
+            raise DataError(f"measurement '{kind}:{rest}' must name two frames as {kind}:frameA-frameB")
+        return distance(a, b, sigma or 1e-6, increment=kind == "distance_increment")
+
+    @property
+    def frames(self) -> tuple[str, ...]:
+        return (self.frame_a, self.frame_b)
+
+    @property
+    def incremental(self) -> bool:
+        return self.increment
+
+    def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
+        """``d = ‖a − b‖`` with derivative ``uᵀ (∂a − ∂b)``, ``u = (a − b)/d``."""
+        pa, ma = ctx.placement(self.frame_a), ctx.marker(self.frame_a)
+        pb, mb = ctx.placement(self.frame_b), ctx.marker(self.frame_b)
+        diff = pa.act(ma) - pb.act(mb)
+        dist = float(np.linalg.norm(diff))
+        if dist < 1e-12:
+            raise DataError(f"measurement '{self.key}': frames '{self.frame_a}' and '{self.frame_b}' coincide at "
+                            f"sample {ctx.sample} (a zero distance has no direction): measure between two distinct "
+                            "points")
+        out[0] = dist
+        if jac is not None:
+            u = diff / dist
+            jac[0] = u @ (point_derivative(pa, ctx.twists[self.frame_a], ma)
+                          - point_derivative(pb, ctx.twists[self.frame_b], mb))
+            for frame, placement, sign in ((self.frame_a, pa, 1.0), (self.frame_b, pb, -1.0)):
+                if frame in ctx.marker_columns:
+                    jac[0, ctx.marker_columns[frame]] += sign * (u @ placement.rotation)
+
+
+@dataclass(frozen=True)
+class JointReading(Measurement):
+    """A passive joint's encoder (or an instrumented measuring chain's sensor) [rad or m]."""
+
+    kinds: ClassVar[tuple[str, ...]] = ("joint",)
+
+    joint: str = ""
+
+    @classmethod
+    def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
+        return joint_reading(rest, sigma or 1e-5)
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        return (self.joint,)
+
+    def check(self, robot: Robot) -> None:
+        if not robot.model.existJointName(self.joint):
+            raise NotFoundError(f"measurement '{self.key}' reads joint '{self.joint}', which does not exist; joints "
+                                f"are: {listing(robot.model.names[1:])}")
+
+    def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
+        """The joint's value (a continuous joint's angle from its cos, sin); with a zero offset δq the
+        sensor reads ``q_true − δq`` (``q_true = q_read + δq``)."""
+        jm = ctx.model.joints[ctx.model.getJointId(self.joint)]
+        q = ctx.q
+        value = q[jm.idx_q] if jm.nq == 1 else np.arctan2(q[jm.idx_q + 1], q[jm.idx_q])
+        out[0] = value
+        if jac is not None and ctx.dv is not None:
+            jac[0] = ctx.dv[jm.idx_v]
+        offset = ctx.reading_offsets.get(self.joint)
+        if offset is not None:
+            out[0] = value - ctx.x[offset]
+            if jac is not None:
+                jac[0, offset] -= 1.0
+
+    def error(self, predicted: Array, measured: Array, model: pin.Model) -> Array:
+        err = predicted - measured
+        if model.joints[model.getJointId(self.joint)].nq == 2:  # a continuous joint's reading wraps
+            err = np.remainder(err + np.pi, 2.0 * np.pi) - np.pi
+        return err
+
+
+def _predict_point(ctx: SampleContext, frame: str, marker: Array, out: Array, jac: Array | None) -> None:
+    """Rows 0–2: the world position [m] of ``marker`` fixed in ``frame``, and its derivative (the
+    point's motion, then the base's ``R_base [I, −p̂] J_r``)."""
+    placement = ctx.placement(frame)
+    local_point = placement.act(marker)
+    out[:3] = ctx.base.act(local_point)
+    if jac is not None:
+        jac[:3] = ctx.base.rotation @ point_derivative(placement, ctx.twists[frame], marker)
+        if ctx.base_columns:
+            jac[:3, ctx.base_columns] = (ctx.base.rotation @ np.hstack([np.eye(3), -pin.skew(local_point)])
+                                         @ ctx.base_jacobian)
+
+
+def position(frame: str, sigma: float = 1e-5) -> Position:
+    return Position(f"position:{frame}", 3, sigma, frame)
+
+
+def pose(frame: str, sigma: float = 1e-5, sigma_angle: float = 1e-5) -> Pose:
+    return Pose(f"pose:{frame}", 6, sigma, frame, sigma_angle)
+
+
+def distance(frame_a: str, frame_b: str, sigma: float = 1e-6, increment: bool = False) -> Distance:
+    kind = "distance_increment" if increment else "distance"
+    return Distance(f"{kind}:{frame_a}-{frame_b}", 1, sigma, frame_a, frame_b, increment)
+
+
+def joint_reading(joint: str, sigma: float = 1e-5) -> JointReading:
+    return JointReading(f"joint:{joint}", 1, sigma, joint)
+
+
+def parse_key(key: str, sigma: float | None = None) -> Measurement:
+    """A measurement model from its key, e.g. ``position:end_effector`` or ``distance:o1-o2``."""
+    kind, _, rest = key.partition(":")
+    if not rest:
+        raise DataError(f"measurement '{key}' is not of the form kind:frame; kinds are {', '.join(KINDS)}")
+    if kind not in KINDS:
+        raise DataError(f"unknown measurement kind '{kind}' in '{key}'; kinds are {', '.join(KINDS)}")
+    return KINDS[kind].from_key(kind, rest, sigma)
+
+
+def point_derivative(placement: pin.SE3, twist: Array, point: Array) -> Array:
+    """d(world position of ``point`` fixed in a frame)/dθ from the frame's local twist (6 × n)."""
+    rot = placement.rotation
+    return rot @ (twist[:3] - pin.skew(point) @ twist[3:])

@@ -1,1 +1,0 @@
-"""Identification: parameters, measurement models, FKM/IKM problems, solvers, identifiability."""
