@@ -72,6 +72,13 @@ class Simulation:
     measurements: list[Measurement]
 
 
+def check_movable(robot: Robot) -> None:
+    """Refuse a robot with no actuated joint: nothing moves, so no posture can be drawn or told apart."""
+    if robot.n_actuated == 0:
+        raise DataError(f"robot '{robot.name}' has no actuated joint: nothing moves, there is nothing to simulate or "
+                        "calibrate")
+
+
 def check_sample_counts(n_train: int, n_test: int) -> None:
     """Refuse sample counts :func:`simulate` cannot give: no training sample, or more than a calibration takes.
 
@@ -101,6 +108,7 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
         progress: Show a progress bar while drawing postures (on a terminal).
     """
     check_sample_counts(n_train, n_test)
+    check_movable(robot)
     rng = np.random.default_rng(seed)
     models = measurement_models(robot, kinds, frame, max(noise, 1e-9))
     pset = choose_parameters(robot, models, parameter_spec)
@@ -185,6 +193,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     Raises:
         DataError: no training sample (every row is ``set=test``, or none can be assembled).
     """
+    check_movable(robot)
     if formulation not in FORMULATIONS:
         raise DataError(f"unknown formulation '{formulation}'; formulations are: {listing(FORMULATIONS)}")
     if max_iter < 1:

@@ -4,7 +4,9 @@ traceback; files as spreadsheets write them are read."""
 from __future__ import annotations
 
 import json
+import os
 import signal
+import stat
 import subprocess
 import time
 from pathlib import Path
@@ -200,3 +202,43 @@ def test_data_recorded_on_another_robot_are_refused_by_name(tmp_path: Path) -> N
     assert done.returncode == 0, done.stderr
     line = one_line_error(run_pincal("calibrate", "ur5", str(tmp_path / "sim" / "measurements.csv")))
     assert "its '# robot: ur10' line says the data are of robot 'ur10', not of 'ur5'" in line
+
+
+def test_an_output_onto_a_pipe_or_device_is_refused_and_left_alone(five_bar_data: Path, tmp_path: Path) -> None:
+    """A rename over a FIFO or a device node would replace it with a regular file (once, /dev/full)."""
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    line = one_line_error(run_pincal("calibrate", "five_bar", str(five_bar_data), "--report", str(fifo)))
+    assert f"--report '{fifo}' is not a regular file" in line
+    assert stat.S_ISFIFO(fifo.stat().st_mode)
+
+
+def test_a_column_for_a_mimic_joint_is_named(tmp_path: Path) -> None:
+    sim = tmp_path / "sim"
+    assert run_pincal("simulate", "panda", "--samples", "12", "--quiet", "--out", str(sim)).returncode == 0
+    text = (sim / "measurements.csv").read_text().splitlines()
+    header = next(k for k, line in enumerate(text) if not line.startswith("#"))
+    text[header] += ",panda_finger_joint2"
+    text[header + 1:] = [line + ",0.01" for line in text[header + 1:]]
+    data = tmp_path / "with_mimic.csv"
+    data.write_text("\n".join(text) + "\n")
+    line = one_line_error(run_pincal("calibrate", "panda", str(data)))
+    assert "joint 'panda_finger_joint2' is a <mimic> joint, which follows its leader" in line
+
+
+def test_a_robot_with_nothing_to_move_is_refused(tmp_path: Path) -> None:
+    urdf = tmp_path / "rigid.urdf"
+    urdf.write_text('<robot name="rigid"><link name="a"/><link name="b"/><joint name="j" type="fixed"><parent '
+                    'link="a"/><child link="b"/></joint></robot>')
+    line = one_line_error(run_pincal("simulate", str(urdf), "--out", str(tmp_path / "sim")))
+    assert "robot 'rigid' has no actuated joint: nothing moves" in line
+
+
+def test_a_fit_far_above_the_stated_noise_says_so_first(tmp_path: Path) -> None:
+    """Readings with 10 µm noise, stated as 10 nm: the residuals stay ~1000 × σ."""
+    assert run_pincal("simulate", "delta", "--samples", "40", "--seed", "1", "--quiet", "--out",
+                      str(tmp_path)).returncode == 0
+    done = run_pincal("calibrate", "delta", str(tmp_path / "measurements.csv"), "--parameters", "model24",
+                      "--sigma", "1e-8")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("THE FIT DOES NOT REACH THE STATED NOISE")

@@ -28,7 +28,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0 if calibration is None or calibration.result.converged else 1
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``report`` command."""
     report = sub.add_parser(
         "report", help="calibrate and write one offline HTML report (numbers, figures, 3D scene)",

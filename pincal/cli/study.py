@@ -225,7 +225,7 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
 
 
 # --- command line --------------------------------------------------------------------------------
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``design`` and ``montecarlo`` commands."""
     design = sub.add_parser(
         "design", help="choose the postures to measure: best conditioned among random candidates",

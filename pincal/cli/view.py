@@ -69,7 +69,7 @@ def cmd_view(args: argparse.Namespace) -> int:
     return 0 if calibration is None or calibration.result.converged else 1
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``view`` command."""
     view = sub.add_parser(
         "view", help="3D scene: nominal vs calibrated robot, measured points, errors (HTML or meshcat)",

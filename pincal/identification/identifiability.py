@@ -387,6 +387,6 @@ def correlations(cov: npt.ArrayLike) -> Array:
     if bad.size:
         raise DataError(f"variances must be positive; diagonal entries {bad.tolist()} are {variances[bad].tolist()}")
     std = np.sqrt(variances)
-    rho = C / np.outer(std, std)
+    rho: Array = C / np.outer(std, std)
     np.fill_diagonal(rho, 1.0)
     return rho

@@ -80,7 +80,8 @@ class SampleContext:
 
     def measured(self, key: str) -> Array:
         """This sample's measured values of measurement ``key``."""
-        return self.values[key][self.sample]
+        values: Array = self.values[key][self.sample]
+        return values
 
 
 @dataclass(frozen=True)
@@ -365,4 +366,5 @@ def parse_key(key: str, sigma: float | None = None) -> Measurement:
 def point_derivative(placement: pin.SE3, twist: Array, point: Array) -> Array:
     """d(world position of ``point`` fixed in a frame)/dθ from the frame's local twist (6 × n)."""
     rot = placement.rotation
-    return rot @ (twist[:3] - pin.skew(point) @ twist[3:])
+    derivative: Array = rot @ (twist[:3] - pin.skew(point) @ twist[3:])
+    return derivative

@@ -16,7 +16,7 @@ The values of a :class:`ParameterSet` are deviations from the nominal robot (zer
 from __future__ import annotations
 
 import fnmatch
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -26,7 +26,9 @@ import pinocchio as pin
 
 from pincal.errors import DataError, NotFoundError, listing
 from pincal.identification.measurements import JointReading, Measurement
-from pincal.model.robot import Robot, Unit, joint_unit
+from pincal.model.robot import Robot
+from pincal.model.robot import Unit as Unit
+from pincal.model.robot import joint_unit as joint_unit
 
 Array = npt.NDArray[np.float64]
 
@@ -346,8 +348,9 @@ def _named(robot: Robot, names: list[str], set_name: str) -> ParameterSet:
     return ParameterSet([pool.parameters[pool.index(n)] for n in names])
 
 
-NAMED_SETS = {"model24": model24, "model24i": model24_identifiable, "hexapod42": hexapod42,
-              "hexapod44": lambda robot: hexapod42(robot, device=True)}
+NAMED_SETS: dict[str, Callable[[Robot], ParameterSet]] = {
+    "model24": model24, "model24i": model24_identifiable, "hexapod42": hexapod42,
+    "hexapod44": lambda robot: hexapod42(robot, device=True)}
 
 
 # --- applying parameters ---------------------------------------------------------------------------

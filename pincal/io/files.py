@@ -44,7 +44,15 @@ def check_outputs(outputs: Iterable[tuple[str, str | Path]], inputs: Iterable[st
         seen[target] = f"{what} '{path}'"
         if target.is_dir():
             raise OutputError(f"{what} '{path}' is a directory; give a file name")
+        _check_regular(target, f"{what} '{path}'")
         make_directory(target.parent, f"{what} '{path}'")
+
+
+def _check_regular(target: Path, what: str) -> None:
+    """Refuse an existing output that is not a regular file: a rename would replace a device or a pipe."""
+    if target.exists() and not target.is_file() and not target.is_dir():
+        raise OutputError(f"{what} is not a regular file (a device, a pipe or a socket); pincal writes regular files "
+                          "only: give a file name")
 
 
 def make_directory(directory: str | Path, what: str) -> Path:
@@ -99,6 +107,7 @@ def _staged(target: Path, text: str) -> str:
     """``text`` written to a temporary file beside ``target``, with ``target``'s permissions; its path."""
     if target.is_dir():
         raise OutputError(f"output '{target}' is a directory; give a file name")
+    _check_regular(target, f"output '{target}'")
     try:
         mode = target.stat().st_mode & 0o7777
     except OSError:

@@ -113,7 +113,8 @@ class LoopClosure:
     def _rows(self, lp: _Loop, m: pin.SE3) -> Array:
         kind = lp.spec.type
         if kind == "spherical":
-            return m.translation
+            translation: Array = m.translation
+            return translation
         if kind == "fixed":
             return np.concatenate([m.translation, pin.log3(m.rotation)])
         if kind == "revolute":
@@ -142,10 +143,11 @@ class LoopClosure:
 
     def _rows_from_twist(self, lp: _Loop, m: pin.SE3, twist: Array) -> Array:
         if lp.spherical:  # velocity of c2's origin in c1: v + ω × p
-            return twist[:3] - pin.skew(m.translation) @ twist[3:]
+            velocity: Array = twist[:3] - pin.skew(m.translation) @ twist[3:]
+            return velocity
         body = m.inverse().action @ twist  # body twist of c2 relative to c1, in c2
         rot = m.rotation
-        lin = rot @ body[:3]
+        lin: Array = rot @ body[:3]
         kind = lp.spec.type
         if kind == "spherical":
             return lin

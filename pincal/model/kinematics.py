@@ -48,12 +48,14 @@ def damped_pseudo_inverse(jac: Array, damping: float = 1e-12) -> Array | None:
     """
     rows, cols = jac.shape
     if rows == cols:
+        inverse: Array
         _, _, inverse, info = lapack.dgesv(jac, _identity(rows))
         if info == 0 and float(abs(inverse).max()) < 1e8:
             return inverse
     h = jac.T @ jac
     n = h.shape[0]
     h.flat[:: n + 1] += damping * (1.0 + float(np.trace(h)) / n)
+    gain: Array
     _, _, gain, info = lapack.dgesv(h, jac.T, overwrite_a=1)
     return None if info != 0 else gain
 
@@ -74,6 +76,7 @@ def damped_gauss_newton_step(jac: Array, residual: Array, damping: float = 1e-12
     h = jac.T @ jac
     n = h.shape[0]
     h.flat[:: n + 1] += damping * (1.0 + float(np.trace(h)) / n)
+    step: Array
     _, _, step, info = lapack.dgesv(h, jac.T @ residual, overwrite_a=1, overwrite_b=1)
     if info != 0:
         return None
@@ -152,7 +155,8 @@ class ClosedLoopKinematics:
     def actuated_values(self, q: Array) -> Array:
         """Actuated values [rad or m] read from ``q``."""
         if self._all_scalar:
-            return q[self._scalar_q].copy()
+            values: Array = q[self._scalar_q].copy()
+            return values
         out = np.empty(len(self.actuated))
         for k, joint in enumerate(self.actuated):
             if joint.nq == 1:
@@ -327,7 +331,8 @@ class ClosedLoopKinematics:
         """Frame Jacobian (6 × nv) at ``q`` in ``reference``; the closure Jacobian is left in data."""
         pin.computeJointJacobians(self.model, self.data, q)
         pin.updateFramePlacement(self.model, self.data, frame_id)
-        return pin.getFrameJacobian(self.model, self.data, frame_id, reference)
+        jac: Array = pin.getFrameJacobian(self.model, self.data, frame_id, reference)
+        return jac
 
     def frame_jacobian_actuated(self, q: Array, frame_id: int,
                                 reference: pin.ReferenceFrame = pin.LOCAL_WORLD_ALIGNED) -> Array:

@@ -375,7 +375,8 @@ def _swapped_information(b: Array, gram: Array, info: Array, selected: list[int]
     """Information matrices (N, p, p) of the set with position ``pos`` replaced by each candidate."""
     old = selected[pos]
     if not difference:
-        return info - gram[old] + gram
+        swapped: Array = info - gram[old] + gram
+        return swapped
     out = np.broadcast_to(info, gram.shape).copy()
     if pos > 0:
         prev = b[selected[pos - 1]]

@@ -64,7 +64,8 @@ class Visual:
 
 def _cylinder_along_z(origin: pin.SE3) -> Array:
     # meshcat cylinders run along y, URDF ones along z
-    return origin.homogeneous @ pin.SE3(pin.utils.rotate("x", math.pi / 2), np.zeros(3)).homogeneous
+    homogeneous: Array = origin.homogeneous @ pin.SE3(pin.utils.rotate("x", math.pi / 2), np.zeros(3)).homogeneous
+    return homogeneous
 
 
 def _mesh_geometry(path: Path) -> Any:
