@@ -5,7 +5,9 @@ from __future__ import annotations
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 
 import pincal
@@ -38,3 +40,16 @@ def delta() -> pincal.Robot:
 @pytest.fixture(scope="session")
 def delta_text() -> str:
     return (ROBOTS / "delta.urdf").read_text()
+
+
+def finite_difference_jacobian(problem: Any, x: np.ndarray, eps: float = 1e-7) -> np.ndarray:
+    """Central differences of ``problem.evaluate(x).residual`` w.r.t. each parameter: what the analytic
+    Jacobians are checked against (finite differences nowhere else)."""
+    columns = []
+    for k in range(x.size):
+        step = np.zeros(x.size)
+        step[k] = eps
+        plus = problem.evaluate(x + step, jacobian=False).residual
+        minus = problem.evaluate(x - step, jacobian=False).residual
+        columns.append((plus - minus) / (2 * eps))
+    return np.column_stack(columns)

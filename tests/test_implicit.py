@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import finite_difference_jacobian
 
 import pincal
 from pincal.errors import DataError
@@ -33,22 +34,12 @@ def _delta(n: int, seed: int, base_only: bool = True):
     return robot, pset, x_true, ImplicitProblem(robot, pset, models, obs)
 
 
-def _finite_differences(problem: ImplicitProblem, x: np.ndarray, eps: float = 1e-7) -> np.ndarray:
-    cols = []
-    for k in range(x.size):
-        step = np.zeros(x.size)
-        step[k] = eps
-        plus, minus = problem.evaluate(x + step, False), problem.evaluate(x - step, False)
-        cols.append((plus.residual - minus.residual) / (2 * eps))
-    return np.column_stack(cols)
-
-
 def test_residual_vanishes_at_the_truth_and_jacobian_matches() -> None:
     _, _, x_true, problem = _delta(10, seed=1, base_only=False)
     pred = problem.evaluate(x_true)
     assert np.max(np.abs(pred.residual)) * problem.target.sigma < 1e-11  # metres
     assert pred.jacobian is not None
-    fd = _finite_differences(problem, x_true)
+    fd = finite_difference_jacobian(problem, x_true)
     assert np.max(np.abs(pred.jacobian - fd)) < 1e-5 * np.max(np.abs(fd))
 
 

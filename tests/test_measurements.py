@@ -8,6 +8,7 @@ from typing import ClassVar
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import finite_difference_jacobian
 
 import pincal
 from pincal.errors import DataError
@@ -41,17 +42,6 @@ class Height(ms.Measurement):
                 jac[0, ctx.base_columns] = (ctx.base.rotation @ base_motion)[2]
 
 
-def _finite_differences(problem: CalibrationProblem, x: np.ndarray, eps: float = 1e-7) -> np.ndarray:
-    columns = []
-    for k in range(x.size):
-        step = np.zeros(x.size)
-        step[k] = eps
-        plus = problem.evaluate(x + step, jacobian=False).residual
-        minus = problem.evaluate(x - step, jacobian=False).residual
-        columns.append((plus - minus) / (2 * eps))
-    return np.column_stack(columns)
-
-
 @pytest.mark.parametrize(("name", "frame"), [("delta", "end_effector"), ("ur10", "tool0")])
 def test_a_new_sensor_is_one_class(name: str, frame: str) -> None:
     robot = pincal.load_robot(name)
@@ -70,7 +60,7 @@ def test_a_new_sensor_is_one_class(name: str, frame: str) -> None:
     assert pred.jacobian is not None
     assert pred.jacobian.shape == (4 * 4, len(pset))
     assert np.array_equal(problem.row_samples(), np.concatenate([np.repeat(np.arange(4), 3), np.arange(4)]))
-    fd = _finite_differences(problem, x)
+    fd = finite_difference_jacobian(problem, x)
     assert np.max(np.abs(pred.jacobian - fd)) < 1e-5 * np.max(np.abs(fd))
 
 

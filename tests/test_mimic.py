@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import ROBOTS, run_pincal
+from conftest import ROBOTS, finite_difference_jacobian, run_pincal
 
 import pincal
 from pincal.identification import measurements as ms
@@ -44,12 +44,7 @@ def test_parameter_jacobian_through_a_follower_matches_finite_differences() -> N
     x = rng.normal(scale=1e-3, size=len(pool))
     jac = problem.evaluate(x).jacobian
     assert jac is not None
-    step = 1e-7
-    fd = np.empty_like(jac)
-    for k in range(len(x)):
-        e = np.zeros(len(x))
-        e[k] = step
-        fd[:, k] = (problem.evaluate(x + e, False).residual - problem.evaluate(x - e, False).residual) / (2 * step)
+    fd = finite_difference_jacobian(problem, x)
     assert np.abs(jac - fd).max() <= 1e-7 * np.abs(jac).max()
 
 

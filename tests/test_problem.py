@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import finite_difference_jacobian
 
 import pincal
 from pincal.identification import measurements as ms
@@ -51,14 +52,7 @@ def test_measurement_jacobians_match_finite_differences(name: str) -> None:
     x = rng.normal(scale=1e-3, size=len(pset))
     jac = problem.evaluate(x).jacobian
     assert jac is not None
-    eps = 1e-7
-    fd = np.empty_like(jac)
-    for k in range(len(pset)):
-        step = np.zeros(len(pset))
-        step[k] = eps
-        plus = problem.evaluate(x + step, jacobian=False).residual
-        minus = problem.evaluate(x - step, jacobian=False).residual
-        fd[:, k] = (plus - minus) / (2 * eps)
+    fd = finite_difference_jacobian(problem, x)
     scale = np.max(np.abs(fd))
     worst = np.max(np.abs(jac - fd), axis=0) / scale
     assert worst.max() < 2e-5, f"worst column {pset.names[int(np.argmax(worst))]}: {worst.max():.2e}"

@@ -13,6 +13,8 @@ Keys (also the dataset column prefixes): ``position:<frame>``, ``pose:<frame>``,
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -25,8 +27,10 @@ from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
 
-#: Measurement kind (the key's prefix) -> the model that parses it, filled by each subclass's ``kinds``.
-KINDS: dict[str, type[Measurement]] = {}
+#: Builds a model from a key's kind, the rest of the key and σ (None: the kind's default).
+KeyParser = Callable[[str, str, float | None], "Measurement"]
+#: Measurement kind (the key's prefix) -> how to build its model: each subclass's ``from_key``, for its ``kinds``.
+KINDS: dict[str, KeyParser] = {}
 
 
 @dataclass
@@ -85,13 +89,14 @@ class SampleContext:
 
 
 @dataclass(frozen=True)
-class Measurement:
+class Measurement(ABC):
     """Base class: ``key`` names the data columns, ``size`` the values per sample, ``sigma`` the
     standard deviation of each value (same units) used to weight the residual.
 
     A subclass implements :meth:`predict` (the prediction and its Jacobian rows) and, where they
-    differ from the defaults, the data columns, the error, the row units and σ, and :meth:`from_key`
-    with the ``kinds`` it parses.
+    differ from the defaults, the data columns, the error, the row units and σ. A subclass that declares
+    the key ``kinds`` it parses also defines ``from_key(kind, rest, sigma)``, a classmethod building its
+    model from a key.
     """
 
     kinds: ClassVar[tuple[str, ...]] = ()
@@ -104,13 +109,11 @@ class Measurement:
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        for kind in cls.__dict__.get("kinds", ()):
-            KINDS[kind] = cls
-
-    @classmethod
-    def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
-        """The model of key ``kind:rest`` (``sigma`` None: the kind's default)."""
-        raise NotImplementedError(f"{cls.__name__} cannot be built from a key")
+        kinds = cls.__dict__.get("kinds", ())
+        if kinds and "from_key" not in cls.__dict__:
+            raise TypeError(f"{cls.__name__} declares the key kinds {kinds} but no from_key to build itself from a key")
+        for kind in kinds:
+            KINDS[kind] = cls.__dict__["from_key"].__get__(None, cls)
 
     @property
     def frames(self) -> tuple[str, ...]:
@@ -144,10 +147,10 @@ class Measurement:
         for f in self.frames:
             robot.frame_id(f)
 
+    @abstractmethod
     def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
         """Write the sample's prediction into ``out`` (size,) and, if ``jac`` is given, its derivative
         w.r.t. the parameters into ``jac`` (size, p), which arrives zeroed."""
-        raise NotImplementedError(f"{type(self).__name__} does not predict")
 
     def error(self, predicted: Array, measured: Array, model: pin.Model) -> Array:
         """Predicted − measured, (N, size), from the predictions (N, size) and the data (N, width)."""
@@ -360,7 +363,7 @@ def parse_key(key: str, sigma: float | None = None) -> Measurement:
         raise DataError(f"measurement '{key}' is not of the form kind:frame; kinds are {', '.join(KINDS)}")
     if kind not in KINDS:
         raise DataError(f"unknown measurement kind '{kind}' in '{key}'; kinds are {', '.join(KINDS)}")
-    return KINDS[kind].from_key(kind, rest, sigma)
+    return KINDS[kind](kind, rest, sigma)
 
 
 def point_derivative(placement: pin.SE3, twist: Array, point: Array) -> Array:
