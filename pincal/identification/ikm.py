@@ -111,6 +111,11 @@ class ImplicitProblem(CalibrationProblem):
         raise ConvergenceError(f"sample {k}: the implicit (IKM) solve did not converge: the measured pose may be "
                                "unreachable with these readings, or the parameters far off")
 
+    def settle_assembly(self, x: Array) -> list[int]:
+        """Nothing to settle: an IKM configuration holds the measured pose, not forward kinematics (each
+        starts from the reference assembly's FK answer when first closed)."""
+        return []
+
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
         robot = self.robot_at(x)
         model, data, kin = robot.model, robot.kinematics.data, robot.kinematics
@@ -215,6 +220,11 @@ class ChainProblem:
 
     def initial_guess(self) -> Array:
         return self.x_fixed[self.columns].copy()
+
+    def settle_assembly(self, x: Array) -> list[int]:
+        full = self.x_fixed.copy()
+        full[self.columns] = x
+        return self.full.settle_assembly(full)
 
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
         full = self.x_fixed.copy()

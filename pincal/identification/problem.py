@@ -86,6 +86,16 @@ class Problem(Protocol):
 
     def initial_guess(self) -> Array: ...
 
+    def settle_assembly(self, x: Array) -> list[int]: ...
+
+
+#: Largest coordinate gap [rad or m] between a remembered configuration and the reference assembly's that
+#: still counts as the same configuration (FK closes the loops to 1e-11).
+SAME_CONFIGURATION = 1e-6
+#: A sample whose configuration travelled less than this [rad or m] during a fit is still on the assembly it
+#: started on: errors of millimetres move joints by milliradians, another assembly is a tenth of a radian away.
+SETTLED_TRAVEL = 0.05
+
 
 class CalibrationProblem:
     """Residuals and Jacobians of one robot, parameter set, measurement set and dataset.
@@ -130,6 +140,9 @@ class CalibrationProblem:
         # warm start of its next solve (of a first solve, a solved sample's: see _nearest_solution)
         self._q_cache: list[Array | None] = [None] * observations.n_samples
         self._qa_solved = np.full((observations.n_samples, robot.n_actuated), np.nan)
+        # how far each sample's configuration has travelled (sum of max coordinate changes) since it was last
+        # known to be on the reference assembly: only a sample that moved can have left it
+        self._travel = np.zeros(observations.n_samples)
         self.rows_per_sample = sum(m.size for m in self.measurements)
 
     def _joint_sigma(self, joint_sigma: float | Sequence[float] | None) -> Array | None:
@@ -211,6 +224,9 @@ class CalibrationProblem:
             raise ConvergenceError(f"sample {k}: forward kinematics did not converge for actuated readings "
                                    f"{np.array2string(qa, precision=6)} (closure residual {report.residual:.3g}); "
                                    "the sample may be outside the workspace or the parameters far off")
+        previous = self._q_cache[k]
+        if previous is not None:
+            self._travel[k] += float(np.max(np.abs(report.q - previous)))
         self._q_cache[k] = report.q
         self._qa_solved[k] = qa
         return report.q
@@ -238,6 +254,35 @@ class CalibrationProblem:
         for k in self.base:
             x[k] = delta[self.parameters.parameters[k].component]
         return x
+
+    def settle_assembly(self, x: Array) -> list[int]:
+        """Samples whose remembered configuration at ``x`` is not on the reference assembly, each reset to it.
+
+        Warm starts follow each sample's assembly from one parameter estimate to the next; a long LM step
+        (a gross outlier pulls one) can carry a sample onto another assembly that continuation from the
+        reference would not reach at ``x``. One cold solve per sample (continuation from the reference)
+        tells, for the samples whose configuration travelled more than :data:`SETTLED_TRAVEL` since they were
+        last checked; a tree has nothing to close and returns at once.
+        """
+        if not self.robot.loops:
+            return []
+        travelled = np.flatnonzero(self._travel > SETTLED_TRAVEL)
+        self._travel[:] = 0.0
+        if travelled.size == 0:
+            return []
+        robot = self.robot_at(x)
+        qa = self.actuated_values(x)
+        moved = []
+        for k in travelled:
+            remembered = self._q_cache[k]
+            if remembered is None:
+                continue
+            report = robot.kinematics.solve_fk(qa[k], None, SOLVE_TOLERANCE)
+            gap = np.abs(pin.difference(robot.model, remembered, report.q)) if report.converged else None
+            if gap is not None and float(gap.max()) > SAME_CONFIGURATION:
+                self._q_cache[k] = report.q
+                moved.append(int(k))
+        return moved
 
     def _nearest_solution(self, robot: Robot, qa: Array) -> Array | None:
         """The configuration of the solved sample nearest in actuated values, if within one continuation

@@ -37,7 +37,7 @@ import numpy.typing as npt
 from threadpoolctl import threadpool_limits
 
 from pincal import linalg
-from pincal.errors import DataError, IdentifiabilityError
+from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
 from pincal.identification import lm
 from pincal.identification.identifiability import Identifiability, analyse, correlations, covariance
 from pincal.identification.ikm import ChainProblem, ImplicitProblem, chain_blocks
@@ -145,13 +145,25 @@ def sample_squares(problem: Problem, residual: Array) -> tuple[Array, IntArray]:
     return squares, np.bincount(samples, minlength=n).astype(np.int64)
 
 
+#: Internal loss of ``auto``'s robust start: least trimmed squares over the best-fitting :data:`TRIM_KEEP` of the
+#: samples, chosen afresh at each step (concentration steps, Rousseeuw & Van Driessen 2006).
+TRIMMED = "trimmed"
+TRIM_KEEP = 0.5
+
+
 def _sample_weights(problem: Problem, pred: Prediction, loss: str) -> Array:
     """Per-sample robust weights (IRLS). Cauchy: ``w = 1 / (1 + (e / (c·s))²)`` with ``e`` a sample's
-    weighted residual norm and ``s`` its median over samples / 0.6745 — no threshold set by hand."""
+    weighted residual norm and ``s`` its median over samples / 0.6745 — no threshold set by hand.
+    Trimmed: 1 for the :data:`TRIM_KEEP` share of samples that fit best, 0 for the others."""
     n = problem.observations.n_samples
     if loss == "linear":
         return np.ones(n)
     norms = np.sqrt(sample_squares(problem, pred.residual)[0])
+    if loss == TRIMMED:  # least trimmed squares: the best-fitting share of the samples, the others out
+        keep = np.argsort(norms, kind="stable")[:math.ceil(TRIM_KEEP * n)]
+        weights = np.zeros(n)
+        weights[keep] = 1.0
+        return weights
     scale = float(np.median(norms)) / 0.6745
     scale = max(scale, 1e-300)
     return np.asarray(1.0 / (1.0 + (norms / (CAUCHY_C * scale)) ** 2), dtype=np.float64)
@@ -226,39 +238,98 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: Solver, loss: Los
     if lm.at_floor(first.errors_after, lm.exact_fit_floors(problem, lm.FLOOR_SIGMA_FRACTION)):  # nothing to reject
         first.extra["outlier_test"] = []
         return first
-    suspects = outlier_samples(problem, problem.evaluate(first.x, jacobian=False), first.identifiability.rank)
+    # gross outliers can pull the least-squares fit where the loops no longer close: then every start is robust
+    pred = lm.evaluated(problem, first.x, jacobian=False)
+    suspects = outlier_samples(problem, pred, first.identifiability.rank) if pred is not None else []
     first.extra["outlier_test"] = suspects
-    if not suspects:
+    if pred is not None and not suspects:
         return first
     # the least-squares fit leans towards clustered outliers (samples of one region all off one way), and a
-    # Cauchy refit from there can keep them: refit from the starting point too, and keep the fit whose
-    # median sample residual is the smaller (least median of squares decides between the two)
-    candidates = [_identify(problem, start, solver, "cauchy", **options) for start in (first.x, first.x0)]
-    second = min(candidates, key=lambda fit: _median_sample_residual(problem, fit.x))
-    other = candidates[1] if second is candidates[0] else candidates[0]
-    second.seconds += other.seconds
-    second.extra["other_refit_iterations"] = other.iterations
-    second.x0 = first.x0
-    second.errors_before = first.errors_before
-    second.iterations += first.iterations
-    second.cost_history = first.cost_history + second.cost_history
-    second.seconds += first.seconds
-    for key in ("rejected_steps", "evaluations", "accelerated_steps", "rank_changes"):
-        second.extra[key] = int(first.extra.get(key, 0)) + int(second.extra.get(key, 0))  # type: ignore[call-overload]
+    # Cauchy refit from there can keep them; so can one from the start, where they pull as hard. A third start
+    # fits only the best-fitting half of the samples (least trimmed squares from the start: a cluster that is
+    # off by more than the nominal errors is left out). Each start is refit with the Cauchy loss, and the fit
+    # whose median sample residual is the smallest is kept (least median of squares decides)
+    # (a start from which the model cannot be evaluated, far from any assembly, is left out)
+    trimmed = _attempt(problem, first.x0, solver, TRIMMED, **options)
+    starts = [first.x, first.x0] + ([trimmed.x] if trimmed is not None else [])
+    fits = [fit for fit in (_attempt(problem, start, solver, "cauchy", **options) for start in starts)
+            if fit is not None]
+    scored = [(median, k) for k, median in enumerate(_median_sample_residual(problem, fit.x) for fit in fits)
+              if math.isfinite(median)]
+    if not scored:
+        first.extra["outlier_test"] = suspects
+        return first
+    second = fits[min(scored)[1]]
+    others = [fit for fit in fits if fit is not second] + ([trimmed] if trimmed is not None else [])
+    second.extra["other_refit_iterations"] = sum(c.iterations for c in others)
+    second.seconds += sum(c.seconds for c in others)
+    second = _chained(first, second)
     second.extra["first_pass_iterations"] = first.iterations
     second.loss = "auto (cauchy)"
     second.extra["outlier_test"] = suspects
     return second
 
 
+#: The solver's counters, summed when one fit continues another.
+COUNTERS = ("rejected_steps", "evaluations", "accelerated_steps", "rank_changes")
+
+
+def _chained(first: CalibrationResult, then: CalibrationResult) -> CalibrationResult:
+    """``then``, a fit that followed ``first``, accounted as one: ``first``'s start and errors before, both
+    fits' iterations, cost history, time and counters."""
+    then.x0, then.errors_before = first.x0, first.errors_before
+    then.iterations += first.iterations
+    then.cost_history = first.cost_history + then.cost_history
+    then.seconds += first.seconds
+    for key in COUNTERS:
+        then.extra[key] = int(first.extra.get(key, 0)) + int(then.extra.get(key, 0))  # type: ignore[call-overload]
+    return then
+
+
+def _attempt(problem: Problem, x0: Array, solver: Solver, loss: str, **options: Any) -> CalibrationResult | None:
+    """:func:`_identify`, or None when the model cannot be evaluated along the way (one of ``auto``'s robust
+    starts may lead where the loops do not close)."""
+    try:
+        return _identify(problem, x0, solver, loss, **options)
+    except ConvergenceError:
+        return None
+
+
 def _median_sample_residual(problem: Problem, x: Array) -> float:
     """Median over samples of the squared weighted residual norm at ``x`` (the least-median-of-squares
-    criterion: blind to up to half the samples being off)."""
-    squares, dims = sample_squares(problem, problem.evaluate(x, jacobian=False).residual)
+    criterion: blind to up to half the samples being off); infinite where the model cannot be evaluated."""
+    pred = lm.evaluated(problem, x, jacobian=False)
+    if pred is None:
+        return math.inf
+    squares, dims = sample_squares(problem, pred.residual)
     return float(np.median(squares[dims > 0]))
 
 
-def _identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: Loss = "linear",
+#: Refits after samples were found off the reference assembly (each refit starts where the last ended).
+MAX_RESETTLES = 3
+
+
+def _identify(problem: Problem, x0: Array | None, solver: Solver, loss: str, **options: Any) -> CalibrationResult:
+    """:func:`_fit`, then refit while some sample's remembered configuration proves to be off the reference
+    assembly at the estimate (:meth:`~pincal.identification.problem.CalibrationProblem.settle_assembly`): its
+    residual was measured on the wrong robot posture, so the fit and its robust weights are redone."""
+    result = _fit(problem, x0, solver, loss, **options)
+    moved_all: list[int] = []
+    for _ in range(MAX_RESETTLES):
+        moved = problem.settle_assembly(result.x)
+        if not moved:
+            break
+        moved_all += moved
+        try:
+            result = _chained(result, _fit(problem, result.x, solver, loss, **options))
+        except ConvergenceError:  # some sample does not assemble at all there: the caller decides
+            break
+    if moved_all:
+        result.extra["resettled_samples"] = sorted(set(moved_all))
+    return result
+
+
+def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: str = "linear",
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              min_information: float = 0.0,
              tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False) -> CalibrationResult:
@@ -295,7 +366,7 @@ def _identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", 
     """
     if solver not in SOLVERS:
         raise DataError(f"unknown solver '{solver}'; solvers are: {', '.join(SOLVERS)}")
-    if loss not in LOSSES:
+    if loss not in (*LOSSES, TRIMMED):
         raise DataError(f"unknown loss '{loss}'; losses are: {', '.join(LOSSES)}")
     start = time.perf_counter()
     pset = problem.parameters
