@@ -16,7 +16,7 @@ from typing import Any, Literal, get_args
 import numpy as np
 import numpy.typing as npt
 
-from pincal.errors import DataError, NotFoundError, listing
+from pincal.errors import ConvergenceError, DataError, listing
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.measurements import JointReading, Measurement, Pose, parse_key
 from pincal.identification.parameters import ParameterSet, choose_parameters, joint_unit
@@ -54,11 +54,10 @@ def measurement_models(robot: Robot, kinds: Sequence[str], frame: str | None, si
     for kind in kinds:
         key = f"{kind}:{frame}" if kind in ("position", "pose") else kind
         model = parse_key(key, sigma)
-        if isinstance(model, JointReading) and not robot.model.existJointName(model.joint):
-            raise NotFoundError(f"measurement '{key}' reads joint '{model.joint}', which '{robot.name}' does not "
-                                f"have; joints are: {listing(robot.model.names[1:])}")
-        for name in model.frames:
-            robot.frame_id(name)  # NotFoundError naming the frame and the valid ones
+        model.check(robot)  # NotFoundError naming the frame or joint and the valid ones
+        if isinstance(model, JointReading) and model.joint in robot.actuated_joints:
+            raise DataError(f"measurement '{key}' reads actuated joint '{model.joint}', whose reading is every "
+                            "sample's input; joint: measurements are for instrumented passive joints")
         out.append(model)
     return out
 
@@ -114,7 +113,11 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
     pset = choose_parameters(robot, models, parameter_spec)
     x_true = perturbation(pset, perturb, rng)
     qa, _ = random_actuated(robot, n_train + n_test, rng, progress=progress)
-    obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise)
+    try:
+        obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise)
+    except ConvergenceError as exc:
+        raise ConvergenceError(f"the simulated robot, with true errors of σ {perturb:g} (m, rad), cannot be "
+                               f"assembled: {exc}; give smaller errors (perturb)") from None
     joint_names = list(robot.actuated_joints)
     joints = [obs.actuated]
     measured: dict[str, Array] = {}

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 import pytest
+from conftest import run_pincal
 from dask.distributed import Client, LocalCluster
 
 import pincal
@@ -47,3 +48,21 @@ def test_fleet_serial_pool_and_dask_agree(fleet: tuple[Path, list[FleetJob]]) ->
             Client(cluster) as client:
         distributed = calibrate_fleet(jobs, executor=client.get_executor())
     assert _reports(distributed) == _reports(serial)
+
+
+def test_the_fleet_command_accounts_for_each_robot(fleet: tuple[Path, list[FleetJob]], tmp_path: Path) -> None:
+    """Held-out errors, the samples fitted, dropped and down-weighted, and the verdict, per robot; a broken
+    file is named and makes the run exit 1."""
+    root, _ = fleet
+    done = run_pincal("fleet", "delta", str(root / "data"), "--out", str(tmp_path / "out"), "--parameters",
+                      "model24i", "--workers", "2")
+    assert done.returncode == 1, done.stderr  # delta_99.csv is broken
+    lines = done.stdout.splitlines()
+    assert lines[0].split() == ["robot", "held", "out", "before", "held", "out", "after", "fitted", "dropped",
+                                "down-weighted", "status"]
+    rows = {line.split()[0]: line for line in lines[1:] if line.startswith("delta_")}
+    for k in range(4):
+        cells = rows[f"delta_{k:02d}"].split()
+        assert cells[2] == "mm" and cells[4] == "mm" and float(cells[3]) < 0.1 * float(cells[1])
+        assert cells[5:8] == ["25", "0", "0"] and cells[8] == "converged"
+    assert "failed: DataError" in rows["delta_99"]

@@ -66,3 +66,34 @@ def test_a_duplicated_loop_is_refused_at_load_not_at_simulate(tmp_path: Path) ->
         pincal.load_robot(bad)
     done = run_pincal("simulate", str(bad), "--samples", "3", "--quiet", "--out", str(tmp_path / "sim"))
     assert done.returncode == 2 and "a duplicated or redundant loop" in done.stderr
+
+
+def test_a_directory_or_a_device_given_as_the_robot_is_named_as_such(tmp_path: Path) -> None:
+    done = run_pincal("info", str(tmp_path))
+    assert done.returncode == 2 and f"robot file '{tmp_path}' is a directory" in done.stderr
+    done = run_pincal("info", "/dev/null")
+    assert done.returncode == 2 and "robot file '/dev/null' is not a regular file" in done.stderr
+
+
+def test_a_link_with_two_parent_joints_is_named(tmp_path: Path) -> None:
+    text = (ROBOTS / "delta.urdf").read_text()
+    joint = re.search(r'<joint name="end_effector_joint".*?</joint>', text, re.S)
+    assert joint is not None
+    bad = tmp_path / "two_parents.urdf"
+    bad.write_text(text.replace(joint.group(0), joint.group(0) + joint.group(0).replace(
+        'name="end_effector_joint"', 'name="second_parent"'), 1))
+    done = run_pincal("info", str(bad))
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert "link 'end_effector' is the child of 2 joints (end_effector_joint, second_parent)" in done.stderr
+
+
+def test_a_chain_too_long_for_pinocchio_data_is_refused_at_once(tmp_path: Path) -> None:
+    """Pinocchio's data grow with the cube of the chain: a 3000-joint chain once ended as 'out of memory'."""
+    links = "".join(f'<link name="l{k}"/>' for k in range(202))
+    joints = "".join(f'<joint name="j{k}" type="revolute"><parent link="l{k - 1}"/><child link="l{k}"/>'
+                     '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+                     for k in range(1, 202))
+    chain = tmp_path / "chain.urdf"
+    chain.write_text(f'<robot name="chain">{links}{joints}</robot>')
+    done = run_pincal("info", str(chain))
+    assert done.returncode == 2 and "has 201 joints; pincal takes at most 200" in done.stderr

@@ -7,6 +7,7 @@ Every command reports problems as one line ``pincal: error: ...`` and exits with
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 from collections.abc import Sequence
@@ -77,9 +78,16 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     robot = load_robot(args.robot)
     check_sample_counts(args.samples, args.test_samples)
+    created = not Path(args.out).exists()
     simulation_outputs(robot, args.out)  # refused before any work: a file, an unwritable place, the robot's URDF
-    sim = simulate(robot, args.measure, args.samples, args.test_samples, frame=args.frame, perturb=args.perturb,
-                   noise=args.noise, seed=args.seed, parameter_spec=args.parameters, progress=not args.quiet)
+    try:
+        sim = simulate(robot, args.measure, args.samples, args.test_samples, frame=args.frame, perturb=args.perturb,
+                       noise=args.noise, seed=args.seed, parameter_spec=args.parameters, progress=not args.quiet)
+    except PincalError:
+        if created:  # the directory made above, still empty: nothing is left behind
+            with contextlib.suppress(OSError):
+                Path(args.out).rmdir()
+        raise
     paths = write_simulation(sim, Path(args.out))
     print(f"simulated {args.samples} + {args.test_samples} postures of '{robot.name}' with errors of "
           f"σ {args.perturb:g} "
@@ -262,15 +270,30 @@ def cmd_fleet(args: argparse.Namespace) -> int:
             results = calibrate_fleet(jobs, executor=client.get_executor())
     else:
         results = calibrate_fleet(jobs, workers=args.workers)
-    print(f"{'robot':<24}{'RMS before':>14}{'RMS after':>14}  status")
+    print(f"{'robot':<24}{'held out before':>16}{'held out after':>16}{'fitted':>8}{'dropped':>9}"
+          f"{'down-weighted':>15}  status")
     for r in results:
         if r.report is None:
-            print(f"{r.name:<24}{'-':>14}{'-':>14}  failed: {r.error}")
-        else:
-            print(f"{r.name:<24}{_mm(r.report['rms_before']):>14}{_mm(r.report['rms_after']):>14}  "
-                  f"{'converged' if r.report['converged'] else r.report['message']}")
-    print(f"wrote {args.out}/ (one calibrated URDF and one report JSON per robot)")
-    return 0 if all(r.ok for r in results) else 1
+            print(f"{r.name:<24}{'-':>16}{'-':>16}{'-':>8}{'-':>9}{'-':>15}  failed: {r.error}")
+            continue
+        report = r.report
+        print(f"{r.name:<24}{_mm(report.get('test_rms_before')):>16}{_mm(report.get('test_rms_after')):>16}"
+              f"{report['n_samples']:>8}{len(report['dropped_samples']):>9}{len(report['down_weighted']):>15}  "
+              f"{_verdict(report)}")
+    print(f"wrote {args.out}/ (one calibrated URDF and one report JSON per robot; the JSON names every dropped "
+          "and down-weighted sample)")
+    return 0 if all(r.report is not None and usable(r.report) for r in results) else 1
+
+
+def _verdict(report: dict[str, Any]) -> str:
+    """One robot's outcome in a word or two: what the summary's first line would say."""
+    if not report["converged"]:
+        return f"NOT CONVERGED ({report['message']})"
+    if report.get("worse_than_nominal"):
+        return "WORSE THAN NOMINAL"
+    if (report.get("sigma2") or 0.0) > NOISE_CONTRADICTED:
+        return f"converged; residuals {report['sigma2'] ** 0.5:.3g} × σ"
+    return "converged"
 
 
 class _Parser(argparse.ArgumentParser):

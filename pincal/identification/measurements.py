@@ -301,8 +301,11 @@ class JointReading(Measurement):
 
     def check(self, robot: Robot) -> None:
         if not robot.model.existJointName(self.joint):
-            raise NotFoundError(f"measurement '{self.key}' reads joint '{self.joint}', which does not exist; joints "
-                                f"are: {listing(robot.model.names[1:])}")
+            raise NotFoundError(f"measurement '{self.key}' reads joint '{self.joint}', which '{robot.name}' does not "
+                                f"have; joints are: {listing(robot.model.names[1:])}")
+        if robot.model.joints[robot.model.getJointId(self.joint)].nv == 0:
+            raise DataError(f"measurement '{self.key}': joint '{self.joint}' is a <mimic> joint, which follows its "
+                            "leader and has no reading of its own; remove its column")
 
     def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
         """The joint's value (a continuous joint's angle from its cos, sin); with a zero offset δq the

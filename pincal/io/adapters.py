@@ -58,9 +58,6 @@ def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_column
             if not robot.model.existJointName(joint):
                 raise DataError(f"column '{joint}' is not a joint of '{robot.name}'; joints are: "
                                 f"{listing(robot.model.names[1:])}")
-            if robot.model.joints[robot.model.getJointId(joint)].nv == 0:
-                raise DataError(f"column '{joint}': joint '{joint}' is a <mimic> joint, which follows its leader and "
-                                "has no reading of its own; remove the column")
             models.append(joint_reading(joint, sigma or channel_sigma(f"joint:{joint}", meta, None) or 1e-5))
     return models
 

@@ -226,7 +226,7 @@ def _layout(header: list[str], line: int, required: Sequence[str], known: Sequen
     for i, name in enumerate(header):
         if name in (SAMPLE_COLUMN, SET_COLUMN):
             continue
-        if ":" not in name:
+        if ":" not in name or name in required or (known is not None and name in known):  # joint names may hold ':'
             joints[name] = i
             continue
         key, _, component = name.rpartition(":")

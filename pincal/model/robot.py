@@ -279,6 +279,10 @@ def _build_model(text: str, source: str) -> pin.Model:
     raise RobotFileError(f"{source}: Pinocchio cannot build the model: {detail}")
 
 
+#: Most non-fixed joints a robot may have: Pinocchio's data for one 200-joint chain take 0.6 GB.
+MAX_JOINTS = 200
+
+
 def load_robot(path: str | Path) -> Robot:
     """Load a robot from a URDF file, or by name (``delta``, ``hexapod``, ``ur10``, ``panda``, ...).
 
@@ -295,10 +299,14 @@ def load_robot(path: str | Path) -> Robot:
     """
     p = Path(path)
     try:
-        is_file = p.is_file()
+        is_file, is_dir, exists = p.is_file(), p.is_dir(), p.exists()
     except OSError:  # e.g. a name longer than the file system allows
-        is_file = False
+        is_file = is_dir = exists = False
     if not is_file:
+        if is_dir:
+            raise RobotFileError(f"robot file '{path}' is a directory; give a URDF file or a known robot name")
+        if exists:
+            raise RobotFileError(f"robot file '{path}' is not a regular file (a device, a pipe or a socket)")
         if p.suffix or "/" in str(path):
             raise RobotFileError(f"robot file '{path}' does not exist")
         p = robot_path(str(path))
@@ -315,6 +323,9 @@ def robot_from_urdf_text(text: str, source: Path | None = None) -> Robot:
     ext = read_extensions(text, where)
     check_finite_origins(text, where)
     model = _build_model(text, where)
+    if model.njoints - 1 > MAX_JOINTS:
+        raise RobotFileError(f"{where} has {model.njoints - 1} joints; pincal takes at most {MAX_JOINTS} (Pinocchio's "
+                             "working data grow with the cube of the chain length: 1.8 GB for 300 joints)")
     if ext.loops:
         actuated = ext.transmitted_joints
     else:

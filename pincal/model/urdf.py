@@ -161,6 +161,15 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
                 raise RobotFileError(f"{source}: duplicate {kind} name '{n}'")
             seen.add(n)
     links = set(link_list)
+    parents: dict[str, list[str]] = {}
+    for joint in root.findall("joint"):
+        child = joint.find("child")
+        if child is not None:
+            parents.setdefault(child.get("link", ""), []).append(joint.get("name", ""))
+    for link, named in parents.items():
+        if len(named) > 1:
+            raise RobotFileError(f"{source}: link '{link}' is the child of {len(named)} joints ({listing(named)}); a "
+                                 "URDF is a tree: cut a closed chain with a <loop> element (README, Loops in URDF)")
     for tag in ("loop", "transmission"):  # Pinocchio ignores them anywhere; pincal reads only top-level ones
         top = {id(n) for n in root.findall(tag)}
         for parent in root.iter():
