@@ -63,6 +63,7 @@ class KinematicSensitivity:
         self.has_mimic = any(model.joints[j].nv == 0 for j in range(1, model.njoints))  # <mimic> joints
         self.fixed: list[tuple[int, pin.SE3, int, list[int], Array]] = []
         self.anchor_terms: dict[tuple[str, str], tuple[list[int], Array]] = {}
+        self._fixed_cache: dict[int, list[tuple[list[int], Array]]] = {}  # id(probe) -> its fixed-joint terms
         for (kind, target, side), idx in pset.groups("joint", "anchor").items():
             comps = [pset.parameters[k].component for k in idx]
             jexp = right_jacobian(pset.placement_delta(x, idx), comps)
@@ -95,11 +96,20 @@ class KinematicSensitivity:
             twist = np.zeros((6, self.n))
         else:
             twist = self._regressor(data, probe) @ self.joint_map
-        for fid, placement, parent, idx, jexp in self.fixed:
-            if parent == probe.joint and _descends(self.model, probe.link_frame, fid):
-                local = placement.inverse() * probe.placement
-                twist[:, idx] += local.inverse().action @ jexp
+        for idx, term in self._fixed_terms(probe):
+            twist[:, idx] += term
         return twist
+
+    def _fixed_terms(self, probe: Probe) -> list[tuple[list[int], Array]]:
+        """The probe's twist per unit fixed-joint parameter, for the fixed joints on its link chain: constant
+        over samples (a placement relative to the probe), so built once per probe."""
+        terms = self._fixed_cache.get(id(probe))
+        if terms is None:
+            terms = [(idx, (placement.inverse() * probe.placement).inverse().action @ jexp)
+                     for fid, placement, parent, idx, jexp in self.fixed
+                     if parent == probe.joint and _descends(self.model, probe.link_frame, fid)]
+            self._fixed_cache[id(probe)] = terms
+        return terms
 
     def _regressor(self, data: pin.Data, probe: Probe) -> Array:
         """Local twist of a probe (6 × 6(njoints - 1)) per unit local motion of each joint placement."""

@@ -14,7 +14,6 @@ import numpy.typing as npt
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
-from pincal.identification.measurements import Pose
 from pincal.identification.problem import Prediction, Problem
 from pincal.model.robot import SOLVE_TOLERANCE
 
@@ -133,8 +132,7 @@ def exact_fit_floors(problem: Problem, sigma_fraction: float,
     numerical = amplification * SOLVE_TOLERANCE
     floors: dict[str, Array] = {}
     for m in getattr(problem, "measurements", []):
-        sigma = np.array([m.sigma] * 3 + [m.sigma_angle] * 3) if isinstance(m, Pose) else np.full(m.size, m.sigma)
-        floors[m.key] = np.maximum(sigma_fraction * sigma, numerical)
+        floors[m.key] = np.maximum(sigma_fraction * m.row_sigmas(), numerical)
     floors[""] = np.array([min((float(np.min(f)) for f in floors.values()), default=numerical)])
     return floors
 

@@ -70,6 +70,23 @@ def _joint_axis_motion(model: pin.Model, joint: str, value: float) -> pin.SE3:
     return joint_motion(model, jid, q)
 
 
+def _offset_motions(model: pin.Model, joint: str, value: float) -> dict[str, pin.SE3]:
+    """The motion, as a placement, of every joint that ``joint`` at ``value`` [rad or m] moves: the joint
+    itself and its ``<mimic>`` followers (Pinocchio moves them with it)."""
+    q = pin.neutral(model)
+    rest = model.createData()
+    pin.forwardKinematics(model, rest, q)
+    jm = model.joints[model.getJointId(joint)]
+    if jm.nq == 1:
+        q[jm.idx_q] = value
+    else:
+        q[jm.idx_q:jm.idx_q + 2] = [math.cos(value), math.sin(value)]
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    return {str(model.names[j]): model.jointPlacements[j].inverse() * data.liMi[j] for j in range(1, model.njoints)
+            if not np.array_equal(data.liMi[j].homogeneous, rest.liMi[j].homogeneous)}
+
+
 def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterSet, x: Array,
                           note: str = "", read_joints: Sequence[str] = (),
                           measurement_frame: str = MEASUREMENT_FRAME) -> tuple[str, dict[str, float]]:
@@ -139,17 +156,10 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
             loop = loops[target]
             base = loop.predecessor_origin if side == "predecessor" else loop.successor_origin
             loop_origins[(target, side)] = base * exp
-    free_model: pin.Model | None = None
     for k, p in enumerate(parameters):
         if p.kind == "offset" and p.target in robot.actuated_joints and x[k] != 0.0:
-            motion = _joint_axis_motion(robot.model, p.target, x[k])
-            joint_origins[p.target] = joint_origins.get(p.target, root[p.target]) * motion
-            for follower, (leader, multiplier) in ext.mimics.items():  # a follower moves with its leader's offset
-                if leader == p.target:
-                    if free_model is None:
-                        free_model = pin.buildModelFromXML(source_text)  # the follower as a joint of its own
-                    motion = _joint_axis_motion(free_model, follower, multiplier * x[k])
-                    joint_origins[follower] = joint_origins.get(follower, root[follower]) * motion
+            for name, motion in _offset_motions(robot.model, p.target, x[k]).items():
+                joint_origins[name] = joint_origins.get(name, root[name]) * motion
     shifts = _reassemble(robot, source_text, joint_origins, loop_origins, root) if ext.loops else {}
     tree = ET.fromstring(source_text)
     fixed_links = _measurement_frame_link(tree, parameters, x, joint_origins, root, measurement_frame)

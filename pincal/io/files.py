@@ -17,6 +17,17 @@ from pathlib import Path
 from pincal.errors import OutputError
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+#: Permissions of a new output file, as ``open`` would give it (read once: setting the umask to read it is not
+#: thread-safe).
+NEW_FILE_MODE = 0o666 & ~_umask()
+
+
 def _resolved(path: str | Path) -> Path:
     return Path(path).expanduser().resolve()
 
@@ -42,15 +53,16 @@ def check_outputs(outputs: Iterable[tuple[str, str | Path]], inputs: Iterable[st
         if target in seen:
             raise OutputError(f"{what} '{path}' is the same file as {seen[target]}; give each output its own name")
         seen[target] = f"{what} '{path}'"
-        if target.is_dir():
-            raise OutputError(f"{what} '{path}' is a directory; give a file name")
-        _check_regular(target, f"{what} '{path}'")
+        _refuse_non_file(target, f"{what} '{path}'")
         make_directory(target.parent, f"{what} '{path}'")
 
 
-def _check_regular(target: Path, what: str) -> None:
-    """Refuse an existing output that is not a regular file: a rename would replace a device or a pipe."""
-    if target.exists() and not target.is_file() and not target.is_dir():
+def _refuse_non_file(target: Path, what: str) -> None:
+    """Refuse an existing output that is not a regular file: a directory, or a device or pipe that a rename
+    would replace."""
+    if target.is_dir():
+        raise OutputError(f"{what} is a directory; give a file name")
+    if target.exists() and not target.is_file():
         raise OutputError(f"{what} is not a regular file (a device, a pipe or a socket); pincal writes regular files "
                           "only: give a file name")
 
@@ -105,15 +117,11 @@ def write_texts(files: Sequence[tuple[str | Path, str]]) -> list[Path]:
 
 def _staged(target: Path, text: str) -> str:
     """``text`` written to a temporary file beside ``target``, with ``target``'s permissions; its path."""
-    if target.is_dir():
-        raise OutputError(f"output '{target}' is a directory; give a file name")
-    _check_regular(target, f"output '{target}'")
+    _refuse_non_file(target, f"output '{target}'")
     try:
         mode = target.stat().st_mode & 0o7777
     except OSError:
-        umask = os.umask(0)
-        os.umask(umask)
-        mode = 0o666 & ~umask
+        mode = NEW_FILE_MODE
     try:
         handle, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".part")
     except OSError as exc:
