@@ -37,10 +37,35 @@ class OutputError(PincalError):
 
 
 class NotFoundError(PincalError, KeyError):
-    """A named robot, frame, joint or link does not exist."""
+    """A named robot, frame, joint, link or parameter does not exist.
+
+    Attributes:
+        kind: What was looked up (``frame``, ``joint``, ...), when known.
+        name: The name asked for.
+        choices: The names that exist.
+    """
+
+    def __init__(self, message: str, kind: str = "", name: str = "", choices: Iterable[str] = ()) -> None:
+        super().__init__(message)
+        self.kind, self.name, self.choices = kind, name, list(choices)
 
     def __str__(self) -> str:  # KeyError would otherwise quote the message
         return str(self.args[0]) if self.args else ""
+
+
+def not_found(kind: str, name: str, choices: Iterable[str], where: str = "", context: str = "") -> NotFoundError:
+    """The one wording of a failed lookup: ``{context}{kind} '{name}' does not exist{where}; {kind}s are: ...``.
+
+    Args:
+        kind: What was looked up (``frame``, ``joint``, ``parameter``).
+        name: The name asked for.
+        choices: The names that exist (listed, shortened past 30).
+        where: Where it was looked for, e.g. `` in robot 'delta'``.
+        context: Who asked, e.g. ``measurement 'joint:x': ``.
+    """
+    choices = list(choices)
+    return NotFoundError(f"{context}{kind} '{name}' does not exist{where}; {kind}s are: {listing(choices)}", kind,
+                         name, choices)
 
 
 def listing(names: Iterable[str], limit: int = 30) -> str:

@@ -131,7 +131,8 @@ def test_an_unexpected_exception_is_one_line_and_exit_3(monkeypatch: pytest.Monk
 def test_a_joint_reading_of_a_missing_joint_is_named_by_simulate(tmp_path: Path) -> None:
     line = one_line_error(run_pincal("simulate", "delta", "--samples", "5", "--measure", "joint:nojoint", "--out",
                                      str(tmp_path / "sim")))
-    assert "measurement 'joint:nojoint' reads joint 'nojoint', which 'delta' does not have" in line
+    assert "measurement 'joint:nojoint': joint 'nojoint' does not exist in robot 'delta'; joints are: arm_1_joint" \
+        in line
 
 
 @pytest.mark.parametrize("content", ["[]", '{"parameters": 1.5}', '{"parameters": {"a": {"value": "abc"}}}'])

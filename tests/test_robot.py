@@ -136,3 +136,14 @@ def test_shipped_files_load_as_trees_elsewhere(path: Path) -> None:
     assert np.max(np.abs(robot.closure_residual(robot.q_reference)), initial=0.0) < 1e-9
     assert robot.mobility() == robot.n_actuated
     assert "<!--" in path.read_text()[:200], "each robot file starts with a comment block giving its source"
+
+
+def test_a_failed_lookup_names_the_culprit_and_carries_the_choices(delta: pincal.Robot) -> None:
+    """One wording for every lookup: the kind, the name, where, and what exists (kept on the error too)."""
+    with pytest.raises(pincal.NotFoundError, match=r"^joint 'elbow' does not exist in robot 'delta'; joints are: "
+                                                   r"arm_1_joint, rod_1_pitch") as caught:
+        delta.joint_id("elbow")
+    assert caught.value.kind == "joint" and caught.value.name == "elbow" and "arm_2_joint" in caught.value.choices
+    with pytest.raises(pincal.NotFoundError, match=r"^frame 'tcp' does not exist in robot 'delta'") as caught:
+        delta.frame_id("tcp")
+    assert "end_effector" in caught.value.choices

@@ -28,13 +28,13 @@ from pincal.cli.options import (
     non_negative_int,
     positive_int,
 )
-from pincal.errors import DataError, NotFoundError, listing
-from pincal.identification.measurements import Distance, JointReading, Measurement, Pose
+from pincal.errors import DataError, listing
+from pincal.identification.measurements import Distance, Measurement, Pose
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.io.dataset import Dataset, write_dataset
 from pincal.io.files import check_outputs
-from pincal.model.robot import Robot, joint_unit, load_robot
+from pincal.model.robot import joint_unit, load_robot
 from pincal.study.montecarlo import MonteCarloResult, SimulatedCalibration, run_monte_carlo
 from pincal.study.pose_selection import (
     CRITERIA,
@@ -51,23 +51,6 @@ Array = npt.NDArray[np.float64]
 
 #: Random pose sets the selection is compared with.
 RANDOM_SETS = 200
-
-
-def checked_measurements(robot: Robot, kinds: list[str], frame: str | None) -> list[Measurement]:
-    """The measurement models of ``--measure``/``--frame``, every frame and joint they name checked.
-
-    Raises:
-        NotFoundError: a named frame or joint is not in the robot (the valid ones are listed).
-    """
-    models = measurement_models(robot, kinds, frame, 1e-5)
-    for m in models:
-        for name in m.frames:
-            robot.frame_id(name)
-        if isinstance(m, JointReading) and not robot.model.existJointName(m.joint):
-            joints = [str(name) for name in robot.model.names[1:]]
-            raise NotFoundError(f"measurement '{m.key}' reads joint '{m.joint}', which is not in robot "
-                                f"'{robot.name}'; joints are: {listing(joints)}")
-    return models
 
 
 # --- design --------------------------------------------------------------------------------------
@@ -120,7 +103,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     if args.candidates < 1 or not 1 <= args.poses <= args.candidates:
         raise DataError(f"cannot choose {args.poses} of {args.candidates} candidate postures: need "
                         "1 <= --poses <= --candidates")
-    models, difference = _absolute(checked_measurements(robot, args.measure, args.frame))
+    models, difference = _absolute(measurement_models(robot, args.measure, args.frame, 1e-5))
     pset = choose_parameters(robot, models, args.parameters)
     rng = np.random.default_rng(args.seed)
     qa, _ = random_actuated(robot, args.candidates, rng, progress=not args.quiet)
@@ -202,7 +185,7 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
         raise DataError(f"--workers must be at least 1, not {args.workers}")
     if any(not np.isfinite(v) or v < 0 for v in args.noise) or not args.perturb >= 0:
         raise DataError("--noise and --perturb must be non-negative σ values [m, rad]")
-    models = checked_measurements(robot, args.measure, args.frame)
+    models = measurement_models(robot, args.measure, args.frame, 1e-5)
     n_parameters = len(choose_parameters(robot, models, args.parameters))  # a bad pattern fails here, once
     source = str(Path(args.robot).resolve()) if Path(args.robot).is_file() else args.robot
     trial = SimulatedCalibration(source, tuple(m.key for m in models),

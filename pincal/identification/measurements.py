@@ -22,7 +22,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.errors import DataError, NotFoundError, listing
+from pincal.errors import DataError
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -31,6 +31,8 @@ Array = npt.NDArray[np.float64]
 KeyParser = Callable[[str, str, float | None], "Measurement"]
 #: Measurement kind (the key's prefix) -> how to build its model: each subclass's ``from_key``, for its ``kinds``.
 KINDS: dict[str, KeyParser] = {}
+#: Measurement kind -> its model class (its data columns' ``components``), in the order the kinds were declared.
+KIND_CLASSES: dict[str, type[Measurement]] = {}
 
 
 @dataclass
@@ -114,6 +116,7 @@ class Measurement(ABC):
             raise TypeError(f"{cls.__name__} declares the key kinds {kinds} but no from_key to build itself from a key")
         for kind in kinds:
             KINDS[kind] = cls.__dict__["from_key"].__get__(None, cls)
+            KIND_CLASSES[kind] = cls
 
     @property
     def frames(self) -> tuple[str, ...]:
@@ -250,10 +253,11 @@ class Distance(Measurement):
 
     @classmethod
     def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
-        a, sep, b = rest.partition("-")
-        if not sep:
-            raise DataError(f"measurement '{kind}:{rest}' must name two frames as {kind}:frameA-frameB")
-        return distance(a, b, sigma or 1e-6, increment=kind == "distance_increment")
+        pair = rest.split("-")
+        if len(pair) != 2 or not all(pair):
+            raise DataError(f"measurement '{kind}:{rest}' must name two frames as '{kind}:<frameA>-<frameB>' "
+                            "(frame names containing '-' cannot be used here)")
+        return distance(pair[0], pair[1], sigma or 1e-6, increment=kind == "distance_increment")
 
     @property
     def frames(self) -> tuple[str, ...]:
@@ -300,10 +304,8 @@ class JointReading(Measurement):
         return (self.joint,)
 
     def check(self, robot: Robot) -> None:
-        if not robot.model.existJointName(self.joint):
-            raise NotFoundError(f"measurement '{self.key}' reads joint '{self.joint}', which '{robot.name}' does not "
-                                f"have; joints are: {listing(robot.model.names[1:])}")
-        if robot.model.joints[robot.model.getJointId(self.joint)].nv == 0:
+        jid = robot.joint_id(self.joint, f"measurement '{self.key}': ")
+        if robot.model.joints[jid].nv == 0:
             raise DataError(f"measurement '{self.key}': joint '{self.joint}' is a <mimic> joint, which follows its "
                             "leader and has no reading of its own; remove its column")
 

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.errors import DataError, NotFoundError, listing
+from pincal.errors import DataError, NotFoundError, listing, not_found
 from pincal.identification.measurements import JointReading, Measurement
 from pincal.model.robot import Robot
 from pincal.model.robot import Unit as Unit
@@ -127,7 +127,7 @@ class ParameterSet:
         try:
             return self._index[name]
         except KeyError:
-            raise NotFoundError(f"no parameter '{name}'; parameters are: {listing(self.names)}") from None
+            raise not_found("parameter", name, self.names) from None
 
     def of_kind(self, *kinds: str) -> list[int]:
         """Indices of the parameters of the given kinds."""

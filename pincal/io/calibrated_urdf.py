@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.errors import ConvergenceError, DataError, NotFoundError, RobotFileError, listing
+from pincal.errors import ConvergenceError, DataError, RobotFileError, listing, not_found
 from pincal.identification.measurements import Measurement, Pose
 from pincal.identification.parameters import KINEMATIC_KINDS, ParameterSet
 from pincal.model.catalog import resolve_mesh_file
@@ -260,7 +260,7 @@ def _frame_link(tree: ET.Element, frame: str) -> str:
         child = node.find("child")
         if node.get("name") == frame and child is not None:
             return child.get("link", "")
-    raise NotFoundError(f"frame '{frame}' is neither a link nor a joint of the URDF; links are: {listing(links)}")
+    raise not_found("frame", frame, links, " in the URDF as a link or a joint")
 
 
 def _marker_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_origins: dict[str, pin.SE3],

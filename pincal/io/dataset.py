@@ -36,17 +36,15 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError, listing
+from pincal.identification.measurements import KIND_CLASSES, parse_key
 from pincal.io.files import write_text
 
 Array = npt.NDArray[np.float64]
 
-#: Measurement kinds and their components, in column (and array) order.
-MEASUREMENT_COMPONENTS: dict[str, tuple[str, ...]] = {
-    "position": ("x", "y", "z"),
-    "pose": ("x", "y", "z", "qx", "qy", "qz", "qw"),
-    "distance": ("d",),
-    "distance_increment": ("d",),
-}
+#: Measurement kinds with columns of their own, and their components in column (and array) order: each
+#: measurement model's (a joint reading is a joint column).
+MEASUREMENT_COMPONENTS: dict[str, tuple[str, ...]] = {kind: model.components for kind, model in KIND_CLASSES.items()
+                                                      if model.components}
 SAMPLE_COLUMN = "sample"
 SET_COLUMN = "set"
 SET_NAMES = ("train", "test")
@@ -78,13 +76,7 @@ def parse_measurement_key(key: str) -> tuple[str, tuple[str, ...]]:
     if kind not in MEASUREMENT_COMPONENTS:
         raise DataError(f"measurement '{key}' has unknown kind '{kind}'; kinds are: "
                         f"{listing(MEASUREMENT_COMPONENTS)}")
-    if kind.startswith("distance"):
-        pair = frames.split("-")
-        if len(pair) != 2 or not all(pair):
-            raise DataError(f"measurement '{key}' must name two frames as '{kind}:<frameA>-<frameB>' "
-                            "(frame names containing '-' cannot be used here)")
-        return kind, (pair[0], pair[1])
-    return kind, (frames,)
+    return kind, parse_key(key).frames  # the measurement model's own grammar
 
 
 def _is_increment(key: str) -> bool:

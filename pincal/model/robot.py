@@ -18,7 +18,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal import linalg
-from pincal.errors import ConvergenceError, DataError, LoopError, NotFoundError, RobotFileError, listing
+from pincal.errors import ConvergenceError, DataError, LoopError, RobotFileError, listing, not_found
 from pincal.model.catalog import robot_path
 from pincal.model.closure import LoopClosure
 from pincal.model.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveReport
@@ -61,10 +61,7 @@ class Robot:
         self.closure = LoopClosure(model, self.loops)
         actuated = []
         for joint in self.actuated_joints:
-            if not model.existJointName(joint):
-                raise NotFoundError(f"actuated joint '{joint}' is not in the model; joints are: "
-                                    f"{listing(model.names[1:])}")
-            jid = model.getJointId(joint)
+            jid = self.joint_id(joint, "actuated ")
             jm = model.joints[jid]
             if jm.nv != 1:
                 raise LoopError(f"actuated joint '{joint}' has {jm.nv} degrees of freedom; actuated "
@@ -83,13 +80,19 @@ class Robot:
     def n_actuated(self) -> int:
         return len(self.actuated_joints)
 
-    def frame_id(self, frame: str) -> int:
+    def frame_id(self, frame: str, context: str = "") -> int:
         """Pinocchio frame id of a frame or link name; NotFoundError lists the frames otherwise."""
         if not self.model.existFrame(frame):
             names = [f.name for f in self.model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)]
-            raise NotFoundError(f"frame '{frame}' does not exist in robot '{self.name}'; frames are: "
-                                f"{listing(names)}")
+            raise not_found("frame", frame, names, f" in robot '{self.name}'", context)
         return int(self.model.getFrameId(frame))
+
+    def joint_id(self, joint: str, context: str = "") -> int:
+        """Pinocchio joint id of a movable joint; NotFoundError lists the joints otherwise."""
+        if not self.model.existJointName(joint):
+            raise not_found("joint", joint, [str(n) for n in self.model.names[1:]], f" in robot '{self.name}'",
+                            context)
+        return int(self.model.getJointId(joint))
 
     @property
     def end_effector(self) -> str:
