@@ -15,12 +15,13 @@ import numpy.typing as npt
 import pinocchio as pin
 import pytest
 import yourdfpy
+from conftest import ROOT
 
 import pincal
 
 Array = npt.NDArray[np.float64]
 
-URDF_DIR = Path(__file__).resolve().parents[1] / "robots_urdf"
+URDF_DIR = ROOT / "robots_urdf"
 HEXAPOD = URDF_DIR / "hexapod.urdf"
 HEXAPOD_DEVICE = URDF_DIR / "hexapod_device.urdf"
 LEGS = [f"leg_{i}_prismatic" for i in range(1, 7)]

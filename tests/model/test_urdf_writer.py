@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import ROOT
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -24,7 +25,7 @@ from pincal.model.urdf_writer import (
     write_calibrated_urdf,
 )
 
-DELTA = Path(__file__).resolve().parents[1] / "robots_urdf" / "delta.urdf"
+DELTA = ROOT / "robots_urdf" / "delta.urdf"
 NEW_JOINT = pin.SE3(pin.rpy.rpyToMatrix(0.01, -0.02, 0.03), np.array([0.1951, -0.0007, 0.0012]))
 NEW_ANCHOR = pin.SE3(pin.rpy.rpyToMatrix(-0.3, 0.2, 1.1), np.array([0.0003, -0.0002, -0.4812]))
 

@@ -10,16 +10,15 @@ from __future__ import annotations
 
 import importlib
 import math
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import pytest
 import yourdfpy
+from conftest import ROOT
 
 import pincal
 
-ROOT = Path(__file__).resolve().parents[1]
 URDF = ROOT / "robots_urdf" / "five_bar.urdf"
 
 # Table 1 [m].

@@ -18,20 +18,19 @@ from __future__ import annotations
 import importlib.util
 import math
 from itertools import product
-from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 import pytest
 import yourdfpy
+from conftest import ROOT
 from scipy.optimize import least_squares
 
 import pincal
 
 Array = npt.NDArray[np.float64]
 
-ROOT = Path(__file__).resolve().parents[1]
 UCR3 = ROOT / "robots_urdf" / "ucr3.urdf"
 GENERATOR = ROOT / "tools" / "urdfgen" / "ucr3.py"
 ACTUATED = ["limb_1_prismatic", "limb_2_prismatic", "limb_3_prismatic"]

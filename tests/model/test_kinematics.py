@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import itertools
 import sys
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import ROOT
 
 import pincal
 from pincal.identification import measurements as ms
@@ -25,11 +25,10 @@ from pincal.identification.solver import identify
 from pincal.model.kinematics import CONTINUATION_STEP
 from pincal.study.simulation import random_actuated, simulate_observations
 
-ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "examples"))
 
-import study_001_hexapod as study_001  # noqa: E402 (examples/ on the path first)
-import study_004_ucr3 as study_004  # noqa: E402
+import study_001_hexapod as study_001
+import study_004_ucr3 as study_004
 
 MM = 1e-3
 #: Study 004's four poses chosen by κ from its 1000 workspace candidates (full run): limb length
