@@ -55,6 +55,7 @@ class FleetResult:
 
     @property
     def ok(self) -> bool:
+        """True when no error stopped the job (it has a report)."""
         return self.error is None
 
 

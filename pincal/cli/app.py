@@ -31,6 +31,7 @@ from pincal.cli.options import (
 from pincal.errors import DataError, PincalError
 from pincal.io.files import make_directory, write_text
 from pincal.model.robot import Robot, load_robot
+from pincal.workflow import NOISE_CONTRADICTED
 
 EXIT_ERROR = 2
 #: Exit code of an unexpected exception (a bug), printed as one line; ``--debug`` shows the traceback.
@@ -65,6 +66,8 @@ def _describe(robot: Robot) -> str:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
+    """``pincal info``: print the robot's links, joints, loops, actuated joints, mobility and its closure residual
+    [m, rad] at the reference configuration."""
     print(_describe(load_robot(args.robot)))
     return 0
 
@@ -74,6 +77,8 @@ def _mm(value: float | None) -> str:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
+    """``pincal simulate``: draw true errors, random postures and noisy measurements of a robot and write the
+    dataset, the true URDF and ``truth.json`` to ``--out``."""
     from pincal.workflow import check_sample_counts, simulate, simulation_outputs, write_simulation
 
     robot = load_robot(args.robot)
@@ -83,12 +88,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     try:
         sim = simulate(robot, args.measure, args.samples, args.test_samples, frame=args.frame, perturb=args.perturb,
                        noise=args.noise, seed=args.seed, parameter_spec=args.parameters, progress=not args.quiet)
+        paths = write_simulation(sim, Path(args.out))
     except PincalError:
         if created:  # the directory made above, still empty: nothing is left behind
             with contextlib.suppress(OSError):
                 Path(args.out).rmdir()
         raise
-    paths = write_simulation(sim, Path(args.out))
     print(f"simulated {args.samples} + {args.test_samples} postures of '{robot.name}' with errors of "
           f"σ {args.perturb:g} "
           f"(m, rad) on {len(sim.parameters)} parameters; measurement noise σ {args.noise:g}")
@@ -98,6 +103,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
+    """``pincal calibrate``: identify the parameters from a measurement CSV, print the summary and write the
+    calibrated URDF and the report; exit status 1 when the result is not :func:`usable`."""
     from pincal.workflow import calibrate_files
 
     cal = calibrate_files(args.robot, args.data, args.out, args.report, parameter_spec=args.parameters,
@@ -108,10 +115,6 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         if path:
             print(f"wrote {path}")
     return 0 if usable(cal.report) else 1
-
-
-#: σ² factor beyond which the fit does not reach the stated noise (residuals over 3 × σ).
-NOISE_CONTRADICTED = 9.0
 
 
 def usable(report: dict[str, Any]) -> bool:
@@ -202,7 +205,8 @@ def _accounting(report: dict[str, Any]) -> list[str]:
     strange = report.get("held_out_outliers", [])
     if strange:
         lines.append(f"held-out samples the calibrated model cannot explain ({len(strange)}; they weigh on the "
-                     f"held-out figures): {', '.join(strange[:LISTED])}" + (" ..." if len(strange) > LISTED else ""))
+                     f"held-out figures, not on the comparison with the nominal model): {', '.join(strange[:LISTED])}"
+                     + (" ..." if len(strange) > LISTED else ""))
     if weighted and len(weighted) >= ROBUST_WARNING_FRACTION * report["n_samples"]:
         lines.append(f"warning: {len(weighted)} of the {report['n_samples']} fitted samples "
                      f"({len(weighted) / report['n_samples']:.0%}) were down-weighted: a robust fit is not meant for "
@@ -229,6 +233,8 @@ DEMO_TEXT = """pincal demo: geometric calibration of the Delta robot of study 00
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
+    """``pincal demo``: simulate and calibrate the Delta robot (``model24`` parameters, platform positions) and
+    write the calibrated URDF, an offline HTML report and the simulated data."""
     from pincal.io.report_data import write_json
     from pincal.model.catalog import robot_path
     from pincal.viz.html_report import write_demo_report
@@ -253,6 +259,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def cmd_fleet(args: argparse.Namespace) -> int:
+    """``pincal fleet``: calibrate one robot per CSV of a directory (process pool or Dask scheduler) and print one
+    row per robot; exit status 1 unless every result is :func:`usable`."""
     from pincal.fleet import calibrate_fleet, jobs_from_directory
 
     jobs = jobs_from_directory(args.robot, args.data_dir, args.out, parameter_spec=args.parameters,
@@ -306,6 +314,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``pincal`` argument parser, with every subcommand."""
     parser = _Parser(
         prog="pincal",
         description="Geometric calibration of closed-loop and serial robots described in URDF.",

@@ -10,6 +10,8 @@ from pincal.viz.html_report import ReportContent, held_out_errors, mm_text, read
 
 
 def cmd_report(args: argparse.Namespace) -> int:
+    """``pincal report``: calibrate (or read ``--result``) and write one offline HTML report; exit status 1 when
+    the fit did not converge."""
     truth = read_truth(args.truth) if args.truth else None  # before any work: an unreadable file stops it
     view, dataset, calibration = load_view(args)
     test_before, test_after = held_out_errors(view, dataset)

@@ -97,6 +97,8 @@ def random_set_baseline(blocks: Array, k: int, selection: PoseSelection, scales:
 
 
 def cmd_design(args: argparse.Namespace) -> int:
+    """``pincal design``: choose ``--poses`` of ``--candidates`` random postures by the conditioning of the scaled
+    identification Jacobian, compare with random sets, and print or write their actuated values [rad or m]."""
     robot = load_robot(args.robot)
     if args.out:
         check_outputs([("--out", args.out)], [robot.source] if robot.source else [])
@@ -175,6 +177,8 @@ def monte_carlo_table(result: MonteCarloResult) -> str:
 
 
 def cmd_montecarlo(args: argparse.Namespace) -> int:
+    """``pincal montecarlo``: repeat a simulated calibration over seeds and noise levels [m, rad] and print the
+    table of held-out RMS errors, calibration gains and iterations."""
     robot = load_robot(args.robot)  # fails here, once, on a bad name rather than in every worker
     if args.trials < 1:
         raise DataError(f"--trials must be at least 1, not {args.trials}")

@@ -52,6 +52,8 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
 
 
 def cmd_view(args: argparse.Namespace) -> int:
+    """``pincal view``: write the 3D scene (nominal and calibrated robot, measured points, errors) as HTML, and
+    with ``--open`` show it in meshcat; exit status 1 when the fit did not converge."""
     if args.open == "" and not sys.stdin.isatty():  # before any work: the server would wait for an Enter
         raise PincalError("--open without a ZMQ_URL starts a meshcat server that runs until Enter is pressed, but "
                           "standard input is not a terminal; give the address of a running meshcat server "

@@ -35,6 +35,7 @@ class Probe:
 
 
 def frame_probe(robot: Robot, frame_id: int) -> Probe:
+    """The probe of Pinocchio frame ``frame_id``: its parent joint and its placement relative to that joint."""
     frame = robot.model.frames[frame_id]
     return Probe(int(frame.parentJoint), frame.placement.copy(), frame_id)
 

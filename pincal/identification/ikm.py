@@ -63,6 +63,7 @@ class ImplicitProblem(CalibrationProblem):
         self.target = targets[0]
 
     def row_samples(self) -> IntArray:
+        """The sample index of each residual row: one block of ``closure.rows`` loop rows per sample."""
         return np.repeat(np.arange(self.observations.n_samples, dtype=np.int64), self.robot.closure.rows)
 
     def _task(self, over_v: SampleContext) -> tuple[Array, Array]:
@@ -117,6 +118,8 @@ class ImplicitProblem(CalibrationProblem):
         return []
 
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
+        """Weighted IKM residual (each sample's loop closure [m, rad] at the measured pose, over the target's σ)
+        and its Jacobian w.r.t. ``x``, the passive joints' response projected out."""
         robot = self.robot_at(x)
         model, data, kin = robot.model, robot.kinematics.data, robot.kinematics
         n, p, rows = self.observations.n_samples, len(self.parameters), robot.closure.rows
@@ -216,17 +219,22 @@ class ChainProblem:
         self._samples = np.repeat(np.arange(n, dtype=np.int64), per_sample.size)
 
     def row_samples(self) -> IntArray:
+        """The sample index of each of this chain's residual rows."""
         return self._samples
 
     def initial_guess(self) -> Array:
+        """The chain's parameters [m, rad] at ``x_fixed``: the starting point of its fit."""
         return self.x_fixed[self.columns].copy()
 
     def settle_assembly(self, x: Array) -> list[int]:
+        """The full problem's :meth:`ImplicitProblem.settle_assembly` with this chain's parameters at ``x``."""
         full = self.x_fixed.copy()
         full[self.columns] = x
         return self.full.settle_assembly(full)
 
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
+        """The full problem's residual and Jacobian at ``x`` (the others at ``x_fixed``), restricted to this chain's
+        loop rows and parameter columns."""
         full = self.x_fixed.copy()
         full[self.columns] = x
         pred = self.full.evaluate(full, jacobian)

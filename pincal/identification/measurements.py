@@ -104,6 +104,10 @@ class Measurement(ABC):
     kinds: ClassVar[tuple[str, ...]] = ()
     #: Names of the data columns' components (``<key>:<component>``); empty: one per row, numbered.
     components: ClassVar[tuple[str, ...]] = ()
+    #: Leading error columns that are lengths [m] (a point's position, a distance), then the columns that are
+    #: angles [rad] (an orientation's rotation vector): what the reports' error sizes are made of.
+    length_rows: ClassVar[int] = 0
+    angle_rows: ClassVar[int] = 0
 
     key: str
     size: int
@@ -120,10 +124,12 @@ class Measurement(ABC):
 
     @property
     def frames(self) -> tuple[str, ...]:
+        """The robot frames this model looks at (each must exist; the problem gives each its twist)."""
         return ()
 
     @property
     def incremental(self) -> bool:
+        """Whether each value is the change since the previous sample (the first sample's row is ignored)."""
         return False
 
     @property
@@ -139,6 +145,7 @@ class Measurement(ABC):
         return tuple(f"{self.key}:{c}" for c in names)
 
     def row_units(self) -> list[str]:
+        """The unit of each residual row: ``m`` unless a subclass says otherwise."""
         return ["m"] * self.size
 
     def row_sigmas(self) -> Array:
@@ -166,22 +173,27 @@ class Position(Measurement):
 
     kinds: ClassVar[tuple[str, ...]] = ("position",)
     components: ClassVar[tuple[str, ...]] = ("x", "y", "z")
+    length_rows: ClassVar[int] = 3
 
     frame: str = ""
 
     @classmethod
     def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
+        """The model of key ``position:<frame>``; σ [m] defaults to 1e-5."""
         return position(rest, sigma or 1e-5)
 
     @property
     def frames(self) -> tuple[str, ...]:
+        """The measured frame."""
         return (self.frame,)
 
     @property
     def locates_point(self) -> bool:
+        """True: the values are the position [m] of the frame's origin (plus its marker offset)."""
         return True
 
     def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
+        """The frame marker's position [m] in the measurement frame, and its derivative (marker columns included)."""
         _predict_point(ctx, self.frame, ctx.marker(self.frame), out, jac)
         if jac is not None and self.frame in ctx.marker_columns:
             jac[:3, ctx.marker_columns[self.frame]] = ctx.base.rotation @ ctx.placement(self.frame).rotation
@@ -196,26 +208,33 @@ class Pose(Measurement):
 
     kinds: ClassVar[tuple[str, ...]] = ("pose",)
     components: ClassVar[tuple[str, ...]] = ("x", "y", "z", "qx", "qy", "qz", "qw")
+    length_rows: ClassVar[int] = 3
+    angle_rows: ClassVar[int] = 3
 
     frame: str = ""
     sigma_angle: float = 1e-4
 
     @classmethod
     def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
+        """The model of key ``pose:<frame>``; σ defaults to 1e-5 for the position [m] and the orientation [rad]."""
         return pose(rest, sigma or 1e-5, sigma or 1e-5)
 
     @property
     def frames(self) -> tuple[str, ...]:
+        """The measured frame."""
         return (self.frame,)
 
     @property
     def locates_point(self) -> bool:
+        """True: the first three values are the position [m] of the frame's origin."""
         return True
 
     def row_units(self) -> list[str]:
+        """Three position rows [m], then three orientation rows [rad]."""
         return ["m", "m", "m", "rad", "rad", "rad"]
 
     def row_sigmas(self) -> Array:
+        """``sigma`` [m] for the position rows, ``sigma_angle`` [rad] for the orientation rows."""
         return np.array([self.sigma] * 3 + [self.sigma_angle] * 3)
 
     def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
@@ -246,6 +265,7 @@ class Distance(Measurement):
 
     kinds: ClassVar[tuple[str, ...]] = ("distance", "distance_increment")
     components: ClassVar[tuple[str, ...]] = ("d",)
+    length_rows: ClassVar[int] = 1
 
     frame_a: str = ""
     frame_b: str = ""
@@ -253,6 +273,7 @@ class Distance(Measurement):
 
     @classmethod
     def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
+        """The model of key ``distance:<a>-<b>`` or ``distance_increment:<a>-<b>``; σ [m] defaults to 1e-6."""
         pair = rest.split("-")
         if len(pair) != 2 or not all(pair):
             raise DataError(f"measurement '{kind}:{rest}' must name two frames as '{kind}:<frameA>-<frameB>' "
@@ -261,10 +282,12 @@ class Distance(Measurement):
 
     @property
     def frames(self) -> tuple[str, ...]:
+        """The two frames whose origins (plus marker offsets) the distance joins."""
         return (self.frame_a, self.frame_b)
 
     @property
     def incremental(self) -> bool:
+        """True for a ``distance_increment`` model: each value is the change since the previous sample."""
         return self.increment
 
     def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
@@ -297,13 +320,16 @@ class JointReading(Measurement):
 
     @classmethod
     def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
+        """The model of key ``joint:<joint>``; σ [rad or m] defaults to 1e-5."""
         return joint_reading(rest, sigma or 1e-5)
 
     @property
     def columns(self) -> tuple[str, ...]:
+        """The dataset column: the joint's name."""
         return (self.joint,)
 
     def check(self, robot: Robot) -> None:
+        """Raise NotFoundError if the robot lacks the joint, DataError if it is a ``<mimic>`` joint (no reading)."""
         jid = robot.joint_id(self.joint, f"measurement '{self.key}': ")
         if robot.model.joints[jid].nv == 0:
             raise DataError(f"measurement '{self.key}': joint '{self.joint}' is a <mimic> joint, which follows its "
@@ -325,6 +351,7 @@ class JointReading(Measurement):
                 jac[0, offset] -= 1.0
 
     def error(self, predicted: Array, measured: Array, model: pin.Model) -> Array:
+        """Predicted − measured [rad or m]; a continuous joint's is wrapped to [−π, π)."""
         err = predicted - measured
         if model.joints[model.getJointId(self.joint)].nq == 2:  # a continuous joint's reading wraps
             err = np.remainder(err + np.pi, 2.0 * np.pi) - np.pi
@@ -345,19 +372,24 @@ def _predict_point(ctx: SampleContext, frame: str, marker: Array, out: Array, ja
 
 
 def position(frame: str, sigma: float = 1e-5) -> Position:
+    """The model of the position [m] of ``frame``'s origin, with σ [m]."""
     return Position(f"position:{frame}", 3, sigma, frame)
 
 
 def pose(frame: str, sigma: float = 1e-5, sigma_angle: float = 1e-5) -> Pose:
+    """The model of ``frame``'s pose: position with σ [m], orientation with ``sigma_angle`` [rad]."""
     return Pose(f"pose:{frame}", 6, sigma, frame, sigma_angle)
 
 
 def distance(frame_a: str, frame_b: str, sigma: float = 1e-6, increment: bool = False) -> Distance:
+    """The model of the distance [m] between two frames' origins, with σ [m]; ``increment``: each reading is the
+    change since the previous sample."""
     kind = "distance_increment" if increment else "distance"
     return Distance(f"{kind}:{frame_a}-{frame_b}", 1, sigma, frame_a, frame_b, increment)
 
 
 def joint_reading(joint: str, sigma: float = 1e-5) -> JointReading:
+    """The model of a non-actuated joint's sensor reading [rad or m], with σ in the joint's unit."""
     return JointReading(f"joint:{joint}", 1, sigma, joint)
 
 

@@ -89,6 +89,7 @@ def offset_parameter(joint: str, unit: Unit) -> Parameter:
 
 
 def marker_parameters(frame: str) -> list[Parameter]:
+    """The marker offset [m] of ``frame``: its x, y, z components in that frame."""
     return [Parameter(f"marker.{frame}.{a}", "marker", frame, k, "", "m") for k, a in enumerate(AXES)]
 
 
@@ -116,6 +117,7 @@ class ParameterSet:
 
     @property
     def names(self) -> list[str]:
+        """The parameter names, in vector order."""
         return [p.name for p in self.parameters]
 
     @property
@@ -124,6 +126,7 @@ class ParameterSet:
         return np.array([p.scale for p in self.parameters])
 
     def index(self, name: str) -> int:
+        """The position of parameter ``name`` in the vector; NotFoundError lists the names otherwise."""
         try:
             return self._index[name]
         except KeyError:
@@ -142,6 +145,7 @@ class ParameterSet:
         return out
 
     def subset(self, indices: Iterable[int]) -> ParameterSet:
+        """The parameters at ``indices``, in that order."""
         return ParameterSet([self.parameters[k] for k in indices])
 
     def select(self, patterns: Sequence[str]) -> ParameterSet:
@@ -174,6 +178,7 @@ class ParameterSet:
         return x
 
     def as_dict(self, x: Array) -> dict[str, float]:
+        """Parameter name -> its value [m or rad] in the vector ``x``."""
         return {p.name: float(v) for p, v in zip(self.parameters, x, strict=True)}
 
     def placement_delta(self, x: Array, indices: list[int]) -> Array:
@@ -186,10 +191,12 @@ class ParameterSet:
 
 # --- candidate parameters of a robot ---------------------------------------------------------------
 def movable_joints(robot: Robot) -> list[str]:
+    """Names of the model's movable joints (every Pinocchio joint but the universe)."""
     return [str(n) for n in robot.model.names[1:]]
 
 
 def fixed_joints(robot: Robot) -> list[str]:
+    """Names of the fixed joints (Pinocchio ``FIXED_JOINT`` frames)."""
     return [f.name for f in robot.model.frames if f.type == pin.FrameType.FIXED_JOINT and f.name != "universe"]
 
 
@@ -418,7 +425,7 @@ def choose_parameters(robot: Robot, models: Sequence[Measurement], spec: Sequenc
     """
     frames = sorted({f for m in models for f in m.frames})
     read = [m.joint for m in models if isinstance(m, JointReading)]
-    external = any(m.key.split(":", 1)[0] in ("position", "pose") for m in models)
+    external = any(m.locates_point for m in models)
     pool = candidate_parameters(robot, frames=frames, offsets=list(robot.actuated_joints) + read, base=external)
     if not spec:
         return pool

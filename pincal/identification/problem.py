@@ -58,9 +58,11 @@ class Observations:
 
     @property
     def n_samples(self) -> int:
+        """The number of samples N."""
         return int(self.actuated.shape[0])
 
     def subset(self, rows: Sequence[int] | npt.NDArray[np.integer] | Array) -> Observations:
+        """The samples at ``rows``, in that order."""
         return Observations(self.actuated[rows], {k: v[rows] for k, v in self.values.items()})
 
 
@@ -80,13 +82,17 @@ class Problem(Protocol):
     parameters: ParameterSet
     observations: Observations
 
-    def evaluate(self, x: Array, jacobian: bool = True) -> Prediction: ...
+    def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
+        """Weighted residual and, if ``jacobian``, its Jacobian w.r.t. the parameter vector ``x`` [m, rad]."""
 
-    def row_samples(self) -> IntArray: ...
+    def row_samples(self) -> IntArray:
+        """The sample index of each residual row."""
 
-    def initial_guess(self) -> Array: ...
+    def initial_guess(self) -> Array:
+        """A starting parameter vector [m, rad]."""
 
-    def settle_assembly(self, x: Array) -> list[int]: ...
+    def settle_assembly(self, x: Array) -> list[int]:
+        """Samples whose configuration at ``x`` left the reference assembly, each reset to it."""
 
 
 #: Largest coordinate gap [rad or m] between a remembered configuration and the reference assembly's that

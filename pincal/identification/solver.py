@@ -41,6 +41,7 @@ from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
 from pincal.identification import lm
 from pincal.identification.identifiability import Identifiability, analyse, correlations, covariance
 from pincal.identification.ikm import ChainProblem, ImplicitProblem, chain_blocks
+from pincal.identification.measurements import KIND_CLASSES
 from pincal.identification.problem import Prediction, Problem
 
 Array = npt.NDArray[np.float64]
@@ -104,6 +105,7 @@ class CalibrationResult:
 
     @property
     def unidentified(self) -> list[str]:
+        """Names of the parameters that were not estimated (not in ``identified``)."""
         return [n for k, n in enumerate(self.names) if k not in set(self.identified)]
 
     def down_weighted(self, threshold: float = 0.5) -> list[int]:
@@ -112,10 +114,17 @@ class CalibrationResult:
 
 
 def length_columns(key: str) -> int:
-    """How many leading error columns of measurement ``key`` are lengths [m]: 3 for a position or a pose, 1 for
-    a distance, 0 otherwise."""
-    kind = key.split(":", 1)[0]
-    return 3 if kind in ("position", "pose") else 1 if kind.startswith("distance") else 0
+    """How many leading error columns of measurement ``key`` are lengths [m] (its model's ``length_rows``: 3 for
+    a position or a pose, 1 for a distance; 0 for other keys, e.g. IKM closure rows)."""
+    model = KIND_CLASSES.get(key.split(":", 1)[0])
+    return model.length_rows if model is not None else 0
+
+
+def angle_columns(key: str) -> slice:
+    """The error columns of measurement ``key`` that are angles [rad] (a pose's rotation vector), as a slice."""
+    model = KIND_CLASSES.get(key.split(":", 1)[0])
+    start = length_columns(key)
+    return slice(start, start + (model.angle_rows if model is not None else 0))
 
 
 def error_norms(errors: dict[str, Array], keys: list[str] | None = None) -> Array:
@@ -126,6 +135,7 @@ def error_norms(errors: dict[str, Array], keys: list[str] | None = None) -> Arra
 
 
 def rms(values: Array) -> float:
+    """Root mean square of ``values`` (NaN when empty)."""
     return float(np.sqrt(np.mean(values**2))) if values.size else float("nan")
 
 
@@ -250,7 +260,9 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: Solver, loss: Los
     # off by more than the nominal errors is left out). Each start is refit with the Cauchy loss, and the fit
     # whose median sample residual is the smallest is kept (least median of squares decides)
     # (a start from which the model cannot be evaluated, far from any assembly, is left out)
-    trimmed = _attempt(problem, first.x0, solver, TRIMMED, **options)
+    # (the trimmed start needs twice as many rows in the kept half as parameters: fewer fit noise, not geometry)
+    enough = TRIM_KEEP * problem.row_samples().size >= 2 * first.identifiability.rank
+    trimmed = _attempt(problem, first.x0, solver, TRIMMED, **options) if enough else None
     starts = [first.x, first.x0] + ([trimmed.x] if trimmed is not None else [])
     fits = [fit for fit in (_attempt(problem, start, solver, "cauchy", **options) for start in starts)
             if fit is not None]
@@ -329,6 +341,31 @@ def _identify(problem: Problem, x0: Array | None, solver: Solver, loss: str, **o
     return result
 
 
+def _check_choices(solver: str, loss: str) -> None:
+    """Refuse (DataError) a solver or loss name that :func:`_fit` does not know, listing the valid ones."""
+    if solver not in SOLVERS:
+        raise DataError(f"unknown solver '{solver}'; solvers are: {', '.join(SOLVERS)}")
+    if loss not in (*LOSSES, TRIMMED):
+        raise DataError(f"unknown loss '{loss}'; losses are: {', '.join(LOSSES)}")
+
+
+def _check_identifiable(ident: Identifiability, n_parameters: int, n_residuals: int, strict: bool) -> None:
+    """Refuse a start the data cannot fit from: with ``strict``, any unidentifiable parameter
+    (IdentifiabilityError naming up to five combinations); always, no identifiable direction
+    (IdentifiabilityError) or fewer residual rows than parameters (DataError)."""
+    if strict and ident.rank < n_parameters:
+        words = "; ".join(c.description for c in ident.unidentifiable[:5])
+        more = f" (and {len(ident.unidentifiable) - 5} more)" if len(ident.unidentifiable) > 5 else ""
+        raise IdentifiabilityError(f"{ident.rank} of {n_parameters} parameters are identifiable from these data; not "
+                                   f"identifiable: {words}{more}. Add postures or measurements, or choose fewer "
+                                   "parameters.")
+    if not ident.base_indices:
+        raise IdentifiabilityError("the data identifies none of the parameters (rank 0)")
+    if n_residuals < n_parameters:
+        raise DataError(f"{n_residuals} residuals cannot identify {n_parameters} parameters (study 000: the "
+                        "number of measured values must be at least the number of parameters); add samples")
+
+
 def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: str = "linear",
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              min_information: float = 0.0,
@@ -364,10 +401,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         ConvergenceError: the model cannot be evaluated at the starting point, or an SVD fails with both
             LAPACK drivers (:mod:`pincal.linalg`).
     """
-    if solver not in SOLVERS:
-        raise DataError(f"unknown solver '{solver}'; solvers are: {', '.join(SOLVERS)}")
-    if loss not in (*LOSSES, TRIMMED):
-        raise DataError(f"unknown loss '{loss}'; losses are: {', '.join(LOSSES)}")
+    _check_choices(solver, loss)
     start = time.perf_counter()
     pset = problem.parameters
     scales = pset.scales
@@ -382,17 +416,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
     ident = analyse(pred.jacobian, pset.names, scales, tol=_practical_tol(pred.jacobian, scales, rank_tol,
                                                                           min_information))
     active = ident.base_indices
-    if strict and ident.rank < len(pset):
-        words = "; ".join(c.description for c in ident.unidentifiable[:5])
-        more = f" (and {len(ident.unidentifiable) - 5} more)" if len(ident.unidentifiable) > 5 else ""
-        raise IdentifiabilityError(f"{ident.rank} of {len(pset)} parameters are identifiable from these data; not "
-                                   f"identifiable: {words}{more}. Add postures or measurements, or choose fewer "
-                                   "parameters.")
-    if not active:
-        raise IdentifiabilityError("the data identifies none of the parameters (rank 0)")
-    if pred.residual.size < len(pset):
-        raise DataError(f"{pred.residual.size} residuals cannot identify {len(pset)} parameters (study 000: the "
-                        "number of measured values must be at least the number of parameters); add samples")
+    _check_identifiable(ident, len(pset), pred.residual.size, strict)
     d = scales
     weights = _sample_weights(problem, pred, loss)
     rw = np.sqrt(_row_weights(problem, weights))

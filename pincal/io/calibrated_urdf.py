@@ -319,6 +319,7 @@ def _xml_joint_origins(text: str) -> dict[str, pin.SE3]:
 
 
 def source_text(robot: Robot) -> str:
+    """The text of the URDF file the robot was loaded from; RobotFileError if it has none."""
     if robot.source is None:
         raise RobotFileError(f"robot '{robot.name}' has no source file to write a calibrated URDF from")
     return Path(robot.source).read_text(encoding="utf-8")

@@ -80,8 +80,12 @@ def make_directory(directory: str | Path, what: str) -> Path:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise OutputError(f"{what}: cannot create directory '{folder}': {exc.strerror or exc}") from None
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise OutputError(f"{what}: directory '{folder}' is not writable")
+    try:  # a file written and removed: permissions, read-only mounts and pseudo file systems (/proc) all tell
+        handle, probe = tempfile.mkstemp(dir=folder, prefix=".pincal-probe.")
+        os.close(handle)
+        os.unlink(probe)
+    except OSError:
+        raise OutputError(f"{what}: directory '{folder}' is not writable") from None
     return folder
 
 

@@ -12,7 +12,7 @@ import numpy.typing as npt
 
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import CalibrationResult, calibration_gain, error_norms, rms
+from pincal.identification.solver import CalibrationResult, angle_columns, calibration_gain, error_norms, rms
 from pincal.io.files import write_text
 
 Array = npt.NDArray[np.float64]
@@ -32,7 +32,8 @@ def registered_base(parameters: ParameterSet) -> bool:
 
 def angle_error_norms(errors: dict[str, Array]) -> Array:
     """Per-sample orientation error angles [rad] of the pose measurements (norm of ``log3(R_measᵀ R_pred)``)."""
-    parts = [np.linalg.norm(err[:, 3:6], axis=1) for key, err in errors.items() if key.split(":", 1)[0] == "pose"]
+    parts = [np.linalg.norm(err[:, angle_columns(key)], axis=1) for key, err in errors.items()
+             if angle_columns(key).stop > angle_columns(key).start]
     return np.concatenate(parts) if parts else np.zeros(0)
 
 

@@ -78,6 +78,7 @@ class Robot:
 
     @property
     def n_actuated(self) -> int:
+        """The number of actuated joints."""
         return len(self.actuated_joints)
 
     def frame_id(self, frame: str, context: str = "") -> int:

@@ -152,6 +152,24 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
     link_list = [n.get("name", "") for n in root.findall("link")]
     joint_list = [n.get("name", "") for n in root.findall("joint")]
     joints = {n.get("name", ""): n.get("type", "") for n in root.findall("joint")}
+    _check_names(link_list, joint_list, source)
+    _check_tree(root, source)
+    _check_top_level(root, source)
+    loops = _loops(root, set(link_list), link_list)
+    transmitted = _transmitted_joints(root, joints)
+    mimics = _mimics(root, joints, source)
+    driven = [j for j in transmitted if j in mimics]
+    if driven:
+        raise RobotFileError(f"{source}: joint {listing(driven)} has both a <transmission> and a <mimic> element; a "
+                             "mimic joint follows its leader and cannot be actuated on its own")
+    if mimics and loops:
+        raise RobotFileError(f"{source}: joint {listing(list(mimics))} has a <mimic> element; pincal supports mimic "
+                             "joints in serial robots only, not in robots with <loop> elements")
+    return UrdfExtensions(root.get("name", "robot"), loops, transmitted, link_list, joints, mimics)
+
+
+def _check_names(link_list: list[str], joint_list: list[str], source: str) -> None:
+    """Refuse a ``<link>`` or ``<joint>`` without a name, or a name used twice within its kind."""
     for kind, names in (("link", link_list), ("joint", joint_list)):
         seen: set[str] = set()
         for n in names:
@@ -160,7 +178,10 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
             if n in seen:
                 raise RobotFileError(f"{source}: duplicate {kind} name '{n}'")
             seen.add(n)
-    links = set(link_list)
+
+
+def _check_tree(root: ET.Element, source: str) -> None:
+    """Refuse a link that is the child of several joints: a closed chain written as a graph, not a tree."""
     parents: dict[str, list[str]] = {}
     for joint in root.findall("joint"):
         child = joint.find("child")
@@ -170,6 +191,10 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
         if len(named) > 1:
             raise RobotFileError(f"{source}: link '{link}' is the child of {len(named)} joints ({listing(named)}); a "
                                  "URDF is a tree: cut a closed chain with a <loop> element (README, Loops in URDF)")
+
+
+def _check_top_level(root: ET.Element, source: str) -> None:
+    """Refuse a ``<loop>`` or ``<transmission>`` nested in another element instead of a child of ``<robot>``."""
     for tag in ("loop", "transmission"):  # Pinocchio ignores them anywhere; pincal reads only top-level ones
         top = {id(n) for n in root.findall(tag)}
         for parent in root.iter():
@@ -179,13 +204,21 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
                                          f"name='{parent.get('name', '')}'>; <{tag}> elements must be children of "
                                          "<robot>")
 
+
+def _loops(root: ET.Element, links: set[str], link_list: list[str]) -> list[LoopSpec]:
+    """The top-level ``<loop>`` closures, in file order; LoopError on a malformed or duplicate one."""
     loops: list[LoopSpec] = []
     for node in root.findall("loop"):
         loop = _loop(node, links, link_list)
         if any(existing.name == loop.name for existing in loops):
             raise LoopError(f"duplicate loop name '{loop.name}'")
         loops.append(loop)
+    return loops
 
+
+def _transmitted_joints(root: ET.Element, joints: dict[str, str]) -> list[str]:
+    """The actuated joints the ``<transmission>`` elements name, in file order; each must exist, be
+    revolute, continuous or prismatic, and be named by one transmission only."""
     transmitted: list[str] = []
     movable = [j for j, t in joints.items() if t in SCALAR_JOINT_TYPES]
     for node in root.findall("transmission"):
@@ -205,11 +238,7 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
             if jname in transmitted:
                 raise LoopError(f"joint '{jname}' is named by two transmissions")
             transmitted.append(jname)
-    mimics = _mimics(root, joints, source)
-    if mimics and loops:
-        raise RobotFileError(f"{source}: joint {listing(list(mimics))} has a <mimic> element; pincal supports mimic "
-                             "joints in serial robots only, not in robots with <loop> elements")
-    return UrdfExtensions(root.get("name", "robot"), loops, transmitted, link_list, joints, mimics)
+    return transmitted
 
 
 def _mimics(root: ET.Element, joints: dict[str, str], source: str) -> dict[str, tuple[str, float]]:

@@ -69,6 +69,7 @@ class MonteCarloResult:
 
     @property
     def metrics(self) -> list[str]:
+        """The metric names any trial reported, in order of first appearance."""
         names: list[str] = []
         for rec in self.records:
             names += [k for k in rec.metrics if k not in names]
@@ -79,6 +80,7 @@ class MonteCarloResult:
         return np.array([rec.metrics.get(metric, math.nan) for rec in self.records if _same(rec.level, level)])
 
     def summary(self, metric: str, level: Any) -> Summary:
+        """Statistics of the metric at one level over the seeds (NaN values left out and counted)."""
         v = self.values(metric, level)
         ok = v[np.isfinite(v)]
         if not ok.size:
@@ -216,6 +218,7 @@ class SimulatedCalibration:
     spread: float | None = None
 
     def __call__(self, seed: int, level: Any) -> dict[str, float]:
+        """Run the trial of ``seed`` at noise σ ``level`` [m, rad]; its metrics (only ``converged`` if it did not)."""
         noise = float(level or 0.0)
         robot = _robot(self.robot)
         rng = np.random.default_rng(seed)

@@ -63,6 +63,7 @@ def jacobian_blocks(problem: CalibrationProblem, x: Array | None = None, weighte
         executor: Any ``concurrent.futures.Executor`` (a process pool, a Dask client's
             ``get_executor()``) to compute chunks of ``chunk`` candidates in parallel; each worker rebuilds
             the robot from its URDF file, so the robot must come from one.
+        chunk: Candidates per parallel job (with ``executor``).
 
     Raises:
         DataError: the problem has an incremental measurement (rows of pairs, not of poses).

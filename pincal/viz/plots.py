@@ -93,8 +93,10 @@ def parameter_estimates(names: Sequence[str], units: Sequence[str], values: Arra
     """Estimated deviations with ±2σ error bars, lengths [mm] and angles [deg] in two panels.
 
     Args:
-        names, units: Parameter names and units (``m``, ``rad``; others shown as is).
-        values, std: Estimates and standard deviations [SI]; NaN std for parameters not identified.
+        names: Parameter names.
+        units: Their units (``m``, ``rad``; others shown as is).
+        values: Estimates [SI].
+        std: Standard deviations [SI]; NaN for parameters not identified.
         identified: Which parameters the data identifies (the others: hollow markers, no bar).
         truth: True deviations, if known (a simulation).
         limit: At most this many parameters, the largest relative to their σ or value first.

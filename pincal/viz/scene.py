@@ -25,6 +25,7 @@ from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.identification.measurements import Pose, Position
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
+from pincal.identification.solver import length_columns
 from pincal.io.adapters import measurements_for, observations_from
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
@@ -42,6 +43,7 @@ from pincal.viz.visuals import (
     segment_pose,
     translation_pose,
 )
+from pincal.workflow import sample_length_errors
 
 Array = npt.NDArray[np.float64]
 
@@ -128,23 +130,14 @@ class CalibrationView:
     @property
     def has_lengths(self) -> bool:
         """True when some measurement is a length (position, pose, distance): sample errors in metres."""
-        return any(key.split(":", 1)[0] in ("position", "pose") or key.startswith("distance")
-                   for key in self.errors_before)
+        return any(length_columns(key) for key in self.errors_before)
 
     def sample_errors(self) -> tuple[Array, Array]:
-        """Per-sample error size before and after [m]: the RMS over the length-type measurements
-        (positions, pose positions, distances); zeros when there are none."""
-        def sizes(errors: dict[str, Array]) -> Array:
-            parts = []
-            for key, err in errors.items():
-                kind = key.split(":", 1)[0]
-                if kind in ("position", "pose"):
-                    parts.append(np.linalg.norm(err[:, :3], axis=1))
-                elif kind.startswith("distance"):
-                    parts.append(np.abs(err[:, 0]))
-            n = self.problem.observations.n_samples
-            return np.sqrt(np.mean(np.square(parts), axis=0)) if parts else np.zeros(n)
-        return sizes(self.errors_before), sizes(self.errors_after)
+        """Per-sample error size before and after [m]: the length-type errors (positions, pose positions,
+        distances) of each sample together, as in the report; zeros when there are none."""
+        n = self.problem.observations.n_samples
+        before, after = sample_length_errors(self.errors_before, n), sample_length_errors(self.errors_after, n)
+        return (before, after) if before is not None and after is not None else (np.zeros(n), np.zeros(n))
 
 
 def configurations(view: CalibrationView, quiet: bool = True) -> tuple[Robot, Array, Robot, Array]:

@@ -63,9 +63,11 @@ class StaticScene:
         self.commands: list[Any] = []
 
     def send(self, command: Any) -> None:
+        """Record one meshcat command instead of sending it to a server."""
         self.commands.append(command)
 
     def visualizer(self) -> Any:
+        """A ``meshcat.Visualizer`` drawing into this recording."""
         import meshcat
 
         return meshcat.Visualizer(window=self)

@@ -206,6 +206,11 @@ def test_data_recorded_on_another_robot_are_refused_by_name(tmp_path: Path) -> N
     assert done.returncode == 0, done.stderr
     line = one_line_error(run_pincal("calibrate", "ur5", str(tmp_path / "sim" / "measurements.csv")))
     assert "its '# robot: ur10' line says the data are of robot 'ur10', not of 'ur5'" in line
+    # the robot's file name is its name too (tiago_no_hand.urdf holds <robot name="tiago">)
+    data = tmp_path / "sim" / "measurements.csv"
+    data.write_text(data.read_text().replace("# robot: ur10\n", "# robot: ur10_robot\n"))
+    done = run_pincal("calibrate", "ur10", str(data), "--parameters", "*.offset")
+    assert done.returncode == 0, done.stderr
 
 
 def test_an_output_onto_a_pipe_or_device_is_refused_and_left_alone(five_bar_data: Path, tmp_path: Path) -> None:
@@ -264,3 +269,9 @@ def test_a_joint_name_with_a_colon_survives_the_csv(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     done = run_pincal("calibrate", str(urdf), str(tmp_path / "sim" / "measurements.csv"))
     assert done.returncode == 0, done.stderr
+
+
+def test_an_unwritable_output_place_is_refused_before_the_fit(five_bar_data: Path) -> None:
+    """/proc takes no files, whatever its permission bits say: once the refusal came after the fit."""
+    line = one_line_error(run_pincal("calibrate", "five_bar", str(five_bar_data), "--out", "/proc/cal.urdf"))
+    assert line == "pincal: error: --out '/proc/cal.urdf': directory '/proc' is not writable"

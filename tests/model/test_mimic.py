@@ -92,3 +92,14 @@ def test_a_mimic_in_a_closed_loop_robot_is_refused_by_name(tmp_path: Path) -> No
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert "joint distal_2_joint has a <mimic> element; pincal supports mimic joints in serial robots only" \
         in done.stderr
+
+
+def test_a_transmission_on_a_mimic_joint_is_refused(tmp_path: Path) -> None:
+    text = pincal.robot_path("panda").read_text()
+    transmission = ('<transmission name="t"><type>transmission_interface/SimpleTransmission</type>'
+                    '<joint name="panda_finger_joint2"/></transmission></robot>')
+    path = tmp_path / "panda.urdf"
+    path.write_text(text.replace("</robot>", transmission))
+    done = run_pincal("info", str(path))
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert "joint panda_finger_joint2 has both a <transmission> and a <mimic> element" in done.stderr
