@@ -187,12 +187,13 @@ def test_a_file_that_says_its_units_are_not_si_is_refused(five_bar_data: Path, t
 
 
 @pytest.mark.parametrize("delay", [0.15, 0.3, 0.5])
-def test_ctrl_c_at_any_moment_of_the_start_is_one_line(five_bar_data: Path, delay: float) -> None:
+def test_ctrl_c_at_any_moment_of_the_start_is_one_line(tmp_path: Path, delay: float) -> None:
     """An interrupt while Pinocchio and NumPy are still importing, or while the data are read, ends with one
     line and exit 130 (once, a Ctrl-C during the imports printed a traceback). Within the interpreter's own
     first tens of milliseconds, before ``pincal`` runs, Python itself answers; that window is not tested."""
-    process = subprocess.Popen([str(PINCAL), "calibrate", "five_bar", str(five_bar_data)], stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, text=True)
+    # a command that runs for seconds (2000 closed-loop postures), so that the interrupt lands while it runs
+    process = subprocess.Popen([str(PINCAL), "simulate", "delta", "--samples", "2000", "--quiet", "--out",
+                                str(tmp_path / "sim")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(delay)
     process.send_signal(signal.SIGINT)
     _, err = process.communicate(timeout=60)

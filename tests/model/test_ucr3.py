@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import importlib.util
 import math
+import sys
 from itertools import product
 
 import numpy as np
@@ -137,7 +138,10 @@ def paper_quaternion(m: pin.SE3) -> Array:
 
 
 # --- the file -----------------------------------------------------------------------------------
-def test_file_is_the_generator_output() -> None:
+def test_file_is_the_generator_output(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the generator puts the repository root on sys.path to import tools.urdfgen: undone after the test, or later
+    # worker processes (the fleet's Dask cluster) would import pincal from the source tree instead of the install
+    monkeypatch.setattr(sys, "path", list(sys.path))
     spec = importlib.util.spec_from_file_location("ucr3_generator", GENERATOR)
     assert spec is not None and spec.loader is not None
     generator = importlib.util.module_from_spec(spec)
