@@ -108,3 +108,8 @@ def inverse(matrix: npt.ArrayLike, what: str) -> Array:
     except np.linalg.LinAlgError as exc:
         _finite(a, what)
         raise IdentifiabilityError(f"{what} is singular: it cannot be inverted ({exc})") from exc
+
+
+def wrap_angle(angle: npt.ArrayLike) -> Array:
+    """Angles [rad] wrapped into [−π, π): the short way round between two values of an unbounded joint."""
+    return np.asarray(np.remainder(np.asarray(angle, dtype=float) + np.pi, 2.0 * np.pi) - np.pi, dtype=np.float64)

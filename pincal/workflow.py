@@ -52,7 +52,7 @@ def measurement_models(robot: Robot, kinds: Sequence[str], frame: str | None, si
     frame = frame or robot.end_effector
     out = []
     for kind in kinds:
-        key = f"{kind}:{frame}" if kind in ("position", "pose") else kind
+        key = kind if ":" in kind else f"{kind}:{frame}"  # a bare kind measures --frame
         model = parse_key(key, sigma)
         model.check(robot)  # NotFoundError naming the frame or joint and the valid ones
         if isinstance(model, JointReading) and model.joint in robot.actuated_joints:

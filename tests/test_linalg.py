@@ -109,3 +109,11 @@ def test_singular_inverse_names_the_matrix() -> None:
     with pytest.raises(IdentifiabilityError, match="the widget information matrix is singular"):
         linalg.inverse(np.zeros((3, 3)), "the widget information matrix")
     np.testing.assert_allclose(linalg.inverse(np.diag([2.0, 4.0]), "a diagonal matrix"), np.diag([0.5, 0.25]))
+
+
+def test_wrap_angle_takes_the_short_way_round() -> None:
+    angles = np.array([-7.0, -np.pi, -0.1, 0.0, 3.0, np.pi, 9.5])
+    wrapped = linalg.wrap_angle(angles)
+    assert np.all((wrapped >= -np.pi) & (wrapped < np.pi))
+    np.testing.assert_allclose(np.round((angles - wrapped) / (2 * np.pi)) * 2 * np.pi, angles - wrapped, atol=1e-12)
+    np.testing.assert_allclose(wrapped[[2, 3, 4]], angles[[2, 3, 4]])

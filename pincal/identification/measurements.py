@@ -22,6 +22,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal import linalg
 from pincal.errors import DataError
 from pincal.model.robot import Robot
 
@@ -354,7 +355,7 @@ class JointReading(Measurement):
         """Predicted − measured [rad or m]; a continuous joint's is wrapped to [−π, π)."""
         err = predicted - measured
         if model.joints[model.getJointId(self.joint)].nq == 2:  # a continuous joint's reading wraps
-            err = np.remainder(err + np.pi, 2.0 * np.pi) - np.pi
+            err = linalg.wrap_angle(err)
         return err
 
 

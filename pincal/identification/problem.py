@@ -300,10 +300,7 @@ class CalibrationProblem:
         """
         if not robot.loops:
             return None
-        diff = qa - self._qa_solved
-        wrap = robot.kinematics._continuous
-        if wrap.any():  # continuous joints: the short way round
-            diff[:, wrap] = np.remainder(diff[:, wrap] + np.pi, 2.0 * np.pi) - np.pi
+        diff = robot.kinematics.actuated_delta(qa, self._qa_solved)  # continuous joints: the short way round
         gaps = np.max(np.abs(diff), axis=1)  # NaN rows (unsolved) compare False
         k = int(np.nanargmin(gaps)) if np.any(gaps <= CONTINUATION_STEP) else -1
         return None if k < 0 else self._q_cache[k]

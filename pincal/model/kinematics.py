@@ -145,11 +145,12 @@ class ClosedLoopKinematics:
                 q[joint.idx_q + 1] = math.sin(value)
 
     def actuated_delta(self, target: Array, current: Array) -> Array:
-        """``target - current`` [rad or m], wrapped into (-π, π] for unbounded (continuous) joints."""
+        """``target - current`` [rad or m], wrapped into [-π, π) for unbounded (continuous) joints; rows of
+        samples (N, na) as well as one sample (na,)."""
         delta = np.asarray(target, dtype=float) - current
         if not self._all_scalar:
             wrap = self._continuous
-            delta[wrap] = np.remainder(delta[wrap] + np.pi, 2.0 * np.pi) - np.pi
+            delta[..., wrap] = linalg.wrap_angle(delta[..., wrap])
         return delta
 
     def actuated_values(self, q: Array) -> Array:
