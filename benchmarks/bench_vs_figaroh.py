@@ -143,7 +143,7 @@ class Data:
 
 def simulate(robot: pincal.Robot, pset: ParameterSet, x: Array, model: Measurement, n: int,
              rng: np.random.Generator) -> Data:
-    qa, _ = random_actuated(robot, n, rng)
+    qa, _ = random_actuated(robot, n, rng, spread=np.pi)  # ±π about zero: the draws RESULTS.md was measured on
     exact = simulate_observations(robot, pset, x, [model], qa, rng, noise=0.0).values[model.key]
     noisy = exact.copy()
     noisy[:, :3] += rng.normal(scale=SIGMA_POSITION, size=(n, 3))

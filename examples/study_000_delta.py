@@ -44,7 +44,7 @@ from pincal.identification.parameters import NAMED_SETS, ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.solver import calibration_gain, error_norms, identify
 from pincal.study.pose_selection import jacobian_blocks, select_poses
-from pincal.study.simulation import SPREAD, random_actuated, simulate_observations
+from pincal.study.simulation import random_actuated, simulate_observations
 
 Array = npt.NDArray[np.float64]
 ROOT = Path(__file__).resolve().parents[1]
@@ -58,6 +58,7 @@ N_TEST = 50  # held-out configurations per draw
 N_IDENTIFIABILITY = 60  # configurations per set in the identifiability section
 CANDIDATE_STREAM = 1  # seeds of the candidate pools: (draw, 1); of the identifiability sets: (draw, 2)
 IDENTIFIABILITY_STREAM = 2
+ARM_SPREAD = 1.0  # [rad]: arm angles are drawn within ±1 rad of the reference (within the URDF's [-1.2, 1.6])
 METHODS = ("FKM", "IKM")
 
 
@@ -138,10 +139,11 @@ _INFORMATION: dict[tuple[str, int, int, str, float, float, int], tuple[float, fl
 
 
 def candidate_pool(robot: pincal.Robot, seed: int, n_candidates: int = N_CANDIDATES) -> Array:
-    """The draw's random candidate configurations (n_candidates, 3) [rad], within the default spread."""
+    """The draw's random candidate configurations (n_candidates, 3) [rad], within ±ARM_SPREAD."""
     key = (seed, n_candidates)
     if key not in _POOLS:
-        _POOLS[key], _ = random_actuated(robot, n_candidates, np.random.default_rng((seed, CANDIDATE_STREAM)))
+        _POOLS[key], _ = random_actuated(robot, n_candidates, np.random.default_rng((seed, CANDIDATE_STREAM)),
+                                         spread=ARM_SPREAD)
     return _POOLS[key]
 
 
@@ -219,7 +221,7 @@ def simulate_draw(robot: pincal.Robot, set_name: str, case: Case, seed: int, n_t
     units = reading_units(pset, case.angles)
     x_true = rng.normal(size=len(pset)) * (case.error / LENGTH_UNIT * units)
     models = _position_models(case.noise)
-    qa, _ = random_actuated(robot, case.n_configs + n_test, rng)  # the held-out ones stay random
+    qa, _ = random_actuated(robot, case.n_configs + n_test, rng, spread=ARM_SPREAD)  # the held-out ones stay random
     if case.design == "d-optimal":
         qa[:case.n_configs] = designed_configurations(robot, set_name, seed, case.n_configs, case.noise,
                                                       case.joint_noise, n_candidates)
@@ -298,7 +300,8 @@ def identifiability(robot: pincal.Robot, set_name: str, seeds: Sequence[int], sp
     pset = NAMED_SETS[set_name](robot)
     ranks, kappas, combinations = [], [], []
     for seed in seeds:
-        qa, _ = random_actuated(robot, n, np.random.default_rng((seed, IDENTIFIABILITY_STREAM)), spread=spread)
+        qa, _ = random_actuated(robot, n, np.random.default_rng((seed, IDENTIFIABILITY_STREAM)),
+                                spread=ARM_SPREAD if spread is None else spread)
         obs = _noise_free_observations(robot, pset, qa, 0.0)
         jac = CalibrationProblem(robot, pset, _position_models(0.0), obs).evaluate(np.zeros(len(pset))).jacobian
         assert jac is not None
@@ -438,7 +441,7 @@ def reached_counts(study: Study) -> dict[tuple[str, str], tuple[int, int]]:
 def page(study: Study, figure_names: Sequence[str] = ()) -> str:
     """The results page, every number from ``study``."""
     m24, m24i = study.ident["model24"], study.ident["model24i"]
-    default_spread = SPREAD["delta"]
+    default_spread = ARM_SPREAD
     lines = [
         "# Study 000 — Delta robot, FKM vs IKM (paper vs pincal)",
         "",
@@ -599,7 +602,7 @@ def _reading(study: Study, main24i: dict[int, dict[str, dict[str, Any]]]) -> lis
 
 
 def default_spread_value() -> float:
-    return float(SPREAD["delta"])
+    return ARM_SPREAD
 
 
 def _design_sentences(study: Study) -> list[str]:

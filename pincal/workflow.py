@@ -8,6 +8,7 @@ postures), ``truth.urdf`` (the true robot) and ``truth.json`` (the true paramete
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,11 +17,14 @@ from typing import Any, Literal, get_args
 import numpy as np
 import numpy.typing as npt
 
-from pincal.errors import ConvergenceError, DataError, listing
+from pincal import linalg
+from pincal.errors import ConvergenceError, DataError, PincalError, listing
+from pincal.identification.identifiability import describe_unidentifiable
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.measurements import JointReading, Measurement, Pose, parse_key
 from pincal.identification.parameters import ParameterSet, choose_parameters, joint_unit
-from pincal.identification.problem import CalibrationProblem
+from pincal.identification.problem import CalibrationProblem, Observations
+from pincal.identification.selection import SELECTIONS, select_and_fit
 from pincal.identification.solver import (
     CalibrationResult,
     Loss,
@@ -31,11 +35,12 @@ from pincal.identification.solver import (
     outlier_samples,
     rms,
 )
-from pincal.io.adapters import measurements_for, observations_from
+from pincal.io.adapters import joints_at_reference, measurements_for, observations_from
 from pincal.io.calibrated_urdf import calibrated_robot_text, joint_sensor_zeros, source_text
 from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text, read_dataset
 from pincal.io.files import check_outputs, make_directory, write_texts
 from pincal.io.report_data import angle_error_norms, json_text, report_dict
+from pincal.model.measured_frame import frame_moves
 from pincal.model.robot import Robot, load_robot, unusable_samples
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
@@ -48,8 +53,13 @@ FORMULATIONS: tuple[Formulation, ...] = get_args(Formulation)
 
 def measurement_models(robot: Robot, kinds: Sequence[str], frame: str | None, sigma: float) -> list[Measurement]:
     """Models from CLI words: ``position``/``pose`` (of ``frame``), or full keys such as
-    ``distance:frameA-frameB``, ``distance_increment:a-b``, ``joint:device_lvdt``."""
-    frame = frame or robot.end_effector
+    ``distance:frameA-frameB``, ``distance_increment:a-b``, ``joint:device_lvdt``.
+
+    ``frame`` None measures the robot's default frame (:attr:`~pincal.model.robot.Robot.end_effector`, which
+    refuses when none is obvious). A named ``frame`` that the actuated joints do not move is measured as asked,
+    with one warning line on stderr: its data can identify nothing but the measurement frame.
+    """
+    named, frame = frame is not None, frame or robot.end_effector
     out = []
     for kind in kinds:
         key = kind if ":" in kind else f"{kind}:{frame}"  # a bare kind measures --frame
@@ -59,6 +69,9 @@ def measurement_models(robot: Robot, kinds: Sequence[str], frame: str | None, si
             raise DataError(f"measurement '{key}' reads actuated joint '{model.joint}', whose reading is every "
                             "sample's input; joint: measurements are for instrumented passive joints")
         out.append(model)
+    if named and any(":" not in kind for kind in kinds) and not frame_moves(robot, frame):
+        print(f"pincal: warning: the actuated joints of '{robot.name}' do not move frame '{frame}': its measurements "
+              "can identify only the measurement frame", file=sys.stderr)
     return out
 
 
@@ -95,7 +108,8 @@ def check_sample_counts(n_train: int, n_test: int) -> None:
 
 def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, frame: str | None = None,
              perturb: float = 1e-3, noise: float = 1e-5, seed: int = 0,
-             parameter_spec: Sequence[str] | None = None, progress: bool = False) -> Simulation:
+             parameter_spec: Sequence[str] | None = None, progress: bool = False,
+             spread: float | None = None) -> Simulation:
     """Simulate a calibration campaign on ``robot`` with random true errors.
 
     Args:
@@ -110,6 +124,8 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
         parameter_spec: Which parameters carry errors (named set or patterns); default: all
             candidates.
         progress: Show a progress bar while drawing postures (on a terminal).
+        spread: Half-range [rad or m] of the actuated values about the reference, within the URDF limits;
+            None: within the URDF limits (see :func:`~pincal.study.simulation.actuated_ranges`).
     """
     check_sample_counts(n_train, n_test)
     check_movable(robot)
@@ -117,7 +133,7 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
     models = measurement_models(robot, kinds, frame, max(noise, 1e-9))
     pset = choose_parameters(robot, models, parameter_spec)
     x_true = perturbation(pset, perturb, rng)
-    qa, _ = random_actuated(robot, n_train + n_test, rng, progress=progress)
+    qa, _ = random_actuated(robot, n_train + n_test, rng, spread=spread, progress=progress)
     try:
         obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise)
     except ConvergenceError as exc:
@@ -187,8 +203,15 @@ class Calibration:
 def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | None = None, solver: Solver = "lm",
               loss: Loss = "auto", sigma: float | None = None, x_true: Array | None = None,
               pose_sigma_angle: float | None = None, formulation: Formulation = "fkm",
-              max_iter: int = 100) -> Calibration:
+              max_iter: int = 100, select: str = "auto", cv: str | None = None) -> Calibration:
     """Identify ``robot``'s parameters from the ``train`` samples; evaluate on the ``test`` samples.
+
+    ``select``: ``bic`` leaves out the groups of parameters (joint translations, joint rotations, reading offsets)
+    the Bayesian information criterion rejects, then refits (:mod:`pincal.identification.selection`); ``none``
+    fits every identifiable parameter; ``auto`` (default) is ``bic`` for the default parameter set and ``none``
+    for a set named by ``parameter_spec`` (a model the user chose is fitted as chosen). ``cv``: ``K``, ``KxR``
+    or ``loo`` runs K-fold cross-validation (R times) of the whole fit, selection included, over every usable
+    sample of the file (:func:`cross_validate`); the report gets ``cv``.
 
     ``formulation``: ``fkm`` (measured − predicted by forward kinematics) or ``ikm`` (implicit loop
     residuals with the measured pose held fixed, study 000). Errors before/after are position errors
@@ -214,13 +237,24 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     models = measurements_for(robot, list(dataset.measurements), dataset.joint_names, sigma, dataset.metadata)
     if pose_sigma_angle is not None:
         models = [Pose(m.key, m.size, m.sigma, m.frame, pose_sigma_angle) if isinstance(m, Pose) else m for m in models]
+    if not models:
+        raise DataError("the data has no measurement columns ('<kind>:<frame>:<component>', e.g. "
+                        "position:end_effector:x, see docs/dataset.md) and no passive joint readings: nothing to "
+                        "calibrate from")
+    at_reference = joints_at_reference(robot, dataset.joint_names, models)
     pset = choose_parameters(robot, models, parameter_spec)
     train, dropped_info = usable_part(robot, train)
     if train.n_samples == 0:
         raise DataError(f"none of the {len(dropped_info)} training samples can be used: "
                         f"{dropped_info[0]['reason'] if dropped_info else 'no data'}")
     obs = observations_from(robot, train.joint_names, train.joints, train.measurements, models)
+    folds = parse_cv(cv, dataset.n_samples) if cv is not None else None
+    if select not in SELECT_CHOICES:
+        raise DataError(f"unknown selection '{select}'; selections are: {listing(SELECT_CHOICES)}")
+    if select == "auto":
+        select = "none" if parameter_spec else "bic"
     problem = CalibrationProblem(robot, pset, models, obs)
+    full_set, removed, first = pset, [], None
     if formulation == "ikm":
         result = identify(ImplicitProblem(robot, pset, models, obs), solver=solver, loss=loss, max_iter=max_iter)
         result.extra["closure_before"] = result.errors_before
@@ -228,7 +262,11 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
         result.errors_before = problem.evaluate(result.x0, jacobian=False).errors
         result.errors_after = problem.evaluate(result.x, jacobian=False).errors
     else:
-        result = identify(problem, solver=solver, loss=loss, max_iter=max_iter)
+        fitted = select_and_fit(problem, select, solver=solver, loss=loss, max_iter=max_iter)
+        problem, result, removed, first = fitted.problem, fitted.result, fitted.removed, fitted.first
+        pset = problem.parameters
+        if x_true is not None and removed:
+            x_true = x_true[[full_set.index(name) for name in pset.names]]
     status = "" if result.converged else f"NOT CONVERGED ({result.message} after {result.iterations} iterations): "
     text, shifts = calibrated_robot_text(robot, source_text(robot), pset, result.x,
                                          note=f"{status}calibrated by pincal from {obs.n_samples} samples "
@@ -236,6 +274,18 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
                                          read_joints=[m.joint for m in models if isinstance(m, JointReading)])
     report = report_dict(result, problem, x_true, shifts)
     report["formulation"] = formulation
+    report["selection"] = {"policy": select if formulation == "fkm" else "none", "removed": removed,
+                           "removed_groups": list(fitted.removed_groups) if removed else [],
+                           "n_candidates": len(full_set)}
+    if first is not None:  # what the data cannot see among all the candidates, not only among the kept ones
+        report["n_identifiable"] = first.identifiability.rank
+        report["unidentifiable"] = [c.description for c in first.identifiability.unidentifiable]
+        report["n_parameters"] = len(full_set)
+    combinations = (first or result).identifiability.unidentifiable
+    report["unidentifiable_listing"] = describe_unidentifiable(combinations, UNIDENTIFIABLE_LINES)
+    report["n_estimated"] = len(result.identified)
+    report["n_residuals"] = int(problem.row_samples().size)
+    report["joints_at_reference"] = at_reference
     report["dropped_samples"] = dropped_info
     report["down_weighted_samples"] = [train.sample_ids[k] for k in result.down_weighted()]
     lengths = sample_length_errors(result.errors_after, obs.n_samples)
@@ -259,6 +309,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
         # shows (the same test as the fit's outlier test): named, since they inflate the held-out figures
         strange = outlier_samples(tprob, held_out)
         report["held_out_outliers"] = [test.sample_ids[k] for k in strange]
+        report["held_out_outside_range"] = held_out_outside_range(robot, train, test)
         before, after = error_norms(errors_before), error_norms(errors_after)
         report.update({"n_test_samples": tobs.n_samples, "test_rms_before": rms(before), "test_rms_after": rms(after),
                        "test_max_before": float(before.max()) if before.size else None,
@@ -271,9 +322,93 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
         trusted = result.sigma2 <= NOISE_CONTRADICTED  # a fit at the noise level: strange held-out rows are wrong
         report["worse_than_nominal"] = _worse_than_nominal(errors_before, errors_after, tobs.n_samples,
                                                            strange if trusted else [])
+    if folds is not None:
+        usable, _ = usable_part(robot, dataset)
+        every = observations_from(robot, usable.joint_names, usable.joints, usable.measurements, models)
+        report["cv"] = cross_validate(robot, full_set, models, every, folds, select=select, solver=solver, loss=loss,
+                                      max_iter=max_iter)
     return Calibration(problem, result, report, text)
 
 
+#: Model selection choices of :func:`calibrate`: ``auto`` (``bic`` for the default parameter set, ``none`` for a
+#: named one), or a policy of :data:`~pincal.identification.selection.SELECTIONS`.
+SELECT_CHOICES = ("auto", *SELECTIONS)
+
+
+@dataclass(frozen=True)
+class Folds:
+    """A cross-validation plan: ``k`` folds (``k`` = the sample count for leave-one-out), ``repeats`` shuffles."""
+
+    k: int
+    repeats: int
+    leave_one_out: bool = False
+
+    @property
+    def label(self) -> str:
+        """How the plan reads in a report: ``5-fold × 4`` or ``leave-one-out``."""
+        return "leave-one-out" if self.leave_one_out else f"{self.k}-fold" + (f" × {self.repeats}"
+                                                                              if self.repeats > 1 else "")
+
+
+def parse_cv(text: str, n_samples: int) -> Folds:
+    """``K``, ``KxR`` (K folds, R shuffles) or ``loo`` as a :class:`Folds`.
+
+    Raises:
+        DataError: another text, K < 2, K above the sample count, or R < 1.
+    """
+    word = text.strip().lower()
+    if word == "loo":
+        return Folds(n_samples, 1, leave_one_out=True)
+    k_text, _, r_text = word.partition("x")
+    try:
+        k, repeats = int(k_text), int(r_text) if r_text else 1
+    except ValueError:
+        raise DataError(f"--cv '{text}': give K (folds), KxR (K folds, R shuffles, e.g. 5x4) or loo") from None
+    if not 2 <= k <= n_samples or not 1 <= repeats <= 100:
+        raise DataError(f"--cv '{text}': K must lie between 2 and the {n_samples} samples, R between 1 and 100")
+    return Folds(k, repeats)
+
+
+def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measurement], obs: Observations, folds: Folds,
+                   select: str = "bic", seed: int = 0, **options: Any) -> dict[str, Any]:
+    """K-fold cross-validation of the whole fit (selection and robust starts included): each fold is fitted
+    without its samples and predicts them.
+
+    Folds are drawn from a permutation seeded by ``seed + repeat``; a fold whose fit fails is counted and left
+    out. Returns the plan, the RMS position error of the predictions [m] (``rms``, pooled over every fold and
+    repeat) and of the orientation [rad] for poses, the predictions' count and the failed fits.
+
+    Raises:
+        DataError: every fold's fit failed.
+    """
+    n = obs.n_samples
+    lengths, angles, failed = [], [], []
+    for repeat in range(folds.repeats):
+        order = np.arange(n) if folds.leave_one_out else np.random.default_rng(seed + repeat).permutation(n)
+        for f in range(folds.k):
+            test = np.sort(order[f::folds.k])
+            train = np.setdiff1d(np.arange(n), test)
+            try:
+                fitted = select_and_fit(CalibrationProblem(robot, pset, models, obs.subset(train)), select, **options)
+                held = CalibrationProblem(robot, fitted.problem.parameters, models, obs.subset(test))
+                errors = held.evaluate(fitted.result.x, jacobian=False).errors
+            except PincalError as exc:
+                failed.append(f"repeat {repeat + 1}, fold {f + 1}: {exc}")
+                continue
+            lengths.append(error_norms(errors))
+            angles.append(angle_error_norms(errors))
+    if not lengths:
+        raise DataError(f"cross-validation ({folds.label}): no fold could be fitted; first: {failed[0]}")
+    out: dict[str, Any] = {"plan": folds.label, "n_samples": n, "n_predictions": int(sum(e.size for e in lengths)),
+                           "rms": rms(np.concatenate(lengths)), "failed_folds": failed}
+    pooled = np.concatenate(angles)
+    if pooled.size:
+        out["rms_angle"] = rms(pooled)
+    return out
+
+
+#: Most lines the summary gives the unidentifiable combinations (the report's ``unidentifiable`` has them all).
+UNIDENTIFIABLE_LINES = 10
 #: σ² factor beyond which a fit does not reach the stated noise (residuals over 3 × σ).
 NOISE_CONTRADICTED = 9.0
 
@@ -308,10 +443,12 @@ def joint_kinds(robot: Robot) -> dict[str, str]:
 
 
 def read_robot_dataset(path: str | Path, robot: Robot, min_samples: int = 2) -> Dataset:
-    """:func:`~pincal.io.dataset.read_dataset` for ``robot``: its actuated joints required, and the readings
-    of its revolute and prismatic joints checked for degrees and millimetres. Every command reads data
-    through here. A file whose ``# robot:`` line names another robot is refused."""
-    dataset = read_dataset(path, robot.actuated_joints, min_samples, joint_kinds=joint_kinds(robot))
+    """:func:`~pincal.io.dataset.read_dataset` for ``robot``, the readings of its revolute and prismatic joints
+    checked for degrees and millimetres. Every command reads data through here. A file whose ``# robot:`` line
+    names another robot is refused. The actuated joints that move a measured frame must have a column; that is
+    checked with the measurement models (:func:`~pincal.io.adapters.joints_at_reference`)."""
+    dataset = read_dataset(path, None, min_samples, joint_kinds=joint_kinds(robot),
+                           joint_like=[str(n) for n in robot.model.names[1:]])
     recorded = dataset.metadata.get("robot")
     names = {robot.name} | ({robot.source.stem} if robot.source is not None else set())
     if recorded is not None and recorded not in names:
@@ -331,13 +468,50 @@ def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, st
     reasons: dict[int, str] = {}
     for k, reason in out_of_limits(robot, part):
         reasons[k] = f"{reasons[k]}; {reason}" if k in reasons else reason
-    columns = [part.joint_names.index(j) for j in robot.actuated_joints if j in part.joint_names]
-    if len(columns) == robot.n_actuated:
-        inside = [k for k in range(part.n_samples) if k not in reasons]
-        for k, reason in unusable_samples(robot, part.joints[inside][:, columns]):
-            reasons[inside[k]] = reason
+    reference = robot.actuated_values(robot.q_reference)  # a joint with no column stays at its reference value
+    actuated = np.column_stack([part.joints[:, part.joint_names.index(j)] if j in part.joint_names
+                                else np.full(part.n_samples, reference[k])
+                                for k, j in enumerate(robot.actuated_joints)])
+    inside = [k for k in range(part.n_samples) if k not in reasons]
+    for k, reason in unusable_samples(robot, actuated[inside]):
+        reasons[inside[k]] = reason
     dropped = [{"sample": part.sample_ids[k], "reason": reasons[k]} for k in sorted(reasons)]
     return part.subset([k for k in range(part.n_samples) if k not in reasons]), dropped
+
+
+#: A held-out reading counts as outside the fitted range beyond this share of the training readings' range (5 %: a
+#: held-out set drawn like the training set rarely lies that far out, so the warning means extrapolation).
+RANGE_MARGIN = 0.05
+
+
+def held_out_outside_range(robot: Robot, train: Dataset, test: Dataset,
+                           margin: float = RANGE_MARGIN) -> list[dict[str, Any]]:
+    """The held-out readings of actuated joints outside the range the training readings cover.
+
+    For each actuated joint, a ``test`` sample whose reading lies below the training minimum or above the
+    training maximum by more than ``margin`` × (max − min) is listed: its error measures how the calibrated
+    model extrapolates, not how it fits. An unbounded (continuous) joint's readings are compared as angles in
+    [−π, π).
+
+    Returns:
+        One dict per sample and joint, in sample order: ``sample`` (its id), ``joint``, ``value`` [rad or m] and
+        ``range`` ([min, max] of the training readings [rad or m]).
+    """
+    if train.n_samples == 0 or test.n_samples == 0:
+        return []
+    found: list[tuple[int, int, dict[str, Any]]] = []
+    for order, joint in enumerate(robot.actuated_joints):
+        if joint not in train.joint_names or joint not in test.joint_names:
+            continue
+        fitted, held = train.joints[:, train.joint_names.index(joint)], test.joints[:, test.joint_names.index(joint)]
+        if robot.model.joints[robot.joint_id(joint)].nq == 2:
+            fitted, held = linalg.wrap_angle(fitted), linalg.wrap_angle(held)
+        low, high = float(np.nanmin(fitted)), float(np.nanmax(fitted))
+        tol = margin * (high - low)
+        for k in np.flatnonzero((held < low - tol) | (held > high + tol)):
+            found.append((int(k), order, {"sample": test.sample_ids[k], "joint": joint, "value": float(held[k]),
+                                          "range": [low, high]}))
+    return [entry for _, _, entry in sorted(found, key=lambda item: item[:2])]
 
 
 #: A reading counts as outside a joint's URDF limits beyond this share of its range: URDF limits are nominal,

@@ -122,3 +122,39 @@ def planar_coupler_urdf() -> str:
 </loop>
 <transmission name="t"><joint name="crank_joint"/></transmission>
 </robot>"""
+
+
+#: Crank-rocker lengths [m]: crank a (actuated, shortest: it turns a full circle), coupler b, rocker c,
+#: ground d (Grashof: a + b <= c + d).
+CRANK_ROCKER = {"a": 0.10, "b": 0.35, "c": 0.25, "d": 0.30}
+
+
+def crank_rocker_urdf(crank_limits: tuple[float, float] = (-math.pi, math.pi)) -> str:
+    """A four-bar as one chain, ground -> crank -> coupler -> rocker, cut at the rocker's ground pivot.
+
+    No frame is named like an end effector, and the file's last link, ``stand``, is fixed to the ground:
+    the rocker is the one moving link with no moving link below it. The crank is at angle 0 at the
+    reference; ``crank_limits`` [rad] are its URDF limits (the passive joints have none to speak of).
+    """
+    a, b, c, d = (CRANK_ROCKER[k] for k in "abcd")
+    pb = np.array([a, 0.0])
+    pc = _circle_intersection(pb, b, np.array([d, 0.0]), c)
+    coupler_yaw = math.atan2(*(pc - pb)[::-1])
+    rocker_yaw = math.atan2(*(np.array([d, 0.0]) - pc)[::-1])
+    crank = JOINT.replace('lower="-10" upper="10"', f'lower="{float(crank_limits[0])!r}" '
+                                                     f'upper="{float(crank_limits[1])!r}"')
+    return f"""<robot name="crank_rocker">
+<link name="ground"/><link name="crank"/><link name="coupler"/><link name="rocker"/><link name="stand"/>
+{crank.format(name="crank_joint", kind="revolute", parent="ground", child="crank", x=0.0, y=0.0, yaw=0.0,
+              axis="0 0 1")}
+{_joint("coupler_joint", "revolute", "crank", "coupler", x=a, yaw=coupler_yaw)}
+{_joint("rocker_joint", "revolute", "coupler", "rocker", x=b, yaw=rocker_yaw - coupler_yaw)}
+<joint name="stand_joint" type="fixed"><parent link="ground"/><child link="stand"/>
+  <origin xyz="0.15 -0.05 0" rpy="0 0 0"/></joint>
+<loop name="rocker_ground" type="revolute">
+  <predecessor link="rocker"><origin xyz="{c!r} 0 0"/></predecessor>
+  <successor link="ground"><origin xyz="{d!r} 0 0"/></successor>
+  <axis xyz="0 0 1"/>
+</loop>
+<transmission name="crank_motor"><joint name="crank_joint"/></transmission>
+</robot>"""

@@ -22,7 +22,9 @@ from pincal.cli.options import (
     add_parameters,
     add_perturb,
     add_robot,
+    add_selection_and_cv,
     add_solver_and_loss,
+    add_spread,
     non_negative_float,
     non_negative_int,
     positive_float,
@@ -59,9 +61,14 @@ def _describe(robot: Robot) -> str:
     lines.append(f"configuration: nq {model.nq}, nv {model.nv}; closure rows {robot.closure.rows}; "
                  f"mobility {robot.mobility()}")
     lines.append(f"closure residual at the reference configuration: {worst:.3g} (m, rad)")
-    ee = robot.end_effector
-    p = robot.placement(robot.q_reference, ee).translation
-    lines.append(f"end effector: {ee} at ({p[0]:.6f}, {p[1]:.6f}, {p[2]:.6f}) m at the reference")
+    choice = robot.measured_frame_choice
+    if choice.frame is None:
+        lines.append(f"measured frame (default): none: {choice.reason}")
+    else:
+        p = robot.placement(robot.q_reference, choice.frame).translation
+        why = "named like an end effector" if choice.rule == "named" else "the one moving link with none below it"
+        lines.append(f"measured frame (default): {choice.frame}, moved by the actuated joints ({why}); at "
+                     f"({p[0]:.6f}, {p[1]:.6f}, {p[2]:.6f}) m at the reference")
     return "\n".join(lines)
 
 
@@ -87,7 +94,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     simulation_outputs(robot, args.out)  # refused before any work: a file, an unwritable place, the robot's URDF
     try:
         sim = simulate(robot, args.measure, args.samples, args.test_samples, frame=args.frame, perturb=args.perturb,
-                       noise=args.noise, seed=args.seed, parameter_spec=args.parameters, progress=not args.quiet)
+                       noise=args.noise, seed=args.seed, parameter_spec=args.parameters, progress=not args.quiet,
+                       spread=args.spread)
         paths = write_simulation(sim, Path(args.out))
     except PincalError:
         if created:  # the directory made above, still empty: nothing is left behind
@@ -109,8 +117,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
     cal = calibrate_files(args.robot, args.data, args.out, args.report, parameter_spec=args.parameters,
                           solver=args.solver, loss=args.loss, sigma=args.sigma, formulation=args.formulation,
-                          max_iter=args.max_iter)
-    print(_summary(cal.report, cal.result.seconds))
+                          max_iter=args.max_iter, select=args.select, cv=args.cv)
+    print(_summary(cal.report, cal.result.seconds, args.report))
     for path in (args.out, args.report):
         if path:
             print(f"wrote {path}")
@@ -127,7 +135,7 @@ def _mrad(value: float | None) -> str:
     return "-" if value is None or value != value else f"{value * 1e3:.4f} mrad"
 
 
-def _summary(report: dict[str, Any], seconds: float) -> str:
+def _summary(report: dict[str, Any], seconds: float, report_path: str | None = None) -> str:
     lines = [f"NOT CONVERGED: {report['message']} after {report['iterations']} iterations; the estimate below is "
              "where the solver stopped, not a calibration (try --max-iter, fewer --parameters or more samples)"
              if not report["converged"] else None,
@@ -140,8 +148,9 @@ def _summary(report: dict[str, Any], seconds: float) -> str:
              "either the stated σ is wrong or the model cannot fit these data (see the warning below)"
              if (report.get("sigma2") or 0.0) > NOISE_CONTRADICTED else None,
              f"samples {report['n_samples']}, parameters {report['n_parameters']}, "
-             f"identifiable {report['n_identifiable']}, "
-             f"condition number {report['condition_number']:.3g}" if report["condition_number"] else "",
+             f"identifiable {report['n_identifiable']}, estimated {report.get('n_estimated', report['n_identifiable'])}"
+             f", condition number {report['condition_number']:.3g}" if report["condition_number"] else "",
+             _selection_line(report),
              f"solver {report['solver']}, loss {report['loss']}: {report['message']} after {report['iterations']} "
              f"iterations, {seconds:.3f} s",
              "",
@@ -165,19 +174,61 @@ def _summary(report: dict[str, Any], seconds: float) -> str:
                   f"{_mrad(report['test_max_angle_after']):>14}"]
     if report.get("before_means"):
         lines.append(f"(before: {report['before_means']})")
+    if report.get("joints_at_reference"):
+        lines.append(f"joints with no column, taken at their reference value (they move no measured frame): "
+                     f"{', '.join(report['joints_at_reference'])}")
     lines += _accounting(report)
     if report.get("calibration_gain") is not None:
         lines.append(f"{'calibration gain G (study 000)':32}{'':>14}{report['calibration_gain']:>12.1f} %")
         if report["unidentifiable"]:
             lines.append("  (G compares every parameter with the truth; parameters the data cannot separate stay at "
                          "minimum-norm values, which caps G: the position errors are the measure that counts)")
+    lines += _generalization(report)
     if report["unidentifiable"]:
         lines.append("")
-        lines.append(f"not identifiable from these data ({len(report['unidentifiable'])}):")
-        lines += [f"  - {text}" for text in report["unidentifiable"][:6]]
-        if len(report["unidentifiable"]) > 6:
-            lines.append(f"  ... and {len(report['unidentifiable']) - 6} more (see the report)")
+        lines.append(f"not identifiable from these data ({len(report['unidentifiable'])} directions):")
+        lines += report.get("unidentifiable_listing") or [f"  - {text}" for text in report["unidentifiable"]]
+        count = len(report["unidentifiable"])
+        lines.append(f"  (all {count} in full: the report's 'unidentifiable')" if report_path else
+                     f"  (all {count} in full: --report FILE writes them, under 'unidentifiable')")
     return "\n".join(line for line in lines if line is not None)
+
+
+def _selection_line(report: dict[str, Any]) -> str | None:
+    """What model selection left out, in one line (None when it left nothing out)."""
+    selection = report.get("selection") or {}
+    removed = selection.get("removed") or []
+    if not removed:
+        return None
+    return (f"model selection ({selection['policy']}): left out the {' and '.join(selection['removed_groups'])} "
+            f"({len(removed)} parameters held at nominal), which the data do not support; --select none keeps them")
+
+
+#: Cross-validated error above this multiple of the fit error is called overfitting.
+OVERFIT_RATIO = 1.5
+#: Fewer measured values than this per estimated parameter are called few.
+VALUES_PER_PARAMETER = 5
+
+
+def _generalization(report: dict[str, Any]) -> list[str]:
+    """The cross-validated error beside the fit's, and the warnings about generalization."""
+    lines = []
+    cv = report.get("cv")
+    if cv:
+        lines.append(f"{'RMS position error (cross-val.)':32}{'':>14}{_mm(cv['rms']):>14}  ({cv['plan']}, "
+                     f"{cv['n_samples']} samples, {cv['n_predictions']} predictions)")
+        if cv.get("failed_folds"):
+            lines.append(f"  ({len(cv['failed_folds'])} fold fits failed and are left out; the report lists them)")
+        fit = report.get("rms_after")
+        if fit and cv["rms"] > OVERFIT_RATIO * fit:
+            lines.append(f"warning: the cross-validated error is {cv['rms'] / fit:.2g} × the fit error: the model "
+                         "follows these samples more closely than it predicts new ones (overfitting)")
+    rows = report.get("n_residuals")
+    estimated = report.get("n_estimated")
+    if rows and estimated and rows < VALUES_PER_PARAMETER * estimated:
+        lines.append(f"warning: {rows / estimated:.2g} measured values per estimated parameter (fewer than "
+                     f"{VALUES_PER_PARAMETER}): check how the model generalizes with --cv 5, or measure more postures")
+    return lines
 
 
 #: Most samples listed one per line in the summary; the report JSON lists them all.
@@ -207,6 +258,18 @@ def _accounting(report: dict[str, Any]) -> list[str]:
         lines.append(f"held-out samples the calibrated model cannot explain ({len(strange)}; they weigh on the "
                      f"held-out figures, not on the comparison with the nominal model): {', '.join(strange[:LISTED])}"
                      + (" ..." if len(strange) > LISTED else ""))
+    outside = report.get("held_out_outside_range", [])
+    if outside:  # one line of at most 120 characters: a few samples, else their count
+        ids, joints = (list(dict.fromkeys(str(o[key]) for o in outside)) for key in ("sample", "joint"))
+        where = joints[0] if len(joints) == 1 else f"{len(joints)} actuated joints"
+        shown = ", ".join(ids[:3]) + (f" (+{len(ids) - 3})" if len(ids) > 3 else "")
+        lines.append(next(line for line in (f"warning: held-out samples {shown} lie outside the fitted range of "
+                                            f"{where}: their errors measure extrapolation",
+                                            f"warning: {len(ids)} held-out samples lie outside the fitted range of "
+                                            f"{where}: their errors measure extrapolation",
+                                            f"warning: {len(ids)} held-out samples lie outside the fitted range of "
+                                            "the actuated joints: their errors measure extrapolation")
+                          if len(line) <= 120))
     if weighted and len(weighted) >= ROBUST_WARNING_FRACTION * report["n_samples"]:
         lines.append(f"warning: {len(weighted)} of the {report['n_samples']} fitted samples "
                      f"({len(weighted) / report['n_samples']:.0%}) were down-weighted: a robust fit is not meant for "
@@ -251,7 +314,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     write_json(out / "report.json", cal.report)
     report_html = write_demo_report(cal, sim.dataset, out)  # reads out/truth.json, written above
     print(DEMO_TEXT.format(n_train=args.samples, n_test=args.test_samples, noise_um=args.noise * 1e6))
-    print(_summary(cal.report, cal.result.seconds))
+    print(_summary(cal.report, cal.result.seconds, str(out / "report.json")))
     print()
     print(f"wrote {out}/: delta_calibrated.urdf (the calibrated robot), {report_html.name} (open it in a "
           "browser), report.json, measurements.csv, truth.urdf")
@@ -330,9 +393,9 @@ def build_parser() -> argparse.ArgumentParser:
     info.set_defaults(func=cmd_info)
 
     sim = sub.add_parser("simulate", help="simulate a calibration dataset with known errors",
-                         description="Perturb the robot's geometry (the truth), draw reachable postures, "
-                                     "measure them with noise; write DIR/measurements.csv, DIR/truth.urdf, "
-                                     "DIR/truth.json.",
+                         description="Perturb the robot's geometry (the truth), draw reachable postures (within "
+                                     "the URDF joint limits, or --spread), measure them with noise; write "
+                                     "DIR/measurements.csv, DIR/truth.urdf, DIR/truth.json.",
                          epilog="example: pincal simulate delta --samples 60 --measure position --perturb 1e-3 "
                                 "--noise 1e-5 --seed 1 --out sim/")
     add_robot(sim)
@@ -343,6 +406,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--noise", type=non_negative_float, default=1e-5,
                      help="σ of the measurement noise [m, rad] (default 1e-5)")
     sim.add_argument("--seed", type=non_negative_int, default=0, help="random seed")
+    add_spread(sim)
     add_parameters(sim, "parameters with errors: a named set (model24, hexapod42, "
                                                     "hexapod44) or name patterns (default: all candidates)")
     sim.add_argument("--out", required=True, help="output directory")
@@ -363,6 +427,7 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
     cal.add_argument("--max-iter", type=positive_int, default=100,
                      help="iteration limit of the solver (default 100); a run that reaches it exits 1")
+    add_selection_and_cv(cal)
     cal.add_argument("--formulation", choices=["fkm", "ikm"], default="fkm",
                      help="fkm: measured - predicted by forward kinematics; ikm: implicit loop residuals with the "
                           "measured pose held fixed (study 000; closed-loop robots)")

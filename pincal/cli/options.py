@@ -48,7 +48,9 @@ def add_robot(parser: argparse.ArgumentParser, note: str = "") -> None:
 def add_measurement(parser: argparse.ArgumentParser) -> None:
     """``--measure`` and ``--frame``."""
     parser.add_argument("--measure", nargs="+", default=["position"], help=MEASURE_HELP)
-    parser.add_argument("--frame", help="measured frame for position/pose (default: the end effector)")
+    parser.add_argument("--frame", help="measured frame for position/pose (default: a frame named like an end "
+                                        "effector, else the one link the actuated joints move with none moving below "
+                                        "it; refused when that is not one link)")
 
 
 def add_perturb(parser: argparse.ArgumentParser) -> None:
@@ -67,6 +69,27 @@ def add_solver_and_loss(parser: argparse.ArgumentParser) -> None:
                              "cauchy: robust from the start")
 
 
+def add_spread(parser: argparse.ArgumentParser) -> None:
+    """``--spread``: half-range of the random actuated values about the reference [rad or m]."""
+    parser.add_argument("--spread", type=positive_float, metavar="S",
+                        help="draw each actuated joint within ±S of the reference configuration [rad for revolute, "
+                             "m for prismatic joints], within its URDF limits (default: anywhere within the URDF "
+                             "limits, except five_bar, hexapod, hexapod_device, ucr3, whose limits exceed their "
+                             "workspace; a joint without limits: ±0.5 rad on closed-loop robots, ±π on serial ones)")
+
+
 def add_parameters(parser: argparse.ArgumentParser, help_text: str = PARAMETERS_HELP) -> None:
     """``--parameters``: a named set or shell-style name patterns."""
     parser.add_argument("--parameters", nargs="+", help=help_text)
+
+
+def add_selection_and_cv(parser: argparse.ArgumentParser) -> None:
+    """``--select`` (model selection) and ``--cv`` (cross-validation) of ``calibrate``."""
+    parser.add_argument("--select", choices=["auto", "bic", "none"], default="auto",
+                        help="model selection: bic leaves out the groups of parameters (joint translations, "
+                             "rotations, reading offsets) the Bayesian information criterion rejects, then refits; "
+                             "none fits every identifiable parameter; auto (default): bic for the default "
+                             "parameters, none for --parameters you name")
+    parser.add_argument("--cv", metavar="K|KxR|loo",
+                        help="cross-validate the whole fit over every usable sample of the file: K folds, KxR "
+                             "(R shuffles, e.g. 5x4) or loo (leave one out); prints the cross-validated RMS")

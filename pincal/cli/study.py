@@ -24,6 +24,7 @@ from pincal.cli.options import (
     add_parameters,
     add_perturb,
     add_robot,
+    add_spread,
     non_negative_float,
     non_negative_int,
     positive_int,
@@ -108,7 +109,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     models, difference = _absolute(measurement_models(robot, args.measure, args.frame, 1e-5))
     pset = choose_parameters(robot, models, args.parameters)
     rng = np.random.default_rng(args.seed)
-    qa, _ = random_actuated(robot, args.candidates, rng, progress=not args.quiet)
+    qa, _ = random_actuated(robot, args.candidates, rng, spread=args.spread, progress=not args.quiet)
     problem = CalibrationProblem(robot, pset, models, blank_observations(models, qa))
     blocks = jacobian_blocks(problem)
     scales = np.asarray(pset.scales, dtype=float)
@@ -194,7 +195,8 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
     source = str(Path(args.robot).resolve()) if Path(args.robot).is_file() else args.robot
     trial = SimulatedCalibration(source, tuple(m.key for m in models),
                                  tuple(args.parameters) if args.parameters else None, n_train=args.samples,
-                                 n_test=args.test_samples, perturb=args.perturb, solver=args.solver)
+                                 n_test=args.test_samples, perturb=args.perturb, solver=args.solver,
+                                 spread=args.spread)
     seeds = list(range(args.seed, args.seed + args.trials))
     start = time.perf_counter()
     result = run_monte_carlo(trial, seeds, list(args.noise), executor=None if args.workers == 1 else "process",
@@ -231,6 +233,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     design.add_argument("--criterion", choices=CRITERIA, default="condition",
                         help="condition: minimise κ (default); d-optimal: maximise log det(JᵀJ)")
     design.add_argument("--seed", type=non_negative_int, default=0, help="random seed of the candidates")
+    add_spread(design)
     design.add_argument("--out", metavar="CSV",
                         help="CSV of the chosen actuated values [rad or m] (default: print them)")
     design.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -258,5 +261,6 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     mc.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm")
     mc.add_argument("--workers", type=positive_int, help="processes (default: the machine's cores; 1: serial)")
     mc.add_argument("--seed", type=non_negative_int, default=0, help="first seed (trials use seed, seed+1, ...)")
+    add_spread(mc)
     mc.add_argument("--quiet", action="store_true", help="no progress bar or timing")
     mc.set_defaults(func=cmd_montecarlo)

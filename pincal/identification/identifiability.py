@@ -9,19 +9,23 @@ calibration index and taxonomy for robot kinematic calibration methods", §"scal
 
 - The numerical rank is the number of singular values of ``J_s`` above ``tol · σ_max``
   (:data:`RANK_TOLERANCE` by default).
-- QR with column pivoting of ``J_s`` picks the base (identifiable) parameters: the first ``rank`` pivots.
-  Each remaining column ``d`` is a combination of the base columns, ``J_s[:, d] = J_s[:, B] C`` with
-  ``C = R11⁻¹ R12`` (Gautier 1991, "Numerical calculation of the base inertial parameters of robots").
-  In physical units ``J[:, d] = Σ_b k_b J[:, b]`` with ``k_b = C_b s_b / s_d``, and the data only sees
-  the combinations ``x_b + k_b x_d``.
+- QR with column pivoting of ``J_s`` picks the base (identifiable) parameters: the first ``rank`` pivots
+  (Gautier 1991, "Numerical calculation of the base inertial parameters of robots").
+- What the data cannot see is the null space of ``J_s``: the right singular vectors past the rank. Any
+  basis of it is as true as another, but the SVD's mixes every parameter; its reduced row echelon form
+  (pivot: the largest remaining entry) is sparse instead. When the null space splits into small groups
+  of parameters (``base.tz`` with ``arm_1_joint.tz``, …), each of its rows involves one group only, so
+  each :class:`Combination` names a few parameters. Row ``u`` led by ``a`` reads, in physical units,
+  ``J[:, a] = Σ_b k_b J[:, b]`` with ``k_b = −(u_b / u_a)(s_b / s_a)``: the data only sees ``x_b + k_b x_a``.
 - The observability indices O1..O5 are those compared by Sun & Hollerbach 2008, "Observability index
   selection for robot calibration" (ICRA), computed on the singular values of the identifiable columns.
 """
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -41,30 +45,56 @@ rank; 1e-8 sits well above that noise and well below any direction a calibration
 1e-4 to call only practically identifiable parameters identifiable."""
 
 COEFFICIENT_TOLERANCE = 1e-6
-"""A base parameter is named in a combination when its scaled coefficient exceeds this fraction of the
-largest scaled coefficient of that combination."""
+"""A parameter is named in a combination when its scaled entry in the null-space row exceeds this
+fraction of the row's largest: smaller entries are the round-off of the SVD."""
+
+UNITS = ("m", "rad", "")
+#: The units a direction's steps are said in (the same numbers: only the ratios matter).
+SMALL_UNITS = {"m": "mm", "rad": "mrad"}
+"""The units a parameter can have: metres, radians, or unknown ("")."""
+
+LINE_WIDTH = 120
+"""Longest line of :meth:`Identifiability.summary` and :func:`describe_unidentifiable` [characters]."""
+
+BULLET = "  - "
+"""What starts a combination's line in a listing; descriptions are short enough to fit after it."""
+
+MORE_INDENT = "  "
+"""What starts the ``… and N more`` line of a listing."""
+
+SHOWN_TERMS = 6
+"""A combination of up to this many parameters is written out whole; a longer one shows its
+``SHOWN_TERMS − 1`` largest (scaled) terms and counts the others."""
+
+SAME_EFFECT = 1e-6
+"""Two parameters move the measurements the same way (or opposite ways) when ``|k| = 1`` within this."""
 
 
 @dataclass(frozen=True)
 class Combination:
-    """One direction the data cannot see, tied to the parameter that carries it.
+    """One direction the data cannot see, on the few parameters it involves.
 
     Attributes:
-        names: the dependent (unidentifiable) parameter first, then the base parameters it is tied to.
+        names: the leading parameter first: the one that moves most along the direction, in scaled
+            units (the pivot of the null-space row; the first in column order among equals), then the
+            others, largest scaled entry first (equal ones in column order).
         coefficients: ``[1, k_1, k_2, ...]`` in physical units, such that
-            ``J[:, dependent] = Σ_i k_i J[:, names[i]]``: moving the dependent parameter by δ changes the
-            data exactly as moving each base parameter by ``k_i δ`` does. ``k_i`` has units
+            ``J[:, names[0]] = Σ_i k_i J[:, names[i]]``: moving the leading parameter by δ changes the
+            data exactly as moving each other parameter by ``k_i δ`` does. ``k_i`` has units
             [unit of names[i] / unit of names[0]], e.g. [m/rad]. Only ``[1]`` for an invisible parameter.
-        description: the same in plain words.
+        description: the same in plain words, one line of at most ``LINE_WIDTH − len(BULLET)`` characters
+            (unless names are so long that even the shortest wording is longer).
+        units: the unit of each parameter of :attr:`names`: ``m``, ``rad`` or ``""`` (unknown).
     """
 
     names: list[str]
     coefficients: Array
     description: str
+    units: list[str] = field(default_factory=list)
 
     @property
     def dependent(self) -> str:
-        """The parameter that is not identifiable on its own."""
+        """The leading parameter: not identifiable on its own (neither are the others named)."""
         return self.names[0]
 
     @property
@@ -89,7 +119,8 @@ class Identifiability:
             ``O4 = σ_min²/σ_max``, ``O5 = 1/Σ(1/σ_i)``. All 0 at rank 0. Larger is better.
         base_indices: columns kept (identifiable), ascending.
         base_names: their names.
-        unidentifiable: one :class:`Combination` per null-space direction, sorted by dependent name.
+        unidentifiable: ``p − rank`` :class:`Combination` s, a sparse basis of the null space, fewest
+            parameters first, then by name.
     """
 
     rank: int
@@ -101,22 +132,80 @@ class Identifiability:
     base_names: list[str]
     unidentifiable: list[Combination]
 
-    def summary(self) -> str:
-        """A readable multi-line account for a report."""
+    def summary(self, limit: int = 10) -> str:
+        """A short account for a report: lines of at most :data:`LINE_WIDTH` characters, with at most
+        ``limit`` unidentifiable combinations (:attr:`unidentifiable` has them all)."""
         obs = ", ".join(f"{key} {value:.3g}" for key, value in self.observability.items())
         lines = [
             f"identifiable: rank {self.rank} of {self.n_parameters} parameters",
             f"condition number (scaled, identifiable set): {self.condition_number:.3g}",
             f"observability: {obs}",
-            "singular values (scaled): " + " ".join(f"{s:.3g}" for s in self.singular_values),
-            f"base parameters ({len(self.base_names)}): {', '.join(self.base_names) or '-'}",
+            *_wrapped(f"base parameters ({len(self.base_names)}): ", self.base_names or ["-"]),
         ]
         if self.unidentifiable:
-            lines.append(f"not identifiable ({len(self.unidentifiable)}):")
-            lines += [f"  - {combination.description}" for combination in self.unidentifiable]
+            lines.append(f"not identifiable ({len(self.unidentifiable)} directions the data cannot see):")
+            listed, left_out = _listing(self.unidentifiable, limit)
+            lines += listed
+            if left_out:
+                lines.append(f"{MORE_INDENT}… and {left_out} more (Identifiability.unidentifiable has them all)")
         else:
             lines.append("every parameter is identifiable")
         return "\n".join(lines)
+
+
+def describe_unidentifiable(combinations: Sequence[Combination], limit: int = 10) -> list[str]:
+    """The lines a listing prints for unidentifiable combinations, each at most :data:`LINE_WIDTH`
+    characters: ``BULLET + description`` per combination, except that parameters with no effect at all
+    share one line when there are several; at most ``limit`` such lines, then ``  … and N more`` when
+    N combinations were left out.
+
+    Args:
+        combinations: :attr:`Identifiability.unidentifiable`, in its order.
+        limit: most lines before the ``… and N more`` one (>= 0).
+
+    Raises:
+        DataError: negative ``limit``.
+    """
+    lines, left_out = _listing(combinations, limit)
+    return lines + ([f"{MORE_INDENT}… and {left_out} more"] if left_out else [])
+
+
+def _listing(combinations: Sequence[Combination], limit: int) -> tuple[list[str], int]:
+    """At most ``limit`` lines for :func:`describe_unidentifiable`, and how many combinations they leave out."""
+    if limit < 0:
+        raise DataError(f"limit must be >= 0 lines; got {limit}")
+    invisible = [c.dependent for c in combinations if len(c.names) == 1]
+    entries = [(BULLET + c.description, 1) for c in combinations if len(c.names) > 1 or len(invisible) == 1]
+    if len(invisible) > 1:
+        head = f"{BULLET}no effect on the measurements ({len(invisible)} parameters): "
+        entries.insert(0, (_wrapped(head, invisible, max_lines=1)[0], len(invisible)))
+    shown = entries[:limit]
+    return [text for text, _ in shown], len(combinations) - sum(count for _, count in shown)
+
+
+def _wrapped(head: str, items: Sequence[str], max_lines: int = 2) -> list[str]:
+    """``head`` and the comma-separated items on at most ``max_lines`` lines of :data:`LINE_WIDTH`; the
+    items that do not fit are counted at the end."""
+
+    def wrap(shown: list[str]) -> list[str]:
+        return textwrap.wrap(head + ", ".join(shown), LINE_WIDTH, subsequent_indent="  ",
+                             break_long_words=False, break_on_hyphens=False)
+
+    lines = wrap(list(items))
+    shown = len(items)
+    while len(lines) > max_lines and shown > 0:
+        shown -= 1
+        lines = wrap([*items[:shown], f"… (+{len(items) - shown} more)"])
+    return lines
+
+
+def unit_from_name(name: str) -> str:
+    """The unit a parameter's name implies: ``m`` for ``*.tx|ty|tz`` and ``marker.*.x|y|z``, ``rad`` for
+    ``*.rx|ry|rz``, ``""`` (unknown) otherwise, e.g. for a joint offset (m or rad with the joint)."""
+    component = name.rsplit(".", 1)[-1]
+    if component in ("tx", "ty", "tz") or (name.startswith("marker.") and component in ("x", "y", "z")):
+        return "m"
+    return "rad" if component in ("rx", "ry", "rz") else ""
 
 
 def _checked(jacobian: npt.ArrayLike, names: Sequence[str], scales: npt.ArrayLike) -> tuple[Array, Array]:
@@ -138,6 +227,19 @@ def _checked(jacobian: npt.ArrayLike, names: Sequence[str], scales: npt.ArrayLik
     return J, s
 
 
+def _checked_units(units: Sequence[str] | None, names: Sequence[str]) -> list[str]:
+    """One unit per parameter: ``units`` checked, or inferred from the names when None."""
+    if units is None:
+        return [unit_from_name(name) for name in names]
+    units = list(units)
+    if len(units) != len(names):
+        raise DataError(f"{len(units)} units for {len(names)} parameters; give one per Jacobian column")
+    bad = [f"{name} ({unit!r})" for name, unit in zip(names, units, strict=True) if unit not in UNITS]
+    if bad:
+        raise DataError(f"units must be 'm', 'rad' or '' (unknown); bad: {listing(bad)}")
+    return units
+
+
 def _checked_jacobian(jacobian: npt.ArrayLike) -> Array:
     J = np.asarray(jacobian, dtype=float)
     if J.ndim != 2 or J.shape[0] == 0 or J.shape[1] == 0:
@@ -155,33 +257,66 @@ def _checked_tolerance(tol: float | None) -> float:
     return tol
 
 
-def _number(value: float) -> str:
-    magnitude = abs(value)
-    return f"{magnitude:.3f}" if 1e-3 <= magnitude < 1e4 else f"{magnitude:.3e}"
+def _quantity(value: float, unit: str, sign: str = "") -> str:
+    """``value`` to 3 significant digits, then its unit if known; ``sign="+"`` writes a plus sign."""
+    number = f"{value:{sign}.3g}"
+    return f"{number} {unit}" if unit else number
 
 
-def _signed_term(coefficient: float, name: str, first: bool = False) -> str:
-    sign = "-" if coefficient < 0 else ("" if first else "+")
-    return f"{sign}{' ' if sign and not first else ''}{_number(coefficient)} {name}"
+def _ratio_unit(numerator: str, denominator: str) -> str:
+    """The unit of a coefficient ``k`` in ``J[:, a] = k J[:, b]``: unit(b)/unit(a); none when they are
+    equal or one is unknown."""
+    return f"{numerator}/{denominator}" if numerator and denominator and numerator != denominator else ""
 
 
-def _describe(dependent: str, bases: list[str], coefficients: list[float]) -> str:
-    if not bases:
-        return f"{dependent} is invisible to the data (no measurement depends on it)"
-    seen = [f"{base} {_signed_term(k, dependent)}" for base, k in zip(bases, coefficients, strict=True)]
-    if len(bases) == 1:
-        return f"{dependent} is not identifiable on its own: only {seen[0]} is seen by the data"
-    effect = " ".join(
-        _signed_term(k, base, first=i == 0) for i, (base, k) in enumerate(zip(bases, coefficients, strict=True))
-    )
-    return (
-        f"{dependent} is not identifiable on its own: it acts on the data as {effect}; "
-        f"only {', '.join(seen)} are seen by the data"
-    )
+def _wordings(names: list[str], coefficients: Array, units: list[str]) -> list[str]:
+    """Ways to say one combination (its names, ``[1, k_1, ...]`` and units), the most explicit first."""
+    if len(names) == 1:
+        return [f"{names[0]} has no effect on the measurements", f"{names[0]}: no effect"]
+    if len(names) == 2:
+        (a, b), k = names, float(coefficients[1])
+        if not (units[0] and units[1] and units[0] != units[1]) and abs(abs(k) - 1.0) <= SAME_EFFECT:
+            # J_a = ±J_b: the data sees J_a (x_a ± x_b)
+            way, seen = ("the same way", "their sum") if k > 0 else ("in opposite ways", "their difference")
+            return [f"{a} and {b} move the measurements {way}: only {seen} is seen",
+                    f"{a} and {b}: only {seen} is seen"]
+        ratio = _ratio_unit(units[1], units[0])
+        acts = f"{a} acts as {_quantity(k, ratio)} × {b}"
+        # J_a = k J_b: the data sees J_b (x_b + k x_a)
+        return [f"{acts}: only {b} {'-' if k < 0 else '+'} {_quantity(abs(k), ratio)} × {a} is seen", acts]
+    null_direction = np.concatenate([[1.0], -coefficients[1:]])
+    # a direction, not a size: said per millimetre or milliradian of the first, the size of a geometric error
+    steps = [_quantity(step, SMALL_UNITS.get(unit, unit), "+")
+             for step, unit in zip(null_direction, units, strict=True)]
+    return _group_wordings(names, steps)
 
 
-def _singular_values(matrix: Array) -> Array:
-    return linalg.singular_values(matrix, "the scaled identification Jacobian")
+def _group_wordings(names: list[str], steps: list[str]) -> list[str]:
+    """Ways to say that moving each of three or more parameters by its step (with its unit) is not seen,
+    the most explicit first; the shorter ones show fewer parameters and count the others."""
+    whole = len(names) <= SHOWN_TERMS
+    shown = len(names) if whole else SHOWN_TERMS - 1
+    moves = [f"{name} by {step}" for name, step in zip(names[:shown], steps[:shown], strict=True)]
+    listed = f"{', '.join(moves[:-1])} and {moves[-1]}" if whole else f"{', '.join(moves)} (+{len(names) - shown} more)"
+    wordings = [f"moving {listed} changes no measurement"]
+    for count in range(shown, 0, -1):
+        more = f" (+{len(names) - count} more)" if count < len(names) else ""
+        terms = ", ".join(f"{name} {step}" for name, step in zip(names[:count], steps[:count], strict=True))
+        wordings.append(f"unseen change: {terms}{more}")
+    return wordings
+
+
+def _describe(names: list[str], coefficients: Array, units: list[str]) -> str:
+    """The most explicit wording that fits after a :data:`BULLET` on a line of :data:`LINE_WIDTH`."""
+    wordings = _wordings(names, coefficients, units)
+    return next((text for text in wordings if len(BULLET + text) <= LINE_WIDTH), wordings[-1])
+
+
+def _svd(matrix: Array) -> tuple[Array, Array]:
+    """Singular values (descending, min(m, p)) and all p right singular vectors (rows of ``Vᵀ``)."""
+    m, p = matrix.shape
+    _, singular_values, Vt = linalg.svd(matrix, "the scaled identification Jacobian", full_matrices=m < p)
+    return singular_values, Vt
 
 
 def _rank(singular_values: Array, tol: float) -> int:
@@ -190,50 +325,65 @@ def _rank(singular_values: Array, tol: float) -> int:
     return int(np.count_nonzero(singular_values > tol * singular_values[0]))
 
 
-def _base_from_scaled(
-    J_scaled: Array, names: list[str], scales: Array, rank: int, tol: float
-) -> tuple[list[int], list[Combination]]:
-    """Base columns and named combinations of an already scaled Jacobian of known rank."""
-    p = J_scaled.shape[1]
+def _base_columns(J_scaled: Array, names: list[str], rank: int) -> list[int]:
+    """The first ``rank`` pivots of a column-pivoted QR of the scaled Jacobian, ascending."""
     _, R, pivots = scipy.linalg.qr(J_scaled, pivoting=True, mode="economic")
     base = pivots[:rank]
-    dependents = pivots[rank:]
-    if rank:
-        pivot = np.abs(np.diag(R[:rank, :rank]))
-        if not np.all(pivot > 0.0):  # the SVD's rank and the pivoted QR disagree: an exactly dependent column
-            raise IdentifiabilityError(f"the QR pivot of {names[base[int(np.argmin(pivot))]]} is zero although the "
-                                       f"singular values give rank {rank}; pass a larger tol")
-        C = scipy.linalg.solve_triangular(R[:rank, :rank], R[:rank, rank:p])
-    else:
-        C = np.zeros((0, dependents.size))
-    column_norms = np.linalg.norm(J_scaled, axis=0)
-    largest = float(np.max(column_norms))
+    pivot = np.abs(np.diag(R[:rank, :rank]))
+    if not np.all(pivot > 0.0):  # the SVD's rank and the pivoted QR disagree: an exactly dependent column
+        raise IdentifiabilityError(f"the QR pivot of {names[base[int(np.argmin(pivot))]]} is zero although the "
+                                   f"singular values give rank {rank}; pass a larger tol")
+    return sorted(int(j) for j in base)
+
+
+def _reduced_row_echelon(rows: Array) -> Array:
+    """Gauss–Jordan elimination of linearly independent ``rows`` (k × p), each pivot the largest remaining
+    entry (complete pivoting, for stability): each row 1 at its pivot, 0 at the others' pivots. Entries
+    below :data:`COEFFICIENT_TOLERANCE` times the row's largest are round-off and set to zero."""
+    reduced = np.array(rows, dtype=float)
+    k = reduced.shape[0]
+    pivots: list[int] = []
+    for i in range(k):
+        r, c = (int(index) for index in np.unravel_index(int(np.argmax(np.abs(reduced[i:]))), reduced[i:].shape))
+        reduced[[i, i + r]] = reduced[[i + r, i]]
+        reduced[i] /= reduced[i, c]
+        others = np.arange(k) != i
+        reduced[others] -= np.outer(reduced[others, c], reduced[i])
+        reduced[others, c] = 0.0
+        pivots.append(c)
+    for row, c in zip(reduced, pivots, strict=True):
+        small = np.abs(row) < COEFFICIENT_TOLERANCE * np.max(np.abs(row))
+        small[c] = False
+        row[small] = 0.0
+    return reduced
+
+
+def _unidentifiable(null_rows: Array, names: list[str], scales: Array, units: list[str]) -> list[Combination]:
+    """One :class:`Combination` per row of a basis of the scaled null space (k × p), made sparse."""
+    if null_rows.shape[0] == 0:
+        return []
     combinations = []
-    for i, d in enumerate(dependents):
-        tied: list[str] = []
-        physical: list[float] = []
-        if column_norms[d] > tol * largest and C.size:
-            c = C[:, i]
-            keep = np.abs(c) > COEFFICIENT_TOLERANCE * np.max(np.abs(c))
-            for row in np.argsort(base):  # base parameters in column order, for stable text
-                if keep[row]:
-                    tied.append(names[base[row]])
-                    physical.append(float(c[row] * scales[base[row]] / scales[d]))
-        combinations.append(
-            Combination(
-                names=[names[d], *tied],
-                coefficients=np.array([1.0, *physical]),
-                description=_describe(names[d], tied, physical),
-            )
-        )
-    combinations.sort(key=lambda combination: combination.dependent)
-    return sorted(int(j) for j in base), combinations
+    for u in _reduced_row_echelon(null_rows):
+        # largest first, equal ones in column order (rounded: round-off does not decide which leads)
+        involved = sorted((int(j) for j in np.flatnonzero(u)), key=lambda j: (-float(f"{abs(u[j]):.6g}"), j))
+        lead, others = involved[0], involved[1:]
+        coefficients = np.array([1.0, *(-u[j] / u[lead] * scales[j] / scales[lead] for j in others)])
+        tied = [names[j] for j in involved]
+        their_units = [units[j] for j in involved]
+        combinations.append(Combination(tied, coefficients, _describe(tied, coefficients, their_units), their_units))
+    combinations.sort(key=lambda combination: (len(combination.names), combination.names))
+    return combinations
 
 
 def base_parameters(
-    jacobian: npt.ArrayLike, names: Sequence[str], scales: npt.ArrayLike, tol: float | None = None
+    jacobian: npt.ArrayLike,
+    names: Sequence[str],
+    scales: npt.ArrayLike,
+    tol: float | None = None,
+    *,
+    units: Sequence[str] | None = None,
 ) -> tuple[list[int], list[Combination]]:
-    """The identifiable columns and, for every other column, what it is tied to.
+    """The identifiable columns and a sparse basis of what the data cannot see.
 
     Args:
         jacobian: (m, p) identification Jacobian, rows weighted by 1/σ, columns per unit of each
@@ -241,19 +391,24 @@ def base_parameters(
         names: p parameter names.
         scales: (p,) typical size of each parameter [m or rad]; columns are multiplied by them.
         tol: relative rank tolerance on the scaled singular values (default :data:`RANK_TOLERANCE`).
+        units: p units, each ``m``, ``rad`` or ``""`` (unknown), for the descriptions; inferred from
+            the names when None (see :func:`unit_from_name`).
 
     Returns:
-        The base column indices (ascending) and one :class:`Combination` per dependent column,
-        sorted by name.
+        The base column indices (ascending) and the ``p − rank`` :class:`Combination` s, fewest
+        parameters first, then by name.
 
     Raises:
         DataError: malformed input.
     """
     J, s = _checked(jacobian, names, scales)
     tol = _checked_tolerance(tol)
+    names = list(names)
+    units = _checked_units(units, names)
     J_scaled = J * s
-    rank = _rank(_singular_values(J_scaled), tol)
-    return _base_from_scaled(J_scaled, list(names), s, rank, tol)
+    singular_values, Vt = _svd(J_scaled)
+    rank = _rank(singular_values, tol)
+    return _base_columns(J_scaled, names, rank), _unidentifiable(Vt[rank:], names, s, units)
 
 
 def observability_indices(singular_values: Array, n_residuals: int) -> dict[str, float]:
@@ -277,9 +432,15 @@ def observability_indices(singular_values: Array, n_residuals: int) -> dict[str,
 
 
 def analyse(
-    jacobian: npt.ArrayLike, names: Sequence[str], scales: npt.ArrayLike, tol: float | None = None
+    jacobian: npt.ArrayLike,
+    names: Sequence[str],
+    scales: npt.ArrayLike,
+    tol: float | None = None,
+    *,
+    units: Sequence[str] | None = None,
 ) -> Identifiability:
-    """Rank, conditioning, observability and base parameters of an identification Jacobian.
+    """Rank, conditioning, observability, base parameters and unseen combinations of an identification
+    Jacobian.
 
     Args:
         jacobian: (m, p) identification Jacobian, rows weighted by 1/σ, columns per unit of each
@@ -288,21 +449,26 @@ def analyse(
         scales: (p,) typical size of each parameter [m or rad], e.g. 1e-3; the analysis is of
             ``J diag(scales)``, so the singular values are dimensionless.
         tol: relative rank tolerance on the scaled singular values (default :data:`RANK_TOLERANCE`).
+        units: p units, each ``m``, ``rad`` or ``""`` (unknown), for the descriptions (e.g.
+            ``[p.unit for p in parameter_set]``); inferred from the names when None, which leaves joint
+            offsets without a unit (see :func:`unit_from_name`).
 
     Returns:
         The :class:`Identifiability` record.
 
     Raises:
-        DataError: malformed input (shapes, NaN/inf, name count, non-positive scales, bad ``tol``).
+        DataError: malformed input (shapes, NaN/inf, name count, non-positive scales, bad ``tol`` or units).
     """
     J, s = _checked(jacobian, names, scales)
     tol = _checked_tolerance(tol)
     names = list(names)
+    units = _checked_units(units, names)
     J_scaled = J * s
-    singular_values = _singular_values(J_scaled)
+    singular_values, Vt = _svd(J_scaled)
     rank = _rank(singular_values, tol)
-    base, combinations = _base_from_scaled(J_scaled, names, s, rank, tol)
-    base_values = _singular_values(J_scaled[:, base]) if base else np.zeros(0)
+    base = _base_columns(J_scaled, names, rank)
+    base_values = linalg.singular_values(J_scaled[:, base], "the scaled identification Jacobian on its base "
+                                         "columns") if base else np.zeros(0)
     condition = float(base_values[0] / base_values[-1]) if base_values.size and base_values[-1] > 0 else np.inf
     return Identifiability(
         rank=rank,
@@ -312,7 +478,7 @@ def analyse(
         observability=observability_indices(base_values, J.shape[0]),
         base_indices=base,
         base_names=[names[j] for j in base],
-        unidentifiable=combinations,
+        unidentifiable=_unidentifiable(Vt[rank:], names, s, units),
     )
 
 
@@ -366,7 +532,8 @@ def covariance(
     _, sv, Vt = linalg.svd(equilibrated, "the identification Jacobian on the chosen columns")
     if sv.size < len(columns) or sv[-1] <= tol * sv[0]:
         rank = _rank(sv, tol)
-        _, culprits = _base_from_scaled(equilibrated, [labels[j] for j in columns], 1.0 / norms, rank, tol)
+        units = [unit_from_name(names[j]) if names is not None else "" for j in columns]
+        culprits = _unidentifiable(_svd(equilibrated)[1][rank:], [labels[j] for j in columns], 1.0 / norms, units)
         raise IdentifiabilityError(
             f"JᵀJ is singular on the chosen columns (rank {rank} of {len(columns)}); keep only the "
             f"identifiable ones (see analyse()): " + "; ".join(c.description for c in culprits)

@@ -51,7 +51,8 @@ class SampleContext:
         base_jacobian: (6, len(base_columns)) right Jacobian of ``base`` w.r.t. its parameters.
         base_columns: Columns of the base parameters (empty: the base is known).
         markers: Frame -> marker offset [m] in that frame (frames with marker parameters only).
-        marker_columns: Frame -> the columns of its marker offset.
+        marker_columns: Frame -> the columns of its marker offset parameters.
+        marker_axes: Frame -> the offset component (0, 1, 2 for x, y, z) of each of those columns.
         reading_offsets: Joint -> the column of the zero offset of its (non-actuated) reading.
         frame_ids: Frame name -> Pinocchio frame id, for every frame a model looks at.
         values: Measurement key -> (N, width) measured values (row ``sample`` is this sample's).
@@ -76,6 +77,7 @@ class SampleContext:
     q: Array = field(default_factory=lambda: np.zeros(0))
     twists: dict[str, Array] = field(default_factory=dict)
     dv: Array | None = None
+    marker_axes: dict[str, list[int]] = field(default_factory=dict)
 
     def placement(self, frame: str) -> pin.SE3:
         """The frame's placement in the robot's world frame at ``q``."""
@@ -197,7 +199,8 @@ class Position(Measurement):
         """The frame marker's position [m] in the measurement frame, and its derivative (marker columns included)."""
         _predict_point(ctx, self.frame, ctx.marker(self.frame), out, jac)
         if jac is not None and self.frame in ctx.marker_columns:
-            jac[:3, ctx.marker_columns[self.frame]] = ctx.base.rotation @ ctx.placement(self.frame).rotation
+            axes = ctx.marker_axes.get(self.frame, [0, 1, 2])
+            jac[:3, ctx.marker_columns[self.frame]] = (ctx.base.rotation @ ctx.placement(self.frame).rotation)[:, axes]
 
 
 @dataclass(frozen=True)
@@ -308,7 +311,8 @@ class Distance(Measurement):
                           - point_derivative(pb, ctx.twists[self.frame_b], mb))
             for frame, placement, sign in ((self.frame_a, pa, 1.0), (self.frame_b, pb, -1.0)):
                 if frame in ctx.marker_columns:
-                    jac[0, ctx.marker_columns[frame]] += sign * (u @ placement.rotation)
+                    axes = ctx.marker_axes.get(frame, [0, 1, 2])
+                    jac[0, ctx.marker_columns[frame]] += sign * (u @ placement.rotation)[axes]
 
 
 @dataclass(frozen=True)

@@ -25,10 +25,11 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import DataError, NotFoundError, listing, not_found
-from pincal.identification.measurements import JointReading, Measurement
+from pincal.identification.measurements import JointReading, Measurement, Pose, Position
 from pincal.model.robot import Robot
 from pincal.model.robot import Unit as Unit
 from pincal.model.robot import joint_unit as joint_unit
+from pincal.model.urdf import LoopSpec
 
 Array = npt.NDArray[np.float64]
 
@@ -414,21 +415,175 @@ def move_fixed_joint(model: pin.Model, joint: str, exp: pin.SE3) -> None:
     frame.placement = new
 
 
-def choose_parameters(robot: Robot, models: Sequence[Measurement], spec: Sequence[str] | None = None) -> ParameterSet:
-    """The unknowns: a named set (``model24``, ``hexapod42``, ``hexapod44``), shell patterns over the
-    candidates, or by default every candidate parameter (the identifiability analysis then keeps the
-    identifiable ones).
+# --- the default set: minimal by construction ----------------------------------------------------
+def influencing_joints(robot: Robot, frames: Sequence[str], read: Sequence[str] = ()) -> list[str]:
+    """The movable joints whose motion or placement can change a measured quantity, in model order.
 
-    Candidates: all joint and anchor placements, fixed joints leading to measured frames, offsets of
-    the actuated and of the read passive joints, and the base placement when positions or poses are
-    measured in an external frame.
+    They are the joints above the measured ``frames`` and the ``read`` joints, then every joint of a loop
+    that closes through one of them (a loop's closure sets the values of all its joints), repeated until
+    nothing is added; a ``<mimic>`` follower brings its leader. The others (a TIAGo's head and wheels when
+    its hand is measured) cannot move what is measured.
+    """
+    model = robot.model
+    chosen: set[int] = set()
+    for frame in frames:
+        chosen |= set(model.supports[model.frames[robot.frame_id(frame)].parentJoint])
+    for joint in read:
+        chosen |= set(model.supports[robot.joint_id(joint)])
+    loop_joints = [_loop_support(robot, loop) for loop in robot.loops]
+    grew = True
+    while grew:
+        grew = False
+        for support in loop_joints:
+            if (support & chosen) - {0} and not support <= chosen:
+                chosen |= support
+                grew = True
+    leaders = {model.joints[j].idx_v: j for j in range(1, model.njoints) if model.joints[j].nv == 1}
+    for j in list(chosen):
+        if j and model.joints[j].nv == 0 and model.joints[j].idx_v in leaders:  # a mimic follower
+            chosen |= set(model.supports[leaders[model.joints[j].idx_v]])
+    return [str(model.names[j]) for j in sorted(chosen - {0})]
+
+
+def _loop_support(robot: Robot, loop: LoopSpec) -> set[int]:
+    """The joints above either side of a loop."""
+    model = robot.model
+    return {int(j) for link in (loop.predecessor, loop.successor)
+            for j in model.supports[model.frames[model.getFrameId(link)].parentJoint]}
+
+
+def _own_motion(robot: Robot, joint: str) -> str | None:
+    """The placement component that duplicates a one-DOF joint's own motion (rotation about a revolute axis
+    along x, y or z of the joint frame is a change of its angle; translation along a prismatic axis, of its
+    position), or None (an axis not along x, y or z, a mimic follower, a multi-DOF joint)."""
+    model = robot.model
+    jid = robot.joint_id(joint)
+    if model.joints[jid].nv != 1:
+        return None
+    data = model.createData()
+    pin.computeJointJacobians(model, data, robot.q_reference)
+    twist = pin.getJointJacobian(model, data, jid, pin.LOCAL)[:, model.joints[jid].idx_v]
+    for part, prefix in ((twist[3:], "r"), (twist[:3], "t")):
+        if np.linalg.norm(part) > 0.5:
+            axis = int(np.argmax(np.abs(part)))
+            return f"{prefix}{AXES[axis]}" if abs(abs(part[axis]) - 1.0) < 1e-9 else None
+    return None
+
+
+def default_parameters(robot: Robot, models: Sequence[Measurement]) -> ParameterSet:
+    """The default unknowns: every geometric error that can change a measured quantity, without the ones
+    that duplicate another by construction (what remains redundant, the identifiability analysis finds).
+
+    - placements of the :func:`influencing_joints`, except the component along a one-DOF joint's own axis (its
+      offset, or for a passive loop joint its free value), and except the first joint's whole placement when
+      the measurement frame is estimated (``base`` moves the chain the same way);
+    - per measured frame, the fixed joint nearest to it below its last moving joint (the tool): translation for
+      a position without a marker, all six for a pose; none when a marker offset is estimated;
+    - the anchors of the loops those joints close;
+    - reading offsets of the influencing actuated joints and of the read joints;
+    - the measurement frame (``base.*``) when positions or poses are measured in an external frame, and a marker
+      offset (``marker.<frame>.*``) for each frame whose position is measured.
     """
     frames = sorted({f for m in models for f in m.frames})
     read = [m.joint for m in models if isinstance(m, JointReading)]
     external = any(m.locates_point for m in models)
+    marked = sorted({m.frame for m in models if isinstance(m, Position)})
+    joints = influencing_joints(robot, frames, read)
+    model = robot.model
+    normal = planar_normal(robot)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, robot.q_reference)
+    firsts = [j for j in joints if model.parents[robot.joint_id(j)] == 0]
+    params: list[Parameter] = []
+    for joint in joints:
+        if external and firsts == [joint]:
+            continue  # one chain from the root: its first placement and the base are one and the same
+        jid = robot.joint_id(joint)
+        own = _own_motion(robot, joint)
+        comps = [c for c in _in_plane(data.oMi[jid], normal) if c != own]
+        params += placement_parameters("joint", joint, components=comps)
+    for frame in frames:
+        tool = _tool_joint(robot, frame)
+        if tool is None or frame in marked:
+            continue
+        fid = model.getFrameId(tool, pin.FrameType.FIXED_JOINT)
+        pose = any(isinstance(m, Pose) and m.frame == frame for m in models)
+        tool_comps = [c for c in _in_plane(data.oMf[fid], normal) if pose or c.startswith("t")]
+        params += placement_parameters("joint", tool, components=tool_comps)
+    chosen = {robot.joint_id(j) for j in joints}
+    for loop in robot.loops:
+        if not _loop_support(robot, loop) & chosen:
+            continue
+        for side, link, origin in (("predecessor", loop.predecessor, loop.predecessor_origin),
+                                   ("successor", loop.successor, loop.successor_origin)):
+            anchor = _in_plane(data.oMf[model.getFrameId(link)] * origin, normal)
+            params += placement_parameters("anchor", loop.name, side,
+                                           COMPONENTS[:3] if loop.type == "spherical" else anchor)
+    for joint in [j for j in robot.actuated_joints if j in joints] + read:
+        params.append(offset_parameter(joint, joint_unit(robot, joint)))
+    if external:
+        params += placement_parameters("base", "base")
+    for frame in marked:
+        params += marker_parameters(frame)
+    return ParameterSet(params)
+
+
+def _tool_joint(robot: Robot, frame: str) -> str | None:
+    """The fixed joint nearest above ``frame`` with no moving joint in between, or None."""
+    model = robot.model
+    f = robot.frame_id(frame)
+    while f != 0:
+        current = model.frames[f]
+        if current.type == pin.FrameType.FIXED_JOINT:
+            return str(current.name)
+        if current.type == pin.FrameType.JOINT:
+            return None
+        f = int(current.parentFrame)
+    return None
+
+
+def parameter_pool(robot: Robot, models: Sequence[Measurement]) -> ParameterSet:
+    """Every parameter ``--parameters`` patterns may name: all joint and anchor placements, fixed joints leading
+    to measured frames, offsets of the actuated and the read joints, the base placement when positions or poses
+    are measured in an external frame, and the marker offsets of the measured frames."""
+    frames = sorted({f for m in models for f in m.frames})
+    read = [m.joint for m in models if isinstance(m, JointReading)]
+    external = any(m.locates_point for m in models)
     pool = candidate_parameters(robot, frames=frames, offsets=list(robot.actuated_joints) + read, base=external)
+    marked = sorted({m.frame for m in models if isinstance(m, Position)})
+    return ParameterSet(pool.parameters + [p for f in marked for p in marker_parameters(f)])
+
+
+#: The word for the default set in ``--parameters`` (e.g. ``default '!base.*'``).
+DEFAULT_SET = "default"
+
+
+def choose_parameters(robot: Robot, models: Sequence[Measurement], spec: Sequence[str] | None = None) -> ParameterSet:
+    """The unknowns from ``spec``: by default :func:`default_parameters`; otherwise named sets (``default``,
+    ``model24``, ``model24i``, ``hexapod42``, ``hexapod44``) and shell patterns over :func:`parameter_pool`,
+    combined in order: a set or a pattern adds what it names, ``!pattern`` removes what it matches. A spec of
+    exclusions only starts from the default set (``'!base.*'``: the default set without the base).
+
+    Raises:
+        NotFoundError: a pattern that matches nothing (the parameters are listed), or nothing left.
+    """
     if not spec:
-        return pool
-    if len(spec) == 1 and spec[0] in NAMED_SETS:
-        return NAMED_SETS[spec[0]](robot)
-    return pool.select(list(spec))
+        return default_parameters(robot, models)
+    pool = parameter_pool(robot, models)
+    start = all(token.startswith("!") for token in spec)
+    chosen: list[Parameter] = list(default_parameters(robot, models)) if start else []
+    for token in spec:
+        if token == DEFAULT_SET or token in NAMED_SETS:
+            named = default_parameters(robot, models) if token == DEFAULT_SET else NAMED_SETS[token](robot)
+            chosen += [p for p in named if p not in chosen]
+            continue
+        negate = token.startswith("!")
+        pattern = token[1:] if negate else token
+        hits = [p for p in (chosen if negate else pool) if fnmatch.fnmatchcase(p.name, pattern)]
+        if not hits and not (negate and any(fnmatch.fnmatchcase(p.name, pattern) for p in pool)):
+            raise NotFoundError(f"parameter pattern '{token}' matches nothing; named sets are "
+                                f"{listing([DEFAULT_SET, *NAMED_SETS])}, parameters are: {listing(pool.names)}")
+        chosen = [p for p in chosen if p not in hits] if negate else chosen + [p for p in hits if p not in chosen]
+    if not chosen:
+        raise NotFoundError(f"the parameters {' '.join(spec)} leave no parameter to identify")
+    return ParameterSet(chosen)

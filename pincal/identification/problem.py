@@ -369,8 +369,17 @@ class CalibrationProblem:
         """The measurement models' context for one evaluation at ``x`` (per-sample fields unset)."""
         base_jacobian = right_jacobian(base_delta, [self._all.parameters[k].component for k in self.base])
         return SampleContext(model, data, x, pin.exp6(base_delta), base_jacobian, self.base,
-                             {f: x[idx] for f, idx in self.markers.items()}, self.markers, self.reading_offsets,
-                             self.frame_ids, self.observations.values)
+                             {f: self._marker(x, idx) for f, idx in self.markers.items()}, self.markers,
+                             self.reading_offsets, self.frame_ids, self.observations.values,
+                             marker_axes={f: [self._all.parameters[k].component for k in idx]
+                                          for f, idx in self.markers.items()})
+
+    def _marker(self, x: Array, columns: list[int]) -> Array:
+        """A frame's marker offset [m] from its parameters (components without a parameter are zero)."""
+        offset = np.zeros(3)
+        for k in columns:
+            offset[self._all.parameters[k].component] = x[k]
+        return offset
 
     def _assemble(self, preds: dict[str, Array], dpreds: dict[str, Array], jacobian: bool) -> Prediction:
         n = self.observations.n_samples

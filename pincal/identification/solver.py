@@ -413,8 +413,8 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         raise DataError("the residuals or their Jacobian are not finite at the starting point: check the data "
                         "for values out of range")
     errors_before = pred.errors
-    ident = analyse(pred.jacobian, pset.names, scales, tol=_practical_tol(pred.jacobian, scales, rank_tol,
-                                                                          min_information))
+    ident = analyse(pred.jacobian, pset.names, scales, units=[p.unit for p in pset],
+                    tol=_practical_tol(pred.jacobian, scales, rank_tol, min_information))
     active = ident.base_indices
     _check_identifiable(ident, len(pset), pred.residual.size, strict)
     d = scales
@@ -499,7 +499,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
     # identifiability at the estimate: a special nominal geometry (parallel axes) can hide directions
     # that the generic true robot shows
     assert pred.jacobian is not None
-    ident = analyse(pred.jacobian, pset.names, scales,
+    ident = analyse(pred.jacobian, pset.names, scales, units=[p.unit for p in pset],
                     tol=_practical_tol(pred.jacobian, scales, rank_tol, min_information))
     active = ident.base_indices
     jac = pred.jacobian[:, active] * rw[:, None]

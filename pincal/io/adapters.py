@@ -10,6 +10,7 @@ import numpy.typing as npt
 
 from pincal.errors import DataError, listing
 from pincal.identification.measurements import JointReading, Measurement, Pose, joint_reading, parse_key
+from pincal.identification.parameters import influencing_joints
 from pincal.identification.problem import Observations
 from pincal.model.robot import Robot
 
@@ -62,16 +63,48 @@ def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_column
     return models
 
 
-def observations_from(robot: Robot, joint_names: Sequence[str], joints: Array, measurements: dict[str, Array],
-                      models: Sequence[Measurement]) -> Observations:
-    """Observations for ``models`` from dataset columns."""
+def joints_at_reference(robot: Robot, joint_names: Sequence[str], models: Sequence[Measurement]) -> list[str]:
+    """The actuated joints the data has no column for, which then stay at their reference value [rad or m]: allowed
+    only for joints that cannot move what ``models`` measure (a TIAGo's head and wheels when its hand is measured).
+
+    Raises:
+        DataError: a joint that moves a measured frame or a read joint has no column (they are listed).
+    """
     missing = [j for j in robot.actuated_joints if j not in joint_names]
-    if missing:
+    if not missing:
+        return []
+    if not models:  # nothing measured: nothing tells which joints matter
         raise DataError(f"the data has no column for actuated joint(s) {listing(missing)}; joint columns are: "
                         f"{listing(joint_names) or 'none'}")
-    cols = [list(joint_names).index(j) for j in robot.actuated_joints]
+    frames = sorted({f for m in models for f in m.frames})
+    read = [m.joint for m in models if isinstance(m, JointReading)]
+    moving = set(influencing_joints(robot, frames, read))
+    needed = [j for j in missing if j in moving]
+    if needed:
+        raise DataError(f"the data has no column for actuated joint(s) {listing(needed)}, which move the measured "
+                        f"{listing(frames)}; joint columns are: {listing(joint_names) or 'none'}")
+    return missing
+
+
+def actuated_readings(robot: Robot, joint_names: Sequence[str], joints: Array,
+                      models: Sequence[Measurement]) -> Array:
+    """(N, n_actuated) readings of the actuated joints [rad or m] from dataset columns, in the robot's order; a joint
+    with no column (:func:`joints_at_reference`) reads its reference value."""
+    names = list(joint_names)
+    reference = robot.actuated_values(robot.q_reference)
+    joints_at_reference(robot, names, models)
+    out = np.empty((np.asarray(joints).shape[0], robot.n_actuated))
+    for k, joint in enumerate(robot.actuated_joints):
+        out[:, k] = np.asarray(joints, dtype=float)[:, names.index(joint)] if joint in names else reference[k]
+    return out
+
+
+def observations_from(robot: Robot, joint_names: Sequence[str], joints: Array, measurements: dict[str, Array],
+                      models: Sequence[Measurement]) -> Observations:
+    """Observations for ``models`` from dataset columns (actuated joints without a column: see
+    :func:`actuated_readings`)."""
     values = dict(measurements)
     for m in models:
         if isinstance(m, JointReading):
             values[m.key] = joints[:, [list(joint_names).index(m.joint)]]
-    return Observations(np.asarray(joints, dtype=float)[:, cols], values)
+    return Observations(actuated_readings(robot, joint_names, joints, models), values)

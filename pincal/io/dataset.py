@@ -204,7 +204,8 @@ class _Layout:
     set: int | None
 
 
-def _layout(header: list[str], line: int, required: Sequence[str], known: Sequence[str] | None) -> _Layout:
+def _layout(header: list[str], line: int, required: Sequence[str], known: Sequence[str] | None,
+            joint_like: Sequence[str] = ()) -> _Layout:
     where = f"header (line {line})"
     seen: dict[str, int] = {}
     for i, name in enumerate(header):
@@ -218,7 +219,8 @@ def _layout(header: list[str], line: int, required: Sequence[str], known: Sequen
     for i, name in enumerate(header):
         if name in (SAMPLE_COLUMN, SET_COLUMN):
             continue
-        if ":" not in name or name in required or (known is not None and name in known):  # joint names may hold ':'
+        joint_name = name in required or name in joint_like or (known is not None and name in known)
+        if ":" not in name or joint_name:  # joint names may hold ':'
             joints[name] = i
             continue
         key, _, component = name.rpartition(":")
@@ -313,7 +315,7 @@ def _split(text: str) -> tuple[dict[str, str], int, list[str], list[tuple[int, l
 
 def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = None, min_samples: int = 1,
                  *, joint_kinds: dict[str, str] | None = None,
-                 known_joints: Sequence[str] | None = None) -> Dataset:
+                 known_joints: Sequence[str] | None = None, joint_like: Sequence[str] = ()) -> Dataset:
     """Read and check a measurement CSV file (format in this module's docstring).
 
     Args:
@@ -323,6 +325,7 @@ def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = 
         joint_kinds: URDF joint type by joint name; ``revolute`` and ``prismatic`` readings are
             checked for degrees and millimetres.
         known_joints: If given, every joint column must be one of these.
+        joint_like: Names read as joint columns although they hold ``:`` (the robot's joints), not required.
 
     Raises:
         DataError: naming the column, the line and the value at fault, for missing or unknown columns,
@@ -347,20 +350,20 @@ def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = 
     except (OSError, UnicodeDecodeError) as exc:
         raise DataError(f"cannot read dataset '{source}': {exc}") from None
     try:
-        return _parse(text, joint_names_required or [], min_samples, joint_kinds or {}, known_joints)
+        return _parse(text, joint_names_required or [], min_samples, joint_kinds or {}, known_joints, joint_like)
     except DataError as exc:
         raise DataError(f"{source.name}: {exc}") from None
 
 
 def _parse(text: str, required: Sequence[str], min_samples: int, kinds: dict[str, str],
-           known: Sequence[str] | None) -> Dataset:
+           known: Sequence[str] | None, joint_like: Sequence[str] = ()) -> Dataset:
     metadata, header_line, header, rows = _split(text)
     units = re.findall(r"[a-zµ°]+", metadata.get("units", "").lower())
     foreign = sorted({u for u in units if u in FOREIGN_UNITS})
     if foreign:  # the file says so itself: a '# units: mm' line is never read as metres
         raise DataError(f"metadata 'units: {metadata['units']}' names {', '.join(foreign)}; pincal reads metres and "
                         "radians: convert the file to SI, and state '# units: SI (m, rad)'")
-    layout = _layout(header, header_line, required, known)
+    layout = _layout(header, header_line, required, known, joint_like)
     if len(rows) < min_samples:
         raise DataError(f"{len(rows)} samples; at least {min_samples} are needed")
     n = len(rows)

@@ -6,6 +6,7 @@ Load one with :func:`load_robot` from a URDF path or a known robot name.
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import sys
 import tempfile
@@ -22,6 +23,8 @@ from pincal.errors import ConvergenceError, DataError, LoopError, RobotFileError
 from pincal.model.catalog import robot_path
 from pincal.model.closure import LoopClosure
 from pincal.model.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveReport
+from pincal.model.measured_frame import END_EFFECTOR_NAMES as END_EFFECTOR_NAMES  # where it was
+from pincal.model.measured_frame import FrameChoice, default_measured_frame
 from pincal.model.urdf import LoopSpec, check_finite_origins, read_extensions
 
 Array = npt.NDArray[np.float64]
@@ -33,8 +36,6 @@ Unit = Literal["m", "rad"]
 REFERENCE_TOLERANCE = 1e-9
 #: Default FK/IK tolerance on the largest residual component [m, rad].
 SOLVE_TOLERANCE = 1e-11
-#: Names tried, in order, for the default end-effector frame.
-END_EFFECTOR_NAMES = ("end_effector", "tool0", "panda_hand", "arm_tool_link", "ee_link")
 
 
 class Robot:
@@ -95,13 +96,24 @@ class Robot:
                             context)
         return int(self.model.getJointId(joint))
 
+    @functools.cached_property
+    def measured_frame_choice(self) -> FrameChoice:
+        """The default measured frame and the rule that chose it, or why none is obvious
+        (:func:`~pincal.model.measured_frame.default_measured_frame`)."""
+        return default_measured_frame(self)
+
     @property
     def end_effector(self) -> str:
-        """The default end-effector frame name (``end_effector`` in pincal's robot files)."""
-        for name in END_EFFECTOR_NAMES:
-            if self.model.existFrame(name):
-                return name
-        return str(self.model.frames[len(self.model.frames) - 1].name)
+        """The default measured (end-effector) frame: ``end_effector`` in pincal's robot files, another name of
+        :data:`END_EFFECTOR_NAMES`, else the one link the actuated joints move with no moving link below it.
+
+        Raises:
+            NotFoundError: no such frame is obvious (several moving ends, listed as ``choices``, or none).
+        """
+        choice = self.measured_frame_choice
+        if choice.frame is None:
+            raise choice.error()
+        return choice.frame
 
     def mobility(self, q: Array | None = None, tol: float = 1e-8) -> int:
         """Degrees of freedom ``nv - rank(dc/dv)`` at ``q`` (default: the reference configuration)."""

@@ -204,7 +204,8 @@ class SimulatedCalibration:
         perturb: σ of the true parameter errors [m and rad].
         joint_noise: σ of the actuated readings' noise [m or rad] per unit of ``level`` (0: exact).
         solver: ``lm``, ``tsvd`` or ``ridge``.
-        spread: Half-range of the random actuated values (robot default when None).
+        spread: Half-range [rad or m] of the random actuated values about the reference, within the URDF limits;
+            None: within the URDF limits (:func:`pincal.study.simulation.actuated_ranges`).
     """
 
     robot: str

@@ -22,8 +22,13 @@ from pincal.progress import Progress
 
 Array = npt.NDArray[np.float64]
 
-#: Default half-range of random actuated values around the reference [rad or m], per robot name.
-SPREAD = {"delta": 1.0, "five_bar": 0.35, "hexapod": 0.12, "hexapod_device": 0.12, "ucr3": 0.04}
+#: Half-range of random actuated values about the reference [rad or m] for the robots whose URDF limits do not
+#: describe the workspace: drawn within those limits, most hexapod (77 %) and 3-UCR (90 %) postures cannot be
+#: assembled, and most five-bar ones (55 %) put a passive joint outside its own limits.
+SPREAD = {"five_bar": 0.35, "hexapod": 0.12, "hexapod_device": 0.12, "ucr3": 0.04}
+#: Half-range about the reference [rad or m] of an actuated joint without finite URDF limits (a continuous
+#: joint), on a closed-loop robot and on a serial one.
+UNBOUNDED_SPREAD = {"closed": 0.5, "serial": float(np.pi)}
 
 
 def perturbation(parameters: ParameterSet, scale: float, rng: np.random.Generator) -> Array:
@@ -31,20 +36,55 @@ def perturbation(parameters: ParameterSet, scale: float, rng: np.random.Generato
     return rng.normal(scale=scale, size=len(parameters))
 
 
+def actuated_ranges(robot: Robot, spread: float | None = None) -> tuple[Array, Array]:
+    """The range [lower, upper] (na,) [rad or m] random actuated values are drawn from, per actuated joint.
+
+    By default, a joint's URDF limits; for a joint without finite limits (a continuous joint) and for the
+    robots of :data:`SPREAD`, a half-range about the reference (:data:`UNBOUNDED_SPREAD`, :data:`SPREAD`)
+    within its limits. A ``spread`` [rad or m] gives every joint the range ``reference ± spread`` within its
+    limits.
+
+    Raises:
+        DataError: a negative or non-finite ``spread``, or one that leaves a joint no value within its limits.
+    """
+    if spread is not None and not 0.0 <= spread < np.inf:
+        raise DataError(f"spread is {spread}: a half-range [rad or m] must be a finite number ≥ 0")
+    model = robot.model
+    reference = robot.actuated_values(robot.q_reference)
+    default = SPREAD.get(robot.name, UNBOUNDED_SPREAD["closed" if robot.loops else "serial"])
+    lower, upper = np.empty(robot.n_actuated), np.empty(robot.n_actuated)
+    for k, joint in enumerate(robot.kinematics.actuated):
+        limits = (float(model.lowerPositionLimit[joint.idx_q]), float(model.upperPositionLimit[joint.idx_q]))
+        lo, hi = limits if joint.nq == 1 else (-np.pi, np.pi)
+        bounded = joint.nq == 1 and np.isfinite(lo) and np.isfinite(hi) and lo < hi
+        half: float | None = default
+        if spread is not None:
+            half = spread
+        elif bounded and robot.name not in SPREAD:
+            half = None  # the URDF limits as they are
+        if half is not None:
+            lo, hi = max(lo, reference[k] - half), min(hi, reference[k] + half)
+        if lo > hi:
+            raise DataError(f"spread ±{half:g} about the reference ({reference[k]:.6g}) of actuated joint "
+                            f"'{joint.name}' leaves no value within its URDF limits [{limits[0]:.6g}, {limits[1]:.6g}]")
+        lower[k], upper[k] = lo, hi
+    return lower, upper
+
+
 def random_actuated(robot: Robot, n: int, rng: np.random.Generator, spread: float | None = None,
                     max_condition: float = 1e4, progress: bool = False) -> tuple[Array, Array]:
     """``n`` random reachable actuated inputs (N, na) and their closed configurations (N, nq).
 
-    Inputs are uniform within ``±spread`` of the reference (clipped to the joint limits); samples whose
-    FK fails or whose passive closure Jacobian is ill-conditioned (near a singularity) are redrawn.
+    Inputs are uniform within :func:`actuated_ranges` (by default the URDF joint limits; with ``spread``
+    [rad or m], ``±spread`` about the reference within the limits); samples whose FK fails or whose passive
+    closure Jacobian is ill-conditioned (near a singularity) are redrawn.
     ``progress`` shows a bar on stderr (when it is a terminal), one tick per accepted sample.
+
+    Raises:
+        ConvergenceError: too few draws could be assembled (says the ranges).
+        DataError: a bad ``spread`` (see :func:`actuated_ranges`).
     """
-    half = SPREAD.get(robot.name, 0.5 if robot.loops else np.pi) if spread is None else spread
-    model = robot.model
-    lower = np.array([model.lowerPositionLimit[a.idx_q] if a.nq == 1 else -np.pi for a in robot.kinematics.actuated])
-    upper = np.array([model.upperPositionLimit[a.idx_q] if a.nq == 1 else np.pi for a in robot.kinematics.actuated])
-    lo = np.maximum(lower, -half)
-    hi = np.minimum(upper, half)
+    lo, hi = actuated_ranges(robot, spread)
     qa_out: list[Array] = []
     q_out: list[Array] = []
     attempts = 0
@@ -52,8 +92,11 @@ def random_actuated(robot: Robot, n: int, rng: np.random.Generator, spread: floa
         while len(qa_out) < n:
             attempts += 1
             if attempts > 50 * n + 100:
-                raise ConvergenceError(f"only {len(qa_out)} of {n} random postures of '{robot.name}' were "
-                                       f"reachable within ±{half} of the reference; try a smaller spread")
+                ranges = ", ".join(f"{j.name} [{a:.4g}, {b:.4g}]"
+                                   for j, a, b in zip(robot.kinematics.actuated, lo, hi, strict=True))
+                raise ConvergenceError(f"only {len(qa_out)} of {n} random postures of '{robot.name}' could be "
+                                       f"assembled in {attempts - 1} draws within {ranges} [rad or m]; give a smaller "
+                                       "spread about the reference (--spread)")
             qa = rng.uniform(lo, hi)
             report = robot.solve_fk_report(qa)
             if not report.converged:

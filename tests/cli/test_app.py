@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ROBOTS
+from conftest import ROBOTS, run_pincal
+from mechanisms import crank_rocker_urdf, four_bar_urdf
 
 import pincal
 from pincal.cli.app import main
@@ -18,6 +19,24 @@ def test_info_describes_the_delta(capsys: pytest.CaptureFixture[str]) -> None:
     out = capsys.readouterr().out
     assert "leg_1_platform" in out and "spherical" in out
     assert "mobility 3" in out and "actuated joints (3): arm_1_joint, arm_2_joint, arm_3_joint" in out
+
+
+def test_info_names_the_default_measured_frame_or_why_there_is_none(tmp_path: Path) -> None:
+    chain, cut = tmp_path / "crank_rocker.urdf", tmp_path / "four_bar.urdf"
+    chain.write_text(crank_rocker_urdf())
+    cut.write_text(four_bar_urdf())
+    done = run_pincal("info", str(chain))
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[-1].startswith("measured frame (default): rocker, moved by the actuated joints "
+                                                   "(the one moving link with none below it); at (")
+    done = run_pincal("info", str(cut))  # described all the same, with the reason
+    assert done.returncode == 0, done.stderr
+    last = done.stdout.splitlines()[-1]
+    assert last.startswith("measured frame (default): none: robot 'four_bar' has no frame named like an end effector")
+    assert "moving links have no moving link below them: coupler, rocker" in last and "--frame" in last
+    done = run_pincal("info", "delta")
+    assert "measured frame (default): end_effector, moved by the actuated joints (named like an end effector)" \
+        in done.stdout
 
 
 def test_info_bad_file_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -94,3 +113,112 @@ def test_unknown_frame_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture
     assert main(["simulate", "delta", "--measure", "pose", "--frame", "nope", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "frame 'nope' does not exist" in err[0] and "end_effector" in err[0]
+
+
+TIAGO_DATA = Path(__file__).resolve().parents[2] / "examples" / "data" / "tiago_mocap_marker1.csv"
+
+
+def _identifiability_block(stdout: str) -> list[str]:
+    """The summary's lines from 'not identifiable from these data' to the end (empty when there is none)."""
+    lines = stdout.splitlines()
+    start = next((k for k, line in enumerate(lines) if line.startswith("not identifiable from these data")), None)
+    return [] if start is None else [line for line in lines[start:] if not line.startswith("wrote ")]
+
+
+def test_real_tiago_data_with_the_default_command(tmp_path: Path) -> None:
+    """The mocap file carries the torso and arm readings only: the head and wheels, which cannot move the marker,
+    stay at their reference; the default parameters are chosen, selected and fitted; the identifiability listing
+    is short."""
+    from conftest import run_pincal
+
+    report = tmp_path / "report.json"
+    done = run_pincal("calibrate", "tiago_no_hand", str(TIAGO_DATA), "--report", str(report))
+    assert done.returncode == 0, done.stderr
+    out = done.stdout
+    assert "taken at their reference value (they move no measured frame): head_1_joint, head_2_joint" in out
+    assert "model selection (bic): left out the rotations" in out
+    block = _identifiability_block(out)
+    assert 2 <= len(block) <= 15 and all(len(line) <= 120 for line in block)
+    assert block[-1] == "  (all 19 in full: the report's 'unidentifiable')"
+    data = json.loads(report.read_text())
+    assert data["n_parameters"] == 52 and data["n_identifiable"] == 33
+    assert len(data["unidentifiable"]) == 52 - 33  # the report has every direction
+    assert data["n_estimated"] < data["n_identifiable"]
+    held_out = next(line for line in out.splitlines() if line.startswith("RMS position error (held out)"))
+    before, after = (float(v) for v in held_out.split()[-4::2])
+    assert after < 5.0 and before > 10 * after  # [mm]; 52.9 → 4.2 on this file
+
+
+def test_cross_validation_through_the_cli(tmp_path: Path) -> None:
+    from conftest import run_pincal
+
+    report = tmp_path / "report.json"
+    done = run_pincal("calibrate", "tiago_no_hand", str(TIAGO_DATA), "--cv", "5", "--report", str(report))
+    assert done.returncode == 0, done.stderr
+    line = next(line for line in done.stdout.splitlines() if line.startswith("RMS position error (cross-val.)"))
+    assert "(5-fold, 34 samples, 34 predictions)" in line
+    cv = json.loads(report.read_text())["cv"]
+    assert cv["plan"] == "5-fold" and cv["n_predictions"] == 34 and not cv["failed_folds"]
+    fit = json.loads(report.read_text())["rms_after"]
+    assert fit < cv["rms"] < 3 * fit  # predicting unseen postures is harder than fitting them, not hopeless
+    assert ("warning: the cross-validated error is" in done.stdout) == (cv["rms"] > 1.5 * fit)
+    for bad, words in (("1", "K must lie between 2 and the 34 samples"), ("five", "give K (folds), KxR")):
+        done = run_pincal("calibrate", "tiago_no_hand", str(TIAGO_DATA), "--cv", bad)
+        assert done.returncode == 2 and done.stderr.count("\n") == 1 and words in done.stderr, done.stderr
+
+
+def test_a_joint_that_moves_the_marker_must_have_a_column(tmp_path: Path) -> None:
+    from conftest import run_pincal
+
+    lines = TIAGO_DATA.read_text().splitlines()
+    header_at = next(k for k, line in enumerate(lines) if line.startswith("sample,"))
+    column = lines[header_at].split(",").index("arm_4_joint")
+    cut = [",".join(c for k, c in enumerate(line.split(",")) if k != column) if n >= header_at else line
+           for n, line in enumerate(lines)]
+    data = tmp_path / "no_arm_4.csv"
+    data.write_text("\n".join(cut) + "\n")
+    done = run_pincal("calibrate", "tiago_no_hand", str(data))
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "no column for actuated joint(s) arm_4_joint, which move the measured wrist_ft_tool_link" in done.stderr
+
+
+@pytest.mark.parametrize(("robot", "measure"), [("delta", "position"), ("hexapod", "pose"), ("ur10", "position")])
+def test_default_identifiability_listing_is_short(tmp_path: Path, robot: str, measure: str) -> None:
+    """The default command lists at most 15 lines about what the data cannot identify, none over 120 characters."""
+    from conftest import run_pincal
+
+    sim = tmp_path / "sim"
+    done = run_pincal("simulate", robot, "--samples", "40", "--test-samples", "10", "--measure", measure,
+                      "--seed", "5", "--quiet", "--out", str(sim))
+    assert done.returncode == 0, done.stderr
+    done = run_pincal("calibrate", robot, str(sim / "measurements.csv"))
+    assert done.returncode == 0, done.stderr
+    block = _identifiability_block(done.stdout)
+    assert 2 <= len(block) <= 15, done.stdout
+    assert all(len(line) <= 120 for line in block), block
+    assert "--report FILE writes them, under 'unidentifiable'" in block[-1]
+
+
+def test_named_set_combines_with_patterns(tmp_path: Path) -> None:
+    """Model 24 with an unknown tracker frame: the set and the pattern together."""
+    from conftest import run_pincal
+
+    sim = tmp_path / "sim"
+    assert run_pincal("simulate", "delta", "--samples", "40", "--test-samples", "10", "--parameters", "model24",
+                      "base.*", "--seed", "2", "--quiet", "--out", str(sim)).returncode == 0
+    report = tmp_path / "r.json"
+    done = run_pincal("calibrate", "delta", str(sim / "measurements.csv"), "--parameters", "model24", "base.*",
+                      "--report", str(report))
+    assert done.returncode == 0, done.stderr
+    names = list(json.loads(report.read_text())["parameters"])
+    assert len(names) == 30 and names[-6:] == [f"base.{c}" for c in ("tx", "ty", "tz", "rx", "ry", "rz")]
+
+
+def test_a_file_without_measurements_is_refused_in_one_line(tmp_path: Path) -> None:
+    from conftest import run_pincal
+
+    data = tmp_path / "postures.csv"
+    data.write_text("arm_1_joint,arm_2_joint,arm_3_joint\n0,0,0\n0.1,0.1,0\n")
+    done = run_pincal("calibrate", "delta", str(data))
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "the data has no measurement columns" in done.stderr and "Traceback" not in done.stderr

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_pincal
+from mechanisms import crank_rocker_urdf
 
 import pincal
 import pincal.cli.app
@@ -149,3 +151,24 @@ def test_help_has_an_example_and_units(command: str, capsys: pytest.CaptureFixtu
     assert exit_info.value.code == 0
     assert f"example: pincal {command} " in text
     assert re.search(r"\[(m|rad)\b[^\]]*\]", text) and "rad" in text  # units stated
+
+
+# --- the range of the random postures ------------------------------------------------------------------------------
+def test_design_and_montecarlo_take_a_spread_about_the_reference(tmp_path: Path) -> None:
+    robot = tmp_path / "crank_rocker.urdf"
+    robot.write_text(crank_rocker_urdf((-0.3, 0.8)))  # narrow URDF limits [rad]
+    chosen = {}
+    for label, extra in (("limits", []), ("spread", ["--spread", "0.1"])):
+        done = run_pincal("design", str(robot), "--candidates", "40", "--poses", "10", "--quiet", "--out",
+                          str(tmp_path / f"{label}.csv"), *extra)
+        assert done.returncode == 0, done.stderr
+        chosen[label] = read_dataset(tmp_path / f"{label}.csv", ["crank_joint"]).joints[:, 0]
+    assert -0.3 <= chosen["limits"].min() and chosen["limits"].max() <= 0.8 and np.ptp(chosen["limits"]) > 0.5
+    assert np.abs(chosen["spread"]).max() <= 0.1
+    tables = {}
+    for label, extra in (("limits", []), ("spread", ["--spread", "0.1"])):
+        done = run_pincal("montecarlo", str(robot), "--trials", "2", "--samples", "10", "--test-samples", "5",
+                          "--workers", "1", "--quiet", *extra)
+        assert done.returncode == 0, done.stderr
+        tables[label] = done.stdout.splitlines()[-1]
+    assert tables["limits"] != tables["spread"]  # other postures, other errors

@@ -7,12 +7,15 @@ import pytest
 
 from pincal.errors import DataError, IdentifiabilityError
 from pincal.identification.identifiability import (
+    LINE_WIDTH,
     RANK_TOLERANCE,
     Combination,
     analyse,
     base_parameters,
     correlations,
     covariance,
+    describe_unidentifiable,
+    unit_from_name,
 )
 
 NAMES6 = ["a.tx", "a.ty", "a.rz", "b.offset", "base.tz", "device.psi"]
@@ -23,10 +26,21 @@ def _random(m: int, p: int, seed: int) -> np.ndarray:
 
 
 def _assert_null(J: np.ndarray, names: list[str], combination: Combination) -> None:
-    """The combination's direction, in physical units, is invisible to J."""
+    """The combination's direction, in physical units, is invisible to J (to 1e-8 of the size of its terms)."""
     columns = [names.index(name) for name in combination.names]
-    seen = J[:, columns] @ combination.null_direction
-    assert np.linalg.norm(seen) <= 1e-9 * np.linalg.norm(J[:, columns[0]]) + 1e-300
+    direction = combination.null_direction
+    seen = J[:, columns] @ direction
+    size = np.sum(np.linalg.norm(J[:, columns], axis=0) * np.abs(direction))
+    assert np.linalg.norm(seen) <= 1e-8 * size + 1e-300
+    assert len(combination.coefficients) == len(combination.names) == len(combination.units)
+
+
+def _null_matrix(names: list[str], combinations: list[Combination]) -> np.ndarray:
+    """The combinations' null directions as columns of a p × k matrix."""
+    N = np.zeros((len(names), len(combinations)))
+    for k, combination in enumerate(combinations):
+        N[[names.index(name) for name in combination.names], k] = combination.null_direction
+    return N
 
 
 def test_full_rank_random_jacobian() -> None:
@@ -62,7 +76,9 @@ def test_column_twice_another_is_named_in_physical_units(
     (combination,) = result.unidentifiable
     assert combination.names == [dependent, base]
     np.testing.assert_allclose(combination.coefficients, [1.0, coefficient], rtol=1e-10)
-    assert f"only {base} + {coefficient:.3f} {dependent} is seen by the data" in combination.description
+    # J[:, dependent] = k J[:, base]: the data sees J[:, base] (x_base + k x_dependent)
+    assert combination.description == (f"{dependent} acts as {coefficient:g} × {base}: "
+                                       f"only {base} + {coefficient:g} × {dependent} is seen")
     _assert_null(J, names, combination)
 
 
@@ -74,11 +90,13 @@ def test_zero_column_is_invisible() -> None:
     assert result.rank == 3 and result.base_names == ["arm.tx", "arm.ty", "arm.rz"]
     (combination,) = result.unidentifiable
     assert combination.names == ["base.tz"]
-    assert combination.description == "base.tz is invisible to the data (no measurement depends on it)"
+    assert combination.description == "base.tz has no effect on the measurements"
+    np.testing.assert_array_equal(combination.coefficients, [1.0])
 
 
 def test_column_sum_of_two_others() -> None:
-    """J[:, c] = J[:, a] + J[:, b]: c is tied to both, with coefficients 1 and 1."""
+    """J[:, c] = J[:, a] + J[:, b]: c is tied to both, with coefficients 1 and 1; moving c by +1 and a and b
+    by -1 each changes nothing."""
     J = _random(50, 4, seed=4)
     J[:, 3] = J[:, 0] + J[:, 1]
     names = ["a", "b", "x", "c"]
@@ -87,23 +105,24 @@ def test_column_sum_of_two_others() -> None:
     (combination,) = result.unidentifiable
     assert combination.names == ["c", "a", "b"]
     np.testing.assert_allclose(combination.coefficients, [1.0, 1.0, 1.0], rtol=1e-10)
-    assert "only a + 1.000 c, b + 1.000 c are seen" in combination.description
+    assert combination.description == "moving c by +1, a by -1 and b by -1 changes no measurement"
     _assert_null(J, names, combination)
 
 
 def test_combinations_sorted_and_each_a_null_direction() -> None:
-    """Rank r = 3 of p = 7 with mixed units: four combinations, by name, each invisible to J."""
+    """Rank r = 3 of p = 7 with mixed units: four combinations, fewest parameters first, then by name, each
+    invisible to J and together spanning its null space."""
     rng = np.random.default_rng(5)
     scales = np.array([1e-3, 1e-3, 1e-2, 1e-3, 1e-1, 1e-3, 1e-3])
     J = (rng.normal(size=(40, 3)) @ rng.normal(size=(3, 7))) / scales
     names = ["g", "f", "e", "d", "c", "b", "a"]
     result = analyse(J, names, scales)
     assert result.rank == 3 and len(result.unidentifiable) == 4
-    dependents = [c.dependent for c in result.unidentifiable]
-    assert dependents == sorted(dependents)
-    assert set(dependents).isdisjoint(result.base_names)
+    keys = [(len(c.names), c.names) for c in result.unidentifiable]
+    assert keys == sorted(keys)
     for combination in result.unidentifiable:
         _assert_null(J, names, combination)
+    assert np.linalg.matrix_rank(_null_matrix(names, result.unidentifiable)) == 4
 
 
 def test_condition_number_is_over_the_identifiable_set() -> None:
@@ -155,7 +174,8 @@ def test_base_parameters_agrees_with_analyse() -> None:
     result = analyse(J, ["a", "b", "c", "d"], scales)
     assert indices == result.base_indices == [0, 2, 3]
     assert [c.description for c in combinations] == [c.description for c in result.unidentifiable]
-    assert combinations[0].description == "b is not identifiable on its own: only d - 0.500 b is seen by the data"
+    # J[:, b] = -0.5 J[:, d]: the data sees J[:, d] (x_d - 0.5 x_b)
+    assert combinations[0].description == "b acts as -0.5 × d: only d - 0.5 × b is seen"
 
 
 def test_observability_indices_on_a_diagonal_jacobian() -> None:
@@ -182,8 +202,8 @@ def test_rank_zero() -> None:
     assert result.rank == 0 and result.base_indices == [] and result.condition_number == np.inf
     assert all(value == 0.0 for value in result.observability.values())
     assert [c.description for c in result.unidentifiable] == [
-        "a is invisible to the data (no measurement depends on it)",
-        "b is invisible to the data (no measurement depends on it)",
+        "a has no effect on the measurements",
+        "b has no effect on the measurements",
     ]
 
 
@@ -193,8 +213,197 @@ def test_summary_names_rank_and_combinations() -> None:
     text = analyse(J, ["arm.tx", "arm.ty", "base.tz"], [1e-3] * 3).summary()
     assert "rank 2 of 3 parameters" in text
     assert "base parameters (2): arm.tx, arm.ty" in text
-    assert "base.tz is invisible to the data" in text
+    assert "base.tz has no effect on the measurements" in text
     assert "O1" in text and "condition number" in text
+
+
+def _block_jacobian(names: list[str], ties: dict[str, tuple[str, float]], invisible: list[str],
+                    scales: np.ndarray, seed: int) -> np.ndarray:
+    """A Jacobian whose free columns are random (per unit of each parameter: 1/scale) and whose tied column
+    ``d`` is ``k`` times column ``b`` for ``ties[d] = (b, k)``; invisible columns are zero."""
+    J = _random(60, len(names), seed) / scales
+    for dependent, (other, k) in ties.items():
+        J[:, names.index(dependent)] = k * J[:, names.index(other)]
+    for name in invisible:
+        J[:, names.index(name)] = 0.0
+    return J
+
+
+def test_null_space_of_separate_groups_is_named_group_by_group() -> None:
+    """Two redundant pairs and one invisible parameter among 20: the SVD's null basis mixes them, its
+    sparse form names each group alone, in physical units, with the right count p - rank."""
+    names = [f"link_{k}.{c}" for k in range(4) for c in ("tx", "ty", "tz", "rx", "ry")]
+    scales = np.where([n.endswith(("tx", "ty", "tz")) for n in names], 1e-3, 2e-3)
+    ties = {"link_3.tz": ("link_0.tz", 1.0), "link_1.rx": ("link_2.ty", -0.3)}
+    J = _block_jacobian(names, ties, ["link_2.ry"], scales, seed=20)
+    result = analyse(J, names, scales)
+    assert result.rank == 17 and len(result.unidentifiable) == 20 - 17
+    assert [set(c.names) for c in result.unidentifiable] == [{"link_2.ry"}, {"link_0.tz", "link_3.tz"},
+                                                             {"link_1.rx", "link_2.ty"}]
+    for combination in result.unidentifiable:
+        assert len(combination.names) <= 2
+        _assert_null(J, names, combination)
+    by_lead = {c.dependent: c for c in result.unidentifiable}
+    # link_1.rx = -0.3 m/rad link_2.ty; scaled: 2e-3 x 1 against 1e-3 x 0.3, so link_1.rx moves most
+    np.testing.assert_allclose(by_lead["link_1.rx"].coefficients, [1.0, -0.3], rtol=1e-10)
+    assert by_lead["link_1.rx"].units == ["rad", "m"]
+    # the base set is still the pivoted QR's: one of each pair and none of the invisible column
+    assert len(result.base_names) == 17 and "link_2.ry" not in result.base_names
+    assert len({"link_0.tz", "link_3.tz"} & set(result.base_names)) == 1
+
+
+def test_a_larger_group_is_one_sparse_row_beside_the_pairs() -> None:
+    """A column that is the sum of three others, beside a pair: the group of four stays apart from the pair."""
+    names = [f"p{k}.tx" for k in range(12)]
+    J = _random(40, 12, seed=21)
+    J[:, 9] = J[:, 1] - 2.0 * J[:, 4] + 0.5 * J[:, 6]
+    J[:, 11] = 3.0 * J[:, 2]
+    result = analyse(J, names, np.full(12, 1e-3))
+    assert result.rank == 10
+    assert [set(c.names) for c in result.unidentifiable] == [{"p2.tx", "p11.tx"},
+                                                             {"p1.tx", "p4.tx", "p6.tx", "p9.tx"}]
+    for combination in result.unidentifiable:
+        _assert_null(J, names, combination)
+    group = result.unidentifiable[1]
+    assert group.dependent == "p4.tx"  # it moves most along the direction, (-1, 2, -0.5, 1) over p1, p4, p6, p9
+    direction = dict(zip(group.names, group.null_direction, strict=True))
+    np.testing.assert_allclose([direction[n] for n in ("p1.tx", "p4.tx", "p6.tx", "p9.tx")], [-0.5, 1, -0.25, 0.5],
+                               rtol=1e-10)
+    # largest first, equal ones in column order
+    # (said per millimetre: the steps of a direction, at the size of a geometric error)
+    assert group.description == "moving p4.tx by +1 mm, p1.tx by -0.5 mm, p9.tx by +0.5 mm and p6.tx by -0.25 mm " \
+                                "changes no measurement"
+
+
+@pytest.mark.parametrize(("k", "words"), [
+    (1.0, "move the measurements the same way: only their sum is seen"),
+    (-1.0, "move the measurements in opposite ways: only their difference is seen"),
+])
+def test_equal_or_opposite_columns_say_sum_or_difference(k: float, words: str) -> None:
+    """J[:, b] = k J[:, a] with k = ±1: the data sees J_a (x_a + k x_b), the sum or the difference."""
+    names = ["base.tz", "arm_1_joint.tz", "arm_1_joint.rx"]
+    J = _random(30, 3, seed=22)
+    J[:, 0] = k * J[:, 1]
+    (combination,) = analyse(J, names, np.full(3, 1e-3)).unidentifiable
+    assert combination.names == ["base.tz", "arm_1_joint.tz"]  # equal in scaled size: column order
+    assert combination.description == f"base.tz and arm_1_joint.tz {words}"
+    seen = J @ np.array([1.0, k, 0.0])  # a change of the seen combination x_a + k x_b changes the data
+    unseen = J @ np.array([1.0, -k, 0.0])
+    assert np.linalg.norm(unseen) < 1e-12 * np.linalg.norm(seen)
+
+
+def test_pairs_in_different_units_give_the_ratio_with_its_unit() -> None:
+    """J[:, rx] = 0.45 J[:, tz]: moving rx by δ [rad] acts as moving tz by 0.45 δ [m]; the reverse reads in
+    rad/m; equal columns in m and rad are not a sum; an offset has no unit unless one is given."""
+    J = _random(30, 4, seed=23)
+    J[:, 0] = 0.45 * J[:, 1]
+    J[:, 3] = 0.1 * J[:, 2]  # z.tz = 0.1 rad/m z.rx: the tz moves most
+    names = ["u_1.rx", "u_2.tz", "z.rx", "z.tz"]
+    by_lead = {c.dependent: c for c in analyse(J, names, np.full(4, 1e-3)).unidentifiable}
+    assert by_lead["u_1.rx"].description == ("u_1.rx acts as 0.45 m/rad × u_2.tz: "
+                                             "only u_2.tz + 0.45 m/rad × u_1.rx is seen")
+    assert by_lead["z.tz"].description == "z.tz acts as 0.1 rad/m × z.rx: only z.rx + 0.1 rad/m × z.tz is seen"
+    J[:, 3] = J[:, 2]
+    by_lead = {c.dependent: c for c in analyse(J, names, np.full(4, 1e-3)).unidentifiable}
+    assert by_lead["z.rx"].description.startswith("z.rx acts as 1 m/rad × z.tz:")  # equals: column order
+    offsets = ["arm_1_joint.offset", "u_2.tz", "z.rx", "z.tz"]
+    (unknown, _) = analyse(J, offsets, np.full(4, 1e-3)).unidentifiable
+    assert unknown.description.startswith("arm_1_joint.offset acts as 0.45 × u_2.tz:")
+    (known, _) = analyse(J, offsets, np.full(4, 1e-3), units=["rad", "m", "rad", "m"]).unidentifiable
+    assert known.description.startswith("arm_1_joint.offset acts as 0.45 m/rad × u_2.tz:")
+    assert known.units == ["rad", "m"]
+
+
+def test_units_from_names() -> None:
+    assert [unit_from_name(n) for n in ("a.tx", "leg_1_platform.predecessor.tz", "b.ry", "marker.tool0.y",
+                                        "arm_7_joint.offset", "scale.zero", "x.y")] == \
+        ["m", "m", "rad", "m", "", "", ""]
+
+
+LONG = ["leg_1_platform.predecessor.tz", "arm_7_joint.offset", "marker.wrist_ft_tool_link.x",
+        "leg_2_platform.successor.rx", "forearm_link_joint.ty", "leg_3_platform.predecessor.ry",
+        "upper_arm_link_joint.rz", "marker.wrist_ft_tool_link.z", "leg_4_platform.successor.tx",
+        "shoulder_lift_joint.offset", "leg_5_platform.predecessor.rz", "wrist_3_link_joint.tz"]
+
+
+def test_descriptions_of_long_names_fit_a_line() -> None:
+    """Four pairs, a group of four and a group of nine, with realistic long names: every description fits a
+    listing line (after the bullet) with its units, the group of nine shows at most five terms and counts the
+    rest."""
+    names = [*LONG, *(f"leg_{k}_platform.predecessor.{c}" for k in range(6, 9) for c in ("tx", "ty", "rx", "ry"))]
+    p = len(names)
+    rng = np.random.default_rng(24)
+    J = _random(80, p, seed=24)
+    J[:, 1] = 0.3 * J[:, 0]  # arm_7_joint.offset: no unit
+    J[:, 3] = 0.3 * J[:, 4]  # leg_2_platform.successor.rx acts as 0.3 m/rad × forearm_link_joint.ty
+    J[:, 8] = J[:, 6]  # the same column in m and in rad: not a sum
+    J[:, 10] = 1.5 * J[:, 9]
+    J[:, 2] = -J[:, 5] + 0.2 * J[:, 20] + 0.7 * J[:, 21]  # group of four
+    J[:, 11] = J[:, 12:20] @ rng.uniform(0.5, 1.0, 8)  # group of nine
+    result = analyse(J, names, np.full(p, 1e-3))
+    assert [len(c.names) for c in result.unidentifiable] == [2, 2, 2, 2, 4, 9]
+    for combination in result.unidentifiable:
+        _assert_null(J, names, combination)
+        assert len(combination.description) <= LINE_WIDTH - 4, combination.description
+    by_lead = {c.dependent: c.description for c in result.unidentifiable}
+    assert by_lead["leg_2_platform.successor.rx"].startswith("leg_2_platform.successor.rx acts as 0.3 m/rad × ")
+    assert by_lead["arm_7_joint.offset"] == "arm_7_joint.offset acts as 0.3 × leg_1_platform.predecessor.tz"
+    assert by_lead["upper_arm_link_joint.rz"] == "upper_arm_link_joint.rz acts as 1 m/rad × leg_4_platform.successor.tx"
+    nine = result.unidentifiable[-1]
+    assert nine.description.endswith(" more)")
+    shown = [name for name in nine.names if name in nine.description]
+    assert 1 <= len(shown) <= 5 and nine.names[0] in shown
+    assert f"(+{9 - len(shown)} more)" in nine.description
+    lines = result.summary().splitlines()
+    assert all(len(line) <= LINE_WIDTH for line in lines), max(lines, key=len)
+    assert all(len(line) <= LINE_WIDTH for line in describe_unidentifiable(result.unidentifiable))
+
+
+def test_summary_is_short_with_many_combinations() -> None:
+    """30 dependent columns (20 pairs, 10 invisible) and 70 base parameters: a few header lines, at most ten
+    listing lines (the invisible parameters share one), and how many more there are."""
+    names = [f"arm_{k // 6}_link_joint.{('tx', 'ty', 'tz', 'rx', 'ry', 'rz')[k % 6]}" for k in range(100)]
+    J = _random(300, 100, seed=25)
+    for k in range(20):
+        J[:, 70 + k] = (k + 2.0) * J[:, k]
+    J[:, 90:] = 0.0
+    result = analyse(J, names, np.full(100, 1e-3))
+    assert result.rank == 70 and len(result.unidentifiable) == 30
+    lines = result.summary(limit=10).splitlines()
+    assert len(lines) <= 4 + 2 + 1 + 10 + 1
+    assert all(len(line) <= LINE_WIDTH for line in lines), max(lines, key=len)
+    assert lines[-1] == "  … and 11 more (Identifiability.unidentifiable has them all)"  # 10 + 9 pairs shown
+    assert "no effect on the measurements (10 parameters): " in result.summary()
+    base_lines = lines[lines.index(next(line for line in lines if line.startswith("base parameters (70): "))):]
+    assert base_lines[1].startswith("  ") and base_lines[1].endswith(" more)")  # two lines, then counted
+    assert base_lines[2].startswith("not identifiable (30 ")
+
+
+def test_describe_unidentifiable_limits_and_counts() -> None:
+    J = _random(30, 6, seed=26)
+    J[:, 3] = 2.0 * J[:, 0]
+    J[:, 4] = -J[:, 1]
+    J[:, 5] = 0.0
+    names = ["a.tx", "b.tx", "c.tx", "d.tx", "e.tx", "f.tx"]
+    combinations = analyse(J, names, np.full(6, 1e-3)).unidentifiable
+    assert describe_unidentifiable(combinations) == ["  - " + c.description for c in combinations]
+    assert describe_unidentifiable(combinations, limit=1) == ["  - f.tx has no effect on the measurements",
+                                                              "  … and 2 more"]
+    assert describe_unidentifiable(combinations, limit=0) == ["  … and 3 more"]
+    assert describe_unidentifiable([]) == []
+    with pytest.raises(DataError, match="limit must be >= 0"):
+        describe_unidentifiable(combinations, limit=-1)
+
+
+@pytest.mark.parametrize(("units", "message"), [
+    (["m", "rad"], r"2 units for 3 parameters"),
+    (["m", "deg", "rad"], r"units must be 'm', 'rad' or '' \(unknown\); bad: b \('deg'\)"),
+])
+def test_bad_units_raise_data_error(units: list[str], message: str) -> None:
+    with pytest.raises(DataError, match=message):
+        analyse(np.eye(3), ["a", "b", "c"], np.ones(3), units=units)
+    with pytest.raises(DataError, match=message):
+        base_parameters(np.eye(3), ["a", "b", "c"], np.ones(3), units=units)
 
 
 def test_covariance_matches_linear_least_squares_monte_carlo() -> None:
@@ -223,8 +432,8 @@ def test_covariance_on_chosen_columns_and_singular_culprit() -> None:
     np.testing.assert_allclose(covariance(J, 0.5, chosen), 0.5 * np.linalg.inv(sub.T @ sub), rtol=1e-10)
     with pytest.raises(IdentifiabilityError, match=r"singular.*rank 3 of 4") as error:
         covariance(J, 1.0, names=names)
-    message = str(error.value)  # b and d tie once equilibrated: either may be called the dependent one
-    assert "only b (column 1) + 2.000 d (column 3) is seen" in message or "only d (column 3) + 0.500 b" in message
+    # b and d tie once equilibrated: the first leads
+    assert "b (column 1) acts as 0.5 × d (column 3): only d (column 3) + 0.5 × b (column 1) is seen" in str(error.value)
     J[:, 3] = 0.0
     with pytest.raises(IdentifiabilityError, match=r"d \(column 3\) is invisible"):
         covariance(J, 1.0, names=names)

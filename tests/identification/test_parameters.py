@@ -122,3 +122,61 @@ def test_calibrated_urdf_folds_a_planar_passive_joint() -> None:
         expected = truth.placement(truth.solve_fk(np.array([crank + 0.01])), "coupler")
         got = calibrated.placement(calibrated.solve_fk(np.array([crank])), "coupler")
         np.testing.assert_allclose(got.homogeneous, expected.homogeneous, atol=1e-12)
+
+
+def test_default_set_only_what_moves_the_measured_frame() -> None:
+    """TIAGo, marker on the hand: no head, wheel or caster parameters; no rotation about a joint's own axis
+    (it is the offset); the torso's placement left to the base (one chain from the root); a marker offset."""
+    from pincal.identification import measurements as ms
+    from pincal.identification.parameters import influencing_joints
+
+    robot = pincal.load_robot("tiago_no_hand")
+    models = [ms.position("wrist_ft_tool_link")]
+    assert influencing_joints(robot, ["wrist_ft_tool_link"]) == ["torso_lift_joint"] + [f"arm_{i}_joint"
+                                                                                       for i in range(1, 8)]
+    default = choose_parameters(robot, models)
+    names = set(default.names)
+    assert not any(n.startswith(("head", "wheel", "caster")) for n in names)
+    assert not any(n.endswith(".rz") and n.startswith("arm_") for n in names)  # arm axes are z in their frames
+    assert not any(n.startswith("torso_lift_joint.t") or n.startswith("torso_lift_joint.r") for n in names)
+    assert {"torso_lift_joint.offset", "base.rz", "marker.wrist_ft_tool_link.z"} <= names
+    assert len(default) == 7 * 5 + 8 + 6 + 3
+    # patterns reach further than the default set: a rotation about an axis is still there to name
+    assert choose_parameters(robot, models, ["arm_1_joint.rz"]).names == ["arm_1_joint.rz"]
+
+
+def test_default_set_tool_placement_by_measurement() -> None:
+    """UR10: a pose of tool0 needs the tool's whole fixed placement; a position without a marker its translation;
+    with a marker offset (the default for positions) none, the marker stands for it."""
+    from pincal.identification import measurements as ms
+
+    robot = pincal.load_robot("ur10")
+    tool = "wrist_3_link-tool0_fixed_joint"
+    pose = choose_parameters(robot, [ms.pose("tool0")])
+    assert [n for n in pose.names if n.startswith(tool)] == [f"{tool}.{c}" for c in ("tx", "ty", "tz", "rx", "ry",
+                                                                                        "rz")]
+    position = choose_parameters(robot, [ms.position("tool0")])
+    assert not any(n.startswith(tool) for n in position.names) and "marker.tool0.x" in position.names
+    distance = choose_parameters(robot, [ms.distance("tool0", "base_link")])
+    assert [n for n in distance.names if n.startswith(tool)] == [f"{tool}.{c}" for c in ("tx", "ty", "tz")]
+
+
+def test_loops_bring_every_leg_and_sets_combine_with_patterns() -> None:
+    from pincal.identification.parameters import influencing_joints
+
+    robot = pincal.load_robot("delta")
+    models = measurements_for(robot, ["position:end_effector"], robot.actuated_joints)
+    assert {"arm_1_joint", "arm_2_joint", "arm_3_joint", "rod_3_roll"} <= set(influencing_joints(robot,
+                                                                                                 ["end_effector"]))
+    default = choose_parameters(robot, models)
+    assert "arm_1_joint.ry" not in default and "arm_1_joint.offset" in default  # arm_1 turns about its y axis
+    combined = choose_parameters(robot, models, ["model24", "base.*"])
+    assert combined.names[:24] == choose_parameters(robot, models, ["model24"]).names
+    assert combined.names[24:] == [f"base.{c}" for c in ("tx", "ty", "tz", "rx", "ry", "rz")]
+    without = choose_parameters(robot, models, ["model24", "!arm_*.offset"])
+    assert len(without) == 21 and not any(n.endswith(".offset") for n in without.names)
+    assert choose_parameters(robot, models, ["!base.*"]).names == [n for n in default.names
+                                                                    if not n.startswith("base.")]
+    assert choose_parameters(robot, models, ["default"]).names == default.names
+    with pytest.raises(NotFoundError, match="named sets are default, model24"):
+        choose_parameters(robot, models, ["model25"])

@@ -83,9 +83,10 @@ def test_redundant_set_fits_exactly_and_names_the_combinations() -> None:
     result = identify(problem)
     assert result.converged
     assert np.max(error_norms(result.errors_after)) < 1e-9
-    # a 6R arm with 3D data: 27 identifiable directions (the FIGAROH count) out of 60 candidates
-    assert result.identifiability.rank == 27
-    assert len(result.identifiability.unidentifiable) == 60 - 27
+    # a 6R arm with 3D data: 27 identifiable directions (the FIGAROH count) out of the 40 default candidates (no
+    # rotation about a joint's own axis, no first placement beside the base, a marker offset instead of the tool)
+    assert len(pset) == 40 and result.identifiability.rank == 27
+    assert len(result.identifiability.unidentifiable) == 40 - 27
     assert any("base.rz" in c.description or "tool0" in c.description for c in result.identifiability.unidentifiable)
     # held-out postures are predicted as well as the fitted ones
     qa_test, _ = random_actuated(robot, 20, rng)

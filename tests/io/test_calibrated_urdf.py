@@ -32,7 +32,7 @@ import pincal
 from pincal.identification.measurements import Distance, JointReading, Measurement, Pose, Position, parse_key
 from pincal.identification.parameters import ParameterSet, candidate_parameters, choose_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
-from pincal.io.calibrated_urdf import MEASUREMENT_FRAME, calibrated_robot_text, source_text
+from pincal.io.calibrated_urdf import MEASUREMENT_FRAME, calibrated_robot_text, source_text, written_frame
 from pincal.io.dataset import read_dataset
 from pincal.model.robot import Robot
 from pincal.study.simulation import perturbation, random_actuated
@@ -213,10 +213,12 @@ def test_the_measurement_frame_is_the_root_and_matters(name: str, tmp_path: Path
     tree.remove(joint)
     (tmp_path / "robot_frame.urdf").write_text(ET.tostring(tree, encoding="unicode"), encoding="utf-8")
     robot_frame = pincal.load_robot(tmp_path / "robot_frame.urdf")
+    point = written_frame(models[0], frame, pset)  # the default set calibrates a marker: the point is its link
+    assert point == f"{frame}_marker"
     gaps = []
     for k in range(SAMPLES):
-        in_tracker = written.placement(written.solve_fk(qa[k], tol=1e-13), frame).translation
-        in_base = robot_frame.placement(robot_frame.solve_fk(qa[k], tol=1e-13), frame).translation
+        in_tracker = written.placement(written.solve_fk(qa[k], tol=1e-13), point).translation
+        in_base = robot_frame.placement(robot_frame.solve_fk(qa[k], tol=1e-13), point).translation
         np.testing.assert_allclose(in_tracker, expected[k], atol=TOLERANCE, rtol=0)
         np.testing.assert_allclose(in_base, base.actInv(expected[k]), atol=TOLERANCE, rtol=0)
         gaps.append(float(np.linalg.norm(in_base - expected[k])))
@@ -353,7 +355,9 @@ def test_simulate_then_calibrate_reproduces_the_truth(name: str, kinds: list[str
     assert cal.returncode in (0, 1), cal.stderr  # 1: the iteration limit; the file is written either way
     truth, calibrated = pincal.load_robot(tmp_path / "sim" / "truth.urdf"), pincal.load_robot(tmp_path / "cal.urdf")
     data = read_dataset(tmp_path / "sim" / "measurements.csv", truth.actuated_joints).of_set("test")
-    frame = truth.end_effector
+    # the point measured: a position reads the marker link both files carry (the truth's marker and the calibrated
+    # one); a pose reads the frame itself
+    frame = truth.end_effector if "pose" in kinds else f"{truth.end_effector}_marker"
     worst = [0.0, 0.0]
     for qa in data.joints[:, [data.joint_names.index(j) for j in truth.actuated_joints]]:
         a = truth.placement(truth.solve_fk(qa, tol=1e-13), frame)

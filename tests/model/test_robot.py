@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import pytest
 import yourdfpy
-from conftest import ROBOTS
+from conftest import ROBOTS, run_pincal
+from mechanisms import crank_rocker_urdf, four_bar_urdf
 
 import pincal
+from pincal.model.measured_frame import frame_moves
 
 
 def _write(tmp_path: Path, text: str, name: str = "robot.urdf") -> Path:
@@ -147,3 +150,87 @@ def test_a_failed_lookup_names_the_culprit_and_carries_the_choices(delta: pincal
     with pytest.raises(pincal.NotFoundError, match=r"^frame 'tcp' does not exist in robot 'delta'") as caught:
         delta.frame_id("tcp")
     assert "end_effector" in caught.value.choices
+
+
+# --- the default measured frame: one the actuated joints move -----------------------------------------------------
+@pytest.mark.parametrize(("name", "frame"), [("delta", "end_effector"), ("five_bar", "end_effector"),
+                                             ("hexapod", "end_effector"), ("hexapod_device", "end_effector"),
+                                             ("ucr3", "end_effector"), ("ur3", "tool0"), ("ur5", "tool0"),
+                                             ("ur10", "tool0"), ("panda", "panda_hand"), ("tiago", "arm_tool_link"),
+                                             ("tiago_no_hand", "arm_tool_link")])
+def test_robots_by_name_keep_their_measured_frames(name: str, frame: str) -> None:
+    robot = pincal.load_robot(name)
+    assert robot.end_effector == frame and robot.measured_frame_choice.rule == "named"
+    assert frame_moves(robot, frame)
+
+
+def test_without_an_end_effector_name_the_one_moving_end_is_measured(tmp_path: Path) -> None:
+    """The file's last frame is a link fixed to the ground: it was once measured, before = after, nothing learnt."""
+    robot = pincal.load_robot(_write(tmp_path, crank_rocker_urdf()))
+    assert robot.model.frames[len(robot.model.frames) - 1].name == "stand"
+    assert not frame_moves(robot, "stand") and not frame_moves(robot, "ground")
+    assert all(frame_moves(robot, link) for link in ("crank", "coupler", "rocker"))
+    assert robot.end_effector == "rocker" and robot.measured_frame_choice.rule == "moving end"
+    assert robot.measured_frame_choice.candidates == ("rocker",)
+
+
+def test_a_still_frame_named_like_an_end_effector_is_passed_over(tmp_path: Path) -> None:
+    text = crank_rocker_urdf().replace('link name="stand"', 'link name="end_effector"').replace(
+        '<child link="stand"/>', '<child link="end_effector"/>')
+    robot = pincal.load_robot(_write(tmp_path, text))
+    assert not frame_moves(robot, "end_effector")
+    assert robot.end_effector == "rocker"
+
+
+def test_several_moving_ends_are_refused_with_the_candidates(tmp_path: Path) -> None:
+    """A four-bar cut at its coupler-rocker joint ends in two moving links: neither is the obvious one."""
+    robot = pincal.load_robot(_write(tmp_path, four_bar_urdf()))
+    with pytest.raises(pincal.NotFoundError, match=r"no frame named like an end effector.*2 moving links have no "
+                                                   r"moving link below them: coupler, rocker.*--frame") as caught:
+        _ = robot.end_effector
+    assert caught.value.kind == "frame" and caught.value.choices == ["coupler", "rocker"]
+    assert robot.measured_frame_choice.frame is None
+
+
+def test_a_robot_whose_actuated_joints_move_nothing_has_no_default_frame(tmp_path: Path) -> None:
+    text = crank_rocker_urdf().replace('type="revolute"><parent link="ground"/><child link="crank"/>',
+                                       'type="fixed"><parent link="ground"/><child link="crank"/>')
+    text = text.replace('<transmission name="crank_motor"><joint name="crank_joint"/></transmission>', "")
+    text = text.replace(text[text.index("<loop"):text.index("</loop>") + len("</loop>")], "")
+    robot = pincal.load_robot(_write(tmp_path, text))  # serial: coupler and rocker joints actuated, crank fixed
+    assert robot.end_effector == "rocker"  # a serial chain: its moving end
+    still = pincal.load_robot(_write(tmp_path, '<robot name="post"><link name="floor"/><link name="post"/>'
+                                               '<joint name="j" type="fixed"><parent link="floor"/>'
+                                               '<child link="post"/></joint></robot>', "post.urdf"))
+    with pytest.raises(pincal.NotFoundError, match="move none of its links: there is no frame to measure"):
+        _ = still.end_effector
+
+
+def test_simulate_and_calibrate_a_four_bar_measure_a_moving_frame(tmp_path: Path) -> None:
+    path = _write(tmp_path, crank_rocker_urdf(), "crank_rocker.urdf")
+    sim = tmp_path / "sim"
+    done = run_pincal("simulate", str(path), "--samples", "30", "--test-samples", "10", "--seed", "1", "--quiet",
+                      "--out", str(sim))
+    assert done.returncode == 0, done.stderr
+    assert "warning" not in done.stderr
+    header = next(line for line in (sim / "measurements.csv").read_text().splitlines() if line.startswith("sample,"))
+    assert "position:rocker:x" in header and "stand" not in header
+    report = tmp_path / "report.json"
+    done = run_pincal("calibrate", str(path), str(sim / "measurements.csv"), "--report", str(report))
+    assert done.returncode == 0, done.stdout + done.stderr
+    data = json.loads(report.read_text())
+    # errors of 1 mm / 1 mrad move the rocker by about 0.5 mm, which the fit removes (measuring the ground-fixed
+    # stand, before = after and only the measurement frame's 3 directions were identifiable)
+    assert data["rms_before"] > 1e-4 and data["test_rms_before"] > 1e-4
+    assert data["rms_after"] < data["rms_before"] / 2 and data["test_rms_after"] < data["test_rms_before"] / 2
+    assert data["n_identifiable"] > 6
+
+
+def test_simulating_a_four_bar_without_an_obvious_frame_is_refused_in_one_line(tmp_path: Path) -> None:
+    path = _write(tmp_path, four_bar_urdf(), "four_bar.urdf")
+    done = run_pincal("simulate", str(path), "--samples", "5", "--quiet", "--out", str(tmp_path / "sim"))
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
+    assert "coupler, rocker" in done.stderr and "--frame" in done.stderr and "Traceback" not in done.stderr
+    done = run_pincal("simulate", str(path), "--samples", "5", "--frame", "coupler", "--quiet", "--out",
+                      str(tmp_path / "sim"))
+    assert done.returncode == 0, done.stderr

@@ -1,0 +1,203 @@
+"""Model selection: keep only the kinds of parameters the data support.
+
+With few postures a model with more parameters fits better and predicts worse: on the TIAGo arm data
+(34 postures, one marker) the 33 identifiable parameters fit 2.46 mm and predict 4.7 mm in 5-fold
+cross-validation; the same model without the joint axes' tilts and the reading offsets fits 2.83 mm and
+predicts 4.0 mm.
+
+The choice is among *groups* of parameters, not single parameters: the joint and anchor translations, their
+rotations, and the reading offsets (:func:`group_of`); the measurement frame, the markers and device constants
+always stay. Every combination of groups is scored by the Bayesian information criterion of the fit
+linearized at the estimate (Schwarz 1978, "Estimating the dimension of a model"): for the weighted linear model
+``r(x) = y₀ + J x`` over the combination's independent columns (p of them) and m residual rows,
+``BIC = m ln(RSS/m) + p ln m``, with the noise level estimated from the residuals, so a wrong stated σ does
+not bias the choice. The combination with the smallest BIC is refitted.
+
+Measured on the TIAGo data, in 5-fold × 4 cross-validation with the selection redone in every fold: BIC
+4.09 mm, AICc 4.19, linearized 5-fold error 4.27, leave-one-out error (PRESS) 4.52, choosing parameter by
+parameter by the leave-one-out error 5.4, no selection 4.7. Rows are weighted (1/σ and the robust loss' sample
+weights), so down-weighted samples do not steer the choice.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import scipy.linalg
+
+from pincal.errors import DataError, listing
+from pincal.identification.identifiability import RANK_TOLERANCE
+from pincal.identification.parameters import Parameter
+from pincal.identification.problem import CalibrationProblem
+from pincal.identification.solver import CalibrationResult, identify
+
+Array = npt.NDArray[np.float64]
+
+#: The groups selection may leave out, in the order they are named.
+GROUPS = ("translations", "rotations", "offsets")
+
+
+def group_of(parameter: Parameter) -> str | None:
+    """The selection group of a parameter: ``translations`` or ``rotations`` of joint and anchor placements,
+    ``offsets`` of joint readings, or None for what always stays (base, markers, device constants)."""
+    if parameter.kind == "offset":
+        return "offsets"
+    if parameter.kind in ("joint", "anchor"):
+        return "translations" if parameter.name.rsplit(".", 1)[-1].startswith("t") else "rotations"
+    return None
+
+
+#: Relative floor on the residual mean square in the criterion: below it, fits differ by round-off only.
+RSS_FLOOR = 1e-24
+
+
+def information_criterion(jacobian: Array, y0: Array) -> float:
+    """``m ln(RSS/m) + p ln m`` of the least-squares fit of ``y0 + J x`` (m rows, p columns, full column rank).
+
+    Args:
+        jacobian: (m, p) weighted Jacobian [1/unit of each parameter] (p may be 0).
+        y0: (m,) weighted residual of the linear model at the nominal parameters (x = 0).
+
+    Returns:
+        The Bayesian information criterion (dimensionless; smaller is better).
+    """
+    m, p = jacobian.shape
+    if p:
+        Q, _ = scipy.linalg.qr(jacobian, mode="economic")
+        residual = y0 - Q @ (Q.T @ y0)
+    else:
+        residual = y0
+    mean_square = max(float(residual @ residual) / m, RSS_FLOOR * max(float(y0 @ y0) / m, 1.0))
+    return float(m * math.log(mean_square) + p * math.log(m))
+
+
+def _independent(jacobian: Array, columns: list[int], scale: float) -> list[int]:
+    """The columns among ``columns`` that pivoted QR keeps as independent (pivot above :data:`RANK_TOLERANCE`
+    × ``scale``, the largest singular value of the whole Jacobian), in their order."""
+    if not columns or scale == 0.0:
+        return []
+    _, R, pivots = scipy.linalg.qr(jacobian[:, columns], mode="economic", pivoting=True)
+    rank = int(np.count_nonzero(np.abs(np.diag(R)) > RANK_TOLERANCE * scale))
+    return sorted(columns[k] for k in pivots[:rank])
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The outcome of :func:`select_groups`.
+
+    Attributes:
+        kept: Column indices kept, ascending.
+        removed_groups: The groups left out (in :data:`GROUPS` order).
+        scores: The criterion of every combination scored, keyed by the groups it leaves out.
+    """
+
+    kept: list[int]
+    removed_groups: tuple[str, ...]
+    scores: dict[tuple[str, ...], float]
+
+
+def select_groups(jacobian: Array, y0: Array, groups: list[str | None]) -> Selection:
+    """The combination of parameter groups with the smallest :func:`information_criterion`.
+
+    Args:
+        jacobian: (m, p) weighted, scaled Jacobian of the parameters [dimensionless]; each combination is scored
+            on its independent columns (pivoted QR).
+        y0: (m,) weighted residual of the linear model at the nominal parameters: ``r(x̂) − J x̂``.
+        groups: (p,) each column's group (:func:`group_of`; None: always kept).
+
+    Returns:
+        The :class:`Selection`; on equal scores the combination with fewer parameters wins.
+    """
+    present = [g for g in GROUPS if g in groups]
+    scale = float(np.linalg.norm(jacobian, 2)) if jacobian.size else 0.0
+    scores: dict[tuple[str, ...], float] = {}
+    best: tuple[float, int, tuple[str, ...]] | None = None
+    for n in range(len(present) + 1):
+        for drop in itertools.combinations(present, n):
+            cols = _independent(jacobian, [k for k, g in enumerate(groups) if g not in drop], scale)
+            score = information_criterion(jacobian[:, cols], y0)
+            scores[drop] = score
+            if best is None or (score, len(cols)) < best[:2]:
+                best = (score, len(cols), drop)
+    assert best is not None
+    kept = [k for k, g in enumerate(groups) if g not in best[2]]
+    return Selection(kept, best[2], scores)
+
+
+#: Model selection policies: ``bic`` (the groups with the smallest information criterion, the default) or ``none``
+#: (fit every identifiable parameter).
+SELECTIONS = ("bic", "none")
+
+
+@dataclass
+class SelectedFit:
+    """A fit after model selection.
+
+    Attributes:
+        problem: The problem over the kept parameters (the one ``result`` solves).
+        result: The fit over the kept parameters.
+        first: The fit over every chosen parameter (its identifiability analysis names what the data cannot see).
+        removed: Names of the identifiable parameters that selection held at their nominal value.
+        scores: The criterion of each combination of groups scored, keyed by the groups it leaves out.
+        removed_groups: The groups left out.
+    """
+
+    problem: CalibrationProblem
+    result: CalibrationResult
+    first: CalibrationResult
+    removed: list[str]
+    scores: dict[tuple[str, ...], float]
+    removed_groups: tuple[str, ...] = ()
+
+
+def select_and_fit(problem: CalibrationProblem, policy: str = "bic", **options: Any) -> SelectedFit:
+    """Fit every parameter of ``problem``, then (``policy="bic"``) leave out the groups of identifiable parameters
+    the data do not support (:func:`select_groups` on the fit's weighted Jacobian) and refit the rest from the
+    nominal start. ``options`` go to
+    :func:`~pincal.identification.solver.identify` for both fits.
+
+    Raises:
+        DataError: an unknown ``policy``.
+    """
+    if policy not in SELECTIONS:
+        raise DataError(f"unknown selection '{policy}'; selections are: {listing(SELECTIONS)}")
+    first = identify(problem, **options)
+    if policy == "none" or len(first.identified) < 2 or not first.converged:  # no choice made on a failed fit
+        return SelectedFit(problem, first, first, [], {})
+    pred = problem.evaluate(first.x)
+    assert pred.jacobian is not None
+    rows = np.sqrt(first.sample_weights[problem.row_samples()])
+    jac = pred.jacobian * rows[:, None]
+    y0 = pred.residual * rows - jac @ first.x
+    pset = problem.parameters
+    choice = select_groups(jac * pset.scales, y0, [group_of(p) for p in pset])
+    if not choice.removed_groups:
+        return SelectedFit(problem, first, first, [], choice.scores)
+    # a left-out group goes whole, its unidentifiable members too; everything else stays as chosen (the base
+    # entire, so that the start registers the measurement frame as before)
+    removed = [p.name for p in pset if group_of(p) in choice.removed_groups]
+    kept = [k for k, p in enumerate(pset) if group_of(p) not in choice.removed_groups]
+    if not kept:
+        return SelectedFit(problem, first, first, [], choice.scores)
+    reduced = CalibrationProblem(problem.robot, pset.subset(kept), problem.measurements, problem.observations,
+                                 None if problem.joint_sigma is None else list(problem.joint_sigma))
+    refit = identify(reduced, **options)
+    # the choice was made on the fit linearized at its estimate; the refit starts from the nominal robot, where fewer
+    # directions may be identifiable (a planar four-bar's anchor rotations): kept only if it scores better for real
+    if not refit.converged or _fitted_criterion(reduced, refit) > _fitted_criterion(problem, first):
+        return SelectedFit(problem, first, first, [], choice.scores)
+    return SelectedFit(reduced, refit, first, removed, choice.scores, choice.removed_groups)
+
+
+def _fitted_criterion(problem: CalibrationProblem, result: CalibrationResult) -> float:
+    """:func:`information_criterion`'s value for a nonlinear fit: its weighted residual (robust weights included)
+    and its number of identified parameters."""
+    weights = np.sqrt(result.sample_weights[problem.row_samples()])
+    residual = problem.evaluate(result.x, jacobian=False).residual * weights
+    m, p = residual.size, len(result.identified)
+    return float(m * math.log(max(float(residual @ residual) / m, RSS_FLOOR)) + p * math.log(m))

@@ -1,0 +1,139 @@
+"""Which frame a robot's measurements see by default: a frame the actuated joints move.
+
+A frame named like an end effector (:data:`END_EFFECTOR_NAMES`) is taken first, if it moves. Otherwise the default
+is the one link frame that the actuated joints move and below which, in the kinematic tree of the file
+(the loops cut), no link moves: the end of the one moving branch. A robot with several such ends (a
+four-bar cut at its coupler joint ends in the coupler and the rocker; an arm with two fingers) has no
+obvious choice, and none is made: the measured frame must be named. A frame the actuated joints do not
+move is never chosen: measuring it identifies nothing but the measurement frame.
+
+"Moved" is tested on the twist of the frame per unit actuated velocity, through the loops
+(:meth:`~pincal.model.kinematics.ClosedLoopKinematics.configuration_jacobian`), at the reference
+configuration and at a nearby assembled one (a frame can stand still at one singular posture).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.errors import NotFoundError, listing
+
+if TYPE_CHECKING:
+    from pincal.model.robot import Robot
+
+Array = npt.NDArray[np.float64]
+
+#: Names tried, in order, for the default measured frame before any motion test.
+END_EFFECTOR_NAMES = ("end_effector", "tool0", "panda_hand", "arm_tool_link", "ee_link")
+#: Smallest twist per unit actuated velocity [m/rad, rad/rad, m/m, rad/m] of a frame that moves.
+MOTION_TOLERANCE = 1e-9
+#: Actuated step [rad or m] from the reference to the second posture the motion is tested at.
+MOTION_STEP = 0.01
+
+
+@dataclass(frozen=True)
+class FrameChoice:
+    """The default measured frame of a robot, or why there is none.
+
+    Attributes:
+        frame: The chosen frame; None when no frame is obvious.
+        rule: ``named`` (a name from :data:`END_EFFECTOR_NAMES`), ``moving end`` (the one moving link with
+            no moving link below it) or ``none``.
+        candidates: The moving links with no moving link below them.
+        reason: Why no frame was chosen (empty when one was).
+    """
+
+    frame: str | None
+    rule: str
+    candidates: tuple[str, ...] = ()
+    reason: str = ""
+
+    def error(self) -> NotFoundError:
+        """The refusal as an error that carries the candidates (``choices``)."""
+        return NotFoundError(self.reason, "frame", "", self.candidates)
+
+
+def probe_postures(robot: Robot) -> list[Array]:
+    """The reference configuration and, when it can be assembled, one a step of :data:`MOTION_STEP` away
+    in every actuated joint (towards the inside of the joint limits)."""
+    postures = [robot.q_reference]
+    model = robot.model
+    qa = robot.actuated_values(robot.q_reference)
+    step = np.empty_like(qa)
+    for k, joint in enumerate(robot.kinematics.actuated):
+        upper = model.upperPositionLimit[joint.idx_q] if joint.nq == 1 else np.inf
+        sign = -1.0 if qa[k] + MOTION_STEP > upper else 1.0
+        step[k] = sign * MOTION_STEP * (1.0 + 0.1 * k)  # unequal steps: no symmetric special posture
+    report = robot.solve_fk_report(qa + step)
+    if report.converged:
+        postures.append(report.q)
+    return postures
+
+
+def frame_motion(robot: Robot, frame_ids: list[int]) -> Array:
+    """Largest norm, over :func:`probe_postures`, of each frame's twist per unit actuated velocity (6 × na)."""
+    model, data = robot.model, robot.kinematics.data
+    motion = np.zeros(len(frame_ids))
+    for q in probe_postures(robot):
+        tangent = robot.kinematics.configuration_jacobian(q)
+        pin.computeJointJacobians(model, data, q)
+        for k, fid in enumerate(frame_ids):
+            twist = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED) @ tangent
+            motion[k] = max(motion[k], float(np.linalg.norm(twist)))
+    return motion
+
+
+def frame_moves(robot: Robot, frame: str) -> bool:
+    """Whether the actuated joints move ``frame`` (see the module's docstring)."""
+    return bool(frame_motion(robot, [robot.frame_id(frame)])[0] > MOTION_TOLERANCE)
+
+
+def _ancestors(model: pin.Model, fid: int) -> set[int]:
+    out: set[int] = set()
+    while fid != 0 and model.frames[fid].parentFrame != fid:
+        fid = int(model.frames[fid].parentFrame)
+        out.add(fid)
+    return out
+
+
+def moving_ends(robot: Robot) -> list[str]:
+    """The link frames the actuated joints move and below which no moving link hangs, in model order."""
+    model = robot.model
+    links = [fid for fid, f in enumerate(model.frames) if f.type == pin.FrameType.BODY]
+    if not links or robot.n_actuated == 0:
+        return []
+    moving = [fid for fid, m in zip(links, frame_motion(robot, links), strict=True) if m > MOTION_TOLERANCE]
+    above: set[int] = set()
+    for fid in moving:
+        above |= _ancestors(model, fid)
+    return [str(model.frames[fid].name) for fid in moving if fid not in above]
+
+
+def default_measured_frame(robot: Robot) -> FrameChoice:
+    """The frame measured when none is named: the first name of :data:`END_EFFECTOR_NAMES` that the actuated
+    joints move, else the one moving end of the tree (:func:`moving_ends`); no choice when there are several
+    ends or none."""
+    still = []
+    for name in END_EFFECTOR_NAMES:
+        if robot.model.existFrame(name):
+            if frame_moves(robot, name):
+                return FrameChoice(name, "named")
+            still.append(name)
+    ends = tuple(moving_ends(robot))
+    if len(ends) == 1:
+        return FrameChoice(ends[0], "moving end", ends)
+    if still:
+        named = f"robot '{robot.name}': its actuated joints do not move {listing(still)} (named like an end effector)"
+    else:
+        named = f"robot '{robot.name}' has no frame named like an end effector ({listing(END_EFFECTOR_NAMES)})"
+    if not ends:
+        rest = "they move none of its links" if still else "its actuated joints move none of its links"
+        return FrameChoice(None, "none", ends, f"{named}, and {rest}: there is no frame to measure by default")
+    return FrameChoice(None, "none", ends, f"{named}; {len(ends)} moving links have no moving link below them: "
+                                           f"{listing(ends)}; none of them is the obvious measured frame: name it "
+                                           "(--frame, or the frame in the measurement keys)")
