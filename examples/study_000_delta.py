@@ -305,7 +305,7 @@ def identifiability(robot: pincal.Robot, set_name: str, seeds: Sequence[int], sp
         obs = _noise_free_observations(robot, pset, qa, 0.0)
         jac = CalibrationProblem(robot, pset, _position_models(0.0), obs).evaluate(np.zeros(len(pset))).jacobian
         assert jac is not None
-        analysis = analyse(jac, pset.names, pset.scales)
+        analysis = analyse(jac, pset.names, pset.scales, units=[p.unit for p in pset])
         ranks.append(analysis.rank)
         kappas.append(analysis.condition_number)
         if not combinations:

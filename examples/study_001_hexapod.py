@@ -236,7 +236,7 @@ def identifiability_table(readings: np.ndarray) -> list[tuple[str, int, int, flo
         obs = simulate_observations(r, pset, np.zeros(len(pset)), models, readings, np.random.default_rng(0))
         jac = CalibrationProblem(r, pset, models, obs).evaluate(np.zeros(len(pset))).jacobian
         assert jac is not None
-        a = analyse(jac, pset.names, pset.scales)
+        a = analyse(jac, pset.names, pset.scales, units=[p.unit for p in pset])
         out.append((label, len(pset), a.rank, a.condition_number, [c.description for c in a.unidentifiable]))
     return out
 

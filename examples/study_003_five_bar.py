@@ -294,7 +294,7 @@ def full_model_identifiability(points: np.ndarray) -> Any:
     jac = CalibrationProblem(robot(), pset, increment_model(), obs).evaluate(np.zeros(len(pset))).jacobian
     assert jac is not None
     scales = np.array([MM / L_PROX] * 2 + [MM] * 10)
-    return analyse(jac @ mapping, PHYSICAL, scales, tol=1e-6)
+    return analyse(jac @ mapping, PHYSICAL, scales, tol=1e-6, units=["rad"] * 2 + ["m"] * 10)
 
 
 def offset_covariance(points: np.ndarray, noise: str) -> dict[str, Any]:

@@ -256,7 +256,7 @@ def calibrate(readings: np.ndarray, x_true: np.ndarray, validation: np.ndarray, 
     effective = mapping @ true_physical()  # where each joint centre is (L_m folded into the a_i)
     jac = problem.evaluate(x).jacobian
     assert jac is not None
-    practical = analyse(jac, pset.names, pset.scales, tol=1e-4)
+    practical = analyse(jac, pset.names, pset.scales, tol=1e-4, units=[p.unit for p in pset])
     return {
         "history": history, "final_pose_error": paper_pose_error(result.errors_after[key], measured),
         "iterations_to_stop": next((k for k, e in enumerate(history) if e < STOP), -1),

@@ -194,6 +194,7 @@ def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
         ("measurements", ", ".join(report.get("measurements", [])), ""),
         ("parameters", str(report.get("n_parameters")), ""),
         ("identifiable", f"{report.get('n_identifiable')} of {report.get('n_parameters')}", ""),
+        ("estimated (after model selection)", _estimated(report), ""),
         ("condition number (scaled)", f"{cond:.3g}" if cond else "–", ""),
         ("solver", f"{report.get('solver')} ({report.get('loss')} loss): {report.get('message')}, "
                    f"{report.get('iterations')} iterations", ""),  # no wall time: same inputs, same file
@@ -208,6 +209,10 @@ def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
     for label, b, a in numbers:
         table.append(f"<tr><td>{label}</td><td class='before'>{mm_text(report.get(b))}</td>"
                      f"<td class='after'>{mm_text(report.get(a))}</td></tr>")
+    cv = report.get("cv")
+    if cv:
+        table.append(f"<tr><td>RMS position error (cross-validated, {html.escape(cv['plan'])}, {cv['n_samples']} "
+                     f"samples)</td><td></td><td class='after'>{mm_text(cv['rms'])}</td></tr>")
     if report.get("calibration_gain") is not None:
         table.append(f"<tr><td>calibration gain G (study 000, vs the truth)</td><td></td>"
                      f"<td>{report['calibration_gain']:.1f} %</td></tr>")
@@ -218,6 +223,14 @@ def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
         facts += (f"<tr><td>down-weighted samples (robust loss)</td>"
                   f"<td>{html.escape(', '.join(map(str, down)))}</td></tr>")
     return (f'<div class="cards"><div><table>{facts}</table></div><div>{"".join(table)}</div></div>')
+
+
+def _estimated(report: dict[str, Any]) -> str:
+    """How many parameters were estimated, and what model selection left out."""
+    selection = report.get("selection") or {}
+    left_out = selection.get("removed_groups") or []
+    count = str(report.get("n_estimated", report.get("n_identifiable")))
+    return count + (f" (left out: {', '.join(left_out)})" if left_out else "")
 
 
 def _parameter_table(content: ReportContent) -> str:

@@ -222,3 +222,14 @@ def test_a_file_without_measurements_is_refused_in_one_line(tmp_path: Path) -> N
     done = run_pincal("calibrate", "delta", str(data))
     assert done.returncode == 2 and done.stderr.count("\n") == 1
     assert "the data has no measurement columns" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_the_html_report_shows_selection_and_cross_validation(tmp_path: Path) -> None:
+    from conftest import run_pincal
+
+    page = tmp_path / "report.html"
+    done = run_pincal("report", "tiago_no_hand", str(TIAGO_DATA), "--cv", "3", "--quiet", "--out", str(page))
+    assert done.returncode == 0, done.stderr
+    text = page.read_text()
+    assert "estimated (after model selection)</td><td>25 (left out: rotations)" in text
+    assert "RMS position error (cross-validated, 3-fold, 34 samples)" in text

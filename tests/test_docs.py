@@ -1,0 +1,51 @@
+"""Figures the README and the results pages quote, checked against the commands written next to them."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+from conftest import ROOT, run_pincal
+
+README = (ROOT / "README.md").read_text(encoding="utf-8")
+TIAGO_PAGE = (ROOT / "docs" / "results" / "tiago_mocap.md").read_text(encoding="utf-8")
+TIAGO_DATA = ROOT / "examples" / "data" / "tiago_mocap_marker1.csv"
+
+
+def _mm(value: float, digits: int) -> str:
+    return f"{value * 1e3:.{digits}f}"
+
+
+def test_the_demo_figure_of_the_readme(tmp_path: Path) -> None:
+    row = re.search(r"\(`pincal demo`\) \| held-out RMS ([\d.]+) mm → ([\d.]+) mm \|", README)
+    assert row is not None
+    before, after = row.groups()
+    done = run_pincal("demo", "--out", str(tmp_path / "demo"))
+    assert done.returncode == 0, done.stderr
+    report = json.loads((tmp_path / "demo" / "report.json").read_text())
+    assert _mm(report["test_rms_before"], len(before.split(".")[1])) == before
+    assert _mm(report["test_rms_after"], len(after.split(".")[1])) == after
+    assert "RMS position error (held out)" in done.stdout
+
+
+def test_the_tiago_cross_validation_figure(tmp_path: Path) -> None:
+    """docs/results/tiago_mocap.md and the README quote the default command's 5-fold × 4 figure."""
+    command = "pincal calibrate tiago_no_hand examples/data/tiago_mocap_marker1.csv --cv 5x4"
+    assert command in TIAGO_PAGE
+    page = re.search(r"\| 5-fold × 4 cross-validated RMS \(34 postures\) \| \*\*([\d.]+) mm\*\* \| ([\d.]+) mm \|",
+                     TIAGO_PAGE)
+    readme = re.search(r"5-fold × 4 cross-validated RMS ([\d.]+) mm \(FIGAROH", README)
+    assert page is not None and readme is not None
+    report = tmp_path / "r.json"
+    done = run_pincal("calibrate", "tiago_no_hand", str(TIAGO_DATA), "--cv", "5x4", "--report", str(report))
+    assert done.returncode == 0, done.stderr
+    data = json.loads(report.read_text())
+    assert _mm(data["cv"]["rms"], 3) == page.group(1)
+    assert _mm(data["cv"]["rms"], 2) == readme.group(1)
+    assert data["cv"]["rms"] <= 4.2e-3  # the target of issue 12
+    assert _mm(data["rms_after"], 3) in TIAGO_PAGE and _mm(data["test_rms_after"], 3) in TIAGO_PAGE
+    everything = run_pincal("calibrate", "tiago_no_hand", str(TIAGO_DATA), "--cv", "5x4", "--select", "none",
+                            "--report", str(report))
+    assert everything.returncode == 0, everything.stderr
+    assert _mm(json.loads(report.read_text())["cv"]["rms"], 3) == page.group(2)
