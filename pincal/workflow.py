@@ -8,6 +8,7 @@ postures), ``truth.urdf`` (the true robot) and ``truth.json`` (the true paramete
 from __future__ import annotations
 
 import math
+import re
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -22,7 +23,7 @@ from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.identification.identifiability import describe_unidentifiable
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.measurements import JointReading, Measurement, Pose, parse_key
-from pincal.identification.parameters import ParameterSet, choose_parameters, joint_unit
+from pincal.identification.parameters import ParameterSet, choose_parameters, influencing_joints, joint_unit
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.selection import SELECTIONS, select_and_fit
 from pincal.identification.solver import (
@@ -37,11 +38,13 @@ from pincal.identification.solver import (
 )
 from pincal.io.adapters import joints_at_reference, measurements_for, observations_from
 from pincal.io.calibrated_urdf import calibrated_robot_text, joint_sensor_zeros, source_text
+from pincal.io.corrections import Corrections, corrections_dict, corrections_of, corrections_path
 from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text, read_dataset
 from pincal.io.files import check_outputs, make_directory, write_texts
 from pincal.io.report_data import angle_error_norms, json_text, report_dict
 from pincal.model.measured_frame import frame_moves
 from pincal.model.robot import Robot, load_robot, unusable_samples
+from pincal.progress import Progress
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 Array = npt.NDArray[np.float64]
@@ -188,7 +191,11 @@ def write_simulation(sim: Simulation, out: Path) -> list[Path]:
                                          read_joints=read)
     truth = {"robot": sim.robot.name, "units": "SI: m, rad", "parameters": sim.parameters.as_dict(sim.x_true),
              "reference_shifts": shifts, "joint_sensor_zeros": joint_sensor_zeros(text)}
-    return write_texts(list(zip(paths, (dataset_text(sim.dataset), text, json_text(truth)), strict=True)))
+    texts = list(zip(paths, (dataset_text(sim.dataset), text, json_text(truth)), strict=True))
+    corrections = corrections_of(sim.robot, sim.parameters, sim.x_true)
+    if corrections is not None:  # the true joint harmonics and compliances, as a calibration writes them
+        texts.append((corrections_path(paths[1]), json_text(corrections_dict(corrections, sim.robot))))
+    return write_texts(texts)
 
 
 @dataclass
@@ -198,12 +205,14 @@ class Calibration:
     result: CalibrationResult
     report: dict[str, Any]
     urdf_text: str
+    corrections: Corrections | None = None  # joint harmonics and compliances: the corrections file
 
 
 def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | None = None, solver: Solver = "lm",
               loss: Loss = "auto", sigma: float | None = None, x_true: Array | None = None,
               pose_sigma_angle: float | None = None, formulation: Formulation = "fkm",
-              max_iter: int = 100, select: str = "auto", cv: str | None = None) -> Calibration:
+              max_iter: int = 100, select: str = "auto", cv: str | None = None,
+              progress: bool = False) -> Calibration:
     """Identify ``robot``'s parameters from the ``train`` samples; evaluate on the ``test`` samples.
 
     ``select``: ``bic`` leaves out the groups of parameters (joint translations, joint rotations, reading offsets)
@@ -211,7 +220,8 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     fits every identifiable parameter; ``auto`` (default) is ``bic`` for the default parameter set and ``none``
     for a set named by ``parameter_spec`` (a model the user chose is fitted as chosen). ``cv``: ``K``, ``KxR``
     or ``loo`` runs K-fold cross-validation (R times) of the whole fit, selection included, over every usable
-    sample of the file (:func:`cross_validate`); the report gets ``cv``.
+    sample of the file (:func:`cross_validate`); the report gets ``cv``. ``progress`` shows the folds on stderr
+    (when it is a terminal).
 
     ``formulation``: ``fkm`` (measured − predicted by forward kinematics) or ``ikm`` (implicit loop
     residuals with the measured pose held fixed, study 000). Errors before/after are position errors
@@ -248,11 +258,18 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
         raise DataError(f"none of the {len(dropped_info)} training samples can be used: "
                         f"{dropped_info[0]['reason'] if dropped_info else 'no data'}")
     obs = observations_from(robot, train.joint_names, train.joints, train.measurements, models)
-    folds = parse_cv(cv, dataset.n_samples) if cv is not None else None
     if select not in SELECT_CHOICES:
         raise DataError(f"unknown selection '{select}'; selections are: {listing(SELECT_CHOICES)}")
+    if select == "bic" and formulation != "fkm":
+        raise DataError("--select bic chooses among fkm fits; with --formulation ikm use --select none (or auto)")
     if select == "auto":
-        select = "none" if parameter_spec else "bic"
+        select = "none" if parameter_spec or formulation != "fkm" else "bic"
+    folds, every = None, None
+    if cv is not None:  # checked before any fit
+        check_cross_validation(models, formulation)
+        usable, _ = usable_part(robot, dataset)
+        folds = parse_cv(cv, usable.n_samples)
+        every = observations_from(robot, usable.joint_names, usable.joints, usable.measurements, models)
     problem = CalibrationProblem(robot, pset, models, obs)
     full_set, removed, first = pset, [], None
     if formulation == "ikm":
@@ -273,6 +290,8 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
                                               f"({', '.join(m.key for m in models)})",
                                          read_joints=[m.joint for m in models if isinstance(m, JointReading)])
     report = report_dict(result, problem, x_true, shifts)
+    corrections = corrections_of(robot, pset, result.x)
+    report["corrections"] = corrections.joints if corrections is not None else {}
     report["formulation"] = formulation
     report["selection"] = {"policy": select if formulation == "fkm" else "none", "removed": removed,
                            "removed_groups": list(fitted.removed_groups) if removed else [],
@@ -309,7 +328,9 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
         # shows (the same test as the fit's outlier test): named, since they inflate the held-out figures
         strange = outlier_samples(tprob, held_out)
         report["held_out_outliers"] = [test.sample_ids[k] for k in strange]
-        report["held_out_outside_range"] = held_out_outside_range(robot, train, test)
+        moving = influencing_joints(robot, sorted({f for m in models for f in m.frames}),
+                                    [m.joint for m in models if isinstance(m, JointReading)])
+        report["held_out_outside_range"] = held_out_outside_range(robot, train, test, joints=moving)
         before, after = error_norms(errors_before), error_norms(errors_after)
         report.update({"n_test_samples": tobs.n_samples, "test_rms_before": rms(before), "test_rms_after": rms(after),
                        "test_max_before": float(before.max()) if before.size else None,
@@ -322,12 +343,10 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
         trusted = result.sigma2 <= NOISE_CONTRADICTED  # a fit at the noise level: strange held-out rows are wrong
         report["worse_than_nominal"] = _worse_than_nominal(errors_before, errors_after, tobs.n_samples,
                                                            strange if trusted else [])
-    if folds is not None:
-        usable, _ = usable_part(robot, dataset)
-        every = observations_from(robot, usable.joint_names, usable.joints, usable.measurements, models)
-        report["cv"] = cross_validate(robot, full_set, models, every, folds, select=select, solver=solver, loss=loss,
-                                      max_iter=max_iter)
-    return Calibration(problem, result, report, text)
+    if folds is not None and every is not None:
+        report["cv"] = cross_validate(robot, full_set, models, every, folds, select=select, progress=progress,
+                                      solver=solver, loss=loss, max_iter=max_iter)
+    return Calibration(problem, result, report, text, corrections)
 
 
 #: Model selection choices of :func:`calibrate`: ``auto`` (``bic`` for the default parameter set, ``none`` for a
@@ -351,64 +370,83 @@ class Folds:
 
 
 def parse_cv(text: str, n_samples: int) -> Folds:
-    """``K``, ``KxR`` (K folds, R shuffles) or ``loo`` as a :class:`Folds`.
+    """``K``, ``KxR`` (K folds, R shuffles) or ``loo`` as a :class:`Folds`, for ``n_samples`` usable samples.
 
     Raises:
-        DataError: another text, K < 2, K above the sample count, or R < 1.
+        DataError: another text, K < 2, K above the sample count, or R outside 1..100.
     """
     word = text.strip().lower()
     if word == "loo":
         return Folds(n_samples, 1, leave_one_out=True)
-    k_text, _, r_text = word.partition("x")
-    try:
-        k, repeats = int(k_text), int(r_text) if r_text else 1
-    except ValueError:
-        raise DataError(f"--cv '{text}': give K (folds), KxR (K folds, R shuffles, e.g. 5x4) or loo") from None
+    match = re.fullmatch(r"([0-9]+)(?:x([0-9]+))?", word)
+    if match is None:
+        raise DataError(f"--cv '{text}': give K (folds), KxR (K folds, R shuffles, e.g. 5x4) or loo")
+    k, repeats = int(match.group(1)), int(match.group(2) or 1)
     if not 2 <= k <= n_samples or not 1 <= repeats <= 100:
-        raise DataError(f"--cv '{text}': K must lie between 2 and the {n_samples} samples, R between 1 and 100")
+        raise DataError(f"--cv '{text}': K must lie between 2 and the {n_samples} usable samples, R between 1 and 100")
     return Folds(k, repeats)
 
 
+def check_cross_validation(models: Sequence[Measurement], formulation: str) -> None:
+    """Refuse a cross-validation that would not mean what it says (DataError naming why): of the ``ikm``
+    formulation (the folds fit by forward kinematics), of ``distance_increment`` data (a fold breaks the chain of
+    readings), or of data with no position, pose or distance (the figure is a position error)."""
+    if formulation != "fkm":
+        raise DataError("--cv cross-validates the fkm formulation; run it without --formulation ikm")
+    chained = [m.key for m in models if m.key.startswith("distance_increment:")]
+    if chained:
+        raise DataError(f"--cv cannot split {listing(chained)}: each reading is the change since the previous sample, "
+                        "so a fold would break the chain")
+    if not any(length_columns(m.key) for m in models):
+        raise DataError("--cv reports the position error of unseen samples, and these data measure no position, pose "
+                        "or distance")
+
+
 def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measurement], obs: Observations, folds: Folds,
-                   select: str = "bic", seed: int = 0, **options: Any) -> dict[str, Any]:
+                   select: str = "bic", seed: int = 0, progress: bool = False, **options: Any) -> dict[str, Any]:
     """K-fold cross-validation of the whole fit (selection and robust starts included): each fold is fitted
     without its samples and predicts them.
 
-    Folds are drawn from a permutation seeded by ``seed + repeat``; a fold whose fit fails is counted and left
-    out. Returns the plan, the RMS position error of the predictions [m] (``rms``, pooled over every fold and
-    repeat) and of the orientation [rad] for poses, the predictions' count and the failed fits.
-
-    Raises:
-        DataError: every fold's fit failed.
+    Folds are drawn from a permutation seeded by ``seed + repeat``. A fold whose fit fails is listed and left out;
+    one whose fit stopped short of convergence is counted. Returns the plan, the RMS position error of the
+    predictions [m] (``rms``, pooled over every fold and repeat; None when no fold could be fitted) and of the
+    orientation [rad] for poses (``rms_angle``), the predictions' count, the failed fits and the unconverged ones.
     """
     n = obs.n_samples
-    lengths, angles, failed = [], [], []
-    for repeat in range(folds.repeats):
-        order = np.arange(n) if folds.leave_one_out else np.random.default_rng(seed + repeat).permutation(n)
-        for f in range(folds.k):
-            test = np.sort(order[f::folds.k])
-            train = np.setdiff1d(np.arange(n), test)
-            try:
-                fitted = select_and_fit(CalibrationProblem(robot, pset, models, obs.subset(train)), select, **options)
-                held = CalibrationProblem(robot, fitted.problem.parameters, models, obs.subset(test))
-                errors = held.evaluate(fitted.result.x, jacobian=False).errors
-            except PincalError as exc:
-                failed.append(f"repeat {repeat + 1}, fold {f + 1}: {exc}")
-                continue
-            lengths.append(error_norms(errors))
-            angles.append(angle_error_norms(errors))
-    if not lengths:
-        raise DataError(f"cross-validation ({folds.label}): no fold could be fitted; first: {failed[0]}")
-    out: dict[str, Any] = {"plan": folds.label, "n_samples": n, "n_predictions": int(sum(e.size for e in lengths)),
-                           "rms": rms(np.concatenate(lengths)), "failed_folds": failed}
-    pooled = np.concatenate(angles)
-    if pooled.size:
-        out["rms_angle"] = rms(pooled)
+    lengths, angles, failed, unconverged = [], [], [], 0
+    with Progress(f"cross-validation ({folds.label})", folds.k * folds.repeats, quiet=not progress) as bar:
+        for repeat in range(folds.repeats):
+            order = np.arange(n) if folds.leave_one_out else np.random.default_rng(seed + repeat).permutation(n)
+            for f in range(folds.k):
+                bar.advance()
+                test = np.sort(order[f::folds.k])
+                train = np.setdiff1d(np.arange(n), test)
+                try:
+                    fitted = select_and_fit(CalibrationProblem(robot, pset, models, obs.subset(train)), select,
+                                            **options)
+                    held = CalibrationProblem(robot, fitted.problem.parameters, models, obs.subset(test))
+                    errors = held.evaluate(fitted.result.x, jacobian=False).errors
+                except PincalError as exc:
+                    failed.append(f"repeat {repeat + 1}, fold {f + 1}: {exc}")
+                    continue
+                unconverged += not fitted.result.converged
+                lengths.append(error_norms(errors))
+                angles.append(angle_error_norms(errors))
+    pooled = np.concatenate(lengths) if lengths else np.zeros(0)
+    out: dict[str, Any] = {"plan": folds.label, "n_samples": n, "n_predictions": int(pooled.size),
+                           "rms": rms(pooled) if pooled.size else None, "failed_folds": failed,
+                           "unconverged_folds": int(unconverged)}
+    turned = np.concatenate(angles) if angles else np.zeros(0)
+    if turned.size:
+        out["rms_angle"] = rms(turned)
     return out
 
 
 #: Most lines the summary gives the unidentifiable combinations (the report's ``unidentifiable`` has them all).
 UNIDENTIFIABLE_LINES = 10
+#: Relative difference of two RMS errors below which they are the same (a fit of the base alone reproduces the
+#: closed-form registration of the "before" model up to round-off).
+SAME_ERROR = 1e-6
 #: σ² factor beyond which a fit does not reach the stated noise (residuals over 3 × σ).
 NOISE_CONTRADICTED = 9.0
 
@@ -419,9 +457,9 @@ def _worse_than_nominal(before: dict[str, Array], after: dict[str, Array], n: in
     in the held-out set must not condemn a good fit); on all samples when that would leave none."""
     per_before, per_after = sample_length_errors(before, n), sample_length_errors(after, n)
     if per_before is None or per_after is None:
-        return bool(rms(error_norms(after)) > rms(error_norms(before)))
+        return bool(rms(error_norms(after)) > (1 + SAME_ERROR) * rms(error_norms(before)))
     keep = np.setdiff1d(np.arange(n), strange) if len(strange) < n else np.arange(n)
-    return bool(rms(per_after[keep]) > rms(per_before[keep]))
+    return bool(rms(per_after[keep]) > (1 + SAME_ERROR) * rms(per_before[keep]))
 
 
 def sample_length_errors(errors: dict[str, Array], n: int) -> Array | None:
@@ -484,14 +522,16 @@ def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, st
 RANGE_MARGIN = 0.05
 
 
-def held_out_outside_range(robot: Robot, train: Dataset, test: Dataset,
-                           margin: float = RANGE_MARGIN) -> list[dict[str, Any]]:
+def held_out_outside_range(robot: Robot, train: Dataset, test: Dataset, margin: float = RANGE_MARGIN,
+                           joints: Sequence[str] | None = None) -> list[dict[str, Any]]:
     """The held-out readings of actuated joints outside the range the training readings cover.
 
     For each actuated joint, a ``test`` sample whose reading lies below the training minimum or above the
     training maximum by more than ``margin`` × (max − min) is listed: its error measures how the calibrated
     model extrapolates, not how it fits. An unbounded (continuous) joint's readings are compared as angles in
     [−π, π).
+
+    ``joints`` limits the check to those joints (the ones that move what is measured; default: every actuated one).
 
     Returns:
         One dict per sample and joint, in sample order: ``sample`` (its id), ``joint``, ``value`` [rad or m] and
@@ -501,7 +541,8 @@ def held_out_outside_range(robot: Robot, train: Dataset, test: Dataset,
         return []
     found: list[tuple[int, int, dict[str, Any]]] = []
     for order, joint in enumerate(robot.actuated_joints):
-        if joint not in train.joint_names or joint not in test.joint_names:
+        if joint not in train.joint_names or joint not in test.joint_names or (joints is not None
+                                                                              and joint not in joints):
             continue
         fitted, held = train.joints[:, train.joint_names.index(joint)], test.joints[:, test.joint_names.index(joint)]
         if robot.model.joints[robot.joint_id(joint)].nq == 2:
@@ -546,10 +587,14 @@ def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, repor
     """:func:`calibrate` from files: the outputs are checked before the fit (never over an input, parents
     created) and each is written whole or not at all."""
     robot = load_robot(robot_path)
-    outputs = [(what, path) for what, path in (("--out", out_urdf), ("--report", report_path)) if path]
+    beside = str(corrections_path(out_urdf)) if out_urdf else None
+    outputs = [(what, path) for what, path in (("--out", out_urdf), ("--report", report_path),
+                                               ("--out (its corrections file)", beside)) if path]
     check_outputs(outputs, [p for p in (robot.source, data_path) if p is not None])
     dataset = read_robot_dataset(data_path, robot)
     cal = calibrate(robot, dataset, **options)
-    texts = ((out_urdf, cal.urdf_text), (report_path, json_text(cal.report) if report_path else ""))
-    write_texts([(path, text) for path, text in texts if path])  # both or neither
+    texts = [(out_urdf, cal.urdf_text), (report_path, json_text(cal.report) if report_path else "")]
+    if cal.corrections is not None:  # what the URDF cannot hold goes beside it
+        texts.append((beside, json_text(corrections_dict(cal.corrections, robot))))
+    write_texts([(path, text) for path, text in texts if path])  # all or none
     return cal

@@ -10,6 +10,7 @@ import argparse
 import contextlib
 import os
 import sys
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
@@ -31,6 +32,7 @@ from pincal.cli.options import (
     positive_int,
 )
 from pincal.errors import DataError, PincalError
+from pincal.io.corrections import corrections_path
 from pincal.io.files import make_directory, write_text
 from pincal.model.robot import Robot, load_robot
 from pincal.workflow import NOISE_CONTRADICTED
@@ -117,11 +119,13 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
     cal = calibrate_files(args.robot, args.data, args.out, args.report, parameter_spec=args.parameters,
                           solver=args.solver, loss=args.loss, sigma=args.sigma, formulation=args.formulation,
-                          max_iter=args.max_iter, select=args.select, cv=args.cv)
+                          max_iter=args.max_iter, select=args.select, cv=args.cv, progress=True)
     print(_summary(cal.report, cal.result.seconds, args.report))
     for path in (args.out, args.report):
         if path:
             print(f"wrote {path}")
+    if args.out and cal.corrections is not None:
+        print(f"wrote {corrections_path(args.out)} (joint corrections the URDF cannot hold: docs/calibrated_urdf.md)")
     return 0 if usable(cal.report) else 1
 
 
@@ -175,8 +179,9 @@ def _summary(report: dict[str, Any], seconds: float, report_path: str | None = N
     if report.get("before_means"):
         lines.append(f"(before: {report['before_means']})")
     if report.get("joints_at_reference"):
-        lines.append(f"joints with no column, taken at their reference value (they move no measured frame): "
-                     f"{', '.join(report['joints_at_reference'])}")
+        joints = report["joints_at_reference"]
+        lines += textwrap.wrap(f"not in the file, at their reference (they move nothing measured): {', '.join(joints)}",
+                               120, subsequent_indent="  ", break_on_hyphens=False)[:3]
     lines += _accounting(report)
     if report.get("calibration_gain") is not None:
         lines.append(f"{'calibration gain G (study 000)':32}{'':>14}{report['calibration_gain']:>12.1f} %")
@@ -200,8 +205,8 @@ def _selection_line(report: dict[str, Any]) -> str | None:
     removed = selection.get("removed") or []
     if not removed:
         return None
-    return (f"model selection ({selection['policy']}): left out the {' and '.join(selection['removed_groups'])} "
-            f"({len(removed)} parameters held at nominal), which the data do not support; --select none keeps them")
+    return (f"model selection ({selection['policy']}): left out the {', '.join(selection['removed_groups'])} "
+            f"({len(removed)} parameters at nominal); --select none keeps them")
 
 
 #: Cross-validated error above this multiple of the fit error is called overfitting.
@@ -214,11 +219,17 @@ def _generalization(report: dict[str, Any]) -> list[str]:
     """The cross-validated error beside the fit's, and the warnings about generalization."""
     lines = []
     cv = report.get("cv")
-    if cv:
+    if cv and cv["rms"] is None:
+        lines.append(f"cross-validation ({cv['plan']}): no fold could be fitted; first: {cv['failed_folds'][0]}")
+    elif cv:
         lines.append(f"{'RMS position error (cross-val.)':32}{'':>14}{_mm(cv['rms']):>14}  ({cv['plan']}, "
                      f"{cv['n_samples']} samples, {cv['n_predictions']} predictions)")
+        if "rms_angle" in cv:
+            lines.append(f"{'RMS orientation error (cross-val.)':32}{'':>14}{_mrad(cv['rms_angle']):>14}")
         if cv.get("failed_folds"):
             lines.append(f"  ({len(cv['failed_folds'])} fold fits failed and are left out; the report lists them)")
+        if cv.get("unconverged_folds"):
+            lines.append(f"  ({cv['unconverged_folds']} fold fits stopped before converging; their predictions count)")
         fit = report.get("rms_after")
         if fit and cv["rms"] > OVERFIT_RATIO * fit:
             lines.append(f"warning: the cross-validated error is {cv['rms'] / fit:.2g} × the fit error: the model "
@@ -226,8 +237,8 @@ def _generalization(report: dict[str, Any]) -> list[str]:
     rows = report.get("n_residuals")
     estimated = report.get("n_estimated")
     if rows and estimated and rows < VALUES_PER_PARAMETER * estimated:
-        lines.append(f"warning: {rows / estimated:.2g} measured values per estimated parameter (fewer than "
-                     f"{VALUES_PER_PARAMETER}): check how the model generalizes with --cv 5, or measure more postures")
+        lines.append(f"warning: {rows / estimated:.2g} measured values per estimated parameter "
+                     f"(< {VALUES_PER_PARAMETER}): check generalization with --cv 5, or add postures")
     return lines
 
 
@@ -407,8 +418,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="σ of the measurement noise [m, rad] (default 1e-5)")
     sim.add_argument("--seed", type=non_negative_int, default=0, help="random seed")
     add_spread(sim)
-    add_parameters(sim, "parameters with errors: a named set (model24, hexapod42, "
-                                                    "hexapod44) or name patterns (default: all candidates)")
+    add_parameters(sim, "parameters with errors: named sets (default, model24, model24i, hexapod42, "
+                        "hexapod44) and name patterns, as for calibrate (default: the default set)")
     sim.add_argument("--out", required=True, help="output directory")
     sim.add_argument("--quiet", action="store_true", help="no progress bar")
     sim.set_defaults(func=cmd_simulate)

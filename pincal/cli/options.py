@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 
 MEASURE_HELP = "position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME"
-PARAMETERS_HELP = "a named set or name patterns (default: all candidates)"
+PARAMETERS_HELP = ("named sets (default, model24, model24i, hexapod42, hexapod44) and name patterns, combined in "
+                   "order; !pattern removes (default: the default set, docs/dataset.md 'Parameters')")
 
 
 def positive_int(text: str) -> int:

@@ -309,7 +309,9 @@ def _group_wordings(names: list[str], steps: list[str]) -> list[str]:
 def _describe(names: list[str], coefficients: Array, units: list[str]) -> str:
     """The most explicit wording that fits after a :data:`BULLET` on a line of :data:`LINE_WIDTH`."""
     wordings = _wordings(names, coefficients, units)
-    return next((text for text in wordings if len(BULLET + text) <= LINE_WIDTH), wordings[-1])
+    text = next((text for text in wordings if len(BULLET + text) <= LINE_WIDTH), wordings[-1])
+    room = LINE_WIDTH - len(BULLET)
+    return text if len(text) <= room else text[:room - 1] + "…"  # names too long for any wording: cut
 
 
 def _svd(matrix: Array) -> tuple[Array, Array]:

@@ -38,11 +38,19 @@ AXES = ("x", "y", "z")
 #: Default parameter scales: the typical size of a geometric error [m] and [rad].
 LENGTH_SCALE = 1e-3
 ANGLE_SCALE = 1e-3
+#: Typical gravity torque [N m] and force [N] on a joint, for the scale of a compliance.
+TORQUE_SCALE = 10.0
+FORCE_SCALE = 100.0
 #: What a parameter is: a joint origin's placement component, a loop anchor's, a joint reading's offset, the
-#: measurement frame's placement component, or a marker's offset component.
-ParameterKind = Literal["joint", "anchor", "offset", "base", "marker"]
+#: measurement frame's placement component, a marker's offset component, or a correction of an actuated joint's
+#: value that a URDF cannot hold (a harmonic of its reading, its compliance: :mod:`pincal.identification.corrections`).
+ParameterKind = Literal["joint", "anchor", "offset", "base", "marker", "harmonic", "compliance"]
 #: Parameter kinds that change the robot model itself (the others act in the measurement models).
 KINEMATIC_KINDS: tuple[ParameterKind, ...] = ("joint", "anchor")
+#: Parameter kinds that correct an actuated joint's value as a function of its reading (the corrections file).
+CORRECTION_KINDS: tuple[ParameterKind, ...] = ("harmonic", "compliance")
+#: A parameter's unit: a length or an angle, or a compliance (angle per torque, length per force).
+ParameterUnit = Literal["m", "rad", "rad/(N m)", "m/N"]
 
 
 @dataclass(frozen=True)
@@ -51,11 +59,12 @@ class Parameter:
 
     Attributes:
         name: Unique name (see module docstring).
-        kind: ``joint``, ``anchor``, ``offset``, ``base`` or ``marker``.
+        kind: ``joint``, ``anchor``, ``offset``, ``base``, ``marker``, ``harmonic`` or ``compliance``.
         target: Joint name, loop name, frame name, or device constant name.
-        component: Index in (tx, ty, tz, rx, ry, rz) for placements, in (x, y, z) for markers.
+        component: Index in (tx, ty, tz, rx, ry, rz) for placements, in (x, y, z) for markers, in
+            (sin1, cos1, sin2, cos2) for harmonics.
         side: ``predecessor`` or ``successor`` for anchors.
-        unit: ``m`` or ``rad``.
+        unit: ``m`` or ``rad``; a compliance ``rad/(N m)`` or ``m/N``.
     """
 
     name: str
@@ -63,12 +72,19 @@ class Parameter:
     target: str
     component: int = 0
     side: str = ""
-    unit: Unit = "m"
+    unit: ParameterUnit = "m"
 
     @property
     def scale(self) -> float:
-        """Typical size [m or rad], used to scale the identification problem."""
-        return LENGTH_SCALE if self.unit == "m" else ANGLE_SCALE
+        """Typical size [m, rad, rad/(N m) or m/N], used to scale the identification problem: 1 mm, 1 mrad, and
+        for a compliance the deflection of 1 mrad under 10 N m (1 mm under 100 N)."""
+        return {"m": LENGTH_SCALE, "rad": ANGLE_SCALE, "rad/(N m)": ANGLE_SCALE / TORQUE_SCALE,
+                "m/N": LENGTH_SCALE / FORCE_SCALE}[self.unit]
+
+    @property
+    def term(self) -> str:
+        """The last part of the name: a placement component, ``offset``, a harmonic term or ``compliance``."""
+        return self.name.rsplit(".", 1)[-1]
 
     @property
     def group(self) -> tuple[str, str, str]:
@@ -87,6 +103,19 @@ def placement_parameters(kind: ParameterKind, target: str, side: str = "",
 def offset_parameter(joint: str, unit: Unit) -> Parameter:
     """The reading offset ``δq`` of a joint [m or rad]: ``q_true = q_read + δq``."""
     return Parameter(f"{joint}.offset", "offset", joint, 0, "", unit)
+
+
+def harmonic_parameters(joint: str, unit: Unit, orders: int = 2) -> list[Parameter]:
+    """The harmonics of an actuated joint's reading, ``<joint>.sin1``, ``.cos1`` (and ``.sin2``, ``.cos2`` for
+    ``orders=2``) [rad or m]: ``δq = a₁ sin q_r + b₁ cos q_r + a₂ sin 2q_r + b₂ cos 2q_r``."""
+    terms = ("sin1", "cos1", "sin2", "cos2")[:2 * orders]
+    return [Parameter(f"{joint}.{t}", "harmonic", joint, k, "", unit) for k, t in enumerate(terms)]
+
+
+def compliance_parameter(joint: str, unit: Unit) -> Parameter:
+    """An actuated joint's compliance ``<joint>.compliance`` [rad/(N m), or m/N for a prismatic joint]:
+    ``δq = c τ_g(q_r)``, τ_g the gravity torque on the joint."""
+    return Parameter(f"{joint}.compliance", "compliance", joint, 0, "", "rad/(N m)" if unit == "rad" else "m/N")
 
 
 def marker_parameters(frame: str) -> list[Parameter]:
@@ -545,13 +574,25 @@ def _tool_joint(robot: Robot, frame: str) -> str | None:
 def parameter_pool(robot: Robot, models: Sequence[Measurement]) -> ParameterSet:
     """Every parameter ``--parameters`` patterns may name: all joint and anchor placements, fixed joints leading
     to measured frames, offsets of the actuated and the read joints, the base placement when positions or poses
-    are measured in an external frame, and the marker offsets of the measured frames."""
+    are measured in an external frame, the marker offsets of the measured frames, and the harmonics
+    (``<joint>.sin1`` …) and compliance (``<joint>.compliance``) of the actuated joints that move a measured frame."""
     frames = sorted({f for m in models for f in m.frames})
     read = [m.joint for m in models if isinstance(m, JointReading)]
     external = any(m.locates_point for m in models)
     pool = candidate_parameters(robot, frames=frames, offsets=list(robot.actuated_joints) + read, base=external)
     marked = sorted({m.frame for m in models if isinstance(m, Position)})
-    return ParameterSet(pool.parameters + [p for f in marked for p in marker_parameters(f)])
+    moving = set(influencing_joints(robot, frames, read))
+    corrections = [p for j in robot.actuated_joints if j in moving
+                   for p in (*harmonic_parameters(j, joint_unit(robot, j)),
+                             compliance_parameter(j, joint_unit(robot, j)))]
+    return ParameterSet(pool.parameters + [p for f in marked for p in marker_parameters(f)] + corrections)
+
+
+def _names_in_short(names: Sequence[str], shown: int = 12) -> str:
+    """The first ``shown`` names and how many more (a parameter pool can hold hundreds)."""
+    head = listing(names[:shown])
+    return head + (f" … (+{len(names) - shown} more; 'pincal calibrate … --report' lists the chosen ones)"
+                   if len(names) > shown else "")
 
 
 #: The word for the default set in ``--parameters`` (e.g. ``default '!base.*'``).
@@ -561,8 +602,9 @@ DEFAULT_SET = "default"
 def choose_parameters(robot: Robot, models: Sequence[Measurement], spec: Sequence[str] | None = None) -> ParameterSet:
     """The unknowns from ``spec``: by default :func:`default_parameters`; otherwise named sets (``default``,
     ``model24``, ``model24i``, ``hexapod42``, ``hexapod44``) and shell patterns over :func:`parameter_pool`,
-    combined in order: a set or a pattern adds what it names, ``!pattern`` removes what it matches. A spec of
-    exclusions only starts from the default set (``'!base.*'``: the default set without the base).
+    combined in order: a set or a pattern adds what it names, ``!pattern`` (or ``!set``) removes what it matches. A
+    spec whose first word is an exclusion starts from the default set (``'!base.*' 'base.tz'``: the default set
+    without the base but for its z).
 
     Raises:
         NotFoundError: a pattern that matches nothing (the parameters are listed), or nothing left.
@@ -570,19 +612,20 @@ def choose_parameters(robot: Robot, models: Sequence[Measurement], spec: Sequenc
     if not spec:
         return default_parameters(robot, models)
     pool = parameter_pool(robot, models)
-    start = all(token.startswith("!") for token in spec)
-    chosen: list[Parameter] = list(default_parameters(robot, models)) if start else []
+    chosen: list[Parameter] = list(default_parameters(robot, models)) if spec[0].startswith("!") else []
     for token in spec:
-        if token == DEFAULT_SET or token in NAMED_SETS:
-            named = default_parameters(robot, models) if token == DEFAULT_SET else NAMED_SETS[token](robot)
-            chosen += [p for p in named if p not in chosen]
-            continue
         negate = token.startswith("!")
         pattern = token[1:] if negate else token
+        if pattern == DEFAULT_SET or pattern in NAMED_SETS:
+            named = default_parameters(robot, models) if pattern == DEFAULT_SET else NAMED_SETS[pattern](robot)
+            names = set(named.names)
+            chosen = ([p for p in chosen if p.name not in names] if negate
+                      else chosen + [p for p in named if p not in chosen])
+            continue
         hits = [p for p in (chosen if negate else pool) if fnmatch.fnmatchcase(p.name, pattern)]
         if not hits and not (negate and any(fnmatch.fnmatchcase(p.name, pattern) for p in pool)):
             raise NotFoundError(f"parameter pattern '{token}' matches nothing; named sets are "
-                                f"{listing([DEFAULT_SET, *NAMED_SETS])}, parameters are: {listing(pool.names)}")
+                                f"{listing([DEFAULT_SET, *NAMED_SETS])}, parameters are: {_names_in_short(pool.names)}")
         chosen = [p for p in chosen if p not in hits] if negate else chosen + [p for p in hits if p not in chosen]
     if not chosen:
         raise NotFoundError(f"the parameters {' '.join(spec)} leave no parameter to identify")

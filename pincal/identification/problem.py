@@ -22,9 +22,11 @@ import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, listing
+from pincal.identification.corrections import correction_regressors
 from pincal.identification.derivatives import KinematicSensitivity, frame_probe, right_jacobian
 from pincal.identification.measurements import Measurement, SampleContext
 from pincal.identification.parameters import (
+    CORRECTION_KINDS,
     KINEMATIC_KINDS,
     ParameterSet,
     apply_parameters,
@@ -135,6 +137,15 @@ class CalibrationProblem:
                                  if p.kind == "offset" and p.target in actuated]
         self.reading_offsets = {p.target: k for k, p in enumerate(parameters)
                                 if p.kind == "offset" and p.target not in actuated}
+        corrections = [(k, p) for k, p in enumerate(parameters) if p.kind in CORRECTION_KINDS]
+        strays = [p.name for _, p in corrections if p.target not in actuated]
+        if strays:
+            raise DataError(f"corrections {listing(strays)} are of joints that are not actuated; harmonics and "
+                            "compliance correct actuated joints' values")
+        regressors = correction_regressors(robot, [(p.target, p.term) for _, p in corrections], observations.actuated)
+        #: (actuated joint, column, (N,) regressor): the joint's value moves by x[column] × regressor per sample
+        self.actuated_corrections = [(actuated[p.target], k, r)
+                                     for (k, p), r in zip(corrections, regressors, strict=True)]
         self.base = parameters.groups("base").get(("base", "base", ""), [])
         self.markers: dict[str, list[int]] = {p.target: [] for p in parameters if p.kind == "marker"}
         for k, p in enumerate(parameters):
@@ -206,6 +217,8 @@ class CalibrationProblem:
         x = self._augment(np.asarray(x, dtype=float))
         for joint, k in self.actuated_offsets:
             qa[:, joint] += x[k]
+        for joint, k, regressor in self.actuated_corrections:
+            qa[:, joint] += x[k] * regressor
         return qa
 
     def configurations(self, x: Array) -> Array:
@@ -340,6 +353,8 @@ class CalibrationProblem:
                 dv = np.zeros((model.nv, p))
                 for joint, col in self.actuated_offsets:
                     dv[act_v[joint], col] = 1.0
+                for joint, col, regressor in self.actuated_corrections:
+                    dv[act_v[joint], col] = regressor[k]
                 if robot.loops:
                     _, cjac = robot.closure.residual_and_jacobian(data)
                     gain = damped_pseudo_inverse(cjac[:, passive])
@@ -349,6 +364,8 @@ class CalibrationProblem:
                     rhs = sens.closure_derivative(data)
                     for joint, col in self.actuated_offsets:
                         rhs[:, col] += cjac[:, act_v[joint]]
+                    for joint, col, regressor in self.actuated_corrections:
+                        rhs[:, col] += cjac[:, act_v[joint]] * regressor[k]
                     dv[passive] = -gain @ rhs
             elif robot.loops:  # the loop solve ended with forward kinematics at q
                 pin.updateFramePlacements(model, data)

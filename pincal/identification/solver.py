@@ -352,7 +352,9 @@ def _check_choices(solver: str, loss: str) -> None:
 def _check_identifiable(ident: Identifiability, n_parameters: int, n_residuals: int, strict: bool) -> None:
     """Refuse a start the data cannot fit from: with ``strict``, any unidentifiable parameter
     (IdentifiabilityError naming up to five combinations); always, no identifiable direction
-    (IdentifiabilityError) or fewer residual rows than parameters (DataError)."""
+    (IdentifiabilityError) or fewer residual rows than parameters when the rows themselves cap the rank (DataError:
+    every row spent, more data would identify more; a rank below the row count is the model's own redundancy,
+    which the analysis names, as with a default set of 52 candidates and 33 identifiable directions)."""
     if strict and ident.rank < n_parameters:
         words = "; ".join(c.description for c in ident.unidentifiable[:5])
         more = f" (and {len(ident.unidentifiable) - 5} more)" if len(ident.unidentifiable) > 5 else ""
@@ -361,7 +363,7 @@ def _check_identifiable(ident: Identifiability, n_parameters: int, n_residuals: 
                                    "parameters.")
     if not ident.base_indices:
         raise IdentifiabilityError("the data identifies none of the parameters (rank 0)")
-    if n_residuals < n_parameters:
+    if n_residuals < n_parameters and ident.rank >= n_residuals:
         raise DataError(f"{n_residuals} residuals cannot identify {n_parameters} parameters (study 000: the "
                         "number of measured values must be at least the number of parameters); add samples")
 
@@ -413,7 +415,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         raise DataError("the residuals or their Jacobian are not finite at the starting point: check the data "
                         "for values out of range")
     errors_before = pred.errors
-    ident = analyse(pred.jacobian, pset.names, scales, units=[p.unit for p in pset],
+    ident = analyse(pred.jacobian, pset.names, scales, units=[p.unit if p.unit in ("m", "rad") else "" for p in pset],
                     tol=_practical_tol(pred.jacobian, scales, rank_tol, min_information))
     active = ident.base_indices
     _check_identifiable(ident, len(pset), pred.residual.size, strict)
@@ -499,7 +501,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
     # identifiability at the estimate: a special nominal geometry (parallel axes) can hide directions
     # that the generic true robot shows
     assert pred.jacobian is not None
-    ident = analyse(pred.jacobian, pset.names, scales, units=[p.unit for p in pset],
+    ident = analyse(pred.jacobian, pset.names, scales, units=[p.unit if p.unit in ("m", "rad") else "" for p in pset],
                     tol=_practical_tol(pred.jacobian, scales, rank_tol, min_information))
     active = ident.base_indices
     jac = pred.jacobian[:, active] * rw[:, None]

@@ -22,7 +22,7 @@ import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, RobotFileError, listing, not_found
 from pincal.identification.measurements import Measurement, Pose
-from pincal.identification.parameters import KINEMATIC_KINDS, ParameterSet
+from pincal.identification.parameters import CORRECTION_KINDS, KINEMATIC_KINDS, ParameterSet
 from pincal.model.catalog import resolve_mesh_file
 from pincal.model.robot import Robot, _build_model, check_reference_assembly
 from pincal.model.urdf import origin_to_se3, read_extensions
@@ -34,7 +34,8 @@ Array = npt.NDArray[np.float64]
 
 #: Default name of the measurement frame's link, the root of a calibrated URDF that estimates ``base.*``.
 MEASUREMENT_FRAME = "measurement_frame"
-#: Parameter kinds a calibrated URDF carries (all of pincal's kinds).
+#: Parameter kinds a calibrated URDF carries (all of pincal's kinds but the joint-value corrections, which go to the
+#: corrections file beside it: :mod:`pincal.io.corrections`; they are left out of the text, not refused).
 WRITTEN_KINDS = ("joint", "anchor", "offset", "base", "marker")
 
 
@@ -139,7 +140,7 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     x = np.asarray(x, dtype=float)
     if x.shape != (len(parameters),):
         raise DataError(f"parameter vector has shape {x.shape}, expected ({len(parameters)},) for the parameter set")
-    foreign = [p.name for p in parameters if p.kind not in WRITTEN_KINDS]
+    foreign = [p.name for p in parameters if p.kind not in WRITTEN_KINDS and p.kind not in CORRECTION_KINDS]
     if foreign:
         raise RobotFileError(f"parameters {listing(foreign)} are of a kind a calibrated URDF cannot hold; kinds it "
                              f"holds: {listing(WRITTEN_KINDS)}")

@@ -246,6 +246,9 @@ def _layout(header: list[str], line: int, required: Sequence[str], known: Sequen
         if missing:
             raise DataError(f"{where}: measurement '{key}' has columns {listing(c for c in valid if c in columns)} "
                             f"but not {listing(missing)}; a {key.partition(':')[0]} needs {listing(valid)}")
+    if not joints:
+        raise DataError(f"{where}: no joint columns; every sample needs the readings of the joints that move what is "
+                        f"measured (columns named after the joints); columns are: {listing(header)}")
     absent = [j for j in required if j not in joints]
     if absent:
         raise DataError(f"{where}: missing joint columns {listing(absent)}; joint columns present: "

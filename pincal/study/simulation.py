@@ -32,8 +32,11 @@ UNBOUNDED_SPREAD = {"closed": 0.5, "serial": float(np.pi)}
 
 
 def perturbation(parameters: ParameterSet, scale: float, rng: np.random.Generator) -> Array:
-    """Random true deviations: normal with standard deviation ``scale`` [m or rad] per parameter."""
-    return rng.normal(scale=scale, size=len(parameters))
+    """Random true deviations: normal with standard deviation ``scale`` [m or rad] per length or angle parameter;
+    a compliance draws ``scale`` relative to its typical size (``scale`` = 1e-3: 1 mrad under 10 N m)."""
+    draws = rng.normal(scale=scale, size=len(parameters))
+    relative = np.array([1.0 if p.unit in ("m", "rad") else p.scale / 1e-3 for p in parameters])
+    return np.asarray(draws * relative, dtype=np.float64)
 
 
 def actuated_ranges(robot: Robot, spread: float | None = None) -> tuple[Array, Array]:

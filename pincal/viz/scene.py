@@ -23,7 +23,7 @@ import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.identification.measurements import Pose, Position
-from pincal.identification.parameters import choose_parameters
+from pincal.identification.parameters import ParameterSet, choose_parameters
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.solver import length_columns
 from pincal.io.adapters import measurements_for, observations_from
@@ -98,6 +98,8 @@ class CalibrationView:
         train = dataset.of_set("train") if "train" in dataset.sets else dataset
         models = measurements_for(robot, list(dataset.measurements), dataset.joint_names, sigma)
         pset = choose_parameters(robot, models, parameter_spec)
+        removed = set((report.get("selection") or {}).get("removed") or [])  # what model selection left out
+        pset = ParameterSet([p for p in pset if p.name not in removed])
         if set(pset.names) != set(report["parameters"]):
             missing = sorted(set(report["parameters"]) - set(pset.names))
             extra = sorted(set(pset.names) - set(report["parameters"]))

@@ -135,8 +135,9 @@ def test_real_tiago_data_with_the_default_command(tmp_path: Path) -> None:
     done = run_pincal("calibrate", "tiago_no_hand", str(TIAGO_DATA), "--report", str(report))
     assert done.returncode == 0, done.stderr
     out = done.stdout
-    assert "taken at their reference value (they move no measured frame): head_1_joint, head_2_joint" in out
+    assert "not in the file, at their reference (they move nothing measured): head_1_joint, head_2_joint" in out
     assert "model selection (bic): left out the rotations" in out
+    assert all(len(line) <= 120 for line in out.splitlines() if not line.startswith("(before:"))
     block = _identifiability_block(out)
     assert 2 <= len(block) <= 15 and all(len(line) <= 120 for line in block)
     assert block[-1] == "  (all 19 in full: the report's 'unidentifiable')"
@@ -162,7 +163,7 @@ def test_cross_validation_through_the_cli(tmp_path: Path) -> None:
     fit = json.loads(report.read_text())["rms_after"]
     assert fit < cv["rms"] < 3 * fit  # predicting unseen postures is harder than fitting them, not hopeless
     assert ("warning: the cross-validated error is" in done.stdout) == (cv["rms"] > 1.5 * fit)
-    for bad, words in (("1", "K must lie between 2 and the 34 samples"), ("five", "give K (folds), KxR")):
+    for bad, words in (("1", "K must lie between 2 and the 34 usable samples"), ("five", "give K (folds), KxR")):
         done = run_pincal("calibrate", "tiago_no_hand", str(TIAGO_DATA), "--cv", bad)
         assert done.returncode == 2 and done.stderr.count("\n") == 1 and words in done.stderr, done.stderr
 
@@ -233,3 +234,13 @@ def test_the_html_report_shows_selection_and_cross_validation(tmp_path: Path) ->
     text = page.read_text()
     assert "estimated (after model selection)</td><td>25 (left out: rotations)" in text
     assert "RMS position error (cross-validated, 3-fold, 34 samples)" in text
+
+
+def test_cross_validation_and_selection_refuse_what_they_cannot_mean(five_bar_csv: Path) -> None:
+    from conftest import run_pincal
+
+    for extra, words in ((["--formulation", "ikm", "--cv", "3"], "--cv cross-validates the fkm formulation"),
+                         (["--formulation", "ikm", "--select", "bic"], "--select bic chooses among fkm fits"),
+                         (["--cv", "5x"], "give K (folds), KxR")):
+        done = run_pincal("calibrate", "five_bar", str(five_bar_csv), *extra)
+        assert done.returncode == 2 and done.stderr.count("\n") == 1 and words in done.stderr, done.stderr

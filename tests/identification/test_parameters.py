@@ -180,3 +180,17 @@ def test_loops_bring_every_leg_and_sets_combine_with_patterns() -> None:
     assert choose_parameters(robot, models, ["default"]).names == default.names
     with pytest.raises(NotFoundError, match="named sets are default, model24"):
         choose_parameters(robot, models, ["model25"])
+
+
+def test_sets_can_be_removed_and_a_leading_exclusion_starts_from_the_default() -> None:
+    from pincal.identification import measurements as ms
+
+    robot = pincal.load_robot("ur10")
+    models = [ms.position("tool0")]
+    default = choose_parameters(robot, models)
+    with pytest.raises(NotFoundError, match="leave no parameter"):
+        choose_parameters(robot, models, ["!default"])
+    kept = choose_parameters(robot, models, ["!base.*", "base.tz"])
+    assert kept.names == [n for n in default.names if not n.startswith("base.")] + ["base.tz"]
+    with pytest.raises(NotFoundError, match=r"\(\+\d+ more;"):  # hundreds of names are not all listed
+        choose_parameters(robot, models, ["nothing*"])

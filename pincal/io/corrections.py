@@ -1,0 +1,116 @@
+"""The corrections file: the non-geometric estimates a URDF cannot hold, beside the calibrated URDF.
+
+``pincal calibrate --out cal.urdf`` writes ``cal.corrections.json`` when joint harmonics or compliances were
+estimated (:mod:`pincal.identification.corrections` has the model). A controller feeds the calibrated URDF the
+*corrected* joint values instead of the raw readings ``q_r`` [rad or m]:
+
+    q = q_r + a₁ sin q_r + b₁ cos q_r + a₂ sin 2q_r + b₂ cos 2q_r + c τ_g(q_r)
+
+per actuated joint, with the coefficients of the file (missing ones are zero) and τ_g the gravity torque of the
+*nominal* robot (the URDF given to ``pincal calibrate``) at the readings. :func:`corrected_readings` does it.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.errors import DataError, listing
+from pincal.identification.corrections import HARMONIC_TERMS, correction_regressors
+from pincal.identification.parameters import CORRECTION_KINDS, ParameterSet
+from pincal.model.robot import Robot
+
+Array = npt.NDArray[np.float64]
+
+FORMAT = "pincal joint corrections 1"
+TERMS = (*(t[0] for t in HARMONIC_TERMS), "compliance")
+FORMULA = "q = q_r + sin1 sin(q_r) + cos1 cos(q_r) + sin2 sin(2 q_r) + cos2 cos(2 q_r) + compliance tau_g(q_r)"
+
+
+@dataclass(frozen=True)
+class Corrections:
+    """Per actuated joint, its correction coefficients: term (``sin1``, ``cos1``, ``sin2``, ``cos2`` [rad or m],
+    ``compliance`` [rad/(N m) or m/N]) -> value."""
+
+    robot: str
+    joints: dict[str, dict[str, float]]
+
+
+def corrections_path(urdf: str | Path) -> Path:
+    """Where the corrections of a calibrated URDF go: ``cal.urdf`` -> ``cal.corrections.json``."""
+    path = Path(urdf)
+    return path.with_name(f"{path.stem}.corrections.json")
+
+
+def corrections_of(robot: Robot, parameters: ParameterSet, x: Array) -> Corrections | None:
+    """The correction estimates among ``parameters`` (values ``x``), or None when there are none."""
+    joints: dict[str, dict[str, float]] = {}
+    for p, value in zip(parameters, x, strict=True):
+        if p.kind in CORRECTION_KINDS:
+            joints.setdefault(p.target, {})[p.term] = float(value)
+    return Corrections(robot.name, joints) if joints else None
+
+
+def corrections_dict(corrections: Corrections, nominal: Robot) -> dict[str, Any]:
+    """The file's content: format, formula, units, where τ_g comes from, and the coefficients."""
+    return {
+        "format": FORMAT,
+        "robot": corrections.robot,
+        "formula": FORMULA,
+        "units": {"sin1, cos1, sin2, cos2": "the joint's unit (rad, or m for a prismatic joint)",
+                  "compliance": "rad/(N m), or m/N for a prismatic joint", "q_r, q": "rad or m"},
+        "tau_g": "gravity torque [N m or N] of the nominal robot at the readings q_r (Pinocchio "
+                 "computeGeneralizedGravity, 9.81 m/s^2 along -z of the root)",
+        "nominal_urdf": str(nominal.source) if nominal.source is not None else nominal.name,
+        "joints": corrections.joints,
+    }
+
+
+def read_corrections(path: str | Path) -> Corrections:
+    """Read a corrections file.
+
+    Raises:
+        DataError: unreadable, not JSON, another format, or an unknown term (named).
+    """
+    try:
+        content = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise DataError(f"cannot read the corrections file '{path}': {exc}") from None
+    if not isinstance(content, dict) or content.get("format") != FORMAT:
+        raise DataError(f"'{path}' is not a pincal corrections file (its 'format' must be '{FORMAT}')")
+    joints = content.get("joints")
+    if not isinstance(joints, dict):
+        raise DataError(f"'{path}': 'joints' must map joint names to their coefficients")
+    out: dict[str, dict[str, float]] = {}
+    for joint, terms in joints.items():
+        unknown = [t for t in terms if t not in TERMS] if isinstance(terms, dict) else ["(not a mapping)"]
+        if unknown:
+            raise DataError(f"'{path}': joint '{joint}' has unknown terms {listing(unknown)}; terms are: "
+                            f"{listing(TERMS)}")
+        out[str(joint)] = {str(t): float(v) for t, v in terms.items()}
+    return Corrections(str(content.get("robot", "")), out)
+
+
+def corrected_readings(corrections: Corrections, nominal: Robot, actuated: npt.ArrayLike) -> Array:
+    """The joint values [rad or m] to give the calibrated URDF for raw readings ``actuated`` (N, na) or (na,), in
+    ``nominal.actuated_joints`` order; ``nominal`` is the robot the calibration started from (for τ_g).
+
+    Raises:
+        DataError: a joint of the corrections that is not an actuated joint of ``nominal``.
+    """
+    readings = np.asarray(actuated, dtype=float)
+    rows = readings.reshape(-1, nominal.n_actuated)
+    strays = [j for j in corrections.joints if j not in nominal.actuated_joints]
+    if strays:
+        raise DataError(f"the corrections name {listing(strays)}, which are not actuated joints of '{nominal.name}'")
+    kinds = [(joint, term) for joint, terms in corrections.joints.items() for term in terms]
+    out = rows.copy()
+    index = {name: k for k, name in enumerate(nominal.actuated_joints)}
+    for (joint, term), regressor in zip(kinds, correction_regressors(nominal, kinds, rows), strict=True):
+        out[:, index[joint]] += corrections.joints[joint][term] * regressor
+    return out.reshape(readings.shape)

@@ -1,0 +1,99 @@
+"""Non-geometric corrections (joint harmonics, compliance): their derivatives, their recovery, the corrections file
+and the function that applies it, checked against the calibrated model's predictions."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import finite_difference_jacobian, run_pincal
+
+import pincal
+from pincal.errors import DataError
+from pincal.identification import measurements as ms
+from pincal.identification.corrections import gravity_torques
+from pincal.identification.parameters import choose_parameters
+from pincal.identification.problem import CalibrationProblem
+from pincal.io.corrections import corrected_readings, read_corrections
+from pincal.io.dataset import read_dataset
+from pincal.model.robot import robot_from_urdf_text
+from pincal.study.simulation import random_actuated, simulate_observations
+
+CORRECTIONS = ["*.sin1", "*.cos1", "*.sin2", "*.cos2", "*.compliance"]
+
+
+@pytest.mark.parametrize(("name", "frame", "spec"), [("ur10", "tool0", ["default", *CORRECTIONS]),
+                                                     ("delta", "end_effector", ["model24", "*.sin1", "*.cos2"])])
+def test_correction_columns_match_finite_differences(name: str, frame: str, spec: list[str]) -> None:
+    robot = pincal.load_robot(name)
+    models = [ms.position(frame)]
+    pset = choose_parameters(robot, models, spec)
+    assert any(p.kind == "harmonic" for p in pset)
+    rng = np.random.default_rng(1)
+    qa, _ = random_actuated(robot, 5, rng)
+    problem = CalibrationProblem(robot, pset, models, simulate_observations(robot, pset, np.zeros(len(pset)), models,
+                                                                            qa, rng))
+    x = rng.normal(size=len(pset)) * pset.scales
+    jac = problem.evaluate(x).jacobian
+    assert jac is not None
+    fd = finite_difference_jacobian(problem, x)
+    assert np.abs(jac - fd).max() <= 1e-6 * np.abs(jac).max()
+
+
+def test_gravity_torques_need_a_tree_with_masses() -> None:
+    ur10 = pincal.load_robot("ur10")
+    torques = gravity_torques(ur10, np.zeros((1, 6)))
+    assert abs(torques[0, 0]) < 1e-9 and abs(torques[0, 1]) > 10.0  # a vertical axis carries none, the shoulder does
+    with pytest.raises(DataError, match="for trees only; robot 'delta' has loops"):
+        gravity_torques(pincal.load_robot("delta"), np.zeros((1, 3)))
+    assert ur10.source is not None
+    massless = re.sub(r"<inertial>.*?</inertial>", "", ur10.source.read_text(), flags=re.S)
+    with pytest.raises(DataError, match="carry no <inertial> mass"):
+        gravity_torques(robot_from_urdf_text(massless), np.zeros((1, 6)))
+
+
+def test_compliance_of_a_closed_loop_robot_is_refused_in_one_line(tmp_path: Path) -> None:
+    sim = tmp_path / "sim"
+    done = run_pincal("simulate", "delta", "--samples", "20", "--seed", "1", "--quiet", "--out", str(sim))
+    assert done.returncode == 0, done.stderr
+    done = run_pincal("calibrate", "delta", str(sim / "measurements.csv"), "--parameters", "model24", "*.compliance")
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "pincal computes for trees only" in done.stderr
+
+
+def test_simulated_corrections_are_recovered_and_the_file_reproduces_the_predictions(tmp_path: Path) -> None:
+    """UR10 with true harmonics and compliances: the geometric model cannot fit them; with the corrections the fit
+    reaches the noise, and the calibrated URDF fed the corrected readings predicts the held-out postures exactly as
+    the calibration reports."""
+    sim = tmp_path / "sim"
+    spec = ["default", "*.sin1", "*.cos1", "*.compliance"]
+    assert run_pincal("simulate", "ur10", "--samples", "60", "--test-samples", "30", "--parameters", *spec,
+                      "--seed", "3", "--quiet", "--out", str(sim)).returncode == 0
+    assert (sim / "truth.corrections.json").is_file()
+    data = sim / "measurements.csv"
+    geometric = run_pincal("calibrate", "ur10", str(data), "--report", str(tmp_path / "g.json"))
+    assert geometric.returncode == 0, geometric.stderr
+    out, report = tmp_path / "cal.urdf", tmp_path / "r.json"
+    done = run_pincal("calibrate", "ur10", str(data), "--parameters", *spec, "--out", str(out), "--report", str(report))
+    assert done.returncode == 0, done.stderr
+    assert f"wrote {tmp_path / 'cal.corrections.json'}" in done.stdout
+    fitted, plain = json.loads(report.read_text()), json.loads((tmp_path / "g.json").read_text())
+    assert fitted["test_rms_after"] < 3e-5 < 0.01 * plain["test_rms_after"]  # [m]: at the noise, not at millimetres
+    truth = read_corrections(sim / "truth.corrections.json").joints
+    found = read_corrections(tmp_path / "cal.corrections.json").joints
+    for joint in ("shoulder_lift_joint", "elbow_joint"):  # loaded by gravity: their compliance is seen
+        assert found[joint]["compliance"] == pytest.approx(truth[joint]["compliance"], rel=0.1)
+        assert found[joint]["sin1"] == pytest.approx(truth[joint]["sin1"], abs=1e-4)  # [rad]
+    nominal = pincal.load_robot("ur10")
+    calibrated = pincal.load_robot(out)
+    held = read_dataset(data, nominal.actuated_joints).of_set("test")
+    readings = held.joints[:, [held.joint_names.index(j) for j in nominal.actuated_joints]]
+    corrected = corrected_readings(read_corrections(tmp_path / "cal.corrections.json"), nominal, readings)
+    points = np.array([calibrated.placement(calibrated.solve_fk(q), "tool0_marker").translation for q in corrected])
+    errors = np.linalg.norm(points - held.measurements["position:tool0"], axis=1)
+    assert float(np.sqrt(np.mean(errors**2))) == pytest.approx(fitted["test_rms_after"], rel=1e-6)
+    raw = np.array([calibrated.placement(calibrated.solve_fk(q), "tool0_marker").translation for q in readings])
+    assert float(np.sqrt(np.mean(np.linalg.norm(raw - held.measurements["position:tool0"], axis=1) ** 2))) > 1e-3
