@@ -298,7 +298,8 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     report["down_weighted_samples"] = [train.sample_ids[k] for k in result.down_weighted()]
     lengths = sample_length_errors(result.errors_after, obs.n_samples)
     report["down_weighted"] = [{"sample": train.sample_ids[k], "weight": float(result.sample_weights[k]),
-                                "error_after": float(lengths[k]) if lengths is not None else None}
+                                "error_after": float(lengths[k]) if lengths is not None and np.isfinite(lengths[k])
+                                else None}
                                for k in result.down_weighted()]
     report["n_samples_in_file"] = dataset.n_samples
     suspects = result.extra.get("outlier_test", [])
@@ -430,17 +431,24 @@ def _worse_than_nominal(before: dict[str, Array], after: dict[str, Array], n: in
     if per_before is None or per_after is None:
         return bool(rms(error_norms(after)) > rms(error_norms(before)))
     keep = np.setdiff1d(np.arange(n), strange) if len(strange) < n else np.arange(n)
+    keep = keep[np.isfinite(per_after[keep]) & np.isfinite(per_before[keep])]  # samples with a length reading
     return bool(rms(per_after[keep]) > rms(per_before[keep]))
 
 
 def sample_length_errors(errors: dict[str, Array], n: int) -> Array | None:
-    """Each sample's length-type error [m] (position, pose position and distance rows together), or None
-    when nothing length-like is measured."""
+    """Each sample's length-type error [m] (the position, pose position and distance rows of the readings it took,
+    together; NaN for a sample that took none, e.g. saw no marker), or None when nothing length-like is measured."""
     widths = {key: length_columns(key) for key in errors}
     if not any(widths.values()):
         return None
-    return np.sqrt(sum((np.sum(np.nan_to_num(err[:, :widths[key]]) ** 2, axis=1) for key, err in errors.items()),
-                       np.zeros(n)))
+    squares, taken = np.zeros(n), np.zeros(n, dtype=bool)
+    for key, err in errors.items():
+        if widths[key]:
+            rows = err[:, :widths[key]]
+            seen = ~np.isnan(rows).all(axis=1)  # a reading not taken is NaN in every row
+            squares[seen] += np.sum(rows[seen] ** 2, axis=1)
+            taken |= seen
+    return np.where(taken, np.sqrt(squares), np.nan)
 
 
 def joint_kinds(robot: Robot) -> dict[str, str]:

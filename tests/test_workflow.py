@@ -22,7 +22,14 @@ from pincal.identification.measurements import position
 from pincal.identification.parameters import choose_parameters
 from pincal.io.dataset import Dataset, read_dataset, write_dataset
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
-from pincal.workflow import calibrate, held_out_outside_range, read_robot_dataset, simulate, write_simulation
+from pincal.workflow import (
+    calibrate,
+    held_out_outside_range,
+    read_robot_dataset,
+    sample_length_errors,
+    simulate,
+    write_simulation,
+)
 
 
 @pytest.fixture(scope="module")
@@ -592,3 +599,13 @@ def test_a_cluster_of_markers_is_fitted_as_one_rigid_placement(ur10_markers: tup
     with pytest.raises(DataError, match=r"--markers cluster needs each marker's nominal offset on its frame; "
                                         r"tool0@m2, tool0@m3 have none: add '# marker <marker> on <frame>: x y z'"):
         calibrate(robot, bare, markers="cluster")
+
+
+def test_a_sample_with_no_reading_has_no_error_size() -> None:
+    """Per-sample error sizes sum the readings taken; a sample that took none has NaN, not zero."""
+    errors = {"position:f@m1": np.array([[3e-3, 0.0, 4e-3], [np.nan] * 3, [np.nan] * 3]),
+              "position:f@m2": np.array([[0.0, 0.0, 12e-3], [1e-3, 0.0, 0.0], [np.nan] * 3])}
+    sizes = sample_length_errors(errors, 3)
+    assert sizes is not None
+    np.testing.assert_allclose(sizes[:2], [13e-3, 1e-3], rtol=1e-12)
+    assert np.isnan(sizes[2])

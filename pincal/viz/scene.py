@@ -143,7 +143,8 @@ class CalibrationView:
 
     def sample_errors(self) -> tuple[Array, Array]:
         """Per-sample error size before and after [m]: the length-type errors (positions, pose positions,
-        distances) of each sample together, as in the report; zeros when there are none."""
+        distances) of each sample together, as in the report (NaN for a sample that took no such reading); zeros
+        when nothing length-like is measured."""
         n = self.problem.observations.n_samples
         before, after = sample_length_errors(self.errors_before, n), sample_length_errors(self.errors_after, n)
         return (before, after) if before is not None and after is not None else (np.zeros(n), np.zeros(n))
@@ -227,7 +228,8 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
     cloud = np.vstack([points, *(p[:, :3, 3] for p in poses["robot_nominal"].values())])
     radius = max(float(np.linalg.norm(cloud.max(axis=0) - cloud.min(axis=0))) / 2, 1e-3)
     sample_before, sample_after = view.sample_errors()
-    scale = float(max(sample_before.max(initial=0.0), sample_after.max(initial=0.0)))
+    sizes = np.concatenate([sample_before, sample_after])
+    scale = float(sizes[np.isfinite(sizes)].max(initial=0.0))
     largest = float(np.linalg.norm(before, axis=1).max(initial=0.0)) if before is not None else 0.0
     magnification = _nice_factor(SEGMENT_FRACTION * 2 * radius / largest) if largest > 0 else 1.0
 
