@@ -346,6 +346,7 @@ def test_relative_and_package_meshes_resolve_to_local_files(tmp_path: Path, monk
     ("hexapod_device", ["pose", "joint:device_lvdt", "joint:device_incl_x", "joint:device_incl_y"]),
     ("five_bar", ["distance_increment:base_link-end_effector", "joint:scale_joint"]),
     ("ur10", ["position", "pose"]),
+    ("ur10", ["position:tool0@m1", "position:tool0@m2", "position:wrist_3_link@m1"]),
 ])
 def test_simulated_truth_reproduces_its_measurements(name: str, kinds: list[str], tmp_path: Path) -> None:
     """``truth.urdf`` of a noise-free simulation reproduces ``measurements.csv``: positions and poses in its root
