@@ -553,7 +553,8 @@ def default_parameters(robot: Robot, models: Sequence[Measurement], markers: Mar
         params += placement_parameters("base", "base")
     clustered = clustered_frames(models) if markers == "cluster" else []
     for target in marker_targets(models):
-        if split_target(target)[0] not in clustered or not split_target(target)[1]:
+        frame, marker = split_target(target)
+        if not (marker and frame in clustered):  # a marker of a cluster moves with the cluster's placement
             params += marker_parameters(target)
     for frame in clustered:
         params += cluster_parameters(frame)
