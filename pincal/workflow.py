@@ -23,7 +23,7 @@ from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.identification.identifiability import describe_unidentifiable
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.measurements import JointReading, Measurement, Pose, parse_key
-from pincal.identification.parameters import ParameterSet, choose_parameters, influencing_joints, joint_unit
+from pincal.identification.parameters import MarkerFit, ParameterSet, choose_parameters, influencing_joints, joint_unit
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.selection import SELECTIONS, select_and_fit
 from pincal.identification.solver import (
@@ -37,9 +37,9 @@ from pincal.identification.solver import (
     rms,
 )
 from pincal.io.adapters import joints_at_reference, measurements_for, observations_from
-from pincal.io.calibrated_urdf import calibrated_robot_text, joint_sensor_zeros, source_text
+from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, joint_sensor_zeros, source_text
 from pincal.io.corrections import Corrections, corrections_dict, corrections_of, corrections_path
-from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text, read_dataset
+from pincal.io.dataset import MAX_SAMPLES, OCCLUDABLE_KINDS, Dataset, dataset_text, read_dataset
 from pincal.io.files import check_outputs, make_directory, write_texts
 from pincal.io.report_data import angle_error_norms, json_text, report_dict
 from pincal.model.measured_frame import frame_moves
@@ -188,7 +188,7 @@ def write_simulation(sim: Simulation, out: Path) -> list[Path]:
     read = [m.joint for m in sim.measurements if isinstance(m, JointReading)]
     text, shifts = calibrated_robot_text(sim.robot, source_text(sim.robot), sim.parameters, sim.x_true,
                                          note="the TRUE robot of a pincal simulation (nominal + known errors)",
-                                         read_joints=read)
+                                         read_joints=read, markers=declared_markers(sim.measurements))
     truth = {"robot": sim.robot.name, "units": "SI: m, rad", "parameters": sim.parameters.as_dict(sim.x_true),
              "reference_shifts": shifts, "joint_sensor_zeros": joint_sensor_zeros(text)}
     texts = list(zip(paths, (dataset_text(sim.dataset), text, json_text(truth)), strict=True))
@@ -212,7 +212,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
               loss: Loss = "auto", sigma: float | None = None, x_true: Array | None = None,
               pose_sigma_angle: float | None = None, formulation: Formulation = "fkm",
               max_iter: int = 100, select: str = "auto", cv: str | None = None,
-              progress: bool = False) -> Calibration:
+              progress: bool = False, markers: MarkerFit = "each") -> Calibration:
     """Identify ``robot``'s parameters from the ``train`` samples; evaluate on the ``test`` samples.
 
     ``select``: ``bic`` leaves out the groups of parameters (joint translations, joint rotations, reading offsets)
@@ -231,6 +231,11 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     estimated (``report["before_means"]`` says which). ``max_iter`` bounds the solver's iterations.
     ``loss``: ``auto`` (default; least squares, then a Cauchy refit when the data hold implausible samples,
     which the report lists), ``linear`` or ``cauchy`` (see :func:`pincal.identification.solver.identify`).
+    ``markers``: how the default set fits the markers declared on a frame (``position:<frame>@<marker>``):
+    ``each`` marker's offset, or one rigid placement of the frame's ``cluster`` (their nominal offsets declared
+    in the file). A marker not seen in a sample (its cells empty) leaves that sample's other readings in use; a
+    sample with no reading at all is dropped and listed. The report counts the readings (``readings``,
+    ``readings_not_seen``, ``test_readings``): every RMS is over the readings taken.
 
     Raises:
         DataError: no training sample (every row is ``set=test``, or none can be assembled).
@@ -252,7 +257,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
                         "position:end_effector:x, see docs/dataset.md) and no passive joint readings: nothing to "
                         "calibrate from")
     at_reference = joints_at_reference(robot, dataset.joint_names, models)
-    pset = choose_parameters(robot, models, parameter_spec)
+    pset = choose_parameters(robot, models, parameter_spec, markers)
     train, dropped_info = usable_part(robot, train)
     if train.n_samples == 0:
         raise DataError(f"none of the {len(dropped_info)} training samples can be used: "
@@ -288,10 +293,12 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     text, shifts = calibrated_robot_text(robot, source_text(robot), pset, result.x,
                                          note=f"{status}calibrated by pincal from {obs.n_samples} samples "
                                               f"({', '.join(m.key for m in models)})",
-                                         read_joints=[m.joint for m in models if isinstance(m, JointReading)])
+                                         read_joints=[m.joint for m in models if isinstance(m, JointReading)],
+                                         markers=declared_markers(models))
     report = report_dict(result, problem, x_true, shifts)
     corrections = corrections_of(robot, pset, result.x)
     report["corrections"] = corrections.joints if corrections is not None else {}
+    report["markers"] = markers
     report["formulation"] = formulation
     report["selection"] = {"policy": select if formulation == "fkm" else "none", "removed": removed,
                            "removed_groups": list(fitted.removed_groups) if removed else [],
@@ -309,7 +316,8 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     report["down_weighted_samples"] = [train.sample_ids[k] for k in result.down_weighted()]
     lengths = sample_length_errors(result.errors_after, obs.n_samples)
     report["down_weighted"] = [{"sample": train.sample_ids[k], "weight": float(result.sample_weights[k]),
-                                "error_after": float(lengths[k]) if lengths is not None else None}
+                                "error_after": float(lengths[k]) if lengths is not None and np.isfinite(lengths[k])
+                                else None}
                                for k in result.down_weighted()]
     report["n_samples_in_file"] = dataset.n_samples
     suspects = result.extra.get("outlier_test", [])
@@ -332,6 +340,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
                                     [m.joint for m in models if isinstance(m, JointReading)])
         report["held_out_outside_range"] = held_out_outside_range(robot, train, test, joints=moving)
         before, after = error_norms(errors_before), error_norms(errors_after)
+        report["test_readings"] = tprob.n_readings()
         report.update({"n_test_samples": tobs.n_samples, "test_rms_before": rms(before), "test_rms_after": rms(after),
                        "test_max_before": float(before.max()) if before.size else None,
                        "test_max_after": float(after.max()) if after.size else None})
@@ -459,17 +468,24 @@ def _worse_than_nominal(before: dict[str, Array], after: dict[str, Array], n: in
     if per_before is None or per_after is None:
         return bool(rms(error_norms(after)) > (1 + SAME_ERROR) * rms(error_norms(before)))
     keep = np.setdiff1d(np.arange(n), strange) if len(strange) < n else np.arange(n)
+    keep = keep[np.isfinite(per_after[keep]) & np.isfinite(per_before[keep])]  # samples with a length reading
     return bool(rms(per_after[keep]) > (1 + SAME_ERROR) * rms(per_before[keep]))
 
 
 def sample_length_errors(errors: dict[str, Array], n: int) -> Array | None:
-    """Each sample's length-type error [m] (position, pose position and distance rows together), or None
-    when nothing length-like is measured."""
+    """Each sample's length-type error [m] (the position, pose position and distance rows of the readings it took,
+    together; NaN for a sample that took none, e.g. saw no marker), or None when nothing length-like is measured."""
     widths = {key: length_columns(key) for key in errors}
     if not any(widths.values()):
         return None
-    return np.sqrt(sum((np.sum(np.nan_to_num(err[:, :widths[key]]) ** 2, axis=1) for key, err in errors.items()),
-                       np.zeros(n)))
+    squares, taken = np.zeros(n), np.zeros(n, dtype=bool)
+    for key, err in errors.items():
+        if widths[key]:
+            rows = err[:, :widths[key]]
+            seen = ~np.isnan(rows).all(axis=1)  # a reading not taken is NaN in every row
+            squares[seen] += np.sum(rows[seen] ** 2, axis=1)
+            taken |= seen
+    return np.where(taken, np.sqrt(squares), np.nan)
 
 
 def joint_kinds(robot: Robot) -> dict[str, str]:
@@ -499,11 +515,12 @@ def read_robot_dataset(path: str | Path, robot: Robot, min_samples: int = 2) -> 
 def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, str]]]:
     """The samples of ``part`` that can be used, and each dropped one with its reason.
 
-    Dropped: readings outside the URDF joint limits (a reading the robot cannot have is a wrong
+    Dropped: samples with no reading at all (every marker's cells empty, and nothing else measured),
+    readings outside the URDF joint limits (a reading the robot cannot have is a wrong
     reading), and postures the nominal robot cannot assemble or that sit at a singularity
     (:func:`~pincal.model.robot.unusable_samples`).
     """
-    reasons: dict[int, str] = {}
+    reasons: dict[int, str] = dict(unseen_samples(robot, part))
     for k, reason in out_of_limits(robot, part):
         reasons[k] = f"{reasons[k]}; {reason}" if k in reasons else reason
     reference = robot.actuated_values(robot.q_reference)  # a joint with no column stays at its reference value
@@ -515,6 +532,20 @@ def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, st
         reasons[inside[k]] = reason
     dropped = [{"sample": part.sample_ids[k], "reason": reasons[k]} for k in sorted(reasons)]
     return part.subset([k for k in range(part.n_samples) if k not in reasons]), dropped
+
+
+def unseen_samples(robot: Robot, part: Dataset) -> list[tuple[int, str]]:
+    """Samples of ``part`` that hold no reading: every measurement is a position whose cells are all empty (no
+    marker seen), and no passive joint is read. Each with its reason."""
+    keys = list(part.measurements)
+    read = [j for j in part.joint_names if j not in robot.actuated_joints]
+    if not keys or read or any(key.partition(":")[0] not in OCCLUDABLE_KINDS for key in keys):
+        return []
+    seen = np.zeros(part.n_samples, dtype=bool)
+    for key in keys:
+        seen |= np.all(np.isfinite(part.measurements[key]), axis=1)
+    what = f"'{keys[0]}'" if len(keys) == 1 else f"any of the {len(keys)} markers"
+    return [(int(k), f"no reading: the cells of {what} are all empty (not seen)") for k in np.flatnonzero(~seen)]
 
 
 #: A held-out reading counts as outside the fitted range beyond this share of the training readings' range (5 %: a

@@ -19,6 +19,7 @@ import numpy as np
 
 from pincal.cli import report, study, view
 from pincal.cli.options import (
+    add_markers,
     add_measurement,
     add_parameters,
     add_perturb,
@@ -119,7 +120,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
     cal = calibrate_files(args.robot, args.data, args.out, args.report, parameter_spec=args.parameters,
                           solver=args.solver, loss=args.loss, sigma=args.sigma, formulation=args.formulation,
-                          max_iter=args.max_iter, select=args.select, cv=args.cv, progress=True)
+                          max_iter=args.max_iter, select=args.select, cv=args.cv, markers=args.markers,
+                          progress=True)
     print(_summary(cal.report, cal.result.seconds, args.report))
     for path in (args.out, args.report):
         if path:
@@ -242,6 +244,23 @@ def _generalization(report: dict[str, Any]) -> list[str]:
     return lines
 
 
+def _readings(report: dict[str, Any]) -> list[str]:
+    """How many position readings the figures are made of, per marker, when a file measures several markers or
+    some were not seen (nothing otherwise: then every sample holds every reading)."""
+    fitted, unseen = report.get("readings") or {}, report.get("readings_not_seen") or {}
+    if len(unseen) < 2 and not any(unseen.values()):
+        return []
+    per_frame: dict[str, list[str]] = {}
+    for key in unseen:  # position:<frame>@<marker> or position:<frame>
+        frame, _, marker = key.partition(":")[2].partition("@")
+        per_frame.setdefault(frame, []).append(f"{marker or 'origin'} {fitted[key]}")
+    parts = "; ".join(f"{frame}: {', '.join(counts)}" for frame, counts in per_frame.items())
+    held = report.get("test_readings") or {}
+    return [f"position readings: fitted {sum(fitted[key] for key in unseen)} ({parts}), not seen "
+            f"{sum(unseen.values())}" + (f"; held out {sum(held.get(key, 0) for key in unseen)}" if held else ""),
+            "  (each RMS position error is over the readings taken: one 3D error per marker seen)"]
+
+
 #: Most samples listed one per line in the summary; the report JSON lists them all.
 LISTED = 10
 #: Share of down-weighted samples from which the summary warns that the robust fit is stretched.
@@ -256,6 +275,7 @@ def _accounting(report: dict[str, Any]) -> list[str]:
     total = report.get("n_samples_in_file", report["n_samples"] + held + len(dropped))
     lines = ["", f"samples in the file {total}: fitted {report['n_samples']}, held out {held}, dropped {len(dropped)}"
                  + (f", down-weighted {len(weighted)} of the fitted" if weighted else "")]
+    lines += _readings(report)
     if dropped:
         lines.append(f"dropped ({len(dropped)}):")
         lines += [f"  - sample {d['sample']}: {d['reason']}" for d in dropped[:LISTED]]
@@ -439,6 +459,7 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--max-iter", type=positive_int, default=100,
                      help="iteration limit of the solver (default 100); a run that reaches it exits 1")
     add_selection_and_cv(cal)
+    add_markers(cal)
     cal.add_argument("--formulation", choices=["fkm", "ikm"], default="fkm",
                      help="fkm: measured - predicted by forward kinematics; ikm: implicit loop residuals with the "
                           "measured pose held fixed (study 000; closed-loop robots)")

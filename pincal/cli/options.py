@@ -94,3 +94,11 @@ def add_selection_and_cv(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cv", metavar="K|KxR|loo",
                         help="cross-validate the whole fit over every usable sample of the file: K folds, KxR "
                              "(R shuffles, e.g. 5x4) or loo (leave one out); prints the cross-validated RMS")
+
+
+def add_markers(parser: argparse.ArgumentParser) -> None:
+    """``--markers``: how the markers declared on a frame (``position:<frame>@<marker>`` columns) are fitted."""
+    parser.add_argument("--markers", choices=["each", "cluster"], default="each",
+                        help="markers declared on a frame (position:<frame>@<marker> columns): each (default) fits "
+                             "each marker's offset on its frame; cluster fits one rigid placement of the frame's "
+                             "markers, whose nominal offsets the file declares ('# marker m1 on <frame>: x y z' [m])")

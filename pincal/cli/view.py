@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from pincal.cli.options import add_robot, add_selection_and_cv, add_solver_and_loss, positive_float
+from pincal.cli.options import add_markers, add_robot, add_selection_and_cv, add_solver_and_loss, positive_float
 from pincal.errors import DataError, PincalError
 from pincal.io.dataset import Dataset
 from pincal.io.files import check_outputs, write_text
@@ -31,11 +31,12 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
             report = json.loads(Path(args.result).read_text(encoding="utf-8"))
         except (OSError, json.JSONDecodeError) as exc:
             raise DataError(f"cannot read the result JSON '{args.result}': {exc}") from None
-        return CalibrationView.from_result(robot, dataset, report, args.parameters, args.sigma), dataset, None
+        return CalibrationView.from_result(robot, dataset, report, args.parameters, args.sigma,
+                                           args.markers), dataset, None
     if not args.quiet:
         print(f"calibrating '{robot.name}' from {dataset.n_samples} samples ...", file=sys.stderr)
     calibration = calibrate(robot, dataset, parameter_spec=args.parameters, solver=args.solver, loss=args.loss,
-                            sigma=args.sigma, select=args.select, cv=args.cv)
+                            sigma=args.sigma, select=args.select, cv=args.cv, markers=args.markers)
     return CalibrationView.from_calibration(calibration), dataset, calibration
 
 
@@ -48,6 +49,7 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
                         help="reuse the results JSON of 'pincal calibrate --report' instead of calibrating again")
     add_solver_and_loss(parser)
     add_selection_and_cv(parser)
+    add_markers(parser)
     parser.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
 

@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal.identification.measurements import MarkerPoint, split_target
 from pincal.identification.parameters import ParameterSet, _descends
 from pincal.model.robot import Robot
 
@@ -43,6 +44,47 @@ def frame_probe(robot: Robot, frame_id: int) -> Probe:
 def right_jacobian(delta: Array, components: list[int]) -> Array:
     """Columns of ``Jexp6(δ)`` for the given components: local motion per unit parameter change."""
     return np.asarray(pin.Jexp6(pin.Motion(delta)))[:, components]
+
+
+def marker_points(pset: ParameterSet, x: Array, nominal: dict[str, Array]) -> dict[str, MarkerPoint]:
+    """Each marker target's point on its frame at ``x``, with its derivative (:class:`MarkerPoint`).
+
+    A target's point [m] in its frame is ``p = exp6(δ_c) · n``, ``n = nominal + δ_m``: ``δ_m`` its offset
+    parameters ``marker.<target>.*`` (components without a parameter are zero), ``δ_c`` the placement of its
+    frame's cluster ``cluster.<frame>.*`` for a declared marker ``<frame>@<marker>`` (identity without one). Then
+    ``∂p/∂δ_m = R_c`` and ``∂p/∂δ_c = R_c [I, −n̂] Jexp6(δ_c)`` (the right Jacobian of ``exp6``).
+
+    Args:
+        pset: The parameter set ``x`` refers to.
+        x: (p,) parameter vector [m, rad].
+        nominal: Marker target -> (3,) nominal offset [m] in its frame, for every target a measurement reads
+            (targets with offset parameters only may be left out: zero).
+
+    Returns:
+        Every target of ``nominal`` and every target with offset parameters -> its point and derivative.
+    """
+    offsets: dict[str, list[int]] = {}
+    for k, p in enumerate(pset):
+        if p.kind == "marker":
+            offsets.setdefault(p.target, []).append(k)
+    clusters = {target: idx for (_, target, _), idx in pset.groups("cluster").items()}
+    out: dict[str, MarkerPoint] = {}
+    for target in dict.fromkeys([*nominal, *offsets]):
+        point = np.array(nominal.get(target, np.zeros(3)), dtype=float)
+        own = offsets.get(target, [])
+        for k in own:
+            point[pset.parameters[k].component] += x[k]
+        frame, marker = split_target(target)
+        cluster = clusters.get(frame, []) if marker else []
+        delta = pset.placement_delta(x, cluster) if cluster else np.zeros(6)
+        placement = pin.exp6(delta)
+        derivative = placement.rotation[:, [pset.parameters[k].component for k in own]]
+        if cluster:
+            comps = [pset.parameters[k].component for k in cluster]
+            motion = np.hstack([np.eye(3), -pin.skew(point)]) @ right_jacobian(delta, comps)
+            derivative = np.hstack([derivative, placement.rotation @ motion])
+        out[target] = MarkerPoint(placement.act(point), own + cluster, derivative)
+    return out
 
 
 class KinematicSensitivity:

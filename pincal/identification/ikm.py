@@ -27,7 +27,7 @@ import pinocchio as pin
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
 from pincal.identification.derivatives import KinematicSensitivity, frame_probe
-from pincal.identification.measurements import Measurement, SampleContext
+from pincal.identification.measurements import MarkerPoint, Measurement, SampleContext
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations, Prediction
 from pincal.model.robot import Robot
@@ -61,6 +61,11 @@ class ImplicitProblem(CalibrationProblem):
                             f"end effector; got {', '.join(m.key for m in measurements) or 'none'}")
         super().__init__(robot, parameters, measurements, observations)
         self.target = targets[0]
+        missing = np.flatnonzero(~self.seen(self.target.key))
+        if missing.size:
+            raise DataError(f"the implicit (IKM) formulation holds each sample's measured position fixed, and "
+                            f"'{self.target.key}' was not seen in {missing.size} samples (the first: sample "
+                            f"{int(missing[0])}): leave those samples out, or use FKM")
 
     def row_samples(self) -> IntArray:
         """The sample index of each residual row: one block of ``closure.rows`` loop rows per sample."""
@@ -126,7 +131,8 @@ class ImplicitProblem(CalibrationProblem):
         sens = KinematicSensitivity(robot, self.parameters, x) if jacobian else None
         base_delta = self.parameters.placement_delta(x, self.base) if self.base else np.zeros(6)
         ctx = self._context(model, data, x, base_delta)
-        over_v = replace(ctx, base_columns=[], marker_columns={}, reading_offsets={})  # task rows over v
+        over_v = replace(ctx, base_columns=[], reading_offsets={},  # task rows over v: no parameter columns
+                         markers={t: MarkerPoint(m.point) for t, m in ctx.markers.items()})
         qa_all = self.actuated_values(x)
         residual = np.empty((n, rows))
         jac_out = np.zeros((n, rows, p)) if jacobian else None

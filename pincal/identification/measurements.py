@@ -7,12 +7,22 @@ error is formed from the measured values. The problem stacks whatever models it 
 asks which kind: a new sensor is one subclass of :class:`Measurement`. All in SI units: positions
 [m] in the measurement frame, orientations as rotation vectors [rad], joint readings [rad or m].
 
-Keys (also the dataset column prefixes): ``position:<frame>``, ``pose:<frame>``,
-``distance:<a>-<b>``, ``distance_increment:<a>-<b>``, ``joint:<joint>``.
+Keys (also the dataset column prefixes): ``position:<frame>``, ``position:<frame>@<marker>`` (a marker fixed on
+``frame``: several per frame, each with its own offset), ``pose:<frame>``, ``distance:<a>-<b>``,
+``distance_increment:<a>-<b>``, ``joint:<joint>``.
+
+A measured point on a frame is named by its *marker target*: ``<frame>`` for the frame's own marker,
+``<frame>@<marker>`` for a declared marker. Its position in the frame [m] is
+``exp6(δ_cluster) · (nominal + δ_marker)``: a nominal offset (declared with the data, zero by default), the
+marker's own offset parameters ``marker.<target>.x|y|z`` and, for declared markers, the rigid placement of the
+frame's marker cluster ``cluster.<frame>.*`` (each term present only when its parameters are estimated). The
+problem evaluates it once per evaluation (:class:`MarkerPoint`); the models read it through
+:meth:`SampleContext.marker`.
 """
 
 from __future__ import annotations
 
+import re
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -36,6 +46,32 @@ KINDS: dict[str, KeyParser] = {}
 KIND_CLASSES: dict[str, type[Measurement]] = {}
 
 
+#: A marker's name in a key (``position:<frame>@<marker>``): letters, digits and ``_`` (it becomes part of a URDF
+#: link name).
+MARKER_NAME = re.compile(r"[A-Za-z0-9_]+")
+
+
+@dataclass
+class MarkerPoint:
+    """A measured point fixed on a frame at one parameter estimate.
+
+    Attributes:
+        point: (3,) its position [m] in the frame's coordinates.
+        columns: The parameter columns that move it on the frame (marker offset, cluster placement).
+        derivative: (3, len(columns)) d(point)/d(parameter) [m per m or rad], in the frame's coordinates.
+    """
+
+    point: Array
+    columns: list[int] = field(default_factory=list)
+    derivative: Array = field(default_factory=lambda: np.zeros((3, 0)))
+
+
+def split_target(target: str) -> tuple[str, str]:
+    """``(frame, marker)`` of a marker target: ``tool0@m1`` -> ``("tool0", "m1")``, ``tool0`` -> ``("tool0", "")``."""
+    frame, at, marker = target.rpartition("@")
+    return (frame, marker) if at else (target, "")
+
+
 @dataclass
 class SampleContext:
     """What a measurement model predicts from: one sample's kinematic state and the parameter columns.
@@ -50,9 +86,8 @@ class SampleContext:
         base: The placement of the robot in the measurement frame (world ← robot).
         base_jacobian: (6, len(base_columns)) right Jacobian of ``base`` w.r.t. its parameters.
         base_columns: Columns of the base parameters (empty: the base is known).
-        markers: Frame -> marker offset [m] in that frame (frames with marker parameters only).
-        marker_columns: Frame -> the columns of its marker offset parameters.
-        marker_axes: Frame -> the offset component (0, 1, 2 for x, y, z) of each of those columns.
+        markers: Marker target (``<frame>`` or ``<frame>@<marker>``) -> its point on the frame and the point's
+            parameter derivative (targets with a nominal offset or offset parameters only).
         reading_offsets: Joint -> the column of the zero offset of its (non-actuated) reading.
         frame_ids: Frame name -> Pinocchio frame id, for every frame a model looks at.
         values: Measurement key -> (N, width) measured values (row ``sample`` is this sample's).
@@ -68,8 +103,7 @@ class SampleContext:
     base: pin.SE3
     base_jacobian: Array
     base_columns: list[int]
-    markers: dict[str, Array]
-    marker_columns: dict[str, list[int]]
+    markers: dict[str, MarkerPoint]
     reading_offsets: dict[str, int]
     frame_ids: dict[str, int]
     values: dict[str, Array]
@@ -77,15 +111,22 @@ class SampleContext:
     q: Array = field(default_factory=lambda: np.zeros(0))
     twists: dict[str, Array] = field(default_factory=dict)
     dv: Array | None = None
-    marker_axes: dict[str, list[int]] = field(default_factory=dict)
 
     def placement(self, frame: str) -> pin.SE3:
         """The frame's placement in the robot's world frame at ``q``."""
         return self.data.oMf[self.frame_ids[frame]]
 
-    def marker(self, frame: str) -> Array:
-        """The frame's marker offset [m] in the frame (zero without marker parameters)."""
-        return self.markers.get(frame, np.zeros(3))
+    def marker(self, target: str) -> Array:
+        """The point [m] of marker target ``target`` (``<frame>`` or ``<frame>@<marker>``) in its frame (zero
+        for a target with neither a nominal offset nor parameters)."""
+        point = self.markers.get(target)
+        return point.point if point is not None else np.zeros(3)
+
+    def marker_derivative(self, target: str) -> tuple[list[int], Array]:
+        """The parameter columns that move marker target ``target`` on its frame, and the (3, k) derivative of its
+        point [m] in the frame's coordinates w.r.t. them (no columns: the marker is fixed on its frame)."""
+        point = self.markers.get(target)
+        return (point.columns, point.derivative) if point is not None else ([], np.zeros((3, 0)))
 
     def measured(self, key: str) -> Array:
         """This sample's measured values of measurement ``key``."""
@@ -111,6 +152,9 @@ class Measurement(ABC):
     #: angles [rad] (an orientation's rotation vector): what the reports' error sizes are made of.
     length_rows: ClassVar[int] = 0
     angle_rows: ClassVar[int] = 0
+    #: Whether a sample may lack this reading (all its values NaN: an occluded marker); the problem leaves the
+    #: missing rows out. Other kinds need every value.
+    occludable: ClassVar[bool] = False
 
     key: str
     size: int
@@ -172,18 +216,36 @@ class Measurement(ABC):
 
 @dataclass(frozen=True)
 class Position(Measurement):
-    """3D position of a frame's origin (plus an optional marker offset), e.g. by a laser tracker."""
+    """3D position of a point on a frame, e.g. a laser tracker's reflector or a mocap marker: the frame's origin
+    plus its marker offset (key ``position:<frame>``), or declared marker ``marker`` fixed on the frame (key
+    ``position:<frame>@<marker>``; several per frame) at ``nominal`` [m] in the frame plus its offset parameters.
+
+    A reading may be missing (an occluded marker): its values are NaN, and the problem leaves its rows out.
+    """
 
     kinds: ClassVar[tuple[str, ...]] = ("position",)
     components: ClassVar[tuple[str, ...]] = ("x", "y", "z")
     length_rows: ClassVar[int] = 3
+    occludable: ClassVar[bool] = True
 
     frame: str = ""
+    marker: str = ""
+    #: The marker's nominal offset [m] in the frame, as declared with the data (None: not declared, zero).
+    nominal: tuple[float, float, float] | None = None
 
     @classmethod
     def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
-        """The model of key ``position:<frame>``; σ [m] defaults to 1e-5."""
-        return position(rest, sigma or 1e-5)
+        """The model of key ``position:<frame>`` or ``position:<frame>@<marker>``; σ [m] defaults to 1e-5."""
+        frame, marker = split_target(rest)
+        if "@" in rest and (not frame or not MARKER_NAME.fullmatch(marker)):
+            raise DataError(f"measurement '{kind}:{rest}' must name a frame and a marker as "
+                            f"'{kind}:<frame>@<marker>', the marker in letters, digits and '_'")
+        return position(frame, sigma or 1e-5, marker)
+
+    @property
+    def target(self) -> str:
+        """The marker target measured: ``<frame>@<marker>`` for a declared marker, else ``<frame>``."""
+        return f"{self.frame}@{self.marker}" if self.marker else self.frame
 
     @property
     def frames(self) -> tuple[str, ...]:
@@ -196,11 +258,12 @@ class Position(Measurement):
         return True
 
     def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
-        """The frame marker's position [m] in the measurement frame, and its derivative (marker columns included)."""
-        _predict_point(ctx, self.frame, ctx.marker(self.frame), out, jac)
-        if jac is not None and self.frame in ctx.marker_columns:
-            axes = ctx.marker_axes.get(self.frame, [0, 1, 2])
-            jac[:3, ctx.marker_columns[self.frame]] = (ctx.base.rotation @ ctx.placement(self.frame).rotation)[:, axes]
+        """The marker's position [m] in the measurement frame, and its derivative (its marker and cluster columns
+        ``R_base R_frame ∂p/∂θ`` included)."""
+        _predict_point(ctx, self.frame, ctx.marker(self.target), out, jac)
+        columns, derivative = ctx.marker_derivative(self.target)
+        if jac is not None and columns:
+            jac[:3, columns] += ctx.base.rotation @ ctx.placement(self.frame).rotation @ derivative
 
 
 @dataclass(frozen=True)
@@ -310,9 +373,9 @@ class Distance(Measurement):
             jac[0] = u @ (point_derivative(pa, ctx.twists[self.frame_a], ma)
                           - point_derivative(pb, ctx.twists[self.frame_b], mb))
             for frame, placement, sign in ((self.frame_a, pa, 1.0), (self.frame_b, pb, -1.0)):
-                if frame in ctx.marker_columns:
-                    axes = ctx.marker_axes.get(frame, [0, 1, 2])
-                    jac[0, ctx.marker_columns[frame]] += sign * (u @ placement.rotation)[axes]
+                columns, derivative = ctx.marker_derivative(frame)
+                if columns:
+                    jac[0, columns] += sign * (u @ placement.rotation @ derivative)
 
 
 @dataclass(frozen=True)
@@ -376,9 +439,12 @@ def _predict_point(ctx: SampleContext, frame: str, marker: Array, out: Array, ja
                                          @ ctx.base_jacobian)
 
 
-def position(frame: str, sigma: float = 1e-5) -> Position:
-    """The model of the position [m] of ``frame``'s origin, with σ [m]."""
-    return Position(f"position:{frame}", 3, sigma, frame)
+def position(frame: str, sigma: float = 1e-5, marker: str = "",
+             nominal: tuple[float, float, float] | None = None) -> Position:
+    """The model of the position [m] of ``frame``'s origin (plus its marker offset), or with ``marker`` of that
+    marker fixed on ``frame`` at ``nominal`` [m] in the frame (None: zero, not declared); σ [m]."""
+    key = f"position:{frame}@{marker}" if marker else f"position:{frame}"
+    return Position(key, 3, sigma, frame, marker, nominal)
 
 
 def pose(frame: str, sigma: float = 1e-5, sigma_angle: float = 1e-5) -> Pose:

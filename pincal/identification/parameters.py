@@ -7,7 +7,10 @@ Every chosen placement M becomes ``M · exp6(δ)``, δ = (tx, ty, tz, rx, ry, rz
 - ``<loop>.predecessor.<c>`` / ``<loop>.successor.<c>``: a loop anchor's origin;
 - ``<joint>.offset``: a joint reading offset, ``q_true = q_read + δq`` [rad or m];
 - ``base.<c>``: the robot base in the measurement frame (``world = base · exp6(δ) · robot``);
-- ``marker.<frame>.<x|y|z>``: a measured point's offset in ``frame`` [m];
+- ``marker.<frame>.<x|y|z>``: a measured point's offset in ``frame`` [m]; ``marker.<frame>@<marker>.<x|y|z>``: the
+  offset of declared marker ``marker`` on ``frame`` [m], from its nominal offset;
+- ``cluster.<frame>.<c>``: the rigid placement of the cluster of declared markers on ``frame``, ``exp6(δ)`` applied
+  to their nominal offsets (in ``frame``);
 - device constants named by their measurement model (e.g. ``scale.zero``).
 
 The values of a :class:`ParameterSet` are deviations from the nominal robot (zero = nominal).
@@ -25,7 +28,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import DataError, NotFoundError, listing, not_found
-from pincal.identification.measurements import JointReading, Measurement, Pose, Position
+from pincal.identification.measurements import JointReading, Measurement, Pose, Position, split_target
 from pincal.model.robot import Robot
 from pincal.model.robot import Unit as Unit
 from pincal.model.robot import joint_unit as joint_unit
@@ -42,9 +45,15 @@ ANGLE_SCALE = 1e-3
 TORQUE_SCALE = 10.0
 FORCE_SCALE = 100.0
 #: What a parameter is: a joint origin's placement component, a loop anchor's, a joint reading's offset, the
-#: measurement frame's placement component, a marker's offset component, or a correction of an actuated joint's
-#: value that a URDF cannot hold (a harmonic of its reading, its compliance: :mod:`pincal.identification.corrections`).
-ParameterKind = Literal["joint", "anchor", "offset", "base", "marker", "harmonic", "compliance"]
+#: measurement frame's placement component, a marker's offset component, a marker cluster's placement component, or a
+#: correction of an actuated joint's value that a URDF cannot hold (a harmonic of its reading, its compliance:
+#: :mod:`pincal.identification.corrections`).
+ParameterKind = Literal["joint", "anchor", "offset", "base", "marker", "cluster", "harmonic", "compliance"]
+#: How the declared markers of a frame (``position:<frame>@<marker>``) are fitted: ``each`` marker's offset on its
+#: own (``marker.<frame>@<marker>.*``), or one rigid placement of the frame's ``cluster`` of markers, whose nominal
+#: offsets the data declare (``cluster.<frame>.*``).
+MarkerFit = Literal["each", "cluster"]
+MARKER_FITS: tuple[MarkerFit, ...] = ("each", "cluster")
 #: Parameter kinds that change the robot model itself (the others act in the measurement models).
 KINEMATIC_KINDS: tuple[ParameterKind, ...] = ("joint", "anchor")
 #: Parameter kinds that correct an actuated joint's value as a function of its reading (the corrections file).
@@ -59,8 +68,9 @@ class Parameter:
 
     Attributes:
         name: Unique name (see module docstring).
-        kind: ``joint``, ``anchor``, ``offset``, ``base``, ``marker``, ``harmonic`` or ``compliance``.
-        target: Joint name, loop name, frame name, or device constant name.
+        kind: ``joint``, ``anchor``, ``offset``, ``base``, ``marker``, ``cluster``, ``harmonic`` or ``compliance``.
+        target: Joint name, loop name, frame name (marker target ``<frame>@<marker>`` for a declared marker), or
+            device constant name.
         component: Index in (tx, ty, tz, rx, ry, rz) for placements, in (x, y, z) for markers, in
             (sin1, cos1, sin2, cos2) for harmonics.
         side: ``predecessor`` or ``successor`` for anchors.
@@ -94,8 +104,8 @@ class Parameter:
 
 def placement_parameters(kind: ParameterKind, target: str, side: str = "",
                          components: Sequence[str] = COMPONENTS) -> list[Parameter]:
-    """The parameters of one placement (a joint origin, a loop anchor, the base)."""
-    prefix = {"joint": target, "anchor": f"{target}.{side}", "base": "base"}[kind]
+    """The parameters of one placement (a joint origin, a loop anchor, the base, a marker cluster)."""
+    prefix = {"joint": target, "anchor": f"{target}.{side}", "base": "base", "cluster": f"cluster.{target}"}[kind]
     return [Parameter(f"{prefix}.{c}", kind, target, COMPONENTS.index(c), side,
                       "m" if c.startswith("t") else "rad") for c in components]
 
@@ -118,9 +128,25 @@ def compliance_parameter(joint: str, unit: Unit) -> Parameter:
     return Parameter(f"{joint}.compliance", "compliance", joint, 0, "", "rad/(N m)" if unit == "rad" else "m/N")
 
 
-def marker_parameters(frame: str) -> list[Parameter]:
-    """The marker offset [m] of ``frame``: its x, y, z components in that frame."""
-    return [Parameter(f"marker.{frame}.{a}", "marker", frame, k, "", "m") for k, a in enumerate(AXES)]
+def marker_parameters(target: str) -> list[Parameter]:
+    """The marker offset [m] of marker target ``target`` (``<frame>`` or ``<frame>@<marker>``): its x, y, z
+    components in the frame."""
+    return [Parameter(f"marker.{target}.{a}", "marker", target, k, "", "m") for k, a in enumerate(AXES)]
+
+
+def cluster_parameters(frame: str) -> list[Parameter]:
+    """The placement of the cluster of declared markers on ``frame`` (tx, ty, tz [m], rx, ry, rz [rad])."""
+    return placement_parameters("cluster", frame)
+
+
+def marker_targets(models: Sequence[Measurement]) -> list[str]:
+    """The marker targets the position measurements read (``<frame>`` or ``<frame>@<marker>``), sorted."""
+    return sorted({m.target for m in models if isinstance(m, Position)})
+
+
+def clustered_frames(models: Sequence[Measurement]) -> list[str]:
+    """The frames carrying declared markers (``position:<frame>@<marker>``), sorted."""
+    return sorted({m.frame for m in models if isinstance(m, Position) and m.marker})
 
 
 @dataclass
@@ -499,7 +525,7 @@ def _own_motion(robot: Robot, joint: str) -> str | None:
     return None
 
 
-def default_parameters(robot: Robot, models: Sequence[Measurement]) -> ParameterSet:
+def default_parameters(robot: Robot, models: Sequence[Measurement], markers: MarkerFit = "each") -> ParameterSet:
     """The default unknowns: every geometric error that can change a measured quantity, without the ones
     that duplicate another by construction (what remains redundant, the identifiability analysis finds).
 
@@ -511,8 +537,11 @@ def default_parameters(robot: Robot, models: Sequence[Measurement]) -> Parameter
     - the anchors of the loops those joints close;
     - reading offsets of the influencing actuated joints and of the read joints;
     - the measurement frame (``base.*``) when positions or poses are measured in an external frame, and a marker
-      offset (``marker.<frame>.*``) for each frame whose position is measured.
+      offset (``marker.<target>.*``) for each marker target whose position is measured (``<frame>``, and each
+      declared marker ``<frame>@<marker>``); with ``markers="cluster"``, the declared markers of a frame get one
+      cluster placement (``cluster.<frame>.*``) instead, and need their nominal offsets (:func:`check_marker_fit`).
     """
+    check_marker_fit(markers, models)
     frames = sorted({f for m in models for f in m.frames})
     read = [m.joint for m in models if isinstance(m, JointReading)]
     external = any(m.locates_point for m in models)
@@ -552,9 +581,32 @@ def default_parameters(robot: Robot, models: Sequence[Measurement]) -> Parameter
         params.append(offset_parameter(joint, joint_unit(robot, joint)))
     if external:
         params += placement_parameters("base", "base")
-    for frame in marked:
-        params += marker_parameters(frame)
+    clustered = clustered_frames(models) if markers == "cluster" else []
+    for target in marker_targets(models):
+        frame, marker = split_target(target)
+        if not (marker and frame in clustered):  # a marker of a cluster moves with the cluster's placement
+            params += marker_parameters(target)
+    for frame in clustered:
+        params += cluster_parameters(frame)
     return ParameterSet(params)
+
+
+def check_marker_fit(markers: str, models: Sequence[Measurement]) -> None:
+    """Refuse (DataError) an unknown marker fit, or a ``cluster`` fit of markers without their nominal offsets:
+    one rigid placement moves the markers' declared offsets together, so every marker of a cluster needs one."""
+    if markers not in MARKER_FITS:
+        raise DataError(f"unknown marker fit '{markers}'; marker fits are: {listing(MARKER_FITS)}")
+    if markers != "cluster":
+        return
+    declared = [m for m in models if isinstance(m, Position) and m.marker]
+    if not declared:
+        raise DataError("--markers cluster fits the placement of the markers declared on a frame "
+                        "(position:<frame>@<marker> columns), and the data declare none")
+    missing = [m for m in declared if m.nominal is None]
+    if missing:
+        raise DataError(f"--markers cluster needs each marker's nominal offset on its frame; "
+                        f"{listing(m.target for m in missing)} have none: add '# marker <marker> on <frame>: x y z' "
+                        f"lines [m] (e.g. '# marker {missing[0].marker} on {missing[0].frame}: 0 0 0.05')")
 
 
 def _tool_joint(robot: Robot, frame: str) -> str | None:
@@ -574,18 +626,19 @@ def _tool_joint(robot: Robot, frame: str) -> str | None:
 def parameter_pool(robot: Robot, models: Sequence[Measurement]) -> ParameterSet:
     """Every parameter ``--parameters`` patterns may name: all joint and anchor placements, fixed joints leading
     to measured frames, offsets of the actuated and the read joints, the base placement when positions or poses
-    are measured in an external frame, the marker offsets of the measured frames, and the harmonics
-    (``<joint>.sin1`` …) and compliance (``<joint>.compliance``) of the actuated joints that move a measured frame."""
+    are measured in an external frame, the marker offsets of the measured marker targets, the cluster placement of
+    each frame carrying declared markers, and the harmonics (``<joint>.sin1`` …) and compliance
+    (``<joint>.compliance``) of the actuated joints that move a measured frame."""
     frames = sorted({f for m in models for f in m.frames})
     read = [m.joint for m in models if isinstance(m, JointReading)]
     external = any(m.locates_point for m in models)
     pool = candidate_parameters(robot, frames=frames, offsets=list(robot.actuated_joints) + read, base=external)
-    marked = sorted({m.frame for m in models if isinstance(m, Position)})
     moving = set(influencing_joints(robot, frames, read))
     corrections = [p for j in robot.actuated_joints if j in moving
                    for p in (*harmonic_parameters(j, joint_unit(robot, j)),
                              compliance_parameter(j, joint_unit(robot, j)))]
-    return ParameterSet(pool.parameters + [p for f in marked for p in marker_parameters(f)] + corrections)
+    return ParameterSet(pool.parameters + [p for t in marker_targets(models) for p in marker_parameters(t)]
+                        + [p for f in clustered_frames(models) for p in cluster_parameters(f)] + corrections)
 
 
 def _names_in_short(names: Sequence[str], shown: int = 12) -> str:
@@ -599,8 +652,10 @@ def _names_in_short(names: Sequence[str], shown: int = 12) -> str:
 DEFAULT_SET = "default"
 
 
-def choose_parameters(robot: Robot, models: Sequence[Measurement], spec: Sequence[str] | None = None) -> ParameterSet:
-    """The unknowns from ``spec``: by default :func:`default_parameters`; otherwise named sets (``default``,
+def choose_parameters(robot: Robot, models: Sequence[Measurement], spec: Sequence[str] | None = None,
+                      markers: MarkerFit = "each") -> ParameterSet:
+    """The unknowns from ``spec``: by default :func:`default_parameters` (``markers``: how it fits declared
+    markers, ``each`` or ``cluster``); otherwise named sets (``default``,
     ``model24``, ``model24i``, ``hexapod42``, ``hexapod44``) and shell patterns over :func:`parameter_pool`,
     combined in order: a set or a pattern adds what it names, ``!pattern`` (or ``!set``) removes what it matches. A
     spec whose first word is an exclusion starts from the default set (``'!base.*' 'base.tz'``: the default set
@@ -610,14 +665,15 @@ def choose_parameters(robot: Robot, models: Sequence[Measurement], spec: Sequenc
         NotFoundError: a pattern that matches nothing (the parameters are listed), or nothing left.
     """
     if not spec:
-        return default_parameters(robot, models)
+        return default_parameters(robot, models, markers)
+    check_marker_fit(markers, models)
     pool = parameter_pool(robot, models)
-    chosen: list[Parameter] = list(default_parameters(robot, models)) if spec[0].startswith("!") else []
+    chosen: list[Parameter] = list(default_parameters(robot, models, markers)) if spec[0].startswith("!") else []
     for token in spec:
         negate = token.startswith("!")
         pattern = token[1:] if negate else token
         if pattern == DEFAULT_SET or pattern in NAMED_SETS:
-            named = default_parameters(robot, models) if pattern == DEFAULT_SET else NAMED_SETS[pattern](robot)
+            named = default_parameters(robot, models, markers) if pattern == DEFAULT_SET else NAMED_SETS[pattern](robot)
             names = set(named.names)
             chosen = ([p for p in chosen if p.name not in names] if negate
                       else chosen + [p for p in named if p not in chosen])

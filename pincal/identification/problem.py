@@ -21,10 +21,10 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal import linalg
-from pincal.errors import ConvergenceError, DataError, listing
+from pincal.errors import ConvergenceError, DataError, listing, not_found
 from pincal.identification.corrections import correction_regressors
-from pincal.identification.derivatives import KinematicSensitivity, frame_probe, right_jacobian
-from pincal.identification.measurements import Measurement, SampleContext
+from pincal.identification.derivatives import KinematicSensitivity, frame_probe, marker_points, right_jacobian
+from pincal.identification.measurements import Measurement, Position, SampleContext
 from pincal.identification.parameters import (
     CORRECTION_KINDS,
     KINEMATIC_KINDS,
@@ -52,7 +52,8 @@ class Observations:
         actuated: (N, na) actuated joint readings [rad or m], in ``robot.actuated_joints`` order.
         values: measurement key -> (N, k): position (N, 3) [m]; pose (N, 7) as x, y, z [m] and a unit
             quaternion qx, qy, qz, qw; distance (N, 1) [m]; joint reading (N, 1) [rad or m]. For
-            ``distance_increment`` the first row is ignored.
+            ``distance_increment`` the first row is ignored. A row of NaN is a reading not taken (an occluded
+            marker), allowed for the measurements that may miss one (``occludable``: positions).
     """
 
     actuated: Array
@@ -74,7 +75,7 @@ class Prediction:
 
     residual: Array
     jacobian: Array | None
-    errors: dict[str, Array]  # key -> (N, rows) predicted - measured [m, rad]
+    errors: dict[str, Array]  # key -> (N, rows) predicted - measured [m, rad]; NaN rows: readings not taken
     predicted: dict[str, Array]  # key -> (N, rows) absolute predictions (pose: p, log3(R_measᵀ R))
 
 
@@ -147,10 +148,9 @@ class CalibrationProblem:
         self.actuated_corrections = [(actuated[p.target], k, r)
                                      for (k, p), r in zip(corrections, regressors, strict=True)]
         self.base = parameters.groups("base").get(("base", "base", ""), [])
-        self.markers: dict[str, list[int]] = {p.target: [] for p in parameters if p.kind == "marker"}
-        for k, p in enumerate(parameters):
-            if p.kind == "marker":
-                self.markers[p.target].append(k)
+        # each measured marker's nominal offset [m] on its frame (zero when the data declare none)
+        self.marker_nominals = {m.target: np.array(m.nominal if m.nominal is not None else (0.0, 0.0, 0.0))
+                                for m in self.measurements if isinstance(m, Position)}
         self.frames = sorted({f for m in self.measurements for f in m.frames})
         self.frame_ids = {f: robot.frame_id(f) for f in self.frames}
         # each sample's configuration at its last solve and the actuated values it was solved for: the
@@ -161,6 +161,22 @@ class CalibrationProblem:
         # known to be on the reference assembly: only a sample that moved can have left it
         self._travel = np.zeros(observations.n_samples)
         self.rows_per_sample = sum(m.size for m in self.measurements)
+        self._seen: dict[str, npt.NDArray[np.bool_]] = {}
+        for m in self.measurements:
+            taken = np.all(np.isfinite(observations.values[m.key]), axis=1)
+            taken[:1] &= not m.incremental
+            self._seen[m.key] = taken
+
+    def seen(self, key: str) -> npt.NDArray[np.bool_]:
+        """(N,) whether each sample holds a reading of measurement ``key`` (False: a row of NaN, an occluded
+        marker; an incremental measurement's first row counts as not taken)."""
+        if key not in self._seen:
+            raise not_found("measurement", key, list(self._seen))
+        return self._seen[key]
+
+    def n_readings(self) -> dict[str, int]:
+        """Measurement key -> the number of samples that hold a reading of it (the readings the fit uses)."""
+        return {m.key: int(np.count_nonzero(self.seen(m.key))) for m in self.measurements}
 
     def _joint_sigma(self, joint_sigma: float | Sequence[float] | None) -> Array | None:
         if joint_sigma is None:
@@ -177,11 +193,7 @@ class CalibrationProblem:
 
     def row_samples(self) -> IntArray:
         """The sample index of each residual row (the row order of :meth:`evaluate`)."""
-        n = self.observations.n_samples
-        rows = []
-        for m in self.measurements:
-            first = 1 if m.incremental else 0
-            rows.append(np.repeat(np.arange(first, n), m.size))
+        rows = [np.repeat(np.flatnonzero(self.seen(m.key)), m.size) for m in self.measurements]
         return np.concatenate(rows).astype(np.int64)
 
     def _check(self) -> None:
@@ -200,9 +212,11 @@ class CalibrationProblem:
                 raise DataError(f"data for '{m.key}' has shape {values.shape}; expected "
                                 f"({obs.n_samples}, {len(m.columns)}) for {listing(m.columns)}")
             check = values[1:] if m.incremental else values
-            if not np.all(np.isfinite(check)):
-                row = int(np.argwhere(~np.isfinite(check))[0, 0]) + (1 if m.incremental else 0)
-                raise DataError(f"measurement '{m.key}' of sample {row} is NaN or infinite")
+            missing = np.all(np.isnan(check), axis=1) if m.occludable else np.zeros(len(check), dtype=bool)
+            if not np.all(np.isfinite(check[~missing])):
+                row = int(np.flatnonzero(~missing & ~np.all(np.isfinite(check), axis=1))[0]) + int(m.incremental)
+                whole = " (a reading not taken is NaN in all its values)" if m.occludable else ""
+                raise DataError(f"measurement '{m.key}' of sample {row} is NaN or infinite{whole}")
             m.check(robot)
 
     # --- evaluation -----------------------------------------------------------------------------
@@ -260,8 +274,9 @@ class CalibrationProblem:
         model, measured = [], []
         for m in self.measurements:
             if m.locates_point:
-                model.append(pred.predicted[m.key][:, :3])
-                measured.append(self.observations.values[m.key][:, :3])
+                taken = self.seen(m.key)  # an occluded marker registers nothing
+                model.append(pred.predicted[m.key][taken, :3])
+                measured.append(self.observations.values[m.key][taken, :3])
         if not model or sum(len(a) for a in model) < 3:
             return x
         a, b = np.vstack(model), np.vstack(measured)
@@ -386,20 +401,10 @@ class CalibrationProblem:
         """The measurement models' context for one evaluation at ``x`` (per-sample fields unset)."""
         base_jacobian = right_jacobian(base_delta, [self._all.parameters[k].component for k in self.base])
         return SampleContext(model, data, x, pin.exp6(base_delta), base_jacobian, self.base,
-                             {f: self._marker(x, idx) for f, idx in self.markers.items()}, self.markers,
-                             self.reading_offsets, self.frame_ids, self.observations.values,
-                             marker_axes={f: [self._all.parameters[k].component for k in idx]
-                                          for f, idx in self.markers.items()})
-
-    def _marker(self, x: Array, columns: list[int]) -> Array:
-        """A frame's marker offset [m] from its parameters (components without a parameter are zero)."""
-        offset = np.zeros(3)
-        for k in columns:
-            offset[self._all.parameters[k].component] = x[k]
-        return offset
+                             marker_points(self._all, x, self.marker_nominals), self.reading_offsets,
+                             self.frame_ids, self.observations.values)
 
     def _assemble(self, preds: dict[str, Array], dpreds: dict[str, Array], jacobian: bool) -> Prediction:
-        n = self.observations.n_samples
         errors: dict[str, Array] = {}
         blocks, jblocks = [], []
         for m in self.measurements:
@@ -411,9 +416,7 @@ class CalibrationProblem:
                 err = np.vstack([np.zeros((1, m.size)), preds[m.key][1:] - preds[m.key][:-1] - measured[1:]])
                 if jac is not None:
                     jac = np.concatenate([np.zeros((1, *jac.shape[1:])), jac[1:] - jac[:-1]])
-                rows = slice(1, n)
-            else:
-                rows = slice(0, n)
+            rows = np.flatnonzero(self.seen(m.key))  # a reading not taken has no rows (its error stays NaN)
             errors[m.key] = err
             keep = len(self.parameters)
             if self.joint_sigma is None or jac is None:
@@ -421,7 +424,7 @@ class CalibrationProblem:
                 if jacobian and jac is not None:
                     jblocks.append((jac[rows][..., :keep] / weights[None, :, None]).reshape(-1, keep))
                 continue
-            white_err, white_jac = self._whiten(err[rows], jac[rows], weights, dpreds[m.key], m.incremental)
+            white_err, white_jac = self._whiten(err[rows], jac[rows], weights, dpreds[m.key], m.incremental, rows)
             blocks.append(white_err.reshape(-1))
             if jacobian:
                 jblocks.append(white_jac[..., :keep].reshape(-1, keep))
@@ -430,15 +433,17 @@ class CalibrationProblem:
         return Prediction(residual, full, errors, preds)
 
     def _whiten(self, err: Array, jac: Array, weights: Array, absolute_jac: Array,
-                incremental: bool) -> tuple[Array, Array]:
-        """Whiten each sample's rows by ``L⁻¹``, ``L Lᵀ = diag(σ²) + G Σ_q Gᵀ`` (G from the offset columns)."""
+                incremental: bool, rows: npt.NDArray[np.intp]) -> tuple[Array, Array]:
+        """Whiten each sample's rows by ``L⁻¹``, ``L Lᵀ = diag(σ²) + G Σ_q Gᵀ`` (G from the offset columns);
+        ``err`` and ``jac`` hold the samples ``rows`` (those with a reading), ``absolute_jac`` every sample."""
         assert self.joint_sigma is not None
         columns = [col for _, col in sorted(self.actuated_offsets)]
         g = absolute_jac[..., columns] * self.joint_sigma  # (N, rows, na), scaled by σ_q
         if incremental:  # a difference of two samples: independent reading noise at each (diagonal only)
-            var = np.sum(g[1:] ** 2, axis=2) + np.sum(g[:-1] ** 2, axis=2) + weights**2
+            var = np.sum(g[rows] ** 2, axis=2) + np.sum(g[rows - 1] ** 2, axis=2) + weights**2
             scale = np.sqrt(var)
             return err / scale, jac / scale[..., None]
+        g = g[rows]
         cov = g @ np.swapaxes(g, 1, 2)
         cov[:, np.arange(weights.size), np.arange(weights.size)] += weights**2
         try:

@@ -128,10 +128,12 @@ def angle_columns(key: str) -> slice:
 
 
 def error_norms(errors: dict[str, Array], keys: list[str] | None = None) -> Array:
-    """Per-sample error magnitudes [m] of the length-type measurements (position, pose position, distance)."""
+    """Error magnitudes [m] of the length-type readings (position, pose position, distance): one per reading taken,
+    measurement after measurement; a reading not taken (an occluded marker, NaN) has none."""
     parts = [np.linalg.norm(err[:, :length_columns(key)], axis=1) for key, err in errors.items()
              if length_columns(key) and (keys is None or key in keys)]
-    return np.concatenate(parts) if parts else np.zeros(0)
+    norms = np.concatenate(parts) if parts else np.zeros(0)
+    return np.asarray(norms[~np.isnan(norms)], dtype=np.float64)
 
 
 def rms(values: Array) -> float:
@@ -164,17 +166,24 @@ TRIM_KEEP = 0.5
 def _sample_weights(problem: Problem, pred: Prediction, loss: str) -> Array:
     """Per-sample robust weights (IRLS). Cauchy: ``w = 1 / (1 + (e / (c·s))²)`` with ``e`` a sample's
     weighted residual norm and ``s`` its median over samples / 0.6745 — no threshold set by hand.
-    Trimmed: 1 for the :data:`TRIM_KEEP` share of samples that fit best, 0 for the others."""
+    Trimmed: 1 for the :data:`TRIM_KEEP` share of samples that fit best, 0 for the others.
+
+    A sample with fewer rows than most (some markers not seen) has its norm scaled to the most common row count,
+    ``e · sqrt(d_typical / d_k)``, so that it is judged per reading; a sample with no row keeps weight 1 and
+    counts in neither the scale nor the trimmed share."""
     n = problem.observations.n_samples
     if loss == "linear":
         return np.ones(n)
-    norms = np.sqrt(sample_squares(problem, pred.residual)[0])
+    squares, dims = sample_squares(problem, pred.residual)
+    used = dims > 0
+    typical = float(np.median(dims[used])) if used.any() else 1.0
+    norms = np.sqrt(squares * typical / np.maximum(dims, 1))
     if loss == TRIMMED:  # least trimmed squares: the best-fitting share of the samples, the others out
-        keep = np.argsort(norms, kind="stable")[:math.ceil(TRIM_KEEP * n)]
-        weights = np.zeros(n)
-        weights[keep] = 1.0
+        ranked = [k for k in np.argsort(norms, kind="stable") if used[k]]
+        weights = np.where(used, 0.0, 1.0)
+        weights[ranked[:math.ceil(TRIM_KEEP * int(used.sum()))]] = 1.0
         return weights
-    scale = float(np.median(norms)) / 0.6745
+    scale = float(np.median(norms[used] if used.any() else norms)) / 0.6745
     scale = max(scale, 1e-300)
     return np.asarray(1.0 / (1.0 + (norms / (CAUCHY_C * scale)) ** 2), dtype=np.float64)
 

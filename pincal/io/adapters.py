@@ -3,19 +3,63 @@ instrumented passive joints."""
 
 from __future__ import annotations
 
+import math
+import re
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError, listing
-from pincal.identification.measurements import JointReading, Measurement, Pose, joint_reading, parse_key
+from pincal.identification.measurements import (
+    MARKER_NAME,
+    JointReading,
+    Measurement,
+    Pose,
+    Position,
+    joint_reading,
+    parse_key,
+)
 from pincal.identification.parameters import influencing_joints
 from pincal.identification.problem import Observations
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
 
+#: A marker declaration in a dataset's metadata: ``# marker <marker> on <frame>: x y z`` (nominal offset [m]).
+MARKER_DECLARATION = re.compile(r"marker\s+(\S+)\s+on\s+(\S+)")
+#: Largest plausible marker offset [m]: beyond it the numbers look like millimetres.
+MAX_MARKER_OFFSET = 20.0
+
+
+def declared_marker_offsets(metadata: dict[str, str]) -> dict[str, tuple[float, float, float]]:
+    """The nominal marker offsets a dataset declares: ``# marker m1 on tool0: 0.01 0 0.05`` gives
+    ``{"tool0@m1": (0.01, 0.0, 0.05)}`` [m, in the frame].
+
+    Raises:
+        DataError: a ``marker ...`` key not of the form ``marker <marker> on <frame>``, a marker name other than
+            letters, digits and ``_``, or a value that is not three finite numbers [m] below 20 m.
+    """
+    out: dict[str, tuple[float, float, float]] = {}
+    for key, value in metadata.items():
+        if not key.startswith("marker ") and key != "marker":
+            continue
+        match = MARKER_DECLARATION.fullmatch(key)
+        if match is None or not MARKER_NAME.fullmatch(match.group(1)):
+            raise DataError(f"metadata '{key}' is not '# marker <marker> on <frame>: x y z' (the marker in letters, "
+                            "digits and '_'; x y z its nominal offset [m] in the frame)")
+        try:
+            numbers = tuple(float(v) for v in value.replace(",", " ").split())
+        except ValueError:
+            numbers = ()
+        if len(numbers) != 3 or not all(math.isfinite(v) for v in numbers):
+            raise DataError(f"metadata '{key}' is '{value}'; a marker's nominal offset is three numbers x y z [m] in "
+                            "its frame")
+        if max(abs(v) for v in numbers) > MAX_MARKER_OFFSET:
+            raise DataError(f"metadata '{key}': {value} looks like millimetres; pincal expects metres")
+        out[f"{match.group(2)}@{match.group(1)}"] = (numbers[0], numbers[1], numbers[2])
+    return out
 
 
 def channel_sigma(key: str, metadata: dict[str, str], default: float | None, angle: bool = False) -> float | None:
@@ -43,9 +87,12 @@ def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_column
     non-actuated joint column (instrumented passive joints: encoders, LVDTs, scales).
 
     Weights: ``sigma`` [m, rad] if given (overrides everything), else per-channel σ from the
-    dataset's metadata (:func:`channel_sigma`), else the models' defaults.
+    dataset's metadata (:func:`channel_sigma`), else the models' defaults. Declared markers
+    (``position:<frame>@<marker>``) take their nominal offsets from the metadata
+    (:func:`declared_marker_offsets`); a declaration with no columns is refused (DataError).
     """
     meta = metadata or {}
+    nominal = declared_marker_offsets(meta)
     models = []
     for key in measurement_keys:
         model = parse_key(key, sigma or channel_sigma(key, meta, None))
@@ -53,7 +100,15 @@ def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_column
             angle = sigma or channel_sigma(key, meta, None, angle=True)
             if angle:
                 model = Pose(model.key, model.size, model.sigma, model.frame, angle)
+        if isinstance(model, Position) and model.target in nominal:
+            model = replace(model, nominal=nominal[model.target])
         models.append(model)
+    measured = {m.target for m in models if isinstance(m, Position) and m.marker}
+    stray = [t for t in nominal if t not in measured]
+    if stray:
+        frame, marker = stray[0].split("@")
+        raise DataError(f"metadata 'marker {marker} on {frame}' declares a marker the data have no columns for (no "
+                        f"position:{stray[0]}:x|y|z); markers measured: {listing(sorted(measured)) or 'none'}")
     for joint in joint_columns:
         if joint not in robot.actuated_joints:
             if not robot.model.existJointName(joint):

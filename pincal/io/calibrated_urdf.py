@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +21,8 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, RobotFileError, listing, not_found
-from pincal.identification.measurements import Measurement, Pose
+from pincal.identification.derivatives import marker_points
+from pincal.identification.measurements import Measurement, Pose, Position, split_target
 from pincal.identification.parameters import CORRECTION_KINDS, KINEMATIC_KINDS, ParameterSet
 from pincal.model.catalog import resolve_mesh_file
 from pincal.model.robot import Robot, _build_model, check_reference_assembly
@@ -36,18 +37,23 @@ Array = npt.NDArray[np.float64]
 MEASUREMENT_FRAME = "measurement_frame"
 #: Parameter kinds a calibrated URDF carries (all of pincal's kinds but the joint-value corrections, which go to the
 #: corrections file beside it: :mod:`pincal.io.corrections`; they are left out of the text, not refused).
-WRITTEN_KINDS = ("joint", "anchor", "offset", "base", "marker")
+WRITTEN_KINDS = ("joint", "anchor", "offset", "base", "marker", "cluster")
 
 
-def marker_link(frame: str) -> str:
-    """Name of the link a calibrated marker on ``frame`` becomes in the calibrated URDF (``<frame>_marker``)."""
-    return f"{frame}_marker"
+def marker_link(target: str) -> str:
+    """Name of the link a calibrated marker becomes in the calibrated URDF: ``<frame>_marker`` for the marker of
+    ``<frame>``, ``<frame>_marker_<marker>`` for declared marker ``<frame>@<marker>``."""
+    frame, marker = split_target(target)
+    return f"{frame}_marker_{marker}" if marker else f"{frame}_marker"
 
 
 def written_frame(measurement: Measurement, frame: str, parameters: ParameterSet) -> str:
     """The frame of the calibrated URDF whose origin (and orientation, for poses) ``measurement`` reads on
-    ``frame``: the marker link when ``parameters`` calibrate a marker on ``frame`` and the measurement
-    reads points (positions and distances; a pose reads the frame itself), else ``frame``."""
+    ``frame``: a declared marker's link for ``position:<frame>@<marker>``; the marker link when ``parameters``
+    calibrate a marker on ``frame`` and the measurement reads points (positions and distances; a pose reads the
+    frame itself); else ``frame``."""
+    if isinstance(measurement, Position) and measurement.marker:
+        return marker_link(measurement.target)
     marked = any(p.kind == "marker" and p.target == frame for p in parameters)
     return marker_link(frame) if marked and not isinstance(measurement, Pose) else frame
 
@@ -90,7 +96,8 @@ def _offset_motions(model: pin.Model, joint: str, value: float) -> dict[str, pin
 
 def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterSet, x: Array,
                           note: str = "", read_joints: Sequence[str] = (),
-                          measurement_frame: str = MEASUREMENT_FRAME) -> tuple[str, dict[str, float]]:
+                          measurement_frame: str = MEASUREMENT_FRAME,
+                          markers: Mapping[str, Sequence[float]] | None = None) -> tuple[str, dict[str, float]]:
     """URDF text of the calibrated robot: every estimate of ``x`` in the file, re-assembled at zero readings.
 
     What the file carries (docs/calibrated_urdf.md):
@@ -106,7 +113,9 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
       into that joint (recalibrating a calibrated file);
     - markers (``marker.<frame>.*``, a measured point's offset in ``frame``): a link
       ``<frame>_marker`` on ``frame``'s link by a fixed joint ``<frame>_marker_joint`` (an existing
-      one, from an earlier calibration, gets the new offset);
+      one, from an earlier calibration, gets the new offset); each declared marker ``<frame>@<marker>`` (given
+      in ``markers``, or with ``marker.<frame>@<marker>.*`` parameters) a link ``<frame>_marker_<marker>`` at its
+      calibrated point ``exp6(δ_cluster) · (nominal + δ_marker)``, by a fixed joint ``<frame>_marker_<marker>_joint``;
     - instrumented passive joints (``<joint>.offset`` of a non-actuated joint, and ``read_joints``):
       ``<joint_sensor joint="..." zero="z"/>``: the sensor reads ``q + z``, q the joint's value in the
       file, ``z = shift − δq`` [m or rad];
@@ -125,6 +134,8 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
         read_joints: Passive joints whose sensors are read (``joint:<name>`` measurements) besides those
             with an offset parameter; each gets a ``<joint_sensor>``.
         measurement_frame: Name of the measurement frame's link.
+        markers: Declared marker target (``<frame>@<marker>``) -> its nominal offset [m] in the frame: each
+            becomes a link, with or without parameters of its own.
 
     Returns:
         The text, and the reference shift of each passive joint [rad or m]: the new zero is the old
@@ -164,7 +175,7 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     shifts = _reassemble(robot, source_text, joint_origins, loop_origins, root) if ext.loops else {}
     tree = ET.fromstring(source_text)
     fixed_links = _measurement_frame_link(tree, parameters, x, joint_origins, root, measurement_frame)
-    fixed_links += _marker_links(tree, parameters, x, joint_origins, root)
+    fixed_links += _marker_links(tree, parameters, x, joint_origins, root, markers or {})
     offsets = {p.target: float(x[k]) for k, p in enumerate(parameters) if p.kind == "offset"}
     read = [j for j in dict.fromkeys([*read_joints, *offsets]) if j not in robot.actuated_joints]
     sensor_zeros = {j: shifts.get(j, 0.0) - offsets.get(j, 0.0) for j in read}
@@ -265,26 +276,32 @@ def _frame_link(tree: ET.Element, frame: str) -> str:
 
 
 def _marker_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_origins: dict[str, pin.SE3],
-                  root: dict[str, pin.SE3]) -> list[FixedLink]:
+                  root: dict[str, pin.SE3], declared: Mapping[str, Sequence[float]]) -> list[FixedLink]:
     """Each calibrated marker as a link on its frame's link (or composed into an existing marker joint)."""
     out = []
-    offsets: dict[str, Array] = {}
-    for k, p in enumerate(parameters):
-        if p.kind == "marker":
-            offsets.setdefault(p.target, np.zeros(3))[p.component] = x[k]
-    for frame, offset in offsets.items():
-        link, joint = marker_link(frame), f"{marker_link(frame)}_joint"
+    points = marker_points(parameters, x, {t: np.asarray(v, dtype=float) for t, v in declared.items()})
+    for target, point in points.items():
+        frame, marker = split_target(target)
+        link, joint = marker_link(target), f"{marker_link(target)}_joint"
         parent = _frame_link(tree, frame)
-        placement = pin.SE3(np.eye(3), offset)
+        placement = pin.SE3(np.eye(3), point.point)
         if _fixed_joint(tree, joint, parent, link):  # the marker of an earlier calibration: re-estimated
             if joint in joint_origins:
-                raise RobotFileError(f"link '{link}' cannot be both the marker on '{frame}' (marker.{frame}.*) and a "
+                raise RobotFileError(f"link '{link}' cannot be both the marker on '{frame}' (marker.{target}.*) and a "
                                      f"calibrated frame of its own ({joint}.*): choose one")
             joint_origins[joint] = placement
             continue
+        what = f"marker '{marker}' on '{frame}'" if marker else f"marker on '{frame}'"
         out.append(FixedLink(joint, parent, link, placement,
-                             f"pincal: the calibrated marker on '{frame}', the point measured there"))
+                             f"pincal: the calibrated {what}, the point measured there"))
     return out
+
+
+def declared_markers(models: Sequence[Measurement]) -> dict[str, tuple[float, float, float]]:
+    """The declared markers the measurements read (``position:<frame>@<marker>``) -> their nominal offsets [m] in
+    their frames (zero when the data declare none): what :func:`calibrated_robot_text` takes as ``markers``."""
+    return {m.target: m.nominal if m.nominal is not None else (0.0, 0.0, 0.0)
+            for m in models if isinstance(m, Position) and m.marker}
 
 
 def loadable_mesh_filenames(tree: ET.Element, urdf_dir: Path | None) -> dict[str, str]:

@@ -10,6 +10,8 @@ One row per sample (robot posture). Columns:
   column                                 unit                meaning
   =====================================  ==================  ========================================
   ``position:<frame>:x|y|z``             m                   frame origin in the measurement frame
+  ``position:<frame>@<marker>:x|y|z``    m                   marker ``<marker>`` fixed on ``<frame>``;
+                                                             all three empty: the marker was not seen
   ``pose:<frame>:x|y|z|qx|qy|qz|qw``     m, unit quaternion  frame placement in the measurement frame
   ``distance:<frameA>-<frameB>:d``       m                   distance between the two frame origins
   ``distance_increment:<A>-<B>:d``       m                   change of that distance since the previous
@@ -19,7 +21,11 @@ One row per sample (robot posture). Columns:
 - optional ``sample`` (an id) and ``set`` (``train`` or ``test``; default ``train``).
 
 Lines starting with ``#`` are comments; those before the header may carry metadata as
-``# key: value`` (``# robot: delta``, ``# sigma position: 1e-5``). SI units everywhere.
+``# key: value`` (``# robot: delta``, ``# sigma position: 1e-5``, ``# marker m1 on tool0: 0 0 0.05`` for a
+marker's nominal offset [m] in its frame). SI units everywhere.
+
+A position's three cells may all be empty (or NaN): that reading was not taken (an occluded marker), and the
+sample keeps its other readings. One or two empty cells of a position are an error.
 """
 
 from __future__ import annotations
@@ -45,6 +51,8 @@ Array = npt.NDArray[np.float64]
 #: measurement model's (a joint reading is a joint column).
 MEASUREMENT_COMPONENTS: dict[str, tuple[str, ...]] = {kind: model.components for kind, model in KIND_CLASSES.items()
                                                       if model.components}
+#: Measurement kinds whose readings a sample may lack, all cells empty (an occluded marker's position).
+OCCLUDABLE_KINDS = tuple(kind for kind, model in KIND_CLASSES.items() if model.components and model.occludable)
 SAMPLE_COLUMN = "sample"
 SET_COLUMN = "set"
 SET_NAMES = ("train", "test")
@@ -106,7 +114,8 @@ class Dataset:
         joints: (N, nj) joint readings [rad or m].
         measurements: Measurement key (``position:end_effector``, ``distance:O1-O2``) -> (N, k)
             array, k = 3 (position [m]), 7 (pose: x, y, z [m], qx, qy, qz, qw) or 1 (distances [m]).
-            The first row of a ``distance_increment`` measurement is NaN.
+            The first row of a ``distance_increment`` measurement is NaN; a position row of NaN is a reading
+            not taken (an occluded marker).
         sample_ids: N sample ids.
         sets: N set names, ``train`` or ``test``.
         metadata: ``# key: value`` header comments.
@@ -137,6 +146,11 @@ class Dataset:
             if _is_increment(key) and n and not np.isnan(array[0, 0]):
                 raise DataError(f"measurement '{key}': the first row must be NaN (no previous sample), "
                                 f"not {float(array[0, 0])!r}")
+            if kind in OCCLUDABLE_KINDS:
+                partial = np.flatnonzero(np.any(np.isnan(array), axis=1) & ~np.all(np.isnan(array), axis=1))
+                if partial.size:
+                    raise DataError(f"measurement '{key}', row {int(partial[0])}: some values are NaN and some not; a "
+                                    "reading not taken (an occluded marker) is NaN in all its values")
             measurements[key] = array
         self.measurements = measurements
         if len(self.sample_ids) != n or len(self.sets) != n:
@@ -261,8 +275,9 @@ def _layout(header: list[str], line: int, required: Sequence[str], known: Sequen
     return _Layout(joints, groups, seen.get(SAMPLE_COLUMN), seen.get(SET_COLUMN))
 
 
-def _number(cell: str, column: str, line: int, first_increment: bool = False) -> float:
-    """The number in one cell; empty or NaN only on the first row of a distance_increment column."""
+def _number(cell: str, column: str, line: int, first_increment: bool = False, may_be_empty: bool = False) -> float:
+    """The number in one cell; empty or NaN only on the first row of a distance_increment column, and in a
+    position's cells (``may_be_empty``: the caller checks that the position's cells are all empty or none)."""
     try:
         if "_" in cell:  # Python's float() reads "0.1_0" as 0.1; a measuring system never writes it
             raise ValueError(cell)
@@ -274,10 +289,13 @@ def _number(cell: str, column: str, line: int, first_increment: bool = False) ->
             raise DataError(f"column '{column}', line {line}: {cell} on the first row; a distance increment "
                             "has no previous sample there, so the cell must be empty or NaN")
         return value
+    if math.isnan(value) and may_be_empty:
+        return value
     if math.isnan(value):
         what = "is empty" if not cell else f"is '{cell}'"
         raise DataError(f"column '{column}', line {line}: the cell {what}; every reading and measurement "
-                        "needs a number (only the first row of a distance_increment column may be empty)")
+                        "needs a number (only the first row of a distance_increment column may be empty, and all "
+                        "three cells of a position whose marker was not seen)")
     if not math.isfinite(value):
         raise DataError(f"column '{column}', line {line}: '{cell}' is not finite")
     return value
@@ -382,9 +400,19 @@ def _parse(text: str, required: Sequence[str], min_samples: int, kinds: dict[str
             joints[r, c] = _number(cells[i], name, line)
         for key, cols in layout.groups.items():
             kind = key.partition(":")[0]
-            for c, component in enumerate(MEASUREMENT_COMPONENTS[kind]):
+            components = MEASUREMENT_COMPONENTS[kind]
+            for c, component in enumerate(components):
                 measurements[key][r, c] = _number(cells[cols[component]], f"{key}:{component}", line,
-                                                  first_increment=r == 0 and kind == "distance_increment")
+                                                  first_increment=r == 0 and kind == "distance_increment",
+                                                  may_be_empty=kind in OCCLUDABLE_KINDS)
+            empty = np.isnan(measurements[key][r])
+            if empty.any() and not empty.all():  # an occluded marker leaves every cell empty, not some
+                first = components[int(np.argmax(empty))]
+                what = "is empty" if not cells[cols[first]] else f"is '{cells[cols[first]]}'"
+                full = listing(f"{key}:{c}" for c, e in zip(components, empty, strict=True) if not e)
+                raise DataError(f"column '{key}:{first}', line {line}: the cell {what} but {full} hold numbers; a "
+                                f"marker that was not seen leaves all the cells of '{key}' empty, one seen fills them "
+                                "all")
         ids.append(cells[layout.sample] if layout.sample is not None else str(r))
         if layout.sample is not None and not ids[-1]:
             raise DataError(f"column '{SAMPLE_COLUMN}', line {line}: the sample id is empty")
@@ -485,6 +513,8 @@ def dataset_text(dataset: Dataset) -> str:
                             "with '#')")
     for key, values in dataset.measurements.items():
         body = values[1:] if _is_increment(key) else values
+        if key.partition(":")[0] in OCCLUDABLE_KINDS:  # readings not taken are written as empty cells
+            body = body[~np.all(np.isnan(body), axis=1)]
         if not np.all(np.isfinite(body)):
             raise DataError(f"measurement '{key}' holds NaN or infinite values")
     if not np.all(np.isfinite(dataset.joints)):

@@ -31,10 +31,12 @@ def registered_base(parameters: ParameterSet) -> bool:
 
 
 def angle_error_norms(errors: dict[str, Array]) -> Array:
-    """Per-sample orientation error angles [rad] of the pose measurements (norm of ``log3(R_measᵀ R_pred)``)."""
+    """Orientation error angles [rad] of the pose readings (norm of ``log3(R_measᵀ R_pred)``), one per reading taken
+    (a reading not taken, NaN, has none)."""
     parts = [np.linalg.norm(err[:, angle_columns(key)], axis=1) for key, err in errors.items()
              if angle_columns(key).stop > angle_columns(key).start]
-    return np.concatenate(parts) if parts else np.zeros(0)
+    norms = np.concatenate(parts) if parts else np.zeros(0)
+    return np.asarray(norms[~np.isnan(norms)], dtype=np.float64)
 
 
 def report_dict(result: CalibrationResult, problem: CalibrationProblem, x_true: Array | None = None,
@@ -57,6 +59,10 @@ def report_dict(result: CalibrationResult, problem: CalibrationProblem, x_true: 
         "units": "SI: m, rad",
         "n_samples": problem.observations.n_samples,
         "measurements": [m.key for m in problem.measurements],
+        "readings": problem.n_readings(),
+        "readings_not_seen": {m.key: problem.observations.n_samples - count for m, count
+                              in zip(problem.measurements, problem.n_readings().values(), strict=True)
+                              if m.occludable},
         "n_parameters": len(result.names),
         "n_identifiable": ident.rank,
         "condition_number": clean(ident.condition_number),

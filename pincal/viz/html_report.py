@@ -192,6 +192,7 @@ def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
     rows: list[tuple[str, str, str]] = [
         ("samples (fit / held out)", f"{report.get('n_samples')} / {n_test if n_test is not None else 0}", ""),
         ("measurements", ", ".join(report.get("measurements", [])), ""),
+        *_reading_rows(report),
         ("parameters", str(report.get("n_parameters")), ""),
         ("identifiable", f"{report.get('n_identifiable')} of {report.get('n_parameters')}", ""),
         ("estimated (after model selection)", _estimated(report), ""),
@@ -223,6 +224,18 @@ def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
         facts += (f"<tr><td>down-weighted samples (robust loss)</td>"
                   f"<td>{html.escape(', '.join(map(str, down)))}</td></tr>")
     return (f'<div class="cards"><div><table>{facts}</table></div><div>{"".join(table)}</div></div>')
+
+
+def _reading_rows(report: dict[str, Any]) -> list[tuple[str, str, str]]:
+    """The position readings the figures are made of (fit / held out), when some marker was not seen or several
+    are measured: every RMS is over the readings taken."""
+    unseen = report.get("readings_not_seen") or {}
+    if len(unseen) < 2 and not any(unseen.values()):
+        return []
+    fitted, held = report.get("readings") or {}, report.get("test_readings") or {}
+    return [("position readings (fit / held out; not seen in the fit)",
+             f"{sum(fitted.get(k, 0) for k in unseen)} / {sum(held.get(k, 0) for k in unseen)}; "
+             f"{sum(unseen.values())}", "")]
 
 
 def _estimated(report: dict[str, Any]) -> str:

@@ -36,7 +36,11 @@ def _rms(values: Array) -> float:
 def error_histograms(before: Array, after: Array, test_before: Array | None = None,
                      test_after: Array | None = None) -> Figure:
     """Histograms of the per-sample position errors [m] before and after calibration, on a log axis
-    (the two differ by orders of magnitude); held-out samples as outlines."""
+    (the two differ by orders of magnitude); held-out samples as outlines. Samples with no reading (NaN) are
+    left out."""
+    before, after = before[np.isfinite(before)], after[np.isfinite(after)]
+    if test_before is not None and test_after is not None:
+        test_before, test_after = test_before[np.isfinite(test_before)], test_after[np.isfinite(test_after)]
     figure = Figure(figsize=(7.5, 3.6), layout="constrained")
     ax = figure.subplots()
     series = [v for v in (before, after, test_before, test_after) if v is not None and len(v)]
@@ -64,7 +68,8 @@ def error_histograms(before: Array, after: Array, test_before: Array | None = No
 
 def errors_per_sample(before: Array, after: Array, test_before: Array | None = None,
                       test_after: Array | None = None) -> Figure:
-    """Each sample's position error [m] before and after, fit samples then held-out ones."""
+    """Each sample's position error [m] before and after, fit samples then held-out ones (a sample with no
+    reading, NaN, has no point)."""
     figure = Figure(figsize=(7.5, 3.4), layout="constrained")
     ax = figure.subplots()
     n = len(before)

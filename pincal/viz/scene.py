@@ -23,7 +23,7 @@ import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.identification.measurements import Pose, Position
-from pincal.identification.parameters import ParameterSet, choose_parameters
+from pincal.identification.parameters import MarkerFit, ParameterSet, choose_parameters
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.solver import length_columns
 from pincal.io.adapters import measurements_for, observations_from
@@ -80,12 +80,14 @@ class CalibrationView:
 
     @classmethod
     def from_result(cls, robot: Robot, dataset: Dataset, report: dict[str, Any],
-                    parameter_spec: list[str] | None = None, sigma: float | None = None) -> CalibrationView:
+                    parameter_spec: list[str] | None = None, sigma: float | None = None,
+                    markers: MarkerFit = "each") -> CalibrationView:
         """From a results JSON written earlier (``pincal calibrate --report``) and its dataset.
 
         Raises:
             DataError: the JSON is not a pincal report, or its parameters are not those chosen by
-                ``parameter_spec`` (pass the same ``--parameters`` as for the calibration).
+                ``parameter_spec`` and ``markers`` (pass the same ``--parameters`` and ``--markers`` as for the
+                calibration).
         """
         parameters = report.get("parameters") if isinstance(report, dict) else None
         def number(entry: Any) -> bool:
@@ -96,8 +98,8 @@ class CalibrationView:
             raise DataError("the result JSON has no 'parameters' of the form {name: {\"value\": number}}: expected a "
                             "report written by 'pincal calibrate --report'")
         train = dataset.of_set("train") if "train" in dataset.sets else dataset
-        models = measurements_for(robot, list(dataset.measurements), dataset.joint_names, sigma)
-        pset = choose_parameters(robot, models, parameter_spec)
+        models = measurements_for(robot, list(dataset.measurements), dataset.joint_names, sigma, dataset.metadata)
+        pset = choose_parameters(robot, models, parameter_spec, markers)
         removed = set((report.get("selection") or {}).get("removed") or [])  # what model selection left out
         pset = ParameterSet([p for p in pset if p.name not in removed])
         if set(pset.names) != set(report["parameters"]):
@@ -105,7 +107,7 @@ class CalibrationView:
             extra = sorted(set(pset.names) - set(report["parameters"]))
             raise DataError(f"the result's parameters differ from those chosen here (in the result only: "
                             f"{listing(missing) or '-'}; here only: {listing(extra) or '-'}): pass the same "
-                            "--parameters as for the calibration")
+                            "--parameters and --markers as for the calibration")
         x = np.array([float(report["parameters"][name]["value"]) for name in pset.names])
         obs = observations_from(robot, train.joint_names, train.joints, train.measurements, models)
         problem = CalibrationProblem(robot, pset, models, obs)
@@ -121,13 +123,20 @@ class CalibrationView:
         return pin.exp6(problem.parameters.placement_delta(self.x, problem.base))
 
     def point_errors(self) -> tuple[Array | None, Array | None, Array | None]:
-        """Measured points (N, 3) [m] and the error vectors before and after (N, 3) [m], from the first
-        position or pose measurement; three Nones when no 3D point is measured."""
-        for m in self.problem.measurements:
-            if isinstance(m, (Position, Pose)):
-                points = self.problem.observations.values[m.key][:, :3]
-                return points, self.errors_before[m.key][:, :3], self.errors_after[m.key][:, :3]
-        return None, None, None
+        """Measured points (N, 3) [m] and the error vectors before and after (N, 3) [m]: of each sample, its
+        first position or pose reading taken (an occluded marker gives way to the next one; NaN rows for a
+        sample with none); three Nones when no 3D point is measured."""
+        located = [m for m in self.problem.measurements if isinstance(m, (Position, Pose))]
+        if not located:
+            return None, None, None
+        n = self.problem.observations.n_samples
+        points, before, after = (np.full((n, 3), np.nan) for _ in range(3))
+        for m in reversed(located):  # the first measurement's reading, where taken, is written last
+            taken = self.problem.seen(m.key)
+            points[taken] = self.problem.observations.values[m.key][taken, :3]
+            before[taken] = self.errors_before[m.key][taken, :3]
+            after[taken] = self.errors_after[m.key][taken, :3]
+        return points, before, after
 
     @property
     def has_lengths(self) -> bool:
@@ -136,7 +145,8 @@ class CalibrationView:
 
     def sample_errors(self) -> tuple[Array, Array]:
         """Per-sample error size before and after [m]: the length-type errors (positions, pose positions,
-        distances) of each sample together, as in the report; zeros when there are none."""
+        distances) of each sample together, as in the report (NaN for a sample that took no such reading); zeros
+        when nothing length-like is measured."""
         n = self.problem.observations.n_samples
         before, after = sample_length_errors(self.errors_before, n), sample_length_errors(self.errors_after, n)
         return (before, after) if before is not None and after is not None else (np.zeros(n), np.zeros(n))
@@ -205,14 +215,23 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
              "robot_calibrated": _frame_poses(calibrated, q_calibrated, frame_ids, base)}
     points, before, after = view.point_errors()
     has_points = points is not None
-    if points is None:
+    if points is None or np.isnan(points).any():  # nothing 3D measured, or a sample whose markers were all unseen
         ee = [int(calibrated.frame_id(calibrated.end_effector))]
-        points = _frame_poses(calibrated, q_calibrated, ee, base)[ee[0]][:, :3, 3]
+        effector = _frame_poses(calibrated, q_calibrated, ee, base)[ee[0]][:, :3, 3]
+        if points is None:
+            points = effector
+        else:  # drawn at the calibrated end effector, with no error segment
+            unseen = np.isnan(points).any(axis=1)
+            points[unseen] = effector[unseen]
+            for errors in (before, after):
+                if errors is not None:
+                    errors[unseen] = 0.0
     n = len(points)
     cloud = np.vstack([points, *(p[:, :3, 3] for p in poses["robot_nominal"].values())])
     radius = max(float(np.linalg.norm(cloud.max(axis=0) - cloud.min(axis=0))) / 2, 1e-3)
     sample_before, sample_after = view.sample_errors()
-    scale = float(max(sample_before.max(initial=0.0), sample_after.max(initial=0.0)))
+    sizes = np.concatenate([sample_before, sample_after])
+    scale = float(sizes[np.isfinite(sizes)].max(initial=0.0))
     largest = float(np.linalg.norm(before, axis=1).max(initial=0.0)) if before is not None else 0.0
     magnification = _nice_factor(SEGMENT_FRACTION * 2 * radius / largest) if largest > 0 else 1.0
 

@@ -218,12 +218,17 @@ def _legend(summary: SceneSummary, title: str) -> str:
 </div>"""
 
 
+def _mm(size: float) -> str:
+    """A sample's error size [m] as the slider's label shows it [mm]; a dash for a sample with no reading."""
+    return f"{size * 1e3:.4g}" if np.isfinite(size) else "–"
+
+
 def scene_page(scene: StaticScene, summary: SceneSummary, title: str) -> str:
     """A self-contained HTML page of the recorded scene, with a legend and a sample slider."""
     commands = json.dumps([base64.b64encode(c).decode("ascii") for c in scene.packed()])
     samples = json.dumps({"count": summary.n_samples,
-                          "before": [f"{v * 1e3:.4g}" for v in summary.sample_before] if summary.has_lengths else None,
-                          "after": [f"{v * 1e3:.4g}" for v in summary.sample_after] if summary.has_lengths else None})
+                          "before": [_mm(v) for v in summary.sample_before] if summary.has_lengths else None,
+                          "after": [_mm(v) for v in summary.sample_after] if summary.has_lengths else None})
     script = PAGE_SCRIPT % {"commands": commands, "samples": samples}
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
             f"<style>{PAGE_STYLE}</style></head>\n<body>\n<div id=\"meshcat-pane\"></div>\n"

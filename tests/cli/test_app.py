@@ -168,6 +168,68 @@ def test_cross_validation_through_the_cli(tmp_path: Path) -> None:
         assert done.returncode == 2 and done.stderr.count("\n") == 1 and words in done.stderr, done.stderr
 
 
+TIAGO_MARKERS = TIAGO_DATA.with_name("tiago_mocap_markers.csv")
+
+
+def test_real_tiago_data_with_three_markers(tmp_path: Path) -> None:
+    """The TIAGo hand's markers 1–3 as m1, m2, m3 on wrist_ft_tool_link (marker 4 duplicates 3): the default command
+    fits each marker's offset with the robot and the mocap frame, reports its RMS over the 84 marker readings of
+    the fit (18 held out), writes one link per marker, and predicts the held-out postures within 5 mm."""
+    from conftest import run_pincal
+
+    report, out = tmp_path / "report.json", tmp_path / "cal.urdf"
+    done = run_pincal("calibrate", "tiago_no_hand", str(TIAGO_MARKERS), "--report", str(report), "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert "position readings: fitted 84 (wrist_ft_tool_link: m1 28, m2 28, m3 28), not seen 0; held out 18" in lines
+    assert "  (each RMS position error is over the readings taken: one 3D error per marker seen)" in lines
+    data = json.loads(report.read_text())
+    assert data["readings"] == {f"position:wrist_ft_tool_link@m{k}": 28 for k in (1, 2, 3)}
+    assert {f"marker.wrist_ft_tool_link@m{k}.{a}" for k in (1, 2, 3) for a in "xyz"} <= set(data["parameters"])
+    assert data["n_residuals"] == 84 * 3
+    fit = next(line for line in lines if line.startswith("RMS position error (fit)"))
+    held_out = next(line for line in lines if line.startswith("RMS position error (held out)"))
+    assert float(fit.split()[-2]) < 3.0 and float(held_out.split()[-2]) < 5.0  # [mm]; 2.23 and 4.20 on this file
+    text = out.read_text()
+    assert all(f'<link name="wrist_ft_tool_link_marker_m{k}"/>' in text for k in (1, 2, 3))
+
+
+def test_occluded_markers_are_counted_and_a_sample_that_saw_none_is_dropped(tmp_path: Path) -> None:
+    """The three-marker TIAGo file with cells emptied: a marker not seen leaves its sample's other markers in the
+    fit, the summary counts the readings taken per marker, and a sample that saw no marker is dropped with that
+    reason; one empty cell of three is refused, naming it."""
+    from conftest import run_pincal
+
+    lines = TIAGO_MARKERS.read_text().splitlines()
+    header = next(k for k, line in enumerate(lines) if not line.startswith("#"))
+    columns = lines[header].split(",")
+    blanks = {2: ["m1"], 5: ["m2", "m3"], 11: ["m3"], 7: ["m1", "m2", "m3"], 9: ["m2"]}  # sample 9 is held out
+    rows = [line.split(",") for line in lines[header + 1:]]
+    for sample, markers in blanks.items():
+        for marker in markers:
+            for axis in "xyz":
+                rows[sample][columns.index(f"position:wrist_ft_tool_link@{marker}:{axis}")] = ""
+    data = tmp_path / "occluded.csv"
+    data.write_text("\n".join(lines[:header + 1] + [",".join(row) for row in rows]) + "\n")
+    report = tmp_path / "report.json"
+    done = run_pincal("calibrate", "tiago_no_hand", str(data), "--report", str(report))
+    assert done.returncode == 0, done.stderr
+    out = done.stdout.splitlines()
+    assert any(line.startswith("samples in the file 34: fitted 27, held out 6, dropped 1") for line in out)
+    assert "  - sample 7: no reading: the cells of any of the 3 markers are all empty (not seen)" in out
+    assert "position readings: fitted 77 (wrist_ft_tool_link: m1 26, m2 26, m3 25), not seen 4; held out 17" in out
+    result = json.loads(report.read_text())
+    assert result["readings_not_seen"] == {"position:wrist_ft_tool_link@m1": 1, "position:wrist_ft_tool_link@m2": 1,
+                                           "position:wrist_ft_tool_link@m3": 2}
+    assert result["n_residuals"] == 77 * 3 and result["test_readings"]["position:wrist_ft_tool_link@m2"] == 5
+    assert all(v is None or v == v for v in (result["rms_after"], result["test_rms_after"]))  # no NaN figure
+    rows[3][columns.index("position:wrist_ft_tool_link@m2:y")] = ""
+    data.write_text("\n".join(lines[:header + 1] + [",".join(row) for row in rows]) + "\n")
+    done = run_pincal("calibrate", "tiago_no_hand", str(data))
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "column 'position:wrist_ft_tool_link@m2:y', line 12: the cell is empty but" in done.stderr
+
+
 def test_a_joint_that_moves_the_marker_must_have_a_column(tmp_path: Path) -> None:
     from conftest import run_pincal
 

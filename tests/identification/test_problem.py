@@ -8,8 +8,9 @@ import pytest
 from conftest import finite_difference_jacobian
 
 import pincal
+from pincal.errors import DataError
 from pincal.identification import measurements as ms
-from pincal.identification.parameters import candidate_parameters
+from pincal.identification.parameters import ParameterSet, candidate_parameters, cluster_parameters, marker_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.study.simulation import random_actuated
 
@@ -56,3 +57,80 @@ def test_measurement_jacobians_match_finite_differences(name: str) -> None:
     scale = np.max(np.abs(fd))
     worst = np.max(np.abs(jac - fd), axis=0) / scale
     assert worst.max() < 2e-5, f"worst column {pset.names[int(np.argmax(worst))]}: {worst.max():.2e}"
+
+
+# --- markers declared on a body: each one's offset, the cluster's placement, occluded readings ------------------
+def _marker_problem(name: str, frame: str, occluded: dict[str, list[int]] | None = None) -> CalibrationProblem:
+    """Three declared markers on ``frame`` at nominal offsets [m], the frame's own point, and a distance from the
+    frame; every candidate parameter, each marker's offset and the cluster's placement; ``occluded``: marker key ->
+    samples that did not see it."""
+    robot = pincal.load_robot(name)
+    nominal = {"m1": (0.05, 0.0, 0.02), "m2": (-0.03, 0.04, 0.0), "m3": (0.0, -0.02, 0.06)}
+    models = [ms.position(frame, marker=m, nominal=n) for m, n in nominal.items()]
+    models += [ms.position(frame), ms.distance(frame, robot.model.frames[1].name)]
+    pset = candidate_parameters(robot, frames=[frame], offsets=list(robot.actuated_joints), base=True, markers=True)
+    pset = ParameterSet(pset.parameters + [p for m in models[:3] for p in marker_parameters(m.target)]
+                        + cluster_parameters(frame))
+    rng = np.random.default_rng(3)
+    qa, _ = random_actuated(robot, 5, rng)
+    values = _blank(models, 5)
+    for key, samples in (occluded or {}).items():
+        values[key][samples] = np.nan
+    return CalibrationProblem(robot, pset, models, Observations(qa, values))
+
+
+@pytest.mark.parametrize(("name", "frame"), [("ur10", "tool0"), ("delta", "end_effector")])
+def test_marker_and_cluster_jacobians_match_finite_differences(name: str, frame: str) -> None:
+    """Each declared marker's point ``exp6(δ_c)·(nominal + δ_m)`` on its frame: the marker, cluster, base and robot
+    columns against central differences, away from zero (the cluster's right Jacobian of exp6 matters there)."""
+    problem = _marker_problem(name, frame)
+    rng = np.random.default_rng(12)
+    x = rng.normal(scale=1e-2, size=len(problem.parameters))  # 1 cm, 10 mrad: exp6's Jacobian is not the identity
+    jac = problem.evaluate(x).jacobian
+    assert jac is not None
+    fd = finite_difference_jacobian(problem, x)
+    worst = np.max(np.abs(jac - fd), axis=0) / np.max(np.abs(fd))
+    assert worst.max() < 2e-5, f"worst column {problem.parameters.names[int(np.argmax(worst))]}: {worst.max():.2e}"
+    cluster = [k for k, p in enumerate(problem.parameters) if p.kind == "cluster"]
+    assert np.abs(jac[:, cluster]).max() > 0.0
+
+
+def test_an_occluded_marker_has_no_rows_and_a_nan_error() -> None:
+    """A reading not taken (NaN) leaves its rows out of the residual, the Jacobian and the row-to-sample map; its
+    error stays NaN; the other readings of that sample are used. The Jacobian still matches finite differences."""
+    frame = "tool0"
+    full = _marker_problem("ur10", frame)
+    key = f"position:{frame}@m2"
+    problem = _marker_problem("ur10", frame, {key: [1, 3]})
+    x = np.random.default_rng(4).normal(scale=1e-3, size=len(problem.parameters))
+    pred, whole = problem.evaluate(x), full.evaluate(x)
+    assert pred.jacobian is not None and whole.jacobian is not None
+    assert pred.residual.size == whole.residual.size - 2 * 3
+    assert pred.jacobian.shape == (pred.residual.size, len(problem.parameters))
+    samples = problem.row_samples()
+    assert samples.size == pred.residual.size
+    assert np.array_equal(np.bincount(samples, minlength=5), np.bincount(full.row_samples(), minlength=5)
+                          - 3 * np.isin(np.arange(5), [1, 3]))
+    assert np.isnan(pred.errors[key][[1, 3]]).all() and np.isfinite(pred.errors[key][[0, 2, 4]]).all()
+    assert problem.n_readings()[key] == 3 and problem.n_readings()[f"position:{frame}@m1"] == 5
+    kept = np.ones(whole.residual.size, dtype=bool)
+    first = 3 * 5  # m1's 15 rows come first, then m2's
+    kept[[first + 3 * k + c for k in (1, 3) for c in range(3)]] = False
+    np.testing.assert_array_equal(pred.residual, whole.residual[kept])
+    fd = finite_difference_jacobian(problem, x)
+    assert np.max(np.abs(pred.jacobian - fd)) < 2e-5 * np.max(np.abs(fd))
+
+
+def test_a_reading_partly_missing_is_refused() -> None:
+    problem = _marker_problem("ur10", "tool0")
+    values = dict(problem.observations.values)
+    values["position:tool0@m1"] = values["position:tool0@m1"].copy()
+    values["position:tool0@m1"][2, 1] = np.nan
+    with pytest.raises(DataError, match=r"'position:tool0@m1' of sample 2 is NaN or infinite \(a reading not taken"):
+        CalibrationProblem(problem.robot, problem.parameters, problem.measurements,
+                           Observations(problem.observations.actuated, values))
+    values = dict(problem.observations.values)
+    values["distance:tool0-" + problem.robot.model.frames[1].name] = np.full((5, 1), np.nan)
+    with pytest.raises(DataError, match=r"of sample 0 is NaN or infinite$"):  # a distance cannot be occluded
+        CalibrationProblem(problem.robot, problem.parameters, problem.measurements,
+                           Observations(problem.observations.actuated, values))

@@ -15,10 +15,11 @@ import pytest
 import pincal
 from pincal.errors import DataError, IdentifiabilityError
 from pincal.identification import measurements as ms
+from pincal.identification.derivatives import marker_points
 from pincal.identification.identifiability import analyse
-from pincal.identification.parameters import choose_parameters
+from pincal.identification.parameters import choose_parameters, default_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
-from pincal.identification.solver import error_norms, identify
+from pincal.identification.solver import _sample_weights, error_norms, identify
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 DEVICE = [ms.joint_reading(j) for j in ("device_incl_x", "device_incl_y", "device_lvdt", "device_rotary")]
@@ -220,3 +221,61 @@ def test_exact_fit_floor_follows_the_stated_sigma_and_the_fk_tolerance(sigma: fl
     # the orientation rows of the pose are held to their own σ (10 × here)
     errors["pose:flange"][1, 4] = 5.0 * error
     assert at_floor(errors, floors) is (exact and 5.0 * error <= max(FLOOR_SIGMA_FRACTION * 10 * sigma, 1e-8))
+
+
+# --- several markers on one body, some not seen -------------------------------------------------------------------
+MARKERS = {"m1": (0.06, 0.0, 0.03), "m2": (-0.04, 0.05, 0.01), "m3": (0.0, -0.05, 0.07)}
+
+
+def _marker_points(problem: CalibrationProblem, x: np.ndarray) -> dict[str, np.ndarray]:
+    return {t: p.point for t, p in marker_points(problem.parameters, x, problem.marker_nominals).items()}
+
+
+@pytest.mark.parametrize("fit", ["each", "cluster"])
+def test_three_markers_on_one_body_come_back_with_occluded_readings(fit: str) -> None:
+    """UR10, three markers on tool0 at declared nominal offsets, the true robot off by 1 mm / 1 mrad everywhere
+    (markers or cluster included), a fifth of the readings not seen: the fit is exact on every reading taken, and
+    the markers' distances to one another come back (their common offset trades with the tool, and their
+    orientation about the last joint's axis with that joint's offset)."""
+    robot = pincal.load_robot("ur10")
+    models = [ms.position("tool0", marker=m, nominal=n) for m, n in MARKERS.items()]
+    pset = default_parameters(robot, models, markers=fit)
+    kinds = {p.kind for p in pset}
+    assert ("cluster" in kinds) == (fit == "cluster") and ("marker" in kinds) == (fit == "each")
+    rng = np.random.default_rng(8)
+    qa, _ = random_actuated(robot, 30, rng)
+    x_true = perturbation(pset, 1e-3, rng)
+    obs = simulate_observations(robot, pset, x_true, models, qa, rng)
+    unseen = rng.random((30, 3)) < 0.2
+    unseen[unseen.all(axis=1), 0] = False  # every sample keeps one marker
+    for j, m in enumerate(models):
+        obs.values[m.key][unseen[:, j]] = np.nan
+    problem = CalibrationProblem(robot, pset, models, obs)
+    assert sum(problem.n_readings().values()) == 90 - int(unseen.sum())
+    result = identify(problem)
+    assert result.converged, result.message
+    assert error_norms(result.errors_after).size == 90 - int(unseen.sum())
+    assert error_norms(result.errors_after).max() < 1e-8
+    assert all(np.isnan(result.errors_after[m.key][unseen[:, j]]).all() for j, m in enumerate(models))
+    found, truth = _marker_points(problem, result.x), _marker_points(problem, x_true)
+    for a, b in (("m1", "m2"), ("m1", "m3"), ("m2", "m3")):
+        apart = np.linalg.norm(found[f"tool0@{a}"] - found[f"tool0@{b}"])
+        assert apart == pytest.approx(np.linalg.norm(truth[f"tool0@{a}"] - truth[f"tool0@{b}"]), abs=1e-9)
+
+
+def test_the_robust_loss_judges_a_sample_by_its_readings_taken() -> None:
+    """A sample that saw one marker of three is neither favoured nor penalised by the Cauchy weights for having
+    fewer rows: with every sample off by the same error per reading, every weight is the same."""
+    robot = pincal.load_robot("ur10")
+    models = [ms.position("tool0", marker=m, nominal=n) for m, n in MARKERS.items()]
+    pset = default_parameters(robot, models)
+    rng = np.random.default_rng(2)
+    qa, _ = random_actuated(robot, 12, rng)
+    obs = simulate_observations(robot, pset, np.zeros(len(pset)), models, qa, rng)
+    for m in models:
+        obs.values[m.key] += 1e-4  # the same error on every reading
+    obs.values[models[1].key][[2, 5]] = np.nan
+    obs.values[models[2].key][[2, 7]] = np.nan
+    problem = CalibrationProblem(robot, pset, models, obs)
+    weights = _sample_weights(problem, problem.evaluate(np.zeros(len(pset)), jacobian=False), "cauchy")
+    np.testing.assert_allclose(weights, weights[0], rtol=1e-12)

@@ -6,7 +6,7 @@ contain").
 for trees also plain Pinocchio), with ``q`` its forward kinematics at ``qa``:
 
 - ``position:f``: the origin of frame ``f`` (of ``f_marker`` when a marker on ``f`` is calibrated) in the
-  file's root frame;
+  file's root frame; ``position:f@m``: the origin of ``f_marker_m``;
 - ``pose:f``: the placement of ``f`` in the root frame;
 - ``distance:a-b`` and ``distance_increment:a-b``: the distance between the two origins (increments are its
   differences, so they follow);
@@ -29,10 +29,16 @@ import pytest
 from conftest import run_pincal
 
 import pincal
-from pincal.identification.measurements import Distance, JointReading, Measurement, Pose, Position, parse_key
+from pincal.identification.measurements import Distance, JointReading, Measurement, Pose, Position, parse_key, position
 from pincal.identification.parameters import ParameterSet, candidate_parameters, choose_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
-from pincal.io.calibrated_urdf import MEASUREMENT_FRAME, calibrated_robot_text, source_text, written_frame
+from pincal.io.calibrated_urdf import (
+    MEASUREMENT_FRAME,
+    calibrated_robot_text,
+    declared_markers,
+    source_text,
+    written_frame,
+)
 from pincal.io.dataset import read_dataset
 from pincal.model.robot import Robot
 from pincal.study.simulation import perturbation, random_actuated
@@ -84,6 +90,8 @@ def _sensor_zeros(text: str) -> dict[str, float]:
 
 
 def _point_frame(m: Measurement, frame: str, pset: ParameterSet) -> str:
+    if isinstance(m, Position) and m.marker:
+        return f"{frame}_marker_{m.marker}"
     marked = any(p.kind == "marker" and p.target == frame for p in pset)
     return f"{frame}_marker" if marked and not isinstance(m, Pose) else frame
 
@@ -158,7 +166,8 @@ def _roots(text: str) -> set[str]:
 
 def _write(robot: Robot, pset: ParameterSet, x: Array, models: list[Measurement], path: Path) -> str:
     read = [m.joint for m in models if isinstance(m, JointReading)]
-    text, _ = calibrated_robot_text(robot, source_text(robot), pset, x, note="test", read_joints=read)
+    text, _ = calibrated_robot_text(robot, source_text(robot), pset, x, note="test", read_joints=read,
+                                    markers=declared_markers(models))
     path.write_text(text, encoding="utf-8")
     return text
 
@@ -239,6 +248,34 @@ def test_markers_become_frames_named_after_their_measurement(name: str, keys: li
     assert _worst_gap(robot, pset, models, x, tmp_path / "cal.urdf") <= TOLERANCE
 
 
+@pytest.mark.parametrize("fit", ["each", "cluster"])
+@pytest.mark.parametrize(("name", "frame"), [("delta", "end_effector"), ("ur10", "tool0")])
+def test_declared_markers_become_links_at_their_calibrated_points(name: str, frame: str, fit: str,
+                                                                   tmp_path: Path) -> None:
+    """Markers m1, m2 declared on a frame at nominal offsets, fitted each or as a cluster, and m3 known (its
+    offset given, no parameter): each is a link ``<frame>_marker_<m>`` by a fixed joint, and the file reproduces
+    every marker's predicted position; a recalibration moves the same links."""
+    robot = pincal.load_robot(name)
+    models: list[Measurement] = [position(frame, marker="m1", nominal=(0.05, 0.0, 0.02)),
+                                 position(frame, marker="m2", nominal=(-0.03, 0.04, 0.0)),
+                                 position(frame, marker="m3", nominal=(0.0, -0.02, 0.06))]
+    pset = choose_parameters(robot, models, ["default", f"!marker.{frame}@m3.*"] if fit == "each" else None, fit)
+    assert not any(p.target == f"{frame}@m3" for p in pset)
+    assert ("cluster" in {p.kind for p in pset}) == (fit == "cluster")
+    for step, path in enumerate((tmp_path / "cal.urdf", tmp_path / "again.urdf")):
+        x = perturbation(pset, 1e-2, np.random.default_rng(6 + step))  # 1 cm, 10 mrad
+        text = _write(robot, pset, x, models, path)
+        tree = ET.fromstring(text)
+        links = [link.get("name") for link in tree.findall("link")]
+        for marker in ("m1", "m2", "m3"):
+            assert links.count(f"{frame}_marker_{marker}") == 1
+            joint = tree.find(f"joint[@name='{frame}_marker_{marker}_joint']")
+            assert joint is not None and joint.get("type") == "fixed"
+            assert written_frame(models[0], frame, pset) == f"{frame}_marker_m1"
+        assert _worst_gap(robot, pset, models, x, path) <= TOLERANCE
+        robot = pincal.load_robot(path)  # recalibrated: the marker joints get the new points, none is added
+
+
 @pytest.mark.parametrize(("name", "keys"), [("delta", ["position:end_effector", "joint:rod_1_pitch"]),
                                             ("ur10", ["position:tool0", "pose:tool0"])])
 def test_recalibrating_a_calibrated_file(name: str, keys: list[str], tmp_path: Path) -> None:
@@ -309,6 +346,7 @@ def test_relative_and_package_meshes_resolve_to_local_files(tmp_path: Path, monk
     ("hexapod_device", ["pose", "joint:device_lvdt", "joint:device_incl_x", "joint:device_incl_y"]),
     ("five_bar", ["distance_increment:base_link-end_effector", "joint:scale_joint"]),
     ("ur10", ["position", "pose"]),
+    ("ur10", ["position:tool0@m1", "position:tool0@m2", "position:wrist_3_link@m1"]),
 ])
 def test_simulated_truth_reproduces_its_measurements(name: str, kinds: list[str], tmp_path: Path) -> None:
     """``truth.urdf`` of a noise-free simulation reproduces ``measurements.csv``: positions and poses in its root

@@ -53,6 +53,10 @@ def _assert_identical(a: Dataset, b: Dataset) -> None:
     assert a.metadata == b.metadata
 
 
+#: Two markers on one frame: the frame's own point and marker m2.
+MARKERS_HEADER = f"{HEADER},position:end_effector@m2:x,position:end_effector@m2:y,position:end_effector@m2:z"
+
+
 def _write(tmp_path: Path, text: str) -> Path:
     path = tmp_path / "data.csv"
     path.write_text(text)
@@ -219,6 +223,21 @@ MALFORMED = {
         f"# robot: delta\n# robot: hexapod\n{HEADER}\n{GOOD_ROW}\n",
         r"metadata 'robot' is given twice \(lines 1 and 2\)"),
     "no header": ("# robot: delta\n\n", r"no header line"),
+    "marker partly empty": (
+        f"{MARKERS_HEADER}\n0,train,0.1,0.2,0.3,0.01,0.02,-0.2,0.03,,-0.2\n",
+        r"column 'position:end_effector@m2:y', line 2: the cell is empty but position:end_effector@m2:x, "
+        r"position:end_effector@m2:z hold numbers; a marker that was not seen leaves all the cells"),
+    "marker partly NaN": (
+        f"{MARKERS_HEADER}\n0,train,0.1,0.2,0.3,0.01,0.02,-0.2,0.03,0.02,nan\n",
+        r"column 'position:end_effector@m2:z', line 2: the cell is 'nan' but position:end_effector@m2:x, "
+        r"position:end_effector@m2:y hold numbers"),
+    "bad marker name": (
+        "arm_1_joint,arm_2_joint,arm_3_joint,position:ee@m-1:x,position:ee@m-1:y,position:ee@m-1:z\n0.1,0.2,0.3,0,0,0\n",
+        r"column 'position:ee@m-1:x': measurement 'position:ee@m-1' must name a frame and a marker as "
+        r"'position:<frame>@<marker>', the marker in letters, digits and '_'"),
+    "no marker name": (
+        "arm_1_joint,arm_2_joint,arm_3_joint,position:ee@:x,position:ee@:y,position:ee@:z\n0.1,0.2,0.3,0,0,0\n",
+        r"measurement 'position:ee@' must name a frame and a marker"),
 }
 
 
@@ -261,3 +280,32 @@ def test_degrees_and_millimetre_joint_readings(tmp_path: Path) -> None:
                                         "like millimetres; pincal expects metres"):
         read_dataset(path, joint_kinds=kinds)
     assert read_dataset(path).n_samples == 3  # without joint kinds, readings are not judged
+
+
+def test_a_marker_not_seen_leaves_its_cells_empty_and_round_trips(tmp_path: Path) -> None:
+    """All three cells of a marker empty (or NaN): that reading was not taken, the sample keeps its others; written
+    back as empty cells, read back the same."""
+    text = (f"# robot: delta\n{MARKERS_HEADER}\n0,train,0.1,0.2,0.3,0.01,0.02,-0.2,,,\n"
+            "1,test,0.2,0.2,0.3,,,,0.03,0.02,-0.21\n2,train,0.3,0.2,0.3,NaN,nan,NAN,0.03,0.02,-0.22\n"
+            "3,train,0.4,0.2,0.3,0.01,0.02,-0.2,0.03,0.02,-0.23\n")
+    data = read_dataset(_write(tmp_path, text), joint_names_required=JOINTS)
+    assert list(data.measurements) == ["position:end_effector", "position:end_effector@m2"]
+    assert np.isnan(data.measurements["position:end_effector@m2"][0]).all()
+    assert np.isnan(data.measurements["position:end_effector"][[1, 2]]).all()
+    assert np.isfinite(data.measurements["position:end_effector@m2"][1:]).all()
+    write_dataset(data, tmp_path / "again.csv")
+    assert ",,," in (tmp_path / "again.csv").read_text()
+    _assert_identical(read_dataset(tmp_path / "again.csv"), data)
+    _assert_identical(data.subset([2, 0]).subset([1]), data.subset([0]))
+
+
+def test_a_dataset_refuses_a_marker_reading_partly_nan() -> None:
+    values = np.zeros((2, 3))
+    values[1, 2] = np.nan
+    with pytest.raises(DataError, match=r"'position:ee@m1', row 1: some values are NaN and some not"):
+        Dataset(["a"], np.zeros((2, 1)), {"position:ee@m1": values}, ["0", "1"], ["train"] * 2)
+    values = np.zeros((2, 1))
+    values[1] = np.nan
+    data = Dataset(["a"], np.zeros((2, 1)), {"distance:a-b": values}, ["0", "1"], ["train"] * 2)
+    with pytest.raises(DataError, match="'distance:a-b' holds NaN"):  # a distance is never occluded
+        write_dataset(data, Path("unused.csv"))

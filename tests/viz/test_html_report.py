@@ -146,3 +146,25 @@ def test_demo_report(tmp_path: Path) -> None:
     page = path.read_text(encoding="utf-8")
     assert "Calibration of delta" in page and "held-out samples" in page and "<th>truth</th>" in page
     assert _mm(cal.report["test_rms_after"]) in page
+
+
+def test_a_report_on_occluded_markers_counts_the_readings(tmp_path: Path) -> None:
+    """Three markers on the UR10's tool0, some not seen, and one sample that saw none: the report (fitted afresh,
+    or from a result JSON with the file's marker declarations, where that sample has no error) says how many
+    readings its figures are made of."""
+    from pincal.io.dataset import write_dataset
+
+    robot = pincal.load_robot("ur10")
+    sim = simulate(robot, ["position:tool0@m1", "position:tool0@m2", "position:tool0@m3"], 20, 4, seed=4)
+    sim.dataset.measurements["position:tool0@m2"][[1, 3, 21]] = np.nan
+    for marker in ("m1", "m2", "m3"):  # sample 5 saw none: dropped from the fit, drawn without an error
+        sim.dataset.measurements[f"position:tool0@{marker}"][5] = np.nan
+    sim.dataset.metadata["marker m3 on tool0"] = "0 0 0.01"
+    data, result = tmp_path / "markers.csv", tmp_path / "result.json"
+    write_dataset(sim.dataset, data)
+    assert main(["calibrate", "ur10", str(data), "--select", "none", "--report", str(result)]) == 0
+    for extra in ([], ["--result", str(result)]):
+        page = tmp_path / "report.html"
+        assert main(["report", "ur10", str(data), "--select", "none", "--out", str(page), "--quiet", *extra]) == 0
+        text = page.read_text()
+        assert "<td>position readings (fit / held out; not seen in the fit)</td><td>55 / 11; 2</td>" in text

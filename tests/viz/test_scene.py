@@ -208,3 +208,24 @@ def test_view_command_and_result_reuse(tmp_path: Path, capsys: pytest.CaptureFix
     assert main(["view", "delta", str(data), "--result", str(result), "--out", str(scene), "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("pincal: error:") and "--parameters" in err[0]
+
+
+def test_occluded_markers_draw_each_sample_at_its_first_marker_seen(tmp_path: Path) -> None:
+    """Three markers on the UR10's tool0, some not seen: each sample's point and error segments come from its first
+    marker seen, never NaN, and the page holds finite transforms only."""
+    robot = pincal.load_robot("ur10")
+    sim = simulate(robot, ["position:tool0@m1", "position:tool0@m2", "position:tool0@m3"], 12, 0, seed=2)
+    values = sim.dataset.measurements
+    values["position:tool0@m1"][[1, 4]] = np.nan
+    values["position:tool0@m2"][[4]] = np.nan
+    view = CalibrationView.from_calibration(calibrate(robot, sim.dataset))
+    points, before, after = view.point_errors()
+    assert points is not None and before is not None and after is not None
+    assert np.isfinite(points).all() and np.isfinite(before).all() and np.isfinite(after).all()
+    np.testing.assert_array_equal(points[1], values["position:tool0@m2"][1])
+    np.testing.assert_array_equal(points[4], values["position:tool0@m3"][4])
+    np.testing.assert_array_equal(points[0], values["position:tool0@m1"][0])
+    page, summary = static_scene(view)
+    transforms = [c["matrix"] for c in _commands(page) if c["type"] == "set_transform"]
+    assert summary.n_samples == 12 and transforms and all(np.isfinite(np.asarray(m, dtype=float)).all()
+                                                          for m in transforms)
