@@ -39,6 +39,8 @@ from pincal.io.adapters import joints_at_reference, measurements_for, observatio
 from pincal.io.calibrated_urdf import calibrated_robot_text, joint_sensor_zeros, source_text
 from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text, read_dataset
 from pincal.io.files import check_outputs, make_directory, write_texts
+from pincal.io.job import Job, load_job_robot
+from pincal.io.job_data import job_dataset
 from pincal.io.report_data import angle_error_norms, json_text, report_dict
 from pincal.model.measured_frame import frame_moves
 from pincal.model.robot import Robot, load_robot, unusable_samples
@@ -551,5 +553,18 @@ def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, repor
     dataset = read_robot_dataset(data_path, robot)
     cal = calibrate(robot, dataset, **options)
     texts = ((out_urdf, cal.urdf_text), (report_path, json_text(cal.report) if report_path else ""))
+    write_texts([(path, text) for path, text in texts if path])  # both or neither
+    return cal
+
+
+def calibrate_job(job: Job) -> Calibration:
+    """:func:`calibrate` as a job file says (:mod:`pincal.io.job`): its robot, its data read into SI units, its
+    options; the outputs are checked before the fit (never over an input, the job file included) and each is written
+    whole or not at all."""
+    robot = load_job_robot(job)
+    outputs = [(what, path) for what, path in (("out", job.out), ("report", job.report)) if path]
+    check_outputs(outputs, [p for p in (robot.source, job.path, *job.files) if p is not None])
+    cal = calibrate(robot, job_dataset(job, robot), **job.options)
+    texts = ((job.out, cal.urdf_text), (job.report, json_text(cal.report) if job.report else ""))
     write_texts([(path, text) for path, text in texts if path])  # both or neither
     return cal
