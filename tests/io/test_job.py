@@ -318,3 +318,20 @@ def test_a_job_is_a_plain_value(tmp_path: Path) -> None:
     assert isinstance(job, Job) and job.measures[0].key == "position:wrist_ft_tool_link"
     assert job.measures[0].columns == ("x1", "y1", "z1") and job.measures[0].sigma == 1e-3
     assert job.held_out is not None and (job.held_out.every, job.held_out.start) == (5, 4)
+
+
+def test_the_fuller_example_of_docs_job_file_is_a_valid_job(tmp_path: Path) -> None:
+    page = (ROOT / "docs" / "job_file.md").read_text(encoding="utf-8")
+    text = page.split("```toml\n")[1].split("```")[0]
+    (tmp_path / "urdf").mkdir()
+    for name in ("urdf/my_arm.urdf", "day1.csv", "day2.csv"):
+        (tmp_path / name).write_text("", encoding="utf-8")
+    job = read_job(write_job(tmp_path, text=text))
+    assert job.robot == str(tmp_path / "urdf" / "my_arm.urdf") and job.file_names == ("day1.csv", "day2.csv")
+    assert job.options == {"parameter_spec": ["default", "!base.*"], "select": "auto", "cv": "5x4", "loss": "auto",
+                           "solver": "lm", "formulation": "fkm", "max_iter": 100}
+    assert (job.length_unit, job.angle_unit, job.sample, job.ignore) == ("mm", "deg", "pose_id",
+                                                                         ("timestamp", "marker_quality"))
+    assert job.joints == {"shoulder_pan_joint": "J1", "shoulder_lift_joint": "J2"}
+    assert [m.key for m in job.measures] == ["position:tool0", "distance:base_link-tool0"]
+    assert job.out == tmp_path / "out" / "my_arm_calibrated.urdf"
