@@ -23,7 +23,14 @@ from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.identification.identifiability import describe_unidentifiable
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.measurements import JointReading, Measurement, Pose, parse_key
-from pincal.identification.parameters import MarkerFit, ParameterSet, choose_parameters, influencing_joints, joint_unit
+from pincal.identification.parameters import (
+    DEFAULT_SET,
+    MarkerFit,
+    ParameterSet,
+    choose_parameters,
+    influencing_joints,
+    joint_unit,
+)
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.selection import SELECTIONS, select_and_fit
 from pincal.identification.solver import (
@@ -41,6 +48,8 @@ from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, j
 from pincal.io.corrections import Corrections, corrections_dict, corrections_of, corrections_path
 from pincal.io.dataset import MAX_SAMPLES, OCCLUDABLE_KINDS, Dataset, dataset_text, read_dataset
 from pincal.io.files import check_outputs, make_directory, write_texts
+from pincal.io.job import Job, load_job_robot
+from pincal.io.job_data import job_dataset
 from pincal.io.report_data import angle_error_norms, json_text, report_dict
 from pincal.model.measured_frame import frame_moves
 from pincal.model.robot import Robot, load_robot, unusable_samples
@@ -268,7 +277,8 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     if select == "bic" and formulation != "fkm":
         raise DataError("--select bic chooses among fkm fits; with --formulation ikm use --select none (or auto)")
     if select == "auto":
-        select = "none" if parameter_spec or formulation != "fkm" else "bic"
+        named = bool(parameter_spec) and list(parameter_spec) != [DEFAULT_SET]  # 'default' alone is the default set
+        select = "none" if named or formulation != "fkm" else "bic"
     folds, every = None, None
     if cv is not None:  # checked before any fit
         check_cross_validation(models, formulation)
@@ -628,4 +638,17 @@ def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, repor
     if cal.corrections is not None:  # what the URDF cannot hold goes beside it
         texts.append((beside, json_text(corrections_dict(cal.corrections, robot))))
     write_texts([(path, text) for path, text in texts if path])  # all or none
+    return cal
+
+
+def calibrate_job(job: Job) -> Calibration:
+    """:func:`calibrate` as a job file says (:mod:`pincal.io.job`): its robot, its data read into SI units, its
+    options; the outputs are checked before the fit (never over an input, the job file included) and each is written
+    whole or not at all."""
+    robot = load_job_robot(job)
+    outputs = [(what, path) for what, path in (("out", job.out), ("report", job.report)) if path]
+    check_outputs(outputs, [p for p in (robot.source, job.path, *job.files) if p is not None])
+    cal = calibrate(robot, job_dataset(job, robot), **job.options)
+    texts = ((job.out, cal.urdf_text), (job.report, json_text(cal.report) if job.report else ""))
+    write_texts([(path, text) for path, text in texts if path])  # both or neither
     return cal

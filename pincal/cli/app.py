@@ -113,21 +113,44 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_calibrate(args: argparse.Namespace) -> int:
-    """``pincal calibrate``: identify the parameters from a measurement CSV, print the summary and write the
-    calibrated URDF and the report; exit status 1 when the result is not :func:`usable`."""
-    from pincal.workflow import calibrate_files
+#: A file named so is a job file (docs/job_file.md): ``pincal calibrate JOB.toml``.
+JOB_SUFFIX = ".toml"
 
-    cal = calibrate_files(args.robot, args.data, args.out, args.report, parameter_spec=args.parameters,
-                          solver=args.solver, loss=args.loss, sigma=args.sigma, formulation=args.formulation,
-                          max_iter=args.max_iter, select=args.select, cv=args.cv, markers=args.markers,
-                          progress=True)
-    print(_summary(cal.report, cal.result.seconds, args.report))
-    for path in (args.out, args.report):
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    """``pincal calibrate``: identify the parameters from a measurement CSV (or as a job file says), print the
+    summary and write the calibrated URDF and the report; exit status 1 when the result is not :func:`usable`."""
+    from pincal.io.job import read_job
+    from pincal.workflow import calibrate_files, calibrate_job
+
+    # options not given are None: a job file's value stands, else calibrate()'s default
+    given = {"parameter_spec": args.parameters, "solver": args.solver, "loss": args.loss, "sigma": args.sigma,
+             "formulation": args.formulation, "max_iter": args.max_iter, "select": args.select, "cv": args.cv,
+             "markers": args.markers}
+    options = {name: value for name, value in given.items() if value is not None}
+    job_file = args.robot.endswith(JOB_SUFFIX)
+    if job_file and args.data is not None:
+        raise PincalError(f"calibrate: '{args.robot}' is a job file, which names its own data; give no DATA "
+                          f"(got '{args.data}'), or a robot: pincal calibrate ROBOT DATA")
+    if not job_file and args.data is None:
+        raise PincalError(f"calibrate: DATA is missing: give pincal calibrate ROBOT DATA.csv, or a job file "
+                          f"JOB{JOB_SUFFIX} (docs/job_file.md); got only '{args.robot}'")
+    if job_file:
+        if options.pop("markers") != "each":
+            raise PincalError("calibrate: --markers cluster applies to a dataset named on the command line, not yet to "
+                              "a job file")
+        job = read_job(args.robot).overridden(args.out, args.report, **options)
+        cal = calibrate_job(job)
+        out, report_path = job.out, job.report
+    else:
+        cal = calibrate_files(args.robot, args.data, args.out, args.report, progress=True, **options)
+        out, report_path = args.out, args.report
+    print(_summary(cal.report, cal.result.seconds, str(report_path) if report_path else None))
+    for path in (out, report_path):
         if path:
             print(f"wrote {path}")
-    if args.out and cal.corrections is not None:
-        print(f"wrote {corrections_path(args.out)} (joint corrections the URDF cannot hold: docs/calibrated_urdf.md)")
+    if out and cal.corrections is not None:
+        print(f"wrote {corrections_path(out)} (joint corrections the URDF cannot hold: docs/calibrated_urdf.md)")
     return 0 if usable(cal.report) else 1
 
 
@@ -445,12 +468,16 @@ def build_parser() -> argparse.ArgumentParser:
     sim.set_defaults(func=cmd_simulate)
 
     cal = sub.add_parser("calibrate", help="identify the geometry from a dataset; write a calibrated URDF",
+                         usage="pincal calibrate ROBOT DATA [options]  or  pincal calibrate JOB.toml [options]",
                          description="Levenberg-Marquardt identification (forward-kinematics residuals, analytic "
-                                     "Jacobians) on the identifiable parameters; rows with set=test are held out.",
-                         epilog="example: pincal calibrate delta sim/measurements.csv --out delta_cal.urdf "
-                                "--report report.json")
-    add_robot(cal)
-    cal.add_argument("data", help="measurement CSV (see docs/dataset.md)")
+                                     "Jacobians) on the identifiable parameters; rows with set=test are held out. "
+                                     "A job file (JOB.toml, docs/job_file.md) names the robot, the data as the "
+                                     "measuring system wrote them and the options; options given here override it.",
+                         epilog="examples: pincal calibrate delta sim/measurements.csv --out delta_cal.urdf "
+                                "--report report.json; pincal calibrate examples/tiago_job.toml --cv loo")
+    cal.add_argument("robot", metavar="ROBOT|JOB.toml",
+                     help="URDF file or known robot name; or a job file (docs/job_file.md), with no DATA")
+    cal.add_argument("data", nargs="?", help="measurement CSV (see docs/dataset.md)")
     cal.add_argument("--out", help="calibrated URDF to write")
     cal.add_argument("--report", help="report JSON to write")
     add_parameters(cal)
@@ -463,7 +490,8 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--formulation", choices=["fkm", "ikm"], default="fkm",
                      help="fkm: measured - predicted by forward kinematics; ikm: implicit loop residuals with the "
                           "measured pose held fixed (study 000; closed-loop robots)")
-    cal.set_defaults(func=cmd_calibrate)
+    # None: not given on the command line, so that a job file's value stands (calibrate()'s default otherwise)
+    cal.set_defaults(func=cmd_calibrate, solver=None, loss=None, select=None, max_iter=None, formulation=None)
 
     demo = sub.add_parser("demo", help="simulate and calibrate the Delta robot; print before/after",
                           description="The main job on an embedded default: the Delta of study 000.",

@@ -334,6 +334,26 @@ def _split(text: str) -> tuple[dict[str, str], int, list[str], list[tuple[int, l
     return metadata, header_line, header, rows
 
 
+def _file_text(source: Path) -> str:
+    """The text of a CSV file, refused at once when it is larger than a calibration takes (bytes or rows)."""
+    try:
+        size = source.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise DataError(f"dataset '{source}' is {size / 2**20:.0f} MiB; pincal reads at most "
+                            f"{MAX_FILE_BYTES // 2**20} MiB and calibrates at most {MAX_SAMPLES} samples in one run: "
+                            "split or thin the file")
+        raw = source.read_bytes()
+        lines = raw.count(b"\n") + 1
+        if lines > MAX_SAMPLES + 1:  # rows, less the header, comments and blank lines
+            rows = lines - 1 - len(re.findall(rb"^[ \t\r]*(?:#|$)", raw, re.M))
+            if rows > MAX_SAMPLES:
+                raise DataError(f"dataset '{source}' has {rows} rows; pincal calibrates at most {MAX_SAMPLES} "
+                                "samples in one run (time grows with the samples): split or thin the file")
+        return raw.decode("utf-8-sig")  # -sig: spreadsheets start UTF-8 files with a BOM
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DataError(f"cannot read dataset '{source}': {exc}") from None
+
+
 def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = None, min_samples: int = 1,
                  *, joint_kinds: dict[str, str] | None = None,
                  known_joints: Sequence[str] | None = None, joint_like: Sequence[str] = ()) -> Dataset:
@@ -354,22 +374,7 @@ def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = 
             rows, non-unit quaternions, and values that look like millimetres or degrees.
     """
     source = Path(path)
-    try:
-        size = source.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise DataError(f"dataset '{source}' is {size / 2**20:.0f} MiB; pincal reads at most "
-                            f"{MAX_FILE_BYTES // 2**20} MiB and calibrates at most {MAX_SAMPLES} samples in one run: "
-                            "split or thin the file")
-        raw = source.read_bytes()
-        lines = raw.count(b"\n") + 1
-        if lines > MAX_SAMPLES + 1:  # rows, less the header, comments and blank lines
-            rows = lines - 1 - len(re.findall(rb"^[ \t\r]*(?:#|$)", raw, re.M))
-            if rows > MAX_SAMPLES:
-                raise DataError(f"dataset '{source}' has {rows} rows; pincal calibrates at most {MAX_SAMPLES} "
-                                "samples in one run (time grows with the samples): split or thin the file")
-        text = raw.decode("utf-8-sig")  # -sig: spreadsheets start UTF-8 files with a BOM
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DataError(f"cannot read dataset '{source}': {exc}") from None
+    text = _file_text(source)
     try:
         return _parse(text, joint_names_required or [], min_samples, joint_kinds or {}, known_joints, joint_like)
     except DataError as exc:
@@ -484,6 +489,65 @@ def _check_units(data: Dataset, lines: list[int], kinds: dict[str, str]) -> None
                 raise DataError(f"column '{name}' (revolute joint), line {lines[r]}: "
                                 f"{float(data.joints[r, c])!r} looks like degrees; pincal expects radians "
                                 f"(|reading| > 4 pi on {big.size} of {data.n_samples} rows)")
+
+
+# --- other column layouts (a job file's, pincal.io.job) -------------------------------------------
+@dataclass
+class Table:
+    """A CSV file's cells before any column is given a meaning.
+
+    Attributes:
+        metadata: The ``# key: value`` lines before the header.
+        header: The column names, as written.
+        header_line: The header's line number (1-based).
+        rows: (line number, cells) of each data row; cells as written, stripped.
+    """
+
+    metadata: dict[str, str]
+    header: list[str]
+    header_line: int
+    rows: list[tuple[int, list[str]]]
+
+
+def read_table(path: str | Path) -> Table:
+    """Read a CSV file as :func:`read_dataset` does (size limits, byte-order mark, ``#`` comments, blank lines),
+    without interpreting its columns.
+
+    Raises:
+        DataError: an unreadable or oversized file, a file with no header, or a row with more or fewer cells than
+            the header (the message names the line; the caller names the file).
+    """
+    metadata, header_line, header, rows = _split(_file_text(Path(path)))
+    for line, cells in rows:
+        if len(cells) != len(header):
+            raise DataError(f"line {line} has {len(cells)} cells; the header (line {header_line}) has {len(header)}")
+    return Table(metadata, header, header_line, rows)
+
+
+def cell_number(cell: str, column: str, line: int, first_increment: bool = False) -> float:
+    """The number in one cell, as :func:`read_dataset` reads it: decimal or exponent notation, finite; with
+    ``first_increment`` (the first row of a distance increment) the cell must be empty or NaN, read as NaN.
+
+    Raises:
+        DataError: naming ``column`` and ``line``: an empty cell, NaN, infinity or not a number.
+    """
+    return _number(cell, column, line, first_increment)
+
+
+def check_dataset(dataset: Dataset, lines: Sequence[int], joint_kinds: dict[str, str] | None = None) -> None:
+    """The checks :func:`read_dataset` makes of the rows it read: no duplicated sample ids or samples, unit
+    quaternions, and no length or reading that looks like millimetres or degrees.
+
+    Args:
+        dataset: The samples, read from one file.
+        lines: The file's line number of each sample, for the messages.
+        joint_kinds: URDF joint type by joint name (``revolute``, ``prismatic``), as for :func:`read_dataset`.
+
+    Raises:
+        DataError: naming the column, the line and the value at fault.
+    """
+    _check_rows(dataset, list(lines))
+    _check_units(dataset, list(lines), joint_kinds or {})
 
 
 # --- writing ------------------------------------------------------------------------------------

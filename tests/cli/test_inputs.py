@@ -145,9 +145,9 @@ def test_a_result_json_that_is_not_a_report_is_named(five_bar_data: Path, tmp_pa
 
 
 def test_argparse_errors_are_one_line_in_pincal_form() -> None:
-    done = run_pincal("calibrate", "delta")
+    done = run_pincal("simulate", "delta")
     assert done.returncode == 2 and done.stderr == (
-        "pincal: error: calibrate: the following arguments are required: data (see 'pincal calibrate --help')\n")
+        "pincal: error: simulate: the following arguments are required: --out (see 'pincal simulate --help')\n")
 
 
 def test_simulate_refuses_more_samples_than_calibrate_takes(tmp_path: Path) -> None:

@@ -64,8 +64,10 @@ def test_selection_drops_what_the_truth_lacks_and_predicts_no_worse() -> None:
     assert selected.report["test_rms_after"] <= everything.report["test_rms_after"]
     assert selected.report["test_rms_after"] < 0.1 * selected.report["test_rms_before"]
     # a named parameter set is fitted as named unless selection is asked for
-    named = calibrate(robot, sim.dataset, parameter_spec=["default"])
+    named = calibrate(robot, sim.dataset, parameter_spec=["default", "!base.rz"])
     assert named.report["selection"]["policy"] == "none" and not named.report["selection"]["removed"]
+    default = calibrate(robot, sim.dataset, parameter_spec=["default"])  # the default set by its name: selected
+    assert default.report["selection"]["policy"] == "bic"
 
 
 def test_select_and_fit_refits_the_kept_groups_and_keeps_the_base() -> None:

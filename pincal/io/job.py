@@ -1,0 +1,367 @@
+"""Job files: one TOML file that holds everything a calibration run needs (docs/job_file.md).
+
+A job names the robot, the data files as the measuring system wrote them, which of their columns are which
+quantity and in which units, which samples are held out, the parameters and the options of ``pincal calibrate``.
+:func:`read_job` reads and checks the file; :func:`pincal.io.job_data.job_dataset` reads its data into a
+:class:`~pincal.io.dataset.Dataset` in SI units (m, rad). Paths in a job are relative to the job file's directory.
+
+Every error names the file and the place in it (``job.toml: [measure 1] columns: ...``). An unknown key is an error
+that lists the valid keys at its level: a misspelt option is never ignored.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from pincal.errors import DataError, NotFoundError, listing, not_found
+from pincal.identification.selection import SELECTIONS
+from pincal.identification.solver import LOSSES, SOLVERS
+from pincal.io.dataset import MEASUREMENT_COMPONENTS, parse_measurement_key
+from pincal.model.robot import Robot, load_robot
+
+#: Length units a data file may be written in: their size in metres.
+LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "in": 0.0254}
+#: Angle units a data file may be written in: their size in radians.
+ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "deg": math.pi / 180.0}
+#: Measurement components that are lengths (the rest, a pose's quaternion, have no unit).
+LENGTH_COMPONENTS = ("x", "y", "z", "d")
+#: The formulations of :func:`pincal.workflow.calibrate` (tests/io/test_job.py checks that the two agree).
+FORMULATIONS = ("fkm", "ikm")
+
+#: Keys of each level of a job file.
+JOB_KEYS = ("robot", "data", "joints", "measure", "out", "report", "parameters", "select", "loss", "solver", "sigma",
+            "max_iter", "formulation", "cv")
+DATA_KEYS = ("file", "files", "units", "held_out", "sample", "ignore")
+UNIT_KEYS = ("length", "angle")
+MEASURE_KEYS = ("kind", "frame", "frames", "columns", "sigma", "sigma_angle")
+#: Job keys that are options of :func:`pincal.workflow.calibrate`, and the keyword each becomes.
+OPTIONS = {"parameters": "parameter_spec", "select": "select", "loss": "loss", "solver": "solver", "sigma": "sigma",
+           "max_iter": "max_iter", "formulation": "formulation", "cv": "cv"}
+#: ``held_out = "every 5th from 4"``: every K-th row of the data, counted from 0 over the files in order.
+EVERY = re.compile(r"every\s+(\d+)(?:st|nd|rd|th)?(?:\s+from\s+(\d+))?", re.IGNORECASE)
+
+
+@dataclass(frozen=True)
+class MeasureColumns:
+    """One ``[[measure]]`` entry: a measurement and the data columns of its components.
+
+    Attributes:
+        key: The measurement key (``position:wrist_ft_tool_link``, ``distance:a-b``).
+        columns: The data file's column of each component, in the model's order (x, y, z; x, y, z, qx, qy, qz, qw; d).
+        sigma: σ of its values [m], or None.
+        sigma_angle: σ of a pose's orientation [rad], or None.
+        where: Its place in the job, ``[measure 1]``.
+    """
+
+    key: str
+    columns: tuple[str, ...]
+    sigma: float | None
+    sigma_angle: float | None
+    where: str
+
+
+@dataclass(frozen=True)
+class HeldOut:
+    """Which rows are held out: every ``every``-th from ``start``, the rows ``rows``, or those a ``column`` marks."""
+
+    text: str
+    every: int = 0
+    start: int = 0
+    rows: tuple[int, ...] = ()
+    column: str | None = None
+
+
+@dataclass(frozen=True)
+class Job:
+    """A job file, read and checked (docs/job_file.md); paths resolved against its directory.
+
+    Attributes:
+        path: The job file.
+        robot: A known robot name, or the path of a URDF file.
+        files: The data files, in order.
+        file_names: Each data file as the job writes it (messages, sample ids).
+        out: The calibrated URDF to write, or None.
+        report: The report JSON to write, or None.
+        options: Keyword arguments of :func:`pincal.workflow.calibrate` (``parameter_spec``, ``select``, ``loss``,
+            ``solver``, ``sigma`` [m], ``max_iter``, ``formulation``, ``cv``), those the job gives.
+        length_unit: The data files' length unit (a key of :data:`LENGTH_UNITS`).
+        angle_unit: The data files' angle unit (a key of :data:`ANGLE_UNITS`).
+        held_out: Which rows are held out, or None.
+        sample: The column of the sample ids, or None (ids: the row numbers).
+        ignore: Columns of the data files that are not read.
+        joints: Joint name -> the column of its readings, those the job maps.
+        measures: The measurements and their columns.
+    """
+
+    path: Path
+    robot: str
+    files: tuple[Path, ...]
+    file_names: tuple[str, ...]
+    out: Path | None = None
+    report: Path | None = None
+    options: dict[str, Any] = field(default_factory=dict)
+    length_unit: str = "m"
+    angle_unit: str = "rad"
+    held_out: HeldOut | None = None
+    sample: str | None = None
+    ignore: tuple[str, ...] = ()
+    joints: dict[str, str] = field(default_factory=dict)
+    measures: tuple[MeasureColumns, ...] = ()
+
+    def overridden(self, out: str | Path | None = None, report: str | Path | None = None,
+                   **options: Any) -> Job:
+        """This job with outputs and :func:`~pincal.workflow.calibrate` options given elsewhere (the command line) in
+        place of its own; None keeps the job's.
+
+        Raises:
+            NotFoundError: an option that :func:`~pincal.workflow.calibrate` does not have.
+        """
+        for name in options:
+            if name not in OPTIONS.values():
+                raise not_found("option", name, OPTIONS.values(), " of calibrate()")
+        return replace(self, out=Path(out) if out is not None else self.out,
+                       report=Path(report) if report is not None else self.report,
+                       options={**self.options, **{k: v for k, v in options.items() if v is not None}})
+
+
+def read_job(path: str | Path) -> Job:
+    """Read and check a job file (docs/job_file.md): its keys, their types and values, and that the files it names
+    exist. The data and the robot are not read here (:func:`~pincal.io.job_data.job_dataset`, :func:`load_job_robot`).
+
+    Raises:
+        DataError: naming the file, the place in it and the fault; NotFoundError for an unknown key, listing the valid
+            keys at its level.
+    """
+    source = Path(path)
+    try:
+        with source.open("rb") as stream:
+            doc = tomllib.load(stream)
+    except OSError as exc:
+        raise DataError(f"cannot read job file '{source}': {exc.strerror or exc}") from None
+    except ValueError as exc:  # tomllib.TOMLDecodeError, UnicodeDecodeError
+        raise DataError(f"{source}: not a valid TOML file: {exc}") from None
+    return _Reader(source).job(doc)
+
+
+class _Reader:
+    """The checks of one job file's values; every message starts with the file and the place in it."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.base = path.parent
+
+    def error(self, where: str, message: str) -> DataError:
+        return DataError(f"{self.path}: {where}: {message}")
+
+    def keys(self, table: dict[str, Any], valid: Sequence[str], level: str) -> None:
+        for key in table:
+            if key not in valid:
+                error = not_found("key", key, valid, f" {level}", f"{self.path}: ")
+                if valid is not JOB_KEYS and key in JOB_KEYS:  # TOML puts keys after a [table] header inside it
+                    raise NotFoundError(f"{error} ('{key}' is a top-level key: write it above the first [table])",
+                                        error.kind, error.name, error.choices)
+                raise error
+
+    def table(self, value: Any, where: str) -> dict[str, Any]:
+        if not isinstance(value, dict):
+            raise self.error(where, f"{_shown(value)} is not a table; write it as [{where.strip('[]')}] or {{ ... }}")
+        return value
+
+    def text(self, value: Any, where: str) -> str:
+        if not isinstance(value, str) or not value.strip():
+            raise self.error(where, f"{_shown(value)} is not a non-empty string")
+        return value.strip()
+
+    def texts(self, value: Any, where: str) -> list[str]:
+        """A string or a list of strings."""
+        if isinstance(value, str):
+            return [self.text(value, where)]
+        if not isinstance(value, list) or not value:
+            raise self.error(where, f"{_shown(value)} is not a string nor a non-empty list of strings")
+        return [self.text(item, f"{where} (item {k + 1})") for k, item in enumerate(value)]
+
+    def choice(self, value: Any, choices: Sequence[str], where: str) -> str:
+        word = self.text(value, where)
+        if word not in choices:
+            raise self.error(where, f"'{word}' is not one of: {listing(choices)}")
+        return word
+
+    def sigma(self, value: Any, where: str) -> float:
+        if isinstance(value, bool) or not isinstance(value, int | float) or not 0.0 < value < math.inf:
+            raise self.error(where, f"{_shown(value)} is not a number > 0 (a standard deviation in SI units: m, rad)")
+        return float(value)
+
+    def whole(self, value: Any, where: str, minimum: int) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            raise self.error(where, f"{_shown(value)} is not a whole number ≥ {minimum}")
+        return value
+
+    def file(self, value: Any, where: str, must_exist: bool = True) -> tuple[Path, str]:
+        """A path as written and resolved against the job's directory; an input must be a file."""
+        written = self.text(value, where)
+        path = self.base / Path(written).expanduser()
+        if must_exist and not path.is_file():
+            what = "is a directory" if path.is_dir() else "does not exist"
+            raise self.error(where, f"'{written}' {what} (looked for '{path.absolute()}': paths in a job file are "
+                                    "relative to its directory)")
+        return path, written
+
+    def job(self, doc: dict[str, Any]) -> Job:
+        self.keys(doc, JOB_KEYS, "at the top level")
+        for key in ("robot", "data"):
+            if key not in doc:
+                raise DataError(f"{self.path}: '{key}' is missing: a job names its robot, and its data in a [data] "
+                                "table (see docs/job_file.md)")
+        robot = self.text(doc["robot"], "robot")
+        if (self.base / robot).is_file() or Path(robot).suffix or "/" in robot:  # a path, else a robot's name
+            robot = str(self.file(robot, "robot")[0])
+        data = self.table(doc["data"], "[data]")
+        self.keys(data, DATA_KEYS, "in [data]")
+        if ("file" in data) == ("files" in data):
+            raise self.error("[data]", "give the data as file = \"data.csv\" or files = [\"a.csv\", \"b.csv\"] "
+                                       "(one of the two)")
+        key = "file" if "file" in data else "files"
+        found = [self.file(name, f"[data] {key}") for name in self.texts(data[key], f"[data] {key}")]
+        paths = [path.resolve() for path, _ in found]
+        twice = [written for k, (_, written) in enumerate(found) if paths[k] in paths[:k]]
+        if twice:
+            raise self.error(f"[data] {key}", f"'{twice[0]}' is named twice")
+        length, angle = self.units(data.get("units", {}))
+        outputs = {name: self.file(doc[name], name, must_exist=False)[0] if name in doc else None
+                   for name in ("out", "report")}
+        measures = tuple(self.measure(entry, k + 1) for k, entry in enumerate(self.measure_list(doc)))
+        joints = {self.text(joint, "[joints]"): self.text(column, f"[joints] {joint}")
+                  for joint, column in self.table(doc.get("joints", {}), "[joints]").items()}
+        job = Job(self.path, robot, tuple(path for path, _ in found), tuple(written for _, written in found),
+                  outputs["out"], outputs["report"], self.options(doc), length, angle,
+                  self.held_out(data["held_out"]) if "held_out" in data else None,
+                  self.text(data["sample"], "[data] sample") if "sample" in data else None,
+                  tuple(self.texts(data["ignore"], "[data] ignore")) if "ignore" in data else (), joints, measures)
+        self.claims(job)
+        if len(job.files) > 1 and any(m.key.startswith("distance_increment:") for m in measures):
+            raise self.error(f"[data] {key}", "a distance_increment measurement needs a single data file (each "
+                                              "increment is the change since the previous row of its file)")
+        return job
+
+    def units(self, value: Any) -> tuple[str, str]:
+        units = self.table(value, "[data] units")
+        self.keys(units, UNIT_KEYS, "in [data] units")
+        return (self.choice(units.get("length", "m"), list(LENGTH_UNITS), "[data] units: length"),
+                self.choice(units.get("angle", "rad"), list(ANGLE_UNITS), "[data] units: angle"))
+
+    def held_out(self, value: Any) -> HeldOut:
+        where = "[data] held_out"
+        if isinstance(value, list):
+            rows = [self.whole(row, f"{where} (item {k + 1})", 0) for k, row in enumerate(value)]
+            if len(set(rows)) != len(rows):
+                raise self.error(where, "a row is listed twice")
+            return HeldOut(f"rows {listing(str(r) for r in rows)}", rows=tuple(rows))
+        text = self.text(value, where)
+        every = EVERY.fullmatch(text)
+        if every:
+            k, start = int(every[1]), int(every[2] or 0)
+            if k < 2:
+                raise self.error(where, f"'{text}' holds out every row; give every K-th row with K ≥ 2")
+            return HeldOut(text, every=k, start=start)
+        if text.lower().startswith("every"):
+            raise self.error(where, f"'{text}' is not of the form 'every K[th] [from S]' (e.g. 'every 5th from 4')")
+        return HeldOut(text, column=text)
+
+    def measure_list(self, doc: dict[str, Any]) -> list[dict[str, Any]]:
+        entries = doc.get("measure", [])
+        if not isinstance(entries, list) or not entries or not all(isinstance(e, dict) for e in entries):
+            raise self.error("measure", "declare each measurement as a [[measure]] table with kind, frame (or "
+                                        "frames) and columns (see docs/job_file.md)")
+        return entries
+
+    def measure(self, entry: dict[str, Any], number: int) -> MeasureColumns:
+        where = f"[measure {number}]"
+        self.keys(entry, MEASURE_KEYS, f"in {where}")
+        for key in ("kind", "columns"):
+            if key not in entry:
+                raise self.error(where, f"'{key}' is missing (keys are: {listing(MEASURE_KEYS)})")
+        kind = self.choice(entry["kind"], list(MEASUREMENT_COMPONENTS), f"{where} kind")
+        two = kind.startswith("distance")
+        name, other = ("frames", "frame") if two else ("frame", "frames")
+        if name not in entry or other in entry:
+            shape = 'frames = ["A", "B"]' if two else 'frame = "NAME"'
+            raise self.error(where, f"a {kind} measurement names its frame{'s' if two else ''} as {shape}")
+        frames = self.texts(entry[name], f"{where} {name}")
+        if len(frames) != (2 if two else 1):
+            raise self.error(f"{where} {name}", f"{len(frames)} frames; a {kind} measurement joins two")
+        key = f"{kind}:{'-'.join(frames)}"
+        try:
+            parse_measurement_key(key)
+        except DataError as exc:
+            raise self.error(f"{where} {name}", str(exc)) from None
+        components = MEASUREMENT_COMPONENTS[kind]
+        columns = self.texts(entry["columns"], f"{where} columns")
+        if len(columns) != len(components):
+            raise self.error(f"{where} columns", f"{len(columns)} columns; a {kind} needs {len(components)}, one per "
+                                                 f"component in this order: {listing(components)}")
+        if "sigma_angle" in entry and kind != "pose":
+            raise self.error(f"{where} sigma_angle", f"only a pose has an orientation; a {kind} has sigma alone")
+        return MeasureColumns(key, tuple(columns),
+                              self.sigma(entry["sigma"], f"{where} sigma") if "sigma" in entry else None,
+                              self.sigma(entry["sigma_angle"], f"{where} sigma_angle") if "sigma_angle" in entry
+                              else None, where)
+
+    def options(self, doc: dict[str, Any]) -> dict[str, Any]:
+        options: dict[str, Any] = {}
+        if "parameters" in doc:
+            options["parameter_spec"] = self.texts(doc["parameters"], "parameters")
+        for key, choices in (("select", ("auto", *SELECTIONS)), ("loss", LOSSES), ("solver", SOLVERS),
+                             ("formulation", FORMULATIONS)):
+            if key in doc:
+                options[key] = self.choice(doc[key], choices, key)
+        if "sigma" in doc:
+            options["sigma"] = self.sigma(doc["sigma"], "sigma")
+        if "max_iter" in doc:
+            options["max_iter"] = self.whole(doc["max_iter"], "max_iter", 1)
+        if "cv" in doc:
+            cv = str(self.whole(doc["cv"], "cv", 2)) if isinstance(doc["cv"], int) else self.text(doc["cv"], "cv")
+            if not re.fullmatch(r"\d+(x\d+)?|loo", cv, re.IGNORECASE):
+                raise self.error("cv", f"'{cv}' is not K (folds), KxR (K folds, R shuffles, e.g. \"5x4\") or \"loo\"")
+            options["cv"] = cv
+        return options
+
+    def claims(self, job: Job) -> None:
+        """Refuse a column that the job gives two meanings."""
+        claimed: dict[str, str] = {}
+        named = [(c, f"{m.where} columns") for m in job.measures for c in m.columns]
+        named += [(column, f"[joints] {joint}") for joint, column in job.joints.items()]
+        named += [(job.sample, "[data] sample")] if job.sample else []
+        named += [(job.held_out.column, "[data] held_out")] if job.held_out and job.held_out.column else []
+        named += [(column, "[data] ignore") for column in job.ignore]
+        for column, where in named:
+            if column in claimed:
+                raise self.error(where, f"column '{column}' is also named by {claimed[column]}; a column has one "
+                                        "meaning")
+            claimed[column] = where
+        keys = [m.key for m in job.measures]
+        for k, measure in enumerate(job.measures):
+            if measure.key in keys[:k]:
+                raise self.error(measure.where, f"measurement '{measure.key}' is declared twice")
+        angles = {m.sigma_angle for m in job.measures if m.sigma_angle is not None}
+        if len(angles) > 1:
+            raise self.error("[[measure]] sigma_angle", f"the poses give different values "
+                                                        f"({listing(map(str, sorted(angles)))}); pincal takes one σ "
+                                                        "for every pose's orientation")
+
+
+def _shown(value: Any) -> str:
+    return repr(value) if isinstance(value, str) else f"{value!r} ({type(value).__name__})"
+
+
+def load_job_robot(job: Job) -> Robot:
+    """The job's robot (:func:`~pincal.model.robot.load_robot`); an error says that the job named it."""
+    try:
+        return load_robot(job.robot)
+    except NotFoundError as exc:
+        raise NotFoundError(f"{job.path}: robot: {exc}", exc.kind, exc.name, exc.choices) from None

@@ -1,0 +1,129 @@
+"""``pincal calibrate JOB.toml`` as a user runs it: the example job, overrides, units, and one-line errors."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import subprocess
+from pathlib import Path
+from typing import Any
+
+import pytest
+from conftest import ROOT, run_pincal
+
+EXAMPLE = ROOT / "examples" / "tiago_job.toml"
+RAW = ROOT / "examples" / "data" / "tiago_mocap_raw.csv"
+CONVERTED = ROOT / "examples" / "data" / "tiago_mocap_marker1.csv"
+
+
+def report_of(*args: str, report: Path) -> dict[str, Any]:
+    """The report JSON of ``pincal ARGS --report REPORT``, which must succeed."""
+    done = run_pincal(*args, "--report", str(report))
+    assert done.returncode == 0, done.stderr
+    data: dict[str, Any] = json.loads(report.read_text(encoding="utf-8"))
+    return data
+
+
+def one_line_error(done: subprocess.CompletedProcess[str]) -> str:
+    """The single stderr line of a refused command (exit 2, no traceback)."""
+    assert done.returncode == 2, (done.stdout, done.stderr)
+    lines = done.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("pincal: error: "), done.stderr
+    return lines[0]
+
+
+def copy_job(folder: Path, data: str = "data/tiago_mocap_raw.csv", **replace: str) -> Path:
+    """The example job in ``folder``, its data file named ``data`` and text replaced as ``replace`` says."""
+    text = EXAMPLE.read_text(encoding="utf-8").replace('"data/tiago_mocap_raw.csv"', f'"{data}"')
+    for old, new in replace.items():
+        assert old in text
+        text = text.replace(old, new)
+    path = folder / "job.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+@pytest.fixture(scope="module")
+def converted_report(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """``pincal calibrate tiago_no_hand examples/data/tiago_mocap_marker1.csv``: the study from the converted file."""
+    report = tmp_path_factory.mktemp("converted") / "report.json"
+    return report_of("calibrate", "tiago_no_hand", str(CONVERTED), report=report)
+
+
+def test_the_example_job_gives_the_studys_figures_from_the_raw_file(tmp_path: Path,
+                                                                    converted_report: dict[str, Any]) -> None:
+    """examples/tiago_job.toml runs the TIAGo study from the file the mocap wrote: the very figures of the command on
+    the converted file."""
+    ours = report_of("calibrate", str(EXAMPLE), report=tmp_path / "job.json")
+    for key in ("rms_after", "test_rms_after", "rms_before", "test_rms_before", "n_samples", "n_test_samples",
+                "n_estimated", "parameters", "down_weighted"):
+        assert ours[key] == converted_report[key], key
+    assert ours["selection"] == converted_report["selection"]
+
+
+def test_options_on_the_command_line_override_the_job(tmp_path: Path) -> None:
+    job = copy_job(tmp_path, str(RAW), **{"# report = \"tiago_report.json\"": 'report = "job.json"',
+                                          'select = "auto"': 'select = "bic"\ncv = "5x4"'})
+    other = tmp_path / "elsewhere" / "other.urdf"
+    done = run_pincal("calibrate", str(job), "--cv", "3", "--select", "none", "--out", str(other))
+    assert done.returncode == 0, done.stderr
+    ours = json.loads((tmp_path / "job.json").read_text())  # the job's report, relative to the job file
+    assert other.is_file() and f"wrote {other}" in done.stdout and f"wrote {tmp_path / 'job.json'}" in done.stdout
+    assert ours["cv"]["plan"] == "3-fold" and ours["selection"]["policy"] == "none"
+    theirs = report_of("calibrate", "tiago_no_hand", str(CONVERTED), "--cv", "3", "--select", "none",
+                       report=tmp_path / "csv.json")
+    assert ours["rms_after"] == theirs["rms_after"] and ours["cv"]["rms"] == theirs["cv"]["rms"]
+
+
+def test_data_written_in_millimetres_and_degrees_give_the_same_result(tmp_path: Path) -> None:
+    rows = list(csv.reader(RAW.read_text(encoding="utf-8").splitlines()))
+    lengths = {c for c in rows[0] if c[0] in "xyz"} | {"torso_lift_joint"}
+    with (tmp_path / "mm_deg.csv").open("w", newline="", encoding="utf-8") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(rows[0])
+        for row in rows[1:]:
+            writer.writerow([repr(float(v) * (1e3 if c in lengths else 180 / math.pi))
+                             for c, v in zip(rows[0], row, strict=True)])
+    job = copy_job(tmp_path, "mm_deg.csv", **{'length = "m", angle = "rad"': 'length = "mm", angle = "deg"'})
+    ours = report_of("calibrate", str(job), report=tmp_path / "mm.json")
+    si = report_of("calibrate", str(EXAMPLE), report=tmp_path / "si.json")
+    for key in ("rms_before", "rms_after", "test_rms_after"):
+        assert ours[key] == pytest.approx(si[key], rel=1e-9), key
+    assert ours["n_estimated"] == si["n_estimated"] and ours["selection"] == si["selection"]
+
+
+def test_an_unknown_key_is_named_with_the_valid_ones(tmp_path: Path) -> None:
+    job = copy_job(tmp_path, str(RAW), **{'solver = "lm"': 'slover = "lm"'})
+    line = one_line_error(run_pincal("calibrate", str(job)))
+    assert line == (f"pincal: error: {job}: key 'slover' does not exist at the top level; keys are: robot, data, "
+                    "joints, measure, out, report, parameters, select, loss, solver, sigma, max_iter, formulation, cv")
+
+
+def test_a_data_file_is_looked_for_beside_the_job(tmp_path: Path) -> None:
+    (tmp_path / "jobs").mkdir()
+    (tmp_path / "raw.csv").write_bytes(RAW.read_bytes())
+    job = copy_job(tmp_path / "jobs", "raw.csv")
+    line = one_line_error(run_pincal("calibrate", str(job)))
+    assert line == (f"pincal: error: {job}: [data] file: 'raw.csv' does not exist (looked for "
+                    f"'{(tmp_path / 'jobs' / 'raw.csv').absolute()}': paths in a job file are relative to its "
+                    "directory)")
+    copy_job(tmp_path / "jobs", "../raw.csv")
+    assert run_pincal("calibrate", str(job)).returncode == 0
+
+
+def test_a_column_the_csv_lacks_is_named(tmp_path: Path) -> None:
+    job = copy_job(tmp_path, str(RAW), **{'columns = ["x1", "y1", "z1"]': 'columns = ["x1", "y1", "z5"]'})
+    line = one_line_error(run_pincal("calibrate", str(job)))
+    assert line.startswith(f"pincal: error: {job}: [measure 1] columns: column 'z5' does not exist in data file "
+                           f"'{RAW}'; columns are: x1, y1, z1, x2, y2, z2, x3")
+
+
+def test_calibrate_takes_robot_and_data_or_a_job(tmp_path: Path) -> None:
+    assert one_line_error(run_pincal("calibrate", "delta")) == (
+        "pincal: error: calibrate: DATA is missing: give pincal calibrate ROBOT DATA.csv, or a job file JOB.toml "
+        "(docs/job_file.md); got only 'delta'")
+    assert "is a job file, which names its own data; give no DATA (got 'data.csv')" in one_line_error(
+        run_pincal("calibrate", str(EXAMPLE), "data.csv"))
+    assert one_line_error(run_pincal("calibrate", str(tmp_path / "none.toml"))) == (
+        f"pincal: error: cannot read job file '{tmp_path / 'none.toml'}': No such file or directory")
