@@ -277,7 +277,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     if select == "bic" and formulation != "fkm":
         raise DataError("--select bic chooses among fkm fits; with --formulation ikm use --select none (or auto)")
     if select == "auto":
-        named = bool(parameter_spec) and list(parameter_spec) != [DEFAULT_SET]  # 'default' alone is the default set
+        named = parameter_spec is not None and len(parameter_spec) > 0 and list(parameter_spec) != [DEFAULT_SET]
         select = "none" if named or formulation != "fkm" else "bic"
     folds, every = None, None
     if cv is not None:  # checked before any fit
