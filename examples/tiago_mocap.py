@@ -163,9 +163,8 @@ def limits(rows: list[dict[str, Any]]) -> list[str]:
         out.append(f"- **Three markers predict worse than one** ({_mm(three)} against {_mm(one)} mm, every marker "
                    "reading counted). Markers 2 and 3 add the hand's orientation; the likely reason is that its errors "
                    "are fitted on the fitted postures but not predicted on new ones (not yet shown).")
-    out.append("- **Not modelled:** the base's suspension, a tilt of the whole robot under the arm's weight, one of "
-               "the effects FIGAROH's authors modelled on this robot. It moves every marker with the arm's gravity "
-               "moment, which no joint's compliance or harmonics can express.")
+    out.append("- **Not modelled here:** the base's suspension, one of the effects FIGAROH's authors modelled on this "
+               "robot.")
     return out
 
 
