@@ -524,14 +524,16 @@ def read_table(path: str | Path) -> Table:
     return Table(metadata, header, header_line, rows)
 
 
-def cell_number(cell: str, column: str, line: int, first_increment: bool = False) -> float:
+def cell_number(cell: str, column: str, line: int, first_increment: bool = False, may_be_empty: bool = False) -> float:
     """The number in one cell, as :func:`read_dataset` reads it: decimal or exponent notation, finite; with
-    ``first_increment`` (the first row of a distance increment) the cell must be empty or NaN, read as NaN.
+    ``first_increment`` (the first row of a distance increment) the cell must be empty or NaN, read as NaN; with
+    ``may_be_empty`` (a position whose marker may not have been seen) an empty cell is NaN, and the caller checks
+    that the measurement's cells are all empty or none.
 
     Raises:
         DataError: naming ``column`` and ``line``: an empty cell, NaN, infinity or not a number.
     """
-    return _number(cell, column, line, first_increment)
+    return _number(cell, column, line, first_increment, may_be_empty)
 
 
 def check_dataset(dataset: Dataset, lines: Sequence[int], joint_kinds: dict[str, str] | None = None) -> None:

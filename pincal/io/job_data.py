@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -14,6 +15,7 @@ from pincal.identification.measurements import parse_key
 from pincal.io.dataset import (
     MAX_SAMPLES,
     MEASUREMENT_COMPONENTS,
+    OCCLUDABLE_KINDS,
     Dataset,
     Table,
     cell_number,
@@ -112,9 +114,11 @@ def _file_dataset(job: Job, robot: Robot, k: int) -> tuple[Dataset, npt.NDArray[
         for measure in job.measures:
             kind = measure.key.partition(":")[0]
             values = np.array([[cell_number(cells[i], table.header[i], line,
-                                            first_increment=r == 0 and kind == "distance_increment")
+                                            first_increment=r == 0 and kind == "distance_increment",
+                                            may_be_empty=kind in OCCLUDABLE_KINDS)
                                 for i in columns.measures[measure.key]] for r, (line, cells) in enumerate(rows)])
             values = values.reshape(len(rows), len(columns.measures[measure.key]))
+            _check_not_seen(values, measure.columns, rows)
             measurements[measure.key] = values * np.array([length if c in LENGTH_COMPONENTS else 1.0
                                                            for c in MEASUREMENT_COMPONENTS[kind]])
         ids = [cells[columns.sample] if columns.sample is not None else str(r) for r, (_, cells) in enumerate(rows)]
@@ -132,6 +136,17 @@ def _file_dataset(job: Job, robot: Robot, k: int) -> tuple[Dataset, npt.NDArray[
                     "units under [data] units)")
         raise DataError(f"{where}: {exc}{hint}") from None
     return dataset, held, table.header
+
+
+def _check_not_seen(values: npt.NDArray[np.float64], names: Sequence[str], rows: Sequence[tuple[int, Any]]) -> None:
+    """A marker not seen leaves all its cells empty (a row of NaN); some empty and some not is an error naming the
+    cell and the line."""
+    empty = np.isnan(values)
+    for r in map(int, np.flatnonzero(empty.any(axis=1) & ~empty.all(axis=1))):
+        first = names[int(np.argmax(empty[r]))]
+        full = listing(n for n, e in zip(names, empty[r], strict=True) if not e)
+        raise DataError(f"column '{first}', line {rows[r][0]}: the cell is empty but {full} hold numbers; a marker "
+                        "that was not seen leaves all its cells empty, one seen fills them all")
 
 
 def _columns(job: Job, robot: Robot, table: Table, k: int) -> _Columns:

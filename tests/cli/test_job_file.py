@@ -127,3 +127,37 @@ def test_calibrate_takes_robot_and_data_or_a_job(tmp_path: Path) -> None:
         run_pincal("calibrate", str(EXAMPLE), "data.csv"))
     assert one_line_error(run_pincal("calibrate", str(tmp_path / "none.toml"))) == (
         f"pincal: error: cannot read job file '{tmp_path / 'none.toml'}': No such file or directory")
+
+
+def test_a_job_declares_markers_on_a_body_and_reads_an_unseen_marker(tmp_path: Path) -> None:
+    """Three markers of the raw mocap file on the hand, as the measuring system wrote them: the same fit as the
+    converted three-marker file; a marker whose three cells are empty in a row was not seen (the sample keeps the
+    others), one or two empty cells are refused by name."""
+    rows = list(csv.reader(RAW.open(encoding="utf-8")))
+    header = rows[0]
+    raw = tmp_path / "raw.csv"
+
+    def write(table: list[list[str]]) -> None:
+        with raw.open("w", newline="", encoding="utf-8") as handle:
+            csv.writer(handle).writerows(table)
+
+    measures = "".join(f'[[measure]]\nkind = "position"\nframe = "wrist_ft_tool_link@m{m}"\n'
+                       f'columns = ["x{m}", "y{m}", "z{m}"]\nsigma = 1e-3\n' for m in (1, 2, 3))
+    job = tmp_path / "job.toml"
+    job.write_text(f'robot = "tiago_no_hand"\n[data]\nfile = "{raw.name}"\nheld_out = "every 5th from 4"\n'
+                   f'ignore = ["x4", "y4", "z4"]\n{measures}', encoding="utf-8")
+    write(rows)
+    from_job = report_of("calibrate", str(job), report=tmp_path / "job.json")
+    converted = report_of("calibrate", "tiago_no_hand", str(ROOT / "examples" / "data" / "tiago_mocap_markers.csv"),
+                          report=tmp_path / "converted.json")
+    assert from_job["rms_after"] == pytest.approx(converted["rms_after"], rel=1e-9)
+    for column in ("x2", "y2", "z2"):
+        rows[3][header.index(column)] = ""  # data row 2: marker 2 not seen
+    write(rows)
+    done = run_pincal("calibrate", str(job))
+    assert done.returncode == 0, done.stderr
+    assert "fitted 83 (wrist_ft_tool_link: m1 28, m2 27, m3 28), not seen 1; held out 18" in done.stdout
+    rows[3][header.index("y2")] = "0.5"  # one cell back: a half-seen marker
+    write(rows)
+    error = one_line_error(run_pincal("calibrate", str(job)))
+    assert "column 'x2', line 4: the cell is empty but y2 hold numbers" in error
