@@ -144,9 +144,11 @@ class CalibrationProblem:
             raise DataError(f"corrections {listing(strays)} are of joints that are not actuated; harmonics and "
                             "compliance correct actuated joints' values")
         regressors = correction_regressors(robot, [(p.target, p.term) for _, p in corrections], observations.actuated)
-        #: (actuated joint, column, (N,) regressor): the joint's value moves by x[column] × regressor per sample
-        self.actuated_corrections = [(actuated[p.target], k, r)
-                                     for (k, p), r in zip(corrections, regressors, strict=True)]
+        #: (actuated joint, column, (N,) regressor): the joint's value moves by x[column] × regressor per sample; a
+        #: reading offset is the term whose regressor is 1, a harmonic or a compliance one that varies by sample
+        ones = np.ones(observations.n_samples)
+        self.actuated_terms = [(joint, k, ones) for joint, k in self.actuated_offsets] + [
+            (actuated[p.target], k, r) for (k, p), r in zip(corrections, regressors, strict=True)]
         self.base = parameters.groups("base").get(("base", "base", ""), [])
         # each measured marker's nominal offset [m] on its frame (zero when the data declare none)
         self.marker_nominals = {m.target: np.array(m.nominal if m.nominal is not None else (0.0, 0.0, 0.0))
@@ -229,9 +231,7 @@ class CalibrationProblem:
         """Actuated joint values [rad or m] with the offsets of ``x`` applied, (N, na)."""
         qa = self.observations.actuated.copy()
         x = self._augment(np.asarray(x, dtype=float))
-        for joint, k in self.actuated_offsets:
-            qa[:, joint] += x[k]
-        for joint, k, regressor in self.actuated_corrections:
+        for joint, k, regressor in self.actuated_terms:
             qa[:, joint] += x[k] * regressor
         return qa
 
@@ -366,9 +366,7 @@ class CalibrationProblem:
                 pin.computeJointJacobians(model, data, q)
                 pin.updateFramePlacements(model, data)
                 dv = np.zeros((model.nv, p))
-                for joint, col in self.actuated_offsets:
-                    dv[act_v[joint], col] = 1.0
-                for joint, col, regressor in self.actuated_corrections:
+                for joint, col, regressor in self.actuated_terms:
                     dv[act_v[joint], col] = regressor[k]
                 if robot.loops:
                     _, cjac = robot.closure.residual_and_jacobian(data)
@@ -377,9 +375,7 @@ class CalibrationProblem:
                         raise ConvergenceError(f"sample {k} is at a singular configuration: the passive joints are "
                                                "not determined by the actuated ones (with these parameters)")
                     rhs = sens.closure_derivative(data)
-                    for joint, col in self.actuated_offsets:
-                        rhs[:, col] += cjac[:, act_v[joint]]
-                    for joint, col, regressor in self.actuated_corrections:
+                    for joint, col, regressor in self.actuated_terms:
                         rhs[:, col] += cjac[:, act_v[joint]] * regressor[k]
                     dv[passive] = -gain @ rhs
             elif robot.loops:  # the loop solve ended with forward kinematics at q
