@@ -1,0 +1,315 @@
+"""Closed-form starting values for camera calibration: hand-eye, robot-world and single-point problems.
+
+Three linear solutions, each a relaxation of a problem on SE(3) that is later refined by the nonlinear
+calibration: the rotation is solved as an unconstrained 3 × 3 matrix, projected onto SO(3) (nearest in
+Frobenius norm, det +1), and the translations are then re-solved by linear least squares given it.
+
+- :func:`solve_ax_yb`: ``A_i X = Y B_i`` (robot-world/hand-eye; Shah 2013, "Solving the robot-world/hand-eye
+  calibration problem using the Kronecker product", J. Mechanisms Robotics 5(3)).
+- :func:`solve_point_eye_in_hand`: a camera on a link sees one point fixed in the world.
+- :func:`solve_point_eye_to_hand`: a fixed camera sees one point fixed on a link.
+
+Poses are :class:`pinocchio.SE3` (``R`` dimensionless, ``t`` [m]); points are [m]. ``T = a ← b`` means that
+``T`` maps coordinates in frame ``b`` to frame ``a`` (``p_a = R p_b + t``).
+
+Every system is checked before it is solved: its columns are scaled to unit norm and a singular value below
+``tol · σ_max`` (:data:`DEGENERACY_TOLERANCE`) means the data do not determine the unknowns; a
+:class:`~pincal.errors.DataError` then says what is missing (poses, rotation axes, spread of the points).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal import linalg
+from pincal.errors import DataError
+
+Array = npt.NDArray[np.float64]
+
+DEGENERACY_TOLERANCE = 1e-3
+"""Relative singular value (of a system whose columns are made dimensionless) under which the data count as
+not determining the unknowns. Along a direction with singular value ``σ`` a relative error ``e`` in the data
+can become ``e · σ_max / σ`` in the solution: 1e-3 caps that amplification at 1000. Exactly degenerate data
+sit at round-off (~1e-15); degenerate data with noise ``e`` [rad, or m per unit lever arm] sit at about ``e``
+(measured: rotations all about z with 1e-4 noise give 1.1e-4, with 1e-5 noise 1.1e-5), so both are refused
+for noise up to ~1e-3. Random poses with rotations of ±30° about all axes sit at 0.04–0.1 for AX = YB and
+eye-in-hand; the 39-unknown eye-to-hand system needs the second-order part of its rotations and sits near
+1e-3 at ±30° (20 samples), 0.04–0.2 with rotations over all of SO(3). Pass ``tol`` to move it, e.g. 1e-8 to
+refuse only exact degeneracy."""
+
+MIN_POSES_AX_YB = 3
+MIN_SAMPLES_EYE_IN_HAND = 5  # 15 unknowns, 3 equations a sample
+MIN_SAMPLES_EYE_TO_HAND = 13  # 39 unknowns, 3 equations a sample
+
+
+def solve_ax_yb(a: Sequence[pin.SE3], b: Sequence[pin.SE3], tol: float = DEGENERACY_TOLERANCE
+                ) -> tuple[pin.SE3, pin.SE3]:
+    """X and Y with ``A_i X ≈ Y B_i`` for all ``i``, in closed form (Shah 2013).
+
+    Frames: ``A_i = w ← f`` and ``B_i = o ← c`` are known, ``X = f ← c`` and ``Y = w ← o`` are constant; both
+    sides map the camera ``c`` to the world ``w``. Eye in hand: ``A_i`` the link's pose (world ← link),
+    ``X`` link ← camera, ``B_i`` target ← camera (the inverse of the target's pose seen by the camera),
+    ``Y`` world ← target.
+
+    Rotations: ``R_Ai R_X = R_Y R_Bi`` reads, with column-major ``vec``, ``(I₃ ⊗ R_Ai) vec R_X −
+    (R_Biᵀ ⊗ I₃) vec R_Y = 0``; the stack of these (9n × 18) has a one-dimensional null space for
+    consistent, non-degenerate data: its last right singular vector, rescaled to det +1 and projected
+    onto SO(3). Translations: ``R_Ai t_X − t_Y = R_Y t_Bi − t_Ai``, by linear least squares (3n × 6) given
+    the rotations. This separable solution minimises the rotation and translation residuals one after the
+    other, not ``Σ‖A_i X − Y B_i‖`` jointly: it is a starting value.
+
+    Args:
+        a: ``A_i`` (w ← f), translations [m].
+        b: ``B_i`` (o ← c), translations [m]; as many as ``a``.
+        tol: Relative singular value under which the data count as degenerate (:data:`DEGENERACY_TOLERANCE`).
+
+    Returns:
+        ``(X, Y)``: ``X = f ← c`` and ``Y = w ← o``, translations [m].
+
+    Raises:
+        DataError: fewer than 3 poses, ``a`` and ``b`` of different lengths, or rotations that do not
+            determine ``X`` and ``Y`` (e.g. all about one axis).
+    """
+    n = len(a)
+    if len(b) != n:
+        raise DataError(f"AX = YB needs one B per A; got {n} A and {len(b)} B")
+    if n < MIN_POSES_AX_YB:
+        raise DataError(f"AX = YB needs at least {MIN_POSES_AX_YB} poses rotated about non-parallel axes to "
+                        f"determine X and Y; got {n}")
+    ra, ta = _rotations(a), _translations(a)
+    rb, tb = _rotations(b), _translations(b)
+    eye = np.eye(3)
+    kron = np.concatenate([np.hstack([np.kron(eye, ra[i]), -np.kron(rb[i].T, eye)]) for i in range(n)])
+    _, s, vt = linalg.svd(kron, "the AX = YB rotation system")
+    if s[-2] <= tol * s[0]:
+        raise DataError(_rotation_problem("AX = YB", "X and Y", ra, tol, s[-2] / s[0]))
+    null = vt[-1]
+    mx, my = null[:9].reshape(3, 3, order="F"), null[9:].reshape(3, 3, order="F")
+    # The null vector has a free scale and sign; the true one has det(R_X) = det(R_Y) = 1.
+    det = np.linalg.det(mx) + np.linalg.det(my)
+    scale = np.sign(det) / np.cbrt(abs(det) / 2.0)
+    rx = _nearest_rotation(scale * mx, "R_X of AX = YB")
+    ry = _nearest_rotation(scale * my, "R_Y of AX = YB")
+    lhs = np.concatenate([np.hstack([ra[i], -eye]) for i in range(n)])
+    rhs = np.concatenate([ry @ tb[i] - ta[i] for i in range(n)])
+    t = _least_squares(lhs, rhs, "the AX = YB translation system", tol,
+                       lambda ratio: _rotation_problem("AX = YB", "t_X and t_Y", ra, tol, ratio))
+    return pin.SE3(rx, t[:3]), pin.SE3(ry, t[3:])
+
+
+def solve_point_eye_in_hand(a: Sequence[pin.SE3], p: npt.ArrayLike, tol: float = DEGENERACY_TOLERANCE
+                            ) -> tuple[pin.SE3, Array]:
+    """Camera pose on a link and a world point, from the camera's sightings of that point.
+
+    A camera fixed on a link at ``X`` (link ← camera) sees a point fixed in the world at ``y`` [m]:
+    ``p_i = X⁻¹ A_i⁻¹ y`` with ``A_i`` the link's pose (world ← link). Written as
+    ``R_i R_X p_i + R_i t_X − y = −t_i`` (``A_i = (R_i, t_i)``) it is linear in ``(vec R_X, t_X, y)``,
+    15 unknowns solved by least squares (3n × 15); ``R_X`` is projected onto SO(3), then ``t_X`` and ``y``
+    re-solved given it (``R_i t_X − y = −t_i − R_i R_X p_i``, 3n × 6).
+
+    Args:
+        a: ``A_i``, the link's poses (world ← link), translations [m].
+        p: (n, 3) point seen by the camera [m] in the camera frame, one row per pose.
+        tol: Relative singular value under which the data count as degenerate (:data:`DEGENERACY_TOLERANCE`).
+
+    Returns:
+        ``(X, y)``: ``X`` link ← camera (translation [m]); ``y`` (3,) the point [m] in the world frame.
+
+    Raises:
+        DataError: fewer than 5 samples, ``p`` not (n, 3) or not finite, or motions that do not determine
+            ``X`` and ``y``: rotations all about one axis, or points coplanar in the camera frame (the linear
+            relaxation needs them to span space).
+    """
+    points = _points(p, len(a), "eye-in-hand", MIN_SAMPLES_EYE_IN_HAND)
+    n = len(a)
+    r, t = _rotations(a), _translations(a)
+    eye = np.eye(3)
+    # Centred points: t_X absorbs R_X p̄, leaving R_X alone in the first 9 unknowns and the columns
+    # independent of where the camera frame's origin is; their common length scale makes them dimensionless.
+    centred = points - points.mean(axis=0)
+    length = _rms_norm(centred)
+    lhs = np.concatenate([np.hstack([np.kron(centred[i][None, :], r[i]), r[i], -eye]) for i in range(n)])
+    rhs = -t.reshape(-1)
+
+    def problem(ratio: float) -> str:
+        return _point_problem("the eye-in-hand point system", "X and y", r, points, tol, ratio)
+
+    theta = _least_squares(lhs, rhs, "the eye-in-hand point system", tol, problem,
+                           np.r_[np.full(9, 1.0 / length), np.ones(6)])
+    rx = _nearest_rotation(theta[:9].reshape(3, 3, order="F"), "R_X of the eye-in-hand point system")
+    lhs = np.concatenate([np.hstack([r[i], -eye]) for i in range(n)])
+    rhs = np.concatenate([-t[i] - r[i] @ rx @ points[i] for i in range(n)])
+    u = _least_squares(lhs, rhs, "the eye-in-hand translation system", tol, problem)
+    return pin.SE3(rx, u[:3]), u[3:]
+
+
+def solve_point_eye_to_hand(a: Sequence[pin.SE3], p: npt.ArrayLike, tol: float = DEGENERACY_TOLERANCE
+                            ) -> tuple[pin.SE3, Array]:
+    """Pose of a fixed camera and a point on a link, from the camera's sightings of that point.
+
+    A camera fixed at ``Y`` (camera ← world) sees a point fixed on a link at ``x`` [m] in the link frame:
+    ``p_i = Y A_i x = R_Y R_i x + R_Y t_i + t_Y`` with ``A_i = (R_i, t_i)`` the link's pose (world ← link).
+    ``R_Y R_i x = Σ_jk (R_i)_jk x_k R_Y[:, j]`` is linear in the 27 products ``w_jk = x_k R_Y[:, j]``, so
+    ``p_iᵀ = f_iᵀ Θ`` with the features ``f_i = (vec R_i, t_i, 1)`` (13) and ``Θ`` (13 × 3) stacking the
+    ``w_jkᵀ``, the columns of ``R_Y`` (transposed) and ``t_Yᵀ``: the 39 unknowns by least squares. ``R_Y``
+    is taken from its rows and projected onto SO(3); ``x`` and ``t_Y`` are re-solved given it
+    (``R_Y R_i x + t_Y = p_i − R_Y t_i``, 3n × 6).
+
+    Args:
+        a: ``A_i``, the link's poses (world ← link), translations [m].
+        p: (n, 3) point seen by the camera [m] in the camera frame, one row per pose.
+        tol: Relative singular value under which the data count as degenerate (:data:`DEGENERACY_TOLERANCE`).
+
+    Returns:
+        ``(Y, x)``: ``Y`` camera ← world (translation [m]); ``x`` (3,) the point [m] in the link frame.
+
+    Raises:
+        DataError: fewer than 13 samples, ``p`` not (n, 3) or not finite, or motions that do not determine
+            ``Y`` and ``x``: rotations about one axis or too small to span the 3 × 3 matrices, or link
+            translations that are an affine function of its rotations (e.g. rotations about a fixed point).
+    """
+    points = _points(p, len(a), "eye-to-hand", MIN_SAMPLES_EYE_TO_HAND)
+    n = len(a)
+    r, t = _rotations(a), _translations(a)
+    # Centred translations (t_Y absorbs R_Y t̄) keep the constant column apart from them wherever the world
+    # origin is; their common length scale makes them dimensionless. vec R_i is column-major.
+    centred = t - t.mean(axis=0)
+    length = _rms_norm(centred)
+    features = np.hstack([r.transpose(0, 2, 1).reshape(n, 9), centred, np.ones((n, 1))])
+
+    def problem(ratio: float) -> str:
+        return _features_problem(r, features, tol, ratio)
+
+    theta = _least_squares(features, points, "the eye-to-hand point system", tol, problem,
+                           np.r_[np.ones(9), np.full(3, 1.0 / length), 1.0])
+    ry = _nearest_rotation(theta[9:12].T, "R_Y of the eye-to-hand point system")
+    lhs = np.concatenate([np.hstack([ry @ r[i], np.eye(3)]) for i in range(n)])
+    rhs = np.concatenate([points[i] - ry @ t[i] for i in range(n)])
+    u = _least_squares(lhs, rhs, "the eye-to-hand translation system", tol, problem)
+    return pin.SE3(ry, u[3:]), u[:3]
+
+
+def _rotations(poses: Sequence[pin.SE3]) -> Array:
+    return np.array([np.asarray(m.rotation, dtype=np.float64) for m in poses]).reshape(-1, 3, 3)
+
+
+def _translations(poses: Sequence[pin.SE3]) -> Array:
+    return np.array([np.asarray(m.translation, dtype=np.float64) for m in poses]).reshape(-1, 3)
+
+
+def _points(p: npt.ArrayLike, n: int, problem: str, minimum: int) -> Array:
+    points = np.asarray(p, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3 or len(points) != n:
+        raise DataError(f"the {problem} point problem needs p as ({n}, 3), one point a pose; got shape "
+                        f"{points.shape}")
+    if not np.all(np.isfinite(points)):
+        rows = sorted({int(i) for i in np.argwhere(~np.isfinite(points))[:, 0]})
+        raise DataError(f"the {problem} points have NaN/inf entries in samples {rows}")
+    if n < minimum:
+        raise DataError(f"the {problem} point problem needs at least {minimum} samples ({3 * minimum} equations "
+                        f"for {3 * minimum} unknowns of its linear form); got {n}")
+    return points
+
+
+def _rms_norm(vectors: Array) -> float:
+    """Root-mean-square norm of the rows [m], 1 m when they are all zero (the rank check then refuses)."""
+    rms = float(np.sqrt(np.mean(np.sum(vectors**2, axis=1))))
+    return rms if rms > 0.0 else 1.0
+
+
+def _nearest_rotation(matrix: Array, what: str) -> Array:
+    """The rotation nearest to ``matrix`` in Frobenius norm, det +1 (Horn 1988's SVD projection)."""
+    u, _, vt = linalg.svd(matrix, what)
+    flip = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt)) or 1.0])
+    return np.asarray(u @ flip @ vt, np.float64)
+
+
+def _least_squares(matrix: Array, rhs: Array, what: str, tol: float, problem: Callable[[float], str],
+                   scale: Array | None = None) -> Array:
+    """Least-squares solution of ``matrix · x = rhs``; the rank check on ``matrix · diag(scale)``.
+
+    ``scale`` makes the columns dimensionless (a column multiplying metres is scaled by a typical length),
+    but is shared by all the columns of one unit, so that a column only noise fills stays small.
+
+    Raises:
+        DataError: ``σ_min ≤ tol · σ_max`` of the scaled matrix; the message is ``problem(σ_min / σ_max)``.
+    """
+    scale = np.ones(matrix.shape[1]) if scale is None else scale
+    u, s, vt = linalg.svd(matrix * scale, what)
+    if s[-1] <= tol * s[0]:
+        raise DataError(problem(float(s[-1] / s[0])))
+    solution = vt.T @ ((u.T @ rhs) / (s[:, None] if rhs.ndim == 2 else s))
+    return np.asarray(solution * (scale[:, None] if rhs.ndim == 2 else scale), np.float64)
+
+
+def _axis_spread(rotations: Array, tol: float) -> tuple[int, Array]:
+    """How many independent axes the rotations differ about (0, 1 or more), and the main one.
+
+    The axes are those of ``R_i R_0ᵀ`` in the frame the rotations map into (the world for link poses).
+    """
+    logs = np.array([pin.log3(rotations[i] @ rotations[0].T) for i in range(1, len(rotations))])
+    s = linalg.singular_values(logs, "the stacked rotation vectors") if len(logs) else np.zeros(1)
+    if s[0] <= tol:  # [rad]: differences of less than ~0.5° carry no axis
+        return 0, np.zeros(3)
+    _, _, vt = linalg.svd(logs, "the stacked rotation vectors")
+    return (1 if len(s) < 2 or s[1] <= tol * s[0] else 2), vt[0]
+
+
+def _axis_words(axis: Array) -> str:
+    words = {0: "x", 1: "y", 2: "z"}
+    main = int(np.argmax(np.abs(axis)))
+    if abs(axis[main]) > 1.0 - 1e-3:
+        return f"only about {words[main]}"
+    return "only about one axis, [" + ", ".join(f"{round(c, 3) + 0.0:.3f}" for c in axis * np.sign(axis[main])) + "]"
+
+
+def _rotation_problem(system: str, unknowns: str, rotations: Array, tol: float, ratio: float) -> str:
+    count, axis = _axis_spread(rotations, tol)
+    if count == 0:
+        why = "the poses A_i all have the same rotation"
+    elif count == 1:
+        why = f"the rotations of A_i differ {_axis_words(axis)} in their reference frame"
+    else:
+        why = f"the rotations of A_i do not spread over non-parallel axes enough (ratio {ratio:.1e} ≤ tol {tol:g})"
+    return (f"{system} cannot determine {unknowns}: {why}; it needs poses rotated about at least two "
+            "non-parallel axes")
+
+
+def _point_problem(system: str, unknowns: str, rotations: Array, points: Array, tol: float, ratio: float) -> str:
+    count, axis = _axis_spread(rotations, tol)
+    if count == 0:
+        why = "the link poses A_i all have the same rotation"
+    elif count == 1:
+        why = f"the link rotations differ {_axis_words(axis)} in the world frame"
+    else:
+        s = linalg.singular_values(points - points.mean(axis=0), "the centred camera points")
+        if s[-1] <= tol * s[0]:
+            why = "the points seen lie in one plane of the camera frame (its linear form needs them to span space)"
+        else:
+            why = f"the link rotations do not spread over non-parallel axes enough (ratio {ratio:.1e} ≤ tol {tol:g})"
+    return (f"{system} cannot determine {unknowns}: {why}; it needs link rotations about at least two non-parallel "
+            "axes and points seen that do not lie in one plane")
+
+
+def _features_problem(rotations: Array, features: Array, tol: float, ratio: float) -> str:
+    count, axis = _axis_spread(rotations, tol)
+    if count == 0:
+        why = "the link poses A_i all have the same rotation"
+    elif count == 1:
+        why = f"the link rotations differ {_axis_words(axis)} in the world frame"
+    else:
+        block = features[:, [*range(9), 12]]
+        s = linalg.singular_values(block, "the rotation features")
+        if s[-1] <= tol * s[0]:
+            rank = int(np.sum(s > tol * s[0]))
+            why = (f"the link rotations span {rank - 1} of the 9 directions of 3 × 3 matrices its linear form needs "
+                   "(rotations too small, or about two axes only)")
+        else:
+            why = ("the link translations are an affine function of its rotations (e.g. rotations about one fixed "
+                   "point), so R_Y cannot be told from x")
+    return (f"the eye-to-hand point system cannot determine Y and x: {why}; it needs large link rotations about "
+            f"several axes with independent translations (ratio {ratio:.1e} ≤ tol {tol:g})")

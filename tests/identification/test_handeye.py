@@ -1,0 +1,214 @@
+"""Closed-form hand-eye starting values: exact on perfect data, a few × the noise on noisy data, and a
+DataError naming what is missing on data that cannot determine the unknowns."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from pincal.errors import DataError
+from pincal.identification.handeye import solve_ax_yb, solve_point_eye_in_hand, solve_point_eye_to_hand
+
+NOISE = 1e-4  # [m] and [rad]
+X_TRUE = pin.SE3(pin.exp3(np.array([0.3, -0.5, 0.8])), np.array([0.05, 0.02, 0.10]))  # link ← camera
+Y_TRUE = pin.SE3(pin.exp3(np.array([-1.0, 0.5, 0.2])), np.array([0.5, -0.3, 1.2]))  # world ← target / camera ← world
+POINT_WORLD = np.array([0.8, 0.2, 0.3])  # [m], eye in hand
+POINT_LINK = np.array([0.10, -0.05, 0.08])  # [m], eye to hand
+
+
+def random_pose(rng: np.random.Generator, angle: float = np.pi, axis: np.ndarray | None = None) -> pin.SE3:
+    """A rotation of up to ``angle`` about a uniformly random axis (or ``axis``), a translation within ±1 m."""
+    direction = rng.normal(size=3) if axis is None else np.asarray(axis, dtype=float)
+    rotation = pin.exp3(direction / np.linalg.norm(direction) * rng.uniform(-angle, angle))
+    return pin.SE3(rotation, rng.uniform(-1.0, 1.0, 3))
+
+
+def perturbed(pose: pin.SE3, rng: np.random.Generator, sigma: float) -> pin.SE3:
+    return pose * pin.exp6(pin.Motion(rng.normal(0.0, sigma, 3), rng.normal(0.0, sigma, 3)))
+
+
+def errors(estimate: pin.SE3, truth: pin.SE3) -> tuple[float, float]:
+    """Rotation error [rad] and translation error [m]."""
+    angle = float(np.linalg.norm(pin.log3(estimate.rotation.T @ truth.rotation)))
+    return angle, float(np.linalg.norm(estimate.translation - truth.translation))
+
+
+def ax_yb_data(rng: np.random.Generator, n: int, sigma: float = 0.0, angle: float = np.pi,
+               axis: np.ndarray | None = None) -> tuple[list[pin.SE3], list[pin.SE3]]:
+    a = [random_pose(rng, angle, axis) for _ in range(n)]
+    b = [perturbed(Y_TRUE.inverse() * ai * X_TRUE, rng, sigma) for ai in a]
+    return a, b
+
+
+def eye_in_hand_points(a: list[pin.SE3], rng: np.random.Generator, sigma: float = 0.0) -> np.ndarray:
+    points = np.array([(X_TRUE.inverse() * ai.inverse()).act(POINT_WORLD) for ai in a])
+    return points + rng.normal(0.0, sigma, points.shape)
+
+
+def eye_to_hand_points(a: list[pin.SE3], rng: np.random.Generator, sigma: float = 0.0) -> np.ndarray:
+    points = np.array([(Y_TRUE * ai).act(POINT_LINK) for ai in a])
+    return points + rng.normal(0.0, sigma, points.shape)
+
+
+# --- AX = YB ---------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("n", [3, 10, 40])
+def test_ax_yb_recovers_x_and_y_exactly(n: int) -> None:
+    a, b = ax_yb_data(np.random.default_rng(n), n)
+    x, y = solve_ax_yb(a, b)
+    assert max(errors(x, X_TRUE)) < 1e-9
+    assert max(errors(y, Y_TRUE)) < 1e-9
+    assert np.linalg.det(x.rotation) == pytest.approx(1.0)
+
+
+def test_ax_yb_within_a_few_times_the_noise() -> None:
+    rng = np.random.default_rng(1)
+    a, b = ax_yb_data(rng, 30, NOISE)
+    x, y = solve_ax_yb(a, b)
+    for estimate, truth in ((x, X_TRUE), (y, Y_TRUE)):
+        rotation_error, translation_error = errors(estimate, truth)
+        assert rotation_error < 3 * NOISE
+        assert translation_error < 3 * NOISE
+
+
+@pytest.mark.parametrize("sigma", [0.0, NOISE])
+def test_ax_yb_rotations_about_one_axis_are_refused(sigma: float) -> None:
+    rng = np.random.default_rng(2)
+    a, b = ax_yb_data(rng, 20, axis=np.array([0.0, 0.0, 1.0]))
+    a = [perturbed(ai, rng, sigma) for ai in a]
+    with pytest.raises(DataError, match=r"differ only about z.*two non-parallel axes"):
+        solve_ax_yb(a, b)
+
+
+def test_ax_yb_refusal_is_set_by_the_tolerance() -> None:
+    rng = np.random.default_rng(3)
+    a, b = ax_yb_data(rng, 20, axis=np.array([1.0, 1.0, 0.0]))
+    a = [perturbed(ai, rng, NOISE) for ai in a]
+    with pytest.raises(DataError, match=r"differ only about one axis, \[0.707, 0.707, 0.000\]"):
+        solve_ax_yb(a, b)
+    solve_ax_yb(a, b, tol=1e-6)  # the noise does separate the axes, if badly
+
+
+def test_ax_yb_needs_three_poses_and_distinct_rotations() -> None:
+    rng = np.random.default_rng(4)
+    a, b = ax_yb_data(rng, 2)
+    with pytest.raises(DataError, match=r"at least 3 poses.*got 2"):
+        solve_ax_yb(a, b)
+    same = [pin.SE3(a[0].rotation, rng.uniform(-1.0, 1.0, 3)) for _ in range(6)]
+    with pytest.raises(DataError, match="all have the same rotation"):
+        solve_ax_yb(same, [Y_TRUE.inverse() * ai * X_TRUE for ai in same])
+    with pytest.raises(DataError, match="one B per A; got 2 A and 1 B"):
+        solve_ax_yb(a, b[:1])
+
+
+# --- a point fixed in the world, camera on the link --------------------------------------------------------
+
+
+@pytest.mark.parametrize("n", [5, 12, 40])
+def test_eye_in_hand_recovers_camera_and_point_exactly(n: int) -> None:
+    rng = np.random.default_rng(10 + n)
+    a = [random_pose(rng) for _ in range(n)]
+    x, point = solve_point_eye_in_hand(a, eye_in_hand_points(a, rng))
+    assert max(errors(x, X_TRUE)) < 1e-9
+    assert np.linalg.norm(point - POINT_WORLD) < 1e-9
+
+
+def test_eye_in_hand_within_a_few_times_the_noise() -> None:
+    rng = np.random.default_rng(11)
+    a = [random_pose(rng) for _ in range(30)]
+    p = eye_in_hand_points(a, rng, NOISE)
+    x, point = solve_point_eye_in_hand([perturbed(ai, rng, NOISE) for ai in a], p)
+    rotation_error, translation_error = errors(x, X_TRUE)
+    assert rotation_error < 3 * NOISE
+    assert translation_error < 3 * NOISE
+    assert np.linalg.norm(point - POINT_WORLD) < 3 * NOISE
+
+
+@pytest.mark.parametrize("sigma", [0.0, NOISE])
+def test_eye_in_hand_rotations_about_one_axis_are_refused(sigma: float) -> None:
+    rng = np.random.default_rng(12)
+    a = [random_pose(rng, axis=np.array([0.0, 0.0, 1.0])) for _ in range(20)]
+    p = eye_in_hand_points(a, rng, sigma)
+    with pytest.raises(DataError, match="link rotations differ only about z in the world frame"):
+        solve_point_eye_in_hand([perturbed(ai, rng, sigma) for ai in a], p)
+
+
+def test_eye_in_hand_points_in_one_camera_plane_are_refused() -> None:
+    rng = np.random.default_rng(13)
+    p = np.column_stack([rng.uniform(-0.2, 0.2, (20, 2)), np.full(20, 0.5)])  # all at 0.5 m depth
+    a = []
+    for point in p:
+        rotation = random_pose(rng).rotation
+        a.append(pin.SE3(rotation, POINT_WORLD - rotation @ X_TRUE.act(point)))  # A_i X p_i = y
+    with pytest.raises(DataError, match="lie in one plane of the camera frame"):
+        solve_point_eye_in_hand(a, p)
+
+
+def test_eye_in_hand_malformed_inputs() -> None:
+    rng = np.random.default_rng(14)
+    a = [random_pose(rng) for _ in range(6)]
+    p = eye_in_hand_points(a, rng)
+    with pytest.raises(DataError, match=r"at least 5 samples.*got 4"):
+        solve_point_eye_in_hand(a[:4], p[:4])
+    with pytest.raises(DataError, match=r"p as \(6, 3\).*\(5, 3\)"):
+        solve_point_eye_in_hand(a, p[:5])
+    p[2, 1] = np.nan
+    with pytest.raises(DataError, match=r"NaN/inf entries in samples \[2\]"):
+        solve_point_eye_in_hand(a, p)
+
+
+# --- a point fixed on the link, camera fixed in the world --------------------------------------------------
+
+
+@pytest.mark.parametrize("n", [16, 40])
+def test_eye_to_hand_recovers_camera_and_point_exactly(n: int) -> None:
+    rng = np.random.default_rng(20 + n)
+    a = [random_pose(rng) for _ in range(n)]
+    y, point = solve_point_eye_to_hand(a, eye_to_hand_points(a, rng))
+    assert max(errors(y, Y_TRUE)) < 1e-9
+    assert np.linalg.norm(point - POINT_LINK) < 1e-9
+
+
+def test_eye_to_hand_within_a_few_times_the_noise() -> None:
+    rng = np.random.default_rng(21)
+    a = [random_pose(rng) for _ in range(40)]
+    p = eye_to_hand_points(a, rng, NOISE)
+    y, point = solve_point_eye_to_hand([perturbed(ai, rng, NOISE) for ai in a], p)
+    rotation_error, translation_error = errors(y, Y_TRUE)
+    assert rotation_error < 3 * NOISE
+    assert translation_error < 3 * NOISE
+    assert np.linalg.norm(point - POINT_LINK) < 3 * NOISE
+
+
+@pytest.mark.parametrize("sigma", [0.0, NOISE])
+def test_eye_to_hand_rotations_about_one_axis_are_refused(sigma: float) -> None:
+    rng = np.random.default_rng(22)
+    a = [random_pose(rng, axis=np.array([0.0, 0.0, 1.0])) for _ in range(30)]
+    p = eye_to_hand_points(a, rng, sigma)
+    with pytest.raises(DataError, match="link rotations differ only about z in the world frame"):
+        solve_point_eye_to_hand([perturbed(ai, rng, sigma) for ai in a], p)
+
+
+def test_eye_to_hand_rotations_about_a_fixed_point_are_refused() -> None:
+    rng = np.random.default_rng(23)
+    centre, tool = np.array([0.4, 0.1, 0.6]), np.array([0.0, 0.0, 0.15])
+    rotations = [random_pose(rng).rotation for _ in range(30)]
+    a = [pin.SE3(r, centre - r @ tool) for r in rotations]  # the tool point stays at the centre
+    with pytest.raises(DataError, match="translations are an affine function of its rotations"):
+        solve_point_eye_to_hand(a, eye_to_hand_points(a, rng))
+
+
+def test_eye_to_hand_small_rotations_are_refused() -> None:
+    rng = np.random.default_rng(24)
+    a = [random_pose(rng, angle=np.radians(5.0)) for _ in range(40)]
+    with pytest.raises(DataError, match=r"span .* of the 9 directions of 3 × 3 matrices"):
+        solve_point_eye_to_hand(a, eye_to_hand_points(a, rng))
+
+
+def test_eye_to_hand_needs_thirteen_samples() -> None:
+    rng = np.random.default_rng(25)
+    a = [random_pose(rng) for _ in range(12)]
+    with pytest.raises(DataError, match=r"at least 13 samples.*got 12"):
+        solve_point_eye_to_hand(a, eye_to_hand_points(a, rng))
