@@ -11,7 +11,7 @@ import math
 import re
 import sys
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal, get_args
 
@@ -260,7 +260,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     train = dataset.of_set("train")
     models = measurements_for(robot, list(dataset.measurements), dataset.joint_names, sigma, dataset.metadata)
     if pose_sigma_angle is not None:
-        models = [Pose(m.key, m.size, m.sigma, m.frame, pose_sigma_angle) if isinstance(m, Pose) else m for m in models]
+        models = [replace(m, sigma_angle=pose_sigma_angle) if isinstance(m, Pose) else m for m in models]
     if not models:
         raise DataError("the data has no measurement columns ('<kind>:<frame>:<component>', e.g. "
                         "position:end_effector:x, see docs/dataset.md) and no passive joint readings: nothing to "

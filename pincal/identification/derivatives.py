@@ -18,8 +18,8 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.identification.measurements import MarkerPoint, split_target
-from pincal.identification.parameters import ParameterSet, _descends
+from pincal.identification.measurements import AttachedPlacement, MarkerPoint, split_target
+from pincal.identification.parameters import ParameterSet, _descends, attached_name
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -84,6 +84,25 @@ def marker_points(pset: ParameterSet, x: Array, nominal: dict[str, Array]) -> di
             motion = np.hstack([np.eye(3), -pin.skew(point)]) @ right_jacobian(delta, comps)
             derivative = np.hstack([derivative, placement.rotation @ motion])
         out[target] = MarkerPoint(placement.act(point), own + cluster, derivative)
+    return out
+
+
+def attached_placements(pset: ParameterSet, x: Array) -> dict[str, AttachedPlacement]:
+    """Each camera and target with parameters at ``x``: its placement ``exp6(δ)`` and right Jacobian.
+
+    Args:
+        pset: The parameter set ``x`` refers to.
+        x: (p,) parameter vector [m, rad].
+
+    Returns:
+        Attached placement name (:func:`pincal.identification.parameters.attached_name`: ``camera.<frame>``,
+        ``target``, ``target.<frame>@<target>``) -> its :class:`AttachedPlacement`.
+    """
+    out: dict[str, AttachedPlacement] = {}
+    for (kind, target, _), idx in pset.groups("camera", "target").items():
+        delta = pset.placement_delta(x, idx)
+        jacobian = right_jacobian(delta, [pset.parameters[k].component for k in idx])
+        out[attached_name(kind, target)] = AttachedPlacement(pin.exp6(delta), list(idx), jacobian)
     return out
 
 

@@ -7,7 +7,9 @@ Frobenius norm, det +1), and the translations are then re-solved by linear least
 - :func:`solve_ax_yb`: ``A_i X = Y B_i`` (robot-world/hand-eye; Shah 2013, "Solving the robot-world/hand-eye
   calibration problem using the Kronecker product", J. Mechanisms Robotics 5(3)).
 - :func:`solve_point_eye_in_hand`: a camera on a link sees one point fixed in the world.
-- :func:`solve_point_eye_to_hand`: a fixed camera sees one point fixed on a link.
+
+(A fixed camera seeing a point on a link is a position measurement in the camera's frame: its start is the Kabsch
+registration of the measurement frame, :meth:`pincal.identification.problem.CalibrationProblem.initial_guess`.)
 
 Poses are :class:`pinocchio.SE3` (``R`` dimensionless, ``t`` [m]); points are [m]. ``T = a ← b`` means that
 ``T`` maps coordinates in frame ``b`` to frame ``a`` (``p_a = R p_b + t``).
@@ -37,13 +39,11 @@ can become ``e · σ_max / σ`` in the solution: 1e-3 caps that amplification at
 sit at round-off (~1e-15); degenerate data with noise ``e`` [rad, or m per unit lever arm] sit at about ``e``
 (measured: rotations all about z with 1e-4 noise give 1.1e-4, with 1e-5 noise 1.1e-5), so both are refused
 for noise up to ~1e-3. Random poses with rotations of ±30° about all axes sit at 0.04–0.1 for AX = YB and
-eye-in-hand; the 39-unknown eye-to-hand system needs the second-order part of its rotations and sits near
-1e-3 at ±30° (20 samples), 0.04–0.2 with rotations over all of SO(3). Pass ``tol`` to move it, e.g. 1e-8 to
+eye-in-hand. Pass ``tol`` to move it, e.g. 1e-8 to
 refuse only exact degeneracy."""
 
 MIN_POSES_AX_YB = 3
 MIN_SAMPLES_EYE_IN_HAND = 5  # 15 unknowns, 3 equations a sample
-MIN_SAMPLES_EYE_TO_HAND = 13  # 39 unknowns, 3 equations a sample
 
 
 def solve_ax_yb(a: Sequence[pin.SE3], b: Sequence[pin.SE3], tol: float = DEGENERACY_TOLERANCE
@@ -147,52 +147,6 @@ def solve_point_eye_in_hand(a: Sequence[pin.SE3], p: npt.ArrayLike, tol: float =
     return pin.SE3(rx, u[:3]), u[3:]
 
 
-def solve_point_eye_to_hand(a: Sequence[pin.SE3], p: npt.ArrayLike, tol: float = DEGENERACY_TOLERANCE
-                            ) -> tuple[pin.SE3, Array]:
-    """Pose of a fixed camera and a point on a link, from the camera's sightings of that point.
-
-    A camera fixed at ``Y`` (camera ← world) sees a point fixed on a link at ``x`` [m] in the link frame:
-    ``p_i = Y A_i x = R_Y R_i x + R_Y t_i + t_Y`` with ``A_i = (R_i, t_i)`` the link's pose (world ← link).
-    ``R_Y R_i x = Σ_jk (R_i)_jk x_k R_Y[:, j]`` is linear in the 27 products ``w_jk = x_k R_Y[:, j]``, so
-    ``p_iᵀ = f_iᵀ Θ`` with the features ``f_i = (vec R_i, t_i, 1)`` (13) and ``Θ`` (13 × 3) stacking the
-    ``w_jkᵀ``, the columns of ``R_Y`` (transposed) and ``t_Yᵀ``: the 39 unknowns by least squares. ``R_Y``
-    is taken from its rows and projected onto SO(3); ``x`` and ``t_Y`` are re-solved given it
-    (``R_Y R_i x + t_Y = p_i − R_Y t_i``, 3n × 6).
-
-    Args:
-        a: ``A_i``, the link's poses (world ← link), translations [m].
-        p: (n, 3) point seen by the camera [m] in the camera frame, one row per pose.
-        tol: Relative singular value under which the data count as degenerate (:data:`DEGENERACY_TOLERANCE`).
-
-    Returns:
-        ``(Y, x)``: ``Y`` camera ← world (translation [m]); ``x`` (3,) the point [m] in the link frame.
-
-    Raises:
-        DataError: fewer than 13 samples, ``p`` not (n, 3) or not finite, or motions that do not determine
-            ``Y`` and ``x``: rotations about one axis or too small to span the 3 × 3 matrices, or link
-            translations that are an affine function of its rotations (e.g. rotations about a fixed point).
-    """
-    points = _points(p, len(a), "eye-to-hand", MIN_SAMPLES_EYE_TO_HAND)
-    n = len(a)
-    r, t = _rotations(a), _translations(a)
-    # Centred translations (t_Y absorbs R_Y t̄) keep the constant column apart from them wherever the world
-    # origin is; their common length scale makes them dimensionless. vec R_i is column-major.
-    centred = t - t.mean(axis=0)
-    length = _rms_norm(centred)
-    features = np.hstack([r.transpose(0, 2, 1).reshape(n, 9), centred, np.ones((n, 1))])
-
-    def problem(ratio: float) -> str:
-        return _features_problem(r, features, tol, ratio)
-
-    theta = _least_squares(features, points, "the eye-to-hand point system", tol, problem,
-                           np.r_[np.ones(9), np.full(3, 1.0 / length), 1.0])
-    ry = _nearest_rotation(theta[9:12].T, "R_Y of the eye-to-hand point system")
-    lhs = np.concatenate([np.hstack([ry @ r[i], np.eye(3)]) for i in range(n)])
-    rhs = np.concatenate([points[i] - ry @ t[i] for i in range(n)])
-    u = _least_squares(lhs, rhs, "the eye-to-hand translation system", tol, problem)
-    return pin.SE3(ry, u[3:]), u[:3]
-
-
 def _rotations(poses: Sequence[pin.SE3]) -> Array:
     return np.array([np.asarray(m.rotation, dtype=np.float64) for m in poses]).reshape(-1, 3, 3)
 
@@ -293,23 +247,3 @@ def _point_problem(system: str, unknowns: str, rotations: Array, points: Array, 
             why = f"the link rotations do not spread over non-parallel axes enough (ratio {ratio:.1e} ≤ tol {tol:g})"
     return (f"{system} cannot determine {unknowns}: {why}; it needs link rotations about at least two non-parallel "
             "axes and points seen that do not lie in one plane")
-
-
-def _features_problem(rotations: Array, features: Array, tol: float, ratio: float) -> str:
-    count, axis = _axis_spread(rotations, tol)
-    if count == 0:
-        why = "the link poses A_i all have the same rotation"
-    elif count == 1:
-        why = f"the link rotations differ {_axis_words(axis)} in the world frame"
-    else:
-        block = features[:, [*range(9), 12]]
-        s = linalg.singular_values(block, "the rotation features")
-        if s[-1] <= tol * s[0]:
-            rank = int(np.sum(s > tol * s[0]))
-            why = (f"the link rotations span {rank - 1} of the 9 directions of 3 × 3 matrices its linear form needs "
-                   "(rotations too small, or about two axes only)")
-        else:
-            why = ("the link translations are an affine function of its rotations (e.g. rotations about one fixed "
-                   "point), so R_Y cannot be told from x")
-    return (f"the eye-to-hand point system cannot determine Y and x: {why}; it needs large link rotations about "
-            f"several axes with independent translations (ratio {ratio:.1e} ≤ tol {tol:g})")

@@ -8,8 +8,10 @@ asks which kind: a new sensor is one subclass of :class:`Measurement`. All in SI
 [m] in the measurement frame, orientations as rotation vectors [rad], joint readings [rad or m].
 
 Keys (also the dataset column prefixes): ``position:<frame>``, ``position:<frame>@<marker>`` (a marker fixed on
-``frame``: several per frame, each with its own offset), ``pose:<frame>``, ``distance:<a>-<b>``,
-``distance_increment:<a>-<b>``, ``joint:<joint>``.
+``frame``: several per frame, each with its own offset), ``pose:<frame>``, ``pose:<frame>@<target>`` (a pose target
+fixed on ``frame``, seen by a camera fixed in the world: eye-to-hand), ``camera:<frame>`` and ``camera_point:<frame>``
+(a camera fixed on ``frame`` that sees a pose target or a point fixed in the world: eye-in-hand),
+``distance:<a>-<b>``, ``distance_increment:<a>-<b>``, ``joint:<joint>``.
 
 A measured point on a frame is named by its *marker target*: ``<frame>`` for the frame's own marker,
 ``<frame>@<marker>`` for a declared marker. Its position in the frame [m] is
@@ -18,6 +20,12 @@ marker's own offset parameters ``marker.<target>.x|y|z`` and, for declared marke
 frame's marker cluster ``cluster.<frame>.*`` (each term present only when its parameters are estimated). The
 problem evaluates it once per evaluation (:class:`MarkerPoint`); the models read it through
 :meth:`SampleContext.marker`.
+
+Cameras and their targets are *attached placements* (:class:`AttachedPlacement`), ``exp6(δ)`` with δ their
+parameters: a camera on a frame (``camera.<frame>.*``, frame ← camera), the world target of the eye-in-hand
+cameras (``target.*``, world ← target; a point target uses its translation only) and a pose target on a frame
+(``target.<frame>@<target>.*``, frame ← target). For eye-to-hand, the fixed camera is the measurement frame
+(``base.*``). The models read them through :meth:`SampleContext.attached_placement`.
 """
 
 from __future__ import annotations
@@ -66,6 +74,36 @@ class MarkerPoint:
     derivative: Array = field(default_factory=lambda: np.zeros((3, 0)))
 
 
+@dataclass
+class AttachedPlacement:
+    """A placement the measurement models carry (a camera, a target) at one parameter estimate.
+
+    Attributes:
+        placement: The placement, ``exp6(δ)`` (camera on its frame, target in the world or on its frame).
+        columns: Its parameter columns (empty: known, the identity).
+        jacobian: (6, len(columns)) its local twist per unit parameter (right Jacobian of ``exp6``).
+    """
+
+    placement: pin.SE3 = field(default_factory=pin.SE3.Identity)
+    columns: list[int] = field(default_factory=list)
+    jacobian: Array = field(default_factory=lambda: np.zeros((6, 0)))
+
+
+def camera_name(frame: str) -> str:
+    """The attached placement (and parameter prefix) of the camera fixed on ``frame``: ``camera.<frame>``."""
+    return f"camera.{frame}"
+
+
+#: The attached placement (and parameter prefix) of the target fixed in the world that eye-in-hand cameras see.
+WORLD_TARGET = "target"
+
+
+def target_name(frame: str, target: str) -> str:
+    """The attached placement (and parameter prefix) of pose target ``target`` on ``frame``:
+    ``target.<frame>@<target>``."""
+    return f"{WORLD_TARGET}.{frame}@{target}"
+
+
 def split_target(target: str) -> tuple[str, str]:
     """``(frame, marker)`` of a marker target: ``tool0@m1`` -> ``("tool0", "m1")``, ``tool0`` -> ``("tool0", "")``."""
     frame, at, marker = target.rpartition("@")
@@ -95,6 +133,8 @@ class SampleContext:
         q: (nq,) the sample's closed configuration.
         twists: Frame -> (6, p) its local twist per unit parameter (empty without Jacobian).
         dv: (nv, p) the configuration's velocity per unit parameter (None without Jacobian).
+        attached: Attached placement name (``camera.<frame>``, ``target``, ``target.<frame>@<target>``) -> its
+            placement and parameter derivative (those with parameters only).
     """
 
     model: pin.Model
@@ -111,6 +151,7 @@ class SampleContext:
     q: Array = field(default_factory=lambda: np.zeros(0))
     twists: dict[str, Array] = field(default_factory=dict)
     dv: Array | None = None
+    attached: dict[str, AttachedPlacement] = field(default_factory=dict)
 
     def placement(self, frame: str) -> pin.SE3:
         """The frame's placement in the robot's world frame at ``q``."""
@@ -127,6 +168,11 @@ class SampleContext:
         point [m] in the frame's coordinates w.r.t. them (no columns: the marker is fixed on its frame)."""
         point = self.markers.get(target)
         return (point.columns, point.derivative) if point is not None else ([], np.zeros((3, 0)))
+
+    def attached_placement(self, name: str) -> AttachedPlacement:
+        """Attached placement ``name`` (a camera, a target) at this estimate: the identity with no columns when it
+        has no parameters (known)."""
+        return self.attached.get(name) or AttachedPlacement()
 
     def measured(self, key: str) -> Array:
         """This sample's measured values of measurement ``key``."""
@@ -268,23 +314,33 @@ class Position(Measurement):
 
 @dataclass(frozen=True)
 class Pose(Measurement):
-    """6D pose of a frame: position [m] then the rotation vector ``log3(R_measᵀ R)`` [rad].
+    """6D pose of a frame, or of pose target ``target`` fixed on it (key ``pose:<frame>@<target>``: e.g. a camera
+    fixed in the world, the measurement frame, sees a target on the robot, eye-to-hand): position [m] then the
+    rotation vector ``log3(R_measᵀ R)`` [rad].
 
-    ``sigma`` weights the position rows; ``sigma_angle`` the orientation rows.
+    ``sigma`` weights the position rows; ``sigma_angle`` the orientation rows. A sample may lack the reading (the
+    body or the target not seen: all seven values empty, NaN); the problem leaves its rows out.
     """
 
     kinds: ClassVar[tuple[str, ...]] = ("pose",)
     components: ClassVar[tuple[str, ...]] = ("x", "y", "z", "qx", "qy", "qz", "qw")
     length_rows: ClassVar[int] = 3
     angle_rows: ClassVar[int] = 3
+    occludable: ClassVar[bool] = True
 
     frame: str = ""
     sigma_angle: float = 1e-4
+    target: str = ""
 
     @classmethod
     def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
-        """The model of key ``pose:<frame>``; σ defaults to 1e-5 for the position [m] and the orientation [rad]."""
-        return pose(rest, sigma or 1e-5, sigma or 1e-5)
+        """The model of key ``pose:<frame>`` or ``pose:<frame>@<target>``; σ defaults to 1e-5 for the position [m]
+        and the orientation [rad]."""
+        frame, target = split_target(rest)
+        if "@" in rest and (not frame or not MARKER_NAME.fullmatch(target)):
+            raise DataError(f"measurement '{kind}:{rest}' must name a frame and a target as "
+                            f"'{kind}:<frame>@<target>', the target in letters, digits and '_'")
+        return pose(frame, sigma or 1e-5, sigma or 1e-5, target)
 
     @property
     def frames(self) -> tuple[str, ...]:
@@ -293,7 +349,7 @@ class Pose(Measurement):
 
     @property
     def locates_point(self) -> bool:
-        """True: the first three values are the position [m] of the frame's origin."""
+        """True: the first three values are the position [m] of the frame's origin (or its target's)."""
         return True
 
     def row_units(self) -> list[str]:
@@ -305,24 +361,132 @@ class Pose(Measurement):
         return np.array([self.sigma] * 3 + [self.sigma_angle] * 3)
 
     def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
-        """Position as :class:`Position` (no marker: a pose is of the frame itself), then
-        ``log3(R_measᵀ R_base R)`` with derivative ``Jlog3 · ω`` (ω: the frame's local angular twist)."""
-        placement = ctx.placement(self.frame)
-        _predict_point(ctx, self.frame, np.zeros(3), out, jac)
-        meas_rot = pin.Quaternion(*ctx.measured(self.key)[[6, 3, 4, 5]]).normalized().matrix()
-        rel = meas_rot.T @ ctx.base.rotation @ placement.rotation
-        out[3:] = pin.log3(rel)
-        if jac is not None:
-            jlog = pin.Jlog3(rel)
-            jac[3:] = jlog @ ctx.twists[self.frame][3:]
-            if ctx.base_columns:
-                jac[3:, ctx.base_columns] = jlog @ placement.rotation.T @ ctx.base_jacobian[3:]
+        """The pose ``P = F X`` of the frame F's target X (the identity for the frame itself) in the measurement
+        frame: position ``base · p_P``, orientation ``log3(R_measᵀ R_base R_P)``. With ν the local twist of P
+        (``Ad(X⁻¹) ξ_F``, plus X's own right Jacobian), the rows' derivatives are ``R_base R_P ν_v`` and
+        ``Jlog3 · ν_ω``."""
+        term = ctx.attached_placement(target_name(self.frame, self.target)) if self.target else AttachedPlacement()
+        placement = ctx.placement(self.frame) * term.placement
+        out[:3] = ctx.base.act(placement.translation)
+        rel = _orientation_rows(ctx.measured(self.key), ctx.base.rotation @ placement.rotation, out[3:])
+        if jac is None:
+            return
+        twist = term.placement.inverse().action @ ctx.twists[self.frame]
+        twist[:, term.columns] += term.jacobian
+        jlog = pin.Jlog3(rel)
+        jac[:3] = ctx.base.rotation @ placement.rotation @ twist[:3]
+        jac[3:] = jlog @ twist[3:]
+        if ctx.base_columns:
+            jac[:3, ctx.base_columns] = (ctx.base.rotation @ np.hstack([np.eye(3), -pin.skew(placement.translation)])
+                                         @ ctx.base_jacobian)
+            jac[3:, ctx.base_columns] = jlog @ placement.rotation.T @ ctx.base_jacobian[3:]
 
     def error(self, predicted: Array, measured: Array, model: pin.Model) -> Array:
         """The position rows less the measured position; the rotation rows are already relative."""
         err = predicted.copy()
         err[:, :3] -= measured[:, :3]
         return err
+
+
+@dataclass(frozen=True)
+class CameraPose(Pose):
+    """Eye-in-hand: a camera fixed on ``frame`` sees a pose target fixed in the world; the values are the target's
+    pose in the camera's frame, position [m] then orientation (quaternion columns, the rotation vector
+    ``log3(R_measᵀ R)`` [rad] as residual). Key ``camera:<frame>``.
+
+    The camera's placement on the frame (``camera.<frame>.*``) and the target's in the robot's world frame
+    (``target.*``) are unknowns, estimated with the robot; the robot's own measurement frame plays no part (no
+    ``base.*``). A sample in which the camera did not see the target has all seven values empty (NaN).
+    """
+
+    kinds: ClassVar[tuple[str, ...]] = ("camera",)
+
+    @classmethod
+    def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
+        """The model of key ``camera:<frame>``; σ defaults to 1e-5 for the position [m] and the orientation [rad]."""
+        return camera_pose(rest, sigma or 1e-5, sigma or 1e-5)
+
+    @property
+    def locates_point(self) -> bool:
+        """False: the camera moves with the robot; its values place no point in a fixed measurement frame."""
+        return False
+
+    def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
+        """``T = C⁻¹ F⁻¹ G`` (C the camera on frame F, G the world target): position ``p_T``, orientation
+        ``log3(R_measᵀ R_T)``. T's local twist per parameter: ``−Ad(G⁻¹F) ξ_F`` for the robot's,
+        ``−Ad(T⁻¹) J_C`` for the camera's, ``J_G`` for the target's (J: right Jacobians of ``exp6``)."""
+        frame = ctx.placement(self.frame)
+        camera = ctx.attached_placement(camera_name(self.frame))
+        target = ctx.attached_placement(WORLD_TARGET)
+        seen = camera.placement.inverse() * frame.inverse() * target.placement
+        out[:3] = seen.translation
+        rel = _orientation_rows(ctx.measured(self.key), seen.rotation, out[3:])
+        if jac is None:
+            return
+        twist = -(target.placement.inverse() * frame).action @ ctx.twists[self.frame]
+        twist[:, camera.columns] -= seen.inverse().action @ camera.jacobian
+        twist[:, target.columns] += target.jacobian
+        jac[:3] = seen.rotation @ twist[:3]
+        jac[3:] = pin.Jlog3(rel) @ twist[3:]
+
+
+@dataclass(frozen=True)
+class CameraPoint(Measurement):
+    """Eye-in-hand with a point target: a camera fixed on ``frame`` sees a point fixed in the world; the values are
+    the point's position [m] in the camera's frame. Key ``camera_point:<frame>``.
+
+    Unknowns: the camera's placement on the frame (``camera.<frame>.*``) and the point in the robot's world frame
+    (the translation of the world target, ``target.tx|ty|tz``). A sample in which the camera did not see the point
+    has its three values empty (NaN).
+    """
+
+    kinds: ClassVar[tuple[str, ...]] = ("camera_point",)
+    components: ClassVar[tuple[str, ...]] = ("x", "y", "z")
+    length_rows: ClassVar[int] = 3
+    occludable: ClassVar[bool] = True
+
+    frame: str = ""
+
+    @classmethod
+    def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
+        """The model of key ``camera_point:<frame>``; σ [m] defaults to 1e-5."""
+        return camera_point(rest, sigma or 1e-5)
+
+    @property
+    def frames(self) -> tuple[str, ...]:
+        """The frame carrying the camera."""
+        return (self.frame,)
+
+    def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
+        """``y = C⁻¹ F⁻¹ g`` (C the camera on frame F, g the world point): with ``z = F⁻¹ g``, the derivatives are
+        ``R_Cᵀ (−ξ_v + ẑ ξ_ω)`` for the robot's parameters, ``(−I, ŷ) J_C`` for the camera's and
+        ``R_Cᵀ R_Fᵀ R_G J_G,v`` for the point's."""
+        frame = ctx.placement(self.frame)
+        camera = ctx.attached_placement(camera_name(self.frame))
+        target = ctx.attached_placement(WORLD_TARGET)
+        local = frame.actInv(target.placement.translation)
+        seen = camera.placement.actInv(local)
+        out[:3] = seen
+        if jac is None:
+            return
+        twist = ctx.twists[self.frame]
+        rot_c = camera.placement.rotation
+        jac[:3] = rot_c.T @ (-twist[:3] + pin.skew(local) @ twist[3:])
+        jac[:3, camera.columns] += -camera.jacobian[:3] + pin.skew(seen) @ camera.jacobian[3:]
+        jac[:3, target.columns] += rot_c.T @ frame.rotation.T @ target.placement.rotation @ target.jacobian[:3]
+
+
+def _orientation_rows(measured: Array, rotation: Array, out: Array) -> Array:
+    """Write the orientation rows ``log3(R_measᵀ R)`` [rad] into ``out`` from a pose reading (x, y, z, qx, qy, qz,
+    qw; the quaternion normalized) and return ``R_measᵀ R``; a reading not taken (NaN) gives NaN rows (left out of
+    the fit) and returns ``R``."""
+    quat = measured[[6, 3, 4, 5]]
+    if not np.all(np.isfinite(quat)):
+        out[:] = np.nan
+        return rotation
+    rel: Array = pin.Quaternion(*quat).normalized().matrix().T @ rotation
+    out[:] = pin.log3(rel)
+    return rel
 
 
 @dataclass(frozen=True)
@@ -447,9 +611,23 @@ def position(frame: str, sigma: float = 1e-5, marker: str = "",
     return Position(key, 3, sigma, frame, marker, nominal)
 
 
-def pose(frame: str, sigma: float = 1e-5, sigma_angle: float = 1e-5) -> Pose:
-    """The model of ``frame``'s pose: position with σ [m], orientation with ``sigma_angle`` [rad]."""
-    return Pose(f"pose:{frame}", 6, sigma, frame, sigma_angle)
+def pose(frame: str, sigma: float = 1e-5, sigma_angle: float = 1e-5, target: str = "") -> Pose:
+    """The model of ``frame``'s pose, or with ``target`` of that pose target fixed on ``frame`` (seen by a camera
+    fixed in the world): position with σ [m], orientation with ``sigma_angle`` [rad]."""
+    key = f"pose:{frame}@{target}" if target else f"pose:{frame}"
+    return Pose(key, 6, sigma, frame, sigma_angle, target)
+
+
+def camera_pose(frame: str, sigma: float = 1e-5, sigma_angle: float = 1e-5) -> CameraPose:
+    """The model of a camera fixed on ``frame`` reading the pose of a target fixed in the world (eye-in-hand):
+    position with σ [m], orientation with ``sigma_angle`` [rad]."""
+    return CameraPose(f"camera:{frame}", 6, sigma, frame, sigma_angle)
+
+
+def camera_point(frame: str, sigma: float = 1e-5) -> CameraPoint:
+    """The model of a camera fixed on ``frame`` reading the position [m] of a point fixed in the world
+    (eye-in-hand), with σ [m]."""
+    return CameraPoint(f"camera_point:{frame}", 3, sigma, frame)
 
 
 def distance(frame_a: str, frame_b: str, sigma: float = 1e-6, increment: bool = False) -> Distance:

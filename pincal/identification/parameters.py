@@ -11,6 +11,10 @@ Every chosen placement M becomes ``M · exp6(δ)``, δ = (tx, ty, tz, rx, ry, rz
   offset of declared marker ``marker`` on ``frame`` [m], from its nominal offset;
 - ``cluster.<frame>.<c>``: the rigid placement of the cluster of declared markers on ``frame``, ``exp6(δ)`` applied
   to their nominal offsets (in ``frame``);
+- ``camera.<frame>.<c>``: the placement of a camera fixed on ``frame`` (frame ← camera, ``exp6(δ)``; eye-in-hand);
+- ``target.<c>``: the placement of the target the eye-in-hand cameras see, in the robot's world frame (world ←
+  target; a point target: its translation ``tx, ty, tz``); ``target.<frame>@<target>.<c>``: a pose target fixed on
+  ``frame`` (frame ← target; eye-to-hand, the camera being the measurement frame ``base.*``);
 - device constants named by their measurement model (e.g. ``scale.zero``).
 
 The values of a :class:`ParameterSet` are deviations from the nominal robot (zero = nominal).
@@ -28,7 +32,17 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import DataError, NotFoundError, listing, not_found
-from pincal.identification.measurements import JointReading, Measurement, Pose, Position, split_target
+from pincal.identification.measurements import (
+    WORLD_TARGET,
+    CameraPoint,
+    CameraPose,
+    JointReading,
+    Measurement,
+    Pose,
+    Position,
+    camera_name,
+    split_target,
+)
 from pincal.model.robot import Robot
 from pincal.model.robot import Unit as Unit
 from pincal.model.robot import joint_unit as joint_unit
@@ -45,10 +59,11 @@ ANGLE_SCALE = 1e-3
 TORQUE_SCALE = 10.0
 FORCE_SCALE = 100.0
 #: What a parameter is: a joint origin's placement component, a loop anchor's, a joint reading's offset, the
-#: measurement frame's placement component, a marker's offset component, a marker cluster's placement component, or a
-#: correction of an actuated joint's value that a URDF cannot hold (a harmonic of its reading, its compliance:
-#: :mod:`pincal.identification.corrections`).
-ParameterKind = Literal["joint", "anchor", "offset", "base", "marker", "cluster", "harmonic", "compliance"]
+#: measurement frame's placement component, a marker's offset component, a marker cluster's placement component, a
+#: camera's or a target's placement component, or a correction of an actuated joint's value that a URDF cannot hold
+#: (a harmonic of its reading, its compliance: :mod:`pincal.identification.corrections`).
+ParameterKind = Literal["joint", "anchor", "offset", "base", "marker", "cluster", "camera", "target", "harmonic",
+                        "compliance"]
 #: How the declared markers of a frame (``position:<frame>@<marker>``) are fitted: ``each`` marker's offset on its
 #: own (``marker.<frame>@<marker>.*``), or one rigid placement of the frame's ``cluster`` of markers, whose nominal
 #: offsets the data declare (``cluster.<frame>.*``).
@@ -68,9 +83,10 @@ class Parameter:
 
     Attributes:
         name: Unique name (see module docstring).
-        kind: ``joint``, ``anchor``, ``offset``, ``base``, ``marker``, ``cluster``, ``harmonic`` or ``compliance``.
-        target: Joint name, loop name, frame name (marker target ``<frame>@<marker>`` for a declared marker), or
-            device constant name.
+        kind: ``joint``, ``anchor``, ``offset``, ``base``, ``marker``, ``cluster``, ``camera``, ``target``,
+            ``harmonic`` or ``compliance``.
+        target: Joint name, loop name, frame name (marker target ``<frame>@<marker>`` for a declared marker, pose
+            target ``<frame>@<target>``; empty for the world target), or device constant name.
         component: Index in (tx, ty, tz, rx, ry, rz) for placements, in (x, y, z) for markers, in
             (sin1, cos1, sin2, cos2) for harmonics.
         side: ``predecessor`` or ``successor`` for anchors.
@@ -104,8 +120,10 @@ class Parameter:
 
 def placement_parameters(kind: ParameterKind, target: str, side: str = "",
                          components: Sequence[str] = COMPONENTS) -> list[Parameter]:
-    """The parameters of one placement (a joint origin, a loop anchor, the base, a marker cluster)."""
-    prefix = {"joint": target, "anchor": f"{target}.{side}", "base": "base", "cluster": f"cluster.{target}"}[kind]
+    """The parameters of one placement (a joint origin, a loop anchor, the base, a marker cluster, a camera, a
+    target)."""
+    prefix = {"joint": target, "anchor": f"{target}.{side}", "base": "base", "cluster": f"cluster.{target}"}.get(
+        kind) or attached_name(kind, target)
     return [Parameter(f"{prefix}.{c}", kind, target, COMPONENTS.index(c), side,
                       "m" if c.startswith("t") else "rad") for c in components]
 
@@ -137,6 +155,34 @@ def marker_parameters(target: str) -> list[Parameter]:
 def cluster_parameters(frame: str) -> list[Parameter]:
     """The placement of the cluster of declared markers on ``frame`` (tx, ty, tz [m], rx, ry, rz [rad])."""
     return placement_parameters("cluster", frame)
+
+
+def attached_name(kind: str, target: str) -> str:
+    """The name of a camera's or a target's placement (its parameters' prefix): ``camera.<frame>``, ``target`` (the
+    world target, ``target`` empty) or ``target.<frame>@<target>``."""
+    if kind == "camera":
+        return camera_name(target)
+    return f"{WORLD_TARGET}.{target}" if target else WORLD_TARGET
+
+
+def camera_parameters(models: Sequence[Measurement]) -> list[Parameter]:
+    """The unknown placements the cameras bring: each eye-in-hand camera on its frame (``camera.<frame>.*``), the
+    world target they see (``target.*``; its translation only when every camera sees a point), and each pose
+    target on a frame (``target.<frame>@<target>.*``, eye-to-hand)."""
+    params = [p for f in sorted({m.frame for m in models if isinstance(m, CameraPose | CameraPoint)})
+              for p in placement_parameters("camera", f)]
+    if any(isinstance(m, CameraPose) for m in models):
+        params += placement_parameters("target", "")
+    elif any(isinstance(m, CameraPoint) for m in models):
+        params += placement_parameters("target", "", components=COMPONENTS[:3])
+    targets = sorted({f"{m.frame}@{m.target}" for m in models if isinstance(m, Pose) and m.target})
+    return params + [p for t in targets for p in placement_parameters("target", t)]
+
+
+def sees_world_target(models: Sequence[Measurement]) -> bool:
+    """Whether a camera on the robot sees a target fixed in the world (eye-in-hand): the world frame is then
+    seen only through that target, as an external measurement frame is through ``base.*``."""
+    return any(isinstance(m, CameraPose | CameraPoint) for m in models)
 
 
 def marker_targets(models: Sequence[Measurement]) -> list[str]:
@@ -533,19 +579,25 @@ def default_parameters(robot: Robot, models: Sequence[Measurement], markers: Mar
       offset, or for a passive loop joint its free value), and except the first joint's whole placement when
       the measurement frame is estimated (``base`` moves the chain the same way);
     - per measured frame, the fixed joint nearest to it below its last moving joint (the tool): translation for
-      a position without a marker, all six for a pose; none when a marker offset is estimated;
+      a position without a marker, all six for a pose; none when a marker offset, a camera or a target on the frame
+      is estimated;
     - the anchors of the loops those joints close;
     - reading offsets of the influencing actuated joints and of the read joints;
     - the measurement frame (``base.*``) when positions or poses are measured in an external frame, and a marker
       offset (``marker.<target>.*``) for each marker target whose position is measured (``<frame>``, and each
       declared marker ``<frame>@<marker>``); with ``markers="cluster"``, the declared markers of a frame get one
-      cluster placement (``cluster.<frame>.*``) instead, and need their nominal offsets (:func:`check_marker_fit`).
+      cluster placement (``cluster.<frame>.*``) instead, and need their nominal offsets (:func:`check_marker_fit`);
+    - the cameras and targets (:func:`camera_parameters`); a world target seen by an eye-in-hand camera leaves the
+      first joint's placement out as an estimated measurement frame does.
     """
     check_marker_fit(markers, models)
     frames = sorted({f for m in models for f in m.frames})
     read = [m.joint for m in models if isinstance(m, JointReading)]
     external = any(m.locates_point for m in models)
-    marked = sorted({m.frame for m in models if isinstance(m, Position)})
+    # frames whose measured point or placement on the frame is estimated (a marker, a camera, a pose target): the
+    # tool's placement would duplicate it
+    marked = sorted({m.frame for m in models
+                     if isinstance(m, Position | CameraPose | CameraPoint) or (isinstance(m, Pose) and m.target)})
     joints = influencing_joints(robot, frames, read)
     model = robot.model
     normal = planar_normal(robot)
@@ -554,8 +606,8 @@ def default_parameters(robot: Robot, models: Sequence[Measurement], markers: Mar
     firsts = [j for j in joints if model.parents[robot.joint_id(j)] == 0]
     params: list[Parameter] = []
     for joint in joints:
-        if external and firsts == [joint]:
-            continue  # one chain from the root: its first placement and the base are one and the same
+        if (external or sees_world_target(models)) and firsts == [joint]:
+            continue  # one chain from the root: its first placement and the base (or world target) are one and the same
         jid = robot.joint_id(joint)
         own = _own_motion(robot, joint)
         comps = [c for c in _in_plane(data.oMi[jid], normal) if c != own]
@@ -588,7 +640,7 @@ def default_parameters(robot: Robot, models: Sequence[Measurement], markers: Mar
             params += marker_parameters(target)
     for frame in clustered:
         params += cluster_parameters(frame)
-    return ParameterSet(params)
+    return ParameterSet(params + camera_parameters(models))
 
 
 def check_marker_fit(markers: str, models: Sequence[Measurement]) -> None:
@@ -638,7 +690,8 @@ def parameter_pool(robot: Robot, models: Sequence[Measurement]) -> ParameterSet:
                    for p in (*harmonic_parameters(j, joint_unit(robot, j)),
                              compliance_parameter(j, joint_unit(robot, j)))]
     return ParameterSet(pool.parameters + [p for t in marker_targets(models) for p in marker_parameters(t)]
-                        + [p for f in clustered_frames(models) for p in cluster_parameters(f)] + corrections)
+                        + [p for f in clustered_frames(models) for p in cluster_parameters(f)]
+                        + camera_parameters(models) + corrections)
 
 
 def _names_in_short(names: Sequence[str], shown: int = 12) -> str:

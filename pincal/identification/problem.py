@@ -22,14 +22,32 @@ import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, listing, not_found
+from pincal.identification import handeye
 from pincal.identification.corrections import correction_regressors
-from pincal.identification.derivatives import KinematicSensitivity, frame_probe, marker_points, right_jacobian
-from pincal.identification.measurements import Measurement, Position, SampleContext
+from pincal.identification.derivatives import (
+    KinematicSensitivity,
+    attached_placements,
+    frame_probe,
+    marker_points,
+    right_jacobian,
+)
+from pincal.identification.measurements import (
+    WORLD_TARGET,
+    CameraPoint,
+    CameraPose,
+    Measurement,
+    Pose,
+    Position,
+    SampleContext,
+    camera_name,
+    target_name,
+)
 from pincal.identification.parameters import (
     CORRECTION_KINDS,
     KINEMATIC_KINDS,
     ParameterSet,
     apply_parameters,
+    attached_name,
     joint_unit,
     offset_parameter,
 )
@@ -163,6 +181,8 @@ class CalibrationProblem:
         # known to be on the reference assembly: only a sample that moved can have left it
         self._travel = np.zeros(observations.n_samples)
         self.rows_per_sample = sum(m.size for m in self.measurements)
+        #: The cameras and targets (attached placement names) the last :meth:`initial_guess` placed in closed form.
+        self.placed_in_closed_form: list[str] = []
         self._seen: dict[str, npt.NDArray[np.bool_]] = {}
         for m in self.measurements:
             taken = np.all(np.isfinite(observations.values[m.key]), axis=1)
@@ -265,10 +285,19 @@ class CalibrationProblem:
         return report.q
 
     def initial_guess(self) -> Array:
-        """A starting point: zero, except an unknown measurement frame (all six ``base.*``) registered in
-        closed form to the measured positions (Kabsch: measured ≈ R · predicted + t, least squares)."""
+        """A starting point: zero, except the placements closed forms give from the nominal robot.
+
+        - cameras and their targets (each with all six placement parameters): an eye-in-hand camera seeing a pose
+          target solves ``A_i X = Y B_i⁻¹`` (A_i the camera's frame in the world, B_i the target seen, X the camera on
+          the frame, Y the target in the world), a point target ``p_i = X⁻¹ A_i⁻¹ y``; a pose target on a frame
+          seen by a fixed camera solves ``A_i X = Y B_i``, Y the inverse of the camera's placement ``base``
+          (:mod:`pincal.identification.handeye`). Data that do not determine them leave them at zero;
+        - otherwise an unknown measurement frame (all six ``base.*``) registered in closed form to the measured
+          positions (Kabsch: measured ≈ R · predicted + t, least squares).
+        """
         x = np.zeros(len(self.parameters))
-        if len(self.base) != 6 or any(k >= len(self.parameters) for k in self.base):
+        located = self._camera_starts(x)
+        if located or len(self.base) != 6 or any(k >= len(self.parameters) for k in self.base):
             return x
         pred = CalibrationProblem.evaluate(self, x, jacobian=False)  # forward predictions, for IKM too
         model, measured = [], []
@@ -284,10 +313,60 @@ class CalibrationProblem:
         u, _, vt = linalg.svd((a - ca).T @ (b - cb), "the Kabsch cross-covariance of the measured positions")
         d = np.sign(np.linalg.det(vt.T @ u.T))
         rot = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-        delta = pin.log6(pin.SE3(rot, cb - rot @ ca)).vector
-        for k in self.base:
-            x[k] = delta[self.parameters.parameters[k].component]
+        self._set_placement(x, self.base, pin.SE3(rot, cb - rot @ ca))
         return x
+
+    def _camera_starts(self, x: Array) -> bool:
+        """Write the closed-form starts of the cameras and targets into ``x``; True if one placed the measurement
+        frame (``base``, the fixed camera of a pose target)."""
+        groups = {attached_name(kind, target): idx for (kind, target, _), idx
+                  in self.parameters.groups("camera", "target").items()}
+        cameras = [m for m in self.measurements if isinstance(m, CameraPose | CameraPoint | Pose)
+                   and (not isinstance(m, Pose) or isinstance(m, CameraPose) or m.target)]
+        self.placed_in_closed_form = []
+        if not cameras:
+            return False
+        nominal = self.robot.model.createData()
+        located = False
+        for m in cameras:
+            taken = np.flatnonzero(self.seen(m.key))
+            frame = self.frame_ids[m.frame]
+            a = []
+            for k in taken:
+                pin.framesForwardKinematics(self.robot.model, nominal, self._solve(self.robot, int(k),
+                                                                                   self.observations.actuated[k]))
+                a.append(nominal.oMf[frame].copy())
+            values = self.observations.values[m.key][taken]
+            try:
+                if isinstance(m, CameraPoint):
+                    camera, point = handeye.solve_point_eye_in_hand(a, values[:, :3])
+                    world, own = pin.SE3(np.eye(3), point), camera
+                    names = (camera_name(m.frame), WORLD_TARGET)
+                else:
+                    seen = [pin.XYZQUATToSE3(v) for v in values]
+                    if isinstance(m, CameraPose):
+                        own, world = handeye.solve_ax_yb(a, [b.inverse() for b in seen])
+                        names = (camera_name(m.frame), WORLD_TARGET)
+                    else:
+                        own, world = handeye.solve_ax_yb(a, seen)
+                        names = (target_name(m.frame, m.target), "")
+            except DataError:
+                continue  # the data do not determine the placements: the identifiability analysis will say so
+            if len(groups.get(names[0], [])) == 6:
+                self._set_placement(x, groups[names[0]], own)
+                self.placed_in_closed_form.append(names[0])
+            if names[1] and len(groups.get(names[1], [])) in (3, 6):
+                self._set_placement(x, groups[names[1]], world)
+            elif not names[1] and len(self.base) == 6:
+                self._set_placement(x, self.base, world.inverse())
+                located = True
+        return located
+
+    def _set_placement(self, x: Array, indices: list[int], placement: pin.SE3) -> None:
+        """Set a placement group's parameters in ``x`` to ``log6(placement)`` (its components that are parameters)."""
+        delta = pin.log6(placement).vector
+        for k in indices:
+            x[k] = delta[self.parameters.parameters[k].component]
 
     def settle_assembly(self, x: Array) -> list[int]:
         """Samples whose remembered configuration at ``x`` is not on the reference assembly, each reset to it.
@@ -398,7 +477,7 @@ class CalibrationProblem:
         base_jacobian = right_jacobian(base_delta, [self._all.parameters[k].component for k in self.base])
         return SampleContext(model, data, x, pin.exp6(base_delta), base_jacobian, self.base,
                              marker_points(self._all, x, self.marker_nominals), self.reading_offsets,
-                             self.frame_ids, self.observations.values)
+                             self.frame_ids, self.observations.values, attached=attached_placements(self._all, x))
 
     def _assemble(self, preds: dict[str, Array], dpreds: dict[str, Array], jacobian: bool) -> Prediction:
         errors: dict[str, Array] = {}

@@ -65,7 +65,8 @@ def declared_marker_offsets(metadata: dict[str, str]) -> dict[str, tuple[float, 
 def channel_sigma(key: str, metadata: dict[str, str], default: float | None, angle: bool = False) -> float | None:
     """σ of a measurement channel from dataset metadata: ``# sigma <kind> <name>: value`` (e.g.
     ``# sigma position end_effector: 1e-5``, ``# sigma joint device_lvdt: 1e-6``), else
-    ``# sigma <kind>: value``; ``# sigma pose angle: ...`` for pose orientations [m or rad]."""
+    ``# sigma <kind>: value``; ``# sigma pose angle: ...`` (``# sigma camera angle: ...``) for pose orientations [m or
+    rad]."""
     kind, _, name = key.partition(":")
     candidates = [f"sigma {kind} angle"] if angle else [f"sigma {kind} {name}", f"sigma {kind}"]
     for candidate in candidates:
@@ -99,7 +100,7 @@ def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_column
         if isinstance(model, Pose):
             angle = sigma or channel_sigma(key, meta, None, angle=True)
             if angle:
-                model = Pose(model.key, model.size, model.sigma, model.frame, angle)
+                model = replace(model, sigma_angle=angle)
         if isinstance(model, Position) and model.target in nominal:
             model = replace(model, nominal=nominal[model.target])
         models.append(model)

@@ -23,7 +23,7 @@ import pinocchio as pin
 from pincal.errors import ConvergenceError, DataError, RobotFileError, listing, not_found
 from pincal.identification.derivatives import marker_points
 from pincal.identification.measurements import Measurement, Pose, Position, split_target
-from pincal.identification.parameters import CORRECTION_KINDS, KINEMATIC_KINDS, ParameterSet
+from pincal.identification.parameters import CORRECTION_KINDS, KINEMATIC_KINDS, ParameterSet, attached_name
 from pincal.model.catalog import resolve_mesh_file
 from pincal.model.robot import Robot, _build_model, check_reference_assembly
 from pincal.model.urdf import origin_to_se3, read_extensions
@@ -37,7 +37,7 @@ Array = npt.NDArray[np.float64]
 MEASUREMENT_FRAME = "measurement_frame"
 #: Parameter kinds a calibrated URDF carries (all of pincal's kinds but the joint-value corrections, which go to the
 #: corrections file beside it: :mod:`pincal.io.corrections`; they are left out of the text, not refused).
-WRITTEN_KINDS = ("joint", "anchor", "offset", "base", "marker", "cluster")
+WRITTEN_KINDS = ("joint", "anchor", "offset", "base", "marker", "cluster", "camera", "target")
 
 
 def marker_link(target: str) -> str:
@@ -116,6 +116,10 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
       one, from an earlier calibration, gets the new offset); each declared marker ``<frame>@<marker>`` (given
       in ``markers``, or with ``marker.<frame>@<marker>.*`` parameters) a link ``<frame>_marker_<marker>`` at its
       calibrated point ``exp6(δ_cluster) · (nominal + δ_marker)``, by a fixed joint ``<frame>_marker_<marker>_joint``;
+    - cameras and targets (``camera.<frame>.*``, ``target.*``, ``target.<frame>@<target>.*``): a link
+      ``<frame>_camera`` on ``frame``'s link, ``camera_target`` on the robot's root link (the target an eye-in-hand
+      camera sees, in the robot's world frame) and ``<frame>_target_<target>`` on ``frame``'s link, each by a fixed
+      joint named ``<link>_joint`` at the calibrated placement;
     - instrumented passive joints (``<joint>.offset`` of a non-actuated joint, and ``read_joints``):
       ``<joint_sensor joint="..." zero="z"/>``: the sensor reads ``q + z``, q the joint's value in the
       file, ``z = shift − δq`` [m or rad];
@@ -176,6 +180,7 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     tree = ET.fromstring(source_text)
     fixed_links = _measurement_frame_link(tree, parameters, x, joint_origins, root, measurement_frame)
     fixed_links += _marker_links(tree, parameters, x, joint_origins, root, markers or {})
+    fixed_links += _attached_links(tree, parameters, x)
     offsets = {p.target: float(x[k]) for k, p in enumerate(parameters) if p.kind == "offset"}
     read = [j for j in dict.fromkeys([*read_joints, *offsets]) if j not in robot.actuated_joints]
     sensor_zeros = {j: shifts.get(j, 0.0) - offsets.get(j, 0.0) for j in read}
@@ -294,6 +299,32 @@ def _marker_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_or
         what = f"marker '{marker}' on '{frame}'" if marker else f"marker on '{frame}'"
         out.append(FixedLink(joint, parent, link, placement,
                              f"pincal: the calibrated {what}, the point measured there"))
+    return out
+
+
+def attached_link(kind: str, target: str) -> str:
+    """Name of the link a calibrated camera or target becomes: ``<frame>_camera``, ``camera_target`` (the world
+    target, ``target`` empty) or ``<frame>_target_<target>``."""
+    if kind == "camera":
+        return f"{target}_camera"
+    frame, name = split_target(target)
+    return f"{frame}_target_{name}" if target else "camera_target"
+
+
+def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array) -> list[FixedLink]:
+    """Each calibrated camera and target as a link: on its frame's link, or the world target on the root link."""
+    out = []
+    links = {link.get("name") for link in tree.findall("link")}
+    for (kind, target, _), idx in parameters.groups("camera", "target").items():
+        link = attached_link(kind, target)
+        if link in links:
+            raise RobotFileError(f"the URDF already has a link '{link}', the name of the calibrated "
+                                 f"{attached_name(kind, target)}: rename it")
+        parent = _root_link(tree) if kind == "target" and not target else _frame_link(tree, split_target(target)[0])
+        placement = pin.exp6(parameters.placement_delta(x, idx))
+        what = ("camera" if kind == "camera" else "target") + (f" on '{split_target(target)[0]}'" if target
+                                                               else " fixed in the robot's world frame")
+        out.append(FixedLink(f"{link}_joint", parent, link, placement, f"pincal: the calibrated {what}"))
     return out
 
 

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from pincal.errors import DataError, NotFoundError, listing, not_found
+from pincal.identification.measurements import KIND_CLASSES
 from pincal.identification.selection import SELECTIONS
 from pincal.identification.solver import LOSSES, SOLVERS
 from pincal.io.dataset import MEASUREMENT_COMPONENTS, parse_measurement_key
@@ -305,8 +306,9 @@ class _Reader:
         if len(columns) != len(components):
             raise self.error(f"{where} columns", f"{len(columns)} columns; a {kind} needs {len(components)}, one per "
                                                  f"component in this order: {listing(components)}")
-        if "sigma_angle" in entry and kind != "pose":
-            raise self.error(f"{where} sigma_angle", f"only a pose has an orientation; a {kind} has sigma alone")
+        if "sigma_angle" in entry and not KIND_CLASSES[kind].angle_rows:
+            raise self.error(f"{where} sigma_angle", f"only a pose or a camera's pose target has an orientation; a "
+                                                     f"{kind} has sigma alone")
         return MeasureColumns(key, tuple(columns),
                               self.sigma(entry["sigma"], f"{where} sigma") if "sigma" in entry else None,
                               self.sigma(entry["sigma_angle"], f"{where} sigma_angle") if "sigma_angle" in entry

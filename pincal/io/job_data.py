@@ -217,5 +217,5 @@ def _metadata(job: Job, robot: Robot) -> dict[str, str]:
         if measure.sigma is not None:
             metadata[f"sigma {kind} {name}"] = repr(measure.sigma)
         if measure.sigma_angle is not None:
-            metadata["sigma pose angle"] = repr(measure.sigma_angle)
+            metadata[f"sigma {kind} angle"] = repr(measure.sigma_angle)
     return metadata

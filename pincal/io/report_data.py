@@ -22,12 +22,23 @@ Array = npt.NDArray[np.float64]
 BEFORE_MEANS_REGISTERED = ("the nominal robot, with the measurement frame registered to the training data in "
                            "closed form (Kabsch), for fit and held-out samples alike")
 BEFORE_MEANS_NOMINAL = "the nominal robot in the nominal measurement frame, for fit and held-out samples alike"
+BEFORE_MEANS_PLACED = ("the nominal robot, with its cameras and targets placed to the training data in closed form "
+                       "(hand-eye), for fit and held-out samples alike")
+BEFORE_MEANS_UNPLACED = ("the nominal robot, with its cameras and targets at the identity (the training data did not "
+                         "determine them in closed form), for fit and held-out samples alike")
 
 
 def registered_base(parameters: ParameterSet) -> bool:
     """True when the measurement frame is estimated whole (all six ``base.*``), so that the starting point
     registers it in closed form (:meth:`CalibrationProblem.initial_guess`)."""
     return len(parameters.groups("base").get(("base", "base", ""), [])) == 6
+
+
+def _before_means(problem: CalibrationProblem) -> str:
+    """What the "before" errors are of: the starting point :meth:`CalibrationProblem.initial_guess` gave."""
+    if problem.parameters.of_kind("camera", "target"):
+        return BEFORE_MEANS_PLACED if problem.placed_in_closed_form else BEFORE_MEANS_UNPLACED
+    return BEFORE_MEANS_REGISTERED if registered_base(problem.parameters) else BEFORE_MEANS_NOMINAL
 
 
 def angle_error_norms(errors: dict[str, Array]) -> Array:
@@ -70,7 +81,7 @@ def report_dict(result: CalibrationResult, problem: CalibrationProblem, x_true: 
         "rms_after": clean(rms(after)),
         "max_before": clean(float(before.max())) if before.size else None,
         "max_after": clean(float(after.max())) if after.size else None,
-        "before_means": BEFORE_MEANS_REGISTERED if registered_base(problem.parameters) else BEFORE_MEANS_NOMINAL,
+        "before_means": _before_means(problem),
         "iterations": result.iterations,
         "converged": result.converged,
         "message": result.message,

@@ -8,13 +8,12 @@ import pinocchio as pin
 import pytest
 
 from pincal.errors import DataError
-from pincal.identification.handeye import solve_ax_yb, solve_point_eye_in_hand, solve_point_eye_to_hand
+from pincal.identification.handeye import solve_ax_yb, solve_point_eye_in_hand
 
 NOISE = 1e-4  # [m] and [rad]
 X_TRUE = pin.SE3(pin.exp3(np.array([0.3, -0.5, 0.8])), np.array([0.05, 0.02, 0.10]))  # link ← camera
 Y_TRUE = pin.SE3(pin.exp3(np.array([-1.0, 0.5, 0.2])), np.array([0.5, -0.3, 1.2]))  # world ← target / camera ← world
 POINT_WORLD = np.array([0.8, 0.2, 0.3])  # [m], eye in hand
-POINT_LINK = np.array([0.10, -0.05, 0.08])  # [m], eye to hand
 
 
 def random_pose(rng: np.random.Generator, angle: float = np.pi, axis: np.ndarray | None = None) -> pin.SE3:
@@ -43,11 +42,6 @@ def ax_yb_data(rng: np.random.Generator, n: int, sigma: float = 0.0, angle: floa
 
 def eye_in_hand_points(a: list[pin.SE3], rng: np.random.Generator, sigma: float = 0.0) -> np.ndarray:
     points = np.array([(X_TRUE.inverse() * ai.inverse()).act(POINT_WORLD) for ai in a])
-    return points + rng.normal(0.0, sigma, points.shape)
-
-
-def eye_to_hand_points(a: list[pin.SE3], rng: np.random.Generator, sigma: float = 0.0) -> np.ndarray:
-    points = np.array([(Y_TRUE * ai).act(POINT_LINK) for ai in a])
     return points + rng.normal(0.0, sigma, points.shape)
 
 
@@ -157,58 +151,3 @@ def test_eye_in_hand_malformed_inputs() -> None:
     p[2, 1] = np.nan
     with pytest.raises(DataError, match=r"NaN/inf entries in samples \[2\]"):
         solve_point_eye_in_hand(a, p)
-
-
-# --- a point fixed on the link, camera fixed in the world --------------------------------------------------
-
-
-@pytest.mark.parametrize("n", [16, 40])
-def test_eye_to_hand_recovers_camera_and_point_exactly(n: int) -> None:
-    rng = np.random.default_rng(20 + n)
-    a = [random_pose(rng) for _ in range(n)]
-    y, point = solve_point_eye_to_hand(a, eye_to_hand_points(a, rng))
-    assert max(errors(y, Y_TRUE)) < 1e-9
-    assert np.linalg.norm(point - POINT_LINK) < 1e-9
-
-
-def test_eye_to_hand_within_a_few_times_the_noise() -> None:
-    rng = np.random.default_rng(21)
-    a = [random_pose(rng) for _ in range(40)]
-    p = eye_to_hand_points(a, rng, NOISE)
-    y, point = solve_point_eye_to_hand([perturbed(ai, rng, NOISE) for ai in a], p)
-    rotation_error, translation_error = errors(y, Y_TRUE)
-    assert rotation_error < 3 * NOISE
-    assert translation_error < 3 * NOISE
-    assert np.linalg.norm(point - POINT_LINK) < 3 * NOISE
-
-
-@pytest.mark.parametrize("sigma", [0.0, NOISE])
-def test_eye_to_hand_rotations_about_one_axis_are_refused(sigma: float) -> None:
-    rng = np.random.default_rng(22)
-    a = [random_pose(rng, axis=np.array([0.0, 0.0, 1.0])) for _ in range(30)]
-    p = eye_to_hand_points(a, rng, sigma)
-    with pytest.raises(DataError, match="link rotations differ only about z in the world frame"):
-        solve_point_eye_to_hand([perturbed(ai, rng, sigma) for ai in a], p)
-
-
-def test_eye_to_hand_rotations_about_a_fixed_point_are_refused() -> None:
-    rng = np.random.default_rng(23)
-    centre, tool = np.array([0.4, 0.1, 0.6]), np.array([0.0, 0.0, 0.15])
-    rotations = [random_pose(rng).rotation for _ in range(30)]
-    a = [pin.SE3(r, centre - r @ tool) for r in rotations]  # the tool point stays at the centre
-    with pytest.raises(DataError, match="translations are an affine function of its rotations"):
-        solve_point_eye_to_hand(a, eye_to_hand_points(a, rng))
-
-
-def test_eye_to_hand_small_rotations_are_refused() -> None:
-    rng = np.random.default_rng(24)
-    a = [random_pose(rng, angle=np.radians(5.0)) for _ in range(40)]
-    with pytest.raises(DataError, match=r"span .* of the 9 directions of 3 × 3 matrices"):
-        solve_point_eye_to_hand(a, eye_to_hand_points(a, rng))
-
-
-def test_eye_to_hand_needs_thirteen_samples() -> None:
-    rng = np.random.default_rng(25)
-    a = [random_pose(rng) for _ in range(12)]
-    with pytest.raises(DataError, match=r"at least 13 samples.*got 12"):
-        solve_point_eye_to_hand(a, eye_to_hand_points(a, rng))

@@ -86,5 +86,6 @@ def test_keys_parse_to_their_model_and_name_the_dataset_columns(key: str) -> Non
 
 
 def test_an_unknown_kind_lists_the_known_ones() -> None:
-    with pytest.raises(DataError, match="kinds are position, pose, distance, distance_increment, joint"):
+    with pytest.raises(DataError,
+                       match="kinds are position, pose, camera, camera_point, distance, distance_increment, joint"):
         ms.parse_key("height:tool0")

@@ -405,3 +405,42 @@ def test_simulate_then_calibrate_reproduces_the_truth(name: str, kinds: list[str
     assert worst[0] <= 1e-7  # [m]
     if "pose" in kinds:
         assert worst[1] <= 1e-7  # [rad]
+
+
+@pytest.mark.parametrize(("key", "camera_link", "seen_link"), [
+    ("camera:tool0", "tool0_camera", "camera_target"),
+    ("camera_point:tool0", "tool0_camera", "camera_target"),
+    ("pose:tool0@tag", MEASUREMENT_FRAME, "tool0_target_tag"),
+])
+def test_cameras_and_targets_are_links_that_reproduce_the_calibrated_readings(key: str, camera_link: str,
+                                                                             seen_link: str) -> None:
+    """The camera's link and the link it sees, at the raw readings, give the calibrated model's prediction of the
+    camera reading to 1e-9 (the camera 12 cm and 2 rad from the identity, the target 1 m away)."""
+    robot = pincal.load_robot("ur10")
+    model = parse_key(key)
+    pset = choose_parameters(robot, [model])
+    rng = np.random.default_rng(11)
+    x = perturbation(pset, 1e-3, rng)
+    far = {"camera.tool0.tz": 0.12, "camera.tool0.ry": -2.0, "target.tx": 1.0, "target.rz": 0.7, "base.tx": 2.0,
+           "base.rz": 1.2, "target.tool0@tag.ty": 0.05, "target.tool0@tag.rx": 1.1}
+    for name, value in far.items():
+        if name in pset:
+            x[pset.index(name)] = value
+    qa, _ = random_actuated(robot, 5, rng)
+    values = {key: np.tile([0, 0, 0, 0, 0, 0, 1.0][:len(model.columns)], (5, 1))}
+    predicted = CalibrationProblem(robot, pset, [model], Observations(qa, values)).evaluate(x, jacobian=False)
+    text, _ = calibrated_robot_text(robot, source_text(robot), pset, x)
+    tree = ET.fromstring(text)
+    assert tree.find(f"link[@name='{seen_link}']") is not None
+    loaded = pin.buildModelFromXML(text)
+    data = loaded.createData()
+    for k in range(5):
+        q = pin.neutral(loaded)
+        for j, name in enumerate(robot.actuated_joints):
+            q[loaded.joints[loaded.getJointId(name)].idx_q] = qa[k, j]
+        pin.framesForwardKinematics(loaded, data, q)
+        seen = data.oMf[loaded.getFrameId(camera_link)].inverse() * data.oMf[loaded.getFrameId(seen_link)]
+        expected = predicted.predicted[key][k]
+        assert np.allclose(seen.translation, expected[:3], atol=1e-9)
+        if len(expected) == 6:
+            assert np.allclose(pin.log3(seen.rotation), expected[3:], atol=1e-9)

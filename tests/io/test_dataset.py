@@ -162,7 +162,8 @@ MALFORMED = {
         r"missing joint columns arm_2_joint; joint columns present: arm_1_joint, arm_3_joint"),
     "unknown kind": (
         "arm_1_joint,arm_2_joint,arm_3_joint,positon:ee:x\n0.1,0.2,0.3,0.4\n",
-        r"column 'positon:ee:x' has unknown kind 'positon'.*kinds: position, pose, distance, distance_increment"),
+        r"column 'positon:ee:x' has unknown kind 'positon'.*kinds: position, pose, camera, camera_point, distance, "
+        r"distance_increment"),
     "bad component": (
         "arm_1_joint,arm_2_joint,arm_3_joint,position:ee:w\n0.1,0.2,0.3,0.4\n",
         r"column 'position:ee:w' has component 'w'; a position has components: x, y, z"),
