@@ -23,7 +23,7 @@ import pinocchio as pin
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, listing, not_found
 from pincal.identification import handeye
-from pincal.identification.corrections import correction_regressors
+from pincal.identification.corrections import Payload, correction_regressors
 from pincal.identification.derivatives import (
     KinematicSensitivity,
     attached_placements,
@@ -132,11 +132,16 @@ class CalibrationProblem:
         parameters: The unknowns (deviations from nominal).
         measurements: The measurement models; their keys index ``observations.values``.
         observations: The data.
+        joint_sigma: σ of the actuated readings [rad or m] (one, or one per actuated joint), or None.
+        payload: A point mass the robot carries, whose gravity torque adds to the links' in the compliance terms
+            (:func:`~pincal.identification.corrections.gravity_torques`); unused without a compliance parameter.
     """
 
     def __init__(self, robot: Robot, parameters: ParameterSet, measurements: Sequence[Measurement],
-                 observations: Observations, joint_sigma: float | Sequence[float] | None = None) -> None:
+                 observations: Observations, joint_sigma: float | Sequence[float] | None = None,
+                 payload: Payload | None = None) -> None:
         self.robot = robot
+        self.payload = payload
         self.parameters = parameters
         self.measurements = list(measurements)
         self.observations = observations
@@ -161,7 +166,8 @@ class CalibrationProblem:
         if strays:
             raise DataError(f"corrections {listing(strays)} are of joints that are not actuated; harmonics and "
                             "compliance correct actuated joints' values")
-        regressors = correction_regressors(robot, [(p.target, p.term) for _, p in corrections], observations.actuated)
+        regressors = correction_regressors(robot, [(p.target, p.term) for _, p in corrections], observations.actuated,
+                                           payload)
         #: (actuated joint, column, (N,) regressor): the joint's value moves by x[column] × regressor per sample; a
         #: reading offset is the term whose regressor is 1, a harmonic or a compliance one that varies by sample
         ones = np.ones(observations.n_samples)
