@@ -204,9 +204,10 @@ def limits(rows: list[dict[str, Any]], parts: dict[str, Any] | None = None) -> l
     if parts is not None and one is not None:
         markers = ", ".join(f"m{k + 1} {_mm(v)}" for k, v in enumerate(parts["markers"]))
         out += [f"- **The three markers are one rigid body in the data.** Their distances vary by "
-                f"{parts['distance_spread'] * 1e6:.2f} µm (largest standard deviation over the 34 postures): the "
-                "mocap reports the markers of a fitted rigid body, so three markers are one measured pose of the "
-                "hand, not three independent points, and their readings carry no noise of their own.",
+                f"{parts['distance_spread'] * 1e6:.2f} µm (largest standard deviation over the 34 postures): they "
+                "behave as the markers of a rigid body fitted by the mocap software, so three markers are one "
+                "measured pose of the hand, not three points measured independently; their noise is that of one "
+                "pose.",
                 f"- **What the three markers' error is made of** (default command, the `--cv 5x4` folds): "
                 f"{_mm(parts['all'])} mm in all; the markers' centroid, the hand's position, {_mm(parts['centroid'])} "
                 f"mm; each marker about the centroid, the hand's orientation, {_mm(parts['about_centroid'])} mm. Per "
