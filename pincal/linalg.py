@@ -27,6 +27,11 @@ def _finite(matrix: Array, what: str) -> None:
                         "its decomposition is undefined")
 
 
+def require_finite(matrix: npt.ArrayLike, what: str) -> None:
+    """Refuse (DataError, naming ``what`` and the first bad index) a matrix with NaN or infinite entries."""
+    _finite(np.asarray(matrix, dtype=np.float64), what)
+
+
 def svd(matrix: npt.ArrayLike, what: str, full_matrices: bool = False) -> tuple[Array, Array, Array]:
     """``U, s, Vᵀ`` of ``matrix`` (m × n), s descending; numpy's ``gesdd``, else SciPy's ``gesvd``.
 

@@ -42,6 +42,7 @@ from pincal.identification.measurements import (
     camera_name,
     target_name,
 )
+from pincal.identification.neighbours import SolvedInputs
 from pincal.identification.parameters import (
     CORRECTION_KINDS,
     KINEMATIC_KINDS,
@@ -182,7 +183,7 @@ class CalibrationProblem:
         # each sample's configuration at its last solve and the actuated values it was solved for: the
         # warm start of its next solve (of a first solve, a solved sample's: see _nearest_solution)
         self._q_cache: list[Array | None] = [None] * observations.n_samples
-        self._qa_solved = np.full((observations.n_samples, robot.n_actuated), np.nan)
+        self._qa_solved = SolvedInputs(observations.n_samples, robot.kinematics.continuous, CONTINUATION_STEP)
         # how far each sample's configuration has travelled (sum of max coordinate changes) since it was last
         # known to be on the reference assembly: only a sample that moved can have left it
         self._travel = np.zeros(observations.n_samples)
@@ -287,7 +288,7 @@ class CalibrationProblem:
         if previous is not None:
             self._travel[k] += float(np.max(np.abs(report.q - previous)))
         self._q_cache[k] = report.q
-        self._qa_solved[k] = qa
+        self._qa_solved.record(k, qa)
         return report.q
 
     def initial_guess(self) -> Array:
@@ -413,9 +414,9 @@ class CalibrationProblem:
         """
         if not robot.loops:
             return None
-        diff = robot.kinematics.actuated_delta(qa, self._qa_solved)  # continuous joints: the short way round
-        gaps = np.max(np.abs(diff), axis=1)  # NaN rows (unsolved) compare False
-        k = int(np.nanargmin(gaps)) if np.any(gaps <= CONTINUATION_STEP) else -1
+        # continuous joints the short way round; ties to the lowest index; a search of the solved inputs' trees
+        # (O(log² N)), not a scan of every solved sample (O(N) per cold start, O(N²) over a first evaluation)
+        k = self._qa_solved.nearest(qa, robot.kinematics.actuated_delta)
         return None if k < 0 else self._q_cache[k]
 
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
