@@ -221,29 +221,30 @@ def _axis_words(axis: Array) -> str:
     return "only about one axis, [" + ", ".join(f"{round(c, 3) + 0.0:.3f}" for c in axis * np.sign(axis[main])) + "]"
 
 
-def _rotation_problem(system: str, unknowns: str, rotations: Array, tol: float, ratio: float) -> str:
+def _spread_words(rotations: Array, tol: float, poses: str, differ: str) -> str | None:
+    """Why the rotations fail to spread, in words: ``"<poses> all have the same rotation"``, or ``differ`` and the
+    one axis they turn about; None when they turn about two axes or more."""
     count, axis = _axis_spread(rotations, tol)
     if count == 0:
-        why = "the poses A_i all have the same rotation"
-    elif count == 1:
-        why = f"the rotations of A_i differ {_axis_words(axis)} in their reference frame"
-    else:
-        why = f"the rotations of A_i do not spread over non-parallel axes enough (ratio {ratio:.1e} ≤ tol {tol:g})"
+        return f"{poses} all have the same rotation"
+    if count == 1:
+        return differ.format(_axis_words(axis))
+    return None
+
+
+def _rotation_problem(system: str, unknowns: str, rotations: Array, tol: float, ratio: float) -> str:
+    why = _spread_words(rotations, tol, "the poses A_i", "the rotations of A_i differ {} in their reference frame") or (
+        f"the rotations of A_i do not spread over non-parallel axes enough (ratio {ratio:.1e} ≤ tol {tol:g})")
     return (f"{system} cannot determine {unknowns}: {why}; it needs poses rotated about at least two "
             "non-parallel axes")
 
 
 def _point_problem(system: str, unknowns: str, rotations: Array, points: Array, tol: float, ratio: float) -> str:
-    count, axis = _axis_spread(rotations, tol)
-    if count == 0:
-        why = "the link poses A_i all have the same rotation"
-    elif count == 1:
-        why = f"the link rotations differ {_axis_words(axis)} in the world frame"
-    else:
+    why = _spread_words(rotations, tol, "the link poses A_i", "the link rotations differ {} in the world frame")
+    if why is None:
         s = linalg.singular_values(points - points.mean(axis=0), "the centred camera points")
-        if s[-1] <= tol * s[0]:
-            why = "the points seen lie in one plane of the camera frame (its linear form needs them to span space)"
-        else:
-            why = f"the link rotations do not spread over non-parallel axes enough (ratio {ratio:.1e} ≤ tol {tol:g})"
+        why = ("the points seen lie in one plane of the camera frame (its linear form needs them to span space)"
+               if s[-1] <= tol * s[0] else
+               f"the link rotations do not spread over non-parallel axes enough (ratio {ratio:.1e} ≤ tol {tol:g})")
     return (f"{system} cannot determine {unknowns}: {why}; it needs link rotations about at least two non-parallel "
             "axes and points seen that do not lie in one plane")
