@@ -451,7 +451,7 @@ def _check_rows(data: Dataset, lines: list[int]) -> None:
     if duplicates:
         raise DataError("duplicated samples (identical joint readings and measurements): " + listing(duplicates, 10))
     for key, values in data.measurements.items():
-        if key.startswith("pose:"):
+        if key.startswith(("pose:", "camera:")):  # a camera reading is a pose too (camera_point: is a point)
             norms = np.linalg.norm(values[:, 3:], axis=1)
             bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_NORM_TOLERANCE)
             if bad.size:

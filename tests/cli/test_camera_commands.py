@@ -109,3 +109,17 @@ def test_a_camera_column_naming_no_frame_is_one_line(tmp_path: Path, column: str
     done = run_pincal("calibrate", "ur10", str(tmp_path / "bad.csv"), "--out", str(tmp_path / "cal.urdf"))
     assert done.returncode == 2
     assert done.stderr.startswith(message) and len(done.stderr.strip().splitlines()) == 1, done.stderr
+
+
+@pytest.mark.parametrize("key", ["camera:tool0", "pose:tool0@tag"])
+def test_a_camera_reading_whose_quaternion_is_not_unit_is_refused(tmp_path: Path, key: str) -> None:
+    """A pose a camera read is checked as any pose: a quaternion of norm 1.01 is refused, naming the line."""
+    header = ",".join(["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+                       "wrist_3_joint", *(f"{key}:{c}" for c in ["x", "y", "z", "qx", "qy", "qz", "qw"])])
+    rows = [",".join([f"0.{k}"] * 6 + ["0.1", "0.2", "0.3", "0", "0", "0", "1.01" if k == 2 else "1"])
+            for k in range(1, 6)]
+    (tmp_path / "bad.csv").write_text("\n".join([header, *rows]) + "\n")
+    done = run_pincal("calibrate", "ur10", str(tmp_path / "bad.csv"), "--out", str(tmp_path / "cal.urdf"))
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith(f"pincal: error: bad.csv: measurement '{key}', line 3: quaternion"), done.stderr
+    assert "has norm 1.01" in done.stderr and not (tmp_path / "cal.urdf").exists()
