@@ -123,3 +123,16 @@ def test_a_camera_reading_whose_quaternion_is_not_unit_is_refused(tmp_path: Path
     assert done.returncode == 2, done.stderr
     assert done.stderr.startswith(f"pincal: error: bad.csv: measurement '{key}', line 3: quaternion"), done.stderr
     assert "has norm 1.01" in done.stderr and not (tmp_path / "cal.urdf").exists()
+
+
+@pytest.mark.parametrize(("key", "draws_points"), [("camera:tool0", False), ("pose:tool0@tag", True)])
+def test_view_draws_no_point_where_a_camera_on_the_robot_reads_its_target(tmp_path: Path, key: str,
+                                                                          draws_points: bool) -> None:
+    """An eye-in-hand reading is the target in the moving camera's frame, not a point of the scene: the view draws the
+    calibrated end effector with no error segment; an eye-to-hand reading is in the fixed camera's frame."""
+    sim = run_pincal("simulate", "ur10", "--measure", key, "--samples", "20", "--seed", "2", "--quiet",
+                     "--out", str(tmp_path))
+    assert sim.returncode == 0, sim.stderr
+    done = run_pincal("view", "ur10", str(tmp_path / "measurements.csv"), "--quiet", "--out", str(tmp_path / "s.html"))
+    assert done.returncode == 0, done.stderr
+    assert ("errors magnified" in done.stdout) is draws_points, done.stdout
