@@ -136,3 +136,15 @@ def test_view_draws_no_point_where_a_camera_on_the_robot_reads_its_target(tmp_pa
     done = run_pincal("view", "ur10", str(tmp_path / "measurements.csv"), "--quiet", "--out", str(tmp_path / "s.html"))
     assert done.returncode == 0, done.stderr
     assert ("errors magnified" in done.stdout) is draws_points, done.stdout
+
+
+def test_the_summary_says_why_a_camera_start_was_not_found_in_closed_form(tmp_path: Path) -> None:
+    """A Delta's platform only translates: the hand-eye system cannot determine the camera; "before" says why."""
+    sim = run_pincal("simulate", "delta", "--measure", "camera:end_effector", "--samples", "20", "--seed", "1",
+                     "--quiet", "--out", str(tmp_path))
+    assert sim.returncode == 0, sim.stderr
+    done = run_pincal("calibrate", "delta", str(tmp_path / "measurements.csv"), "--report", str(tmp_path / "r.json"))
+    assert done.returncode == 0, done.stderr
+    before = json.loads((tmp_path / "r.json").read_text())["before_means"]
+    assert "at the identity" in before and "camera:end_effector: " in before, before
+    assert "the poses A_i all have the same rotation" in before and before in done.stdout
