@@ -148,3 +148,38 @@ def test_the_summary_says_why_a_camera_start_was_not_found_in_closed_form(tmp_pa
     before = json.loads((tmp_path / "r.json").read_text())["before_means"]
     assert "at the identity" in before and "camera:end_effector: " in before, before
     assert "the poses A_i all have the same rotation" in before and before in done.stdout
+
+
+def _reading_errors(urdf: Path, data: Path, key: str, camera_link: str, seen_link: str) -> list[float]:
+    """Position [m] and angle [rad] errors of the file's camera link → seen link placement against every reading."""
+    dataset = pincal.read_dataset(data)
+    model = pincal.load_robot(urdf).model
+    fk = model.createData()
+    errors = []
+    for joints, measured in zip(dataset.joints, dataset.measurements[key], strict=True):
+        q = pin.neutral(model)
+        for name, value in zip(dataset.joint_names, joints, strict=True):
+            q[model.joints[model.getJointId(name)].idx_q] = value
+        pin.framesForwardKinematics(model, fk, q)
+        seen = fk.oMf[model.getFrameId(camera_link)].inverse() * fk.oMf[model.getFrameId(seen_link)]
+        rotation = pin.Quaternion(measured[6], *measured[3:6]).matrix()
+        errors += [float(np.linalg.norm(seen.translation - measured[:3])),
+                   float(np.linalg.norm(pin.log3(rotation.T @ seen.rotation)))]
+    return errors
+
+
+def test_a_calibrated_urdf_with_a_camera_is_recalibrated(tmp_path: Path) -> None:
+    """docs/calibrated_urdf.md, "Recalibrating a calibrated file": the camera and world target links of the first
+    calibration get the new placements (they were refused as names taken); the target stays in the robot's world
+    when the file's root is the tracker's measurement frame (a camera and a tracked point here)."""
+    sim = run_pincal("simulate", "ur10", "--measure", "camera:tool0", "position", "--frame", "tool0", "--samples", "40",
+                     "--seed", "3", "--quiet", "--out", str(tmp_path))
+    assert sim.returncode == 0, sim.stderr
+    data, first, second = tmp_path / "measurements.csv", tmp_path / "cal.urdf", tmp_path / "cal2.urdf"
+    done = run_pincal("calibrate", "ur10", str(data), "--out", str(first))
+    assert done.returncode == 0, done.stderr
+    done = run_pincal("calibrate", str(first), str(data), "--out", str(second))
+    assert done.returncode == 0, done.stderr
+    text = second.read_text()
+    assert text.count('<link name="tool0_camera"/>') == 1 and text.count('<link name="camera_target"/>') == 1
+    assert max(_reading_errors(second, data, "camera:tool0", "tool0_camera", "camera_target")) < 1e-4
