@@ -183,3 +183,15 @@ def test_a_calibrated_urdf_with_a_camera_is_recalibrated(tmp_path: Path) -> None
     text = second.read_text()
     assert text.count('<link name="tool0_camera"/>') == 1 and text.count('<link name="camera_target"/>') == 1
     assert max(_reading_errors(second, data, "camera:tool0", "tool0_camera", "camera_target")) < 1e-4
+
+
+def test_a_camera_reading_with_some_cells_empty_is_refused_as_a_target_not_seen(tmp_path: Path) -> None:
+    header = ",".join(["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+                       "wrist_3_joint", *(f"camera:tool0:{c}" for c in ["x", "y", "z", "qx", "qy", "qz", "qw"])])
+    rows = [",".join([f"0.{k}"] * 6 + (["", "", ""] if k == 2 else ["0.1", "0.2", "0.3"]) + ["0", "0", "0", "1"])
+            for k in range(1, 6)]
+    (tmp_path / "half.csv").write_text("\n".join([header, *rows]) + "\n")
+    done = run_pincal("calibrate", "ur10", str(tmp_path / "half.csv"))
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith("pincal: error: half.csv: column 'camera:tool0:x', line 3: the cell is empty")
+    assert "a target that was not seen leaves all the cells of 'camera:tool0' empty" in done.stderr, done.stderr
