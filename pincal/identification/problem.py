@@ -190,6 +190,7 @@ class CalibrationProblem:
         self.rows_per_sample = sum(m.size for m in self.measurements)
         #: The cameras and targets (attached placement names) the last :meth:`initial_guess` placed in closed form.
         self.placed_in_closed_form: list[str] = []
+        self.not_in_closed_form: list[str] = []  # why the data did not determine a camera's start: one per reading
         self._seen: dict[str, npt.NDArray[np.bool_]] = {}
         for m in self.measurements:
             taken = np.all(np.isfinite(observations.values[m.key]), axis=1)
@@ -330,7 +331,7 @@ class CalibrationProblem:
                   in self.parameters.groups("camera", "target").items()}
         cameras = [m for m in self.measurements if isinstance(m, CameraPose | CameraPoint | Pose)
                    and (not isinstance(m, Pose) or isinstance(m, CameraPose) or m.target)]
-        self.placed_in_closed_form = []
+        self.placed_in_closed_form, self.not_in_closed_form = [], []
         if not cameras:
             return False
         nominal = self.robot.model.createData()
@@ -357,8 +358,9 @@ class CalibrationProblem:
                     else:
                         own, world = handeye.solve_ax_yb(a, seen)
                         names = (target_name(m.frame, m.target), "")
-            except DataError:
-                continue  # the data do not determine the placements: the identifiability analysis will say so
+            except DataError as why:  # the data do not determine the placements: the summary says why
+                self.not_in_closed_form.append(f"{m.key}: {why}")
+                continue
             if len(groups.get(names[0], [])) == 6:
                 self._set_placement(x, groups[names[0]], own)
                 self.placed_in_closed_form.append(names[0])

@@ -23,7 +23,7 @@ import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.identification.corrections import payload_from_dict
-from pincal.identification.measurements import Pose, Position
+from pincal.identification.measurements import CameraPose, Pose, Position
 from pincal.identification.parameters import MarkerFit, ParameterSet, choose_parameters
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.solver import length_columns
@@ -127,8 +127,10 @@ class CalibrationView:
     def point_errors(self) -> tuple[Array | None, Array | None, Array | None]:
         """Measured points (N, 3) [m] and the error vectors before and after (N, 3) [m]: of each sample, its
         first position or pose reading taken (an occluded marker gives way to the next one; NaN rows for a
-        sample with none); three Nones when no 3D point is measured."""
-        located = [m for m in self.problem.measurements if isinstance(m, (Position, Pose))]
+        sample with none); three Nones when no 3D point is measured. A camera on the robot reads its target in its
+        own moving frame, not a point of the scene: it locates nothing."""
+        located = [m for m in self.problem.measurements
+                   if isinstance(m, (Position, Pose)) and not isinstance(m, CameraPose)]
         if not located:
             return None, None, None
         n = self.problem.observations.n_samples
