@@ -346,21 +346,13 @@ class CalibrationProblem:
                 a.append(nominal.oMf[frame].copy())
             values = self.observations.values[m.key][taken]
             try:
-                if isinstance(m, CameraPoint):
-                    camera, point = handeye.solve_point_eye_in_hand(a, values[:, :3])
-                    world, own = pin.SE3(np.eye(3), point), camera
-                    names = (camera_name(m.frame), WORLD_TARGET)
-                else:
-                    seen = [pin.XYZQUATToSE3(v) for v in values]
-                    if isinstance(m, CameraPose):
-                        own, world = handeye.solve_ax_yb(a, [b.inverse() for b in seen])
-                        names = (camera_name(m.frame), WORLD_TARGET)
-                    else:
-                        own, world = handeye.solve_ax_yb(a, seen)
-                        names = (target_name(m.frame, m.target), "")
-            except DataError as why:  # the data do not determine the placements: the summary says why
-                self.not_in_closed_form.append(f"{m.key}: {why}")
-                continue
+                own, world, names = _closed_form(m, a, values)
+            except DataError as why:
+                try:  # a link that only translates (a Delta's platform): its rotations cannot separate X from Y
+                    own, world, names = _closed_form(m, a, values, translating=True)
+                except DataError:  # the data do not determine the placements: the summary says why
+                    self.not_in_closed_form.append(f"{m.key}: {why}")
+                    continue
             if len(groups.get(names[0], [])) == 6:
                 self._set_placement(x, groups[names[0]], own)
                 self.placed_in_closed_form.append(names[0])
@@ -539,3 +531,23 @@ class CalibrationProblem:
         white_jac = np.linalg.solve(chol, jac)
         return white_err, white_jac
 
+
+def _closed_form(model: Measurement, a: list[pin.SE3], values: Array, translating: bool = False
+                 ) -> tuple[pin.SE3, pin.SE3, tuple[str, str]]:
+    """The closed-form placements a camera reading gives (:mod:`pincal.identification.handeye`), from the
+    nominal poses ``a`` of its frame and its readings ``values``: the placement on the frame (camera, or pose
+    target), the one in the world (world target; for a pose target on the frame, the inverse of the fixed camera's
+    placement ``base``), and their names (the second empty for ``base``). ``translating``: the variants for a link
+    that only translates. Raises DataError when the data do not determine them."""
+    if isinstance(model, CameraPoint):
+        solve_point = handeye.solve_point_translating if translating else handeye.solve_point_eye_in_hand
+        camera, point = solve_point(a, values[:, :3])
+        return camera, pin.SE3(np.eye(3), point), (camera_name(model.frame), WORLD_TARGET)
+    solve = handeye.solve_ax_yb_translating if translating else handeye.solve_ax_yb
+    seen = [pin.XYZQUATToSE3(v) for v in values]
+    if isinstance(model, CameraPose):
+        own, world = solve(a, [b.inverse() for b in seen])
+        return own, world, (camera_name(model.frame), WORLD_TARGET)
+    assert isinstance(model, Pose)
+    own, world = solve(a, seen)
+    return own, world, (target_name(model.frame, model.target), "")
