@@ -166,6 +166,11 @@ def _mrad(value: float | None) -> str:
     return "-" if value is None or value != value else f"{value * 1e3:.4f} mrad"
 
 
+def _column(value: str) -> str:
+    """A figure of the before/after table, right-aligned in 14 characters and never run into the one before it."""
+    return f" {value:>13}"
+
+
 def _summary(report: dict[str, Any], seconds: float, report_path: str | None = None) -> str:
     lines = [f"NOT CONVERGED: {report['message']} after {report['iterations']} iterations; the estimate below is "
              "where the solver stopped, not a calibration (try --max-iter, fewer --parameters or more samples)"
@@ -188,23 +193,23 @@ def _summary(report: dict[str, Any], seconds: float, report_path: str | None = N
              f"iterations, {seconds:.3f} s",
              "",
              f"{'':32}{'before':>14}{'after':>14}",
-             f"{'RMS position error (fit)':32}{_mm(report['rms_before']):>14}{_mm(report['rms_after']):>14}",
-             f"{'max position error (fit)':32}{_mm(report['max_before']):>14}{_mm(report['max_after']):>14}"]
+             f"{'RMS position error (fit)':32}{_column(_mm(report['rms_before']))}{_column(_mm(report['rms_after']))}",
+             f"{'max position error (fit)':32}{_column(_mm(report['max_before']))}{_column(_mm(report['max_after']))}"]
     if "rms_angle_before" in report:
-        lines += [f"{'RMS orientation error (fit)':32}{_mrad(report['rms_angle_before']):>14}"
-                  f"{_mrad(report['rms_angle_after']):>14}",
-                  f"{'max orientation error (fit)':32}{_mrad(report['max_angle_before']):>14}"
-                  f"{_mrad(report['max_angle_after']):>14}"]
+        lines += [f"{'RMS orientation error (fit)':32}{_column(_mrad(report['rms_angle_before']))}"
+                  f"{_column(_mrad(report['rms_angle_after']))}",
+                  f"{'max orientation error (fit)':32}{_column(_mrad(report['max_angle_before']))}"
+                  f"{_column(_mrad(report['max_angle_after']))}"]
     if "test_rms_before" in report:
-        lines += [f"{'RMS position error (held out)':32}{_mm(report['test_rms_before']):>14}"
-                  f"{_mm(report['test_rms_after']):>14}",
-                  f"{'max position error (held out)':32}{_mm(report['test_max_before']):>14}"
-                  f"{_mm(report['test_max_after']):>14}"]
+        lines += [f"{'RMS position error (held out)':32}{_column(_mm(report['test_rms_before']))}"
+                  f"{_column(_mm(report['test_rms_after']))}",
+                  f"{'max position error (held out)':32}{_column(_mm(report['test_max_before']))}"
+                  f"{_column(_mm(report['test_max_after']))}"]
     if "test_rms_angle_before" in report:
-        lines += [f"{'RMS orientation error (held out)':32}{_mrad(report['test_rms_angle_before']):>14}"
-                  f"{_mrad(report['test_rms_angle_after']):>14}",
-                  f"{'max orientation error (held out)':32}{_mrad(report['test_max_angle_before']):>14}"
-                  f"{_mrad(report['test_max_angle_after']):>14}"]
+        lines += [f"{'RMS orientation error (held out)':32}{_column(_mrad(report['test_rms_angle_before']))}"
+                  f"{_column(_mrad(report['test_rms_angle_after']))}",
+                  f"{'max orientation error (held out)':32}{_column(_mrad(report['test_max_angle_before']))}"
+                  f"{_column(_mrad(report['test_max_angle_after']))}"]
     if report.get("before_means"):
         lines.append(f"(before: {report['before_means']})")
     if report.get("joints_at_reference"):
