@@ -42,6 +42,7 @@ import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import DataError
+from pincal.identification.rotations import cross_columns, jlog3, log3, rotate, skew
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -181,6 +182,143 @@ class SampleContext:
 
 
 @dataclass(frozen=True)
+class SpatialJacobian:
+    """A frame's spatial twists per unit parameter for every sample, factored as ``W = left · right``.
+
+    A *spatial* twist is, per unit parameter, the velocity [m] of the robot-world point at the origin moving with the
+    frame and the frame's angular velocity [rad], both in the robot's world frame (``Ad(oMf) ν``, ν the local twist
+    of :attr:`SampleContext.twists`): a point ``p`` [m] fixed on the frame moves by ``W_v − p × W_ω``. The factors
+    keep the work per sample small: the K generators' spatial twists vary by sample, the map to the parameters does
+    not, so a model applies its own per-sample rows to ``left`` and one matrix product gives its Jacobian rows.
+
+    Attributes:
+        left: (N, 6, K) the spatial twists of K generators (joint origins' local directions, joint axes times the
+            terms' regressors, the frame's own local directions).
+        right: (K, p) each generator's share of each parameter.
+    """
+
+    left: Array
+    right: Array
+    scratch: Workspace = field(default_factory=lambda: Workspace())
+
+    def apply(self, rows: Array, out: Array | None = None) -> Array:
+        """(N, r, p) ``rows · W`` for per-sample rows (N, r, 6) or rows shared by all samples (r, 6), written into
+        ``out`` when given (a C-contiguous (N, r, p) array)."""
+        n, _, k = self.left.shape
+        r, p = rows.shape[-2], self.right.shape[1]
+        left = np.matmul(rows, self.left, out=self.scratch.array(("rows", r, k), (n, r, k)))
+        if out is None or not out.flags.c_contiguous:
+            product: Array = (left.reshape(n * r, k) @ self.right).reshape(n, r, p)
+            if out is not None:
+                out[...] = product
+            return product
+        np.matmul(left.reshape(n * r, k), self.right, out=out.reshape(n * r, p))
+        return out
+
+    def full(self) -> Array:
+        """(N, 6, p) ``W`` itself."""
+        n, _, k = self.left.shape
+        product: Array = (self.left.reshape(n * 6, k) @ self.right).reshape(n, 6, self.right.shape[1])
+        return product
+
+
+class Workspace:
+    """Scratch arrays kept from one evaluation to the next.
+
+    A fresh array of megabytes costs a page fault per 4 kB page each time it is first written (about as much as
+    the arithmetic done on it, more on a virtual machine); the batched evaluation's intermediates (N × 6 × p and
+    the like) are therefore kept, keyed by what they hold, and handed out again while their shape is unchanged. An
+    array from :meth:`array` is overwritten by the next evaluation: nothing returned to a caller may be one.
+    """
+
+    def __init__(self) -> None:
+        self._arrays: dict[object, Array] = {}
+
+    def array(self, key: object, shape: tuple[int, ...]) -> Array:
+        """An array of ``shape`` (its contents undefined) for ``key``: the same memory as the last one for ``key``
+        if it had this shape."""
+        held = self._arrays.get(key)
+        if held is None or held.shape != shape:
+            held = np.empty(shape)
+            self._arrays[key] = held
+        return held
+
+
+@dataclass
+class BatchContext:
+    """What a measurement model predicts every sample from at once (a tree's batched evaluation).
+
+    The problem builds one per evaluation of a robot without loops (:mod:`pincal.identification.tree_batch`); the
+    frames' parameter derivatives are spatial twists (:class:`SpatialJacobian`).
+
+    Attributes:
+        shared: The evaluation's per-sample context (parameters, base, markers, attached placements, data), whose
+            per-sample fields are unused here.
+        q: (N, nq) each sample's configuration.
+        rotations: Frame -> (N, 3, 3) its orientation in the robot's world frame.
+        translations: Frame -> (N, 3) its origin [m] in the robot's world frame.
+        twists: Frame -> its spatial twists per unit parameter (empty without Jacobian).
+        joint_terms: Joint -> its value's terms, (column, (N,) regressor): the joint's value moves by the regressor
+            [rad or m] per unit of the column's parameter (the actuated joints' offsets and corrections; a joint not
+            listed does not move with the parameters).
+    """
+
+    shared: SampleContext
+    q: Array
+    rotations: dict[str, Array]
+    translations: dict[str, Array]
+    twists: dict[str, SpatialJacobian] = field(default_factory=dict)
+    joint_terms: dict[str, list[tuple[int, Array]]] = field(default_factory=dict)
+
+    @property
+    def base(self) -> pin.SE3:
+        """The placement of the robot in the measurement frame (world ← robot)."""
+        return self.shared.base
+
+    def point(self, frame: str, point: Array) -> Array:
+        """(N, 3) the robot-world position [m] of ``point`` (3,) [m] fixed in ``frame``."""
+        rotations = self.rotations[frame]
+        moved: Array = (rotations.reshape(-1, 3) @ point).reshape(-1, 3) + self.translations[frame]
+        return moved
+
+    def derivative(self, frame: str, rows: Array, out: Array | None = None) -> Array:
+        """(N, r, p) ``rows · W``: per-sample rows (N, r, 6) (or shared ones, (r, 6)) applied to ``frame``'s spatial
+        twists per unit parameter, written into ``out`` when given."""
+        return self.twists[frame].apply(rows, out)
+
+    def base_columns(self, world_point: Array) -> Array:
+        """(N, 3, len(base columns)) the derivative [m per unit parameter] of points at ``world_point`` (N, 3) [m]
+        (robot world) in the measurement frame w.r.t. the base parameters: ``R_base [I, −p̂] J_base``."""
+        return rotate_rows(point_rows(world_point, self.shared.base.rotation), self.shared.base_jacobian)
+
+    def measured(self, key: str) -> Array:
+        """(N, width) the measured values of measurement ``key``."""
+        return self.shared.values[key]
+
+
+def point_rows(world_point: Array, rotation: Array | None = None) -> Array:
+    """(N, 3, 6) ``R [I, −p̂]``: the rows that turn a spatial twist into the velocity of points at ``world_point``
+    (N, 3) [m], rotated by ``rotation`` (3, 3), shared by the samples (None: not rotated); ``R [I, −p̂] = [R,
+    −(R p)^ R]``."""
+    n = len(world_point)
+    rows = np.empty((n, 3, 6))
+    if rotation is None:
+        rows[:, :, :3] = np.eye(3)
+        rows[:, :, 3:] = -skew(world_point)
+        return rows
+    rows[:, :, :3] = rotation
+    rows[:, :, 3:] = (-skew(world_point @ rotation.T).reshape(3 * n, 3) @ rotation).reshape(n, 3, 3)
+    return rows
+
+
+def rotate_rows(rows: Array, columns: Array) -> Array:
+    """(N, r, k) ``rows · columns`` for per-sample rows (N, r, 6) and shared columns (6, k): one matrix product."""
+    n, r, _ = rows.shape
+    product: Array = (rows.reshape(n * r, 6) @ columns).reshape(n, r, columns.shape[1])
+    return product
+
+
+@dataclass(frozen=True)
 class Measurement(ABC):
     """Base class: ``key`` names the data columns, ``size`` the values per sample, ``sigma`` the
     standard deviation of each value (same units) used to weight the residual.
@@ -255,6 +393,22 @@ class Measurement(ABC):
         """Write the sample's prediction into ``out`` (size,) and, if ``jac`` is given, its derivative
         w.r.t. the parameters into ``jac`` (size, p), which arrives zeroed."""
 
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """Write every sample's prediction into ``out`` (N, size) and, if ``jac`` is given, its derivative into
+        ``jac`` (N, size, p), which arrives zeroed: what :meth:`predict` writes, for all samples at once (a tree's
+        batched evaluation). Optional: a model without it is predicted sample by sample (see :attr:`batched`)."""
+        raise NotImplementedError(f"{type(self).__name__} predicts one sample at a time")
+
+    @property
+    def batched(self) -> bool:
+        """Whether :meth:`predict_batch` predicts what :meth:`predict` does: defined by the class that defines
+        :meth:`predict`, or by a subclass of it (a subclass that overrides only :meth:`predict` is predicted sample
+        by sample, never with its parent's batched prediction)."""
+        def owner(name: str) -> type:
+            return next(c for c in type(self).__mro__ if name in c.__dict__)
+        batch = owner("predict_batch")
+        return batch is not Measurement and issubclass(batch, owner("predict"))
+
     def error(self, predicted: Array, measured: Array, model: pin.Model) -> Array:
         """Predicted − measured, (N, size), from the predictions (N, size) and the data (N, width)."""
         return predicted - measured
@@ -310,6 +464,13 @@ class Position(Measurement):
         columns, derivative = ctx.marker_derivative(self.target)
         if jac is not None and columns:
             jac[:3, columns] += ctx.base.rotation @ ctx.placement(self.frame).rotation @ derivative
+
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample: ``R_base p + t_base``, ``p = R_F m + t_F``."""
+        _predict_points(batch, self.frame, batch.shared.marker(self.target), out, jac)
+        columns, derivative = batch.shared.marker_derivative(self.target)
+        if jac is not None and columns:
+            jac[:, :, columns] += rotate(batch.base.rotation, rotate(batch.rotations[self.frame], derivative))
 
 
 @dataclass(frozen=True)
@@ -381,6 +542,31 @@ class Pose(Measurement):
                                          @ ctx.base_jacobian)
             jac[3:, ctx.base_columns] = jlog @ placement.rotation.T @ ctx.base_jacobian[3:]
 
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample; with ``W`` the frame's spatial twist, ``R_P ν_v = W_v − p_P × W_ω`` and
+        ``ν_ω = R_Pᵀ W_ω``."""
+        term = (batch.shared.attached_placement(target_name(self.frame, self.target)) if self.target
+                else AttachedPlacement())
+        rotation = rotate(batch.rotations[self.frame], term.placement.rotation)
+        world = batch.point(self.frame, term.placement.translation)
+        base = batch.base
+        out[:, :3] = world @ base.rotation.T + base.translation
+        rel = _orientation_rows_batch(batch.measured(self.key), rotate(base.rotation, rotation), out[:, 3:])
+        if jac is None:
+            return
+        jlog = jlog3(log3(rel))
+        to_local = np.matmul(jlog, rotation.transpose(0, 2, 1))  # Jlog3 R_Pᵀ: world angular velocity -> rows
+        rows = np.zeros((len(world), 6, 6))
+        rows[:, :3] = point_rows(world, base.rotation)
+        rows[:, 3:, 3:] = to_local
+        batch.derivative(self.frame, rows, out=jac)
+        if term.columns:
+            jac[:, :3, term.columns] += rotate(base.rotation, rotate(rotation, term.jacobian[:3]))
+            jac[:, 3:, term.columns] += rotate(jlog, term.jacobian[3:])
+        if batch.shared.base_columns:
+            jac[:, :3, batch.shared.base_columns] = batch.base_columns(world)
+            jac[:, 3:, batch.shared.base_columns] = rotate(to_local, batch.shared.base_jacobian[3:])
+
     def error(self, predicted: Array, measured: Array, model: pin.Model) -> Array:
         """The position rows less the measured position; the rotation rows are already relative."""
         err = predicted.copy()
@@ -429,6 +615,33 @@ class CameraPose(Pose):
         jac[:3] = seen.rotation @ twist[:3]
         jac[3:] = pin.Jlog3(rel) @ twist[3:]
 
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample; the robot's columns of T's local twist are ``−Ad(G⁻¹) W`` (W the frame's
+        spatial twist), the camera's ``−Ad(T⁻¹) J_C``."""
+        rot_f, pos_f = batch.rotations[self.frame], batch.translations[self.frame]
+        camera = batch.shared.attached_placement(camera_name(self.frame))
+        target = batch.shared.attached_placement(WORLD_TARGET)
+        rot_fc = rotate(rot_f, camera.placement.rotation)  # world ← camera
+        pos_fc = (rot_f.reshape(-1, 3) @ camera.placement.translation).reshape(-1, 3) + pos_f
+        inverse = rot_fc.transpose(0, 2, 1)
+        seen_rot = rotate(inverse, target.placement.rotation)
+        seen_pos = np.matmul(inverse, (target.placement.translation - pos_fc)[:, :, None])[:, :, 0]
+        out[:, :3] = seen_pos
+        rel = _orientation_rows_batch(batch.measured(self.key), seen_rot, out[:, 3:])
+        if jac is None:
+            return
+        rows = np.zeros((len(seen_pos), 6, 6))
+        rows[:, :3, :3] = seen_rot
+        rows[:, 3:, 3:] = jlog3(log3(rel))
+        batch.derivative(self.frame, np.matmul(rows, -target.placement.inverse().action), out=jac)
+        if camera.columns:  # −Ad(T⁻¹) J_C = −(R_Tᵀ (J_v − p_T × J_ω), R_Tᵀ J_ω)
+            jc = np.broadcast_to(camera.jacobian, (len(seen_pos), 6, len(camera.columns)))
+            jac[:, :3, camera.columns] -= jc[:, :3] - cross_columns(seen_pos, jc[:, 3:])
+            jac[:, 3:, camera.columns] -= rotate(np.matmul(rows[:, 3:, 3:], seen_rot.transpose(0, 2, 1)),
+                                                 camera.jacobian[3:])
+        if target.columns:
+            jac[:, :, target.columns] += np.matmul(rows, target.jacobian)
+
 
 @dataclass(frozen=True)
 class CameraPoint(Measurement):
@@ -475,6 +688,27 @@ class CameraPoint(Measurement):
         jac[:3, camera.columns] += -camera.jacobian[:3] + pin.skew(seen) @ camera.jacobian[3:]
         jac[:3, target.columns] += rot_c.T @ frame.rotation.T @ target.placement.rotation @ target.jacobian[:3]
 
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample: the robot's columns are ``−R_Cᵀ R_Fᵀ (W_v − g × W_ω)``, W the frame's
+        spatial twist."""
+        rot_f, pos_f = batch.rotations[self.frame], batch.translations[self.frame]
+        camera = batch.shared.attached_placement(camera_name(self.frame))
+        target = batch.shared.attached_placement(WORLD_TARGET)
+        point = target.placement.translation
+        local = np.matmul(rot_f.transpose(0, 2, 1), (point - pos_f)[:, :, None])[:, :, 0]
+        seen = (local - camera.placement.translation) @ camera.placement.rotation
+        out[:, :3] = seen
+        if jac is None:
+            return
+        back = rotate(camera.placement.rotation.T, rot_f.transpose(0, 2, 1))  # R_Cᵀ R_Fᵀ
+        at_point = np.hstack([-np.eye(3), pin.skew(point)])  # −[I, −ĝ]
+        batch.derivative(self.frame, (back.reshape(-1, 3) @ at_point).reshape(len(seen), 3, 6), out=jac)
+        if camera.columns:
+            jc = np.broadcast_to(camera.jacobian, (len(seen), 6, len(camera.columns)))
+            jac[:, :3, camera.columns] += -jc[:, :3] + cross_columns(seen, jc[:, 3:])
+        if target.columns:
+            jac[:, :3, target.columns] += rotate(back, target.placement.rotation @ target.jacobian[:3])
+
 
 def _orientation_rows(measured: Array, rotation: Array, out: Array) -> Array:
     """Write the orientation rows ``log3(R_measᵀ R)`` [rad] into ``out`` from a pose reading (x, y, z, qx, qy, qz,
@@ -487,6 +721,28 @@ def _orientation_rows(measured: Array, rotation: Array, out: Array) -> Array:
     rel: Array = pin.Quaternion(*quat).normalized().matrix().T @ rotation
     out[:] = pin.log3(rel)
     return rel
+
+
+def _orientation_rows_batch(measured: Array, rotation: Array, out: Array) -> Array:
+    """:func:`_orientation_rows` for every sample: ``measured`` (N, 7), ``rotation`` (N, 3, 3), ``out`` (N, 3);
+    returns (N, 3, 3) ``R_measᵀ R`` (``R`` for a reading not taken, whose rows are NaN)."""
+    quat = measured[:, 3:7]
+    taken = np.all(np.isfinite(quat), axis=1)
+    unit = np.where(taken[:, None], quat, [0.0, 0.0, 0.0, 1.0])
+    unit = unit / np.linalg.norm(unit, axis=1)[:, None]
+    rel: Array = np.matmul(quaternion_matrices(unit).transpose(0, 2, 1), rotation)
+    out[:] = log3(rel)
+    out[~taken] = np.nan
+    rel[~taken] = rotation[~taken]
+    return rel
+
+
+def quaternion_matrices(quat: Array) -> Array:
+    """(N, 3, 3) rotation matrices of unit quaternions (N, 4) in x, y, z, w order."""
+    x, y, z, w = quat.T
+    return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
+                     2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+                     2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=1).reshape(-1, 3, 3)
 
 
 @dataclass(frozen=True)
@@ -541,6 +797,27 @@ class Distance(Measurement):
                 if columns:
                     jac[0, columns] += sign * (u @ placement.rotation @ derivative)
 
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample."""
+        ma, mb = batch.shared.marker(self.frame_a), batch.shared.marker(self.frame_b)
+        pa, pb = batch.point(self.frame_a, ma), batch.point(self.frame_b, mb)
+        diff = pa - pb
+        dist = np.linalg.norm(diff, axis=1)
+        if np.any(dist < 1e-12):
+            raise DataError(f"measurement '{self.key}': frames '{self.frame_a}' and '{self.frame_b}' coincide at "
+                            f"sample {int(np.flatnonzero(dist < 1e-12)[0])} (a zero distance has no direction): "
+                            "measure between two distinct points")
+        out[:, 0] = dist
+        if jac is None:
+            return
+        u = diff / dist[:, None]
+        jac[:] = (batch.derivative(self.frame_a, np.matmul(u[:, None, :], point_rows(pa)))
+                  - batch.derivative(self.frame_b, np.matmul(u[:, None, :], point_rows(pb))))
+        for frame, sign in ((self.frame_a, 1.0), (self.frame_b, -1.0)):
+            columns, derivative = batch.shared.marker_derivative(frame)
+            if columns:
+                jac[:, 0, columns] += sign * np.einsum("ni,nip->np", u, rotate(batch.rotations[frame], derivative))
+
 
 @dataclass(frozen=True)
 class JointReading(Measurement):
@@ -582,6 +859,21 @@ class JointReading(Measurement):
             if jac is not None:
                 jac[0, offset] -= 1.0
 
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample (a tree: the joint moves with the parameters only through its own
+        offset and correction columns when it is actuated)."""
+        jm = batch.shared.model.joints[batch.shared.model.getJointId(self.joint)]
+        q = batch.q
+        out[:, 0] = q[:, jm.idx_q] if jm.nq == 1 else np.arctan2(q[:, jm.idx_q + 1], q[:, jm.idx_q])
+        if jac is not None:
+            for column, regressor in batch.joint_terms.get(self.joint, []):
+                jac[:, 0, column] = regressor
+        offset = batch.shared.reading_offsets.get(self.joint)
+        if offset is not None:
+            out[:, 0] -= batch.shared.x[offset]
+            if jac is not None:
+                jac[:, 0, offset] -= 1.0
+
     def error(self, predicted: Array, measured: Array, model: pin.Model) -> Array:
         """Predicted − measured [rad or m]; a continuous joint's is wrapped to [−π, π)."""
         err = predicted - measured
@@ -601,6 +893,19 @@ def _predict_point(ctx: SampleContext, frame: str, marker: Array, out: Array, ja
         if ctx.base_columns:
             jac[:3, ctx.base_columns] = (ctx.base.rotation @ np.hstack([np.eye(3), -pin.skew(local_point)])
                                          @ ctx.base_jacobian)
+
+
+def _predict_points(batch: BatchContext, frame: str, marker: Array, out: Array, jac: Array | None) -> Array:
+    """:func:`_predict_point` for every sample: columns 0–2 of ``out`` (N, ≥3) and ``jac`` (N, ≥3, p); returns the
+    points (N, 3) [m] in the robot's world frame."""
+    world = batch.point(frame, marker)
+    base = batch.base
+    out[:, :3] = world @ base.rotation.T + base.translation
+    if jac is not None:
+        batch.derivative(frame, point_rows(world, base.rotation), out=jac[:, :3])
+        if batch.shared.base_columns:
+            jac[:, :3, batch.shared.base_columns] = batch.base_columns(world)
+    return world
 
 
 def position(frame: str, sigma: float = 1e-5, marker: str = "",

@@ -33,6 +33,7 @@ from pincal.identification.derivatives import (
 )
 from pincal.identification.measurements import (
     WORLD_TARGET,
+    BatchContext,
     CameraPoint,
     CameraPose,
     Measurement,
@@ -51,6 +52,7 @@ from pincal.identification.parameters import (
     joint_unit,
     offset_parameter,
 )
+from pincal.identification.tree_batch import TreeBatch
 from pincal.model.kinematics import CONTINUATION_STEP, damped_pseudo_inverse
 from pincal.model.robot import SOLVE_TOLERANCE, Robot
 
@@ -183,6 +185,10 @@ class CalibrationProblem:
         self.rows_per_sample = sum(m.size for m in self.measurements)
         #: The cameras and targets (attached placement names) the last :meth:`initial_guess` placed in closed form.
         self.placed_in_closed_form: list[str] = []
+        #: A tree's batched evaluation (every sample at once), when its joints allow it; False: sample by sample
+        #: (the closed-loop path, which the benchmarks and tests also run on trees to compare the two).
+        self._tree = TreeBatch(robot, self.frame_ids) if not robot.loops else None
+        self._batched_trees = self._tree is not None and self._tree.unsupported is None
         self._seen: dict[str, npt.NDArray[np.bool_]] = {}
         for m in self.measurements:
             taken = np.all(np.isfinite(observations.values[m.key]), axis=1)
@@ -427,15 +433,35 @@ class CalibrationProblem:
         output_jacobian = jacobian
         jacobian = jacobian or self.joint_sigma is not None
         robot = self.robot_at(x)
-        model, data, kin = robot.model, robot.kinematics.data, robot.kinematics
         n, p = self.observations.n_samples, len(self._all)
         sens = KinematicSensitivity(robot, self._all, x) if jacobian else None
-        probes = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
         base_delta = self._all.placement_delta(x, self.base) if self.base else np.zeros(6)
-        ctx = self._context(model, data, x, base_delta)
+        ctx = self._context(robot.model, robot.kinematics.data, x, base_delta)
         qa_all = self.actuated_values(x)
         preds: dict[str, Array] = {m.key: np.empty((n, m.size)) for m in self.measurements}
-        dpreds: dict[str, Array] = {m.key: np.zeros((n, m.size, p)) for m in self.measurements} if jacobian else {}
+        dpreds: dict[str, Array] = {}
+        if self._batched_trees and not robot.loops:
+            assert self._tree is not None
+            if jacobian:  # kept from one evaluation to the next: _assemble copies them out
+                dpreds = {m.key: self._tree.scratch.array(("jacobian", m.key), (n, m.size, p))
+                          for m in self.measurements}
+                for block in dpreds.values():
+                    block.fill(0.0)
+            self._predict_tree(robot, sens, ctx, qa_all, preds, dpreds)
+        else:
+            if jacobian:
+                dpreds = {m.key: np.zeros((n, m.size, p)) for m in self.measurements}
+            self._predict_samples(robot, sens, ctx, qa_all, preds, dpreds)
+        return self._assemble(preds, dpreds, output_jacobian)
+
+    def _predict_samples(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
+                         preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
+        """Each sample in turn: its configuration (the loops closed), its frames' local twists per parameter (through
+        the loops by the implicit-function theorem), each model's :meth:`Measurement.predict`."""
+        model, data, kin = robot.model, robot.kinematics.data, robot.kinematics
+        n, p = self.observations.n_samples, len(self._all)
+        jacobian = sens is not None
+        probes = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
         passive, act_v = kin.passive_v, kin.actuated_v
         for k in range(n):
             q = self._solve(robot, k, qa_all[k])
@@ -470,7 +496,48 @@ class CalibrationProblem:
             ctx.sample, ctx.q, ctx.twists, ctx.dv = k, q, twists, dv
             for m in self.measurements:
                 m.predict(ctx, preds[m.key][k], dpreds[m.key][k] if jacobian else None)
-        return self._assemble(preds, dpreds, output_jacobian)
+
+    def _predict_tree(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
+                      preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
+        """Every sample at once (a tree, :mod:`pincal.identification.tree_batch`): configurations, the measured
+        frames' placements and spatial twists, each model's :meth:`Measurement.predict_batch`; a model without
+        one is predicted sample by sample from the same configurations."""
+        assert self._tree is not None
+        tree, model, n = self._tree, robot.model, self.observations.n_samples
+        q = tree.configurations(qa_all)
+        placed, origins = tree.forward(model, q)
+        placements = {f: tree.frame_placement(model, placed, f, n) for f in self.frame_ids}
+        terms = self.actuated_terms
+        probes = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
+        twists = {} if sens is None else {f: tree.twist(f, probes[f], sens, placed, origins, placements[f], terms)
+                                          for f in self.frame_ids}
+        derivatives: dict[str, list[tuple[int, Array]]] = {}
+        for joint, col, regressor in terms:
+            derivatives.setdefault(robot.actuated_joints[joint], []).append((col, regressor))
+        batch = BatchContext(ctx, q, {f: placement.rotation for f, placement in placements.items()},
+                             {f: placement.translation for f, placement in placements.items()}, twists, derivatives)
+        one_by_one = []
+        for m in self.measurements:
+            if m.batched:
+                m.predict_batch(batch, preds[m.key], dpreds[m.key] if sens is not None else None)
+            else:
+                one_by_one.append(m)
+        if not one_by_one:
+            return
+        data, act_v = robot.kinematics.data, robot.kinematics.actuated_v
+        spatial = {f: twist.full() for f, twist in twists.items()}
+        for k in range(n):
+            pin.framesForwardKinematics(model, data, q[k])
+            dv = None
+            if sens is not None:
+                dv = np.zeros((model.nv, sens.n))
+                for joint, col, regressor in terms:
+                    dv[act_v[joint], col] = regressor[k]
+            ctx.sample, ctx.q, ctx.dv = k, q[k], dv
+            ctx.twists = {f: _local_twist(placements[f].rotation[k], placements[f].translation[k], w[k])
+                          for f, w in spatial.items()}
+            for m in one_by_one:
+                m.predict(ctx, preds[m.key][k], dpreds[m.key][k] if sens is not None else None)
 
     def _context(self, model: pin.Model, data: pin.Data, x: Array, base_delta: Array) -> SampleContext:
         """The measurement models' context for one evaluation at ``x`` (per-sample fields unset)."""
@@ -480,9 +547,15 @@ class CalibrationProblem:
                              self.frame_ids, self.observations.values, attached=attached_placements(self._all, x))
 
     def _assemble(self, preds: dict[str, Array], dpreds: dict[str, Array], jacobian: bool) -> Prediction:
+        """Errors, weighted residuals and the Jacobian (written once, into the array returned) from each model's
+        predictions and derivatives."""
         errors: dict[str, Array] = {}
-        blocks, jblocks = [], []
-        for m in self.measurements:
+        blocks = []
+        keep = len(self.parameters)
+        sizes = [int(np.count_nonzero(self.seen(m.key))) * m.size for m in self.measurements]
+        full = np.empty((sum(sizes), keep)) if jacobian else None
+        start = 0
+        for m, size in zip(self.measurements, sizes, strict=True):
             measured = self.observations.values[m.key]
             err = m.error(preds[m.key], measured, self.robot.model)
             weights = m.row_sigmas()
@@ -493,18 +566,19 @@ class CalibrationProblem:
                     jac = np.concatenate([np.zeros((1, *jac.shape[1:])), jac[1:] - jac[:-1]])
             rows = np.flatnonzero(self.seen(m.key))  # a reading not taken has no rows (its error stays NaN)
             errors[m.key] = err
-            keep = len(self.parameters)
+            block = None if full is None else full[start:start + size].reshape(rows.size, m.size, keep)
+            start += size
             if self.joint_sigma is None or jac is None:
                 blocks.append((err[rows] / weights).reshape(-1))
-                if jacobian and jac is not None:
-                    jblocks.append((jac[rows][..., :keep] / weights[None, :, None]).reshape(-1, keep))
+                if block is not None and jac is not None:
+                    taken = jac if rows.size == len(jac) else jac[rows]
+                    np.divide(taken[..., :keep], weights[None, :, None], out=block)
                 continue
             white_err, white_jac = self._whiten(err[rows], jac[rows], weights, dpreds[m.key], m.incremental, rows)
             blocks.append(white_err.reshape(-1))
-            if jacobian:
-                jblocks.append(white_jac[..., :keep].reshape(-1, keep))
+            if block is not None:
+                block[...] = white_jac[..., :keep]
         residual = np.concatenate(blocks)
-        full = np.vstack(jblocks) if jacobian else None
         return Prediction(residual, full, errors, preds)
 
     def _whiten(self, err: Array, jac: Array, weights: Array, absolute_jac: Array,
@@ -530,3 +604,10 @@ class CalibrationProblem:
         white_jac = np.linalg.solve(chol, jac)
         return white_err, white_jac
 
+
+def _local_twist(rotation: Array, translation: Array, spatial: Array) -> Array:
+    """(6, p) a frame's local twist ``Ad(oMf⁻¹) W`` from its spatial twist ``W`` (6, p), the frame at ``rotation``,
+    ``translation`` [m]: ``(Rᵀ (W_v − t × W_ω), Rᵀ W_ω)``."""
+    local: Array = np.vstack([rotation.T @ (spatial[:3] - np.cross(translation, spatial[3:], axis=0)),
+                              rotation.T @ spatial[3:]])
+    return local
