@@ -195,6 +195,7 @@ class SpatialJacobian:
         left: (N, 6, K) the spatial twists of K generators (joint origins' local directions, joint axes times the
             terms' regressors, the frame's own local directions).
         right: (K, p) each generator's share of each parameter.
+        scratch: Where the intermediates are kept between evaluations.
     """
 
     left: Array
@@ -232,15 +233,15 @@ class Workspace:
     """
 
     def __init__(self) -> None:
-        self._arrays: dict[object, Array] = {}
+        self._arrays: dict[tuple[object, tuple[int, ...]], Array] = {}
 
     def array(self, key: object, shape: tuple[int, ...]) -> Array:
-        """An array of ``shape`` (its contents undefined) for ``key``: the same memory as the last one for ``key``
-        if it had this shape."""
-        held = self._arrays.get(key)
-        if held is None or held.shape != shape:
-            held = np.empty(shape)
-            self._arrays[key] = held
+        """An array of ``shape`` for ``key``: the same memory as the last one for ``key`` and this shape (its contents
+        as the last user left them), else a new one filled with zeros."""
+        held = self._arrays.get((key, shape))
+        if held is None:
+            held = np.zeros(shape)
+            self._arrays[(key, shape)] = held
         return held
 
 
@@ -258,6 +259,8 @@ class BatchContext:
         rotations: Frame -> (N, 3, 3) its orientation in the robot's world frame.
         translations: Frame -> (N, 3) its origin [m] in the robot's world frame.
         twists: Frame -> its spatial twists per unit parameter (empty without Jacobian).
+        samples: The block of the dataset's samples these are (the batched evaluation goes block by block); every
+            array here holds one row per sample of the block.
         joint_terms: Joint -> its value's terms, (column, (N,) regressor): the joint's value moves by the regressor
             [rad or m] per unit of the column's parameter (the actuated joints' offsets and corrections; a joint not
             listed does not move with the parameters).
@@ -269,6 +272,7 @@ class BatchContext:
     translations: dict[str, Array]
     twists: dict[str, SpatialJacobian] = field(default_factory=dict)
     joint_terms: dict[str, list[tuple[int, Array]]] = field(default_factory=dict)
+    samples: slice = field(default_factory=lambda: slice(0, None))
 
     @property
     def base(self) -> pin.SE3:
@@ -292,8 +296,8 @@ class BatchContext:
         return rotate_rows(point_rows(world_point, self.shared.base.rotation), self.shared.base_jacobian)
 
     def measured(self, key: str) -> Array:
-        """(N, width) the measured values of measurement ``key``."""
-        return self.shared.values[key]
+        """(N, width) the measured values of measurement ``key`` in this block."""
+        return self.shared.values[key][self.samples]
 
 
 def point_rows(world_point: Array, rotation: Array | None = None) -> Array:
@@ -805,8 +809,8 @@ class Distance(Measurement):
         dist = np.linalg.norm(diff, axis=1)
         if np.any(dist < 1e-12):
             raise DataError(f"measurement '{self.key}': frames '{self.frame_a}' and '{self.frame_b}' coincide at "
-                            f"sample {int(np.flatnonzero(dist < 1e-12)[0])} (a zero distance has no direction): "
-                            "measure between two distinct points")
+                            f"sample {batch.samples.start + int(np.flatnonzero(dist < 1e-12)[0])} (a zero distance "
+                            "has no direction): measure between two distinct points")
         out[:, 0] = dist
         if jac is None:
             return

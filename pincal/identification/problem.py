@@ -59,6 +59,9 @@ from pincal.model.robot import SOLVE_TOLERANCE, Robot
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
+#: Samples a tree's batched evaluation takes at once: its intermediates (about 6 × p numbers per sample and measured
+#: frame) stay a few megabytes, whatever the number of samples.
+BATCH_SAMPLES = 2048
 #: Largest entry of the passive joints' response to the loops (C_p⁺) before a sample counts as singular
 #: (an identification step that takes a sample there is rejected).
 SINGULAR_GAIN = 1e8
@@ -499,45 +502,53 @@ class CalibrationProblem:
 
     def _predict_tree(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
                       preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
-        """Every sample at once (a tree, :mod:`pincal.identification.tree_batch`): configurations, the measured
-        frames' placements and spatial twists, each model's :meth:`Measurement.predict_batch`; a model without
-        one is predicted sample by sample from the same configurations."""
+        """Every sample at once (a tree, :mod:`pincal.identification.tree_batch`), by blocks of at most
+        :data:`BATCH_SAMPLES`: configurations, the measured frames' placements and spatial twists, each model's
+        :meth:`Measurement.predict_batch`; a model without one is predicted sample by sample from the same
+        configurations and twists."""
         assert self._tree is not None
         tree, model, n = self._tree, robot.model, self.observations.n_samples
-        q = tree.configurations(qa_all)
-        placed, origins = tree.forward(model, q)
-        placements = {f: tree.frame_placement(model, placed, f, n) for f in self.frame_ids}
-        terms = self.actuated_terms
         probes = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
-        twists = {} if sens is None else {f: tree.twist(f, probes[f], sens, placed, origins, placements[f], terms)
-                                          for f in self.frame_ids}
-        derivatives: dict[str, list[tuple[int, Array]]] = {}
-        for joint, col, regressor in terms:
-            derivatives.setdefault(robot.actuated_joints[joint], []).append((col, regressor))
-        batch = BatchContext(ctx, q, {f: placement.rotation for f, placement in placements.items()},
-                             {f: placement.translation for f, placement in placements.items()}, twists, derivatives)
-        one_by_one = []
-        for m in self.measurements:
-            if m.batched:
-                m.predict_batch(batch, preds[m.key], dpreds[m.key] if sens is not None else None)
-            else:
-                one_by_one.append(m)
-        if not one_by_one:
-            return
-        data, act_v = robot.kinematics.data, robot.kinematics.actuated_v
-        spatial = {f: twist.full() for f, twist in twists.items()}
-        for k in range(n):
-            pin.framesForwardKinematics(model, data, q[k])
+        batched = [m for m in self.measurements if m.batched]
+        one_by_one = [m for m in self.measurements if not m.batched]
+        for start in range(0, n, BATCH_SAMPLES):
+            rows = slice(start, min(n, start + BATCH_SAMPLES))
+            size = rows.stop - rows.start
+            q = tree.configurations(qa_all[rows])
+            placed, origins = tree.forward(model, q)
+            placements = {f: tree.frame_placement(model, placed, f, size) for f in self.frame_ids}
+            terms = [(joint, col, regressor[rows]) for joint, col, regressor in self.actuated_terms]
+            twists = {} if sens is None else {f: tree.twist(f, probes[f], sens, placed, origins, placements[f], terms)
+                                              for f in self.frame_ids}
+            joint_terms: dict[str, list[tuple[int, Array]]] = {}
+            for joint, col, regressor in terms:
+                joint_terms.setdefault(robot.actuated_joints[joint], []).append((col, regressor))
+            batch = BatchContext(ctx, q, {f: placement.rotation for f, placement in placements.items()},
+                                 {f: placement.translation for f, placement in placements.items()}, twists,
+                                 joint_terms, rows)
+            for m in batched:
+                m.predict_batch(batch, preds[m.key][rows], dpreds[m.key][rows] if sens is not None else None)
+            if one_by_one:
+                self._predict_one_by_one(robot, one_by_one, ctx, batch, preds, dpreds)
+
+    def _predict_one_by_one(self, robot: Robot, models: list[Measurement], ctx: SampleContext, batch: BatchContext,
+                            preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
+        """The models without a batched prediction, sample by sample over the block of ``batch``: Pinocchio's frame
+        placements at each configuration, the local twists from the batch's spatial ones."""
+        model, data, act_v = robot.model, robot.kinematics.data, robot.kinematics.actuated_v
+        spatial = {f: twist.full() for f, twist in batch.twists.items()}
+        for row, k in enumerate(range(batch.samples.start, batch.samples.stop)):
+            pin.framesForwardKinematics(model, data, batch.q[row])
             dv = None
-            if sens is not None:
-                dv = np.zeros((model.nv, sens.n))
-                for joint, col, regressor in terms:
+            if spatial:
+                dv = np.zeros((model.nv, len(self._all)))
+                for joint, col, regressor in self.actuated_terms:
                     dv[act_v[joint], col] = regressor[k]
-            ctx.sample, ctx.q, ctx.dv = k, q[k], dv
-            ctx.twists = {f: _local_twist(placements[f].rotation[k], placements[f].translation[k], w[k])
+            ctx.sample, ctx.q, ctx.dv = k, batch.q[row], dv
+            ctx.twists = {f: _local_twist(batch.rotations[f][row], batch.translations[f][row], w[row])
                           for f, w in spatial.items()}
-            for m in one_by_one:
-                m.predict(ctx, preds[m.key][k], dpreds[m.key][k] if sens is not None else None)
+            for m in models:
+                m.predict(ctx, preds[m.key][k], dpreds[m.key][k] if spatial else None)
 
     def _context(self, model: pin.Model, data: pin.Data, x: Array, base_delta: Array) -> SampleContext:
         """The measurement models' context for one evaluation at ``x`` (per-sample fields unset)."""

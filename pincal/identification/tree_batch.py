@@ -201,16 +201,18 @@ class TreeBatch:
         placed: dict[int, Placements] = {}
         origins: dict[int, Placements] = {}
         values = self.rates * np.stack([joint_value(model, self.motions[j].source, q) for j in self.joints], axis=1)
-        phases = np.exp(-1j * values)
+        phases = np.empty(values.shape, dtype=np.complex128)  # e^{−iθ}
+        np.cos(values, out=phases.real)
+        np.sin(-values, out=phases.imag)
         for b, j in enumerate(self.joints):
             motion = self.motions[j]
             parent = int(model.parents[j])
             origin = self.turns[parent].inverse() * model.jointPlacements[j]
             moving = origin * motion.start * self.turns[j]
-            top = self.scratch.array(("top", j), (n, 3, 6))
             if parent == 0:
                 origins[j] = Placements(np.broadcast_to(origin.action[:3], (n, 3, 6)),
                                         np.broadcast_to(origin.translation, (n, 3)))
+                top = self.scratch.array(("top", j), (n, 3, 6))
                 top[...] = moving.action[:3]
                 pos = np.tile(moving.translation, (n, 1))
             else:
@@ -221,7 +223,7 @@ class TreeBatch:
                 rotation = flat[:, :3]
                 origins[j] = Placements(products[:, :, :6], (rotation @ origin.translation).reshape(n, 3)
                                         + above.translation)
-                top[...] = products[:, :, 6:]
+                top = products[:, :, 6:]  # turned below, in place
                 pos = (rotation @ moving.translation).reshape(n, 3) + above.translation
             pairs = top.reshape(n, 3, 2, 3)[..., :2].view(np.complex128)[..., 0]  # (N, 3, 2): R and p̂R, x + i y
             if motion.revolute:
@@ -276,24 +278,29 @@ class TreeBatch:
                 axes[k] = axes[k] + axis if k in axes else axis
         moving = [(k, column, regressor) for k, column, regressor in terms if k in axes]
         fixed = sens.fixed_terms(probe)
-        width = 6 * len(joints) + len(moving) + (6 if fixed else 0)
-        left = self.scratch.array(("left", frame), (n, 6, width))
+        dense = 6 * len(joints) + (6 if fixed else 0)
+        width = dense + len(moving)
+        # kept for this layout of blocks, whose lower left corners (zero) are never written
+        left = self.scratch.array(("left", frame, len(joints), len(moving), bool(fixed)), (n, 6, width))
         right = np.zeros((width, sens.n))
         for b, j in enumerate(joints):
             _write_adjoint(left[:, :, 6 * b:6 * b + 6], origins[j])
             right[6 * b:6 * b + 6] = sens.joint_map[6 * (j - 1):6 * j]
-        for b, (k, column, regressor) in enumerate(moving, start=6 * len(joints)):
-            left[:, :, b] = axes[k] * regressor[:, None]
-            right[b, column] = 1.0
         if fixed:
-            _write_adjoint(left[:, :, width - 6:], placement)
+            _write_adjoint(left[:, :, dense - 6:dense], placement)
             for idx, term in fixed:
-                right[width - 6:, idx] += term
+                right[dense - 6:dense, idx] += term
+        if moving:
+            stacked = np.stack(list(axes.values()), axis=2)
+            which = np.array([list(axes).index(k) for k, _, _ in moving])
+            regressors = np.stack([regressor for _, _, regressor in moving], axis=1)
+            np.multiply(np.take(stacked, which, axis=2), regressors[:, None, :], out=left[:, :, dense:])
+            right[np.arange(dense, width), [column for _, column, _ in moving]] = 1.0
         return SpatialJacobian(left, right, self.scratch)
 
 
 def _write_adjoint(out: Array, placement: Placements) -> None:
-    """Write the adjoints ``[[R, p̂ R], [0, R]]`` (N, 6, 6) of ``placement`` into ``out``."""
+    """Write the adjoints ``[[R, p̂ R], [0, R]]`` (N, 6, 6) of ``placement`` into ``out``, whose lower left block is
+    zero already."""
     out[:, :3] = placement.top
     out[:, 3:, 3:] = placement.rotation
-    out[:, 3:, :3] = 0.0

@@ -15,6 +15,7 @@ from test_measurements import Height
 
 import pincal
 from pincal.identification import measurements as ms
+from pincal.identification import problem as problem_module
 from pincal.identification.parameters import ParameterSet, cluster_parameters, marker_parameters, parameter_pool
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.tree_batch import joint_motion
@@ -126,6 +127,19 @@ def test_batched_evaluation_equals_the_per_sample_one(name: str, joint_sigma: fl
             assert worst.max() <= AGREEMENT, f"column {batched.parameters.names[int(np.argmax(worst))]}: {worst.max()}"
         else:
             assert a.jacobian is None and b.jacobian is None
+
+
+@pytest.mark.parametrize("name", ["ur10", "tiago markers"])
+def test_the_batched_evaluation_by_blocks_of_samples_is_the_same(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Blocks of 4 samples (6 in all: a full block and a partial one), the incremental distance across them."""
+    batched, per_sample, x = _problems(name, 1e-3)
+    whole = batched.evaluate(x)
+    monkeypatch.setattr(problem_module, "BATCH_SAMPLES", 4)
+    blocks, reference = batched.evaluate(x), per_sample.evaluate(x)
+    assert blocks.jacobian is not None and reference.jacobian is not None and whole.jacobian is not None
+    np.testing.assert_allclose(blocks.residual, whole.residual, rtol=0, atol=1e-12 * np.abs(whole.residual).max())
+    np.testing.assert_allclose(blocks.jacobian, reference.jacobian, rtol=0,
+                               atol=AGREEMENT * np.abs(reference.jacobian).max())
 
 
 def test_a_second_evaluation_reuses_nothing_it_returned() -> None:
