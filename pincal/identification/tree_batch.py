@@ -278,8 +278,8 @@ class TreeBatch:
                 axes[k] = axes[k] + axis if k in axes else axis
         moving = [(k, column, regressor) for k, column, regressor in terms if k in axes]
         fixed = sens.fixed_terms(probe)
-        dense = 6 * len(joints) + (6 if fixed else 0)
-        width = dense + len(moving)
+        adjoints = 6 * len(joints) + (6 if fixed else 0)
+        width = adjoints + len(moving)
         # kept for this layout of blocks, whose lower left corners (zero) are never written
         left = self.scratch.array(("left", frame, len(joints), len(moving), bool(fixed)), (n, 6, width))
         right = np.zeros((width, sens.n))
@@ -287,15 +287,15 @@ class TreeBatch:
             _write_adjoint(left[:, :, 6 * b:6 * b + 6], origins[j])
             right[6 * b:6 * b + 6] = sens.joint_map[6 * (j - 1):6 * j]
         if fixed:
-            _write_adjoint(left[:, :, dense - 6:dense], placement)
+            _write_adjoint(left[:, :, adjoints - 6:adjoints], placement)
             for idx, term in fixed:
-                right[dense - 6:dense, idx] += term
+                right[adjoints - 6:adjoints, idx] += term
         if moving:
             stacked = np.stack(list(axes.values()), axis=2)
             which = np.array([list(axes).index(k) for k, _, _ in moving])
             regressors = np.stack([regressor for _, _, regressor in moving], axis=1)
-            np.multiply(np.take(stacked, which, axis=2), regressors[:, None, :], out=left[:, :, dense:])
-            right[np.arange(dense, width), [column for _, column, _ in moving]] = 1.0
+            np.multiply(np.take(stacked, which, axis=2), regressors[:, None, :], out=left[:, :, adjoints:])
+            right[np.arange(adjoints, width), [column for _, column, _ in moving]] = 1.0
         return SpatialJacobian(left, right, self.scratch)
 
 
