@@ -160,6 +160,9 @@ class TreeBatch:
         self.parent = {f: int(model.frames[fid].parentJoint) for f, fid in frame_ids.items()}
         self.supports = {f: [int(j) for j in model.supports[joint] if j > 0] for f, joint in self.parent.items()}
         self.joints = sorted({j for chain in self.supports.values() for j in chain})
+        #: frame -> where its supporting joints are in :attr:`joints`
+        self.columns = {f: np.array([self.joints.index(j) for j in chain], dtype=int)
+                        for f, chain in self.supports.items()}
         self.motions: dict[int, JointMotion] = {}
         self.unsupported: str | None = None
         for j in self.joints:
@@ -189,17 +192,23 @@ class TreeBatch:
                 q[:, a.idx_q], q[:, a.idx_q + 1] = np.cos(qa[:, k]), np.sin(qa[:, k])
         return q
 
-    def forward(self, model: pin.Model, q: Array) -> tuple[dict[int, Placements], dict[int, Placements]]:
+    def forward(self, model: pin.Model, q: Array) -> tuple[dict[int, Placements], Array]:
         """Every sample's placement of each needed joint's turned frame ``oMi[j] · Q_j`` (its motion about or along
-        z) and of its origin ``oMi[parent] · M_j`` (before its motion), at the evaluated parameters.
+        z), and the adjoint's top rows of each joint's origin ``oMi[parent] · M_j`` (before its motion), at the
+        evaluated parameters.
 
         The adjoint's top rows ``[R | p̂ R]`` propagate by one product with constants per joint (``Ad(oMi[j] Q_j) =
         Ad(oMi[parent] Q_parent) Ad(Q_parentᵀ M_j start_j Q_j) Ad(exp6(θ e_z))``); a rotation by θ about z then turns
         the column pairs (x, y) of R and of p̂ R, done as one complex product ``(c_x + i c_y) e^{−iθ}``; a slide by d
-        along z adds ``d R e_z`` to p and ``d (R e_y, −R e_x)`` to the first two columns of p̂ R."""
+        along z adds ``d R e_z`` to p and ``d (R e_y, −R e_x)`` to the first two columns of p̂ R.
+
+        Returns:
+            Joint -> its turned frame's placements; and (N, 3, J, 6) the origins' ``[R | p̂ R]``, the joints in
+            :attr:`joints` order (kept between evaluations: read it before the next one).
+        """
         n = len(q)
         placed: dict[int, Placements] = {}
-        origins: dict[int, Placements] = {}
+        origins = self.scratch.array("origins", (n, 3, len(self.joints), 6))
         values = self.rates * np.stack([joint_value(model, self.motions[j].source, q) for j in self.joints], axis=1)
         phases = np.empty(values.shape, dtype=np.complex128)  # e^{−iθ}
         np.cos(values, out=phases.real)
@@ -209,22 +218,17 @@ class TreeBatch:
             parent = int(model.parents[j])
             origin = self.turns[parent].inverse() * model.jointPlacements[j]
             moving = origin * motion.start * self.turns[j]
+            top = self.scratch.array(("top", j), (n, 3, 6))
             if parent == 0:
-                origins[j] = Placements(np.broadcast_to(origin.action[:3], (n, 3, 6)),
-                                        np.broadcast_to(origin.translation, (n, 3)))
-                top = self.scratch.array(("top", j), (n, 3, 6))
+                origins[:, :, b] = origin.action[:3]
                 top[...] = moving.action[:3]
                 pos = np.tile(moving.translation, (n, 1))
             else:
                 above = placed[parent]
                 flat = above.top.reshape(-1, 6)
-                products = np.matmul(flat, np.hstack([origin.action, moving.action]),
-                                     out=self.scratch.array(("products", j), (3 * n, 12))).reshape(n, 3, 12)
-                rotation = flat[:, :3]
-                origins[j] = Placements(products[:, :, :6], (rotation @ origin.translation).reshape(n, 3)
-                                        + above.translation)
-                top = products[:, :, 6:]  # turned below, in place
-                pos = (rotation @ moving.translation).reshape(n, 3) + above.translation
+                np.matmul(flat, origin.action, out=origins[:, :, b].reshape(3 * n, 6))
+                np.matmul(flat, moving.action, out=top.reshape(3 * n, 6))
+                pos = (flat[:, :3] @ moving.translation).reshape(n, 3) + above.translation
             pairs = top.reshape(n, 3, 2, 3)[..., :2].view(np.complex128)[..., 0]  # (N, 3, 2): R and p̂R, x + i y
             if motion.revolute:
                 pairs *= phases[:, b, None, None]
@@ -246,14 +250,13 @@ class TreeBatch:
                           (flat[:, :3] @ local.translation).reshape(n, 3) + above.translation)
 
     def twist(self, frame: str, probe: Probe, sens: KinematicSensitivity, placed: dict[int, Placements],
-              origins: dict[int, Placements], placement: Placements,
-              terms: list[tuple[int, int, Array]]) -> SpatialJacobian:
+              origins: Array, placement: Placements, terms: list[tuple[int, int, Array]]) -> SpatialJacobian:
         """The spatial twist of ``frame`` per unit parameter, factored (see the module docstring).
 
-        Its generators: the six local directions at each supporting joint's origin that carries placement
-        parameters (right factor: the joint's rows of ``joint_map``), each actuated term's joint axis times its
-        regressor (right factor: the term's column), and the six local directions of the frame itself when fixed
-        joints above it have parameters (right factor: their constant local twists).
+        Its generators: the six local directions at each supporting joint's origin (right factor: the joint's rows
+        of ``joint_map``, zero for a joint without placement parameters), the six local directions of the frame
+        itself when fixed joints above it have parameters (right factor: their constant local twists), and each
+        actuated term's joint axis times its regressor (right factor: the term's column).
 
         Args:
             frame: The measured frame.
@@ -261,15 +264,15 @@ class TreeBatch:
                 at the evaluated parameters), alive for the evaluation (``sens`` caches its terms by identity).
             sens: The parameter derivatives at this estimate (its ``joint_map`` and the frame's fixed-joint terms).
             placed: Each joint's placement in the world, from :meth:`forward`.
-            origins: Each joint's origin in the world, from :meth:`forward`.
+            origins: The joints' origins, from :meth:`forward`.
             placement: The frame's placement, from :meth:`frame_placement`.
             terms: (actuated joint index, column, (N,) regressor): the actuated joint's value moves by the regressor
                 per unit of that column's parameter.
         """
         n = len(placement.translation)
-        joints = [j for j in self.supports[frame] if np.any(sens.joint_map[6 * (j - 1):6 * j])]
+        chain = self.supports[frame]
         axes: dict[int, Array] = {}
-        for j in self.supports[frame]:
+        for j in chain:
             if j in self.driver:  # the joint's axis as a spatial twist, Ad(oMi[j] Q_j) · rate · e_z
                 motion, top = self.motions[j], placed[j].top
                 axis = motion.rate * (np.concatenate([top[:, :, 5], top[:, :, 2]], axis=1) if motion.revolute
@@ -278,14 +281,17 @@ class TreeBatch:
                 axes[k] = axes[k] + axis if k in axes else axis
         moving = [(k, column, regressor) for k, column, regressor in terms if k in axes]
         fixed = sens.fixed_terms(probe)
-        adjoints = 6 * len(joints) + (6 if fixed else 0)
+        adjoints = 6 * len(chain) + (6 if fixed else 0)
         width = adjoints + len(moving)
         # kept for this layout of blocks, whose lower left corners (zero) are never written
-        left = self.scratch.array(("left", frame, len(joints), len(moving), bool(fixed)), (n, 6, width))
+        left = self.scratch.array(("left", frame, len(moving), bool(fixed)), (n, 6, width))
         right = np.zeros((width, sens.n))
-        for b, j in enumerate(joints):
-            _write_adjoint(left[:, :, 6 * b:6 * b + 6], origins[j])
-            right[6 * b:6 * b + 6] = sens.joint_map[6 * (j - 1):6 * j]
+        if chain:
+            own = origins if len(chain) == len(self.joints) else np.take(origins, self.columns[frame], axis=2)
+            left[:, :3, :6 * len(chain)] = own.reshape(n, 3, -1)
+            left[:, 3:, :6 * len(chain)].reshape(n, 3, len(chain), 6)[..., 3:] = own[..., :3]
+            for b, j in enumerate(chain):
+                right[6 * b:6 * b + 6] = sens.joint_map[6 * (j - 1):6 * j]
         if fixed:
             _write_adjoint(left[:, :, adjoints - 6:adjoints], placement)
             for idx, term in fixed:
