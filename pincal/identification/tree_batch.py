@@ -23,7 +23,7 @@ another kind above a measured frame (a free-flyer, a spherical joint) is evaluat
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -77,16 +77,15 @@ class JointMotion:
     source: int
     start: pin.SE3
     twist: Array
+    #: True for a rotation about an axis through the joint's origin, False for a translation.
+    revolute: bool = field(init=False)
+    #: ``‖ξ‖``: the angle [rad] or distance [m] it moves per unit value of its source.
+    rate: float = field(init=False)
 
-    @property
-    def revolute(self) -> bool:
-        """True for a rotation about an axis through the joint's origin, False for a translation."""
-        return bool(np.any(self.twist[3:] != 0.0))
-
-    @property
-    def rate(self) -> float:
-        """``‖ξ‖``: the angle [rad] or distance [m] it moves per unit value of its source."""
-        return float(np.linalg.norm(self.twist[3:] if self.revolute else self.twist[:3]))
+    def __post_init__(self) -> None:
+        revolute = bool(np.any(self.twist[3:] != 0.0))
+        object.__setattr__(self, "revolute", revolute)
+        object.__setattr__(self, "rate", float(np.linalg.norm(self.twist[3:] if revolute else self.twist[:3])))
 
     @property
     def turn(self) -> pin.SE3:
@@ -255,8 +254,9 @@ class TreeBatch:
 
         Its generators: the six local directions at each supporting joint's origin (right factor: the joint's rows
         of ``joint_map``, zero for a joint without placement parameters), the six local directions of the frame
-        itself when fixed joints above it have parameters (right factor: their constant local twists), and each
-        actuated term's joint axis times its regressor (right factor: the term's column).
+        itself when fixed joints above it have parameters (right factor: their constant local twists), each actuated
+        joint's axis (with its ``<mimic>`` followers'; right factor: the columns of its offset terms, whose regressor
+        is 1) and that axis times each other term's regressor (right factor: the term's column).
 
         Args:
             frame: The measured frame.
@@ -271,20 +271,19 @@ class TreeBatch:
         """
         n = len(placement.translation)
         chain = self.supports[frame]
-        axes: dict[int, Array] = {}
+        drivers: dict[int, list[int]] = {}  # actuated joint -> the joints of the chain its value moves
         for j in chain:
-            if j in self.driver:  # the joint's axis as a spatial twist, Ad(oMi[j] Q_j) · rate · e_z
-                motion, top = self.motions[j], placed[j].top
-                axis = motion.rate * (np.concatenate([top[:, :, 5], top[:, :, 2]], axis=1) if motion.revolute
-                                      else np.concatenate([top[:, :, 2], np.zeros((n, 3))], axis=1))
-                k = self.driver[j]
-                axes[k] = axes[k] + axis if k in axes else axis
-        moving = [(k, column, regressor) for k, column, regressor in terms if k in axes]
+            if j in self.driver:
+                drivers.setdefault(self.driver[j], []).append(j)
+        moving = [(k, column, regressor) for k, column, regressor in terms if k in drivers]
+        axes = list(dict.fromkeys(k for k, _, _ in moving))  # the actuated joints with terms
+        unit = [bool(np.all(regressor == 1.0)) for _, _, regressor in moving]  # an offset: the axis itself
+        scaled = [term for term, one in zip(moving, unit, strict=True) if not one]
         fixed = sens.fixed_terms(probe)
         adjoints = 6 * len(chain) + (6 if fixed else 0)
-        width = adjoints + len(moving)
+        width = adjoints + len(axes) + len(scaled)
         # kept for this layout of blocks, whose lower left corners (zero) are never written
-        left = self.scratch.array(("left", frame, len(moving), bool(fixed)), (n, 6, width))
+        left = self.scratch.array(("left", frame, len(axes), len(scaled), bool(fixed)), (n, 6, width))
         right = np.zeros((width, sens.n))
         if chain:
             own = origins if len(chain) == len(self.joints) else np.take(origins, self.columns[frame], axis=2)
@@ -296,12 +295,27 @@ class TreeBatch:
             _write_adjoint(left[:, :, adjoints - 6:adjoints], placement)
             for idx, term in fixed:
                 right[adjoints - 6:adjoints, idx] += term
-        if moving:
-            stacked = np.stack(list(axes.values()), axis=2)
-            which = np.array([list(axes).index(k) for k, _, _ in moving])
-            regressors = np.stack([regressor for _, _, regressor in moving], axis=1)
-            np.multiply(np.take(stacked, which, axis=2), regressors[:, None, :], out=left[:, :, adjoints:])
-            right[np.arange(adjoints, width), [column for _, column, _ in moving]] = 1.0
+        for a, k in enumerate(axes, start=adjoints):  # the axis as a spatial twist, Ad(oMi[j] Q_j) · rate · e_z
+            for m, j in enumerate(drivers[k]):
+                motion, top = self.motions[j], placed[j].top
+                linear, angular = (top[:, :, 5], top[:, :, 2]) if motion.revolute else (top[:, :, 2], None)
+                if m == 0:
+                    np.multiply(linear, motion.rate, out=left[:, :3, a])
+                    left[:, 3:, a] = 0.0 if angular is None else motion.rate * angular
+                else:  # a <mimic> follower moves with its leader
+                    left[:, :3, a] += motion.rate * linear
+                    if angular is not None:
+                        left[:, 3:, a] += motion.rate * angular
+        row = {k: adjoints + a for a, k in enumerate(axes)}
+        for (k, column, _), one in zip(moving, unit, strict=True):
+            if one:
+                right[row[k], column] = 1.0
+        if scaled:
+            first = adjoints + len(axes)
+            which = np.array([row[k] for k, _, _ in scaled])
+            regressors = np.stack([regressor for _, _, regressor in scaled], axis=1)
+            np.multiply(np.take(left, which, axis=2), regressors[:, None, :], out=left[:, :, first:])
+            right[np.arange(first, width), [column for _, column, _ in scaled]] = 1.0
         return SpatialJacobian(left, right, self.scratch)
 
 
