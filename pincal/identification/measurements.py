@@ -555,10 +555,9 @@ class Pose(Measurement):
         world = batch.point(self.frame, term.placement.translation)
         base = batch.base
         out[:, :3] = world @ base.rotation.T + base.translation
-        rel = _orientation_rows_batch(batch.measured(self.key), rotate(base.rotation, rotation), out[:, 3:])
+        jlog = _orientation_rows_batch(batch.measured(self.key), rotate(base.rotation, rotation), out[:, 3:])
         if jac is None:
             return
-        jlog = jlog3(log3(rel))
         to_local = np.matmul(jlog, rotation.transpose(0, 2, 1))  # Jlog3 R_Pᵀ: world angular velocity -> rows
         rows = np.zeros((len(world), 6, 6))
         rows[:, :3] = point_rows(world, base.rotation)
@@ -631,12 +630,12 @@ class CameraPose(Pose):
         seen_rot = rotate(inverse, target.placement.rotation)
         seen_pos = np.matmul(inverse, (target.placement.translation - pos_fc)[:, :, None])[:, :, 0]
         out[:, :3] = seen_pos
-        rel = _orientation_rows_batch(batch.measured(self.key), seen_rot, out[:, 3:])
+        jlog = _orientation_rows_batch(batch.measured(self.key), seen_rot, out[:, 3:])
         if jac is None:
             return
         rows = np.zeros((len(seen_pos), 6, 6))
         rows[:, :3, :3] = seen_rot
-        rows[:, 3:, 3:] = jlog3(log3(rel))
+        rows[:, 3:, 3:] = jlog
         batch.derivative(self.frame, np.matmul(rows, -target.placement.inverse().action), out=jac)
         if camera.columns:  # −Ad(T⁻¹) J_C = −(R_Tᵀ (J_v − p_T × J_ω), R_Tᵀ J_ω)
             jc = np.broadcast_to(camera.jacobian, (len(seen_pos), 6, len(camera.columns)))
@@ -729,16 +728,17 @@ def _orientation_rows(measured: Array, rotation: Array, out: Array) -> Array:
 
 def _orientation_rows_batch(measured: Array, rotation: Array, out: Array) -> Array:
     """:func:`_orientation_rows` for every sample: ``measured`` (N, 7), ``rotation`` (N, 3, 3), ``out`` (N, 3);
-    returns (N, 3, 3) ``R_measᵀ R`` (``R`` for a reading not taken, whose rows are NaN)."""
+    returns (N, 3, 3) ``Jlog3`` at ``R_measᵀ R`` (at ``R`` for a reading not taken, whose rows are NaN)."""
     quat = measured[:, 3:7]
     taken = np.all(np.isfinite(quat), axis=1)
     unit = np.where(taken[:, None], quat, [0.0, 0.0, 0.0, 1.0])
     unit = unit / np.linalg.norm(unit, axis=1)[:, None]
-    rel: Array = np.matmul(quaternion_matrices(unit).transpose(0, 2, 1), rotation)
-    out[:] = log3(rel)
-    out[~taken] = np.nan
+    rel = np.matmul(quaternion_matrices(unit).transpose(0, 2, 1), rotation)
     rel[~taken] = rotation[~taken]
-    return rel
+    vector = log3(rel)
+    out[:] = vector
+    out[~taken] = np.nan
+    return jlog3(vector)
 
 
 def quaternion_matrices(quat: Array) -> Array:

@@ -173,9 +173,14 @@ class TreeBatch:
         #: joint -> its turn Q (:attr:`JointMotion.turn`): the batched kinematics places each joint's frame turned by Q,
         #: so that every motion is about or along z (0: the root, not turned)
         self.turns = {0: pin.SE3.Identity(), **{j: m.turn for j, m in self.motions.items()}}
+        self._unturn = {j: turn.inverse() for j, turn in self.turns.items()}  # Q_jᵀ
+        self._starts = {j: m.start * self.turns[j] for j, m in self.motions.items()}  # start_j Q_j
         #: The intermediates kept from one evaluation to the next (see :class:`Workspace`).
         self.scratch = Workspace()
         self.rates = np.array([m.rate for m in self.motions.values()])
+        sources = [model.joints[m.source] for m in self.motions.values()]
+        self._value_columns = (np.array([jm.idx_q for jm in sources], dtype=int)
+                               if all(jm.nq == 1 for jm in sources) else None)
         actuated_ids = {a.joint_id: k for k, a in enumerate(self.actuated)}
         #: joint -> index of the actuated joint whose value drives it (its own, or its leader's)
         self.driver = {j: actuated_ids[m.source] for j, m in self.motions.items() if m.source in actuated_ids}
@@ -208,15 +213,19 @@ class TreeBatch:
         n = len(q)
         placed: dict[int, Placements] = {}
         origins = self.scratch.array("origins", (n, 3, len(self.joints), 6))
-        values = self.rates * np.stack([joint_value(model, self.motions[j].source, q) for j in self.joints], axis=1)
+        if self._value_columns is not None:  # every source a joint of one coordinate: its column of q
+            values = self.rates * q[:, self._value_columns]
+        else:
+            values = self.rates * np.stack([joint_value(model, self.motions[j].source, q) for j in self.joints],
+                                           axis=1)
         phases = np.empty(values.shape, dtype=np.complex128)  # e^{−iθ}
         np.cos(values, out=phases.real)
         np.sin(-values, out=phases.imag)
         for b, j in enumerate(self.joints):
             motion = self.motions[j]
             parent = int(model.parents[j])
-            origin = self.turns[parent].inverse() * model.jointPlacements[j]
-            moving = origin * motion.start * self.turns[j]
+            origin = self._unturn[parent] * model.jointPlacements[j]
+            moving = origin * self._starts[j]
             top = self.scratch.array(("top", j), (n, 3, 6))
             if parent == 0:
                 origins[:, :, b] = origin.action[:3]
@@ -240,7 +249,7 @@ class TreeBatch:
     def frame_placement(self, model: pin.Model, placed: dict[int, Placements], frame: str, n: int) -> Placements:
         """The placement of a measured frame in the world for every sample."""
         joint = self.parent[frame]
-        local = self.turns[joint].inverse() * model.frames[self.frame_ids[frame]].placement
+        local = self._unturn[joint] * model.frames[self.frame_ids[frame]].placement
         if joint == 0:
             return Placements(np.tile(local.action[:3], (n, 1, 1)), np.tile(local.translation, (n, 1)))
         above = placed[joint]
