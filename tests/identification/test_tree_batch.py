@@ -36,7 +36,8 @@ def _tiago() -> list[ms.Measurement]:
     frame = "wrist_ft_tool_link"
     nominal = {"m1": (0.05, 0.0, 0.02), "m2": (-0.03, 0.04, 0.0), "m3": (0.0, -0.02, 0.06)}
     return [*(ms.position(frame, marker=m, nominal=n) for m, n in nominal.items()), ms.position(frame),
-            ms.pose("torso_lift_link"), ms.distance(frame, "base_footprint"), ms.joint_reading("wheel_left_joint")]
+            ms.pose("torso_lift_link"), ms.distance(frame, "base_footprint"), ms.joint_reading("wheel_left_joint"),
+            ms.pose("wheel_right_link")]  # a continuous joint in the chain
 
 
 def _panda() -> list[ms.Measurement]:
