@@ -23,6 +23,7 @@ import pinocchio as pin
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, listing, not_found
 from pincal.identification import handeye
+from pincal.identification.batch import BatchContext
 from pincal.identification.corrections import correction_regressors
 from pincal.identification.derivatives import (
     KinematicSensitivity,
@@ -33,7 +34,6 @@ from pincal.identification.derivatives import (
 )
 from pincal.identification.measurements import (
     WORLD_TARGET,
-    BatchContext,
     CameraPoint,
     CameraPose,
     Measurement,

@@ -83,3 +83,11 @@ def jlog3(vector: Array) -> Array:
     out: Array = alpha[:, None, None] * vector[:, :, None] * vector[:, None, :] + 0.5 * skew(vector)
     out[:, [0, 1, 2], [0, 1, 2]] += beta[:, None]
     return out
+
+
+def quaternion_matrices(quat: Array) -> Array:
+    """(N, 3, 3) rotation matrices of unit quaternions (N, 4) in x, y, z, w order."""
+    x, y, z, w = quat.T
+    return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
+                     2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+                     2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=1).reshape(-1, 3, 3)

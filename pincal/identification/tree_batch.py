@@ -29,8 +29,8 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal.identification.batch import SpatialJacobian, Workspace
 from pincal.identification.derivatives import KinematicSensitivity, Probe
-from pincal.identification.measurements import SpatialJacobian, Workspace
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
