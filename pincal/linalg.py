@@ -27,6 +27,11 @@ def _finite(matrix: Array, what: str) -> None:
                         "its decomposition is undefined")
 
 
+def require_finite(matrix: npt.ArrayLike, what: str) -> None:
+    """Refuse (DataError, naming ``what`` and the first bad index) a matrix with NaN or infinite entries."""
+    _finite(np.asarray(matrix, dtype=np.float64), what)
+
+
 def svd(matrix: npt.ArrayLike, what: str, full_matrices: bool = False) -> tuple[Array, Array, Array]:
     """``U, s, Vᵀ`` of ``matrix`` (m × n), s descending; numpy's ``gesdd``, else SciPy's ``gesvd``.
 
@@ -50,6 +55,19 @@ def svd(matrix: npt.ArrayLike, what: str, full_matrices: bool = False) -> tuple[
             raise ConvergenceError(f"the SVD of {what} ({a.shape[0]} × {a.shape[1]}) did not converge with "
                                    f"LAPACK's gesdd nor gesvd: {exc}") from exc
     return np.asarray(u, np.float64), np.asarray(s, np.float64), np.asarray(vt, np.float64)
+
+
+def right_svd(matrix: npt.ArrayLike, what: str) -> tuple[Array, Array]:
+    """``s, Vᵀ`` of ``matrix`` (m × n): its singular values (descending, min(m, n)) and right singular vectors,
+    without the m × min(m, n) ``U``. A tall matrix (m ≥ 2n) is first reduced to the n × n triangle of its QR
+    factorization, which has the same singular values and right vectors; with m < n, ``Vᵀ`` is square (all n
+    right vectors, the null space's included). Raises as :func:`svd`."""
+    a = np.asarray(matrix, dtype=np.float64)
+    m, n = a.shape
+    if m >= 2 * n and n > 0 and np.all(np.isfinite(a)):
+        a = np.asarray(np.linalg.qr(a, mode="r"), dtype=np.float64)  # (n, n): one working copy of the matrix
+    _, s, vt = svd(a, what, full_matrices=m < n)
+    return s, vt
 
 
 def singular_values(matrix: npt.ArrayLike, what: str) -> Array:

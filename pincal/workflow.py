@@ -20,6 +20,7 @@ import numpy.typing as npt
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
+from pincal.identification.corrections import Payload
 from pincal.identification.identifiability import describe_unidentifiable
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.measurements import JointReading, Measurement, Pose, parse_key
@@ -90,12 +91,31 @@ def measurement_models(robot: Robot, kinds: Sequence[str], frame: str | None, si
 @dataclass
 class Simulation:
     """A simulated campaign: the nominal robot, the parameters and their true values ``x_true`` [m, rad], the
-    dataset and the measurement models."""
+    dataset and the measurement models; the payload the robot carried."""
     robot: Robot
     parameters: ParameterSet
     x_true: Array
     dataset: Dataset
     measurements: list[Measurement]
+    payload: Payload | None = None
+
+
+def check_payload(robot: Robot, parameters: ParameterSet, payload: Payload | None) -> None:
+    """Refuse a payload that would change nothing: one on a frame the robot lacks, or one given with no
+    ``<joint>.compliance`` among the parameters (the payload enters only the compliance terms; ignored, it would let
+    a user believe the load was accounted for).
+
+    Raises:
+        NotFoundError: the payload's frame, listing the robot's frames.
+        DataError: no compliance parameter.
+    """
+    if payload is None:
+        return
+    payload.check(robot)
+    if not any(p.kind == "compliance" for p in parameters):
+        raise DataError(f"the payload ({payload}) enters only the joint compliances, and no <joint>.compliance is "
+                        "among the parameters: add '*.compliance' (--parameters default '*.compliance'), or give no "
+                        "payload")
 
 
 def check_movable(robot: Robot) -> None:
@@ -121,7 +141,7 @@ def check_sample_counts(n_train: int, n_test: int) -> None:
 def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, frame: str | None = None,
              perturb: float = 1e-3, noise: float = 1e-5, seed: int = 0,
              parameter_spec: Sequence[str] | None = None, progress: bool = False,
-             spread: float | None = None) -> Simulation:
+             spread: float | None = None, payload: Payload | None = None) -> Simulation:
     """Simulate a calibration campaign on ``robot`` with random true errors.
 
     Args:
@@ -138,16 +158,19 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
         progress: Show a progress bar while drawing postures (on a terminal).
         spread: Half-range [rad or m] of the actuated values about the reference, within the URDF limits;
             None: within the URDF limits (see :func:`~pincal.study.simulation.actuated_ranges`).
+        payload: A point mass the robot carries; its gravity torque adds to the links' in the true compliances'
+            deflections (refused without a compliance parameter: :func:`check_payload`).
     """
     check_sample_counts(n_train, n_test)
     check_movable(robot)
     rng = np.random.default_rng(seed)
     models = measurement_models(robot, kinds, frame, max(noise, 1e-9))
     pset = choose_parameters(robot, models, parameter_spec)
+    check_payload(robot, pset, payload)
     x_true = perturbation(pset, perturb, rng)
     qa, _ = random_actuated(robot, n_train + n_test, rng, spread=spread, progress=progress)
     try:
-        obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise)
+        obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise, payload=payload)
     except ConvergenceError as exc:
         raise ConvergenceError(f"the simulated robot, with true errors of σ {perturb:g} (m, rad), cannot be "
                                f"assembled: {exc}; give smaller errors (perturb)") from None
@@ -166,7 +189,7 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
                       {"robot": robot.name, "units": "SI (m, rad)", "perturb": repr(perturb), "seed": str(seed),
                        **{f"sigma {m.key.split(':', 1)[0]} {m.key.split(':', 1)[1]}": repr(max(noise, 1e-9))
                           for m in models}})
-    return Simulation(robot, pset, x_true, dataset, models)
+    return Simulation(robot, pset, x_true, dataset, models, payload)
 
 
 SIMULATION_FILES = ("measurements.csv", "truth.urdf", "truth.json")
@@ -201,7 +224,7 @@ def write_simulation(sim: Simulation, out: Path) -> list[Path]:
     truth = {"robot": sim.robot.name, "units": "SI: m, rad", "parameters": sim.parameters.as_dict(sim.x_true),
              "reference_shifts": shifts, "joint_sensor_zeros": joint_sensor_zeros(text)}
     texts = list(zip(paths, (dataset_text(sim.dataset), text, json_text(truth)), strict=True))
-    corrections = corrections_of(sim.robot, sim.parameters, sim.x_true)
+    corrections = corrections_of(sim.robot, sim.parameters, sim.x_true, sim.payload)
     if corrections is not None:  # the true joint harmonics and compliances, as a calibration writes them
         texts.append((corrections_path(paths[1]), json_text(corrections_dict(corrections, sim.robot))))
     return write_texts(texts)
@@ -221,7 +244,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
               loss: Loss = "auto", sigma: float | None = None, x_true: Array | None = None,
               pose_sigma_angle: float | None = None, formulation: Formulation = "fkm",
               max_iter: int = 100, select: str = "auto", cv: str | None = None,
-              progress: bool = False, markers: MarkerFit = "each") -> Calibration:
+              progress: bool = False, markers: MarkerFit = "each", payload: Payload | None = None) -> Calibration:
     """Identify ``robot``'s parameters from the ``train`` samples; evaluate on the ``test`` samples.
 
     ``select``: ``bic`` leaves out the groups of parameters (joint translations, joint rotations, reading offsets)
@@ -245,6 +268,9 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     in the file). A marker not seen in a sample (its cells empty) leaves that sample's other readings in use; a
     sample with no reading at all is dropped and listed. The report counts the readings (``readings``,
     ``readings_not_seen``, ``test_readings``): every RMS is over the readings taken.
+    ``payload``: a point mass the robot carried during the measurements, whose gravity torque adds to the links' in
+    the compliance terms (:class:`~pincal.identification.corrections.Payload`); refused unless a ``<joint>.compliance``
+    is among the parameters (:func:`check_payload`). The report and the corrections file record it.
 
     Raises:
         DataError: no training sample (every row is ``set=test``, or none can be assembled).
@@ -267,6 +293,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
                         "calibrate from")
     at_reference = joints_at_reference(robot, dataset.joint_names, models)
     pset = choose_parameters(robot, models, parameter_spec, markers)
+    check_payload(robot, pset, payload)
     train, dropped_info = usable_part(robot, train)
     if train.n_samples == 0:
         raise DataError(f"none of the {len(dropped_info)} training samples can be used: "
@@ -285,7 +312,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
         usable, _ = usable_part(robot, dataset)
         folds = parse_cv(cv, usable.n_samples)
         every = observations_from(robot, usable.joint_names, usable.joints, usable.measurements, models)
-    problem = CalibrationProblem(robot, pset, models, obs)
+    problem = CalibrationProblem(robot, pset, models, obs, payload=payload)
     full_set, removed, first = pset, [], None
     if formulation == "ikm":
         result = identify(ImplicitProblem(robot, pset, models, obs), solver=solver, loss=loss, max_iter=max_iter)
@@ -306,8 +333,9 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
                                          read_joints=[m.joint for m in models if isinstance(m, JointReading)],
                                          markers=declared_markers(models))
     report = report_dict(result, problem, x_true, shifts)
-    corrections = corrections_of(robot, pset, result.x)
+    corrections = corrections_of(robot, pset, result.x, payload)
     report["corrections"] = corrections.joints if corrections is not None else {}
+    report["payload"] = payload.as_dict() if payload is not None else None
     report["markers"] = markers
     report["formulation"] = formulation
     report["selection"] = {"policy": select if formulation == "fkm" else "none", "removed": removed,
@@ -338,7 +366,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
         if dropped_test:  # listed, never silently
             report["dropped_test_samples"] = dropped_test
         tobs = observations_from(robot, test.joint_names, test.joints, test.measurements, models)
-        tprob = CalibrationProblem(robot, pset, models, tobs)
+        tprob = CalibrationProblem(robot, pset, models, tobs, payload=payload)
         errors_before = tprob.evaluate(result.x0, jacobian=False).errors  # the same "before" as the fit's
         held_out = tprob.evaluate(result.x, jacobian=False)
         errors_after = held_out.errors
@@ -364,7 +392,7 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
                                                            strange if trusted else [])
     if folds is not None and every is not None:
         report["cv"] = cross_validate(robot, full_set, models, every, folds, select=select, progress=progress,
-                                      solver=solver, loss=loss, max_iter=max_iter)
+                                      payload=payload, solver=solver, loss=loss, max_iter=max_iter)
     return Calibration(problem, result, report, text, corrections)
 
 
@@ -422,9 +450,10 @@ def check_cross_validation(models: Sequence[Measurement], formulation: str) -> N
 
 
 def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measurement], obs: Observations, folds: Folds,
-                   select: str = "bic", seed: int = 0, progress: bool = False, **options: Any) -> dict[str, Any]:
+                   select: str = "bic", seed: int = 0, progress: bool = False, payload: Payload | None = None,
+                   **options: Any) -> dict[str, Any]:
     """K-fold cross-validation of the whole fit (selection and robust starts included): each fold is fitted
-    without its samples and predicts them.
+    without its samples and predicts them (with the ``payload`` of the compliance terms, if any).
 
     Folds are drawn from a permutation seeded by ``seed + repeat``. A fold whose fit fails is listed and left out;
     one whose fit stopped short of convergence is counted. Returns the plan, the RMS position error of the
@@ -441,9 +470,10 @@ def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measuremen
                 test = np.sort(order[f::folds.k])
                 train = np.setdiff1d(np.arange(n), test)
                 try:
-                    fitted = select_and_fit(CalibrationProblem(robot, pset, models, obs.subset(train)), select,
-                                            **options)
-                    held = CalibrationProblem(robot, fitted.problem.parameters, models, obs.subset(test))
+                    fitted = select_and_fit(CalibrationProblem(robot, pset, models, obs.subset(train),
+                                                               payload=payload), select, **options)
+                    held = CalibrationProblem(robot, fitted.problem.parameters, models, obs.subset(test),
+                                              payload=payload)
                     errors = held.evaluate(fitted.result.x, jacobian=False).errors
                 except PincalError as exc:
                     failed.append(f"repeat {repeat + 1}, fold {f + 1}: {exc}")
@@ -646,9 +676,13 @@ def calibrate_job(job: Job) -> Calibration:
     options; the outputs are checked before the fit (never over an input, the job file included) and each is written
     whole or not at all."""
     robot = load_job_robot(job)
-    outputs = [(what, path) for what, path in (("out", job.out), ("report", job.report)) if path]
+    beside = corrections_path(job.out) if job.out else None
+    outputs = [(what, path) for what, path in (("out", job.out), ("report", job.report),
+                                               ("out (its corrections file)", beside)) if path]
     check_outputs(outputs, [p for p in (robot.source, job.path, *job.files) if p is not None])
     cal = calibrate(robot, job_dataset(job, robot), **job.options)
-    texts = ((job.out, cal.urdf_text), (job.report, json_text(cal.report) if job.report else ""))
-    write_texts([(path, text) for path, text in texts if path])  # both or neither
+    texts = [(job.out, cal.urdf_text), (job.report, json_text(cal.report) if job.report else "")]
+    if cal.corrections is not None:  # what the URDF cannot hold goes beside it
+        texts.append((beside, json_text(corrections_dict(cal.corrections, robot))))
+    write_texts([(path, text) for path, text in texts if path])  # all or none
     return cal

@@ -117,3 +117,23 @@ def test_wrap_angle_takes_the_short_way_round() -> None:
     assert np.all((wrapped >= -np.pi) & (wrapped < np.pi))
     np.testing.assert_allclose(np.round((angles - wrapped) / (2 * np.pi)) * 2 * np.pi, angles - wrapped, atol=1e-12)
     np.testing.assert_allclose(wrapped[[2, 3, 4]], angles[[2, 3, 4]])
+
+
+@pytest.mark.parametrize("shape", [(3000, 40), (50, 40), (10, 20)])
+def test_right_svd_is_the_svd_without_u(shape: tuple[int, int]) -> None:
+    """Tall matrices go through the triangle of their QR: the same singular values and right vectors (up to sign),
+    rank deficiency included; a wide one keeps every right vector (the null space's)."""
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=shape)
+    a[:, 1] = 2.0 * a[:, 0]  # one exact dependency
+    s, vt = linalg.right_svd(a, "a test matrix")
+    _, s_ref, vt_ref = np.linalg.svd(a, full_matrices=shape[0] < shape[1])
+    assert vt.shape == (shape[1], shape[1]) and np.allclose(s, s_ref, rtol=1e-12, atol=1e-12 * s_ref[0])
+    rank = int(np.count_nonzero(s_ref > 1e-10 * s_ref[0]))
+    assert np.allclose(np.abs(vt[:rank] @ vt_ref[:rank].T), np.eye(rank), atol=1e-8)  # same vectors, signs aside
+    null = vt[rank:]  # the right vectors beyond the rank span the null space
+    assert np.allclose(a @ null.T, 0.0, atol=1e-9 * s_ref[0])
+    bad = a.copy()
+    bad[2, 3] = np.nan
+    with pytest.raises(DataError, match="a test matrix has 1 NaN/inf entries"):
+        linalg.right_svd(bad, "a test matrix")

@@ -22,6 +22,7 @@ from pincal.cli.options import (
     add_markers,
     add_measurement,
     add_parameters,
+    add_payload,
     add_perturb,
     add_robot,
     add_selection_and_cv,
@@ -33,6 +34,7 @@ from pincal.cli.options import (
     positive_int,
 )
 from pincal.errors import DataError, PincalError
+from pincal.identification.corrections import payload_from_dict
 from pincal.io.corrections import corrections_path
 from pincal.io.files import make_directory, write_text
 from pincal.model.robot import Robot, load_robot
@@ -98,7 +100,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     try:
         sim = simulate(robot, args.measure, args.samples, args.test_samples, frame=args.frame, perturb=args.perturb,
                        noise=args.noise, seed=args.seed, parameter_spec=args.parameters, progress=not args.quiet,
-                       spread=args.spread)
+                       spread=args.spread, payload=args.payload)
         paths = write_simulation(sim, Path(args.out))
     except PincalError:
         if created:  # the directory made above, still empty: nothing is left behind
@@ -126,7 +128,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     # options not given are None: a job file's value stands, else calibrate()'s default
     given = {"parameter_spec": args.parameters, "solver": args.solver, "loss": args.loss, "sigma": args.sigma,
              "formulation": args.formulation, "max_iter": args.max_iter, "select": args.select, "cv": args.cv,
-             "markers": args.markers}
+             "markers": args.markers, "payload": args.payload}
     options = {name: value for name, value in given.items() if value is not None}
     job_file = args.robot.endswith(JOB_SUFFIX)
     if job_file and args.data is not None:
@@ -180,6 +182,8 @@ def _summary(report: dict[str, Any], seconds: float, report_path: str | None = N
              f"identifiable {report['n_identifiable']}, estimated {report.get('n_estimated', report['n_identifiable'])}"
              f", condition number {report['condition_number']:.3g}" if report["condition_number"] else "",
              _selection_line(report),
+             f"payload {payload_from_dict(report['payload'])}, in the gravity torque of the compliances"
+             if report.get("payload") else None,
              f"solver {report['solver']}, loss {report['loss']}: {report['message']} after {report['iterations']} "
              f"iterations, {seconds:.3f} s",
              "",
@@ -463,6 +467,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_spread(sim)
     add_parameters(sim, "parameters with errors: named sets (default, model24, model24i, hexapod42, "
                         "hexapod44) and name patterns, as for calibrate (default: the default set)")
+    add_payload(sim, "truth.corrections.json records it")
     sim.add_argument("--out", required=True, help="output directory")
     sim.add_argument("--quiet", action="store_true", help="no progress bar")
     sim.set_defaults(func=cmd_simulate)
@@ -487,6 +492,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="iteration limit of the solver (default 100); a run that reaches it exits 1")
     add_selection_and_cv(cal)
     add_markers(cal)
+    add_payload(cal, "the corrections file and the report record it (overrides a job file's payload)")
     cal.add_argument("--formulation", choices=["fkm", "ikm"], default="fkm",
                      help="fkm: measured - predicted by forward kinematics; ikm: implicit loop residuals with the "
                           "measured pose held fixed (study 000; closed-loop robots)")

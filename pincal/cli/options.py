@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import argparse
 
+from pincal.errors import DataError
+from pincal.identification.corrections import Payload
+
 MEASURE_HELP = "position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME"
 PARAMETERS_HELP = ("named sets (default, model24, model24i, hexapod42, hexapod44) and name patterns, combined in "
                    "order; !pattern removes (default: the default set, docs/dataset.md 'Parameters')")
@@ -102,3 +105,27 @@ def add_markers(parser: argparse.ArgumentParser) -> None:
                         help="markers declared on a frame (position:<frame>@<marker> columns): each (default) fits "
                              "each marker's offset on its frame; cluster fits one rigid placement of the frame's "
                              "markers, whose nominal offsets the file declares ('# marker m1 on <frame>: x y z' [m])")
+
+
+def payload(text: str) -> Payload:
+    """An argparse type: ``MASS@FRAME`` or ``MASS@FRAME:X,Y,Z``, a point mass [kg] on a frame at an offset [m] in it."""
+    mass, _, place = text.partition("@")
+    frame, _, offset = place.rpartition(":") if "," in place.rpartition(":")[2] else (place, "", "")
+    try:
+        values = tuple(float(v) for v in offset.split(",")) if offset else (0.0, 0.0, 0.0)
+        if len(values) != 3 or "@" not in text:
+            raise ValueError(offset)
+        return Payload(float(mass), frame, (values[0], values[1], values[2]))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not MASS@FRAME or MASS@FRAME:X,Y,Z (kg; m in the frame), e.g. "
+                                         "1.5@tool0 or 1.5@tool0:0,0,0.1") from None
+    except DataError as exc:
+        raise argparse.ArgumentTypeError(f"'{text}': {exc}") from None
+
+
+def add_payload(parser: argparse.ArgumentParser, note: str) -> None:
+    """``--payload MASS@FRAME[:X,Y,Z]``: a point mass the robot carries, for the joint compliances."""
+    parser.add_argument("--payload", type=payload, metavar="MASS@FRAME[:X,Y,Z]",
+                        help="a point mass the robot carries: MASS [kg] on FRAME (a link or frame of the URDF), at "
+                             "X,Y,Z [m] in that frame (default 0,0,0); its gravity torque adds to the links' in the "
+                             f"joint compliances ('*.compliance'), and is refused without one; {note}")

@@ -8,7 +8,14 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from pincal.cli.options import add_markers, add_robot, add_selection_and_cv, add_solver_and_loss, positive_float
+from pincal.cli.options import (
+    add_markers,
+    add_payload,
+    add_robot,
+    add_selection_and_cv,
+    add_solver_and_loss,
+    positive_float,
+)
 from pincal.errors import DataError, PincalError
 from pincal.io.dataset import Dataset
 from pincal.io.files import check_outputs, write_text
@@ -36,7 +43,8 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
     if not args.quiet:
         print(f"calibrating '{robot.name}' from {dataset.n_samples} samples ...", file=sys.stderr)
     calibration = calibrate(robot, dataset, parameter_spec=args.parameters, solver=args.solver, loss=args.loss,
-                            sigma=args.sigma, select=args.select, cv=args.cv, markers=args.markers)
+                            sigma=args.sigma, select=args.select, cv=args.cv, markers=args.markers,
+                            payload=args.payload)
     return CalibrationView.from_calibration(calibration), dataset, calibration
 
 
@@ -50,6 +58,7 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
     add_solver_and_loss(parser)
     add_selection_and_cv(parser)
     add_markers(parser)
+    add_payload(parser, "as for calibrate (with --result, the result's payload is used)")
     parser.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
 

@@ -7,6 +7,8 @@ Frobenius norm, det +1), and the translations are then re-solved by linear least
 - :func:`solve_ax_yb`: ``A_i X = Y B_i`` (robot-world/hand-eye; Shah 2013, "Solving the robot-world/hand-eye
   calibration problem using the Kronecker product", J. Mechanisms Robotics 5(3)).
 - :func:`solve_point_eye_in_hand`: a camera on a link sees one point fixed in the world.
+- :func:`solve_ax_yb_translating` and :func:`solve_point_translating`: the same for a link that only translates (a
+  Delta's platform), whose rotations cannot separate X from Y.
 
 (A fixed camera seeing a point on a link is a position measurement in the camera's frame: its start is the Kabsch
 registration of the measurement frame, :meth:`pincal.identification.problem.CalibrationProblem.initial_guess`.)
@@ -147,6 +149,80 @@ def solve_point_eye_in_hand(a: Sequence[pin.SE3], p: npt.ArrayLike, tol: float =
     return pin.SE3(rx, u[:3]), u[3:]
 
 
+def solve_ax_yb_translating(a: Sequence[pin.SE3], b: Sequence[pin.SE3], tol: float = DEGENERACY_TOLERANCE
+                            ) -> tuple[pin.SE3, pin.SE3]:
+    """:func:`solve_ax_yb` for a link that only translates (a Delta's platform): ``A_i`` all of one rotation.
+
+    ``R_A R_X = R_Y R_Bi`` then holds one equation, and ``R_A t_X + t_Ai = R_Y t_Bi + t_Y`` reads
+    ``t_Ai = R_Y t_Bi + c``, ``c = t_Y − R_A t_X``: ``R_Y`` and ``c`` by Kabsch registration of the ``t_Bi`` onto the
+    ``t_Ai`` (they must span a plane), then ``R_X = R_Aᵀ R_Y R_B``. The data see ``t_X`` and ``t_Y`` only through
+    ``c``: the start takes ``t_X = 0``, ``t_Y = c`` (the identifiability analysis names what stays unseen).
+
+    Args:
+        a: ``A_i`` (w ← f), one rotation, translations [m].
+        b: ``B_i`` (o ← c), translations [m]; as many as ``a``.
+        tol: Relative singular value under which the translations count as not spanning a plane.
+
+    Returns:
+        ``(X, Y)`` as :func:`solve_ax_yb`, with ``t_X = 0``.
+
+    Raises:
+        DataError: fewer than 3 poses, rotations of ``A_i`` that differ, or translations in a line.
+    """
+    ra, ta = _rotations(a), _translations(a)
+    rb, tb = _rotations(b), _translations(b)
+    if len(b) != len(a) or len(a) < MIN_POSES_AX_YB:
+        raise DataError(f"AX = YB for a translating link needs at least {MIN_POSES_AX_YB} poses, one B per A; got "
+                        f"{len(a)} A and {len(b)} B")
+    if _axis_spread(ra, tol)[0] != 0:
+        raise DataError("AX = YB for a translating link needs the poses A_i of one rotation; they turn")
+    rotation = _kabsch(tb, ta, tol, "the translations of B_i")
+    rx = _nearest_rotation(ra[0].T @ rotation @ _mean_rotation(rb), "R_X of AX = YB, translating")
+    return pin.SE3(rx, np.zeros(3)), pin.SE3(rotation, ta.mean(axis=0) - rotation @ tb.mean(axis=0))
+
+
+def solve_point_translating(a: Sequence[pin.SE3], p: npt.ArrayLike, tol: float = DEGENERACY_TOLERANCE
+                            ) -> tuple[pin.SE3, Array]:
+    """:func:`solve_point_eye_in_hand` for a link that only translates: ``A_i`` all of one rotation ``R_A``.
+
+    ``A_i X p_i = y`` reads ``t_Ai = −R_A R_X p_i + c``, ``c = y − R_A t_X``: ``R_A R_X`` by Kabsch registration of
+    the ``−p_i`` onto the ``t_Ai`` (the points must span a plane). The data see ``t_X`` and ``y`` only through ``c``:
+    the start takes ``t_X = 0``, ``y = c``.
+
+    Returns:
+        ``(X, y)`` as :func:`solve_point_eye_in_hand`, with ``t_X = 0``.
+
+    Raises:
+        DataError: fewer than 3 samples, rotations of ``A_i`` that differ, or points in a line.
+    """
+    ra, ta = _rotations(a), _translations(a)
+    points = _points(p, len(a), "translating eye-in-hand", MIN_POSES_AX_YB)
+    if _axis_spread(ra, tol)[0] != 0:
+        raise DataError("the eye-in-hand point problem for a translating link needs the poses A_i of one rotation; "
+                        "they turn")
+    rotation = _kabsch(-points, ta, tol, "the points seen")
+    return pin.SE3(_nearest_rotation(ra[0].T @ rotation, "R_X, translating"), np.zeros(3)), \
+        ta.mean(axis=0) + rotation @ points.mean(axis=0)
+
+
+def _kabsch(source: Array, target: Array, tol: float, what: str) -> Array:
+    """The rotation R minimising ``Σ‖target_i − R source_i − c‖`` (Kabsch); DataError when ``source`` or ``target``
+    lie in a line (R then turns freely about it)."""
+    a, b = source - source.mean(axis=0), target - target.mean(axis=0)
+    for points, name in ((a, what), (b, "the translations of A_i")):
+        s = linalg.singular_values(points, name) if len(points) >= 2 else np.zeros(1)
+        if len(s) < 2 or s[1] <= tol * max(s[0], 1e-300):
+            raise DataError(f"{name} lie in a line: a translating link needs them to span a plane")
+    u, _, vt = linalg.svd(a.T @ b, f"the Kabsch cross-covariance of {what}")
+    flip = np.diag([1.0, 1.0, np.sign(np.linalg.det(vt.T @ u.T)) or 1.0])
+    return np.asarray(vt.T @ flip @ u.T, np.float64)
+
+
+def _mean_rotation(rotations: Array) -> Array:
+    """The rotation nearest to the mean of ``rotations`` (chordal mean)."""
+    return _nearest_rotation(rotations.mean(axis=0), "the mean rotation")
+
+
 def _rotations(poses: Sequence[pin.SE3]) -> Array:
     return np.array([np.asarray(m.rotation, dtype=np.float64) for m in poses]).reshape(-1, 3, 3)
 
@@ -221,29 +297,30 @@ def _axis_words(axis: Array) -> str:
     return "only about one axis, [" + ", ".join(f"{round(c, 3) + 0.0:.3f}" for c in axis * np.sign(axis[main])) + "]"
 
 
-def _rotation_problem(system: str, unknowns: str, rotations: Array, tol: float, ratio: float) -> str:
+def _spread_words(rotations: Array, tol: float, poses: str, differ: str) -> str | None:
+    """Why the rotations fail to spread, in words: ``"<poses> all have the same rotation"``, or ``differ`` and the
+    one axis they turn about; None when they turn about two axes or more."""
     count, axis = _axis_spread(rotations, tol)
     if count == 0:
-        why = "the poses A_i all have the same rotation"
-    elif count == 1:
-        why = f"the rotations of A_i differ {_axis_words(axis)} in their reference frame"
-    else:
-        why = f"the rotations of A_i do not spread over non-parallel axes enough (ratio {ratio:.1e} ≤ tol {tol:g})"
+        return f"{poses} all have the same rotation"
+    if count == 1:
+        return differ.format(_axis_words(axis))
+    return None
+
+
+def _rotation_problem(system: str, unknowns: str, rotations: Array, tol: float, ratio: float) -> str:
+    why = _spread_words(rotations, tol, "the poses A_i", "the rotations of A_i differ {} in their reference frame") or (
+        f"the rotations of A_i do not spread over non-parallel axes enough (ratio {ratio:.1e} ≤ tol {tol:g})")
     return (f"{system} cannot determine {unknowns}: {why}; it needs poses rotated about at least two "
             "non-parallel axes")
 
 
 def _point_problem(system: str, unknowns: str, rotations: Array, points: Array, tol: float, ratio: float) -> str:
-    count, axis = _axis_spread(rotations, tol)
-    if count == 0:
-        why = "the link poses A_i all have the same rotation"
-    elif count == 1:
-        why = f"the link rotations differ {_axis_words(axis)} in the world frame"
-    else:
+    why = _spread_words(rotations, tol, "the link poses A_i", "the link rotations differ {} in the world frame")
+    if why is None:
         s = linalg.singular_values(points - points.mean(axis=0), "the centred camera points")
-        if s[-1] <= tol * s[0]:
-            why = "the points seen lie in one plane of the camera frame (its linear form needs them to span space)"
-        else:
-            why = f"the link rotations do not spread over non-parallel axes enough (ratio {ratio:.1e} ≤ tol {tol:g})"
+        why = ("the points seen lie in one plane of the camera frame (its linear form needs them to span space)"
+               if s[-1] <= tol * s[0] else
+               f"the link rotations do not spread over non-parallel axes enough (ratio {ratio:.1e} ≤ tol {tol:g})")
     return (f"{system} cannot determine {unknowns}: {why}; it needs link rotations about at least two non-parallel "
             "axes and points seen that do not lie in one plane")

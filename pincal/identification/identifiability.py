@@ -316,9 +316,7 @@ def _describe(names: list[str], coefficients: Array, units: list[str]) -> str:
 
 def _svd(matrix: Array) -> tuple[Array, Array]:
     """Singular values (descending, min(m, p)) and all p right singular vectors (rows of ``Vᵀ``)."""
-    m, p = matrix.shape
-    _, singular_values, Vt = linalg.svd(matrix, "the scaled identification Jacobian", full_matrices=m < p)
-    return singular_values, Vt
+    return linalg.right_svd(matrix, "the scaled identification Jacobian")
 
 
 def _rank(singular_values: Array, tol: float) -> int:
@@ -531,7 +529,7 @@ def covariance(
         if norm == 0.0:
             raise IdentifiabilityError(f"{labels[j]} is invisible to the data (zero Jacobian column); drop it")
     equilibrated = sub / norms  # unit columns: the singularity test does not depend on units
-    _, sv, Vt = linalg.svd(equilibrated, "the identification Jacobian on the chosen columns")
+    sv, Vt = linalg.right_svd(equilibrated, "the identification Jacobian on the chosen columns")
     if sv.size < len(columns) or sv[-1] <= tol * sv[0]:
         rank = _rank(sv, tol)
         units = [unit_from_name(names[j]) if names is not None else "" for j in columns]

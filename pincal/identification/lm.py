@@ -1,5 +1,5 @@
-"""Levenberg–Marquardt machinery behind :func:`pincal.identification.solver.identify`: the steps one SVD of the
-scaled Jacobian gives, Transtrum & Sethna's geodesic acceleration, and when a fit is done.
+"""Levenberg–Marquardt machinery behind :func:`pincal.identification.solver.identify`: the steps one QR-reduced
+SVD of the scaled Jacobian gives, Transtrum & Sethna's geodesic acceleration, and when a fit is done.
 
 Weakly identifiable directions are strongly nonlinear: moving 0.1 mm along one changes the predictions more
 at second order than at first (measured on a hexapod with pose data, κ 5e7), so plain LM crawls, each
@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
+import scipy.linalg
+import scipy.linalg.lapack
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
@@ -43,15 +45,47 @@ PRACTICAL_INFORMATION = 1.0
 
 
 class Steps:
-    """The SVD of the scaled, weighted Jacobian ``J_s`` at one iterate, and the steps it gives.
+    """The scaled, weighted Jacobian ``J_s = diag(w) J diag(d)`` and residual ``r = diag(w) e`` at one iterate,
+    reduced once, and the steps they give.
 
-    One decomposition serves every trial of an iteration (each damping λ) and the geodesic acceleration
-    (a second right-hand side). ``lm`` and ``tsvd`` keep the singular values above ``rcond · s₁`` and
-    above ``floor`` (absolute); ``ridge`` keeps them all.
+    One Householder QR of the augmented matrix, ``[J_s | r] = Q [R | Q_tᵀ r]`` (LAPACK ``geqrf``, in place of
+    the only copy made), then the SVD of the small triangle ``R = U_R S Vᵀ`` (t × n, t = min(m, n)): the SVD
+    of ``J_s`` is ``(Q_t U_R) S Vᵀ``, so its m × n left factor is never formed. Every trial of an iteration
+    (each damping λ) reuses it, and the geodesic acceleration projects its second right-hand side with the
+    Householder reflectors (:meth:`project`). ``lm`` and ``tsvd`` keep the singular values above
+    ``rcond · s₁`` and above ``floor`` (absolute); ``ridge`` keeps them all.
+
+    Args:
+        jacobian: (m, n) Jacobian of the weighted residual w.r.t. the parameters [1/m, 1/rad].
+        column_scales: (n,) typical sizes ``d`` [m, rad]: the step is in scaled variables ``z = x / d``.
+        row_weights: (m,) robust-loss row weights ``w`` (square roots of the sample weights).
+        residual: (m,) weighted residual ``e`` (dimensionless).
+        solver, rcond, ridge, floor: The step rule and its truncation (see :mod:`pincal.identification.solver`).
     """
 
-    def __init__(self, js: Array, solver: str, rcond: float, ridge: float, floor: float = 0.0) -> None:
-        u, s, vt = linalg.svd(js, "the scaled identification Jacobian")
+    def __init__(self, jacobian: Array, column_scales: Array, row_weights: Array, residual: Array, solver: str,
+                 rcond: float, ridge: float, floor: float = 0.0) -> None:
+        m, n = jacobian.shape
+        augmented = np.empty((m, n + 1), order="F")  # the one m × n copy of J an iteration holds
+        np.multiply(jacobian, column_scales, out=augmented[:, :n])
+        augmented[:, :n] *= row_weights[:, None]
+        np.multiply(row_weights, residual, out=augmented[:, n])
+        t = min(m, n)
+        self.rows = m
+        self._householder: tuple[Array, Array] | None = None
+        if m and n:
+            (reflectors, tau), _ = scipy.linalg.qr(augmented, overwrite_a=True, mode="raw", check_finite=False)
+            self._householder = (reflectors[:, :t], tau[:t])  # Q_t: the first t reflectors (r's own one is not needed)
+            self.triangle = np.triu(reflectors[:t, :n])
+            self.projected_residual = np.array(reflectors[:t, n])
+            if not (np.all(np.isfinite(self.triangle)) and np.all(np.isfinite(self.projected_residual))):
+                linalg.require_finite(jacobian, "the identification Jacobian")
+                linalg.require_finite(residual, "the weighted residual")
+                raise DataError("the QR reduction of the scaled identification Jacobian overflowed: check the "
+                                "parameters' typical sizes and the data for values out of range")
+        else:
+            self.triangle, self.projected_residual = np.zeros((t, n)), np.zeros(t)
+        u, s, vt = linalg.svd(self.triangle, "the scaled identification Jacobian (its QR triangle)")
         self.largest = float(s[0]) if s.size else 0.0
         keep = s > (0.0 if solver == "ridge" else max(rcond * self.largest, floor))
         self.u, self.s, self.vt = u[:, keep], s[keep], vt[keep]
@@ -68,22 +102,52 @@ class Steps:
         """Number of directions the steps move along."""
         return int(self.s.size)
 
-    def solve(self, r: Array, lam: float) -> Array:
-        """The scaled step for residual ``r``: ``-Σ_i v_i s_i/(s_i² + μ) u_iᵀ r`` with ``μ = λ s₁²``
-        (``lm``), 0 (``tsvd``) or the ridge parameter (``ridge``: ``(J_sᵀJ_s + μI) δz = -J_sᵀ r``)."""
+    def release(self) -> None:
+        """Drop the Householder reflectors (the m × n part): :meth:`solve`, :meth:`decrement`, :meth:`along` and
+        :meth:`gradient_norm` still work, :meth:`project` no longer does."""
+        self._householder = None
+
+    def project(self, vector: Array) -> Array:
+        """``Q_tᵀ y`` for an (m,) vector ``y``: its coordinates in the basis of ``J_s``'s column space that
+        :meth:`solve` takes (LAPACK ``ormqr`` with the stored reflectors)."""
+        if self._householder is None:
+            raise RuntimeError("the Householder reflectors were released; build the steps again to project")
+        reflectors, tau = self._householder
+        if not tau.size:
+            return np.zeros(0)
+        column = np.asfortranarray(vector, dtype=np.float64).reshape(-1, 1)
+        projected, _, info = scipy.linalg.lapack.dormqr("L", "T", reflectors, tau, column, max(64, column.shape[1]))
+        if info != 0:
+            raise ConvergenceError(f"applying the QR reflectors of the scaled identification Jacobian failed "
+                                   f"(LAPACK dormqr info {info})")
+        return np.asarray(projected[:tau.size, 0], dtype=np.float64)
+
+    def along(self, v: Array) -> Array:
+        """``Q_tᵀ J_s v = R v``: the scaled step ``v``'s first-order change of the residual, projected."""
+        return np.asarray(self.triangle @ v, dtype=np.float64)
+
+    def solve(self, lam: float, projected: Array | None = None) -> Array:
+        """The scaled step for the residual (or for the right-hand side whose :meth:`project` is ``projected``):
+        ``-Σ_i v_i s_i/(s_i² + μ) u_iᵀ r`` with ``μ = λ s₁²`` (``lm``), 0 (``tsvd``) or the ridge parameter
+        (``ridge``: ``(J_sᵀJ_s + μI) δz = -J_sᵀ r``)."""
         if not self.s.size:
             return np.zeros(self.vt.shape[1])
+        rhs = self.projected_residual if projected is None else projected
         damping = {"lm": lam * self.largest**2, "tsvd": 0.0}.get(self.solver, self.ridge)
         gain = self.s / (self.s**2 + damping)
-        return np.asarray(-(self.vt.T @ ((self.u.T @ r) * gain)), dtype=np.float64)
+        return np.asarray(-(self.vt.T @ ((self.u.T @ rhs) * gain)), dtype=np.float64)
 
-    def decrement(self, r: Array, information: float = 0.0) -> float:
+    def decrement(self, information: float = 0.0) -> float:
         """``‖U_kᵀ r‖²``: twice the cost decrease a full Gauss–Newton step would predict, and the squared
         length of that step in the metric of the parameters' covariance (in σ units when the rows are
         weighted by 1/σ) — the Newton decrement [dimensionless]. Only over the directions whose singular
         value is at least ``information`` (a-priori standard deviation at most 1/information typical sizes)."""
         chosen = self.s >= information
-        return float(np.sum((self.u[:, chosen].T @ r) ** 2))
+        return float(np.sum((self.u[:, chosen].T @ self.projected_residual) ** 2))
+
+    def gradient_norm(self) -> float:
+        """``‖J_sᵀ r‖ = ‖Rᵀ Q_tᵀ r‖``: the cost's gradient in scaled variables."""
+        return float(np.linalg.norm(self.triangle.T @ self.projected_residual))
 
 
 def evaluated(problem: Problem, x: Array, jacobian: bool = True) -> Prediction | None:
@@ -96,14 +160,14 @@ def evaluated(problem: Problem, x: Array, jacobian: bool = True) -> Prediction |
         return None
 
 
-def accelerated(problem: Problem, x: Array, d: Array, rw: Array, r: Array, js: Array, v: Array, steps: Steps,
-                lam: float) -> Array | None:
+def accelerated(problem: Problem, x: Array, d: Array, rw: Array, v: Array, steps: Steps, lam: float) -> Array | None:
     """The LM step ``v`` (scaled) with Transtrum & Sethna's geodesic acceleration, ``v + a/2``; None if the
     model cannot be evaluated along ``v``.
 
     Transtrum & Sethna, "Geodesic acceleration and the small-curvature approximation for nonlinear least
     squares" (2012): ``a = -(J_sᵀJ_s + μ)⁻¹ J_sᵀ r_vv`` with the directional second derivative
-    ``r_vv ≈ (2/h)((r(z + h v) − r(z))/h − J_s v)`` (one residual evaluation, no Jacobian). They accept the
+    ``r_vv ≈ (2/h)((r(z + h v) − r(z))/h − J_s v)`` (one residual evaluation, no Jacobian), here only its
+    projection ``Q_tᵀ r_vv`` (all the step needs, see :class:`Steps`). They accept the
     step only if ``2‖a‖/‖v‖ ≤ α``. Here the curvature that moving along a weakly identifiable direction
     creates is mostly undone by the well identified ones, while the weak components of ``a`` (``r_vv``
     amplified by ``1/s``) are not to be trusted: instead of rejecting the step, ``a`` is damped (μ raised
@@ -113,10 +177,11 @@ def accelerated(problem: Problem, x: Array, d: Array, rw: Array, r: Array, js: A
     ahead = evaluated(problem, x + GEODESIC_H * d * v, jacobian=False)
     if ahead is None:
         return None
-    r_vv = (2.0 / GEODESIC_H) * ((rw * ahead.residual - r) / GEODESIC_H - js @ v)
+    r_vv = (2.0 / GEODESIC_H) * ((steps.project(rw * ahead.residual) - steps.projected_residual) / GEODESIC_H
+                                 - steps.along(v))
     damping = lam
     while damping < 1.0:
-        a = steps.solve(r_vv, damping)
+        a = steps.solve(damping, r_vv)
         if 2.0 * float(np.linalg.norm(a)) <= GEODESIC_ALPHA * norm_v:
             return np.asarray(v + 0.5 * a, dtype=np.float64)
         damping *= 10.0
@@ -149,9 +214,9 @@ def at_floor(errors: dict[str, Array], floors: dict[str, Array]) -> bool:
     return True
 
 
-def settled(steps: Steps, lam: float, r: Array, cost: float, errors: dict[str, Array],
-            numerical: dict[str, Array], rejected: bool) -> str:
-    """Why the fit needs no more LM steps, or ``""`` (``r``: weighted residual, ``cost`` ½‖r‖²).
+def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], numerical: dict[str, Array],
+            rejected: bool) -> str:
+    """Why the fit needs no more LM steps, or ``""`` (``cost``: ½‖r‖², r the weighted residual ``steps`` holds).
 
     These stops are for the crawl along weakly identifiable, strongly nonlinear directions, where LM goes
     on decreasing the cost by little for many iterations; a well-conditioned fit ends by the usual tests.
@@ -169,8 +234,8 @@ def settled(steps: Steps, lam: float, r: Array, cost: float, errors: dict[str, A
     """
     if lam >= steps.smallest_damping and at_floor(errors, numerical):
         return "converged (exact fit: every error within the numerical floor)"
-    dof = r.size - steps.kept  # none (as many residuals as kept directions): an exact fit is due, not noise
+    dof = steps.rows - steps.kept  # none (as many residuals as kept directions): an exact fit is due, not noise
     if steps.kept and dof > 0 and (rejected or steps.s[-1] < PRACTICAL_INFORMATION) and cost >= 0.25 * dof \
-            and steps.decrement(r, PRACTICAL_INFORMATION) <= NOISE_LEVEL_DECREMENT:
+            and steps.decrement(PRACTICAL_INFORMATION) <= NOISE_LEVEL_DECREMENT:
         return "converged (what remains to gain is below the noise)"
     return ""

@@ -24,7 +24,7 @@ from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, listing, not_found
 from pincal.identification import handeye
 from pincal.identification.batch import BatchContext
-from pincal.identification.corrections import correction_regressors
+from pincal.identification.corrections import Payload, correction_regressors
 from pincal.identification.derivatives import (
     KinematicSensitivity,
     attached_placements,
@@ -43,6 +43,7 @@ from pincal.identification.measurements import (
     camera_name,
     target_name,
 )
+from pincal.identification.neighbours import SolvedInputs
 from pincal.identification.parameters import (
     CORRECTION_KINDS,
     KINEMATIC_KINDS,
@@ -137,11 +138,16 @@ class CalibrationProblem:
         parameters: The unknowns (deviations from nominal).
         measurements: The measurement models; their keys index ``observations.values``.
         observations: The data.
+        joint_sigma: σ of the actuated readings [rad or m] (one, or one per actuated joint), or None.
+        payload: A point mass the robot carries, whose gravity torque adds to the links' in the compliance terms
+            (:func:`~pincal.identification.corrections.gravity_torques`); unused without a compliance parameter.
     """
 
     def __init__(self, robot: Robot, parameters: ParameterSet, measurements: Sequence[Measurement],
-                 observations: Observations, joint_sigma: float | Sequence[float] | None = None) -> None:
+                 observations: Observations, joint_sigma: float | Sequence[float] | None = None,
+                 payload: Payload | None = None) -> None:
         self.robot = robot
+        self.payload = payload
         self.parameters = parameters
         self.measurements = list(measurements)
         self.observations = observations
@@ -166,7 +172,8 @@ class CalibrationProblem:
         if strays:
             raise DataError(f"corrections {listing(strays)} are of joints that are not actuated; harmonics and "
                             "compliance correct actuated joints' values")
-        regressors = correction_regressors(robot, [(p.target, p.term) for _, p in corrections], observations.actuated)
+        regressors = correction_regressors(robot, [(p.target, p.term) for _, p in corrections], observations.actuated,
+                                           payload)
         #: (actuated joint, column, (N,) regressor): the joint's value moves by x[column] × regressor per sample; a
         #: reading offset is the term whose regressor is 1, a harmonic or a compliance one that varies by sample
         ones = np.ones(observations.n_samples)
@@ -181,13 +188,14 @@ class CalibrationProblem:
         # each sample's configuration at its last solve and the actuated values it was solved for: the
         # warm start of its next solve (of a first solve, a solved sample's: see _nearest_solution)
         self._q_cache: list[Array | None] = [None] * observations.n_samples
-        self._qa_solved = np.full((observations.n_samples, robot.n_actuated), np.nan)
+        self._qa_solved = SolvedInputs(observations.n_samples, robot.kinematics.continuous, CONTINUATION_STEP)
         # how far each sample's configuration has travelled (sum of max coordinate changes) since it was last
         # known to be on the reference assembly: only a sample that moved can have left it
         self._travel = np.zeros(observations.n_samples)
         self.rows_per_sample = sum(m.size for m in self.measurements)
         #: The cameras and targets (attached placement names) the last :meth:`initial_guess` placed in closed form.
         self.placed_in_closed_form: list[str] = []
+        self.not_in_closed_form: list[str] = []  # why the data did not determine a camera's start: one per reading
         #: A tree's batched evaluation (every sample at once), when its joints allow it; False: sample by sample
         #: (the closed-loop path, which the benchmarks and tests also run on trees to compare the two).
         self._tree = TreeBatch(robot, self.frame_ids) if not robot.loops else None
@@ -290,7 +298,7 @@ class CalibrationProblem:
         if previous is not None:
             self._travel[k] += float(np.max(np.abs(report.q - previous)))
         self._q_cache[k] = report.q
-        self._qa_solved[k] = qa
+        self._qa_solved.record(k, qa)
         return report.q
 
     def initial_guess(self) -> Array:
@@ -332,7 +340,7 @@ class CalibrationProblem:
                   in self.parameters.groups("camera", "target").items()}
         cameras = [m for m in self.measurements if isinstance(m, CameraPose | CameraPoint | Pose)
                    and (not isinstance(m, Pose) or isinstance(m, CameraPose) or m.target)]
-        self.placed_in_closed_form = []
+        self.placed_in_closed_form, self.not_in_closed_form = [], []
         if not cameras:
             return False
         nominal = self.robot.model.createData()
@@ -347,20 +355,13 @@ class CalibrationProblem:
                 a.append(nominal.oMf[frame].copy())
             values = self.observations.values[m.key][taken]
             try:
-                if isinstance(m, CameraPoint):
-                    camera, point = handeye.solve_point_eye_in_hand(a, values[:, :3])
-                    world, own = pin.SE3(np.eye(3), point), camera
-                    names = (camera_name(m.frame), WORLD_TARGET)
-                else:
-                    seen = [pin.XYZQUATToSE3(v) for v in values]
-                    if isinstance(m, CameraPose):
-                        own, world = handeye.solve_ax_yb(a, [b.inverse() for b in seen])
-                        names = (camera_name(m.frame), WORLD_TARGET)
-                    else:
-                        own, world = handeye.solve_ax_yb(a, seen)
-                        names = (target_name(m.frame, m.target), "")
-            except DataError:
-                continue  # the data do not determine the placements: the identifiability analysis will say so
+                own, world, names = _closed_form(m, a, values)
+            except DataError as why:
+                try:  # a link that only translates (a Delta's platform): its rotations cannot separate X from Y
+                    own, world, names = _closed_form(m, a, values, translating=True)
+                except DataError:  # the data do not determine the placements: the summary says why
+                    self.not_in_closed_form.append(f"{m.key}: {why}")
+                    continue
             if len(groups.get(names[0], [])) == 6:
                 self._set_placement(x, groups[names[0]], own)
                 self.placed_in_closed_form.append(names[0])
@@ -416,9 +417,9 @@ class CalibrationProblem:
         """
         if not robot.loops:
             return None
-        diff = robot.kinematics.actuated_delta(qa, self._qa_solved)  # continuous joints: the short way round
-        gaps = np.max(np.abs(diff), axis=1)  # NaN rows (unsolved) compare False
-        k = int(np.nanargmin(gaps)) if np.any(gaps <= CONTINUATION_STEP) else -1
+        # continuous joints the short way round; ties to the lowest index; a search of the solved inputs' trees
+        # (O(log² N)), not a scan of every solved sample (O(N) per cold start, O(N²) over a first evaluation)
+        k = self._qa_solved.nearest(qa, robot.kinematics.actuated_delta)
         return None if k < 0 else self._q_cache[k]
 
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
@@ -614,6 +615,27 @@ class CalibrationProblem:
         white_err = np.linalg.solve(chol, err[..., None])[..., 0]
         white_jac = np.linalg.solve(chol, jac)
         return white_err, white_jac
+
+
+def _closed_form(model: Measurement, a: list[pin.SE3], values: Array, translating: bool = False
+                 ) -> tuple[pin.SE3, pin.SE3, tuple[str, str]]:
+    """The closed-form placements a camera reading gives (:mod:`pincal.identification.handeye`), from the
+    nominal poses ``a`` of its frame and its readings ``values``: the placement on the frame (camera, or pose
+    target), the one in the world (world target; for a pose target on the frame, the inverse of the fixed camera's
+    placement ``base``), and their names (the second empty for ``base``). ``translating``: the variants for a link
+    that only translates. Raises DataError when the data do not determine them."""
+    if isinstance(model, CameraPoint):
+        solve_point = handeye.solve_point_translating if translating else handeye.solve_point_eye_in_hand
+        camera, point = solve_point(a, values[:, :3])
+        return camera, pin.SE3(np.eye(3), point), (camera_name(model.frame), WORLD_TARGET)
+    solve = handeye.solve_ax_yb_translating if translating else handeye.solve_ax_yb
+    seen = [pin.XYZQUATToSE3(v) for v in values]
+    if isinstance(model, CameraPose):
+        own, world = solve(a, [b.inverse() for b in seen])
+        return own, world, (camera_name(model.frame), WORLD_TARGET)
+    assert isinstance(model, Pose)
+    own, world = solve(a, seen)
+    return own, world, (target_name(model.frame, model.target), "")
 
 
 def _local_twist(rotation: Array, translation: Array, spatial: Array) -> Array:

@@ -190,7 +190,7 @@ def select_and_fit(problem: CalibrationProblem, policy: str = "bic", **options: 
     if not kept:
         return SelectedFit(problem, first, first, [], choice.scores)
     reduced = CalibrationProblem(problem.robot, pset.subset(kept), problem.measurements, problem.observations,
-                                 None if problem.joint_sigma is None else list(problem.joint_sigma))
+                                 None if problem.joint_sigma is None else list(problem.joint_sigma), problem.payload)
     refit = identify(reduced, **options)
     # the choice was made on the fit linearized at its estimate; the refit starts from the nominal robot, where fewer
     # directions may be identifiable (a planar four-bar's anchor rotations): kept only if it scores better for real

@@ -18,7 +18,9 @@ threshold is set by hand.
 Weakly identifiable directions are strongly nonlinear (moving 0.1 mm along one changes the predictions
 more at second order than at first), so plain LM crawls there: each smaller λ is rejected. From the first
 rejected step on, ``lm`` adds Transtrum & Sethna's geodesic acceleration (one residual evaluation per
-trial, :func:`pincal.identification.lm.accelerated`). Two stops end the crawl once it cannot matter
+trial, :func:`pincal.identification.lm.accelerated`). Each iteration reduces ``[J_s | r]`` by one QR and takes
+the SVD of its small triangle (:class:`pincal.identification.lm.Steps`), reused for every trial; a trial point is
+evaluated without the Jacobian, which is computed once a step is accepted. Two stops end the crawl once it cannot matter
 (:func:`pincal.identification.lm.settled`): an exact fit (every error within 100 × the FK tolerance,
 1 nm) and, for noisy
 data, a cost at the noise level whose remaining Gauss–Newton improvement along the practically identified
@@ -77,7 +79,8 @@ class CalibrationResult:
         sample_weights: Robust-loss weights per sample (1 = fully trusted).
         sigma2: A-posteriori variance factor (≈ 1 when the stated σ are right).
         seconds: Wall time of identification.
-        extra: Further records; the solver's counters ``rejected_steps``, ``evaluations`` (of the model),
+        extra: Further records; the solver's counters ``rejected_steps``, ``evaluations`` (of the model: trial
+            points, geodesic look-aheads, and the Jacobian at the start and at each accepted step),
             ``accelerated_steps`` (trials with geodesic acceleration) and ``rank_changes`` (iterations at
             which the number of directions moved along changed).
     """
@@ -442,12 +445,11 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
     counts = {"rejected": 0, "evaluations": 1, "accelerated": 0}
     kept: list[int] = []
     for it in range(1, max_iter + 1):
-        js = pred.jacobian * d * rw[:, None]
-        r = rw * pred.residual
-        steps = lm.Steps(js, solver, cut, ridge, info_floor)
+        assert pred.jacobian is not None
+        steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
         kept.append(steps.kept)
         if it > 1 and solver == "lm":
-            settled = lm.settled(steps, lam, r, cost, pred.errors, numerical, accelerate)
+            settled = lm.settled(steps, lam, cost, pred.errors, numerical, accelerate)
             if settled:
                 converged, message = True, settled
                 break
@@ -457,18 +459,25 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         dz: Array | None = None
         new: Prediction | None = None
         for _ in range(12):
-            dz = steps.solve(r, lam) * shrink
+            dz = steps.solve(lam) * shrink
             if accelerate:
                 counts["evaluations"] += 1
-                dz = lm.accelerated(problem, x, d, rw, r, js, dz, steps, lam)
+                dz = lm.accelerated(problem, x, d, rw, dz, steps, lam)
                 counts["accelerated"] += int(dz is not None)
-            new = lm.evaluated(problem, x + d * dz) if dz is not None else None
+            # a trial needs only the residual; the Jacobian is computed once a step is accepted
+            trial = lm.evaluated(problem, x + d * dz, jacobian=False) if dz is not None else None
             counts["evaluations"] += int(dz is not None)
-            if new is not None:
-                new_cost = 0.5 * float(np.sum((rw * new.residual) ** 2))
+            if trial is not None:
+                new_cost = 0.5 * float(np.sum((rw * trial.residual) ** 2))
                 if new_cost <= cost:
-                    accepted = True
-                    break
+                    assert dz is not None
+                    steps.release()  # the m × n reflectors go before the new Jacobian is built
+                    new = lm.evaluated(problem, x + d * dz)  # None: a sample turned singular, rejected as before
+                    counts["evaluations"] += 1
+                    if new is not None:
+                        accepted = True
+                        break
+                    steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
             counts["rejected"] += 1
             if solver == "lm":
                 lam *= 10.0
@@ -479,7 +488,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
             message = "no step decreases the cost (a local minimum, or the model cannot be evaluated nearby)"
             # at a first-order optimum (gradient negligible against ‖J‖‖r‖), or with every error below what
             # the measurements resolve and FK reproduces, this is convergence, not a failure
-            grad = float(np.linalg.norm(js.T @ r))
+            grad = steps.gradient_norm()
             if lm.at_floor(pred.errors, floors):
                 converged, message = True, "converged (no further decrease at the numerical floor)"
             elif grad <= 1e-4 * steps.largest * math.sqrt(2 * cost):

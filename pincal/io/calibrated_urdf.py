@@ -180,7 +180,7 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     tree = ET.fromstring(source_text)
     fixed_links = _measurement_frame_link(tree, parameters, x, joint_origins, root, measurement_frame)
     fixed_links += _marker_links(tree, parameters, x, joint_origins, root, markers or {})
-    fixed_links += _attached_links(tree, parameters, x)
+    fixed_links += _attached_links(tree, parameters, x, joint_origins, root, measurement_frame)
     offsets = {p.target: float(x[k]) for k, p in enumerate(parameters) if p.kind == "offset"}
     read = [j for j in dict.fromkeys([*read_joints, *offsets]) if j not in robot.actuated_joints]
     sensor_zeros = {j: shifts.get(j, 0.0) - offsets.get(j, 0.0) for j in read}
@@ -311,20 +311,35 @@ def attached_link(kind: str, target: str) -> str:
     return f"{frame}_target_{name}" if target else "camera_target"
 
 
-def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array) -> list[FixedLink]:
-    """Each calibrated camera and target as a link: on its frame's link, or the world target on the root link."""
+def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_origins: dict[str, pin.SE3],
+                    root: dict[str, pin.SE3], measurement_frame: str) -> list[FixedLink]:
+    """Each calibrated camera and target as a link: on its frame's link, or the world target on the robot's root
+    link; a camera or target link of an earlier calibration gets the new placement as its joint's origin."""
     out = []
     links = {link.get("name") for link in tree.findall("link")}
+    robot_root, robot_root_placement = _root_link(tree), pin.SE3.Identity()
+    frame_joint = f"{measurement_frame}_joint"
+    if robot_root == measurement_frame and frame_joint in root:  # a calibrated file: the robot hangs below its
+        child = next(j.find("child") for j in tree.findall("joint") if j.get("name") == frame_joint)  # tracker frame
+        if child is not None and child.get("link"):
+            robot_root, robot_root_placement = child.get("link", ""), root[frame_joint]
     for (kind, target, _), idx in parameters.groups("camera", "target").items():
         link = attached_link(kind, target)
+        joint = f"{link}_joint"
+        world_target = kind == "target" and not target
+        parent = robot_root if world_target else _frame_link(tree, split_target(target)[0])
+        placement = pin.exp6(parameters.placement_delta(x, idx))  # the world target: in the model's world frame,
+        if world_target:  # the file's root link, which a calibrated file's robot root hangs below
+            placement = robot_root_placement.inverse() * placement
         if link in links:
-            raise RobotFileError(f"the URDF already has a link '{link}', the name of the calibrated "
-                                 f"{attached_name(kind, target)}: rename it")
-        parent = _root_link(tree) if kind == "target" and not target else _frame_link(tree, split_target(target)[0])
-        placement = pin.exp6(parameters.placement_delta(x, idx))
+            if not _fixed_joint(tree, joint, parent, link):
+                raise RobotFileError(f"the URDF already has a link '{link}', the name of the calibrated "
+                                     f"{attached_name(kind, target)}: rename it")
+            joint_origins[joint] = placement  # the camera or target of an earlier calibration: re-estimated
+            continue
         what = ("camera" if kind == "camera" else "target") + (f" on '{split_target(target)[0]}'" if target
                                                                else " fixed in the robot's world frame")
-        out.append(FixedLink(f"{link}_joint", parent, link, placement, f"pincal: the calibrated {what}"))
+        out.append(FixedLink(joint, parent, link, placement, f"pincal: the calibrated {what}"))
     return out
 
 

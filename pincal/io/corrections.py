@@ -7,7 +7,10 @@ estimated (:mod:`pincal.identification.corrections` has the model). A controller
     q = q_r + a₁ sin q_r + b₁ cos q_r + a₂ sin 2q_r + b₂ cos 2q_r + c τ_g(q_r)
 
 per actuated joint, with the coefficients of the file (missing ones are zero) and τ_g the gravity torque of the
-*nominal* robot (the URDF given to ``pincal calibrate``) at the readings. :func:`corrected_readings` does it.
+*nominal* robot (the URDF given to ``pincal calibrate``) at the readings, plus that of the payload the file records
+(``payload``: mass [kg], frame, offset [m] in the frame), the one the calibration was run with. A controller whose
+robot carries another load must not reuse the compliance terms as they are: the torque they multiply is another.
+:func:`corrected_readings` does it.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError, listing
-from pincal.identification.corrections import HARMONIC_TERMS, correction_regressors
+from pincal.identification.corrections import HARMONIC_TERMS, Payload, correction_regressors, payload_from_dict
 from pincal.identification.parameters import CORRECTION_KINDS, ParameterSet
 from pincal.model.robot import Robot
 
@@ -35,10 +38,12 @@ FORMULA = "q = q_r + sin1 sin(q_r) + cos1 cos(q_r) + sin2 sin(2 q_r) + cos2 cos(
 @dataclass(frozen=True)
 class Corrections:
     """Per actuated joint, its correction coefficients: term (``sin1``, ``cos1``, ``sin2``, ``cos2`` [rad or m],
-    ``compliance`` [rad/(N m) or m/N]) -> value."""
+    ``compliance`` [rad/(N m) or m/N]) -> value; and the payload whose torque the compliances multiply with the
+    links' (None: the links' alone)."""
 
     robot: str
     joints: dict[str, dict[str, float]]
+    payload: Payload | None = None
 
 
 def corrections_path(urdf: str | Path) -> Path:
@@ -47,26 +52,32 @@ def corrections_path(urdf: str | Path) -> Path:
     return path.with_name(f"{path.stem}.corrections.json")
 
 
-def corrections_of(robot: Robot, parameters: ParameterSet, x: Array) -> Corrections | None:
-    """The correction estimates among ``parameters`` (values ``x``), or None when there are none."""
+def corrections_of(robot: Robot, parameters: ParameterSet, x: Array,
+                   payload: Payload | None = None) -> Corrections | None:
+    """The correction estimates among ``parameters`` (values ``x``), with the ``payload`` they were estimated under,
+    or None when there are none."""
     joints: dict[str, dict[str, float]] = {}
     for p, value in zip(parameters, x, strict=True):
         if p.kind in CORRECTION_KINDS:
             joints.setdefault(p.target, {})[p.term] = float(value)
-    return Corrections(robot.name, joints) if joints else None
+    return Corrections(robot.name, joints, payload) if joints else None
 
 
 def corrections_dict(corrections: Corrections, nominal: Robot) -> dict[str, Any]:
-    """The file's content: format, formula, units, where τ_g comes from, and the coefficients."""
+    """The file's content: format, formula, units, where τ_g comes from, the payload (None: none) and the
+    coefficients."""
     return {
         "format": FORMAT,
         "robot": corrections.robot,
         "formula": FORMULA,
         "units": {"sin1, cos1, sin2, cos2": "the joint's unit (rad, or m for a prismatic joint)",
-                  "compliance": "rad/(N m), or m/N for a prismatic joint", "q_r, q": "rad or m"},
+                  "compliance": "rad/(N m), or m/N for a prismatic joint", "q_r, q": "rad or m",
+                  "payload": "mass kg, offset m in the payload's frame"},
         "tau_g": "gravity torque [N m or N] of the nominal robot at the readings q_r (Pinocchio "
-                 "computeGeneralizedGravity, 9.81 m/s^2 along -z of the root)",
+                 "computeGeneralizedGravity, 9.81 m/s^2 along -z of the root), plus J_p(q_r)^T m (0, 0, 9.81) of "
+                 "the payload's point p when there is one",
         "nominal_urdf": str(nominal.source) if nominal.source is not None else nominal.name,
+        "payload": corrections.payload.as_dict() if corrections.payload is not None else None,
         "joints": corrections.joints,
     }
 
@@ -75,7 +86,7 @@ def read_corrections(path: str | Path) -> Corrections:
     """Read a corrections file.
 
     Raises:
-        DataError: unreadable, not JSON, another format, or an unknown term (named).
+        DataError: unreadable, not JSON, another format, an unknown term (named), or a malformed payload.
     """
     try:
         content = json.loads(Path(path).read_text(encoding="utf-8"))
@@ -93,15 +104,18 @@ def read_corrections(path: str | Path) -> Corrections:
             raise DataError(f"'{path}': joint '{joint}' has unknown terms {listing(unknown)}; terms are: "
                             f"{listing(TERMS)}")
         out[str(joint)] = {str(t): float(v) for t, v in terms.items()}
-    return Corrections(str(content.get("robot", "")), out)
+    payload = payload_from_dict(content.get("payload"), f"'{path}': ")
+    return Corrections(str(content.get("robot", "")), out, payload)
 
 
 def corrected_readings(corrections: Corrections, nominal: Robot, actuated: npt.ArrayLike) -> Array:
     """The joint values [rad or m] to give the calibrated URDF for raw readings ``actuated`` (N, na) or (na,), in
-    ``nominal.actuated_joints`` order; ``nominal`` is the robot the calibration started from (for τ_g).
+    ``nominal.actuated_joints`` order; ``nominal`` is the robot the calibration started from (for τ_g, with the
+    payload of the corrections).
 
     Raises:
         DataError: a joint of the corrections that is not an actuated joint of ``nominal``.
+        NotFoundError: the payload's frame is not one of ``nominal``'s.
     """
     readings = np.asarray(actuated, dtype=float)
     rows = readings.reshape(-1, nominal.n_actuated)
@@ -111,6 +125,7 @@ def corrected_readings(corrections: Corrections, nominal: Robot, actuated: npt.A
     kinds = [(joint, term) for joint, terms in corrections.joints.items() for term in terms]
     out = rows.copy()
     index = {name: k for k, name in enumerate(nominal.actuated_joints)}
-    for (joint, term), regressor in zip(kinds, correction_regressors(nominal, kinds, rows), strict=True):
+    regressors = correction_regressors(nominal, kinds, rows, corrections.payload)
+    for (joint, term), regressor in zip(kinds, regressors, strict=True):
         out[:, index[joint]] += corrections.joints[joint][term] * regressor
     return out.reshape(readings.shape)

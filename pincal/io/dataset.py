@@ -416,8 +416,8 @@ def _parse(text: str, required: Sequence[str], min_samples: int, kinds: dict[str
                 what = "is empty" if not cells[cols[first]] else f"is '{cells[cols[first]]}'"
                 full = listing(f"{key}:{c}" for c, e in zip(components, empty, strict=True) if not e)
                 raise DataError(f"column '{key}:{first}', line {line}: the cell {what} but {full} hold numbers; a "
-                                f"marker that was not seen leaves all the cells of '{key}' empty, one seen fills them "
-                                "all")
+                                f"{'marker' if kind == 'position' else 'target'} that was not seen leaves all the "
+                                f"cells of '{key}' empty, one seen fills them all")
         ids.append(cells[layout.sample] if layout.sample is not None else str(r))
         if layout.sample is not None and not ids[-1]:
             raise DataError(f"column '{SAMPLE_COLUMN}', line {line}: the sample id is empty")
@@ -451,7 +451,7 @@ def _check_rows(data: Dataset, lines: list[int]) -> None:
     if duplicates:
         raise DataError("duplicated samples (identical joint readings and measurements): " + listing(duplicates, 10))
     for key, values in data.measurements.items():
-        if key.startswith("pose:"):
+        if key.startswith(("pose:", "camera:")):  # a camera reading is a pose too (camera_point: is a point)
             norms = np.linalg.norm(values[:, 3:], axis=1)
             bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_NORM_TOLERANCE)
             if bad.size:

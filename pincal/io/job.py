@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from pincal.errors import DataError, NotFoundError, listing, not_found
+from pincal.identification.corrections import payload_from_dict
 from pincal.identification.measurements import KIND_CLASSES
 from pincal.identification.selection import SELECTIONS
 from pincal.identification.solver import LOSSES, SOLVERS
@@ -37,13 +38,14 @@ FORMULATIONS = ("fkm", "ikm")
 
 #: Keys of each level of a job file.
 JOB_KEYS = ("robot", "data", "joints", "measure", "out", "report", "parameters", "select", "loss", "solver", "sigma",
-            "max_iter", "formulation", "cv")
+            "max_iter", "formulation", "cv", "payload")
 DATA_KEYS = ("file", "files", "units", "held_out", "sample", "ignore")
 UNIT_KEYS = ("length", "angle")
 MEASURE_KEYS = ("kind", "frame", "frames", "columns", "sigma", "sigma_angle")
+PAYLOAD_KEYS = ("mass", "frame", "offset")
 #: Job keys that are options of :func:`pincal.workflow.calibrate`, and the keyword each becomes.
 OPTIONS = {"parameters": "parameter_spec", "select": "select", "loss": "loss", "solver": "solver", "sigma": "sigma",
-           "max_iter": "max_iter", "formulation": "formulation", "cv": "cv"}
+           "max_iter": "max_iter", "formulation": "formulation", "cv": "cv", "payload": "payload"}
 #: ``held_out = "every 5th from 4"``: every K-th row of the data, counted from 0 over the files in order.
 EVERY = re.compile(r"every\s+(\d+)(?:st|nd|rd|th)?(?:\s+from\s+(\d+))?", re.IGNORECASE)
 
@@ -90,7 +92,7 @@ class Job:
         out: The calibrated URDF to write, or None.
         report: The report JSON to write, or None.
         options: Keyword arguments of :func:`pincal.workflow.calibrate` (``parameter_spec``, ``select``, ``loss``,
-            ``solver``, ``sigma`` [m], ``max_iter``, ``formulation``, ``cv``), those the job gives.
+            ``solver``, ``sigma`` [m], ``max_iter``, ``formulation``, ``cv``, ``payload``), those the job gives.
         length_unit: The data files' length unit (a key of :data:`LENGTH_UNITS`).
         angle_unit: The data files' angle unit (a key of :data:`ANGLE_UNITS`).
         held_out: Which rows are held out, or None.
@@ -331,6 +333,13 @@ class _Reader:
             if not re.fullmatch(r"\d+(x\d+)?|loo", cv, re.IGNORECASE):
                 raise self.error("cv", f"'{cv}' is not K (folds), KxR (K folds, R shuffles, e.g. \"5x4\") or \"loo\"")
             options["cv"] = cv
+        if "payload" in doc:
+            payload = self.table(doc["payload"], "payload")
+            self.keys(payload, PAYLOAD_KEYS, "in payload")
+            try:
+                options["payload"] = payload_from_dict(payload)
+            except DataError as exc:
+                raise DataError(f"{self.path}: {exc}") from None
         return options
 
     def claims(self, job: Job) -> None:

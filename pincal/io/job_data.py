@@ -146,7 +146,7 @@ def _check_not_seen(values: npt.NDArray[np.float64], names: Sequence[str], rows:
         first = names[int(np.argmax(empty[r]))]
         full = listing(n for n, e in zip(names, empty[r], strict=True) if not e)
         raise DataError(f"column '{first}', line {rows[r][0]}: the cell is empty but {full} hold numbers; a marker "
-                        "that was not seen leaves all its cells empty, one seen fills them all")
+                        "or a target that was not seen leaves all its cells empty, one seen fills them all")
 
 
 def _columns(job: Job, robot: Robot, table: Table, k: int) -> _Columns:

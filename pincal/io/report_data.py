@@ -37,7 +37,8 @@ def registered_base(parameters: ParameterSet) -> bool:
 def _before_means(problem: CalibrationProblem) -> str:
     """What the "before" errors are of: the starting point :meth:`CalibrationProblem.initial_guess` gave."""
     if problem.parameters.of_kind("camera", "target"):
-        return BEFORE_MEANS_PLACED if problem.placed_in_closed_form else BEFORE_MEANS_UNPLACED
+        means = BEFORE_MEANS_PLACED if problem.placed_in_closed_form else BEFORE_MEANS_UNPLACED
+        return "; ".join([means, *problem.not_in_closed_form])
     return BEFORE_MEANS_REGISTERED if registered_base(problem.parameters) else BEFORE_MEANS_NOMINAL
 
 

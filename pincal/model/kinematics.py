@@ -132,6 +132,11 @@ class ClosedLoopKinematics:
         self._continuous = np.array([a.nq == 2 for a in actuated], dtype=bool)
 
     # --- actuated coordinates -------------------------------------------------------------------
+    @property
+    def continuous(self) -> npt.NDArray[np.bool_]:
+        """(na,) which actuated joints are unbounded revolutes (continuous: values compared modulo 2π)."""
+        return self._continuous.copy()
+
     def set_actuated(self, q: Array, q_actuated: Array) -> None:
         """Write actuated values [rad or m] into ``q`` in place."""
         if self._all_scalar:

@@ -14,6 +14,7 @@ import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
+from pincal.identification.corrections import Payload
 from pincal.identification.measurements import Measurement, Pose
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations
@@ -117,7 +118,7 @@ def random_actuated(robot: Robot, n: int, rng: np.random.Generator, spread: floa
 
 def simulate_observations(robot: Robot, parameters: ParameterSet, x_true: Array, measurements: Sequence[Measurement],
                           actuated: Array, rng: np.random.Generator, noise: float | dict[str, float] = 0.0,
-                          joint_noise: float = 0.0) -> Observations:
+                          joint_noise: float = 0.0, payload: Payload | None = None) -> Observations:
     """Readings and measurements of the true robot (nominal + ``x_true``) at the given actuated values.
 
     Args:
@@ -130,6 +131,7 @@ def simulate_observations(robot: Robot, parameters: ParameterSet, x_true: Array,
         noise: Measurement noise σ [m] (and [rad] for pose angles and angle readings), or one σ per
             measurement key (``{"joint:device_lvdt": 1e-6, "joint:device_incl_x": 2e-5}``; missing keys 0).
         joint_noise: Noise σ on the actuated readings [rad or m].
+        payload: A point mass the true robot carries (its torque deflects the joints that have a compliance).
     """
     sigmas = noise if isinstance(noise, dict) else {m.key: noise for m in measurements}
     unknown = sorted(set(sigmas) - {m.key for m in measurements})
@@ -145,7 +147,7 @@ def simulate_observations(robot: Robot, parameters: ParameterSet, x_true: Array,
         blank[m.key] = np.zeros((n, width))
         if isinstance(m, Pose):
             blank[m.key][:, 6] = 1.0
-    problem = CalibrationProblem(robot, parameters, measurements, Observations(actuated, blank))
+    problem = CalibrationProblem(robot, parameters, measurements, Observations(actuated, blank), payload=payload)
     pred = problem.evaluate(x_true, jacobian=False)
     values: dict[str, Array] = {}
     for m in measurements:

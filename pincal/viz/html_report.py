@@ -55,7 +55,8 @@ def held_out_errors(view: CalibrationView, dataset: Dataset) -> tuple[Array | No
     problem = view.problem
     test = dataset.of_set("test")
     obs = observations_from(problem.robot, test.joint_names, test.joints, test.measurements, problem.measurements)
-    tprob = CalibrationProblem(problem.robot, problem.parameters, problem.measurements, obs)
+    tprob = CalibrationProblem(problem.robot, problem.parameters, problem.measurements, obs,
+                               payload=problem.payload)
     before = tprob.evaluate(np.zeros(len(problem.parameters)), jacobian=False).errors
     after = tprob.evaluate(view.x, jacobian=False).errors
     held = CalibrationView(tprob, view.x, view.report, before, after)

@@ -22,7 +22,8 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
-from pincal.identification.measurements import Pose, Position
+from pincal.identification.corrections import payload_from_dict
+from pincal.identification.measurements import CameraPose, Pose, Position
 from pincal.identification.parameters import MarkerFit, ParameterSet, choose_parameters
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.solver import length_columns
@@ -82,7 +83,8 @@ class CalibrationView:
     def from_result(cls, robot: Robot, dataset: Dataset, report: dict[str, Any],
                     parameter_spec: list[str] | None = None, sigma: float | None = None,
                     markers: MarkerFit = "each") -> CalibrationView:
-        """From a results JSON written earlier (``pincal calibrate --report``) and its dataset.
+        """From a results JSON written earlier (``pincal calibrate --report``) and its dataset; the payload of the
+        compliances is the one the JSON records.
 
         Raises:
             DataError: the JSON is not a pincal report, or its parameters are not those chosen by
@@ -110,7 +112,7 @@ class CalibrationView:
                             "--parameters and --markers as for the calibration")
         x = np.array([float(report["parameters"][name]["value"]) for name in pset.names])
         obs = observations_from(robot, train.joint_names, train.joints, train.measurements, models)
-        problem = CalibrationProblem(robot, pset, models, obs)
+        problem = CalibrationProblem(robot, pset, models, obs, payload=payload_from_dict(report.get("payload")))
         before = problem.evaluate(np.zeros(len(pset)), jacobian=False).errors
         after = problem.evaluate(x, jacobian=False).errors
         return cls(problem, x, report, before, after)
@@ -125,8 +127,10 @@ class CalibrationView:
     def point_errors(self) -> tuple[Array | None, Array | None, Array | None]:
         """Measured points (N, 3) [m] and the error vectors before and after (N, 3) [m]: of each sample, its
         first position or pose reading taken (an occluded marker gives way to the next one; NaN rows for a
-        sample with none); three Nones when no 3D point is measured."""
-        located = [m for m in self.problem.measurements if isinstance(m, (Position, Pose))]
+        sample with none); three Nones when no 3D point is measured. A camera on the robot reads its target in its
+        own moving frame, not a point of the scene: it locates nothing."""
+        located = [m for m in self.problem.measurements
+                   if isinstance(m, (Position, Pose)) and not isinstance(m, CameraPose)]
         if not located:
             return None, None, None
         n = self.problem.observations.n_samples

@@ -97,7 +97,8 @@ def test_an_unknown_key_is_named_with_the_valid_ones(tmp_path: Path) -> None:
     job = copy_job(tmp_path, str(RAW), **{'solver = "lm"': 'slover = "lm"'})
     line = one_line_error(run_pincal("calibrate", str(job)))
     assert line == (f"pincal: error: {job}: key 'slover' does not exist at the top level; keys are: robot, data, "
-                    "joints, measure, out, report, parameters, select, loss, solver, sigma, max_iter, formulation, cv")
+                    "joints, measure, out, report, parameters, select, loss, solver, sigma, max_iter, formulation, cv, "
+                    "payload")
 
 
 def test_a_data_file_is_looked_for_beside_the_job(tmp_path: Path) -> None:
@@ -161,3 +162,26 @@ def test_a_job_declares_markers_on_a_body_and_reads_an_unseen_marker(tmp_path: P
     write(rows)
     error = one_line_error(run_pincal("calibrate", str(job)))
     assert "column 'x2', line 4: the cell is empty but y2 hold numbers" in error
+
+
+def test_a_jobs_payload_reaches_the_corrections_file_and_the_command_line_overrides_it(tmp_path: Path) -> None:
+    """A job that fits compliances under a payload writes the corrections file beside its calibrated URDF, with the
+    payload; --payload replaces the job's; a payload with no compliance to act on is refused in one line."""
+    payload = 'payload = { mass = 1.5, frame = "wrist_ft_tool_link", offset = [0, 0, 0.05] }'
+    job = copy_job(tmp_path, str(RAW), **{
+        '# out = "tiago_calibrated.urdf"': f'out = "cal.urdf"\nparameters = ["default", "*.compliance"]\n{payload}'})
+    done = run_pincal("calibrate", str(job))
+    assert done.returncode == 0, done.stderr
+    beside = tmp_path / "cal.corrections.json"
+    assert f"wrote {beside}" in done.stdout
+    written = json.loads(beside.read_text(encoding="utf-8"))
+    assert written["payload"] == {"mass": 1.5, "frame": "wrist_ft_tool_link", "offset": [0.0, 0.0, 0.05]}
+    assert "arm_2_joint" in written["joints"]
+    done = run_pincal("calibrate", str(job), "--payload", "2@arm_7_link", "--out", str(tmp_path / "other.urdf"))
+    assert done.returncode == 0, done.stderr
+    other = json.loads((tmp_path / "other.corrections.json").read_text(encoding="utf-8"))
+    assert other["payload"] == {"mass": 2.0, "frame": "arm_7_link", "offset": [0.0, 0.0, 0.0]}
+    assert other["joints"] != written["joints"]
+    refused = run_pincal("calibrate", str(job), "--parameters", "default")
+    assert "the payload (1.5 kg on wrist_ft_tool_link at (0, 0, 0.05) m) enters only the joint compliances" in \
+        one_line_error(refused)

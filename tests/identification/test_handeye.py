@@ -8,7 +8,12 @@ import pinocchio as pin
 import pytest
 
 from pincal.errors import DataError
-from pincal.identification.handeye import solve_ax_yb, solve_point_eye_in_hand
+from pincal.identification.handeye import (
+    solve_ax_yb,
+    solve_ax_yb_translating,
+    solve_point_eye_in_hand,
+    solve_point_translating,
+)
 
 NOISE = 1e-4  # [m] and [rad]
 X_TRUE = pin.SE3(pin.exp3(np.array([0.3, -0.5, 0.8])), np.array([0.05, 0.02, 0.10]))  # link ← camera
@@ -151,3 +156,38 @@ def test_eye_in_hand_malformed_inputs() -> None:
     p[2, 1] = np.nan
     with pytest.raises(DataError, match=r"NaN/inf entries in samples \[2\]"):
         solve_point_eye_in_hand(a, p)
+
+
+# --- a link that only translates (a Delta's platform) ------------------------------------------------------
+
+
+def translating(rng: np.random.Generator, n: int) -> list[pin.SE3]:
+    """Poses of one rotation, translations within ±0.2 m."""
+    rotation = pin.exp3(np.array([0.2, -0.1, 0.4]))
+    return [pin.SE3(rotation, rng.uniform(-0.2, 0.2, 3)) for _ in range(n)]
+
+
+def test_a_translating_link_gives_the_rotations_and_what_the_data_see_of_the_translations() -> None:
+    """Exact on perfect data: both rotations, and the translations through ``t_Y − R_A t_X`` (``t_X`` taken as 0)."""
+    rng = np.random.default_rng(21)
+    a = translating(rng, 8)
+    x, y = solve_ax_yb_translating(a, [Y_TRUE.inverse() * ai * X_TRUE for ai in a])
+    assert errors(x, X_TRUE)[0] < 1e-12 and errors(y, Y_TRUE)[0] < 1e-12
+    seen = Y_TRUE.translation - a[0].rotation @ X_TRUE.translation
+    assert np.allclose(x.translation, 0.0) and np.allclose(y.translation, seen, atol=1e-12)
+    # the point problem: the camera's rotation, and the point through y − R_A t_X
+    points = eye_in_hand_points(a, rng)
+    camera, point = solve_point_translating(a, points)
+    assert errors(camera, X_TRUE)[0] < 1e-12
+    assert np.allclose(point, POINT_WORLD - a[0].rotation @ X_TRUE.translation, atol=1e-12)
+
+
+def test_a_translating_solve_refuses_turning_poses_and_translations_in_a_line() -> None:
+    rng = np.random.default_rng(22)
+    turning = [random_pose(rng) for _ in range(6)]
+    with pytest.raises(DataError, match="needs the poses A_i of one rotation; they turn"):
+        solve_ax_yb_translating(turning, [Y_TRUE.inverse() * ai * X_TRUE for ai in turning])
+    rotation = pin.exp3(np.array([0.2, -0.1, 0.4]))
+    line = [pin.SE3(rotation, np.array([0.1 * k, 0.0, 0.0])) for k in range(6)]
+    with pytest.raises(DataError, match="lie in a line: a translating link needs them to span a plane"):
+        solve_ax_yb_translating(line, [Y_TRUE.inverse() * ai * X_TRUE for ai in line])

@@ -13,6 +13,7 @@ from conftest import ROOT
 
 import pincal
 from pincal.errors import DataError, NotFoundError, PincalError
+from pincal.identification.corrections import Payload
 from pincal.io.dataset import read_dataset
 from pincal.io.job import FORMULATIONS, Job, read_job
 from pincal.io.job_data import job_dataset
@@ -136,6 +137,15 @@ def test_options_given_elsewhere_override_the_job(tmp_path: Path) -> None:
         job.overridden(colour="red")
 
 
+def test_a_payload_is_read_and_overridden(tmp_path: Path) -> None:
+    job = read_job(write_job(tmp_path, top='payload = { mass = 1.5, frame = "arm_7_link", offset = [0, 0, 0.1] }'))
+    assert job.options == {"payload": Payload(1.5, "arm_7_link", (0.0, 0.0, 0.1))}
+    assert read_job(write_job(tmp_path, top='payload = { mass = 2, frame = "arm_7_link" }')).options == {
+        "payload": Payload(2.0, "arm_7_link")}
+    assert job.overridden(payload=Payload(3.0, "arm_6_link")).options == {"payload": Payload(3.0, "arm_6_link")}
+    assert job.overridden(payload=None).options == job.options
+
+
 def test_the_job_knows_the_formulations_calibrate_knows() -> None:
     assert FORMULATIONS == WORKFLOW_FORMULATIONS
 
@@ -160,6 +170,15 @@ def test_the_job_knows_the_formulations_calibrate_knows() -> None:
     ({"measure": 'sigma_angle = 1e-3'},
      "[measure 1] sigma_angle: only a pose or a camera's pose target has an orientation"),
     ({"measure": 'frames = ["a", "b"]'}, '[measure 1]: a position measurement names its frame as frame = "NAME"'),
+    ({"top": 'payload = { mass = -1.5, frame = "arm_7_link" }'}, "job.toml: payload mass -1.5 kg: a mass is a "
+                                                                 "finite number ≥ 0 [kg]"),
+    ({"top": 'payload = { mass = 1.5, frame = "arm_7_link", offset = [0, 0.1] }'},
+     "payload offset 0, 0.1: give three finite numbers x, y, z [m] in frame 'arm_7_link'"),
+    ({"top": 'payload = { mass = "1.5", frame = "arm_7_link" }'}, "mass is a number [kg], offset a list of three"),
+    ({"top": 'payload = { mass = 1.5 }'}, "payload {'mass': 1.5} is not {mass = KG, frame = \"NAME\""),
+    ({"top": 'payload = { mass = 1.5, frame = "arm_7_link", ofset = [0, 0, 1] }'},
+     "key 'ofset' does not exist in payload; keys are: mass, frame, offset"),
+    ({"top": 'payload = "1.5@arm_7_link"'}, "payload: '1.5@arm_7_link' is not a table"),
     ({"data": '[joints]\narm_1_joint = "x1"'},
      "[joints] arm_1_joint: column 'x1' is also named by [measure 1] columns"),
 ])

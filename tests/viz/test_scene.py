@@ -20,6 +20,7 @@ from conftest import ROBOTS
 
 import pincal
 from pincal.cli.app import main
+from pincal.identification.corrections import Payload
 from pincal.io.dataset import write_dataset
 from pincal.model.catalog import resolve_mesh_file
 from pincal.progress import Progress
@@ -229,3 +230,19 @@ def test_occluded_markers_draw_each_sample_at_its_first_marker_seen(tmp_path: Pa
     transforms = [c["matrix"] for c in _commands(page) if c["type"] == "set_transform"]
     assert summary.n_samples == 12 and transforms and all(np.isfinite(np.asarray(m, dtype=float)).all()
                                                           for m in transforms)
+
+
+def test_a_result_read_back_predicts_with_the_payload_it_records(tmp_path: Path) -> None:
+    """A compliance fitted under a payload: the view rebuilt from the report JSON gives the calibration's errors."""
+    ur10 = pincal.load_robot("ur10")
+    payload = Payload(8.0, "tool0", (0.0, 0.0, 0.15))
+    spec = ["default", "*.compliance"]
+    sim = simulate(ur10, ["position"], 30, seed=3, parameter_spec=spec, payload=payload)
+    cal = calibrate(ur10, sim.dataset, parameter_spec=spec, payload=payload)
+    report = json.loads(json.dumps(cal.report))
+    view = CalibrationView.from_result(ur10, sim.dataset, report, spec)
+    key = "position:tool0"
+    np.testing.assert_allclose(view.errors_after[key], cal.result.errors_after[key], atol=1e-12)
+    report["payload"] = None  # the same numbers read as if no load had been carried: other predictions
+    forgotten = CalibrationView.from_result(ur10, sim.dataset, report, spec)
+    assert np.abs(forgotten.errors_after[key] - cal.result.errors_after[key]).max() > 1e-4  # [m]
