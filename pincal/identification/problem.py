@@ -432,6 +432,10 @@ class CalibrationProblem:
         Without ``joint_sigma`` the residual is ``(predicted − measured)/σ``. The covariance is
         re-evaluated at each call and held constant in the Jacobian, as iteratively re-weighted least
         squares does.
+
+        A tree (no loops) is evaluated for every sample at once (:meth:`_predict_tree`, issue 14); a closed-loop
+        robot, or a tree with a joint kind :mod:`~pincal.identification.tree_batch` does not take, sample by sample
+        (:meth:`_predict_samples`). Both give the same numbers (to 1e-10, tests/identification/test_tree_batch.py).
         """
         x = self._augment(np.asarray(x, dtype=float))
         output_jacobian = jacobian
