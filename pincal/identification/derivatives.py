@@ -158,11 +158,11 @@ class KinematicSensitivity:
             twist = np.zeros((6, self.n))
         else:
             twist = self._regressor(data, probe) @ self.joint_map
-        for idx, term in self._fixed_terms(probe):
+        for idx, term in self.fixed_terms(probe):
             twist[:, idx] += term
         return twist
 
-    def _fixed_terms(self, probe: Probe) -> list[tuple[list[int], Array]]:
+    def fixed_terms(self, probe: Probe) -> list[tuple[list[int], Array]]:
         """The probe's twist per unit fixed-joint parameter, for the fixed joints on its link chain: constant
         over samples (a placement relative to the probe), so built once per probe."""
         terms = self._fixed_cache.get(id(probe))

@@ -4,7 +4,9 @@ Each model owns its maths: it predicts a small vector per sample from the sample
 configuration and the local twists of the frames it looks at (a :class:`SampleContext`, built by
 :mod:`pincal.identification.problem`), writes that prediction's analytic Jacobian rows, and says how its
 error is formed from the measured values. The problem stacks whatever models it is given and never
-asks which kind: a new sensor is one subclass of :class:`Measurement`. All in SI units: positions
+asks which kind: a new sensor is one subclass of :class:`Measurement`. A model may also predict every sample of a
+tree at once (``predict_batch``, from a :class:`~pincal.identification.batch.BatchContext`); one without it is
+predicted sample by sample. All in SI units: positions
 [m] in the measurement frame, orientations as rotation vectors [rad], joint readings [rad or m].
 
 Keys (also the dataset column prefixes): ``position:<frame>``, ``position:<frame>@<marker>`` (a marker fixed on
@@ -42,6 +44,8 @@ import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import DataError
+from pincal.identification.batch import BatchContext, point_rows
+from pincal.identification.rotations import cross_columns, jlog3, log3, quaternion_matrices, rotate
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -185,7 +189,8 @@ class Measurement(ABC):
     """Base class: ``key`` names the data columns, ``size`` the values per sample, ``sigma`` the
     standard deviation of each value (same units) used to weight the residual.
 
-    A subclass implements :meth:`predict` (the prediction and its Jacobian rows) and, where they
+    A subclass implements :meth:`predict` (the prediction and its Jacobian rows), optionally
+    :meth:`predict_batch` (the same for every sample of a tree at once), and, where they
     differ from the defaults, the data columns, the error, the row units and σ. A subclass that declares
     the key ``kinds`` it parses also defines ``from_key(kind, rest, sigma)``, a classmethod building its
     model from a key.
@@ -255,6 +260,22 @@ class Measurement(ABC):
         """Write the sample's prediction into ``out`` (size,) and, if ``jac`` is given, its derivative
         w.r.t. the parameters into ``jac`` (size, p), which arrives zeroed."""
 
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """Write every sample's prediction into ``out`` (N, size) and, if ``jac`` is given, its derivative into
+        ``jac`` (N, size, p), which arrives zeroed: what :meth:`predict` writes, for all samples at once (a tree's
+        batched evaluation). Optional: a model without it is predicted sample by sample (see :attr:`batched`)."""
+        raise NotImplementedError(f"{type(self).__name__} predicts one sample at a time")
+
+    @property
+    def batched(self) -> bool:
+        """Whether :meth:`predict_batch` predicts what :meth:`predict` does: defined by the class that defines
+        :meth:`predict`, or by a subclass of it (a subclass that overrides only :meth:`predict` is predicted sample
+        by sample, never with its parent's batched prediction)."""
+        def owner(name: str) -> type:
+            return next(c for c in type(self).__mro__ if name in c.__dict__)
+        batch = owner("predict_batch")
+        return batch is not Measurement and issubclass(batch, owner("predict"))
+
     def error(self, predicted: Array, measured: Array, model: pin.Model) -> Array:
         """Predicted − measured, (N, size), from the predictions (N, size) and the data (N, width)."""
         return predicted - measured
@@ -310,6 +331,13 @@ class Position(Measurement):
         columns, derivative = ctx.marker_derivative(self.target)
         if jac is not None and columns:
             jac[:3, columns] += ctx.base.rotation @ ctx.placement(self.frame).rotation @ derivative
+
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample: ``R_base p + t_base``, ``p = R_F m + t_F``."""
+        _predict_points(batch, self.frame, batch.shared.marker(self.target), out, jac)
+        columns, derivative = batch.shared.marker_derivative(self.target)
+        if jac is not None and columns:
+            jac[:, :, columns] += rotate(batch.base.rotation, rotate(batch.rotations[self.frame], derivative))
 
 
 @dataclass(frozen=True)
@@ -381,6 +409,30 @@ class Pose(Measurement):
                                          @ ctx.base_jacobian)
             jac[3:, ctx.base_columns] = jlog @ placement.rotation.T @ ctx.base_jacobian[3:]
 
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample; with ``W`` the frame's spatial twist, ``R_P ν_v = W_v − p_P × W_ω`` and
+        ``ν_ω = R_Pᵀ W_ω``."""
+        term = (batch.shared.attached_placement(target_name(self.frame, self.target)) if self.target
+                else AttachedPlacement())
+        rotation = rotate(batch.rotations[self.frame], term.placement.rotation)
+        world = batch.point(self.frame, term.placement.translation)
+        base = batch.base
+        out[:, :3] = world @ base.rotation.T + base.translation
+        jlog = _orientation_rows_batch(batch.measured(self.key), rotate(base.rotation, rotation), out[:, 3:])
+        if jac is None:
+            return
+        to_local = np.matmul(jlog, rotation.transpose(0, 2, 1))  # Jlog3 R_Pᵀ: world angular velocity -> rows
+        rows = np.zeros((len(world), 6, 6))
+        rows[:, :3] = point_rows(world, base.rotation)
+        rows[:, 3:, 3:] = to_local
+        batch.derivative(self.frame, rows, out=jac)
+        if term.columns:
+            jac[:, :3, term.columns] += rotate(base.rotation, rotate(rotation, term.jacobian[:3]))
+            jac[:, 3:, term.columns] += rotate(jlog, term.jacobian[3:])
+        if batch.shared.base_columns:
+            jac[:, :3, batch.shared.base_columns] = batch.base_columns(world)
+            jac[:, 3:, batch.shared.base_columns] = rotate(to_local, batch.shared.base_jacobian[3:])
+
     def error(self, predicted: Array, measured: Array, model: pin.Model) -> Array:
         """The position rows less the measured position; the rotation rows are already relative."""
         err = predicted.copy()
@@ -429,6 +481,33 @@ class CameraPose(Pose):
         jac[:3] = seen.rotation @ twist[:3]
         jac[3:] = pin.Jlog3(rel) @ twist[3:]
 
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample; the robot's columns of T's local twist are ``−Ad(G⁻¹) W`` (W the frame's
+        spatial twist), the camera's ``−Ad(T⁻¹) J_C``."""
+        rot_f, pos_f = batch.rotations[self.frame], batch.translations[self.frame]
+        camera = batch.shared.attached_placement(camera_name(self.frame))
+        target = batch.shared.attached_placement(WORLD_TARGET)
+        rot_fc = rotate(rot_f, camera.placement.rotation)  # world ← camera
+        pos_fc = (rot_f.reshape(-1, 3) @ camera.placement.translation).reshape(-1, 3) + pos_f
+        inverse = rot_fc.transpose(0, 2, 1)
+        seen_rot = rotate(inverse, target.placement.rotation)
+        seen_pos = np.matmul(inverse, (target.placement.translation - pos_fc)[:, :, None])[:, :, 0]
+        out[:, :3] = seen_pos
+        jlog = _orientation_rows_batch(batch.measured(self.key), seen_rot, out[:, 3:])
+        if jac is None:
+            return
+        rows = np.zeros((len(seen_pos), 6, 6))
+        rows[:, :3, :3] = seen_rot
+        rows[:, 3:, 3:] = jlog
+        batch.derivative(self.frame, np.matmul(rows, -target.placement.inverse().action), out=jac)
+        if camera.columns:  # −Ad(T⁻¹) J_C = −(R_Tᵀ (J_v − p_T × J_ω), R_Tᵀ J_ω)
+            jc = np.broadcast_to(camera.jacobian, (len(seen_pos), 6, len(camera.columns)))
+            jac[:, :3, camera.columns] -= jc[:, :3] - cross_columns(seen_pos, jc[:, 3:])
+            jac[:, 3:, camera.columns] -= rotate(np.matmul(rows[:, 3:, 3:], seen_rot.transpose(0, 2, 1)),
+                                                 camera.jacobian[3:])
+        if target.columns:
+            jac[:, :, target.columns] += np.matmul(rows, target.jacobian)
+
 
 @dataclass(frozen=True)
 class CameraPoint(Measurement):
@@ -475,6 +554,27 @@ class CameraPoint(Measurement):
         jac[:3, camera.columns] += -camera.jacobian[:3] + pin.skew(seen) @ camera.jacobian[3:]
         jac[:3, target.columns] += rot_c.T @ frame.rotation.T @ target.placement.rotation @ target.jacobian[:3]
 
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample: the robot's columns are ``−R_Cᵀ R_Fᵀ (W_v − g × W_ω)``, W the frame's
+        spatial twist."""
+        rot_f, pos_f = batch.rotations[self.frame], batch.translations[self.frame]
+        camera = batch.shared.attached_placement(camera_name(self.frame))
+        target = batch.shared.attached_placement(WORLD_TARGET)
+        point = target.placement.translation
+        local = np.matmul(rot_f.transpose(0, 2, 1), (point - pos_f)[:, :, None])[:, :, 0]
+        seen = (local - camera.placement.translation) @ camera.placement.rotation
+        out[:, :3] = seen
+        if jac is None:
+            return
+        back = rotate(camera.placement.rotation.T, rot_f.transpose(0, 2, 1))  # R_Cᵀ R_Fᵀ
+        at_point = np.hstack([-np.eye(3), pin.skew(point)])  # −[I, −ĝ]
+        batch.derivative(self.frame, (back.reshape(-1, 3) @ at_point).reshape(len(seen), 3, 6), out=jac)
+        if camera.columns:
+            jc = np.broadcast_to(camera.jacobian, (len(seen), 6, len(camera.columns)))
+            jac[:, :3, camera.columns] += -jc[:, :3] + cross_columns(seen, jc[:, 3:])
+        if target.columns:
+            jac[:, :3, target.columns] += rotate(back, target.placement.rotation @ target.jacobian[:3])
+
 
 def _orientation_rows(measured: Array, rotation: Array, out: Array) -> Array:
     """Write the orientation rows ``log3(R_measᵀ R)`` [rad] into ``out`` from a pose reading (x, y, z, qx, qy, qz,
@@ -487,6 +587,21 @@ def _orientation_rows(measured: Array, rotation: Array, out: Array) -> Array:
     rel: Array = pin.Quaternion(*quat).normalized().matrix().T @ rotation
     out[:] = pin.log3(rel)
     return rel
+
+
+def _orientation_rows_batch(measured: Array, rotation: Array, out: Array) -> Array:
+    """:func:`_orientation_rows` for every sample: ``measured`` (N, 7), ``rotation`` (N, 3, 3), ``out`` (N, 3);
+    returns (N, 3, 3) ``Jlog3`` at ``R_measᵀ R`` (at ``R`` for a reading not taken, whose rows are NaN)."""
+    quat = measured[:, 3:7]
+    taken = np.all(np.isfinite(quat), axis=1)
+    unit = np.where(taken[:, None], quat, [0.0, 0.0, 0.0, 1.0])
+    unit = unit / np.linalg.norm(unit, axis=1)[:, None]
+    rel = np.matmul(quaternion_matrices(unit).transpose(0, 2, 1), rotation)
+    rel[~taken] = rotation[~taken]
+    vector = log3(rel)
+    out[:] = vector
+    out[~taken] = np.nan
+    return jlog3(vector)
 
 
 @dataclass(frozen=True)
@@ -541,6 +656,27 @@ class Distance(Measurement):
                 if columns:
                     jac[0, columns] += sign * (u @ placement.rotation @ derivative)
 
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample."""
+        ma, mb = batch.shared.marker(self.frame_a), batch.shared.marker(self.frame_b)
+        pa, pb = batch.point(self.frame_a, ma), batch.point(self.frame_b, mb)
+        diff = pa - pb
+        dist = np.linalg.norm(diff, axis=1)
+        if np.any(dist < 1e-12):
+            raise DataError(f"measurement '{self.key}': frames '{self.frame_a}' and '{self.frame_b}' coincide at "
+                            f"sample {batch.samples.start + int(np.flatnonzero(dist < 1e-12)[0])} (a zero distance "
+                            "has no direction): measure between two distinct points")
+        out[:, 0] = dist
+        if jac is None:
+            return
+        u = diff / dist[:, None]
+        jac[:] = (batch.derivative(self.frame_a, np.matmul(u[:, None, :], point_rows(pa)))
+                  - batch.derivative(self.frame_b, np.matmul(u[:, None, :], point_rows(pb))))
+        for frame, sign in ((self.frame_a, 1.0), (self.frame_b, -1.0)):
+            columns, derivative = batch.shared.marker_derivative(frame)
+            if columns:
+                jac[:, 0, columns] += sign * np.einsum("ni,nip->np", u, rotate(batch.rotations[frame], derivative))
+
 
 @dataclass(frozen=True)
 class JointReading(Measurement):
@@ -582,6 +718,21 @@ class JointReading(Measurement):
             if jac is not None:
                 jac[0, offset] -= 1.0
 
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample (a tree: the joint moves with the parameters only through its own
+        offset and correction columns when it is actuated)."""
+        jm = batch.shared.model.joints[batch.shared.model.getJointId(self.joint)]
+        q = batch.q
+        out[:, 0] = q[:, jm.idx_q] if jm.nq == 1 else np.arctan2(q[:, jm.idx_q + 1], q[:, jm.idx_q])
+        if jac is not None:
+            for column, regressor in batch.joint_terms.get(self.joint, []):
+                jac[:, 0, column] = regressor
+        offset = batch.shared.reading_offsets.get(self.joint)
+        if offset is not None:
+            out[:, 0] -= batch.shared.x[offset]
+            if jac is not None:
+                jac[:, 0, offset] -= 1.0
+
     def error(self, predicted: Array, measured: Array, model: pin.Model) -> Array:
         """Predicted − measured [rad or m]; a continuous joint's is wrapped to [−π, π)."""
         err = predicted - measured
@@ -601,6 +752,19 @@ def _predict_point(ctx: SampleContext, frame: str, marker: Array, out: Array, ja
         if ctx.base_columns:
             jac[:3, ctx.base_columns] = (ctx.base.rotation @ np.hstack([np.eye(3), -pin.skew(local_point)])
                                          @ ctx.base_jacobian)
+
+
+def _predict_points(batch: BatchContext, frame: str, marker: Array, out: Array, jac: Array | None) -> Array:
+    """:func:`_predict_point` for every sample: columns 0–2 of ``out`` (N, ≥3) and ``jac`` (N, ≥3, p); returns the
+    points (N, 3) [m] in the robot's world frame."""
+    world = batch.point(frame, marker)
+    base = batch.base
+    out[:, :3] = world @ base.rotation.T + base.translation
+    if jac is not None:
+        batch.derivative(frame, point_rows(world, base.rotation), out=jac[:, :3])
+        if batch.shared.base_columns:
+            jac[:, :3, batch.shared.base_columns] = batch.base_columns(world)
+    return world
 
 
 def position(frame: str, sigma: float = 1e-5, marker: str = "",

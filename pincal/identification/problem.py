@@ -23,6 +23,7 @@ import pinocchio as pin
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, listing, not_found
 from pincal.identification import handeye
+from pincal.identification.batch import BatchContext
 from pincal.identification.corrections import Payload, correction_regressors
 from pincal.identification.derivatives import (
     KinematicSensitivity,
@@ -52,12 +53,16 @@ from pincal.identification.parameters import (
     joint_unit,
     offset_parameter,
 )
+from pincal.identification.tree_batch import TreeBatch
 from pincal.model.kinematics import CONTINUATION_STEP, damped_pseudo_inverse
 from pincal.model.robot import SOLVE_TOLERANCE, Robot
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
+#: Samples a tree's batched evaluation takes at once: its intermediates (about 6 × p numbers per sample and measured
+#: frame) stay a few megabytes, whatever the number of samples.
+BATCH_SAMPLES = 2048
 #: Largest entry of the passive joints' response to the loops (C_p⁺) before a sample counts as singular
 #: (an identification step that takes a sample there is rejected).
 SINGULAR_GAIN = 1e8
@@ -191,6 +196,10 @@ class CalibrationProblem:
         #: The cameras and targets (attached placement names) the last :meth:`initial_guess` placed in closed form.
         self.placed_in_closed_form: list[str] = []
         self.not_in_closed_form: list[str] = []  # why the data did not determine a camera's start: one per reading
+        #: A tree's batched evaluation (every sample at once), when its joints allow it; False: sample by sample
+        #: (the closed-loop path, which the benchmarks and tests also run on trees to compare the two).
+        self._tree = TreeBatch(robot, self.frame_ids) if not robot.loops else None
+        self._batched_trees = self._tree is not None and self._tree.unsupported is None
         self._seen: dict[str, npt.NDArray[np.bool_]] = {}
         for m in self.measurements:
             taken = np.all(np.isfinite(observations.values[m.key]), axis=1)
@@ -423,20 +432,44 @@ class CalibrationProblem:
         Without ``joint_sigma`` the residual is ``(predicted − measured)/σ``. The covariance is
         re-evaluated at each call and held constant in the Jacobian, as iteratively re-weighted least
         squares does.
+
+        A tree (no loops) is evaluated for every sample at once (:meth:`_predict_tree`, issue 14); a closed-loop
+        robot, or a tree with a joint kind :mod:`~pincal.identification.tree_batch` does not take, sample by sample
+        (:meth:`_predict_samples`). Both give the same numbers (to 1e-10, tests/identification/test_tree_batch.py).
         """
         x = self._augment(np.asarray(x, dtype=float))
         output_jacobian = jacobian
         jacobian = jacobian or self.joint_sigma is not None
         robot = self.robot_at(x)
-        model, data, kin = robot.model, robot.kinematics.data, robot.kinematics
         n, p = self.observations.n_samples, len(self._all)
         sens = KinematicSensitivity(robot, self._all, x) if jacobian else None
-        probes = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
         base_delta = self._all.placement_delta(x, self.base) if self.base else np.zeros(6)
-        ctx = self._context(model, data, x, base_delta)
+        ctx = self._context(robot.model, robot.kinematics.data, x, base_delta)
         qa_all = self.actuated_values(x)
         preds: dict[str, Array] = {m.key: np.empty((n, m.size)) for m in self.measurements}
-        dpreds: dict[str, Array] = {m.key: np.zeros((n, m.size, p)) for m in self.measurements} if jacobian else {}
+        dpreds: dict[str, Array] = {}
+        if self._batched_trees and not robot.loops:
+            assert self._tree is not None
+            if jacobian:  # kept from one evaluation to the next: _assemble copies them out
+                dpreds = {m.key: self._tree.scratch.array(("jacobian", m.key), (n, m.size, p))
+                          for m in self.measurements}
+                for block in dpreds.values():
+                    block.fill(0.0)
+            self._predict_tree(robot, sens, ctx, qa_all, preds, dpreds)
+        else:
+            if jacobian:
+                dpreds = {m.key: np.zeros((n, m.size, p)) for m in self.measurements}
+            self._predict_samples(robot, sens, ctx, qa_all, preds, dpreds)
+        return self._assemble(preds, dpreds, output_jacobian)
+
+    def _predict_samples(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
+                         preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
+        """Each sample in turn: its configuration (the loops closed), its frames' local twists per parameter (through
+        the loops by the implicit-function theorem), each model's :meth:`Measurement.predict`."""
+        model, data, kin = robot.model, robot.kinematics.data, robot.kinematics
+        n, p = self.observations.n_samples, len(self._all)
+        jacobian = sens is not None
+        probes = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
         passive, act_v = kin.passive_v, kin.actuated_v
         for k in range(n):
             q = self._solve(robot, k, qa_all[k])
@@ -471,7 +504,56 @@ class CalibrationProblem:
             ctx.sample, ctx.q, ctx.twists, ctx.dv = k, q, twists, dv
             for m in self.measurements:
                 m.predict(ctx, preds[m.key][k], dpreds[m.key][k] if jacobian else None)
-        return self._assemble(preds, dpreds, output_jacobian)
+
+    def _predict_tree(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
+                      preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
+        """Every sample at once (a tree, :mod:`pincal.identification.tree_batch`), by blocks of at most
+        :data:`BATCH_SAMPLES`: configurations, the measured frames' placements and spatial twists, each model's
+        :meth:`Measurement.predict_batch`; a model without one is predicted sample by sample from the same
+        configurations and twists."""
+        assert self._tree is not None
+        tree, model, n = self._tree, robot.model, self.observations.n_samples
+        probes = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
+        batched = [m for m in self.measurements if m.batched]
+        one_by_one = [m for m in self.measurements if not m.batched]
+        for start in range(0, n, BATCH_SAMPLES):
+            rows = slice(start, min(n, start + BATCH_SAMPLES))
+            size = rows.stop - rows.start
+            q = tree.configurations(qa_all[rows])
+            placed, origins = tree.forward(model, q)
+            placements = {f: tree.frame_placement(model, placed, f, size) for f in self.frame_ids}
+            terms = [(joint, col, regressor[rows]) for joint, col, regressor in self.actuated_terms]
+            twists = {} if sens is None else {f: tree.twist(f, probes[f], sens, placed, origins, placements[f], terms)
+                                              for f in self.frame_ids}
+            joint_terms: dict[str, list[tuple[int, Array]]] = {}
+            for joint, col, regressor in terms:
+                joint_terms.setdefault(robot.actuated_joints[joint], []).append((col, regressor))
+            batch = BatchContext(ctx, q, {f: placement.rotation for f, placement in placements.items()},
+                                 {f: placement.translation for f, placement in placements.items()}, twists,
+                                 joint_terms, rows)
+            for m in batched:
+                m.predict_batch(batch, preds[m.key][rows], dpreds[m.key][rows] if sens is not None else None)
+            if one_by_one:
+                self._predict_one_by_one(robot, one_by_one, ctx, batch, preds, dpreds)
+
+    def _predict_one_by_one(self, robot: Robot, models: list[Measurement], ctx: SampleContext, batch: BatchContext,
+                            preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
+        """The models without a batched prediction, sample by sample over the block of ``batch``: Pinocchio's frame
+        placements at each configuration, the local twists from the batch's spatial ones."""
+        model, data, act_v = robot.model, robot.kinematics.data, robot.kinematics.actuated_v
+        spatial = {f: twist.full() for f, twist in batch.twists.items()}
+        for row, k in enumerate(range(batch.samples.start, batch.samples.stop)):
+            pin.framesForwardKinematics(model, data, batch.q[row])
+            dv = None
+            if spatial:
+                dv = np.zeros((model.nv, len(self._all)))
+                for joint, col, regressor in self.actuated_terms:
+                    dv[act_v[joint], col] = regressor[k]
+            ctx.sample, ctx.q, ctx.dv = k, batch.q[row], dv
+            ctx.twists = {f: _local_twist(batch.rotations[f][row], batch.translations[f][row], w[row])
+                          for f, w in spatial.items()}
+            for m in models:
+                m.predict(ctx, preds[m.key][k], dpreds[m.key][k] if spatial else None)
 
     def _context(self, model: pin.Model, data: pin.Data, x: Array, base_delta: Array) -> SampleContext:
         """The measurement models' context for one evaluation at ``x`` (per-sample fields unset)."""
@@ -481,9 +563,15 @@ class CalibrationProblem:
                              self.frame_ids, self.observations.values, attached=attached_placements(self._all, x))
 
     def _assemble(self, preds: dict[str, Array], dpreds: dict[str, Array], jacobian: bool) -> Prediction:
+        """Errors, weighted residuals and the Jacobian (written once, into the array returned) from each model's
+        predictions and derivatives."""
         errors: dict[str, Array] = {}
-        blocks, jblocks = [], []
-        for m in self.measurements:
+        blocks = []
+        keep = len(self.parameters)
+        sizes = [int(np.count_nonzero(self.seen(m.key))) * m.size for m in self.measurements]
+        full = np.empty((sum(sizes), keep)) if jacobian else None
+        start = 0
+        for m, size in zip(self.measurements, sizes, strict=True):
             measured = self.observations.values[m.key]
             err = m.error(preds[m.key], measured, self.robot.model)
             weights = m.row_sigmas()
@@ -494,18 +582,19 @@ class CalibrationProblem:
                     jac = np.concatenate([np.zeros((1, *jac.shape[1:])), jac[1:] - jac[:-1]])
             rows = np.flatnonzero(self.seen(m.key))  # a reading not taken has no rows (its error stays NaN)
             errors[m.key] = err
-            keep = len(self.parameters)
+            block = None if full is None else full[start:start + size].reshape(rows.size, m.size, keep)
+            start += size
             if self.joint_sigma is None or jac is None:
                 blocks.append((err[rows] / weights).reshape(-1))
-                if jacobian and jac is not None:
-                    jblocks.append((jac[rows][..., :keep] / weights[None, :, None]).reshape(-1, keep))
+                if block is not None and jac is not None:
+                    taken = jac if rows.size == len(jac) else jac[rows]
+                    np.divide(taken[..., :keep], weights[None, :, None], out=block)
                 continue
             white_err, white_jac = self._whiten(err[rows], jac[rows], weights, dpreds[m.key], m.incremental, rows)
             blocks.append(white_err.reshape(-1))
-            if jacobian:
-                jblocks.append(white_jac[..., :keep].reshape(-1, keep))
+            if block is not None:
+                block[...] = white_jac[..., :keep]
         residual = np.concatenate(blocks)
-        full = np.vstack(jblocks) if jacobian else None
         return Prediction(residual, full, errors, preds)
 
     def _whiten(self, err: Array, jac: Array, weights: Array, absolute_jac: Array,
@@ -551,3 +640,11 @@ def _closed_form(model: Measurement, a: list[pin.SE3], values: Array, translatin
     assert isinstance(model, Pose)
     own, world = solve(a, seen)
     return own, world, (target_name(model.frame, model.target), "")
+
+
+def _local_twist(rotation: Array, translation: Array, spatial: Array) -> Array:
+    """(6, p) a frame's local twist ``Ad(oMf⁻¹) W`` from its spatial twist ``W`` (6, p), the frame at ``rotation``,
+    ``translation`` [m]: ``(Rᵀ (W_v − t × W_ω), Rᵀ W_ω)``."""
+    local: Array = np.vstack([rotation.T @ (spatial[:3] - np.cross(translation, spatial[3:], axis=0)),
+                              rotation.T @ spatial[3:]])
+    return local
