@@ -102,13 +102,19 @@ def ur10_with_target(directory: Path) -> pincal.Robot:
     return pincal.load_robot(str(path))
 
 
+def geometric(joints: list[str]) -> list[str]:
+    """The patterns of the joints' placements and reading offsets (``<joint>.*`` would also name their harmonics
+    and compliance, which neither tool estimates here)."""
+    return [f"{j}.{c}" for j in joints for c in ("[tr]?", "offset")]
+
+
 def truth(robot: pincal.Robot, unknown_frames: bool, six_d: bool,
           rng: np.random.Generator) -> tuple[ParameterSet, Array]:
     """The true deviations over joints, offsets, base and target (base and target zero when known; the
     target's rotation, which no position shows, only for 6D)."""
     joints = robot.actuated_joints
     pset = choose_parameters(robot, [position(MARKER_LINK)],
-                             [f"{j}.*" for j in joints] + ["base.*", f"{MARKER_JOINT}.*"])
+                             [*geometric(joints), "base.*", f"{MARKER_JOINT}.*"])
     x = np.zeros(len(pset))
     for k, p in enumerate(pset):
         if p.kind == "offset":
@@ -125,7 +131,7 @@ def truth(robot: pincal.Robot, unknown_frames: bool, six_d: bool,
 
 def estimated_set(robot: pincal.Robot, unknown_frames: bool, six_d: bool) -> ParameterSet:
     """pincal's unknowns: the joints' placements and offsets (+ base and target when unknown)."""
-    patterns = [f"{j}.*" for j in robot.actuated_joints]
+    patterns = geometric(robot.actuated_joints)
     if unknown_frames:
         patterns += ["base.*", f"{MARKER_JOINT}.*" if six_d else f"{MARKER_JOINT}.t?"]
     return choose_parameters(robot, [position(MARKER_LINK)], patterns)

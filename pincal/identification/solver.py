@@ -20,7 +20,9 @@ more at second order than at first), so plain LM crawls there: each smaller λ i
 rejected step on, ``lm`` adds Transtrum & Sethna's geodesic acceleration (one residual evaluation per
 trial, :func:`pincal.identification.lm.accelerated`). Each iteration reduces ``[J_s | r]`` by one QR and takes
 the SVD of its small triangle (:class:`pincal.identification.lm.Steps`), reused for every trial; a trial point is
-evaluated without the Jacobian, which is computed once a step is accepted. Two stops end the crawl once it cannot matter
+evaluated without the Jacobian, which is computed once a step is accepted, but for the first trial of an iteration
+while no first trial has been rejected (then it is evaluated with its Jacobian: a closed-loop robot's residual costs
+most of a full evaluation). Two stops end the crawl once it cannot matter
 (:func:`pincal.identification.lm.settled`): an exact fit (every error within 100 × the FK tolerance,
 1 nm) and, for noisy
 data, a cost at the noise level whose remaining Gauss–Newton improvement along the practically identified
@@ -444,6 +446,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
     accelerate = False  # geodesic acceleration: on from the first rejected LM step
     counts = {"rejected": 0, "evaluations": 1, "accelerated": 0}
     kept: list[int] = []
+    eager_first = True  # evaluate the next first trial with its Jacobian (no first trial rejected yet)
     for it in range(1, max_iter + 1):
         assert pred.jacobian is not None
         steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
@@ -458,17 +461,23 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         shrink = 1.0
         dz: Array | None = None
         new: Prediction | None = None
-        for _ in range(12):
+        for attempt in range(12):
             dz = steps.solve(lam) * shrink
             if accelerate:
                 counts["evaluations"] += 1
                 dz = lm.accelerated(problem, x, d, rw, dz, steps, lam)
                 counts["accelerated"] += int(dz is not None)
-            # a trial needs only the residual; the Jacobian is computed once a step is accepted
-            trial = lm.evaluated(problem, x + d * dz, jacobian=False) if dz is not None else None
+            # a trial needs only the residual, and the Jacobian is computed once a step is accepted; but while the
+            # first trials are accepted (the previous iteration's was) the first is evaluated with its Jacobian at
+            # once: a closed-loop robot's residual alone costs most of a full evaluation
+            eager = eager_first and attempt == 0
+            trial = lm.evaluated(problem, x + d * dz, jacobian=eager) if dz is not None else None
             counts["evaluations"] += int(dz is not None)
             if trial is not None:
                 new_cost = 0.5 * float(np.sum((rw * trial.residual) ** 2))
+                if new_cost <= cost and eager:
+                    new, accepted = trial, True
+                    break
                 if new_cost <= cost:
                     assert dz is not None
                     steps.release()  # the m × n reflectors go before the new Jacobian is built
@@ -478,6 +487,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
                         accepted = True
                         break
                     steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
+            eager_first = False
             counts["rejected"] += 1
             if solver == "lm":
                 lam *= 10.0
