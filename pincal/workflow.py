@@ -20,7 +20,7 @@ import numpy.typing as npt
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
-from pincal.identification.corrections import Payload
+from pincal.identification.corrections import Payload, moving_mass
 from pincal.identification.identifiability import describe_unidentifiable
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.measurements import JointReading, Measurement, Pose, parse_key
@@ -243,7 +243,7 @@ class Calibration:
 def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | None = None, solver: Solver = "lm",
               loss: Loss = "auto", sigma: float | None = None, x_true: Array | None = None,
               pose_sigma_angle: float | None = None, formulation: Formulation = "fkm",
-              max_iter: int = 100, select: str = "auto", cv: str | None = None,
+              max_iter: int = 100, select: str = "auto", cv: str | None = None, cv_seed: int = 0,
               progress: bool = False, markers: MarkerFit = "each", payload: Payload | None = None) -> Calibration:
     """Identify ``robot``'s parameters from the ``train`` samples; evaluate on the ``test`` samples.
 
@@ -252,7 +252,8 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     fits every identifiable parameter; ``auto`` (default) is ``bic`` for the default parameter set and ``none``
     for a set named by ``parameter_spec`` (a model the user chose is fitted as chosen). ``cv``: ``K``, ``KxR``
     or ``loo`` runs K-fold cross-validation (R times) of the whole fit, selection included, over every usable
-    sample of the file (:func:`cross_validate`); the report gets ``cv``. ``progress`` shows the folds on stderr
+    sample of the file (:func:`cross_validate`), the shuffles seeded ``cv_seed``, ``cv_seed + 1``, …; the report
+    gets ``cv``. ``progress`` shows the folds on stderr
     (when it is a terminal).
 
     ``formulation``: ``fkm`` (measured − predicted by forward kinematics) or ``ikm`` (implicit loop
@@ -307,10 +308,12 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
         named = parameter_spec is not None and len(parameter_spec) > 0 and list(parameter_spec) != [DEFAULT_SET]
         select = "none" if named or formulation != "fkm" else "bic"
     folds, every = None, None
+    if cv is None and cv_seed:
+        raise DataError(f"--cv-seed {cv_seed} seeds the shuffles of --cv; give --cv too (e.g. --cv 5x4)")
     if cv is not None:  # checked before any fit
         check_cross_validation(models, formulation)
         usable, _ = usable_part(robot, dataset)
-        folds = parse_cv(cv, usable.n_samples)
+        folds = parse_cv(cv, usable.n_samples, cv_seed)
         every = observations_from(robot, usable.joint_names, usable.joints, usable.measurements, models)
     problem = CalibrationProblem(robot, pset, models, obs, payload=payload)
     full_set, removed, first = pset, [], None
@@ -336,6 +339,8 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     corrections = corrections_of(robot, pset, result.x, payload)
     report["corrections"] = corrections.joints if corrections is not None else {}
     report["payload"] = payload.as_dict() if payload is not None else None
+    if payload is not None:  # what its mass is weighed against [kg]
+        report["links_mass"] = moving_mass(robot)
     report["markers"] = markers
     report["formulation"] = formulation
     report["selection"] = {"policy": select if formulation == "fkm" else "none", "removed": removed,
@@ -403,25 +408,35 @@ SELECT_CHOICES = ("auto", *SELECTIONS)
 
 @dataclass(frozen=True)
 class Folds:
-    """A cross-validation plan: ``k`` folds (``k`` = the sample count for leave-one-out), ``repeats`` shuffles."""
+    """A cross-validation plan: ``k`` folds (``k`` = the sample count for leave-one-out), ``repeats`` shuffles, the
+    ``r``-th drawn from a permutation seeded ``seed + r``."""
 
     k: int
     repeats: int
     leave_one_out: bool = False
+    seed: int = 0
 
     @property
     def label(self) -> str:
         """How the plan reads in a report: ``5-fold × 4`` or ``leave-one-out``."""
-        return "leave-one-out" if self.leave_one_out else f"{self.k}-fold" + (f" × {self.repeats}"
-                                                                              if self.repeats > 1 else "")
+        if self.leave_one_out:
+            return "leave-one-out"
+        label = f"{self.k}-fold" + (f" × {self.repeats}" if self.repeats > 1 else "")
+        if self.seed:
+            last = self.seed + self.repeats - 1
+            label += f", shuffle seed {self.seed}" if last == self.seed else f", shuffle seeds {self.seed}–{last}"
+        return label
 
 
-def parse_cv(text: str, n_samples: int) -> Folds:
-    """``K``, ``KxR`` (K folds, R shuffles) or ``loo`` as a :class:`Folds`, for ``n_samples`` usable samples.
+def parse_cv(text: str, n_samples: int, seed: int = 0) -> Folds:
+    """``K``, ``KxR`` (K folds, R shuffles, seeded ``seed``, ``seed + 1``, …) or ``loo`` as a :class:`Folds`, for
+    ``n_samples`` usable samples.
 
     Raises:
-        DataError: another text, K < 2, K above the sample count, or R outside 1..100.
+        DataError: another text, K < 2, K above the sample count, R outside 1..100, or a negative seed.
     """
+    if seed < 0:
+        raise DataError(f"--cv-seed {seed}: give a whole number ≥ 0")
     word = text.strip().lower()
     if word == "loo":
         return Folds(n_samples, 1, leave_one_out=True)
@@ -431,7 +446,7 @@ def parse_cv(text: str, n_samples: int) -> Folds:
     k, repeats = int(match.group(1)), int(match.group(2) or 1)
     if not 2 <= k <= n_samples or not 1 <= repeats <= 100:
         raise DataError(f"--cv '{text}': K must lie between 2 and the {n_samples} usable samples, R between 1 and 100")
-    return Folds(k, repeats)
+    return Folds(k, repeats, seed=seed)
 
 
 def check_cross_validation(models: Sequence[Measurement], formulation: str) -> None:
@@ -450,21 +465,24 @@ def check_cross_validation(models: Sequence[Measurement], formulation: str) -> N
 
 
 def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measurement], obs: Observations, folds: Folds,
-                   select: str = "bic", seed: int = 0, progress: bool = False, payload: Payload | None = None,
+                   select: str = "bic", progress: bool = False, payload: Payload | None = None,
                    **options: Any) -> dict[str, Any]:
     """K-fold cross-validation of the whole fit (selection and robust starts included): each fold is fitted
     without its samples and predicts them (with the ``payload`` of the compliance terms, if any).
 
-    Folds are drawn from a permutation seeded by ``seed + repeat``. A fold whose fit fails is listed and left out;
+    The ``r``-th shuffle is a permutation seeded ``folds.seed + r``. A fold whose fit fails is listed and left out;
     one whose fit stopped short of convergence is counted. Returns the plan, the RMS position error of the
-    predictions [m] (``rms``, pooled over every fold and repeat; None when no fold could be fitted) and of the
+    predictions [m] (``rms``, pooled over every fold and repeat; None when no fold could be fitted), the same per
+    length-type reading when there are several (``rms_by_reading``, e.g. each marker of a body) and of the
     orientation [rad] for poses (``rms_angle``), the predictions' count, the failed fits and the unconverged ones.
     """
     n = obs.n_samples
     lengths, angles, failed, unconverged = [], [], [], 0
+    by_reading: dict[str, list[Array]] = {m.key: [] for m in models if length_columns(m.key)}
     with Progress(f"cross-validation ({folds.label})", folds.k * folds.repeats, quiet=not progress) as bar:
         for repeat in range(folds.repeats):
-            order = np.arange(n) if folds.leave_one_out else np.random.default_rng(seed + repeat).permutation(n)
+            order = (np.arange(n) if folds.leave_one_out
+                     else np.random.default_rng(folds.seed + repeat).permutation(n))
             for f in range(folds.k):
                 bar.advance()
                 test = np.sort(order[f::folds.k])
@@ -481,10 +499,15 @@ def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measuremen
                 unconverged += not fitted.result.converged
                 lengths.append(error_norms(errors))
                 angles.append(angle_error_norms(errors))
+                for key, parts in by_reading.items():
+                    parts.append(error_norms(errors, [key]))
     pooled = np.concatenate(lengths) if lengths else np.zeros(0)
     out: dict[str, Any] = {"plan": folds.label, "n_samples": n, "n_predictions": int(pooled.size),
                            "rms": rms(pooled) if pooled.size else None, "failed_folds": failed,
                            "unconverged_folds": int(unconverged)}
+    if len(by_reading) > 1 and pooled.size:
+        joined = {key: np.concatenate(parts) for key, parts in by_reading.items()}
+        out["rms_by_reading"] = {key: rms(v) if v.size else None for key, v in joined.items()}
     turned = np.concatenate(angles) if angles else np.zeros(0)
     if turned.size:
         out["rms_angle"] = rms(turned)
@@ -676,6 +699,12 @@ def calibrate_job(job: Job) -> Calibration:
     options; the outputs are checked before the fit (never over an input, the job file included) and each is written
     whole or not at all."""
     robot = load_job_robot(job)
+    payload = job.options.get("payload")
+    if payload is not None and "payload" not in job.overrides:  # the job's own: name the file
+        try:
+            payload.check(robot)
+        except PincalError as exc:
+            raise type(exc)(f"{job.path}: {exc}") from None
     beside = corrections_path(job.out) if job.out else None
     outputs = [(what, path) for what, path in (("out", job.out), ("report", job.report),
                                                ("out (its corrections file)", beside)) if path]

@@ -128,7 +128,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     # options not given are None: a job file's value stands, else calibrate()'s default
     given = {"parameter_spec": args.parameters, "solver": args.solver, "loss": args.loss, "sigma": args.sigma,
              "formulation": args.formulation, "max_iter": args.max_iter, "select": args.select, "cv": args.cv,
-             "markers": args.markers, "payload": args.payload}
+             "cv_seed": args.cv_seed, "markers": args.markers, "payload": args.payload}
     options = {name: value for name, value in given.items() if value is not None}
     job_file = args.robot.endswith(JOB_SUFFIX)
     if job_file and args.data is not None:
@@ -171,6 +171,16 @@ def _column(value: str) -> str:
     return f" {value:>13}"
 
 
+def _heavy_payload(report: dict[str, Any]) -> str | None:
+    """A warning when the payload outweighs every moving link of the robot together (grams typed as kilograms, a
+    load meant for another robot)."""
+    payload, links = report.get("payload"), report.get("links_mass")
+    if not payload or links is None or payload["mass"] <= links:
+        return None
+    return (f"warning: the payload ({payload['mass']:g} kg) outweighs all the robot's moving links together "
+            f"({links:.3g} kg, from the URDF): check its mass [kg] and its frame")
+
+
 def _summary(report: dict[str, Any], seconds: float, report_path: str | None = None) -> str:
     lines = [f"NOT CONVERGED: {report['message']} after {report['iterations']} iterations; the estimate below is "
              "where the solver stopped, not a calibration (try --max-iter, fewer --parameters or more samples)"
@@ -189,6 +199,7 @@ def _summary(report: dict[str, Any], seconds: float, report_path: str | None = N
              _selection_line(report),
              f"payload {payload_from_dict(report['payload'])}, in the gravity torque of the compliances"
              if report.get("payload") else None,
+             _heavy_payload(report),
              f"solver {report['solver']}, loss {report['loss']}: {report['message']} after {report['iterations']} "
              f"iterations, {seconds:.3f} s",
              "",
@@ -258,6 +269,8 @@ def _generalization(report: dict[str, Any]) -> list[str]:
     elif cv:
         lines.append(f"{'RMS position error (cross-val.)':32}{'':>14}{_mm(cv['rms']):>14}  ({cv['plan']}, "
                      f"{cv['n_samples']} samples, {cv['n_predictions']} predictions)")
+        for key, value in (cv.get("rms_by_reading") or {}).items():
+            lines.append(f"{'  ' + key:32}{'':>14}{_mm(value):>14}")
         if "rms_angle" in cv:
             lines.append(f"{'RMS orientation error (cross-val.)':32}{'':>14}{_mrad(cv['rms_angle']):>14}")
         if cv.get("failed_folds"):

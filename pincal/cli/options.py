@@ -97,6 +97,10 @@ def add_selection_and_cv(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cv", metavar="K|KxR|loo",
                         help="cross-validate the whole fit over every usable sample of the file: K folds, KxR "
                              "(R shuffles, e.g. 5x4) or loo (leave one out); prints the cross-validated RMS")
+    parser.add_argument("--cv-seed", type=non_negative_int, metavar="N",
+                        help="seed of the first --cv shuffle (the R shuffles are seeded N, N+1, …; default 0): the "
+                             "cross-validated figure depends on how the samples fall into folds, and other seeds "
+                             "show by how much")
 
 
 def add_markers(parser: argparse.ArgumentParser) -> None:

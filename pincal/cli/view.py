@@ -43,8 +43,8 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
     if not args.quiet:
         print(f"calibrating '{robot.name}' from {dataset.n_samples} samples ...", file=sys.stderr)
     calibration = calibrate(robot, dataset, parameter_spec=args.parameters, solver=args.solver, loss=args.loss,
-                            sigma=args.sigma, select=args.select, cv=args.cv, markers=args.markers,
-                            payload=args.payload)
+                            sigma=args.sigma, select=args.select, cv=args.cv, cv_seed=args.cv_seed or 0,
+                            markers=args.markers, payload=args.payload)
     return CalibrationView.from_calibration(calibration), dataset, calibration
 
 

@@ -107,6 +107,12 @@ class Payload:
         return robot.frame_id(self.frame, "payload: ")
 
 
+def moving_mass(robot: Robot) -> float:
+    """The mass [kg] of every link a joint moves, together (the URDF's inertias): what a payload's mass is weighed
+    against for plausibility."""
+    return float(sum(inertia.mass for inertia in robot.model.inertias[1:]))
+
+
 def payload_from_dict(value: Any, context: str = "") -> Payload | None:
     """A :class:`Payload` from ``{"mass": ..., "frame": ..., "offset": [...]}`` (offset optional), None from None.
 

@@ -47,9 +47,11 @@ class Corrections:
 
 
 def corrections_path(urdf: str | Path) -> Path:
-    """Where the corrections of a calibrated URDF go: ``cal.urdf`` -> ``cal.corrections.json``."""
+    """Where the corrections of a calibrated URDF go: ``cal.urdf`` -> ``cal.corrections.json``; a name without the
+    ``.urdf`` suffix keeps its own (``cal.xml`` -> ``cal.xml.corrections.json``), so that two outputs never share
+    one corrections file."""
     path = Path(urdf)
-    return path.with_name(f"{path.stem}.corrections.json")
+    return path.with_name(f"{path.stem if path.suffix.lower() == '.urdf' else path.name}.corrections.json")
 
 
 def corrections_of(robot: Robot, parameters: ParameterSet, x: Array,

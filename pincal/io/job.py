@@ -38,14 +38,15 @@ FORMULATIONS = ("fkm", "ikm")
 
 #: Keys of each level of a job file.
 JOB_KEYS = ("robot", "data", "joints", "measure", "out", "report", "parameters", "select", "loss", "solver", "sigma",
-            "max_iter", "formulation", "cv", "payload")
+            "max_iter", "formulation", "cv", "cv_seed", "payload")
 DATA_KEYS = ("file", "files", "units", "held_out", "sample", "ignore")
 UNIT_KEYS = ("length", "angle")
 MEASURE_KEYS = ("kind", "frame", "frames", "columns", "sigma", "sigma_angle")
 PAYLOAD_KEYS = ("mass", "frame", "offset")
 #: Job keys that are options of :func:`pincal.workflow.calibrate`, and the keyword each becomes.
 OPTIONS = {"parameters": "parameter_spec", "select": "select", "loss": "loss", "solver": "solver", "sigma": "sigma",
-           "max_iter": "max_iter", "formulation": "formulation", "cv": "cv", "payload": "payload"}
+           "max_iter": "max_iter", "formulation": "formulation", "cv": "cv", "cv_seed": "cv_seed",
+           "payload": "payload"}
 #: ``held_out = "every 5th from 4"``: every K-th row of the data, counted from 0 over the files in order.
 EVERY = re.compile(r"every\s+(\d+)(?:st|nd|rd|th)?(?:\s+from\s+(\d+))?", re.IGNORECASE)
 
@@ -92,7 +93,8 @@ class Job:
         out: The calibrated URDF to write, or None.
         report: The report JSON to write, or None.
         options: Keyword arguments of :func:`pincal.workflow.calibrate` (``parameter_spec``, ``select``, ``loss``,
-            ``solver``, ``sigma`` [m], ``max_iter``, ``formulation``, ``cv``, ``payload``), those the job gives.
+            ``solver``, ``sigma`` [m], ``max_iter``, ``formulation``, ``cv``, ``cv_seed``, ``payload``), those the
+            job gives.
         length_unit: The data files' length unit (a key of :data:`LENGTH_UNITS`).
         angle_unit: The data files' angle unit (a key of :data:`ANGLE_UNITS`).
         held_out: Which rows are held out, or None.
@@ -100,6 +102,7 @@ class Job:
         ignore: Columns of the data files that are not read.
         joints: Joint name -> the column of its readings, those the job maps.
         measures: The measurements and their columns.
+        overrides: The options given elsewhere (the command line) in place of the job's, by name.
     """
 
     path: Path
@@ -116,6 +119,7 @@ class Job:
     ignore: tuple[str, ...] = ()
     joints: dict[str, str] = field(default_factory=dict)
     measures: tuple[MeasureColumns, ...] = ()
+    overrides: tuple[str, ...] = ()
 
     def overridden(self, out: str | Path | None = None, report: str | Path | None = None,
                    **options: Any) -> Job:
@@ -128,9 +132,10 @@ class Job:
         for name in options:
             if name not in OPTIONS.values():
                 raise not_found("option", name, OPTIONS.values(), " of calibrate()")
+        given = {k: v for k, v in options.items() if v is not None}
         return replace(self, out=Path(out) if out is not None else self.out,
                        report=Path(report) if report is not None else self.report,
-                       options={**self.options, **{k: v for k, v in options.items() if v is not None}})
+                       options={**self.options, **given}, overrides=tuple(sorted({*self.overrides, *given})))
 
 
 def read_job(path: str | Path) -> Job:
@@ -333,6 +338,8 @@ class _Reader:
             if not re.fullmatch(r"\d+(x\d+)?|loo", cv, re.IGNORECASE):
                 raise self.error("cv", f"'{cv}' is not K (folds), KxR (K folds, R shuffles, e.g. \"5x4\") or \"loo\"")
             options["cv"] = cv
+        if "cv_seed" in doc:
+            options["cv_seed"] = self.whole(doc["cv_seed"], "cv_seed", 0)
         if "payload" in doc:
             payload = self.table(doc["payload"], "payload")
             self.keys(payload, PAYLOAD_KEYS, "in payload")

@@ -79,6 +79,11 @@ def mm_text(value: float | None, digits: int = 4) -> str:
     return "–" if value is None or not math.isfinite(value) else f"{value * 1e3:.{digits}f} mm"
 
 
+def mrad_text(value: float | None, digits: int = 4) -> str:
+    """An angle [rad] as text in mrad, "–" when missing or not finite."""
+    return "–" if value is None or not math.isfinite(value) else f"{value * 1e3:.{digits}f} mrad"
+
+
 def _in_unit(value: float | None, unit: str) -> str:
     if value is None or not math.isfinite(value):
         return "–"
@@ -202,6 +207,11 @@ def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
                    f"{report.get('iterations')} iterations", ""),  # no wall time: same inputs, same file
         ("a-posteriori variance factor σ²", f"{report['sigma2']:.3g}" if report.get("sigma2") else "–", ""),
     ]
+    payload = report.get("payload")
+    if payload:
+        x, y, z = payload["offset"]
+        rows.append(("payload (in the gravity torque of the compliances)",
+                     f"{payload['mass']:g} kg on {payload['frame']} at ({x:g}, {y:g}, {z:g}) m", ""))
     table = ['<table><tr><th></th><th>before</th><th>after</th></tr>']
     numbers = [("RMS position error (fit)", "rms_before", "rms_after"),
                ("max position error (fit)", "max_before", "max_after")]
@@ -211,10 +221,22 @@ def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
     for label, b, a in numbers:
         table.append(f"<tr><td>{label}</td><td class='before'>{mm_text(report.get(b))}</td>"
                      f"<td class='after'>{mm_text(report.get(a))}</td></tr>")
+    angles = [("RMS orientation error (fit)", "rms_angle_before", "rms_angle_after"),
+              ("RMS orientation error (held out)", "test_rms_angle_before", "test_rms_angle_after")]
+    for label, b, a in angles:
+        if b in report:
+            table.append(f"<tr><td>{label}</td><td class='before'>{mrad_text(report.get(b))}</td>"
+                         f"<td class='after'>{mrad_text(report.get(a))}</td></tr>")
     cv = report.get("cv")
     if cv:
         table.append(f"<tr><td>RMS position error (cross-validated, {html.escape(cv['plan'])}, {cv['n_samples']} "
                      f"samples)</td><td></td><td class='after'>{mm_text(cv['rms'])}</td></tr>")
+        for key, value in (cv.get("rms_by_reading") or {}).items():
+            table.append(f"<tr><td>&nbsp;&nbsp;{html.escape(key)}</td><td></td>"
+                         f"<td class='after'>{mm_text(value)}</td></tr>")
+        if "rms_angle" in cv:
+            table.append(f"<tr><td>RMS orientation error (cross-validated)</td><td></td>"
+                         f"<td class='after'>{mrad_text(cv['rms_angle'])}</td></tr>")
     if report.get("calibration_gain") is not None:
         table.append(f"<tr><td>calibration gain G (study 000, vs the truth)</td><td></td>"
                      f"<td>{report['calibration_gain']:.1f} %</td></tr>")

@@ -171,6 +171,35 @@ def test_cross_validation_through_the_cli(tmp_path: Path) -> None:
 TIAGO_MARKERS = TIAGO_DATA.with_name("tiago_mocap_markers.csv")
 
 
+def test_cross_validation_seed_and_each_markers_figure(tmp_path: Path) -> None:
+    """``--cv-seed`` moves the folds (other postures fall together, another figure, the seeds in the plan's name);
+    with three markers the cross-validated RMS of each marker is printed and reported, and pooling them gives the
+    figure of all readings."""
+    from conftest import run_pincal
+
+    figures = {}
+    for seed in ("0", "7"):
+        report = tmp_path / f"report{seed}.json"
+        done = run_pincal("calibrate", "tiago_no_hand", str(TIAGO_MARKERS), "--cv", "3x2", "--cv-seed", seed,
+                          "--report", str(report))
+        assert done.returncode == 0, done.stderr
+        cv = json.loads(report.read_text())["cv"]
+        assert cv["plan"] == ("3-fold × 2" if seed == "0" else "3-fold × 2, shuffle seeds 7–8")
+        assert f"({cv['plan']}, 34 samples, 204 predictions)" in done.stdout
+        by_marker = cv["rms_by_reading"]
+        assert sorted(by_marker) == [f"position:wrist_ft_tool_link@m{k}" for k in (1, 2, 3)]
+        for key, value in by_marker.items():
+            assert f"  {key}" in done.stdout and f"{value * 1e3:.4f} mm" in done.stdout
+        # 68 predictions per marker: the pooled RMS is the root of the markers' mean square
+        assert np.isclose(cv["rms"], np.sqrt(np.mean(np.square(list(by_marker.values())))), rtol=1e-12)
+        figures[seed] = cv["rms"]
+    assert figures["0"] != figures["7"]
+    done = run_pincal("calibrate", "tiago_no_hand", str(TIAGO_MARKERS), "--cv-seed", "3")
+    assert done.returncode == 2 and done.stderr.count("\n") == 1 and "give --cv too" in done.stderr, done.stderr
+    done = run_pincal("calibrate", "tiago_no_hand", str(TIAGO_MARKERS), "--cv", "5", "--cv-seed", "-1")
+    assert done.returncode == 2 and "--cv-seed" in done.stderr and "Traceback" not in done.stderr, done.stderr
+
+
 def test_real_tiago_data_with_three_markers(tmp_path: Path) -> None:
     """The TIAGo hand's markers 1–3 as m1, m2, m3 on wrist_ft_tool_link (marker 4 duplicates 3): the default command
     fits each marker's offset with the robot and the mocap frame, reports its RMS over the 84 marker readings of
@@ -296,6 +325,22 @@ def test_the_html_report_shows_selection_and_cross_validation(tmp_path: Path) ->
     text = page.read_text()
     assert "estimated (after model selection)</td><td>25 (left out: rotations)" in text
     assert "RMS position error (cross-validated, 3-fold, 34 samples)" in text
+
+
+def test_the_html_report_shows_the_payload_and_each_markers_cross_validated_error(tmp_path: Path) -> None:
+    from conftest import run_pincal
+
+    page, report = tmp_path / "report.html", tmp_path / "report.json"
+    options = ["--parameters", "default", "*.compliance", "--payload", "2@arm_7_link:0,0,0.05", "--cv", "3"]
+    done = run_pincal("report", "tiago_no_hand", str(TIAGO_MARKERS), *options, "--quiet", "--out", str(page))
+    assert done.returncode == 0, done.stderr
+    assert run_pincal("calibrate", "tiago_no_hand", str(TIAGO_MARKERS), *options, "--report",
+                      str(report)).returncode == 0
+    text, cv = page.read_text(), json.loads(report.read_text())["cv"]
+    assert ("<tr><td>payload (in the gravity torque of the compliances)</td>"
+            "<td>2 kg on arm_7_link at (0, 0, 0.05) m</td></tr>") in text
+    for key, value in cv["rms_by_reading"].items():
+        assert f"<tr><td>&nbsp;&nbsp;{key}</td><td></td><td class='after'>{value * 1e3:.4f} mm</td></tr>" in text
 
 
 def test_cross_validation_and_selection_refuse_what_they_cannot_mean(five_bar_csv: Path) -> None:

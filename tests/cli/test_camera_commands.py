@@ -207,3 +207,21 @@ def test_a_camera_reading_with_some_cells_empty_is_refused_as_a_target_not_seen(
     assert done.returncode == 2, done.stderr
     assert done.stderr.startswith("pincal: error: half.csv: column 'camera:tool0:x', line 3: the cell is empty")
     assert "a target that was not seen leaves all the cells of 'camera:tool0' empty" in done.stderr, done.stderr
+
+
+def test_the_html_report_gives_a_camera_s_orientation_errors(tmp_path: Path) -> None:
+    """``pincal report`` on camera readings: the orientation rows (fit and held out, before and after, in mrad) beside
+    the position rows, the same figures as the report JSON of ``calibrate``."""
+    sim = run_pincal("simulate", "ur10", "--measure", "camera:tool0", "--samples", "30", "--test-samples", "10",
+                     "--seed", "3", "--quiet", "--out", str(tmp_path))
+    assert sim.returncode == 0, sim.stderr
+    data, page, report = tmp_path / "measurements.csv", tmp_path / "report.html", tmp_path / "report.json"
+    assert run_pincal("report", "ur10", str(data), "--quiet", "--out", str(page)).returncode == 0
+    assert run_pincal("calibrate", "ur10", str(data), "--report", str(report)).returncode == 0
+    result, text = json.loads(report.read_text()), page.read_text()
+    for label, before, after in (("RMS orientation error (fit)", "rms_angle_before", "rms_angle_after"),
+                                 ("RMS orientation error (held out)", "test_rms_angle_before", "test_rms_angle_after")):
+        row = (f"<tr><td>{label}</td><td class='before'>{result[before] * 1e3:.4f} mrad</td>"
+               f"<td class='after'>{result[after] * 1e3:.4f} mrad</td></tr>")
+        assert row in text, label
+    assert result["test_rms_angle_after"] < 1e-4 < 1e-3 < result["test_rms_angle_before"]

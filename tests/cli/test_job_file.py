@@ -98,7 +98,7 @@ def test_an_unknown_key_is_named_with_the_valid_ones(tmp_path: Path) -> None:
     line = one_line_error(run_pincal("calibrate", str(job)))
     assert line == (f"pincal: error: {job}: key 'slover' does not exist at the top level; keys are: robot, data, "
                     "joints, measure, out, report, parameters, select, loss, solver, sigma, max_iter, formulation, cv, "
-                    "payload")
+                    "cv_seed, payload")
 
 
 def test_a_data_file_is_looked_for_beside_the_job(tmp_path: Path) -> None:
@@ -185,3 +185,33 @@ def test_a_jobs_payload_reaches_the_corrections_file_and_the_command_line_overri
     refused = run_pincal("calibrate", str(job), "--parameters", "default")
     assert "the payload (1.5 kg on wrist_ft_tool_link at (0, 0, 0.05) m) enters only the joint compliances" in \
         one_line_error(refused)
+
+
+def test_a_payload_frame_the_robot_lacks_names_the_job_or_the_option(tmp_path: Path) -> None:
+    """The job's own payload on a frame the robot lacks: the error names the job file; the same mistake in --payload
+    (which overrides the job's) does not blame the file."""
+    job = copy_job(tmp_path, str(RAW), **{
+        '# out = "tiago_calibrated.urdf"': 'parameters = ["default", "*.compliance"]\n'
+                                           'payload = { mass = 1.5, frame = "no_such_link" }'})
+    line = one_line_error(run_pincal("calibrate", str(job)))
+    assert line.startswith(f"pincal: error: {job}: payload: frame 'no_such_link' does not exist in robot 'tiago'")
+    line = one_line_error(run_pincal("calibrate", str(job), "--payload", "1@nowhere"))
+    assert line.startswith("pincal: error: payload: frame 'nowhere' does not exist in robot 'tiago'"), line
+
+
+def test_a_payload_heavier_than_the_robot_is_flagged_and_outputs_never_share_a_corrections_file(tmp_path: Path) -> None:
+    """1000 kg on the TIAGo's wrist (its moving links weigh about 22 kg in the URDF) gets a warning naming both
+    masses; a plausible 2 kg none. An output not named .urdf keeps its whole name in its corrections file."""
+    job = copy_job(tmp_path, str(RAW), **{
+        '# out = "tiago_calibrated.urdf"': 'parameters = ["default", "*.compliance"]\n'
+                                           'payload = { mass = 1000.0, frame = "arm_7_link" }'})
+    heavy = run_pincal("calibrate", str(job), "--out", str(tmp_path / "cal.urdf2"), "--report",
+                       str(tmp_path / "heavy.json"))
+    assert heavy.returncode == 0, heavy.stderr
+    links = json.loads((tmp_path / "heavy.json").read_text(encoding="utf-8"))["links_mass"]
+    assert 15 < links < 30  # kg: the TIAGo's torso, arm, head and wheels in example-robot-data's URDF
+    assert (f"warning: the payload (1000 kg) outweighs all the robot's moving links together ({links:.3g} kg, "
+            "from the URDF): check its mass [kg] and its frame") in heavy.stdout
+    assert (tmp_path / "cal.urdf2.corrections.json").is_file() and not (tmp_path / "cal.corrections.json").exists()
+    light = run_pincal("calibrate", str(job), "--payload", "2@arm_7_link")
+    assert light.returncode == 0 and "outweighs" not in light.stdout, light.stderr

@@ -165,6 +165,7 @@ def test_the_job_knows_the_formulations_calibrate_knows() -> None:
     ({"top": 'select = "aic"'}, "select: 'aic' is not one of: auto, bic, none"),
     ({"top": 'loss = "huber"'}, "loss: 'huber' is not one of: auto, linear, cauchy"),
     ({"top": 'cv = "5y"'}, "cv: '5y' is not K (folds), KxR"),
+    ({"top": "cv_seed = -2"}, "cv_seed: -2 (int) is not a whole number ≥ 0"),
     ({"top": "parameters = 3"}, "parameters: 3 (int) is not a string nor a non-empty list of strings"),
     ({"data": 'files = ["b.csv"]'}, "[data]: give the data as file = "),
     ({"measure": 'sigma_angle = 1e-3'},
@@ -348,8 +349,8 @@ def test_the_fuller_example_of_docs_job_file_is_a_valid_job(tmp_path: Path) -> N
         (tmp_path / name).write_text("", encoding="utf-8")
     job = read_job(write_job(tmp_path, text=text))
     assert job.robot == str(tmp_path / "urdf" / "my_arm.urdf") and job.file_names == ("day1.csv", "day2.csv")
-    assert job.options == {"parameter_spec": ["default", "!base.*"], "select": "auto", "cv": "5x4", "loss": "auto",
-                           "solver": "lm", "formulation": "fkm", "max_iter": 100}
+    assert job.options == {"parameter_spec": ["default", "!base.*"], "select": "auto", "cv": "5x4", "cv_seed": 0,
+                           "loss": "auto", "solver": "lm", "formulation": "fkm", "max_iter": 100}
     assert (job.length_unit, job.angle_unit, job.sample, job.ignore) == ("mm", "deg", "pose_id",
                                                                          ("timestamp", "marker_quality"))
     assert job.joints == {"shoulder_pan_joint": "J1", "shoulder_lift_joint": "J2"}
