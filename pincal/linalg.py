@@ -57,17 +57,59 @@ def svd(matrix: npt.ArrayLike, what: str, full_matrices: bool = False) -> tuple[
     return np.asarray(u, np.float64), np.asarray(s, np.float64), np.asarray(vt, np.float64)
 
 
+#: Rows :func:`triangle` reduces at once: its working memory is this many rows of the matrix, whatever its height.
+TRIANGLE_ROWS = 4096
+
+
+def triangle(matrix: npt.ArrayLike, columns: npt.ArrayLike | None = None, row_scales: npt.ArrayLike | None = None,
+             column_scales: npt.ArrayLike | None = None) -> Array:
+    """The triangle ``R`` (n × n) of a QR factorization of ``A = diag(row_scales) · matrix[:, columns] ·
+    diag(column_scales)`` (each part optional), ``AᵀA = RᵀR``: the same singular values and right singular vectors
+    as ``A``, for an m × n ``A`` with m ≥ n. Reduced :data:`TRIANGLE_ROWS` rows at a time (Householder QR of the
+    triangle so far stacked on the next rows): ``A`` is never formed, so a tall matrix is not copied. Units: those
+    of ``A``."""
+    a = np.asarray(matrix, dtype=np.float64)
+    cols = None if columns is None else np.asarray(columns, dtype=np.intp)
+    n = a.shape[1] if cols is None else cols.size
+    r = np.zeros((0, n))
+    for start in range(0, a.shape[0], TRIANGLE_ROWS):
+        block = a[start:start + TRIANGLE_ROWS] if cols is None else a[start:start + TRIANGLE_ROWS][:, cols]
+        if row_scales is not None:
+            block = block * np.asarray(row_scales, dtype=np.float64)[start:start + TRIANGLE_ROWS, None]
+        if column_scales is not None:
+            block = block * np.asarray(column_scales, dtype=np.float64)
+        stacked = np.vstack([r, block])
+        r = np.asarray(scipy.linalg.qr(stacked, mode="r", overwrite_a=True, check_finite=False)[0][:n],
+                       dtype=np.float64)
+    return np.triu(r)
+
+
 def right_svd(matrix: npt.ArrayLike, what: str) -> tuple[Array, Array]:
     """``s, Vᵀ`` of ``matrix`` (m × n): its singular values (descending, min(m, n)) and right singular vectors,
     without the m × min(m, n) ``U``. A tall matrix (m ≥ 2n) is first reduced to the n × n triangle of its QR
-    factorization, which has the same singular values and right vectors; with m < n, ``Vᵀ`` is square (all n
-    right vectors, the null space's included). Raises as :func:`svd`."""
+    factorization (:func:`triangle`, a few thousand rows at a time: no copy of the matrix), which has the same
+    singular values and right vectors; with m < n, ``Vᵀ`` is square (all n right vectors, the null space's
+    included). Raises as :func:`svd`."""
     a = np.asarray(matrix, dtype=np.float64)
     m, n = a.shape
     if m >= 2 * n and n > 0 and np.all(np.isfinite(a)):
-        a = np.asarray(np.linalg.qr(a, mode="r"), dtype=np.float64)  # (n, n): one working copy of the matrix
+        a = triangle(a)
     _, s, vt = svd(a, what, full_matrices=m < n)
     return s, vt
+
+
+def largest_singular_value(matrix: npt.ArrayLike, column_scales: npt.ArrayLike | None = None) -> float:
+    """The largest singular value of ``matrix · diag(column_scales)`` (m × n), from the n × n Gram matrix
+    ``AᵀA`` (one product over the rows, no copy of the matrix): relative accuracy about machine precision, as the
+    largest eigenvalue is well conditioned. Units: those of the matrix."""
+    a = np.asarray(matrix, dtype=np.float64)
+    if a.size == 0:
+        return 0.0
+    gram = a.T @ a
+    if column_scales is not None:
+        d = np.asarray(column_scales, dtype=np.float64)
+        gram *= np.outer(d, d)
+    return float(np.sqrt(max(eigvalsh(gram, "the Gram matrix of a Jacobian")[-1], 0.0)))
 
 
 def singular_values(matrix: npt.ArrayLike, what: str) -> Array:

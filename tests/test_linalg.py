@@ -137,3 +137,27 @@ def test_right_svd_is_the_svd_without_u(shape: tuple[int, int]) -> None:
     bad[2, 3] = np.nan
     with pytest.raises(DataError, match="a test matrix has 1 NaN/inf entries"):
         linalg.right_svd(bad, "a test matrix")
+
+
+@pytest.mark.parametrize("rows", [10, 4096, 9000])
+def test_the_triangle_by_row_blocks_has_the_matrix_s_gram_matrix(rows: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``triangle``: RᵀR = AᵀA for A the row-scaled, column-chosen, column-scaled matrix, over one block of rows, a
+    block exactly, and several (blocks of 1000 here); the matrix itself is left untouched."""
+    monkeypatch.setattr(linalg, "TRIANGLE_ROWS", 1000 if rows == 9000 else linalg.TRIANGLE_ROWS)
+    rng = np.random.default_rng(7)
+    j = rng.normal(size=(rows, 12))
+    kept = j.copy()
+    columns, w, d = [0, 3, 4, 7, 11], rng.uniform(0.5, 2.0, rows), rng.uniform(1e-3, 1.0, 5)
+    r = linalg.triangle(j, columns, w, d)
+    a = w[:, None] * j[:, columns] * d
+    assert r.shape == (5, 5) and np.allclose(np.tril(r, -1), 0.0)
+    np.testing.assert_allclose(r.T @ r, a.T @ a, rtol=1e-11, atol=1e-11 * np.abs(a.T @ a).max())
+    assert np.array_equal(j, kept)
+
+
+def test_the_largest_singular_value_from_the_gram_matrix() -> None:
+    rng = np.random.default_rng(8)
+    a = rng.normal(size=(5000, 30)) * np.logspace(0, -6, 30)
+    d = rng.uniform(0.1, 10.0, 30)
+    assert linalg.largest_singular_value(a, d) == pytest.approx(np.linalg.svd(a * d, compute_uv=False)[0], rel=1e-12)
+    assert linalg.largest_singular_value(np.zeros((0, 3))) == 0.0

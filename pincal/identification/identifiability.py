@@ -30,9 +30,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 import scipy.linalg
+import scipy.linalg.lapack
 
 from pincal import linalg
-from pincal.errors import DataError, IdentifiabilityError, listing
+from pincal.errors import ConvergenceError, DataError, IdentifiabilityError, listing
 
 Array = npt.NDArray[np.float64]
 
@@ -325,9 +326,20 @@ def _rank(singular_values: Array, tol: float) -> int:
     return int(np.count_nonzero(singular_values > tol * singular_values[0]))
 
 
-def _base_columns(J_scaled: Array, names: list[str], rank: int) -> list[int]:
-    """The first ``rank`` pivots of a column-pivoted QR of the scaled Jacobian, ascending."""
-    _, R, pivots = scipy.linalg.qr(J_scaled, pivoting=True, mode="economic")
+def _pivoted_triangle(J_scaled: Array) -> tuple[Array, npt.NDArray[np.intp]]:
+    """``R`` (min(m, p) × p) and the pivots ``P`` of a column-pivoted QR ``J_scaled[:, P] = Q R``, computed in place
+    of ``J_scaled`` (Fortran order: no copy), ``Q`` never formed."""
+    m, p = J_scaled.shape
+    factored, jpvt, _, _, info = scipy.linalg.lapack.dgeqp3(J_scaled, overwrite_a=True)
+    if info != 0:
+        raise ConvergenceError(f"the pivoted QR of the scaled identification Jacobian failed (LAPACK dgeqp3 info "
+                               f"{info})")
+    return np.triu(factored[:min(m, p)]), np.asarray(jpvt, dtype=np.intp) - 1  # LAPACK's pivots count from 1
+
+
+def _base_columns(R: Array, pivots: npt.NDArray[np.intp], names: list[str], rank: int) -> list[int]:
+    """The first ``rank`` pivots of the column-pivoted QR of the scaled Jacobian (``R``, ``pivots``:
+    :func:`_pivoted_triangle`), ascending."""
     base = pivots[:rank]
     pivot = np.abs(np.diag(R[:rank, :rank]))
     if not np.all(pivot > 0.0):  # the SVD's rank and the pivoted QR disagree: an exactly dependent column
@@ -405,10 +417,12 @@ def base_parameters(
     tol = _checked_tolerance(tol)
     names = list(names)
     units = _checked_units(units, names)
-    J_scaled = J * s
-    singular_values, Vt = _svd(J_scaled)
+    R, pivots = _pivoted_triangle(np.multiply(J, s, out=np.empty(J.shape, order="F")))
+    singular_values, Vt_pivoted = _svd(R)
+    Vt = np.empty_like(Vt_pivoted)
+    Vt[:, pivots] = Vt_pivoted
     rank = _rank(singular_values, tol)
-    return _base_columns(J_scaled, names, rank), _unidentifiable(Vt[rank:], names, s, units)
+    return _base_columns(R, pivots, names, rank), _unidentifiable(Vt[rank:], names, s, units)
 
 
 def observability_indices(singular_values: Array, n_residuals: int) -> dict[str, float]:
@@ -463,11 +477,15 @@ def analyse(
     tol = _checked_tolerance(tol)
     names = list(names)
     units = _checked_units(units, names)
-    J_scaled = J * s
-    singular_values, Vt = _svd(J_scaled)
+    # one working copy, in the column order LAPACK factors in place: the pivoted QR's triangle carries the singular
+    # values and right vectors of J diag(s), and its first columns those of the base columns
+    R, pivots = _pivoted_triangle(np.multiply(J, s, out=np.empty(J.shape, order="F")))
+    singular_values, Vt_pivoted = _svd(R)
+    Vt = np.empty_like(Vt_pivoted)
+    Vt[:, pivots] = Vt_pivoted
     rank = _rank(singular_values, tol)
-    base = _base_columns(J_scaled, names, rank)
-    base_values = linalg.singular_values(J_scaled[:, base], "the scaled identification Jacobian on its base "
+    base = _base_columns(R, pivots, names, rank)
+    base_values = linalg.singular_values(R[:, :rank], "the scaled identification Jacobian on its base "
                                          "columns") if base else np.zeros(0)
     condition = float(base_values[0] / base_values[-1]) if base_values.size and base_values[-1] > 0 else np.inf
     return Identifiability(
@@ -488,8 +506,11 @@ def covariance(
     indices: Sequence[int] | None = None,
     names: Sequence[str] | None = None,
     tol: float | None = None,
+    row_weights: npt.ArrayLike | None = None,
 ) -> Array:
-    """Covariance of the least-squares estimate, ``σ² (JᵀJ)⁻¹``, on the chosen columns.
+    """Covariance of the least-squares estimate, ``σ² (JᵀJ)⁻¹``, on the chosen columns (of ``diag(row_weights) J``
+    when given). The rows are reduced a few thousand at a time (:func:`pincal.linalg.triangle`): a tall Jacobian is
+    not copied.
 
     Args:
         jacobian: (m, p) identification Jacobian, rows weighted by 1/σ [1/m or 1/rad per column].
@@ -499,6 +520,7 @@ def covariance(
         names: p parameter names, only to name a culprit in errors.
         tol: relative rank tolerance (default :data:`RANK_TOLERANCE`) on the column-equilibrated
             sub-Jacobian, whose conditioning does not depend on units.
+        row_weights: (m,) weights of the rows (robust-loss weights' square roots), 1 if None.
 
     Returns:
         (k, k) covariance in the parameters' units squared ([m²], [rad²], [m·rad]), k = len(indices).
@@ -523,7 +545,12 @@ def covariance(
         raise DataError(f"column indices {outside} are outside 0..{p - 1}")
     if len(set(columns)) != len(columns):
         raise DataError(f"column indices repeat: {columns}")
-    sub = J[:, columns]
+    weights = None if row_weights is None else np.asarray(row_weights, dtype=float)
+    if weights is not None and weights.shape != (J.shape[0],):
+        raise DataError(f"row_weights has shape {weights.shape}; expected ({J.shape[0]},), one per Jacobian row")
+    # the triangle of the weighted columns: the same Gram matrix, so the same norms, singular values and vectors
+    sub = linalg.triangle(J, columns, weights) if J.shape[0] >= len(columns) else \
+        J[:, columns] * (1.0 if weights is None else weights[:, None])
     norms = np.linalg.norm(sub, axis=0)
     for j, norm in zip(columns, norms, strict=True):
         if norm == 0.0:

@@ -227,8 +227,7 @@ def _practical_tol(jacobian: Array, scales: Array, rank_tol: float, min_informat
     """Relative rank tolerance with an absolute floor ``min_information`` on the singular values."""
     if min_information <= 0.0:  # no floor: no need for the Jacobian's norm (an SVD)
         return rank_tol
-    largest = float(linalg.singular_values(jacobian * scales, "the scaled identification Jacobian")[0]) \
-        if jacobian.size else 0.0
+    largest = linalg.largest_singular_value(jacobian, scales)  # no copy of the Jacobian
     if largest <= 0.0:
         return rank_tol
     return min(max(rank_tol, min_information / largest), 0.5)
@@ -447,8 +446,10 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
     counts = {"rejected": 0, "evaluations": 1, "accelerated": 0}
     kept: list[int] = []
     eager_first = True  # evaluate the next first trial with its Jacobian (no first trial rejected yet)
+    steps: lm.Steps | None = None
     for it in range(1, max_iter + 1):
         assert pred.jacobian is not None
+        steps = None  # the previous iteration's m × n reflectors go before this one's are built
         steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
         kept.append(steps.kept)
         if it > 1 and solver == "lm":
@@ -471,6 +472,8 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
             # first trials are accepted (the previous iteration's was) the first is evaluated with its Jacobian at
             # once: a closed-loop robot's residual alone costs most of a full evaluation
             eager = eager_first and attempt == 0
+            if eager:
+                steps.release()  # the m × n reflectors go before the trial's Jacobian is built
             trial = lm.evaluated(problem, x + d * dz, jacobian=eager) if dz is not None else None
             counts["evaluations"] += int(dz is not None)
             if trial is not None:
@@ -487,6 +490,8 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
                         accepted = True
                         break
                     steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
+            if eager:  # a rejected eager trial: the next ones may need the reflectors (geodesic acceleration)
+                steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
             eager_first = False
             counts["rejected"] += 1
             if solver == "lm":
@@ -528,29 +533,36 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
             break
     # identifiability at the estimate: a special nominal geometry (parallel axes) can hide directions
     # that the generic true robot shows
+    steps = None  # its m × n reflectors are not needed any more
     assert pred.jacobian is not None
     ident = analyse(pred.jacobian, pset.names, scales, units=[p.unit if p.unit in ("m", "rad") else "" for p in pset],
                     tol=_practical_tol(pred.jacobian, scales, rank_tol, min_information))
     active = ident.base_indices
-    jac = pred.jacobian[:, active] * rw[:, None]
-    dof = max(pred.residual.size - len(active), 1)
-    sigma2 = float(np.sum((rw * pred.residual) ** 2)) / dof
-    std = np.full(len(pset), np.nan)
-    try:
-        shape = covariance(jac, 1.0, names=[pset.names[k] for k in active])  # (JᵀJ)⁻¹: σ² scales it
-        std[active] = np.sqrt(sigma2 * np.diag(shape))
-        apriori = np.full(len(pset), np.nan)
-        apriori[active] = np.sqrt(np.diag(shape))
-        corr = correlations(shape)
-    except IdentifiabilityError:
-        corr = np.full((len(active), len(active)), np.nan)
-        apriori = np.full(len(pset), np.nan)
+    sigma2, std, apriori, corr = _uncertainty(pred, rw, list(active), pset.names)
     return CalibrationResult(pset.names, start_x, x, std, list(active), ident, corr, iterations, converged, message,
                              history, errors_before, pred.errors,
                              weights, sigma2, time.perf_counter() - start, solver, loss, std_apriori=apriori,
                              extra={"rejected_steps": counts["rejected"], "evaluations": counts["evaluations"],
                                     "accelerated_steps": counts["accelerated"],
                                     "rank_changes": int(np.count_nonzero(np.diff(kept)))})
+
+
+def _uncertainty(pred: Prediction, rw: Array, active: list[int], names: list[str]
+                 ) -> tuple[float, Array, Array, Array]:
+    """The a-posteriori variance factor σ² of the fit (weighted residual ``rw · r``, ``active`` parameters), the
+    estimates' standard deviations (a posteriori and a priori, NaN outside ``active``) [parameter units] and their
+    correlations; NaN when the active columns are dependent."""
+    assert pred.jacobian is not None
+    dof = max(pred.residual.size - len(active), 1)
+    sigma2 = float(np.sum((rw * pred.residual) ** 2)) / dof
+    std, apriori = np.full(len(names), np.nan), np.full(len(names), np.nan)
+    try:
+        shape = covariance(pred.jacobian, 1.0, active, names, row_weights=rw)  # (JᵀJ)⁻¹: σ² scales it
+    except IdentifiabilityError:
+        return sigma2, std, apriori, np.full((len(active), len(active)), np.nan)
+    std[active] = np.sqrt(sigma2 * np.diag(shape))
+    apriori[active] = np.sqrt(np.diag(shape))
+    return sigma2, std, apriori, correlations(shape)
 
 
 def identify_chains(problem: ImplicitProblem, x0: Array | None = None,

@@ -439,6 +439,18 @@ def test_covariance_on_chosen_columns_and_singular_culprit() -> None:
         covariance(J, 1.0, names=names)
 
 
+def test_covariance_with_row_weights_is_that_of_the_weighted_rows() -> None:
+    """``row_weights`` w: the covariance of diag(w) J (the robust fit's), on tall and short Jacobians alike."""
+    for rows in (3, 9000):
+        J = _random(rows, 3, seed=15)
+        w = np.random.default_rng(16).uniform(0.2, 1.0, rows)
+        weighted = w[:, None] * J
+        np.testing.assert_allclose(covariance(J, 2.0, [0, 2], row_weights=w),
+                                   2.0 * np.linalg.inv(weighted[:, [0, 2]].T @ weighted[:, [0, 2]]), rtol=1e-10)
+    with pytest.raises(DataError, match=r"row_weights has shape \(2,\); expected \(9000,\)"):
+        covariance(J, 1.0, row_weights=[1.0, 2.0])
+
+
 def test_correlations_of_a_known_covariance() -> None:
     cov = np.array([[4.0, 1.0, 0.0], [1.0, 1.0, -0.5], [0.0, -0.5, 1.0]])
     expected = np.array([[1.0, 0.5, 0.0], [0.5, 1.0, -0.5], [0.0, -0.5, 1.0]])
