@@ -720,11 +720,13 @@ class JointReading(Measurement):
 
     def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
         """:meth:`predict` for every sample (a tree: the joint moves with the parameters only through its own
-        offset and correction columns when it is actuated)."""
+        offset and correction columns when it is actuated; closed loops: through ``batch.velocities``)."""
         jm = batch.shared.model.joints[batch.shared.model.getJointId(self.joint)]
         q = batch.q
         out[:, 0] = q[:, jm.idx_q] if jm.nq == 1 else np.arctan2(q[:, jm.idx_q + 1], q[:, jm.idx_q])
-        if jac is not None:
+        if jac is not None and batch.velocities is not None:  # closed loops: dv/dθ, actuated terms included
+            jac[:, 0] = batch.velocities[:, jm.idx_v]
+        elif jac is not None:
             for column, regressor in batch.joint_terms.get(self.joint, []):
                 jac[:, 0, column] = regressor
         offset = batch.shared.reading_offsets.get(self.joint)

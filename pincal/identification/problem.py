@@ -23,15 +23,17 @@ import pinocchio as pin
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, listing, not_found
 from pincal.identification import handeye
-from pincal.identification.batch import BatchContext
+from pincal.identification.batch import BatchContext, SpatialJacobian
 from pincal.identification.corrections import Payload, correction_regressors
 from pincal.identification.derivatives import (
     KinematicSensitivity,
+    Probe,
     attached_placements,
     frame_probe,
     marker_points,
     right_jacobian,
 )
+from pincal.identification.loop_batch import LoopBatch
 from pincal.identification.measurements import (
     WORLD_TARGET,
     CameraPoint,
@@ -200,6 +202,10 @@ class CalibrationProblem:
         #: (the closed-loop path, which the benchmarks and tests also run on trees to compare the two).
         self._tree = TreeBatch(robot, self.frame_ids) if not robot.loops else None
         self._batched_trees = self._tree is not None and self._tree.unsupported is None
+        #: A closed-loop robot's batched evaluation (loops closed and derivatives for every sample at once), when its
+        #: joints allow it; False: sample by sample (the reference path, which the tests compare it with).
+        self._loops = LoopBatch(robot, self.frame_ids) if robot.loops else None
+        self._batched_loops = self._loops is not None and self._loops.unsupported is None
         self._seen: dict[str, npt.NDArray[np.bool_]] = {}
         for m in self.measurements:
             taken = np.all(np.isfinite(observations.values[m.key]), axis=1)
@@ -433,9 +439,10 @@ class CalibrationProblem:
         re-evaluated at each call and held constant in the Jacobian, as iteratively re-weighted least
         squares does.
 
-        A tree (no loops) is evaluated for every sample at once (:meth:`_predict_tree`, issue 14); a closed-loop
-        robot, or a tree with a joint kind :mod:`~pincal.identification.tree_batch` does not take, sample by sample
-        (:meth:`_predict_samples`). Both give the same numbers (to 1e-10, tests/identification/test_tree_batch.py).
+        A tree (no loops) is evaluated for every sample at once (:meth:`_predict_tree`, issue 14), and so is a
+        closed-loop robot (:meth:`_predict_loops`); a robot with a joint kind :mod:`~pincal.identification.tree_batch`
+        or :mod:`~pincal.model.batch_kinematics` does not take, sample by sample (:meth:`_predict_samples`). They give
+        the same numbers (to 1e-10, tests/identification/test_tree_batch.py and test_loop_batch.py).
         """
         x = self._augment(np.asarray(x, dtype=float))
         output_jacobian = jacobian
@@ -459,8 +466,81 @@ class CalibrationProblem:
         else:
             if jacobian:
                 dpreds = {m.key: np.zeros((n, m.size, p)) for m in self.measurements}
-            self._predict_samples(robot, sens, ctx, qa_all, preds, dpreds)
+            if self._batched_loops and robot.loops:
+                self._predict_loops(robot, sens, ctx, qa_all, preds, dpreds)
+            else:
+                self._predict_samples(robot, sens, ctx, qa_all, preds, dpreds)
         return self._assemble(preds, dpreds, output_jacobian)
+
+    def _solve_all(self, robot: Robot, qa_all: Array) -> Array:
+        """Every sample's configuration on the reference assembly (:meth:`_solve` for all at once).
+
+        Newton from each sample's own last configuration for all samples together
+        (:meth:`~pincal.model.batch_kinematics.BatchKinematics.warm_solve`, refused as the per-sample warm start is);
+        continuation from the reference, all samples stepping together, for those without one or refused; and
+        :meth:`_solve`, alone, for any these did not close (finer continuation, or the error naming the sample).
+        """
+        assert self._loops is not None
+        kin = self._loops.kinematics
+        n, model, closure = len(qa_all), robot.model, robot.closure
+        previous = np.full((n, model.nq), np.nan)
+        known = np.array([guess is not None for guess in self._q_cache], dtype=bool)
+        if np.any(known):
+            previous[known] = np.array([guess for guess in self._q_cache if guess is not None])
+        q, ok = np.empty((n, model.nq)), np.zeros(n, dtype=bool)
+        rows = np.flatnonzero(known)
+        if rows.size:
+            q[rows], ok[rows] = kin.warm_solve(model, closure, qa_all[rows], previous[rows], SOLVE_TOLERANCE)
+        rows = np.flatnonzero(~ok)
+        if rows.size:
+            q[rows], ok[rows] = kin.continuation(model, closure, qa_all[rows], SOLVE_TOLERANCE)
+        travel = np.abs(q - previous).max(axis=1, initial=0.0)
+        self._travel[known & ok] += travel[known & ok]
+        for k in range(n):
+            if ok[k]:
+                self._q_cache[k] = q[k]
+                self._qa_solved.record(k, qa_all[k])
+            else:
+                q[k] = self._solve(robot, k, qa_all[k])
+        return q
+
+    def _predict_loops(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
+                       preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
+        """Every sample of a closed-loop robot at once (:mod:`pincal.identification.loop_batch`), by blocks of at
+        most :data:`BATCH_SAMPLES`: configurations (:meth:`_solve_all`), the measured frames' placements and spatial
+        twists through the loops, each model's :meth:`Measurement.predict_batch`; a model without one is predicted
+        sample by sample from the same configurations and twists."""
+        assert self._loops is not None
+        loops, model, n = self._loops, robot.model, self.observations.n_samples
+        q_all = self._solve_all(robot, qa_all)
+        probes: dict[str, Probe] = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
+        batched = [m for m in self.measurements if m.batched]
+        one_by_one = [m for m in self.measurements if not m.batched]
+        for start in range(0, n, BATCH_SAMPLES):
+            rows = slice(start, min(n, start + BATCH_SAMPLES))
+            size = rows.stop - rows.start
+            q = q_all[rows]
+            terms = [(joint, col, regressor[rows]) for joint, col, regressor in self.actuated_terms]
+            velocities = None
+            if sens is None:
+                placed, _ = loops.tree.forward(model, q)
+                placements = {f: loops.tree.frame_placement(model, placed, f, size) for f in self.frame_ids}
+                twists: dict[str, SpatialJacobian] = {}
+            else:
+                state = loops.kinematics.state(model, robot.closure, q)
+                placements, twists, response = loops.twists(robot, sens, q, state, terms, probes, start,
+                                                             SINGULAR_GAIN)
+                velocities = response.velocities
+            joint_terms: dict[str, list[tuple[int, Array]]] = {}
+            for joint, col, regressor in terms:
+                joint_terms.setdefault(robot.actuated_joints[joint], []).append((col, regressor))
+            batch = BatchContext(ctx, q, {f: placement.rotation for f, placement in placements.items()},
+                                 {f: placement.translation for f, placement in placements.items()}, twists,
+                                 joint_terms, rows, velocities)
+            for m in batched:
+                m.predict_batch(batch, preds[m.key][rows], dpreds[m.key][rows] if sens is not None else None)
+            if one_by_one:
+                self._predict_one_by_one(robot, one_by_one, ctx, batch, preds, dpreds)
 
     def _predict_samples(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
                          preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
@@ -545,7 +625,9 @@ class CalibrationProblem:
         for row, k in enumerate(range(batch.samples.start, batch.samples.stop)):
             pin.framesForwardKinematics(model, data, batch.q[row])
             dv = None
-            if spatial:
+            if spatial and batch.velocities is not None:  # closed loops: the passive joints move too
+                dv = batch.velocities[row]
+            elif spatial:
                 dv = np.zeros((model.nv, len(self._all)))
                 for joint, col, regressor in self.actuated_terms:
                     dv[act_v[joint], col] = regressor[k]

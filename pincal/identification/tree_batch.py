@@ -168,7 +168,12 @@ class TreeBatch:
     def frame_placement(self, model: pin.Model, placed: dict[int, Placements], frame: str, n: int) -> Placements:
         """The placement of a measured frame in the world for every sample."""
         joint = self.parent[frame]
-        local = self._unturn[joint] * model.frames[self.frame_ids[frame]].placement
+        return self.probe_placement(placed, joint, model.frames[self.frame_ids[frame]].placement, n)
+
+    def probe_placement(self, placed: dict[int, Placements], joint: int, placement: pin.SE3, n: int) -> Placements:
+        """The placement in the world, for every sample, of a frame at ``placement`` relative to joint ``joint``
+        (a measured frame, a loop's anchor)."""
+        local = self._unturn[joint] * placement
         if joint == 0:
             return Placements(np.tile(local.action[:3], (n, 1, 1)), np.tile(local.translation, (n, 1)))
         above = placed[joint]

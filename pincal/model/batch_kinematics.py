@@ -1,0 +1,519 @@
+"""Closed-loop kinematics of many samples at once: forward kinematics, loop residuals and Jacobians, Newton steps.
+
+The per-sample solvers of :mod:`pincal.model.kinematics` spend most of their time in Python around small Pinocchio
+calls. Here every sample of a batch moves together: forward kinematics is a product over the joints,
+``oMi[j] = oMi[parent] · M_j · exp6(ξ_j v_j)``, one array operation per joint for all N samples (the joint placements
+``M_j`` read from the model at each call, so one instance serves every parameter estimate); each loop's residual and
+exact Jacobian follow from its anchors' placements and the joints' *spatial* twists (per unit velocity, the velocity
+of the world point at the origin moving with the joint's child and its angular velocity, in the world frame); the
+Newton step solves N small systems ``C_p δv_p = −c`` at once (stacked LAPACK solves).
+
+The rows, for a loop with anchors c1 (predecessor) and c2 (successor), ``c1Mc2 = (R, p)`` and a relative spatial
+twist ``ΔW = W₂ − W₁`` of the anchors' bodies (:mod:`pincal.model.closure` gives the same rows from Pinocchio's
+anchor Jacobians): ``dp = R₁ᵀ (ΔW_v − p₂ × ΔW_ω)``, and the body angular velocity of c2 relative to c1,
+``ω_b = R₂ᵀ ΔW_ω``, enters as ``Jlog3(R) ω_b`` (fixed, prismatic) or ``−Eᵀ R [a]× ω_b`` (revolute).
+
+The answers are those of the per-sample solvers, on the same assembly: a warm start is kept only when its Newton
+iterates move no passive coordinate by more than :data:`~pincal.model.kinematics.CONTINUATION_STEP` (as
+:meth:`~pincal.model.kinematics.ClosedLoopKinematics.warm_solve`), a cold start is continuation from the reference
+configuration in the same steps as :meth:`~pincal.model.kinematics.ClosedLoopKinematics.continuation`. A sample
+these do not close is reported, never dropped: the caller solves it alone (continuation with finer steps).
+
+Joint kinds: joints of one coordinate and one velocity (revolute, prismatic, aligned with an axis or not);
+a robot with another kind (a free-flyer, a continuous joint, a ``<mimic>`` follower) reports it in
+:attr:`BatchKinematics.unsupported` and is solved sample by sample.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.model.closure import LoopClosure, normal_basis
+from pincal.model.joint_motion import joint_motion
+from pincal.model.kinematics import CONTINUATION_STEP, MAX_CONTINUATION_STEPS, ClosedLoopKinematics
+from pincal.model.rotations import cross_columns, jlog3, log3
+
+Array = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+IntArray = npt.NDArray[np.intp]
+
+#: Largest closure residual component [m, rad] past which a Newton solve gives up (as the per-sample one).
+DIVERGED = 1e3
+
+
+@dataclass(frozen=True)
+class JointPlacements:
+    """Every joint's turned frame in the world for N samples: ``oMi[j] · Q_j``, Q_j the constant rotation taking z to
+    the joint's axis (joint 0, the world, not turned), so that each joint turns about or slides along its frame's z.
+
+    Attributes:
+        rotation: Joint id -> (N, 3, 3) the turned frame's rotation.
+        translation: Joint id -> (N, 3) its origin [m] (the joint's origin: Q_j is a pure rotation).
+        axes: (N, njoints - 1, 3) each joint's unit axis in the world (the turned frame's z), joints in id order.
+    """
+
+    rotation: list[Array]
+    translation: list[Array]
+    axes: Array
+
+
+@dataclass(frozen=True)
+class LoopFrames:
+    """One loop's anchor frames for N samples: c1 (predecessor), c2 (successor) in the world, ``c1Mc2 = (R, p)``.
+
+    Attributes:
+        r1: (N, 3, 3) c1's rotation in the world.
+        p2: (N, 3) c2's origin [m] in the world.
+        relative_translation: (N, 3) p of ``c1Mc2`` [m], in c1.
+        r2: (N, 3, 3) c2's rotation in the world (None for a spherical loop, whose rows do not need it).
+        relative_rotation: (N, 3, 3) R of ``c1Mc2`` (None for a spherical loop).
+        log: (N, 3) ``log3(R)`` [rad] (fixed and prismatic loops; else None).
+        gap: (N, 3) ``p₂ − p₁`` [m] in the world.
+    """
+
+    r1: Array
+    p2: Array
+    relative_translation: Array
+    r2: Array | None
+    relative_rotation: Array | None
+    log: Array | None
+    gap: Array
+
+
+@dataclass(frozen=True)
+class LoopState:
+    """The loops of N samples at their configurations: residual, Jacobian (if asked), anchor frames."""
+
+    placements: JointPlacements
+    frames: list[LoopFrames]
+    residual: Array  # (N, rows) [m, rad]
+    jacobian: Array | None  # (N, rows, nv)
+    axes: Array | None  # (N, 6, nv) each velocity coordinate's spatial twist
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """The placements one robot's parameters give, read once from its model and loops (the constants of
+    :meth:`BatchKinematics.forward` and :meth:`BatchKinematics.loop_frames`).
+
+    Attributes:
+        joints: Per joint (ids 1…): the rotation (3, 3) and translation (3,) [m] of ``Q_parentᵀ M_j start_j Q_j``.
+        anchors: Per loop: predecessor joint id, rotation and translation [m] of ``Q_j1ᵀ · M1``, successor joint id,
+            rotation and translation of ``Q_j2ᵀ · M2``.
+    """
+
+    joints: list[tuple[Array, Array]]
+    anchors: list[tuple[int, Array, Array, int, Array, Array]]
+
+
+class BatchKinematics:
+    """Batched closed-loop kinematics for one robot structure (built once; placements read at each call).
+
+    Args:
+        kinematics: The per-sample kinematics whose structure (joints, loops, actuated joints, reference
+            configuration) this batches; any model and closure with the same structure may be passed to the methods
+            (a robot at other parameters).
+
+    Attributes:
+        unsupported: Why this structure cannot be batched (the first joint of another kind), or None.
+    """
+
+    def __init__(self, kinematics: ClosedLoopKinematics) -> None:
+        model = kinematics.model
+        self.kinematics = kinematics
+        self.reference = kinematics.reference.copy()
+        self.nq, self.nv, self.njoints = model.nq, model.nv, model.njoints
+        self.parents = [int(model.parents[j]) for j in range(model.njoints)]
+        self.unsupported: str | None = None
+        self.passive_v: IntArray = kinematics.passive_v
+        self.actuated_v: IntArray = kinematics.actuated_v
+        self.specs = list(kinematics.closure.specs)
+        self.bases = [normal_basis(spec.axis) for spec in self.specs]
+        self.rows = kinematics.closure.rows
+        n = model.njoints - 1
+        self.idx_q = np.zeros(n, dtype=np.intp)
+        self.idx_v = np.zeros(n, dtype=np.intp)
+        self.axes = np.zeros((n, 3))  # each joint's unit axis in its own frame
+        self.rates = np.zeros(n)
+        self.revolute = np.zeros(n, dtype=bool)
+        self.starts: list[pin.SE3] = []
+        self.turns: list[pin.SE3] = []
+        for j in range(1, model.njoints):
+            jm = model.joints[j]
+            motion = joint_motion(model, j) if jm.nq == 1 and jm.nv == 1 else None
+            if motion is None or motion.source != j:
+                self.unsupported = f"joint '{model.names[j]}' ({jm.shortname()})"
+                break
+            self.idx_q[j - 1], self.idx_v[j - 1] = jm.idx_q, jm.idx_v
+            direction = motion.twist[3:] if motion.revolute else motion.twist[:3]
+            self.axes[j - 1] = direction / motion.rate
+            self.rates[j - 1], self.revolute[j - 1] = motion.rate, motion.revolute
+            self.starts.append(motion.start)
+            self.turns.append(motion.turn)
+        if self.unsupported is None and not all(a.nq == 1 for a in kinematics.actuated):
+            self.unsupported = "a continuous actuated joint"
+        # which velocity coordinates move each joint (its supports)
+        self.support = np.zeros((model.njoints, model.nv))
+        if self.unsupported is None:
+            for j in range(1, model.njoints):
+                for s in model.supports[j]:
+                    if s > 0:
+                        self.support[j, self.idx_v[s - 1]] = 1.0
+        # start_j Q_j and Q_jᵀ (the root and an unsupported structure's joints not turned)
+        self._starts = [start * turn for start, turn in zip(self.starts, self.turns, strict=False)]
+        self._unturn = [pin.SE3.Identity()] + [turn.inverse() for turn in self.turns]
+        v_to_q = np.zeros(model.nv, dtype=np.intp)
+        v_to_q[self.idx_v] = self.idx_q
+        self.passive_q: IntArray = v_to_q[self.passive_v]
+        self.actuated_q = np.array([a.idx_q for a in kinematics.actuated], dtype=np.intp)
+
+    # --- forward kinematics -----------------------------------------------------------------------
+    def geometry(self, model: pin.Model, closure: LoopClosure) -> Geometry:
+        """The constant placements of ``model`` and ``closure`` (a robot at some parameters) this structure needs."""
+        joints = []
+        for j in range(1, self.njoints):
+            fixed = self._unturn[self.parents[j]] * model.jointPlacements[j] * self._starts[j - 1]
+            joints.append((fixed.rotation, fixed.translation))
+        anchors = []
+        for j1, m1, j2, m2 in closure.anchors():
+            c1, c2 = self._unturn[j1] * m1, self._unturn[j2] * m2  # the anchors on the turned frames
+            anchors.append((j1, c1.rotation, c1.translation, j2, c2.rotation, c2.translation))
+        return Geometry(joints, anchors)
+
+    def forward(self, geometry: Geometry, q: Array) -> JointPlacements:
+        """Every joint's turned frame in the world at configurations ``q`` (N, nq), with the placements of
+        ``geometry`` (:meth:`geometry`).
+
+        ``oMi[j] Q_j = oMi[parent] Q_parent · (Q_parentᵀ M_j start_j Q_j) · exp(θ e_z)``: one product with a constant
+        per joint, then a rotation by θ about z turns the first two columns, ``(c_x, c_y) ← (c_x cos θ + c_y sin θ,
+        c_y cos θ − c_x sin θ)``; a slide by d along z adds ``d · c_z`` to the origin.
+        """
+        n = len(q)
+        rotation: list[Array] = [np.broadcast_to(np.eye(3), (n, 3, 3))]
+        translation: list[Array] = [np.zeros((n, 3))]
+        axes = np.empty((n, self.njoints - 1, 3))
+        values = q[:, self.idx_q] * self.rates
+        cosines, sines = np.cos(values), np.sin(values)
+        for j in range(1, self.njoints):
+            b = j - 1
+            parent = self.parents[j]
+            fixed_rotation, fixed_translation = geometry.joints[b]
+            if parent == 0:
+                turned = np.repeat(fixed_rotation[None], n, axis=0)
+                origin = np.repeat(fixed_translation[None], n, axis=0)
+            else:
+                above = rotation[parent].reshape(3 * n, 3)
+                turned = (above @ fixed_rotation).reshape(n, 3, 3)
+                origin = (above @ fixed_translation).reshape(n, 3) + translation[parent]
+            if self.revolute[b]:
+                c, s = cosines[:, b, None], sines[:, b, None]
+                x, y = turned[:, :, 0] * c, turned[:, :, 1] * s
+                x += y
+                y = turned[:, :, 1] * c
+                y -= turned[:, :, 0] * s
+                turned[:, :, 0], turned[:, :, 1] = x, y
+            else:
+                origin += turned[:, :, 2] * values[:, b, None]
+            rotation.append(turned)
+            translation.append(origin)
+            axes[:, b] = turned[:, :, 2]
+        return JointPlacements(rotation, translation, axes)
+
+    def joint_twists(self, placements: JointPlacements) -> Array:
+        """(N, 6, nv) each velocity coordinate's spatial twist (per unit velocity: the velocity [m/s] of the world
+        point at the origin moving with the joint's child, and its angular velocity [rad/s], in the world frame)."""
+        axes = placements.axes * self.rates[:, None]
+        n = len(axes)
+        twists = np.zeros((n, 6, self.nv))
+        origins = np.stack(placements.translation[1:], axis=1)
+        linear = np.where(self.revolute[None, :, None], _cross(origins, axes), axes)
+        twists[:, :3, self.idx_v] = linear.transpose(0, 2, 1)
+        twists[:, 3:, self.idx_v] = np.where(self.revolute[None, :, None], axes, 0.0).transpose(0, 2, 1)
+        return twists
+
+    # --- loops --------------------------------------------------------------------------------------
+    def loop_frames(self, geometry: Geometry, placements: JointPlacements) -> list[LoopFrames]:
+        """Each loop's anchor frames at ``placements``, with the anchor placements of ``geometry``."""
+        frames = []
+        n = len(placements.axes)
+        rotation, translation = placements.rotation, placements.translation
+        for spec, (j1, r1c, t1c, j2, r2c, t2c) in zip(self.specs, geometry.anchors, strict=True):
+            above_1, above_2 = rotation[j1].reshape(3 * n, 3), rotation[j2].reshape(3 * n, 3)
+            r1 = (above_1 @ r1c).reshape(n, 3, 3)
+            gap = (above_2 @ t2c).reshape(n, 3) + translation[j2]
+            p2 = gap.copy()
+            gap -= (above_1 @ t1c).reshape(n, 3)
+            gap -= translation[j1]
+            offset = np.einsum("nji,nj->ni", r1, gap)
+            if spec.type == "spherical":
+                frames.append(LoopFrames(r1, p2, offset, None, None, None, gap))
+                continue
+            r2 = (above_2 @ r2c).reshape(n, 3, 3)
+            relative = np.einsum("nji,njk->nik", r1, r2)
+            frames.append(LoopFrames(r1, p2, offset, r2, relative,
+                                     log3(relative) if spec.type in ("fixed", "prismatic") else None, gap))
+        return frames
+
+    def state(self, model: pin.Model, closure: LoopClosure, q: Array, jacobian: bool = True) -> LoopState:
+        """Forward kinematics, the loops' residual and (if ``jacobian``) its Jacobian ``dc/dv`` at ``q`` (N, nq)."""
+        geometry = self.geometry(model, closure)
+        placements = self.forward(geometry, q)
+        frames = self.loop_frames(geometry, placements)
+        residual = self._residual(frames)
+        if not jacobian:
+            return LoopState(placements, frames, residual, None, None)
+        twists = self.joint_twists(placements)
+        jac = np.empty((len(q), self.rows, self.nv))
+        start = 0
+        for index, (frame, anchor) in enumerate(zip(frames, geometry.anchors, strict=True)):
+            relative = twists * (self.support[anchor[3]] - self.support[anchor[0]])
+            stop = start + self.specs[index].rows
+            jac[:, start:stop] = self.loop_rows(index, frame, relative)
+            start = stop
+        return LoopState(placements, frames, residual, jac, twists)
+
+    def _residual(self, frames: list[LoopFrames]) -> Array:
+        """(N, rows) the stacked residual [m, rad] (:mod:`pincal.model.closure`'s rows)."""
+        return np.hstack([self._loop_residual(index, frame) for index, frame in enumerate(frames)])
+
+    def _loop_residual(self, index: int, frame: LoopFrames) -> Array:
+        """(N, rows) loop ``index``'s residual [m, rad]."""
+        spec, basis, p = self.specs[index], self.bases[index], frame.relative_translation
+        if spec.type == "spherical":
+            return p
+        if spec.type == "revolute":
+            assert frame.relative_rotation is not None
+            return np.hstack([p, (frame.relative_rotation @ spec.axis) @ basis])
+        assert frame.log is not None
+        return np.hstack([p if spec.type == "fixed" else p @ basis, frame.log])
+
+    def loop_rows(self, index: int, frame: LoopFrames, relative: Array) -> Array:
+        """(N, rows, k) loop ``index``'s residual rows per unit of k motions, from the anchors' relative spatial twist
+        ``ΔW = W₂ − W₁`` (N, 6, k) (see the module docstring)."""
+        world = relative[:, :3] - cross_columns(frame.p2, relative[:, 3:])
+        linear: Array = np.einsum("nji,njk->nik", frame.r1, world)
+        kind, axis, basis = self.specs[index].type, self.specs[index].axis, self.bases[index]
+        if kind == "spherical":
+            return linear
+        assert frame.r2 is not None and frame.relative_rotation is not None
+        body = np.einsum("nji,njk->nik", frame.r2, relative[:, 3:])
+        if kind == "revolute":
+            turn = basis.T @ frame.relative_rotation @ pin.skew(axis)
+            return np.concatenate([linear, -(turn @ body)], axis=1)
+        assert frame.log is not None
+        angular = jlog3(frame.log) @ body
+        if kind == "fixed":
+            return np.concatenate([linear, angular], axis=1)
+        return np.concatenate([basis.T @ linear, angular], axis=1)  # prismatic
+
+    # --- Newton -------------------------------------------------------------------------------------
+    def close_loops(self, model: pin.Model, closure: LoopClosure, q: Array, tol: Array | float,
+                    max_iter: int = 30, max_step: float = 0.5, max_move: float = math.inf
+                    ) -> tuple[Array, Array, BoolArray]:
+        """Newton over the passive joints of every sample from ``q`` (N, nq), actuated values held.
+
+        Each iteration rebuilds every unconverged sample's Jacobian and solves its step (a true Newton step: the
+        per-sample solver's chord steps save Pinocchio calls, here the Jacobian costs little more than the residual).
+        A spherical loop's rows enter the step in the world frame (``p₂ − p₁`` and its Jacobian): the same step, as
+        rotating a block of rows changes neither the solution of a square system nor a least-squares one.
+
+        Args:
+            model: The robot's model (at the parameters to solve for).
+            closure: Its loops.
+            q: (N, nq) start configurations, actuated values set.
+            tol: Largest accepted closure residual component [m, rad], one or one per sample.
+            max_iter: Most Newton iterations.
+            max_step: Largest norm of one step over the passive velocities [rad or m].
+            max_move: Largest change of any passive coordinate from ``q`` [rad or m]; a sample that goes farther
+                stops unconverged (a jump).
+
+        Returns:
+            The configurations reached (N, nq), the residual reached (N,) (largest component [m, rad]), and which
+            samples converged (N,).
+        """
+        return self._close_loops(self.geometry(model, closure), q, tol, max_iter, max_step, max_move)
+
+    def _close_loops(self, geometry: Geometry, q: Array, tol: Array | float, max_iter: int = 30,
+                     max_step: float = 0.5, max_move: float = math.inf) -> tuple[Array, Array, BoolArray]:
+        q = np.array(q, dtype=float)
+        n = len(q)
+        tols = np.broadcast_to(np.asarray(tol, dtype=float), (n,))
+        norms = np.full(n, math.inf)
+        converged = np.zeros(n, dtype=bool)
+        start = q[:, self.passive_q].copy()
+        active = np.arange(n)
+        for it in range(max_iter + 1):
+            if not active.size:
+                break
+            placements = self.forward(geometry, q[active])
+            frames = self.loop_frames(geometry, placements)
+            norm = np.abs(self._residual(frames)).max(axis=1)
+            norms[active] = norm
+            done = norm <= tols[active]
+            converged[active[done]] = True
+            going = ~done & np.isfinite(norm) & (norm <= DIVERGED) & (it < max_iter)
+            if not np.any(going):
+                break
+            if not np.all(going):
+                placements = JointPlacements([r[going] for r in placements.rotation],
+                                             [t[going] for t in placements.translation], placements.axes[going])
+                frames = [_take(frame, going) for frame in frames]
+            active = active[going]
+            passive, residual = self._newton_system(geometry, placements, frames)
+            step = _newton_steps(passive, residual)
+            size = np.sqrt(np.einsum("ni,ni->n", step, step))
+            step *= np.minimum(1.0, max_step / np.where(size > 0.0, size, 1.0))[:, None]
+            finite = np.all(np.isfinite(step), axis=1)
+            cells = np.ix_(active, self.passive_q)
+            q[cells] += np.where(finite[:, None], step, 0.0)
+            if math.isfinite(max_move):
+                finite &= np.abs(q[cells] - start[active]).max(axis=1) <= max_move
+            active = active[finite]  # a singular step or a jump: stops there, unconverged
+        return q, norms, converged
+
+    def _newton_system(self, geometry: Geometry, placements: JointPlacements, frames: list[LoopFrames]
+                       ) -> tuple[Array, Array]:
+        """``C_p`` (N, rows, n_passive), the closure Jacobian's passive columns, and the residual (N, rows), with
+        the spherical loops' rows in the world frame."""
+        twists = self.joint_twists(placements)[:, :, self.passive_v]
+        support = self.support[:, self.passive_v]
+        blocks, residual = [], []
+        for index, (frame, anchor) in enumerate(zip(frames, geometry.anchors, strict=True)):
+            relative = twists * (support[anchor[3]] - support[anchor[0]])
+            if self.specs[index].type == "spherical":
+                blocks.append(relative[:, :3] - cross_columns(frame.p2, relative[:, 3:]))
+                residual.append(frame.gap)
+            else:
+                blocks.append(self.loop_rows(index, frame, relative))
+                residual.append(self._loop_residual(index, frame))
+        return np.concatenate(blocks, axis=1), np.hstack(residual)
+
+    def actuated_values(self, q: Array) -> Array:
+        """(N, na) actuated values [rad or m] of configurations ``q`` (N, nq)."""
+        values: Array = q[:, self.actuated_q]
+        return values
+
+    def warm_solve(self, model: pin.Model, closure: LoopClosure, q_actuated: Array, guesses: Array,
+                   tol: float) -> tuple[Array, BoolArray]:
+        """Newton from each guess with its actuated values set (:meth:`ClosedLoopKinematics.warm_solve` for every
+        sample): refused (not converged) when the guess is more than one continuation step away in actuated values,
+        or when Newton fails or moves a passive coordinate by more than one step.
+
+        Returns:
+            (N, nq) configurations and (N,) which are answers (the others: solve them alone).
+        """
+        span = np.abs(self.kinematics.actuated_delta(q_actuated, self.actuated_values(guesses))).max(axis=1,
+                                                                                                    initial=0.0)
+        near = span <= CONTINUATION_STEP  # NaN compares False: refused too
+        q = np.array(guesses, dtype=float)
+        ok = np.zeros(len(q), dtype=bool)
+        rows = np.flatnonzero(near)
+        if rows.size:
+            start = q[rows]
+            start[:, self.actuated_q] = q_actuated[rows]
+            solved, _, converged = self._close_loops(self.geometry(model, closure), start, tol,
+                                                     max_move=CONTINUATION_STEP)
+            q[rows] = solved
+            ok[rows] = converged
+        return q, ok
+
+    def continuation(self, model: pin.Model, closure: LoopClosure, q_actuated: Array, tol: float
+                     ) -> tuple[Array, BoolArray]:
+        """The reference assembly for every sample: continuation from the reference configuration in
+        ``max(1, ⌈max|Δq_a| / CONTINUATION_STEP⌉)`` steps, all samples stepping together
+        (:meth:`ClosedLoopKinematics.reference_continuation`'s first try).
+
+        Returns:
+            (N, nq) configurations and (N,) which converged (the others: solve them alone, with finer steps).
+        """
+        n = len(q_actuated)
+        origin = self.actuated_values(self.reference[None, :])[0]
+        path = self.kinematics.actuated_delta(q_actuated, np.broadcast_to(origin, q_actuated.shape))
+        span = np.abs(path).max(axis=1, initial=0.0)
+        reachable = np.isfinite(span) & (span <= MAX_CONTINUATION_STEPS * CONTINUATION_STEP)
+        steps = np.maximum(1, np.ceil(np.where(reachable, span, 0.0) / CONTINUATION_STEP)).astype(int)
+        q = np.tile(self.reference, (n, 1))
+        alive = reachable.copy()
+        geometry = self.geometry(model, closure)
+        for k in range(1, int(steps[alive].max(initial=0)) + 1):
+            rows = np.flatnonzero(alive & (steps >= k))
+            if not rows.size:
+                break
+            start = q[rows]
+            start[:, self.actuated_q] = origin + path[rows] * (k / steps[rows])[:, None]
+            last = steps[rows] == k
+            tols = np.where(last, tol, max(tol, 1e-8))
+            solved, _, converged = self._close_loops(geometry, start, tols, max_iter=20)
+            q[rows] = solved
+            alive[rows[~converged]] = False
+        return q, alive
+
+    def solve(self, model: pin.Model, closure: LoopClosure, q_actuated: Array, guesses: Array | None,
+              tol: float) -> tuple[Array, BoolArray]:
+        """Forward kinematics of every sample: warm from ``guesses`` (N, nq) where given (None: cold starts), by
+        continuation from the reference for the samples without one or whose warm start was refused.
+
+        Returns:
+            (N, nq) configurations and (N,) which are answers (the others: solve them alone).
+        """
+        q_actuated = np.asarray(q_actuated, dtype=float)
+        n = len(q_actuated)
+        q = np.empty((n, self.nq))
+        ok = np.zeros(n, dtype=bool)
+        if guesses is not None:
+            q[:], ok[:] = self.warm_solve(model, closure, q_actuated, guesses, tol)
+        cold = np.flatnonzero(~ok)
+        if cold.size:
+            q[cold], ok[cold] = self.continuation(model, closure, q_actuated[cold], tol)
+        return q, ok
+
+
+def _take(frame: LoopFrames, rows: BoolArray) -> LoopFrames:
+    """The samples ``rows`` of a loop's frames."""
+    return LoopFrames(frame.r1[rows], frame.p2[rows], frame.relative_translation[rows],
+                      None if frame.r2 is None else frame.r2[rows],
+                      None if frame.relative_rotation is None else frame.relative_rotation[rows],
+                      None if frame.log is None else frame.log[rows], frame.gap[rows])
+
+
+def _cross(a: Array, b: Array) -> Array:
+    """``a × b`` over the last axis (…, 3), without :func:`numpy.cross`'s overhead."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
+def _newton_steps(passive: Array, residual: Array) -> Array:
+    """(N, n_passive) Newton steps ``−C_p⁺ c`` for stacked ``C_p`` (N, rows, n_passive) and ``c`` (N, rows): LU solves
+    for square ones, damped normal equations (``μ = 1e-12 · (1 + tr(C_pᵀC_p)/n)``, as the per-sample solver)
+    otherwise or when one is singular; a sample whose step is not finite is left for the caller to refuse."""
+    rows, cols = passive.shape[1:]
+    if rows == cols:
+        try:
+            square = np.linalg.solve(passive, residual[:, :, None])
+            return -np.asarray(square[:, :, 0], dtype=float)
+        except np.linalg.LinAlgError:
+            pass
+    normal = np.swapaxes(passive, 1, 2) @ passive
+    damping = 1e-12 * (1.0 + np.trace(normal, axis1=1, axis2=2) / cols)
+    normal[:, np.arange(cols), np.arange(cols)] += damping[:, None]
+    rhs = (np.swapaxes(passive, 1, 2) @ residual[:, :, None])[:, :, 0]
+    with np.errstate(all="ignore"):
+        step: Array = np.full(rhs.shape, np.nan)
+        try:
+            step[:] = -np.linalg.solve(normal, rhs[:, :, None])[:, :, 0]
+        except np.linalg.LinAlgError:
+            for k in range(len(normal)):
+                try:
+                    step[k] = -np.linalg.solve(normal[k], rhs[k])
+                except np.linalg.LinAlgError:
+                    continue
+    return step
+
