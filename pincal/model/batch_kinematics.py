@@ -52,14 +52,25 @@ class JointPlacements:
     the joint's axis (joint 0, the world, not turned), so that each joint turns about or slides along its frame's z.
 
     Attributes:
-        rotation: Joint id -> (N, 3, 3) the turned frame's rotation.
-        translation: Joint id -> (N, 3) its origin [m] (the joint's origin: Q_j is a pure rotation).
-        axes: (N, njoints - 1, 3) each joint's unit axis in the world (the turned frame's z), joints in id order.
+        frames: (njoints, N, 3, 4) each turned frame's ``[R | p]``: its rotation and origin [m] (the joint's origin:
+            Q_j is a pure rotation); one contiguous block per joint.
     """
 
-    rotation: list[Array]
-    translation: list[Array]
-    axes: Array
+    frames: Array
+
+    def rotation(self, joint: int) -> Array:
+        """(N, 3, 3) the turned frame's rotation of ``joint``."""
+        rotation: Array = self.frames[joint, :, :, :3]
+        return rotation
+
+    def translation(self, joint: int) -> Array:
+        """(N, 3) the origin [m] of ``joint``."""
+        translation: Array = self.frames[joint, :, :, 3]
+        return translation
+
+    def take(self, rows: BoolArray) -> JointPlacements:
+        """The samples ``rows``."""
+        return JointPlacements(self.frames[:, rows])
 
 
 @dataclass(frozen=True)
@@ -102,12 +113,14 @@ class Geometry:
     :meth:`BatchKinematics.forward` and :meth:`BatchKinematics.loop_frames`).
 
     Attributes:
-        joints: Per joint (ids 1…): the rotation (3, 3) and translation (3,) [m] of ``Q_parentᵀ M_j start_j Q_j``.
+        rotations: (njoints - 1, 3, 3) per joint (ids 1…), the rotation of ``Q_parentᵀ M_j start_j Q_j``.
+        translations: (njoints - 1, 3) its translation [m].
         anchors: Per loop: predecessor joint id, rotation and translation [m] of ``Q_j1ᵀ · M1``, successor joint id,
             rotation and translation of ``Q_j2ᵀ · M2``.
     """
 
-    joints: list[tuple[Array, Array]]
+    rotations: Array
+    translations: Array
     anchors: list[tuple[int, Array, Array, int, Array, Array]]
 
 
@@ -171,93 +184,95 @@ class BatchKinematics:
         v_to_q[self.idx_v] = self.idx_q
         self.passive_q: IntArray = v_to_q[self.passive_v]
         self.actuated_q = np.array([a.idx_q for a in kinematics.actuated], dtype=np.intp)
+        v_to_joint = np.zeros(model.nv, dtype=np.intp)
+        v_to_joint[self.idx_v] = np.arange(n)
+        self._passive_joints = v_to_joint[self.passive_v]  # joint (id − 1) of each passive velocity
+        self._passive_rates = self.rates[self._passive_joints][:, None, None]
+        self._passive_revolute = self.revolute[self._passive_joints]
 
     # --- forward kinematics -----------------------------------------------------------------------
     def geometry(self, model: pin.Model, closure: LoopClosure) -> Geometry:
         """The constant placements of ``model`` and ``closure`` (a robot at some parameters) this structure needs."""
-        joints = []
+        rotations, translations = np.empty((self.njoints - 1, 3, 3)), np.empty((self.njoints - 1, 3))
         for j in range(1, self.njoints):
             fixed = self._unturn[self.parents[j]] * model.jointPlacements[j] * self._starts[j - 1]
-            joints.append((fixed.rotation, fixed.translation))
+            rotations[j - 1], translations[j - 1] = fixed.rotation, fixed.translation
         anchors = []
         for j1, m1, j2, m2 in closure.anchors():
             c1, c2 = self._unturn[j1] * m1, self._unturn[j2] * m2  # the anchors on the turned frames
             anchors.append((j1, c1.rotation, c1.translation, j2, c2.rotation, c2.translation))
-        return Geometry(joints, anchors)
+        return Geometry(rotations, translations, anchors)
 
     def forward(self, geometry: Geometry, q: Array) -> JointPlacements:
         """Every joint's turned frame in the world at configurations ``q`` (N, nq), with the placements of
         ``geometry`` (:meth:`geometry`).
 
-        ``oMi[j] Q_j = oMi[parent] Q_parent · (Q_parentᵀ M_j start_j Q_j) · exp(θ e_z)``: one product with a constant
-        per joint, then a rotation by θ about z turns the first two columns, ``(c_x, c_y) ← (c_x cos θ + c_y sin θ,
-        c_y cos θ − c_x sin θ)``; a slide by d along z adds ``d · c_z`` to the origin.
+        ``oMi[j] Q_j = oMi[parent] Q_parent · (Q_parentᵀ M_j start_j Q_j) · exp(θ e_z)``: one matrix product with a
+        constant per joint (``[R | p]`` of all samples at once, (3N × 3) · (3 × 4)), then a rotation by θ about z
+        turns the first two columns, ``c_x + i c_y ← (c_x + i c_y) e^{−iθ}`` (one complex product); a slide by d along
+        z adds ``d · c_z`` to the origin.
         """
         n = len(q)
-        rotation: list[Array] = [np.broadcast_to(np.eye(3), (n, 3, 3))]
-        translation: list[Array] = [np.zeros((n, 3))]
-        axes = np.empty((n, self.njoints - 1, 3))
+        frames = np.empty((self.njoints, n, 3, 4))
+        frames[0, :, :, :3] = np.eye(3)
+        frames[0, :, :, 3] = 0.0
         values = q[:, self.idx_q] * self.rates
-        cosines, sines = np.cos(values), np.sin(values)
+        phases = np.empty(values.shape, dtype=np.complex128)  # e^{−iθ}
+        np.cos(values, out=phases.real)
+        np.sin(-values, out=phases.imag)
+        constants = np.concatenate([geometry.rotations, geometry.translations[:, :, None]], axis=2)  # (J, 3, 4)
+        rotations = frames[:, :, :, :3].reshape(self.njoints, 3 * n, 3)  # views into frames
+        flat = frames.reshape(self.njoints, 3 * n, 4)
+        origins, axes = frames[:, :, :, 3], frames[:, :, :, 2]
+        pairs = frames[:, :, :, :2].view(np.complex128)[..., 0]  # (njoints, N, 3): c_x + i c_y
         for j in range(1, self.njoints):
             b = j - 1
             parent = self.parents[j]
-            fixed_rotation, fixed_translation = geometry.joints[b]
             if parent == 0:
-                turned = np.repeat(fixed_rotation[None], n, axis=0)
-                origin = np.repeat(fixed_translation[None], n, axis=0)
+                frames[j] = constants[b]
             else:
-                above = rotation[parent].reshape(3 * n, 3)
-                turned = (above @ fixed_rotation).reshape(n, 3, 3)
-                origin = (above @ fixed_translation).reshape(n, 3) + translation[parent]
+                np.matmul(rotations[parent], constants[b], out=flat[j])
+                origins[j] += origins[parent]
             if self.revolute[b]:
-                c, s = cosines[:, b, None], sines[:, b, None]
-                x, y = turned[:, :, 0] * c, turned[:, :, 1] * s
-                x += y
-                y = turned[:, :, 1] * c
-                y -= turned[:, :, 0] * s
-                turned[:, :, 0], turned[:, :, 1] = x, y
+                pairs[j] *= phases[:, b, None]
             else:
-                origin += turned[:, :, 2] * values[:, b, None]
-            rotation.append(turned)
-            translation.append(origin)
-            axes[:, b] = turned[:, :, 2]
-        return JointPlacements(rotation, translation, axes)
+                origins[j] += axes[j] * values[:, b, None]
+        return JointPlacements(frames)
 
     def joint_twists(self, placements: JointPlacements) -> Array:
         """(N, 6, nv) each velocity coordinate's spatial twist (per unit velocity: the velocity [m/s] of the world
         point at the origin moving with the joint's child, and its angular velocity [rad/s], in the world frame)."""
-        axes = placements.axes * self.rates[:, None]
-        n = len(axes)
+        frames = placements.frames[1:]
+        axes = frames[:, :, :, 2] * self.rates[:, None, None]  # (J, N, 3)
+        n = axes.shape[1]
         twists = np.zeros((n, 6, self.nv))
-        origins = np.stack(placements.translation[1:], axis=1)
-        linear = np.where(self.revolute[None, :, None], _cross(origins, axes), axes)
-        twists[:, :3, self.idx_v] = linear.transpose(0, 2, 1)
-        twists[:, 3:, self.idx_v] = np.where(self.revolute[None, :, None], axes, 0.0).transpose(0, 2, 1)
+        linear = np.where(self.revolute[:, None, None], _cross(frames[:, :, :, 3], axes), axes)
+        twists[:, :3, self.idx_v] = linear.transpose(1, 2, 0)
+        twists[:, 3:, self.idx_v] = np.where(self.revolute[:, None, None], axes, 0.0).transpose(1, 2, 0)
         return twists
 
     # --- loops --------------------------------------------------------------------------------------
     def loop_frames(self, geometry: Geometry, placements: JointPlacements) -> list[LoopFrames]:
         """Each loop's anchor frames at ``placements``, with the anchor placements of ``geometry``."""
-        frames = []
-        n = len(placements.axes)
-        rotation, translation = placements.rotation, placements.translation
+        result = []
+        frames = placements.frames
+        n = frames.shape[1]
         for spec, (j1, r1c, t1c, j2, r2c, t2c) in zip(self.specs, geometry.anchors, strict=True):
-            above_1, above_2 = rotation[j1].reshape(3 * n, 3), rotation[j2].reshape(3 * n, 3)
+            above_1, above_2 = frames[j1, :, :, :3].reshape(3 * n, 3), frames[j2, :, :, :3].reshape(3 * n, 3)
             r1 = (above_1 @ r1c).reshape(n, 3, 3)
-            gap = (above_2 @ t2c).reshape(n, 3) + translation[j2]
+            gap = (above_2 @ t2c).reshape(n, 3) + frames[j2, :, :, 3]
             p2 = gap.copy()
             gap -= (above_1 @ t1c).reshape(n, 3)
-            gap -= translation[j1]
+            gap -= frames[j1, :, :, 3]
             offset = np.einsum("nji,nj->ni", r1, gap)
             if spec.type == "spherical":
-                frames.append(LoopFrames(r1, p2, offset, None, None, None, gap))
+                result.append(LoopFrames(r1, p2, offset, None, None, None, gap))
                 continue
             r2 = (above_2 @ r2c).reshape(n, 3, 3)
             relative = np.einsum("nji,njk->nik", r1, r2)
-            frames.append(LoopFrames(r1, p2, offset, r2, relative,
+            result.append(LoopFrames(r1, p2, offset, r2, relative,
                                      log3(relative) if spec.type in ("fixed", "prismatic") else None, gap))
-        return frames
+        return result
 
     def state(self, model: pin.Model, closure: LoopClosure, q: Array, jacobian: bool = True) -> LoopState:
         """Forward kinematics, the loops' residual and (if ``jacobian``) its Jacobian ``dc/dv`` at ``q`` (N, nq)."""
@@ -360,8 +375,7 @@ class BatchKinematics:
             if not np.any(going):
                 break
             if not np.all(going):
-                placements = JointPlacements([r[going] for r in placements.rotation],
-                                             [t[going] for t in placements.translation], placements.axes[going])
+                placements = placements.take(going)
                 frames = [_take(frame, going) for frame in frames]
             active = active[going]
             passive, residual = self._newton_system(geometry, placements, frames)
@@ -379,16 +393,20 @@ class BatchKinematics:
     def _newton_system(self, geometry: Geometry, placements: JointPlacements, frames: list[LoopFrames]
                        ) -> tuple[Array, Array]:
         """``C_p`` (N, rows, n_passive), the closure Jacobian's passive columns, and the residual (N, rows), with
-        the spherical loops' rows in the world frame."""
-        twists = self.joint_twists(placements)[:, :, self.passive_v]
-        support = self.support[:, self.passive_v]
+        the spherical loops' rows in the world frame: for a revolute joint of unit velocity ``ω`` through ``o``, the
+        anchor point ``p₂`` moves (relative to c1's body) by ``± ω × (p₂ − o)``; for a prismatic one by ``± ω``."""
+        joints = placements.frames[1:][self._passive_joints]  # (n_passive, N, 3, 4)
+        velocity = joints[:, :, :, 2] * self._passive_rates  # ω (revolute) or the slide direction (prismatic)
         blocks, residual = [], []
         for index, (frame, anchor) in enumerate(zip(frames, geometry.anchors, strict=True)):
-            relative = twists * (support[anchor[3]] - support[anchor[0]])
+            sign = self.support[anchor[3], self.passive_v] - self.support[anchor[0], self.passive_v]
             if self.specs[index].type == "spherical":
-                blocks.append(relative[:, :3] - cross_columns(frame.p2, relative[:, 3:]))
+                moved = np.where(self._passive_revolute[:, None, None],
+                                 _cross(velocity, frame.p2[None] - joints[:, :, :, 3]), velocity)
+                blocks.append((moved * sign[:, None, None]).transpose(1, 2, 0))
                 residual.append(frame.gap)
             else:
+                relative = self.joint_twists(placements)[:, :, self.passive_v] * sign
                 blocks.append(self.loop_rows(index, frame, relative))
                 residual.append(self._loop_residual(index, frame))
         return np.concatenate(blocks, axis=1), np.hstack(residual)
