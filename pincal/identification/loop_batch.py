@@ -65,14 +65,14 @@ class LoopBatch:
 
     def __init__(self, robot: Robot, frame_ids: dict[str, int]) -> None:
         model = robot.model
-        self.kinematics = BatchKinematics(robot.kinematics)
+        self.kinematics: BatchKinematics = robot.kinematics.batch
         self.anchor_names = [(ANCHOR.format(loop=loop.name, side="predecessor"),
                               ANCHOR.format(loop=loop.name, side="successor")) for loop in robot.loops]
         probes = dict(frame_ids)
         for loop, (first, second) in zip(robot.loops, self.anchor_names, strict=True):
             probes[first] = model.getFrameId(loop.predecessor)
             probes[second] = model.getFrameId(loop.successor)
-        self.tree = TreeBatch(robot, probes)
+        self.tree = TreeBatch(robot, probes, self.kinematics.motions)
         self.unsupported = self.kinematics.unsupported or self.tree.unsupported
         self.frame_ids = dict(frame_ids)
         self.scratch = Workspace()

@@ -64,12 +64,13 @@ class TreeBatch:
     Args:
         robot: The nominal robot (no loops); its structure, not its placements, is kept.
         frame_ids: Measured frame name -> Pinocchio frame id.
+        motions: The joints' motions if already read (:func:`~pincal.model.joint_motion.joint_motion`), by joint id.
 
     Attributes:
         unsupported: Why the batched evaluation cannot take this robot (a joint kind it does not evaluate), or None.
     """
 
-    def __init__(self, robot: Robot, frame_ids: dict[str, int]) -> None:
+    def __init__(self, robot: Robot, frame_ids: dict[str, int], motions: dict[int, JointMotion] | None = None) -> None:
         model = robot.model
         self.reference = robot.q_reference.copy()
         self.actuated = robot.kinematics.actuated
@@ -84,7 +85,7 @@ class TreeBatch:
         self.motions: dict[int, JointMotion] = {}
         self.unsupported: str | None = None
         for j in self.joints:
-            motion = joint_motion(model, j)
+            motion = motions[j] if motions is not None and j in motions else joint_motion(model, j)
             if motion is None:
                 self.unsupported = f"joint '{model.names[j]}' ({model.joints[j].shortname()})"
                 break

@@ -34,7 +34,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.model.closure import LoopClosure, normal_basis
-from pincal.model.joint_motion import joint_motion
+from pincal.model.joint_motion import JointMotion, joint_motion
 from pincal.model.kinematics import CONTINUATION_STEP, MAX_CONTINUATION_STEPS, ClosedLoopKinematics
 from pincal.model.rotations import cross_columns, jlog3, log3
 
@@ -155,10 +155,14 @@ class BatchKinematics:
         self.rates = np.zeros(n)
         self.revolute = np.zeros(n, dtype=bool)
         self.starts: list[pin.SE3] = []
+        #: Joint id -> its motion (joints of one coordinate), as :mod:`pincal.model.joint_motion` reads it.
+        self.motions: dict[int, JointMotion] = {}
         self.turns: list[pin.SE3] = []
         for j in range(1, model.njoints):
             jm = model.joints[j]
             motion = joint_motion(model, j) if jm.nq == 1 and jm.nv == 1 else None
+            if motion is not None:
+                self.motions[j] = motion
             if motion is None or motion.source != j:
                 self.unsupported = f"joint '{model.names[j]}' ({jm.shortname()})"
                 break
@@ -187,8 +191,28 @@ class BatchKinematics:
         v_to_joint = np.zeros(model.nv, dtype=np.intp)
         v_to_joint[self.idx_v] = np.arange(n)
         self._passive_joints = v_to_joint[self.passive_v]  # joint (id − 1) of each passive velocity
-        self._passive_rates = self.rates[self._passive_joints][:, None, None]
+        self._passive_rates = self.rates[self._passive_joints]
         self._passive_revolute = self.revolute[self._passive_joints]
+        # each loop's motion per unit joint velocity: +1 moving its successor anchor, −1 its predecessor's
+        anchors = kinematics.closure.anchors()
+        self._signs = np.array([self.support[j2] - self.support[j1] for j1, _, j2, _ in anchors]).reshape(-1, model.nv)
+        self._spherical = [k for k, spec in enumerate(self.specs) if spec.type == "spherical"]
+        # the (loop, passive joint) pairs of the spherical loops where the joint moves the loop, revolute and
+        # prismatic: rows (3, P) and columns (3, P) of C_p, the loop (among the spherical ones), the sign
+        pairs: dict[bool, list[tuple[int, int, int, float]]] = {True: [], False: []}
+        for rank, index in enumerate(self._spherical):
+            start = sum(spec.rows for spec in self.specs[:index])
+            for column, v in enumerate(self.passive_v):
+                if self._signs[index, v] != 0.0:
+                    pairs[bool(self._passive_revolute[column])].append((start, column, rank, self._signs[index, v]))
+        self._turning, self._sliding = (
+            (np.arange(3)[:, None] + np.array([p[0] for p in pairs[kind]], dtype=np.intp),
+             np.broadcast_to(np.array([p[1] for p in pairs[kind]], dtype=np.intp), (3, len(pairs[kind]))),
+             np.array([p[2] for p in pairs[kind]], dtype=np.intp), np.array([p[3] for p in pairs[kind]]))
+            for kind in (True, False))
+        starts = np.cumsum([0] + [spec.rows for spec in self.specs])
+        self._spherical_rows = np.concatenate([np.arange(starts[k], starts[k] + 3) for k in self._spherical]
+                                              ).astype(np.intp) if self._spherical else np.zeros(0, dtype=np.intp)
 
     # --- forward kinematics -----------------------------------------------------------------------
     def geometry(self, model: pin.Model, closure: LoopClosure) -> Geometry:
@@ -208,7 +232,7 @@ class BatchKinematics:
         ``geometry`` (:meth:`geometry`).
 
         ``oMi[j] Q_j = oMi[parent] Q_parent · (Q_parentᵀ M_j start_j Q_j) · exp(θ e_z)``: one matrix product with a
-        constant per joint (``[R | p]`` of all samples at once, (3N × 3) · (3 × 4)), then a rotation by θ about z
+        constant per joint (``[R | p]`` of all samples at once, (3N × 4) · (4 × 4)), then a rotation by θ about z
         turns the first two columns, ``c_x + i c_y ← (c_x + i c_y) e^{−iθ}`` (one complex product); a slide by d along
         z adds ``d · c_z`` to the origin.
         """
@@ -220,19 +244,17 @@ class BatchKinematics:
         phases = np.empty(values.shape, dtype=np.complex128)  # e^{−iθ}
         np.cos(values, out=phases.real)
         np.sin(-values, out=phases.imag)
-        constants = np.concatenate([geometry.rotations, geometry.translations[:, :, None]], axis=2)  # (J, 3, 4)
-        rotations = frames[:, :, :, :3].reshape(self.njoints, 3 * n, 3)  # views into frames
-        flat = frames.reshape(self.njoints, 3 * n, 4)
+        # [R | p] · [[R_c, t_c], [0, 1]] = [R R_c | R t_c + p]: one product per joint
+        constants = np.zeros((self.njoints - 1, 4, 4))
+        constants[:, :3, :3] = geometry.rotations
+        constants[:, :3, 3] = geometry.translations
+        constants[:, 3, 3] = 1.0
+        flat = frames.reshape(self.njoints, 3 * n, 4)  # views into frames
         origins, axes = frames[:, :, :, 3], frames[:, :, :, 2]
         pairs = frames[:, :, :, :2].view(np.complex128)[..., 0]  # (njoints, N, 3): c_x + i c_y
         for j in range(1, self.njoints):
             b = j - 1
-            parent = self.parents[j]
-            if parent == 0:
-                frames[j] = constants[b]
-            else:
-                np.matmul(rotations[parent], constants[b], out=flat[j])
-                origins[j] += origins[parent]
+            np.matmul(flat[self.parents[j]], constants[b], out=flat[j])
             if self.revolute[b]:
                 pairs[j] *= phases[:, b, None]
             else:
@@ -394,22 +416,39 @@ class BatchKinematics:
                        ) -> tuple[Array, Array]:
         """``C_p`` (N, rows, n_passive), the closure Jacobian's passive columns, and the residual (N, rows), with
         the spherical loops' rows in the world frame: for a revolute joint of unit velocity ``ω`` through ``o``, the
-        anchor point ``p₂`` moves (relative to c1's body) by ``± ω × (p₂ − o)``; for a prismatic one by ``± ω``."""
-        joints = placements.frames[1:][self._passive_joints]  # (n_passive, N, 3, 4)
-        velocity = joints[:, :, :, 2] * self._passive_rates  # ω (revolute) or the slide direction (prismatic)
-        blocks, residual = [], []
-        for index, (frame, anchor) in enumerate(zip(frames, geometry.anchors, strict=True)):
-            sign = self.support[anchor[3], self.passive_v] - self.support[anchor[0], self.passive_v]
-            if self.specs[index].type == "spherical":
-                moved = np.where(self._passive_revolute[:, None, None],
-                                 _cross(velocity, frame.p2[None] - joints[:, :, :, 3]), velocity)
-                blocks.append((moved * sign[:, None, None]).transpose(1, 2, 0))
-                residual.append(frame.gap)
-            else:
-                relative = self.joint_twists(placements)[:, :, self.passive_v] * sign
-                blocks.append(self.loop_rows(index, frame, relative))
-                residual.append(self._loop_residual(index, frame))
-        return np.concatenate(blocks, axis=1), np.hstack(residual)
+        anchor point ``p₂`` moves (relative to c1's body) by ``± ω × (p₂ − o)``; for a prismatic one by ``± ω``
+        (all spherical loops at once)."""
+        n = placements.frames.shape[1]
+        jacobian = np.zeros((n, self.rows, len(self.passive_v)))
+        residual = np.empty((n, self.rows))
+        spherical = self._spherical
+        if spherical:
+            joints = placements.frames[self._passive_joints + 1]  # (n_passive, N, 3, 4)
+            # ω (revolute) or the slide direction (prismatic), (N, 3, n_passive)
+            velocity = (joints[:, :, :, 2] * self._passive_rates[:, None, None]).transpose(1, 2, 0)
+            rows, cols, loops, signs = self._turning
+            if cols.size:  # ± ω × (p₂ − o), for the (loop, joint) pairs where the joint moves the loop
+                anchors = np.stack([frames[index].p2 for index in spherical], axis=2)  # (N, 3, L)
+                turning = velocity[:, :, cols[0]]
+                offset = anchors[:, :, loops] - joints[cols[0], :, :, 3].transpose(1, 2, 0)
+                moved = np.empty(turning.shape)
+                for i, (a, b) in enumerate(((1, 2), (2, 0), (0, 1))):
+                    moved[:, i] = turning[:, a] * offset[:, b] - turning[:, b] * offset[:, a]
+                jacobian[:, rows, cols] = moved * signs
+            rows, cols, _, signs = self._sliding
+            if cols.size:
+                jacobian[:, rows, cols] = velocity[:, :, cols[0]] * signs
+            residual[:, self._spherical_rows] = np.stack([frames[index].gap for index in spherical], axis=1
+                                                         ).reshape(n, -1)
+        start = 0
+        for index, frame in enumerate(frames):
+            stop = start + self.specs[index].rows
+            if self.specs[index].type != "spherical":
+                relative = self.joint_twists(placements)[:, :, self.passive_v] * self._signs[index, self.passive_v]
+                jacobian[:, start:stop] = self.loop_rows(index, frame, relative)
+                residual[:, start:stop] = self._loop_residual(index, frame)
+            start = stop
+        return jacobian, residual
 
     def actuated_values(self, q: Array) -> Array:
         """(N, na) actuated values [rad or m] of configurations ``q`` (N, nq)."""
@@ -444,7 +483,9 @@ class BatchKinematics:
                      ) -> tuple[Array, BoolArray]:
         """The reference assembly for every sample: continuation from the reference configuration in
         ``max(1, ⌈max|Δq_a| / CONTINUATION_STEP⌉)`` steps, all samples stepping together
-        (:meth:`ClosedLoopKinematics.reference_continuation`'s first try).
+        (:meth:`ClosedLoopKinematics.reference_continuation`'s first try). From the second step on, Newton starts
+        from the secant prediction ``2 q_k − q_{k−1}`` of the passive joints (the per-sample solver starts from
+        ``q_k``): the same branch's answer, in fewer iterations.
 
         Returns:
             (N, nq) configurations and (N,) which converged (the others: solve them alone, with finer steps).
@@ -456,6 +497,7 @@ class BatchKinematics:
         reachable = np.isfinite(span) & (span <= MAX_CONTINUATION_STEPS * CONTINUATION_STEP)
         steps = np.maximum(1, np.ceil(np.where(reachable, span, 0.0) / CONTINUATION_STEP)).astype(int)
         q = np.tile(self.reference, (n, 1))
+        before = q.copy()  # each sample's configuration one step back
         alive = reachable.copy()
         geometry = self.geometry(model, closure)
         for k in range(1, int(steps[alive].max(initial=0)) + 1):
@@ -464,9 +506,12 @@ class BatchKinematics:
                 break
             start = q[rows]
             start[:, self.actuated_q] = origin + path[rows] * (k / steps[rows])[:, None]
+            if k > 1:  # a secant predictor along the path (equal steps): Newton starts nearer the same branch
+                start[:, self.passive_q] += q[rows][:, self.passive_q] - before[rows][:, self.passive_q]
             last = steps[rows] == k
             tols = np.where(last, tol, max(tol, 1e-8))
             solved, _, converged = self._close_loops(geometry, start, tols, max_iter=20)
+            before[rows] = q[rows]
             q[rows] = solved
             alive[rows[~converged]] = False
         return q, alive
