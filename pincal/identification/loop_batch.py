@@ -28,7 +28,7 @@ from pincal.errors import ConvergenceError
 from pincal.identification.batch import SpatialJacobian, Workspace
 from pincal.identification.derivatives import KinematicSensitivity, Probe
 from pincal.identification.tree_batch import Placements, TreeBatch
-from pincal.model.batch_kinematics import BatchKinematics, LoopState
+from pincal.model.batch_kinematics import BatchKinematics, LoopSystem
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -77,15 +77,15 @@ class LoopBatch:
         self.frame_ids = dict(frame_ids)
         self.scratch = Workspace()
 
-    def gain(self, state: LoopState, first: int, singular_gain: float) -> Array:
-        """(N, n_passive, rows) ``C_p⁺``, the passive joints' response to the loops' residual, for samples numbered
-        from ``first``; ConvergenceError naming the first sample where an entry exceeds ``singular_gain``.
+    def gain(self, system: LoopSystem, first: int, singular_gain: float) -> Array:
+        """(N, n_passive, rows) ``C_p⁺``, the passive joints' response to the loops' residual (the spherical loops'
+        rows in the world frame), for samples numbered from ``first``; ConvergenceError naming the first sample where
+        an entry exceeds ``singular_gain`` (the per-sample check, up to the rotation of those rows).
 
         Square ``C_p`` (most parallel robots) are inverted by LU, others by the damped normal equations of
         :func:`~pincal.model.kinematics.damped_pseudo_inverse` (``μ = 1e-12 · (1 + tr(C_pᵀC_p)/n)``).
         """
-        assert state.jacobian is not None
-        passive = state.jacobian[:, :, self.kinematics.passive_v]
+        passive = system.passive
         n, rows, cols = passive.shape
         gain = np.full((n, cols, rows), np.nan)
         if rows == cols:
@@ -118,7 +118,7 @@ class LoopBatch:
                                    "determined by the actuated ones (with these parameters)")
         return gain
 
-    def twists(self, robot: Robot, sens: KinematicSensitivity, q: Array, state: LoopState,
+    def twists(self, robot: Robot, sens: KinematicSensitivity, q: Array, system: LoopSystem,
                terms: list[tuple[int, int, Array]], probes: dict[str, Probe], first: int, singular_gain: float
                ) -> tuple[dict[str, Placements], dict[str, SpatialJacobian], LoopDerivatives]:
         """The measured frames' placements and spatial twists per unit parameter through the loops.
@@ -127,7 +127,7 @@ class LoopBatch:
             robot: The robot at the evaluated parameters.
             sens: The parameter derivatives at this estimate.
             q: (N, nq) the block's closed configurations.
-            state: The loops at ``q`` (:meth:`~pincal.model.batch_kinematics.BatchKinematics.state`, with Jacobian).
+            system: The loops linearised at ``q`` (:meth:`~pincal.model.batch_kinematics.BatchKinematics.linearised`).
             terms: (actuated joint index, column, (N,) regressor) of the block.
             probes: Measured frame -> its probe at this estimate.
             first: The index of the block's first sample (for error messages).
@@ -141,7 +141,7 @@ class LoopBatch:
         n = len(q)
         placed, origins = tree.forward(model, q)
         placements = {f: tree.frame_placement(model, placed, f, n) for f in self.frame_ids}
-        gain = self.gain(state, first, singular_gain)
+        gain = self.gain(system, first, singular_gain)
         # the loops' residual per unit parameter at fixed passive joints (actuated terms included)
         slopes = []
         anchors = robot.closure.anchors()
@@ -158,7 +158,7 @@ class LoopBatch:
                     twist[:, :3, idx] += (where.top.reshape(3 * n, 6) @ jexp).reshape(n, 3, len(idx))
                     twist[:, 3:, idx] += (where.rotation.reshape(3 * n, 3) @ jexp[3:]).reshape(n, 3, len(idx))
                 ends.append(twist)
-            slopes.append(kin.loop_rows(index, state.frames[index], ends[1] - ends[0]))
+            slopes.append(kin.solver_rows(index, system.frames[index], ends[1] - ends[0]))
         slope = np.concatenate(slopes, axis=1)  # (N, rows, p)
         passive = kin.passive_v
         velocities = np.zeros((n, kin.nv, sens.n))
@@ -166,14 +166,14 @@ class LoopBatch:
         act_v = robot.kinematics.actuated_v
         for joint, column, regressor in terms:
             velocities[:, act_v[joint], column] = regressor
-        assert state.axes is not None
+        joint_twists = kin.joint_twists(system.placements)
         twists: dict[str, SpatialJacobian] = {}
         identity = np.eye(sens.n)
         for f, probe in probes.items():
             spatial = tree.twist(f, probe, sens, placed, origins, placements[f], terms).full()
             chain = passive[kin.support[probe.joint, passive] > 0.0]
             if chain.size:
-                spatial += state.axes[:, :, chain] @ velocities[:, chain]
+                spatial += joint_twists[:, :, chain] @ velocities[:, chain]
             twists[f] = SpatialJacobian(spatial, identity, self.scratch)
-        return placements, twists, LoopDerivatives(velocities, state.axes)
+        return placements, twists, LoopDerivatives(velocities, joint_twists)
 

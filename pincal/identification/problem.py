@@ -65,6 +65,9 @@ IntArray = npt.NDArray[np.int64]
 #: Samples a tree's batched evaluation takes at once: its intermediates (about 6 × p numbers per sample and measured
 #: frame) stay a few megabytes, whatever the number of samples.
 BATCH_SAMPLES = 2048
+#: Fewest samples a closed-loop robot's evaluation solves together (:meth:`CalibrationProblem._solve_all`); fewer are
+#: solved one by one, which costs less than a stacked solve's fixed cost (about 30 array operations per iteration).
+SMALL_WAVE = 16
 #: Largest entry of the passive joints' response to the loops (C_p⁺) before a sample counts as singular
 #: (an identification step that takes a sample there is rejected).
 SINGULAR_GAIN = 1e8
@@ -295,6 +298,10 @@ class CalibrationProblem:
         guess = self._q_cache[k]
         if guess is None:
             guess = self._nearest_solution(robot, qa)
+        return self._solve_from(robot, k, qa, guess)
+
+    def _solve_from(self, robot: Robot, k: int, qa: Array, guess: Array | None) -> Array:
+        """:meth:`_solve` from the warm start ``guess`` (None: cold), remembering the answer."""
         report = robot.kinematics.solve_fk(qa, guess, SOLVE_TOLERANCE)
         if not report.converged:
             raise ConvergenceError(f"sample {k}: forward kinematics did not converge for actuated readings "
@@ -473,35 +480,66 @@ class CalibrationProblem:
         return self._assemble(preds, dpreds, output_jacobian)
 
     def _solve_all(self, robot: Robot, qa_all: Array) -> Array:
-        """Every sample's configuration on the reference assembly (:meth:`_solve` for all at once).
+        """Every sample's configuration on the reference assembly: :meth:`_solve` for all samples, in waves of
+        stacked Newton solves (:class:`~pincal.model.batch_kinematics.BatchKinematics`), from the same warm starts.
 
-        Newton from each sample's own last configuration for all samples together
-        (:meth:`~pincal.model.batch_kinematics.BatchKinematics.warm_solve`, refused as the per-sample warm start is);
-        continuation from the reference, all samples stepping together, for those without one or refused; and
-        :meth:`_solve`, alone, for any these did not close (finer continuation, or the error naming the sample).
+        A sample solved before starts from its own last configuration; a first solve from the configuration of the
+        solved sample nearest in actuated values (:meth:`_nearest_solution`, asked in sample order as the per-sample
+        path asks, so with the same answers). The first solves that start from another first solve wait for it: wave
+        w holds the samples whose chain of warm starts is w long; those without a neighbour are solved by
+        continuation from the reference with the first wave. A refused warm start falls back on continuation, all
+        such samples stepping together, and a sample neither closes is solved alone (:meth:`_solve_from`: finer
+        continuation, or the error naming it); so is a wave, or a set of refused samples, of fewer than
+        :data:`SMALL_WAVE` samples.
         """
         assert self._loops is not None
         kin = self._loops.kinematics
         n, model, closure = len(qa_all), robot.model, robot.closure
-        previous = np.full((n, model.nq), np.nan)
         known = np.array([guess is not None for guess in self._q_cache], dtype=bool)
+        previous = np.full((n, model.nq), np.nan)
         if np.any(known):
             previous[known] = np.array([guess for guess in self._q_cache if guess is not None])
-        q, ok = np.empty((n, model.nq)), np.zeros(n, dtype=bool)
-        rows = np.flatnonzero(known)
-        if rows.size:
-            q[rows], ok[rows] = kin.warm_solve(model, closure, qa_all[rows], previous[rows], SOLVE_TOLERANCE)
-        rows = np.flatnonzero(~ok)
-        if rows.size:
-            q[rows], ok[rows] = kin.continuation(model, closure, qa_all[rows], SOLVE_TOLERANCE)
-        travel = np.abs(q - previous).max(axis=1, initial=0.0)
-        self._travel[known & ok] += travel[known & ok]
-        for k in range(n):
-            if ok[k]:
-                self._q_cache[k] = q[k]
-                self._qa_solved.record(k, qa_all[k])
+        q = np.full((n, model.nq), np.nan)
+        wave = np.zeros(n, dtype=np.intp)
+        parent = np.full(n, -1, dtype=np.intp)
+        old = np.zeros(n, dtype=bool)  # the neighbour's remembered configuration (not yet solved again)
+        for k in range(n):  # the per-sample path's sequence of neighbour queries and records
+            if not known[k]:
+                found = self._qa_solved.nearest(qa_all[k], robot.kinematics.actuated_delta)
+                if found >= 0 and (known[found] or found < k):  # else a neighbour never solved: a cold start
+                    parent[k], old[k] = found, known[found] and found > k
+                    wave[k] = 1 if known[found] else wave[found] + 1
+                else:
+                    wave[k] = 1  # a cold start
+            self._qa_solved.record(k, qa_all[k])
+        for w in range(int(wave.max(initial=0)) + 1):
+            rows = np.flatnonzero(wave == w)
+            if not rows.size:
+                continue
+            if w == 0:
+                guesses = previous[rows]
             else:
-                q[k] = self._solve(robot, k, qa_all[k])
+                source = parent[rows]
+                guesses = np.where(old[rows, None], previous[source], q[source])
+            if rows.size < SMALL_WAVE:  # a stacked solve's fixed cost exceeds a few solves alone
+                for row, guess in zip(rows.tolist(), guesses, strict=True):
+                    q[row] = self._solve_from(robot, row, qa_all[row], None if np.isnan(guess[0]) else guess)
+                known[rows] = False  # their travel is counted
+                continue
+            warm = ~np.isnan(guesses[:, 0])
+            ok = np.zeros(rows.size, dtype=bool)
+            if np.any(warm):
+                q[rows[warm]], ok[warm] = kin.warm_solve(model, closure, qa_all[rows[warm]], guesses[warm],
+                                                         SOLVE_TOLERANCE)
+            if np.count_nonzero(~ok) >= SMALL_WAVE:
+                q[rows[~ok]], ok[~ok] = kin.continuation(model, closure, qa_all[rows[~ok]], SOLVE_TOLERANCE)
+            for row, guess in zip(rows[~ok].tolist(), guesses[~ok], strict=True):  # alone (finer steps, or the error)
+                q[row] = self._solve_from(robot, row, qa_all[row], None if np.isnan(guess[0]) else guess)
+                known[row] = False  # its travel is counted
+        travel = np.abs(q - previous).max(axis=1, initial=0.0)
+        self._travel[known] += travel[known]
+        for k in range(n):
+            self._q_cache[k] = q[k]
         return q
 
     def _predict_loops(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
@@ -527,8 +565,8 @@ class CalibrationProblem:
                 placements = {f: loops.tree.frame_placement(model, placed, f, size) for f in self.frame_ids}
                 twists: dict[str, SpatialJacobian] = {}
             else:
-                state = loops.kinematics.state(model, robot.closure, q)
-                placements, twists, response = loops.twists(robot, sens, q, state, terms, probes, start,
+                system = loops.kinematics.linearised(model, robot.closure, q)
+                placements, twists, response = loops.twists(robot, sens, q, system, terms, probes, start,
                                                              SINGULAR_GAIN)
                 velocities = response.velocities
             joint_terms: dict[str, list[tuple[int, Array]]] = {}

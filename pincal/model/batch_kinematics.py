@@ -124,6 +124,22 @@ class Geometry:
     anchors: list[tuple[int, Array, Array, int, Array, Array]]
 
 
+@dataclass(frozen=True)
+class LoopSystem:
+    """The loops of N samples linearised at closed configurations (:meth:`BatchKinematics.linearised`).
+
+    Attributes:
+        placements: The joints' placements.
+        frames: Each loop's anchor frames.
+        passive: (N, rows, n_passive) ``C_p``, the spherical loops' rows in the world frame
+            (:meth:`BatchKinematics.solver_rows`).
+    """
+
+    placements: JointPlacements
+    frames: list[LoopFrames]
+    passive: Array
+
+
 class BatchKinematics:
     """Batched closed-loop kinematics for one robot structure (built once; placements read at each call).
 
@@ -313,6 +329,24 @@ class BatchKinematics:
             jac[:, start:stop] = self.loop_rows(index, frame, relative)
             start = stop
         return LoopState(placements, frames, residual, jac, twists)
+
+    def linearised(self, model: pin.Model, closure: LoopClosure, q: Array) -> LoopSystem:
+        """The loops at closed configurations ``q`` (N, nq), for the implicit-function theorem: placements, anchor
+        frames, and ``C_p`` with the spherical loops' rows in the world frame (:meth:`solver_rows`)."""
+        geometry = self.geometry(model, closure)
+        placements = self.forward(geometry, q)
+        frames = self.loop_frames(geometry, placements)
+        passive, _ = self._newton_system(geometry, placements, frames)
+        return LoopSystem(placements, frames, passive)
+
+    def solver_rows(self, index: int, frame: LoopFrames, relative: Array) -> Array:
+        """:meth:`loop_rows`, with a spherical loop's in the world frame (``R₁`` times its rows): the rows of the Newton
+        steps and of :meth:`linearised`. Rotating a block of rows changes neither ``C_p⁻¹ c`` nor a least-squares
+        solution, and spares a product per loop."""
+        if self.specs[index].type == "spherical":
+            rows: Array = relative[:, :3] - cross_columns(frame.p2, relative[:, 3:])
+            return rows
+        return self.loop_rows(index, frame, relative)
 
     def _residual(self, frames: list[LoopFrames]) -> Array:
         """(N, rows) the stacked residual [m, rad] (:mod:`pincal.model.closure`'s rows)."""
