@@ -285,6 +285,8 @@ class CalibrationProblem:
         """Closed configurations (N, nq) of every sample at ``x``, on the reference assembly."""
         robot = self.robot_at(x)
         qa = self.actuated_values(x)
+        if self._batched_loops and robot.loops:
+            return self._solve_all(robot, qa).copy()
         return np.array([self._solve(robot, k, qa[k]) for k in range(qa.shape[0])])
 
     def _solve(self, robot: Robot, k: int, qa: Array) -> Array:
