@@ -28,7 +28,7 @@ from pincal.errors import ConvergenceError
 from pincal.identification.batch import SpatialJacobian, Workspace
 from pincal.identification.derivatives import KinematicSensitivity, Probe
 from pincal.identification.tree_batch import Placements, TreeBatch
-from pincal.model.batch_kinematics import BatchKinematics, LoopSystem
+from pincal.model.batch_kinematics import BatchKinematics, LoopSystem, passive_gains
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -83,32 +83,9 @@ class LoopBatch:
         an entry exceeds ``singular_gain`` (the per-sample check, up to the rotation of those rows).
 
         Square ``C_p`` (most parallel robots) are inverted by LU, others by the damped normal equations of
-        :func:`~pincal.model.kinematics.damped_pseudo_inverse` (``μ = 1e-12 · (1 + tr(C_pᵀC_p)/n)``).
+        :func:`~pincal.model.kinematics.damped_pseudo_inverse` (:func:`~pincal.model.batch_kinematics.passive_gains`).
         """
-        passive = system.passive
-        n, rows, cols = passive.shape
-        gain = np.full((n, cols, rows), np.nan)
-        if rows == cols:
-            try:
-                gain = np.linalg.inv(passive)
-            except np.linalg.LinAlgError:
-                for k in range(n):
-                    try:
-                        gain[k] = np.linalg.inv(passive[k])
-                    except np.linalg.LinAlgError:
-                        continue
-        else:
-            normal = np.swapaxes(passive, 1, 2) @ passive
-            normal[:, np.arange(cols), np.arange(cols)] += (
-                1e-12 * (1.0 + np.trace(normal, axis1=1, axis2=2) / cols))[:, None]
-            try:
-                gain = np.linalg.solve(normal, np.swapaxes(passive, 1, 2))
-            except np.linalg.LinAlgError:
-                for k in range(n):
-                    try:
-                        gain[k] = np.linalg.solve(normal[k], passive[k].T)
-                    except np.linalg.LinAlgError:
-                        continue
+        gain = passive_gains(system.passive)
         with np.errstate(invalid="ignore"):
             largest = np.abs(gain).max(axis=(1, 2), initial=0.0)
         singular = ~(largest <= singular_gain)

@@ -336,8 +336,7 @@ class BatchKinematics:
         geometry = self.geometry(model, closure)
         placements = self.forward(geometry, q)
         frames = self.loop_frames(geometry, placements)
-        passive, _ = self._newton_system(geometry, placements, frames)
-        return LoopSystem(placements, frames, passive)
+        return LoopSystem(placements, frames, self._newton_system(geometry, placements, frames))
 
     def solver_rows(self, index: int, frame: LoopFrames, relative: Array) -> Array:
         """:meth:`loop_rows`, with a spherical loop's in the world frame (``R₁`` times its rows): the rows of the Newton
@@ -417,6 +416,8 @@ class BatchKinematics:
         norms = np.full(n, math.inf)
         converged = np.zeros(n, dtype=bool)
         start = q[:, self.passive_q].copy()
+        gains = np.full((n, len(self.passive_v), self.rows), np.nan)  # each sample's last −C_p⁺ (chord steps)
+        previous = np.full(n, np.nan)  # each sample's residual at its last step (NaN: none yet)
         active = np.arange(n)
         for it in range(max_iter + 1):
             if not active.size:
@@ -433,9 +434,15 @@ class BatchKinematics:
             if not np.all(going):
                 placements = placements.take(going)
                 frames = [_take(frame, going) for frame in frames]
-            active = active[going]
-            passive, residual = self._newton_system(geometry, placements, frames)
-            step = _newton_steps(passive, residual)
+            active, norm = active[going], norm[going]
+            # the Jacobian rebuilt where the residual stopped falling fast (by 10× per step), as the per-sample solver
+            fresh = ~(norm <= 0.1 * previous[active])
+            if np.any(fresh):
+                subset = placements if np.all(fresh) else placements.take(fresh)
+                chosen = frames if np.all(fresh) else [_take(frame, fresh) for frame in frames]
+                gains[active[fresh]] = passive_gains(self._newton_system(geometry, subset, chosen))
+            previous[active] = norm
+            step = -np.einsum("nij,nj->ni", gains[active], self._newton_residual(frames))
             size = np.sqrt(np.einsum("ni,ni->n", step, step))
             step *= np.minimum(1.0, max_step / np.where(size > 0.0, size, 1.0))[:, None]
             finite = np.all(np.isfinite(step), axis=1)
@@ -446,15 +453,19 @@ class BatchKinematics:
             active = active[finite]  # a singular step or a jump: stops there, unconverged
         return q, norms, converged
 
+    def _newton_residual(self, frames: list[LoopFrames]) -> Array:
+        """(N, rows) the residual in the rows of :meth:`_newton_system` (the spherical loops' in the world frame)."""
+        return np.hstack([frame.gap if spec.type == "spherical" else self._loop_residual(index, frame)
+                          for index, (spec, frame) in enumerate(zip(self.specs, frames, strict=True))])
+
     def _newton_system(self, geometry: Geometry, placements: JointPlacements, frames: list[LoopFrames]
-                       ) -> tuple[Array, Array]:
-        """``C_p`` (N, rows, n_passive), the closure Jacobian's passive columns, and the residual (N, rows), with
-        the spherical loops' rows in the world frame: for a revolute joint of unit velocity ``ω`` through ``o``, the
+                       ) -> Array:
+        """``C_p`` (N, rows, n_passive), the closure Jacobian's passive columns, with the spherical loops' rows in
+        the world frame: for a revolute joint of unit velocity ``ω`` through ``o``, the
         anchor point ``p₂`` moves (relative to c1's body) by ``± ω × (p₂ − o)``; for a prismatic one by ``± ω``
         (all spherical loops at once)."""
         n = placements.frames.shape[1]
         jacobian = np.zeros((n, self.rows, len(self.passive_v)))
-        residual = np.empty((n, self.rows))
         spherical = self._spherical
         if spherical:
             joints = placements.frames[self._passive_joints + 1]  # (n_passive, N, 3, 4)
@@ -472,17 +483,14 @@ class BatchKinematics:
             rows, cols, _, signs = self._sliding
             if cols.size:
                 jacobian[:, rows, cols] = velocity[:, :, cols[0]] * signs
-            residual[:, self._spherical_rows] = np.stack([frames[index].gap for index in spherical], axis=1
-                                                         ).reshape(n, -1)
         start = 0
         for index, frame in enumerate(frames):
             stop = start + self.specs[index].rows
             if self.specs[index].type != "spherical":
                 relative = self.joint_twists(placements)[:, :, self.passive_v] * self._signs[index, self.passive_v]
                 jacobian[:, start:stop] = self.loop_rows(index, frame, relative)
-                residual[:, start:stop] = self._loop_residual(index, frame)
             start = stop
-        return jacobian, residual
+        return jacobian
 
     def actuated_values(self, q: Array) -> Array:
         """(N, na) actuated values [rad or m] of configurations ``q`` (N, nq)."""
@@ -517,9 +525,10 @@ class BatchKinematics:
                      ) -> tuple[Array, BoolArray]:
         """The reference assembly for every sample: continuation from the reference configuration in
         ``max(1, ⌈max|Δq_a| / CONTINUATION_STEP⌉)`` steps, all samples stepping together
-        (:meth:`ClosedLoopKinematics.reference_continuation`'s first try). From the second step on, Newton starts
-        from the secant prediction ``2 q_k − q_{k−1}`` of the passive joints (the per-sample solver starts from
-        ``q_k``): the same branch's answer, in fewer iterations.
+        (:meth:`ClosedLoopKinematics.reference_continuation`'s first try). Newton starts the first step from the
+        reference's tangent prediction ``q_ref + (dq_p/dq_a) Δq_a``, the later ones from the secant prediction
+        ``2 q_k − q_{k−1}`` of the passive joints (the per-sample solver starts from ``q_k``): the same branch's
+        answer, in fewer iterations.
 
         Returns:
             (N, nq) configurations and (N,) which converged (the others: solve them alone, with finer steps).
@@ -534,6 +543,7 @@ class BatchKinematics:
         before = q.copy()  # each sample's configuration one step back
         alive = reachable.copy()
         geometry = self.geometry(model, closure)
+        tangent = self._reference_tangent(model, closure)
         for k in range(1, int(steps[alive].max(initial=0)) + 1):
             rows = np.flatnonzero(alive & (steps >= k))
             if not rows.size:
@@ -542,6 +552,8 @@ class BatchKinematics:
             start[:, self.actuated_q] = origin + path[rows] * (k / steps[rows])[:, None]
             if k > 1:  # a secant predictor along the path (equal steps): Newton starts nearer the same branch
                 start[:, self.passive_q] += q[rows][:, self.passive_q] - before[rows][:, self.passive_q]
+            elif tangent is not None:  # from the reference, its tangent: the same for every sample
+                start[:, self.passive_q] += (path[rows] / steps[rows, None]) @ tangent.T
             last = steps[rows] == k
             tols = np.where(last, tol, max(tol, 1e-8))
             solved, _, converged = self._close_loops(geometry, start, tols, max_iter=20)
@@ -549,6 +561,17 @@ class BatchKinematics:
             q[rows] = solved
             alive[rows[~converged]] = False
         return q, alive
+
+    def _reference_tangent(self, model: pin.Model, closure: LoopClosure) -> Array | None:
+        """``dq_p/dq_a = −C_p⁺ C_a`` (n_passive × na) at the reference configuration, if it closes the loops (the
+        first continuation step's predictor; None: no predictor)."""
+        state = self.state(model, closure, self.reference[None, :])
+        assert state.jacobian is not None
+        if not np.abs(state.residual).max(initial=0.0) <= 1e-6:
+            return None
+        passive, actuated = state.jacobian[0][:, self.passive_v], state.jacobian[0][:, self.actuated_v]
+        tangent, *_ = np.linalg.lstsq(passive, -actuated, rcond=None)
+        return np.asarray(tangent, dtype=float) if np.all(np.isfinite(tangent)) else None
 
     def solve(self, model: pin.Model, closure: LoopClosure, q_actuated: Array, guesses: Array | None,
               tol: float) -> tuple[Array, BoolArray]:
@@ -587,30 +610,40 @@ def _cross(a: Array, b: Array) -> Array:
     return out
 
 
-def _newton_steps(passive: Array, residual: Array) -> Array:
-    """(N, n_passive) Newton steps ``−C_p⁺ c`` for stacked ``C_p`` (N, rows, n_passive) and ``c`` (N, rows): LU solves
-    for square ones, damped normal equations (``μ = 1e-12 · (1 + tr(C_pᵀC_p)/n)``, as the per-sample solver)
-    otherwise or when one is singular; a sample whose step is not finite is left for the caller to refuse."""
-    rows, cols = passive.shape[1:]
+def passive_gains(passive: Array) -> Array:
+    """(N, n_passive, rows) ``C_p⁺`` for stacked ``C_p`` (N, rows, n_passive), as
+    :func:`~pincal.model.kinematics.damped_pseudo_inverse` gives each: the inverse of a square one (LU) unless an
+    entry reaches 1e8, else the damped normal equations' ``(C_pᵀC_p + μI)⁻¹ C_pᵀ``, ``μ = 1e-12 · (1 + tr(C_pᵀC_p)/n)``;
+    NaN for a singular one."""
+    n, rows, cols = passive.shape
+    gains: Array = np.full((n, cols, rows), np.nan)
+    damped = np.ones(n, dtype=bool)
     if rows == cols:
-        try:
-            square = np.linalg.solve(passive, residual[:, :, None])
-            return -np.asarray(square[:, :, 0], dtype=float)
-        except np.linalg.LinAlgError:
-            pass
-    normal = np.swapaxes(passive, 1, 2) @ passive
-    damping = 1e-12 * (1.0 + np.trace(normal, axis1=1, axis2=2) / cols)
-    normal[:, np.arange(cols), np.arange(cols)] += damping[:, None]
-    rhs = (np.swapaxes(passive, 1, 2) @ residual[:, :, None])[:, :, 0]
-    with np.errstate(all="ignore"):
-        step: Array = np.full(rhs.shape, np.nan)
-        try:
-            step[:] = -np.linalg.solve(normal, rhs[:, :, None])[:, :, 0]
-        except np.linalg.LinAlgError:
-            for k in range(len(normal)):
-                try:
-                    step[k] = -np.linalg.solve(normal[k], rhs[k])
-                except np.linalg.LinAlgError:
-                    continue
-    return step
-
+        with np.errstate(all="ignore"):
+            try:
+                gains[:] = np.linalg.inv(passive)
+            except np.linalg.LinAlgError:  # one singular: each alone
+                for k in range(n):
+                    try:
+                        gains[k] = np.linalg.inv(passive[k])
+                    except np.linalg.LinAlgError:
+                        continue
+        damped = ~(np.abs(gains).max(axis=(1, 2), initial=0.0) < 1e8)
+    if np.any(damped):
+        chosen = passive[damped]
+        transposed = np.swapaxes(chosen, 1, 2)
+        normal = transposed @ chosen
+        damping = 1e-12 * (1.0 + np.trace(normal, axis1=1, axis2=2) / cols)
+        normal[:, np.arange(cols), np.arange(cols)] += damping[:, None]
+        solved = np.full(transposed.shape, np.nan)
+        with np.errstate(all="ignore"):
+            try:
+                solved[:] = np.linalg.solve(normal, transposed)
+            except np.linalg.LinAlgError:
+                for k in range(len(normal)):
+                    try:
+                        solved[k] = np.linalg.solve(normal[k], transposed[k])
+                    except np.linalg.LinAlgError:
+                        continue
+        gains[damped] = solved
+    return gains
