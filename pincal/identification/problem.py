@@ -68,6 +68,10 @@ BATCH_SAMPLES = 2048
 #: Fewest samples a closed-loop robot's evaluation solves together (:meth:`CalibrationProblem._solve_all`); fewer are
 #: solved one by one, which costs less than a stacked solve's fixed cost (about 30 array operations per iteration).
 SMALL_WAVE = 16
+#: Largest predicted change [rad or m] of a passive joint a warm start of the batched closed-loop solves takes from the
+#: configuration's response to the parameters (a larger one is not first-order small: Newton starts from the
+#: remembered configuration instead).
+PREDICTED_MOVE = 0.05
 #: Largest entry of the passive joints' response to the loops (C_p⁺) before a sample counts as singular
 #: (an identification step that takes a sample there is rejected).
 SINGULAR_GAIN = 1e8
@@ -197,6 +201,11 @@ class CalibrationProblem:
         # how far each sample's configuration has travelled (sum of max coordinate changes) since it was last
         # known to be on the reference assembly: only a sample that moved can have left it
         self._travel = np.zeros(observations.n_samples)
+        #: The parameters [m, rad] the remembered configurations were solved at, and every sample's configuration
+        #: response to the parameters there, dv/dθ (N, nv, p), from the last evaluation with the Jacobian (closed
+        #: loops batched): the next warm starts move along it (a first-order prediction, Newton then closes)
+        self._solved_at: Array | None = None
+        self._response: Array | None = None
         self.rows_per_sample = sum(m.size for m in self.measurements)
         #: The cameras and targets (attached placement names) the last :meth:`initial_guess` placed in closed form.
         self.placed_in_closed_form: list[str] = []
@@ -286,7 +295,7 @@ class CalibrationProblem:
         robot = self.robot_at(x)
         qa = self.actuated_values(x)
         if self._batched_loops and robot.loops:
-            return self._solve_all(robot, qa).copy()
+            return self._solve_all(robot, qa, self._augment(np.asarray(x, dtype=float))).copy()
         return np.array([self._solve(robot, k, qa[k]) for k in range(qa.shape[0])])
 
     def _solve(self, robot: Robot, k: int, qa: Array) -> Array:
@@ -481,11 +490,12 @@ class CalibrationProblem:
                 self._predict_samples(robot, sens, ctx, qa_all, preds, dpreds)
         return self._assemble(preds, dpreds, output_jacobian)
 
-    def _solve_all(self, robot: Robot, qa_all: Array) -> Array:
+    def _solve_all(self, robot: Robot, qa_all: Array, x: Array) -> Array:
         """Every sample's configuration on the reference assembly: :meth:`_solve` for all samples, in waves of
         stacked Newton solves (:class:`~pincal.model.batch_kinematics.BatchKinematics`), from the same warm starts.
 
-        A sample solved before starts from its own last configuration; a first solve from the configuration of the
+        A sample solved before starts from its own last configuration (moved by :meth:`_predicted_change`, Newton's
+        refusals measured from the configuration itself); a first solve from the configuration of the
         solved sample nearest in actuated values (:meth:`_nearest_solution`, asked in sample order as the per-sample
         path asks, so with the same answers). The first solves that start from another first solve wait for it: wave
         w holds the samples whose chain of warm starts is w long; those without a neighbour are solved by
@@ -518,8 +528,10 @@ class CalibrationProblem:
             rows = np.flatnonzero(wave == w)
             if not rows.size:
                 continue
+            predicted = None
             if w == 0:
                 guesses = previous[rows]
+                predicted = self._predicted_change(x, rows)
             else:
                 source = parent[rows]
                 guesses = np.where(old[rows, None], previous[source], q[source])
@@ -531,8 +543,9 @@ class CalibrationProblem:
             warm = ~np.isnan(guesses[:, 0])
             ok = np.zeros(rows.size, dtype=bool)
             if np.any(warm):
+                moved = None if predicted is None else predicted[warm]
                 q[rows[warm]], ok[warm] = kin.warm_solve(model, closure, qa_all[rows[warm]], guesses[warm],
-                                                         SOLVE_TOLERANCE)
+                                                         SOLVE_TOLERANCE, moved)
             if np.count_nonzero(~ok) >= SMALL_WAVE:
                 q[rows[~ok]], ok[~ok] = kin.continuation(model, closure, qa_all[rows[~ok]], SOLVE_TOLERANCE)
             for row, guess in zip(rows[~ok].tolist(), guesses[~ok], strict=True):  # alone (finer steps, or the error)
@@ -542,7 +555,20 @@ class CalibrationProblem:
         self._travel[known] += travel[known]
         for k in range(n):
             self._q_cache[k] = q[k]
+        self._solved_at = x.copy()
         return q
+
+    def _predicted_change(self, x: Array, rows: IntArray) -> Array | None:
+        """(len(rows), n_passive) the passive joints' first-order change [rad or m] from the remembered
+        configurations of samples ``rows`` to ``x``: the last Jacobian evaluation's dv/dθ times the parameters'
+        change; None without one, and zero for a sample it would move by more than :data:`PREDICTED_MOVE`."""
+        if self._response is None or self._solved_at is None or self._solved_at.shape != x.shape:
+            return None
+        assert self._loops is not None
+        passive = self._loops.kinematics.passive_v
+        change = self._response[rows][:, passive] @ (x - self._solved_at)
+        change[~(np.abs(change).max(axis=1, initial=0.0) <= PREDICTED_MOVE)] = 0.0
+        return np.asarray(change, dtype=float)
 
     def _predict_loops(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
                        preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
@@ -552,7 +578,7 @@ class CalibrationProblem:
         sample by sample from the same configurations and twists."""
         assert self._loops is not None
         loops, model, n = self._loops, robot.model, self.observations.n_samples
-        q_all = self._solve_all(robot, qa_all)
+        q_all = self._solve_all(robot, qa_all, ctx.x)
         probes: dict[str, Probe] = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
         batched = [m for m in self.measurements if m.batched]
         one_by_one = [m for m in self.measurements if not m.batched]
@@ -571,6 +597,9 @@ class CalibrationProblem:
                 placements, twists, response = loops.twists(robot, sens, q, system, terms, probes, start,
                                                              SINGULAR_GAIN)
                 velocities = response.velocities
+                if self._response is None or self._response.shape != (n, *velocities.shape[1:]):
+                    self._response = np.empty((n, *velocities.shape[1:]))
+                self._response[rows] = velocities
             joint_terms: dict[str, list[tuple[int, Array]]] = {}
             for joint, col, regressor in terms:
                 joint_terms.setdefault(robot.actuated_joints[joint], []).append((col, regressor))

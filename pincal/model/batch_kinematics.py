@@ -409,13 +409,14 @@ class BatchKinematics:
         return self._close_loops(self.geometry(model, closure), q, tol, max_iter, max_step, max_move)
 
     def _close_loops(self, geometry: Geometry, q: Array, tol: Array | float, max_iter: int = 30,
-                     max_step: float = 0.5, max_move: float = math.inf) -> tuple[Array, Array, BoolArray]:
+                     max_step: float = 0.5, max_move: float = math.inf, origin: Array | None = None
+                     ) -> tuple[Array, Array, BoolArray]:
         q = np.array(q, dtype=float)
         n = len(q)
         tols = np.broadcast_to(np.asarray(tol, dtype=float), (n,))
         norms = np.full(n, math.inf)
         converged = np.zeros(n, dtype=bool)
-        start = q[:, self.passive_q].copy()
+        start = q[:, self.passive_q].copy() if origin is None else origin  # where max_move is measured from
         gains = np.full((n, len(self.passive_v), self.rows), np.nan)  # each sample's last −C_p⁺ (chord steps)
         previous = np.full(n, np.nan)  # each sample's residual at its last step (NaN: none yet)
         active = np.arange(n)
@@ -498,10 +499,20 @@ class BatchKinematics:
         return values
 
     def warm_solve(self, model: pin.Model, closure: LoopClosure, q_actuated: Array, guesses: Array,
-                   tol: float) -> tuple[Array, BoolArray]:
+                   tol: float, predicted: Array | None = None) -> tuple[Array, BoolArray]:
         """Newton from each guess with its actuated values set (:meth:`ClosedLoopKinematics.warm_solve` for every
         sample): refused (not converged) when the guess is more than one continuation step away in actuated values,
-        or when Newton fails or moves a passive coordinate by more than one step.
+        or when Newton fails or moves a passive coordinate by more than one step from the guess.
+
+        Args:
+            model: The robot's model (at the parameters to solve for).
+            closure: Its loops.
+            q_actuated: (N, na) actuated values [rad or m].
+            guesses: (N, nq) closed configurations, each a previous answer near the sample's.
+            tol: Largest accepted closure residual component [m, rad].
+            predicted: (N, n_passive) a first-order prediction of each sample's passive joints' change from its guess
+                [rad or m] (the calibration's: the configuration's response to the parameters times their change), or
+                None. Newton starts there; the refusals still measure from the guess.
 
         Returns:
             (N, nq) configurations and (N,) which are answers (the others: solve them alone).
@@ -515,8 +526,11 @@ class BatchKinematics:
         if rows.size:
             start = q[rows]
             start[:, self.actuated_q] = q_actuated[rows]
+            origin = start[:, self.passive_q].copy()
+            if predicted is not None:
+                start[:, self.passive_q] += predicted[rows]
             solved, _, converged = self._close_loops(self.geometry(model, closure), start, tol,
-                                                     max_move=CONTINUATION_STEP)
+                                                     max_move=CONTINUATION_STEP, origin=origin)
             q[rows] = solved
             ok[rows] = converged
         return q, ok

@@ -174,3 +174,17 @@ def test_settling_and_configurations_see_the_batched_solves() -> None:
     np.testing.assert_allclose(batched._travel, per_sample._travel, rtol=0, atol=1e-9)
     np.testing.assert_allclose(np.array(batched._q_cache), np.array(per_sample._q_cache), rtol=0, atol=1e-9)
     assert batched.settle_assembly(x) == per_sample.settle_assembly(x) == []
+
+
+@pytest.mark.parametrize("name", sorted(BATCHED))
+def test_warm_starts_moved_along_the_response_stay_on_the_assembly(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Warm starts move along the last Jacobian's dv/dθ: after small and large parameter changes (past the largest
+    predicted move, where the prediction is dropped) the configurations are still the per-sample ones."""
+    monkeypatch.setattr(problem_module, "SOLVE_TOLERANCE", TIGHT)
+    batched, per_sample, x = _problems(name, None, n=20)
+    for size in (1e-5, 1e-3, 1e-2):
+        for problem in (batched, per_sample):
+            problem.evaluate(x)
+        assert batched._response is not None
+        x = x + size * np.random.default_rng(int(1 / size)).normal(size=x.size)
+        _compare(batched.evaluate(x), per_sample.evaluate(x), batched.parameters.names, AGREEMENT)
