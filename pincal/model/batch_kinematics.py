@@ -388,7 +388,7 @@ class BatchKinematics:
         """Newton over the passive joints of every sample from ``q`` (N, nq), actuated values held.
 
         Each iteration rebuilds every unconverged sample's Jacobian and solves its step (a true Newton step: the
-        per-sample solver's chord steps save Pinocchio calls, here the Jacobian costs little more than the residual).
+        per-sample solver's chord steps save Pinocchio calls, here the Jacobian costs about as much as the residual).
         A spherical loop's rows enter the step in the world frame (``p₂ − p₁`` and its Jacobian): the same step, as
         rotating a block of rows changes neither the solution of a square system nor a least-squares one.
 
@@ -417,8 +417,6 @@ class BatchKinematics:
         norms = np.full(n, math.inf)
         converged = np.zeros(n, dtype=bool)
         start = q[:, self.passive_q].copy() if origin is None else origin  # where max_move is measured from
-        gains = np.full((n, len(self.passive_v), self.rows), np.nan)  # each sample's last −C_p⁺ (chord steps)
-        previous = np.full(n, np.nan)  # each sample's residual at its last step (NaN: none yet)
         active = np.arange(n)
         for it in range(max_iter + 1):
             if not active.size:
@@ -435,15 +433,11 @@ class BatchKinematics:
             if not np.all(going):
                 placements = placements.take(going)
                 frames = [_take(frame, going) for frame in frames]
-            active, norm = active[going], norm[going]
-            # the Jacobian rebuilt where the residual stopped falling fast (by 10× per step), as the per-sample solver
-            fresh = ~(norm <= 0.1 * previous[active])
-            if np.any(fresh):
-                subset = placements if np.all(fresh) else placements.take(fresh)
-                chosen = frames if np.all(fresh) else [_take(frame, fresh) for frame in frames]
-                gains[active[fresh]] = passive_gains(self._newton_system(geometry, subset, chosen))
-            previous[active] = norm
-            step = -np.einsum("nij,nj->ni", gains[active], self._newton_residual(frames))
+            active = active[going]
+            # a full Newton step: here a Jacobian costs about one forward kinematics pass, and chord steps (the
+            # per-sample solver's, where it costs several) took twice the iterations in continuation
+            gains = passive_gains(self._newton_system(geometry, placements, frames))
+            step = -np.einsum("nij,nj->ni", gains, self._newton_residual(frames))
             size = np.sqrt(np.einsum("ni,ni->n", step, step))
             step *= np.minimum(1.0, max_step / np.where(size > 0.0, size, 1.0))[:, None]
             finite = np.all(np.isfinite(step), axis=1)
