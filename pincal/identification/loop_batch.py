@@ -4,12 +4,15 @@ through the loops.
 With the loops closed (:class:`~pincal.model.batch_kinematics.BatchKinematics`), the derivatives follow the
 implicit-function theorem for all N samples together:
 
-1. the spatial twists per unit parameter at fixed passive joints, of the measured frames and of both anchors of
-   each loop, from the tree's batched kinematics (:meth:`~pincal.identification.tree_batch.TreeBatch.twist`: joint
-   placements, fixed joints, the actuated joints' offsets and corrections) plus each anchor's own placement
-   parameters;
+1. the spatial twists per unit parameter at fixed passive joints (per unit parameter, the velocity of the world
+   point at the origin moving with the body and its angular velocity, in the world frame: the same for every point
+   of a body), accumulated down the tree (:meth:`LoopBatch.body_twists`: each joint's placement parameters, fixed
+   joints' included, carried by the adjoint of the joint's origin; each actuated joint's axis times its offset and
+   correction terms' regressors), plus, for a measured frame or a loop anchor, the local terms of the fixed joints
+   above it and of its own placement (:meth:`LoopBatch.probe_twist`);
 2. the loops' residual per unit parameter ``∂c/∂θ`` (N, rows, p), from each loop's relative anchor twist
-   (:meth:`~pincal.model.batch_kinematics.BatchKinematics.loop_rows`);
+   (:meth:`~pincal.model.batch_kinematics.BatchKinematics.solver_rows`, the spherical loops' rows in the world
+   frame, as ``C_p``'s);
 3. ``dv_p/dθ = −C_p⁺ ∂c/∂θ``: N stacked solves with the passive closure Jacobians (N, rows, n_passive);
 4. each measured frame's twist: step 1's plus its passive joints' spatial twists times ``dv_p/dθ``.
 
@@ -23,19 +26,16 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+import pinocchio as pin
 
 from pincal.errors import ConvergenceError
 from pincal.identification.batch import SpatialJacobian, Workspace
 from pincal.identification.derivatives import KinematicSensitivity, Probe
-from pincal.identification.tree_batch import Placements, TreeBatch
-from pincal.model.batch_kinematics import BatchKinematics, LoopSystem, passive_gains
+from pincal.model.batch_kinematics import BatchKinematics, JointPlacements, LoopSystem, passive_gains
 from pincal.model.robot import Robot
+from pincal.model.rotations import cross_columns
 
 Array = npt.NDArray[np.float64]
-
-#: The name under which each loop anchor is a probe of the tree's batched kinematics: ``<loop>|<side>`` (``|`` is
-#: not in a URDF name the loader keeps apart from a frame's).
-ANCHOR = "{loop}|{side}"
 
 
 @dataclass(frozen=True)
@@ -64,18 +64,12 @@ class LoopBatch:
     """
 
     def __init__(self, robot: Robot, frame_ids: dict[str, int]) -> None:
-        model = robot.model
         self.kinematics: BatchKinematics = robot.kinematics.batch
-        self.anchor_names = [(ANCHOR.format(loop=loop.name, side="predecessor"),
-                              ANCHOR.format(loop=loop.name, side="successor")) for loop in robot.loops]
-        probes = dict(frame_ids)
-        for loop, (first, second) in zip(robot.loops, self.anchor_names, strict=True):
-            probes[first] = model.getFrameId(loop.predecessor)
-            probes[second] = model.getFrameId(loop.successor)
-        self.tree = TreeBatch(robot, probes, self.kinematics.motions)
-        self.unsupported = self.kinematics.unsupported or self.tree.unsupported
+        self.unsupported = self.kinematics.unsupported
         self.frame_ids = dict(frame_ids)
         self.scratch = Workspace()
+        #: actuated joint id -> its index in the actuated values
+        self.actuated = {a.joint_id: k for k, a in enumerate(robot.kinematics.actuated)}
 
     def gain(self, system: LoopSystem, first: int, singular_gain: float) -> Array:
         """(N, n_passive, rows) ``C_p⁺``, the passive joints' response to the loops' residual (the spherical loops'
@@ -95,9 +89,64 @@ class LoopBatch:
                                    "determined by the actuated ones (with these parameters)")
         return gain
 
+    def placement(self, placements: JointPlacements, joint: int, local: pin.SE3) -> tuple[Array, Array]:
+        """The rotations (N, 3, 3) and origins (N, 3) [m] in the world of a frame at ``local`` relative to joint
+        ``joint`` (a measured frame, a loop's anchor), from the joints' turned frames."""
+        frame = placements.frames[joint]
+        n = frame.shape[0]
+        local = self.kinematics.unturn[joint] * local
+        above = frame[:, :, :3].reshape(3 * n, 3)
+        rotation = (above @ local.rotation).reshape(n, 3, 3)
+        origin = (above @ local.translation).reshape(n, 3) + frame[:, :, 3]
+        return rotation, origin
+
+    def body_twists(self, model: pin.Model, sens: KinematicSensitivity, placements: JointPlacements,
+                    joint_twists: Array, terms: list[tuple[int, int, Array]]) -> list[Array | None]:
+        """Per joint id, the spatial twists (N, 6, p) per unit parameter of the body it carries, passive joints held
+        (None: the body does not move with the parameters). They add up down the tree: each joint's placement
+        parameters move its body and those below by ``Ad(oMi[parent] · M_j) · joint_map`` (the rows of
+        :class:`~pincal.identification.derivatives.KinematicSensitivity`, fixed joints' included), and an actuated
+        joint's offset and correction terms by its axis times their regressor."""
+        kin = self.kinematics
+        n = placements.frames.shape[1]
+        body: list[Array | None] = [None] * kin.njoints
+        moving: dict[int, list[tuple[int, Array]]] = {}
+        for k, column, regressor in terms:
+            moving.setdefault(k, []).append((column, regressor))
+        for j in range(1, kin.njoints):
+            parent = kin.parents[j]
+            twist = body[parent]
+            rows = sens.joint_map[6 * (j - 1):6 * j]
+            columns = np.flatnonzero(np.any(rows != 0.0, axis=0))
+            if columns.size:
+                rotation, origin = self.placement(placements, parent, model.jointPlacements[j])
+                twist = np.zeros((n, 6, sens.n)) if twist is None else twist.copy()
+                twist[:, :, columns] += _spatial(rotation, origin, rows[:, columns])
+            own = moving.get(self.actuated.get(j, -1), [])
+            if own:
+                axis = joint_twists[:, :, kin.idx_v[j - 1]]
+                twist = np.zeros((n, 6, sens.n)) if twist is None else twist.copy()
+                for column, regressor in own:
+                    twist[:, :, column] += axis * regressor[:, None]
+            body[j] = twist
+        return body
+
+    def probe_twist(self, body: list[Array | None], placements: JointPlacements, probe: Probe,
+                    extra: list[tuple[list[int], Array]], width: int) -> Array:
+        """(N, 6, p) a probe's spatial twists per unit parameter, passive joints held: its body's, plus its local
+        ``extra`` terms (fixed joints above it, its own placement's) carried by ``Ad(oM_probe)``; ``width``: p."""
+        twist = body[probe.joint]
+        n = placements.frames.shape[1]
+        out = np.zeros((n, 6, width)) if twist is None else twist.copy()
+        if extra:
+            rotation, origin = self.placement(placements, probe.joint, probe.placement)
+            for idx, term in extra:
+                out[:, :, idx] += _spatial(rotation, origin, term)
+        return out
+
     def twists(self, robot: Robot, sens: KinematicSensitivity, q: Array, system: LoopSystem,
                terms: list[tuple[int, int, Array]], probes: dict[str, Probe], first: int, singular_gain: float
-               ) -> tuple[dict[str, Placements], dict[str, SpatialJacobian], LoopDerivatives]:
+               ) -> tuple[dict[str, tuple[Array, Array]], dict[str, SpatialJacobian], LoopDerivatives]:
         """The measured frames' placements and spatial twists per unit parameter through the loops.
 
         Args:
@@ -111,31 +160,25 @@ class LoopBatch:
             singular_gain: Largest entry of ``C_p⁺`` before a sample counts as singular (ConvergenceError).
 
         Returns:
-            Frame -> its placements; frame -> its spatial twists per unit parameter (the full (N, 6, p), factored
-            with the identity); and the configurations' response to the parameters.
+            Frame -> its rotations (N, 3, 3) and origins (N, 3) [m]; frame -> its spatial twists per unit parameter
+            (the full (N, 6, p), factored with the identity); and the configurations' response to the parameters.
         """
-        tree, kin, model = self.tree, self.kinematics, robot.model
+        kin, model, placements = self.kinematics, robot.model, system.placements
         n = len(q)
-        placed, origins = tree.forward(model, q)
-        placements = {f: tree.frame_placement(model, placed, f, n) for f in self.frame_ids}
         gain = self.gain(system, first, singular_gain)
+        joint_twists = kin.joint_twists(placements)
+        body = self.body_twists(model, sens, placements, joint_twists, terms)
         # the loops' residual per unit parameter at fixed passive joints (actuated terms included)
         slopes = []
-        anchors = robot.closure.anchors()
-        for index, (loop, (p1, p2), names) in enumerate(zip(robot.loops, sens.anchor_probes, self.anchor_names,
-                                                             strict=True)):
-            ends = []
-            for side, probe, name, (joint, placement) in zip(("predecessor", "successor"), (p1, p2), names,
-                                                             (anchors[index][:2], anchors[index][2:]), strict=True):
-                where = tree.probe_placement(placed, joint, placement, n)
-                twist = tree.twist(name, probe, sens, placed, origins, where, terms).full()
+        for index, (loop, ends) in enumerate(zip(robot.loops, sens.anchor_probes, strict=True)):
+            twist = []
+            for side, probe in zip(("predecessor", "successor"), ends, strict=True):
+                extra = list(sens.fixed_terms(probe))
                 own = sens.anchor_terms.get((loop.name, side))
-                if own is not None:  # the anchor's own placement parameters: Ad(oMc) · Jexp6
-                    idx, jexp = own
-                    twist[:, :3, idx] += (where.top.reshape(3 * n, 6) @ jexp).reshape(n, 3, len(idx))
-                    twist[:, 3:, idx] += (where.rotation.reshape(3 * n, 3) @ jexp[3:]).reshape(n, 3, len(idx))
-                ends.append(twist)
-            slopes.append(kin.solver_rows(index, system.frames[index], ends[1] - ends[0]))
+                if own is not None:  # the anchor's own placement parameters: Jexp6 at the anchor
+                    extra.append(own)
+                twist.append(self.probe_twist(body, placements, probe, extra, sens.n))
+            slopes.append(kin.solver_rows(index, system.frames[index], twist[1] - twist[0]))
         slope = np.concatenate(slopes, axis=1)  # (N, rows, p)
         passive = kin.passive_v
         velocities = np.zeros((n, kin.nv, sens.n))
@@ -143,14 +186,24 @@ class LoopBatch:
         act_v = robot.kinematics.actuated_v
         for joint, column, regressor in terms:
             velocities[:, act_v[joint], column] = regressor
-        joint_twists = kin.joint_twists(system.placements)
+        frames: dict[str, tuple[Array, Array]] = {}
         twists: dict[str, SpatialJacobian] = {}
         identity = np.eye(sens.n)
         for f, probe in probes.items():
-            spatial = tree.twist(f, probe, sens, placed, origins, placements[f], terms).full()
+            frames[f] = self.placement(placements, probe.joint, probe.placement)
+            spatial = self.probe_twist(body, placements, probe, sens.fixed_terms(probe), sens.n)
             chain = passive[kin.support[probe.joint, passive] > 0.0]
             if chain.size:
                 spatial += joint_twists[:, :, chain] @ velocities[:, chain]
             twists[f] = SpatialJacobian(spatial, identity, self.scratch)
-        return placements, twists, LoopDerivatives(velocities, joint_twists)
+        return frames, twists, LoopDerivatives(velocities, joint_twists)
 
+
+def _spatial(rotation: Array, origin: Array, local: Array) -> Array:
+    """(N, 6, k) local twists ``local`` (6, k) of a frame at ``rotation`` (N, 3, 3), ``origin`` (N, 3) [m] as spatial
+    ones, ``Ad(M) ν = (R ν_v + p × R ν_ω, R ν_ω)``."""
+    n, k = len(rotation), local.shape[1]
+    flat = rotation.reshape(3 * n, 3)
+    angular = (flat @ local[3:]).reshape(n, 3, k)
+    linear = (flat @ local[:3]).reshape(n, 3, k) + cross_columns(origin, angular)
+    return np.concatenate([linear, angular], axis=1)

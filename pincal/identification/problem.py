@@ -584,13 +584,12 @@ class CalibrationProblem:
         one_by_one = [m for m in self.measurements if not m.batched]
         for start in range(0, n, BATCH_SAMPLES):
             rows = slice(start, min(n, start + BATCH_SAMPLES))
-            size = rows.stop - rows.start
             q = q_all[rows]
             terms = [(joint, col, regressor[rows]) for joint, col, regressor in self.actuated_terms]
             velocities = None
             if sens is None:
-                placed, _ = loops.tree.forward(model, q)
-                placements = {f: loops.tree.frame_placement(model, placed, f, size) for f in self.frame_ids}
+                joints = loops.kinematics.forward(loops.kinematics.geometry(model, robot.closure), q)
+                placements = {f: loops.placement(joints, probe.joint, probe.placement) for f, probe in probes.items()}
                 twists: dict[str, SpatialJacobian] = {}
             else:
                 system = loops.kinematics.linearised(model, robot.closure, q)
@@ -603,9 +602,9 @@ class CalibrationProblem:
             joint_terms: dict[str, list[tuple[int, Array]]] = {}
             for joint, col, regressor in terms:
                 joint_terms.setdefault(robot.actuated_joints[joint], []).append((col, regressor))
-            batch = BatchContext(ctx, q, {f: placement.rotation for f, placement in placements.items()},
-                                 {f: placement.translation for f, placement in placements.items()}, twists,
-                                 joint_terms, rows, velocities)
+            batch = BatchContext(ctx, q, {f: rotation for f, (rotation, _) in placements.items()},
+                                 {f: origin for f, (_, origin) in placements.items()}, twists, joint_terms, rows,
+                                 velocities)
             for m in batched:
                 m.predict_batch(batch, preds[m.key][rows], dpreds[m.key][rows] if sens is not None else None)
             if one_by_one:

@@ -64,13 +64,12 @@ class TreeBatch:
     Args:
         robot: The nominal robot (no loops); its structure, not its placements, is kept.
         frame_ids: Measured frame name -> Pinocchio frame id.
-        motions: The joints' motions if already read (:func:`~pincal.model.joint_motion.joint_motion`), by joint id.
 
     Attributes:
         unsupported: Why the batched evaluation cannot take this robot (a joint kind it does not evaluate), or None.
     """
 
-    def __init__(self, robot: Robot, frame_ids: dict[str, int], motions: dict[int, JointMotion] | None = None) -> None:
+    def __init__(self, robot: Robot, frame_ids: dict[str, int]) -> None:
         model = robot.model
         self.reference = robot.q_reference.copy()
         self.actuated = robot.kinematics.actuated
@@ -85,7 +84,7 @@ class TreeBatch:
         self.motions: dict[int, JointMotion] = {}
         self.unsupported: str | None = None
         for j in self.joints:
-            motion = motions[j] if motions is not None and j in motions else joint_motion(model, j)
+            motion = joint_motion(model, j)
             if motion is None:
                 self.unsupported = f"joint '{model.names[j]}' ({model.joints[j].shortname()})"
                 break
@@ -169,12 +168,7 @@ class TreeBatch:
     def frame_placement(self, model: pin.Model, placed: dict[int, Placements], frame: str, n: int) -> Placements:
         """The placement of a measured frame in the world for every sample."""
         joint = self.parent[frame]
-        return self.probe_placement(placed, joint, model.frames[self.frame_ids[frame]].placement, n)
-
-    def probe_placement(self, placed: dict[int, Placements], joint: int, placement: pin.SE3, n: int) -> Placements:
-        """The placement in the world, for every sample, of a frame at ``placement`` relative to joint ``joint``
-        (a measured frame, a loop's anchor)."""
-        local = self._unturn[joint] * placement
+        local = self._unturn[joint] * model.frames[self.frame_ids[frame]].placement
         if joint == 0:
             return Placements(np.tile(local.action[:3], (n, 1, 1)), np.tile(local.translation, (n, 1)))
         above = placed[joint]

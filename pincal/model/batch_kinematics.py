@@ -34,7 +34,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.model.closure import LoopClosure, normal_basis
-from pincal.model.joint_motion import JointMotion, joint_motion
+from pincal.model.joint_motion import joint_motion
 from pincal.model.kinematics import CONTINUATION_STEP, MAX_CONTINUATION_STEPS, ClosedLoopKinematics
 from pincal.model.rotations import cross_columns, jlog3, log3
 
@@ -171,14 +171,10 @@ class BatchKinematics:
         self.rates = np.zeros(n)
         self.revolute = np.zeros(n, dtype=bool)
         self.starts: list[pin.SE3] = []
-        #: Joint id -> its motion (joints of one coordinate), as :mod:`pincal.model.joint_motion` reads it.
-        self.motions: dict[int, JointMotion] = {}
         self.turns: list[pin.SE3] = []
         for j in range(1, model.njoints):
             jm = model.joints[j]
             motion = joint_motion(model, j) if jm.nq == 1 and jm.nv == 1 else None
-            if motion is not None:
-                self.motions[j] = motion
             if motion is None or motion.source != j:
                 self.unsupported = f"joint '{model.names[j]}' ({jm.shortname()})"
                 break
@@ -197,9 +193,9 @@ class BatchKinematics:
                 for s in model.supports[j]:
                     if s > 0:
                         self.support[j, self.idx_v[s - 1]] = 1.0
-        # start_j Q_j and Q_jᵀ (the root and an unsupported structure's joints not turned)
+        # start_j Q_j and, public, Q_jᵀ by joint id (the root and an unsupported structure's joints not turned)
         self._starts = [start * turn for start, turn in zip(self.starts, self.turns, strict=False)]
-        self._unturn = [pin.SE3.Identity()] + [turn.inverse() for turn in self.turns]
+        self.unturn = [pin.SE3.Identity()] + [turn.inverse() for turn in self.turns]
         v_to_q = np.zeros(model.nv, dtype=np.intp)
         v_to_q[self.idx_v] = self.idx_q
         self.passive_q: IntArray = v_to_q[self.passive_v]
@@ -235,11 +231,11 @@ class BatchKinematics:
         """The constant placements of ``model`` and ``closure`` (a robot at some parameters) this structure needs."""
         rotations, translations = np.empty((self.njoints - 1, 3, 3)), np.empty((self.njoints - 1, 3))
         for j in range(1, self.njoints):
-            fixed = self._unturn[self.parents[j]] * model.jointPlacements[j] * self._starts[j - 1]
+            fixed = self.unturn[self.parents[j]] * model.jointPlacements[j] * self._starts[j - 1]
             rotations[j - 1], translations[j - 1] = fixed.rotation, fixed.translation
         anchors = []
         for j1, m1, j2, m2 in closure.anchors():
-            c1, c2 = self._unturn[j1] * m1, self._unturn[j2] * m2  # the anchors on the turned frames
+            c1, c2 = self.unturn[j1] * m1, self.unturn[j2] * m2  # the anchors on the turned frames
             anchors.append((j1, c1.rotation, c1.translation, j2, c2.rotation, c2.translation))
         return Geometry(rotations, translations, anchors)
 
