@@ -33,7 +33,6 @@ from pincal.identification.batch import SpatialJacobian, Workspace
 from pincal.identification.derivatives import KinematicSensitivity, Probe
 from pincal.model.batch_kinematics import BatchKinematics, JointPlacements, LoopSystem, passive_gains
 from pincal.model.robot import Robot
-from pincal.model.rotations import cross_columns
 
 Array = npt.NDArray[np.float64]
 
@@ -113,35 +112,38 @@ class LoopBatch:
         moving: dict[int, list[tuple[int, Array]]] = {}
         for k, column, regressor in terms:
             moving.setdefault(k, []).append((column, regressor))
+        maps = sens.joint_map.reshape(kin.njoints - 1, 6, sens.n)
+        used = np.any(maps != 0.0, axis=1)  # (J, p): the parameters each joint's placement has
+        placed = np.flatnonzero(np.any(used, axis=1)) + 1
         for j in range(1, kin.njoints):
-            parent = kin.parents[j]
-            twist = body[parent]
-            rows = sens.joint_map[6 * (j - 1):6 * j]
-            columns = np.flatnonzero(np.any(rows != 0.0, axis=0))
-            if columns.size:
-                rotation, origin = self.placement(placements, parent, model.jointPlacements[j])
-                twist = np.zeros((n, 6, sens.n)) if twist is None else twist.copy()
-                twist[:, :, columns] += _spatial(rotation, origin, rows[:, columns])
+            twist = body[kin.parents[j]]
             own = moving.get(self.actuated.get(j, -1), [])
-            if own:
-                axis = joint_twists[:, :, kin.idx_v[j - 1]]
+            if j in placed or own:
                 twist = np.zeros((n, 6, sens.n)) if twist is None else twist.copy()
-                for column, regressor in own:
-                    twist[:, :, column] += axis * regressor[:, None]
+            if j in placed:
+                assert twist is not None
+                columns = np.flatnonzero(used[j - 1])
+                rotation, origin = self.placement(placements, kin.parents[j], model.jointPlacements[j])
+                twist[:, :, columns] += _spatial(rotation, origin, maps[j - 1][:, columns])
+            for column, regressor in own:
+                assert twist is not None
+                twist[:, :, column] += joint_twists[:, :, kin.idx_v[j - 1]] * regressor[:, None]
             body[j] = twist
         return body
 
     def probe_twist(self, body: list[Array | None], placements: JointPlacements, probe: Probe,
                     extra: list[tuple[list[int], Array]], width: int) -> Array:
         """(N, 6, p) a probe's spatial twists per unit parameter, passive joints held: its body's, plus its local
-        ``extra`` terms (fixed joints above it, its own placement's) carried by ``Ad(oM_probe)``; ``width``: p."""
+        ``extra`` terms (fixed joints above it, its own placement's) carried by ``Ad(oM_probe)``; ``width``: p.
+        The body's array itself when there is nothing to add (not to be written to)."""
         twist = body[probe.joint]
         n = placements.frames.shape[1]
+        if not extra:
+            return np.zeros((n, 6, width)) if twist is None else twist
         out = np.zeros((n, 6, width)) if twist is None else twist.copy()
-        if extra:
-            rotation, origin = self.placement(placements, probe.joint, probe.placement)
-            for idx, term in extra:
-                out[:, :, idx] += _spatial(rotation, origin, term)
+        rotation, origin = self.placement(placements, probe.joint, probe.placement)
+        for idx, term in extra:
+            out[:, :, idx] += _spatial(rotation, origin, term)
         return out
 
     def twists(self, robot: Robot, sens: KinematicSensitivity, q: Array, system: LoopSystem,
@@ -194,7 +196,7 @@ class LoopBatch:
             spatial = self.probe_twist(body, placements, probe, sens.fixed_terms(probe), sens.n)
             chain = passive[kin.support[probe.joint, passive] > 0.0]
             if chain.size:
-                spatial += joint_twists[:, :, chain] @ velocities[:, chain]
+                spatial = spatial + joint_twists[:, :, chain] @ velocities[:, chain]
             twists[f] = SpatialJacobian(spatial, identity, self.scratch)
         return frames, twists, LoopDerivatives(velocities, joint_twists)
 
@@ -203,7 +205,11 @@ def _spatial(rotation: Array, origin: Array, local: Array) -> Array:
     """(N, 6, k) local twists ``local`` (6, k) of a frame at ``rotation`` (N, 3, 3), ``origin`` (N, 3) [m] as spatial
     ones, ``Ad(M) ν = (R ν_v + p × R ν_ω, R ν_ω)``."""
     n, k = len(rotation), local.shape[1]
+    out = np.empty((n, 6, k))
     flat = rotation.reshape(3 * n, 3)
-    angular = (flat @ local[3:]).reshape(n, 3, k)
-    linear = (flat @ local[:3]).reshape(n, 3, k) + cross_columns(origin, angular)
-    return np.concatenate([linear, angular], axis=1)
+    out[:, :3] = (flat @ local[:3]).reshape(n, 3, k)
+    angular = out[:, 3:]
+    angular[...] = (flat @ local[3:]).reshape(n, 3, k)
+    for i, (a, b) in enumerate(((1, 2), (2, 0), (0, 1))):  # + p × (R ν_ω)
+        out[:, i] += origin[:, a, None] * angular[:, b] - origin[:, b, None] * angular[:, a]
+    return out

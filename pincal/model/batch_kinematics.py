@@ -474,12 +474,13 @@ class BatchKinematics:
             rows, cols, _, signs = self._sliding
             if cols.size:
                 jacobian[:, rows, cols] = velocity[:, :, cols[0]] * signs
-        start = 0
+        start, twists = 0, None
         for index, frame in enumerate(frames):
             stop = start + self.specs[index].rows
             if self.specs[index].type != "spherical":
-                relative = self.joint_twists(placements)[:, :, self.passive_v] * self._signs[index, self.passive_v]
-                jacobian[:, start:stop] = self.loop_rows(index, frame, relative)
+                if twists is None:
+                    twists = self.joint_twists(placements)[:, :, self.passive_v]
+                jacobian[:, start:stop] = self.loop_rows(index, frame, twists * self._signs[index, self.passive_v])
             start = stop
         return jacobian
 
