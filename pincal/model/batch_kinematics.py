@@ -36,7 +36,7 @@ import pinocchio as pin
 from pincal.model.closure import LoopClosure, normal_basis
 from pincal.model.joint_motion import joint_motion
 from pincal.model.kinematics import CONTINUATION_STEP, MAX_CONTINUATION_STEPS, ClosedLoopKinematics
-from pincal.model.rotations import cross_columns, jlog3, log3
+from pincal.model.rotations import cross_columns, jlog3, log3, quaternion_matrices, skew
 
 Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -167,44 +167,63 @@ class BatchKinematics:
         n = model.njoints - 1
         self.idx_q = np.zeros(n, dtype=np.intp)
         self.idx_v = np.zeros(n, dtype=np.intp)
-        self.axes = np.zeros((n, 3))  # each joint's unit axis in its own frame
-        self.rates = np.zeros(n)
+        self.rates = np.zeros(n)  # a joint of one coordinate's motion per unit value [rad or m per rad or m]
         self.revolute = np.zeros(n, dtype=bool)
+        self.free = np.zeros(n, dtype=bool)  # a free-flyer (a parallel robot's platform)
         self.starts: list[pin.SE3] = []
         self.turns: list[pin.SE3] = []
+        # per velocity coordinate: the joint (id) it moves, the column of that joint's turned frame along or about
+        # which it moves, at what rate, and whether it turns (about that column's axis through the joint's origin)
+        self.column_joint = np.zeros(model.nv, dtype=np.intp)
+        self.column_axis = np.zeros(model.nv, dtype=np.intp)
+        self.column_rate = np.ones(model.nv)
+        self.column_revolute = np.zeros(model.nv, dtype=bool)
         for j in range(1, model.njoints):
             jm = model.joints[j]
+            self.idx_q[j - 1], self.idx_v[j - 1] = jm.idx_q, jm.idx_v
+            if jm.shortname() == "JointModelFreeFlyer":  # local velocity: linear along, angular about the axes
+                self.free[j - 1] = True
+                self.starts.append(pin.SE3.Identity())
+                self.turns.append(pin.SE3.Identity())
+                columns = slice(jm.idx_v, jm.idx_v + 6)
+                self.column_joint[columns] = j
+                self.column_axis[columns] = [0, 1, 2, 0, 1, 2]
+                self.column_revolute[columns] = [False, False, False, True, True, True]
+                continue
             motion = joint_motion(model, j) if jm.nq == 1 and jm.nv == 1 else None
             if motion is None or motion.source != j:
                 self.unsupported = f"joint '{model.names[j]}' ({jm.shortname()})"
                 break
-            self.idx_q[j - 1], self.idx_v[j - 1] = jm.idx_q, jm.idx_v
-            direction = motion.twist[3:] if motion.revolute else motion.twist[:3]
-            self.axes[j - 1] = direction / motion.rate
             self.rates[j - 1], self.revolute[j - 1] = motion.rate, motion.revolute
             self.starts.append(motion.start)
             self.turns.append(motion.turn)
+            self.column_joint[jm.idx_v], self.column_axis[jm.idx_v] = j, 2
+            self.column_rate[jm.idx_v], self.column_revolute[jm.idx_v] = motion.rate, motion.revolute
         if self.unsupported is None and not all(a.nq == 1 for a in kinematics.actuated):
             self.unsupported = "a continuous actuated joint"
+        self.unturn = [pin.SE3.Identity()] + [turn.inverse() for turn in self.turns]
+        if self.unsupported is not None:
+            return
         # which velocity coordinates move each joint (its supports)
         self.support = np.zeros((model.njoints, model.nv))
-        if self.unsupported is None:
-            for j in range(1, model.njoints):
-                for s in model.supports[j]:
-                    if s > 0:
-                        self.support[j, self.idx_v[s - 1]] = 1.0
-        # start_j Q_j and, public, Q_jᵀ by joint id (the root and an unsupported structure's joints not turned)
-        self._starts = [start * turn for start, turn in zip(self.starts, self.turns, strict=False)]
-        self.unturn = [pin.SE3.Identity()] + [turn.inverse() for turn in self.turns]
-        v_to_q = np.zeros(model.nv, dtype=np.intp)
-        v_to_q[self.idx_v] = self.idx_q
-        self.passive_q: IntArray = v_to_q[self.passive_v]
+        for j in range(1, model.njoints):
+            for s in model.supports[j]:
+                if s > 0:
+                    self.support[j, self.column_joint == s] = 1.0
+        # start_j Q_j; Q_jᵀ by joint id above (the root and a free-flyer not turned)
+        self._starts = [start * turn for start, turn in zip(self.starts, self.turns, strict=True)]
         self.actuated_q = np.array([a.idx_q for a in kinematics.actuated], dtype=np.intp)
-        v_to_joint = np.zeros(model.nv, dtype=np.intp)
-        v_to_joint[self.idx_v] = np.arange(n)
-        self._passive_joints = v_to_joint[self.passive_v]  # joint (id − 1) of each passive velocity
-        self._passive_rates = self.rates[self._passive_joints]
-        self._passive_revolute = self.revolute[self._passive_joints]
+        self._one = np.flatnonzero(~self.free)  # joints (id − 1) of one coordinate
+        self._free = np.flatnonzero(self.free)
+        # the passive coordinates: those of joints of one coordinate (q and v alike), and the free-flyers
+        passive = set(self.passive_v.tolist())
+        scalar = [c for c in self.passive_v.tolist() if not self.free[self.column_joint[c] - 1]]
+        self._scalar_q = np.array([self.idx_q[self.column_joint[c] - 1] for c in scalar], dtype=np.intp)
+        order: list[int] = self.passive_v.tolist()
+        self._scalar_columns = np.array([order.index(c) for c in scalar], dtype=np.intp)
+        self._free_passive = [(int(self.idx_q[b]), order.index(int(self.idx_v[b])))
+                              for b in np.flatnonzero(self.free) if int(self.idx_v[b]) in passive]
+        self._passive_revolute = self.column_revolute[self.passive_v]
         # each loop's motion per unit joint velocity: +1 moving its successor anchor, −1 its predecessor's
         anchors = kinematics.closure.anchors()
         self._signs = np.array([self.support[j2] - self.support[j1] for j1, _, j2, _ in anchors]).reshape(-1, model.nv)
@@ -252,7 +271,8 @@ class BatchKinematics:
         frames = np.empty((self.njoints, n, 3, 4))
         frames[0, :, :, :3] = np.eye(3)
         frames[0, :, :, 3] = 0.0
-        values = q[:, self.idx_q] * self.rates
+        values = np.zeros((n, self.njoints - 1))
+        values[:, self._one] = q[:, self.idx_q[self._one]] * self.rates[self._one]
         phases = np.empty(values.shape, dtype=np.complex128)  # e^{−iθ}
         np.cos(values, out=phases.real)
         np.sin(-values, out=phases.imag)
@@ -267,22 +287,31 @@ class BatchKinematics:
         for j in range(1, self.njoints):
             b = j - 1
             np.matmul(flat[self.parents[j]], constants[b], out=flat[j])
-            if self.revolute[b]:
+            if self.free[b]:  # · [R(quaternion) | translation], per sample
+                start = self.idx_q[b]
+                above = frames[j].copy()
+                frames[j, :, :, :3] = above[:, :, :3] @ quaternion_matrices(q[:, start + 3:start + 7])
+                frames[j, :, :, 3] = (above[:, :, :3] @ q[:, start:start + 3, None])[..., 0] + above[:, :, 3]
+            elif self.revolute[b]:
                 pairs[j] *= phases[:, b, None]
             else:
                 origins[j] += axes[j] * values[:, b, None]
         return JointPlacements(frames)
 
-    def joint_twists(self, placements: JointPlacements) -> Array:
-        """(N, 6, nv) each velocity coordinate's spatial twist (per unit velocity: the velocity [m/s] of the world
-        point at the origin moving with the joint's child, and its angular velocity [rad/s], in the world frame)."""
-        frames = placements.frames[1:]
-        axes = frames[:, :, :, 2] * self.rates[:, None, None]  # (J, N, 3)
-        n = axes.shape[1]
-        twists = np.zeros((n, 6, self.nv))
-        linear = np.where(self.revolute[:, None, None], _cross(frames[:, :, :, 3], axes), axes)
-        twists[:, :3, self.idx_v] = linear.transpose(1, 2, 0)
-        twists[:, 3:, self.idx_v] = np.where(self.revolute[:, None, None], axes, 0.0).transpose(1, 2, 0)
+    def joint_twists(self, placements: JointPlacements, columns: IntArray | None = None) -> Array:
+        """(N, 6, k) the spatial twists of velocity coordinates ``columns`` (all nv by default), per unit velocity:
+        the velocity [m/s] of the world point at the origin moving with the joint's child, and its angular velocity
+        [rad/s], in the world frame. A revolute coordinate turns about its axis ``ω`` through the joint's origin
+        ``o`` (``(o × ω, ω)``), a prismatic one slides along it (``(ω, 0)``)."""
+        chosen = np.arange(self.nv) if columns is None else columns
+        frames = placements.frames
+        direction = frames[self.column_joint[chosen], :, :, self.column_axis[chosen]]  # (k, N, 3)
+        direction = direction * self.column_rate[chosen][:, None, None]
+        revolute = self.column_revolute[chosen][:, None, None]
+        linear = np.where(revolute, _cross(frames[self.column_joint[chosen], :, :, 3], direction), direction)
+        twists = np.empty((direction.shape[1], 6, len(chosen)))
+        twists[:, :3] = linear.transpose(1, 2, 0)
+        twists[:, 3:] = np.where(revolute, direction, 0.0).transpose(1, 2, 0)
         return twists
 
     # --- loops --------------------------------------------------------------------------------------
@@ -412,7 +441,7 @@ class BatchKinematics:
         tols = np.broadcast_to(np.asarray(tol, dtype=float), (n,))
         norms = np.full(n, math.inf)
         converged = np.zeros(n, dtype=bool)
-        start = q[:, self.passive_q].copy() if origin is None else origin  # where max_move is measured from
+        start = q.copy() if origin is None else origin  # where max_move is measured from
         active = np.arange(n)
         for it in range(max_iter + 1):
             if not active.size:
@@ -437,10 +466,9 @@ class BatchKinematics:
             size = np.sqrt(np.einsum("ni,ni->n", step, step))
             step *= np.minimum(1.0, max_step / np.where(size > 0.0, size, 1.0))[:, None]
             finite = np.all(np.isfinite(step), axis=1)
-            cells = np.ix_(active, self.passive_q)
-            q[cells] += np.where(finite[:, None], step, 0.0)
+            q[active] = self.retract(q[active], np.where(finite[:, None], step, 0.0))
             if math.isfinite(max_move):
-                finite &= np.abs(q[cells] - start[active]).max(axis=1) <= max_move
+                finite &= np.abs(self.passive_difference(q[active], start[active])).max(axis=1) <= max_move
             active = active[finite]  # a singular step or a jump: stops there, unconverged
         return q, norms, converged
 
@@ -459,14 +487,16 @@ class BatchKinematics:
         jacobian = np.zeros((n, self.rows, len(self.passive_v)))
         spherical = self._spherical
         if spherical:
-            joints = placements.frames[self._passive_joints + 1]  # (n_passive, N, 3, 4)
+            frames_all = placements.frames
+            joints, axes = self.column_joint[self.passive_v], self.column_axis[self.passive_v]
             # ω (revolute) or the slide direction (prismatic), (N, 3, n_passive)
-            velocity = (joints[:, :, :, 2] * self._passive_rates[:, None, None]).transpose(1, 2, 0)
+            velocity = (frames_all[joints, :, :, axes] * self.column_rate[self.passive_v][:, None, None]
+                        ).transpose(1, 2, 0)
             rows, cols, loops, signs = self._turning
             if cols.size:  # ± ω × (p₂ − o), for the (loop, joint) pairs where the joint moves the loop
                 anchors = np.stack([frames[index].p2 for index in spherical], axis=2)  # (N, 3, L)
                 turning = velocity[:, :, cols[0]]
-                offset = anchors[:, :, loops] - joints[cols[0], :, :, 3].transpose(1, 2, 0)
+                offset = anchors[:, :, loops] - frames_all[joints[cols[0]], :, :, 3].transpose(1, 2, 0)
                 moved = np.empty(turning.shape)
                 for i, (a, b) in enumerate(((1, 2), (2, 0), (0, 1))):
                     moved[:, i] = turning[:, a] * offset[:, b] - turning[:, b] * offset[:, a]
@@ -479,10 +509,36 @@ class BatchKinematics:
             stop = start + self.specs[index].rows
             if self.specs[index].type != "spherical":
                 if twists is None:
-                    twists = self.joint_twists(placements)[:, :, self.passive_v]
+                    twists = self.joint_twists(placements, self.passive_v)
                 jacobian[:, start:stop] = self.loop_rows(index, frame, twists * self._signs[index, self.passive_v])
             start = stop
         return jacobian
+
+    def retract(self, q: Array, step: Array) -> Array:
+        """``q ⊕ step`` for passive velocities ``step`` (N, n_passive) [rad or m]: added to a joint of one coordinate;
+        a free-flyer moves by ``t ← t + R v``, ``R ← R exp3(ω)`` (its local velocity, as Pinocchio's ``integrate`` to
+        first order: Newton's answers are the same)."""
+        q = np.array(q, dtype=float)
+        q[:, self._scalar_q] += step[:, self._scalar_columns]
+        for start, column in self._free_passive:
+            quaternion = q[:, start + 3:start + 7]
+            q[:, start:start + 3] += (quaternion_matrices(quaternion) @ step[:, column:column + 3, None])[..., 0]
+            q[:, start + 3:start + 7] = _turn_quaternion(quaternion, step[:, column + 3:column + 6])
+        return q
+
+    def passive_difference(self, q: Array, origin: Array) -> Array:
+        """(N, n_passive) the passive velocities [rad or m] from ``origin`` to ``q`` (N, nq), Pinocchio's
+        ``difference``: a joint of one coordinate's change; a free-flyer's ``log6(M_origin⁻¹ M)``."""
+        out = np.empty((len(q), len(self.passive_v)))
+        out[:, self._scalar_columns] = q[:, self._scalar_q] - origin[:, self._scalar_q]
+        for start, column in self._free_passive:
+            rotation = quaternion_matrices(origin[:, start + 3:start + 7])
+            relative = np.swapaxes(rotation, 1, 2) @ quaternion_matrices(q[:, start + 3:start + 7])
+            angular = log3(relative)
+            moved = (np.swapaxes(rotation, 1, 2) @ (q[:, start:start + 3] - origin[:, start:start + 3])[..., None])
+            out[:, column:column + 3] = _inverse_left_jacobian(angular, moved[..., 0])
+            out[:, column + 3:column + 6] = angular
+        return out
 
     def actuated_values(self, q: Array) -> Array:
         """(N, na) actuated values [rad or m] of configurations ``q`` (N, nq)."""
@@ -517,9 +573,9 @@ class BatchKinematics:
         if rows.size:
             start = q[rows]
             start[:, self.actuated_q] = q_actuated[rows]
-            origin = start[:, self.passive_q].copy()
+            origin = start.copy()
             if predicted is not None:
-                start[:, self.passive_q] += predicted[rows]
+                start = self.retract(start, predicted[rows])
             solved, _, converged = self._close_loops(self.geometry(model, closure), start, tol,
                                                      max_move=CONTINUATION_STEP, origin=origin)
             q[rows] = solved
@@ -556,9 +612,9 @@ class BatchKinematics:
             start = q[rows]
             start[:, self.actuated_q] = origin + path[rows] * (k / steps[rows])[:, None]
             if k > 1:  # a secant predictor along the path (equal steps): Newton starts nearer the same branch
-                start[:, self.passive_q] += q[rows][:, self.passive_q] - before[rows][:, self.passive_q]
+                start = self.retract(start, self.passive_difference(q[rows], before[rows]))
             elif tangent is not None:  # from the reference, its tangent: the same for every sample
-                start[:, self.passive_q] += (path[rows] / steps[rows, None]) @ tangent.T
+                start = self.retract(start, (path[rows] / steps[rows, None]) @ tangent.T)
             last = steps[rows] == k
             tols = np.where(last, tol, max(tol, 1e-8))
             solved, _, converged = self._close_loops(geometry, start, tols, max_iter=20)
@@ -652,3 +708,32 @@ def passive_gains(passive: Array) -> Array:
                         continue
         gains[damped] = solved
     return gains
+
+
+def _turn_quaternion(quaternion: Array, angular: Array) -> Array:
+    """(N, 4) unit quaternions (x, y, z, w) turned by ``exp3(angular)`` (N, 3) [rad] on the right, renormalised."""
+    angle = np.linalg.norm(angular, axis=1)
+    half = 0.5 * angle
+    scale = np.where(angle > 1e-12, np.sin(half) / np.where(angle > 1e-12, angle, 1.0), 0.5)
+    b = np.concatenate([angular * scale[:, None], np.cos(half)[:, None]], axis=1)
+    a = quaternion
+    out = np.stack([a[:, 3] * b[:, 0] + a[:, 0] * b[:, 3] + a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+                    a[:, 3] * b[:, 1] - a[:, 0] * b[:, 2] + a[:, 1] * b[:, 3] + a[:, 2] * b[:, 0],
+                    a[:, 3] * b[:, 2] + a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] + a[:, 2] * b[:, 3],
+                    a[:, 3] * b[:, 3] - a[:, 0] * b[:, 0] - a[:, 1] * b[:, 1] - a[:, 2] * b[:, 2]], axis=1)
+    normalised: Array = out / np.linalg.norm(out, axis=1)[:, None]
+    return normalised
+
+
+def _inverse_left_jacobian(angular: Array, translation: Array) -> Array:
+    """(N, 3) the linear part of ``log6`` [m] of placements whose rotation vector is ``angular`` (N, 3) [rad] and
+    translation ``translation`` (N, 3) [m]: ``V⁻¹(ω) t``, ``V⁻¹ = I − ½ ω̂ + (1 − (θ/2) cot(θ/2)) / θ² · ω̂²``."""
+    theta = np.linalg.norm(angular, axis=1)
+    small = theta < 1e-4
+    safe = np.where(small, 1.0, theta)
+    coefficient = np.where(small, 1.0 / 12.0 + theta**2 / 720.0, (1.0 - 0.5 * safe / np.tan(0.5 * safe)) / safe**2)
+    hat = skew(angular)
+    product = (hat @ translation[..., None])[..., 0]
+    twice = (hat @ product[..., None])[..., 0]
+    out: Array = translation - 0.5 * product + coefficient[:, None] * twice
+    return out
