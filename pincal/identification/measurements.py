@@ -4,9 +4,9 @@ Each model owns its maths: it predicts a small vector per sample from the sample
 configuration and the local twists of the frames it looks at (a :class:`SampleContext`, built by
 :mod:`pincal.identification.problem`), writes that prediction's analytic Jacobian rows, and says how its
 error is formed from the measured values. The problem stacks whatever models it is given and never
-asks which kind: a new sensor is one subclass of :class:`Measurement`. A model may also predict every sample of a
-tree at once (``predict_batch``, from a :class:`~pincal.identification.batch.BatchContext`); one without it is
-predicted sample by sample. All in SI units: positions
+asks which kind: a new sensor is one subclass of :class:`Measurement`. A model may also predict every sample at
+once (``predict_batch``, from a :class:`~pincal.identification.batch.BatchContext`, a tree's or a closed-loop
+robot's); one without it is predicted sample by sample. All in SI units: positions
 [m] in the measurement frame, orientations as rotation vectors [rad], joint readings [rad or m].
 
 Keys (also the dataset column prefixes): ``position:<frame>``, ``position:<frame>@<marker>`` (a marker fixed on

@@ -7,7 +7,9 @@ kinematic regressors for the placements, the implicit-function theorem through t
 configuration Jacobians for the offsets. FK is warm-started from the previous evaluation of the
 same sample, so each evaluation inside Levenberg–Marquardt costs about one Newton step per sample;
 the kinematics layer refuses a warm start that jumps to another assembly, so every sample is solved
-on the reference assembly, whatever the order of the samples.
+on the reference assembly, whatever the order of the samples. Trees and closed-loop robots are evaluated for
+every sample at once (:mod:`~pincal.identification.tree_batch`, :mod:`~pincal.identification.loop_batch`); the
+per-sample path is the reference they are tested against.
 """
 
 from __future__ import annotations
@@ -211,7 +213,7 @@ class CalibrationProblem:
         self.placed_in_closed_form: list[str] = []
         self.not_in_closed_form: list[str] = []  # why the data did not determine a camera's start: one per reading
         #: A tree's batched evaluation (every sample at once), when its joints allow it; False: sample by sample
-        #: (the closed-loop path, which the benchmarks and tests also run on trees to compare the two).
+        #: (the reference path, which the benchmarks and tests also run on trees to compare the two).
         self._tree = TreeBatch(robot, self.frame_ids) if not robot.loops else None
         self._batched_trees = self._tree is not None and self._tree.unsupported is None
         #: A closed-loop robot's batched evaluation (loops closed and derivatives for every sample at once), when its

@@ -2,7 +2,7 @@
 
 The per-sample solvers of :mod:`pincal.model.kinematics` spend most of their time in Python around small Pinocchio
 calls. Here every sample of a batch moves together: forward kinematics is a product over the joints,
-``oMi[j] = oMi[parent] · M_j · exp6(ξ_j v_j)``, one array operation per joint for all N samples (the joint placements
+``oMi[j] = oMi[parent] · M_j · exp6(ξ_j v_j)``, a few array operations per joint for all N samples (the joint placements
 ``M_j`` read from the model at each call, so one instance serves every parameter estimate); each loop's residual and
 exact Jacobian follow from its anchors' placements and the joints' *spatial* twists (per unit velocity, the velocity
 of the world point at the origin moving with the joint's child and its angular velocity, in the world frame); the
@@ -19,9 +19,10 @@ iterates move no passive coordinate by more than :data:`~pincal.model.kinematics
 configuration in the same steps as :meth:`~pincal.model.kinematics.ClosedLoopKinematics.continuation`. A sample
 these do not close is reported, never dropped: the caller solves it alone (continuation with finer steps).
 
-Joint kinds: joints of one coordinate and one velocity (revolute, prismatic, aligned with an axis or not);
-a robot with another kind (a free-flyer, a continuous joint, a ``<mimic>`` follower) reports it in
-:attr:`BatchKinematics.unsupported` and is solved sample by sample.
+Joint kinds: joints of one coordinate and one velocity (revolute, prismatic, aligned with an axis or not) and
+free-flyers (a platform: its placement from its quaternion and translation, its six local velocities, moved by
+``t + R v`` and ``R exp3(ω)``); a robot with another kind (a spherical joint, a continuous joint, a ``<mimic>``
+follower) reports it in :attr:`BatchKinematics.unsupported` and is solved sample by sample.
 """
 
 from __future__ import annotations
