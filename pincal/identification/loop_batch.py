@@ -114,7 +114,7 @@ class LoopBatch:
             moving.setdefault(k, []).append((column, regressor))
         maps = sens.joint_map.reshape(kin.njoints - 1, 6, sens.n)
         used = np.any(maps != 0.0, axis=1)  # (J, p): the parameters each joint's placement has
-        placed = np.flatnonzero(np.any(used, axis=1)) + 1
+        placed = set((np.flatnonzero(np.any(used, axis=1)) + 1).tolist())
         for j in range(1, kin.njoints):
             twist = body[kin.parents[j]]
             own = moving.get(self.actuated.get(j, -1), [])

@@ -225,6 +225,10 @@ class BatchKinematics:
         self._free_passive = [(int(self.idx_q[b]), order.index(int(self.idx_v[b])))
                               for b in np.flatnonzero(self.free) if int(self.idx_v[b]) in passive]
         self._passive_revolute = self.column_revolute[self.passive_v]
+        # the kinematics of the last Newton pass, when it closed every sample, and of the last warm solve that did so
+        # (its model and loops, held so that they stay the same objects, the answers, the placements and frames)
+        self._last_pass: tuple[JointPlacements, list[LoopFrames]] | None = None
+        self._closed: tuple[pin.Model, LoopClosure, Array, JointPlacements, list[LoopFrames]] | None = None
         # each loop's motion per unit joint velocity: +1 moving its successor anchor, −1 its predecessor's
         anchors = kinematics.closure.anchors()
         self._signs = np.array([self.support[j2] - self.support[j1] for j1, _, j2, _ in anchors]).reshape(-1, model.nv)
@@ -360,8 +364,12 @@ class BatchKinematics:
         """The loops at closed configurations ``q`` (N, nq), for the implicit-function theorem: placements, anchor
         frames, and ``C_p`` with the spherical loops' rows in the world frame (:meth:`solver_rows`)."""
         geometry = self.geometry(model, closure)
-        placements = self.forward(geometry, q)
-        frames = self.loop_frames(geometry, placements)
+        closed, self._closed = self._closed, None
+        if closed is not None and closed[0] is model and closed[1] is closure and np.array_equal(closed[2], q):
+            placements, frames = closed[3], closed[4]  # the last warm solve's final pass, at these very q
+        else:
+            placements = self.forward(geometry, q)
+            frames = self.loop_frames(geometry, placements)
         return LoopSystem(placements, frames, self._newton_system(geometry, placements, frames))
 
     def solver_rows(self, index: int, frame: LoopFrames, relative: Array) -> Array:
@@ -444,6 +452,7 @@ class BatchKinematics:
         converged = np.zeros(n, dtype=bool)
         start = q.copy() if origin is None else origin  # where max_move is measured from
         active = np.arange(n)
+        self._last_pass = None
         for it in range(max_iter + 1):
             if not active.size:
                 break
@@ -455,6 +464,8 @@ class BatchKinematics:
             converged[active[done]] = True
             going = ~done & np.isfinite(norm) & (norm <= DIVERGED) & (it < max_iter)
             if not np.any(going):
+                # every sample closed in this pass: its kinematics are the answers' (kept for linearised)
+                self._last_pass = (placements, frames) if active.size == n and np.all(done) else None
                 break
             if not np.all(going):
                 placements = placements.take(going)
@@ -581,6 +592,8 @@ class BatchKinematics:
                                                      max_move=CONTINUATION_STEP, origin=origin)
             q[rows] = solved
             ok[rows] = converged
+            if self._last_pass is not None:
+                self._closed = (model, closure, solved, *self._last_pass)
         return q, ok
 
     def continuation(self, model: pin.Model, closure: LoopClosure, q_actuated: Array, tol: float
