@@ -93,8 +93,9 @@ class Workspace:
 class BatchContext:
     """What a measurement model predicts every sample from at once (a tree's batched evaluation).
 
-    The problem builds one per evaluation of a robot without loops (:mod:`pincal.identification.tree_batch`); the
-    frames' parameter derivatives are spatial twists (:class:`SpatialJacobian`).
+    The problem builds one per evaluation of a robot without loops (:mod:`pincal.identification.tree_batch`) or with
+    loops (:mod:`pincal.identification.loop_batch`); the frames' parameter derivatives are spatial twists
+    (:class:`SpatialJacobian`).
 
     Attributes:
         shared: The evaluation's per-sample context (parameters, base, markers, attached placements, data), whose
@@ -108,6 +109,9 @@ class BatchContext:
         joint_terms: Joint -> its value's terms, (column, (N,) regressor): the joint's value moves by the regressor
             [rad or m] per unit of the column's parameter (the actuated joints' offsets and corrections; a joint not
             listed does not move with the parameters).
+        velocities: (N, nv, p) every joint's velocity per unit parameter, ``dv/dθ`` (a closed-loop robot: the passive
+            joints move with the parameters through the loops; then ``joint_terms`` are in its actuated rows), or None
+            (a tree: ``joint_terms`` say it all).
     """
 
     shared: SampleContext
@@ -117,6 +121,7 @@ class BatchContext:
     twists: dict[str, SpatialJacobian] = field(default_factory=dict)
     joint_terms: dict[str, list[tuple[int, Array]]] = field(default_factory=dict)
     samples: slice = field(default_factory=lambda: slice(0, None))
+    velocities: Array | None = None
 
     @property
     def base(self) -> pin.SE3:

@@ -222,6 +222,7 @@ class ChainProblem:
         self.x_fixed = x_fixed.copy()
         slices = list(problem.robot.closure.loop_slices().values())
         per_sample = np.concatenate([np.arange(slices[i].start, slices[i].stop) for i in loops])
+        self._loop_rows = per_sample  # this chain's rows of a sample's closure
         rows = problem.robot.closure.rows
         n = problem.observations.n_samples
         self.rows = (np.arange(n)[:, None] * rows + per_sample[None, :]).reshape(-1)
@@ -242,10 +243,12 @@ class ChainProblem:
         return self.full.settle_assembly(full)
 
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
-        """The full problem's residual and Jacobian at ``x`` (the others at ``x_fixed``), restricted to this chain's
-        loop rows and parameter columns."""
+        """The full problem's residual, Jacobian and errors at ``x`` (the others at ``x_fixed``), restricted to this
+        chain's loop rows and parameter columns."""
         full = self.x_fixed.copy()
         full[self.columns] = x
         pred = self.full.evaluate(full, jacobian)
         jac = None if pred.jacobian is None else pred.jacobian[np.ix_(self.rows, self.columns)]
-        return Prediction(pred.residual[self.rows], jac, pred.errors, pred.predicted)
+        # the errors of this chain's loops only: the others' (held at x_fixed, fitted in turn) are not this fit's
+        errors = {key: value[:, self._loop_rows] for key, value in pred.errors.items()}
+        return Prediction(pred.residual[self.rows], jac, errors, pred.predicted)

@@ -4,9 +4,9 @@ Each model owns its maths: it predicts a small vector per sample from the sample
 configuration and the local twists of the frames it looks at (a :class:`SampleContext`, built by
 :mod:`pincal.identification.problem`), writes that prediction's analytic Jacobian rows, and says how its
 error is formed from the measured values. The problem stacks whatever models it is given and never
-asks which kind: a new sensor is one subclass of :class:`Measurement`. A model may also predict every sample of a
-tree at once (``predict_batch``, from a :class:`~pincal.identification.batch.BatchContext`); one without it is
-predicted sample by sample. All in SI units: positions
+asks which kind: a new sensor is one subclass of :class:`Measurement`. A model may also predict every sample at
+once (``predict_batch``, from a :class:`~pincal.identification.batch.BatchContext`, a tree's or a closed-loop
+robot's); one without it is predicted sample by sample. All in SI units: positions
 [m] in the measurement frame, orientations as rotation vectors [rad], joint readings [rad or m].
 
 Keys (also the dataset column prefixes): ``position:<frame>``, ``position:<frame>@<marker>`` (a marker fixed on
@@ -720,11 +720,13 @@ class JointReading(Measurement):
 
     def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
         """:meth:`predict` for every sample (a tree: the joint moves with the parameters only through its own
-        offset and correction columns when it is actuated)."""
+        offset and correction columns when it is actuated; closed loops: through ``batch.velocities``)."""
         jm = batch.shared.model.joints[batch.shared.model.getJointId(self.joint)]
         q = batch.q
         out[:, 0] = q[:, jm.idx_q] if jm.nq == 1 else np.arctan2(q[:, jm.idx_q + 1], q[:, jm.idx_q])
-        if jac is not None:
+        if jac is not None and batch.velocities is not None:  # closed loops: dv/dθ, actuated terms included
+            jac[:, 0] = batch.velocities[:, jm.idx_v]
+        elif jac is not None:
             for column, regressor in batch.joint_terms.get(self.joint, []):
                 jac[:, 0, column] = regressor
         offset = batch.shared.reading_offsets.get(self.joint)

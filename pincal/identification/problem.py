@@ -7,7 +7,9 @@ kinematic regressors for the placements, the implicit-function theorem through t
 configuration Jacobians for the offsets. FK is warm-started from the previous evaluation of the
 same sample, so each evaluation inside Levenberg–Marquardt costs about one Newton step per sample;
 the kinematics layer refuses a warm start that jumps to another assembly, so every sample is solved
-on the reference assembly, whatever the order of the samples.
+on the reference assembly, whatever the order of the samples. Trees and closed-loop robots are evaluated for
+every sample at once (:mod:`~pincal.identification.tree_batch`, :mod:`~pincal.identification.loop_batch`); the
+per-sample path is the reference they are tested against.
 """
 
 from __future__ import annotations
@@ -23,15 +25,17 @@ import pinocchio as pin
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, listing, not_found
 from pincal.identification import handeye
-from pincal.identification.batch import BatchContext
+from pincal.identification.batch import BatchContext, SpatialJacobian
 from pincal.identification.corrections import Payload, correction_regressors
 from pincal.identification.derivatives import (
     KinematicSensitivity,
+    Probe,
     attached_placements,
     frame_probe,
     marker_points,
     right_jacobian,
 )
+from pincal.identification.loop_batch import LoopBatch
 from pincal.identification.measurements import (
     WORLD_TARGET,
     CameraPoint,
@@ -63,6 +67,13 @@ IntArray = npt.NDArray[np.int64]
 #: Samples a tree's batched evaluation takes at once: its intermediates (about 6 × p numbers per sample and measured
 #: frame) stay a few megabytes, whatever the number of samples.
 BATCH_SAMPLES = 2048
+#: Fewest samples a closed-loop robot's evaluation solves together (:meth:`CalibrationProblem._solve_all`); fewer are
+#: solved one by one, which costs less than a stacked solve's fixed cost (about 30 array operations per iteration).
+SMALL_WAVE = 16
+#: Largest predicted change [rad or m] of a passive joint a warm start of the batched closed-loop solves takes from the
+#: configuration's response to the parameters (a larger one is not first-order small: Newton starts from the
+#: remembered configuration instead).
+PREDICTED_MOVE = 0.05
 #: Largest entry of the passive joints' response to the loops (C_p⁺) before a sample counts as singular
 #: (an identification step that takes a sample there is rejected).
 SINGULAR_GAIN = 1e8
@@ -192,14 +203,23 @@ class CalibrationProblem:
         # how far each sample's configuration has travelled (sum of max coordinate changes) since it was last
         # known to be on the reference assembly: only a sample that moved can have left it
         self._travel = np.zeros(observations.n_samples)
+        #: The parameters [m, rad] the remembered configurations were solved at, and every sample's configuration
+        #: response to the parameters there, dv/dθ (N, nv, p), from the last evaluation with the Jacobian (closed
+        #: loops batched): the next warm starts move along it (a first-order prediction, Newton then closes)
+        self._solved_at: Array | None = None
+        self._response: Array | None = None
         self.rows_per_sample = sum(m.size for m in self.measurements)
         #: The cameras and targets (attached placement names) the last :meth:`initial_guess` placed in closed form.
         self.placed_in_closed_form: list[str] = []
         self.not_in_closed_form: list[str] = []  # why the data did not determine a camera's start: one per reading
         #: A tree's batched evaluation (every sample at once), when its joints allow it; False: sample by sample
-        #: (the closed-loop path, which the benchmarks and tests also run on trees to compare the two).
+        #: (the reference path, which the benchmarks and tests also run on trees to compare the two).
         self._tree = TreeBatch(robot, self.frame_ids) if not robot.loops else None
         self._batched_trees = self._tree is not None and self._tree.unsupported is None
+        #: A closed-loop robot's batched evaluation (loops closed and derivatives for every sample at once), when its
+        #: joints allow it; False: sample by sample (the reference path, which the tests compare it with).
+        self._loops = LoopBatch(robot, self.frame_ids) if robot.loops else None
+        self._batched_loops = self._loops is not None and self._loops.unsupported is None
         self._seen: dict[str, npt.NDArray[np.bool_]] = {}
         for m in self.measurements:
             taken = np.all(np.isfinite(observations.values[m.key]), axis=1)
@@ -276,6 +296,8 @@ class CalibrationProblem:
         """Closed configurations (N, nq) of every sample at ``x``, on the reference assembly."""
         robot = self.robot_at(x)
         qa = self.actuated_values(x)
+        if self._batched_loops and robot.loops:
+            return self._solve_all(robot, qa, self._augment(np.asarray(x, dtype=float))).copy()
         return np.array([self._solve(robot, k, qa[k]) for k in range(qa.shape[0])])
 
     def _solve(self, robot: Robot, k: int, qa: Array) -> Array:
@@ -289,6 +311,10 @@ class CalibrationProblem:
         guess = self._q_cache[k]
         if guess is None:
             guess = self._nearest_solution(robot, qa)
+        return self._solve_from(robot, k, qa, guess)
+
+    def _solve_from(self, robot: Robot, k: int, qa: Array, guess: Array | None) -> Array:
+        """:meth:`_solve` from the warm start ``guess`` (None: cold), remembering the answer."""
         report = robot.kinematics.solve_fk(qa, guess, SOLVE_TOLERANCE)
         if not report.converged:
             raise ConvergenceError(f"sample {k}: forward kinematics did not converge for actuated readings "
@@ -433,9 +459,10 @@ class CalibrationProblem:
         re-evaluated at each call and held constant in the Jacobian, as iteratively re-weighted least
         squares does.
 
-        A tree (no loops) is evaluated for every sample at once (:meth:`_predict_tree`, issue 14); a closed-loop
-        robot, or a tree with a joint kind :mod:`~pincal.identification.tree_batch` does not take, sample by sample
-        (:meth:`_predict_samples`). Both give the same numbers (to 1e-10, tests/identification/test_tree_batch.py).
+        A tree (no loops) is evaluated for every sample at once (:meth:`_predict_tree`, issue 14), and so is a
+        closed-loop robot (:meth:`_predict_loops`); a robot with a joint kind :mod:`~pincal.identification.tree_batch`
+        or :mod:`~pincal.model.batch_kinematics` does not take, sample by sample (:meth:`_predict_samples`). They give
+        the same numbers (to 1e-10, tests/identification/test_tree_batch.py and test_loop_batch.py).
         """
         x = self._augment(np.asarray(x, dtype=float))
         output_jacobian = jacobian
@@ -459,8 +486,131 @@ class CalibrationProblem:
         else:
             if jacobian:
                 dpreds = {m.key: np.zeros((n, m.size, p)) for m in self.measurements}
-            self._predict_samples(robot, sens, ctx, qa_all, preds, dpreds)
+            if self._batched_loops and robot.loops:
+                self._predict_loops(robot, sens, ctx, qa_all, preds, dpreds)
+            else:
+                self._predict_samples(robot, sens, ctx, qa_all, preds, dpreds)
         return self._assemble(preds, dpreds, output_jacobian)
+
+    def _solve_all(self, robot: Robot, qa_all: Array, x: Array) -> Array:
+        """Every sample's configuration on the reference assembly: :meth:`_solve` for all samples, in waves of
+        stacked Newton solves (:class:`~pincal.model.batch_kinematics.BatchKinematics`), from the same warm starts.
+
+        A sample solved before starts from its own last configuration (moved by :meth:`_predicted_change`, Newton's
+        refusals measured from the configuration itself); a first solve from the configuration of the
+        solved sample nearest in actuated values (:meth:`_nearest_solution`, asked in sample order as the per-sample
+        path asks, so with the same answers). The first solves that start from another first solve wait for it: wave
+        w holds the samples whose chain of warm starts is w long; those without a neighbour are solved by
+        continuation from the reference with the first wave. A refused warm start falls back on continuation, all
+        such samples stepping together, and a sample neither closes is solved alone (:meth:`_solve_from`: finer
+        continuation, or the error naming it); so is a wave, or a set of refused samples, of fewer than
+        :data:`SMALL_WAVE` samples.
+        """
+        assert self._loops is not None
+        kin = self._loops.kinematics
+        n, model, closure = len(qa_all), robot.model, robot.closure
+        known = np.array([guess is not None for guess in self._q_cache], dtype=bool)
+        previous = np.full((n, model.nq), np.nan)
+        if np.any(known):
+            previous[known] = np.array([guess for guess in self._q_cache if guess is not None])
+        q = np.full((n, model.nq), np.nan)
+        wave = np.zeros(n, dtype=np.intp)
+        parent = np.full(n, -1, dtype=np.intp)
+        old = np.zeros(n, dtype=bool)  # the neighbour's remembered configuration (not yet solved again)
+        for k in range(n):  # the per-sample path's sequence of neighbour queries and records
+            if not known[k]:
+                found = self._qa_solved.nearest(qa_all[k], robot.kinematics.actuated_delta)
+                if found >= 0 and (known[found] or found < k):  # else a neighbour never solved: a cold start
+                    parent[k], old[k] = found, known[found] and found > k
+                    wave[k] = 1 if known[found] else wave[found] + 1
+                else:
+                    wave[k] = 1  # a cold start
+            self._qa_solved.record(k, qa_all[k])
+        for w in range(int(wave.max(initial=0)) + 1):
+            rows = np.flatnonzero(wave == w)
+            if not rows.size:
+                continue
+            predicted = None
+            if w == 0:
+                guesses = previous[rows]
+                predicted = self._predicted_change(x, rows)
+            else:
+                source = parent[rows]
+                guesses = np.where(old[rows, None], previous[source], q[source])
+            if rows.size < SMALL_WAVE:  # a stacked solve's fixed cost exceeds a few solves alone
+                for row, guess in zip(rows.tolist(), guesses, strict=True):
+                    q[row] = self._solve_from(robot, row, qa_all[row], None if np.isnan(guess[0]) else guess)
+                known[rows] = False  # their travel is counted
+                continue
+            warm = ~np.isnan(guesses[:, 0])
+            ok = np.zeros(rows.size, dtype=bool)
+            if np.any(warm):
+                moved = None if predicted is None else predicted[warm]
+                q[rows[warm]], ok[warm] = kin.warm_solve(model, closure, qa_all[rows[warm]], guesses[warm],
+                                                         SOLVE_TOLERANCE, moved)
+            if np.count_nonzero(~ok) >= SMALL_WAVE:
+                q[rows[~ok]], ok[~ok] = kin.continuation(model, closure, qa_all[rows[~ok]], SOLVE_TOLERANCE)
+            for row, guess in zip(rows[~ok].tolist(), guesses[~ok], strict=True):  # alone (finer steps, or the error)
+                q[row] = self._solve_from(robot, row, qa_all[row], None if np.isnan(guess[0]) else guess)
+                known[row] = False  # its travel is counted
+        travel = np.abs(q - previous).max(axis=1, initial=0.0)
+        self._travel[known] += travel[known]
+        for k in range(n):
+            self._q_cache[k] = q[k]
+        self._solved_at = x.copy()
+        return q
+
+    def _predicted_change(self, x: Array, rows: IntArray) -> Array | None:
+        """(len(rows), n_passive) the passive joints' first-order change [rad or m] from the remembered
+        configurations of samples ``rows`` to ``x``: the last Jacobian evaluation's dv/dθ times the parameters'
+        change; None without one, and zero for a sample it would move by more than :data:`PREDICTED_MOVE`."""
+        if self._response is None or self._solved_at is None or self._solved_at.shape != x.shape:
+            return None
+        assert self._loops is not None
+        passive = self._loops.kinematics.passive_v
+        change = self._response[rows][:, passive] @ (x - self._solved_at)
+        change[~(np.abs(change).max(axis=1, initial=0.0) <= PREDICTED_MOVE)] = 0.0
+        return np.asarray(change, dtype=float)
+
+    def _predict_loops(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
+                       preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
+        """Every sample of a closed-loop robot at once (:mod:`pincal.identification.loop_batch`), by blocks of at
+        most :data:`BATCH_SAMPLES`: configurations (:meth:`_solve_all`), the measured frames' placements and spatial
+        twists through the loops, each model's :meth:`Measurement.predict_batch`; a model without one is predicted
+        sample by sample from the same configurations and twists."""
+        assert self._loops is not None
+        loops, model, n = self._loops, robot.model, self.observations.n_samples
+        q_all = self._solve_all(robot, qa_all, ctx.x)
+        probes: dict[str, Probe] = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
+        batched = [m for m in self.measurements if m.batched]
+        one_by_one = [m for m in self.measurements if not m.batched]
+        for start in range(0, n, BATCH_SAMPLES):
+            rows = slice(start, min(n, start + BATCH_SAMPLES))
+            q = q_all[rows]
+            terms = [(joint, col, regressor[rows]) for joint, col, regressor in self.actuated_terms]
+            velocities = None
+            if sens is None:
+                joints = loops.kinematics.forward(loops.kinematics.geometry(model, robot.closure), q)
+                placements = {f: loops.placement(joints, probe.joint, probe.placement) for f, probe in probes.items()}
+                twists: dict[str, SpatialJacobian] = {}
+            else:
+                system = loops.kinematics.linearised(model, robot.closure, q)
+                placements, twists, response = loops.twists(robot, sens, q, system, terms, probes, start,
+                                                             SINGULAR_GAIN)
+                velocities = response.velocities
+                if self._response is None or self._response.shape != (n, *velocities.shape[1:]):
+                    self._response = np.empty((n, *velocities.shape[1:]))
+                self._response[rows] = velocities
+            joint_terms: dict[str, list[tuple[int, Array]]] = {}
+            for joint, col, regressor in terms:
+                joint_terms.setdefault(robot.actuated_joints[joint], []).append((col, regressor))
+            batch = BatchContext(ctx, q, {f: rotation for f, (rotation, _) in placements.items()},
+                                 {f: origin for f, (_, origin) in placements.items()}, twists, joint_terms, rows,
+                                 velocities)
+            for m in batched:
+                m.predict_batch(batch, preds[m.key][rows], dpreds[m.key][rows] if sens is not None else None)
+            if one_by_one:
+                self._predict_one_by_one(robot, one_by_one, ctx, batch, preds, dpreds)
 
     def _predict_samples(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
                          preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
@@ -545,7 +695,9 @@ class CalibrationProblem:
         for row, k in enumerate(range(batch.samples.start, batch.samples.stop)):
             pin.framesForwardKinematics(model, data, batch.q[row])
             dv = None
-            if spatial:
+            if spatial and batch.velocities is not None:  # closed loops: the passive joints move too
+                dv = batch.velocities[row]
+            elif spatial:
                 dv = np.zeros((model.nv, len(self._all)))
                 for joint, col, regressor in self.actuated_terms:
                     dv[act_v[joint], col] = regressor[k]

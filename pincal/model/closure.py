@@ -15,6 +15,7 @@ body twist ``(v_b, ω_b)`` of c2, and ``dp = R v_b``, ``dR = R [ω_b]×``.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,6 +31,12 @@ Array = npt.NDArray[np.float64]
 
 def normal_basis(axis: Array) -> Array:
     """A 3×2 orthonormal basis of the plane normal to the unit vector ``axis``."""
+    return _normal_basis(tuple(float(a) for a in axis)).copy()
+
+
+@functools.lru_cache(maxsize=256)
+def _normal_basis(axis: tuple[float, ...]) -> Array:
+    # remembered by axis: a robot at new parameters (one per identification step) rebuilds its loops
     helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     e1 = np.cross(axis, helper)
     e1 /= np.linalg.norm(e1)
@@ -49,8 +56,8 @@ def link_anchor(model: pin.Model, link: str, origin: pin.SE3, loop: str) -> tupl
 @dataclass
 class _Loop:
     spec: LoopSpec
-    cmodel: Any
-    cdata: Any
+    model: pin.Model
+    anchors: tuple[int, pin.SE3, int, pin.SE3]  # predecessor joint, placement in it; successor joint, placement
     start: int
     basis: Array  # 3×2 basis normal to the axis (revolute, prismatic)
     axis_cross: Array  # [a]×
@@ -60,6 +67,17 @@ class _Loop:
     def __post_init__(self) -> None:
         self.stop = self.start + self.spec.rows
         self.spherical = self.spec.type == "spherical"
+
+    # Pinocchio's constraint model and data, made on first use: the batched kinematics reads only the anchors, and a
+    # robot at new parameters (one per identification step) need not pay for them
+    @functools.cached_property
+    def cmodel(self) -> Any:
+        kind = pin.PointAnchorConstraintModel if self.spherical else pin.FrameAnchorConstraintModel
+        return kind(self.model, *self.anchors)
+
+    @functools.cached_property
+    def cdata(self) -> Any:
+        return self.cmodel.createData()
 
 
 class LoopClosure:
@@ -81,10 +99,8 @@ class LoopClosure:
             if j1 == j2:
                 raise LoopError(f"loop '{spec.name}' joins links '{spec.predecessor}' and "
                                 f"'{spec.successor}', which are rigidly attached to each other")
-            kind = pin.PointAnchorConstraintModel if spec.type == "spherical" else pin.FrameAnchorConstraintModel
-            cmodel = kind(model, j1, m1, j2, m2)
-            self._loops.append(_Loop(spec, cmodel, cmodel.createData(), start,
-                                     normal_basis(spec.axis), pin.skew(spec.axis)))
+            self._loops.append(_Loop(spec, model, (j1, m1, j2, m2), start, normal_basis(spec.axis),
+                                     pin.skew(spec.axis)))
             start += spec.rows
         self.rows = start
 
@@ -159,8 +175,7 @@ class LoopClosure:
 
     def anchors(self) -> list[tuple[int, pin.SE3, int, pin.SE3]]:
         """Per loop: (joint id, placement in that joint) of the predecessor and successor anchors."""
-        return [(int(lp.cmodel.joint1_id), lp.cmodel.joint1_placement.copy(), int(lp.cmodel.joint2_id),
-                 lp.cmodel.joint2_placement.copy()) for lp in self._loops]
+        return [(lp.anchors[0], lp.anchors[1].copy(), lp.anchors[2], lp.anchors[3].copy()) for lp in self._loops]
 
     def rows_from_relative_twist(self, data: pin.Data, twists: list[Array]) -> Array:
         """Residual derivative (rows × k) from each loop's relative twist of c2 w.r.t. c1, in c1 (6 × k).

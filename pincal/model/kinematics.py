@@ -20,6 +20,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -28,6 +29,9 @@ from scipy.linalg import lapack
 
 from pincal import linalg
 from pincal.model.closure import LoopClosure
+
+if TYPE_CHECKING:
+    from pincal.model.batch_kinematics import BatchKinematics
 
 Array = npt.NDArray[np.float64]
 
@@ -130,6 +134,13 @@ class ClosedLoopKinematics:
         self._scalar_q = np.array([a.idx_q for a in actuated], dtype=int)
         self._all_scalar = all(a.nq == 1 for a in actuated)
         self._continuous = np.array([a.nq == 2 for a in actuated], dtype=bool)
+
+    @functools.cached_property
+    def batch(self) -> BatchKinematics:
+        """The batched counterpart of these solvers (every sample at once), built on first use."""
+        from pincal.model.batch_kinematics import BatchKinematics
+
+        return BatchKinematics(self)
 
     # --- actuated coordinates -------------------------------------------------------------------
     @property

@@ -194,6 +194,10 @@ class Robot:
                        tol: float = SOLVE_TOLERANCE) -> Array:
         """Forward kinematics of many samples, (N, na) -> (N, nq).
 
+        A closed-loop robot whose joints :mod:`pincal.model.batch_kinematics` takes solves every sample at once
+        (stacked Newton steps, the same warm starts and refusals as :meth:`solve_fk`); a sample that does not close
+        there, or another robot, is solved by :meth:`solve_fk`.
+
         Args:
             q_actuated: Actuated values, one sample per row [rad or m].
             q_guess: One configuration used for every sample, or (N, nq) guesses, one per sample;
@@ -206,10 +210,18 @@ class Robot:
         qa = np.atleast_2d(np.asarray(q_actuated, dtype=float))
         guesses = None if q_guess is None else np.asarray(q_guess, dtype=float)
         out = np.empty((qa.shape[0], self.model.nq))
-        for k, row in enumerate(qa):
+        alone = np.ones(len(qa), dtype=bool)
+        batch = self.kinematics.batch if self.loops else None
+        if batch is not None and batch.unsupported is None and qa.shape[1:] == (self.n_actuated,) \
+                and np.all(np.isfinite(qa)) and (guesses is None or guesses.shape in ((self.model.nq,), out.shape)):
+            # every sample at once (pincal.model.batch_kinematics); the samples it does not close, alone below
+            tiled = None if guesses is None else np.broadcast_to(guesses, out.shape)
+            out[:], solved = batch.solve(self.model, self.closure, qa, tiled, tol)
+            alone = ~solved
+        for k in np.flatnonzero(alone).tolist():
             guess = None if guesses is None else (guesses if guesses.ndim == 1 else guesses[k])
             try:
-                out[k] = self.solve_fk(row, guess, tol)
+                out[k] = self.solve_fk(qa[k], guess, tol)
             except ConvergenceError as exc:
                 raise ConvergenceError(f"sample {k}: {exc}") from None
         return out
