@@ -475,22 +475,45 @@ class CalibrationProblem:
         qa_all = self.actuated_values(x)
         preds: dict[str, Array] = {m.key: np.empty((n, m.size)) for m in self.measurements}
         dpreds: dict[str, Array] = {}
+        full: Array | None = None
         if self._batched_trees and not robot.loops:
             assert self._tree is not None
-            if jacobian:  # kept from one evaluation to the next: _assemble copies them out
+            if jacobian and self._in_place(output_jacobian):  # the models write the Jacobian's own rows
+                full = np.zeros((sum(n * m.size for m in self.measurements), p))
+                dpreds = self._row_blocks(full)
+            elif jacobian:  # kept from one evaluation to the next: _assemble copies them out
                 dpreds = {m.key: self._tree.scratch.array(("jacobian", m.key), (n, m.size, p))
                           for m in self.measurements}
                 for block in dpreds.values():
                     block.fill(0.0)
             self._predict_tree(robot, sens, ctx, qa_all, preds, dpreds)
         else:
-            if jacobian:
+            if jacobian and self._in_place(output_jacobian):
+                full = np.zeros((sum(n * m.size for m in self.measurements), p))
+                dpreds = self._row_blocks(full)
+            elif jacobian:
                 dpreds = {m.key: np.zeros((n, m.size, p)) for m in self.measurements}
             if self._batched_loops and robot.loops:
                 self._predict_loops(robot, sens, ctx, qa_all, preds, dpreds)
             else:
                 self._predict_samples(robot, sens, ctx, qa_all, preds, dpreds)
-        return self._assemble(preds, dpreds, output_jacobian)
+        return self._assemble(preds, dpreds, output_jacobian, full)
+
+    def _in_place(self, output_jacobian: bool) -> bool:
+        """Whether the Jacobian's rows can be the models' derivative blocks themselves, scaled in place (one m × p
+        array per evaluation, no copy): every sample took every reading, none is a change since the previous
+        sample, no joint noise whitens the rows, and no column is added to the parameters'."""
+        return (output_jacobian and self.joint_sigma is None and len(self._all) == len(self.parameters)
+                and all(not m.incremental and bool(np.all(self.seen(m.key))) for m in self.measurements))
+
+    def _row_blocks(self, full: Array) -> dict[str, Array]:
+        """Each measurement's (N, rows, p) view of its rows of ``full`` (measurements in order, samples in order)."""
+        n, p = self.observations.n_samples, full.shape[1]
+        blocks, start = {}, 0
+        for m in self.measurements:
+            blocks[m.key] = full[start:start + n * m.size].reshape(n, m.size, p)
+            start += n * m.size
+        return blocks
 
     def _solve_all(self, robot: Robot, qa_all: Array, x: Array) -> Array:
         """Every sample's configuration on the reference assembly: :meth:`_solve` for all samples, in waves of
@@ -714,14 +737,17 @@ class CalibrationProblem:
                              marker_points(self._all, x, self.marker_nominals), self.reading_offsets,
                              self.frame_ids, self.observations.values, attached=attached_placements(self._all, x))
 
-    def _assemble(self, preds: dict[str, Array], dpreds: dict[str, Array], jacobian: bool) -> Prediction:
-        """Errors, weighted residuals and the Jacobian (written once, into the array returned) from each model's
-        predictions and derivatives."""
+    def _assemble(self, preds: dict[str, Array], dpreds: dict[str, Array], jacobian: bool,
+                  full: Array | None = None) -> Prediction:
+        """Errors, weighted residuals and the Jacobian (written once, into the array returned; or scaled in place
+        when the derivative blocks are ``full``'s own rows, :meth:`_row_blocks`) from each model's predictions and
+        derivatives."""
         errors: dict[str, Array] = {}
         blocks = []
         keep = len(self.parameters)
         sizes = [int(np.count_nonzero(self.seen(m.key))) * m.size for m in self.measurements]
-        full = np.empty((sum(sizes), keep)) if jacobian else None
+        if full is None and jacobian:
+            full = np.empty((sum(sizes), keep))
         start = 0
         for m, size in zip(self.measurements, sizes, strict=True):
             measured = self.observations.values[m.key]

@@ -16,7 +16,13 @@ from test_measurements import Height
 import pincal
 from pincal.identification import measurements as ms
 from pincal.identification import problem as problem_module
-from pincal.identification.parameters import ParameterSet, cluster_parameters, marker_parameters, parameter_pool
+from pincal.identification.parameters import (
+    ParameterSet,
+    choose_parameters,
+    cluster_parameters,
+    marker_parameters,
+    parameter_pool,
+)
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.tree_batch import joint_motion
 from pincal.study.simulation import random_actuated
@@ -151,6 +157,31 @@ def test_a_second_evaluation_reuses_nothing_it_returned() -> None:
     batched.evaluate(x + 1e-3)
     np.testing.assert_array_equal(first.residual, kept[0])
     np.testing.assert_array_equal(first.jacobian, kept[1])
+
+
+@pytest.mark.parametrize("name", ["ur10", "delta"])
+def test_the_jacobian_written_in_place_is_the_copied_one(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every reading taken, no joint noise: the models write the Jacobian's own rows, scaled in place (one m × p
+    array); the same numbers, bit for bit, as the derivative blocks copied out, and a second evaluation leaves the
+    first one's Jacobian as it was."""
+    robot = pincal.load_robot(name)
+    models = [ms.position(robot.end_effector),
+              ms.Distance.from_key("distance", f"{robot.end_effector}-{robot.model.frames[1].name}", None)]
+    pset = choose_parameters(robot, models)
+    rng = np.random.default_rng(4)
+    qa, _ = random_actuated(robot, 7, rng)
+    values = {m.key: np.ones((7, m.size)) for m in models}
+    problem = CalibrationProblem(robot, pset, models, Observations(qa, values))
+    assert problem._in_place(True)
+    x = rng.normal(scale=1e-3, size=len(pset))
+    direct = problem.evaluate(x)
+    kept = np.array(direct.jacobian)
+    monkeypatch.setattr(CalibrationProblem, "_in_place", lambda self, output_jacobian: False)
+    copied = problem.evaluate(x)
+    np.testing.assert_array_equal(direct.jacobian, copied.jacobian)
+    np.testing.assert_array_equal(direct.residual, copied.residual)
+    problem.evaluate(x + 1e-3)
+    np.testing.assert_array_equal(direct.jacobian, kept)
 
 
 @dataclass(frozen=True)
