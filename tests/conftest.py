@@ -53,3 +53,22 @@ def finite_difference_jacobian(problem: Any, x: np.ndarray, eps: float = 1e-7) -
         minus = problem.evaluate(x - step, jacobian=False).residual
         columns.append((plus - minus) / (2 * eps))
     return np.column_stack(columns)
+
+
+def random_readings(models: Any, n: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """Arbitrary readings of ``models`` for ``n`` samples (what a prediction is compared with, not what a robot
+    would read): normal values, unit quaternions for poses, the first increment and the third sample of an
+    occludable reading left out (NaN)."""
+    values = {}
+    for m in models:
+        width = len(m.columns)
+        data = rng.normal(scale=0.3, size=(n, width))
+        if width == 7:  # a pose: a random unit quaternion
+            data[:, 3:] = rng.normal(size=(n, 4))
+            data[:, 3:] /= np.linalg.norm(data[:, 3:], axis=1)[:, None]
+        if m.incremental:
+            data[0] = np.nan
+        if m.occludable:
+            data[2] = np.nan  # a reading not taken
+        values[m.key] = data
+    return values

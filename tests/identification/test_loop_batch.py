@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import random_readings
 from test_measurements import Height
 
 import pincal
@@ -51,18 +52,7 @@ def _problems(name: str, joint_sigma: float | None, n: int = N_SAMPLES
     pset = ParameterSet([p for p in pool.parameters if p.kind != "compliance"] + extra)
     rng = np.random.default_rng(23)
     qa, _ = random_actuated(robot, n, rng)
-    values = {}
-    for m in models:
-        width = len(m.columns)
-        data = rng.normal(scale=0.3, size=(n, width))
-        if width == 7:  # a pose: a random unit quaternion
-            data[:, 3:] = rng.normal(size=(n, 4))
-            data[:, 3:] /= np.linalg.norm(data[:, 3:], axis=1)[:, None]
-        if m.incremental:
-            data[0] = np.nan
-        if m.occludable:
-            data[2] = np.nan  # a reading not taken
-        values[m.key] = data
+    values = random_readings(models, n, rng)
     made = [CalibrationProblem(robot, pset, models, Observations(qa, dict(values)), joint_sigma=joint_sigma)
             for _ in range(2)]
     made[1]._batched_loops = False

@@ -11,6 +11,7 @@ from typing import ClassVar
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import random_readings
 from test_measurements import Height
 
 import pincal
@@ -92,18 +93,7 @@ def _problems(name: str, joint_sigma: float | None) -> tuple[CalibrationProblem,
                                            if p.name not in pool])
     rng = np.random.default_rng(17)
     qa, _ = random_actuated(robot, N_SAMPLES, rng)
-    values = {}
-    for m in models:
-        width = len(m.columns)
-        data = rng.normal(scale=0.3, size=(N_SAMPLES, width))
-        if width == 7:  # a pose: a random unit quaternion
-            data[:, 3:] = rng.normal(size=(N_SAMPLES, 4))
-            data[:, 3:] /= np.linalg.norm(data[:, 3:], axis=1)[:, None]
-        if m.incremental:
-            data[0] = np.nan
-        if m.occludable:
-            data[2] = np.nan  # a reading not taken
-        values[m.key] = data
+    values = random_readings(models, N_SAMPLES, rng)
     made = [CalibrationProblem(robot, pset, models, Observations(qa, dict(values)), joint_sigma=joint_sigma)
             for _ in range(2)]
     made[1]._batched_trees = False
