@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal import linalg
-from pincal.errors import ConvergenceError, DataError, PincalError, listing
+from pincal.errors import ConvergenceError, DataError, NotFoundError, PincalError, listing
 from pincal.identification.corrections import Payload, moving_mass
 from pincal.identification.identifiability import describe_unidentifiable
 from pincal.identification.ikm import ImplicitProblem
@@ -703,8 +703,8 @@ def calibrate_job(job: Job) -> Calibration:
     if payload is not None and "payload" not in job.overrides:  # the job's own: name the file
         try:
             payload.check(robot)
-        except PincalError as exc:
-            raise type(exc)(f"{job.path}: {exc}") from None
+        except NotFoundError as exc:  # the same culprit, the job file named
+            raise NotFoundError(f"{job.path}: {exc}", exc.kind, exc.name, exc.choices) from None
     beside = corrections_path(job.out) if job.out else None
     outputs = [(what, path) for what, path in (("out", job.out), ("report", job.report),
                                                ("out (its corrections file)", beside)) if path]

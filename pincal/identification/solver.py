@@ -499,6 +499,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
                         break
                     steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
             if eager:  # a rejected eager trial: the next ones may need the reflectors (geodesic acceleration)
+                trial = None  # its Jacobian goes first
                 steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
             eager_first = False
             counts["rejected"] += 1

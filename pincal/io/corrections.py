@@ -48,8 +48,8 @@ class Corrections:
 
 def corrections_path(urdf: str | Path) -> Path:
     """Where the corrections of a calibrated URDF go: ``cal.urdf`` -> ``cal.corrections.json``; a name without the
-    ``.urdf`` suffix keeps its own (``cal.xml`` -> ``cal.xml.corrections.json``), so that two outputs never share
-    one corrections file."""
+    ``.urdf`` suffix keeps its own (``cal.xml`` -> ``cal.xml.corrections.json``), so that ``cal.urdf`` and
+    ``cal.urdf2`` do not share one (a name with no suffix, ``cal``, still shares ``cal.urdf``'s)."""
     path = Path(urdf)
     return path.with_name(f"{path.stem if path.suffix.lower() == '.urdf' else path.name}.corrections.json")
 
