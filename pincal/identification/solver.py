@@ -465,6 +465,12 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
             if settled:
                 converged, message = True, settled
                 break
+            # the decrease test below, asked of the Gauss–Newton model before a trial is evaluated (MINPACK's
+            # predicted reduction): no step can gain more than ½‖U_kᵀ r‖², so a trial would only measure the noise of
+            # the closed loops' solves (and cost an evaluation)
+            if 0.5 * steps.decrement() <= tol * max(cost, 1e-300):
+                converged, message = True, "converged"
+                break
         iterations = it
         accepted = False
         shrink = 1.0

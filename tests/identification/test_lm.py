@@ -171,7 +171,8 @@ def _reference_iterates(problem: CalibrationProblem, x0: np.ndarray, iterations:
 
 
 #: Fits whose every iterate the lean LM reproduces: noisy data with rejected (accelerated) steps on the UCR3 and the
-#: five-bar, and the Delta's noise-free crawl (13 accelerated steps). Not the noise-free hexapods: there the old
+#: five-bar, and the Delta's noise-free fit (a crawl of 13 accelerated steps before the LM stopped where the
+#: Gauss–Newton model predicts no decrease and the first solves were closed to 1e-13; now none). Not the noise-free hexapods: there the old
 #: solver's own iterates drift by 1e-6 m when only its LAPACK SVD driver changes (gesdd → gesvd), κ ~ 5e7 amplifying
 #: rounding ×10 per iteration; the lean LM drifts from it by as much, and both reach the exact fit.
 LEAN_CASES = [("ur10", "position", None, 30, NOISE), ("ucr3", "pose", None, 30, NOISE),
@@ -199,15 +200,19 @@ def test_lean_lm_takes_the_reference_iterates(name: str, kind: str, frame: str |
     assert len(with_jacobian) - len(result.cost_history) in (0, 1)  # at most one first trial rejected with its J
     assert len(lean.calls) == result.extra["evaluations"]
     reference = _reference_iterates(fresh(), with_jacobian[0], len(result.cost_history) - 1)
-    assert len(result.cost_history) >= 4 and len(reference) >= len(result.cost_history)
+    # both stop where the cost no longer decreases beyond the numerical floor of the solves, where the last iterates
+    # are rounding's (and the lean LM stops as soon as the Gauss–Newton model predicts no decrease): the iterates both
+    # take are compared, at least 4, and all of a noisy fit's but the last
+    shared = min(len(reference), len(result.cost_history))
+    assert shared >= 4 and (not noise or shared >= len(result.cost_history) - 1)
     # the iterates are the Jacobian points but the one rejected eager trial, if any: every reference iterate, in order
     iterates = iter(with_jacobian)
-    for reference_x in reference[:len(result.cost_history)]:
+    for reference_x in reference[:shared]:
         lean_x = next(iterates)
         if np.max(np.abs(lean_x - reference_x)) >= 1e-10:  # the rejected trial: the next point is the iterate
             lean_x = next(iterates)
         assert np.max(np.abs(lean_x - reference_x)) < 1e-10
-    if name in ("ucr3", "five_bar", "delta"):
+    if name in ("ucr3", "five_bar"):
         assert result.extra["accelerated_steps"] > 0 and result.extra["rejected_steps"] > 0
 
 
