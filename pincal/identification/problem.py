@@ -516,18 +516,16 @@ class CalibrationProblem:
         return blocks
 
     def _solve_all(self, robot: Robot, qa_all: Array, x: Array) -> Array:
-        """Every sample's configuration on the reference assembly: :meth:`_solve` for all samples, in waves of
-        stacked Newton solves (:class:`~pincal.model.batch_kinematics.BatchKinematics`), from the same warm starts.
+        """Every sample's configuration on the reference assembly: :meth:`_solve` for all samples at once, by stacked
+        Newton solves (:class:`~pincal.model.batch_kinematics.BatchKinematics`).
 
         A sample solved before starts from its own last configuration (moved by :meth:`_predicted_change`, Newton's
-        refusals measured from the configuration itself); a first solve from the configuration of the
-        solved sample nearest in actuated values (:meth:`_nearest_solution`, asked in sample order as the per-sample
-        path asks, so with the same answers). The first solves that start from another first solve wait for it: wave
-        w holds the samples whose chain of warm starts is w long; those without a neighbour are solved by
-        continuation from the reference with the first wave. A refused warm start falls back on continuation, all
-        such samples stepping together, and a sample neither closes is solved alone (:meth:`_solve_from`: finer
-        continuation, or the error naming it); so is a wave, or a set of refused samples, of fewer than
-        :data:`SMALL_WAVE` samples.
+        refusals measured from the configuration itself). A first solve, and a refused warm start, is answered by
+        continuation from the reference, all such samples stepping together: what the per-sample path's first solves
+        come to (a warm start from the nearest solved sample is refused unless it lands on the same assembly), with no
+        neighbour search and no chain of solves waiting for each other. A sample the stacked solves do not close is
+        solved alone (:meth:`_solve_from`: finer continuation, or the error naming it); so are the samples of a set of
+        fewer than :data:`SMALL_WAVE`, where a stacked solve's fixed cost exceeds a few solves alone.
         """
         assert self._loops is not None
         kin = self._loops.kinematics
@@ -537,49 +535,22 @@ class CalibrationProblem:
         if np.any(known):
             previous[known] = np.array([guess for guess in self._q_cache if guess is not None])
         q = np.full((n, model.nq), np.nan)
-        wave = np.zeros(n, dtype=np.intp)
-        parent = np.full(n, -1, dtype=np.intp)
-        old = np.zeros(n, dtype=bool)  # the neighbour's remembered configuration (not yet solved again)
-        for k in range(n):  # the per-sample path's sequence of neighbour queries and records
-            if not known[k]:
-                found = self._qa_solved.nearest(qa_all[k], robot.kinematics.actuated_delta)
-                if found >= 0 and (known[found] or found < k):  # else a neighbour never solved: a cold start
-                    parent[k], old[k] = found, known[found] and found > k
-                    wave[k] = 1 if known[found] else wave[found] + 1
-                else:
-                    wave[k] = 1  # a cold start
-            self._qa_solved.record(k, qa_all[k])
-        for w in range(int(wave.max(initial=0)) + 1):
-            rows = np.flatnonzero(wave == w)
-            if not rows.size:
-                continue
-            predicted = None
-            if w == 0:
-                guesses = previous[rows]
-                predicted = self._predicted_change(x, rows)
-            else:
-                source = parent[rows]
-                guesses = np.where(old[rows, None], previous[source], q[source])
-            if rows.size < SMALL_WAVE:  # a stacked solve's fixed cost exceeds a few solves alone
-                for row, guess in zip(rows.tolist(), guesses, strict=True):
-                    q[row] = self._solve_from(robot, row, qa_all[row], None if np.isnan(guess[0]) else guess)
-                known[rows] = False  # their travel is counted
-                continue
-            warm = ~np.isnan(guesses[:, 0])
-            ok = np.zeros(rows.size, dtype=bool)
-            if np.any(warm):
-                moved = None if predicted is None else predicted[warm]
-                q[rows[warm]], ok[warm] = kin.warm_solve(model, closure, qa_all[rows[warm]], guesses[warm],
-                                                         SOLVE_TOLERANCE, moved)
-            if np.count_nonzero(~ok) >= SMALL_WAVE:
-                q[rows[~ok]], ok[~ok] = kin.continuation(model, closure, qa_all[rows[~ok]], SOLVE_TOLERANCE)
-            for row, guess in zip(rows[~ok].tolist(), guesses[~ok], strict=True):  # alone (finer steps, or the error)
-                q[row] = self._solve_from(robot, row, qa_all[row], None if np.isnan(guess[0]) else guess)
-                known[row] = False  # its travel is counted
+        ok = np.zeros(n, dtype=bool)
+        warm = np.flatnonzero(known)
+        if warm.size >= SMALL_WAVE:
+            q[warm], ok[warm] = kin.warm_solve(model, closure, qa_all[warm], previous[warm], SOLVE_TOLERANCE,
+                                               self._predicted_change(x, warm))
+        cold = np.flatnonzero(~ok) if warm.size >= SMALL_WAVE else np.flatnonzero(~known)
+        if cold.size >= SMALL_WAVE:
+            q[cold], ok[cold] = kin.continuation(model, closure, qa_all[cold], SOLVE_TOLERANCE)
+        for row in np.flatnonzero(~ok).tolist():  # alone: finer steps, or the error naming the sample
+            q[row] = self._solve_from(robot, row, qa_all[row], previous[row] if known[row] else None)
+            known[row] = False  # its travel is counted
         travel = np.abs(q - previous).max(axis=1, initial=0.0)
         self._travel[known] += travel[known]
         for k in range(n):
             self._q_cache[k] = q[k]
+            self._qa_solved.record(k, qa_all[k])
         self._solved_at = x.copy()
         return q
 

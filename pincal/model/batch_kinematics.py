@@ -45,6 +45,11 @@ IntArray = npt.NDArray[np.intp]
 
 #: Largest closure residual component [m, rad] past which a Newton solve gives up (as the per-sample one).
 DIVERGED = 1e3
+#: Largest closure residual component [m, rad] of the answers of :meth:`BatchKinematics.continuation` (a first solve):
+#: closer than the solvers' tolerance, as these answers are the origin of every later warm start and of simulated
+#: data (a noise-free study recovers its parameters to 1e-9 from them); Newton's quadratic convergence makes it one
+#: more pass at most, and a sample that cannot reach it is solved alone (to the solvers' tolerance).
+FIRST_SOLVE_TOLERANCE = 1e-13
 
 
 @dataclass(frozen=True)
@@ -118,11 +123,13 @@ class Geometry:
         translations: (njoints - 1, 3) its translation [m].
         anchors: Per loop: predecessor joint id, rotation and translation [m] of ``Q_j1ᵀ · M1``, successor joint id,
             rotation and translation of ``Q_j2ᵀ · M2``.
+        constants: (njoints - 1, 4, 4) the homogeneous matrices of ``rotations`` and ``translations``.
     """
 
     rotations: Array
     translations: Array
     anchors: list[tuple[int, Array, Array, int, Array, Array]]
+    constants: Array
 
 
 @dataclass(frozen=True)
@@ -261,7 +268,11 @@ class BatchKinematics:
         for j1, m1, j2, m2 in closure.anchors():
             c1, c2 = self.unturn[j1] * m1, self.unturn[j2] * m2  # the anchors on the turned frames
             anchors.append((j1, c1.rotation, c1.translation, j2, c2.rotation, c2.translation))
-        return Geometry(rotations, translations, anchors)
+        constants = np.zeros((self.njoints - 1, 4, 4))
+        constants[:, :3, :3] = rotations
+        constants[:, :3, 3] = translations
+        constants[:, 3, 3] = 1.0
+        return Geometry(rotations, translations, anchors, constants)
 
     def forward(self, geometry: Geometry, q: Array) -> JointPlacements:
         """Every joint's turned frame in the world at configurations ``q`` (N, nq), with the placements of
@@ -281,11 +292,7 @@ class BatchKinematics:
         phases = np.empty(values.shape, dtype=np.complex128)  # e^{−iθ}
         np.cos(values, out=phases.real)
         np.sin(-values, out=phases.imag)
-        # [R | p] · [[R_c, t_c], [0, 1]] = [R R_c | R t_c + p]: one product per joint
-        constants = np.zeros((self.njoints - 1, 4, 4))
-        constants[:, :3, :3] = geometry.rotations
-        constants[:, :3, 3] = geometry.translations
-        constants[:, 3, 3] = 1.0
+        constants = geometry.constants  # [R | p] · [[R_c, t_c], [0, 1]] = [R R_c | R t_c + p]: one product per joint
         flat = frames.reshape(self.njoints, 3 * n, 4)  # views into frames
         origins, axes = frames[:, :, :, 3], frames[:, :, :, 2]
         pairs = frames[:, :, :, :2].view(np.complex128)[..., 0]  # (njoints, N, 3): c_x + i c_y
@@ -630,7 +637,7 @@ class BatchKinematics:
             elif tangent is not None:  # from the reference, its tangent: the same for every sample
                 start = self.retract(start, (path[rows] / steps[rows, None]) @ tangent.T)
             last = steps[rows] == k
-            tols = np.where(last, tol, max(tol, 1e-8))
+            tols = np.where(last, min(tol, FIRST_SOLVE_TOLERANCE), max(tol, 1e-8))
             solved, _, converged = self._close_loops(geometry, start, tols, max_iter=20)
             before[rows] = q[rows]
             q[rows] = solved

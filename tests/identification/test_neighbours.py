@@ -94,7 +94,8 @@ def test_nothing_solved_or_nothing_within_reach_is_a_cold_start() -> None:
 
 
 def test_the_problems_first_solves_start_from_the_scans_neighbour() -> None:
-    """On the Delta: each first solve of a fresh problem's first evaluation finds the scan's neighbour."""
+    """On the Delta: each first solve of a fresh problem's first evaluation, sample by sample, finds the scan's
+    neighbour (the batched path closes every first solve by continuation from the reference, with no search)."""
     robot = pincal.load_robot("delta")
     sim = simulate(robot, ["position"], 300, 0, perturb=1e-3, noise=1e-5, seed=3, parameter_spec=["model24"])
     ds = sim.dataset
@@ -110,6 +111,7 @@ def test_the_problems_first_solves_start_from_the_scans_neighbour() -> None:
         return found
 
     problem._qa_solved.nearest = spy  # type: ignore[method-assign]
+    problem._batched_loops = False
     problem.evaluate(np.zeros(len(problem.parameters)), jacobian=False)
     assert len(asked) == 300
     assert all(found == expected for found, expected in asked)
