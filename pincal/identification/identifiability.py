@@ -26,6 +26,7 @@ from __future__ import annotations
 import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import numpy.typing as npt
@@ -121,7 +122,8 @@ class Identifiability:
         base_indices: columns kept (identifiable), ascending.
         base_names: their names.
         unidentifiable: ``p − rank`` :class:`Combination` s, a sparse basis of the null space, fewest
-            parameters first, then by name.
+            parameters first, then by name (worked out when first read: a fit's first analysis needs only the base
+            columns).
     """
 
     rank: int
@@ -131,7 +133,14 @@ class Identifiability:
     observability: dict[str, float]
     base_indices: list[int]
     base_names: list[str]
-    unidentifiable: list[Combination]
+    #: what :attr:`unidentifiable` is worked out from: the null space's right singular vectors (p − rank, p), the
+    #: names, scales [m or rad] and units of the parameters
+    null_space: tuple[Array, list[str], Array, list[str]] = field(repr=False, compare=False)
+
+    @cached_property
+    def unidentifiable(self) -> list[Combination]:
+        """``p − rank`` :class:`Combination` s, a sparse basis of the null space (see the class docstring)."""
+        return _unidentifiable(*self.null_space)
 
     def summary(self, limit: int = 10) -> str:
         """A short account for a report: lines of at most :data:`LINE_WIDTH` characters, with at most
@@ -496,7 +505,7 @@ def analyse(
         observability=observability_indices(base_values, J.shape[0]),
         base_indices=base,
         base_names=[names[j] for j in base],
-        unidentifiable=_unidentifiable(Vt[rank:], names, s, units),
+        null_space=(Vt[rank:], names, s, list(units)),
     )
 
 
