@@ -10,9 +10,10 @@ what every closed-loop robot ran before. Printed, as Markdown tables:
    repeats, and the largest gap between the two paths' estimates;
 2. warm forward kinematics at N = 1000: each sample solved from its own configuration at inputs moved by ~1 mrad
    (the calibration loop's situation), ``Robot.solve_fk_batch`` against ``Robot.solve_fk`` in a loop [µs/sample];
-3. scaling: the same fit at N = 60, 600, 6000: iterations, evaluations, CPU time, CPU time per sample and evaluation
-   (the figure the issue wants constant within 1.5×) and the peak of Python-allocated memory during the fit
-   (``tracemalloc``, in a separate run: tracing slows Python), in MB and in copies of J (3N × 24 × 8 bytes).
+3. scaling: the same fit at N = 60, 600, 6000: iterations, evaluations, CPU time (median of 3 fits up to N = 600),
+   CPU time per sample and iteration and per sample and evaluation (the figures the issue wants constant within 1.5×)
+   and the peak of Python-allocated memory during the fit (``tracemalloc``, in a separate run: tracing slows Python),
+   in MB and in copies of J (3N × 24 × 8 bytes).
 """
 
 from __future__ import annotations
@@ -128,16 +129,18 @@ def warm_fk(n: int, repeats: int) -> None:
 
 
 def scaling(sizes: list[int], per_sample_max: int) -> None:
-    print("### Delta, Model 24: one fit per N (CPU time; peak in a separate traced run)\n")
-    print("| N | path | iterations | evaluations | CPU time | µs per sample and evaluation | peak memory | peak / J |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("### Delta, Model 24: fits per N (CPU time, median of 3 up to N = 600; peak in a separate traced run)\n")
+    print("| N | path | iterations | evaluations | CPU time | µs per sample and iteration | "
+          "µs per sample and evaluation | peak memory | peak / J |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for n in sizes:
         data = delta_data(n)
         for batched in (True, False):
             if not batched and n > per_sample_max:
                 continue
             fit(data, batched)  # warm the caches (imports, the batched kinematics' structure)
-            seconds, result = fit(data, batched)
+            runs = [fit(data, batched) for _ in range(3 if n <= 600 else 1)]
+            seconds, result = statistics.median(t for t, _ in runs), runs[0][1]
             tracemalloc.start()
             fit(data, batched)
             peak = tracemalloc.get_traced_memory()[1]
@@ -145,6 +148,7 @@ def scaling(sizes: list[int], per_sample_max: int) -> None:
             evaluations = int(result.extra["evaluations"])
             jacobian = 3 * n * len(data[1]) * 8
             print(f"| {n} | {PATHS[not batched]} | {result.iterations} | {evaluations} | {seconds:.3f} s | "
+                  f"{1e6 * seconds / (n * max(result.iterations, 1)):.1f} | "
                   f"{1e6 * seconds / (n * evaluations):.1f} | {peak / 1e6:.1f} MB | {peak / jacobian:.1f} |")
     print()
 
