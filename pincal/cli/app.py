@@ -123,7 +123,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     """``pincal calibrate``: identify the parameters from a measurement CSV (or as a job file says), print the
     summary and write the calibrated URDF and the report; exit status 1 when the result is not :func:`usable`."""
     from pincal.io.job import read_job
-    from pincal.workflow import calibrate_files, calibrate_job
+    from pincal.workflow import calibrate_files, calibrate_job, check_cv_seed
 
     # options not given are None: a job file's value stands, else calibrate()'s default
     given = {"parameter_spec": args.parameters, "solver": args.solver, "loss": args.loss, "sigma": args.sigma,
@@ -145,6 +145,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         cal = calibrate_job(job)
         out, report_path = job.out, job.report
     else:
+        check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
         cal = calibrate_files(args.robot, args.data, args.out, args.report, progress=True, **options)
         out, report_path = args.out, args.report
     print(_summary(cal.report, cal.result.seconds, str(report_path) if report_path else None))

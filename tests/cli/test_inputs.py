@@ -49,6 +49,21 @@ def test_sigma_must_be_positive(five_bar_data: Path, sigma: str) -> None:
     assert f"--sigma: {sigma} is not a finite number > 0" in line
 
 
+@pytest.mark.parametrize("command", ["calibrate", "report", "view"])
+def test_a_cv_seed_that_seeds_nothing_is_refused_in_the_flags_words(five_bar_data: Path, tmp_path: Path,
+                                                                    command: str) -> None:
+    """--cv-seed seeds the shuffles of K-fold plans: refused (before any work) with --cv loo, which has none, and
+    without --cv; each message names the flags as typed."""
+    page = tmp_path / "page.html"
+    out = [] if command == "calibrate" else ["--out", str(page)]
+    line = one_line_error(run_pincal(command, "five_bar", str(five_bar_data), "--cv", "loo", "--cv-seed", "5", *out))
+    assert line == ("pincal: error: --cv-seed 5 seeds the shuffles of K-fold plans; --cv loo has none (it leaves each "
+                    "sample out in turn): drop --cv-seed, or cross-validate by K folds (e.g. --cv 5x4)")
+    line = one_line_error(run_pincal(command, "five_bar", str(five_bar_data), "--cv-seed", "5", *out))
+    assert line == "pincal: error: --cv-seed 5 seeds the shuffles of --cv; give --cv too (e.g. --cv 5x4)"
+    assert not page.exists()
+
+
 def test_a_300_character_robot_name_is_named_not_a_traceback() -> None:
     line = one_line_error(run_pincal("info", "x" * 300))
     assert line.startswith("pincal: error: no robot file or known robot named 'xxx")
