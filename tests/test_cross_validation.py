@@ -1,6 +1,6 @@
 """The workflow's cross-validation from Python: a shuffle seed that would seed nothing is refused in the words of
-:func:`pincal.workflow.calibrate`'s keywords. (The command line's and the job file's words: tests/cli/test_inputs.py,
-tests/cli/test_job_file.py.)"""
+:func:`pincal.workflow.calibrate`'s keywords, and :func:`pincal.workflow.cross_validate` takes its seed from the
+plan. (The command line's and the job file's words: tests/cli/test_inputs.py, tests/cli/test_job_file.py.)"""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 import pincal
 from pincal.errors import DataError
 from pincal.io.dataset import Dataset
-from pincal.workflow import calibrate, check_cv_seed, read_robot_dataset
+from pincal.workflow import calibrate, check_cv_seed, cross_validate, parse_cv, read_robot_dataset
 
 
 @pytest.fixture(scope="module")
@@ -40,3 +40,23 @@ def test_the_default_seed_and_a_k_fold_seed_are_accepted() -> None:
         check_cv_seed(cv, 0)
     check_cv_seed("5x4", 3, "command line", "command line")
     check_cv_seed("3", 7, Path("job.toml"), Path("job.toml"))
+
+
+def test_cross_validate_takes_the_seed_from_its_plan(five_bar: tuple[pincal.Robot, Dataset]) -> None:
+    """The plan's seed moves the folds (and its label says so); the ``seed=`` keyword cross_validate once took is
+    refused saying where the seed is now, and a positional one is no longer taken for ``progress``."""
+    robot, dataset = five_bar
+    problem = calibrate(robot, dataset, select="none").problem
+    common = (robot, problem.parameters, problem.measurements, problem.observations)
+    n = problem.observations.n_samples
+    figures = {}
+    for seed in (0, 2):
+        cv = cross_validate(*common, parse_cv("3", n, seed), select="none")
+        assert cv["plan"] == ("3-fold" if seed == 0 else "3-fold, shuffle seed 2") and not cv["failed_folds"]
+        figures[seed] = cv["rms"]
+    assert figures[0] != figures[2]
+    with pytest.raises(TypeError, match=r"takes the shuffles' seed from its plan, not seed=2: give Folds\(k, repeats, "
+                                        r"seed=\.\.\.\) or parse_cv\(text, n_samples, seed\)"):
+        cross_validate(*common, parse_cv("3", n), select="none", seed=2)
+    with pytest.raises(TypeError, match="positional argument"):
+        cross_validate(*common, parse_cv("3", n), "none", 2)  # type: ignore[call-arg, arg-type]
