@@ -173,10 +173,18 @@ def _column(value: str) -> str:
 
 
 def _heavy_payload(report: dict[str, Any]) -> str | None:
-    """A warning when the payload outweighs every moving link of the robot together (grams typed as kilograms, a
-    load meant for another robot)."""
+    """A warning when the payload [kg] outweighs every moving link of the robot together (grams typed as kilograms,
+    a load meant for another robot). When the URDF gives the links no mass there is nothing to weigh it against: a
+    note says so, and that the compliances then rest on the payload's gravity torque alone."""
     payload, links = report.get("payload"), report.get("links_mass")
-    if not payload or links is None or payload["mass"] <= links:
+    if not payload or links is None:
+        return None
+    if links <= 0.0:
+        return (f"note: the URDF gives the robot's moving links no mass (no <inertial>), so the payload's "
+                f"{payload['mass']:g} kg cannot be checked against theirs, and the compliances rest on its gravity "
+                "torque alone: right for a light arm under a heavy tool, wrong if the URDF merely leaves the masses "
+                "out")
+    if payload["mass"] <= links:
         return None
     return (f"warning: the payload ({payload['mass']:g} kg) outweighs all the robot's moving links together "
             f"({links:.3g} kg, from the URDF): check its mass [kg] and its frame")
