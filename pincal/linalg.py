@@ -11,6 +11,8 @@ driver first, the robust one when it fails, and a :class:`~pincal.errors.PincalE
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
 import scipy.linalg
@@ -98,18 +100,51 @@ def right_svd(matrix: npt.ArrayLike, what: str) -> tuple[Array, Array]:
     return s, vt
 
 
-def largest_singular_value(matrix: npt.ArrayLike, column_scales: npt.ArrayLike | None = None) -> float:
-    """The largest singular value of ``matrix · diag(column_scales)`` (m × n), from the n × n Gram matrix
-    ``AᵀA`` (one product over the rows, no copy of the matrix): relative accuracy about machine precision, as the
-    largest eigenvalue is well conditioned. Units: those of the matrix."""
+def largest_singular_value(matrix: npt.ArrayLike, column_scales: npt.ArrayLike | None = None,
+                           what: str = "the matrix") -> float:
+    """The largest singular value ``σ₁`` of ``A = matrix · diag(column_scales)`` (m × n), from the n × n Gram matrix
+    of ``A / c``, ``c`` the power of two just above ``A``'s largest absolute entry:
+    ``σ₁ = c · sqrt(λ_max((A/c)ᵀ(A/c)))``. The scaled entries lie within ±1, so the Gram matrix's are at most m:
+    no overflow (``AᵀA`` itself overflows past entries of about 1e154) and no underflow of tiny entries (below
+    about 1e-154). ``A / c`` is formed :data:`TRIANGLE_ROWS` rows at a time into one buffer, ``c`` found on the way
+    (the Gram matrix so far rescaled when a later block holds a larger entry): the matrix is neither copied nor
+    changed. Relative accuracy about machine precision, as the largest eigenvalue is well conditioned; ``inf`` only
+    when ``σ₁`` exceeds the largest double. Units: those of ``A``.
+
+    Raises:
+        DataError: NaN or infinite entries in the matrix or in ``column_scales`` (naming ``what`` and the first).
+    """
     a = np.asarray(matrix, dtype=np.float64)
-    if a.size == 0:
+    n = a.shape[1]
+    d = np.ones(n) if column_scales is None else np.asarray(column_scales, dtype=np.float64)
+    _finite(d, f"the column scales of {what}")
+    gram, exponent = np.zeros((n, n)), None  # the Gram matrix of A / 2**exponent, over the rows so far
+    buffer = np.empty((min(a.shape[0], TRIANGLE_ROWS), n))
+    for start in range(0, a.shape[0] if n else 0, TRIANGLE_ROWS):
+        rows = a[start:start + TRIANGLE_ROWS]
+        # each column's largest |entry| by two reductions (NaN and ±inf carry through): no |A| is formed
+        with np.errstate(over="ignore"):  # an overflow is the inf tested below
+            top = float(np.max(np.maximum(rows.max(axis=0), -rows.min(axis=0)) * np.abs(d)))
+        if not math.isfinite(top):
+            _finite(a, what)
+            return math.inf  # finite entries times finite scales beyond the largest double: so is σ₁
+        if top == 0.0:
+            continue
+        wanted = math.frexp(top)[1]  # top < 2**wanted: scaling by a power of two rounds nothing
+        if exponent is None or wanted > exponent:
+            if exponent is not None:  # the rows so far, on the new scale (what underflows is below round-off)
+                gram *= math.ldexp(1.0, 2 * (exponent - wanted))
+            exponent = wanted
+        block = buffer[:rows.shape[0]]
+        np.multiply(rows, d * math.ldexp(1.0, -exponent), out=block)
+        gram += block.T @ block
+    if exponent is None:  # no rows, or all zero
         return 0.0
-    gram = a.T @ a
-    if column_scales is not None:
-        d = np.asarray(column_scales, dtype=np.float64)
-        gram *= np.outer(d, d)
-    return float(np.sqrt(max(eigvalsh(gram, "the Gram matrix of a Jacobian")[-1], 0.0)))
+    root = math.sqrt(max(float(eigvalsh(gram, f"the Gram matrix of {what}")[-1]), 0.0))
+    try:
+        return math.ldexp(root, exponent)
+    except OverflowError:  # σ₁ ≤ sqrt(m n) · 2**exponent: beyond the largest double only for entries near it
+        return math.inf
 
 
 def singular_values(matrix: npt.ArrayLike, what: str) -> Array:

@@ -274,9 +274,11 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
     is among the parameters (:func:`check_payload`). The report and the corrections file record it.
 
     Raises:
-        DataError: no training sample (every row is ``set=test``, or none can be assembled).
+        DataError: no training sample (every row is ``set=test``, or none can be assembled); a ``cv_seed`` that
+            would seed nothing (:func:`check_cv_seed`).
     """
     check_movable(robot)
+    check_cv_seed(cv, cv_seed)
     if formulation not in FORMULATIONS:
         raise DataError(f"unknown formulation '{formulation}'; formulations are: {listing(FORMULATIONS)}")
     if max_iter < 1:
@@ -308,8 +310,6 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
         named = parameter_spec is not None and len(parameter_spec) > 0 and list(parameter_spec) != [DEFAULT_SET]
         select = "none" if named or formulation != "fkm" else "bic"
     folds, every = None, None
-    if cv is None and cv_seed:
-        raise DataError(f"--cv-seed {cv_seed} seeds the shuffles of --cv; give --cv too (e.g. --cv 5x4)")
     if cv is not None:  # checked before any fit
         check_cross_validation(models, formulation)
         usable, _ = usable_part(robot, dataset)
@@ -428,6 +428,52 @@ class Folds:
         return label
 
 
+#: Where the user gave an option of :func:`calibrate`: on the command line, as a keyword argument of
+#: :func:`calibrate`, or in a job file (its path). A message names the option as it is written there.
+OptionSource = Literal["command line", "keyword"] | Path
+
+
+def _written(key: str, value: str | int, source: OptionSource, in_file: bool = True) -> str:
+    """Option ``key`` (a keyword of :func:`calibrate`) set to ``value`` as the user writes it at ``source``:
+    ``--cv-seed 5``, ``cv_seed=5``, or ``cv_seed = 5 in job.toml`` (without the file when not ``in_file``)."""
+    if source == "command line":
+        return f"--{key.replace('_', '-')} {value}"
+    if source == "keyword":
+        return f"{key}={value!r}"
+    shown = f'"{value}"' if isinstance(value, str) else str(value)  # TOML's quotes
+    return f"{key} = {shown}" + (f" in {source}" if in_file else "")
+
+
+def check_cv_seed(cv: str | None, cv_seed: int, cv_source: OptionSource = "keyword",
+                  seed_source: OptionSource = "keyword") -> None:
+    """Refuse a shuffle seed that would seed nothing: a ``cv_seed`` other than 0 (the default) with no ``cv``, or
+    with ``cv="loo"`` (leave-one-out leaves each sample out in turn, with no shuffle to seed); and a negative one.
+    The message names each option as the user gave it, at ``cv_source`` and ``seed_source``: ``--cv-seed 5`` on
+    the command line, ``cv_seed=5`` to :func:`calibrate`; a job file's own seed is blamed on the file and its key,
+    as the job reader's errors are (``job.toml: cv_seed: 5 ...``).
+
+    Raises:
+        DataError: naming the seed and, with ``loo``, the ``cv`` that has no shuffle.
+    """
+    job = seed_source if isinstance(seed_source, Path) else None
+    culprit = f"{job}: cv_seed: {cv_seed}" if job is not None else _written("cv_seed", cv_seed, seed_source)
+    seed_option = "--cv-seed" if seed_source == "command line" else "cv_seed"
+    if cv_seed < 0:
+        raise DataError(f"{culprit}: give a whole number ≥ 0")
+    if not cv_seed:
+        return
+    if cv is None:
+        if seed_source == "command line":
+            raise DataError(f"{culprit} seeds the shuffles of --cv; give --cv too (e.g. --cv 5x4)")
+        raise DataError(f"{culprit} seeds the shuffles of a K-fold cross-validation, and no cv is given; give cv too "
+                        f"(e.g. {_written('cv', '5x4', seed_source, in_file=False)})")
+    if cv.strip().lower() == "loo":
+        loo = _written("cv", cv, cv_source, in_file=cv_source != job)
+        folds = _written("cv", "5x4", cv_source, in_file=False)
+        raise DataError(f"{culprit} seeds the shuffles of K-fold plans; {loo} has none (it leaves each sample out in "
+                        f"turn): drop {seed_option}, or cross-validate by K folds (e.g. {folds})")
+
+
 def parse_cv(text: str, n_samples: int, seed: int = 0) -> Folds:
     """``K``, ``KxR`` (K folds, R shuffles, seeded ``seed``, ``seed + 1``, …) or ``loo`` as a :class:`Folds`, for
     ``n_samples`` usable samples.
@@ -465,17 +511,24 @@ def check_cross_validation(models: Sequence[Measurement], formulation: str) -> N
 
 
 def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measurement], obs: Observations, folds: Folds,
-                   select: str = "bic", progress: bool = False, payload: Payload | None = None,
+                   select: str = "bic", *, progress: bool = False, payload: Payload | None = None,
                    **options: Any) -> dict[str, Any]:
     """K-fold cross-validation of the whole fit (selection and robust starts included): each fold is fitted
-    without its samples and predicts them (with the ``payload`` of the compliance terms, if any).
+    without its samples and predicts them (with the ``payload`` of the compliance terms, if any). ``options`` go to
+    :func:`~pincal.identification.selection.select_and_fit`.
 
-    The ``r``-th shuffle is a permutation seeded ``folds.seed + r``. A fold whose fit fails is listed and left out;
-    one whose fit stopped short of convergence is counted. Returns the plan, the RMS position error of the
+    The ``r``-th shuffle is a permutation seeded ``folds.seed + r``: the plan holds the seed (``parse_cv(text,
+    n_samples, seed)``; its label in the report names it). A ``seed=`` keyword, this function's until the seed moved
+    into :class:`Folds`, is refused with a TypeError saying where it went, and the arguments after ``select`` are
+    keyword-only, so an old call's positional seed is not taken for ``progress``. A fold whose fit fails is listed
+    and left out; one whose fit stopped short of convergence is counted. Returns the plan, the RMS position error of the
     predictions [m] (``rms``, pooled over every fold and repeat; None when no fold could be fitted), the same per
     length-type reading when there are several (``rms_by_reading``, e.g. each marker of a body) and of the
     orientation [rad] for poses (``rms_angle``), the predictions' count, the failed fits and the unconverged ones.
     """
+    if "seed" in options:
+        raise TypeError(f"cross_validate() takes the shuffles' seed from its plan, not seed={options['seed']!r}: "
+                        "give Folds(k, repeats, seed=...) or parse_cv(text, n_samples, seed)")
     n = obs.n_samples
     lengths, angles, failed, unconverged = [], [], [], 0
     by_reading: dict[str, list[Array]] = {m.key: [] for m in models if length_columns(m.key)}
@@ -698,6 +751,10 @@ def calibrate_job(job: Job) -> Calibration:
     """:func:`calibrate` as a job file says (:mod:`pincal.io.job`): its robot, its data read into SI units, its
     options; the outputs are checked before the fit (never over an input, the job file included) and each is written
     whole or not at all."""
+    def source(option: str) -> OptionSource:  # the command line's value in place of the job's, or the job's own
+        return "command line" if option in job.overrides else job.path
+
+    check_cv_seed(job.options.get("cv"), job.options.get("cv_seed", 0), source("cv"), source("cv_seed"))
     robot = load_job_robot(job)
     payload = job.options.get("payload")
     if payload is not None and "payload" not in job.overrides:  # the job's own: name the file

@@ -32,6 +32,40 @@ def five_bar_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out / "measurements.csv"
 
 
+#: A three-joint arm whose links carry no <inertial> mass, with a link named with XML's special characters (escaped in
+#: the file: ``load<&>``) to hang a payload on. Lengths [m], limits [rad].
+LIGHT_ARM_URDF = """<?xml version="1.0"?>
+<robot name="light_arm">
+  <link name="base"/><link name="upper"/><link name="fore"/><link name="hand"/><link name="tool"/>
+  <link name="load&lt;&amp;&gt;"/>
+  <joint name="yaw" type="revolute"><parent link="base"/><child link="upper"/>
+    <origin xyz="0 0 0.1"/><axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="10" velocity="1"/></joint>
+  <joint name="shoulder" type="revolute"><parent link="upper"/><child link="fore"/>
+    <origin xyz="0 0 0.3"/><axis xyz="0 1 0"/><limit lower="-1.5" upper="1.5" effort="10" velocity="1"/></joint>
+  <joint name="elbow" type="revolute"><parent link="fore"/><child link="hand"/>
+    <origin xyz="0.4 0 0"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="10" velocity="1"/></joint>
+  <joint name="flange" type="fixed"><parent link="hand"/><child link="tool"/><origin xyz="0.3 0 0"/></joint>
+  <joint name="grip" type="fixed"><parent link="tool"/><child link="load&lt;&amp;&gt;"/>
+    <origin xyz="0.05 0 0"/></joint>
+</robot>
+"""
+#: The options the light arm's data are simulated and calibrated with: joint compliances under 2 kg on ``load<&>``.
+LIGHT_ARM_OPTIONS = ("--parameters", "default", "*.compliance", "--payload", "2@load<&>")
+
+
+@pytest.fixture(scope="session")
+def light_arm(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The light arm's URDF and 30 + 6 postures of it written by ``pincal simulate`` (seed 1) with
+    :data:`LIGHT_ARM_OPTIONS`: (URDF, measurements CSV), read-only for the tests."""
+    folder = tmp_path_factory.mktemp("light_arm")
+    urdf = folder / "light_arm.urdf"
+    urdf.write_text(LIGHT_ARM_URDF, encoding="utf-8")
+    done = run_pincal("simulate", str(urdf), "--measure", "position:tool", "--samples", "30", "--test-samples", "6",
+                      *LIGHT_ARM_OPTIONS, "--seed", "1", "--quiet", "--out", str(folder / "sim"))
+    assert done.returncode == 0, done.stderr
+    return urdf, folder / "sim" / "measurements.csv"
+
+
 @pytest.fixture(scope="session")
 def delta() -> pincal.Robot:
     return pincal.load_robot(ROBOTS / "delta.urdf")

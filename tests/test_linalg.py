@@ -161,3 +161,52 @@ def test_the_largest_singular_value_from_the_gram_matrix() -> None:
     d = rng.uniform(0.1, 10.0, 30)
     assert linalg.largest_singular_value(a, d) == pytest.approx(np.linalg.svd(a * d, compute_uv=False)[0], rel=1e-12)
     assert linalg.largest_singular_value(np.zeros((0, 3))) == 0.0
+
+
+@pytest.mark.parametrize("size", [1e-200, 1e-150, 1.0, 1e150, 1e200, 1e300])
+def test_the_largest_singular_value_neither_overflows_nor_underflows(size: float,
+                                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """Entries far from 1, where the Gram matrix AᵀA of the matrix itself would overflow (past about 1e154) or lose
+    its digits to underflow: σ₁ to round-off, the matrix read in blocks of rows (one block holding an entry
+    10⁶ times the others: the Gram matrix so far is rescaled) and left untouched."""
+    monkeypatch.setattr(linalg, "TRIANGLE_ROWS", 100)
+    rng = np.random.default_rng(9)
+    unit = rng.normal(size=(450, 6))
+    unit[420, 2] = 1e6
+    d = rng.uniform(0.5, 2.0, 6)
+    expected = np.linalg.svd(unit * d, compute_uv=False)[0] * size
+    a = unit * size
+    kept = a.copy()
+    assert linalg.largest_singular_value(a, d) == pytest.approx(expected, rel=1e-13, abs=0.0)
+    assert np.array_equal(a, kept)
+    assert linalg.largest_singular_value(np.zeros((4, 3))) == 0.0
+
+
+def test_the_largest_singular_value_does_not_copy_the_matrix(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Its working memory is a block of rows and the Gram matrix, whatever the matrix's height (a copy of a
+    100 MB Jacobian is what it exists to avoid)."""
+    import tracemalloc
+
+    monkeypatch.setattr(linalg, "TRIANGLE_ROWS", 100)
+    a = np.random.default_rng(11).normal(size=(20000, 10)) * 1e200
+    tracemalloc.start()
+    try:
+        linalg.largest_singular_value(a, np.full(10, 0.5))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < a.nbytes / 20
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_the_largest_singular_value_of_a_non_finite_matrix_is_a_data_error(bad: float,
+                                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    """A NaN or infinite entry (in a later block of rows, too) or column scale is refused naming the matrix, never
+    answered with NaN."""
+    monkeypatch.setattr(linalg, "TRIANGLE_ROWS", 100)
+    a = np.random.default_rng(10).normal(size=(250, 4))
+    a[230, 1] = bad
+    with pytest.raises(DataError, match=r"the test Jacobian has 1 NaN/inf entries \(first at index \(230, 1\)\)"):
+        linalg.largest_singular_value(a, what="the test Jacobian")
+    with pytest.raises(DataError, match="the column scales of the test Jacobian has 1 NaN/inf entries"):
+        linalg.largest_singular_value(a[:200], [1.0, bad, 1.0, 1.0], what="the test Jacobian")

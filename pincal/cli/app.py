@@ -123,7 +123,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     """``pincal calibrate``: identify the parameters from a measurement CSV (or as a job file says), print the
     summary and write the calibrated URDF and the report; exit status 1 when the result is not :func:`usable`."""
     from pincal.io.job import read_job
-    from pincal.workflow import calibrate_files, calibrate_job
+    from pincal.workflow import calibrate_files, calibrate_job, check_cv_seed
 
     # options not given are None: a job file's value stands, else calibrate()'s default
     given = {"parameter_spec": args.parameters, "solver": args.solver, "loss": args.loss, "sigma": args.sigma,
@@ -145,6 +145,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         cal = calibrate_job(job)
         out, report_path = job.out, job.report
     else:
+        check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
         cal = calibrate_files(args.robot, args.data, args.out, args.report, progress=True, **options)
         out, report_path = args.out, args.report
     print(_summary(cal.report, cal.result.seconds, str(report_path) if report_path else None))
@@ -172,10 +173,18 @@ def _column(value: str) -> str:
 
 
 def _heavy_payload(report: dict[str, Any]) -> str | None:
-    """A warning when the payload outweighs every moving link of the robot together (grams typed as kilograms, a
-    load meant for another robot)."""
+    """A warning when the payload [kg] outweighs every moving link of the robot together (grams typed as kilograms,
+    a load meant for another robot). When the URDF gives the links no mass there is nothing to weigh it against: a
+    note says so, and that the compliances then rest on the payload's gravity torque alone."""
     payload, links = report.get("payload"), report.get("links_mass")
-    if not payload or links is None or payload["mass"] <= links:
+    if not payload or links is None:
+        return None
+    if links <= 0.0:
+        return (f"note: the URDF gives the robot's moving links no mass (no <inertial>), so the payload's "
+                f"{payload['mass']:g} kg cannot be checked against theirs, and the compliances rest on its gravity "
+                "torque alone: right for a light arm under a heavy tool, wrong if the URDF merely leaves the masses "
+                "out")
+    if payload["mass"] <= links:
         return None
     return (f"warning: the payload ({payload['mass']:g} kg) outweighs all the robot's moving links together "
             f"({links:.3g} kg, from the URDF): check its mass [kg] and its frame")

@@ -100,7 +100,7 @@ def add_selection_and_cv(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cv-seed", type=non_negative_int, metavar="N",
                         help="seed of the first --cv shuffle (the R shuffles are seeded N, N+1, …; default 0): the "
                              "cross-validated figure depends on how the samples fall into folds, and other seeds "
-                             "show by how much")
+                             "show by how much; K-fold plans only (--cv loo has no shuffle)")
 
 
 def add_markers(parser: argparse.ArgumentParser) -> None:

@@ -21,7 +21,7 @@ from pincal.io.dataset import Dataset
 from pincal.io.files import check_outputs, write_text
 from pincal.model.robot import load_robot
 from pincal.viz.scene import CalibrationView, open_in_meshcat, static_scene
-from pincal.workflow import calibrate, read_robot_dataset
+from pincal.workflow import calibrate, check_cv_seed, read_robot_dataset
 
 
 def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
@@ -29,6 +29,7 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
 
     Returns the view, the dataset and the :class:`pincal.workflow.Calibration` (None with ``--result``).
     """
+    check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
     robot = load_robot(args.robot)
     inputs = (robot.source, args.data, args.result, getattr(args, "truth", None))
     check_outputs([("--out", args.out)], [p for p in inputs if p is not None])  # before any work

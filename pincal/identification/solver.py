@@ -228,7 +228,7 @@ def _practical_tol(jacobian: Array, scales: Array, rank_tol: float, min_informat
     """Relative rank tolerance with an absolute floor ``min_information`` on the singular values."""
     if min_information <= 0.0:  # no floor: no need for the Jacobian's norm (an SVD)
         return rank_tol
-    largest = linalg.largest_singular_value(jacobian, scales)  # no copy of the Jacobian
+    largest = linalg.largest_singular_value(jacobian, scales, "the identification Jacobian")  # no copy
     if largest <= 0.0:
         return rank_tol
     return min(max(rank_tol, min_information / largest), 0.5)

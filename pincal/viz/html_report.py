@@ -74,6 +74,12 @@ def read_truth(path: str | Path) -> dict[str, float]:
 
 
 # --- formatting ------------------------------------------------------------------------------------
+def _text(value: Any) -> str:
+    """A value of the report as HTML text. Every value of the report is escaped, numbers too: with ``--result`` the
+    report is a JSON file the user gives, whose values may be anything."""
+    return html.escape(str(value))
+
+
 def mm_text(value: float | None, digits: int = 4) -> str:
     """A length [m] as text in mm, "–" when missing or not finite."""
     return "–" if value is None or not math.isfinite(value) else f"{value * 1e3:.{digits}f} mm"
@@ -181,7 +187,7 @@ def _verdict(report: dict[str, Any]) -> str:
     after = report.get("test_rms_after" if held else "rms_after")
     if before is None or after is None:
         return ""
-    where = f"on {report.get('n_test_samples')} held-out poses the calibration never saw" if held else \
+    where = f"on {_text(report.get('n_test_samples'))} held-out poses the calibration never saw" if held else \
         "on the samples it was fitted to (no held-out samples: add rows with set=test to check it)"
     if not report.get("converged", True):
         return (f'<p class="warn">The solver did not converge ({html.escape(str(report.get("message")))}): '
@@ -229,7 +235,7 @@ def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
                          f"<td class='after'>{mrad_text(report.get(a))}</td></tr>")
     cv = report.get("cv")
     if cv:
-        table.append(f"<tr><td>RMS position error (cross-validated, {html.escape(cv['plan'])}, {cv['n_samples']} "
+        table.append(f"<tr><td>RMS position error (cross-validated, {_text(cv['plan'])}, {_text(cv['n_samples'])} "
                      f"samples)</td><td></td><td class='after'>{mm_text(cv['rms'])}</td></tr>")
         for key, value in (cv.get("rms_by_reading") or {}).items():
             table.append(f"<tr><td>&nbsp;&nbsp;{html.escape(key)}</td><td></td>"
@@ -356,8 +362,8 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
 <title>{html.escape(title)} — pincal report</title><style>{STYLE}</style></head>
 <body><main>
 <h1>{html.escape(title)}</h1>
-<p class="sub">{report.get('n_samples')} fit samples{f', {n_test} held out' if n_test else ''} ·
-{html.escape(', '.join(report.get('measurements', [])))} · {report.get('n_parameters')} parameters ·
+<p class="sub">{_text(report.get('n_samples'))} fit samples{f', {n_test} held out' if n_test else ''} ·
+{html.escape(', '.join(report.get('measurements', [])))} · {_text(report.get('n_parameters'))} parameters ·
 pincal {__version__}{' · ' + sources if sources else ''}</p>
 {_cards(report)}
 {_verdict(report)}

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import PINCAL, run_pincal
+from conftest import LIGHT_ARM_OPTIONS, PINCAL, run_pincal
 
 import pincal
 
@@ -47,6 +47,34 @@ def test_out_of_range_numbers_are_refused_by_name(args: list[str], culprit: str)
 def test_sigma_must_be_positive(five_bar_data: Path, sigma: str) -> None:
     line = one_line_error(run_pincal("calibrate", "five_bar", str(five_bar_data), f"--sigma={sigma}"))
     assert f"--sigma: {sigma} is not a finite number > 0" in line
+
+
+@pytest.mark.parametrize("command", ["calibrate", "report", "view"])
+def test_a_cv_seed_that_seeds_nothing_is_refused_in_the_flags_words(five_bar_data: Path, tmp_path: Path,
+                                                                    command: str) -> None:
+    """--cv-seed seeds the shuffles of K-fold plans: refused (before any work) with --cv loo, which has none, and
+    without --cv; each message names the flags as typed."""
+    page = tmp_path / "page.html"
+    out = [] if command == "calibrate" else ["--out", str(page)]
+    line = one_line_error(run_pincal(command, "five_bar", str(five_bar_data), "--cv", "loo", "--cv-seed", "5", *out))
+    assert line == ("pincal: error: --cv-seed 5 seeds the shuffles of K-fold plans; --cv loo has none (it leaves each "
+                    "sample out in turn): drop --cv-seed, or cross-validate by K folds (e.g. --cv 5x4)")
+    line = one_line_error(run_pincal(command, "five_bar", str(five_bar_data), "--cv-seed", "5", *out))
+    assert line == "pincal: error: --cv-seed 5 seeds the shuffles of --cv; give --cv too (e.g. --cv 5x4)"
+    assert not page.exists()
+
+
+def test_a_payload_on_links_without_mass_is_noted_not_weighed_against_them(light_arm: tuple[Path, Path]) -> None:
+    """A URDF whose links carry no <inertial>: "outweighs all the robot's moving links together (0 kg)" would be
+    true of any payload and mean nothing, so no such warning; a note says that nothing weighs the payload and that
+    the compliances rest on its torque alone."""
+    urdf, data = light_arm
+    done = run_pincal("calibrate", str(urdf), str(data), *LIGHT_ARM_OPTIONS)
+    assert done.returncode == 0, done.stderr
+    assert "outweighs" not in done.stdout
+    assert ("note: the URDF gives the robot's moving links no mass (no <inertial>), so the payload's 2 kg cannot be "
+            "checked against theirs, and the compliances rest on its gravity torque alone: right for a light arm "
+            "under a heavy tool, wrong if the URDF merely leaves the masses out") in done.stdout.splitlines()
 
 
 def test_a_300_character_robot_name_is_named_not_a_traceback() -> None:

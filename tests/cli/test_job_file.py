@@ -101,6 +101,27 @@ def test_an_unknown_key_is_named_with_the_valid_ones(tmp_path: Path) -> None:
                     "cv_seed, payload")
 
 
+def test_a_cv_seed_that_seeds_nothing_names_the_job_file_or_the_flag(tmp_path: Path) -> None:
+    """A job's cv_seed with no cv, or with cv = "loo" (leave-one-out has no shuffle), is refused before any fit,
+    naming the job file and the key; an option given on the command line in place of the job's is named as the flag
+    it is."""
+    seed_alone = copy_job(tmp_path, str(RAW), **{'# cv = "5x4"': "cv_seed = 5"})
+    line = one_line_error(run_pincal("calibrate", str(seed_alone)))
+    assert line == (f"pincal: error: {seed_alone}: cv_seed: 5 seeds the shuffles of a K-fold cross-validation, and "
+                    'no cv is given; give cv too (e.g. cv = "5x4")')
+    line = one_line_error(run_pincal("calibrate", str(seed_alone), "--cv", "loo"))
+    assert line == (f"pincal: error: {seed_alone}: cv_seed: 5 seeds the shuffles of K-fold plans; --cv loo has none "
+                    "(it leaves each sample out in turn): drop cv_seed, or cross-validate by K folds (e.g. --cv 5x4)")
+    both = copy_job(tmp_path, str(RAW), **{'# cv = "5x4"': 'cv = "loo"\ncv_seed = 5'})
+    line = one_line_error(run_pincal("calibrate", str(both)))
+    assert line == (f'pincal: error: {both}: cv_seed: 5 seeds the shuffles of K-fold plans; cv = "loo" has none (it '
+                    'leaves each sample out in turn): drop cv_seed, or cross-validate by K folds (e.g. cv = "5x4")')
+    loo = copy_job(tmp_path, str(RAW), **{'# cv = "5x4"': 'cv = "loo"'})
+    line = one_line_error(run_pincal("calibrate", str(loo), "--cv-seed", "4"))
+    assert line == (f'pincal: error: --cv-seed 4 seeds the shuffles of K-fold plans; cv = "loo" in {loo} has none (it '
+                    'leaves each sample out in turn): drop --cv-seed, or cross-validate by K folds (e.g. cv = "5x4")')
+
+
 def test_a_data_file_is_looked_for_beside_the_job(tmp_path: Path) -> None:
     (tmp_path / "jobs").mkdir()
     (tmp_path / "raw.csv").write_bytes(RAW.read_bytes())

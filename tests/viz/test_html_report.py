@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from browser import orange_pixels, pixel_variance, render, served
-from conftest import ROBOTS
+from conftest import LIGHT_ARM_OPTIONS, ROBOTS, run_pincal
 from PIL import Image
 
 import pincal
@@ -168,3 +168,35 @@ def test_a_report_on_occluded_markers_counts_the_readings(tmp_path: Path) -> Non
         assert main(["report", "ur10", str(data), "--select", "none", "--out", str(page), "--quiet", *extra]) == 0
         text = page.read_text()
         assert "<td>position readings (fit / held out; not seen in the fit)</td><td>55 / 11; 2</td>" in text
+
+
+def test_names_and_values_with_markup_are_escaped(light_arm: tuple[Path, Path], tmp_path: Path) -> None:
+    """A payload on a link named ``load<&>`` (a URDF may name it so, escaped in its XML) reads as text in the
+    report, as do the robot's and the files' names; so do the values of a ``--result`` JSON, numbers included,
+    which a user may hand in from anywhere: none of them becomes markup."""
+    urdf, data = light_arm
+    odd = tmp_path / "a<b>&c"
+    odd.mkdir()
+    robot, measurements = odd / "arm.urdf", odd / "data.csv"
+    robot.write_bytes(urdf.read_bytes())
+    measurements.write_bytes(data.read_bytes())
+    page, result = tmp_path / "page.html", tmp_path / "result.json"
+    done = run_pincal("report", str(robot), str(measurements), *LIGHT_ARM_OPTIONS, "--quiet", "--out", str(page))
+    assert done.returncode == 0, done.stderr
+    text = page.read_text(encoding="utf-8")
+    assert "<td>2 kg on load&lt;&amp;&gt; at (0, 0, 0) m</td>" in text
+    assert f"{html.escape(str(robot))} · {html.escape(str(measurements))}</p>" in text
+    assert "load<&>" not in text and "a<b>&c" not in text
+    done = run_pincal("calibrate", str(robot), str(measurements), *LIGHT_ARM_OPTIONS, "--report", str(result))
+    assert done.returncode == 0, done.stderr
+    report = json.loads(result.read_text(encoding="utf-8"))
+    report.update({"n_samples": "<b>30</b>", "n_parameters": "<i>25</i>", "n_test_samples": "<u>6</u>",
+                   "cv": {"plan": "<s>3-fold</s>", "n_samples": "<em>36</em>", "rms": 1e-5}})
+    result.write_text(json.dumps(report), encoding="utf-8")
+    done = run_pincal("report", str(robot), str(measurements), *LIGHT_ARM_OPTIONS, "--result", str(result), "--quiet",
+                      "--out", str(page))
+    assert done.returncode == 0, done.stderr
+    text = page.read_text(encoding="utf-8")
+    for tag in ("b", "i", "u", "s", "em"):
+        assert f"<{tag}>" not in text, tag
+        assert f"&lt;{tag}&gt;" in text, tag
