@@ -215,7 +215,7 @@ def at_floor(errors: dict[str, Array], floors: dict[str, Array]) -> bool:
 
 
 def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], numerical: dict[str, Array],
-            rejected: bool) -> str:
+            rejected: bool, tol: float = 0.0) -> str:
     """Why the fit needs no more LM steps, or ``""`` (``cost``: ½‖r‖², r the weighted residual ``steps`` holds).
 
     These stops are for the crawl along weakly identifiable, strongly nonlinear directions, where LM goes
@@ -231,6 +231,10 @@ def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], num
       remaining improvement of χ² along the directions the data do identify in practice, the decrement
       ``‖U_kᵀ r‖²`` over them, is below :data:`NOISE_LEVEL_DECREMENT`: no test could tell the estimate from
       the optimum, and the rest would only fit noise.
+    - The fit's decrease test asked of the Gauss–Newton model before a trial is evaluated (MINPACK's predicted
+      reduction): no step can gain more than ``½‖U_kᵀ r‖²``; when that is at most ``tol · cost``, a trial would only
+      measure the noise of the closed loops' solves (and cost an evaluation). ``"converged"``, as the test after an
+      accepted step says.
     """
     if lam >= steps.smallest_damping and at_floor(errors, numerical):
         return "converged (exact fit: every error within the numerical floor)"
@@ -238,4 +242,6 @@ def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], num
     if steps.kept and dof > 0 and (rejected or steps.s[-1] < PRACTICAL_INFORMATION) and cost >= 0.25 * dof \
             and steps.decrement(PRACTICAL_INFORMATION) <= NOISE_LEVEL_DECREMENT:
         return "converged (what remains to gain is below the noise)"
+    if 0.5 * steps.decrement() <= tol * max(cost, 1e-300):
+        return "converged"
     return ""

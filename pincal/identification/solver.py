@@ -108,6 +108,9 @@ class CalibrationResult:
     loss: str = "linear"
     extra: dict[str, object] = field(default_factory=dict)
     std_apriori: Array | None = None  # from the stated σ alone: sqrt(diag((JᵀJ)⁻¹)) [m or rad]
+    #: the problem evaluated at ``x`` by the fit (no Jacobian): what :func:`identify` reads next, so that it need not
+    #: evaluate there again; None once the remembered configurations changed (samples resettled)
+    final: Prediction | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def unidentified(self) -> list[str]:
@@ -270,7 +273,7 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: Solver, loss: Los
         first.extra["outlier_test"] = []
         return first
     # gross outliers can pull the least-squares fit where the loops no longer close: then every start is robust
-    pred = lm.evaluated(problem, first.x, jacobian=False)
+    pred = first.final if first.final is not None else lm.evaluated(problem, first.x, jacobian=False)
     suspects = outlier_samples(problem, pred, first.identifiability.rank) if pred is not None else []
     first.extra["outlier_test"] = suspects
     if pred is not None and not suspects:
@@ -359,6 +362,8 @@ def _identify(problem: Problem, x0: Array | None, solver: Solver, loss: str, **o
             break
     if moved_all:
         result.extra["resettled_samples"] = sorted(set(moved_all))
+        if moved:  # the last fit's configurations were reset after it: its residuals are not the problem's any more
+            result.final = None
     return result
 
 
@@ -461,15 +466,9 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
         kept.append(steps.kept)
         if it > 1 and solver == "lm":
-            settled = lm.settled(steps, lam, cost, pred.errors, numerical, accelerate)
+            settled = lm.settled(steps, lam, cost, pred.errors, numerical, accelerate, tol)
             if settled:
                 converged, message = True, settled
-                break
-            # the decrease test below, asked of the Gauss–Newton model before a trial is evaluated (MINPACK's
-            # predicted reduction): no step can gain more than ½‖U_kᵀ r‖², so a trial would only measure the noise of
-            # the closed loops' solves (and cost an evaluation)
-            if 0.5 * steps.decrement() <= tol * max(cost, 1e-300):
-                converged, message = True, "converged"
                 break
         iterations = it
         accepted = False
@@ -554,12 +553,14 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
                     tol=_practical_tol(pred.jacobian, scales, rank_tol, min_information))
     active = ident.base_indices
     sigma2, std, apriori, corr = _uncertainty(pred, rw, list(active), pset.names)
-    return CalibrationResult(pset.names, start_x, x, std, list(active), ident, corr, iterations, converged, message,
-                             history, errors_before, pred.errors,
-                             weights, sigma2, time.perf_counter() - start, solver, loss, std_apriori=apriori,
-                             extra={"rejected_steps": counts["rejected"], "evaluations": counts["evaluations"],
-                                    "accelerated_steps": counts["accelerated"],
-                                    "rank_changes": int(np.count_nonzero(np.diff(kept)))})
+    result = CalibrationResult(pset.names, start_x, x, std, list(active), ident, corr, iterations, converged, message,
+                               history, errors_before, pred.errors,
+                               weights, sigma2, time.perf_counter() - start, solver, loss, std_apriori=apriori,
+                               extra={"rejected_steps": counts["rejected"], "evaluations": counts["evaluations"],
+                                      "accelerated_steps": counts["accelerated"],
+                                      "rank_changes": int(np.count_nonzero(np.diff(kept)))})
+    result.final = Prediction(pred.residual, None, pred.errors, pred.predicted)
+    return result
 
 
 def _uncertainty(pred: Prediction, rw: Array, active: list[int], names: list[str]

@@ -247,3 +247,31 @@ def test_a_step_whose_jacobian_cannot_be_evaluated_is_rejected() -> None:
     accepted = [x for x in with_jacobian if not np.array_equal(x, recorded.refused)]
     assert len(accepted) == len(with_jacobian) - 1 == len(result.cost_history)  # the refused point never an iterate
     assert 0.5 < result.sigma2 < 1.5
+
+
+def test_the_fit_stops_where_the_gauss_newton_model_predicts_no_decrease() -> None:
+    """The Delta's Model 24 from 60 noisy positions: every step is accepted and the fit stops before evaluating a
+    trial the Gauss–Newton model says cannot lower the cost by tol (one evaluation per iteration, plus the start, the
+    last step gaining more than tol);
+    running on with no tolerance moves the estimate by under 1e-3 of its standard deviation."""
+    robot = pincal.load_robot("delta")
+    sim = simulate(robot, ["position"], 60, 0, perturb=1e-3, noise=NOISE, seed=1, parameter_spec=["model24"])
+    data = sim.dataset
+    models = measurements_for(robot, list(data.measurements), data.joint_names, None, data.metadata)
+    pset = choose_parameters(robot, models, ["model24"])
+
+    def fit(tol: float):
+        problem = CalibrationProblem(robot, pset, models,
+                                     observations_from(robot, data.joint_names, data.joints, data.measurements, models))
+        return identify(problem, loss="linear", tol=tol)
+
+    result, longer = fit(1e-9), fit(0.0)
+    assert result.converged and result.message == "converged"
+    assert result.extra["rejected_steps"] == 0
+    assert result.extra["evaluations"] == result.iterations + 1
+    history = result.cost_history  # the last step evaluated gained more than tol: none was spent on noise
+    assert history[-2] - history[-1] > 1e-9 * history[-1]
+    assert longer.extra["evaluations"] > result.extra["evaluations"]
+    seen = np.isfinite(longer.std)  # Model 24's unidentifiable parameters have none
+    assert np.count_nonzero(seen) == result.identifiability.rank
+    assert np.max(np.abs(result.x - longer.x)[seen] / longer.std[seen]) < 1e-3
