@@ -31,7 +31,8 @@ import pinocchio as pin
 from pincal.errors import ConvergenceError
 from pincal.identification.batch import SpatialJacobian, Workspace
 from pincal.identification.derivatives import KinematicSensitivity, Probe
-from pincal.model.batch_kinematics import BatchKinematics, JointPlacements, LoopSystem, passive_gains
+from pincal.model.batch_frames import JointPlacements, LoopSystem, passive_gains
+from pincal.model.batch_kinematics import BatchKinematics
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]

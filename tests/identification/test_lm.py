@@ -172,9 +172,10 @@ def _reference_iterates(problem: CalibrationProblem, x0: np.ndarray, iterations:
 
 #: Fits whose every iterate the lean LM reproduces: noisy data with rejected (accelerated) steps on the UCR3 and the
 #: five-bar, and the Delta's noise-free fit (a crawl of 13 accelerated steps before the LM stopped where the
-#: Gauss–Newton model predicts no decrease and the first solves were closed to 1e-13; now none). Not the noise-free hexapods: there the old
-#: solver's own iterates drift by 1e-6 m when only its LAPACK SVD driver changes (gesdd → gesvd), κ ~ 5e7 amplifying
-#: rounding ×10 per iteration; the lean LM drifts from it by as much, and both reach the exact fit.
+#: Gauss–Newton model predicts no decrease and the first solves were closed to 1e-13; now none). Not the noise-free
+#: hexapods: there the old solver's own iterates drift by 1e-6 m when only its LAPACK SVD driver changes (gesdd →
+#: gesvd), κ ~ 5e7 amplifying rounding ×10 per iteration; the lean LM drifts from it by as much, and both reach the
+#: exact fit.
 LEAN_CASES = [("ur10", "position", None, 30, NOISE), ("ucr3", "pose", None, 30, NOISE),
               ("five_bar", "position", None, 30, NOISE), ("delta", "position", None, 40, 0.0)]
 
