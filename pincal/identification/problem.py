@@ -203,9 +203,9 @@ class CalibrationProblem:
         # how far each sample's configuration has travelled (sum of max coordinate changes) since it was last
         # known to be on the reference assembly: only a sample that moved can have left it
         self._travel = np.zeros(observations.n_samples)
-        #: The parameters [m, rad] the remembered configurations were solved at, and every sample's configuration
-        #: response to the parameters there, dv/dθ (N, nv, p), from the last evaluation with the Jacobian (closed
-        #: loops batched): the next warm starts move along it (a first-order prediction, Newton then closes)
+        #: The parameters [m, rad] the remembered configurations were solved at, and every sample's passive joints'
+        #: response to the parameters there, dv_p/dθ (N, n_passive, p), from the last evaluation with the Jacobian
+        #: (closed loops batched): the next warm starts move along it (a first-order prediction, Newton then closes)
         self._solved_at: Array | None = None
         self._response: Array | None = None
         self.rows_per_sample = sum(m.size for m in self.measurements)
@@ -560,9 +560,7 @@ class CalibrationProblem:
         change; None without one, and zero for a sample it would move by more than :data:`PREDICTED_MOVE`."""
         if self._response is None or self._solved_at is None or self._solved_at.shape != x.shape:
             return None
-        assert self._loops is not None
-        passive = self._loops.kinematics.passive_v
-        change = self._response[rows][:, passive] @ (x - self._solved_at)
+        change = self._response[rows] @ (x - self._solved_at)
         change[~(np.abs(change).max(axis=1, initial=0.0) <= PREDICTED_MOVE)] = 0.0
         return np.asarray(change, dtype=float)
 
@@ -592,9 +590,10 @@ class CalibrationProblem:
                 placements, twists, response = loops.twists(robot, sens, q, system, terms, probes, start,
                                                              SINGULAR_GAIN)
                 velocities = response.velocities
-                if self._response is None or self._response.shape != (n, *velocities.shape[1:]):
-                    self._response = np.empty((n, *velocities.shape[1:]))
-                self._response[rows] = velocities
+                passive = loops.kinematics.passive_v
+                if self._response is None or self._response.shape != (n, passive.size, velocities.shape[2]):
+                    self._response = np.empty((n, passive.size, velocities.shape[2]))
+                self._response[rows] = velocities[:, passive]
             joint_terms: dict[str, list[tuple[int, Array]]] = {}
             for joint, col, regressor in terms:
                 joint_terms.setdefault(robot.actuated_joints[joint], []).append((col, regressor))
