@@ -13,7 +13,9 @@ Run: ``python benchmarks/bench_lean_lm.py [--repeats 5] [--delta-sizes 600 6000]
   ``e(x) = A x + α (A x)² − y`` (one evaluation costs O(mn), so the linear algebra dominates).
 - *Neighbour search*: the Delta's first evaluation (Model 24, Jacobian included, every sample a cold start) with
   the scan of every solved sample that ``CalibrationProblem._nearest_solution`` ran before issue 14 (a reference
-  copy below) against today's trees (:mod:`pincal.identification.neighbours`), N = 600 and 6000.
+  copy below) against today's trees (:mod:`pincal.identification.neighbours`), N = 600 and 6000, both sample by
+  sample (the batched path closes its first solves by continuation from the reference, with no search:
+  ``bench_loops.py``).
 
 Times are medians of this process's CPU time, single-threaded BLAS (as ``identify`` sets).
 """
@@ -307,6 +309,7 @@ def delta_case(n: int, repeats: int) -> None:
     for _ in range(repeats):
         for label in ("old", "new"):
             problem = make()
+            problem._batched_loops = False  # the batched path closes its first solves with no neighbour search
             if label == "old":
                 problem._nearest_solution = types.MethodType(old_nearest_solution, problem)  # type: ignore[method-assign]
             x0 = np.zeros(len(problem.parameters))

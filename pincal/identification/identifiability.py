@@ -505,7 +505,7 @@ def analyse(
         observability=observability_indices(base_values, J.shape[0]),
         base_indices=base,
         base_names=[names[j] for j in base],
-        null_space=(Vt[rank:], names, s, list(units)),
+        null_space=(Vt[rank:].copy(), names, s.copy(), list(units)),  # the caller's scales may change later
     )
 
 

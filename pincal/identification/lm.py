@@ -218,8 +218,8 @@ def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], num
             rejected: bool, tol: float = 0.0) -> str:
     """Why the fit needs no more LM steps, or ``""`` (``cost``: ½‖r‖², r the weighted residual ``steps`` holds).
 
-    These stops are for the crawl along weakly identifiable, strongly nonlinear directions, where LM goes
-    on decreasing the cost by little for many iterations; a well-conditioned fit ends by the usual tests.
+    The first two stops are for the crawl along weakly identifiable, strongly nonlinear directions, where LM goes
+    on decreasing the cost by little for many iterations; the third is the fit's decrease test, asked before a trial.
 
     - An exact fit: LM still damps the weakest kept direction (``λ ≥ (s_k/s₁)²``) and every error is within
       the numerical floor (what is left is below what FK reproduces).
@@ -231,10 +231,10 @@ def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], num
       remaining improvement of χ² along the directions the data do identify in practice, the decrement
       ``‖U_kᵀ r‖²`` over them, is below :data:`NOISE_LEVEL_DECREMENT`: no test could tell the estimate from
       the optimum, and the rest would only fit noise.
-    - The fit's decrease test asked of the Gauss–Newton model before a trial is evaluated (MINPACK's predicted
-      reduction): no step can gain more than ``½‖U_kᵀ r‖²``; when that is at most ``tol · cost``, a trial would only
-      measure the noise of the closed loops' solves (and cost an evaluation). ``"converged"``, as the test after an
-      accepted step says.
+    - The fit's decrease test asked of the Gauss–Newton model before a trial is evaluated (the predicted reduction
+      of MINPACK's ftol test, without its actual-reduction half): no step of the linearised model gains more than
+      ``½‖U_kᵀ r‖²``; when that is at most ``tol · cost``, a trial would only measure the noise of the closed loops'
+      solves (and cost an evaluation).
     """
     if lam >= steps.smallest_damping and at_floor(errors, numerical):
         return "converged (exact fit: every error within the numerical floor)"
@@ -243,5 +243,5 @@ def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], num
             and steps.decrement(PRACTICAL_INFORMATION) <= NOISE_LEVEL_DECREMENT:
         return "converged (what remains to gain is below the noise)"
     if 0.5 * steps.decrement() <= tol * max(cost, 1e-300):
-        return "converged"
+        return "converged (predicted decrease below tol)"
     return ""

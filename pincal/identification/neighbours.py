@@ -1,8 +1,9 @@
 """The actuated values each sample was last solved for, and the solved sample nearest to a new input.
 
-A first forward-kinematics solve of a closed-loop robot warm-starts from the solved sample nearest in actuated
-values (max-abs gap, continuous joints the short way round) if it is within one continuation step
-(:meth:`pincal.identification.problem.CalibrationProblem._solve`). Scanning every solved sample for each of N
+A first forward-kinematics solve of a closed-loop robot solved sample by sample warm-starts from the solved sample
+nearest in actuated values (max-abs gap, continuous joints the short way round) if it is within one continuation
+step (:meth:`pincal.identification.problem.CalibrationProblem._solve`; the batched path closes its first solves by
+continuation from the reference, all together, with no search). Scanning every solved sample for each of N
 cold starts is O(N²) over a first evaluation (3.5 s of 12.7 s at N = 6000 on the Delta). Here the solved inputs
 sit in one static k-d tree (SciPy's ``cKDTree``, Chebyshev metric, periodic in the continuous joints) plus a list
 of the latest ones, scanned directly, that is folded into a new tree once it holds ``max(LEAF, √(16 N))``

@@ -69,7 +69,7 @@ IntArray = npt.NDArray[np.int64]
 BATCH_SAMPLES = 2048
 #: Fewest samples a closed-loop robot's evaluation solves together (:meth:`CalibrationProblem._solve_all`); fewer are
 #: solved one by one, which costs less than a stacked solve's fixed cost (about 30 array operations per iteration).
-SMALL_WAVE = 16
+SMALL_BATCH = 16
 #: Largest predicted change [rad or m] of a passive joint a warm start of the batched closed-loop solves takes from the
 #: configuration's response to the parameters (a larger one is not first-order small: Newton starts from the
 #: remembered configuration instead).
@@ -525,7 +525,7 @@ class CalibrationProblem:
         come to (a warm start from the nearest solved sample is refused unless it lands on the same assembly), with no
         neighbour search and no chain of solves waiting for each other. A sample the stacked solves do not close is
         solved alone (:meth:`_solve_from`: finer continuation, or the error naming it); so are the samples of a set of
-        fewer than :data:`SMALL_WAVE`, where a stacked solve's fixed cost exceeds a few solves alone.
+        fewer than :data:`SMALL_BATCH`, where a stacked solve's fixed cost exceeds a few solves alone.
         """
         assert self._loops is not None
         kin = self._loops.kinematics
@@ -537,11 +537,11 @@ class CalibrationProblem:
         q = np.full((n, model.nq), np.nan)
         ok = np.zeros(n, dtype=bool)
         warm = np.flatnonzero(known)
-        if warm.size >= SMALL_WAVE:
+        if warm.size >= SMALL_BATCH:
             q[warm], ok[warm] = kin.warm_solve(model, closure, qa_all[warm], previous[warm], SOLVE_TOLERANCE,
                                                self._predicted_change(x, warm))
-        cold = np.flatnonzero(~ok) if warm.size >= SMALL_WAVE else np.flatnonzero(~known)
-        if cold.size >= SMALL_WAVE:
+        cold = np.flatnonzero(~ok) if warm.size >= SMALL_BATCH else np.flatnonzero(~known)
+        if cold.size >= SMALL_BATCH:
             q[cold], ok[cold] = kin.continuation(model, closure, qa_all[cold], SOLVE_TOLERANCE)
         for row in np.flatnonzero(~ok).tolist():  # alone: finer steps, or the error naming the sample
             q[row] = self._solve_from(robot, row, qa_all[row], previous[row] if known[row] else None)
@@ -550,7 +550,6 @@ class CalibrationProblem:
         self._travel[known] += travel[known]
         for k in range(n):
             self._q_cache[k] = q[k]
-            self._qa_solved.record(k, qa_all[k])
         self._solved_at = x.copy()
         return q
 

@@ -22,11 +22,12 @@ trial, :func:`pincal.identification.lm.accelerated`). Each iteration reduces ``[
 the SVD of its small triangle (:class:`pincal.identification.lm.Steps`), reused for every trial; a trial point is
 evaluated without the Jacobian, which is computed once a step is accepted, but for the first trial of an iteration
 while no first trial has been rejected (then it is evaluated with its Jacobian: a closed-loop robot's residual costs
-most of a full evaluation). Two stops end the crawl once it cannot matter
-(:func:`pincal.identification.lm.settled`): an exact fit (every error within 100 × the FK tolerance,
-1 nm) and, for noisy
-data, a cost at the noise level whose remaining Gauss–Newton improvement along the practically identified
-directions is below one unit of χ². Every SVD goes through :mod:`pincal.linalg` (no ``LinAlgError``).
+most of a full evaluation). Before each iteration's trials, :func:`pincal.identification.lm.settled` may end the
+fit: an exact fit (every error within 100 × the FK tolerance, 1 nm); for noisy data, a cost at the noise level whose
+remaining Gauss–Newton improvement along the practically identified directions is below one unit of χ² (these two end
+a crawl once it cannot matter); and, for any fit, a Gauss–Newton model that predicts a decrease of at most ``tol``
+times the cost (the decrease test, asked before a trial is spent on it). Every SVD goes through :mod:`pincal.linalg`
+(no ``LinAlgError``).
 """
 
 from __future__ import annotations
@@ -86,6 +87,9 @@ class CalibrationResult:
             points, geodesic look-aheads, and the Jacobian at the start and at each accepted step),
             ``accelerated_steps`` (trials with geodesic acceleration) and ``rank_changes`` (iterations at
             which the number of directions moved along changed).
+        final: The problem evaluated at ``x`` by the fit, without the Jacobian (weighted residual [σ units], errors
+            and predictions [m, rad]): :func:`identify` reads it instead of evaluating again; None when the samples'
+            configurations were reset after the fit.
     """
 
     names: list[str]
@@ -108,8 +112,6 @@ class CalibrationResult:
     loss: str = "linear"
     extra: dict[str, object] = field(default_factory=dict)
     std_apriori: Array | None = None  # from the stated σ alone: sqrt(diag((JᵀJ)⁻¹)) [m or rad]
-    #: the problem evaluated at ``x`` by the fit (no Jacobian): what :func:`identify` reads next, so that it need not
-    #: evaluate there again; None once the remembered configurations changed (samples resettled)
     final: Prediction | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
@@ -359,11 +361,10 @@ def _identify(problem: Problem, x0: Array | None, solver: Solver, loss: str, **o
         try:
             result = _chained(result, _fit(problem, result.x, solver, loss, **options))
         except ConvergenceError:  # some sample does not assemble at all there: the caller decides
+            result.final = None  # its configurations were reset after it: its residuals are not the problem's
             break
     if moved_all:
         result.extra["resettled_samples"] = sorted(set(moved_all))
-        if moved:  # the last fit's configurations were reset after it: its residuals are not the problem's any more
-            result.final = None
     return result
 
 
@@ -410,7 +411,8 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         identifiable_only: Move only along directions identifiable at the current estimate
             (recommended); otherwise LM damping alone keeps the unidentifiable directions in check.
         max_iter: Iteration limit (steps taken); reaching it is reported as not converged.
-        tol: Stop when the relative cost decrease or the scaled step falls below ``tol``. When no step
+        tol: Stop when the relative cost decrease or the scaled step falls below ``tol``, or when the
+            Gauss–Newton model predicts a relative decrease below ``tol`` before a trial. When no step
             decreases the cost, the fit counts as converged at a first-order optimum or when every error
             is within ``max(FLOOR_SIGMA_FRACTION · σ, FK_AMPLIFICATION · SOLVE_TOLERANCE)`` [m, rad]
             (:mod:`pincal.identification.lm`), σ the measurement's stated standard deviation.

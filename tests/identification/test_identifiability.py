@@ -500,3 +500,17 @@ def test_bad_inputs_raise_data_error(jacobian, names, scales, tol, message) -> N
 def test_bad_covariance_inputs_raise_data_error(call, message) -> None:
     with pytest.raises(DataError, match=message):
         call()
+
+
+def test_the_unseen_combinations_do_not_follow_the_callers_arrays_after_the_analysis() -> None:
+    """The combinations are worked out when first read, from copies: scales changed by the caller after the analysis
+    leave them as they were at it."""
+    rng = np.random.default_rng(4)
+    jac = rng.normal(size=(40, 3))
+    jac = np.column_stack([jac, jac[:, 0] + 2.0 * jac[:, 1]])  # d moves the rows as a + 2 b: one unseen direction
+    names = ["a.tx", "b.tx", "c.tx", "d.tx"]
+    scales = np.full(4, 1e-3)
+    at_once = analyse(jac, names, scales).unidentifiable[0].description
+    later = analyse(jac, names, scales)
+    scales[0] = 5.0
+    assert later.unidentifiable[0].description == at_once

@@ -118,11 +118,11 @@ def test_blocks_of_samples_give_the_same_numbers(monkeypatch: pytest.MonkeyPatch
     _compare(batched.evaluate(x), per_sample.evaluate(x), batched.parameters.names, AGREEMENT)
 
 
-def test_large_waves_are_solved_together_with_the_same_answers(monkeypatch: pytest.MonkeyPatch) -> None:
-    """With every wave stacked (no wave small enough to go one by one), the first and the warm evaluations still
-    give the per-sample configurations, and every sample's warm start is remembered."""
+def test_small_sets_are_solved_together_with_the_same_answers(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With every set of samples stacked (none small enough to go one by one), the first and the warm evaluations
+    still give the per-sample configurations, and every sample's warm start is remembered."""
     monkeypatch.setattr(problem_module, "SOLVE_TOLERANCE", TIGHT)
-    monkeypatch.setattr(problem_module, "SMALL_WAVE", 1)
+    monkeypatch.setattr(problem_module, "SMALL_BATCH", 1)
     batched, per_sample, x = _problems("five_bar", None, n=40)
     for _ in range(2):
         np.testing.assert_allclose(batched.configurations(x), per_sample.configurations(x), rtol=0, atol=1e-10)
@@ -132,9 +132,10 @@ def test_large_waves_are_solved_together_with_the_same_answers(monkeypatch: pyte
 
 
 def test_samples_are_not_reordered_by_their_warm_starts(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The same samples in reverse order: each gets its own configuration back (the waves follow the neighbours)."""
+    """The same samples in reverse order: each gets its own configuration back (a first solve is continuation from
+    the reference, whatever the order)."""
     monkeypatch.setattr(problem_module, "SOLVE_TOLERANCE", TIGHT)
-    monkeypatch.setattr(problem_module, "SMALL_WAVE", 1)
+    monkeypatch.setattr(problem_module, "SMALL_BATCH", 1)
     robot = pincal.load_robot("delta")
     models = [ms.position(robot.end_effector)]
     pset = ParameterSet([p for p in parameter_pool(robot, models) if p.kind != "compliance"])
