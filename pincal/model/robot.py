@@ -20,7 +20,7 @@ import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, LoopError, RobotFileError, listing, not_found
-from pincal.model.catalog import robot_path
+from pincal.model.catalog import known_robot_names, robot_path
 from pincal.model.closure import LoopClosure
 from pincal.model.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveReport
 from pincal.model.measured_frame import END_EFFECTOR_NAMES as END_EFFECTOR_NAMES  # where it was
@@ -312,7 +312,9 @@ MAX_JOINTS = 200
 
 
 def load_robot(path: str | Path) -> Robot:
-    """Load a robot from a URDF file, or by name (``delta``, ``hexapod``, ``ur10``, ``panda``, ...).
+    """Load a robot from a URDF file, or by name (``delta``, ``hexapod``, ``ur10``, ``panda``, ...). A known name
+    that is also a directory here (``pincal simulate delta --out delta``) is the known robot: a directory is no robot
+    file.
 
     Loops come from ``<loop>`` elements and actuated joints from ``<transmission>`` elements. A
     robot without loops is serial: all its one-DOF joints are actuated.
@@ -330,12 +332,15 @@ def load_robot(path: str | Path) -> Robot:
         is_file, is_dir, exists = p.is_file(), p.is_dir(), p.exists()
     except OSError:  # e.g. a name longer than the file system allows
         is_file = is_dir = exists = False
+    bare = not (p.suffix or "/" in str(path))  # a name, not a path
     if not is_file:
+        if is_dir and bare and str(path) in known_robot_names():
+            return load_robot(robot_path(str(path)))  # a directory is no robot file: the known robot of that name
         if is_dir:
             raise RobotFileError(f"robot file '{path}' is a directory; give a URDF file or a known robot name")
         if exists:
             raise RobotFileError(f"robot file '{path}' is not a regular file (a device, a pipe or a socket)")
-        if p.suffix or "/" in str(path):
+        if not bare:
             raise RobotFileError(f"robot file '{path}' does not exist")
         p = robot_path(str(path))
     try:

@@ -68,6 +68,19 @@ def test_a_duplicated_loop_is_refused_at_load_not_at_simulate(tmp_path: Path) ->
     assert done.returncode == 2 and "a duplicated or redundant loop" in done.stderr
 
 
+def test_a_known_robot_name_shadowed_by_a_directory_is_the_known_robot(tmp_path: Path,
+                                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """``pincal simulate delta --out delta`` then ``pincal calibrate delta delta/measurements.csv``: the directory
+    named like the robot is no robot file, so ``delta`` is the shipped Delta."""
+    monkeypatch.chdir(tmp_path)
+    done = run_pincal("simulate", "delta", "--samples", "30", "--seed", "1", "--quiet", "--out", "delta")
+    assert done.returncode == 0, done.stderr
+    done = run_pincal("calibrate", "delta", "delta/measurements.csv", "--out", "delta/cal.urdf")
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "delta" / "cal.urdf").is_file()
+    assert "RMS position error (fit)" in done.stdout
+
+
 def test_a_directory_or_a_device_given_as_the_robot_is_named_as_such(tmp_path: Path) -> None:
     done = run_pincal("info", str(tmp_path))
     assert done.returncode == 2 and f"robot file '{tmp_path}' is a directory" in done.stderr
