@@ -16,7 +16,7 @@ from pincal.cli.options import (
     add_solver_and_loss,
     positive_float,
 )
-from pincal.errors import DataError, PincalError
+from pincal.errors import DataError, PincalError, listing
 from pincal.io.dataset import Dataset
 from pincal.io.files import check_outputs, write_text
 from pincal.model.robot import load_robot
@@ -33,6 +33,15 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
     robot = load_robot(args.robot)
     inputs = (robot.source, args.data, args.result, getattr(args, "truth", None))
     check_outputs([("--out", args.out)], [p for p in inputs if p is not None])  # before any work
+    if args.result:
+        ignored = [f"{flag} {text}" for flag, value, default, text in (
+            ("--solver", args.solver, "lm", args.solver), ("--loss", args.loss, "auto", args.loss),
+            ("--select", args.select, "auto", args.select), ("--cv", args.cv, None, args.cv),
+            ("--payload", args.payload, None, "")) if value != default]
+        if ignored:  # a fit's options, given to a finished fit: not silently dropped
+            raise PincalError(f"{listing([i.strip() for i in ignored])}: no effect with --result, whose JSON is a "
+                              "finished fit (drawn with its own solver, selection and payload); drop "
+                              f"{'it' if len(ignored) == 1 else 'them'}, or calibrate again without --result")
     dataset = read_robot_dataset(args.data, robot)
     if args.result:
         try:
@@ -59,7 +68,7 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
     add_solver_and_loss(parser)
     add_selection_and_cv(parser)
     add_markers(parser)
-    add_payload(parser, "as for calibrate (with --result, the result's payload is used)")
+    add_payload(parser, "as for calibrate (refused with --result: the result's own payload is used)")
     parser.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
 

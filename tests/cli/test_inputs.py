@@ -172,6 +172,27 @@ def test_a_result_json_that_is_not_a_report_is_named(five_bar_data: Path, tmp_pa
     assert "the result JSON has no 'parameters' of the form" in line
 
 
+@pytest.mark.parametrize("command", ["view", "report"])
+def test_a_fits_options_given_with_a_result_are_refused_not_ignored(five_bar_data: Path, tmp_path: Path,
+                                                                   command: str) -> None:
+    """--result draws a finished fit: --solver, --loss, --select, --cv and --payload would change nothing, and are
+    refused by name (before any file is read or written) instead of silently dropped."""
+    result = tmp_path / "result.json"
+    result.write_text('{"parameters": {}}')
+    page = tmp_path / "page.html"
+    line = one_line_error(run_pincal(command, "five_bar", str(five_bar_data), "--result", str(result), "--solver",
+                                     "tsvd", "--cv", "5", "--out", str(page)))
+    assert line == ("pincal: error: --solver tsvd, --cv 5: no effect with --result, whose JSON is a finished fit "
+                    "(drawn with its own solver, selection and payload); drop them, or calibrate again without "
+                    "--result")
+    line = one_line_error(run_pincal(command, "five_bar", str(five_bar_data), "--result", str(result), "--payload",
+                                     "1@tool", "--out", str(page)))
+    assert line.startswith("pincal: error: --payload: no effect with --result") and line.endswith("drop it, or "
+                                                                                                 "calibrate again "
+                                                                                                 "without --result")
+    assert not page.exists()
+
+
 def test_argparse_errors_are_one_line_in_pincal_form() -> None:
     done = run_pincal("simulate", "delta")
     assert done.returncode == 2 and done.stderr == (
