@@ -16,12 +16,12 @@ from pincal.cli.options import (
     add_solver_and_loss,
     positive_float,
 )
-from pincal.errors import DataError, PincalError, listing
+from pincal.errors import DataError, PincalError
 from pincal.io.dataset import Dataset
 from pincal.io.files import check_outputs, write_text
 from pincal.model.robot import load_robot
 from pincal.viz.scene import CalibrationView, open_in_meshcat, static_scene
-from pincal.workflow import calibrate, check_cv_seed, read_robot_dataset
+from pincal.workflow import calibrate, check_cv_seed, parse_cv, read_robot_dataset
 
 
 def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
@@ -33,21 +33,13 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
     robot = load_robot(args.robot)
     inputs = (robot.source, args.data, args.result, getattr(args, "truth", None))
     check_outputs([("--out", args.out)], [p for p in inputs if p is not None])  # before any work
-    if args.result:
-        ignored = [f"{flag} {text}" for flag, value, default, text in (
-            ("--solver", args.solver, "lm", args.solver), ("--loss", args.loss, "auto", args.loss),
-            ("--select", args.select, "auto", args.select), ("--cv", args.cv, None, args.cv),
-            ("--payload", args.payload, None, "")) if value != default]
-        if ignored:  # a fit's options, given to a finished fit: not silently dropped
-            raise PincalError(f"{listing([i.strip() for i in ignored])}: no effect with --result, whose JSON is a "
-                              "finished fit (drawn with its own solver, selection and payload); drop "
-                              f"{'it' if len(ignored) == 1 else 'them'}, or calibrate again without --result")
     dataset = read_robot_dataset(args.data, robot)
     if args.result:
         try:
             report = json.loads(Path(args.result).read_text(encoding="utf-8"))
         except (OSError, json.JSONDecodeError) as exc:
             raise DataError(f"cannot read the result JSON '{args.result}': {exc}") from None
+        check_result_options(args, report)
         return CalibrationView.from_result(robot, dataset, report, args.parameters, args.sigma,
                                            args.markers), dataset, None
     if not args.quiet:
@@ -56,6 +48,38 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
                             sigma=args.sigma, select=args.select, cv=args.cv, cv_seed=args.cv_seed or 0,
                             markers=args.markers, payload=args.payload)
     return CalibrationView.from_calibration(calibration), dataset, calibration
+
+
+def check_result_options(args: argparse.Namespace, report: Any) -> None:
+    """Refuse a fit's option that contradicts the ``--result`` JSON it would be drawn from (DataError naming both):
+    ``--solver``, ``--loss``, ``--select``, ``--cv`` and ``--payload`` given with ``--result`` change nothing, so
+    they must be what the result was fitted with (as when the calibrate command is repeated with ``--result``);
+    options left at their defaults are not compared."""
+    if not isinstance(report, dict):
+        return  # CalibrationView.from_result names what the file is not
+    selection, cv, payload = report.get("selection"), report.get("cv"), report.get("payload")
+    recorded = {
+        "--solver": (args.solver, "lm", report.get("solver")),
+        "--loss": (args.loss, "auto", report.get("loss")),
+        "--select": (args.select, "auto", selection.get("policy") if isinstance(selection, dict) else None),
+        "--cv": (parse_cv(args.cv, sys.maxsize, args.cv_seed or 0).label if args.cv else None, None,
+                 cv.get("plan") if isinstance(cv, dict) else None),
+        "--payload": (args.payload.as_dict() if args.payload else None, None, payload),
+    }
+    for flag, (given, default, fitted) in recorded.items():
+        if given != default and given != fitted:
+            shown = {"--cv": args.cv, "--payload": _payload_text(given)}.get(flag, given)
+            made = "none" if fitted is None else repr(fitted) if flag != "--payload" else _payload_text(fitted)
+            raise DataError(f"{flag} {shown}: the result JSON '{args.result}' was fitted with {made}; --result draws "
+                            "that fit as it is: give the options it was made with, or calibrate again without --result")
+
+
+def _payload_text(recorded: Any) -> str:
+    """A recorded payload ``{"mass", "frame", "offset"}`` as ``MASS@FRAME:X,Y,Z``."""
+    try:
+        return f"{recorded['mass']:g}@{recorded['frame']}:" + ",".join(f"{v:g}" for v in recorded["offset"])
+    except (TypeError, KeyError, ValueError):
+        return repr(recorded)
 
 
 def add_calibration_options(parser: argparse.ArgumentParser) -> None:
@@ -68,7 +92,7 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
     add_solver_and_loss(parser)
     add_selection_and_cv(parser)
     add_markers(parser)
-    add_payload(parser, "as for calibrate (refused with --result: the result's own payload is used)")
+    add_payload(parser, "as for calibrate (with --result, the result's payload is used: one given must be it)")
     parser.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
 

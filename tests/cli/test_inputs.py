@@ -173,24 +173,28 @@ def test_a_result_json_that_is_not_a_report_is_named(five_bar_data: Path, tmp_pa
 
 
 @pytest.mark.parametrize("command", ["view", "report"])
-def test_a_fits_options_given_with_a_result_are_refused_not_ignored(five_bar_data: Path, tmp_path: Path,
-                                                                   command: str) -> None:
-    """--result draws a finished fit: --solver, --loss, --select, --cv and --payload would change nothing, and are
-    refused by name (before any file is read or written) instead of silently dropped."""
-    result = tmp_path / "result.json"
-    result.write_text('{"parameters": {}}')
-    page = tmp_path / "page.html"
-    line = one_line_error(run_pincal(command, "five_bar", str(five_bar_data), "--result", str(result), "--solver",
-                                     "tsvd", "--cv", "5", "--out", str(page)))
-    assert line == ("pincal: error: --solver tsvd, --cv 5: no effect with --result, whose JSON is a finished fit "
-                    "(drawn with its own solver, selection and payload); drop them, or calibrate again without "
-                    "--result")
-    line = one_line_error(run_pincal(command, "five_bar", str(five_bar_data), "--result", str(result), "--payload",
-                                     "1@tool", "--out", str(page)))
-    assert line.startswith("pincal: error: --payload: no effect with --result") and line.endswith("drop it, or "
-                                                                                                 "calibrate again "
-                                                                                                 "without --result")
-    assert not page.exists()
+def test_a_fits_options_that_contradict_the_result_are_refused(five_bar_data: Path, tmp_path: Path,
+                                                               command: str) -> None:
+    """--result draws a finished fit: the calibrate command repeated with --result works, and a fit's option that
+    says otherwise than the result (another solver, loss, selection, cross-validation or payload) is refused by name,
+    before anything is written, instead of being silently dropped."""
+    result, page = tmp_path / "result.json", tmp_path / "page.html"
+    fit = ["five_bar", str(five_bar_data), "--parameters", "*.offset", "--loss", "linear"]
+    assert run_pincal("calibrate", *fit, "--report", str(result)).returncode == 0
+    fit.append("--quiet")
+    done = run_pincal(command, *fit, "--result", str(result), "--out", str(page))
+    assert done.returncode == 0, done.stderr
+    page.unlink()
+    for option, culprit, fitted in ((["--solver", "tsvd"], "--solver tsvd", "'lm'"),
+                                    (["--loss", "cauchy"], "--loss cauchy", "'linear'"),
+                                    (["--select", "bic"], "--select bic", "'none'"),
+                                    (["--cv", "5x2", "--cv-seed", "3"], "--cv 5x2", "none"),
+                                    (["--payload", "1@tool:0,0,0.1"], "--payload 1@tool:0,0,0.1", "none")):
+        line = one_line_error(run_pincal(command, *fit, *option, "--result", str(result), "--out", str(page)))
+        assert line == (f"pincal: error: {culprit}: the result JSON '{result}' was fitted with {fitted}; --result "
+                        "draws that fit as it is: give the options it was made with, or calibrate again without "
+                        "--result")
+        assert not page.exists()
 
 
 def test_argparse_errors_are_one_line_in_pincal_form() -> None:
