@@ -197,6 +197,42 @@ def test_a_fits_options_that_contradict_the_result_are_refused(five_bar_data: Pa
         assert not page.exists()
 
 
+@pytest.mark.parametrize("command", ["view", "report"])
+def test_a_result_is_drawn_over_the_data_it_was_fitted_on_only(five_bar_data: Path, tmp_path: Path,
+                                                              command: str) -> None:
+    """--result draws a finished fit over its data: a sample the calibration dropped (a reading outside the joint
+    limits) stays out of the drawing, as without --result; the same result given with another data file of the same
+    robot is refused by name (its numbers would head a page drawn from other samples)."""
+    lines = five_bar_data.read_text(encoding="utf-8").splitlines()
+    header = next(k for k, line in enumerate(lines) if not line.startswith("#"))
+    cells = lines[header + 4].split(",")
+    theta = lines[header].split(",").index("theta_1_joint")
+    cells[theta] = "3.0"  # outside the limits [-pi/2, pi/2] rad: dropped and listed by calibrate
+    data, result, page = tmp_path / "data.csv", tmp_path / "result.json", tmp_path / "page.html"
+    data.write_text("\n".join([*lines[:header + 4], ",".join(cells), *lines[header + 5:]]) + "\n", encoding="utf-8")
+    done = run_pincal("calibrate", "five_bar", str(data), "--report", str(result))
+    assert done.returncode == 0 and "dropped 1" in done.stdout, (done.stdout, done.stderr)
+    assert json.loads(result.read_text())["n_samples"] == 11
+    done = run_pincal(command, "five_bar", str(data), "--result", str(result), "--out", str(page), "--quiet")
+    assert done.returncode == 0, done.stderr
+    again = tmp_path / "again.html"
+    assert run_pincal(command, "five_bar", str(data), "--out", str(again), "--quiet").returncode == 0
+    if command == "view":
+        assert "11 samples" in done.stdout
+    # the same drawing as a calibration run again, but for the last bits of the forward kinematics' floats
+    assert abs(len(page.read_bytes()) - len(again.read_bytes())) < 100
+    page.unlink()
+    other = tmp_path / "other"
+    assert run_pincal("simulate", "five_bar", "--samples", "12", "--seed", "2", "--quiet", "--out",
+                      str(other)).returncode == 0
+    line = one_line_error(run_pincal(command, "five_bar", str(other / "measurements.csv"), "--result", str(result),
+                                     "--out", str(page), "--quiet"))
+    assert line.startswith(f"pincal: error: --result '{result}': the result JSON was not fitted on these data: it "
+                           "records 11 fitted samples of 12 in the file, RMS error after ")
+    assert "these data give 12 of 12" in line and line.endswith("give the data file the result was calibrated from")
+    assert not page.exists()
+
+
 def test_argparse_errors_are_one_line_in_pincal_form() -> None:
     done = run_pincal("simulate", "delta")
     assert done.returncode == 2 and done.stderr == (
