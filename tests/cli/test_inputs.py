@@ -233,6 +233,20 @@ def test_a_result_is_drawn_over_the_data_it_was_fitted_on_only(five_bar_data: Pa
     assert not page.exists()
 
 
+def test_a_design_of_too_few_postures_to_identify_its_parameters_is_refused(tmp_path: Path) -> None:
+    """8 Delta postures measure 24 values, fewer than the 27 parameters the candidates identify: every such set has
+    an infinite condition number, so there is nothing to design; refused by name with the least --poses that can
+    work, and nothing written (it was written, with κ = inf and exit 0)."""
+    out = tmp_path / "poses.csv"
+    line = one_line_error(run_pincal("design", "delta", "--candidates", "30", "--poses", "8", "--quiet", "--out",
+                                     str(out)))
+    assert line == ("pincal: error: --poses 8: 8 postures give 24 measured values, fewer than the 27 parameters the "
+                    "candidates can identify; choose at least 9 postures (or fewer --parameters)")
+    assert not out.exists()
+    done = run_pincal("design", "delta", "--candidates", "30", "--poses", "9", "--quiet", "--out", str(out))
+    assert done.returncode == 0 and out.exists(), done.stderr
+
+
 def test_argparse_errors_are_one_line_in_pincal_form() -> None:
     done = run_pincal("simulate", "delta")
     assert done.returncode == 2 and done.stderr == (
