@@ -348,7 +348,9 @@ def _accounting(report: dict[str, Any]) -> list[str]:
         ids, joints = (list(dict.fromkeys(str(o[key]) for o in outside)) for key in ("sample", "joint"))
         where = joints[0] if len(joints) == 1 else f"{len(joints)} actuated joints"
         shown = ", ".join(ids[:3]) + (f" (+{len(ids) - 3})" if len(ids) > 3 else "")
-        lines.append(next(line for line in (f"warning: held-out samples {shown} lie outside the fitted range of "
+        lines.append(next(line for line in (f"warning: held-out sample {shown} lies outside the fitted range of "
+                                            f"{where}: its error measures extrapolation" if len(ids) == 1 else
+                                            f"warning: held-out samples {shown} lie outside the fitted range of "
                                             f"{where}: their errors measure extrapolation",
                                             f"warning: {len(ids)} held-out samples lie outside the fitted range of "
                                             f"{where}: their errors measure extrapolation",
