@@ -247,6 +247,24 @@ def test_a_design_of_too_few_postures_to_identify_its_parameters_is_refused(tmp_
     assert done.returncode == 0 and out.exists(), done.stderr
 
 
+@pytest.mark.parametrize(("line", "culprit"), [
+    ("# sigma: 1e-3", "metadata 'sigma' is not a σ line pincal reads"),
+    ("# Sigma position: 1e-3", "metadata 'Sigma position' is not a σ line pincal reads"),
+    ("# sigma postion: 1e-3", "metadata 'sigma postion' is not a σ line pincal reads"),
+    ("# sigma position: abc", "metadata 'sigma position' is 'abc', not a number"),
+])
+def test_a_sigma_line_pincal_would_not_use_is_refused(five_bar_data: Path, tmp_path: Path, line: str,
+                                                      culprit: str) -> None:
+    """A '# sigma' line of no measurement kind was ignored (the fit then weighted by the default 1e-5 m), and a bad
+    σ was ignored where a line for the frame overrides it: both refused by name; --sigma overrides every line."""
+    text = five_bar_data.read_text(encoding="utf-8")
+    assert "# sigma position end_effector:" in text  # the frame's own line, which overrides '# sigma position'
+    data = tmp_path / "sigma.csv"
+    data.write_text(line + "\n" + text, encoding="utf-8")
+    assert culprit in one_line_error(run_pincal("calibrate", "five_bar", str(data)))
+    assert run_pincal("calibrate", "five_bar", str(data), "--sigma", "1e-5").returncode == 0
+
+
 def test_argparse_errors_are_one_line_in_pincal_form() -> None:
     done = run_pincal("simulate", "delta")
     assert done.returncode == 2 and done.stderr == (
