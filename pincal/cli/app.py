@@ -516,7 +516,9 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--report", help="report JSON to write")
     add_parameters(cal)
     add_solver_and_loss(cal)
-    cal.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
+    cal.add_argument("--sigma", type=positive_float,
+                        help="one measurement σ [m, rad] for weighting every channel, over the file's '# sigma' "
+                             "lines (default: those lines, else 1e-5; 1e-6 m for distances)")
     cal.add_argument("--max-iter", type=positive_int, default=100,
                      help="iteration limit of the solver (default 100); a run that reaches it exits 1")
     add_selection_and_cv(cal)

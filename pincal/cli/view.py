@@ -97,7 +97,9 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
     add_selection_and_cv(parser)
     add_markers(parser)
     add_payload(parser, "as for calibrate (with --result, the result's payload is used: one given must be it)")
-    parser.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
+    parser.add_argument("--sigma", type=positive_float,
+                        help="one measurement σ [m, rad] for weighting every channel, over the file's '# sigma' "
+                             "lines (default: those lines, else 1e-5; 1e-6 m for distances)")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
 
 

@@ -265,6 +265,16 @@ def test_a_sigma_line_pincal_would_not_use_is_refused(five_bar_data: Path, tmp_p
     assert run_pincal("calibrate", "five_bar", str(data), "--sigma", "1e-5").returncode == 0
 
 
+@pytest.mark.parametrize("command", ["calibrate", "view", "report"])
+def test_the_sigma_help_says_the_files_lines_are_the_default(command: str) -> None:
+    """--help said '(default 1e-5)' [m] while a file's '# sigma' lines weight its channels when --sigma is not given."""
+    done = run_pincal(command, "--help")
+    assert done.returncode == 0
+    text = " ".join(done.stdout.split())
+    assert ("one measurement σ [m, rad] for weighting every channel, over the file's '# sigma' lines (default: those "
+            "lines, else 1e-5; 1e-6 m for distances)") in text
+
+
 def test_argparse_errors_are_one_line_in_pincal_form() -> None:
     done = run_pincal("simulate", "delta")
     assert done.returncode == 2 and done.stderr == (
