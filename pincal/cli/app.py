@@ -404,7 +404,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print(_summary(cal.report, cal.result.seconds, str(out / "report.json")))
     print()
     print(f"wrote {out}/: delta_calibrated.urdf (the calibrated robot), {report_html.name} (open it in a "
-          "browser), report.json, measurements.csv, truth.urdf")
+          "browser), report.json, measurements.csv, truth.urdf, truth.json")
     return 0
 
 
@@ -413,6 +413,10 @@ def cmd_fleet(args: argparse.Namespace) -> int:
     row per robot; exit status 1 unless every result is :func:`usable`."""
     from pincal.fleet import calibrate_fleet, jobs_from_directory
 
+    where = Path(args.data_dir)
+    if not where.is_dir():
+        what = "is a file, not a directory of CSV files (one per robot)" if where.exists() else "does not exist"
+        raise DataError(f"fleet: DATA_DIR '{args.data_dir}' {what}")
     jobs = jobs_from_directory(args.robot, args.data_dir, args.out, parameter_spec=args.parameters,
                                formulation=args.formulation)
     if not jobs:

@@ -275,6 +275,28 @@ def test_the_sigma_help_says_the_files_lines_are_the_default(command: str) -> No
             "lines, else 1e-5; 1e-6 m for distances)") in text
 
 
+def test_fleet_names_a_data_dir_that_is_missing_or_a_file(tmp_path: Path) -> None:
+    """'no *.csv files in X' was said of a directory that does not exist and of a CSV file given as DATA_DIR."""
+    data = tmp_path / "robot1.csv"
+    data.write_text("sample,arm_1_joint\n0,0.1\n", encoding="utf-8")
+    line = one_line_error(run_pincal("fleet", "delta", str(tmp_path / "nowhere"), "--out", str(tmp_path / "out")))
+    assert line == f"pincal: error: fleet: DATA_DIR '{tmp_path / 'nowhere'}' does not exist"
+    line = one_line_error(run_pincal("fleet", "delta", str(data), "--out", str(tmp_path / "out")))
+    assert line == (f"pincal: error: fleet: DATA_DIR '{data}' is a file, not a directory of CSV files (one per "
+                    "robot)")
+    assert not (tmp_path / "out").exists()
+
+
+def test_demo_names_every_file_it_writes(tmp_path: Path) -> None:
+    """The demo's last line listed the files of ./pincal-demo/ but truth.json."""
+    done = subprocess.run([str(PINCAL), "demo"], cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                          check=False)
+    assert done.returncode == 0, done.stderr
+    written = sorted(path.name for path in (tmp_path / "pincal-demo").iterdir())
+    last = done.stdout.strip().splitlines()[-1]
+    assert all(name in last for name in written), (written, last)
+
+
 def test_argparse_errors_are_one_line_in_pincal_form() -> None:
     done = run_pincal("simulate", "delta")
     assert done.returncode == 2 and done.stderr == (
