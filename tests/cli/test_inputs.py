@@ -297,6 +297,20 @@ def test_demo_names_every_file_it_writes(tmp_path: Path) -> None:
     assert all(name in last for name in written), (written, last)
 
 
+@pytest.mark.parametrize("command", [["view", "--out", "unused.html"], ["report", "--out", "unused.html"],
+                                     ["calibrate"]])
+def test_a_data_or_job_file_given_as_the_robot_is_named(five_bar_data: Path, command: list[str]) -> None:
+    """Swapped arguments, or a job file given to view/report, were 'X is not well-formed XML: ... line 1, column 1'."""
+    job = Path(pincal.__file__).parents[1] / "examples" / "tiago_job.toml"
+    line = one_line_error(run_pincal(command[0], str(five_bar_data), "five_bar", *command[1:]))
+    assert line == (f"pincal: error: robot file '{five_bar_data}' is a data file (CSV): the robot comes first, then "
+                    "the data (pincal calibrate ROBOT DATA.csv); give a URDF file or a known robot name")
+    if command[0] != "calibrate":
+        line = one_line_error(run_pincal(command[0], str(job), str(five_bar_data), *command[1:]))
+        assert line == (f"pincal: error: robot file '{job}' is a job file (TOML): only 'pincal calibrate JOB.toml' "
+                        "reads one (docs/job_file.md); give a URDF file or a known robot name")
+
+
 def test_argparse_errors_are_one_line_in_pincal_form() -> None:
     done = run_pincal("simulate", "delta")
     assert done.returncode == 2 and done.stderr == (
