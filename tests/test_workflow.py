@@ -609,3 +609,15 @@ def test_a_sample_with_no_reading_has_no_error_size() -> None:
     assert sizes is not None
     np.testing.assert_allclose(sizes[:2], [13e-3, 1e-3], rtol=1e-12)
     assert np.isnan(sizes[2])
+
+
+def test_one_held_out_sample_outside_the_fitted_range_is_named_in_the_singular(tmp_path: Path) -> None:
+    """'held-out samples 31 lie outside' read as a count of 31: one sample is named as one."""
+    sim = tmp_path / "sim"
+    assert run_pincal("simulate", "delta", "--samples", "30", "--test-samples", "10", "--seed", "1", "--quiet",
+                      "--out", str(sim)).returncode == 0
+    done = run_pincal("calibrate", "delta", str(sim / "measurements.csv"))
+    assert done.returncode == 0, done.stderr
+    warnings = [line for line in done.stdout.splitlines() if "outside the fitted range" in line]
+    assert warnings == ["warning: held-out sample 31 lies outside the fitted range of arm_1_joint: its error measures "
+                        "extrapolation"]

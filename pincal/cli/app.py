@@ -348,7 +348,9 @@ def _accounting(report: dict[str, Any]) -> list[str]:
         ids, joints = (list(dict.fromkeys(str(o[key]) for o in outside)) for key in ("sample", "joint"))
         where = joints[0] if len(joints) == 1 else f"{len(joints)} actuated joints"
         shown = ", ".join(ids[:3]) + (f" (+{len(ids) - 3})" if len(ids) > 3 else "")
-        lines.append(next(line for line in (f"warning: held-out samples {shown} lie outside the fitted range of "
+        lines.append(next(line for line in (f"warning: held-out sample {shown} lies outside the fitted range of "
+                                            f"{where}: its error measures extrapolation" if len(ids) == 1 else
+                                            f"warning: held-out samples {shown} lie outside the fitted range of "
                                             f"{where}: their errors measure extrapolation",
                                             f"warning: {len(ids)} held-out samples lie outside the fitted range of "
                                             f"{where}: their errors measure extrapolation",
@@ -402,7 +404,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print(_summary(cal.report, cal.result.seconds, str(out / "report.json")))
     print()
     print(f"wrote {out}/: delta_calibrated.urdf (the calibrated robot), {report_html.name} (open it in a "
-          "browser), report.json, measurements.csv, truth.urdf")
+          "browser), report.json, measurements.csv, truth.urdf, truth.json")
     return 0
 
 
@@ -411,6 +413,10 @@ def cmd_fleet(args: argparse.Namespace) -> int:
     row per robot; exit status 1 unless every result is :func:`usable`."""
     from pincal.fleet import calibrate_fleet, jobs_from_directory
 
+    where = Path(args.data_dir)
+    if not where.is_dir():
+        what = "is a file, not a directory of CSV files (one per robot)" if where.exists() else "does not exist"
+        raise DataError(f"fleet: DATA_DIR '{args.data_dir}' {what}")
     jobs = jobs_from_directory(args.robot, args.data_dir, args.out, parameter_spec=args.parameters,
                                formulation=args.formulation)
     if not jobs:
@@ -514,7 +520,9 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--report", help="report JSON to write")
     add_parameters(cal)
     add_solver_and_loss(cal)
-    cal.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
+    cal.add_argument("--sigma", type=positive_float,
+                        help="one measurement σ [m, rad] for weighting every channel, over the file's '# sigma' "
+                             "lines (default: those lines, else 1e-5; 1e-6 m for distances)")
     cal.add_argument("--max-iter", type=positive_int, default=100,
                      help="iteration limit of the solver (default 100); a run that reaches it exits 1")
     add_selection_and_cv(cal)

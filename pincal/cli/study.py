@@ -115,6 +115,13 @@ def cmd_design(args: argparse.Namespace) -> int:
     scales = np.asarray(pset.scales, dtype=float)
     selection = select_poses(blocks, args.poses, args.criterion, scales=scales, names=pset.names,
                              difference=difference, progress=not args.quiet)
+    rows = int(blocks.shape[1])  # measured values per posture (a difference of postures with --measure
+    values = rows * (args.poses - int(difference))  # distance_increment: one fewer)
+    if values < len(selection.columns):  # κ infinite for any such set: nothing to design
+        needed = -(-len(selection.columns) // rows) + int(difference)
+        raise DataError(f"--poses {args.poses}: {args.poses} postures give {values} measured values, fewer than the "
+                        f"{len(selection.columns)} parameters the candidates can identify; choose at least {needed} "
+                        "postures (or fewer --parameters)")
     kappa_random, logdet_random = random_set_baseline(blocks, args.poses, selection, scales, difference, rng)
 
     keys = ", ".join(m.key.replace("distance:", "distance_increment:", 1) if difference else m.key

@@ -20,7 +20,7 @@ from pincal.errors import DataError, PincalError
 from pincal.io.dataset import Dataset
 from pincal.io.files import check_outputs, write_text
 from pincal.model.robot import load_robot
-from pincal.viz.scene import CalibrationView, open_in_meshcat, static_scene
+from pincal.viz.scene import CalibrationView, check_same_data, open_in_meshcat, static_scene
 from pincal.workflow import calibrate, check_cv_seed, parse_cv, read_robot_dataset
 
 
@@ -40,8 +40,12 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Dataset, Any]:
         except (OSError, json.JSONDecodeError) as exc:
             raise DataError(f"cannot read the result JSON '{args.result}': {exc}") from None
         check_result_options(args, report)
-        return CalibrationView.from_result(robot, dataset, report, args.parameters, args.sigma,
-                                           args.markers), dataset, None
+        try:
+            view = CalibrationView.from_result(robot, dataset, report, args.parameters, args.sigma, args.markers)
+            check_same_data(view, dataset)
+        except DataError as exc:  # which of the command's files the message is about
+            raise DataError(f"--result '{args.result}': {exc}") from None
+        return view, dataset, None
     if not args.quiet:
         print(f"calibrating '{robot.name}' from {dataset.n_samples} samples ...", file=sys.stderr)
     calibration = calibrate(robot, dataset, parameter_spec=args.parameters, solver=args.solver, loss=args.loss,
@@ -93,7 +97,9 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
     add_selection_and_cv(parser)
     add_markers(parser)
     add_payload(parser, "as for calibrate (with --result, the result's payload is used: one given must be it)")
-    parser.add_argument("--sigma", type=positive_float, help="measurement σ [m] for weighting (default 1e-5)")
+    parser.add_argument("--sigma", type=positive_float,
+                        help="one measurement σ [m, rad] for weighting every channel, over the file's '# sigma' "
+                             "lines (default: those lines, else 1e-5; 1e-6 m for distances)")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
 
 

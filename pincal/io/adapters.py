@@ -13,6 +13,7 @@ import numpy.typing as npt
 
 from pincal.errors import DataError, listing
 from pincal.identification.measurements import (
+    KIND_CLASSES,
     MARKER_NAME,
     JointReading,
     Measurement,
@@ -71,15 +72,36 @@ def channel_sigma(key: str, metadata: dict[str, str], default: float | None, ang
     candidates = [f"sigma {kind} angle"] if angle else [f"sigma {kind} {name}", f"sigma {kind}"]
     for candidate in candidates:
         if candidate in metadata:
-            try:
-                value = float(metadata[candidate])
-            except ValueError:
-                raise DataError(f"metadata '{candidate}' is '{metadata[candidate]}', not a number") from None
-            if not 1e-15 <= value <= 1e3:
-                raise DataError(f"metadata '{candidate}' is {value!r}: a standard deviation [m or rad] must lie "
-                                "between 1e-15 and 1e3")
-            return value
+            return _sigma_value(candidate, metadata[candidate])
     return default
+
+
+def _sigma_value(key: str, text: str) -> float:
+    """The σ of a ``# sigma ...: value`` metadata line [m or rad] (DataError naming the line's key)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise DataError(f"metadata '{key}' is '{text}', not a number") from None
+    if not 1e-15 <= value <= 1e3:
+        raise DataError(f"metadata '{key}' is {value!r}: a standard deviation [m or rad] must lie between 1e-15 "
+                        "and 1e3")
+    return value
+
+
+def check_sigma_metadata(metadata: dict[str, str]) -> None:
+    """Every ``# sigma`` metadata line is ``sigma <kind>[ <name>| angle]: number`` (DataError naming the first that is
+    not): a line pincal would not read (``# sigma: 1e-3``, a misspelt kind) or a σ that is not a number must not be
+    ignored, even where a more specific line would override it."""
+    kinds = list(KIND_CLASSES)
+    for key, text in metadata.items():
+        words = key.split()
+        if not words or words[0].lower() != "sigma":
+            continue
+        if words[0] != "sigma" or len(words) < 2 or words[1] not in kinds:
+            raise DataError(f"metadata '{key}' is not a σ line pincal reads: write '# sigma <kind>: value' or "
+                            f"'# sigma <kind> <frame>: value' [m or rad] (e.g. '# sigma position: 1e-5'), kinds: "
+                            f"{listing(kinds)}")
+        _sigma_value(key, text)
 
 
 def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_columns: Sequence[str],
@@ -93,6 +115,8 @@ def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_column
     (:func:`declared_marker_offsets`); a declaration with no columns is refused (DataError).
     """
     meta = metadata or {}
+    if sigma is None:  # --sigma overrides every line
+        check_sigma_metadata(meta)
     nominal = declared_marker_offsets(meta)
     models = []
     for key in measurement_keys:

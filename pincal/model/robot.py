@@ -343,6 +343,11 @@ def load_robot(path: str | Path) -> Robot:
         if not bare:
             raise RobotFileError(f"robot file '{path}' does not exist")
         p = robot_path(str(path))
+    suffix = p.suffix.lower()
+    if suffix in (".toml", ".csv"):  # the arguments swapped, or a job file where a robot is asked for
+        what = ("a job file (TOML): only 'pincal calibrate JOB.toml' reads one (docs/job_file.md)" if suffix == ".toml"
+                else "a data file (CSV): the robot comes first, then the data (pincal calibrate ROBOT DATA.csv)")
+        raise RobotFileError(f"robot file '{path}' is {what}; give a URDF file or a known robot name")
     try:
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:

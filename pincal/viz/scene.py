@@ -26,7 +26,7 @@ from pincal.identification.corrections import payload_from_dict
 from pincal.identification.measurements import CameraPose, Pose, Position
 from pincal.identification.parameters import MarkerFit, ParameterSet, choose_parameters
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import length_columns
+from pincal.identification.solver import error_norms, length_columns, rms
 from pincal.io.adapters import measurements_for, observations_from
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
@@ -44,7 +44,7 @@ from pincal.viz.visuals import (
     segment_pose,
     translation_pose,
 )
-from pincal.workflow import sample_length_errors
+from pincal.workflow import sample_length_errors, usable_part
 
 Array = npt.NDArray[np.float64]
 
@@ -111,9 +111,15 @@ class CalibrationView:
                             f"{listing(missing) or '-'}; here only: {listing(extra) or '-'}): pass the same "
                             "--parameters and --markers as for the calibration")
         x = np.array([float(report["parameters"][name]["value"]) for name in pset.names])
+        train, _ = usable_part(robot, train)  # the samples the calibration dropped (listed in its report) stay out
+        if train.n_samples == 0:
+            raise DataError("none of the training samples of these data can be used: the result JSON was not "
+                            "fitted on them")
         obs = observations_from(robot, train.joint_names, train.joints, train.measurements, models)
         problem = CalibrationProblem(robot, pset, models, obs, payload=payload_from_dict(report.get("payload")))
-        before = problem.evaluate(np.zeros(len(pset)), jacobian=False).errors
+        # "before" as the calibration's: from its start (the measurement frame registered in closed form, where it
+        # is estimated), not from the nominal measurement frame
+        before = problem.evaluate(problem.initial_guess(), jacobian=False).errors
         after = problem.evaluate(x, jacobian=False).errors
         return cls(problem, x, report, before, after)
 
@@ -154,6 +160,30 @@ class CalibrationView:
         n = self.problem.observations.n_samples
         before, after = sample_length_errors(self.errors_before, n), sample_length_errors(self.errors_after, n)
         return (before, after) if before is not None and after is not None else (np.zeros(n), np.zeros(n))
+
+
+def check_same_data(view: CalibrationView, dataset: Dataset) -> None:
+    """Refuse a view read from a result JSON (:meth:`CalibrationView.from_result`) over other data than the result
+    was fitted on (DataError): the counts of samples it records (in the file, fitted) and its RMS error after
+    calibration [m] must be those the view recomputes from ``dataset``."""
+    report, n_fitted, rms_after = view.report, view.problem.observations.n_samples, rms(error_norms(view.errors_after))
+
+    def mm(value: float) -> str:
+        return f"{value * 1e3:.4f} mm"
+
+    recorded = report.get("rms_after")
+    in_file = report.get("n_samples_in_file", dataset.n_samples)
+    fitted = report.get("n_samples", n_fitted)
+    same_rms = not isinstance(recorded, int | float) or not (math.isfinite(recorded) and math.isfinite(rms_after)) \
+        or abs(recorded - rms_after) <= 1e-9 + 1e-6 * abs(recorded)  # [m]: the loops close to 1e-10 m
+    if in_file == dataset.n_samples and fitted == n_fitted and same_rms:
+        return
+    shown = f", RMS error after {mm(recorded)}" if isinstance(recorded, int | float) and math.isfinite(recorded) \
+        else ""
+    raise DataError(f"the result JSON was not fitted on these data: it records {fitted} fitted samples of {in_file} "
+                    f"in the file{shown}; these data give {n_fitted} of {dataset.n_samples}"
+                    + (f", {mm(rms_after)}" if shown else "")
+                    + ": give the data file the result was calibrated from")
 
 
 def configurations(view: CalibrationView, quiet: bool = True) -> tuple[Robot, Array, Robot, Array]:

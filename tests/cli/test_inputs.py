@@ -197,6 +197,120 @@ def test_a_fits_options_that_contradict_the_result_are_refused(five_bar_data: Pa
         assert not page.exists()
 
 
+@pytest.mark.parametrize("command", ["view", "report"])
+def test_a_result_is_drawn_over_the_data_it_was_fitted_on_only(five_bar_data: Path, tmp_path: Path,
+                                                              command: str) -> None:
+    """--result draws a finished fit over its data: a sample the calibration dropped (a reading outside the joint
+    limits) stays out of the drawing, as without --result; the same result given with another data file of the same
+    robot is refused by name (its numbers would head a page drawn from other samples)."""
+    lines = five_bar_data.read_text(encoding="utf-8").splitlines()
+    header = next(k for k, line in enumerate(lines) if not line.startswith("#"))
+    cells = lines[header + 4].split(",")
+    theta = lines[header].split(",").index("theta_1_joint")
+    cells[theta] = "3.0"  # outside the limits [-pi/2, pi/2] rad: dropped and listed by calibrate
+    data, result, page = tmp_path / "data.csv", tmp_path / "result.json", tmp_path / "page.html"
+    data.write_text("\n".join([*lines[:header + 4], ",".join(cells), *lines[header + 5:]]) + "\n", encoding="utf-8")
+    done = run_pincal("calibrate", "five_bar", str(data), "--report", str(result))
+    assert done.returncode == 0 and "dropped 1" in done.stdout, (done.stdout, done.stderr)
+    assert json.loads(result.read_text())["n_samples"] == 11
+    done = run_pincal(command, "five_bar", str(data), "--result", str(result), "--out", str(page), "--quiet")
+    assert done.returncode == 0, done.stderr
+    again = tmp_path / "again.html"
+    assert run_pincal(command, "five_bar", str(data), "--out", str(again), "--quiet").returncode == 0
+    if command == "view":
+        assert "11 samples" in done.stdout
+    # the same drawing as a calibration run again, but for the last bits of the forward kinematics' floats
+    assert abs(len(page.read_bytes()) - len(again.read_bytes())) < 100
+    page.unlink()
+    other = tmp_path / "other"
+    assert run_pincal("simulate", "five_bar", "--samples", "12", "--seed", "2", "--quiet", "--out",
+                      str(other)).returncode == 0
+    line = one_line_error(run_pincal(command, "five_bar", str(other / "measurements.csv"), "--result", str(result),
+                                     "--out", str(page), "--quiet"))
+    assert line.startswith(f"pincal: error: --result '{result}': the result JSON was not fitted on these data: it "
+                           "records 11 fitted samples of 12 in the file, RMS error after ")
+    assert "these data give 12 of 12" in line and line.endswith("give the data file the result was calibrated from")
+    assert not page.exists()
+
+
+def test_a_design_of_too_few_postures_to_identify_its_parameters_is_refused(tmp_path: Path) -> None:
+    """8 Delta postures measure 24 values, fewer than the 27 parameters the candidates identify: every such set has
+    an infinite condition number, so there is nothing to design; refused by name with the least --poses that can
+    work, and nothing written (it was written, with κ = inf and exit 0)."""
+    out = tmp_path / "poses.csv"
+    line = one_line_error(run_pincal("design", "delta", "--candidates", "30", "--poses", "8", "--quiet", "--out",
+                                     str(out)))
+    assert line == ("pincal: error: --poses 8: 8 postures give 24 measured values, fewer than the 27 parameters the "
+                    "candidates can identify; choose at least 9 postures (or fewer --parameters)")
+    assert not out.exists()
+    done = run_pincal("design", "delta", "--candidates", "30", "--poses", "9", "--quiet", "--out", str(out))
+    assert done.returncode == 0 and out.exists(), done.stderr
+
+
+@pytest.mark.parametrize(("line", "culprit"), [
+    ("# sigma: 1e-3", "metadata 'sigma' is not a σ line pincal reads"),
+    ("# Sigma position: 1e-3", "metadata 'Sigma position' is not a σ line pincal reads"),
+    ("# sigma postion: 1e-3", "metadata 'sigma postion' is not a σ line pincal reads"),
+    ("# sigma position: abc", "metadata 'sigma position' is 'abc', not a number"),
+])
+def test_a_sigma_line_pincal_would_not_use_is_refused(five_bar_data: Path, tmp_path: Path, line: str,
+                                                      culprit: str) -> None:
+    """A '# sigma' line of no measurement kind was ignored (the fit then weighted by the default 1e-5 m), and a bad
+    σ was ignored where a line for the frame overrides it: both refused by name; --sigma overrides every line."""
+    text = five_bar_data.read_text(encoding="utf-8")
+    assert "# sigma position end_effector:" in text  # the frame's own line, which overrides '# sigma position'
+    data = tmp_path / "sigma.csv"
+    data.write_text(line + "\n" + text, encoding="utf-8")
+    assert culprit in one_line_error(run_pincal("calibrate", "five_bar", str(data)))
+    assert run_pincal("calibrate", "five_bar", str(data), "--sigma", "1e-5").returncode == 0
+
+
+@pytest.mark.parametrize("command", ["calibrate", "view", "report"])
+def test_the_sigma_help_says_the_files_lines_are_the_default(command: str) -> None:
+    """--help said '(default 1e-5)' [m] while a file's '# sigma' lines weight its channels when --sigma is not given."""
+    done = run_pincal(command, "--help")
+    assert done.returncode == 0
+    text = " ".join(done.stdout.split())
+    assert ("one measurement σ [m, rad] for weighting every channel, over the file's '# sigma' lines (default: those "
+            "lines, else 1e-5; 1e-6 m for distances)") in text
+
+
+def test_fleet_names_a_data_dir_that_is_missing_or_a_file(tmp_path: Path) -> None:
+    """'no *.csv files in X' was said of a directory that does not exist and of a CSV file given as DATA_DIR."""
+    data = tmp_path / "robot1.csv"
+    data.write_text("sample,arm_1_joint\n0,0.1\n", encoding="utf-8")
+    line = one_line_error(run_pincal("fleet", "delta", str(tmp_path / "nowhere"), "--out", str(tmp_path / "out")))
+    assert line == f"pincal: error: fleet: DATA_DIR '{tmp_path / 'nowhere'}' does not exist"
+    line = one_line_error(run_pincal("fleet", "delta", str(data), "--out", str(tmp_path / "out")))
+    assert line == (f"pincal: error: fleet: DATA_DIR '{data}' is a file, not a directory of CSV files (one per "
+                    "robot)")
+    assert not (tmp_path / "out").exists()
+
+
+def test_demo_names_every_file_it_writes(tmp_path: Path) -> None:
+    """The demo's last line listed the files of ./pincal-demo/ but truth.json."""
+    done = subprocess.run([str(PINCAL), "demo"], cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                          check=False)
+    assert done.returncode == 0, done.stderr
+    written = sorted(path.name for path in (tmp_path / "pincal-demo").iterdir())
+    last = done.stdout.strip().splitlines()[-1]
+    assert all(name in last for name in written), (written, last)
+
+
+@pytest.mark.parametrize("command", [["view", "--out", "unused.html"], ["report", "--out", "unused.html"],
+                                     ["calibrate"]])
+def test_a_data_or_job_file_given_as_the_robot_is_named(five_bar_data: Path, command: list[str]) -> None:
+    """Swapped arguments, or a job file given to view/report, were 'X is not well-formed XML: ... line 1, column 1'."""
+    job = Path(pincal.__file__).parents[1] / "examples" / "tiago_job.toml"
+    line = one_line_error(run_pincal(command[0], str(five_bar_data), "five_bar", *command[1:]))
+    assert line == (f"pincal: error: robot file '{five_bar_data}' is a data file (CSV): the robot comes first, then "
+                    "the data (pincal calibrate ROBOT DATA.csv); give a URDF file or a known robot name")
+    if command[0] != "calibrate":
+        line = one_line_error(run_pincal(command[0], str(job), str(five_bar_data), *command[1:]))
+        assert line == (f"pincal: error: robot file '{job}' is a job file (TOML): only 'pincal calibrate JOB.toml' "
+                        "reads one (docs/job_file.md); give a URDF file or a known robot name")
+
+
 def test_argparse_errors_are_one_line_in_pincal_form() -> None:
     done = run_pincal("simulate", "delta")
     assert done.returncode == 2 and done.stderr == (
