@@ -9,6 +9,8 @@ the crawl once it cannot matter (an exact fit, or a cost at the noise level).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
 import scipy.linalg
@@ -38,6 +40,10 @@ GEODESIC_ALPHA = 0.1
 #: Once the cost is at the noise level, a remaining Gauss–Newton improvement of χ² below this is
 #: statistically nil: the optimum lies inside the estimate's 1σ confidence region.
 NOISE_LEVEL_DECREMENT = 1.0
+#: Smallest residual level (½χ²·2/dof, in units of the stated σ²) taken for noise under a σ stated too large: a
+#: residual below 0.1 % of the stated σ (RMS) is an exact fit's, which goes on to the numerical floor (noise-free
+#: data leave about (1e-10 m / σ)², 1e-10 at σ = 10 µm).
+CAUTIOUS_SIGMA = 1e-6
 #: ... over the directions the data identify in practice: singular value of the weighted, scaled Jacobian at
 #: least 1, i.e. an a-priori standard deviation at most the parameters' typical size. Along the others a
 #: fit at the noise level only chases noise.
@@ -214,6 +220,18 @@ def at_floor(errors: dict[str, Array], floors: dict[str, Array]) -> bool:
     return True
 
 
+def noise_scale(cost: float, dof: int) -> float:
+    """The variance of the noise the fit has reached, in units of the stated σ²: 1 when the cost is at the stated
+    noise level (½χ² at least ¼ of the ``dof`` degrees of freedom); the residual's own level ``2 · cost / dof`` when it
+    lies below that but above :data:`CAUTIOUS_SIGMA` (a σ stated larger than the noise, as a cautious engineer states
+    it: the residual levels off there, and what remains is judged against its own noise); 0 below that, or with no
+    degree of freedom left (an exact fit is due, not a noise level)."""
+    if dof <= 0:
+        return 0.0
+    level = 2.0 * cost / dof
+    return 1.0 if level >= 0.5 else level if level >= CAUTIOUS_SIGMA else 0.0
+
+
 def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], numerical: dict[str, Array],
             rejected: bool, tol: float = 0.0) -> str:
     """Why the fit needs no more LM steps, or ``""`` (``cost``: ½‖r‖², r the weighted residual ``steps`` holds).
@@ -239,8 +257,10 @@ def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], num
     if lam >= steps.smallest_damping and at_floor(errors, numerical):
         return "converged (exact fit: every error within the numerical floor)"
     dof = steps.rows - steps.kept  # none (as many residuals as kept directions): an exact fit is due, not noise
-    if steps.kept and dof > 0 and (rejected or steps.s[-1] < PRACTICAL_INFORMATION) and cost >= 0.25 * dof \
-            and steps.decrement(PRACTICAL_INFORMATION) <= NOISE_LEVEL_DECREMENT:
+    scale = noise_scale(cost, dof)
+    information = PRACTICAL_INFORMATION * math.sqrt(scale)
+    if steps.kept and scale > 0.0 and (rejected or steps.s[-1] < information) \
+            and steps.decrement(information) <= NOISE_LEVEL_DECREMENT * scale:
         return "converged (what remains to gain is below the noise)"
     if 0.5 * steps.decrement() <= tol * max(cost, 1e-300):
         return "converged (predicted decrease below tol)"

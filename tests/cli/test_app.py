@@ -358,3 +358,23 @@ def test_a_figure_of_the_before_after_table_never_runs_into_the_one_before_it() 
     from pincal.cli.app import _column
     assert _column("1.8378 mm") == "     1.8378 mm"
     assert _column("1570.5827 mrad") == " 1570.5827 mrad"
+
+
+@pytest.mark.parametrize("robot", ["delta", "five_bar"])
+def test_a_cautious_sigma_converges_to_the_same_calibration(robot: str, tmp_path: Path) -> None:
+    """A σ stated 10× and 100× larger than the noise (10 µm): the closed-loop fits level off below the stated noise
+    level and used to crawl to the iteration limit (exit 1, 'NOT CONVERGED'); they stop at the residual's own noise
+    level, with the estimate the stated σ would give."""
+    sim = tmp_path / "sim"
+    assert run_pincal("simulate", robot, "--samples", "30", "--test-samples", "10", "--seed", "1", "--quiet",
+                      "--out", str(sim)).returncode == 0
+    reports = {}
+    for sigma in (None, "1e-4", "1e-3"):
+        report = tmp_path / f"report_{sigma}.json"
+        extra = ["--sigma", sigma] if sigma else []
+        done = run_pincal("calibrate", robot, str(sim / "measurements.csv"), *extra, "--report", str(report))
+        assert done.returncode == 0, done.stdout + done.stderr
+        reports[sigma] = json.loads(report.read_text())
+        assert reports[sigma]["converged"] and reports[sigma]["iterations"] < 20, reports[sigma]["message"]
+    for sigma in ("1e-4", "1e-3"):
+        assert reports[sigma]["test_rms_after"] == pytest.approx(reports[None]["test_rms_after"], rel=0.2)
