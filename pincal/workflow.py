@@ -316,6 +316,8 @@ def calibrate(robot: Robot, dataset: Dataset, parameter_spec: Sequence[str] | No
         folds = parse_cv(cv, usable.n_samples, cv_seed)
         every = observations_from(robot, usable.joint_names, usable.joints, usable.measurements, models)
     problem = CalibrationProblem(robot, pset, models, obs, payload=payload)
+    if formulation == "fkm":
+        check_length_scale(problem)
     full_set, removed, first = pset, [], None
     if formulation == "ikm":
         result = identify(ImplicitProblem(robot, pset, models, obs), solver=solver, loss=loss, max_iter=max_iter)
@@ -442,6 +444,39 @@ def _written(key: str, value: str | int, source: OptionSource, in_file: bool = T
         return f"{key}={value!r}"
     shown = f'"{value}"' if isinstance(value, str) else str(value)  # TOML's quotes
     return f"{key} = {shown}" + (f" in {source}" if in_file else "")
+
+
+#: Largest ratio between the spread of measured positions and the nominal robot's at the same joint readings (either
+#: way) before the data are taken for lengths in another unit: a nominal robot is off by millimetres, not by its size.
+LENGTH_SCALE_RATIO = 30.0
+
+
+def check_length_scale(problem: CalibrationProblem) -> None:
+    """Refuse positions read in the wrong unit (DataError naming the measurement): the spread of each measured
+    position (the median distance [m] from their median point, indifferent to a frame's placement and to gross
+    outliers) against the nominal robot's at the same joint readings, from the calibration's start. Data in metres
+    read as millimetres shrink 1000× (the fit would squash the robot onto them); a frame that barely moves (a spread
+    under 1 mm) is not judged."""
+    x0 = problem.initial_guess()
+    predicted = problem.evaluate(x0, jacobian=False).predicted
+    for m in problem.measurements:
+        if length_columns(m.key) != 3 or m.key not in predicted:
+            continue
+        measured, nominal = problem.observations.values[m.key][:, :3], predicted[m.key][:, :3]
+        rows = np.all(np.isfinite(measured), axis=1) & np.all(np.isfinite(nominal), axis=1)
+        if np.count_nonzero(rows) < 3:
+            continue
+        spread_measured, spread_nominal = (float(np.median(np.linalg.norm(a[rows] - np.median(a[rows], axis=0),
+                                                                          axis=1))) for a in (measured, nominal))
+        if spread_nominal < 1e-3:
+            continue
+        ratio = spread_nominal / spread_measured if spread_measured > 0.0 else math.inf
+        if not 1.0 / LENGTH_SCALE_RATIO <= ratio <= LENGTH_SCALE_RATIO:
+            shown = f"{ratio:.0f}× as much" if ratio >= 1.0 else f"{1.0 / ratio:.0f}× less"
+            raise DataError(f"the measured positions '{m.key}' spread {spread_measured * 1e3:.3g} mm about their "
+                            f"median, the nominal robot's at the same joint readings {spread_nominal * 1e3:.3g} mm "
+                            f"({shown}): are the lengths in the unit stated (metres in a CSV; a job file's [data] "
+                            "units)?")
 
 
 def check_cv_seed(cv: str | None, cv_seed: int, cv_source: OptionSource = "keyword",

@@ -236,3 +236,17 @@ def test_a_payload_heavier_than_the_robot_is_flagged_and_outputs_never_share_a_c
     assert (tmp_path / "cal.urdf2.corrections.json").is_file() and not (tmp_path / "cal.corrections.json").exists()
     light = run_pincal("calibrate", str(job), "--payload", "2@arm_7_link")
     assert light.returncode == 0 and "outweighs" not in light.stdout, light.stderr
+
+
+def test_lengths_read_in_the_wrong_unit_are_refused_not_fitted(tmp_path: Path) -> None:
+    """The TIAGo job told its file (metres) is in millimetres: every position shrinks 1000×, and the fit used to
+    squash the arm onto them (exit 0, 0.3-0.5 m parameter changes, fit RMS 0.003 mm). The measured positions' spread
+    against the nominal robot's at the same joint readings names the mistake, before any fit."""
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "tiago_mocap_raw.csv").write_bytes(RAW.read_bytes())
+    job = copy_job(tmp_path, **{'units = { length = "m"': 'units = { length = "mm"'})
+    line = one_line_error(run_pincal("calibrate", str(job)))
+    assert line.startswith("pincal: error: the measured positions 'position:") and "× as much" in line
+    assert "are the lengths in the unit stated" in line
+    # and the right unit still calibrates
+    assert run_pincal("calibrate", str(copy_job(tmp_path))).returncode == 0
