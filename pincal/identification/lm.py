@@ -233,7 +233,7 @@ def noise_scale(cost: float, dof: int) -> float:
 
 
 def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], numerical: dict[str, Array],
-            rejected: bool, tol: float = 0.0) -> str:
+            rejected: bool, tol: float = 0.0, cautious: bool = True) -> str:
     """Why the fit needs no more LM steps, or ``""`` (``cost``: ½‖r‖², r the weighted residual ``steps`` holds).
 
     The first two stops are for the crawl along weakly identifiable, strongly nonlinear directions, where LM goes
@@ -257,7 +257,7 @@ def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], num
     if lam >= steps.smallest_damping and at_floor(errors, numerical):
         return "converged (exact fit: every error within the numerical floor)"
     dof = steps.rows - steps.kept  # none (as many residuals as kept directions): an exact fit is due, not noise
-    scale = noise_scale(cost, dof)
+    scale = noise_scale(cost, dof) if cautious else (1.0 if dof > 0 and cost >= 0.25 * dof else 0.0)
     information = PRACTICAL_INFORMATION * math.sqrt(scale)
     if steps.kept and scale > 0.0 and (rejected or steps.s[-1] < information) \
             and steps.decrement(information) <= NOISE_LEVEL_DECREMENT * scale:

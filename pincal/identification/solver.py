@@ -468,7 +468,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
         kept.append(steps.kept)
         if it > 1 and solver == "lm":
-            settled = lm.settled(steps, lam, cost, pred.errors, numerical, accelerate, tol)
+            settled = lm.settled(steps, lam, cost, pred.errors, numerical, accelerate, tol, cautious=loss == "linear")
             if settled:
                 converged, message = True, settled
                 break
