@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import LIGHT_ARM_OPTIONS, PINCAL, run_pincal
+from conftest import LIGHT_ARM_OPTIONS, PINCAL, ROOT, run_pincal
 
 import pincal
 
@@ -301,7 +301,7 @@ def test_demo_names_every_file_it_writes(tmp_path: Path) -> None:
                                      ["calibrate"]])
 def test_a_data_or_job_file_given_as_the_robot_is_named(five_bar_data: Path, command: list[str]) -> None:
     """Swapped arguments, or a job file given to view/report, were 'X is not well-formed XML: ... line 1, column 1'."""
-    job = Path(pincal.__file__).parents[1] / "examples" / "tiago_job.toml"
+    job = ROOT / "examples" / "tiago_job.toml"  # the repository's (pincal may be installed elsewhere)
     line = one_line_error(run_pincal(command[0], str(five_bar_data), "five_bar", *command[1:]))
     assert line == (f"pincal: error: robot file '{five_bar_data}' is a data file (CSV): the robot comes first, then "
                     "the data (pincal calibrate ROBOT DATA.csv); give a URDF file or a known robot name")
