@@ -220,16 +220,16 @@ def at_floor(errors: dict[str, Array], floors: dict[str, Array]) -> bool:
     return True
 
 
-def noise_scale(cost: float, dof: int) -> float:
+def noise_scale(cost: float, dof: int, cautious: bool = True) -> float:
     """The variance of the noise the fit has reached, in units of the stated σ²: 1 when the cost is at the stated
-    noise level (½χ² at least ¼ of the ``dof`` degrees of freedom); the residual's own level ``2 · cost / dof`` when it
-    lies below that but above :data:`CAUTIOUS_SIGMA` (a σ stated larger than the noise, as a cautious engineer states
-    it: the residual levels off there, and what remains is judged against its own noise); 0 below that, or with no
-    degree of freedom left (an exact fit is due, not a noise level)."""
+    noise level (½χ² at least ¼ of the ``dof`` degrees of freedom); with ``cautious``, the residual's own level
+    ``2 · cost / dof`` when it lies below that but above :data:`CAUTIOUS_SIGMA` (a σ stated larger than the noise, as
+    a cautious engineer states it: the residual levels off there, and what remains is judged against its own noise);
+    0 otherwise, and with no degree of freedom left (an exact fit is due, not a noise level)."""
     if dof <= 0:
         return 0.0
     level = 2.0 * cost / dof
-    return 1.0 if level >= 0.5 else level if level >= CAUTIOUS_SIGMA else 0.0
+    return 1.0 if level >= 0.5 else level if cautious and level >= CAUTIOUS_SIGMA else 0.0
 
 
 def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], numerical: dict[str, Array],
@@ -257,7 +257,7 @@ def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], num
     if lam >= steps.smallest_damping and at_floor(errors, numerical):
         return "converged (exact fit: every error within the numerical floor)"
     dof = steps.rows - steps.kept  # none (as many residuals as kept directions): an exact fit is due, not noise
-    scale = noise_scale(cost, dof) if cautious else (1.0 if dof > 0 and cost >= 0.25 * dof else 0.0)
+    scale = noise_scale(cost, dof, cautious)
     information = PRACTICAL_INFORMATION * math.sqrt(scale)
     if steps.kept and scale > 0.0 and (rejected or steps.s[-1] < information) \
             and steps.decrement(information) <= NOISE_LEVEL_DECREMENT * scale:
