@@ -21,6 +21,15 @@ from pincal.errors import (
 )
 
 if TYPE_CHECKING:
+    from pincal.calibration import (
+        Calibration,
+        CalibrationOptions,
+        CalibrationReport,
+        Simulation,
+        calibrate,
+        read_robot_dataset,
+        simulate,
+    )
     from pincal.identification import (
         CalibrationProblem,
         CalibrationResult,
@@ -43,7 +52,6 @@ if TYPE_CHECKING:
     )
     from pincal.io import Dataset, read_dataset, write_dataset
     from pincal.model import Robot, known_robot_names, load_robot, robot_path
-    from pincal.workflow import Calibration, Simulation, calibrate, read_robot_dataset, simulate
 
 __version__ = "0.1.0"
 
@@ -74,16 +82,20 @@ _LAZY: dict[str, str] = {
     "CalibrationResult": "pincal.identification",
     "analyse": "pincal.identification",
     "Identifiability": "pincal.identification",
-    "calibrate": "pincal.workflow",
-    "simulate": "pincal.workflow",
-    "Calibration": "pincal.workflow",
-    "Simulation": "pincal.workflow",
-    "read_robot_dataset": "pincal.workflow",
+    "calibrate": "pincal.calibration",
+    "simulate": "pincal.calibration",
+    "Calibration": "pincal.calibration",
+    "Simulation": "pincal.calibration",
+    "read_robot_dataset": "pincal.calibration",
+    "CalibrationOptions": "pincal.calibration",
+    "CalibrationReport": "pincal.calibration",
 }
 
 __all__ = [
     "Calibration",
+    "CalibrationOptions",
     "CalibrationProblem",
+    "CalibrationReport",
     "CalibrationResult",
     "ConvergenceError",
     "DataError",

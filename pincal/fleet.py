@@ -6,7 +6,8 @@ The default is a process pool (one worker per core). For a cluster, pass Dask's 
     with Client("scheduler-address") as client:
         results = calibrate_fleet(jobs, executor=client.get_executor())
 
-Each job is a robot (URDF path or name) and a measurement CSV; outputs go to the job's own paths.
+Each job is a robot (URDF path or name) and a measurement CSV, or a job file (docs/job_file.md), with the options of
+:class:`~pincal.calibration.options.CalibrationOptions`; outputs go to the job's own paths.
 Results come back in the jobs' order; a job that fails is reported, not dropped, and does not stop
 the others.
 """
@@ -20,8 +21,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from pincal.calibration.report import CalibrationReport
 from pincal.errors import PincalError
 from pincal.io.files import make_directory
+
+#: A file named so is a job file (docs/job_file.md).
+JOB_SUFFIX = ".toml"
 
 
 @dataclass(frozen=True)
@@ -30,11 +35,12 @@ class FleetJob:
 
     Attributes:
         name: A label for reports (e.g. the robot's serial number).
-        robot: URDF path or known robot name (the nominal model).
-        data: Measurement CSV.
+        robot: URDF path or known robot name (the nominal model); ignored for a job file.
+        data: Measurement CSV, or a job file (``.toml``) naming its own robot and data.
         out_urdf: Where to write the calibrated URDF (optional).
         report: Where to write the report JSON (optional).
-        options: Keyword options of :func:`pincal.workflow.calibrate` (parameter_spec, solver, loss, ...).
+        options: Keyword options of :func:`pincal.calibration.calibrate` (fields of
+            :class:`~pincal.calibration.options.CalibrationOptions`); over a job file's own.
     """
 
     name: str
@@ -47,10 +53,10 @@ class FleetJob:
 
 @dataclass(frozen=True)
 class FleetResult:
-    """The outcome of one job: the report dict, or the error that stopped it."""
+    """The outcome of one job: the report, or the error that stopped it."""
 
     name: str
-    report: dict[str, Any] | None
+    report: CalibrationReport | None
     error: str | None
 
     @property
@@ -61,10 +67,14 @@ class FleetResult:
 
 def run_job(job: FleetJob) -> FleetResult:
     """Calibrate one robot (runs in a worker process; a top-level function so it pickles)."""
-    from pincal.workflow import calibrate_files
+    from pincal.calibration.files import calibrate_files, calibrate_job
+    from pincal.calibration.job import read_job
 
     try:
-        cal = calibrate_files(job.robot, job.data, job.out_urdf, job.report, **job.options)
+        if job.data.endswith(JOB_SUFFIX):
+            cal = calibrate_job(read_job(job.data).overridden(job.out_urdf, job.report, **job.options))
+        else:
+            cal = calibrate_files(job.robot, job.data, job.out_urdf, job.report, **job.options)
     except PincalError as exc:
         return FleetResult(job.name, None, f"{type(exc).__name__}: {exc}")
     return FleetResult(job.name, cal.report, None)
@@ -90,8 +100,10 @@ def calibrate_fleet(jobs: Sequence[FleetJob], executor: concurrent.futures.Execu
 
 
 def jobs_from_directory(robot: str, directory: str | Path, out: str | Path, **options: Any) -> list[FleetJob]:
-    """One job per ``*.csv`` in ``directory`` (sorted), all on the same nominal robot; outputs named
-    after each CSV in ``out``."""
+    """One job per ``*.csv`` in ``directory`` on the nominal ``robot``, and one per job file ``*.toml`` (its own robot
+    and data), sorted by name; outputs named after each file in ``out``; ``options`` (keywords of
+    :class:`~pincal.calibration.options.CalibrationOptions`) for every job."""
     out_dir = make_directory(out, "--out")
+    files = sorted([*Path(directory).glob("*.csv"), *Path(directory).glob(f"*{JOB_SUFFIX}")])
     return [FleetJob(p.stem, robot, str(p), str(out_dir / f"{p.stem}.urdf"), str(out_dir / f"{p.stem}.json"), options)
-            for p in sorted(Path(directory).glob("*.csv"))]
+            for p in files]

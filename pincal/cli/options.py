@@ -1,15 +1,20 @@
-"""Command-line options shared by several ``pincal`` commands, spelled once so they cannot drift."""
+"""Command-line options shared by several ``pincal`` commands, spelled once so they cannot drift.
+
+The calibration options are made from :class:`~pincal.calibration.options.CalibrationOptions`
+(:func:`add_calibration_options`, :func:`given_options`): their flags, choices and help are the dataclass's.
+"""
 
 from __future__ import annotations
 
 import argparse
+from collections.abc import Collection
+from typing import Any
 
+from pincal.calibration.options import OPTIONS, PARAMETERS_HELP
 from pincal.errors import DataError
 from pincal.identification.corrections import Payload
 
 MEASURE_HELP = "position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME"
-PARAMETERS_HELP = ("named sets (default, model24, model24i, hexapod42, hexapod44) and name patterns, combined in "
-                   "order; !pattern removes (default: the default set, docs/dataset.md 'Parameters')")
 
 
 def positive_int(text: str) -> int:
@@ -63,16 +68,6 @@ def add_perturb(parser: argparse.ArgumentParser) -> None:
                         help="σ of the true errors [m and rad] (default 1e-3)")
 
 
-def add_solver_and_loss(parser: argparse.ArgumentParser) -> None:
-    """``--solver`` and ``--loss`` of the commands that fit (calibrate, view, report)."""
-    parser.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm",
-                        help="lm: Levenberg-Marquardt on the identifiable directions (default); tsvd; ridge")
-    parser.add_argument("--loss", choices=["auto", "linear", "cauchy"], default="auto",
-                        help="auto (default): least squares, then a robust (Cauchy) refit if the data hold samples "
-                             "their own noise level makes implausible, which are listed; linear: least squares only; "
-                             "cauchy: robust from the start")
-
-
 def add_spread(parser: argparse.ArgumentParser) -> None:
     """``--spread``: half-range of the random actuated values about the reference [rad or m]."""
     parser.add_argument("--spread", type=positive_float, metavar="S",
@@ -85,30 +80,6 @@ def add_spread(parser: argparse.ArgumentParser) -> None:
 def add_parameters(parser: argparse.ArgumentParser, help_text: str = PARAMETERS_HELP) -> None:
     """``--parameters``: a named set or shell-style name patterns."""
     parser.add_argument("--parameters", nargs="+", help=help_text)
-
-
-def add_selection_and_cv(parser: argparse.ArgumentParser) -> None:
-    """``--select`` (model selection) and ``--cv`` (cross-validation) of ``calibrate``."""
-    parser.add_argument("--select", choices=["auto", "bic", "none"], default="auto",
-                        help="model selection: bic leaves out the groups of parameters (joint translations, "
-                             "rotations, reading offsets) the Bayesian information criterion rejects, then refits; "
-                             "none fits every identifiable parameter; auto (default): bic for the default "
-                             "parameters, none for --parameters you name")
-    parser.add_argument("--cv", metavar="K|KxR|loo",
-                        help="cross-validate the whole fit over every usable sample of the file: K folds, KxR "
-                             "(R shuffles, e.g. 5x4) or loo (leave one out); prints the cross-validated RMS")
-    parser.add_argument("--cv-seed", type=non_negative_int, metavar="N",
-                        help="seed of the first --cv shuffle (the R shuffles are seeded N, N+1, …; default 0): the "
-                             "cross-validated figure depends on how the samples fall into folds, and other seeds "
-                             "show by how much; K-fold plans only (--cv loo has no shuffle)")
-
-
-def add_markers(parser: argparse.ArgumentParser) -> None:
-    """``--markers``: how the markers declared on a frame (``position:<frame>@<marker>`` columns) are fitted."""
-    parser.add_argument("--markers", choices=["each", "cluster"], default="each",
-                        help="markers declared on a frame (position:<frame>@<marker> columns): each (default) fits "
-                             "each marker's offset on its frame; cluster fits one rigid placement of the frame's "
-                             "markers, whose nominal offsets the file declares ('# marker m1 on <frame>: x y z' [m])")
 
 
 def payload(text: str) -> Payload:
@@ -133,3 +104,31 @@ def add_payload(parser: argparse.ArgumentParser, note: str) -> None:
                         help="a point mass the robot carries: MASS [kg] on FRAME (a link or frame of the URDF), at "
                              "X,Y,Z [m] in that frame (default 0,0,0); its gravity torque adds to the links' in the "
                              f"joint compliances ('*.compliance'), and is refused without one; {note}")
+
+
+#: The argparse type of each kind of calibration option (:attr:`~pincal.calibration.options.Option.kind`).
+_TYPES: dict[str, Any] = {"int": positive_int, "seed": non_negative_int, "sigma": positive_float, "payload": payload}
+
+
+def add_calibration_options(parser: argparse.ArgumentParser, skip: Collection[str] = ()) -> None:
+    """Every option of :class:`~pincal.calibration.options.CalibrationOptions` the command line gives (all but
+    ``skip`` and the library-only ones), as its metadata spells it. None of them has an argparse default: an option
+    not given is None here, so that a job file's value (or the dataclass's default) stands."""
+    for name, option in OPTIONS.items():
+        if option.api_only or name in skip:
+            continue
+        how: dict[str, Any] = {"dest": name, "help": option.help, "default": None}
+        if option.kind == "texts":
+            how["nargs"] = "+"
+        elif option.kind in _TYPES:
+            how["type"] = _TYPES[option.kind]
+        if option.choices is not None:
+            how["choices"] = list(option.choices)
+        if option.metavar is not None:
+            how["metavar"] = option.metavar
+        parser.add_argument(option.flag, **how)
+
+
+def given_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The calibration options given on the command line (those not given left out), by keyword."""
+    return {name: getattr(args, name) for name in OPTIONS if getattr(args, name, None) is not None}

@@ -4,28 +4,27 @@ from __future__ import annotations
 
 import argparse
 
-from pincal.cli.view import add_calibration_options, load_view
+from pincal.cli.view import add_view_options, load_view
 from pincal.errors import DataError, listing
-from pincal.viz.html_report import ReportContent, held_out_errors, mm_text, read_truth, write_report
+from pincal.viz.html_report import ReportContent, mm_text, read_truth, write_report
 
 
 def cmd_report(args: argparse.Namespace) -> int:
     """``pincal report``: calibrate (or read ``--result``) and write one offline HTML report; exit status 1 when
     the fit did not converge."""
     truth = read_truth(args.truth) if args.truth else None  # before any work: an unreadable file stops it
-    view, dataset, calibration = load_view(args)
-    test_before, test_after = held_out_errors(view, dataset)
+    view, calibration = load_view(args)
     if truth is not None:
         names = set(view.problem.parameters.names)
         if not names & set(truth):  # e.g. the truth.json of another robot: a column of dashes, said nowhere
             raise DataError(f"--truth '{args.truth}' holds none of the {len(names)} parameters fitted here (it lists "
                             f"{listing(sorted(truth)) or 'none'}): give the truth.json of this robot's simulation")
-    content = ReportContent(view, test_before, test_after, truth, (str(args.robot), str(args.data)))
+    content = ReportContent(view, truth, (str(args.robot), str(args.data)))
     path = write_report(content, args.out, args.quiet)
     report = view.report
-    held = f"; held out {mm_text(report['test_rms_before'])} → {mm_text(report['test_rms_after'])}" \
-        if "test_rms_before" in report else ""
-    print(f"RMS position error {mm_text(report.get('rms_before'))} → {mm_text(report.get('rms_after'))}{held}")
+    held = f"; held out {mm_text(report.test_rms_before)} → {mm_text(report.test_rms_after)}" \
+        if report.has_held_out else ""
+    print(f"RMS position error {mm_text(report.rms_before)} → {mm_text(report.rms_after)}{held}")
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): open it in a browser, no network needed")
     return 0 if calibration is None or calibration.result.converged else 1
 
@@ -39,7 +38,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                     "deviations, the combinations the data cannot separate, figures, and the 3D scene.",
         epilog="example: pincal report delta sim/measurements.csv --parameters model24 --truth sim/truth.json "
                "--out report.html")
-    add_calibration_options(report)
+    add_view_options(report)
     report.add_argument("--out", required=True, help="HTML file to write")
     report.add_argument("--truth", metavar="TRUTH.json",
                         help="true parameters (truth.json of pincal simulate) to compare the estimates with")

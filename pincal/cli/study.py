@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.setup import measurement_models
 from pincal.cli.options import (
     add_measurement,
     add_parameters,
@@ -46,7 +47,6 @@ from pincal.study.pose_selection import (
     select_poses,
 )
 from pincal.study.simulation import random_actuated
-from pincal.workflow import measurement_models
 
 Array = npt.NDArray[np.float64]
 

@@ -491,7 +491,7 @@ def _check_units(data: Dataset, lines: list[int], kinds: dict[str, str]) -> None
                                 f"(|reading| > 4 pi on {big.size} of {data.n_samples} rows)")
 
 
-# --- other column layouts (a job file's, pincal.io.job) -------------------------------------------
+# --- other column layouts (a job file's, pincal.calibration.job) -------------------------------------------
 @dataclass
 class Table:
     """A CSV file's cells before any column is given a meaning.

@@ -19,10 +19,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.pipeline import Calibration
+from pincal.calibration.report import CalibrationReport
 from pincal.errors import DataError
-from pincal.identification.problem import CalibrationProblem
-from pincal.io.adapters import observations_from
-from pincal.io.dataset import Dataset
 from pincal.io.files import make_directory, write_text
 from pincal.progress import Progress
 from pincal.viz.scene import CalibrationView, static_scene
@@ -35,32 +34,19 @@ class ReportContent:
     """Everything the report shows.
 
     Attributes:
-        view: The calibration (fit samples, estimates, results dictionary, errors).
-        test_before, test_after: Per-sample error sizes [m] of the held-out samples, if any.
+        view: The calibration (fit samples, estimates, the typed report, errors; the held-out evaluation).
         truth: True deviations by parameter name [m, rad], when known (a simulation's truth.json).
         sources: What the report was made from (robot, data), shown in the header.
     """
 
     view: CalibrationView
-    test_before: Array | None = None
-    test_after: Array | None = None
     truth: dict[str, float] | None = None
     sources: tuple[str, ...] = ()
 
-
-def held_out_errors(view: CalibrationView, dataset: Dataset) -> tuple[Array | None, Array | None]:
-    """Per-sample error sizes [m] of the dataset's ``test`` rows at the nominal robot and at the estimate."""
-    if "test" not in dataset.sets:
-        return None, None
-    problem = view.problem
-    test = dataset.of_set("test")
-    obs = observations_from(problem.robot, test.joint_names, test.joints, test.measurements, problem.measurements)
-    tprob = CalibrationProblem(problem.robot, problem.parameters, problem.measurements, obs,
-                               payload=problem.payload)
-    before = tprob.evaluate(np.zeros(len(problem.parameters)), jacobian=False).errors
-    after = tprob.evaluate(view.x, jacobian=False).errors
-    held = CalibrationView(tprob, view.x, view.report, before, after)
-    return held.sample_errors()
+    def held_out_errors(self) -> tuple[Array | None, Array | None]:
+        """Per-sample error sizes [m] of the held-out samples before and after (Nones without held-out samples)."""
+        held = self.view.held_out
+        return held.sample_errors() if held is not None else (None, None)
 
 
 def read_truth(path: str | Path) -> dict[str, float]:
@@ -164,14 +150,14 @@ window.addEventListener("message", function (e) {
 """
 
 
-def _cards(report: dict[str, Any]) -> str:
-    rows = [("RMS position error, fit samples", report.get("rms_before"), report.get("rms_after"))]
-    if "test_rms_before" in report:
-        rows.append(("RMS position error, held-out samples", report.get("test_rms_before"),
-                     report.get("test_rms_after")))
-        rows.append(("largest error, held-out samples", report.get("test_max_before"), report.get("test_max_after")))
+def _cards(report: CalibrationReport) -> str:
+    rows = [("RMS position error, fit samples", report.rms_before, report.rms_after)]
+    if report.has_held_out:
+        rows.append(("RMS position error, held-out samples", report.test_rms_before,
+                     report.test_rms_after))
+        rows.append(("largest error, held-out samples", report.test_max_before, report.test_max_after))
     else:
-        rows.append(("largest error, fit samples", report.get("max_before"), report.get("max_after")))
+        rows.append(("largest error, fit samples", report.max_before, report.max_after))
     cards = []
     for what, before, after in rows:
         cards.append(f'<div class="card"><div class="what">{html.escape(what)}</div>'
@@ -181,16 +167,16 @@ def _cards(report: dict[str, Any]) -> str:
     return '<div class="cards">' + "".join(cards) + "</div>"
 
 
-def _verdict(report: dict[str, Any]) -> str:
-    held = "test_rms_before" in report
-    before = report.get("test_rms_before" if held else "rms_before")
-    after = report.get("test_rms_after" if held else "rms_after")
+def _verdict(report: CalibrationReport) -> str:
+    held = report.has_held_out
+    before = report.test_rms_before if held else report.rms_before
+    after = report.test_rms_after if held else report.rms_after
     if before is None or after is None:
         return ""
-    where = f"on {_text(report.get('n_test_samples'))} held-out poses the calibration never saw" if held else \
+    where = f"on {_text(report.n_test_samples)} held-out poses the calibration never saw" if held else \
         "on the samples it was fitted to (no held-out samples: add rows with set=test to check it)"
-    if not report.get("converged", True):
-        return (f'<p class="warn">The solver did not converge ({html.escape(str(report.get("message")))}): '
+    if not report.converged:
+        return (f'<p class="warn">The solver did not converge ({html.escape(str(report.message))}): '
                 f"treat these numbers with care. RMS error {where}: {mm_text(before)} → {mm_text(after)}.</p>")
     change = (1 - after / before) * 100 if before else 0.0
     kind = "verdict" if after < before else "warn"
@@ -199,21 +185,21 @@ def _verdict(report: dict[str, Any]) -> str:
             f"{mm_text(after)} ({abs(change):.1f} % {'less' if change >= 0 else 'more'}).</p>")
 
 
-def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
-    cond = report.get("condition_number")
+def _summary_table(report: CalibrationReport, n_test: int | None) -> str:
+    cond = report.condition_number
     rows: list[tuple[str, str, str]] = [
-        ("samples (fit / held out)", f"{report.get('n_samples')} / {n_test if n_test is not None else 0}", ""),
-        ("measurements", ", ".join(report.get("measurements", [])), ""),
+        ("samples (fit / held out)", f"{report.n_samples} / {n_test if n_test is not None else 0}", ""),
+        ("measurements", ", ".join(report.measurements), ""),
         *_reading_rows(report),
-        ("parameters", str(report.get("n_parameters")), ""),
-        ("identifiable", f"{report.get('n_identifiable')} of {report.get('n_parameters')}", ""),
+        ("parameters", str(report.n_parameters), ""),
+        ("identifiable", f"{report.n_identifiable} of {report.n_parameters}", ""),
         ("estimated (after model selection)", _estimated(report), ""),
         ("condition number (scaled)", f"{cond:.3g}" if cond else "–", ""),
-        ("solver", f"{report.get('solver')} ({report.get('loss')} loss): {report.get('message')}, "
-                   f"{report.get('iterations')} iterations", ""),  # no wall time: same inputs, same file
-        ("a-posteriori variance factor σ²", f"{report['sigma2']:.3g}" if report.get("sigma2") else "–", ""),
+        ("solver", f"{report.solver} ({report.loss} loss): {report.message}, "
+                   f"{report.iterations} iterations", ""),  # no wall time: same inputs, same file
+        ("a-posteriori variance factor σ²", f"{report.sigma2:.3g}" if report.sigma2 else "–", ""),
     ]
-    payload = report.get("payload")
+    payload = report.payload
     if payload:
         x, y, z = payload["offset"]
         rows.append(("payload (in the gravity torque of the compliances)",
@@ -221,19 +207,19 @@ def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
     table = ['<table><tr><th></th><th>before</th><th>after</th></tr>']
     numbers = [("RMS position error (fit)", "rms_before", "rms_after"),
                ("max position error (fit)", "max_before", "max_after")]
-    if "test_rms_before" in report:
+    if report.has_held_out:
         numbers += [("RMS position error (held out)", "test_rms_before", "test_rms_after"),
                     ("max position error (held out)", "test_max_before", "test_max_after")]
     for label, b, a in numbers:
-        table.append(f"<tr><td>{label}</td><td class='before'>{mm_text(report.get(b))}</td>"
-                     f"<td class='after'>{mm_text(report.get(a))}</td></tr>")
+        table.append(f"<tr><td>{label}</td><td class='before'>{mm_text(getattr(report, b))}</td>"
+                     f"<td class='after'>{mm_text(getattr(report, a))}</td></tr>")
     angles = [("RMS orientation error (fit)", "rms_angle_before", "rms_angle_after"),
               ("RMS orientation error (held out)", "test_rms_angle_before", "test_rms_angle_after")]
     for label, b, a in angles:
-        if b in report:
-            table.append(f"<tr><td>{label}</td><td class='before'>{mrad_text(report.get(b))}</td>"
-                         f"<td class='after'>{mrad_text(report.get(a))}</td></tr>")
-    cv = report.get("cv")
+        if getattr(report, b) is not None:
+            table.append(f"<tr><td>{label}</td><td class='before'>{mrad_text(getattr(report, b))}</td>"
+                         f"<td class='after'>{mrad_text(getattr(report, a))}</td></tr>")
+    cv = report.cv
     if cv:
         table.append(f"<tr><td>RMS position error (cross-validated, {_text(cv['plan'])}, {_text(cv['n_samples'])} "
                      f"samples)</td><td></td><td class='after'>{mm_text(cv['rms'])}</td></tr>")
@@ -243,41 +229,42 @@ def _summary_table(report: dict[str, Any], n_test: int | None) -> str:
         if "rms_angle" in cv:
             table.append(f"<tr><td>RMS orientation error (cross-validated)</td><td></td>"
                          f"<td class='after'>{mrad_text(cv['rms_angle'])}</td></tr>")
-    if report.get("calibration_gain") is not None:
+    if report.calibration_gain is not None:
         table.append(f"<tr><td>calibration gain G (study 000, vs the truth)</td><td></td>"
-                     f"<td>{report['calibration_gain']:.1f} %</td></tr>")
+                     f"<td>{report.calibration_gain:.1f} %</td></tr>")
     table.append("</table>")
     facts = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(v)}</td></tr>" for k, v, _ in rows)
-    down = report.get("down_weighted_samples") or []
-    if down:
+    down = report.down_weighted_samples or []
+    if down:  # a count, then which samples: an id alone reads as a count
         facts += (f"<tr><td>down-weighted samples (robust loss)</td>"
-                  f"<td>{html.escape(', '.join(map(str, down)))}</td></tr>")
+                  f"<td>{len(down)}: {'sample' if len(down) == 1 else 'samples'} "
+                  f"{html.escape(', '.join(map(str, down)))}</td></tr>")
     return (f'<div class="cards"><div><table>{facts}</table></div><div>{"".join(table)}</div></div>')
 
 
-def _reading_rows(report: dict[str, Any]) -> list[tuple[str, str, str]]:
+def _reading_rows(report: CalibrationReport) -> list[tuple[str, str, str]]:
     """The position readings the figures are made of (fit / held out), when some marker was not seen or several
     are measured: every RMS is over the readings taken."""
-    unseen = report.get("readings_not_seen") or {}
+    unseen = report.readings_not_seen or {}
     if len(unseen) < 2 and not any(unseen.values()):
         return []
-    fitted, held = report.get("readings") or {}, report.get("test_readings") or {}
+    fitted, held = report.readings or {}, report.test_readings or {}
     return [("position readings (fit / held out; not seen in the fit)",
              f"{sum(fitted.get(k, 0) for k in unseen)} / {sum(held.get(k, 0) for k in unseen)}; "
              f"{sum(unseen.values())}", "")]
 
 
-def _estimated(report: dict[str, Any]) -> str:
+def _estimated(report: CalibrationReport) -> str:
     """How many parameters were estimated, and what model selection left out."""
-    selection = report.get("selection") or {}
+    selection = report.selection or {}
     left_out = selection.get("removed_groups") or []
-    count = str(report.get("n_estimated", report.get("n_identifiable")))
+    count = str(report.n_estimated)
     return count + (f" (left out: {', '.join(left_out)})" if left_out else "")
 
 
 def _parameter_table(content: ReportContent) -> str:
     view, truth = content.view, content.truth
-    report = view.report["parameters"]
+    report = view.report.parameters
     head = "<tr><th>parameter</th><th>unit</th><th>estimate</th><th>σ</th><th>identifiable</th>"
     head += "<th>truth</th><th>error</th></tr>" if truth else "</tr>"
     rows = [head]
@@ -296,8 +283,8 @@ def _parameter_table(content: ReportContent) -> str:
     return "<table>" + "".join(rows) + "</table>"
 
 
-def _combinations(report: dict[str, Any]) -> str:
-    combos = report.get("unidentifiable") or []
+def _combinations(report: CalibrationReport) -> str:
+    combos = report.unidentifiable or []
     if not combos:
         return "<p>Every parameter is identifiable from these data.</p>"
     items = "".join(f"<li>{html.escape(c)}</li>" for c in combos)
@@ -308,6 +295,44 @@ def _combinations(report: dict[str, Any]) -> str:
             f'<ul class="combos">{items}</ul>')
 
 
+def error_figures(report: CalibrationReport) -> dict[str, float | None]:
+    """The RMS position errors [m] the error figures state, read from the report: ``fit before``, ``fit after``
+    and, with held-out samples, ``held out before`` and ``held out after``."""
+    out = {"fit before": report.rms_before, "fit after": report.rms_after}
+    if report.has_held_out:
+        out.update({"held out before": report.test_rms_before, "held out after": report.test_rms_after})
+    return out
+
+
+def figures_text(report: CalibrationReport) -> str:
+    """The RMS figures of :func:`error_figures` in words, as the error figures' text alternative states them:
+    ``before, fit: RMS 1.7300 mm; after, fit: RMS 0.0144 mm; ...``."""
+    parts = []
+    for what, value in error_figures(report).items():
+        where, when = what.rsplit(" ", 1)
+        parts.append(f"{when}, {where}: RMS {mm_text(value)}")
+    return "; ".join(parts)
+
+
+def _per_sample_text(before: Array, after: Array, test_before: Array | None, test_after: Array | None) -> str:
+    """What the per-sample figure draws, in words: how many samples, and the largest error of each series [mm]."""
+    def largest(values: Array | None) -> str:
+        finite = values[np.isfinite(values)] if values is not None else np.zeros(0)
+        return mm_text(float(finite.max())) if finite.size else "–"
+
+    text = f"{len(before)} fit samples, largest before {largest(before)}, after {largest(after)}"
+    if test_before is not None and len(test_before):
+        text += f"; {len(test_before)} held out, largest before {largest(test_before)}, after {largest(test_after)}"
+    return text
+
+
+def _difference_text(difference: float) -> str:
+    """How far apart the two robots are drawn [m], in words."""
+    if not math.isfinite(difference):
+        return "their difference could not be measured"
+    return f"their frames lie at most {mm_text(difference, 3)} apart over the samples"
+
+
 def render_report(content: ReportContent, quiet: bool = True) -> str:
     """The report as one self-contained HTML page."""
     from pincal import __version__
@@ -316,33 +341,40 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
     view, report = content.view, content.view.report
     problem = view.problem
     before, after = view.sample_errors()
+    test_before, test_after = content.held_out_errors()
     has_lengths = view.has_lengths
     figures: list[str] = []
     names = problem.parameters.names
     units = [p.unit for p in problem.parameters]
-    values = np.array([report["parameters"][n]["value"] for n in names], dtype=float)
-    std = np.array([np.nan if report["parameters"][n]["std"] is None else report["parameters"][n]["std"]
+    values = np.array([report.parameters[n]["value"] for n in names], dtype=float)
+    std = np.array([np.nan if report.parameters[n]["std"] is None else report.parameters[n]["std"]
                     for n in names], dtype=float)
-    identified = [bool(report["parameters"][n]["identified"]) for n in names]
+    identified = [bool(report.parameters[n]["identified"]) for n in names]
     truth = None if content.truth is None else np.array([content.truth.get(n, np.nan) for n in names])
+    rms = error_figures(report)
     with Progress("figures", 4, quiet) as progress:
         if has_lengths:
-            figures.append(_png(plots.error_histograms(before, after, content.test_before, content.test_after),
-                                "histograms of the position errors before and after calibration"))
+            figures.append(_png(plots.error_histograms(before, after, test_before, test_after, rms),
+                                "histograms of the position errors before and after calibration: "
+                                + figures_text(report)))
             progress.advance()
-            figures.append(_png(plots.errors_per_sample(before, after, content.test_before, content.test_after),
-                                "position error of each sample before and after calibration"))
+            figures.append(_png(plots.errors_per_sample(before, after, test_before, test_after),
+                                f"position error of each sample before and after calibration: "
+                                f"{_per_sample_text(before, after, test_before, test_after)}"))
             progress.advance()
         figures.append(_png(plots.parameter_estimates(names, units, values, std, identified, truth),
-                            "estimated parameter deviations with error bars"))
+                            f"estimated parameter deviations with error bars: {len(names)} parameters, "
+                            f"{sum(identified)} identifiable"))
         progress.advance()
-        if report.get("cost_history"):
-            figures.append(_png(plots.convergence(report["cost_history"]), "cost per iteration"))
+        if report.cost_history:
+            history = report.cost_history
+            figures.append(_png(plots.convergence(history), f"cost per iteration: {len(history)} values, from "
+                                                            f"{history[0]:.4g} to {history[-1]:.4g}"))
         progress.advance()
     scene, summary = static_scene(view, quiet=quiet)
     srcdoc = html.escape(scene, quote=True)
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in summary.notes)
-    shifts = report.get("reference_shifts") or {}
+    shifts = report.reference_shifts or {}
     shift_text = ""
     if shifts:
         listed = ", ".join(f"{html.escape(k)} {v:+.6g}" for k, v in shifts.items())
@@ -351,9 +383,9 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
                       "in the new file's terms is in its <code>&lt;joint_sensor joint=… zero=…&gt;</code> element "
                       "(the sensor reads q + zero; see docs/calibrated_urdf.md).</p>")
     tied = (", and the parameters tied to them (see below) may then differ from the truth while predicting the "
-            "measurements just as well") if report.get("unidentifiable") and content.truth else ""
-    n_test = None if content.test_before is None else len(content.test_before)
-    title = f"Calibration of {report.get('robot', problem.robot.name)}"
+            "measurements just as well") if report.unidentifiable and content.truth else ""
+    n_test = None if test_before is None else len(test_before)
+    title = f"Calibration of {report.robot or problem.robot.name}"
     sources = " · ".join(html.escape(s) for s in content.sources)
     magnified = (f"errors magnified ×{summary.magnification:g}, coloured by size on the scale of the largest error "
                  f"({summary.error_scale * 1e3:.3g} mm)") if summary.has_points else "no 3D measurements"
@@ -362,14 +394,15 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
 <title>{html.escape(title)} — pincal report</title><style>{STYLE}</style></head>
 <body><main>
 <h1>{html.escape(title)}</h1>
-<p class="sub">{_text(report.get('n_samples'))} fit samples{f', {n_test} held out' if n_test else ''} ·
-{html.escape(', '.join(report.get('measurements', [])))} · {_text(report.get('n_parameters'))} parameters ·
+<p class="sub">{_text(report.n_samples)} fit samples{f', {n_test} held out' if n_test else ''} ·
+{html.escape(', '.join(report.measurements))} · {_text(report.n_parameters)} parameters ·
 pincal {__version__}{' · ' + sources if sources else ''}</p>
 {_cards(report)}
 {_verdict(report)}
 <h2>The robot in 3D</h2>
 <iframe id="scene" title="3D scene: nominal and calibrated robot with the sample errors" srcdoc="{srcdoc}"></iframe>
-<p class="caption">Orange: the calibrated robot; blue ghost: the nominal one (they differ by millimetres);
+<p class="caption">Orange: the calibrated robot; blue ghost: the nominal one, both in the measurement frame
+({html.escape(_difference_text(summary.robot_difference))});
 black dots: measured points; segments: each sample's error, {magnified}. Use the slider (or ← →) to step through
 the samples; drag to orbit, scroll to zoom.</p>
 <p class="caption" id="scene-status">3D scene: waiting for the viewer (needs JavaScript and WebGL).</p>
@@ -399,12 +432,11 @@ def write_report(content: ReportContent, out: str | Path, quiet: bool = True) ->
     return write_text(path, render_report(content, quiet))
 
 
-def write_demo_report(calibration: Any, dataset: Dataset, out_dir: str | Path) -> Path:
+def write_demo_report(calibration: Calibration, out_dir: str | Path) -> Path:
     """``out_dir/report.html`` for ``pincal demo`` (with the truth from ``out_dir/truth.json`` if present)."""
     out = Path(out_dir)
     view = CalibrationView.from_calibration(calibration)
-    test_before, test_after = held_out_errors(view, dataset)
     truth_path = out / "truth.json"
     truth = read_truth(truth_path) if truth_path.is_file() else None
-    content = ReportContent(view, test_before, test_after, truth, ("pincal demo", str(out / "measurements.csv")))
+    content = ReportContent(view, truth, ("pincal demo", str(out / "measurements.csv")))
     return write_report(content, out / "report.html")

@@ -7,7 +7,7 @@ Inputs are SI (m, rad); the axes show millimetres and degrees. Each function ret
 from __future__ import annotations
 
 import io
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -34,10 +34,15 @@ def _rms(values: Array) -> float:
 
 
 def error_histograms(before: Array, after: Array, test_before: Array | None = None,
-                     test_after: Array | None = None) -> Figure:
+                     test_after: Array | None = None, rms: Mapping[str, float | None] | None = None) -> Figure:
     """Histograms of the per-sample position errors [m] before and after calibration, on a log axis
     (the two differ by orders of magnitude); held-out samples as outlines. Samples with no reading (NaN) are
-    left out."""
+    left out. The legend states the RMS errors [m] ``rms`` gives (``fit before``, ``fit after``, ``held out before``,
+    ``held out after``: the report's, over the readings), else those of the samples drawn."""
+    def stated(what: str, values: Array) -> str:
+        value = rms[what] if rms is not None and what in rms else _rms(values)
+        return f"RMS {value * MM:.3g} mm" if isinstance(value, int | float) else "RMS –"
+
     before, after = before[np.isfinite(before)], after[np.isfinite(after)]
     if test_before is not None and test_after is not None:
         test_before, test_after = test_before[np.isfinite(test_before)], test_after[np.isfinite(test_after)]
@@ -49,14 +54,14 @@ def error_histograms(before: Array, after: Array, test_before: Array | None = No
     low, high = (positive.min() / 1.5, positive.max() * 1.5) if positive.size else (1e-6, 1.0)
     bins = np.logspace(np.log10(low), np.log10(high), 45).tolist()
     ax.hist(np.maximum(before * MM, low), bins, color=BEFORE, alpha=0.7,
-            label=f"before, fit samples (RMS {_rms(before) * MM:.3g} mm)")
+            label=f"before, fit samples ({stated('fit before', before)})")
     ax.hist(np.maximum(after * MM, low), bins, color=AFTER, alpha=0.7,
-            label=f"after, fit samples (RMS {_rms(after) * MM:.3g} mm)")
+            label=f"after, fit samples ({stated('fit after', after)})")
     if test_before is not None and test_after is not None and len(test_before):
         ax.hist(np.maximum(test_before * MM, low), bins, histtype="step", color=BEFORE, linewidth=1.6,
-                linestyle="--", label=f"before, held out (RMS {_rms(test_before) * MM:.3g} mm)")
+                linestyle="--", label=f"before, held out ({stated('held out before', test_before)})")
         ax.hist(np.maximum(test_after * MM, low), bins, histtype="step", color=AFTER, linewidth=1.6,
-                linestyle="--", label=f"after, held out (RMS {_rms(test_after) * MM:.3g} mm)")
+                linestyle="--", label=f"after, held out ({stated('held out after', test_after)})")
     ax.set_xscale("log")
     ax.set_xlabel("position error of a sample [mm] (log scale)")
     ax.set_ylabel("number of samples")

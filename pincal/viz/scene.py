@@ -21,13 +21,16 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal.calibration.heldout import HeldOut, evaluate_held_out, sample_length_errors
+from pincal.calibration.options import CalibrationOptions
+from pincal.calibration.pipeline import Calibration
+from pincal.calibration.report import CalibrationReport
+from pincal.calibration.setup import prepare
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.identification.corrections import payload_from_dict
 from pincal.identification.measurements import CameraPose, Pose, Position
-from pincal.identification.parameters import MarkerFit, ParameterSet, choose_parameters
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.solver import error_norms, length_columns, rms
-from pincal.io.adapters import measurements_for, observations_from
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
 from pincal.progress import Progress
@@ -44,7 +47,6 @@ from pincal.viz.visuals import (
     segment_pose,
     translation_pose,
 )
-from pincal.workflow import sample_length_errors, usable_part
 
 Array = npt.NDArray[np.float64]
 
@@ -60,75 +62,65 @@ class CalibrationView:
     """One calibration as the scene and the report show it.
 
     Attributes:
-        problem: The calibration samples (the ``train`` set) and models.
+        problem: The calibration samples (the usable ``train`` samples) and models.
         x: Estimated deviations [m, rad], in ``problem.parameters`` order.
-        report: The results dictionary (:func:`pincal.io.report_data.report_dict`).
-        errors_before, errors_after: Per measurement key, (N, rows) predicted − measured [m, rad] at
-            the nominal robot and at ``x``.
+        x0: The fit's start [m, rad] ("before": the nominal robot, its measurement frame registered where estimated).
+        report: The typed report (:class:`~pincal.calibration.report.CalibrationReport`).
+        errors_before, errors_after: Per measurement key, (N, rows) errors [m, rad] at the fit's start and at ``x``.
+        held_out: The held-out samples' evaluation (:func:`~pincal.calibration.heldout.evaluate_held_out`), or None.
     """
 
     problem: CalibrationProblem
     x: Array
-    report: dict[str, Any]
+    report: CalibrationReport
     errors_before: dict[str, Array]
     errors_after: dict[str, Array]
+    x0: Array
+    held_out: HeldOut | None = None
 
     @classmethod
-    def from_calibration(cls, calibration: Any) -> CalibrationView:
-        """From a :class:`pincal.workflow.Calibration`."""
+    def from_calibration(cls, calibration: Calibration) -> CalibrationView:
+        """From a :class:`~pincal.calibration.pipeline.Calibration`."""
         result = calibration.result
-        return cls(calibration.problem, result.x, calibration.report, result.errors_before, result.errors_after)
+        return cls(calibration.problem, result.x, calibration.report, result.errors_before, result.errors_after,
+                   result.x0, calibration.held_out)
 
     @classmethod
-    def from_result(cls, robot: Robot, dataset: Dataset, report: dict[str, Any],
-                    parameter_spec: list[str] | None = None, sigma: float | None = None,
-                    markers: MarkerFit = "each") -> CalibrationView:
-        """From a results JSON written earlier (``pincal calibrate --report``) and its dataset; the payload of the
-        compliances is the one the JSON records.
+    def from_result(cls, robot: Robot, dataset: Dataset, report: CalibrationReport,
+                    options: CalibrationOptions) -> CalibrationView:
+        """From a report written earlier (``pincal calibrate --report``) and its dataset, prepared as the calibration
+        was (:func:`~pincal.calibration.setup.prepare`, less the parameters model selection left out); the payload of
+        the compliances is the one the report records. "Before" is the calibration's start.
 
         Raises:
-            DataError: the JSON is not a pincal report, or its parameters are not those chosen by
-                ``parameter_spec`` and ``markers`` (pass the same ``--parameters`` and ``--markers`` as for the
-                calibration).
+            DataError: the report's parameters are not those chosen by ``options`` (pass the same ``--parameters``
+                and ``--markers`` as for the calibration).
         """
-        parameters = report.get("parameters") if isinstance(report, dict) else None
-        def number(entry: Any) -> bool:
-            return isinstance(entry, dict) and isinstance(entry.get("value"), int | float) \
-                and math.isfinite(entry["value"])
-
-        if not isinstance(parameters, dict) or not all(number(entry) for entry in parameters.values()):
-            raise DataError("the result JSON has no 'parameters' of the form {name: {\"value\": number}}: expected a "
-                            "report written by 'pincal calibrate --report'")
-        train = dataset.of_set("train") if "train" in dataset.sets else dataset
-        models = measurements_for(robot, list(dataset.measurements), dataset.joint_names, sigma, dataset.metadata)
-        pset = choose_parameters(robot, models, parameter_spec, markers)
-        removed = set((report.get("selection") or {}).get("removed") or [])  # what model selection left out
-        pset = ParameterSet([p for p in pset if p.name not in removed])
-        if set(pset.names) != set(report["parameters"]):
-            missing = sorted(set(report["parameters"]) - set(pset.names))
-            extra = sorted(set(pset.names) - set(report["parameters"]))
+        removed = (report.selection or {}).get("removed") or [] if isinstance(report.selection, dict) else []
+        options = options.replace(payload=payload_from_dict(report.payload))
+        part = "train" if "train" in dataset.sets else None
+        fit = prepare(robot, dataset, options, part, leave_out=set(removed))
+        pset = fit.parameters
+        if set(pset.names) != set(report.parameters):
+            missing = sorted(set(report.parameters) - set(pset.names))
+            extra = sorted(set(pset.names) - set(report.parameters))
             raise DataError(f"the result's parameters differ from those chosen here (in the result only: "
                             f"{listing(missing) or '-'}; here only: {listing(extra) or '-'}): pass the same "
                             "--parameters and --markers as for the calibration")
-        x = np.array([float(report["parameters"][name]["value"]) for name in pset.names])
-        train, _ = usable_part(robot, train)  # the samples the calibration dropped (listed in its report) stay out
-        if train.n_samples == 0:
-            raise DataError("none of the training samples of these data can be used: the result JSON was not "
-                            "fitted on them")
-        obs = observations_from(robot, train.joint_names, train.joints, train.measurements, models)
-        problem = CalibrationProblem(robot, pset, models, obs, payload=payload_from_dict(report.get("payload")))
-        # "before" as the calibration's: from its start (the measurement frame registered in closed form, where it
-        # is estimated), not from the nominal measurement frame
-        before = problem.evaluate(problem.initial_guess(), jacobian=False).errors
-        after = problem.evaluate(x, jacobian=False).errors
-        return cls(problem, x, report, before, after)
+        x = np.array([float(report.parameters[name]["value"]) for name in pset.names])
+        x0 = fit.problem.initial_guess()
+        before = fit.problem.evaluate(x0, jacobian=False).errors
+        after = fit.problem.evaluate(x, jacobian=False).errors
+        held = evaluate_held_out(fit, dataset, pset, x0, x) if part is not None else None
+        return cls(fit.problem, x, report, before, after, x0, held)
 
-    def base_placement(self) -> pin.SE3:
-        """The calibrated robot's base in the measurement frame (identity without a base parameter)."""
+    def base_placement(self, x: Array | None = None) -> pin.SE3:
+        """The robot's base in the measurement frame at ``x`` [m, rad] (default: the estimate; ``x0`` gives the
+        nominal robot's as "before" places it); the identity without a base parameter."""
         problem = self.problem
         if not problem.base:
             return pin.SE3.Identity()
-        return pin.exp6(problem.parameters.placement_delta(self.x, problem.base))
+        return pin.exp6(problem.parameters.placement_delta(self.x if x is None else x, problem.base))
 
     def point_errors(self) -> tuple[Array | None, Array | None, Array | None]:
         """Measured points (N, 3) [m] and the error vectors before and after (N, 3) [m]: of each sample, its
@@ -171,9 +163,9 @@ def check_same_data(view: CalibrationView, dataset: Dataset) -> None:
     def mm(value: float) -> str:
         return f"{value * 1e3:.4f} mm"
 
-    recorded = report.get("rms_after")
-    in_file = report.get("n_samples_in_file", dataset.n_samples)
-    fitted = report.get("n_samples", n_fitted)
+    recorded = report.rms_after
+    in_file = report.n_samples_in_file if "n_samples_in_file" in report.present else dataset.n_samples
+    fitted = report.n_samples if "n_samples" in report.present else n_fitted
     same_rms = not isinstance(recorded, int | float) or not (math.isfinite(recorded) and math.isfinite(rms_after)) \
         or abs(recorded - rms_after) <= 1e-9 + 1e-6 * abs(recorded)  # [m]: the loops close to 1e-10 m
     def same(recorded: Any, count: int) -> bool:  # a count the JSON does not hold as a number is not compared
@@ -194,7 +186,7 @@ def configurations(view: CalibrationView, quiet: bool = True) -> tuple[Robot, Ar
     problem = view.problem
     nominal = problem.robot
     calibrated = problem.robot_at(view.x)
-    qa_nominal = problem.actuated_values(np.zeros(len(problem.parameters)))
+    qa_nominal = problem.actuated_values(view.x0)
     qa_calibrated = problem.actuated_values(view.x)
     n = qa_nominal.shape[0]
     q_nominal = np.empty((n, nominal.model.nq))
@@ -248,8 +240,12 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
     frame_ids = sorted({v.frame_id for v in visuals})
     names = {fid: str(nominal.model.frames[fid].name).replace("/", "_") for fid in frame_ids}
     base = view.base_placement().homogeneous
-    poses = {"robot_nominal": _frame_poses(nominal, q_nominal, frame_ids, np.eye(4)),
+    # both robots in the measurement frame: the nominal one where "before" places it (the fit's start)
+    poses = {"robot_nominal": _frame_poses(nominal, q_nominal, frame_ids, view.base_placement(view.x0).homogeneous),
              "robot_calibrated": _frame_poses(calibrated, q_calibrated, frame_ids, base)}
+    apart = [np.linalg.norm(poses["robot_nominal"][f][:, :3, 3] - poses["robot_calibrated"][f][:, :3, 3], axis=1)
+             for f in frame_ids]
+    difference = float(np.max(np.concatenate(apart))) if apart else math.nan
     points, before, after = view.point_errors()
     has_points = points is not None
     if points is None or np.isnan(points).any():  # nothing 3D measured, or a sample whose markers were all unseen
@@ -315,7 +311,7 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
 
     _set_camera(vis, cloud)
     return SceneSummary([names[f] for f in frame_ids], len(visuals), n, magnification, scale, sample_before,
-                        sample_after, notes, has_points, view.has_lengths)
+                        sample_after, notes, has_points, view.has_lengths, difference)
 
 
 def _set_camera(vis: Any, cloud: Array) -> None:

@@ -38,6 +38,8 @@ class SceneSummary:
         notes: What could not be drawn.
         has_points: Whether 3D points are measured (else the markers are the calibrated end effector).
         has_lengths: Whether the sample errors are lengths (else there are none to show).
+        robot_difference: Largest distance [m] between a frame of the nominal robot and the same frame of the
+            calibrated one, both drawn in the measurement frame, over the samples (NaN when no frame is drawn).
     """
 
     frames: list[str]
@@ -50,6 +52,7 @@ class SceneSummary:
     notes: list[str]
     has_points: bool
     has_lengths: bool
+    robot_difference: float = float("nan")
 
 
 class StaticScene:

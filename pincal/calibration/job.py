@@ -2,7 +2,7 @@
 
 A job names the robot, the data files as the measuring system wrote them, which of their columns are which
 quantity and in which units, which samples are held out, the parameters and the options of ``pincal calibrate``.
-:func:`read_job` reads and checks the file; :func:`pincal.io.job_data.job_dataset` reads its data into a
+:func:`read_job` reads and checks the file; :func:`pincal.calibration.job_data.job_dataset` reads its data into a
 :class:`~pincal.io.dataset.Dataset` in SI units (m, rad). Paths in a job are relative to the job file's directory.
 
 Every error names the file and the place in it (``job.toml: [measure 1] columns: ...``). An unknown key is an error
@@ -19,11 +19,10 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from pincal.calibration.options import JOB_OPTIONS, OPTIONS
 from pincal.errors import DataError, NotFoundError, listing, not_found
-from pincal.identification.corrections import payload_from_dict
+from pincal.identification.corrections import Payload, payload_from_dict
 from pincal.identification.measurements import KIND_CLASSES
-from pincal.identification.selection import SELECTIONS
-from pincal.identification.solver import LOSSES, SOLVERS
 from pincal.io.dataset import MEASUREMENT_COMPONENTS, parse_measurement_key
 from pincal.model.robot import Robot, load_robot
 
@@ -33,20 +32,13 @@ LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "in": 0.0254}
 ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "deg": math.pi / 180.0}
 #: Measurement components that are lengths (the rest, a pose's quaternion, have no unit).
 LENGTH_COMPONENTS = ("x", "y", "z", "d")
-#: The formulations of :func:`pincal.workflow.calibrate` (tests/io/test_job.py checks that the two agree).
-FORMULATIONS = ("fkm", "ikm")
 
 #: Keys of each level of a job file.
-JOB_KEYS = ("robot", "data", "joints", "measure", "out", "report", "parameters", "select", "loss", "solver", "sigma",
-            "max_iter", "formulation", "cv", "cv_seed", "payload")
+JOB_KEYS = ("robot", "data", "joints", "measure", "out", "report", *JOB_OPTIONS)
 DATA_KEYS = ("file", "files", "units", "held_out", "sample", "ignore")
 UNIT_KEYS = ("length", "angle")
 MEASURE_KEYS = ("kind", "frame", "frames", "columns", "sigma", "sigma_angle")
 PAYLOAD_KEYS = ("mass", "frame", "offset")
-#: Job keys that are options of :func:`pincal.workflow.calibrate`, and the keyword each becomes.
-OPTIONS = {"parameters": "parameter_spec", "select": "select", "loss": "loss", "solver": "solver", "sigma": "sigma",
-           "max_iter": "max_iter", "formulation": "formulation", "cv": "cv", "cv_seed": "cv_seed",
-           "payload": "payload"}
 #: ``held_out = "every 5th from 4"``: every K-th row of the data, counted from 0 over the files in order.
 EVERY = re.compile(r"every\s+(\d+)(?:st|nd|rd|th)?(?:\s+from\s+(\d+))?", re.IGNORECASE)
 
@@ -92,7 +84,7 @@ class Job:
         file_names: Each data file as the job writes it (messages, sample ids).
         out: The calibrated URDF to write, or None.
         report: The report JSON to write, or None.
-        options: Keyword arguments of :func:`pincal.workflow.calibrate` (``parameter_spec``, ``select``, ``loss``,
+        options: Keyword arguments of :func:`pincal.calibration.calibrate` (``parameter_spec``, ``select``, ``loss``,
             ``solver``, ``sigma`` [m], ``max_iter``, ``formulation``, ``cv``, ``cv_seed``, ``payload``), those the
             job gives.
         length_unit: The data files' length unit (a key of :data:`LENGTH_UNITS`).
@@ -123,15 +115,15 @@ class Job:
 
     def overridden(self, out: str | Path | None = None, report: str | Path | None = None,
                    **options: Any) -> Job:
-        """This job with outputs and :func:`~pincal.workflow.calibrate` options given elsewhere (the command line) in
+        """This job with outputs and :func:`~pincal.calibration.calibrate` options given elsewhere (the command line) in
         place of its own; None keeps the job's.
 
         Raises:
-            NotFoundError: an option that :func:`~pincal.workflow.calibrate` does not have.
+            NotFoundError: an option that :func:`~pincal.calibration.calibrate` does not have.
         """
         for name in options:
-            if name not in OPTIONS.values():
-                raise not_found("option", name, OPTIONS.values(), " of calibrate()")
+            if name not in OPTIONS:
+                raise not_found("option", name, OPTIONS, " of calibrate()")
         given = {k: v for k, v in options.items() if v is not None}
         return replace(self, out=Path(out) if out is not None else self.out,
                        report=Path(report) if report is not None else self.report,
@@ -140,7 +132,8 @@ class Job:
 
 def read_job(path: str | Path) -> Job:
     """Read and check a job file (docs/job_file.md): its keys, their types and values, and that the files it names
-    exist. The data and the robot are not read here (:func:`~pincal.io.job_data.job_dataset`, :func:`load_job_robot`).
+    exist. The data and the robot are not read here (:func:`~pincal.calibration.job_data.job_dataset`,
+    :func:`load_job_robot`).
 
     Raises:
         DataError: naming the file, the place in it and the fault; NotFoundError for an unknown key, listing the valid
@@ -322,32 +315,44 @@ class _Reader:
                               else None, where)
 
     def options(self, doc: dict[str, Any]) -> dict[str, Any]:
+        """The calibration options the job gives, each read as its :class:`~pincal.calibration.options.Option`
+        says (its key, kind and choices), by keyword."""
         options: dict[str, Any] = {}
-        if "parameters" in doc:
-            options["parameter_spec"] = self.texts(doc["parameters"], "parameters")
-        for key, choices in (("select", ("auto", *SELECTIONS)), ("loss", LOSSES), ("solver", SOLVERS),
-                             ("formulation", FORMULATIONS)):
-            if key in doc:
-                options[key] = self.choice(doc[key], choices, key)
-        if "sigma" in doc:
-            options["sigma"] = self.sigma(doc["sigma"], "sigma")
-        if "max_iter" in doc:
-            options["max_iter"] = self.whole(doc["max_iter"], "max_iter", 1)
-        if "cv" in doc:
-            cv = str(self.whole(doc["cv"], "cv", 2)) if isinstance(doc["cv"], int) else self.text(doc["cv"], "cv")
-            if not re.fullmatch(r"\d+(x\d+)?|loo", cv, re.IGNORECASE):
-                raise self.error("cv", f"'{cv}' is not K (folds), KxR (K folds, R shuffles, e.g. \"5x4\") or \"loo\"")
-            options["cv"] = cv
-        if "cv_seed" in doc:
-            options["cv_seed"] = self.whole(doc["cv_seed"], "cv_seed", 0)
-        if "payload" in doc:
-            payload = self.table(doc["payload"], "payload")
-            self.keys(payload, PAYLOAD_KEYS, "in payload")
-            try:
-                options["payload"] = payload_from_dict(payload)
-            except DataError as exc:
-                raise DataError(f"{self.path}: {exc}") from None
+        for name, option in OPTIONS.items():
+            if option.key is None or option.key not in doc:
+                continue
+            key, value = option.key, doc[option.key]
+            if option.choices is not None:
+                options[name] = self.choice(value, option.choices, key)
+            else:
+                options[name] = getattr(self, f"option_{option.kind}")(value, key)
         return options
+
+    def option_texts(self, value: Any, key: str) -> list[str]:
+        return self.texts(value, key)
+
+    def option_sigma(self, value: Any, key: str) -> float:
+        return self.sigma(value, key)
+
+    def option_int(self, value: Any, key: str) -> int:
+        return self.whole(value, key, 1)
+
+    def option_seed(self, value: Any, key: str) -> int:
+        return self.whole(value, key, 0)
+
+    def option_plan(self, value: Any, key: str) -> str:
+        plan = str(self.whole(value, key, 2)) if isinstance(value, int) else self.text(value, key)
+        if not re.fullmatch(r"\d+(x\d+)?|loo", plan, re.IGNORECASE):
+            raise self.error(key, f"'{plan}' is not K (folds), KxR (K folds, R shuffles, e.g. \"5x4\") or \"loo\"")
+        return plan
+
+    def option_payload(self, value: Any, key: str) -> Payload | None:
+        payload = self.table(value, key)
+        self.keys(payload, PAYLOAD_KEYS, f"in {key}")
+        try:
+            return payload_from_dict(payload)
+        except DataError as exc:
+            raise DataError(f"{self.path}: {exc}") from None
 
     def claims(self, job: Job) -> None:
         """Refuse a column that the job gives two meanings."""

@@ -1,5 +1,6 @@
 """A job's data files read into one :class:`~pincal.io.dataset.Dataset`: the user's columns mapped onto pincal's
-quantities as the job says (:mod:`pincal.io.job`), converted to SI units (m, rad), concatenated, rows held out."""
+quantities as the job says (:mod:`pincal.calibration.job`), converted to SI units (m, rad), concatenated, rows held
+out."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.job import ANGLE_UNITS, LENGTH_COMPONENTS, LENGTH_UNITS, HeldOut, Job
 from pincal.errors import DataError, listing, not_found
 from pincal.identification.measurements import parse_key
 from pincal.io.dataset import (
@@ -22,7 +24,6 @@ from pincal.io.dataset import (
     check_dataset,
     read_table,
 )
-from pincal.io.job import ANGLE_UNITS, LENGTH_COMPONENTS, LENGTH_UNITS, HeldOut, Job
 from pincal.model.robot import Robot, joint_unit
 
 #: Cells of a held-out column that hold a row out, and those that keep it for the fit.

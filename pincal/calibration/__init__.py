@@ -1,0 +1,77 @@
+"""The calibration pipeline: options, preparation, fit, held-out evaluation, cross-validation, simulation, the
+typed report and its summary, and calibration from files.
+
+The names below load on first use (as :mod:`pincal`'s do), so that reading the options does not import Pinocchio.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from pincal.calibration.crossval import Folds, cross_validate, parse_cv
+    from pincal.calibration.files import calibrate_files, calibrate_job
+    from pincal.calibration.heldout import HeldOut, evaluate_held_out
+    from pincal.calibration.options import CalibrationOptions
+    from pincal.calibration.pipeline import Calibration, calibrate
+    from pincal.calibration.report import CalibrationReport
+    from pincal.calibration.samples import read_robot_dataset, usable_part
+    from pincal.calibration.setup import Prepared, measurement_models, prepare
+    from pincal.calibration.simulate import Simulation, simulate, write_simulation
+    from pincal.calibration.summary import summary_text
+
+#: Public name -> the module that defines it (imported on first access).
+_LAZY: dict[str, str] = {
+    "CalibrationOptions": "options",
+    "prepare": "setup",
+    "Prepared": "setup",
+    "measurement_models": "setup",
+    "read_robot_dataset": "samples",
+    "usable_part": "samples",
+    "calibrate": "pipeline",
+    "Calibration": "pipeline",
+    "CalibrationReport": "report",
+    "HeldOut": "heldout",
+    "evaluate_held_out": "heldout",
+    "Folds": "crossval",
+    "cross_validate": "crossval",
+    "parse_cv": "crossval",
+    "simulate": "simulate",
+    "Simulation": "simulate",
+    "write_simulation": "simulate",
+    "calibrate_files": "files",
+    "calibrate_job": "files",
+    "summary_text": "summary",
+}
+
+__all__ = [
+    "Calibration",
+    "CalibrationOptions",
+    "CalibrationReport",
+    "Folds",
+    "HeldOut",
+    "Prepared",
+    "Simulation",
+    "calibrate",
+    "calibrate_files",
+    "calibrate_job",
+    "cross_validate",
+    "evaluate_held_out",
+    "measurement_models",
+    "parse_cv",
+    "prepare",
+    "read_robot_dataset",
+    "simulate",
+    "summary_text",
+    "usable_part",
+    "write_simulation",
+]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f"pincal.calibration.{_LAZY[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'pincal.calibration' has no attribute '{name}'")

@@ -1,0 +1,234 @@
+"""The options of a calibration, spelled once: :class:`CalibrationOptions`.
+
+Each option is one field of a frozen dataclass whose metadata (:class:`Option`) carries its command-line flag, its
+job-file key, its choices, its unit and its help text. The ``pincal`` parser (:mod:`pincal.cli.options`), the job-file
+reader (:mod:`pincal.calibration.job`), the keywords of :func:`pincal.calibration.calibrate`, ``view``/``report``/
+``fleet`` and the check of a ``--result`` JSON are made from these fields, so an option added here reaches all of
+them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import MISSING, dataclass, field, fields
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal, get_args
+
+from pincal.errors import DataError, listing, not_found
+
+if TYPE_CHECKING:
+    from pincal.identification.corrections import Payload
+
+#: How the residuals are formed: forward kinematics (measured − predicted) or implicit loop residuals (IKM).
+Formulation = Literal["fkm", "ikm"]
+FORMULATIONS: tuple[Formulation, ...] = get_args(Formulation)
+#: The identification methods and robust losses (:func:`pincal.identification.solver.identify`).
+SolverName = Literal["lm", "tsvd", "ridge"]
+LossName = Literal["auto", "linear", "cauchy"]
+SOLVER_CHOICES: tuple[SolverName, ...] = get_args(SolverName)
+LOSS_CHOICES: tuple[LossName, ...] = get_args(LossName)
+#: Model selection: ``auto`` (``bic`` for the default parameter set, ``none`` for a named one), ``bic`` or ``none``.
+SELECT_CHOICES = ("auto", "bic", "none")
+#: How the markers declared on a frame are fitted: each marker's offset, or one rigid cluster placement.
+MarkerChoice = Literal["each", "cluster"]
+MARKER_CHOICES: tuple[MarkerChoice, ...] = get_args(MarkerChoice)
+
+PARAMETERS_HELP = ("named sets (default, model24, model24i, hexapod42, hexapod44) and name patterns, combined in "
+                   "order; !pattern removes (default: the default set, docs/dataset.md 'Parameters')")
+SIGMA_HELP = ("one measurement σ [m, rad] for weighting every channel, over the file's '# sigma' lines (default: "
+              "those lines, else 1e-5; 1e-6 m for distances)")
+
+
+@dataclass(frozen=True)
+class Option:
+    """How one option is written where a user gives it.
+
+    Attributes:
+        flag: The command-line flag (``--max-iter``).
+        key: The job-file key (``max_iter``), or None when a job file cannot give it.
+        help: The help text (units in brackets).
+        choices: The values allowed, or None.
+        kind: ``text``, ``texts`` (one or more), ``int`` (≥ 1), ``seed`` (≥ 0), ``sigma`` (finite > 0), ``plan``
+            (``K``, ``KxR`` or ``loo``), ``payload``.
+        metavar: The value's name in the help, or None.
+        api_only: Given only through the library (not on the command line, not in a job file).
+    """
+
+    flag: str
+    key: str | None
+    help: str
+    choices: tuple[str, ...] | None = None
+    kind: str = "text"
+    metavar: str | None = None
+    api_only: bool = False
+
+
+def _how(**how: Any) -> dict[str, Option]:
+    """A field's metadata: how its option is written (:class:`Option`)."""
+    return {"option": Option(**how)}
+
+
+@dataclass(frozen=True)
+class CalibrationOptions:
+    """Every option of a calibration, with its default; the same for the API, the CLI and job files.
+
+    Attributes:
+        parameter_spec: Named sets and name patterns of the parameters to fit; None: the default set.
+        solver: ``lm`` (Levenberg–Marquardt on the identifiable directions), ``tsvd`` or ``ridge``.
+        loss: ``auto`` (least squares, then a Cauchy refit when the data hold implausible samples), ``linear``,
+            ``cauchy``.
+        sigma: One measurement σ [m, rad] over the data's ``# sigma`` lines; None: those lines.
+        pose_sigma_angle: σ of pose orientations [rad] over the data's; None: the data's (library only).
+        formulation: ``fkm`` (measured − predicted by forward kinematics) or ``ikm`` (implicit loop residuals).
+        max_iter: The solver's iteration limit.
+        select: Model selection: ``auto``, ``bic`` or ``none``.
+        cv: Cross-validation plan: ``K``, ``KxR`` or ``loo``; None: none.
+        cv_seed: Seed of the first cross-validation shuffle (K-fold plans only).
+        markers: ``each`` marker's offset, or one rigid ``cluster`` placement of a frame's markers.
+        payload: A point mass the robot carried, for the joint compliances; None: none.
+    """
+
+    parameter_spec: tuple[str, ...] | None = field(default=None, metadata=_how(
+        flag="--parameters", key="parameters", help=PARAMETERS_HELP, kind="texts"))
+    solver: SolverName = field(default="lm", metadata=_how(
+        flag="--solver", key="solver", choices=SOLVER_CHOICES,
+        help="lm: Levenberg-Marquardt on the identifiable directions (default); tsvd; ridge"))
+    loss: LossName = field(default="auto", metadata=_how(
+        flag="--loss", key="loss", choices=LOSS_CHOICES,
+        help="auto (default): least squares, then a robust (Cauchy) refit if the data hold samples their own noise "
+             "level makes implausible, which are listed; linear: least squares only; cauchy: robust from the start"))
+    sigma: float | None = field(default=None, metadata=_how(flag="--sigma", key="sigma", kind="sigma", help=SIGMA_HELP))
+    pose_sigma_angle: float | None = field(default=None, metadata=_how(
+        flag="--pose-sigma-angle", key=None, kind="sigma", api_only=True,
+        help="σ of pose orientations [rad] over the data's"))
+    formulation: Formulation = field(default="fkm", metadata=_how(
+        flag="--formulation", key="formulation", choices=FORMULATIONS,
+        help="fkm: measured - predicted by forward kinematics; ikm: implicit loop residuals with the measured pose "
+             "held fixed (study 000; closed-loop robots)"))
+    max_iter: int = field(default=100, metadata=_how(
+        flag="--max-iter", key="max_iter", kind="int",
+        help="iteration limit of the solver (default 100); a run that reaches it exits 1"))
+    select: str = field(default="auto", metadata=_how(
+        flag="--select", key="select", choices=SELECT_CHOICES,
+        help="model selection: bic leaves out the groups of parameters (joint translations, rotations, reading "
+             "offsets) the Bayesian information criterion rejects, then refits; none fits every identifiable "
+             "parameter; auto (default): bic for the default parameters, none for --parameters you name"))
+    cv: str | None = field(default=None, metadata=_how(
+        flag="--cv", key="cv", kind="plan", metavar="K|KxR|loo",
+        help="cross-validate the whole fit over every usable sample of the file: K folds, KxR (R shuffles, e.g. "
+             "5x4) or loo (leave one out); prints the cross-validated RMS"))
+    cv_seed: int = field(default=0, metadata=_how(
+        flag="--cv-seed", key="cv_seed", kind="seed", metavar="N",
+        help="seed of the first --cv shuffle (the R shuffles are seeded N, N+1, …; default 0): the cross-validated "
+             "figure depends on how the samples fall into folds, and other seeds show by how much; K-fold plans "
+             "only (--cv loo has no shuffle)"))
+    markers: MarkerChoice = field(default="each", metadata=_how(
+        flag="--markers", key=None, choices=MARKER_CHOICES,
+        help="markers declared on a frame (position:<frame>@<marker> columns): each (default) fits each marker's "
+             "offset on its frame; cluster fits one rigid placement of the frame's markers, whose nominal offsets "
+             "the file declares ('# marker m1 on <frame>: x y z' [m])"))
+    payload: Payload | None = field(default=None, metadata=_how(
+        flag="--payload", key="payload", kind="payload", metavar="MASS@FRAME[:X,Y,Z]",
+        help="a point mass the robot carries: MASS [kg] on FRAME (a link or frame of the URDF), at X,Y,Z [m] in "
+             "that frame (default 0,0,0); its gravity torque adds to the links' in the joint compliances "
+             "('*.compliance'), and is refused without one; the corrections file and the report record it"))
+
+    def __post_init__(self) -> None:
+        """Check every value (DataError naming the option and the values allowed)."""
+        if self.parameter_spec is not None:
+            object.__setattr__(self, "parameter_spec", tuple(self.parameter_spec))
+        for name, option in OPTIONS.items():
+            value = getattr(self, name)
+            if option.choices is not None and value not in option.choices:
+                raise DataError(f"unknown {name} '{value}'; {_plural(name)} are: {listing(option.choices)}")
+        for name in ("sigma", "pose_sigma_angle"):
+            value = getattr(self, name)
+            if value is not None and not (isinstance(value, int | float) and 0.0 < value < math.inf):
+                raise DataError(f"{name}={value!r}: a σ is a finite number > 0 [m, rad] (or None for the data's)")
+        if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int) or self.max_iter < 1:
+            raise DataError(f"max_iter is {self.max_iter}: at least one iteration is needed")
+        if isinstance(self.cv_seed, bool) or not isinstance(self.cv_seed, int):
+            raise DataError(f"cv_seed={self.cv_seed!r}: give a whole number ≥ 0")
+
+    def replace(self, **changes: Any) -> CalibrationOptions:
+        """These options with ``changes`` (keywords of :class:`CalibrationOptions`); unknown names are refused.
+
+        Raises:
+            NotFoundError: a name that is not an option, listing the options.
+        """
+        for name in changes:
+            if name not in OPTIONS:
+                raise not_found("option", name, OPTIONS, " of calibrate()")
+        return CalibrationOptions(**{**{name: getattr(self, name) for name in OPTIONS}, **changes})
+
+    @property
+    def named_parameters(self) -> bool:
+        """True when the parameters are named (not the default set): ``select="auto"`` then fits them as named."""
+        return bool(self.parameter_spec) and list(self.parameter_spec or ()) != ["default"]
+
+    @property
+    def selection(self) -> str:
+        """The selection policy ``select`` stands for: ``auto`` is ``bic`` for the default parameter set of an
+        ``fkm`` fit, ``none`` otherwise."""
+        if self.select != "auto":
+            return self.select
+        return "none" if self.named_parameters or self.formulation != "fkm" else "bic"
+
+
+def _plural(name: str) -> str:
+    return {"select": "selections", "loss": "losses", "markers": "marker fits"}.get(name, f"{name}s")
+
+
+#: Each option's :class:`Option`, by its keyword, in the dataclass's order.
+OPTIONS: dict[str, Option] = {f.name: f.metadata["option"] for f in fields(CalibrationOptions)}
+#: Each option's default, by its keyword.
+DEFAULTS: dict[str, Any] = {f.name: f.default for f in fields(CalibrationOptions) if f.default is not MISSING}
+#: Job-file keys of the options a job file can give, and the keyword each becomes.
+JOB_OPTIONS: dict[str, str] = {o.key: name for name, o in OPTIONS.items() if o.key is not None}
+
+
+#: Where the user gave an option: on the command line, as a keyword argument of
+#: :func:`~pincal.calibration.calibrate`, or in a job file (its path). A message names the option as it is written
+#: there.
+OptionSource = Literal["command line", "keyword"] | Path
+
+
+def written(key: str, value: str | int, source: OptionSource, in_file: bool = True) -> str:
+    """Option ``key`` (a keyword of :class:`CalibrationOptions`) set to ``value`` as the user writes it at ``source``:
+    ``--cv-seed 5``, ``cv_seed=5``, or ``cv_seed = 5 in job.toml`` (without the file when not ``in_file``)."""
+    if source == "command line":
+        return f"{OPTIONS[key].flag} {value}"
+    if source == "keyword":
+        return f"{key}={value!r}"
+    shown = f'"{value}"' if isinstance(value, str) else str(value)  # TOML's quotes
+    return f"{OPTIONS[key].key} = {shown}" + (f" in {source}" if in_file else "")
+
+
+def check_cv_seed(cv: str | None, cv_seed: int, cv_source: OptionSource = "keyword",
+                  seed_source: OptionSource = "keyword") -> None:
+    """Refuse a shuffle seed that would seed nothing: a ``cv_seed`` other than 0 (the default) with no ``cv``, or
+    with ``cv="loo"`` (leave-one-out leaves each sample out in turn, with no shuffle to seed); and a negative one.
+    The message names each option as the user gave it, at ``cv_source`` and ``seed_source``: ``--cv-seed 5`` on
+    the command line, ``cv_seed=5`` to :func:`~pincal.calibration.calibrate`; a job file's own seed is blamed on the
+    file and its key, as the job reader's errors are (``job.toml: cv_seed: 5 ...``).
+
+    Raises:
+        DataError: naming the seed and, with ``loo``, the ``cv`` that has no shuffle.
+    """
+    job = seed_source if isinstance(seed_source, Path) else None
+    culprit = f"{job}: cv_seed: {cv_seed}" if job is not None else written("cv_seed", cv_seed, seed_source)
+    seed_option = "--cv-seed" if seed_source == "command line" else "cv_seed"
+    if cv_seed < 0:
+        raise DataError(f"{culprit}: give a whole number ≥ 0")
+    if not cv_seed:
+        return
+    if cv is None:
+        if seed_source == "command line":
+            raise DataError(f"{culprit} seeds the shuffles of --cv; give --cv too (e.g. --cv 5x4)")
+        raise DataError(f"{culprit} seeds the shuffles of a K-fold cross-validation, and no cv is given; give cv too "
+                        f"(e.g. {written('cv', '5x4', seed_source, in_file=False)})")
+    if cv.strip().lower() == "loo":
+        loo = written("cv", cv, cv_source, in_file=cv_source != job)
+        folds = written("cv", "5x4", cv_source, in_file=False)
+        raise DataError(f"{culprit} seeds the shuffles of K-fold plans; {loo} has none (it leaves each sample out in "
+                        f"turn): drop {seed_option}, or cross-validate by K folds (e.g. {folds})")

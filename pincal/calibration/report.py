@@ -1,0 +1,245 @@
+"""The typed report of a calibration: :class:`CalibrationReport`, built once by :func:`build_report`.
+
+Its fields are the keys of the report JSON (``pincal calibrate --report``, docs/report.md), in the JSON's order; a
+field that holds None and is marked optional is left out of the JSON (e.g. held-out figures without held-out
+samples). The terminal summary, the JSON, the HTML page, the 3D scene and ``fleet`` read it by attribute; none of them
+recomputes a figure. Units: SI (m, rad). Wall-clock time is left out: the same inputs give a byte-identical file.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.errors import DataError
+from pincal.identification.parameters import ParameterSet
+from pincal.identification.problem import CalibrationProblem
+from pincal.identification.solver import CalibrationResult, calibration_gain, error_norms, rms
+from pincal.io.report_data import angle_error_norms, json_text
+
+Array = npt.NDArray[np.float64]
+
+#: The report JSON's layout version: a reader refuses a newer one.
+SCHEMA_VERSION = 1
+
+BEFORE_MEANS_REGISTERED = ("the nominal robot, with the measurement frame registered to the training data in "
+                           "closed form (Kabsch), for fit and held-out samples alike")
+BEFORE_MEANS_NOMINAL = "the nominal robot in the nominal measurement frame, for fit and held-out samples alike"
+BEFORE_MEANS_PLACED = ("the nominal robot, with its cameras and targets placed to the training data in closed form "
+                       "(hand-eye), for fit and held-out samples alike")
+BEFORE_MEANS_UNPLACED = ("the nominal robot, with its cameras and targets at the identity (the training data did not "
+                         "determine them in closed form), for fit and held-out samples alike")
+
+
+#: The metadata of a field left out of the JSON while it holds None.
+OPTIONAL = {"optional": True}
+
+
+@dataclass(frozen=True)
+class CalibrationReport:
+    """A calibration's figures and account; every length in m, every angle in rad.
+
+    The fit's figures (``rms_before`` … ``max_after``) are over the fitted samples' readings; the held-out ones
+    (``test_*``) over the held-out samples', "before" being the fit's start in both (``before_means`` says what that
+    is). ``parameters`` maps each parameter to ``{"value", "std", "identified"}``; ``dropped_samples`` and
+    ``down_weighted`` list samples by id with the reason or weight; ``cv`` is the cross-validation's account.
+    """
+
+    schema_version: int = SCHEMA_VERSION
+    robot: str = ""
+    units: str = "SI: m, rad"
+    n_samples: int = 0
+    measurements: list[str] = field(default_factory=list)
+    readings: dict[str, int] = field(default_factory=dict)
+    readings_not_seen: dict[str, int] = field(default_factory=dict)
+    n_parameters: int = 0
+    n_identifiable: int = 0
+    condition_number: float | None = None
+    rms_before: float | None = None
+    rms_after: float | None = None
+    max_before: float | None = None
+    max_after: float | None = None
+    before_means: str = ""
+    iterations: int = 0
+    converged: bool = False
+    message: str = ""
+    solver: str = ""
+    loss: str = ""
+    sigma2: float | None = None
+    cost_history: list[float] = field(default_factory=list)
+    parameters: dict[str, dict[str, Any]] = field(default_factory=dict)
+    unidentifiable: list[str] = field(default_factory=list)
+    down_weighted_samples: list[str] = field(default_factory=list)
+    reference_shifts: dict[str, float] = field(default_factory=dict)
+    rms_angle_before: float | None = field(default=None, metadata=OPTIONAL)
+    rms_angle_after: float | None = field(default=None, metadata=OPTIONAL)
+    max_angle_before: float | None = field(default=None, metadata=OPTIONAL)
+    max_angle_after: float | None = field(default=None, metadata=OPTIONAL)
+    calibration_gain: float | None = field(default=None, metadata=OPTIONAL)
+    parameter_errors_before: float | None = field(default=None, metadata=OPTIONAL)
+    parameter_errors_after: float | None = field(default=None, metadata=OPTIONAL)
+    corrections: dict[str, Any] = field(default_factory=dict)
+    payload: dict[str, Any] | None = None
+    links_mass: float | None = field(default=None, metadata=OPTIONAL)
+    markers: str = "each"
+    formulation: str = "fkm"
+    selection: dict[str, Any] = field(default_factory=dict)
+    unidentifiable_listing: list[str] = field(default_factory=list)
+    n_estimated: int = 0
+    n_residuals: int = 0
+    joints_at_reference: list[str] = field(default_factory=list)
+    dropped_samples: list[dict[str, str]] = field(default_factory=list)
+    down_weighted: list[dict[str, Any]] = field(default_factory=list)
+    n_samples_in_file: int = 0
+    outlier_test: list[str] = field(default_factory=list)
+    dropped_test_samples: list[dict[str, str]] | None = field(default=None, metadata=OPTIONAL)
+    held_out_outliers: list[str] | None = field(default=None, metadata=OPTIONAL)
+    held_out_outside_range: list[dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
+    test_readings: dict[str, int] | None = field(default=None, metadata=OPTIONAL)
+    n_test_samples: int | None = field(default=None, metadata=OPTIONAL)
+    test_rms_before: float | None = field(default=None, metadata=OPTIONAL)
+    test_rms_after: float | None = field(default=None, metadata=OPTIONAL)
+    test_max_before: float | None = field(default=None, metadata=OPTIONAL)
+    test_max_after: float | None = field(default=None, metadata=OPTIONAL)
+    test_rms_angle_before: float | None = field(default=None, metadata=OPTIONAL)
+    test_rms_angle_after: float | None = field(default=None, metadata=OPTIONAL)
+    test_max_angle_before: float | None = field(default=None, metadata=OPTIONAL)
+    test_max_angle_after: float | None = field(default=None, metadata=OPTIONAL)
+    worse_than_nominal: bool | None = field(default=None, metadata=OPTIONAL)
+    cv: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    #: The JSON keys a report read by :meth:`from_json` held (every field for a report built by a calibration).
+    present: frozenset[str] = field(default=frozenset(), compare=False, repr=False, metadata={"internal": True})
+
+    def __post_init__(self) -> None:
+        if not self.present:
+            object.__setattr__(self, "present", frozenset(f.name for f in fields(self)
+                                                          if not f.metadata.get("internal")))
+
+    @property
+    def has_held_out(self) -> bool:
+        """True when held-out samples were evaluated (the ``test_*`` figures are there)."""
+        return self.test_rms_before is not None
+
+    @property
+    def usable(self) -> bool:
+        """Whether the result may be used: converged and not worse than nominal on the held-out samples."""
+        return bool(self.converged) and not self.worse_than_nominal
+
+    def to_json(self) -> str:
+        """The report JSON: indented, in field order, optional fields that hold None left out."""
+        return json_text(self.as_dict())
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON's content as a dict (the optional fields that hold None left out)."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if not f.metadata.get("internal")
+                and not (f.metadata.get("optional") and getattr(self, f.name) is None)}
+
+    @classmethod
+    def from_json(cls, content: Any, source: str = "the result JSON") -> CalibrationReport:
+        """A report from parsed report JSON (``json.loads`` of a file ``calibrate --report`` wrote). Values are kept
+        as the file holds them (a page shows them escaped); keys this version does not know are left out.
+
+        Raises:
+            DataError: not a mapping with ``parameters`` of the form ``{name: {"value": number}}``, or written by a
+                newer pincal (its ``schema_version``).
+        """
+        parameters = content.get("parameters") if isinstance(content, dict) else None
+
+        def number(entry: Any) -> bool:
+            return isinstance(entry, dict) and isinstance(entry.get("value"), int | float) \
+                and math.isfinite(entry["value"])
+
+        if not isinstance(parameters, dict) or not all(number(entry) for entry in parameters.values()):
+            raise DataError(f"{source} has no 'parameters' of the form {{name: {{\"value\": number}}}}: expected a "
+                            "report written by 'pincal calibrate --report'")
+        version = content.get("schema_version", SCHEMA_VERSION)
+        if isinstance(version, int) and version > SCHEMA_VERSION:
+            raise DataError(f"{source} has schema_version {version}, newer than this pincal reads "
+                            f"({SCHEMA_VERSION}): upgrade pincal")
+        known = {f.name for f in fields(cls) if not f.metadata.get("internal")}
+        given = {key: value for key, value in content.items() if key in known}
+        return cls(**given, present=frozenset(given) | {"parameters"})
+
+    @classmethod
+    def read(cls, path: str | Path) -> CalibrationReport:
+        """The report of a JSON file.
+
+        Raises:
+            DataError: the file cannot be read or is not a report (:meth:`from_json`).
+        """
+        try:
+            content = json.loads(Path(path).read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise DataError(f"cannot read the result JSON '{path}': {exc}") from None
+        return cls.from_json(content)
+
+
+def registered_base(parameters: ParameterSet) -> bool:
+    """True when the measurement frame is estimated whole (all six ``base.*``), so that the starting point
+    registers it in closed form (:meth:`CalibrationProblem.initial_guess`)."""
+    return len(parameters.groups("base").get(("base", "base", ""), [])) == 6
+
+
+def before_means(problem: CalibrationProblem) -> str:
+    """What the "before" errors are of: the starting point :meth:`CalibrationProblem.initial_guess` gave."""
+    if problem.parameters.of_kind("camera", "target"):
+        means = BEFORE_MEANS_PLACED if problem.placed_in_closed_form else BEFORE_MEANS_UNPLACED
+        return "; ".join([means, *problem.not_in_closed_form])
+    return BEFORE_MEANS_REGISTERED if registered_base(problem.parameters) else BEFORE_MEANS_NOMINAL
+
+
+def _clean(v: float) -> float | None:
+    return None if not math.isfinite(v) else float(v)
+
+
+def fit_figures(result: CalibrationResult, problem: CalibrationProblem, x_true: Array | None = None) -> dict[str, Any]:
+    """The fit's part of the report: errors before/after [m, rad], identifiability, estimates with their standard
+    deviations, the solver's account (and the calibration gain when the truth ``x_true`` is known)."""
+    before = error_norms(result.errors_before)
+    after = error_norms(result.errors_after)
+    ident = result.identifiability
+    angles_before = angle_error_norms(result.errors_before)
+    angles_after = angle_error_norms(result.errors_after)
+    out: dict[str, Any] = {
+        "robot": problem.robot.name,
+        "n_samples": problem.observations.n_samples,
+        "measurements": [m.key for m in problem.measurements],
+        "readings": problem.n_readings(),
+        "readings_not_seen": {m.key: problem.observations.n_samples - count for m, count
+                              in zip(problem.measurements, problem.n_readings().values(), strict=True)
+                              if m.occludable},
+        "n_parameters": len(result.names),
+        "n_identifiable": ident.rank,
+        "condition_number": _clean(ident.condition_number),
+        "rms_before": _clean(rms(before)),
+        "rms_after": _clean(rms(after)),
+        "max_before": _clean(float(before.max())) if before.size else None,
+        "max_after": _clean(float(after.max())) if after.size else None,
+        "before_means": before_means(problem),
+        "iterations": result.iterations,
+        "converged": result.converged,
+        "message": result.message,
+        "solver": result.solver,
+        "loss": result.loss,
+        "sigma2": _clean(result.sigma2),
+        "cost_history": [float(c) for c in result.cost_history],
+        "parameters": {name: {"value": float(result.x[k]), "std": _clean(float(result.std[k])),
+                              "identified": k in set(result.identified)}
+                       for k, name in enumerate(result.names)},
+        "unidentifiable": [c.description for c in ident.unidentifiable],
+    }
+    if angles_before.size:
+        out.update({"rms_angle_before": _clean(rms(angles_before)), "rms_angle_after": _clean(rms(angles_after)),
+                    "max_angle_before": _clean(float(angles_before.max())),
+                    "max_angle_after": _clean(float(angles_after.max()))})
+    if x_true is not None:
+        out["calibration_gain"] = _clean(calibration_gain(x_true, result.x0, result.x))
+        out["parameter_errors_before"] = float(np.linalg.norm(x_true - result.x0))
+        out["parameter_errors_after"] = float(np.linalg.norm(x_true - result.x))
+    return out

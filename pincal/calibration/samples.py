@@ -1,0 +1,187 @@
+"""Which samples a calibration can use, and checks of the data against the robot.
+
+Every command reads data through :func:`read_robot_dataset`; :func:`usable_part` drops (and names) the samples
+that cannot be used; :func:`held_out_outside_range` names held-out readings outside the fitted range;
+:func:`check_length_scale` refuses lengths read in the wrong unit. SI units: m, rad.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal import linalg
+from pincal.errors import DataError
+from pincal.identification.parameters import (
+    joint_unit,
+)
+from pincal.identification.problem import CalibrationProblem
+from pincal.identification.solver import (
+    length_columns,
+)
+from pincal.io.dataset import OCCLUDABLE_KINDS, Dataset, read_dataset
+from pincal.model.robot import Robot, unusable_samples
+
+Array = npt.NDArray[np.float64]
+
+def joint_kinds(robot: Robot) -> dict[str, str]:
+    """``revolute`` or ``prismatic`` for each one-DOF joint of ``robot`` (the kinds whose readings
+    :func:`~pincal.io.dataset.read_dataset` checks for degrees and millimetres; continuous joints are left out)."""
+    model = robot.model
+    names = [str(model.names[jid]) for jid in range(1, model.njoints) if model.joints[jid].nq == 1]
+    return {name: "prismatic" if joint_unit(robot, name) == "m" else "revolute" for name in names}
+
+
+def read_robot_dataset(path: str | Path, robot: Robot, min_samples: int = 2) -> Dataset:
+    """:func:`~pincal.io.dataset.read_dataset` for ``robot``, the readings of its revolute and prismatic joints
+    checked for degrees and millimetres. Every command reads data through here. A file whose ``# robot:`` line
+    names another robot is refused. The actuated joints that move a measured frame must have a column; that is
+    checked with the measurement models (:func:`~pincal.io.adapters.joints_at_reference`)."""
+    dataset = read_dataset(path, None, min_samples, joint_kinds=joint_kinds(robot),
+                           joint_like=[str(n) for n in robot.model.names[1:]])
+    recorded = dataset.metadata.get("robot")
+    names = {robot.name} | ({robot.source.stem} if robot.source is not None else set())
+    if recorded is not None and recorded not in names:
+        raise DataError(f"{path}: its '# robot: {recorded}' line says the data are of robot '{recorded}', not of "
+                        f"{' or '.join(repr(n) for n in sorted(names))} (the URDF's <robot name> or file name); give "
+                        "the robot the data were taken on, or correct that line")
+    return dataset
+
+
+def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, str]]]:
+    """The samples of ``part`` that can be used, and each dropped one with its reason.
+
+    Dropped: samples with no reading at all (every marker's cells empty, and nothing else measured),
+    readings outside the URDF joint limits (a reading the robot cannot have is a wrong
+    reading), and postures the nominal robot cannot assemble or that sit at a singularity
+    (:func:`~pincal.model.robot.unusable_samples`).
+    """
+    reasons: dict[int, str] = dict(unseen_samples(robot, part))
+    for k, reason in out_of_limits(robot, part):
+        reasons[k] = f"{reasons[k]}; {reason}" if k in reasons else reason
+    reference = robot.actuated_values(robot.q_reference)  # a joint with no column stays at its reference value
+    actuated = np.column_stack([part.joints[:, part.joint_names.index(j)] if j in part.joint_names
+                                else np.full(part.n_samples, reference[k])
+                                for k, j in enumerate(robot.actuated_joints)])
+    inside = [k for k in range(part.n_samples) if k not in reasons]
+    for k, reason in unusable_samples(robot, actuated[inside]):
+        reasons[inside[k]] = reason
+    dropped = [{"sample": part.sample_ids[k], "reason": reasons[k]} for k in sorted(reasons)]
+    return part.subset([k for k in range(part.n_samples) if k not in reasons]), dropped
+
+
+def unseen_samples(robot: Robot, part: Dataset) -> list[tuple[int, str]]:
+    """Samples of ``part`` that hold no reading: every measurement is a position whose cells are all empty (no
+    marker seen), and no passive joint is read. Each with its reason."""
+    keys = list(part.measurements)
+    read = [j for j in part.joint_names if j not in robot.actuated_joints]
+    if not keys or read or any(key.partition(":")[0] not in OCCLUDABLE_KINDS for key in keys):
+        return []
+    seen = np.zeros(part.n_samples, dtype=bool)
+    for key in keys:
+        seen |= np.all(np.isfinite(part.measurements[key]), axis=1)
+    what = f"'{keys[0]}'" if len(keys) == 1 else f"any of the {len(keys)} markers"
+    return [(int(k), f"no reading: the cells of {what} are all empty (not seen)") for k in np.flatnonzero(~seen)]
+
+
+#: A reading counts as outside a joint's URDF limits beyond this share of its range: URDF limits are nominal,
+#: and a real encoder may read a little past them (the TIAGo data's torso reads 0.350184 m against 0.35 m).
+LIMIT_MARGIN = 0.01
+
+
+def out_of_limits(robot: Robot, part: Dataset, margin: float = LIMIT_MARGIN) -> list[tuple[int, str]]:
+    """Samples with a joint reading outside that joint's URDF limits by more than ``margin`` of its range
+    (one-DOF joints with a range), and why."""
+    model = robot.model
+    found: list[tuple[int, str]] = []
+    for c, name in enumerate(part.joint_names):
+        if not model.existJointName(name):
+            continue
+        joint = model.joints[model.getJointId(name)]
+        if joint.nq != 1:
+            continue
+        lower, upper = float(model.lowerPositionLimit[joint.idx_q]), float(model.upperPositionLimit[joint.idx_q])
+        if not (math.isfinite(lower) and math.isfinite(upper) and lower < upper):
+            continue
+        unit = joint_unit(robot, name)
+        tol = margin * (upper - lower)
+        for k in np.flatnonzero((part.joints[:, c] < lower - tol) | (part.joints[:, c] > upper + tol)):
+            found.append((int(k), f"joint '{name}' reads {part.joints[k, c]:.6g} {unit}, outside its URDF limits "
+                                  f"[{lower:.6g}, {upper:.6g}] {unit}"))
+    return sorted(found, key=lambda item: item[0])
+
+
+#: A held-out reading counts as outside the fitted range beyond this share of the training readings' range (5 %: a
+#: held-out set drawn like the training set rarely lies that far out, so the warning means extrapolation).
+RANGE_MARGIN = 0.05
+
+
+def held_out_outside_range(robot: Robot, train: Dataset, test: Dataset, margin: float = RANGE_MARGIN,
+                           joints: Sequence[str] | None = None) -> list[dict[str, Any]]:
+    """The held-out readings of actuated joints outside the range the training readings cover.
+
+    For each actuated joint, a ``test`` sample whose reading lies below the training minimum or above the
+    training maximum by more than ``margin`` × (max − min) is listed: its error measures how the calibrated
+    model extrapolates, not how it fits. An unbounded (continuous) joint's readings are compared as angles in
+    [−π, π).
+
+    ``joints`` limits the check to those joints (the ones that move what is measured; default: every actuated one).
+
+    Returns:
+        One dict per sample and joint, in sample order: ``sample`` (its id), ``joint``, ``value`` [rad or m] and
+        ``range`` ([min, max] of the training readings [rad or m]).
+    """
+    if train.n_samples == 0 or test.n_samples == 0:
+        return []
+    found: list[tuple[int, int, dict[str, Any]]] = []
+    for order, joint in enumerate(robot.actuated_joints):
+        if joint not in train.joint_names or joint not in test.joint_names or (joints is not None
+                                                                              and joint not in joints):
+            continue
+        fitted, held = train.joints[:, train.joint_names.index(joint)], test.joints[:, test.joint_names.index(joint)]
+        if robot.model.joints[robot.joint_id(joint)].nq == 2:
+            fitted, held = linalg.wrap_angle(fitted), linalg.wrap_angle(held)
+        low, high = float(np.nanmin(fitted)), float(np.nanmax(fitted))
+        tol = margin * (high - low)
+        for k in np.flatnonzero((held < low - tol) | (held > high + tol)):
+            found.append((int(k), order, {"sample": test.sample_ids[k], "joint": joint, "value": float(held[k]),
+                                          "range": [low, high]}))
+    return [entry for _, _, entry in sorted(found, key=lambda item: item[:2])]
+
+
+#: Largest ratio between the spread of measured positions and the nominal robot's at the same joint readings (either
+#: way) before the data are taken for lengths in another unit: a nominal robot is off by millimetres, not by its size.
+LENGTH_SCALE_RATIO = 30.0
+
+
+def check_length_scale(problem: CalibrationProblem) -> None:
+    """Refuse positions read in the wrong unit (DataError naming the measurement): the spread of each measured
+    position (the median distance [m] from their median point, indifferent to a frame's placement and to gross
+    outliers) against the nominal robot's at the same joint readings, from the calibration's start. Data in metres
+    read as millimetres shrink 1000× (the fit would squash the robot onto them); a frame that barely moves (a spread
+    under 1 mm) is not judged."""
+    x0 = problem.initial_guess()
+    predicted = problem.evaluate(x0, jacobian=False).predicted
+    for m in problem.measurements:
+        if length_columns(m.key) != 3 or m.key not in predicted:
+            continue
+        measured, nominal = problem.observations.values[m.key][:, :3], predicted[m.key][:, :3]
+        rows = np.all(np.isfinite(measured), axis=1) & np.all(np.isfinite(nominal), axis=1)
+        if np.count_nonzero(rows) < 3:
+            continue
+        spread_measured, spread_nominal = (float(np.median(np.linalg.norm(a[rows] - np.median(a[rows], axis=0),
+                                                                          axis=1))) for a in (measured, nominal))
+        if spread_nominal < 1e-3:
+            continue
+        ratio = spread_nominal / spread_measured if spread_measured > 0.0 else math.inf
+        if not 1.0 / LENGTH_SCALE_RATIO <= ratio <= LENGTH_SCALE_RATIO:
+            shown = f"{ratio:.0f}× as much" if ratio >= 1.0 else f"{1.0 / ratio:.0f}× less"
+            raise DataError(f"the measured positions '{m.key}' spread {spread_measured * 1e3:.3g} mm about their "
+                            f"median, the nominal robot's at the same joint readings {spread_nominal * 1e3:.3g} mm "
+                            f"({shown}): are the lengths in the unit stated (metres in a CSV; a job file's [data] "
+                            "units)?")

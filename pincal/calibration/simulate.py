@@ -1,0 +1,148 @@
+"""Simulated calibration campaigns: true errors, random postures, noisy readings; and their files.
+
+``simulate`` draws a campaign; ``write_simulation`` writes ``measurements.csv`` (train and test postures),
+``truth.urdf`` (the true robot) and ``truth.json`` (the true parameter deviations). SI units: m, rad.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.calibration.setup import check_movable, check_payload, measurement_models
+from pincal.errors import ConvergenceError, DataError
+from pincal.identification.corrections import Payload
+from pincal.identification.measurements import JointReading, Measurement
+from pincal.identification.parameters import (
+    ParameterSet,
+    choose_parameters,
+)
+from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, joint_sensor_zeros, source_text
+from pincal.io.corrections import corrections_dict, corrections_of, corrections_path
+from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text
+from pincal.io.files import check_outputs, make_directory, write_texts
+from pincal.io.report_data import json_text
+from pincal.model.robot import Robot
+from pincal.study.simulation import perturbation, random_actuated, simulate_observations
+
+Array = npt.NDArray[np.float64]
+
+@dataclass
+class Simulation:
+    """A simulated campaign: the nominal robot, the parameters and their true values ``x_true`` [m, rad], the
+    dataset and the measurement models; the payload the robot carried."""
+    robot: Robot
+    parameters: ParameterSet
+    x_true: Array
+    dataset: Dataset
+    measurements: list[Measurement]
+    payload: Payload | None = None
+
+
+def check_sample_counts(n_train: int, n_test: int) -> None:
+    """Refuse sample counts :func:`simulate` cannot give: no training sample, or more than a calibration takes.
+
+    Raises:
+        DataError: naming the counts.
+    """
+    if n_train < 1 or n_test < 0:
+        raise DataError(f"need at least one training sample (got {n_train}) and no negative test count")
+    if n_train + n_test > MAX_SAMPLES:
+        raise DataError(f"{n_train} + {n_test} samples: pincal calibrates at most {MAX_SAMPLES} samples in one run, "
+                        "so it simulates no more")
+
+
+def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, frame: str | None = None,
+             perturb: float = 1e-3, noise: float = 1e-5, seed: int = 0,
+             parameter_spec: Sequence[str] | None = None, progress: bool = False,
+             spread: float | None = None, payload: Payload | None = None) -> Simulation:
+    """Simulate a calibration campaign on ``robot`` with random true errors.
+
+    Args:
+        robot: The nominal robot.
+        kinds: Measurement kinds (see :func:`measurement_models`).
+        n_train: Postures to calibrate from.
+        n_test: Postures to validate on (held out).
+        frame: Frame of the ``position``/``pose`` kinds; default: the robot's end effector.
+        perturb: σ of the true errors [m and rad].
+        noise: σ of the measurement noise [m, and rad for angles].
+        seed: Random seed (same seed, same files).
+        parameter_spec: Which parameters carry errors (named set or patterns); default: all
+            candidates.
+        progress: Show a progress bar while drawing postures (on a terminal).
+        spread: Half-range [rad or m] of the actuated values about the reference, within the URDF limits;
+            None: within the URDF limits (see :func:`~pincal.study.simulation.actuated_ranges`).
+        payload: A point mass the robot carries; its gravity torque adds to the links' in the true compliances'
+            deflections (refused without a compliance parameter: :func:`check_payload`).
+    """
+    check_sample_counts(n_train, n_test)
+    check_movable(robot)
+    rng = np.random.default_rng(seed)
+    models = measurement_models(robot, kinds, frame, max(noise, 1e-9))
+    pset = choose_parameters(robot, models, parameter_spec)
+    check_payload(robot, pset, payload)
+    x_true = perturbation(pset, perturb, rng)
+    qa, _ = random_actuated(robot, n_train + n_test, rng, spread=spread, progress=progress)
+    try:
+        obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise, payload=payload)
+    except ConvergenceError as exc:
+        raise ConvergenceError(f"the simulated robot, with true errors of σ {perturb:g} (m, rad), cannot be "
+                               f"assembled: {exc}; give smaller errors (perturb)") from None
+    joint_names = list(robot.actuated_joints)
+    joints = [obs.actuated]
+    measured: dict[str, Array] = {}
+    for m in models:
+        if isinstance(m, JointReading):
+            joint_names.append(m.joint)
+            joints.append(obs.values[m.key])
+        else:
+            measured[m.key] = obs.values[m.key]
+    n = n_train + n_test
+    dataset = Dataset(joint_names, np.hstack(joints), measured, [str(k) for k in range(n)],
+                      ["train"] * n_train + ["test"] * n_test,
+                      {"robot": robot.name, "units": "SI (m, rad)", "perturb": repr(perturb), "seed": str(seed),
+                       **{f"sigma {m.key.split(':', 1)[0]} {m.key.split(':', 1)[1]}": repr(max(noise, 1e-9))
+                          for m in models}})
+    return Simulation(robot, pset, x_true, dataset, models, payload)
+
+
+SIMULATION_FILES = ("measurements.csv", "truth.urdf", "truth.json")
+
+
+def simulation_outputs(robot: Robot, out: str | Path) -> list[Path]:
+    """The files :func:`write_simulation` writes into ``out``, checked (:func:`~pincal.io.files.check_outputs`):
+    ``out`` is a directory or can be made one, and none of the files is the robot's own URDF.
+
+    Raises:
+        OutputError: ``out`` is a file or cannot be created, or a file would replace the robot's URDF.
+    """
+    folder = make_directory(out, "--out")
+    paths = [folder / name for name in SIMULATION_FILES]
+    check_outputs([("--out", p) for p in paths], [robot.source] if robot.source is not None else [])
+    return paths
+
+
+def write_simulation(sim: Simulation, out: Path) -> list[Path]:
+    """Write measurements.csv, truth.urdf and truth.json into ``out``; returns the paths.
+
+    ``truth.urdf`` is the true robot written as a calibrated URDF (docs/calibrated_urdf.md): its forward
+    kinematics at the actuated readings of ``measurements.csv``, in its root frame (the measurement frame
+    when ``base.*`` carries errors), reproduces the measurements up to the noise; the sensors of read
+    passive joints read ``q + zero`` (its ``<joint_sensor>`` elements, also in ``truth.json``).
+    """
+    paths = simulation_outputs(sim.robot, out)
+    read = [m.joint for m in sim.measurements if isinstance(m, JointReading)]
+    text, shifts = calibrated_robot_text(sim.robot, source_text(sim.robot), sim.parameters, sim.x_true,
+                                         note="the TRUE robot of a pincal simulation (nominal + known errors)",
+                                         read_joints=read, markers=declared_markers(sim.measurements))
+    truth = {"robot": sim.robot.name, "units": "SI: m, rad", "parameters": sim.parameters.as_dict(sim.x_true),
+             "reference_shifts": shifts, "joint_sensor_zeros": joint_sensor_zeros(text)}
+    texts = list(zip(paths, (dataset_text(sim.dataset), text, json_text(truth)), strict=True))
+    corrections = corrections_of(sim.robot, sim.parameters, sim.x_true, sim.payload)
+    if corrections is not None:  # the true joint harmonics and compliances, as a calibration writes them
+        texts.append((corrections_path(paths[1]), json_text(corrections_dict(corrections, sim.robot))))
+    return write_texts(texts)

@@ -1,0 +1,247 @@
+"""A calibration's report as the terminal reads it: the summary ``pincal calibrate`` and ``pincal demo`` print, and
+the one-word verdict of ``pincal fleet``. Everything here reads the typed report (:class:`CalibrationReport`); nothing
+recomputes a figure. Lengths are printed in mm, angles in mrad.
+"""
+
+from __future__ import annotations
+
+import textwrap
+
+from pincal.calibration.heldout import NOISE_CONTRADICTED
+from pincal.calibration.report import CalibrationReport
+from pincal.identification.corrections import payload_from_dict
+
+
+def mm(value: float | None) -> str:
+    """A length [m] in mm for the terminal ("-" when missing)."""
+    return "-" if value is None or value != value else f"{value * 1e3:.4f} mm"
+
+
+
+
+def mrad(value: float | None) -> str:
+    """An angle [rad] in mrad for the terminal ("-" when missing)."""
+    return "-" if value is None or value != value else f"{value * 1e3:.4f} mrad"
+
+
+def _column(value: str) -> str:
+    """A figure of the before/after table, right-aligned in 14 characters and never run into the one before it."""
+    return f" {value:>13}"
+
+
+def _heavy_payload(report: CalibrationReport) -> str | None:
+    """A warning when the payload [kg] outweighs every moving link of the robot together (grams typed as kilograms,
+    a load meant for another robot). When the URDF gives the links no mass there is nothing to weigh it against: a
+    note says so, and that the compliances then rest on the payload's gravity torque alone."""
+    payload, links = report.payload, report.links_mass
+    if not payload or links is None:
+        return None
+    if links <= 0.0:
+        return (f"note: the URDF gives the robot's moving links no mass (no <inertial>), so the payload's "
+                f"{payload['mass']:g} kg cannot be checked against theirs, and the compliances rest on its gravity "
+                "torque alone: right for a light arm under a heavy tool, wrong if the URDF merely leaves the masses "
+                "out")
+    if payload["mass"] <= links:
+        return None
+    return (f"warning: the payload ({payload['mass']:g} kg) outweighs all the robot's moving links together "
+            f"({links:.3g} kg, from the URDF): check its mass [kg] and its frame")
+
+
+def summary_text(report: CalibrationReport, seconds: float, report_path: str | None = None) -> str:
+    """The summary ``pincal calibrate`` prints: the verdict lines first (not converged, worse than nominal, residuals
+    above the stated noise), the fit's account, the before/after table [mm, mrad], where every sample went, the
+    warnings, and the combinations the data cannot separate; ``seconds`` is the fit's wall time."""
+    lines = [f"NOT CONVERGED: {report.message} after {report.iterations} iterations; the estimate below is "
+             "where the solver stopped, not a calibration (try --max-iter, fewer --parameters or more samples)"
+             if not report.converged else None,
+             f"WORSE THAN NOMINAL: the calibrated model predicts the held-out samples worse than the nominal one "
+             f"(RMS {mm(report.test_rms_after)} against {mm(report.test_rms_before)}); keep the nominal model, "
+             "or fit fewer parameters, or measure postures that cover the held-out range"
+             if report.worse_than_nominal else None,
+             # said first: "converged" must not read as "fits the data"
+             f"THE FIT DOES NOT REACH THE STATED NOISE: residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ after calibration; "
+             "either the stated σ is wrong or the model cannot fit these data (see the warning below)"
+             if (report.sigma2 or 0.0) > NOISE_CONTRADICTED else None,
+             f"samples {report.n_samples}, parameters {report.n_parameters}, "
+             f"identifiable {report.n_identifiable}, estimated {report.n_estimated}"
+             f", condition number {report.condition_number:.3g}" if report.condition_number else "",
+             _selection_line(report),
+             f"payload {payload_from_dict(report.payload)}, in the gravity torque of the compliances"
+             if report.payload else None,
+             _heavy_payload(report),
+             f"solver {report.solver}, loss {report.loss}: {report.message} after {report.iterations} "
+             f"iterations, {seconds:.3f} s",
+             "",
+             f"{'':32}{'before':>14}{'after':>14}",
+             f"{'RMS position error (fit)':32}{_column(mm(report.rms_before))}{_column(mm(report.rms_after))}",
+             f"{'max position error (fit)':32}{_column(mm(report.max_before))}{_column(mm(report.max_after))}"]
+    if report.rms_angle_before is not None:
+        lines += [f"{'RMS orientation error (fit)':32}{_column(mrad(report.rms_angle_before))}"
+                  f"{_column(mrad(report.rms_angle_after))}",
+                  f"{'max orientation error (fit)':32}{_column(mrad(report.max_angle_before))}"
+                  f"{_column(mrad(report.max_angle_after))}"]
+    if report.has_held_out:
+        lines += [f"{'RMS position error (held out)':32}{_column(mm(report.test_rms_before))}"
+                  f"{_column(mm(report.test_rms_after))}",
+                  f"{'max position error (held out)':32}{_column(mm(report.test_max_before))}"
+                  f"{_column(mm(report.test_max_after))}"]
+    if report.test_rms_angle_before is not None:
+        lines += [f"{'RMS orientation error (held out)':32}{_column(mrad(report.test_rms_angle_before))}"
+                  f"{_column(mrad(report.test_rms_angle_after))}",
+                  f"{'max orientation error (held out)':32}{_column(mrad(report.test_max_angle_before))}"
+                  f"{_column(mrad(report.test_max_angle_after))}"]
+    if report.before_means:
+        lines.append(f"(before: {report.before_means})")
+    if report.joints_at_reference:
+        joints = report.joints_at_reference
+        lines += textwrap.wrap(f"not in the file, at their reference (they move nothing measured): {', '.join(joints)}",
+                               120, subsequent_indent="  ", break_on_hyphens=False)[:3]
+    lines += _accounting(report)
+    if report.calibration_gain is not None:
+        lines.append(f"{'calibration gain G (study 000)':32}{'':>14}{report.calibration_gain:>12.1f} %")
+        if report.unidentifiable:
+            lines.append("  (G compares every parameter with the truth; parameters the data cannot separate stay at "
+                         "minimum-norm values, which caps G: the position errors are the measure that counts)")
+    lines += _generalization(report)
+    if report.unidentifiable:
+        lines.append("")
+        lines.append(f"not identifiable from these data ({len(report.unidentifiable)} directions):")
+        lines += report.unidentifiable_listing or [f"  - {text}" for text in report.unidentifiable]
+        count = len(report.unidentifiable)
+        lines.append(f"  (all {count} in full: the report's 'unidentifiable')" if report_path else
+                     f"  (all {count} in full: --report FILE writes them, under 'unidentifiable')")
+    return "\n".join(line for line in lines if line is not None)
+
+
+def _selection_line(report: CalibrationReport) -> str | None:
+    """What model selection left out, in one line (None when it left nothing out)."""
+    selection = report.selection or {}
+    removed = selection.get("removed") or []
+    if not removed:
+        return None
+    return (f"model selection ({selection['policy']}): left out the {', '.join(selection['removed_groups'])} "
+            f"({len(removed)} parameters at nominal); --select none keeps them")
+
+
+#: Cross-validated error above this multiple of the fit error is called overfitting.
+OVERFIT_RATIO = 1.5
+#: Fewer measured values than this per estimated parameter are called few.
+VALUES_PER_PARAMETER = 5
+
+
+def _generalization(report: CalibrationReport) -> list[str]:
+    """The cross-validated error beside the fit's, and the warnings about generalization."""
+    lines = []
+    cv = report.cv
+    if cv and cv["rms"] is None:
+        lines.append(f"cross-validation ({cv['plan']}): no fold could be fitted; first: {cv['failed_folds'][0]}")
+    elif cv:
+        lines.append(f"{'RMS position error (cross-val.)':32}{'':>14}{mm(cv['rms']):>14}  ({cv['plan']}, "
+                     f"{cv['n_samples']} samples, {cv['n_predictions']} predictions)")
+        for key, value in (cv.get("rms_by_reading") or {}).items():
+            lines.append(f"{'  ' + key:32}{'':>14}{mm(value):>14}")
+        if "rms_angle" in cv:
+            lines.append(f"{'RMS orientation error (cross-val.)':32}{'':>14}{mrad(cv['rms_angle']):>14}")
+        if cv.get("failed_folds"):
+            lines.append(f"  ({len(cv['failed_folds'])} fold fits failed and are left out; the report lists them)")
+        if cv.get("unconverged_folds"):
+            lines.append(f"  ({cv['unconverged_folds']} fold fits stopped before converging; their predictions count)")
+        fit = report.rms_after
+        if fit and cv["rms"] > OVERFIT_RATIO * fit:
+            lines.append(f"warning: the cross-validated error is {cv['rms'] / fit:.2g} × the fit error: the model "
+                         "follows these samples more closely than it predicts new ones (overfitting)")
+    rows = report.n_residuals
+    estimated = report.n_estimated
+    if rows and estimated and rows < VALUES_PER_PARAMETER * estimated:
+        lines.append(f"warning: {rows / estimated:.2g} measured values per estimated parameter "
+                     f"(< {VALUES_PER_PARAMETER}): check generalization with --cv 5, or add postures")
+    return lines
+
+
+def _readings(report: CalibrationReport) -> list[str]:
+    """How many position readings the figures are made of, per marker, when a file measures several markers or
+    some were not seen (nothing otherwise: then every sample holds every reading)."""
+    fitted, unseen = report.readings or {}, report.readings_not_seen or {}
+    if len(unseen) < 2 and not any(unseen.values()):
+        return []
+    per_frame: dict[str, list[str]] = {}
+    for key in unseen:  # position:<frame>@<marker> or position:<frame>
+        frame, _, marker = key.partition(":")[2].partition("@")
+        per_frame.setdefault(frame, []).append(f"{marker or 'origin'} {fitted[key]}")
+    parts = "; ".join(f"{frame}: {', '.join(counts)}" for frame, counts in per_frame.items())
+    held = report.test_readings or {}
+    return [f"position readings: fitted {sum(fitted[key] for key in unseen)} ({parts}), not seen "
+            f"{sum(unseen.values())}" + (f"; held out {sum(held.get(key, 0) for key in unseen)}" if held else ""),
+            "  (each RMS position error is over the readings taken: one 3D error per marker seen)"]
+
+
+#: Most samples listed one per line in the summary; the report JSON lists them all.
+LISTED = 10
+#: Share of down-weighted samples from which the summary warns that the robust fit is stretched.
+ROBUST_WARNING_FRACTION = 0.25
+
+
+def _accounting(report: CalibrationReport) -> list[str]:
+    """Where every sample of the file went, and whether the residuals agree with the stated noise."""
+    dropped = report.dropped_samples + (report.dropped_test_samples or [])
+    weighted = report.down_weighted
+    held = report.n_test_samples or 0
+    total = report.n_samples_in_file or report.n_samples + held + len(dropped)
+    lines = ["", f"samples in the file {total}: fitted {report.n_samples}, held out {held}, dropped {len(dropped)}"
+                 + (f", down-weighted {len(weighted)} of the fitted" if weighted else "")]
+    lines += _readings(report)
+    if dropped:
+        lines.append(f"dropped ({len(dropped)}):")
+        lines += [f"  - sample {d['sample']}: {d['reason']}" for d in dropped[:LISTED]]
+    if weighted:
+        lines.append(f"down-weighted by the robust loss ({len(weighted)}):")
+        lines += [f"  - sample {w['sample']}: weight {w['weight']:.3g}"
+                  + (f", error {mm(w['error_after'])} after calibration" if w["error_after"] is not None else "")
+                  for w in weighted[:LISTED]]
+    strange = report.held_out_outliers or []
+    if strange:
+        lines.append(f"held-out samples the calibrated model cannot explain ({len(strange)}; they weigh on the "
+                     f"held-out figures, not on the comparison with the nominal model): {', '.join(strange[:LISTED])}"
+                     + (" ..." if len(strange) > LISTED else ""))
+    outside = report.held_out_outside_range or []
+    if outside:  # one line of at most 120 characters: a few samples, else their count
+        ids, joints = (list(dict.fromkeys(str(o[key]) for o in outside)) for key in ("sample", "joint"))
+        where = joints[0] if len(joints) == 1 else f"{len(joints)} actuated joints"
+        shown = ", ".join(ids[:3]) + (f" (+{len(ids) - 3})" if len(ids) > 3 else "")
+        lines.append(next(line for line in (f"warning: held-out sample {shown} lies outside the fitted range of "
+                                            f"{where}: its error measures extrapolation" if len(ids) == 1 else
+                                            f"warning: held-out samples {shown} lie outside the fitted range of "
+                                            f"{where}: their errors measure extrapolation",
+                                            f"warning: {len(ids)} held-out samples lie outside the fitted range of "
+                                            f"{where}: their errors measure extrapolation",
+                                            f"warning: {len(ids)} held-out samples lie outside the fitted range of "
+                                            "the actuated joints: their errors measure extrapolation")
+                          if len(line) <= 120))
+    if weighted and len(weighted) >= ROBUST_WARNING_FRACTION * report.n_samples:
+        lines.append(f"warning: {len(weighted)} of the {report.n_samples} fitted samples "
+                     f"({len(weighted) / report.n_samples:.0%}) were down-weighted: a robust fit is not meant for "
+                     "that many; check the measuring set-up and the model before using the result")
+    if len(dropped) > LISTED or len(weighted) > LISTED:
+        lines.append(f"  (the first {LISTED} of each are listed; --report writes them all)")
+    sigma2 = report.sigma2
+    if sigma2 is not None and sigma2 > 0:
+        ratio = sigma2**0.5
+        lines.append(f"a-posteriori σ: {ratio:.3g} × the stated σ (σ² factor {sigma2:.4g}); the standard deviations "
+                     "use it")
+        if not 1 / 3 <= ratio <= 3:
+            lines.append(f"warning: the residuals are {ratio:.3g} × the stated noise: the stated σ (--sigma or the "
+                         "file's '# sigma' lines) is wrong, or the model misses an effect")
+    return lines
+
+
+def verdict(report: CalibrationReport) -> str:
+    """One robot's outcome in a word or two: what the summary's first line would say."""
+    if not report.converged:
+        return f"NOT CONVERGED ({report.message})"
+    if report.worse_than_nominal:
+        return "WORSE THAN NOMINAL"
+    if (report.sigma2 or 0.0) > NOISE_CONTRADICTED:
+        return f"converged; residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ"
+    return "converged"
+
+
