@@ -12,11 +12,11 @@ import statistics
 import time
 
 import pincal
+from pincal.calibration.simulate import simulate
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.solver import error_norms, identify, rms
 from pincal.io.adapters import measurements_for, observations_from
-from pincal.workflow import simulate
 
 
 def main() -> None:

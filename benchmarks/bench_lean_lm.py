@@ -44,6 +44,7 @@ from threadpoolctl import threadpool_limits  # noqa: E402
 
 import pincal  # noqa: E402
 from pincal import linalg  # noqa: E402
+from pincal.calibration.simulate import simulate  # noqa: E402
 from pincal.errors import IdentifiabilityError  # noqa: E402
 from pincal.identification import lm, solver  # noqa: E402
 from pincal.identification.identifiability import analyse, correlations, covariance  # noqa: E402
@@ -51,7 +52,6 @@ from pincal.identification.parameters import choose_parameters  # noqa: E402
 from pincal.identification.problem import CalibrationProblem, Prediction  # noqa: E402
 from pincal.io.adapters import measurements_for, observations_from  # noqa: E402
 from pincal.model.kinematics import CONTINUATION_STEP  # noqa: E402
-from pincal.workflow import simulate  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_lm  # noqa: E402

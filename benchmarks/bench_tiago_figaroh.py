@@ -6,7 +6,7 @@ FIGAROH comes with the optional ``bench`` extra (``pip install -e ".[bench]"``);
 The data: ``../shared/realdata/tiago_mocap/`` as pincal reads it from ``examples/data/tiago_mocap_marker1.csv``
 (marker 1) and ``examples/data/tiago_mocap_markers.csv`` (markers 1–3 on ``wrist_ft_tool_link``), 34 postures, the
 mocap frame and the marker offsets unknown. pincal: the default command, ``pincal calibrate tiago_no_hand FILE
---cv 5x4 --cv-seed S`` (and ``--cv loo``), through :func:`pincal.workflow.calibrate`. FIGAROH: its ``full_params``
+--cv 5x4 --cv-seed S`` (and ``--cv loo``), through :func:`pincal.calibration.calibrate`. FIGAROH: its ``full_params``
 model with the base frame and one position offset per marker unknown (its structural base parameters: 30 for one
 marker, 39 for three), least squares from its closed-form frame start, the residual in metres over 1 mm.
 
@@ -38,7 +38,8 @@ import numpy.typing as npt
 import pinocchio as pin
 
 import pincal
-from pincal.workflow import calibrate, read_robot_dataset
+from pincal.calibration.pipeline import calibrate
+from pincal.calibration.samples import read_robot_dataset
 
 Array = npt.NDArray[np.float64]
 ROOT = Path(__file__).resolve().parents[1]
@@ -74,7 +75,7 @@ def rms(values: Array) -> float:
 def pincal_cv(markers: int, cv: str, seed: int) -> Figures:
     """The default command's cross-validated RMS: ``--cv cv --cv-seed seed``."""
     robot = pincal.load_robot("tiago_no_hand")
-    report = calibrate(robot, read_robot_dataset(FILES[markers], robot), cv=cv, cv_seed=seed).report["cv"]
+    report = calibrate(robot, read_robot_dataset(FILES[markers], robot), cv=cv, cv_seed=seed).report.cv
     first = report.get("rms_by_reading", {}).get(f"position:{TOOL}@m1", report["rms"])
     return Figures(report["rms"], first)
 

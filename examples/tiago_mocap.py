@@ -24,11 +24,12 @@ import numpy as np
 from study_cli import ROOT, study_main
 
 import pincal
+from pincal.calibration.pipeline import calibrate
+from pincal.calibration.samples import read_robot_dataset
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.selection import select_and_fit
 from pincal.io.adapters import measurements_for, observations_from
-from pincal.workflow import calibrate, read_robot_dataset
 
 DATA = ROOT / "examples" / "data"
 ONE = DATA / "tiago_mocap_marker1.csv"
@@ -90,8 +91,8 @@ def measure(case: Case, quick: bool) -> dict[str, Any]:
                                "select": case.select}
     start = time.perf_counter()
     folds = calibrate(robot, dataset, cv="5" if quick else "5x4", **options)
-    loo = None if quick else calibrate(robot, dataset, cv="loo", **options).report["cv"]["rms"]
-    report = folds.report
+    loo = None if quick else calibrate(robot, dataset, cv="loo", **options).report.cv["rms"]
+    report = folds.report.as_dict()
     return {"markers": case.markers, "model": case.model, "command": case.command,
             "candidates": report["n_parameters"], "identifiable": report["n_identifiable"],
             "estimated": report["n_estimated"], "left_out": report["selection"]["removed_groups"],
@@ -241,14 +242,14 @@ def noise_floor(path: Path, draws: int = 3) -> dict[str, Any]:
     everything = replace(dataset, sets=np.array(["train"] * dataset.n_samples))
     fitted = calibrate(robot, everything)
     errors = fitted.problem.evaluate(fitted.result.x, jacobian=False).errors
-    report = fitted.report
+    report = fitted.report.as_dict()
     scale = np.sqrt(report["n_residuals"] / (report["n_residuals"] - report["n_estimated"]))
     figures = []
     for draw in range(draws):
         order = np.random.default_rng(100 + draw).permutation(dataset.n_samples)
         readings = {key: dataset.measurements[key] + errors[key] - scale * errors[key][order]
                     for key in dataset.measurements}
-        figures.append(calibrate(robot, replace(dataset, measurements=readings), cv="5x4").report["cv"]["rms"])
+        figures.append(calibrate(robot, replace(dataset, measurements=readings), cv="5x4").report.cv["rms"])
     return {"draws": figures, "fit": report["rms_after"], "scale": float(scale)}
 
 

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import ast
+import itertools
+import re
 from pathlib import Path
 
 import pytest
@@ -12,7 +14,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "pincal"
 #: Layer of each top-level part of pincal, from the bottom; a module imports only parts of a lower layer or
 #: modules of its own part (``pincal.__version__`` is a constant of the package root).
 LAYERS = {"errors": 0, "__version__": 0, "linalg": 1, "progress": 1, "model": 2, "identification": 3, "study": 4,
-          "io": 4, "workflow": 5, "fleet": 6, "viz": 6, "cli": 7, "__main__": 8}
+          "io": 4, "calibration": 5, "fleet": 6, "viz": 6, "cli": 7, "__main__": 8}
 
 
 def _part(module: str) -> str:
@@ -41,3 +43,29 @@ def test_imports_point_down(path: Path) -> None:
         if part == own:
             continue
         assert part in LAYERS and LAYERS[part] < LAYERS[own], f"{path.relative_to(PACKAGE)} imports {module}"
+
+
+ARCHITECTURE = (PACKAGE.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
+#: The package table of docs/architecture.md: package -> its row.
+ROWS = {m.group(1): m.group(0) for m in re.finditer(r"^\| `(\w+)` \|.*$", ARCHITECTURE, re.MULTILINE)}
+PACKAGES = sorted(p.name for p in PACKAGE.iterdir() if p.is_dir() and (p / "__init__.py").is_file())
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_the_architecture_page_names_every_module_of_each_package(package: str) -> None:
+    """Each sub-package has a row in the page's table that names each of its modules, and a layer in LAYERS."""
+    assert package in ROWS, f"docs/architecture.md has no row for pincal/{package}/"
+    assert package in LAYERS
+    modules = sorted(p.stem for p in (PACKAGE / package).glob("*.py") if p.name != "__init__.py")
+    modules += sorted(p.name for p in (PACKAGE / package).iterdir() if (p / "__init__.py").is_file())
+    missing = [m for m in modules if f"`{m}`" not in ROWS[package]]
+    assert not missing, f"docs/architecture.md's row of {package} does not name {missing}"
+
+
+def test_the_architecture_page_names_no_module_that_is_gone() -> None:
+    """A package named on the page exists, and the page's layer order is the one LAYERS holds."""
+    assert set(ROWS) <= set(PACKAGES)
+    order = re.search(r"\(`errors` < `linalg`.*?\)", ARCHITECTURE, re.DOTALL)
+    assert order is not None
+    named = re.findall(r"`(\w+)`", order.group(0))
+    assert all(LAYERS[a] <= LAYERS[b] for a, b in itertools.pairwise(named))

@@ -1,5 +1,5 @@
 """The workflow's cross-validation from Python: a shuffle seed that would seed nothing is refused in the words of
-:func:`pincal.workflow.calibrate`'s keywords, and :func:`pincal.workflow.cross_validate` takes its seed from the
+:func:`pincal.calibration.calibrate`'s keywords, and :func:`pincal.calibration.cross_validate` takes its seed from the
 plan. (The command line's and the job file's words: tests/cli/test_inputs.py, tests/cli/test_job_file.py.)"""
 
 from __future__ import annotations
@@ -9,9 +9,12 @@ from pathlib import Path
 import pytest
 
 import pincal
+from pincal.calibration.crossval import cross_validate, parse_cv
+from pincal.calibration.options import check_cv_seed
+from pincal.calibration.pipeline import calibrate
+from pincal.calibration.samples import read_robot_dataset
 from pincal.errors import DataError
 from pincal.io.dataset import Dataset
-from pincal.workflow import calibrate, check_cv_seed, cross_validate, parse_cv, read_robot_dataset
 
 
 @pytest.fixture(scope="module")

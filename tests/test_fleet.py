@@ -11,9 +11,9 @@ from conftest import run_pincal
 from dask.distributed import Client, LocalCluster
 
 import pincal
+from pincal.calibration.simulate import simulate
 from pincal.fleet import FleetJob, calibrate_fleet, jobs_from_directory
 from pincal.io.dataset import write_dataset
-from pincal.workflow import simulate
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +30,7 @@ def fleet(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[FleetJob
 
 
 def _reports(results: list) -> list:
-    return [(r.name, r.error, None if r.report is None else json.dumps(r.report, sort_keys=True)) for r in results]
+    return [(r.name, r.error, None if r.report is None else r.report.to_json()) for r in results]
 
 
 def test_fleet_serial_pool_and_dask_agree(fleet: tuple[Path, list[FleetJob]]) -> None:
@@ -38,7 +38,7 @@ def test_fleet_serial_pool_and_dask_agree(fleet: tuple[Path, list[FleetJob]]) ->
     serial = calibrate_fleet(jobs, workers=1)
     assert [r.name for r in serial] == ["delta_00", "delta_01", "delta_02", "delta_03", "delta_99"]
     assert all(r.ok for r in serial[:4]) and not serial[4].ok and "no measurement columns" in (serial[4].error or "")
-    assert all(r.report is not None and r.report["test_rms_after"] < 0.1 * r.report["test_rms_before"]
+    assert all(r.report is not None and r.report.test_rms_after < 0.1 * r.report.test_rms_before
                for r in serial[:4])
     assert (root / "out" / "delta_00.urdf").is_file() and (root / "out" / "delta_00.json").is_file()
     with concurrent.futures.ProcessPoolExecutor(max_workers=2) as pool:

@@ -11,9 +11,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import pincal
+from pincal.calibration.pipeline import calibrate
 from pincal.io.dataset import Dataset, read_dataset, write_dataset
 from pincal.model.robot import robot_from_urdf_text
-from pincal.workflow import calibrate
 
 NUMBER = re.compile(r"-?\d+\.?\d*(?:e-?\d+)?")
 JUNK = ["nan", "inf", "-inf", "1e400", "abc", "", "0x10", "1,5", "--1", "1e-400", "9" * 40, "0.0.0", " "]
@@ -74,7 +74,7 @@ _BASE: dict[str, Dataset] = {}
 
 def _base_dataset() -> Dataset:
     if not _BASE:
-        from pincal.workflow import simulate
+        from pincal.calibration.simulate import simulate
 
         sim = simulate(pincal.load_robot("five_bar"), ["position"], 12, 3, perturb=1e-4, noise=1e-6, seed=0,
                        parameter_spec=["*.offset"])

@@ -16,20 +16,16 @@ from conftest import run_pincal
 from mechanisms import crank_rocker_urdf
 
 import pincal
+from pincal.calibration.heldout import sample_length_errors
+from pincal.calibration.pipeline import calibrate
+from pincal.calibration.samples import held_out_outside_range, read_robot_dataset
+from pincal.calibration.simulate import simulate, write_simulation
 from pincal.errors import DataError
 from pincal.identification.derivatives import marker_points
 from pincal.identification.measurements import position
 from pincal.identification.parameters import choose_parameters
 from pincal.io.dataset import Dataset, read_dataset, write_dataset
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
-from pincal.workflow import (
-    calibrate,
-    held_out_outside_range,
-    read_robot_dataset,
-    sample_length_errors,
-    simulate,
-    write_simulation,
-)
 
 
 @pytest.fixture(scope="module")
@@ -551,7 +547,7 @@ def test_three_markers_on_one_body_calibrate_from_the_readings_taken(ur10_marker
     robot = pincal.load_robot("ur10")
     dataset = read_robot_dataset(path, robot)
     cal = calibrate(robot, dataset)
-    report = cal.report
+    report = cal.report.as_dict()
     assert [d["sample"] for d in report["dropped_samples"] + report["dropped_test_samples"]] == [str(k) for k in BLIND]
     assert "no reading: the cells of any of the 3 markers are all empty (not seen)" in report["dropped_samples"][0][
         "reason"]
@@ -588,12 +584,12 @@ def test_a_cluster_of_markers_is_fitted_as_one_rigid_placement(ur10_markers: tup
     robot = pincal.load_robot("ur10")
     dataset = read_robot_dataset(path, robot)
     cal = calibrate(robot, dataset, markers="cluster")
-    names = list(cal.report["parameters"])
+    names = list(cal.report.parameters)
     assert [n for n in names if n.startswith("cluster.")] == [f"cluster.tool0.{c}" for c in
                                                               ("tx", "ty", "tz", "rx", "ry", "rz")]
     assert not any(n.startswith("marker.") for n in names)
-    assert cal.report["markers"] == "cluster"
-    assert 1e-4 < cal.report["rms_after"] < 3e-3
+    assert cal.report.markers == "cluster"
+    assert 1e-4 < cal.report.rms_after < 3e-3
     bare = Dataset(dataset.joint_names, dataset.joints, dataset.measurements, dataset.sample_ids, dataset.sets,
                    {"robot": "ur10", "marker m1 on tool0": "0 0 0"})
     with pytest.raises(DataError, match=r"--markers cluster needs each marker's nominal offset on its frame; "

@@ -90,29 +90,26 @@ class CalibrationOptions:
 
     parameter_spec: tuple[str, ...] | None = field(default=None, metadata=_how(
         flag="--parameters", key="parameters", help=PARAMETERS_HELP, kind="texts"))
-    solver: SolverName = field(default="lm", metadata=_how(
-        flag="--solver", key="solver", choices=SOLVER_CHOICES,
-        help="lm: Levenberg-Marquardt on the identifiable directions (default); tsvd; ridge"))
-    loss: LossName = field(default="auto", metadata=_how(
-        flag="--loss", key="loss", choices=LOSS_CHOICES,
-        help="auto (default): least squares, then a robust (Cauchy) refit if the data hold samples their own noise "
-             "level makes implausible, which are listed; linear: least squares only; cauchy: robust from the start"))
-    sigma: float | None = field(default=None, metadata=_how(flag="--sigma", key="sigma", kind="sigma", help=SIGMA_HELP))
-    pose_sigma_angle: float | None = field(default=None, metadata=_how(
-        flag="--pose-sigma-angle", key=None, kind="sigma", api_only=True,
-        help="σ of pose orientations [rad] over the data's"))
-    formulation: Formulation = field(default="fkm", metadata=_how(
-        flag="--formulation", key="formulation", choices=FORMULATIONS,
-        help="fkm: measured - predicted by forward kinematics; ikm: implicit loop residuals with the measured pose "
-             "held fixed (study 000; closed-loop robots)"))
-    max_iter: int = field(default=100, metadata=_how(
-        flag="--max-iter", key="max_iter", kind="int",
-        help="iteration limit of the solver (default 100); a run that reaches it exits 1"))
     select: str = field(default="auto", metadata=_how(
         flag="--select", key="select", choices=SELECT_CHOICES,
         help="model selection: bic leaves out the groups of parameters (joint translations, rotations, reading "
              "offsets) the Bayesian information criterion rejects, then refits; none fits every identifiable "
              "parameter; auto (default): bic for the default parameters, none for --parameters you name"))
+    loss: LossName = field(default="auto", metadata=_how(
+        flag="--loss", key="loss", choices=LOSS_CHOICES,
+        help="auto (default): least squares, then a robust (Cauchy) refit if the data hold samples their own noise "
+             "level makes implausible, which are listed; linear: least squares only; cauchy: robust from the start"))
+    solver: SolverName = field(default="lm", metadata=_how(
+        flag="--solver", key="solver", choices=SOLVER_CHOICES,
+        help="lm: Levenberg-Marquardt on the identifiable directions (default); tsvd; ridge"))
+    sigma: float | None = field(default=None, metadata=_how(flag="--sigma", key="sigma", kind="sigma", help=SIGMA_HELP))
+    max_iter: int = field(default=100, metadata=_how(
+        flag="--max-iter", key="max_iter", kind="int",
+        help="iteration limit of the solver (default 100); a run that reaches it exits 1"))
+    formulation: Formulation = field(default="fkm", metadata=_how(
+        flag="--formulation", key="formulation", choices=FORMULATIONS,
+        help="fkm: measured - predicted by forward kinematics; ikm: implicit loop residuals with the measured pose "
+             "held fixed (study 000; closed-loop robots)"))
     cv: str | None = field(default=None, metadata=_how(
         flag="--cv", key="cv", kind="plan", metavar="K|KxR|loo",
         help="cross-validate the whole fit over every usable sample of the file: K folds, KxR (R shuffles, e.g. "
@@ -122,16 +119,20 @@ class CalibrationOptions:
         help="seed of the first --cv shuffle (the R shuffles are seeded N, N+1, …; default 0): the cross-validated "
              "figure depends on how the samples fall into folds, and other seeds show by how much; K-fold plans "
              "only (--cv loo has no shuffle)"))
-    markers: MarkerChoice = field(default="each", metadata=_how(
-        flag="--markers", key=None, choices=MARKER_CHOICES,
-        help="markers declared on a frame (position:<frame>@<marker> columns): each (default) fits each marker's "
-             "offset on its frame; cluster fits one rigid placement of the frame's markers, whose nominal offsets "
-             "the file declares ('# marker m1 on <frame>: x y z' [m])"))
     payload: Payload | None = field(default=None, metadata=_how(
         flag="--payload", key="payload", kind="payload", metavar="MASS@FRAME[:X,Y,Z]",
         help="a point mass the robot carries: MASS [kg] on FRAME (a link or frame of the URDF), at X,Y,Z [m] in "
              "that frame (default 0,0,0); its gravity torque adds to the links' in the joint compliances "
              "('*.compliance'), and is refused without one; the corrections file and the report record it"))
+
+    markers: MarkerChoice = field(default="each", metadata=_how(
+        flag="--markers", key=None, choices=MARKER_CHOICES,
+        help="markers declared on a frame (position:<frame>@<marker> columns): each (default) fits each marker's "
+             "offset on its frame; cluster fits one rigid placement of the frame's markers, whose nominal offsets "
+             "the file declares ('# marker m1 on <frame>: x y z' [m])"))
+    pose_sigma_angle: float | None = field(default=None, metadata=_how(
+        flag="--pose-sigma-angle", key=None, kind="sigma", api_only=True,
+        help="σ of pose orientations [rad] over the data's"))
 
     def __post_init__(self) -> None:
         """Check every value (DataError naming the option and the values allowed)."""

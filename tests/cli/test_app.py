@@ -355,7 +355,7 @@ def test_cross_validation_and_selection_refuse_what_they_cannot_mean(five_bar_cs
 
 def test_a_figure_of_the_before_after_table_never_runs_into_the_one_before_it() -> None:
     """The table's columns are 14 wide; a figure of 14 characters (a nominal model metres off) keeps a space."""
-    from pincal.cli.app import _column
+    from pincal.calibration.summary import _column
     assert _column("1.8378 mm") == "     1.8378 mm"
     assert _column("1570.5827 mrad") == " 1570.5827 mrad"
 

@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 
 import pincal
+from pincal.calibration.simulate import simulate
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.solver import error_norms, identify
 from pincal.io.adapters import measurements_for, observations_from
-from pincal.workflow import simulate
 
 #: robot, measured kind, frame (None: the end effector), samples — enough rows for every candidate.
 ROBOTS = [

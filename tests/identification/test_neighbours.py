@@ -14,13 +14,13 @@ import pytest
 
 import pincal
 from pincal import linalg
+from pincal.calibration.simulate import simulate
 from pincal.identification import neighbours
 from pincal.identification.neighbours import SolvedInputs
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
 from pincal.io.adapters import measurements_for, observations_from
 from pincal.model.kinematics import CONTINUATION_STEP
-from pincal.workflow import simulate
 
 
 def scan(values: np.ndarray, query: np.ndarray, continuous: np.ndarray, reach: float) -> int:

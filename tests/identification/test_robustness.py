@@ -5,13 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 import pincal
+from pincal.calibration.pipeline import calibrate
+from pincal.calibration.simulate import simulate
 from pincal.identification import measurements as ms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.solver import error_norms, identify, rms
 from pincal.io.dataset import Dataset
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
-from pincal.workflow import calibrate, simulate
 
 
 def test_five_percent_gross_outliers_are_down_weighted_by_default() -> None:
@@ -49,9 +50,9 @@ def test_unreachable_samples_are_dropped_and_listed() -> None:
     joints[4, :6] = [0.79, 0.0, 0.0, 0.0, 0.0, 0.0]  # one leg 0.79 m longer, within its limits: no pose fits
     bad = Dataset(ds.joint_names, joints, ds.measurements, ds.sample_ids, ds.sets, ds.metadata)
     cal = calibrate(robot, bad, parameter_spec=["*.offset"])
-    assert [d["sample"] for d in cal.report["dropped_samples"]] == ["4"]
-    assert "forward kinematics did not converge" in cal.report["dropped_samples"][0]["reason"]
-    assert cal.report["n_samples"] == 29 and cal.result.converged
+    assert [d["sample"] for d in cal.report.dropped_samples] == ["4"]
+    assert "forward kinematics did not converge" in cal.report.dropped_samples[0]["reason"]
+    assert cal.report.n_samples == 29 and cal.result.converged
 
 
 def test_singular_samples_are_named() -> None:
@@ -80,8 +81,8 @@ def test_unreachable_held_out_samples_are_listed_not_fatal() -> None:
     joints[22, :6] = [2.0, 0.0, 0.0, 0.0, 0.0, 0.0]  # a held-out sample no platform pose fits
     cal = calibrate(robot, Dataset(ds.joint_names, joints, ds.measurements, ds.sample_ids, ds.sets, ds.metadata),
                     parameter_spec=["*.offset"])
-    assert [d["sample"] for d in cal.report["dropped_test_samples"]] == ["22"]
-    assert cal.report["n_test_samples"] == 4 and cal.result.converged
+    assert [d["sample"] for d in cal.report.dropped_test_samples] == ["22"]
+    assert cal.report.n_test_samples == 4 and cal.result.converged
 
 
 def test_coincident_frames_in_a_distance_are_named() -> None:
@@ -111,14 +112,14 @@ def test_readings_beyond_the_joint_limits_are_dropped_with_that_reason() -> None
     joints[4, :6] = [2.0, 0.0, 0.0, 0.0, 0.0, 0.0]  # one leg 2 m longer: beyond its 0.8 m limit
     bad = Dataset(ds.joint_names, joints, ds.measurements, ds.sample_ids, ds.sets, ds.metadata)
     cal = calibrate(robot, bad, parameter_spec=["*.offset"])
-    assert cal.report["dropped_samples"] == [
+    assert cal.report.dropped_samples == [
         {"sample": "4", "reason": "joint 'leg_1_prismatic' reads 2 m, outside its URDF limits [-0.55, 0.8] m"}]
-    assert cal.report["n_samples"] == 29 and cal.result.converged
+    assert cal.report.n_samples == 29 and cal.result.converged
 
 
 def test_a_reading_just_past_a_nominal_limit_is_kept_and_one_well_past_is_dropped() -> None:
     """URDF limits are nominal: the real TIAGo torso reads 0.350184 m against a 0.35 m limit."""
-    from pincal.workflow import out_of_limits
+    from pincal.calibration.samples import out_of_limits
 
     robot = pincal.load_robot("delta")  # arm limits [-1.2, 1.6] rad: 1 % of the range is 0.028 rad
     joints = np.array([[0.1, 0.2, 0.3], [1.62, 0.2, 0.3], [1.7, 0.2, 0.3], [0.1, -1.25, 0.3]])

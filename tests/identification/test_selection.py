@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 import pincal
+from pincal.calibration.pipeline import calibrate
+from pincal.calibration.simulate import simulate
 from pincal.errors import DataError
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.selection import group_of, information_criterion, select_and_fit, select_groups
 from pincal.io.adapters import measurements_for, observations_from
-from pincal.workflow import calibrate, simulate
 
 
 def test_information_criterion_is_the_bic_of_the_least_squares_fit() -> None:
@@ -59,15 +60,15 @@ def test_selection_drops_what_the_truth_lacks_and_predicts_no_worse() -> None:
                    parameter_spec=["*.tx", "*.ty", "*.tz"])
     selected = calibrate(robot, sim.dataset)
     everything = calibrate(robot, sim.dataset, select="none")
-    assert selected.report["selection"]["removed_groups"] == ["rotations", "offsets"]
-    assert selected.report["n_estimated"] < everything.report["n_estimated"]
-    assert selected.report["test_rms_after"] <= everything.report["test_rms_after"]
-    assert selected.report["test_rms_after"] < 0.1 * selected.report["test_rms_before"]
+    assert selected.report.selection["removed_groups"] == ["rotations", "offsets"]
+    assert selected.report.n_estimated < everything.report.n_estimated
+    assert selected.report.test_rms_after <= everything.report.test_rms_after
+    assert selected.report.test_rms_after < 0.1 * selected.report.test_rms_before
     # a named parameter set is fitted as named unless selection is asked for
     named = calibrate(robot, sim.dataset, parameter_spec=["default", "!base.rz"])
-    assert named.report["selection"]["policy"] == "none" and not named.report["selection"]["removed"]
+    assert named.report.selection["policy"] == "none" and not named.report.selection["removed"]
     default = calibrate(robot, sim.dataset, parameter_spec=["default"])  # the default set by its name: selected
-    assert default.report["selection"]["policy"] == "bic"
+    assert default.report.selection["policy"] == "bic"
 
 
 def test_select_and_fit_refits_the_kept_groups_and_keeps_the_base() -> None:

@@ -29,6 +29,7 @@ import pytest
 from conftest import run_pincal
 
 import pincal
+from pincal.calibration.simulate import simulate, write_simulation
 from pincal.identification.measurements import Distance, JointReading, Measurement, Pose, Position, parse_key, position
 from pincal.identification.parameters import ParameterSet, candidate_parameters, choose_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
@@ -42,7 +43,6 @@ from pincal.io.calibrated_urdf import (
 from pincal.io.dataset import read_dataset
 from pincal.model.robot import Robot
 from pincal.study.simulation import perturbation, random_actuated
-from pincal.workflow import simulate, write_simulation
 
 Array = np.ndarray
 TOLERANCE = 1e-9  # [m, rad]

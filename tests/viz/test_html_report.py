@@ -16,9 +16,10 @@ from conftest import LIGHT_ARM_OPTIONS, ROBOTS, run_pincal
 from PIL import Image
 
 import pincal
+from pincal.calibration.pipeline import calibrate
+from pincal.calibration.simulate import simulate, write_simulation
 from pincal.cli.app import main
 from pincal.viz.html_report import write_demo_report
-from pincal.workflow import calibrate, simulate, write_simulation
 
 N_TRAIN, N_TEST = 30, 10
 
@@ -141,11 +142,11 @@ def test_demo_report(tmp_path: Path) -> None:
     sim = simulate(robot, ["position"], 20, 5, perturb=1e-3, noise=1e-5, seed=1, parameter_spec=["model24"])
     write_simulation(sim, tmp_path)
     cal = calibrate(robot, sim.dataset, parameter_spec=["model24"], x_true=sim.x_true)
-    path = write_demo_report(cal, sim.dataset, tmp_path)
+    path = write_demo_report(cal, tmp_path)
     assert path == tmp_path / "report.html"
     page = path.read_text(encoding="utf-8")
     assert "Calibration of delta" in page and "held-out samples" in page and "<th>truth</th>" in page
-    assert _mm(cal.report["test_rms_after"]) in page
+    assert _mm(cal.report.test_rms_after) in page
 
 
 def test_a_report_on_occluded_markers_counts_the_readings(tmp_path: Path) -> None:

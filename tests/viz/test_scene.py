@@ -19,6 +19,10 @@ from browser import orange_pixels, pixel_variance, render, served
 from conftest import ROBOTS
 
 import pincal
+from pincal.calibration.options import CalibrationOptions
+from pincal.calibration.pipeline import Calibration, calibrate
+from pincal.calibration.report import CalibrationReport
+from pincal.calibration.simulate import Simulation, simulate
 from pincal.cli.app import main
 from pincal.identification.corrections import Payload
 from pincal.io.dataset import write_dataset
@@ -27,7 +31,6 @@ from pincal.progress import Progress
 from pincal.viz.scene import CalibrationView, configurations, draw_calibration, static_scene
 from pincal.viz.static_page import StaticScene
 from pincal.viz.visuals import robot_visuals
-from pincal.workflow import Calibration, Simulation, calibrate, simulate
 
 N_TRAIN = 30
 LINKS_WITH_VISUALS = {"base", "arm_1", "rod_1", "arm_2", "rod_2", "arm_3", "rod_3", "platform", "end_effector"}
@@ -201,7 +204,8 @@ def test_view_command_and_result_reuse(tmp_path: Path, capsys: pytest.CaptureFix
     assert out.err == ""  # --quiet
     assert "pincal-scene-status" in scene.read_text(encoding="utf-8")
     # the result read back gives the calibration's own errors
-    view = CalibrationView.from_result(cal.problem.robot, sim.dataset, json.loads(result.read_text()), ["model24"])
+    view = CalibrationView.from_result(cal.problem.robot, sim.dataset, CalibrationReport.read(result),
+                                       CalibrationOptions(parameter_spec=["model24"]))
     np.testing.assert_allclose(view.x, cal.result.x, atol=1e-15)
     key = "position:end_effector"
     np.testing.assert_allclose(view.errors_after[key], cal.result.errors_after[key], atol=1e-9)
@@ -239,10 +243,11 @@ def test_a_result_read_back_predicts_with_the_payload_it_records(tmp_path: Path)
     spec = ["default", "*.compliance"]
     sim = simulate(ur10, ["position"], 30, seed=3, parameter_spec=spec, payload=payload)
     cal = calibrate(ur10, sim.dataset, parameter_spec=spec, payload=payload)
-    report = json.loads(json.dumps(cal.report))
-    view = CalibrationView.from_result(ur10, sim.dataset, report, spec)
+    report = json.loads(cal.report.to_json())
+    options = CalibrationOptions(parameter_spec=spec)
+    view = CalibrationView.from_result(ur10, sim.dataset, CalibrationReport.from_json(report), options)
     key = "position:tool0"
     np.testing.assert_allclose(view.errors_after[key], cal.result.errors_after[key], atol=1e-12)
     report["payload"] = None  # the same numbers read as if no load had been carried: other predictions
-    forgotten = CalibrationView.from_result(ur10, sim.dataset, report, spec)
+    forgotten = CalibrationView.from_result(ur10, sim.dataset, CalibrationReport.from_json(report), options)
     assert np.abs(forgotten.errors_after[key] - cal.result.errors_after[key]).max() > 1e-4  # [m]

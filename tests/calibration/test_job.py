@@ -1,5 +1,5 @@
-"""Job files: the TOML schema and every error it names (pincal.io.job), and the user's columns read into a Dataset
-in SI units (pincal.io.job_data)."""
+"""Job files: the TOML schema and every error it names (pincal.calibration.job), and the user's columns read into a
+Dataset in SI units (pincal.calibration.job_data)."""
 
 from __future__ import annotations
 
@@ -12,12 +12,11 @@ import pytest
 from conftest import ROOT
 
 import pincal
+from pincal.calibration.job import Job, read_job
+from pincal.calibration.job_data import job_dataset
 from pincal.errors import DataError, NotFoundError, PincalError
 from pincal.identification.corrections import Payload
 from pincal.io.dataset import read_dataset
-from pincal.io.job import FORMULATIONS, Job, read_job
-from pincal.io.job_data import job_dataset
-from pincal.workflow import FORMULATIONS as WORKFLOW_FORMULATIONS
 
 RAW = ROOT / "examples" / "data" / "tiago_mocap_raw.csv"
 CONVERTED = ROOT / "examples" / "data" / "tiago_mocap_marker1.csv"
@@ -144,10 +143,6 @@ def test_a_payload_is_read_and_overridden(tmp_path: Path) -> None:
         "payload": Payload(2.0, "arm_7_link")}
     assert job.overridden(payload=Payload(3.0, "arm_6_link")).options == {"payload": Payload(3.0, "arm_6_link")}
     assert job.overridden(payload=None).options == job.options
-
-
-def test_the_job_knows_the_formulations_calibrate_knows() -> None:
-    assert FORMULATIONS == WORKFLOW_FORMULATIONS
 
 
 # --- what the job refuses: its own keys and values -----------------------------------------------------------------

@@ -1,0 +1,117 @@
+"""One spelling of every calibration option: each field of CalibrationOptions reaches the API keywords, the parsers of
+calibrate, view, report and fleet, the job-file reader and the --result check, with the same default and choices."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import fields
+from pathlib import Path
+
+import pytest
+from conftest import run_pincal
+from test_job import write_job
+
+import pincal
+from pincal.calibration.job import JOB_KEYS, read_job
+from pincal.calibration.options import DEFAULTS, OPTIONS, CalibrationOptions
+from pincal.cli.app import build_parser
+from pincal.errors import DataError, NotFoundError
+
+#: A value other than the default for each option, as the command line writes it and as the keyword holds it.
+OTHER = {"parameter_spec": (["model24"], ("model24",)), "solver": (["tsvd"], "tsvd"), "loss": (["cauchy"], "cauchy"),
+         "sigma": (["2e-5"], 2e-5), "formulation": (["ikm"], "ikm"), "max_iter": (["7"], 7),
+         "select": (["none"], "none"), "cv": (["5x2"], "5x2"), "cv_seed": (["3"], 3),
+         "markers": (["cluster"], "cluster"), "payload": (["1.5@tool0:0,0,0.1"], None)}
+
+
+def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(action.choices)
+
+
+def test_every_option_is_a_field_with_a_default_and_one_flag() -> None:
+    assert list(OPTIONS) == [f.name for f in fields(CalibrationOptions)]
+    assert set(DEFAULTS) == set(OPTIONS)
+    flags = [o.flag for o in OPTIONS.values()]
+    assert len(set(flags)) == len(flags)
+    assert CalibrationOptions() == CalibrationOptions(**DEFAULTS)
+
+
+@pytest.mark.parametrize("command", ["calibrate", "view", "report", "fleet"])
+def test_every_option_reaches_each_command_line_with_its_choices(command: str) -> None:
+    parser = _subparsers(build_parser())[command]
+    by_dest = {a.dest: a for a in parser._actions}
+    for name, option in OPTIONS.items():
+        if option.api_only:
+            assert name not in by_dest, name
+            continue
+        action = by_dest[name]
+        assert option.flag in action.option_strings, name
+        assert action.default is None, name  # not given: the job file's value or the dataclass's default stands
+        assert (list(option.choices) if option.choices else None) == action.choices, name
+        assert action.help == option.help, name
+
+
+@pytest.mark.parametrize("command", ["calibrate", "view", "report", "fleet"])
+def test_a_value_given_on_the_command_line_becomes_the_keyword(command: str) -> None:
+    from pincal.cli.options import given_options
+
+    positional = {"calibrate": ["delta", "d.csv"], "view": ["delta", "d.csv", "--out", "x.html"],
+                  "report": ["delta", "d.csv", "--out", "x.html"], "fleet": ["delta", "dir", "--out", "o"]}[command]
+    argv = [command, *positional]
+    for name, (words, _) in OTHER.items():
+        argv += [OPTIONS[name].flag, *words]
+    given = given_options(build_parser().parse_args(argv))
+    assert set(given) == set(OTHER)
+    for name, (_, value) in OTHER.items():
+        if value is not None:
+            assert CalibrationOptions(**{name: given[name]}).__getattribute__(name) == value, name
+    assert given["payload"].as_dict() == {"mass": 1.5, "frame": "tool0", "offset": [0.0, 0.0, 0.1]}
+
+
+def test_the_job_file_reads_every_option_it_has_a_key_for(tmp_path: Path) -> None:
+    keyed = {name: o.key for name, o in OPTIONS.items() if o.key is not None}
+    assert set(keyed.values()) <= set(JOB_KEYS)
+    values = {"parameters": '["model24"]', "solver": '"tsvd"', "loss": '"cauchy"', "sigma": "2e-5",
+              "formulation": '"ikm"', "max_iter": "7", "select": '"none"', "cv": '"5x2"', "cv_seed": "3",
+              "payload": '{ mass = 1.5, frame = "tool0", offset = [0, 0, 0.1] }'}
+    assert set(values) == set(keyed.values())
+    job = write_job(tmp_path, top="\n".join(f"{k} = {v}" for k, v in values.items()))
+    options = read_job(job).options
+    assert set(options) == set(keyed)
+    for name in keyed:
+        expected = OTHER[name][1]
+        if expected is not None:
+            assert CalibrationOptions(**{name: options[name]}).__getattribute__(name) == expected, name
+
+
+def test_a_bad_keyword_is_refused_by_name() -> None:
+    with pytest.raises(NotFoundError, match="option 'solvr'"):
+        CalibrationOptions().replace(solvr="lm")
+    with pytest.raises(DataError, match="unknown solver 'gn'; solvers are: lm, tsvd"):
+        CalibrationOptions(solver="gn")  # type: ignore[arg-type]
+    with pytest.raises(DataError, match="max_iter is 0"):
+        CalibrationOptions(max_iter=0)
+    with pytest.raises(DataError, match="sigma=-1e-05"):
+        CalibrationOptions(sigma=-1e-5)
+
+
+def test_view_and_report_fit_with_every_option_the_command_line_gives(tmp_path: Path) -> None:
+    """report without --result calibrates with the options given (the formulation and the iteration limit included,
+    which view and report once dropped): the same fit as calibrate's, figure for figure."""
+    sim = tmp_path / "sim"
+    assert run_pincal("simulate", "delta", "--samples", "30", "--test-samples", "10", "--seed", "2", "--quiet",
+                      "--out", str(sim)).returncode == 0
+    data = str(sim / "measurements.csv")
+    options = ["--parameters", "model24", "--max-iter", "2", "--formulation", "ikm", "--select", "none"]
+    result = tmp_path / "r.json"
+    done = run_pincal("calibrate", "delta", data, *options, "--report", str(result))
+    assert done.returncode == 1, done.stderr  # two iterations do not converge: exit 1, as the summary says
+    page = tmp_path / "p.html"
+    done = run_pincal("report", "delta", data, *options, "--out", str(page), "--quiet")
+    assert done.returncode == 1, done.stderr
+    recorded = json.loads(result.read_text(encoding="utf-8"))
+    assert recorded["formulation"] == "ikm" and not recorded["converged"]
+    assert f"{recorded['test_rms_after'] * 1e3:.4f} mm" in page.read_text(encoding="utf-8")
+    assert pincal.CalibrationOptions is CalibrationOptions
