@@ -3,12 +3,14 @@
 Run: ``python benchmarks/bench_tiago_figaroh.py`` (about 15 minutes; ``--quick``: one fold plan, no leave-one-out).
 FIGAROH comes with the optional ``bench`` extra (``pip install -e ".[bench]"``); without it only pincal's half runs.
 
-The data: ``../shared/realdata/tiago_mocap/`` as pincal reads it from ``examples/data/tiago_mocap_marker1.csv``
-(marker 1) and ``examples/data/tiago_mocap_markers.csv`` (markers 1–3 on ``wrist_ft_tool_link``), 34 postures, the
-mocap frame and the marker offsets unknown. pincal: the default command, ``pincal calibrate tiago_no_hand FILE
---cv 5x4 --cv-seed S`` (and ``--cv loo``), through :func:`pincal.calibration.calibrate`. FIGAROH: its ``full_params``
-model with the base frame and one position offset per marker unknown (its structural base parameters: 30 for one
-marker, 39 for three), least squares from its closed-form frame start, the residual in metres over 1 mm.
+The data: the Qualisys file ``qualysis_base_hand_calibration.csv`` of the public repository
+thanhndv212/figaroh-examples (copied byte for byte as ``examples/data/tiago_mocap_raw.csv``) as pincal reads it from
+``examples/data/tiago_mocap_marker1.csv`` (marker 1) and ``examples/data/tiago_mocap_markers.csv`` (markers 1–3 on
+``wrist_ft_tool_link``), 34 postures, the mocap frame and the marker offsets unknown. pincal: the default command,
+``pincal calibrate tiago_no_hand FILE --cv 5x4 --cv-seed S`` (and ``--cv loo``), through
+:func:`pincal.calibration.calibrate`. FIGAROH: its ``full_params`` model with the base frame and one position offset
+per marker unknown (its structural base parameters: 30 for one marker, 39 for three), least squares from its
+closed-form frame start, the residual in metres over 1 mm.
 
 Both tools see the same folds: plan ``S`` shuffles the 34 postures four times, with permutations seeded S, S + 1,
 S + 2 and S + 3, and cuts each shuffle into 5 folds (``order[f::5]``), as ``--cv 5x4 --cv-seed S`` does. Every figure

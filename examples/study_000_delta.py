@@ -450,7 +450,9 @@ def page(study: Study, figure_names: Sequence[str] = ()) -> str:
         "script; "
         f"the run that wrote it took {study.seconds:.0f} s ({study.workers} "
         f"{'process' if study.workers == 1 else 'processes'} on {os.cpu_count()} cores).",
-        "Paper: Bentaleb et al., Delta robot calibration by forward (FKM) and inverse (IKM) kinematic models,",
+        "Paper: Bentaleb and Iqbal, *On the improvement of calibration accuracy of parallel robots – modeling and "
+        "optimization*, Journal of Theoretical and Applied Mechanics 58(1), 2020, doi:10.15632/jtam-pl/115863: Delta "
+        "robot calibration by forward (FKM) and inverse (IKM) kinematic models,",
         "Section 4 (simulations; Jacobians by differentiating the model equations, Section 3.5; non-linear least "
         "squares). pincal: the same robot (`robots_urdf/delta.urdf`), analytic Jacobians through the loops "
         "(implicit function theorem), Levenberg–Marquardt on the identifiable directions.",

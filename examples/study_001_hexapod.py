@@ -298,7 +298,8 @@ def _report(quick: bool, counts: dict[str, int], n_candidates: int, max_angle: f
     lines = [
         "# Study 001 — Gough–Stewart hexapod with the passive measuring device",
         "",
-        "Paper: *kinematic calibration of a Gough–Stewart platform with a new measuring device* (seed 001): a "
+        "Paper: a conference paper on the kinematic calibration of a Gough–Stewart platform with a new measurement "
+        "device, in simulation (its DOI could not be confirmed): a "
         "U-P-U link from the base to the platform with an LVDT, a biaxial inclinometer and a rotary sensor. "
         "Reproduced by `examples/study_001_hexapod.py`" + (" **(quick run)**" if quick else "") + ".",
         "",

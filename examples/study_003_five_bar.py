@@ -381,7 +381,8 @@ def _report(quick: bool, seeds: list[int], mc: Any, ns: list[int], kappa: dict[s
         "# Study 003 — zero-offset calibration of the 2-DOF parallel robot (five-bar)",
         "",
         "Paper: Mei et al., *Rapid and automatic zero-offset calibration of a 2-DOF parallel robot based on a "
-        "new measuring mechanism* (seed 003). Reproduced by `examples/study_003_five_bar.py`"
+        "new measuring mechanism*, Strojniški vestnik – Journal of Mechanical Engineering 63(12), 2017, "
+        "doi:10.5545/sv-jme.2017.4529. Reproduced by `examples/study_003_five_bar.py`"
         + (" **(quick run: few seeds)**" if quick else "") + ".",
         "",
         "## Settings (the paper's)",

@@ -114,7 +114,7 @@ def true_physical() -> np.ndarray:
     return np.array(ERROR_MAGNITUDES) * np.array(ERROR_SIGNS) * MM
 
 
-# --- closed forms of tests/test_ucr3.py ----------------------------------------------------------------
+# --- closed forms of tests/model/test_ucr3.py ----------------------------------------------------------
 def rotation(q1: float, q2: float) -> np.ndarray:
     q0 = math.sqrt(max(0.0, 1.0 - q1 * q1 - q2 * q2))
     return pin.Quaternion(q0, q1, q2, 0.0).toRotationMatrix()
@@ -349,13 +349,14 @@ def _report(quick: bool, table2: list[dict[str, Any]], table3: list[dict[str, An
     lines = [
         "# Study 004 — 3-UCR parallel manipulator: sensitivity and structure calibration",
         "",
-        "Paper: *structure calibration of a 3-UCR parallel manipulator based on quaternions* (seed 004). "
+        "Paper: Cheng et al., *Overall structure calibration of 3-UCR parallel manipulator based on quaternion "
+        "method*, Strojniški vestnik – Journal of Mechanical Engineering 57(10), 2011, doi:10.5545/sv-jme.2010.167. "
         "Reproduced by `examples/study_004_ucr3.py`" + (" **(quick run)**" if quick else "") + ".",
         "",
         "## Table 2 (and Table 3): a check of the kinematics",
         "",
         "The tables give limb lengths with the resulting poses of E. pincal's model of the mechanism "
-        "(`robots_urdf/ucr3.urdf`, checked against the paper's Eqs. 8 and 10 in `tests/test_ucr3.py`) says "
+        "(`robots_urdf/ucr3.urdf`, checked against the paper's Eqs. 8 and 10 in `tests/model/test_ucr3.py`) says "
         "the tables are not consistent with the mechanism they describe:",
         "",
         "| table, group | FK of the limb lengths | pose gap [mm] | limb lengths that reach the table's "

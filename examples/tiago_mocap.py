@@ -45,8 +45,8 @@ SIDE_BY_SIDE = {
 }
 MARKER_1 = {"leave-one-out": (3.802, 3.861), "seeds 0–3": (4.522, 4.801), "seeds 4–7": (4.509, 4.515),
             "seeds 8–11": (5.095, 5.405), "seeds 12–15": (4.032, 4.178), "seeds 16–19": (4.745, 4.893)}
-#: FIGAROH's figures in ../shared/DESIGN.md (leave-one-out, 5-fold × 4 [mm]); its folds are not recorded.
-DESIGN_FIGAROH = {"1 marker": (4.378, 4.690), "3 markers": (3.861, 4.419)}
+#: FIGAROH's figures quoted with the targets of issue 13 (leave-one-out, 5-fold × 4 [mm]); its folds are not recorded.
+QUOTED_FIGAROH = {"1 marker": (4.378, 4.690), "3 markers": (3.861, 4.419)}
 #: Relative difference of two cross-validated figures below which they are the same (their third decimal in mm).
 SAME = 0.005
 #: The targets of issue 13, 5-fold × 4 RMS [mm].
@@ -115,8 +115,10 @@ def page(rows: list[dict[str, Any]], seconds: float, quick: bool, parts: dict[st
         f"This page is written by that script; the run that wrote it took {seconds:.0f} s.",
         "",
         "**The data.** 34 static postures of a TIAGo arm: the robot reads the torso and 7 arm joints, and a Qualisys "
-        "system tracks markers on the hand. The raw file is `../shared/realdata/tiago_mocap/`. It has four markers; "
-        "marker 4 duplicates marker 3.",
+        "system tracks markers on the hand. The raw file is `examples/data/tiago_mocap_raw.csv`, a verbatim copy of "
+        "`qualysis_base_hand_calibration.csv` from the public repository thanhndv212/figaroh-examples "
+        "(`examples/tiago/data/calibration/mocap/`, commit c0b5c7f). It has four markers; marker 4 duplicates "
+        "marker 3.",
         "",
         "- `examples/data/tiago_mocap_marker1.csv` holds marker 1 as `position:wrist_ft_tool_link`.",
         "- `examples/data/tiago_mocap_markers.csv` holds markers 1–3 as `position:wrist_ft_tool_link@m1`, `@m2` and "
@@ -186,12 +188,12 @@ def side_by_side() -> list[str]:
               f"{min(t / o for o, t in pairs):.2f}–{max(t / o for o, t in pairs):.2f} ×.",
               f"- **A 5-fold × 4 figure on 34 postures depends on the folds** by up to a millimetre: {spread}. Compare "
               "two models or two tools on the same folds (`--cv-seed`).",
-              f"- **FIGAROH's figures in ../shared/DESIGN.md.** Its three-marker leave-one-out figure, "
-              f"{DESIGN_FIGAROH['3 markers'][0]:.3f} mm, is marker 1's alone: FIGAROH's fit to three markers "
+              f"- **FIGAROH's figures quoted with the targets (issue 13).** Its three-marker leave-one-out figure, "
+              f"{QUOTED_FIGAROH['3 markers'][0]:.3f} mm, is marker 1's alone: FIGAROH's fit to three markers "
               f"predicts marker 1 to {MARKER_1['leave-one-out'][1]:.3f} mm, all three to "
               f"{SIDE_BY_SIDE['3 markers']['leave-one-out'][1]:.3f} mm. Its one-marker leave-one-out figure is "
               f"reproduced ({SIDE_BY_SIDE['1 marker']['leave-one-out'][1]:.3f} mm). Its 5-fold × 4 figures, "
-              f"{DESIGN_FIGAROH['1 marker'][1]:.3f} mm (one marker) and {DESIGN_FIGAROH['3 markers'][1]:.3f} mm "
+              f"{QUOTED_FIGAROH['1 marker'][1]:.3f} mm (one marker) and {QUOTED_FIGAROH['3 markers'][1]:.3f} mm "
               f"(three, marker 1), were measured on folds not recorded; they lie within FIGAROH's own spread over "
               f"the plans above ({min(theirs_plans['1 marker']):.3f}–{max(theirs_plans['1 marker']):.3f} and "
               f"{min(first_theirs):.3f}–{max(first_theirs):.3f} mm)."]

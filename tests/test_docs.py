@@ -82,3 +82,22 @@ def test_the_tiago_study_runs(tmp_path: Path) -> None:
     assert row["model"] == "geometric (default)" and row["cv_plan"] == "5-fold"
     assert _mm(row["held_out"], 3) in TIAGO_PAGE  # the same fit as the published full run
     assert (tmp_path / "page" / "tiago_mocap.md").read_text().startswith("# Real data — TIAGo arm")
+
+
+def test_nothing_points_outside_the_repository() -> None:
+    """A clone has no folder beside it: the papers are cited by title and DOI, the data are in examples/data with
+    their public source named, so no tracked file of the README, docs, examples, tests or package points at one."""
+    import subprocess
+
+    beside = ".." + "/shared"  # built here so that this file does not match itself
+    parts = ["README.md", "docs", "examples", "tests", "pincal"]
+    try:
+        tracked = subprocess.run(["git", "ls-files", "-z", "--", *parts], cwd=ROOT, capture_output=True,
+                                 check=True).stdout.decode().split("\0")
+    except (OSError, subprocess.CalledProcessError):  # not a git checkout: every file there but caches
+        tracked = ["README.md"] + [p.relative_to(ROOT).as_posix() for part in parts[1:]
+                                   for p in sorted((ROOT / part).rglob("*"))
+                                   if p.is_file() and "__pycache__" not in p.parts]
+    assert "README.md" in tracked and "tests/test_docs.py" in tracked
+    found = [name for name in tracked if name and beside.encode() in (ROOT / name).read_bytes()]
+    assert not found, f"{beside} in {found}"

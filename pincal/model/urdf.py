@@ -1,6 +1,6 @@
 """Reading pincal's URDF extensions: ``<loop>`` closures and ``<transmission>`` actuation.
 
-The convention (DESIGN.md, after the URDF+ proposal of Chignoli et al., 2024)::
+The convention (README.md, "Loops in URDF"; after the URDF+ proposal of Chignoli et al., 2024)::
 
     <loop name="leg1_platform" type="spherical">
       <predecessor link="forearm_1"><origin xyz="0 0 -0.48" rpy="0 0 0"/></predecessor>

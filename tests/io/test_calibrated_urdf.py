@@ -1,6 +1,5 @@
 """The calibrated URDF is the calibrated model: loading it and running forward kinematics reproduces every
-measured quantity the model predicts, in the measurement frame (DESIGN.md, "What the calibrated output must
-contain").
+measured quantity the model predicts, in the measurement frame (docs/calibrated_urdf.md).
 
 "Reproduces" means, for raw actuated readings ``qa`` and the written file loaded back (``pincal.load_robot``;
 for trees also plain Pinocchio), with ``q`` its forward kinematics at ``qa``:

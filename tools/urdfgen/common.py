@@ -80,7 +80,7 @@ class UrdfWriter:
     def loop(self, name: str, kind: str, predecessor: str, pred_xyz: Sequence[float],
              successor: str, succ_xyz: Sequence[float], pred_rpy: Sequence[float] = (0, 0, 0),
              succ_rpy: Sequence[float] = (0, 0, 0), axis: Sequence[float] | None = None) -> None:
-        """A pincal ``<loop>`` closure (DESIGN.md): anchors given in each link's frame."""
+        """A pincal ``<loop>`` closure (README.md, "Loops in URDF"): anchors given in each link's frame."""
         ax = f'<axis xyz="{fmt(axis)}"/>' if axis is not None else ""
         self.parts.append(
             f'  <loop name="{name}" type="{kind}">'

@@ -106,7 +106,7 @@ End effector: link 'end_effector' at E, oriented as the platform (its quaternion
 
 Note on the paper's Table 2: its poses satisfy Eqs. (8) and (10) but not the limbs' plane
 constraint in y (their Eq. (9) differs from y_O' = (L_m/sqrt3)(q2^2 - q1^2)), and its r_1 values
-match this geometry only for groups 1 and 4; see tests/test_ucr3.py.
+match this geometry only for groups 1 and 4; see tests/model/test_ucr3.py.
 """
 
 
