@@ -24,6 +24,7 @@ from pincal.identification.corrections import Payload, moving_mass
 from pincal.identification.identifiability import describe_unidentifiable
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.measurements import JointReading, Measurement, Pose, parse_key
+from pincal.identification.metrics import angle_error_norms, error_norms, length_columns, rms, sample_length_errors
 from pincal.identification.parameters import (
     DEFAULT_SET,
     MarkerFit,
@@ -34,16 +35,7 @@ from pincal.identification.parameters import (
 )
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.selection import SELECTIONS, select_and_fit
-from pincal.identification.solver import (
-    CalibrationResult,
-    Loss,
-    Solver,
-    error_norms,
-    identify,
-    length_columns,
-    outlier_samples,
-    rms,
-)
+from pincal.identification.solver import CalibrationResult, Loss, Solver, identify, outlier_samples
 from pincal.io.adapters import joints_at_reference, measurements_for, observations_from
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, joint_sensor_zeros, source_text
 from pincal.io.corrections import Corrections, corrections_dict, corrections_of, corrections_path
@@ -51,7 +43,7 @@ from pincal.io.dataset import MAX_SAMPLES, OCCLUDABLE_KINDS, Dataset, dataset_te
 from pincal.io.files import check_outputs, make_directory, write_texts
 from pincal.io.job import Job, load_job_robot
 from pincal.io.job_data import job_dataset
-from pincal.io.report_data import angle_error_norms, json_text, report_dict
+from pincal.io.report_data import json_text, report_dict
 from pincal.model.measured_frame import frame_moves
 from pincal.model.robot import Robot, load_robot, unusable_samples
 from pincal.progress import Progress
@@ -621,22 +613,6 @@ def _worse_than_nominal(before: dict[str, Array], after: dict[str, Array], n: in
     keep = np.setdiff1d(np.arange(n), strange) if len(strange) < n else np.arange(n)
     keep = keep[np.isfinite(per_after[keep]) & np.isfinite(per_before[keep])]  # samples with a length reading
     return bool(rms(per_after[keep]) > (1 + SAME_ERROR) * rms(per_before[keep]))
-
-
-def sample_length_errors(errors: dict[str, Array], n: int) -> Array | None:
-    """Each sample's length-type error [m] (the position, pose position and distance rows of the readings it took,
-    together; NaN for a sample that took none, e.g. saw no marker), or None when nothing length-like is measured."""
-    widths = {key: length_columns(key) for key in errors}
-    if not any(widths.values()):
-        return None
-    squares, taken = np.zeros(n), np.zeros(n, dtype=bool)
-    for key, err in errors.items():
-        if widths[key]:
-            rows = err[:, :widths[key]]
-            seen = ~np.isnan(rows).all(axis=1)  # a reading not taken is NaN in every row
-            squares[seen] += np.sum(rows[seen] ** 2, axis=1)
-            taken |= seen
-    return np.where(taken, np.sqrt(squares), np.nan)
 
 
 def joint_kinds(robot: Robot) -> dict[str, str]:

@@ -47,7 +47,6 @@ from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
 from pincal.identification import lm
 from pincal.identification.identifiability import Identifiability, analyse, correlations, covariance
 from pincal.identification.ikm import ChainProblem, ImplicitProblem, chain_blocks
-from pincal.identification.measurements import KIND_CLASSES
 from pincal.identification.problem import Prediction, Problem
 
 Array = npt.NDArray[np.float64]
@@ -122,42 +121,6 @@ class CalibrationResult:
     def down_weighted(self, threshold: float = 0.5) -> list[int]:
         """Samples whose robust weight fell below ``threshold``."""
         return [int(k) for k in np.flatnonzero(self.sample_weights < threshold)]
-
-
-def length_columns(key: str) -> int:
-    """How many leading error columns of measurement ``key`` are lengths [m] (its model's ``length_rows``: 3 for
-    a position or a pose, 1 for a distance; 0 for other keys, e.g. IKM closure rows)."""
-    model = KIND_CLASSES.get(key.split(":", 1)[0])
-    return model.length_rows if model is not None else 0
-
-
-def angle_columns(key: str) -> slice:
-    """The error columns of measurement ``key`` that are angles [rad] (a pose's rotation vector), as a slice."""
-    model = KIND_CLASSES.get(key.split(":", 1)[0])
-    start = length_columns(key)
-    return slice(start, start + (model.angle_rows if model is not None else 0))
-
-
-def error_norms(errors: dict[str, Array], keys: list[str] | None = None) -> Array:
-    """Error magnitudes [m] of the length-type readings (position, pose position, distance): one per reading taken,
-    measurement after measurement; a reading not taken (an occluded marker, NaN) has none."""
-    parts = [np.linalg.norm(err[:, :length_columns(key)], axis=1) for key, err in errors.items()
-             if length_columns(key) and (keys is None or key in keys)]
-    norms = np.concatenate(parts) if parts else np.zeros(0)
-    return np.asarray(norms[~np.isnan(norms)], dtype=np.float64)
-
-
-def rms(values: Array) -> float:
-    """Root mean square of ``values`` (NaN when empty)."""
-    return float(np.sqrt(np.mean(values**2))) if values.size else float("nan")
-
-
-def calibration_gain(x_true: Array, x_nominal: Array, x_calibrated: Array) -> float:
-    """Study 000, Eq. 4.1: ``G = 100 (‖Pr − Pn‖ − ‖Pr − Pc‖) / ‖Pr − Pn‖`` [%]."""
-    before = float(np.linalg.norm(x_true - x_nominal))
-    if before == 0.0:
-        return float("nan")
-    return 100.0 * (before - float(np.linalg.norm(x_true - x_calibrated))) / before
 
 
 def sample_squares(problem: Problem, residual: Array) -> tuple[Array, IntArray]:

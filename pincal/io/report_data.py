@@ -10,9 +10,10 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.identification.metrics import angle_error_norms, calibration_gain, error_norms, rms
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import CalibrationResult, angle_columns, calibration_gain, error_norms, rms
+from pincal.identification.solver import CalibrationResult
 from pincal.io.files import write_text
 
 Array = npt.NDArray[np.float64]
@@ -40,15 +41,6 @@ def _before_means(problem: CalibrationProblem) -> str:
         means = BEFORE_MEANS_PLACED if problem.placed_in_closed_form else BEFORE_MEANS_UNPLACED
         return "; ".join([means, *problem.not_in_closed_form])
     return BEFORE_MEANS_REGISTERED if registered_base(problem.parameters) else BEFORE_MEANS_NOMINAL
-
-
-def angle_error_norms(errors: dict[str, Array]) -> Array:
-    """Orientation error angles [rad] of the pose readings (norm of ``log3(R_measᵀ R_pred)``), one per reading taken
-    (a reading not taken, NaN, has none)."""
-    parts = [np.linalg.norm(err[:, angle_columns(key)], axis=1) for key, err in errors.items()
-             if angle_columns(key).stop > angle_columns(key).start]
-    norms = np.concatenate(parts) if parts else np.zeros(0)
-    return np.asarray(norms[~np.isnan(norms)], dtype=np.float64)
 
 
 def report_dict(result: CalibrationResult, problem: CalibrationProblem, x_true: Array | None = None,

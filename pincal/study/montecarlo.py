@@ -24,9 +24,10 @@ import numpy.typing as npt
 
 from pincal.errors import ConvergenceError, DataError
 from pincal.identification.measurements import parse_key
+from pincal.identification.metrics import calibration_gain, error_norms, rms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import Solver, calibration_gain, error_norms, identify, rms
+from pincal.identification.solver import Solver, identify
 from pincal.model.robot import Robot, load_robot
 from pincal.progress import Progress
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations

@@ -24,9 +24,9 @@ import pinocchio as pin
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.identification.corrections import payload_from_dict
 from pincal.identification.measurements import CameraPose, Pose, Position
+from pincal.identification.metrics import error_norms, length_columns, rms, sample_length_errors
 from pincal.identification.parameters import MarkerFit, ParameterSet, choose_parameters
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import error_norms, length_columns, rms
 from pincal.io.adapters import measurements_for, observations_from
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
@@ -44,7 +44,7 @@ from pincal.viz.visuals import (
     segment_pose,
     translation_pose,
 )
-from pincal.workflow import sample_length_errors, usable_part
+from pincal.workflow import usable_part
 
 Array = npt.NDArray[np.float64]
 

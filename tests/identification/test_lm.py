@@ -18,9 +18,10 @@ import numpy as np
 import pytest
 
 import pincal
+from pincal.identification.metrics import error_norms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import error_norms, identify
+from pincal.identification.solver import identify
 from pincal.io.adapters import measurements_for, observations_from
 from pincal.workflow import simulate
 

@@ -6,9 +6,10 @@ import numpy as np
 
 import pincal
 from pincal.identification import measurements as ms
+from pincal.identification.metrics import error_norms, rms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
-from pincal.identification.solver import error_norms, identify, rms
+from pincal.identification.solver import identify
 from pincal.io.dataset import Dataset
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 from pincal.workflow import calibrate, simulate

@@ -17,9 +17,10 @@ from pincal.errors import DataError, IdentifiabilityError
 from pincal.identification import measurements as ms
 from pincal.identification.derivatives import marker_points
 from pincal.identification.identifiability import analyse
+from pincal.identification.metrics import error_norms
 from pincal.identification.parameters import choose_parameters, default_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
-from pincal.identification.solver import _sample_weights, error_norms, identify
+from pincal.identification.solver import _sample_weights, identify
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 DEVICE = [ms.joint_reading(j) for j in ("device_incl_x", "device_incl_y", "device_lvdt", "device_rotary")]
