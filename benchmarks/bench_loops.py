@@ -37,7 +37,8 @@ import pincal  # noqa: E402
 from pincal.identification.measurements import Measurement  # noqa: E402
 from pincal.identification.parameters import ParameterSet, choose_parameters  # noqa: E402
 from pincal.identification.problem import CalibrationProblem, Observations  # noqa: E402
-from pincal.identification.solver import CalibrationResult, identify  # noqa: E402
+from pincal.identification.result import CalibrationResult  # noqa: E402
+from pincal.identification.solver import identify  # noqa: E402
 from pincal.io.adapters import measurements_for, observations_from  # noqa: E402
 from pincal.workflow import simulate  # noqa: E402
 

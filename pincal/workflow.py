@@ -20,9 +20,11 @@ import numpy.typing as npt
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, NotFoundError, PincalError, listing
+from pincal.identification.choices import Loss, Solver
 from pincal.identification.corrections import Payload, moving_mass
 from pincal.identification.identifiability import describe_unidentifiable
 from pincal.identification.ikm import ImplicitProblem
+from pincal.identification.losses import outlier_samples
 from pincal.identification.measurements import JointReading, Measurement, Pose, parse_key
 from pincal.identification.metrics import angle_error_norms, error_norms, length_columns, rms, sample_length_errors
 from pincal.identification.parameters import (
@@ -34,8 +36,9 @@ from pincal.identification.parameters import (
     joint_unit,
 )
 from pincal.identification.problem import CalibrationProblem, Observations
+from pincal.identification.result import CalibrationResult
 from pincal.identification.selection import SELECTIONS, select_and_fit
-from pincal.identification.solver import CalibrationResult, Loss, Solver, identify, outlier_samples
+from pincal.identification.solver import identify
 from pincal.io.adapters import joints_at_reference, measurements_for, observations_from
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, joint_sensor_zeros, source_text
 from pincal.io.corrections import Corrections, corrections_dict, corrections_of, corrections_path

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pincal.identification.choices import Loss, Solver
 from pincal.identification.identifiability import Combination, Identifiability, analyse
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.measurements import (
@@ -25,7 +26,8 @@ from pincal.identification.parameters import (
     choose_parameters,
 )
 from pincal.identification.problem import CalibrationProblem, Observations, Prediction, Problem
-from pincal.identification.solver import CalibrationResult, Loss, Solver, identify, identify_chains
+from pincal.identification.result import CalibrationResult
+from pincal.identification.solver import identify, identify_chains
 
 __all__ = [
     "NAMED_SETS",

@@ -20,10 +20,10 @@ from pathlib import Path
 from typing import Any
 
 from pincal.errors import DataError, NotFoundError, listing, not_found
+from pincal.identification.choices import LOSSES, SOLVERS
 from pincal.identification.corrections import payload_from_dict
 from pincal.identification.measurements import KIND_CLASSES
 from pincal.identification.selection import SELECTIONS
-from pincal.identification.solver import LOSSES, SOLVERS
 from pincal.io.dataset import MEASUREMENT_COMPONENTS, parse_measurement_key
 from pincal.model.robot import Robot, load_robot
 

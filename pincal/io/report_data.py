@@ -13,7 +13,7 @@ import numpy.typing as npt
 from pincal.identification.metrics import angle_error_norms, calibration_gain, error_norms, rms
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import CalibrationResult
+from pincal.identification.result import CalibrationResult
 from pincal.io.files import write_text
 
 Array = npt.NDArray[np.float64]
