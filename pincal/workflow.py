@@ -21,8 +21,8 @@ import numpy.typing as npt
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, NotFoundError, PincalError, listing
 from pincal.identification.choices import Loss, Solver
+from pincal.identification.combinations import describe_unidentifiable
 from pincal.identification.corrections import Payload, moving_mass
-from pincal.identification.identifiability import describe_unidentifiable
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.losses import outlier_samples
 from pincal.identification.measurements import JointReading, Measurement, Pose, parse_key

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from pincal.identification.choices import Loss, Solver
-from pincal.identification.identifiability import Combination, Identifiability, analyse
+from pincal.identification.combinations import Combination
+from pincal.identification.identifiability import Identifiability, analyse
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.measurements import (
     Distance,
