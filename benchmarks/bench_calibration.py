@@ -13,9 +13,10 @@ import time
 
 import pincal
 from pincal.calibration.simulate import simulate
+from pincal.identification.metrics import error_norms, rms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import error_norms, identify, rms
+from pincal.identification.solver import identify
 from pincal.io.adapters import measurements_for, observations_from
 
 

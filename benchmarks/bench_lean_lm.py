@@ -5,7 +5,7 @@ Run: ``python benchmarks/bench_lean_lm.py [--repeats 5] [--delta-sizes 600 6000]
 
 - *LM*: the step as it was before issue 14 (a reference copy below: the thin SVD of the whole scaled Jacobian,
   its m × n ``U`` kept, every trial point evaluated with its Jacobian) against today's
-  (:class:`pincal.identification.lm.Steps`: one QR of ``[J_s | r]`` and the SVD of its n × n triangle, trial
+  (:class:`pincal.identification.steps.Steps`: one QR of ``[J_s | r]`` and the SVD of its n × n triangle, trial
   points without the Jacobian). Per case: the decomposition and three damped steps of one iteration, its peak
   memory (``tracemalloc``) in copies of J, and the whole least-squares fit (same start, same analysis before and
   after, ``loss="linear"``). Cases: the UR10 with a tracker target, known frames, 1000 noisy positions
@@ -50,6 +50,7 @@ from pincal.identification import lm, solver  # noqa: E402
 from pincal.identification.identifiability import analyse, correlations, covariance  # noqa: E402
 from pincal.identification.parameters import choose_parameters  # noqa: E402
 from pincal.identification.problem import CalibrationProblem, Prediction  # noqa: E402
+from pincal.identification.steps import EXACT_FIT_AMPLIFICATION, Steps, at_floor, evaluated, exact_fit_floors  # noqa: E402
 from pincal.io.adapters import measurements_for, observations_from  # noqa: E402
 from pincal.model.kinematics import CONTINUATION_STEP  # noqa: E402
 
@@ -91,7 +92,7 @@ class OldSteps:
 def old_accelerated(problem: Any, x: Array, d: Array, r: Array, js: Array, v: Array, steps: OldSteps,
                     lam: float) -> Array | None:
     norm_v = float(np.linalg.norm(v))
-    ahead = lm.evaluated(problem, x + lm.GEODESIC_H * d * v, jacobian=False)
+    ahead = evaluated(problem, x + lm.GEODESIC_H * d * v, jacobian=False)
     if ahead is None:
         return None
     r_vv = (2.0 / lm.GEODESIC_H) * ((ahead.residual - r) / lm.GEODESIC_H - js @ v)
@@ -106,7 +107,7 @@ def old_accelerated(problem: Any, x: Array, d: Array, r: Array, js: Array, v: Ar
 
 def old_settled(steps: OldSteps, lam: float, r: Array, cost: float, errors: dict[str, Array],
                 numerical: dict[str, Array], rejected: bool) -> bool:
-    if lam >= steps.smallest_damping and lm.at_floor(errors, numerical):
+    if lam >= steps.smallest_damping and at_floor(errors, numerical):
         return True
     dof = r.size - steps.kept
     return bool(steps.kept and dof > 0 and (rejected or steps.s[-1] < lm.PRACTICAL_INFORMATION)
@@ -124,7 +125,7 @@ def old_fit(problem: Any, max_iter: int = 100, tol: float = 1e-9, rank_tol: floa
     units = [p.unit if p.unit in ("m", "rad") else "" for p in pset]
     analyse(pred.jacobian, pset.names, d, units=units, tol=rank_tol)
     cost = 0.5 * float(np.sum(pred.residual**2))
-    numerical = lm.exact_fit_floors(problem, 0.0, lm.EXACT_FIT_AMPLIFICATION)
+    numerical = exact_fit_floors(problem, 0.0, EXACT_FIT_AMPLIFICATION)
     lam, accelerate, slow, iterations = 1e-3, False, 0, 0
     for it in range(1, max_iter + 1):
         js = pred.jacobian * d * np.ones(pred.residual.size)[:, None]
@@ -139,7 +140,7 @@ def old_fit(problem: Any, max_iter: int = 100, tol: float = 1e-9, rank_tol: floa
             if accelerate:
                 assert dz is not None
                 dz = old_accelerated(problem, x, d, r, js, dz, steps, lam)
-            new = lm.evaluated(problem, x + d * dz) if dz is not None else None
+            new = evaluated(problem, x + d * dz) if dz is not None else None
             if new is not None:
                 new_cost = 0.5 * float(np.sum(new.residual**2))
                 if new_cost <= cost:
@@ -278,7 +279,7 @@ def lm_case(name: str, make: Callable[[], Any], repeats: int) -> None:
         return np.array([steps.solve(rw * e, lam) for lam in (1e-3, 1e-2, 1e-1)])
 
     def new_step() -> Array:
-        steps = lm.Steps(jac, d, rw, e, "lm", 1e-8, 0.0)
+        steps = Steps(jac, d, rw, e, lm.LevenbergMarquardt(1e-8, 0.0))
         return np.array([steps.solve(lam) for lam in (1e-3, 1e-2, 1e-1)])
 
     step_times: dict[str, list[float]] = {"old": [], "new": []}

@@ -38,7 +38,8 @@ from pincal.calibration.simulate import simulate  # noqa: E402
 from pincal.identification.measurements import Measurement  # noqa: E402
 from pincal.identification.parameters import ParameterSet, choose_parameters  # noqa: E402
 from pincal.identification.problem import CalibrationProblem, Observations  # noqa: E402
-from pincal.identification.solver import CalibrationResult, identify  # noqa: E402
+from pincal.identification.result import CalibrationResult  # noqa: E402
+from pincal.identification.solver import identify  # noqa: E402
 from pincal.io.adapters import measurements_for, observations_from  # noqa: E402
 
 PATHS = ("batched", "per sample")

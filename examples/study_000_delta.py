@@ -40,9 +40,10 @@ from pincal.errors import PincalError
 from pincal.identification import measurements as ms
 from pincal.identification.identifiability import RANK_TOLERANCE, analyse
 from pincal.identification.ikm import ImplicitProblem
+from pincal.identification.metrics import calibration_gain, error_norms
 from pincal.identification.parameters import NAMED_SETS, ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations
-from pincal.identification.solver import calibration_gain, error_norms, identify
+from pincal.identification.solver import identify
 from pincal.study.pose_selection import jacobian_blocks, select_poses
 from pincal.study.simulation import random_actuated, simulate_observations
 

@@ -16,7 +16,6 @@ from conftest import run_pincal
 from mechanisms import crank_rocker_urdf
 
 import pincal
-from pincal.calibration.heldout import sample_length_errors
 from pincal.calibration.pipeline import calibrate
 from pincal.calibration.samples import held_out_outside_range, read_robot_dataset
 from pincal.calibration.simulate import simulate, write_simulation
@@ -595,16 +594,6 @@ def test_a_cluster_of_markers_is_fitted_as_one_rigid_placement(ur10_markers: tup
     with pytest.raises(DataError, match=r"--markers cluster needs each marker's nominal offset on its frame; "
                                         r"tool0@m2, tool0@m3 have none: add '# marker <marker> on <frame>: x y z'"):
         calibrate(robot, bare, markers="cluster")
-
-
-def test_a_sample_with_no_reading_has_no_error_size() -> None:
-    """Per-sample error sizes sum the readings taken; a sample that took none has NaN, not zero."""
-    errors = {"position:f@m1": np.array([[3e-3, 0.0, 4e-3], [np.nan] * 3, [np.nan] * 3]),
-              "position:f@m2": np.array([[0.0, 0.0, 12e-3], [1e-3, 0.0, 0.0], [np.nan] * 3])}
-    sizes = sample_length_errors(errors, 3)
-    assert sizes is not None
-    np.testing.assert_allclose(sizes[:2], [13e-3, 1e-3], rtol=1e-12)
-    assert np.isnan(sizes[2])
 
 
 def test_one_held_out_sample_outside_the_fitted_range_is_named_in_the_singular(tmp_path: Path) -> None:

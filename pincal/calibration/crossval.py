@@ -14,17 +14,12 @@ import numpy.typing as npt
 from pincal.errors import DataError, PincalError, listing
 from pincal.identification.corrections import Payload
 from pincal.identification.measurements import Measurement
+from pincal.identification.metrics import angle_error_norms, error_norms, length_columns, rms
 from pincal.identification.parameters import (
     ParameterSet,
 )
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.selection import select_and_fit
-from pincal.identification.solver import (
-    error_norms,
-    length_columns,
-    rms,
-)
-from pincal.io.report_data import angle_error_norms
 from pincal.model.robot import Robot
 from pincal.progress import Progress
 

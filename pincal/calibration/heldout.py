@@ -16,11 +16,11 @@ import numpy.typing as npt
 
 from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
+from pincal.identification.losses import outlier_samples
 from pincal.identification.measurements import JointReading
+from pincal.identification.metrics import angle_error_norms, error_norms, rms, sample_length_errors
 from pincal.identification.parameters import ParameterSet, influencing_joints
-from pincal.identification.solver import error_norms, length_columns, outlier_samples, rms
 from pincal.io.dataset import Dataset
-from pincal.io.report_data import angle_error_norms
 
 Array = npt.NDArray[np.float64]
 
@@ -31,22 +31,6 @@ SAME_ERROR = 1e-6
 
 #: σ² factor beyond which a fit does not reach the stated noise (residuals over 3 × σ).
 NOISE_CONTRADICTED = 9.0
-
-
-def sample_length_errors(errors: dict[str, Array], n: int) -> Array | None:
-    """Each sample's length-type error [m] (the position, pose position and distance rows of the readings it took,
-    together; NaN for a sample that took none, e.g. saw no marker), or None when nothing length-like is measured."""
-    widths = {key: length_columns(key) for key in errors}
-    if not any(widths.values()):
-        return None
-    squares, taken = np.zeros(n), np.zeros(n, dtype=bool)
-    for key, err in errors.items():
-        if widths[key]:
-            rows = err[:, :widths[key]]
-            seen = ~np.isnan(rows).all(axis=1)  # a reading not taken is NaN in every row
-            squares[seen] += np.sum(rows[seen] ** 2, axis=1)
-            taken |= seen
-    return np.where(taken, np.sqrt(squares), np.nan)
 
 
 def worse_than_nominal(before: dict[str, Array], after: dict[str, Array], n: int, strange: list[int]) -> bool:

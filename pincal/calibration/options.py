@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, get_args
 
 from pincal.errors import DataError, listing, not_found
+from pincal.identification.choices import LOSSES, SOLVERS, Loss, Solver
 
 if TYPE_CHECKING:
     from pincal.identification.corrections import Payload
@@ -23,10 +24,8 @@ if TYPE_CHECKING:
 Formulation = Literal["fkm", "ikm"]
 FORMULATIONS: tuple[Formulation, ...] = get_args(Formulation)
 #: The identification methods and robust losses (:func:`pincal.identification.solver.identify`).
-SolverName = Literal["lm", "tsvd", "ridge"]
-LossName = Literal["auto", "linear", "cauchy"]
-SOLVER_CHOICES: tuple[SolverName, ...] = get_args(SolverName)
-LOSS_CHOICES: tuple[LossName, ...] = get_args(LossName)
+SOLVER_CHOICES: tuple[Solver, ...] = SOLVERS
+LOSS_CHOICES: tuple[Loss, ...] = LOSSES
 #: Model selection: ``auto`` (``bic`` for the default parameter set, ``none`` for a named one), ``bic`` or ``none``.
 SELECT_CHOICES = ("auto", "bic", "none")
 #: How the markers declared on a frame are fitted: each marker's offset, or one rigid cluster placement.
@@ -95,11 +94,11 @@ class CalibrationOptions:
         help="model selection: bic leaves out the groups of parameters (joint translations, rotations, reading "
              "offsets) the Bayesian information criterion rejects, then refits; none fits every identifiable "
              "parameter; auto (default): bic for the default parameters, none for --parameters you name"))
-    loss: LossName = field(default="auto", metadata=_how(
+    loss: Loss = field(default="auto", metadata=_how(
         flag="--loss", key="loss", choices=LOSS_CHOICES,
         help="auto (default): least squares, then a robust (Cauchy) refit if the data hold samples their own noise "
              "level makes implausible, which are listed; linear: least squares only; cauchy: robust from the start"))
-    solver: SolverName = field(default="lm", metadata=_how(
+    solver: Solver = field(default="lm", metadata=_how(
         flag="--solver", key="solver", choices=SOLVER_CHOICES,
         help="lm: Levenberg-Marquardt on the identifiable directions (default); tsvd; ridge"))
     sigma: float | None = field(default=None, metadata=_how(flag="--sigma", key="sigma", kind="sigma", help=SIGMA_HELP))

@@ -19,19 +19,21 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.crossval import check_cross_validation, cross_validate, parse_cv
-from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, evaluate_held_out, sample_length_errors
+from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, evaluate_held_out
 from pincal.calibration.options import CalibrationOptions, check_cv_seed
 from pincal.calibration.report import CalibrationReport, fit_figures
 from pincal.calibration.samples import check_length_scale
 from pincal.calibration.setup import Prepared, check_movable, prepare
 from pincal.errors import DataError
+from pincal.identification.combinations import describe_unidentifiable
 from pincal.identification.corrections import moving_mass
-from pincal.identification.identifiability import describe_unidentifiable
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.measurements import JointReading
+from pincal.identification.metrics import sample_length_errors
 from pincal.identification.problem import CalibrationProblem
+from pincal.identification.result import CalibrationResult
 from pincal.identification.selection import select_and_fit
-from pincal.identification.solver import CalibrationResult, identify
+from pincal.identification.solver import identify
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, source_text
 from pincal.io.corrections import Corrections, corrections_of
 from pincal.io.dataset import Dataset

@@ -18,10 +18,11 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError
+from pincal.identification.metrics import angle_error_norms, calibration_gain, error_norms, rms
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import CalibrationResult, calibration_gain, error_norms, rms
-from pincal.io.report_data import angle_error_norms, json_text
+from pincal.identification.result import CalibrationResult
+from pincal.io.report_data import json_text
 
 Array = npt.NDArray[np.float64]
 

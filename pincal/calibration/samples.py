@@ -17,13 +17,11 @@ import numpy.typing as npt
 
 from pincal import linalg
 from pincal.errors import DataError
+from pincal.identification.metrics import length_columns
 from pincal.identification.parameters import (
     joint_unit,
 )
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import (
-    length_columns,
-)
 from pincal.io.dataset import OCCLUDABLE_KINDS, Dataset, read_dataset
 from pincal.model.robot import Robot, unusable_samples
 

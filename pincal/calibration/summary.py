@@ -59,7 +59,8 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
              "or fit fewer parameters, or measure postures that cover the held-out range"
              if report.worse_than_nominal else None,
              # said first: "converged" must not read as "fits the data"
-             f"THE FIT DOES NOT REACH THE STATED NOISE: residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ after calibration; "
+             f"THE FIT DOES NOT REACH THE STATED NOISE: residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ after "
+             "calibration; "
              "either the stated σ is wrong or the model cannot fit these data (see the warning below)"
              if (report.sigma2 or 0.0) > NOISE_CONTRADICTED else None,
              f"samples {report.n_samples}, parameters {report.n_parameters}, "

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.options import OPTIONS
 from pincal.calibration.setup import measurement_models
 from pincal.cli.options import (
     add_measurement,
@@ -31,6 +32,7 @@ from pincal.cli.options import (
     positive_int,
 )
 from pincal.errors import DataError, listing
+from pincal.identification.choices import SOLVERS
 from pincal.identification.measurements import Distance, Measurement, Pose
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
@@ -265,7 +267,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     mc.add_argument("--noise", type=non_negative_float, nargs="+", default=[1e-5],
                     help="measurement noise σ levels [m, rad] (default 1e-5)")
     add_parameters(mc)
-    mc.add_argument("--solver", choices=["lm", "tsvd", "ridge"], default="lm")
+    mc.add_argument("--solver", choices=list(SOLVERS), default="lm", help=OPTIONS["solver"].help)
     mc.add_argument("--workers", type=positive_int, help="processes (default: the machine's cores; 1: serial)")
     mc.add_argument("--seed", type=non_negative_int, default=0, help="first seed (trials use seed, seed+1, ...)")
     add_spread(mc)

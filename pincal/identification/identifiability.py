@@ -11,19 +11,15 @@ calibration index and taxonomy for robot kinematic calibration methods", §"scal
   (:data:`RANK_TOLERANCE` by default).
 - QR with column pivoting of ``J_s`` picks the base (identifiable) parameters: the first ``rank`` pivots
   (Gautier 1991, "Numerical calculation of the base inertial parameters of robots").
-- What the data cannot see is the null space of ``J_s``: the right singular vectors past the rank. Any
-  basis of it is as true as another, but the SVD's mixes every parameter; its reduced row echelon form
-  (pivot: the largest remaining entry) is sparse instead. When the null space splits into small groups
-  of parameters (``base.tz`` with ``arm_1_joint.tz``, …), each of its rows involves one group only, so
-  each :class:`Combination` names a few parameters. Row ``u`` led by ``a`` reads, in physical units,
-  ``J[:, a] = Σ_b k_b J[:, b]`` with ``k_b = −(u_b / u_a)(s_b / s_a)``: the data only sees ``x_b + k_b x_a``.
+- What the data cannot see is the null space of ``J_s``: the right singular vectors past the rank, made
+  sparse and said in words by :mod:`pincal.identification.combinations` (each :class:`Combination` names a few
+  parameters and what the data sees of them).
 - The observability indices O1..O5 are those compared by Sun & Hollerbach 2008, "Observability index
   selection for robot calibration" (ICRA), computed on the singular values of the identifiable columns.
 """
 
 from __future__ import annotations
 
-import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -35,6 +31,15 @@ import scipy.linalg.lapack
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, IdentifiabilityError, listing
+from pincal.identification.combinations import (
+    MORE_INDENT,
+    UNITS,
+    Combination,
+    combination_lines,
+    sparse_combinations,
+    unit_from_name,
+    wrapped,
+)
 
 Array = npt.NDArray[np.float64]
 
@@ -45,65 +50,6 @@ iterative FK solves and loop closures (converged to ~1e-10..1e-12) as informatio
 rank; 1e-8 sits well above that noise and well below any direction a calibration could actually use
 (a scaled condition number of 1e8 already means useless estimates). Pass ``tol`` to change it, e.g.
 1e-4 to call only practically identifiable parameters identifiable."""
-
-COEFFICIENT_TOLERANCE = 1e-6
-"""A parameter is named in a combination when its scaled entry in the null-space row exceeds this
-fraction of the row's largest: smaller entries are the round-off of the SVD."""
-
-UNITS = ("m", "rad", "")
-#: The units a direction's steps are said in (the same numbers: only the ratios matter).
-SMALL_UNITS = {"m": "mm", "rad": "mrad"}
-"""The units a parameter can have: metres, radians, or unknown ("")."""
-
-LINE_WIDTH = 120
-"""Longest line of :meth:`Identifiability.summary` and :func:`describe_unidentifiable` [characters]."""
-
-BULLET = "  - "
-"""What starts a combination's line in a listing; descriptions are short enough to fit after it."""
-
-MORE_INDENT = "  "
-"""What starts the ``… and N more`` line of a listing."""
-
-SHOWN_TERMS = 6
-"""A combination of up to this many parameters is written out whole; a longer one shows its
-``SHOWN_TERMS − 1`` largest (scaled) terms and counts the others."""
-
-SAME_EFFECT = 1e-6
-"""Two parameters move the measurements the same way (or opposite ways) when ``|k| = 1`` within this."""
-
-
-@dataclass(frozen=True)
-class Combination:
-    """One direction the data cannot see, on the few parameters it involves.
-
-    Attributes:
-        names: the leading parameter first: the one that moves most along the direction, in scaled
-            units (the pivot of the null-space row; the first in column order among equals), then the
-            others, largest scaled entry first (equal ones in column order).
-        coefficients: ``[1, k_1, k_2, ...]`` in physical units, such that
-            ``J[:, names[0]] = Σ_i k_i J[:, names[i]]``: moving the leading parameter by δ changes the
-            data exactly as moving each other parameter by ``k_i δ`` does. ``k_i`` has units
-            [unit of names[i] / unit of names[0]], e.g. [m/rad]. Only ``[1]`` for an invisible parameter.
-        description: the same in plain words, one line of at most ``LINE_WIDTH − len(BULLET)`` characters
-            (unless names are so long that even the shortest wording is longer).
-        units: the unit of each parameter of :attr:`names`: ``m``, ``rad`` or ``""`` (unknown).
-    """
-
-    names: list[str]
-    coefficients: Array
-    description: str
-    units: list[str] = field(default_factory=list)
-
-    @property
-    def dependent(self) -> str:
-        """The leading parameter: not identifiable on its own (neither are the others named)."""
-        return self.names[0]
-
-    @property
-    def null_direction(self) -> Array:
-        """The parameter change the data cannot see, in physical units, over :attr:`names`:
-        ``[1, -k_1, -k_2, ...]`` (``J δx = 0`` up to the rank tolerance)."""
-        return np.concatenate([[1.0], -self.coefficients[1:]])
 
 
 @dataclass(frozen=True)
@@ -140,82 +86,27 @@ class Identifiability:
     @cached_property
     def unidentifiable(self) -> list[Combination]:
         """``p − rank`` :class:`Combination` s, a sparse basis of the null space (see the class docstring)."""
-        return _unidentifiable(*self.null_space)
+        return sparse_combinations(*self.null_space)
 
     def summary(self, limit: int = 10) -> str:
-        """A short account for a report: lines of at most :data:`LINE_WIDTH` characters, with at most
-        ``limit`` unidentifiable combinations (:attr:`unidentifiable` has them all)."""
+        """A short account for a report: lines of at most :data:`~pincal.identification.combinations.LINE_WIDTH`
+        characters, with at most ``limit`` unidentifiable combinations (:attr:`unidentifiable` has them all)."""
         obs = ", ".join(f"{key} {value:.3g}" for key, value in self.observability.items())
         lines = [
             f"identifiable: rank {self.rank} of {self.n_parameters} parameters",
             f"condition number (scaled, identifiable set): {self.condition_number:.3g}",
             f"observability: {obs}",
-            *_wrapped(f"base parameters ({len(self.base_names)}): ", self.base_names or ["-"]),
+            *wrapped(f"base parameters ({len(self.base_names)}): ", self.base_names or ["-"]),
         ]
         if self.unidentifiable:
             lines.append(f"not identifiable ({len(self.unidentifiable)} directions the data cannot see):")
-            listed, left_out = _listing(self.unidentifiable, limit)
+            listed, left_out = combination_lines(self.unidentifiable, limit)
             lines += listed
             if left_out:
                 lines.append(f"{MORE_INDENT}… and {left_out} more (Identifiability.unidentifiable has them all)")
         else:
             lines.append("every parameter is identifiable")
         return "\n".join(lines)
-
-
-def describe_unidentifiable(combinations: Sequence[Combination], limit: int = 10) -> list[str]:
-    """The lines a listing prints for unidentifiable combinations, each at most :data:`LINE_WIDTH`
-    characters: ``BULLET + description`` per combination, except that parameters with no effect at all
-    share one line when there are several; at most ``limit`` such lines, then ``  … and N more`` when
-    N combinations were left out.
-
-    Args:
-        combinations: :attr:`Identifiability.unidentifiable`, in its order.
-        limit: most lines before the ``… and N more`` one (>= 0).
-
-    Raises:
-        DataError: negative ``limit``.
-    """
-    lines, left_out = _listing(combinations, limit)
-    return lines + ([f"{MORE_INDENT}… and {left_out} more"] if left_out else [])
-
-
-def _listing(combinations: Sequence[Combination], limit: int) -> tuple[list[str], int]:
-    """At most ``limit`` lines for :func:`describe_unidentifiable`, and how many combinations they leave out."""
-    if limit < 0:
-        raise DataError(f"limit must be >= 0 lines; got {limit}")
-    invisible = [c.dependent for c in combinations if len(c.names) == 1]
-    entries = [(BULLET + c.description, 1) for c in combinations if len(c.names) > 1 or len(invisible) == 1]
-    if len(invisible) > 1:
-        head = f"{BULLET}no effect on the measurements ({len(invisible)} parameters): "
-        entries.insert(0, (_wrapped(head, invisible, max_lines=1)[0], len(invisible)))
-    shown = entries[:limit]
-    return [text for text, _ in shown], len(combinations) - sum(count for _, count in shown)
-
-
-def _wrapped(head: str, items: Sequence[str], max_lines: int = 2) -> list[str]:
-    """``head`` and the comma-separated items on at most ``max_lines`` lines of :data:`LINE_WIDTH`; the
-    items that do not fit are counted at the end."""
-
-    def wrap(shown: list[str]) -> list[str]:
-        return textwrap.wrap(head + ", ".join(shown), LINE_WIDTH, subsequent_indent="  ",
-                             break_long_words=False, break_on_hyphens=False)
-
-    lines = wrap(list(items))
-    shown = len(items)
-    while len(lines) > max_lines and shown > 0:
-        shown -= 1
-        lines = wrap([*items[:shown], f"… (+{len(items) - shown} more)"])
-    return lines
-
-
-def unit_from_name(name: str) -> str:
-    """The unit a parameter's name implies: ``m`` for ``*.tx|ty|tz`` and ``marker.*.x|y|z``, ``rad`` for
-    ``*.rx|ry|rz``, ``""`` (unknown) otherwise, e.g. for a joint offset (m or rad with the joint)."""
-    component = name.rsplit(".", 1)[-1]
-    if component in ("tx", "ty", "tz") or (name.startswith("marker.") and component in ("x", "y", "z")):
-        return "m"
-    return "rad" if component in ("rx", "ry", "rz") else ""
 
 
 def _checked(jacobian: npt.ArrayLike, names: Sequence[str], scales: npt.ArrayLike) -> tuple[Array, Array]:
@@ -267,63 +158,6 @@ def _checked_tolerance(tol: float | None) -> float:
     return tol
 
 
-def _quantity(value: float, unit: str, sign: str = "") -> str:
-    """``value`` to 3 significant digits, then its unit if known; ``sign="+"`` writes a plus sign."""
-    number = f"{value:{sign}.3g}"
-    return f"{number} {unit}" if unit else number
-
-
-def _ratio_unit(numerator: str, denominator: str) -> str:
-    """The unit of a coefficient ``k`` in ``J[:, a] = k J[:, b]``: unit(b)/unit(a); none when they are
-    equal or one is unknown."""
-    return f"{numerator}/{denominator}" if numerator and denominator and numerator != denominator else ""
-
-
-def _wordings(names: list[str], coefficients: Array, units: list[str]) -> list[str]:
-    """Ways to say one combination (its names, ``[1, k_1, ...]`` and units), the most explicit first."""
-    if len(names) == 1:
-        return [f"{names[0]} has no effect on the measurements", f"{names[0]}: no effect"]
-    if len(names) == 2:
-        (a, b), k = names, float(coefficients[1])
-        if not (units[0] and units[1] and units[0] != units[1]) and abs(abs(k) - 1.0) <= SAME_EFFECT:
-            # J_a = ±J_b: the data sees J_a (x_a ± x_b)
-            way, seen = ("the same way", "their sum") if k > 0 else ("in opposite ways", "their difference")
-            return [f"{a} and {b} move the measurements {way}: only {seen} is seen",
-                    f"{a} and {b}: only {seen} is seen"]
-        ratio = _ratio_unit(units[1], units[0])
-        acts = f"{a} acts as {_quantity(k, ratio)} × {b}"
-        # J_a = k J_b: the data sees J_b (x_b + k x_a)
-        return [f"{acts}: only {b} {'-' if k < 0 else '+'} {_quantity(abs(k), ratio)} × {a} is seen", acts]
-    null_direction = np.concatenate([[1.0], -coefficients[1:]])
-    # a direction, not a size: said per millimetre or milliradian of the first, the size of a geometric error
-    steps = [_quantity(step, SMALL_UNITS.get(unit, unit), "+")
-             for step, unit in zip(null_direction, units, strict=True)]
-    return _group_wordings(names, steps)
-
-
-def _group_wordings(names: list[str], steps: list[str]) -> list[str]:
-    """Ways to say that moving each of three or more parameters by its step (with its unit) is not seen,
-    the most explicit first; the shorter ones show fewer parameters and count the others."""
-    whole = len(names) <= SHOWN_TERMS
-    shown = len(names) if whole else SHOWN_TERMS - 1
-    moves = [f"{name} by {step}" for name, step in zip(names[:shown], steps[:shown], strict=True)]
-    listed = f"{', '.join(moves[:-1])} and {moves[-1]}" if whole else f"{', '.join(moves)} (+{len(names) - shown} more)"
-    wordings = [f"moving {listed} changes no measurement"]
-    for count in range(shown, 0, -1):
-        more = f" (+{len(names) - count} more)" if count < len(names) else ""
-        terms = ", ".join(f"{name} {step}" for name, step in zip(names[:count], steps[:count], strict=True))
-        wordings.append(f"unseen change: {terms}{more}")
-    return wordings
-
-
-def _describe(names: list[str], coefficients: Array, units: list[str]) -> str:
-    """The most explicit wording that fits after a :data:`BULLET` on a line of :data:`LINE_WIDTH`."""
-    wordings = _wordings(names, coefficients, units)
-    text = next((text for text in wordings if len(BULLET + text) <= LINE_WIDTH), wordings[-1])
-    room = LINE_WIDTH - len(BULLET)
-    return text if len(text) <= room else text[:room - 1] + "…"  # names too long for any wording: cut
-
-
 def _svd(matrix: Array) -> tuple[Array, Array]:
     """Singular values (descending, min(m, p)) and all p right singular vectors (rows of ``Vᵀ``)."""
     return linalg.right_svd(matrix, "the scaled identification Jacobian")
@@ -355,45 +189,6 @@ def _base_columns(R: Array, pivots: npt.NDArray[np.intp], names: list[str], rank
         raise IdentifiabilityError(f"the QR pivot of {names[base[int(np.argmin(pivot))]]} is zero although the "
                                    f"singular values give rank {rank}; pass a larger tol")
     return sorted(int(j) for j in base)
-
-
-def _reduced_row_echelon(rows: Array) -> Array:
-    """Gauss–Jordan elimination of linearly independent ``rows`` (k × p), each pivot the largest remaining
-    entry (complete pivoting, for stability): each row 1 at its pivot, 0 at the others' pivots. Entries
-    below :data:`COEFFICIENT_TOLERANCE` times the row's largest are round-off and set to zero."""
-    reduced = np.array(rows, dtype=float)
-    k = reduced.shape[0]
-    pivots: list[int] = []
-    for i in range(k):
-        r, c = (int(index) for index in np.unravel_index(int(np.argmax(np.abs(reduced[i:]))), reduced[i:].shape))
-        reduced[[i, i + r]] = reduced[[i + r, i]]
-        reduced[i] /= reduced[i, c]
-        others = np.arange(k) != i
-        reduced[others] -= np.outer(reduced[others, c], reduced[i])
-        reduced[others, c] = 0.0
-        pivots.append(c)
-    for row, c in zip(reduced, pivots, strict=True):
-        small = np.abs(row) < COEFFICIENT_TOLERANCE * np.max(np.abs(row))
-        small[c] = False
-        row[small] = 0.0
-    return reduced
-
-
-def _unidentifiable(null_rows: Array, names: list[str], scales: Array, units: list[str]) -> list[Combination]:
-    """One :class:`Combination` per row of a basis of the scaled null space (k × p), made sparse."""
-    if null_rows.shape[0] == 0:
-        return []
-    combinations = []
-    for u in _reduced_row_echelon(null_rows):
-        # largest first, equal ones in column order (rounded: round-off does not decide which leads)
-        involved = sorted((int(j) for j in np.flatnonzero(u)), key=lambda j: (-float(f"{abs(u[j]):.6g}"), j))
-        lead, others = involved[0], involved[1:]
-        coefficients = np.array([1.0, *(-u[j] / u[lead] * scales[j] / scales[lead] for j in others)])
-        tied = [names[j] for j in involved]
-        their_units = [units[j] for j in involved]
-        combinations.append(Combination(tied, coefficients, _describe(tied, coefficients, their_units), their_units))
-    combinations.sort(key=lambda combination: (len(combination.names), combination.names))
-    return combinations
 
 
 def base_parameters(
@@ -431,7 +226,7 @@ def base_parameters(
     Vt = np.empty_like(Vt_pivoted)
     Vt[:, pivots] = Vt_pivoted
     rank = _rank(singular_values, tol)
-    return _base_columns(R, pivots, names, rank), _unidentifiable(Vt[rank:], names, s, units)
+    return _base_columns(R, pivots, names, rank), sparse_combinations(Vt[rank:], names, s, units)
 
 
 def observability_indices(singular_values: Array, n_residuals: int) -> dict[str, float]:
@@ -569,7 +364,7 @@ def covariance(
     if sv.size < len(columns) or sv[-1] <= tol * sv[0]:
         rank = _rank(sv, tol)
         units = [unit_from_name(names[j]) if names is not None else "" for j in columns]
-        culprits = _unidentifiable(_svd(equilibrated)[1][rank:], [labels[j] for j in columns], 1.0 / norms, units)
+        culprits = sparse_combinations(_svd(equilibrated)[1][rank:], [labels[j] for j in columns], 1.0 / norms, units)
         raise IdentifiabilityError(
             f"JᵀJ is singular on the chosen columns (rank {rank} of {len(columns)}); keep only the "
             f"identifiable ones (see analyse()): " + "; ".join(c.description for c in culprits)

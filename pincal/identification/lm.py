@@ -1,38 +1,32 @@
-"""Levenberg–Marquardt machinery behind :func:`pincal.identification.solver.identify`: the steps one QR-reduced
-SVD of the scaled Jacobian gives, Transtrum & Sethna's geodesic acceleration, and when a fit is done.
+"""Levenberg–Marquardt (``solver="lm"``, the default of :func:`pincal.identification.solver.identify`): Levenberg's
+damping of the truncated Gauss–Newton step, ``δz = -Σ_i v_i s_i/(s_i² + λ s_1²) u_iᵀ r``, over the directions the data
+can see (the singular values of the scaled Jacobian above ``rank_tol · s₁`` and ``min_information``); λ ×10 after a
+rejected trial, ÷10 after an accepted step.
 
 Weakly identifiable directions are strongly nonlinear: moving 0.1 mm along one changes the predictions more
 at second order than at first (measured on a hexapod with pose data, κ 5e7), so plain LM crawls, each
-smaller λ being rejected. :func:`accelerated` corrects the step for that curvature; :func:`settled` ends
-the crawl once it cannot matter (an exact fit, or a cost at the noise level).
+smaller λ being rejected. From the first rejected step on, :func:`accelerated` corrects the step for that curvature
+(Transtrum & Sethna's geodesic acceleration, one residual evaluation per trial). Before each iteration's trials,
+:func:`settled` may end the fit: an exact fit (every error within 100 × the FK tolerance, 1 nm); for noisy data, a
+cost at the noise level whose remaining Gauss–Newton improvement along the practically identified directions is below
+one unit of χ² (these two end a crawl once it cannot matter); and, for any fit, a Gauss–Newton model that predicts a
+decrease of at most ``tol`` times the cost (the decrease test, asked before a trial is spent on it).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import ClassVar, Self
 
 import numpy as np
 import numpy.typing as npt
-import scipy.linalg
-import scipy.linalg.lapack
 
-from pincal import linalg
-from pincal.errors import ConvergenceError, DataError
-from pincal.identification.problem import Prediction, Problem
-from pincal.model.robot import SOLVE_TOLERANCE
+from pincal.identification.problem import Problem
+from pincal.identification.steps import Method, StepOptions, Steps, at_floor, evaluated
 
 Array = npt.NDArray[np.float64]
 
-#: An error below this fraction of its measurement's stated σ counts as an exact fit when no step
-#: decreases the cost: no measurement of that instrument could tell it from zero.
-FLOOR_SIGMA_FRACTION = 0.1
-#: FK closes the loops to ``SOLVE_TOLERANCE`` (1e-11 m, rad); the predictions carry that error amplified
-#: through the passive joints and the arm (C_p⁺, lever arms). Errors up to this multiple of the FK
-#: tolerance (1e-8 m, rad) are numerical, whatever the stated σ.
-FK_AMPLIFICATION = 1e3
-#: A fit LM is still crawling on stops once every error is within this multiple of the FK tolerance (1e-9 m,
-#: rad): tighter than the floor above, so that what a user takes home reproduces the data to ~1 nm.
-EXACT_FIT_AMPLIFICATION = 1e2
 #: Geodesic acceleration (Transtrum & Sethna 2012): finite-difference step ``h`` of the directional second
 #: derivative (their recommended 0.1), and the largest ``2‖a‖/‖v‖`` kept (their α; see :func:`accelerated`).
 GEODESIC_H = 0.1
@@ -50,120 +44,49 @@ CAUTIOUS_SIGMA = 1e-6
 PRACTICAL_INFORMATION = 1.0
 
 
-class Steps:
-    """The scaled, weighted Jacobian ``J_s = diag(w) J diag(d)`` and residual ``r = diag(w) e`` at one iterate,
-    reduced once, and the steps they give.
+@dataclass(frozen=True)
+class LevenbergMarquardt(Method):
+    """Levenberg–Marquardt on the directions the data can see: damping ``μ = λ s₁²``; after a rejected trial λ ×10
+    and geodesic acceleration from then on (:func:`accelerated`); :func:`settled` may end the fit before a trial.
 
-    One Householder QR of the augmented matrix, ``[J_s | r] = Q [R | Q_tᵀ r]`` (LAPACK ``geqrf``, in place of
-    the only copy made), then the SVD of the small triangle ``R = U_R S Vᵀ`` (t × n, t = min(m, n)): the SVD
-    of ``J_s`` is ``(Q_t U_R) S Vᵀ``, so its m × n left factor is never formed. Every trial of an iteration
-    (each damping λ) reuses it, and the geodesic acceleration projects its second right-hand side with the
-    Householder reflectors (:meth:`project`). ``lm`` and ``tsvd`` keep the singular values above
-    ``rcond · s₁`` and above ``floor`` (absolute); ``ridge`` keeps them all.
-
-    Args:
-        jacobian: (m, n) Jacobian of the weighted residual w.r.t. the parameters [1/m, 1/rad].
-        column_scales: (n,) typical sizes ``d`` [m, rad]: the step is in scaled variables ``z = x / d``.
-        row_weights: (m,) robust-loss row weights ``w`` (square roots of the sample weights).
-        residual: (m,) weighted residual ``e`` (dimensionless).
-        solver, rcond, ridge, floor: The step rule and its truncation (see :mod:`pincal.identification.solver`).
+    Attributes:
+        rcond: The steps move along the singular values above ``rcond · s₁`` (``rank_tol``; 1e-15 with
+            ``identifiable_only`` off, where the damping alone keeps the unidentifiable directions in check) ...
+        floor: ... and above this absolute floor (``min_information``; 0 with ``identifiable_only`` off).
     """
 
-    def __init__(self, jacobian: Array, column_scales: Array, row_weights: Array, residual: Array, solver: str,
-                 rcond: float, ridge: float, floor: float = 0.0) -> None:
-        m, n = jacobian.shape
-        augmented = np.empty((m, n + 1), order="F")  # the one m × n copy of J an iteration holds
-        np.multiply(jacobian, column_scales, out=augmented[:, :n])
-        augmented[:, :n] *= row_weights[:, None]
-        np.multiply(row_weights, residual, out=augmented[:, n])
-        t = min(m, n)
-        self.rows = m
-        self._householder: tuple[Array, Array] | None = None
-        if m and n:
-            (reflectors, tau), _ = scipy.linalg.qr(augmented, overwrite_a=True, mode="raw", check_finite=False)
-            self._householder = (reflectors[:, :t], tau[:t])  # Q_t: the first t reflectors (r's own one is not needed)
-            self.triangle = np.triu(reflectors[:t, :n])
-            self.projected_residual = np.array(reflectors[:t, n])
-            if not (np.all(np.isfinite(self.triangle)) and np.all(np.isfinite(self.projected_residual))):
-                linalg.require_finite(jacobian, "the identification Jacobian")
-                linalg.require_finite(residual, "the weighted residual")
-                raise DataError("the QR reduction of the scaled identification Jacobian overflowed: check the "
-                                "parameters' typical sizes and the data for values out of range")
-        else:
-            self.triangle, self.projected_residual = np.zeros((t, n)), np.zeros(t)
-        u, s, vt = linalg.svd(self.triangle, "the scaled identification Jacobian (its QR triangle)")
-        self.largest = float(s[0]) if s.size else 0.0
-        keep = s > (0.0 if solver == "ridge" else max(rcond * self.largest, floor))
-        self.u, self.s, self.vt = u[:, keep], s[keep], vt[keep]
-        self.solver = solver
-        self.ridge = ridge
+    name: ClassVar[str] = "lm"
+    rcond: float = 1e-8
+    floor: float = 0.0
 
-    @property
-    def smallest_damping(self) -> float:
-        """The λ at which LM damping halves the step along the weakest kept direction: ``(s_k / s₁)²``."""
-        return float((self.s[-1] / self.largest) ** 2) if self.s.size else 0.0
+    @classmethod
+    def configured(cls, options: StepOptions) -> Self:
+        """``rank_tol`` and ``min_information`` with ``identifiable_only`` (the default), else round-off only."""
+        if not options.identifiable_only:
+            return cls(1e-15, 0.0)
+        return cls(options.rank_tol, options.min_information)
 
-    @property
-    def kept(self) -> int:
-        """Number of directions the steps move along."""
-        return int(self.s.size)
+    def threshold(self, largest: float) -> float:
+        """``max(rcond · s₁, floor)``."""
+        return max(self.rcond * largest, self.floor)
 
-    def release(self) -> None:
-        """Drop the Householder reflectors (the m × n part): :meth:`solve`, :meth:`decrement`, :meth:`along` and
-        :meth:`gradient_norm` still work, :meth:`project` no longer does."""
-        self._householder = None
+    def damping(self, lam: float, largest: float) -> float:
+        """``λ s₁²``: damping relative to the largest singular value, whatever the parameters' scale."""
+        return lam * largest**2
 
-    def project(self, vector: Array) -> Array:
-        """``Q_tᵀ y`` for an (m,) vector ``y``: its coordinates in the basis of ``J_s``'s column space that
-        :meth:`solve` takes (LAPACK ``ormqr`` with the stored reflectors)."""
-        if self._householder is None:
-            raise RuntimeError("the Householder reflectors were released; build the steps again to project")
-        reflectors, tau = self._householder
-        if not tau.size:
-            return np.zeros(0)
-        column = np.asfortranarray(vector, dtype=np.float64).reshape(-1, 1)
-        projected, _, info = scipy.linalg.lapack.dormqr("L", "T", reflectors, tau, column, max(64, column.shape[1]))
-        if info != 0:
-            raise ConvergenceError(f"applying the QR reflectors of the scaled identification Jacobian failed "
-                                   f"(LAPACK dormqr info {info})")
-        return np.asarray(projected[:tau.size, 0], dtype=np.float64)
+    def rejected(self, lam: float, shrink: float) -> tuple[float, float, bool]:
+        """λ ×10, the step not shrunk, and geodesic acceleration from then on."""
+        return lam * 10.0, shrink, True
 
-    def along(self, v: Array) -> Array:
-        """``Q_tᵀ J_s v = R v``: the scaled step ``v``'s first-order change of the residual, projected."""
-        return np.asarray(self.triangle @ v, dtype=np.float64)
+    def accelerated(self, problem: Problem, x: Array, d: Array, rw: Array, v: Array, steps: Steps,
+                    lam: float) -> Array | None:
+        """:func:`accelerated`."""
+        return accelerated(problem, x, d, rw, v, steps, lam)
 
-    def solve(self, lam: float, projected: Array | None = None) -> Array:
-        """The scaled step for the residual (or for the right-hand side whose :meth:`project` is ``projected``):
-        ``-Σ_i v_i s_i/(s_i² + μ) u_iᵀ r`` with ``μ = λ s₁²`` (``lm``), 0 (``tsvd``) or the ridge parameter
-        (``ridge``: ``(J_sᵀJ_s + μI) δz = -J_sᵀ r``)."""
-        if not self.s.size:
-            return np.zeros(self.vt.shape[1])
-        rhs = self.projected_residual if projected is None else projected
-        damping = {"lm": lam * self.largest**2, "tsvd": 0.0}.get(self.solver, self.ridge)
-        gain = self.s / (self.s**2 + damping)
-        return np.asarray(-(self.vt.T @ ((self.u.T @ rhs) * gain)), dtype=np.float64)
-
-    def decrement(self, information: float = 0.0) -> float:
-        """``‖U_kᵀ r‖²``: twice the cost decrease a full Gauss–Newton step would predict, and the squared
-        length of that step in the metric of the parameters' covariance (in σ units when the rows are
-        weighted by 1/σ) — the Newton decrement [dimensionless]. Only over the directions whose singular
-        value is at least ``information`` (a-priori standard deviation at most 1/information typical sizes)."""
-        chosen = self.s >= information
-        return float(np.sum((self.u[:, chosen].T @ self.projected_residual) ** 2))
-
-    def gradient_norm(self) -> float:
-        """``‖J_sᵀ r‖ = ‖Rᵀ Q_tᵀ r‖``: the cost's gradient in scaled variables."""
-        return float(np.linalg.norm(self.triangle.T @ self.projected_residual))
-
-
-def evaluated(problem: Problem, x: Array, jacobian: bool = True) -> Prediction | None:
-    """The problem at ``x``, or None where it cannot be evaluated (FK fails, a sample turns singular)."""
-    if not np.all(np.isfinite(x)):
-        return None
-    try:
-        return problem.evaluate(x, jacobian=jacobian)
-    except (ConvergenceError, DataError):  # an unusable step: rejected like one that raises the cost
-        return None
+    def settled(self, steps: Steps, lam: float, cost: float, errors: dict[str, Array], numerical: dict[str, Array],
+                rejected: bool, tol: float, cautious: bool) -> str:
+        """:func:`settled`."""
+        return settled(steps, lam, cost, errors, numerical, rejected, tol, cautious)
 
 
 def accelerated(problem: Problem, x: Array, d: Array, rw: Array, v: Array, steps: Steps, lam: float) -> Array | None:
@@ -192,32 +115,6 @@ def accelerated(problem: Problem, x: Array, d: Array, rw: Array, v: Array, steps
             return np.asarray(v + 0.5 * a, dtype=np.float64)
         damping *= 10.0
     return v
-
-
-def exact_fit_floors(problem: Problem, sigma_fraction: float,
-                     amplification: float = FK_AMPLIFICATION) -> dict[str, Array]:
-    """Per measurement key, per error column: the error [m, rad] up to which a fit counts as exact,
-    ``max(sigma_fraction · σ, amplification · SOLVE_TOLERANCE)`` with σ the measurement's stated
-    standard deviation (``sigma_fraction`` 0: the numerical floor alone). Keys the problem names no
-    measurement for (IKM closure rows) take the smallest floor, under the key ``""``."""
-    numerical = amplification * SOLVE_TOLERANCE
-    floors: dict[str, Array] = {}
-    for m in getattr(problem, "measurements", []):
-        floors[m.key] = np.maximum(sigma_fraction * m.row_sigmas(), numerical)
-    floors[""] = np.array([min((float(np.min(f)) for f in floors.values()), default=numerical)])
-    return floors
-
-
-def at_floor(errors: dict[str, Array], floors: dict[str, Array]) -> bool:
-    """Every finite error within its floor (see :func:`exact_fit_floors`)."""
-    for key, err in errors.items():
-        e = np.abs(np.asarray(err, dtype=float)).reshape(len(err), -1)
-        floor = floors.get(key, floors[""])
-        if floor.size != e.shape[1]:
-            floor = np.full(e.shape[1], float(np.min(floor)))
-        if np.any(np.isfinite(e) & (e > floor)):
-            return False
-    return True
 
 
 def noise_scale(cost: float, dof: int, cautious: bool = True) -> float:

@@ -34,7 +34,8 @@ from pincal.errors import DataError, listing
 from pincal.identification.identifiability import RANK_TOLERANCE
 from pincal.identification.parameters import Parameter
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import CalibrationResult, identify
+from pincal.identification.result import CalibrationResult
+from pincal.identification.solver import identify
 
 Array = npt.NDArray[np.float64]
 

@@ -1,5 +1,4 @@
-"""Identification: Levenberg–Marquardt on the analytic Jacobian, with TSVD and ridge variants and a
-robust loss.
+"""Identification: one front, :func:`identify`, over the methods and losses chosen by name.
 
 The problem is solved in scaled variables ``z = x / s`` (s: typical sizes, metres and radians differ
 by orders of magnitude). By default the steps move only along the directions the data can see: the
@@ -9,25 +8,18 @@ in unidentifiable combinations then take minimum-norm values, and the report nam
 combinations. (Pinning the dependent parameters at their start instead would leave a second-order
 misfit: the symmetry orbits are curved, so that linear section misses the truth.)
 
-Steps: ``lm`` is Levenberg's damping of that truncated Gauss–Newton step,
-``δz = -Σ_i v_i s_i/(s_i² + λ s_1²) u_iᵀ r``; ``tsvd`` truncates at ``tsvd_rcond`` with no damping
-(study 003); ``ridge`` solves ``(JᵀJ + μI) δz = -Jᵀr`` over all parameters. The robust loss re-weights
-whole samples (IRLS, Cauchy weights) with a scale estimated from the median residual, so no
-threshold is set by hand.
+Methods (:data:`METHODS`, one module each, :mod:`pincal.identification.steps` for what they share): ``lm``
+(:mod:`~pincal.identification.lm`, Levenberg–Marquardt with geodesic acceleration), ``tsvd``
+(:mod:`~pincal.identification.tsvd`, study 003) and ``ridge`` (:mod:`~pincal.identification.ridge`). Losses
+(:data:`pincal.identification.losses.IMPLEMENTED_LOSSES`) re-weight whole samples (IRLS); ``auto`` is this module's
+plan on top of them. The names alone are in :mod:`pincal.identification.choices`.
 
-Weakly identifiable directions are strongly nonlinear (moving 0.1 mm along one changes the predictions
-more at second order than at first), so plain LM crawls there: each smaller λ is rejected. From the first
-rejected step on, ``lm`` adds Transtrum & Sethna's geodesic acceleration (one residual evaluation per
-trial, :func:`pincal.identification.lm.accelerated`). Each iteration reduces ``[J_s | r]`` by one QR and takes
-the SVD of its small triangle (:class:`pincal.identification.lm.Steps`), reused for every trial; a trial point is
-evaluated without the Jacobian, which is computed once a step is accepted, but for the first trial of an iteration
-while no first trial has been rejected (then it is evaluated with its Jacobian: a closed-loop robot's residual costs
-most of a full evaluation). Before each iteration's trials, :func:`pincal.identification.lm.settled` may end the
-fit: an exact fit (every error within 100 × the FK tolerance, 1 nm); for noisy data, a cost at the noise level whose
-remaining Gauss–Newton improvement along the practically identified directions is below one unit of χ² (these two end
-a crawl once it cannot matter); and, for any fit, a Gauss–Newton model that predicts a decrease of at most ``tol``
-times the cost (the decrease test, asked before a trial is spent on it). Every SVD goes through :mod:`pincal.linalg`
-(no ``LinAlgError``).
+Each iteration reduces ``[J_s | r]`` by one QR and takes the SVD of its small triangle
+(:class:`pincal.identification.steps.Steps`), reused for every trial; a trial point is evaluated without the Jacobian,
+which is computed once a step is accepted, but for the first trial of an iteration while no first trial has been
+rejected (then it is evaluated with its Jacobian: a closed-loop robot's residual costs most of a full evaluation).
+Before each iteration's trials the method may end the fit (:meth:`~pincal.identification.steps.Method.settled`).
+Every SVD goes through :mod:`pincal.linalg` (no ``LinAlgError``).
 """
 
 from __future__ import annotations
@@ -35,8 +27,7 @@ from __future__ import annotations
 import functools
 import math
 import time
-from dataclasses import dataclass, field
-from typing import Any, Literal, get_args
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -44,189 +35,42 @@ from threadpoolctl import ThreadpoolController
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
-from pincal.identification import lm
+from pincal.identification.choices import LOSSES, Loss, Solver
 from pincal.identification.identifiability import Identifiability, analyse, correlations, covariance
 from pincal.identification.ikm import ChainProblem, ImplicitProblem, chain_blocks
-from pincal.identification.measurements import KIND_CLASSES
+from pincal.identification.lm import LevenbergMarquardt
+from pincal.identification.losses import (
+    IMPLEMENTED_LOSSES,
+    TRIM_KEEP,
+    TRIMMED,
+    Weighting,
+    outlier_samples,
+    row_weights,
+    sample_squares,
+    sample_weights,
+)
 from pincal.identification.problem import Prediction, Problem
+from pincal.identification.result import CalibrationResult, chained
+from pincal.identification.ridge import Ridge
+from pincal.identification.steps import (
+    EXACT_FIT_AMPLIFICATION,
+    FLOOR_SIGMA_FRACTION,
+    Method,
+    StepOptions,
+    Steps,
+    at_floor,
+    evaluated,
+    exact_fit_floors,
+)
+from pincal.identification.tsvd import TruncatedSVD
 
 Array = npt.NDArray[np.float64]
-IntArray = npt.NDArray[np.int64]
 
-#: Identification solvers: Levenberg–Marquardt, truncated SVD, ridge (Tikhonov).
-Solver = Literal["lm", "tsvd", "ridge"]
-#: Losses: least squares, Cauchy (robust), or ``auto`` (least squares, then Cauchy if a sample is implausible).
-Loss = Literal["auto", "linear", "cauchy"]
-SOLVERS: tuple[Solver, ...] = get_args(Solver)
-LOSSES: tuple[Loss, ...] = get_args(Loss)
-#: Outlier test of ``loss="auto"``: the probability that clean data (Gaussian noise) raise a false
-#: alarm anywhere in the dataset (Bonferroni: each sample is tested at this level over N).
-OUTLIER_FALSE_ALARM = 1e-3
-CAUCHY_C = 2.3849  # 95 % efficiency under Gaussian noise
+#: The identification methods, by the name :func:`identify` takes (``solver=``); ``choices.SOLVERS`` lists the same
+#: names (:mod:`pincal.identification.choices`).
+METHODS: dict[str, type[Method]] = {method.name: method for method in (LevenbergMarquardt, TruncatedSVD, Ridge)}
 #: Relative cost change per step below which three steps in a row count as a stationary cost.
 STATIONARY = 1e-6
-
-
-@dataclass
-class CalibrationResult:
-    """What identification found, and how well.
-
-    Attributes:
-        names: Parameter names; ``x`` their estimates (deviations from nominal) [m or rad].
-        std: Standard deviations [m or rad] (NaN for parameters not identified).
-        identified: Indices of the parameters that were estimated (the identifiable set by default).
-        identifiability: Rank, condition number, base parameters and unidentifiable combinations.
-        correlation: Correlations among the identified parameters.
-        iterations, converged, message: The solver's account.
-        cost_history: ``½‖r‖²`` (weighted) after each accepted iteration.
-        errors_before, errors_after: Per measurement key, per-sample errors (predicted − measured).
-        sample_weights: Robust-loss weights per sample (1 = fully trusted).
-        sigma2: A-posteriori variance factor (≈ 1 when the stated σ are right).
-        seconds: Wall time of identification.
-        extra: Further records; the solver's counters ``rejected_steps``, ``evaluations`` (of the model: trial
-            points, geodesic look-aheads, and the Jacobian at the start and at each accepted step),
-            ``accelerated_steps`` (trials with geodesic acceleration) and ``rank_changes`` (iterations at
-            which the number of directions moved along changed).
-        final: The problem evaluated at ``x`` by the fit, without the Jacobian (weighted residual [σ units], errors
-            and predictions [m, rad]): :func:`identify` reads it instead of evaluating again; None when the samples'
-            configurations were reset after the fit.
-    """
-
-    names: list[str]
-    x0: Array
-    x: Array
-    std: Array
-    identified: list[int]
-    identifiability: Identifiability
-    correlation: Array
-    iterations: int
-    converged: bool
-    message: str
-    cost_history: list[float]
-    errors_before: dict[str, Array]
-    errors_after: dict[str, Array]
-    sample_weights: Array
-    sigma2: float
-    seconds: float
-    solver: str = "lm"
-    loss: str = "linear"
-    extra: dict[str, object] = field(default_factory=dict)
-    std_apriori: Array | None = None  # from the stated σ alone: sqrt(diag((JᵀJ)⁻¹)) [m or rad]
-    final: Prediction | None = field(default=None, init=False, repr=False, compare=False)
-
-    @property
-    def unidentified(self) -> list[str]:
-        """Names of the parameters that were not estimated (not in ``identified``)."""
-        return [n for k, n in enumerate(self.names) if k not in set(self.identified)]
-
-    def down_weighted(self, threshold: float = 0.5) -> list[int]:
-        """Samples whose robust weight fell below ``threshold``."""
-        return [int(k) for k in np.flatnonzero(self.sample_weights < threshold)]
-
-
-def length_columns(key: str) -> int:
-    """How many leading error columns of measurement ``key`` are lengths [m] (its model's ``length_rows``: 3 for
-    a position or a pose, 1 for a distance; 0 for other keys, e.g. IKM closure rows)."""
-    model = KIND_CLASSES.get(key.split(":", 1)[0])
-    return model.length_rows if model is not None else 0
-
-
-def angle_columns(key: str) -> slice:
-    """The error columns of measurement ``key`` that are angles [rad] (a pose's rotation vector), as a slice."""
-    model = KIND_CLASSES.get(key.split(":", 1)[0])
-    start = length_columns(key)
-    return slice(start, start + (model.angle_rows if model is not None else 0))
-
-
-def error_norms(errors: dict[str, Array], keys: list[str] | None = None) -> Array:
-    """Error magnitudes [m] of the length-type readings (position, pose position, distance): one per reading taken,
-    measurement after measurement; a reading not taken (an occluded marker, NaN) has none."""
-    parts = [np.linalg.norm(err[:, :length_columns(key)], axis=1) for key, err in errors.items()
-             if length_columns(key) and (keys is None or key in keys)]
-    norms = np.concatenate(parts) if parts else np.zeros(0)
-    return np.asarray(norms[~np.isnan(norms)], dtype=np.float64)
-
-
-def rms(values: Array) -> float:
-    """Root mean square of ``values`` (NaN when empty)."""
-    return float(np.sqrt(np.mean(values**2))) if values.size else float("nan")
-
-
-def calibration_gain(x_true: Array, x_nominal: Array, x_calibrated: Array) -> float:
-    """Study 000, Eq. 4.1: ``G = 100 (‖Pr − Pn‖ − ‖Pr − Pc‖) / ‖Pr − Pn‖`` [%]."""
-    before = float(np.linalg.norm(x_true - x_nominal))
-    if before == 0.0:
-        return float("nan")
-    return 100.0 * (before - float(np.linalg.norm(x_true - x_calibrated))) / before
-
-
-def sample_squares(problem: Problem, residual: Array) -> tuple[Array, IntArray]:
-    """Each sample's squared weighted residual norm and its number of rows (0: the sample has no rows)."""
-    samples = problem.row_samples()
-    n = problem.observations.n_samples
-    squares = np.asarray(np.bincount(samples, weights=residual**2, minlength=n), dtype=np.float64)
-    return squares, np.bincount(samples, minlength=n).astype(np.int64)
-
-
-#: Internal loss of ``auto``'s robust start: least trimmed squares over the best-fitting :data:`TRIM_KEEP` of the
-#: samples, chosen afresh at each step (concentration steps, Rousseeuw & Van Driessen 2006).
-TRIMMED = "trimmed"
-TRIM_KEEP = 0.5
-
-
-def _sample_weights(problem: Problem, pred: Prediction, loss: str) -> Array:
-    """Per-sample robust weights (IRLS). Cauchy: ``w = 1 / (1 + (e / (c·s))²)`` with ``e`` a sample's
-    weighted residual norm and ``s`` its median over samples / 0.6745 — no threshold set by hand.
-    Trimmed: 1 for the :data:`TRIM_KEEP` share of samples that fit best, 0 for the others.
-
-    A sample with fewer rows than most (some markers not seen) has its norm scaled to the most common row count,
-    ``e · sqrt(d_typical / d_k)``, so that it is judged per reading; a sample with no row keeps weight 1 and
-    counts in neither the scale nor the trimmed share."""
-    n = problem.observations.n_samples
-    if loss == "linear":
-        return np.ones(n)
-    squares, dims = sample_squares(problem, pred.residual)
-    used = dims > 0
-    typical = float(np.median(dims[used])) if used.any() else 1.0
-    norms = np.sqrt(squares * typical / np.maximum(dims, 1))
-    if loss == TRIMMED:  # least trimmed squares: the best-fitting share of the samples, the others out
-        ranked = [k for k in np.argsort(norms, kind="stable") if used[k]]
-        weights = np.where(used, 0.0, 1.0)
-        weights[ranked[:math.ceil(TRIM_KEEP * int(used.sum()))]] = 1.0
-        return weights
-    scale = float(np.median(norms[used] if used.any() else norms)) / 0.6745
-    scale = max(scale, 1e-300)
-    return np.asarray(1.0 / (1.0 + (norms / (CAUCHY_C * scale)) ** 2), dtype=np.float64)
-
-
-def outlier_samples(problem: Problem, pred: Prediction, n_fitted: int = 0) -> list[int]:
-    """Samples whose residual is implausible given the noise level the data themselves show.
-
-    With ``e_k`` a sample's weighted residual norm over ``d_k`` rows, the noise scale is
-    ``s² = median(e_k² / m_k)`` (``m_k`` the median of χ²_{d_k}), and a sample is flagged when
-    ``e_k² > s² · χ²_{d_k}(1 − α/N)``, α = ``OUTLIER_FALSE_ALARM``; ``s²`` is corrected by
-    ``rows / (rows − n_fitted)`` for the degrees of freedom the fit used: clean data raise a false alarm in
-    about one dataset in a thousand. Nothing here is set by hand in data units.
-    """
-    from scipy.stats import chi2
-
-    sq, dims = sample_squares(problem, pred.residual)
-    used = dims > 0
-    if used.sum() < 3:
-        return []
-    scale2 = float(np.median(sq[used] / chi2.median(dims[used])))
-    rows = int(dims.sum())
-    if rows > n_fitted:  # fitted residuals are smaller than the noise by the fitted degrees of freedom
-        scale2 *= rows / (rows - n_fitted)
-    if scale2 <= 0.0:
-        return []
-    limit = scale2 * chi2.ppf(1.0 - OUTLIER_FALSE_ALARM / int(used.sum()), np.maximum(dims, 1))
-    return [int(k) for k in np.flatnonzero(used & (sq > limit))]
-
-
-def _row_weights(problem: Problem, sample_weights: Array) -> Array:
-    """Per-sample weights expanded to the residual rows."""
-    return np.asarray(sample_weights[problem.row_samples()], dtype=np.float64)
 
 
 def _practical_tol(jacobian: Array, scales: Array, rank_tol: float, min_information: float) -> float:
@@ -250,7 +94,7 @@ def identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", l
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              min_information: float = 0.0, tsvd_rcond: float = 1e-6, ridge: float = 1e-6,
              strict: bool = False) -> CalibrationResult:
-    """Estimate the parameters from the data (the arguments are described at :func:`_identify`).
+    """Estimate the parameters from the data (the arguments are described at :func:`_fit`).
 
     ``loss="auto"`` (the default) fits by least squares, tests every sample against the noise level the
     fit shows (:func:`outlier_samples`) and, if any sample is implausible, refits with the Cauchy loss
@@ -271,11 +115,11 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: Solver, loss: Los
         return _identify(problem, x0, solver, loss, **options)
     first = _identify(problem, x0, solver, "linear", **options)
     first.loss = "auto (linear)"  # what was asked, and what it came to: least squares, no sample implausible
-    if lm.at_floor(first.errors_after, lm.exact_fit_floors(problem, lm.FLOOR_SIGMA_FRACTION)):  # nothing to reject
+    if at_floor(first.errors_after, exact_fit_floors(problem, FLOOR_SIGMA_FRACTION)):  # nothing to reject
         first.extra["outlier_test"] = []
         return first
     # gross outliers can pull the least-squares fit where the loops no longer close: then every start is robust
-    pred = first.final if first.final is not None else lm.evaluated(problem, first.x, jacobian=False)
+    pred = first.final if first.final is not None else evaluated(problem, first.x, jacobian=False)
     suspects = outlier_samples(problem, pred, first.identifiability.rank) if pred is not None else []
     first.extra["outlier_test"] = suspects
     if pred is not None and not suspects:
@@ -301,27 +145,11 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: Solver, loss: Los
     others = [fit for fit in fits if fit is not second] + ([trimmed] if trimmed is not None else [])
     second.extra["other_refit_iterations"] = sum(c.iterations for c in others)
     second.seconds += sum(c.seconds for c in others)
-    second = _chained(first, second)
+    second = chained(first, second)
     second.extra["first_pass_iterations"] = first.iterations
     second.loss = "auto (cauchy)"
     second.extra["outlier_test"] = suspects
     return second
-
-
-#: The solver's counters, summed when one fit continues another.
-COUNTERS = ("rejected_steps", "evaluations", "accelerated_steps", "rank_changes")
-
-
-def _chained(first: CalibrationResult, then: CalibrationResult) -> CalibrationResult:
-    """``then``, a fit that followed ``first``, accounted as one: ``first``'s start and errors before, both
-    fits' iterations, cost history, time and counters."""
-    then.x0, then.errors_before = first.x0, first.errors_before
-    then.iterations += first.iterations
-    then.cost_history = first.cost_history + then.cost_history
-    then.seconds += first.seconds
-    for key in COUNTERS:
-        then.extra[key] = int(first.extra.get(key, 0)) + int(then.extra.get(key, 0))  # type: ignore[call-overload]
-    return then
 
 
 def _attempt(problem: Problem, x0: Array, solver: Solver, loss: str, **options: Any) -> CalibrationResult | None:
@@ -336,7 +164,7 @@ def _attempt(problem: Problem, x0: Array, solver: Solver, loss: str, **options: 
 def _median_sample_residual(problem: Problem, x: Array) -> float:
     """Median over samples of the squared weighted residual norm at ``x`` (the least-median-of-squares
     criterion: blind to up to half the samples being off); infinite where the model cannot be evaluated."""
-    pred = lm.evaluated(problem, x, jacobian=False)
+    pred = evaluated(problem, x, jacobian=False)
     if pred is None:
         return math.inf
     squares, dims = sample_squares(problem, pred.residual)
@@ -359,7 +187,7 @@ def _identify(problem: Problem, x0: Array | None, solver: Solver, loss: str, **o
             break
         moved_all += moved
         try:
-            result = _chained(result, _fit(problem, result.x, solver, loss, **options))
+            result = chained(result, _fit(problem, result.x, solver, loss, **options))
         except ConvergenceError:  # some sample does not assemble at all there: the caller decides
             result.final = None  # its configurations were reset after it: its residuals are not the problem's
             break
@@ -368,12 +196,14 @@ def _identify(problem: Problem, x0: Array | None, solver: Solver, loss: str, **o
     return result
 
 
-def _check_choices(solver: str, loss: str) -> None:
-    """Refuse (DataError) a solver or loss name that :func:`_fit` does not know, listing the valid ones."""
-    if solver not in SOLVERS:
-        raise DataError(f"unknown solver '{solver}'; solvers are: {', '.join(SOLVERS)}")
-    if loss not in (*LOSSES, TRIMMED):
+def _chosen(solver: str, loss: str) -> tuple[type[Method], Weighting | None]:
+    """The method and the loss's weighting of these names (:data:`METHODS`,
+    :data:`~pincal.identification.losses.IMPLEMENTED_LOSSES`), or DataError listing the valid names."""
+    if solver not in METHODS:
+        raise DataError(f"unknown solver '{solver}'; solvers are: {', '.join(METHODS)}")
+    if loss not in IMPLEMENTED_LOSSES:
         raise DataError(f"unknown loss '{loss}'; losses are: {', '.join(LOSSES)}")
+    return METHODS[solver], IMPLEMENTED_LOSSES[loss]
 
 
 def _check_identifiable(ident: Identifiability, n_parameters: int, n_residuals: int, strict: bool) -> None:
@@ -405,7 +235,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         problem: Robot, parameters, measurements and data.
         x0: Starting deviations [m, rad]; by default the problem's initial guess (the nominal robot,
             with an unknown measurement frame registered in closed form).
-        solver: ``lm``, ``tsvd`` or ``ridge``.
+        solver: ``lm``, ``tsvd`` or ``ridge`` (:data:`METHODS`).
         loss: ``linear`` (least squares) or ``cauchy`` (robust to gross outliers); :func:`identify`
             also takes ``auto``.
         identifiable_only: Move only along directions identifiable at the current estimate
@@ -415,7 +245,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
             Gauss–Newton model predicts a relative decrease below ``tol`` before a trial. When no step
             decreases the cost, the fit counts as converged at a first-order optimum or when every error
             is within ``max(FLOOR_SIGMA_FRACTION · σ, FK_AMPLIFICATION · SOLVE_TOLERANCE)`` [m, rad]
-            (:mod:`pincal.identification.lm`), σ the measurement's stated standard deviation.
+            (:mod:`pincal.identification.steps`), σ the measurement's stated standard deviation.
         rank_tol: Relative singular-value threshold for identifiability (see
             :mod:`pincal.identification.identifiability`).
         min_information: Absolute floor on the singular values of the weighted, scaled Jacobian: a
@@ -431,7 +261,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         ConvergenceError: the model cannot be evaluated at the starting point, or an SVD fails with both
             LAPACK drivers (:mod:`pincal.linalg`).
     """
-    _check_choices(solver, loss)
+    chosen, weighting = _chosen(solver, loss)
     start = time.perf_counter()
     pset = problem.parameters
     scales = pset.scales
@@ -448,27 +278,27 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
     active = ident.base_indices
     _check_identifiable(ident, len(pset), pred.residual.size, strict)
     d = scales
-    weights = _sample_weights(problem, pred, loss)
-    rw = np.sqrt(_row_weights(problem, weights))
+    weights = sample_weights(problem, pred, weighting)
+    rw = np.sqrt(row_weights(problem, weights))
     cost = 0.5 * float(np.sum((rw * pred.residual) ** 2))
     history = [cost]
-    floors = lm.exact_fit_floors(problem, lm.FLOOR_SIGMA_FRACTION)
-    numerical = lm.exact_fit_floors(problem, 0.0, lm.EXACT_FIT_AMPLIFICATION)
-    cut = (rank_tol if identifiable_only else 1e-15) if solver == "lm" else tsvd_rcond
-    info_floor = min_information if identifiable_only and solver == "lm" else 0.0
+    floors = exact_fit_floors(problem, FLOOR_SIGMA_FRACTION)
+    numerical = exact_fit_floors(problem, 0.0, EXACT_FIT_AMPLIFICATION)
+    method = chosen.configured(StepOptions(identifiable_only, rank_tol, min_information, tsvd_rcond, ridge))
+    least_squares = weighting is None  # never re-weighted
     lam, converged, message, iterations, slow = 1e-3, False, "iteration limit reached", 0, 0
-    accelerate = False  # geodesic acceleration: on from the first rejected LM step
+    accelerate = False  # geodesic acceleration: on once the method turns it on after a rejected step (LM)
     counts = {"rejected": 0, "evaluations": 1, "accelerated": 0}
     kept: list[int] = []
     eager_first = True  # evaluate the next first trial with its Jacobian (no first trial rejected yet)
-    steps: lm.Steps | None = None
+    steps: Steps | None = None
     for it in range(1, max_iter + 1):
         assert pred.jacobian is not None
         steps = None  # the previous iteration's m × n reflectors go before this one's are built
-        steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
+        steps = Steps(pred.jacobian, d, rw, pred.residual, method)
         kept.append(steps.kept)
-        if it > 1 and solver == "lm":
-            settled = lm.settled(steps, lam, cost, pred.errors, numerical, accelerate, tol, cautious=loss == "linear")
+        if it > 1:
+            settled = method.settled(steps, lam, cost, pred.errors, numerical, accelerate, tol, least_squares)
             if settled:
                 converged, message = True, settled
                 break
@@ -481,7 +311,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
             dz = steps.solve(lam) * shrink
             if accelerate:
                 counts["evaluations"] += 1
-                dz = lm.accelerated(problem, x, d, rw, dz, steps, lam)
+                dz = method.accelerated(problem, x, d, rw, dz, steps, lam)
                 counts["accelerated"] += int(dz is not None)
             # a trial needs only the residual, and the Jacobian is computed once a step is accepted; but while the
             # first trials are accepted (the previous iteration's was) the first is evaluated with its Jacobian at
@@ -489,7 +319,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
             eager = eager_first and attempt == 0
             if eager:
                 steps.release()  # the m × n reflectors go before the trial's Jacobian is built
-            trial = lm.evaluated(problem, x + d * dz, jacobian=eager) if dz is not None else None
+            trial = evaluated(problem, x + d * dz, jacobian=eager) if dz is not None else None
             counts["evaluations"] += int(dz is not None)
             if trial is not None:
                 new_cost = 0.5 * float(np.sum((rw * trial.residual) ** 2))
@@ -499,28 +329,25 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
                 if new_cost <= cost:
                     assert dz is not None
                     steps.release()  # the m × n reflectors go before the new Jacobian is built
-                    new = lm.evaluated(problem, x + d * dz)  # None: a sample turned singular, rejected as before
+                    new = evaluated(problem, x + d * dz)  # None: a sample turned singular, rejected as before
                     counts["evaluations"] += 1
                     if new is not None:
                         accepted = True
                         break
-                    steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
+                    steps = Steps(pred.jacobian, d, rw, pred.residual, method)
             if eager:  # a rejected eager trial: the next ones may need the reflectors (geodesic acceleration)
                 trial = None  # its Jacobian goes first
-                steps = lm.Steps(pred.jacobian, d, rw, pred.residual, solver, cut, ridge, info_floor)
+                steps = Steps(pred.jacobian, d, rw, pred.residual, method)
             eager_first = False
             counts["rejected"] += 1
-            if solver == "lm":
-                lam *= 10.0
-                accelerate = True
-            else:
-                shrink *= 0.5
+            lam, shrink, accelerating = method.rejected(lam, shrink)
+            accelerate = accelerate or accelerating
         if not accepted or new is None or dz is None:
             message = "no step decreases the cost (a local minimum, or the model cannot be evaluated nearby)"
             # at a first-order optimum (gradient negligible against ‖J‖‖r‖), or with every error below what
             # the measurements resolve and FK reproduces, this is convergence, not a failure
             grad = steps.gradient_norm()
-            if lm.at_floor(pred.errors, floors):
+            if at_floor(pred.errors, floors):
                 converged, message = True, "converged (no further decrease at the numerical floor)"
             elif grad <= 1e-4 * steps.largest * math.sqrt(2 * cost):
                 converged, message = True, "converged (at the least-squares optimum: no step decreases the cost)"
@@ -529,9 +356,9 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         step_size = float(np.linalg.norm(dz))
         x, pred, cost = x + d * dz, new, new_cost
         assert pred.jacobian is not None
-        if loss != "linear":
-            weights = _sample_weights(problem, pred, loss)
-            rw = np.sqrt(_row_weights(problem, weights))
+        if not least_squares:
+            weights = sample_weights(problem, pred, weighting)
+            rw = np.sqrt(row_weights(problem, weights))
             cost = 0.5 * float(np.sum((rw * pred.residual) ** 2))
         history.append(cost)
         lam = max(lam / 10.0, 1e-20)
@@ -589,7 +416,7 @@ def identify_chains(problem: ImplicitProblem, x0: Array | None = None,
     with :func:`identify`'s options.
 
     Returns:
-        Per chain: the loop names and its :class:`~pincal.identification.solver.CalibrationResult`.
+        Per chain: the loop names and its :class:`~pincal.identification.result.CalibrationResult`.
     """
     x = np.zeros(len(problem.parameters)) if x0 is None else np.asarray(x0, dtype=float).copy()
     jac = problem.evaluate(x).jacobian

@@ -1,4 +1,4 @@
-"""Report files as text: the indented JSON pincal writes, and the orientation-error norms its figures use."""
+"""Report files as text: the indented JSON pincal writes."""
 
 from __future__ import annotations
 
@@ -6,23 +6,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-import numpy.typing as npt
-
-from pincal.identification.solver import angle_columns
 from pincal.io.files import write_text
-
-Array = npt.NDArray[np.float64]
-
-
-
-def angle_error_norms(errors: dict[str, Array]) -> Array:
-    """Orientation error angles [rad] of the pose readings (norm of ``log3(R_measᵀ R_pred)``), one per reading taken
-    (a reading not taken, NaN, has none)."""
-    parts = [np.linalg.norm(err[:, angle_columns(key)], axis=1) for key, err in errors.items()
-             if angle_columns(key).stop > angle_columns(key).start]
-    norms = np.concatenate(parts) if parts else np.zeros(0)
-    return np.asarray(norms[~np.isnan(norms)], dtype=np.float64)
 
 
 def write_json(path: str | Path, content: dict[str, Any]) -> None:

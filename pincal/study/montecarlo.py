@@ -23,10 +23,12 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import ConvergenceError, DataError
+from pincal.identification.choices import Solver
 from pincal.identification.measurements import parse_key
+from pincal.identification.metrics import calibration_gain, error_norms, rms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import Solver, calibration_gain, error_norms, identify, rms
+from pincal.identification.solver import identify
 from pincal.model.robot import Robot, load_robot
 from pincal.progress import Progress
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations

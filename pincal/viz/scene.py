@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.calibration.heldout import HeldOut, evaluate_held_out, sample_length_errors
+from pincal.calibration.heldout import HeldOut, evaluate_held_out
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.pipeline import Calibration
 from pincal.calibration.report import CalibrationReport
@@ -29,8 +29,8 @@ from pincal.calibration.setup import prepare
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.identification.corrections import payload_from_dict
 from pincal.identification.measurements import CameraPose, Pose, Position
+from pincal.identification.metrics import error_norms, length_columns, rms, sample_length_errors
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import error_norms, length_columns, rms
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
 from pincal.progress import Progress

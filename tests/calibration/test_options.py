@@ -115,3 +115,12 @@ def test_view_and_report_fit_with_every_option_the_command_line_gives(tmp_path: 
     assert recorded["formulation"] == "ikm" and not recorded["converged"]
     assert f"{recorded['test_rms_after'] * 1e3:.4f} mm" in page.read_text(encoding="utf-8")
     assert pincal.CalibrationOptions is CalibrationOptions
+
+
+def test_the_choices_are_the_registries() -> None:
+    from pincal.calibration.options import LOSS_CHOICES, SELECT_CHOICES, SOLVER_CHOICES
+    from pincal.identification.choices import LOSSES, SOLVERS
+    from pincal.identification.selection import SELECTIONS
+
+    assert SELECT_CHOICES == ("auto", *SELECTIONS)
+    assert SOLVER_CHOICES == SOLVERS and LOSS_CHOICES == LOSSES

@@ -19,9 +19,10 @@ import pytest
 
 import pincal
 from pincal.calibration.simulate import simulate
+from pincal.identification.metrics import error_norms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import error_norms, identify
+from pincal.identification.solver import identify
 from pincal.io.adapters import measurements_for, observations_from
 
 #: robot, measured kind, frame (None: the end effector), samples — enough rows for every candidate.
@@ -90,14 +91,15 @@ def _steps_reference(js: np.ndarray, r: np.ndarray, rcond: float) -> tuple[np.nd
 @pytest.mark.parametrize(("m", "n", "rank"), [(200, 12, 12), (200, 12, 7), (9, 14, 9), (40, 40, 40)],
                          ids=["tall", "rank-deficient", "wide", "square"])
 def test_qr_reduced_steps_are_the_full_svds(m: int, n: int, rank: int) -> None:
-    from pincal.identification.lm import Steps
+    from pincal.identification.lm import LevenbergMarquardt
+    from pincal.identification.steps import Steps
 
     rng = np.random.default_rng(m + n + rank)
     jacobian = rng.normal(size=(m, rank)) @ rng.normal(size=(rank, n)) * np.logspace(0, -5, n)
     scales, weights, residual = rng.uniform(0.5, 2.0, n), rng.uniform(0.2, 1.0, m), rng.normal(size=m)
     js, r = jacobian * scales * weights[:, None], weights * residual
     u, s, vt = _steps_reference(js, r, 1e-10)
-    steps = Steps(jacobian, scales, weights, residual, "lm", 1e-10, 0.0)
+    steps = Steps(jacobian, scales, weights, residual, LevenbergMarquardt(1e-10, 0.0))
     assert steps.kept == s.size == rank
     np.testing.assert_allclose(steps.s, s, rtol=1e-12)
     other = rng.normal(size=m)

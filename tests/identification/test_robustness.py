@@ -8,9 +8,10 @@ import pincal
 from pincal.calibration.pipeline import calibrate
 from pincal.calibration.simulate import simulate
 from pincal.identification import measurements as ms
+from pincal.identification.metrics import error_norms, rms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
-from pincal.identification.solver import error_norms, identify, rms
+from pincal.identification.solver import identify
 from pincal.io.dataset import Dataset
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 

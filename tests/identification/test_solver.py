@@ -8,6 +8,8 @@ and the unidentifiable combinations must be reported, not silently fitted.
 
 from __future__ import annotations
 
+from typing import get_args
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -15,11 +17,14 @@ import pytest
 import pincal
 from pincal.errors import DataError, IdentifiabilityError
 from pincal.identification import measurements as ms
+from pincal.identification.choices import LOSSES, SOLVERS, Loss, Solver
 from pincal.identification.derivatives import marker_points
 from pincal.identification.identifiability import analyse
+from pincal.identification.losses import IMPLEMENTED_LOSSES, TRIMMED
+from pincal.identification.metrics import error_norms
 from pincal.identification.parameters import choose_parameters, default_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
-from pincal.identification.solver import _sample_weights, error_norms, identify
+from pincal.identification.solver import METHODS, identify
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 DEVICE = [ms.joint_reading(j) for j in ("device_incl_x", "device_incl_y", "device_lvdt", "device_rotary")]
@@ -115,6 +120,33 @@ def test_tsvd_and_ridge_variants_recover(solver: str) -> None:
     np.testing.assert_allclose(result.x, x_true, atol=1e-9, rtol=0)
 
 
+def test_the_registries_hold_the_names_the_choices_list() -> None:
+    """The solver names are the method registry's, the loss names ``auto`` and the loss registry's (but the trimmed
+    start, internal to ``auto``), in the order of the ``Solver`` and ``Loss`` types."""
+    assert tuple(METHODS) == SOLVERS == get_args(Solver)
+    assert all(method.name == name for name, method in METHODS.items())
+    assert ("auto", *(name for name in IMPLEMENTED_LOSSES if name != TRIMMED)) == LOSSES == get_args(Loss)
+
+
+@pytest.mark.parametrize("loss", LOSSES)
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_identify_takes_every_registered_solver_and_loss(solver: str, loss: str) -> None:
+    _, _pset, x_true, problem = _setup("five_bar", [ms.distance("base_link", "end_effector", increment=True)],
+                                      ["*.offset"], 12)
+    result = identify(problem, solver=solver, loss=loss, ridge=1e-12)  # type: ignore[arg-type]
+    assert result.solver == solver and result.loss.split(" ")[0] == loss
+    np.testing.assert_allclose(result.x, x_true, atol=1e-9, rtol=0)
+
+
+def test_unknown_solver_and_loss_names_list_the_registered_ones() -> None:
+    _, _pset, _x_true, problem = _setup("five_bar", [ms.distance("base_link", "end_effector", increment=True)],
+                                       ["*.offset"], 12)
+    with pytest.raises(DataError, match=r"^unknown solver 'gn'; solvers are: lm, tsvd, ridge$"):
+        identify(problem, solver="gn")  # type: ignore[arg-type]
+    with pytest.raises(DataError, match=r"^unknown loss 'huber'; losses are: auto, linear, cauchy$"):
+        identify(problem, loss="huber")  # type: ignore[arg-type]
+
+
 def test_bad_data_raises_a_pincal_error() -> None:
     robot = pincal.load_robot("delta")
     models = [ms.position("end_effector")]
@@ -196,33 +228,6 @@ def test_numpy_svd_failure_falls_back_to_gesvd_with_the_same_result(monkeypatch:
     np.testing.assert_allclose(fallback.std, reference.std, rtol=1e-6, equal_nan=True)
 
 
-class _Stated:
-    """A stand-in problem carrying only the measurement models (their stated σ)."""
-
-    def __init__(self, models: list) -> None:
-        self.measurements = models
-
-
-@pytest.mark.parametrize(("sigma", "error", "exact"), [
-    (1e-9, 1.5e-9, True),  # a 1.5 nm fit of noise-free data stated at σ = 1 nm: the FK floor (1e-8) holds it
-    (1e-9, 5e-8, False),  # 50 nm is above both floors
-    (1e-5, 5e-7, True),  # below a tenth of the stated σ: no such instrument could tell it from zero
-    (1e-5, 5e-6, False),
-])
-def test_exact_fit_floor_follows_the_stated_sigma_and_the_fk_tolerance(sigma: float, error: float,
-                                                                        exact: bool) -> None:
-    from pincal.identification.lm import FLOOR_SIGMA_FRACTION, at_floor, exact_fit_floors
-
-    problem = _Stated([ms.position("tool0", sigma), ms.pose("flange", sigma, 10 * sigma)])
-    floors = exact_fit_floors(problem, FLOOR_SIGMA_FRACTION)  # type: ignore[arg-type]
-    errors = {"position:tool0": np.full((4, 3), 0.1 * error), "pose:flange": np.zeros((4, 6))}
-    errors["position:tool0"][2, 1] = -error
-    assert at_floor(errors, floors) is exact
-    # the orientation rows of the pose are held to their own σ (10 × here)
-    errors["pose:flange"][1, 4] = 5.0 * error
-    assert at_floor(errors, floors) is (exact and 5.0 * error <= max(FLOOR_SIGMA_FRACTION * 10 * sigma, 1e-8))
-
-
 # --- several markers on one body, some not seen -------------------------------------------------------------------
 MARKERS = {"m1": (0.06, 0.0, 0.03), "m2": (-0.04, 0.05, 0.01), "m3": (0.0, -0.05, 0.07)}
 
@@ -261,21 +266,3 @@ def test_three_markers_on_one_body_come_back_with_occluded_readings(fit: str) ->
     for a, b in (("m1", "m2"), ("m1", "m3"), ("m2", "m3")):
         apart = np.linalg.norm(found[f"tool0@{a}"] - found[f"tool0@{b}"])
         assert apart == pytest.approx(np.linalg.norm(truth[f"tool0@{a}"] - truth[f"tool0@{b}"]), abs=1e-9)
-
-
-def test_the_robust_loss_judges_a_sample_by_its_readings_taken() -> None:
-    """A sample that saw one marker of three is neither favoured nor penalised by the Cauchy weights for having
-    fewer rows: with every sample off by the same error per reading, every weight is the same."""
-    robot = pincal.load_robot("ur10")
-    models = [ms.position("tool0", marker=m, nominal=n) for m, n in MARKERS.items()]
-    pset = default_parameters(robot, models)
-    rng = np.random.default_rng(2)
-    qa, _ = random_actuated(robot, 12, rng)
-    obs = simulate_observations(robot, pset, np.zeros(len(pset)), models, qa, rng)
-    for m in models:
-        obs.values[m.key] += 1e-4  # the same error on every reading
-    obs.values[models[1].key][[2, 5]] = np.nan
-    obs.values[models[2].key][[2, 7]] = np.nan
-    problem = CalibrationProblem(robot, pset, models, obs)
-    weights = _sample_weights(problem, problem.evaluate(np.zeros(len(pset)), jacobian=False), "cauchy")
-    np.testing.assert_allclose(weights, weights[0], rtol=1e-12)

@@ -1,0 +1,49 @@
+"""Robust losses: per-sample weights by name, judged per reading taken."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import pincal
+from pincal.identification import measurements as ms
+from pincal.identification.losses import IMPLEMENTED_LOSSES, TRIM_KEEP, TRIMMED, sample_weights
+from pincal.identification.parameters import default_parameters
+from pincal.identification.problem import CalibrationProblem
+from pincal.study.simulation import random_actuated, simulate_observations
+
+MARKERS = {"m1": (0.06, 0.0, 0.03), "m2": (-0.04, 0.05, 0.01), "m3": (0.0, -0.05, 0.07)}
+
+
+def test_the_robust_loss_judges_a_sample_by_its_readings_taken() -> None:
+    """A sample that saw one marker of three is neither favoured nor penalised by the Cauchy weights for having
+    fewer rows: with every sample off by the same error per reading, every weight is the same."""
+    robot = pincal.load_robot("ur10")
+    models = [ms.position("tool0", marker=m, nominal=n) for m, n in MARKERS.items()]
+    pset = default_parameters(robot, models)
+    rng = np.random.default_rng(2)
+    qa, _ = random_actuated(robot, 12, rng)
+    obs = simulate_observations(robot, pset, np.zeros(len(pset)), models, qa, rng)
+    for m in models:
+        obs.values[m.key] += 1e-4  # the same error on every reading
+    obs.values[models[1].key][[2, 5]] = np.nan
+    obs.values[models[2].key][[2, 7]] = np.nan
+    problem = CalibrationProblem(robot, pset, models, obs)
+    weights = sample_weights(problem, problem.evaluate(np.zeros(len(pset)), jacobian=False),
+                             IMPLEMENTED_LOSSES["cauchy"])
+    np.testing.assert_allclose(weights, weights[0], rtol=1e-12)
+
+
+def test_each_weighting_on_known_norms() -> None:
+    """Least squares weighs every sample 1; Cauchy down-weights the far sample; the trimmed start keeps the
+    best-fitting half of the samples with rows and leaves a sample with no rows at 1."""
+    assert IMPLEMENTED_LOSSES["linear"] is None
+    norms = np.array([1.0, 1.2, 0.8, 50.0, 0.9, 0.0])
+    used = np.array([True, True, True, True, True, False])
+    cauchy = IMPLEMENTED_LOSSES["cauchy"]
+    trimmed = IMPLEMENTED_LOSSES[TRIMMED]
+    assert cauchy is not None and trimmed is not None
+    weights = cauchy(norms, used)
+    assert weights[3] < 0.01 and np.all(weights[[0, 1, 2, 4]] > 0.5)
+    kept = trimmed(norms, used)
+    assert kept.tolist() == [1.0, 0.0, 1.0, 0.0, 1.0, 1.0]
+    assert int(kept[used].sum()) == int(np.ceil(TRIM_KEEP * used.sum()))
