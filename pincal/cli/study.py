@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.design import RANDOM_SETS, design_poses
 from pincal.calibration.options import OPTIONS
 from pincal.calibration.setup import measurement_models
 from pincal.cli.options import (
@@ -33,101 +34,28 @@ from pincal.cli.options import (
 )
 from pincal.errors import DataError, listing
 from pincal.identification.choices import SOLVERS
-from pincal.identification.measurements import Distance, Measurement, Pose
 from pincal.identification.parameters import choose_parameters
-from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.io.dataset import Dataset, write_dataset
 from pincal.io.files import check_outputs
 from pincal.model.robot import joint_unit, load_robot
 from pincal.study.montecarlo import MonteCarloResult, SimulatedCalibration, run_monte_carlo
 from pincal.study.pose_selection import (
     CRITERIA,
-    PoseSelection,
-    condition_number,
-    jacobian_blocks,
-    log_det,
-    select_poses,
 )
-from pincal.study.simulation import random_actuated
 
 Array = npt.NDArray[np.float64]
 
-#: Random pose sets the selection is compared with.
-RANDOM_SETS = 200
-
-
 # --- design --------------------------------------------------------------------------------------
-def blank_observations(measurements: list[Measurement], actuated: Array) -> Observations:
-    """Observations at ``actuated`` (N, na) with every measured value zero (an identity quaternion for
-    poses): enough to linearise the problem there, whose Jacobian does not depend on the readings."""
-    n = actuated.shape[0]
-    values: dict[str, Array] = {}
-    for m in measurements:
-        values[m.key] = np.zeros((n, 7 if isinstance(m, Pose) else m.size))
-        if isinstance(m, Pose):
-            values[m.key][:, 6] = 1.0
-    return Observations(actuated, values)
-
-
-def _absolute(measurements: list[Measurement]) -> tuple[list[Measurement], bool]:
-    """The measurements with incremental distances made absolute, and whether they were incremental.
-
-    A scale reset between readings sees differences of consecutive postures: the design is then made
-    on the absolute rows with ``difference=True`` (:mod:`pincal.study.pose_selection`). That needs every measurement
-    to be incremental.
-    """
-    incremental = [m for m in measurements if m.incremental]
-    if not incremental:
-        return measurements, False
-    if len(incremental) != len(measurements):
-        raise DataError(f"cannot design for incremental ({listing(m.key for m in incremental)}) and absolute "
-                        "measurements together: choose poses for one kind at a time")
-    return [Distance(m.key.replace("distance_increment:", "distance:", 1), m.size, m.sigma, m.frame_a, m.frame_b)
-            for m in incremental if isinstance(m, Distance)], True
-
-
-def random_set_baseline(blocks: Array, k: int, selection: PoseSelection, scales: Array, difference: bool,
-                        rng: np.random.Generator, count: int = RANDOM_SETS) -> tuple[float, float]:
-    """Median κ and median ``log det`` of ``count`` random ``k``-sets of the candidates, on the columns
-    the selection was made for (an unidentifiable random set counts as κ = ∞, log det = −∞)."""
-    n = blocks.shape[0]
-    kappas, logdets = [], []
-    for _ in range(count):
-        indices = rng.choice(n, k, replace=False)
-        kappas.append(condition_number(blocks, indices, scales, selection.columns, difference))
-        logdets.append(log_det(blocks, indices, scales, selection.columns, difference))
-    return float(np.median(kappas)), float(np.median(logdets))
-
-
 def cmd_design(args: argparse.Namespace) -> int:
     """``pincal design``: choose ``--poses`` of ``--candidates`` random postures by the conditioning of the scaled
     identification Jacobian, compare with random sets, and print or write their actuated values [rad or m]."""
     robot = load_robot(args.robot)
     if args.out:
         check_outputs([("--out", args.out)], [robot.source] if robot.source else [])
-    if args.candidates < 1 or not 1 <= args.poses <= args.candidates:
-        raise DataError(f"cannot choose {args.poses} of {args.candidates} candidate postures: need "
-                        "1 <= --poses <= --candidates")
-    models, difference = _absolute(measurement_models(robot, args.measure, args.frame, 1e-5))
-    pset = choose_parameters(robot, models, args.parameters)
-    rng = np.random.default_rng(args.seed)
-    qa, _ = random_actuated(robot, args.candidates, rng, spread=args.spread, progress=not args.quiet)
-    problem = CalibrationProblem(robot, pset, models, blank_observations(models, qa))
-    blocks = jacobian_blocks(problem)
-    scales = np.asarray(pset.scales, dtype=float)
-    selection = select_poses(blocks, args.poses, args.criterion, scales=scales, names=pset.names,
-                             difference=difference, progress=not args.quiet)
-    rows = int(blocks.shape[1])  # measured values per posture (a difference of postures with --measure
-    values = rows * (args.poses - int(difference))  # distance_increment: one fewer)
-    if values < len(selection.columns):  # κ infinite for any such set: nothing to design
-        needed = -(-len(selection.columns) // rows) + int(difference)
-        raise DataError(f"--poses {args.poses}: {args.poses} postures give {values} measured values, fewer than the "
-                        f"{len(selection.columns)} parameters the candidates can identify; choose at least {needed} "
-                        "postures (or fewer --parameters)")
-    kappa_random, logdet_random = random_set_baseline(blocks, args.poses, selection, scales, difference, rng)
-
-    keys = ", ".join(m.key.replace("distance:", "distance_increment:", 1) if difference else m.key
-                     for m in models)
+    design = design_poses(robot, args.measure, args.frame, args.parameters, args.candidates, args.poses,
+                          args.criterion, args.seed, args.spread, progress=not args.quiet)
+    selection, pset, qa, keys = design.selection, design.parameters, design.candidates, design.keys
+    kappa_random, logdet_random = design.kappa_random, design.logdet_random
     print(f"design for '{robot.name}': {args.poses} of {args.candidates} random reachable postures "
           f"(seed {args.seed}), measuring {keys}, by {args.criterion}")
     print(f"parameters: {len(pset)}; designed for the {len(selection.columns)} the candidates can identify")

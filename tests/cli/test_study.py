@@ -15,8 +15,8 @@ from mechanisms import crank_rocker_urdf
 
 import pincal
 import pincal.cli.app
+from pincal.calibration.design import blank_observations
 from pincal.cli.app import main
-from pincal.cli.study import blank_observations
 from pincal.identification import measurements as ms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
