@@ -256,7 +256,8 @@ def test_occluded_markers_are_counted_and_a_sample_that_saw_none_is_dropped(tmp_
     data.write_text("\n".join(lines[:header + 1] + [",".join(row) for row in rows]) + "\n")
     done = run_pincal("calibrate", "tiago_no_hand", str(data))
     assert done.returncode == 2 and done.stderr.count("\n") == 1
-    assert "column 'position:wrist_ft_tool_link@m2:y', line 12: the cell is empty but" in done.stderr
+    line = header + 1 + 3 + 1  # the fourth data row, counted from 1 like an editor's lines
+    assert f"column 'position:wrist_ft_tool_link@m2:y', line {line}: the cell is empty but" in done.stderr
 
 
 def test_a_joint_that_moves_the_marker_must_have_a_column(tmp_path: Path) -> None:
