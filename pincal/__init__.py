@@ -6,8 +6,7 @@ which an early Ctrl-C may interrupt) does not import Pinocchio until it is neede
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from pincal.errors import (
     ConvergenceError,
@@ -19,6 +18,7 @@ from pincal.errors import (
     PincalError,
     RobotFileError,
 )
+from pincal.lazy import lazy_names
 
 if TYPE_CHECKING:
     from pincal.calibration import (
@@ -136,14 +136,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'pincal' has no attribute '{name}'")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names(__name__, _LAZY)

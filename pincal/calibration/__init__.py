@@ -6,8 +6,9 @@ The names below load on first use (as :mod:`pincal`'s do), so that reading the o
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from pincal.lazy import lazy_names
 
 if TYPE_CHECKING:
     from pincal.calibration.crossval import Folds, cross_validate, parse_cv
@@ -69,9 +70,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        value = getattr(importlib.import_module(f"pincal.calibration.{_LAZY[name]}"), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'pincal.calibration' has no attribute '{name}'")
+__getattr__, __dir__ = lazy_names(__name__, {name: f".{module}" for name, module in _LAZY.items()})

@@ -12,12 +12,9 @@ import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import NoReturn
-
-import numpy as np
+from typing import TYPE_CHECKING, NoReturn
 
 from pincal.calibration.options import check_cv_seed
-from pincal.calibration.summary import mm, summary_text, verdict
 from pincal.cli import report, study, view
 from pincal.cli.options import (
     add_calibration_options,
@@ -33,9 +30,9 @@ from pincal.cli.options import (
     positive_int,
 )
 from pincal.errors import DataError, PincalError
-from pincal.io.corrections import corrections_path
-from pincal.io.files import make_directory, write_text
-from pincal.model.robot import Robot, load_robot
+
+if TYPE_CHECKING:
+    from pincal.model.robot import Robot
 
 EXIT_ERROR = 2
 #: Exit code of an unexpected exception (a bug), printed as one line; ``--debug`` shows the traceback.
@@ -43,6 +40,8 @@ EXIT_BUG = 3
 
 
 def _describe(robot: Robot) -> str:
+    import numpy as np
+
     model = robot.model
     lines = [f"robot: {robot.name}" + (f"  ({robot.source})" if robot.source else "")]
     links = [f.name for f in model.frames if f.type.name == "BODY"]
@@ -77,6 +76,8 @@ def _describe(robot: Robot) -> str:
 def cmd_info(args: argparse.Namespace) -> int:
     """``pincal info``: print the robot's links, joints, loops, actuated joints, mobility and its closure residual
     [m, rad] at the reference configuration."""
+    from pincal.model.robot import load_robot
+
     print(_describe(load_robot(args.robot)))
     return 0
 
@@ -85,6 +86,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     """``pincal simulate``: draw true errors, random postures and noisy measurements of a robot and write the
     dataset, the true URDF and ``truth.json`` to ``--out``."""
     from pincal.calibration.simulate import check_sample_counts, simulate, simulation_outputs, write_simulation
+    from pincal.model.robot import load_robot
 
     robot = load_robot(args.robot)
     check_sample_counts(args.samples, args.test_samples)
@@ -118,6 +120,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     or worse than nominal on the held-out samples)."""
     from pincal.calibration.files import calibrate_files, calibrate_job
     from pincal.calibration.job import read_job
+    from pincal.calibration.summary import summary_text
+    from pincal.io.corrections import corrections_path
 
     options = given_options(args)  # options not given are left out: a job file's value stands, else the default
     job_file = args.robot.endswith(JOB_SUFFIX)
@@ -160,7 +164,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
     write the calibrated URDF, an offline HTML report and the simulated data."""
     from pincal.calibration.pipeline import calibrate
     from pincal.calibration.simulate import simulate, write_simulation
+    from pincal.calibration.summary import summary_text
+    from pincal.io.files import make_directory, write_text
     from pincal.model.catalog import robot_path
+    from pincal.model.robot import load_robot
     from pincal.viz.html_report import write_demo_report
 
     robot = load_robot(robot_path("delta"))
@@ -184,6 +191,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 def cmd_fleet(args: argparse.Namespace) -> int:
     """``pincal fleet``: calibrate one robot per CSV (or job file) of a directory (process pool or Dask scheduler) and
     print one row per robot; exit status 1 unless every result is usable."""
+    from pincal.calibration.summary import mm, verdict
     from pincal.fleet import calibrate_fleet, jobs_from_directory
 
     where = Path(args.data_dir)

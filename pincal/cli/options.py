@@ -8,11 +8,13 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Collection
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pincal.calibration.options import OPTIONS, PARAMETERS_HELP
 from pincal.errors import DataError
-from pincal.identification.corrections import Payload
+
+if TYPE_CHECKING:
+    from pincal.identification.corrections import Payload
 
 MEASURE_HELP = "position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME"
 
@@ -84,6 +86,8 @@ def add_parameters(parser: argparse.ArgumentParser, help_text: str = PARAMETERS_
 
 def payload(text: str) -> Payload:
     """An argparse type: ``MASS@FRAME`` or ``MASS@FRAME:X,Y,Z``, a point mass [kg] on a frame at an offset [m] in it."""
+    from pincal.identification.corrections import Payload
+
     mass, _, place = text.partition("@")
     frame, _, offset = place.rpartition(":") if "," in place.rpartition(":")[2] else (place, "", "")
     try:

@@ -4,16 +4,17 @@ from __future__ import annotations
 
 import argparse
 
-from pincal.cli.view import add_view_options, load_view
+from pincal.cli.view import add_view_options, exit_status, load_view
 from pincal.errors import DataError, listing
-from pincal.viz.html_report import ReportContent, mm_text, read_truth, write_report
 
 
 def cmd_report(args: argparse.Namespace) -> int:
     """``pincal report``: calibrate (or read ``--result``) and write one offline HTML report; exit status 1 when
-    the fit did not converge."""
+    the result may not be used (:func:`~pincal.cli.view.exit_status`)."""
+    from pincal.viz.html_report import ReportContent, mm_text, read_truth, write_report
+
     truth = read_truth(args.truth) if args.truth else None  # before any work: an unreadable file stops it
-    view, calibration = load_view(args)
+    view, _ = load_view(args)
     if truth is not None:
         names = set(view.problem.parameters.names)
         if not names & set(truth):  # e.g. the truth.json of another robot: a column of dashes, said nowhere
@@ -26,7 +27,7 @@ def cmd_report(args: argparse.Namespace) -> int:
         if report.has_held_out else ""
     print(f"RMS position error {mm_text(report.rms_before)} → {mm_text(report.rms_after)}{held}")
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): open it in a browser, no network needed")
-    return 0 if calibration is None or calibration.result.converged else 1
+    return exit_status(view)
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -15,13 +15,9 @@ import argparse
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-import numpy.typing as npt
-
-from pincal.calibration.design import RANDOM_SETS, design_poses
 from pincal.calibration.options import OPTIONS
-from pincal.calibration.setup import measurement_models
 from pincal.cli.options import (
     add_measurement,
     add_parameters,
@@ -34,21 +30,22 @@ from pincal.cli.options import (
 )
 from pincal.errors import DataError, listing
 from pincal.identification.choices import SOLVERS
-from pincal.identification.parameters import choose_parameters
-from pincal.io.dataset import Dataset, write_dataset
-from pincal.io.files import check_outputs
-from pincal.model.robot import joint_unit, load_robot
-from pincal.study.montecarlo import MonteCarloResult, SimulatedCalibration, run_monte_carlo
-from pincal.study.pose_selection import (
-    CRITERIA,
-)
+from pincal.study.criteria import CRITERIA
 
-Array = npt.NDArray[np.float64]
+if TYPE_CHECKING:  # the work's modules load when a command runs, not to parse its arguments
+    from pincal.study.montecarlo import MonteCarloResult
 
 # --- design --------------------------------------------------------------------------------------
 def cmd_design(args: argparse.Namespace) -> int:
     """``pincal design``: choose ``--poses`` of ``--candidates`` random postures by the conditioning of the scaled
     identification Jacobian, compare with random sets, and print or write their actuated values [rad or m]."""
+    import numpy as np
+
+    from pincal.calibration.design import RANDOM_SETS, design_poses
+    from pincal.io.dataset import Dataset, write_dataset
+    from pincal.io.files import check_outputs
+    from pincal.model.robot import joint_unit, load_robot
+
     robot = load_robot(args.robot)
     if args.out:
         check_outputs([("--out", args.out)], [robot.source] if robot.source else [])
@@ -97,6 +94,8 @@ TABLE = (("rms_before", "RMS before [mm]", 1e3, "{:.4f}"), ("rms_after", "RMS af
 def monte_carlo_table(result: MonteCarloResult) -> str:
     """One row per noise level: median [min, max] over the trials of the held-out RMS errors before and
     after calibration, the calibration gain G and the solver's iterations, and how many converged."""
+    import numpy as np
+
     headings = [heading for _, heading, _, _ in TABLE]
     lines = [f"{'noise σ [m, rad]':>16}" + "".join(f"  {h:>23}" for h in headings) + f"{'converged':>11}"]
     for level in result.levels:
@@ -117,6 +116,13 @@ def monte_carlo_table(result: MonteCarloResult) -> str:
 def cmd_montecarlo(args: argparse.Namespace) -> int:
     """``pincal montecarlo``: repeat a simulated calibration over seeds and noise levels [m, rad] and print the
     table of held-out RMS errors, calibration gains and iterations."""
+    import numpy as np
+
+    from pincal.calibration.setup import measurement_models
+    from pincal.identification.parameters import choose_parameters
+    from pincal.model.robot import load_robot
+    from pincal.study.montecarlo import SimulatedCalibration, run_monte_carlo
+
     robot = load_robot(args.robot)  # fails here, once, on a bad name rather than in every worker
     if args.trials < 1:
         raise DataError(f"--trials must be at least 1, not {args.trials}")

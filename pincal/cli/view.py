@@ -4,18 +4,16 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from pincal.calibration.crossval import parse_cv
 from pincal.calibration.options import OPTIONS, CalibrationOptions, check_cv_seed
-from pincal.calibration.pipeline import Calibration, calibrate
-from pincal.calibration.report import CalibrationReport
-from pincal.calibration.samples import read_robot_dataset
 from pincal.cli.options import add_calibration_options, add_robot, given_options
 from pincal.errors import DataError, PincalError
-from pincal.io.files import check_outputs, write_text
-from pincal.model.robot import load_robot
-from pincal.viz.scene import CalibrationView, check_same_data, open_in_meshcat, static_scene
+
+if TYPE_CHECKING:  # the work's modules load when a command runs, not to parse its arguments
+    from pincal.calibration.pipeline import Calibration
+    from pincal.calibration.report import CalibrationReport
+    from pincal.viz.scene import CalibrationView
 
 
 def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | None]:
@@ -23,6 +21,13 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
 
     Returns the view and the calibration (None with ``--result``).
     """
+    from pincal.calibration.pipeline import calibrate
+    from pincal.calibration.report import CalibrationReport
+    from pincal.calibration.samples import read_robot_dataset
+    from pincal.io.files import check_outputs
+    from pincal.model.robot import load_robot
+    from pincal.viz.scene import CalibrationView, check_same_data
+
     check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
     options = CalibrationOptions(**given_options(args))
     robot = load_robot(args.robot)
@@ -53,6 +58,8 @@ def check_result_options(args: argparse.Namespace, report: CalibrationReport) ->
     the options the report records (``--solver``, ``--loss``, ``--select``, ``--cv``, ``--payload``,
     ``--formulation``, ``--markers``) given with ``--result`` change nothing, so they must be what the result was
     fitted with (as when the calibrate command is repeated with ``--result``); options not given are not compared."""
+    from pincal.calibration.crossval import parse_cv
+
     selection, cv = report.selection, report.cv
     recorded = {
         "solver": report.solver,
@@ -101,14 +108,23 @@ def add_view_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress output")
 
 
+def exit_status(view: CalibrationView) -> int:
+    """The exit status of a command that fits (or reads a fit): 1 when the result may not be used (not converged,
+    or worse than nominal on the held-out samples, as ``calibrate`` says it), else 0."""
+    return 0 if view.report.usable else 1
+
+
 def cmd_view(args: argparse.Namespace) -> int:
     """``pincal view``: write the 3D scene (nominal and calibrated robot, measured points, errors) as HTML, and
-    with ``--open`` show it in meshcat; exit status 1 when the fit did not converge."""
+    with ``--open`` show it in meshcat; exit status 1 when the result may not be used (:func:`exit_status`)."""
+    from pincal.io.files import write_text
+    from pincal.viz.scene import open_in_meshcat, static_scene
+
     if args.open == "" and not sys.stdin.isatty():  # before any work: the server would wait for an Enter
         raise PincalError("--open without a ZMQ_URL starts a meshcat server that runs until Enter is pressed, but "
                           "standard input is not a terminal; give the address of a running meshcat server "
                           "(--open tcp://127.0.0.1:6000) or run from a terminal")
-    view, calibration = load_view(args)
+    view, _ = load_view(args)
     page, summary = static_scene(view, quiet=args.quiet)
     out = write_text(args.out, page)
     errors = f", errors magnified ×{summary.magnification:g}" if summary.has_points else ""
@@ -118,7 +134,7 @@ def cmd_view(args: argparse.Namespace) -> int:
         print(f"  note: {note}")
     if args.open is not None:
         open_in_meshcat(view, args.open or None, args.quiet)
-    return 0 if calibration is None or calibration.result.converged else 1
+    return exit_status(view)
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

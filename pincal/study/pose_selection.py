@@ -40,11 +40,11 @@ from pincal.identification.identifiability import base_parameters
 from pincal.identification.measurements import Pose
 from pincal.identification.problem import CalibrationProblem
 from pincal.progress import Progress
+from pincal.study.criteria import CRITERIA
 
 Array = npt.NDArray[np.float64]
 Indices = Sequence[int] | npt.NDArray[np.int_]
 
-CRITERIA = ("condition", "d-optimal")
 #: Relative eigenvalue floor: below ``FULL_RANK · λ_max`` the information matrix counts as singular.
 FULL_RANK = 1e-12
 #: Ridge added (relative to the pool's mean eigenvalue) while a partial set is still singular.
