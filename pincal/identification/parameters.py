@@ -32,17 +32,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import DataError, NotFoundError, listing, not_found
-from pincal.identification.measurements import (
-    WORLD_TARGET,
-    CameraPoint,
-    CameraPose,
-    JointReading,
-    Measurement,
-    Pose,
-    Position,
-    camera_name,
-    split_target,
-)
+from pincal.identification.measurements import WORLD_TARGET, Measurement, camera_name, split_target
 from pincal.model.robot import Robot
 from pincal.model.robot import Unit as Unit
 from pincal.model.robot import joint_unit as joint_unit
@@ -166,33 +156,47 @@ def attached_name(kind: str, target: str) -> str:
 
 
 def camera_parameters(models: Sequence[Measurement]) -> list[Parameter]:
-    """The unknown placements the cameras bring: each eye-in-hand camera on its frame (``camera.<frame>.*``), the
-    world target they see (``target.*``; its translation only when every camera sees a point), and each pose
-    target on a frame (``target.<frame>@<target>.*``, eye-to-hand)."""
-    params = [p for f in sorted({m.frame for m in models if isinstance(m, CameraPose | CameraPoint)})
-              for p in placement_parameters("camera", f)]
-    if any(isinstance(m, CameraPose) for m in models):
-        params += placement_parameters("target", "")
-    elif any(isinstance(m, CameraPoint) for m in models):
-        params += placement_parameters("target", "", components=COMPONENTS[:3])
-    targets = sorted({f"{m.frame}@{m.target}" for m in models if isinstance(m, Pose) and m.target})
-    return params + [p for t in targets for p in placement_parameters("target", t)]
+    """The unknown placements the cameras bring (each model's ``attachments``): each eye-in-hand camera on its frame
+    (``camera.<frame>.*``), the world target they see (``target.*``; its translation only when every camera sees a
+    point), and each pose target on a frame (``target.<frame>@<target>.*``, eye-to-hand)."""
+    components: dict[tuple[str, str], set[str]] = {}
+    for m in models:
+        for a in m.attachments:
+            components.setdefault((a.kind, a.target), set()).update(a.components)
+    order = sorted(components, key=lambda name: (name[0] != "camera", name[1] != "", name[1]))
+    return [p for kind, target in order
+            for p in placement_parameters(kind, target, components=[c for c in COMPONENTS  # type: ignore[arg-type]
+                                                                    if c in components[(kind, target)]])]
 
 
 def sees_world_target(models: Sequence[Measurement]) -> bool:
     """Whether a camera on the robot sees a target fixed in the world (eye-in-hand): the world frame is then
     seen only through that target, as an external measurement frame is through ``base.*``."""
-    return any(isinstance(m, CameraPose | CameraPoint) for m in models)
+    return any(a.kind == "target" and not a.target for m in models for a in m.attachments)
 
 
 def marker_targets(models: Sequence[Measurement]) -> list[str]:
-    """The marker targets the position measurements read (``<frame>`` or ``<frame>@<marker>``), sorted."""
-    return sorted({m.target for m in models if isinstance(m, Position)})
+    """The marker targets the measurements read (``<frame>`` or ``<frame>@<marker>``), sorted."""
+    return sorted({t for m in models for t in m.markers})
 
 
 def clustered_frames(models: Sequence[Measurement]) -> list[str]:
     """The frames carrying declared markers (``position:<frame>@<marker>``), sorted."""
-    return sorted({m.frame for m in models if isinstance(m, Position) and m.marker})
+    return sorted({split_target(t)[0] for m in models for t in m.markers if split_target(t)[1]})
+
+
+def read_joints(models: Sequence[Measurement]) -> list[str]:
+    """The joints whose own readings the measurements are (instrumented passive joints), in the models' order."""
+    return [j for m in models for j in m.read_joints]
+
+
+def _estimated_on_frames(models: Sequence[Measurement]) -> list[str]:
+    """The frames whose measured point or placement on the frame is estimated (a marker, a camera, a pose target):
+    a tool placement on them would duplicate it."""
+    frames = {split_target(t)[0] for m in models for t in m.markers}
+    frames |= {a.target if a.kind == "camera" else split_target(a.target)[0]
+               for m in models for a in m.attachments if a.target}
+    return sorted(frames)
 
 
 @dataclass
@@ -592,12 +596,9 @@ def default_parameters(robot: Robot, models: Sequence[Measurement], markers: Mar
     """
     check_marker_fit(markers, models)
     frames = sorted({f for m in models for f in m.frames})
-    read = [m.joint for m in models if isinstance(m, JointReading)]
+    read = read_joints(models)
     external = any(m.locates_point for m in models)
-    # frames whose measured point or placement on the frame is estimated (a marker, a camera, a pose target): the
-    # tool's placement would duplicate it
-    marked = sorted({m.frame for m in models
-                     if isinstance(m, Position | CameraPose | CameraPoint) or (isinstance(m, Pose) and m.target)})
+    marked = _estimated_on_frames(models)
     joints = influencing_joints(robot, frames, read)
     model = robot.model
     normal = planar_normal(robot)
@@ -617,7 +618,7 @@ def default_parameters(robot: Robot, models: Sequence[Measurement], markers: Mar
         if tool is None or frame in marked:
             continue
         fid = model.getFrameId(tool, pin.FrameType.FIXED_JOINT)
-        pose = any(isinstance(m, Pose) and m.frame == frame for m in models)
+        pose = any(m.angle_rows and frame in m.frames for m in models)  # the frame's orientation is read
         tool_comps = [c for c in _in_plane(data.oMf[fid], normal) if pose or c.startswith("t")]
         params += placement_parameters("joint", tool, components=tool_comps)
     chosen = {robot.joint_id(j) for j in joints}
@@ -650,15 +651,16 @@ def check_marker_fit(markers: str, models: Sequence[Measurement]) -> None:
         raise DataError(f"unknown marker fit '{markers}'; marker fits are: {listing(MARKER_FITS)}")
     if markers != "cluster":
         return
-    declared = [m for m in models if isinstance(m, Position) and m.marker]
+    declared = {t: nominal for m in models for t, nominal in m.markers.items() if split_target(t)[1]}
     if not declared:
         raise DataError("--markers cluster fits the placement of the markers declared on a frame "
                         "(position:<frame>@<marker> columns), and the data declare none")
-    missing = [m for m in declared if m.nominal is None]
+    missing = [t for t, nominal in declared.items() if nominal is None]
     if missing:
+        frame, marker = split_target(missing[0])
         raise DataError(f"--markers cluster needs each marker's nominal offset on its frame; "
-                        f"{listing(m.target for m in missing)} have none: add '# marker <marker> on <frame>: x y z' "
-                        f"lines [m] (e.g. '# marker {missing[0].marker} on {missing[0].frame}: 0 0 0.05')")
+                        f"{listing(missing)} have none: add '# marker <marker> on <frame>: x y z' "
+                        f"lines [m] (e.g. '# marker {marker} on {frame}: 0 0 0.05')")
 
 
 def _tool_joint(robot: Robot, frame: str) -> str | None:
@@ -682,7 +684,7 @@ def parameter_pool(robot: Robot, models: Sequence[Measurement]) -> ParameterSet:
     each frame carrying declared markers, and the harmonics (``<joint>.sin1`` …) and compliance
     (``<joint>.compliance``) of the actuated joints that move a measured frame."""
     frames = sorted({f for m in models for f in m.frames})
-    read = [m.joint for m in models if isinstance(m, JointReading)]
+    read = read_joints(models)
     external = any(m.locates_point for m in models)
     pool = candidate_parameters(robot, frames=frames, offsets=list(robot.actuated_joints) + read, base=external)
     moving = set(influencing_joints(robot, frames, read))

@@ -24,7 +24,6 @@ import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, listing, not_found
-from pincal.identification import handeye
 from pincal.identification.batch import BatchContext, SpatialJacobian
 from pincal.identification.corrections import Payload, correction_regressors
 from pincal.identification.derivatives import (
@@ -36,17 +35,7 @@ from pincal.identification.derivatives import (
     right_jacobian,
 )
 from pincal.identification.loop_batch import LoopBatch
-from pincal.identification.measurements import (
-    WORLD_TARGET,
-    CameraPoint,
-    CameraPose,
-    Measurement,
-    Pose,
-    Position,
-    SampleContext,
-    camera_name,
-    target_name,
-)
+from pincal.identification.measurements import Measurement, SampleContext
 from pincal.identification.neighbours import SolvedInputs
 from pincal.identification.parameters import (
     CORRECTION_KINDS,
@@ -192,8 +181,8 @@ class CalibrationProblem:
             (actuated[p.target], k, r) for (k, p), r in zip(corrections, regressors, strict=True)]
         self.base = parameters.groups("base").get(("base", "base", ""), [])
         # each measured marker's nominal offset [m] on its frame (zero when the data declare none)
-        self.marker_nominals = {m.target: np.array(m.nominal if m.nominal is not None else (0.0, 0.0, 0.0))
-                                for m in self.measurements if isinstance(m, Position)}
+        self.marker_nominals = {target: np.array(nominal if nominal is not None else (0.0, 0.0, 0.0))
+                                for m in self.measurements for target, nominal in m.markers.items()}
         self.frames = sorted({f for m in self.measurements for f in m.frames})
         self.frame_ids = {f: robot.frame_id(f) for f in self.frames}
         # each sample's configuration at its last solve and the actuated values it was solved for: the
@@ -364,8 +353,7 @@ class CalibrationProblem:
         frame (``base``, the fixed camera of a pose target)."""
         groups = {attached_name(kind, target): idx for (kind, target, _), idx
                   in self.parameters.groups("camera", "target").items()}
-        cameras = [m for m in self.measurements if isinstance(m, CameraPose | CameraPoint | Pose)
-                   and (not isinstance(m, Pose) or isinstance(m, CameraPose) or m.target)]
+        cameras = [m for m in self.measurements if m.attachments]
         self.placed_in_closed_form, self.not_in_closed_form = [], []
         if not cameras:
             return False
@@ -373,18 +361,18 @@ class CalibrationProblem:
         located = False
         for m in cameras:
             taken = np.flatnonzero(self.seen(m.key))
-            frame = self.frame_ids[m.frame]
+            frame = self.frame_ids[m.frames[0]]  # the frame carrying the camera or the target
             a = []
             for k in taken:
-                pin.framesForwardKinematics(self.robot.model, nominal, self._solve(self.robot, int(k),
-                                                                                   self.observations.actuated[k]))
+                q = self._solve(self.robot, int(k), self.observations.actuated[k])
+                pin.framesForwardKinematics(self.robot.model, nominal, q)
                 a.append(nominal.oMf[frame].copy())
             values = self.observations.values[m.key][taken]
             try:
-                own, world, names = _closed_form(m, a, values)
+                own, world, names = m.closed_form(a, values)
             except DataError as why:
                 try:  # a link that only translates (a Delta's platform): its rotations cannot separate X from Y
-                    own, world, names = _closed_form(m, a, values, translating=True)
+                    own, world, names = m.closed_form(a, values, translating=True)
                 except DataError:  # the data do not determine the placements: the summary says why
                     self.not_in_closed_form.append(f"{m.key}: {why}")
                     continue
@@ -766,27 +754,6 @@ class CalibrationProblem:
         white_err = np.linalg.solve(chol, err[..., None])[..., 0]
         white_jac = np.linalg.solve(chol, jac)
         return white_err, white_jac
-
-
-def _closed_form(model: Measurement, a: list[pin.SE3], values: Array, translating: bool = False
-                 ) -> tuple[pin.SE3, pin.SE3, tuple[str, str]]:
-    """The closed-form placements a camera reading gives (:mod:`pincal.identification.handeye`), from the
-    nominal poses ``a`` of its frame and its readings ``values``: the placement on the frame (camera, or pose
-    target), the one in the world (world target; for a pose target on the frame, the inverse of the fixed camera's
-    placement ``base``), and their names (the second empty for ``base``). ``translating``: the variants for a link
-    that only translates. Raises DataError when the data do not determine them."""
-    if isinstance(model, CameraPoint):
-        solve_point = handeye.solve_point_translating if translating else handeye.solve_point_eye_in_hand
-        camera, point = solve_point(a, values[:, :3])
-        return camera, pin.SE3(np.eye(3), point), (camera_name(model.frame), WORLD_TARGET)
-    solve = handeye.solve_ax_yb_translating if translating else handeye.solve_ax_yb
-    seen = [pin.XYZQUATToSE3(v) for v in values]
-    if isinstance(model, CameraPose):
-        own, world = solve(a, [b.inverse() for b in seen])
-        return own, world, (camera_name(model.frame), WORLD_TARGET)
-    assert isinstance(model, Pose)
-    own, world = solve(a, seen)
-    return own, world, (target_name(model.frame, model.target), "")
 
 
 def _local_twist(rotation: Array, translation: Array, spatial: Array) -> Array:

@@ -22,7 +22,7 @@ import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, RobotFileError, listing, not_found
 from pincal.identification.derivatives import marker_points
-from pincal.identification.measurements import Measurement, Pose, Position, split_target
+from pincal.identification.measurements import Measurement, split_target
 from pincal.identification.parameters import CORRECTION_KINDS, KINEMATIC_KINDS, ParameterSet, attached_name
 from pincal.model.catalog import resolve_mesh_file
 from pincal.model.robot import Robot, _build_model, check_reference_assembly
@@ -50,12 +50,14 @@ def marker_link(target: str) -> str:
 def written_frame(measurement: Measurement, frame: str, parameters: ParameterSet) -> str:
     """The frame of the calibrated URDF whose origin (and orientation, for poses) ``measurement`` reads on
     ``frame``: a declared marker's link for ``position:<frame>@<marker>``; the marker link when ``parameters``
-    calibrate a marker on ``frame`` and the measurement reads points (positions and distances; a pose reads the
-    frame itself); else ``frame``."""
-    if isinstance(measurement, Position) and measurement.marker:
-        return marker_link(measurement.target)
+    calibrate a marker on ``frame`` and the measurement reads points at its frames' markers
+    (:attr:`~pincal.identification.measurements.Measurement.reads_markers`: positions and distances; a pose reads
+    the frame itself); else ``frame``."""
+    declared = [t for t in measurement.markers if split_target(t)[1]]
+    if declared:
+        return marker_link(declared[0])
     marked = any(p.kind == "marker" and p.target == frame for p in parameters)
-    return marker_link(frame) if marked and not isinstance(measurement, Pose) else frame
+    return marker_link(frame) if marked and measurement.reads_markers else frame
 
 
 def joint_motion(model: pin.Model, jid: int, q: Array) -> pin.SE3:
@@ -346,8 +348,8 @@ def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_
 def declared_markers(models: Sequence[Measurement]) -> dict[str, tuple[float, float, float]]:
     """The declared markers the measurements read (``position:<frame>@<marker>``) -> their nominal offsets [m] in
     their frames (zero when the data declare none): what :func:`calibrated_robot_text` takes as ``markers``."""
-    return {m.target: m.nominal if m.nominal is not None else (0.0, 0.0, 0.0)
-            for m in models if isinstance(m, Position) and m.marker}
+    return {target: nominal if nominal is not None else (0.0, 0.0, 0.0)
+            for m in models for target, nominal in m.markers.items() if split_target(target)[1]}
 
 
 def loadable_mesh_filenames(tree: ET.Element, urdf_dir: Path | None) -> dict[str, str]:
