@@ -38,12 +38,11 @@ from pincal.identification.loop_batch import LoopBatch
 from pincal.identification.measurements import Measurement, SampleContext
 from pincal.identification.neighbours import SolvedInputs
 from pincal.identification.parameters import (
-    CORRECTION_KINDS,
-    KINEMATIC_KINDS,
     ParameterSet,
     apply_parameters,
     attached_name,
     joint_unit,
+    kinds_where,
     offset_parameter,
 )
 from pincal.identification.tree_batch import TreeBatch
@@ -160,14 +159,14 @@ class CalibrationProblem:
             extra = [offset_parameter(j, joint_unit(robot, j)) for j in robot.actuated_joints if j not in present]
             parameters = ParameterSet(list(parameters.parameters) + extra)
         self._all = parameters
-        self.kinematic = parameters.of_kind(*KINEMATIC_KINDS)
+        self.kinematic = parameters.of_kind(*kinds_where(kinematic=True))
         self.kinematic_set = parameters.subset(self.kinematic)
         actuated = {name: k for k, name in enumerate(robot.actuated_joints)}
         self.actuated_offsets = [(actuated[p.target], k) for k, p in enumerate(parameters)
                                  if p.kind == "offset" and p.target in actuated]
         self.reading_offsets = {p.target: k for k, p in enumerate(parameters)
                                 if p.kind == "offset" and p.target not in actuated}
-        corrections = [(k, p) for k, p in enumerate(parameters) if p.kind in CORRECTION_KINDS]
+        corrections = [(k, p) for k, p in enumerate(parameters) if p.kind_class.in_corrections]
         strays = [p.name for _, p in corrections if p.target not in actuated]
         if strays:
             raise DataError(f"corrections {listing(strays)} are of joints that are not actuated; harmonics and "

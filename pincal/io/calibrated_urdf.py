@@ -23,7 +23,7 @@ import pinocchio as pin
 from pincal.errors import ConvergenceError, DataError, RobotFileError, listing, not_found
 from pincal.identification.derivatives import marker_points
 from pincal.identification.measurements import Measurement, split_target
-from pincal.identification.parameters import CORRECTION_KINDS, KINEMATIC_KINDS, ParameterSet, attached_name
+from pincal.identification.parameters import ParameterSet, attached_name, kinds_where
 from pincal.model.catalog import resolve_mesh_file
 from pincal.model.robot import Robot, _build_model, check_reference_assembly
 from pincal.model.urdf import origin_to_se3, read_extensions
@@ -35,9 +35,6 @@ Array = npt.NDArray[np.float64]
 
 #: Default name of the measurement frame's link, the root of a calibrated URDF that estimates ``base.*``.
 MEASUREMENT_FRAME = "measurement_frame"
-#: Parameter kinds a calibrated URDF carries (all of pincal's kinds but the joint-value corrections, which go to the
-#: corrections file beside it: :mod:`pincal.io.corrections`; they are left out of the text, not refused).
-WRITTEN_KINDS = ("joint", "anchor", "offset", "base", "marker", "cluster", "camera", "target")
 
 
 def marker_link(target: str) -> str:
@@ -157,16 +154,16 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     x = np.asarray(x, dtype=float)
     if x.shape != (len(parameters),):
         raise DataError(f"parameter vector has shape {x.shape}, expected ({len(parameters)},) for the parameter set")
-    foreign = [p.name for p in parameters if p.kind not in WRITTEN_KINDS and p.kind not in CORRECTION_KINDS]
-    if foreign:
+    foreign = [p.name for p in parameters if not p.kind_class.urdf and not p.kind_class.in_corrections]
+    if foreign:  # a correction goes to the corrections file beside it (pincal.io.corrections): left out, not refused
         raise RobotFileError(f"parameters {listing(foreign)} are of a kind a calibrated URDF cannot hold; kinds it "
-                             f"holds: {listing(WRITTEN_KINDS)}")
+                             f"holds: {listing(kinds_where(in_urdf=True))}")
     ext = read_extensions(source_text)
     root = _xml_joint_origins(source_text)
     joint_origins: dict[str, pin.SE3] = {}
     loop_origins: dict[tuple[str, str], pin.SE3] = {}
     loops = {lp.name: lp for lp in ext.loops}
-    for (kind, target, side), idx in parameters.groups(*KINEMATIC_KINDS).items():
+    for (kind, target, side), idx in parameters.groups(*kinds_where(kinematic=True)).items():
         exp = pin.exp6(parameters.placement_delta(x, idx))
         if kind == "joint":
             joint_origins[target] = joint_origins.get(target, root[target]) * exp
