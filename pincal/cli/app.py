@@ -38,6 +38,7 @@ from pincal.identification.corrections import payload_from_dict
 from pincal.io.corrections import corrections_path
 from pincal.io.files import make_directory, write_text
 from pincal.model.robot import Robot, load_robot
+from pincal.plugins import load_plugins
 from pincal.workflow import NOISE_CONTRADICTED
 
 EXIT_ERROR = 2
@@ -567,6 +568,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        load_plugins()  # the user's kinds (PINCAL_PLUGINS), before any command reads a key or a file
         return int(args.func(args))
     except PincalError as exc:
         if args.debug:

@@ -18,6 +18,7 @@ One row per sample (robot posture). Columns:
                                                              sample (scale reset); empty on the first row
   =====================================  ==================  ========================================
 
+  and those of a kind a plugin declares (:mod:`pincal.plugins`), whose model says its components and their units;
 - optional ``sample`` (an id) and ``set`` (``train`` or ``test``; default ``train``).
 
 Lines starting with ``#`` are comments; those before the header may carry metadata as
@@ -50,7 +51,7 @@ Array = npt.NDArray[np.float64]
 
 class _Components(Mapping[str, tuple[str, ...]]):
     """Measurement kind -> its components, of the kinds with columns of their own, read from the kinds' registry
-    each time (a kind declared after this module was imported is one too)."""
+    each time (a kind a plugin declares after this module was imported is one too)."""
 
     def __getitem__(self, kind: str) -> tuple[str, ...]:
         model = KIND_CLASSES.get(kind)

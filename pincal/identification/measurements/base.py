@@ -15,7 +15,8 @@ Keys (also the dataset column prefixes): ``position:<frame>``, ``position:<frame
 ``frame``: several per frame, each with its own offset), ``pose:<frame>``, ``pose:<frame>@<target>`` (a pose target
 fixed on ``frame``, seen by a camera fixed in the world: eye-to-hand), ``camera:<frame>`` and ``camera_point:<frame>``
 (a camera fixed on ``frame`` that sees a pose target or a point fixed in the world: eye-in-hand),
-``distance:<a>-<b>``, ``distance_increment:<a>-<b>``, ``joint:<joint>``.
+``distance:<a>-<b>``, ``distance_increment:<a>-<b>``, ``joint:<joint>``; and those of the kinds a plugin
+declares (:mod:`pincal.plugins`).
 """
 
 from __future__ import annotations
