@@ -36,6 +36,18 @@ class OutputError(PincalError):
     """An output path cannot be written, or would overwrite an input or another output."""
 
 
+class PluginError(PincalError):
+    """A plugin named in ``PINCAL_PLUGINS`` cannot be loaded.
+
+    Attributes:
+        entry: The entry at fault, as written (a ``.py`` file or a dotted module name).
+    """
+
+    def __init__(self, message: str, entry: str = "") -> None:
+        super().__init__(message)
+        self.entry = entry
+
+
 class NotFoundError(PincalError, KeyError):
     """A named robot, frame, joint, link or parameter does not exist.
 

@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from pincal.calibration.setup import measurement_models
 from pincal.errors import DataError, listing
-from pincal.identification.measurements import Distance, Measurement, Pose
+from pincal.identification.measurements import Measurement
 from pincal.identification.parameters import ParameterSet, choose_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.model.robot import Robot
@@ -33,13 +33,7 @@ RANDOM_SETS = 200
 def blank_observations(measurements: list[Measurement], actuated: Array) -> Observations:
     """Observations at ``actuated`` (N, na) with every measured value the model's neutral reading (zeros, an identity
     quaternion for poses): enough to linearise the problem there, whose Jacobian does not depend on the readings."""
-    n = actuated.shape[0]
-    values: dict[str, Array] = {}
-    for m in measurements:
-        values[m.key] = np.zeros((n, 7 if isinstance(m, Pose) else m.size))
-        if isinstance(m, Pose):
-            values[m.key][:, 6] = 1.0
-    return Observations(actuated, values)
+    return Observations(actuated, {m.key: m.neutral(actuated.shape[0]) for m in measurements})
 
 
 def absolute_measurements(measurements: list[Measurement]) -> tuple[list[Measurement], bool]:
@@ -55,8 +49,7 @@ def absolute_measurements(measurements: list[Measurement]) -> tuple[list[Measure
     if len(incremental) != len(measurements):
         raise DataError(f"cannot design for incremental ({listing(m.key for m in incremental)}) and absolute "
                         "measurements together: choose poses for one kind at a time")
-    return [Distance(m.key.replace("distance_increment:", "distance:", 1), m.size, m.sigma, m.frame_a, m.frame_b)
-            for m in incremental if isinstance(m, Distance)], True
+    return [m.absolute() for m in incremental], True
 
 
 def random_set_baseline(blocks: Array, k: int, selection: PoseSelection, scales: Array, difference: bool,

@@ -17,9 +17,8 @@ import numpy.typing as npt
 from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
 from pincal.identification.losses import outlier_samples
-from pincal.identification.measurements import JointReading
 from pincal.identification.metrics import angle_error_norms, error_norms, rms, sample_length_errors
-from pincal.identification.parameters import ParameterSet, influencing_joints
+from pincal.identification.parameters import ParameterSet, influencing_joints, read_joints
 from pincal.io.dataset import Dataset
 
 Array = npt.NDArray[np.float64]
@@ -109,7 +108,7 @@ def evaluate_held_out(fit: Prepared, dataset: Dataset, parameters: ParameterSet,
     held = problem.evaluate(x, jacobian=False)
     strange = outlier_samples(problem, held)
     moving = influencing_joints(fit.robot, sorted({f for m in fit.models for f in m.frames}),
-                                [m.joint for m in fit.models if isinstance(m, JointReading)])
+                                read_joints(fit.models))
     outside = held_out_outside_range(fit.robot, fit.samples, test.samples, joints=moving)
     worse = worse_than_nominal(before, held.errors, test.samples.n_samples, strange if trusted else [])
     return HeldOut(test, before, held.errors, [test.samples.sample_ids[k] for k in strange], outside, worse)

@@ -30,8 +30,6 @@ from pincal.model.robot import Robot, load_robot
 LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "in": 0.0254}
 #: Angle units a data file may be written in: their size in radians.
 ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "deg": math.pi / 180.0}
-#: Measurement components that are lengths (the rest, a pose's quaternion, have no unit).
-LENGTH_COMPONENTS = ("x", "y", "z", "d")
 
 #: Keys of each level of a job file.
 JOB_KEYS = ("robot", "data", "joints", "measure", "out", "report", *JOB_OPTIONS)

@@ -11,12 +11,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration.job import ANGLE_UNITS, LENGTH_COMPONENTS, LENGTH_UNITS, HeldOut, Job
+from pincal.calibration.job import ANGLE_UNITS, LENGTH_UNITS, HeldOut, Job
 from pincal.errors import DataError, listing, not_found
-from pincal.identification.measurements import parse_key
+from pincal.identification.measurements import KIND_CLASSES, parse_key
 from pincal.io.dataset import (
     MAX_SAMPLES,
-    MEASUREMENT_COMPONENTS,
     OCCLUDABLE_KINDS,
     Dataset,
     Table,
@@ -114,14 +113,15 @@ def _file_dataset(job: Job, robot: Robot, k: int) -> tuple[Dataset, npt.NDArray[
         measurements = {}
         for measure in job.measures:
             kind = measure.key.partition(":")[0]
+            incremental = parse_key(measure.key).incremental
             values = np.array([[cell_number(cells[i], table.header[i], line,
-                                            first_increment=r == 0 and kind == "distance_increment",
+                                            first_increment=r == 0 and incremental,
                                             may_be_empty=kind in OCCLUDABLE_KINDS)
                                 for i in columns.measures[measure.key]] for r, (line, cells) in enumerate(rows)])
             values = values.reshape(len(rows), len(columns.measures[measure.key]))
             _check_not_seen(values, measure.columns, rows)
-            measurements[measure.key] = values * np.array([length if c in LENGTH_COMPONENTS else 1.0
-                                                           for c in MEASUREMENT_COMPONENTS[kind]])
+            measurements[measure.key] = values * np.array([length if unit == "m" else 1.0  # a quaternion has none
+                                                           for unit in KIND_CLASSES[kind].component_units()])
         ids = [cells[columns.sample] if columns.sample is not None else str(r) for r, (_, cells) in enumerate(rows)]
         empty = [line for (line, _), sample in zip(rows, ids, strict=True) if not sample]
         if empty:

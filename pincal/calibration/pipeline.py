@@ -28,8 +28,8 @@ from pincal.errors import DataError
 from pincal.identification.combinations import describe_unidentifiable
 from pincal.identification.corrections import moving_mass
 from pincal.identification.ikm import ImplicitProblem
-from pincal.identification.measurements import JointReading
 from pincal.identification.metrics import sample_length_errors
+from pincal.identification.parameters import read_joints
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
 from pincal.identification.selection import select_and_fit
@@ -118,7 +118,7 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     text, shifts = calibrated_robot_text(robot, source_text(robot), pset, result.x,
                                          note=f"{status}calibrated by pincal from {problem.observations.n_samples} "
                                               f"samples ({', '.join(m.key for m in fit.models)})",
-                                         read_joints=[m.joint for m in fit.models if isinstance(m, JointReading)],
+                                         read_joints=read_joints(fit.models),
                                          markers=declared_markers(fit.models))
     corrections = corrections_of(robot, pset, result.x, options.payload)
     held = evaluate_held_out(kept, dataset, pset, result.x0, result.x, trusted=result.sigma2 <= NOISE_CONTRADICTED)

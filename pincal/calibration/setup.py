@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Collection, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -19,7 +19,7 @@ from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.samples import usable_part
 from pincal.errors import DataError
 from pincal.identification.corrections import Payload
-from pincal.identification.measurements import JointReading, Measurement, Pose, parse_key
+from pincal.identification.measurements import Measurement, parse_key
 from pincal.identification.parameters import ParameterSet, choose_parameters
 from pincal.identification.problem import CalibrationProblem
 from pincal.io.adapters import joints_at_reference, measurements_for, observations_from
@@ -44,8 +44,9 @@ def measurement_models(robot: Robot, kinds: Sequence[str], frame: str | None, si
         key = kind if ":" in kind else f"{kind}:{frame}"  # a bare kind measures --frame
         model = parse_key(key, sigma)
         model.check(robot)  # NotFoundError naming the frame or joint and the valid ones
-        if isinstance(model, JointReading) and model.joint in robot.actuated_joints:
-            raise DataError(f"measurement '{key}' reads actuated joint '{model.joint}', whose reading is every "
+        actuated = [joint for joint in model.read_joints if joint in robot.actuated_joints]
+        if actuated:
+            raise DataError(f"measurement '{key}' reads actuated joint '{actuated[0]}', whose reading is every "
                             "sample's input; joint: measurements are for instrumented passive joints")
         out.append(model)
     if named and any(":" not in kind for kind in kinds) and not frame_moves(robot, frame):
@@ -88,7 +89,7 @@ def dataset_models(robot: Robot, dataset: Dataset, options: CalibrationOptions) 
     """
     models = measurements_for(robot, list(dataset.measurements), dataset.joint_names, options.sigma, dataset.metadata)
     if options.pose_sigma_angle is not None:
-        models = [replace(m, sigma_angle=options.pose_sigma_angle) if isinstance(m, Pose) else m for m in models]
+        models = [m.with_angle_sigma(options.pose_sigma_angle) for m in models]
     if not models:
         raise DataError("the data has no measurement columns ('<kind>:<frame>:<component>', e.g. "
                         "position:end_effector:x, see docs/dataset.md) and no passive joint readings: nothing to "

@@ -16,10 +16,11 @@ import numpy.typing as npt
 from pincal.calibration.setup import check_movable, check_payload, measurement_models
 from pincal.errors import ConvergenceError, DataError
 from pincal.identification.corrections import Payload
-from pincal.identification.measurements import JointReading, Measurement
+from pincal.identification.measurements import Measurement
 from pincal.identification.parameters import (
     ParameterSet,
     choose_parameters,
+    read_joints,
 )
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, joint_sensor_zeros, source_text
 from pincal.io.corrections import corrections_dict, corrections_of, corrections_path
@@ -96,8 +97,8 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
     joints = [obs.actuated]
     measured: dict[str, Array] = {}
     for m in models:
-        if isinstance(m, JointReading):
-            joint_names.append(m.joint)
+        if m.read_joints:  # an instrumented passive joint: its readings are joint columns
+            joint_names += m.read_joints
             joints.append(obs.values[m.key])
         else:
             measured[m.key] = obs.values[m.key]
@@ -135,7 +136,7 @@ def write_simulation(sim: Simulation, out: Path) -> list[Path]:
     passive joints read ``q + zero`` (its ``<joint_sensor>`` elements, also in ``truth.json``).
     """
     paths = simulation_outputs(sim.robot, out)
-    read = [m.joint for m in sim.measurements if isinstance(m, JointReading)]
+    read = read_joints(sim.measurements)
     text, shifts = calibrated_robot_text(sim.robot, source_text(sim.robot), sim.parameters, sim.x_true,
                                          note="the TRUE robot of a pincal simulation (nominal + known errors)",
                                          read_joints=read, markers=declared_markers(sim.measurements))

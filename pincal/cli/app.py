@@ -30,6 +30,7 @@ from pincal.cli.options import (
     positive_int,
 )
 from pincal.errors import DataError, PincalError
+from pincal.plugins import load_plugins
 
 if TYPE_CHECKING:
     from pincal.model.robot import Robot
@@ -326,6 +327,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        load_plugins()  # the user's kinds (PINCAL_PLUGINS), before any command reads a key or a file
         return int(args.func(args))
     except PincalError as exc:
         if args.debug:

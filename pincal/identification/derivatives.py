@@ -19,7 +19,8 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.identification.measurements import AttachedPlacement, MarkerPoint, split_target
-from pincal.identification.parameters import ParameterSet, _descends, attached_name
+from pincal.identification.parameters import ParameterSet, attached_name
+from pincal.identification.parameters.candidates import _descends
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]

@@ -27,7 +27,7 @@ import pinocchio as pin
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
 from pincal.identification.derivatives import KinematicSensitivity, frame_probe
-from pincal.identification.measurements import MarkerPoint, Measurement, Pose, SampleContext
+from pincal.identification.measurements import MarkerPoint, Measurement, SampleContext
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations, Prediction
 from pincal.model.robot import Robot
@@ -59,7 +59,7 @@ class ImplicitProblem(CalibrationProblem):
         if len(targets) != 1 or len(measurements) != 1:
             raise DataError("the implicit (IKM) formulation takes exactly one position or pose measurement of the "
                             f"end effector; got {', '.join(m.key for m in measurements) or 'none'}")
-        if isinstance(targets[0], Pose) and targets[0].target:
+        if targets[0].attachments:
             raise DataError(f"the implicit (IKM) formulation holds a frame at its measured pose; '{targets[0].key}' "
                             "is a target on the frame whose placement is estimated: use FKM")
         super().__init__(robot, parameters, measurements, observations)

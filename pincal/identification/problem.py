@@ -22,61 +22,26 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, listing, not_found
-from pincal.identification import handeye
-from pincal.identification.batch import BatchContext, SpatialJacobian
+from pincal.identification import predictions, starts
 from pincal.identification.corrections import Payload, correction_regressors
-from pincal.identification.derivatives import (
-    KinematicSensitivity,
-    Probe,
-    attached_placements,
-    frame_probe,
-    marker_points,
-    right_jacobian,
-)
+from pincal.identification.derivatives import KinematicSensitivity, attached_placements, marker_points, right_jacobian
 from pincal.identification.loop_batch import LoopBatch
-from pincal.identification.measurements import (
-    WORLD_TARGET,
-    CameraPoint,
-    CameraPose,
-    Measurement,
-    Pose,
-    Position,
-    SampleContext,
-    camera_name,
-    target_name,
-)
+from pincal.identification.measurements import Measurement, SampleContext
 from pincal.identification.neighbours import SolvedInputs
 from pincal.identification.parameters import (
-    CORRECTION_KINDS,
-    KINEMATIC_KINDS,
     ParameterSet,
     apply_parameters,
-    attached_name,
     joint_unit,
+    kinds_where,
     offset_parameter,
 )
 from pincal.identification.tree_batch import TreeBatch
-from pincal.model.kinematics import CONTINUATION_STEP, damped_pseudo_inverse
+from pincal.model.kinematics import CONTINUATION_STEP
 from pincal.model.robot import SOLVE_TOLERANCE, Robot
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
-
-#: Samples a tree's batched evaluation takes at once: its intermediates (about 6 × p numbers per sample and measured
-#: frame) stay a few megabytes, whatever the number of samples.
-BATCH_SAMPLES = 2048
-#: Fewest samples a closed-loop robot's evaluation solves together (:meth:`CalibrationProblem._solve_all`); fewer are
-#: solved one by one, which costs less than a stacked solve's fixed cost (about 30 array operations per iteration).
-SMALL_BATCH = 16
-#: Largest predicted change [rad or m] of a passive joint a warm start of the batched closed-loop solves takes from the
-#: configuration's response to the parameters (a larger one is not first-order small: Newton starts from the
-#: remembered configuration instead).
-PREDICTED_MOVE = 0.05
-#: Largest entry of the passive joints' response to the loops (C_p⁺) before a sample counts as singular
-#: (an identification step that takes a sample there is rejected).
-SINGULAR_GAIN = 1e8
 
 
 @dataclass
@@ -171,14 +136,14 @@ class CalibrationProblem:
             extra = [offset_parameter(j, joint_unit(robot, j)) for j in robot.actuated_joints if j not in present]
             parameters = ParameterSet(list(parameters.parameters) + extra)
         self._all = parameters
-        self.kinematic = parameters.of_kind(*KINEMATIC_KINDS)
+        self.kinematic = parameters.of_kind(*kinds_where(kinematic=True))
         self.kinematic_set = parameters.subset(self.kinematic)
         actuated = {name: k for k, name in enumerate(robot.actuated_joints)}
         self.actuated_offsets = [(actuated[p.target], k) for k, p in enumerate(parameters)
                                  if p.kind == "offset" and p.target in actuated]
         self.reading_offsets = {p.target: k for k, p in enumerate(parameters)
                                 if p.kind == "offset" and p.target not in actuated}
-        corrections = [(k, p) for k, p in enumerate(parameters) if p.kind in CORRECTION_KINDS]
+        corrections = [(k, p) for k, p in enumerate(parameters) if p.kind_class.in_corrections]
         strays = [p.name for _, p in corrections if p.target not in actuated]
         if strays:
             raise DataError(f"corrections {listing(strays)} are of joints that are not actuated; harmonics and "
@@ -192,8 +157,8 @@ class CalibrationProblem:
             (actuated[p.target], k, r) for (k, p), r in zip(corrections, regressors, strict=True)]
         self.base = parameters.groups("base").get(("base", "base", ""), [])
         # each measured marker's nominal offset [m] on its frame (zero when the data declare none)
-        self.marker_nominals = {m.target: np.array(m.nominal if m.nominal is not None else (0.0, 0.0, 0.0))
-                                for m in self.measurements if isinstance(m, Position)}
+        self.marker_nominals = {target: np.array(nominal if nominal is not None else (0.0, 0.0, 0.0))
+                                for m in self.measurements for target, nominal in m.markers.items()}
         self.frames = sorted({f for m in self.measurements for f in m.frames})
         self.frame_ids = {f: robot.frame_id(f) for f in self.frames}
         # each sample's configuration at its last solve and the actuated values it was solved for: the
@@ -297,7 +262,7 @@ class CalibrationProblem:
         robot = self.robot_at(x)
         qa = self.actuated_values(x)
         if self._batched_loops and robot.loops:
-            return self._solve_all(robot, qa, self._augment(np.asarray(x, dtype=float))).copy()
+            return predictions.solve_all(self, robot, qa, self._augment(np.asarray(x, dtype=float))).copy()
         return np.array([self._solve(robot, k, qa[k]) for k in range(qa.shape[0])])
 
     def _solve(self, robot: Robot, k: int, qa: Array) -> Array:
@@ -328,81 +293,10 @@ class CalibrationProblem:
         return report.q
 
     def initial_guess(self) -> Array:
-        """A starting point: zero, except the placements closed forms give from the nominal robot.
-
-        - cameras and their targets (each with all six placement parameters): an eye-in-hand camera seeing a pose
-          target solves ``A_i X = Y B_i⁻¹`` (A_i the camera's frame in the world, B_i the target seen, X the camera on
-          the frame, Y the target in the world), a point target ``p_i = X⁻¹ A_i⁻¹ y``; a pose target on a frame
-          seen by a fixed camera solves ``A_i X = Y B_i``, Y the inverse of the camera's placement ``base``
-          (:mod:`pincal.identification.handeye`). Data that do not determine them leave them at zero;
-        - otherwise an unknown measurement frame (all six ``base.*``) registered in closed form to the measured
-          positions (Kabsch: measured ≈ R · predicted + t, least squares).
-        """
-        x = np.zeros(len(self.parameters))
-        located = self._camera_starts(x)
-        if located or len(self.base) != 6 or any(k >= len(self.parameters) for k in self.base):
-            return x
-        pred = CalibrationProblem.evaluate(self, x, jacobian=False)  # forward predictions, for IKM too
-        model, measured = [], []
-        for m in self.measurements:
-            if m.locates_point:
-                taken = self.seen(m.key)  # an occluded marker registers nothing
-                model.append(pred.predicted[m.key][taken, :3])
-                measured.append(self.observations.values[m.key][taken, :3])
-        if not model or sum(len(a) for a in model) < 3:
-            return x
-        a, b = np.vstack(model), np.vstack(measured)
-        ca, cb = a.mean(axis=0), b.mean(axis=0)
-        u, _, vt = linalg.svd((a - ca).T @ (b - cb), "the Kabsch cross-covariance of the measured positions")
-        d = np.sign(np.linalg.det(vt.T @ u.T))
-        rot = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-        self._set_placement(x, self.base, pin.SE3(rot, cb - rot @ ca))
-        return x
-
-    def _camera_starts(self, x: Array) -> bool:
-        """Write the closed-form starts of the cameras and targets into ``x``; True if one placed the measurement
-        frame (``base``, the fixed camera of a pose target)."""
-        groups = {attached_name(kind, target): idx for (kind, target, _), idx
-                  in self.parameters.groups("camera", "target").items()}
-        cameras = [m for m in self.measurements if isinstance(m, CameraPose | CameraPoint | Pose)
-                   and (not isinstance(m, Pose) or isinstance(m, CameraPose) or m.target)]
-        self.placed_in_closed_form, self.not_in_closed_form = [], []
-        if not cameras:
-            return False
-        nominal = self.robot.model.createData()
-        located = False
-        for m in cameras:
-            taken = np.flatnonzero(self.seen(m.key))
-            frame = self.frame_ids[m.frame]
-            a = []
-            for k in taken:
-                pin.framesForwardKinematics(self.robot.model, nominal, self._solve(self.robot, int(k),
-                                                                                   self.observations.actuated[k]))
-                a.append(nominal.oMf[frame].copy())
-            values = self.observations.values[m.key][taken]
-            try:
-                own, world, names = _closed_form(m, a, values)
-            except DataError as why:
-                try:  # a link that only translates (a Delta's platform): its rotations cannot separate X from Y
-                    own, world, names = _closed_form(m, a, values, translating=True)
-                except DataError:  # the data do not determine the placements: the summary says why
-                    self.not_in_closed_form.append(f"{m.key}: {why}")
-                    continue
-            if len(groups.get(names[0], [])) == 6:
-                self._set_placement(x, groups[names[0]], own)
-                self.placed_in_closed_form.append(names[0])
-            if names[1] and len(groups.get(names[1], [])) in (3, 6):
-                self._set_placement(x, groups[names[1]], world)
-            elif not names[1] and len(self.base) == 6:
-                self._set_placement(x, self.base, world.inverse())
-                located = True
-        return located
-
-    def _set_placement(self, x: Array, indices: list[int], placement: pin.SE3) -> None:
-        """Set a placement group's parameters in ``x`` to ``log6(placement)`` (its components that are parameters)."""
-        delta = pin.log6(placement).vector
-        for k in indices:
-            x[k] = delta[self.parameters.parameters[k].component]
+        """A starting point: zero, except the placements closed forms give from the nominal robot (the cameras and
+        targets, else an unknown measurement frame registered to the measured points:
+        :func:`pincal.identification.starts.initial_guess`)."""
+        return starts.initial_guess(self)
 
     def settle_assembly(self, x: Array) -> list[int]:
         """Samples whose remembered configuration at ``x`` is not on the reference assembly, each reset to it.
@@ -459,10 +353,10 @@ class CalibrationProblem:
         re-evaluated at each call and held constant in the Jacobian, as iteratively re-weighted least
         squares does.
 
-        A tree (no loops) is evaluated for every sample at once (:meth:`_predict_tree`, issue 14), and so is a
-        closed-loop robot (:meth:`_predict_loops`); a robot with a joint kind :mod:`~pincal.identification.tree_batch`
-        or :mod:`~pincal.model.batch_kinematics` does not take, sample by sample (:meth:`_predict_samples`). They give
-        the same numbers (to 1e-10, tests/identification/test_tree_batch.py and test_loop_batch.py).
+        A tree (no loops) is evaluated for every sample at once (issue 14), and so is a closed-loop robot
+        (:mod:`~pincal.identification.predictions`); a robot with a joint kind :mod:`~pincal.identification.tree_batch`
+        or :mod:`~pincal.model.batch_kinematics` does not take, sample by sample. They give the same numbers (to
+        1e-10, tests/identification/test_tree_batch.py and test_loop_batch.py).
         """
         x = self._augment(np.asarray(x, dtype=float))
         output_jacobian = jacobian
@@ -486,7 +380,7 @@ class CalibrationProblem:
                           for m in self.measurements}
                 for block in dpreds.values():
                     block.fill(0.0)
-            self._predict_tree(robot, sens, ctx, qa_all, preds, dpreds)
+            predictions.predict_tree(self, robot, sens, ctx, qa_all, preds, dpreds)
         else:
             if jacobian and self._in_place(output_jacobian):
                 full = np.zeros((sum(n * m.size for m in self.measurements), p))
@@ -494,9 +388,9 @@ class CalibrationProblem:
             elif jacobian:
                 dpreds = {m.key: np.zeros((n, m.size, p)) for m in self.measurements}
             if self._batched_loops and robot.loops:
-                self._predict_loops(robot, sens, ctx, qa_all, preds, dpreds)
+                predictions.predict_loops(self, robot, sens, ctx, qa_all, preds, dpreds)
             else:
-                self._predict_samples(robot, sens, ctx, qa_all, preds, dpreds)
+                predictions.predict_samples(self, robot, sens, ctx, qa_all, preds, dpreds)
         return self._assemble(preds, dpreds, output_jacobian, full)
 
     def _in_place(self, output_jacobian: bool) -> bool:
@@ -514,190 +408,6 @@ class CalibrationProblem:
             blocks[m.key] = full[start:start + n * m.size].reshape(n, m.size, p)
             start += n * m.size
         return blocks
-
-    def _solve_all(self, robot: Robot, qa_all: Array, x: Array) -> Array:
-        """Every sample's configuration on the reference assembly: :meth:`_solve` for all samples at once, by stacked
-        Newton solves (:class:`~pincal.model.batch_kinematics.BatchKinematics`).
-
-        A sample solved before starts from its own last configuration (moved by :meth:`_predicted_change`, Newton's
-        refusals measured from the configuration itself). A first solve, and a refused warm start, is answered by
-        continuation from the reference, all such samples stepping together: what the per-sample path's first solves
-        come to (a warm start from the nearest solved sample is refused unless it lands on the same assembly), with no
-        neighbour search and no chain of solves waiting for each other. A sample the stacked solves do not close is
-        solved alone (:meth:`_solve_from`: finer continuation, or the error naming it); so are the samples of a set of
-        fewer than :data:`SMALL_BATCH`, where a stacked solve's fixed cost exceeds a few solves alone.
-        """
-        assert self._loops is not None
-        kin = self._loops.kinematics
-        n, model, closure = len(qa_all), robot.model, robot.closure
-        known = np.array([guess is not None for guess in self._q_cache], dtype=bool)
-        previous = np.full((n, model.nq), np.nan)
-        if np.any(known):
-            previous[known] = np.array([guess for guess in self._q_cache if guess is not None])
-        q = np.full((n, model.nq), np.nan)
-        ok = np.zeros(n, dtype=bool)
-        warm = np.flatnonzero(known)
-        if warm.size >= SMALL_BATCH:
-            q[warm], ok[warm] = kin.warm_solve(model, closure, qa_all[warm], previous[warm], SOLVE_TOLERANCE,
-                                               self._predicted_change(x, warm))
-        cold = np.flatnonzero(~ok) if warm.size >= SMALL_BATCH else np.flatnonzero(~known)
-        if cold.size >= SMALL_BATCH:
-            q[cold], ok[cold] = kin.continuation(model, closure, qa_all[cold], SOLVE_TOLERANCE)
-        for row in np.flatnonzero(~ok).tolist():  # alone: finer steps, or the error naming the sample
-            q[row] = self._solve_from(robot, row, qa_all[row], previous[row] if known[row] else None)
-            known[row] = False  # its travel is counted
-        travel = np.abs(q - previous).max(axis=1, initial=0.0)
-        self._travel[known] += travel[known]
-        for k in range(n):
-            self._q_cache[k] = q[k]
-        self._solved_at = x.copy()
-        return q
-
-    def _predicted_change(self, x: Array, rows: IntArray) -> Array | None:
-        """(len(rows), n_passive) the passive joints' first-order change [rad or m] from the remembered
-        configurations of samples ``rows`` to ``x``: the last Jacobian evaluation's dv/dθ times the parameters'
-        change; None without one, and zero for a sample it would move by more than :data:`PREDICTED_MOVE`."""
-        if self._response is None or self._solved_at is None or self._solved_at.shape != x.shape:
-            return None
-        change = self._response[rows] @ (x - self._solved_at)
-        change[~(np.abs(change).max(axis=1, initial=0.0) <= PREDICTED_MOVE)] = 0.0
-        return np.asarray(change, dtype=float)
-
-    def _predict_loops(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
-                       preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
-        """Every sample of a closed-loop robot at once (:mod:`pincal.identification.loop_batch`), by blocks of at
-        most :data:`BATCH_SAMPLES`: configurations (:meth:`_solve_all`), the measured frames' placements and spatial
-        twists through the loops, each model's :meth:`Measurement.predict_batch`; a model without one is predicted
-        sample by sample from the same configurations and twists."""
-        assert self._loops is not None
-        loops, model, n = self._loops, robot.model, self.observations.n_samples
-        q_all = self._solve_all(robot, qa_all, ctx.x)
-        probes: dict[str, Probe] = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
-        batched = [m for m in self.measurements if m.batched]
-        one_by_one = [m for m in self.measurements if not m.batched]
-        for start in range(0, n, BATCH_SAMPLES):
-            rows = slice(start, min(n, start + BATCH_SAMPLES))
-            q = q_all[rows]
-            terms = [(joint, col, regressor[rows]) for joint, col, regressor in self.actuated_terms]
-            velocities = None
-            if sens is None:
-                joints = loops.kinematics.forward(loops.kinematics.geometry(model, robot.closure), q)
-                placements = {f: loops.placement(joints, probe.joint, probe.placement) for f, probe in probes.items()}
-                twists: dict[str, SpatialJacobian] = {}
-            else:
-                system = loops.kinematics.linearised(model, robot.closure, q)
-                placements, twists, response = loops.twists(robot, sens, q, system, terms, probes, start,
-                                                             SINGULAR_GAIN)
-                velocities = response.velocities
-                passive = loops.kinematics.passive_v
-                if self._response is None or self._response.shape != (n, passive.size, velocities.shape[2]):
-                    self._response = np.empty((n, passive.size, velocities.shape[2]))
-                self._response[rows] = velocities[:, passive]
-            joint_terms: dict[str, list[tuple[int, Array]]] = {}
-            for joint, col, regressor in terms:
-                joint_terms.setdefault(robot.actuated_joints[joint], []).append((col, regressor))
-            batch = BatchContext(ctx, q, {f: rotation for f, (rotation, _) in placements.items()},
-                                 {f: origin for f, (_, origin) in placements.items()}, twists, joint_terms, rows,
-                                 velocities)
-            for m in batched:
-                m.predict_batch(batch, preds[m.key][rows], dpreds[m.key][rows] if sens is not None else None)
-            if one_by_one:
-                self._predict_one_by_one(robot, one_by_one, ctx, batch, preds, dpreds)
-
-    def _predict_samples(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
-                         preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
-        """Each sample in turn: its configuration (the loops closed), its frames' local twists per parameter (through
-        the loops by the implicit-function theorem), each model's :meth:`Measurement.predict`."""
-        model, data, kin = robot.model, robot.kinematics.data, robot.kinematics
-        n, p = self.observations.n_samples, len(self._all)
-        jacobian = sens is not None
-        probes = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
-        passive, act_v = kin.passive_v, kin.actuated_v
-        for k in range(n):
-            q = self._solve(robot, k, qa_all[k])
-            dv = None
-            if jacobian:
-                assert sens is not None
-                pin.computeJointJacobians(model, data, q)
-                pin.updateFramePlacements(model, data)
-                dv = np.zeros((model.nv, p))
-                for joint, col, regressor in self.actuated_terms:
-                    dv[act_v[joint], col] = regressor[k]
-                if robot.loops:
-                    _, cjac = robot.closure.residual_and_jacobian(data)
-                    gain = damped_pseudo_inverse(cjac[:, passive])
-                    if gain is None or float(np.abs(gain).max()) > SINGULAR_GAIN:
-                        raise ConvergenceError(f"sample {k} is at a singular configuration: the passive joints are "
-                                               "not determined by the actuated ones (with these parameters)")
-                    rhs = sens.closure_derivative(data)
-                    for joint, col, regressor in self.actuated_terms:
-                        rhs[:, col] += cjac[:, act_v[joint]] * regressor[k]
-                    dv[passive] = -gain @ rhs
-            elif robot.loops:  # the loop solve ended with forward kinematics at q
-                pin.updateFramePlacements(model, data)
-            else:
-                pin.framesForwardKinematics(model, data, q)
-            twists = {}
-            if jacobian:
-                assert sens is not None and dv is not None
-                for f, fid in self.frame_ids.items():
-                    local = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
-                    twists[f] = sens.probe_twist(data, probes[f]) + local @ dv
-            ctx.sample, ctx.q, ctx.twists, ctx.dv = k, q, twists, dv
-            for m in self.measurements:
-                m.predict(ctx, preds[m.key][k], dpreds[m.key][k] if jacobian else None)
-
-    def _predict_tree(self, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext, qa_all: Array,
-                      preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
-        """Every sample at once (a tree, :mod:`pincal.identification.tree_batch`), by blocks of at most
-        :data:`BATCH_SAMPLES`: configurations, the measured frames' placements and spatial twists, each model's
-        :meth:`Measurement.predict_batch`; a model without one is predicted sample by sample from the same
-        configurations and twists."""
-        assert self._tree is not None
-        tree, model, n = self._tree, robot.model, self.observations.n_samples
-        probes = {f: frame_probe(robot, fid) for f, fid in self.frame_ids.items()}
-        batched = [m for m in self.measurements if m.batched]
-        one_by_one = [m for m in self.measurements if not m.batched]
-        for start in range(0, n, BATCH_SAMPLES):
-            rows = slice(start, min(n, start + BATCH_SAMPLES))
-            size = rows.stop - rows.start
-            q = tree.configurations(qa_all[rows])
-            placed, origins = tree.forward(model, q)
-            placements = {f: tree.frame_placement(model, placed, f, size) for f in self.frame_ids}
-            terms = [(joint, col, regressor[rows]) for joint, col, regressor in self.actuated_terms]
-            twists = {} if sens is None else {f: tree.twist(f, probes[f], sens, placed, origins, placements[f], terms)
-                                              for f in self.frame_ids}
-            joint_terms: dict[str, list[tuple[int, Array]]] = {}
-            for joint, col, regressor in terms:
-                joint_terms.setdefault(robot.actuated_joints[joint], []).append((col, regressor))
-            batch = BatchContext(ctx, q, {f: placement.rotation for f, placement in placements.items()},
-                                 {f: placement.translation for f, placement in placements.items()}, twists,
-                                 joint_terms, rows)
-            for m in batched:
-                m.predict_batch(batch, preds[m.key][rows], dpreds[m.key][rows] if sens is not None else None)
-            if one_by_one:
-                self._predict_one_by_one(robot, one_by_one, ctx, batch, preds, dpreds)
-
-    def _predict_one_by_one(self, robot: Robot, models: list[Measurement], ctx: SampleContext, batch: BatchContext,
-                            preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
-        """The models without a batched prediction, sample by sample over the block of ``batch``: Pinocchio's frame
-        placements at each configuration, the local twists from the batch's spatial ones."""
-        model, data, act_v = robot.model, robot.kinematics.data, robot.kinematics.actuated_v
-        spatial = {f: twist.full() for f, twist in batch.twists.items()}
-        for row, k in enumerate(range(batch.samples.start, batch.samples.stop)):
-            pin.framesForwardKinematics(model, data, batch.q[row])
-            dv = None
-            if spatial and batch.velocities is not None:  # closed loops: the passive joints move too
-                dv = batch.velocities[row]
-            elif spatial:
-                dv = np.zeros((model.nv, len(self._all)))
-                for joint, col, regressor in self.actuated_terms:
-                    dv[act_v[joint], col] = regressor[k]
-            ctx.sample, ctx.q, ctx.dv = k, batch.q[row], dv
-            ctx.twists = {f: _local_twist(batch.rotations[f][row], batch.translations[f][row], w[row])
-                          for f, w in spatial.items()}
-            for m in models:
-                m.predict(ctx, preds[m.key][k], dpreds[m.key][k] if spatial else None)
 
     def _context(self, model: pin.Model, data: pin.Data, x: Array, base_delta: Array) -> SampleContext:
         """The measurement models' context for one evaluation at ``x`` (per-sample fields unset)."""
@@ -766,32 +476,3 @@ class CalibrationProblem:
         white_err = np.linalg.solve(chol, err[..., None])[..., 0]
         white_jac = np.linalg.solve(chol, jac)
         return white_err, white_jac
-
-
-def _closed_form(model: Measurement, a: list[pin.SE3], values: Array, translating: bool = False
-                 ) -> tuple[pin.SE3, pin.SE3, tuple[str, str]]:
-    """The closed-form placements a camera reading gives (:mod:`pincal.identification.handeye`), from the
-    nominal poses ``a`` of its frame and its readings ``values``: the placement on the frame (camera, or pose
-    target), the one in the world (world target; for a pose target on the frame, the inverse of the fixed camera's
-    placement ``base``), and their names (the second empty for ``base``). ``translating``: the variants for a link
-    that only translates. Raises DataError when the data do not determine them."""
-    if isinstance(model, CameraPoint):
-        solve_point = handeye.solve_point_translating if translating else handeye.solve_point_eye_in_hand
-        camera, point = solve_point(a, values[:, :3])
-        return camera, pin.SE3(np.eye(3), point), (camera_name(model.frame), WORLD_TARGET)
-    solve = handeye.solve_ax_yb_translating if translating else handeye.solve_ax_yb
-    seen = [pin.XYZQUATToSE3(v) for v in values]
-    if isinstance(model, CameraPose):
-        own, world = solve(a, [b.inverse() for b in seen])
-        return own, world, (camera_name(model.frame), WORLD_TARGET)
-    assert isinstance(model, Pose)
-    own, world = solve(a, seen)
-    return own, world, (target_name(model.frame, model.target), "")
-
-
-def _local_twist(rotation: Array, translation: Array, spatial: Array) -> Array:
-    """(6, p) a frame's local twist ``Ad(oMf⁻¹) W`` from its spatial twist ``W`` (6, p), the frame at ``rotation``,
-    ``translation`` [m]: ``(Rᵀ (W_v − t × W_ω), Rᵀ W_ω)``."""
-    local: Array = np.vstack([rotation.T @ (spatial[:3] - np.cross(translation, spatial[3:], axis=0)),
-                              rotation.T @ spatial[3:]])
-    return local

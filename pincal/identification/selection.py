@@ -46,16 +46,9 @@ GROUPS = ("translations", "rotations", "offsets", "harmonics", "compliance")
 def group_of(parameter: Parameter) -> str | None:
     """The selection group of a parameter: ``translations`` or ``rotations`` of joint and anchor placements,
     ``offsets`` of joint readings, joint ``harmonics``, joint ``compliance``, or None for what always stays (base,
-    markers, device constants)."""
-    if parameter.kind == "offset":
-        return "offsets"
-    if parameter.kind == "harmonic":
-        return "harmonics"
-    if parameter.kind == "compliance":
-        return "compliance"
-    if parameter.kind in ("joint", "anchor"):
-        return "translations" if parameter.name.rsplit(".", 1)[-1].startswith("t") else "rotations"
-    return None
+    markers, device constants): as its kind says
+    (:meth:`~pincal.identification.parameters.ParameterKind.selection_group`)."""
+    return parameter.kind_class.selection_group(parameter)
 
 
 #: Relative floor on the residual mean square in the criterion: below it, fits differ by round-off only.

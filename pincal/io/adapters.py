@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Sequence
-from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
@@ -15,14 +14,12 @@ from pincal.errors import DataError, listing
 from pincal.identification.measurements import (
     KIND_CLASSES,
     MARKER_NAME,
-    JointReading,
     Measurement,
-    Pose,
-    Position,
     joint_reading,
     parse_key,
+    split_target,
 )
-from pincal.identification.parameters import influencing_joints
+from pincal.identification.parameters import influencing_joints, read_joints
 from pincal.identification.problem import Observations
 from pincal.model.robot import Robot
 
@@ -121,14 +118,12 @@ def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_column
     models = []
     for key in measurement_keys:
         model = parse_key(key, sigma or channel_sigma(key, meta, None))
-        if isinstance(model, Pose):
+        if model.angle_rows:
             angle = sigma or channel_sigma(key, meta, None, angle=True)
             if angle:
-                model = replace(model, sigma_angle=angle)
-        if isinstance(model, Position) and model.target in nominal:
-            model = replace(model, nominal=nominal[model.target])
-        models.append(model)
-    measured = {m.target for m in models if isinstance(m, Position) and m.marker}
+                model = model.with_angle_sigma(angle)
+        models.append(model.with_markers(nominal))
+    measured = {t for m in models for t in m.markers if split_target(t)[1]}
     stray = [t for t in nominal if t not in measured]
     if stray:
         frame, marker = stray[0].split("@")
@@ -157,7 +152,7 @@ def joints_at_reference(robot: Robot, joint_names: Sequence[str], models: Sequen
         raise DataError(f"the data has no column for actuated joint(s) {listing(missing)}; joint columns are: "
                         f"{listing(joint_names) or 'none'}")
     frames = sorted({f for m in models for f in m.frames})
-    read = [m.joint for m in models if isinstance(m, JointReading)]
+    read = read_joints(models)
     moving = set(influencing_joints(robot, frames, read))
     needed = [j for j in missing if j in moving]
     if needed:
@@ -185,6 +180,6 @@ def observations_from(robot: Robot, joint_names: Sequence[str], joints: Array, m
     :func:`actuated_readings`)."""
     values = dict(measurements)
     for m in models:
-        if isinstance(m, JointReading):
-            values[m.key] = joints[:, [list(joint_names).index(m.joint)]]
+        if m.read_joints:  # the model's values are joint columns
+            values[m.key] = joints[:, [list(joint_names).index(j) for j in m.read_joints]]
     return Observations(actuated_readings(robot, joint_names, joints, models), values)

@@ -22,8 +22,8 @@ import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, RobotFileError, listing, not_found
 from pincal.identification.derivatives import marker_points
-from pincal.identification.measurements import Measurement, Pose, Position, split_target
-from pincal.identification.parameters import CORRECTION_KINDS, KINEMATIC_KINDS, ParameterSet, attached_name
+from pincal.identification.measurements import Measurement, split_target
+from pincal.identification.parameters import ParameterSet, attached_name, kinds_where
 from pincal.model.catalog import resolve_mesh_file
 from pincal.model.robot import Robot, _build_model, check_reference_assembly
 from pincal.model.urdf import origin_to_se3, read_extensions
@@ -35,9 +35,6 @@ Array = npt.NDArray[np.float64]
 
 #: Default name of the measurement frame's link, the root of a calibrated URDF that estimates ``base.*``.
 MEASUREMENT_FRAME = "measurement_frame"
-#: Parameter kinds a calibrated URDF carries (all of pincal's kinds but the joint-value corrections, which go to the
-#: corrections file beside it: :mod:`pincal.io.corrections`; they are left out of the text, not refused).
-WRITTEN_KINDS = ("joint", "anchor", "offset", "base", "marker", "cluster", "camera", "target")
 
 
 def marker_link(target: str) -> str:
@@ -50,12 +47,14 @@ def marker_link(target: str) -> str:
 def written_frame(measurement: Measurement, frame: str, parameters: ParameterSet) -> str:
     """The frame of the calibrated URDF whose origin (and orientation, for poses) ``measurement`` reads on
     ``frame``: a declared marker's link for ``position:<frame>@<marker>``; the marker link when ``parameters``
-    calibrate a marker on ``frame`` and the measurement reads points (positions and distances; a pose reads the
-    frame itself); else ``frame``."""
-    if isinstance(measurement, Position) and measurement.marker:
-        return marker_link(measurement.target)
+    calibrate a marker on ``frame`` and the measurement reads points at its frames' markers
+    (:attr:`~pincal.identification.measurements.Measurement.reads_markers`: positions and distances; a pose reads
+    the frame itself); else ``frame``."""
+    declared = [t for t in measurement.markers if split_target(t)[1]]
+    if declared:
+        return marker_link(declared[0])
     marked = any(p.kind == "marker" and p.target == frame for p in parameters)
-    return marker_link(frame) if marked and not isinstance(measurement, Pose) else frame
+    return marker_link(frame) if marked and measurement.reads_markers else frame
 
 
 def joint_motion(model: pin.Model, jid: int, q: Array) -> pin.SE3:
@@ -155,16 +154,16 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     x = np.asarray(x, dtype=float)
     if x.shape != (len(parameters),):
         raise DataError(f"parameter vector has shape {x.shape}, expected ({len(parameters)},) for the parameter set")
-    foreign = [p.name for p in parameters if p.kind not in WRITTEN_KINDS and p.kind not in CORRECTION_KINDS]
-    if foreign:
+    foreign = [p.name for p in parameters if not p.kind_class.urdf and not p.kind_class.in_corrections]
+    if foreign:  # a correction goes to the corrections file beside it (pincal.io.corrections): left out, not refused
         raise RobotFileError(f"parameters {listing(foreign)} are of a kind a calibrated URDF cannot hold; kinds it "
-                             f"holds: {listing(WRITTEN_KINDS)}")
+                             f"holds: {listing(kinds_where(in_urdf=True))}")
     ext = read_extensions(source_text)
     root = _xml_joint_origins(source_text)
     joint_origins: dict[str, pin.SE3] = {}
     loop_origins: dict[tuple[str, str], pin.SE3] = {}
     loops = {lp.name: lp for lp in ext.loops}
-    for (kind, target, side), idx in parameters.groups(*KINEMATIC_KINDS).items():
+    for (kind, target, side), idx in parameters.groups(*kinds_where(kinematic=True)).items():
         exp = pin.exp6(parameters.placement_delta(x, idx))
         if kind == "joint":
             joint_origins[target] = joint_origins.get(target, root[target]) * exp
@@ -346,8 +345,8 @@ def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_
 def declared_markers(models: Sequence[Measurement]) -> dict[str, tuple[float, float, float]]:
     """The declared markers the measurements read (``position:<frame>@<marker>``) -> their nominal offsets [m] in
     their frames (zero when the data declare none): what :func:`calibrated_robot_text` takes as ``markers``."""
-    return {m.target: m.nominal if m.nominal is not None else (0.0, 0.0, 0.0)
-            for m in models if isinstance(m, Position) and m.marker}
+    return {target: nominal if nominal is not None else (0.0, 0.0, 0.0)
+            for m in models for target, nominal in m.markers.items() if split_target(target)[1]}
 
 
 def loadable_mesh_filenames(tree: ET.Element, urdf_dir: Path | None) -> dict[str, str]:

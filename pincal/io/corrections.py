@@ -25,7 +25,7 @@ import numpy.typing as npt
 
 from pincal.errors import DataError, listing
 from pincal.identification.corrections import HARMONIC_TERMS, Payload, correction_regressors, payload_from_dict
-from pincal.identification.parameters import CORRECTION_KINDS, ParameterSet
+from pincal.identification.parameters import ParameterSet
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -60,7 +60,7 @@ def corrections_of(robot: Robot, parameters: ParameterSet, x: Array,
     or None when there are none."""
     joints: dict[str, dict[str, float]] = {}
     for p, value in zip(parameters, x, strict=True):
-        if p.kind in CORRECTION_KINDS:
+        if p.kind_class.in_corrections:
             joints.setdefault(p.target, {})[p.term] = float(value)
     return Corrections(robot.name, joints, payload) if joints else None
 

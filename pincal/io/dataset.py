@@ -18,6 +18,7 @@ One row per sample (robot posture). Columns:
                                                              sample (scale reset); empty on the first row
   =====================================  ==================  ========================================
 
+  and those of a kind a plugin declares (:mod:`pincal.plugins`), whose model says its components and their units;
 - optional ``sample`` (an id) and ``set`` (``train`` or ``test``; default ``train``).
 
 Lines starting with ``#`` are comments; those before the header may carry metadata as
@@ -34,7 +35,7 @@ import csv
 import io
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -42,17 +43,47 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError, listing
-from pincal.identification.measurements import KIND_CLASSES, parse_key
+from pincal.identification.measurements import KIND_CLASSES, QUATERNION, parse_key
 from pincal.io.files import write_text
 
 Array = npt.NDArray[np.float64]
 
+
+class _Components(Mapping[str, tuple[str, ...]]):
+    """Measurement kind -> its components, of the kinds with columns of their own, read from the kinds' registry
+    each time (a kind a plugin declares after this module was imported is one too)."""
+
+    def __getitem__(self, kind: str) -> tuple[str, ...]:
+        model = KIND_CLASSES.get(kind)
+        if model is None or not model.components:
+            raise KeyError(kind)
+        return model.components
+
+    def __iter__(self) -> Iterator[str]:
+        return iter([kind for kind, model in KIND_CLASSES.items() if model.components])
+
+    def __len__(self) -> int:
+        return len(list(iter(self)))
+
+
+class _Occludable(Collection[str]):
+    """The measurement kinds with columns of their own whose readings a sample may lack, from the registry."""
+
+    def __contains__(self, kind: object) -> bool:
+        return kind in list(self)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter([kind for kind in MEASUREMENT_COMPONENTS if KIND_CLASSES[kind].occludable])
+
+    def __len__(self) -> int:
+        return len(list(iter(self)))
+
+
 #: Measurement kinds with columns of their own, and their components in column (and array) order: each
 #: measurement model's (a joint reading is a joint column).
-MEASUREMENT_COMPONENTS: dict[str, tuple[str, ...]] = {kind: model.components for kind, model in KIND_CLASSES.items()
-                                                      if model.components}
+MEASUREMENT_COMPONENTS: Mapping[str, tuple[str, ...]] = _Components()
 #: Measurement kinds whose readings a sample may lack, all cells empty (an occluded marker's position).
-OCCLUDABLE_KINDS = tuple(kind for kind, model in KIND_CLASSES.items() if model.components and model.occludable)
+OCCLUDABLE_KINDS: Collection[str] = _Occludable()
 SAMPLE_COLUMN = "sample"
 SET_COLUMN = "set"
 SET_NAMES = ("train", "test")
@@ -88,7 +119,8 @@ def parse_measurement_key(key: str) -> tuple[str, tuple[str, ...]]:
 
 
 def _is_increment(key: str) -> bool:
-    return key.startswith("distance_increment:")
+    """Whether measurement ``key``'s values are each the change since the previous sample (its model says)."""
+    return parse_key(key).incremental
 
 
 def _rebased_increments(increments: Array, indices: npt.NDArray[np.intp]) -> Array:
@@ -398,6 +430,7 @@ def _parse(text: str, required: Sequence[str], min_samples: int, kinds: dict[str
     ids: list[str] = []
     sets: list[str] = []
     lines = [line for line, _ in rows]
+    incremental = {key for key in layout.groups if _is_increment(key)}
     for r, (line, cells) in enumerate(rows):
         if len(cells) != len(header):
             raise DataError(f"line {line} has {len(cells)} cells; the header (line {header_line}) has {len(header)}")
@@ -408,7 +441,7 @@ def _parse(text: str, required: Sequence[str], min_samples: int, kinds: dict[str
             components = MEASUREMENT_COMPONENTS[kind]
             for c, component in enumerate(components):
                 measurements[key][r, c] = _number(cells[cols[component]], f"{key}:{component}", line,
-                                                  first_increment=r == 0 and kind == "distance_increment",
+                                                  first_increment=r == 0 and key in incremental,
                                                   may_be_empty=kind in OCCLUDABLE_KINDS)
             empty = np.isnan(measurements[key][r])
             if empty.any() and not empty.all():  # an occluded marker leaves every cell empty, not some
@@ -416,7 +449,7 @@ def _parse(text: str, required: Sequence[str], min_samples: int, kinds: dict[str
                 what = "is empty" if not cells[cols[first]] else f"is '{cells[cols[first]]}'"
                 full = listing(f"{key}:{c}" for c, e in zip(components, empty, strict=True) if not e)
                 raise DataError(f"column '{key}:{first}', line {line}: the cell {what} but {full} hold numbers; a "
-                                f"{'marker' if kind == 'position' else 'target'} that was not seen leaves all the "
+                                f"{KIND_CLASSES[kind].sighted} that was not seen leaves all the "
                                 f"cells of '{key}' empty, one seen fills them all")
         ids.append(cells[layout.sample] if layout.sample is not None else str(r))
         if layout.sample is not None and not ids[-1]:
@@ -451,13 +484,15 @@ def _check_rows(data: Dataset, lines: list[int]) -> None:
     if duplicates:
         raise DataError("duplicated samples (identical joint readings and measurements): " + listing(duplicates, 10))
     for key, values in data.measurements.items():
-        if key.startswith(("pose:", "camera:")):  # a camera reading is a pose too (camera_point: is a point)
-            norms = np.linalg.norm(values[:, 3:], axis=1)
+        quaternion = [c for c, unit in enumerate(KIND_CLASSES[key.partition(":")[0]].component_units())
+                      if unit == QUATERNION]
+        if quaternion:  # a pose's, a camera's
+            norms = np.linalg.norm(values[:, quaternion], axis=1)
             bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_NORM_TOLERANCE)
             if bad.size:
                 r = int(bad[0])
                 raise DataError(f"measurement '{key}', line {lines[r]}: quaternion (qx, qy, qz, qw) = "
-                                f"{tuple(float(v) for v in values[r, 3:])} has norm {norms[r]:.6g}; a unit "
+                                f"{tuple(float(v) for v in values[r, quaternion])} has norm {norms[r]:.6g}; a unit "
                                 f"quaternion is needed (|norm - 1| <= {QUATERNION_NORM_TOLERANCE:g}; "
                                 f"{bad.size} rows in all)")
 
@@ -466,8 +501,10 @@ def _check_units(data: Dataset, lines: list[int], kinds: dict[str, str]) -> None
     mm = "looks like millimetres; pincal expects metres"
     for key, values in data.measurements.items():
         kind = key.partition(":")[0]
-        components = MEASUREMENT_COMPONENTS[kind]
-        for c, component in enumerate(components[:3]):
+        units = KIND_CLASSES[kind].component_units()
+        for c, component in enumerate(MEASUREMENT_COMPONENTS[kind]):
+            if units[c] != "m":
+                continue
             column = values[:, c]
             big = np.flatnonzero(np.abs(np.nan_to_num(column)) > MAX_PLAUSIBLE_LENGTH)
             if big.size:

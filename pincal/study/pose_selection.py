@@ -37,7 +37,6 @@ import numpy.typing as npt
 from pincal import linalg
 from pincal.errors import DataError
 from pincal.identification.identifiability import base_parameters
-from pincal.identification.measurements import Pose
 from pincal.identification.problem import CalibrationProblem
 from pincal.progress import Progress
 from pincal.study.criteria import CRITERIA
@@ -91,8 +90,7 @@ def jacobian_blocks(problem: CalibrationProblem, x: Array | None = None, weighte
         rows = n * m.size
         block = pred.jacobian[start:start + rows].reshape(n, m.size, p)
         if not weighted:
-            sigma = np.array([m.sigma] * 3 + [m.sigma_angle] * 3) if isinstance(m, Pose) else np.full(m.size, m.sigma)
-            block = block * sigma[None, :, None]
+            block = block * m.row_sigmas()[None, :, None]
         parts.append(block)
         start += rows
     return np.concatenate(parts, axis=1)

@@ -10,12 +10,11 @@ from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
-import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
 from pincal.identification.corrections import Payload
-from pincal.identification.measurements import Measurement, Pose
+from pincal.identification.measurements import Measurement
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.model.robot import Robot
@@ -141,30 +140,10 @@ def simulate_observations(robot: Robot, parameters: ParameterSet, x_true: Array,
     if any(v < 0 for v in sigmas.values()) or joint_noise < 0:
         raise DataError("noise must be non-negative")
     n = actuated.shape[0]
-    blank: dict[str, Array] = {}
-    for m in measurements:
-        width = 7 if isinstance(m, Pose) else m.size
-        blank[m.key] = np.zeros((n, width))
-        if isinstance(m, Pose):
-            blank[m.key][:, 6] = 1.0
+    blank = {m.key: m.neutral(n) for m in measurements}
     problem = CalibrationProblem(robot, parameters, measurements, Observations(actuated, blank), payload=payload)
     pred = problem.evaluate(x_true, jacobian=False)
-    values: dict[str, Array] = {}
-    for m in measurements:
-        sigma = sigmas.get(m.key, 0.0)
-        value = pred.predicted[m.key]  # absolute predictions (the blank measurements are zero)
-        if isinstance(m, Pose):
-            out = np.empty((n, 7))
-            out[:, :3] = value[:, :3] + rng.normal(scale=sigma, size=(n, 3))
-            for k in range(n):
-                quat = pin.Quaternion(pin.exp3(value[k, 3:]) @ pin.exp3(rng.normal(scale=sigma, size=3)))
-                out[k, 3:] = [quat.x, quat.y, quat.z, quat.w]
-            values[m.key] = out
-        elif m.incremental:
-            inc = np.full((n, 1), np.nan)
-            inc[1:, 0] = np.diff(value[:, 0]) + rng.normal(scale=sigma, size=n - 1)
-            values[m.key] = inc
-        else:
-            values[m.key] = value + rng.normal(scale=sigma, size=value.shape)
+    # each model's reading from its absolute prediction (the neutral readings give the absolute predictions)
+    values = {m.key: m.simulate(pred.predicted[m.key], sigmas.get(m.key, 0.0), rng) for m in measurements}
     readings = actuated + rng.normal(scale=joint_noise, size=actuated.shape) if joint_noise else actuated.copy()
     return Observations(readings, values)

@@ -28,7 +28,6 @@ from pincal.calibration.report import CalibrationReport
 from pincal.calibration.setup import prepare
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.identification.corrections import payload_from_dict
-from pincal.identification.measurements import CameraPose, Pose, Position
 from pincal.identification.metrics import error_norms, length_columns, rms, sample_length_errors
 from pincal.identification.problem import CalibrationProblem
 from pincal.io.dataset import Dataset
@@ -128,7 +127,7 @@ class CalibrationView:
         sample with none); three Nones when no 3D point is measured. A camera on the robot reads its target in its
         own moving frame, not a point of the scene: it locates nothing."""
         located = [m for m in self.problem.measurements
-                   if isinstance(m, (Position, Pose)) and not isinstance(m, CameraPose)]
+                   if m.locates_point]
         if not located:
             return None, None, None
         n = self.problem.observations.n_samples

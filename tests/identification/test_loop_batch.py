@@ -13,6 +13,7 @@ from test_measurements import Height
 import pincal
 from pincal.errors import ConvergenceError
 from pincal.identification import measurements as ms
+from pincal.identification import predictions
 from pincal.identification import problem as problem_module
 from pincal.identification.parameters import ParameterSet, cluster_parameters, marker_parameters, parameter_pool
 from pincal.identification.problem import CalibrationProblem, Observations
@@ -86,6 +87,7 @@ def test_batched_evaluation_equals_the_per_sample_one(name: str, joint_sigma: fl
                                                      monkeypatch: pytest.MonkeyPatch) -> None:
     """First evaluation (cold and neighbour starts), then warm ones at moved parameters, with and without Jacobian."""
     monkeypatch.setattr(problem_module, "SOLVE_TOLERANCE", TIGHT)
+    monkeypatch.setattr(predictions, "SOLVE_TOLERANCE", TIGHT)
     batched, per_sample, x = _problems(name, joint_sigma)
     assert batched._batched_loops == (name in BATCHED), batched._loops.unsupported if batched._loops else "no loops"
     kinds = {p.kind for p in batched.parameters}
@@ -111,9 +113,10 @@ def test_at_the_default_tolerance_both_paths_agree_within_the_closure_tolerance(
 def test_blocks_of_samples_give_the_same_numbers(monkeypatch: pytest.MonkeyPatch) -> None:
     """Blocks of 5 samples (12 in all: two full blocks and a partial one), the incremental distance across them."""
     monkeypatch.setattr(problem_module, "SOLVE_TOLERANCE", TIGHT)
+    monkeypatch.setattr(predictions, "SOLVE_TOLERANCE", TIGHT)
     batched, per_sample, x = _problems("delta", JOINT_SIGMA)
     whole = batched.evaluate(x)
-    monkeypatch.setattr(problem_module, "BATCH_SAMPLES", 5)
+    monkeypatch.setattr(predictions, "BATCH_SAMPLES", 5)
     _compare(batched.evaluate(x), whole, batched.parameters.names, 1e-12)
     _compare(batched.evaluate(x), per_sample.evaluate(x), batched.parameters.names, AGREEMENT)
 
@@ -122,7 +125,8 @@ def test_small_sets_are_solved_together_with_the_same_answers(monkeypatch: pytes
     """With every set of samples stacked (none small enough to go one by one), the first and the warm evaluations
     still give the per-sample configurations, and every sample's warm start is remembered."""
     monkeypatch.setattr(problem_module, "SOLVE_TOLERANCE", TIGHT)
-    monkeypatch.setattr(problem_module, "SMALL_BATCH", 1)
+    monkeypatch.setattr(predictions, "SOLVE_TOLERANCE", TIGHT)
+    monkeypatch.setattr(predictions, "SMALL_BATCH", 1)
     batched, per_sample, x = _problems("five_bar", None, n=40)
     for _ in range(2):
         np.testing.assert_allclose(batched.configurations(x), per_sample.configurations(x), rtol=0, atol=1e-10)
@@ -135,7 +139,8 @@ def test_samples_are_not_reordered_by_their_warm_starts(monkeypatch: pytest.Monk
     """The same samples in reverse order: each gets its own configuration back (a first solve is continuation from
     the reference, whatever the order)."""
     monkeypatch.setattr(problem_module, "SOLVE_TOLERANCE", TIGHT)
-    monkeypatch.setattr(problem_module, "SMALL_BATCH", 1)
+    monkeypatch.setattr(predictions, "SOLVE_TOLERANCE", TIGHT)
+    monkeypatch.setattr(predictions, "SMALL_BATCH", 1)
     robot = pincal.load_robot("delta")
     models = [ms.position(robot.end_effector)]
     pset = ParameterSet([p for p in parameter_pool(robot, models) if p.kind != "compliance"])
@@ -177,6 +182,7 @@ def test_warm_starts_moved_along_the_response_stay_on_the_assembly(name: str, mo
     """Warm starts move along the last Jacobian's dv/dθ: after small and large parameter changes (past the largest
     predicted move, where the prediction is dropped) the configurations are still the per-sample ones."""
     monkeypatch.setattr(problem_module, "SOLVE_TOLERANCE", TIGHT)
+    monkeypatch.setattr(predictions, "SOLVE_TOLERANCE", TIGHT)
     batched, per_sample, x = _problems(name, None, n=20)
     for size in (1e-5, 1e-3, 1e-2):
         for problem in (batched, per_sample):

@@ -89,3 +89,63 @@ def test_an_unknown_kind_lists_the_known_ones() -> None:
     with pytest.raises(DataError,
                        match="kinds are position, pose, camera, camera_point, distance, distance_increment, joint"):
         ms.parse_key("height:tool0")
+
+
+#: Every built-in kind, with a frame of the UR10 (a camera and a pose target on the tool, a declared marker).
+BUILT_IN = ["position:tool0", "position:tool0@m1", "pose:tool0", "pose:tool0@t1", "camera:tool0",
+            "camera_point:tool0", "distance:tool0-base_link", "distance_increment:tool0-base_link",
+            "joint:elbow_joint"]
+
+
+@pytest.mark.parametrize("key", BUILT_IN)
+def test_a_model_says_the_width_units_and_neutral_reading_of_its_data(key: str) -> None:
+    model = ms.parse_key(key)
+    quaternion = isinstance(model, ms.Pose)  # a pose's (and a camera's) reading ends in a unit quaternion
+    assert model.width == len(model.columns) == (7 if quaternion else model.size)
+    assert len(model.column_units) == model.width
+    assert model.column_units == (("m",) * 3 + (ms.QUATERNION,) * 4 if quaternion else
+                                  ("rad or m",) if isinstance(model, ms.JointReading) else ("m",) * model.width)
+    expected = np.zeros((4, model.width))  # what simulation and pose design built by hand
+    if quaternion:
+        expected[:, 6] = 1.0
+    assert np.array_equal(model.neutral(4), expected)
+
+
+@pytest.mark.parametrize("key", BUILT_IN)
+def test_a_model_simulates_its_readings_as_the_simulation_did(key: str) -> None:
+    model = ms.parse_key(key)
+    rng = np.random.default_rng(3)
+    predicted = rng.normal(size=(5, model.size))
+    got = model.simulate(predicted, 1e-3, np.random.default_rng(7))
+    rng = np.random.default_rng(7)  # the simulation's former branches, drawing in the same order
+    if isinstance(model, ms.Pose):
+        want = np.empty((5, 7))
+        want[:, :3] = predicted[:, :3] + rng.normal(scale=1e-3, size=(5, 3))
+        for k in range(5):
+            quat = pin.Quaternion(pin.exp3(predicted[k, 3:]) @ pin.exp3(rng.normal(scale=1e-3, size=3)))
+            want[k, 3:] = [quat.x, quat.y, quat.z, quat.w]
+    elif model.incremental:
+        want = np.full((5, 1), np.nan)
+        want[1:, 0] = np.diff(predicted[:, 0]) + rng.normal(scale=1e-3, size=4)
+    else:
+        want = predicted + rng.normal(scale=1e-3, size=predicted.shape)
+    np.testing.assert_array_equal(got, want)
+
+
+def test_models_say_which_markers_cameras_targets_and_joints_they_read() -> None:
+    marker = ms.position("tool0", marker="m1").with_markers({"tool0@m1": (0.0, 0.0, 0.05), "other@m2": (1, 2, 3)})
+    assert dict(marker.markers) == {"tool0@m1": (0.0, 0.0, 0.05)} and marker.reads_markers
+    assert dict(ms.position("tool0").markers) == {"tool0": None}
+    assert ms.position("tool0").with_markers({}) == ms.position("tool0")
+    assert ms.pose("tool0", target="t1").attachments == (ms.Attachment("target", "tool0@t1"),)
+    assert ms.pose("tool0").attachments == () and not ms.pose("tool0").reads_markers
+    assert ms.camera_pose("tool0").attachments == (ms.Attachment("camera", "tool0"), ms.Attachment("target", ""))
+    assert ms.camera_point("tool0").attachments[1] == ms.Attachment("target", "", ("tx", "ty", "tz"))
+    assert ms.joint_reading("device_lvdt").read_joints == ("device_lvdt",)
+    assert ms.distance("a", "b").reads_markers and ms.distance("a", "b").read_joints == ()
+    increment = ms.distance("a", "b", 2e-6, increment=True)
+    assert increment.absolute() == ms.distance("a", "b", 2e-6) and ms.position("a").absolute() == ms.position("a")
+    assert ms.pose("tool0").with_angle_sigma(3e-4).row_sigmas()[3:].tolist() == [3e-4] * 3
+    assert ms.position("tool0").with_angle_sigma(3e-4) == ms.position("tool0")
+    with pytest.raises(DataError, match="'position:tool0' has no closed-form start"):
+        ms.position("tool0").closed_form([], np.zeros((0, 3)))

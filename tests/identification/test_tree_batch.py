@@ -16,7 +16,7 @@ from test_measurements import Height
 
 import pincal
 from pincal.identification import measurements as ms
-from pincal.identification import problem as problem_module
+from pincal.identification import predictions
 from pincal.identification.parameters import (
     ParameterSet,
     choose_parameters,
@@ -131,7 +131,7 @@ def test_the_batched_evaluation_by_blocks_of_samples_is_the_same(name: str, monk
     """Blocks of 4 samples (6 in all: a full block and a partial one), the incremental distance across them."""
     batched, per_sample, x = _problems(name, 1e-3)
     whole = batched.evaluate(x)
-    monkeypatch.setattr(problem_module, "BATCH_SAMPLES", 4)
+    monkeypatch.setattr(predictions, "BATCH_SAMPLES", 4)
     blocks, reference = batched.evaluate(x), per_sample.evaluate(x)
     assert blocks.jacobian is not None and reference.jacobian is not None and whole.jacobian is not None
     np.testing.assert_allclose(blocks.residual, whole.residual, rtol=0, atol=1e-12 * np.abs(whole.residual).max())

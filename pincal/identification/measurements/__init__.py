@@ -1,0 +1,67 @@
+"""Measurement kinds: one class per sensor, each owning its maths and its data (:mod:`.base`).
+
+The kinds register themselves in the order their modules are imported here (the order the messages list them).
+"""
+
+from pincal.identification.measurements.base import (
+    KIND_CLASSES,
+    KINDS,
+    MARKER_NAME,
+    PLACEMENT_COMPONENTS,
+    QUATERNION,
+    Attachment,
+    KeyParser,
+    Measurement,
+    parse_key,
+    point_derivative,
+)
+from pincal.identification.measurements.context import (
+    WORLD_TARGET,
+    AttachedPlacement,
+    MarkerPoint,
+    SampleContext,
+    camera_name,
+    split_target,
+    target_name,
+)
+
+# isort: off
+# the kinds register as their modules are first imported: in this order (not sorted), the order messages list them
+from pincal.identification.measurements.positions import Position, position
+from pincal.identification.measurements.poses import Pose, pose
+from pincal.identification.measurements.camera import CameraPoint, CameraPose, camera_point, camera_pose
+from pincal.identification.measurements.distances import Distance, distance
+from pincal.identification.measurements.joint import JointReading, joint_reading
+# isort: on
+
+__all__ = [
+    "KINDS",
+    "KIND_CLASSES",
+    "MARKER_NAME",
+    "PLACEMENT_COMPONENTS",
+    "QUATERNION",
+    "WORLD_TARGET",
+    "AttachedPlacement",
+    "Attachment",
+    "CameraPoint",
+    "CameraPose",
+    "Distance",
+    "JointReading",
+    "KeyParser",
+    "MarkerPoint",
+    "Measurement",
+    "Pose",
+    "Position",
+    "SampleContext",
+    "camera_name",
+    "camera_point",
+    "camera_pose",
+    "distance",
+    "joint_reading",
+    "parse_key",
+    "point_derivative",
+    "pose",
+    "position",
+    "split_target",
+    "target_name",
+]

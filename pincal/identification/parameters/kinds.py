@@ -1,0 +1,237 @@
+"""Parameter kinds: what a parameter is, each a class in one registry that owns what differs between kinds.
+
+A kind says where its parameters act, which is where their derivative comes from (:attr:`ParameterKind.acts_in`),
+how their names are formed, their unit, their group for model selection, and how a calibrated URDF holds them, or
+that it cannot and the corrections file beside it does. The rest of pincal asks the kind
+(:func:`parameter_kind`, :attr:`Parameter.kind_class <pincal.identification.parameters.Parameter.kind_class>`)
+instead of comparing names; a new parameter kind is one subclass of :class:`ParameterKind` with its ``name``.
+The kinds register in the order they are declared (the order messages list them).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
+
+from pincal.errors import not_found
+from pincal.identification.measurements import WORLD_TARGET, camera_name
+from pincal.model.robot import Unit
+
+if TYPE_CHECKING:
+    from pincal.identification.parameters.parameter import Parameter
+
+#: A parameter's unit: a length or an angle, or a compliance (angle per torque, length per force).
+ParameterUnit = Literal["m", "rad", "rad/(N m)", "m/N"]
+#: Where a kind's parameters act: the robot ``model`` (a placement in the kinematic tree or a loop: its derivative from
+#: frame Jacobians through the loops), an actuated joint's ``reading`` (its value moves by the parameter times a
+#: regressor of the reading), or the ``measurement`` models (the measurement frame, markers, cameras, targets: the
+#: models' own derivatives, through their :class:`~pincal.identification.measurements.SampleContext`).
+ActsIn = Literal["model", "reading", "measurement"]
+
+#: Kind name -> its class, in the order the kinds were declared.
+PARAMETER_KINDS: dict[str, type[ParameterKind]] = {}
+
+
+class ParameterKind:
+    """Base class of the parameter kinds; a subclass with a ``name`` registers itself in :data:`PARAMETER_KINDS`."""
+
+    #: The kind's name: :attr:`Parameter.kind <pincal.identification.parameters.Parameter.kind>` of its parameters.
+    name: ClassVar[str] = ""
+    #: Where its parameters act (:data:`ActsIn`).
+    acts_in: ClassVar[ActsIn] = "measurement"
+    #: How a calibrated URDF holds its parameters; empty: a URDF cannot (:attr:`in_corrections` says where they go).
+    urdf: ClassVar[str] = ""
+    #: Whether the corrections file beside a calibrated URDF holds them (what a URDF cannot express).
+    in_corrections: ClassVar[bool] = False
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "name" in cls.__dict__:
+            PARAMETER_KINDS[cls.name] = cls
+
+    @classmethod
+    def kinematic(cls) -> bool:
+        """Whether its parameters change the robot model itself (the others act in the readings or the models)."""
+        return cls.acts_in == "model"
+
+    @classmethod
+    def prefix(cls, target: str, side: str = "") -> str:
+        """The prefix of its parameters' names (``<prefix>.<component>``) for ``target`` (and a loop's ``side``)."""
+        return target
+
+    @classmethod
+    def unit(cls, term: str, joint_unit: Unit = "rad") -> ParameterUnit:
+        """The unit of its parameter ``term`` (a placement's ``tx`` … ``rz``, a marker's ``x``, ``offset``, …), of a
+        joint whose values are in ``joint_unit``: [m] for translations, [rad] for rotations."""
+        return "rad" if term.startswith("r") else "m"
+
+    @classmethod
+    def selection_group(cls, parameter: Parameter) -> str | None:
+        """The group model selection may leave out that ``parameter`` belongs to; None: it always stays."""
+        return None
+
+
+def parameter_kind(name: str) -> type[ParameterKind]:
+    """The kind named ``name``; NotFoundError lists the kinds otherwise."""
+    try:
+        return PARAMETER_KINDS[name]
+    except KeyError:
+        raise not_found("parameter kind", name, list(PARAMETER_KINDS)) from None
+
+
+def kinds_where(*, kinematic: bool | None = None, in_urdf: bool | None = None,
+                in_corrections: bool | None = None) -> tuple[str, ...]:
+    """The names of the registered kinds with the given properties, in declaration order."""
+    return tuple(name for name, kind in PARAMETER_KINDS.items()
+                 if (kinematic is None or kind.kinematic() == kinematic)
+                 and (in_urdf is None or bool(kind.urdf) == in_urdf)
+                 and (in_corrections is None or kind.in_corrections == in_corrections))
+
+
+class _Placement(ParameterKind):
+    """A placement of the kinematic tree: translations and rotations are selected as groups."""
+
+    @classmethod
+    def selection_group(cls, parameter: Parameter) -> str | None:
+        """``translations`` or ``rotations``."""
+        return "translations" if parameter.term.startswith("t") else "rotations"
+
+
+class JointPlacement(_Placement):
+    """``<joint>.<c>``: the URDF origin of a joint, movable or fixed (c in tx, ty, tz, rx, ry, rz)."""
+
+    name = "joint"
+    acts_in = "model"
+    urdf = "the joint's origin"
+
+
+class AnchorPlacement(_Placement):
+    """``<loop>.predecessor.<c>``, ``<loop>.successor.<c>``: the origin of a loop's anchor on one side."""
+
+    name = "anchor"
+    acts_in = "model"
+    urdf = "the loop anchor's origin"
+
+    @classmethod
+    def prefix(cls, target: str, side: str = "") -> str:
+        """``<loop>.<side>``."""
+        return f"{target}.{side}"
+
+
+class ReadingOffset(ParameterKind):
+    """``<joint>.offset``: a joint reading's offset, ``q_true = q_read + δq`` [rad or m]."""
+
+    name = "offset"
+    acts_in = "reading"
+    urdf = "folded into the joint's origin (a read joint's: its <joint_sensor> zero)"
+
+    @classmethod
+    def unit(cls, term: str, joint_unit: Unit = "rad") -> ParameterUnit:
+        """The joint's unit."""
+        return joint_unit
+
+    @classmethod
+    def selection_group(cls, parameter: Parameter) -> str | None:
+        """``offsets``."""
+        return "offsets"
+
+
+class BasePlacement(ParameterKind):
+    """``base.<c>``: the robot's base in the measurement frame, ``world = base · exp6(δ) · robot``."""
+
+    name = "base"
+    urdf = "the measurement frame's link, the file's new root"
+
+    @classmethod
+    def prefix(cls, target: str, side: str = "") -> str:
+        """``base``."""
+        return "base"
+
+
+class MarkerOffset(ParameterKind):
+    """``marker.<target>.<x|y|z>``: a measured point's offset on its frame [m]."""
+
+    name = "marker"
+    urdf = "a marker link on the frame"
+
+    @classmethod
+    def prefix(cls, target: str, side: str = "") -> str:
+        """``marker.<target>``."""
+        return f"marker.{target}"
+
+    @classmethod
+    def unit(cls, term: str, joint_unit: Unit = "rad") -> ParameterUnit:
+        """[m]."""
+        return "m"
+
+
+class ClusterPlacement(ParameterKind):
+    """``cluster.<frame>.<c>``: the rigid placement of the declared markers on a frame."""
+
+    name = "cluster"
+    urdf = "the cluster's marker links on the frame"
+
+    @classmethod
+    def prefix(cls, target: str, side: str = "") -> str:
+        """``cluster.<frame>``."""
+        return f"cluster.{target}"
+
+
+class CameraPlacement(ParameterKind):
+    """``camera.<frame>.<c>``: a camera fixed on a frame (frame ← camera; eye-in-hand)."""
+
+    name = "camera"
+    urdf = "a camera link on the frame"
+
+    @classmethod
+    def prefix(cls, target: str, side: str = "") -> str:
+        """``camera.<frame>``."""
+        return camera_name(target)
+
+
+class TargetPlacement(ParameterKind):
+    """``target.<c>``: the target the eye-in-hand cameras see, in the world; ``target.<frame>@<target>.<c>``: a pose
+    target fixed on a frame."""
+
+    name = "target"
+    urdf = "a target link (on the robot's root link, or on the frame)"
+
+    @classmethod
+    def prefix(cls, target: str, side: str = "") -> str:
+        """``target`` (the world target, ``target`` empty) or ``target.<frame>@<target>``."""
+        return f"{WORLD_TARGET}.{target}" if target else WORLD_TARGET
+
+
+class Harmonic(ParameterKind):
+    """``<joint>.sin1|cos1|sin2|cos2``: harmonics of an actuated joint's reading [rad or m]."""
+
+    name = "harmonic"
+    acts_in = "reading"
+    in_corrections = True
+
+    @classmethod
+    def unit(cls, term: str, joint_unit: Unit = "rad") -> ParameterUnit:
+        """The joint's unit."""
+        return joint_unit
+
+    @classmethod
+    def selection_group(cls, parameter: Parameter) -> str | None:
+        """``harmonics``."""
+        return "harmonics"
+
+
+class Compliance(ParameterKind):
+    """``<joint>.compliance``: an actuated joint's compliance, ``δq = c τ_g(q_r)`` [rad/(N m) or m/N]."""
+
+    name = "compliance"
+    acts_in = "reading"
+    in_corrections = True
+
+    @classmethod
+    def unit(cls, term: str, joint_unit: Unit = "rad") -> ParameterUnit:
+        """[rad/(N m)], or [m/N] for a prismatic joint."""
+        return "rad/(N m)" if joint_unit == "rad" else "m/N"
+
+    @classmethod
+    def selection_group(cls, parameter: Parameter) -> str | None:
+        """``compliance``."""
+        return "compliance"
