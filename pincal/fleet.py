@@ -67,7 +67,7 @@ class FleetResult:
 
 def run_job(job: FleetJob) -> FleetResult:
     """Calibrate one robot (runs in a worker process; a top-level function so it pickles)."""
-    from pincal.calibration.files import calibrate_files, calibrate_job
+    from pincal.calibration.from_files import calibrate_files, calibrate_job
     from pincal.calibration.job import read_job
 
     try:

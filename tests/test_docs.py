@@ -8,6 +8,7 @@ import statistics
 import sys
 from pathlib import Path
 
+import pytest
 from conftest import ROOT, run_pincal
 
 README = (ROOT / "README.md").read_text(encoding="utf-8")
@@ -101,3 +102,15 @@ def test_nothing_points_outside_the_repository() -> None:
     assert "README.md" in tracked and "tests/test_docs.py" in tracked
     found = [name for name in tracked if name and beside.encode() in (ROOT / name).read_bytes()]
     assert not found, f"{beside} in {found}"
+
+
+def test_the_readme_s_python_runs_as_written(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The README's library and calibration snippets, run in order as a reader pastes them: no stale name."""
+    blocks = re.findall(r"```python\n(.*?)```", README, re.DOTALL)
+    assert len(blocks) >= 2 and "from pincal.calibration import" in blocks[1]
+    monkeypatch.chdir(tmp_path)
+    namespace: dict[str, object] = {}
+    exec(compile("\n".join(blocks[:2]), "README.md", "exec"), namespace)
+    assert (tmp_path / "delta_calibrated.urdf").is_file()
+    report = namespace["cal"].report  # type: ignore[attr-defined]
+    assert report.cv["plan"] == "5-fold × 4" and report.test_rms_after < 0.1 * report.test_rms_before

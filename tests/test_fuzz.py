@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 
 import pincal
 from pincal.calibration.pipeline import calibrate
-from pincal.io.dataset import Dataset, read_dataset, write_dataset
+from pincal.io.dataset import Dataset, write_dataset
+from pincal.io.dataset_reader import read_dataset
 from pincal.model.robot import robot_from_urdf_text
 
 NUMBER = re.compile(r"-?\d+\.?\d*(?:e-?\d+)?")

@@ -23,7 +23,8 @@ from pincal.errors import DataError
 from pincal.identification.derivatives import marker_points
 from pincal.identification.measurements import position
 from pincal.identification.parameters import choose_parameters
-from pincal.io.dataset import Dataset, read_dataset, write_dataset
+from pincal.io.dataset import Dataset, write_dataset
+from pincal.io.dataset_reader import read_dataset
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 

@@ -12,7 +12,7 @@ from pincal.lazy import lazy_names
 
 if TYPE_CHECKING:
     from pincal.calibration.crossval import Folds, cross_validate, parse_cv
-    from pincal.calibration.files import calibrate_files, calibrate_job
+    from pincal.calibration.from_files import calibrate_files, calibrate_job
     from pincal.calibration.heldout import HeldOut, evaluate_held_out
     from pincal.calibration.options import CalibrationOptions
     from pincal.calibration.pipeline import Calibration, calibrate
@@ -41,8 +41,8 @@ _LAZY: dict[str, str] = {
     "simulate": "simulate",
     "Simulation": "simulate",
     "write_simulation": "simulate",
-    "calibrate_files": "files",
-    "calibrate_job": "files",
+    "calibrate_files": "from_files",
+    "calibrate_job": "from_files",
     "summary_text": "summary",
 }
 

@@ -14,15 +14,8 @@ import numpy.typing as npt
 from pincal.calibration.job import ANGLE_UNITS, LENGTH_UNITS, HeldOut, Job
 from pincal.errors import DataError, listing, not_found
 from pincal.identification.measurements import KIND_CLASSES, parse_key
-from pincal.io.dataset import (
-    MAX_SAMPLES,
-    OCCLUDABLE_KINDS,
-    Dataset,
-    Table,
-    cell_number,
-    check_dataset,
-    read_table,
-)
+from pincal.io.dataset import MAX_SAMPLES, OCCLUDABLE_KINDS, Dataset
+from pincal.io.dataset_reader import Table, cell_number, check_dataset, read_table
 from pincal.model.robot import Robot, joint_unit
 
 #: Cells of a held-out column that hold a row out, and those that keep it for the fit.
@@ -48,8 +41,8 @@ def job_dataset(job: Job, robot: Robot) -> Dataset:
     ``[data] ignore``. Lengths (positions, distances, prismatic readings) are multiplied by the size of the job's
     length unit in metres, angles (revolute and continuous readings) by the size of its angle unit in radians. Files
     are concatenated in order; with several, a sample id is the file as the job writes it, ``:`` and the file's id.
-    Each file gets :func:`~pincal.io.dataset.read_dataset`'s checks (numbers, duplicates, quaternions, millimetres
-    and degrees), after the conversion.
+    Each file gets :func:`~pincal.io.dataset_reader.read_dataset`'s checks (numbers, duplicates, quaternions,
+    millimetres and degrees), after the conversion.
 
     Raises:
         DataError: naming the job file, the place in it or the data file, the column and the line at fault.

@@ -1,7 +1,7 @@
 """The options of a calibration, spelled once: :class:`CalibrationOptions`.
 
 Each option is one field of a frozen dataclass whose metadata (:class:`Option`) carries its command-line flag, its
-job-file key, its choices, its unit and its help text. The ``pincal`` parser (:mod:`pincal.cli.options`), the job-file
+job-file key, its choices, its unit and its help text. The ``pincal`` parser (:mod:`pincal.cli.arguments`), the job-file
 reader (:mod:`pincal.calibration.job`), the keywords of :func:`pincal.calibration.calibrate`, ``view``/``report``/
 ``fleet`` and the check of a ``--result`` JSON are made from these fields, so an option added here reaches all of
 them.

@@ -35,7 +35,7 @@ from pincal.identification.result import CalibrationResult
 from pincal.identification.selection import select_and_fit
 from pincal.identification.solver import identify
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, source_text
-from pincal.io.corrections import Corrections, corrections_of
+from pincal.io.corrections_file import Corrections, corrections_of
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
 

@@ -22,21 +22,23 @@ from pincal.identification.parameters import (
     joint_unit,
 )
 from pincal.identification.problem import CalibrationProblem
-from pincal.io.dataset import OCCLUDABLE_KINDS, Dataset, read_dataset
+from pincal.io.dataset import OCCLUDABLE_KINDS, Dataset
+from pincal.io.dataset_reader import read_dataset
 from pincal.model.robot import Robot, unusable_samples
 
 Array = npt.NDArray[np.float64]
 
 def joint_kinds(robot: Robot) -> dict[str, str]:
     """``revolute`` or ``prismatic`` for each one-DOF joint of ``robot`` (the kinds whose readings
-    :func:`~pincal.io.dataset.read_dataset` checks for degrees and millimetres; continuous joints are left out)."""
+    :func:`~pincal.io.dataset_reader.read_dataset` checks for degrees and millimetres; continuous joints are left
+    out)."""
     model = robot.model
     names = [str(model.names[jid]) for jid in range(1, model.njoints) if model.joints[jid].nq == 1]
     return {name: "prismatic" if joint_unit(robot, name) == "m" else "revolute" for name in names}
 
 
 def read_robot_dataset(path: str | Path, robot: Robot, min_samples: int = 2) -> Dataset:
-    """:func:`~pincal.io.dataset.read_dataset` for ``robot``, the readings of its revolute and prismatic joints
+    """:func:`~pincal.io.dataset_reader.read_dataset` for ``robot``, the readings of its revolute and prismatic joints
     checked for degrees and millimetres. Every command reads data through here. A file whose ``# robot:`` line
     names another robot is refused. The actuated joints that move a measured frame must have a column; that is
     checked with the measurement models (:func:`~pincal.io.adapters.joints_at_reference`)."""

@@ -15,8 +15,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from pincal.calibration.options import check_cv_seed
-from pincal.cli import report, study, view
-from pincal.cli.options import (
+from pincal.cli import report_page, study, view
+from pincal.cli.arguments import (
     add_calibration_options,
     add_measurement,
     add_parameters,
@@ -119,10 +119,10 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     """``pincal calibrate``: identify the parameters from a measurement CSV (or as a job file says), print the
     summary and write the calibrated URDF and the report; exit status 1 when the result is not usable (not converged,
     or worse than nominal on the held-out samples)."""
-    from pincal.calibration.files import calibrate_files, calibrate_job
+    from pincal.calibration.from_files import calibrate_files, calibrate_job
     from pincal.calibration.job import read_job
     from pincal.calibration.summary import summary_text
-    from pincal.io.corrections import corrections_path
+    from pincal.io.corrections_file import corrections_path
 
     options = given_options(args)  # options not given are left out: a job file's value stands, else the default
     job_file = args.robot.endswith(JOB_SUFFIX)
@@ -317,7 +317,7 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.add_argument("--scheduler", help="address of a Dask scheduler (pip install 'pincal[dask]')")
     fleet.set_defaults(func=cmd_fleet)
 
-    for module in (view, report, study):  # command groups of their own
+    for module in (view, report_page, study):  # command groups of their own
         module.register(sub)
     return parser
 

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from pincal.calibration.options import OPTIONS
-from pincal.cli.options import (
+from pincal.cli.arguments import (
     add_measurement,
     add_parameters,
     add_perturb,

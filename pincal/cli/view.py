@@ -7,7 +7,7 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from pincal.calibration.options import OPTIONS, CalibrationOptions, check_cv_seed
-from pincal.cli.options import add_calibration_options, add_robot, given_options
+from pincal.cli.arguments import add_calibration_options, add_robot, given_options
 from pincal.errors import DataError, PincalError
 
 if TYPE_CHECKING:  # the work's modules load when a command runs, not to parse its arguments

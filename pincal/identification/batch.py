@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.identification.rotations import skew
+from pincal.model.rotations import skew
 
 if TYPE_CHECKING:
     from pincal.identification.measurements import SampleContext

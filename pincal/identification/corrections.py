@@ -16,7 +16,7 @@ A correction changes the value an actuated joint takes for a given reading ``q_r
 offset's). Compliance needs a tree: in a closed loop the joint torques depend on the constraint forces, which
 pincal does not model; a robot whose moving links carry no mass is refused too, unless a payload is given: its torque
 is then the whole load. The reading offsets (``.offset``)
-stay in the calibrated URDF; these corrections go to the corrections file (:mod:`pincal.io.corrections`).
+stay in the calibrated URDF; these corrections go to the corrections file (:mod:`pincal.io.corrections_file`).
 """
 
 from __future__ import annotations

@@ -12,7 +12,8 @@ from pincal.lazy import lazy_names
 if TYPE_CHECKING:
     from pincal.io.adapters import measurements_for, observations_from
     from pincal.io.calibrated_urdf import calibrated_robot_text, joint_sensor_zeros
-    from pincal.io.dataset import Dataset, read_dataset, write_dataset
+    from pincal.io.dataset import Dataset, write_dataset
+    from pincal.io.dataset_reader import read_dataset
     from pincal.io.files import check_outputs, write_text
 
 _LAZY: dict[str, str] = {
@@ -21,7 +22,7 @@ _LAZY: dict[str, str] = {
     "calibrated_robot_text": ".calibrated_urdf",
     "joint_sensor_zeros": ".calibrated_urdf",
     "Dataset": ".dataset",
-    "read_dataset": ".dataset",
+    "read_dataset": ".dataset_reader",
     "write_dataset": ".dataset",
     "check_outputs": ".files",
     "write_text": ".files",

@@ -155,7 +155,7 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     if x.shape != (len(parameters),):
         raise DataError(f"parameter vector has shape {x.shape}, expected ({len(parameters)},) for the parameter set")
     foreign = [p.name for p in parameters if not p.kind_class.urdf and not p.kind_class.in_corrections]
-    if foreign:  # a correction goes to the corrections file beside it (pincal.io.corrections): left out, not refused
+    if foreign:  # a correction goes to the corrections file beside it (io.corrections_file): left out, not refused
         raise RobotFileError(f"parameters {listing(foreign)} are of a kind a calibrated URDF cannot hold; kinds it "
                              f"holds: {listing(kinds_where(in_urdf=True))}")
     ext = read_extensions(source_text)

@@ -16,7 +16,7 @@ from pincal.calibration.job import Job, read_job
 from pincal.calibration.job_data import job_dataset
 from pincal.errors import DataError, NotFoundError, PincalError
 from pincal.identification.corrections import Payload
-from pincal.io.dataset import read_dataset
+from pincal.io.dataset_reader import read_dataset
 
 RAW = ROOT / "examples" / "data" / "tiago_mocap_raw.csv"
 CONVERTED = ROOT / "examples" / "data" / "tiago_mocap_marker1.csv"

@@ -55,7 +55,7 @@ def test_every_option_reaches_each_command_line_with_its_choices(command: str) -
 
 @pytest.mark.parametrize("command", ["calibrate", "view", "report", "fleet"])
 def test_a_value_given_on_the_command_line_becomes_the_keyword(command: str) -> None:
-    from pincal.cli.options import given_options
+    from pincal.cli.arguments import given_options
 
     positional = {"calibrate": ["delta", "d.csv"], "view": ["delta", "d.csv", "--out", "x.html"],
                   "report": ["delta", "d.csv", "--out", "x.html"], "fleet": ["delta", "dir", "--out", "o"]}[command]

@@ -20,7 +20,7 @@ from pincal.cli.app import main
 from pincal.identification import measurements as ms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
-from pincal.io.dataset import read_dataset
+from pincal.io.dataset_reader import read_dataset
 from pincal.study.montecarlo import run_monte_carlo
 from pincal.study.pose_selection import jacobian_blocks, select_poses
 from pincal.study.simulation import random_actuated

@@ -39,7 +39,7 @@ from pincal.io.calibrated_urdf import (
     source_text,
     written_frame,
 )
-from pincal.io.dataset import read_dataset
+from pincal.io.dataset_reader import read_dataset
 from pincal.model.robot import Robot
 from pincal.study.simulation import perturbation, random_actuated
 

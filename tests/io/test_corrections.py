@@ -17,14 +17,14 @@ from pincal.identification import measurements as ms
 from pincal.identification.corrections import Payload, gravity_torques
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
-from pincal.io.corrections import (
+from pincal.io.corrections_file import (
     Corrections,
     corrected_readings,
     corrections_dict,
     corrections_path,
     read_corrections,
 )
-from pincal.io.dataset import read_dataset
+from pincal.io.dataset_reader import read_dataset
 from pincal.model.robot import robot_from_urdf_text
 from pincal.study.simulation import random_actuated, simulate_observations
 

@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from pincal.errors import DataError
-from pincal.io.dataset import Dataset, parse_measurement_key, read_dataset, write_dataset
+from pincal.io.dataset import Dataset, parse_measurement_key, write_dataset
+from pincal.io.dataset_reader import read_dataset
 
 JOINTS = ["arm_1_joint", "arm_2_joint", "arm_3_joint"]
 HEADER = "sample,set,arm_1_joint,arm_2_joint,arm_3_joint,position:end_effector:x,position:end_effector:y," \

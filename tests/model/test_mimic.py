@@ -14,7 +14,7 @@ import pincal
 from pincal.identification import measurements as ms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
-from pincal.io.dataset import read_dataset
+from pincal.io.dataset_reader import read_dataset
 from pincal.study.simulation import random_actuated, simulate_observations
 
 FINGERS = ["position:panda_rightfinger", "position:panda_leftfinger"]

@@ -11,7 +11,7 @@ from conftest import run_pincal
 from mechanisms import crank_rocker_urdf, four_bar_urdf
 
 import pincal
-from pincal.io.dataset import read_dataset
+from pincal.io.dataset_reader import read_dataset
 from pincal.study.simulation import SPREAD, actuated_ranges, random_actuated
 
 #: URDF limits [rad] of the crank in the tests below: narrow, and not centred on the reference (0).

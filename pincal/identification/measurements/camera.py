@@ -14,7 +14,7 @@ from pincal.identification.batch import BatchContext
 from pincal.identification.measurements.base import PLACEMENT_COMPONENTS, Attachment, Measurement
 from pincal.identification.measurements.context import WORLD_TARGET, SampleContext, camera_name
 from pincal.identification.measurements.poses import Pose, _orientation_rows, _orientation_rows_batch
-from pincal.identification.rotations import cross_columns, rotate
+from pincal.model.rotations import cross_columns, rotate
 
 Array = npt.NDArray[np.float64]
 

@@ -12,7 +12,7 @@ from pincal.errors import DataError
 from pincal.identification.batch import BatchContext, point_rows
 from pincal.identification.measurements.base import Measurement, point_derivative
 from pincal.identification.measurements.context import SampleContext
-from pincal.identification.rotations import rotate
+from pincal.model.rotations import rotate
 
 Array = npt.NDArray[np.float64]
 

@@ -14,7 +14,7 @@ from pincal.identification import handeye
 from pincal.identification.batch import BatchContext, point_rows
 from pincal.identification.measurements.base import MARKER_NAME, QUATERNION, Attachment, Measurement
 from pincal.identification.measurements.context import AttachedPlacement, SampleContext, split_target, target_name
-from pincal.identification.rotations import jlog3, log3, quaternion_matrices, rotate
+from pincal.model.rotations import jlog3, log3, quaternion_matrices, rotate
 
 Array = npt.NDArray[np.float64]
 

@@ -14,7 +14,7 @@ from pincal.errors import DataError
 from pincal.identification.batch import BatchContext, point_rows
 from pincal.identification.measurements.base import MARKER_NAME, Measurement, point_derivative
 from pincal.identification.measurements.context import SampleContext, split_target
-from pincal.identification.rotations import rotate
+from pincal.model.rotations import rotate
 
 Array = npt.NDArray[np.float64]
 

@@ -7,7 +7,7 @@ import pinocchio as pin
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pincal.identification import rotations
+from pincal.model import rotations
 
 #: Rotation angles [rad] across the series' thresholds, the middle of the range and the neighbourhood of π.
 ANGLES = (0.0, 1e-9, 1e-6, 9e-5, 1.1e-4, 1e-2, 1.0, 3.0, np.pi - 2e-3, np.pi - 1e-4)
