@@ -69,3 +69,13 @@ def test_the_architecture_page_names_no_module_that_is_gone() -> None:
     assert order is not None
     named = re.findall(r"`(\w+)`", order.group(0))
     assert all(LAYERS[a] <= LAYERS[b] for a, b in itertools.pairwise(named))
+
+
+def test_every_package_is_installed() -> None:
+    """pyproject.toml lists each package of pincal (a package left out is missing from a non-editable install)."""
+    import tomllib
+
+    listed = set(tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["setuptools"]
+                 ["packages"])
+    packages = {".".join(p.relative_to(PACKAGE.parent).parts[:-1]) for p in PACKAGE.rglob("__init__.py")}
+    assert packages <= listed, sorted(packages - listed)
