@@ -91,7 +91,7 @@ def main() -> None:
 
     sys.path.insert(0, str(ROOT))
     import pincal
-    from pincal.calibration.simulate import simulate
+    from pincal.calibration.campaign import simulate
 
     robot = pincal.load_robot("delta")
     sim = simulate(robot, ["position"], 60, 0, perturb=1e-3, noise=1e-5, seed=1, parameter_spec=["model24"])

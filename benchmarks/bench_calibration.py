@@ -12,7 +12,7 @@ import statistics
 import time
 
 import pincal
-from pincal.calibration.simulate import simulate
+from pincal.calibration.campaign import simulate
 from pincal.identification.metrics import error_norms, rms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem

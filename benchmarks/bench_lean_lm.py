@@ -44,7 +44,7 @@ from threadpoolctl import threadpool_limits  # noqa: E402
 
 import pincal  # noqa: E402
 from pincal import linalg  # noqa: E402
-from pincal.calibration.simulate import simulate  # noqa: E402
+from pincal.calibration.campaign import simulate  # noqa: E402
 from pincal.errors import IdentifiabilityError  # noqa: E402
 from pincal.identification import lm, solver  # noqa: E402
 from pincal.identification.identifiability import analyse, correlations, covariance  # noqa: E402

@@ -40,7 +40,7 @@ import numpy as np  # noqa: E402
 
 import pincal  # noqa: E402
 import pincal.identification.solver  # noqa: E402
-from pincal.calibration.simulate import simulate  # noqa: E402
+from pincal.calibration.campaign import simulate  # noqa: E402
 from pincal.identification.measurements import position  # noqa: E402
 from pincal.identification.parameters import choose_parameters  # noqa: E402
 from pincal.identification.problem import CalibrationProblem, Observations  # noqa: E402

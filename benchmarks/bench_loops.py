@@ -34,7 +34,7 @@ import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
 import pincal  # noqa: E402
-from pincal.calibration.simulate import simulate  # noqa: E402
+from pincal.calibration.campaign import simulate  # noqa: E402
 from pincal.identification.measurements import Measurement  # noqa: E402
 from pincal.identification.parameters import ParameterSet, choose_parameters  # noqa: E402
 from pincal.identification.problem import CalibrationProblem, Observations  # noqa: E402

@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 import pincal
-from pincal.calibration.simulate import simulate
+from pincal.calibration.campaign import simulate
 from pincal.fleet import calibrate_fleet, jobs_from_directory
 from pincal.io.dataset import write_dataset
 

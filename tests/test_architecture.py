@@ -79,3 +79,16 @@ def test_every_package_is_installed() -> None:
                  ["packages"])
     packages = {".".join(p.relative_to(PACKAGE.parent).parts[:-1]) for p in PACKAGE.rglob("__init__.py")}
     assert packages <= listed, sorted(packages - listed)
+
+
+@pytest.mark.parametrize("package", ["pincal", "pincal.calibration", "pincal.identification", "pincal.io",
+                                     "pincal.study"])
+def test_no_exported_name_is_shadowed_by_a_module(package: str) -> None:
+    """A name a package exports is never also one of its modules: importing ``pincal.calibration.simulate`` once
+    turned ``from pincal.calibration import simulate`` into the module."""
+    import importlib
+    import pkgutil
+
+    module = importlib.import_module(package)
+    modules = {info.name for info in pkgutil.iter_modules(module.__path__)}
+    assert not modules & set(module.__all__), sorted(modules & set(module.__all__))

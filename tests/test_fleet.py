@@ -10,7 +10,7 @@ from conftest import run_pincal
 from dask.distributed import Client, LocalCluster
 
 import pincal
-from pincal.calibration.simulate import simulate
+from pincal.calibration.campaign import simulate
 from pincal.fleet import FleetJob, calibrate_fleet, jobs_from_directory
 from pincal.io.dataset import write_dataset
 

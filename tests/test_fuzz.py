@@ -75,7 +75,7 @@ _BASE: dict[str, Dataset] = {}
 
 def _base_dataset() -> Dataset:
     if not _BASE:
-        from pincal.calibration.simulate import simulate
+        from pincal.calibration.campaign import simulate
 
         sim = simulate(pincal.load_robot("five_bar"), ["position"], 12, 3, perturb=1e-4, noise=1e-6, seed=0,
                        parameter_spec=["*.offset"])

@@ -16,9 +16,9 @@ from conftest import run_pincal
 from mechanisms import crank_rocker_urdf
 
 import pincal
+from pincal.calibration.campaign import simulate, write_simulation
 from pincal.calibration.pipeline import calibrate
 from pincal.calibration.samples import held_out_outside_range, read_robot_dataset
-from pincal.calibration.simulate import simulate, write_simulation
 from pincal.errors import DataError
 from pincal.identification.derivatives import marker_points
 from pincal.identification.measurements import position

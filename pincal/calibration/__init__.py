@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 from pincal.lazy import lazy_names
 
 if TYPE_CHECKING:
+    from pincal.calibration.campaign import Simulation, simulate, write_simulation
     from pincal.calibration.crossval import Folds, cross_validate, parse_cv
     from pincal.calibration.from_files import calibrate_files, calibrate_job
     from pincal.calibration.heldout import HeldOut, evaluate_held_out
@@ -19,7 +20,6 @@ if TYPE_CHECKING:
     from pincal.calibration.report import CalibrationReport
     from pincal.calibration.samples import read_robot_dataset, usable_part
     from pincal.calibration.setup import Prepared, measurement_models, prepare
-    from pincal.calibration.simulate import Simulation, simulate, write_simulation
     from pincal.calibration.summary import summary_text
 
 #: Public name -> the module that defines it (imported on first access).
@@ -38,9 +38,9 @@ _LAZY: dict[str, str] = {
     "Folds": "crossval",
     "cross_validate": "crossval",
     "parse_cv": "crossval",
-    "simulate": "simulate",
-    "Simulation": "simulate",
-    "write_simulation": "simulate",
+    "simulate": "campaign",
+    "Simulation": "campaign",
+    "write_simulation": "campaign",
     "calibrate_files": "from_files",
     "calibrate_job": "from_files",
     "summary_text": "summary",

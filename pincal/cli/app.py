@@ -86,7 +86,7 @@ def cmd_info(args: argparse.Namespace) -> int:
 def cmd_simulate(args: argparse.Namespace) -> int:
     """``pincal simulate``: draw true errors, random postures and noisy measurements of a robot and write the
     dataset, the true URDF and ``truth.json`` to ``--out``."""
-    from pincal.calibration.simulate import check_sample_counts, simulate, simulation_outputs, write_simulation
+    from pincal.calibration.campaign import check_sample_counts, simulate, simulation_outputs, write_simulation
     from pincal.model.robot import load_robot
 
     robot = load_robot(args.robot)
@@ -163,8 +163,8 @@ DEMO_TEXT = """pincal demo: geometric calibration of the Delta robot of study 00
 def cmd_demo(args: argparse.Namespace) -> int:
     """``pincal demo``: simulate and calibrate the Delta robot (``model24`` parameters, platform positions) and
     write the calibrated URDF, an offline HTML report and the simulated data."""
+    from pincal.calibration.campaign import simulate, write_simulation
     from pincal.calibration.pipeline import calibrate
-    from pincal.calibration.simulate import simulate, write_simulation
     from pincal.calibration.summary import summary_text
     from pincal.io.files import make_directory, write_text
     from pincal.model.catalog import robot_path

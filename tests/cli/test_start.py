@@ -22,7 +22,7 @@ print(code, sorted(m for m in {heavy!r} if m in sys.modules))
 
 
 def _loaded(argv: list[str]) -> tuple[str, str]:
-    done = subprocess.run([sys.executable, "-c", PROBE.format(argv=argv, heavy=HEAVY)], capture_output=True,
+    done = subprocess.run([sys.executable, "-P", "-c", PROBE.format(argv=argv, heavy=HEAVY)], capture_output=True,
                           text=True, timeout=120, check=False)
     code, _, modules = done.stdout.strip().splitlines()[-1].partition(" ")
     return code, modules

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal.calibration.simulate import simulate
+from pincal.calibration.campaign import simulate
 from pincal.identification.metrics import error_norms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem

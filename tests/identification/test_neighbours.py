@@ -14,7 +14,7 @@ import pytest
 
 import pincal
 from pincal import linalg
-from pincal.calibration.simulate import simulate
+from pincal.calibration.campaign import simulate
 from pincal.identification import neighbours
 from pincal.identification.neighbours import SolvedInputs
 from pincal.identification.parameters import choose_parameters

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 import pincal
+from pincal.calibration.campaign import simulate
 from pincal.calibration.pipeline import calibrate
-from pincal.calibration.simulate import simulate
 from pincal.identification import measurements as ms
 from pincal.identification.metrics import error_norms, rms
 from pincal.identification.parameters import choose_parameters

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import pincal
+from pincal.calibration.campaign import simulate
 from pincal.calibration.pipeline import calibrate
-from pincal.calibration.simulate import simulate
 from pincal.errors import DataError
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.selection import group_of, information_criterion, select_and_fit, select_groups

@@ -28,7 +28,7 @@ import pytest
 from conftest import run_pincal
 
 import pincal
-from pincal.calibration.simulate import simulate, write_simulation
+from pincal.calibration.campaign import simulate, write_simulation
 from pincal.identification.measurements import Distance, JointReading, Measurement, Pose, Position, parse_key, position
 from pincal.identification.parameters import ParameterSet, candidate_parameters, choose_parameters
 from pincal.identification.problem import CalibrationProblem, Observations

@@ -16,8 +16,8 @@ from conftest import LIGHT_ARM_OPTIONS, ROBOTS, run_pincal
 from PIL import Image
 
 import pincal
+from pincal.calibration.campaign import simulate, write_simulation
 from pincal.calibration.pipeline import calibrate
-from pincal.calibration.simulate import simulate, write_simulation
 from pincal.cli.app import main
 from pincal.viz.html_report import write_demo_report
 

@@ -19,10 +19,10 @@ from browser import orange_pixels, pixel_variance, render, served
 from conftest import ROBOTS
 
 import pincal
+from pincal.calibration.campaign import Simulation, simulate
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.pipeline import Calibration, calibrate
 from pincal.calibration.report import CalibrationReport
-from pincal.calibration.simulate import Simulation, simulate
 from pincal.cli.app import main
 from pincal.identification.corrections import Payload
 from pincal.io.dataset import write_dataset
