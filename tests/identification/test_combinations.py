@@ -5,24 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from null_directions import assert_null, random_matrix
 
 from pincal.errors import DataError
-from pincal.identification.combinations import LINE_WIDTH, Combination, describe_unidentifiable, unit_from_name
+from pincal.identification.combinations import LINE_WIDTH, describe_unidentifiable, unit_from_name
 from pincal.identification.identifiability import analyse
-
-
-def _random(m: int, p: int, seed: int) -> np.ndarray:
-    return np.random.default_rng(seed).normal(size=(m, p))
-
-
-def _assert_null(J: np.ndarray, names: list[str], combination: Combination) -> None:
-    """The combination's direction, in physical units, is invisible to J (to 1e-8 of the size of its terms)."""
-    columns = [names.index(name) for name in combination.names]
-    direction = combination.null_direction
-    seen = J[:, columns] @ direction
-    size = np.sum(np.linalg.norm(J[:, columns], axis=0) * np.abs(direction))
-    assert np.linalg.norm(seen) <= 1e-8 * size + 1e-300
-    assert len(combination.coefficients) == len(combination.names) == len(combination.units)
 
 
 @pytest.mark.parametrize(("k", "words"), [
@@ -32,7 +19,7 @@ def _assert_null(J: np.ndarray, names: list[str], combination: Combination) -> N
 def test_equal_or_opposite_columns_say_sum_or_difference(k: float, words: str) -> None:
     """J[:, b] = k J[:, a] with k = ±1: the data sees J_a (x_a + k x_b), the sum or the difference."""
     names = ["base.tz", "arm_1_joint.tz", "arm_1_joint.rx"]
-    J = _random(30, 3, seed=22)
+    J = random_matrix(30, 3, seed=22)
     J[:, 0] = k * J[:, 1]
     (combination,) = analyse(J, names, np.full(3, 1e-3)).unidentifiable
     assert combination.names == ["base.tz", "arm_1_joint.tz"]  # equal in scaled size: column order
@@ -45,7 +32,7 @@ def test_equal_or_opposite_columns_say_sum_or_difference(k: float, words: str) -
 def test_pairs_in_different_units_give_the_ratio_with_its_unit() -> None:
     """J[:, rx] = 0.45 J[:, tz]: moving rx by δ [rad] acts as moving tz by 0.45 δ [m]; the reverse reads in
     rad/m; equal columns in m and rad are not a sum; an offset has no unit unless one is given."""
-    J = _random(30, 4, seed=23)
+    J = random_matrix(30, 4, seed=23)
     J[:, 0] = 0.45 * J[:, 1]
     J[:, 3] = 0.1 * J[:, 2]  # z.tz = 0.1 rad/m z.rx: the tz moves most
     names = ["u_1.rx", "u_2.tz", "z.rx", "z.tz"]
@@ -83,7 +70,7 @@ def test_descriptions_of_long_names_fit_a_line() -> None:
     names = [*LONG, *(f"leg_{k}_platform.predecessor.{c}" for k in range(6, 9) for c in ("tx", "ty", "rx", "ry"))]
     p = len(names)
     rng = np.random.default_rng(24)
-    J = _random(80, p, seed=24)
+    J = random_matrix(80, p, seed=24)
     J[:, 1] = 0.3 * J[:, 0]  # arm_7_joint.offset: no unit
     J[:, 3] = 0.3 * J[:, 4]  # leg_2_platform.successor.rx acts as 0.3 m/rad × forearm_link_joint.ty
     J[:, 8] = J[:, 6]  # the same column in m and in rad: not a sum
@@ -93,7 +80,7 @@ def test_descriptions_of_long_names_fit_a_line() -> None:
     result = analyse(J, names, np.full(p, 1e-3))
     assert [len(c.names) for c in result.unidentifiable] == [2, 2, 2, 2, 4, 9]
     for combination in result.unidentifiable:
-        _assert_null(J, names, combination)
+        assert_null(J, names, combination)
         assert len(combination.description) <= LINE_WIDTH - 4, combination.description
     by_lead = {c.dependent: c.description for c in result.unidentifiable}
     assert by_lead["leg_2_platform.successor.rx"].startswith("leg_2_platform.successor.rx acts as 0.3 m/rad × ")
@@ -110,7 +97,7 @@ def test_descriptions_of_long_names_fit_a_line() -> None:
 
 
 def test_describe_unidentifiable_limits_and_counts() -> None:
-    J = _random(30, 6, seed=26)
+    J = random_matrix(30, 6, seed=26)
     J[:, 3] = 2.0 * J[:, 0]
     J[:, 4] = -J[:, 1]
     J[:, 5] = 0.0

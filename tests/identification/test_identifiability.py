@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from null_directions import assert_null, random_matrix
 
 from pincal.errors import DataError, IdentifiabilityError
 from pincal.identification.combinations import LINE_WIDTH, Combination
@@ -18,18 +19,6 @@ from pincal.identification.identifiability import (
 NAMES6 = ["a.tx", "a.ty", "a.rz", "b.offset", "base.tz", "device.psi"]
 
 
-def _random(m: int, p: int, seed: int) -> np.ndarray:
-    return np.random.default_rng(seed).normal(size=(m, p))
-
-
-def _assert_null(J: np.ndarray, names: list[str], combination: Combination) -> None:
-    """The combination's direction, in physical units, is invisible to J (to 1e-8 of the size of its terms)."""
-    columns = [names.index(name) for name in combination.names]
-    direction = combination.null_direction
-    seen = J[:, columns] @ direction
-    size = np.sum(np.linalg.norm(J[:, columns], axis=0) * np.abs(direction))
-    assert np.linalg.norm(seen) <= 1e-8 * size + 1e-300
-    assert len(combination.coefficients) == len(combination.names) == len(combination.units)
 
 
 def _null_matrix(names: list[str], combinations: list[Combination]) -> np.ndarray:
@@ -41,7 +30,7 @@ def _null_matrix(names: list[str], combinations: list[Combination]) -> np.ndarra
 
 
 def test_full_rank_random_jacobian() -> None:
-    J = _random(60, 6, seed=1)
+    J = random_matrix(60, 6, seed=1)
     scales = np.array([1e-3, 1e-3, 1e-3, 2e-3, 5e-4, 1e-2])
     result = analyse(J, NAMES6, scales)
     assert result.rank == 6 and result.n_parameters == 6
@@ -64,7 +53,7 @@ def test_column_twice_another_is_named_in_physical_units(
     scale_b: float, scale_d: float, dependent: str, base: str, coefficient: float
 ) -> None:
     """J[:, d] = 2 J[:, b] in physical units, whatever the scales and whichever is kept."""
-    J = _random(40, 3, seed=2)
+    J = random_matrix(40, 3, seed=2)
     J = np.column_stack([J[:, 0], J[:, 1], 2.0 * J[:, 1], J[:, 2]])
     names = ["a", "b", "d", "e"]
     result = analyse(J, names, [1e-3, scale_b, scale_d, 1e-3])
@@ -76,11 +65,11 @@ def test_column_twice_another_is_named_in_physical_units(
     # J[:, dependent] = k J[:, base]: the data sees J[:, base] (x_base + k x_dependent)
     assert combination.description == (f"{dependent} acts as {coefficient:g} × {base}: "
                                        f"only {base} + {coefficient:g} × {dependent} is seen")
-    _assert_null(J, names, combination)
+    assert_null(J, names, combination)
 
 
 def test_zero_column_is_invisible() -> None:
-    J = _random(30, 4, seed=3)
+    J = random_matrix(30, 4, seed=3)
     J[:, 2] = 0.0
     names = ["arm.tx", "arm.ty", "base.tz", "arm.rz"]
     result = analyse(J, names, np.full(4, 1e-3))
@@ -94,7 +83,7 @@ def test_zero_column_is_invisible() -> None:
 def test_column_sum_of_two_others() -> None:
     """J[:, c] = J[:, a] + J[:, b]: c is tied to both, with coefficients 1 and 1; moving c by +1 and a and b
     by -1 each changes nothing."""
-    J = _random(50, 4, seed=4)
+    J = random_matrix(50, 4, seed=4)
     J[:, 3] = J[:, 0] + J[:, 1]
     names = ["a", "b", "x", "c"]
     result = analyse(J, names, [1e-3, 1e-3, 1e-3, 1e-4])  # c's small scale makes it the dependent one
@@ -103,7 +92,7 @@ def test_column_sum_of_two_others() -> None:
     assert combination.names == ["c", "a", "b"]
     np.testing.assert_allclose(combination.coefficients, [1.0, 1.0, 1.0], rtol=1e-10)
     assert combination.description == "moving c by +1, a by -1 and b by -1 changes no measurement"
-    _assert_null(J, names, combination)
+    assert_null(J, names, combination)
 
 
 def test_combinations_sorted_and_each_a_null_direction() -> None:
@@ -118,12 +107,12 @@ def test_combinations_sorted_and_each_a_null_direction() -> None:
     keys = [(len(c.names), c.names) for c in result.unidentifiable]
     assert keys == sorted(keys)
     for combination in result.unidentifiable:
-        _assert_null(J, names, combination)
+        assert_null(J, names, combination)
     assert np.linalg.matrix_rank(_null_matrix(names, result.unidentifiable)) == 4
 
 
 def test_condition_number_is_over_the_identifiable_set() -> None:
-    J = _random(30, 4, seed=6)
+    J = random_matrix(30, 4, seed=6)
     J[:, 3] = 3.0 * J[:, 0]
     scales = np.array([1e-3, 2e-3, 1e-3, 1e-3])
     result = analyse(J, ["a", "b", "c", "d"], scales)
@@ -134,7 +123,7 @@ def test_condition_number_is_over_the_identifiable_set() -> None:
 
 def test_scaling_makes_mixed_units_comparable() -> None:
     """Columns 1e6 apart only because of units are full rank and well conditioned once scaled."""
-    J0 = _random(50, 4, seed=7)
+    J0 = random_matrix(50, 4, seed=7)
     scales = np.array([1e-3, 1e-3, 1e-9, 1e-9])
     J = J0 / scales  # columns 2 and 3 are 1e6 times larger than 0 and 1
     scaled = analyse(J, ["tx", "ty", "rx", "ry"], scales, tol=1e-4)
@@ -147,24 +136,24 @@ def test_scaling_makes_mixed_units_comparable() -> None:
 
 def test_default_tolerance_ignores_round_off_but_tol_is_a_parameter() -> None:
     """A dependency blurred at 1e-12 (an FK solve's round-off) is still a dependency by default."""
-    J = _random(40, 3, seed=8)
-    J[:, 2] = J[:, 0] - J[:, 1] + 1e-12 * _random(40, 1, seed=9)[:, 0]
+    J = random_matrix(40, 3, seed=8)
+    J[:, 2] = J[:, 0] - J[:, 1] + 1e-12 * random_matrix(40, 1, seed=9)[:, 0]
     assert analyse(J, ["a", "b", "c"], np.ones(3)).rank == 2
     assert analyse(J, ["a", "b", "c"], np.ones(3), tol=1e-15).rank == 3
     assert RANK_TOLERANCE == 1e-8
 
 
 def test_fewer_rows_than_columns() -> None:
-    J = _random(3, 5, seed=10)
+    J = random_matrix(3, 5, seed=10)
     names = ["a", "b", "c", "d", "e"]
     result = analyse(J, names, np.ones(5))
     assert result.rank == 3 and len(result.unidentifiable) == 2
     for combination in result.unidentifiable:
-        _assert_null(J, names, combination)
+        assert_null(J, names, combination)
 
 
 def test_base_parameters_agrees_with_analyse() -> None:
-    J = _random(30, 4, seed=11)
+    J = random_matrix(30, 4, seed=11)
     J[:, 1] = -0.5 * J[:, 3]
     scales = [1e-3, 1e-3, 1e-3, 1e-3]
     indices, combinations = base_parameters(J, ["a", "b", "c", "d"], scales)
@@ -205,7 +194,7 @@ def test_rank_zero() -> None:
 
 
 def test_summary_names_rank_and_combinations() -> None:
-    J = _random(20, 3, seed=12)
+    J = random_matrix(20, 3, seed=12)
     J[:, 2] = 0.0
     text = analyse(J, ["arm.tx", "arm.ty", "base.tz"], [1e-3] * 3).summary()
     assert "rank 2 of 3 parameters" in text
@@ -218,7 +207,7 @@ def _block_jacobian(names: list[str], ties: dict[str, tuple[str, float]], invisi
                     scales: np.ndarray, seed: int) -> np.ndarray:
     """A Jacobian whose free columns are random (per unit of each parameter: 1/scale) and whose tied column
     ``d`` is ``k`` times column ``b`` for ``ties[d] = (b, k)``; invisible columns are zero."""
-    J = _random(60, len(names), seed) / scales
+    J = random_matrix(60, len(names), seed) / scales
     for dependent, (other, k) in ties.items():
         J[:, names.index(dependent)] = k * J[:, names.index(other)]
     for name in invisible:
@@ -239,7 +228,7 @@ def test_null_space_of_separate_groups_is_named_group_by_group() -> None:
                                                              {"link_1.rx", "link_2.ty"}]
     for combination in result.unidentifiable:
         assert len(combination.names) <= 2
-        _assert_null(J, names, combination)
+        assert_null(J, names, combination)
     by_lead = {c.dependent: c for c in result.unidentifiable}
     # link_1.rx = -0.3 m/rad link_2.ty; scaled: 2e-3 x 1 against 1e-3 x 0.3, so link_1.rx moves most
     np.testing.assert_allclose(by_lead["link_1.rx"].coefficients, [1.0, -0.3], rtol=1e-10)
@@ -252,7 +241,7 @@ def test_null_space_of_separate_groups_is_named_group_by_group() -> None:
 def test_a_larger_group_is_one_sparse_row_beside_the_pairs() -> None:
     """A column that is the sum of three others, beside a pair: the group of four stays apart from the pair."""
     names = [f"p{k}.tx" for k in range(12)]
-    J = _random(40, 12, seed=21)
+    J = random_matrix(40, 12, seed=21)
     J[:, 9] = J[:, 1] - 2.0 * J[:, 4] + 0.5 * J[:, 6]
     J[:, 11] = 3.0 * J[:, 2]
     result = analyse(J, names, np.full(12, 1e-3))
@@ -260,7 +249,7 @@ def test_a_larger_group_is_one_sparse_row_beside_the_pairs() -> None:
     assert [set(c.names) for c in result.unidentifiable] == [{"p2.tx", "p11.tx"},
                                                              {"p1.tx", "p4.tx", "p6.tx", "p9.tx"}]
     for combination in result.unidentifiable:
-        _assert_null(J, names, combination)
+        assert_null(J, names, combination)
     group = result.unidentifiable[1]
     assert group.dependent == "p4.tx"  # it moves most along the direction, (-1, 2, -0.5, 1) over p1, p4, p6, p9
     direction = dict(zip(group.names, group.null_direction, strict=True))
@@ -276,7 +265,7 @@ def test_summary_is_short_with_many_combinations() -> None:
     """30 dependent columns (20 pairs, 10 invisible) and 70 base parameters: a few header lines, at most ten
     listing lines (the invisible parameters share one), and how many more there are."""
     names = [f"arm_{k // 6}_link_joint.{('tx', 'ty', 'tz', 'rx', 'ry', 'rz')[k % 6]}" for k in range(100)]
-    J = _random(300, 100, seed=25)
+    J = random_matrix(300, 100, seed=25)
     for k in range(20):
         J[:, 70 + k] = (k + 2.0) * J[:, k]
     J[:, 90:] = 0.0
@@ -321,7 +310,7 @@ def test_covariance_matches_linear_least_squares_monte_carlo() -> None:
 
 
 def test_covariance_on_chosen_columns_and_singular_culprit() -> None:
-    J = _random(25, 4, seed=14)
+    J = random_matrix(25, 4, seed=14)
     J[:, 3] = 2.0 * J[:, 1]
     names = ["a", "b", "c", "d"]
     chosen = analyse(J, names, np.ones(4)).base_indices
@@ -339,7 +328,7 @@ def test_covariance_on_chosen_columns_and_singular_culprit() -> None:
 def test_covariance_with_row_weights_is_that_of_the_weighted_rows() -> None:
     """``row_weights`` w: the covariance of diag(w) J (the robust fit's), on tall and short Jacobians alike."""
     for rows in (3, 9000):
-        J = _random(rows, 3, seed=15)
+        J = random_matrix(rows, 3, seed=15)
         w = np.random.default_rng(16).uniform(0.2, 1.0, rows)
         weighted = w[:, None] * J
         np.testing.assert_allclose(covariance(J, 2.0, [0, 2], row_weights=w),
