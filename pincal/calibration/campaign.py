@@ -13,15 +13,11 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration.setup import check_movable, check_payload, measurement_models
+from pincal.calibration.setup import check_movable, measurement_models, parameters_for
 from pincal.errors import ConvergenceError, DataError
 from pincal.identification.corrections import Payload
 from pincal.identification.measurements import Measurement
-from pincal.identification.parameters import (
-    ParameterSet,
-    choose_parameters,
-    read_joints,
-)
+from pincal.identification.parameters import ParameterSet, read_joints
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, joint_sensor_zeros, source_text
 from pincal.io.corrections_file import corrections_dict, corrections_of, corrections_path
 from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text
@@ -60,7 +56,7 @@ def check_sample_counts(n_train: int, n_test: int) -> None:
 def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, frame: str | None = None,
              perturb: float = 1e-3, noise: float = 1e-5, seed: int = 0,
              parameter_spec: Sequence[str] | None = None, progress: bool = False,
-             spread: float | None = None, payload: Payload | None = None) -> Simulation:
+             spread: float | None = None, payload: Payload | None = None, joint_noise: float = 0.0) -> Simulation:
     """Simulate a calibration campaign on ``robot`` with random true errors.
 
     Args:
@@ -78,18 +74,19 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
         spread: Half-range [rad or m] of the actuated values about the reference, within the URDF limits;
             None: within the URDF limits (see :func:`~pincal.study.simulation.actuated_ranges`).
         payload: A point mass the robot carries; its gravity torque adds to the links' in the true compliances'
-            deflections (refused without a compliance parameter: :func:`check_payload`).
+            deflections (refused without a compliance parameter: :func:`~pincal.calibration.setup.check_payload`).
+        joint_noise: σ of the noise on the actuated readings [rad or m] (0: the readings are the true values).
     """
     check_sample_counts(n_train, n_test)
     check_movable(robot)
     rng = np.random.default_rng(seed)
     models = measurement_models(robot, kinds, frame, max(noise, 1e-9))
-    pset = choose_parameters(robot, models, parameter_spec)
-    check_payload(robot, pset, payload)
+    pset = parameters_for(robot, models, parameter_spec, payload=payload)
     x_true = perturbation(pset, perturb, rng)
     qa, _ = random_actuated(robot, n_train + n_test, rng, spread=spread, progress=progress)
     try:
-        obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise, payload=payload)
+        obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise, joint_noise=joint_noise,
+                                    payload=payload)
     except ConvergenceError as exc:
         raise ConvergenceError(f"the simulated robot, with true errors of σ {perturb:g} (m, rad), cannot be "
                                f"assembled: {exc}; give smaller errors (perturb)") from None

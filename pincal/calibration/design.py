@@ -15,10 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration.setup import measurement_models
+from pincal.calibration.setup import measurement_models, parameters_for
 from pincal.errors import DataError, listing
 from pincal.identification.measurements import Measurement
-from pincal.identification.parameters import ParameterSet, choose_parameters
+from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.model.robot import Robot
 from pincal.study.pose_selection import PoseSelection, condition_number, jacobian_blocks, log_det, select_poses
@@ -28,12 +28,6 @@ Array = npt.NDArray[np.float64]
 
 #: Random pose sets the selection is compared with.
 RANDOM_SETS = 200
-
-
-def blank_observations(measurements: list[Measurement], actuated: Array) -> Observations:
-    """Observations at ``actuated`` (N, na) with every measured value the model's neutral reading (zeros, an identity
-    quaternion for poses): enough to linearise the problem there, whose Jacobian does not depend on the readings."""
-    return Observations(actuated, {m.key: m.neutral(actuated.shape[0]) for m in measurements})
 
 
 def absolute_measurements(measurements: list[Measurement]) -> tuple[list[Measurement], bool]:
@@ -106,10 +100,10 @@ def design_poses(robot: Robot, measure: Sequence[str], frame: str | None, parame
         raise DataError(f"cannot choose {poses} of {candidates} candidate postures: need "
                         "1 <= --poses <= --candidates")
     models, difference = absolute_measurements(measurement_models(robot, measure, frame, 1e-5))
-    pset = choose_parameters(robot, models, parameter_spec)
+    pset = parameters_for(robot, models, parameter_spec)
     rng = np.random.default_rng(seed)
     qa, _ = random_actuated(robot, candidates, rng, spread=spread, progress=progress)
-    problem = CalibrationProblem(robot, pset, models, blank_observations(models, qa))
+    problem = CalibrationProblem(robot, pset, models, Observations.neutral(models, qa))
     blocks = jacobian_blocks(problem)
     scales = np.asarray(pset.scales, dtype=float)
     selection = select_poses(blocks, poses, criterion, scales=scales, names=pset.names, difference=difference,

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, get_args
 
 from pincal.errors import DataError, listing, not_found
-from pincal.identification.choices import LOSSES, SOLVERS, Loss, Solver
+from pincal.identification.choices import LOSSES, MARKER_FITS, SOLVERS, Loss, MarkerFit, Solver
 
 if TYPE_CHECKING:
     from pincal.identification.corrections import Payload
@@ -23,14 +23,8 @@ if TYPE_CHECKING:
 #: How the residuals are formed: forward kinematics (measured − predicted) or implicit loop residuals (IKM).
 Formulation = Literal["fkm", "ikm"]
 FORMULATIONS: tuple[Formulation, ...] = get_args(Formulation)
-#: The identification methods and robust losses (:func:`pincal.identification.solver.identify`).
-SOLVER_CHOICES: tuple[Solver, ...] = SOLVERS
-LOSS_CHOICES: tuple[Loss, ...] = LOSSES
 #: Model selection: ``auto`` (``bic`` for the default parameter set, ``none`` for a named one), ``bic`` or ``none``.
 SELECT_CHOICES = ("auto", "bic", "none")
-#: How the markers declared on a frame are fitted: each marker's offset, or one rigid cluster placement.
-MarkerChoice = Literal["each", "cluster"]
-MARKER_CHOICES: tuple[MarkerChoice, ...] = get_args(MarkerChoice)
 
 PARAMETERS_HELP = ("named sets (default, model24, model24i, hexapod42, hexapod44) and name patterns, combined in "
                    "order; !pattern removes (default: the default set, docs/dataset.md 'Parameters')")
@@ -95,11 +89,11 @@ class CalibrationOptions:
              "offsets) the Bayesian information criterion rejects, then refits; none fits every identifiable "
              "parameter; auto (default): bic for the default parameters, none for --parameters you name"))
     loss: Loss = field(default="auto", metadata=_how(
-        flag="--loss", key="loss", choices=LOSS_CHOICES,
+        flag="--loss", key="loss", choices=LOSSES,
         help="auto (default): least squares, then a robust (Cauchy) refit if the data hold samples their own noise "
              "level makes implausible, which are listed; linear: least squares only; cauchy: robust from the start"))
     solver: Solver = field(default="lm", metadata=_how(
-        flag="--solver", key="solver", choices=SOLVER_CHOICES,
+        flag="--solver", key="solver", choices=SOLVERS,
         help="lm: Levenberg-Marquardt on the identifiable directions (default); tsvd; ridge"))
     sigma: float | None = field(default=None, metadata=_how(flag="--sigma", key="sigma", kind="sigma", help=SIGMA_HELP))
     max_iter: int = field(default=100, metadata=_how(
@@ -124,8 +118,8 @@ class CalibrationOptions:
              "that frame (default 0,0,0); its gravity torque adds to the links' in the joint compliances "
              "('*.compliance'), and is refused without one; the corrections file and the report record it"))
 
-    markers: MarkerChoice = field(default="each", metadata=_how(
-        flag="--markers", key=None, choices=MARKER_CHOICES,
+    markers: MarkerFit = field(default="each", metadata=_how(
+        flag="--markers", key=None, choices=MARKER_FITS,
         help="markers declared on a frame (position:<frame>@<marker> columns): each (default) fits each marker's "
              "offset on its frame; cluster fits one rigid placement of the frame's markers, whose nominal offsets "
              "the file declares ('# marker m1 on <frame>: x y z' [m])"))

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration.crossval import check_cross_validation, cross_validate, parse_cv
+from pincal.calibration.crossval import Folds, check_cross_validation, cross_validate, parse_cv
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, evaluate_held_out
 from pincal.calibration.options import CalibrationOptions, check_cv_seed
 from pincal.calibration.report import CalibrationReport, fit_figures
@@ -32,7 +32,7 @@ from pincal.identification.metrics import sample_length_errors
 from pincal.identification.parameters import read_joints
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
-from pincal.identification.selection import select_and_fit
+from pincal.identification.selection import SelectedFit, select_and_fit
 from pincal.identification.solver import identify
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, source_text
 from pincal.io.corrections_file import Corrections, corrections_of
@@ -84,44 +84,86 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     options = options_of(options, keywords)
     check_movable(robot)
     check_cv_seed(options.cv, options.cv_seed)
+    check_trainable(dataset)
+    fit = prepare(robot, dataset, options)
+    every, folds = cross_validation_folds(fit, dataset, options)  # checked before any fit
+    fitted = fit_prepared(fit, options)
+    kept = fit.fitted_by(fitted.problem)
+    result = fitted.result
+    status = "" if result.converged else f"NOT CONVERGED ({result.message} after {result.iterations} iterations): "
+    text, shifts = calibrated_robot_text(robot, source_text(robot), kept.parameters, result.x,
+                                         note=f"{status}calibrated by pincal from {fit.samples.n_samples} samples "
+                                              f"({', '.join(m.key for m in fit.models)})",
+                                         read_joints=read_joints(fit.models), markers=declared_markers(fit.models))
+    corrections = corrections_of(robot, kept.parameters, result.x, options.payload)
+    held = evaluate_held_out(kept, dataset, kept.parameters, result.x0, result.x,
+                             trusted=result.sigma2 <= NOISE_CONTRADICTED)
+    content = report_content(fit, fitted, held, dataset, options, x_true, shifts, corrections)
+    if folds is not None and every is not None:
+        content["cv"] = cross_validate(robot, fit.parameters, fit.models, every.problem.observations, folds,
+                                       select=options.selection, progress=progress, payload=options.payload,
+                                       **fitting_options(options))
+    return Calibration(kept, fitted.problem, result, held, CalibrationReport(**content), text, corrections)
+
+
+def check_trainable(dataset: Dataset) -> None:
+    """Refuse a dataset with no training sample.
+
+    Raises:
+        DataError: every row is ``set=test``.
+    """
     if "train" not in dataset.sets:
         raise DataError(f"all {dataset.n_samples} samples are marked set=test: there is nothing to fit on; mark "
                         "the samples to calibrate from set=train (or leave the set column out)")
-    fit = prepare(robot, dataset, options)
+
+
+def cross_validation_folds(fit: Prepared, dataset: Dataset,
+                           options: CalibrationOptions) -> tuple[Prepared | None, Folds | None]:
+    """Every sample of ``dataset`` prepared as ``fit`` is, and the folds ``options.cv`` asks for (None, None without
+    cross-validation); checked before any fit.
+
+    Raises:
+        DataError: ``--select bic`` with ``--formulation ikm``; cross-validation the models cannot do, or folds the
+            samples cannot make.
+    """
     if options.select == "bic" and options.formulation != "fkm":
         raise DataError("--select bic chooses among fkm fits; with --formulation ikm use --select none (or auto)")
-    select = options.selection
-    folds, every = None, None
-    if options.cv is not None:  # checked before any fit
-        check_cross_validation(fit.models, options.formulation)
-        every = fit.on(dataset)
-        folds = parse_cv(options.cv, every.samples.n_samples, options.cv_seed)
+    if options.cv is None:
+        return None, None
+    check_cross_validation(fit.models, options.formulation)
+    every = fit.on(dataset)
+    return every, parse_cv(options.cv, every.samples.n_samples, options.cv_seed)
+
+
+def fitting_options(options: CalibrationOptions) -> dict[str, Any]:
+    """The keywords of :func:`~pincal.identification.solver.identify` that ``options`` set."""
+    return {"solver": options.solver, "loss": options.loss, "max_iter": options.max_iter}
+
+
+def fit_prepared(fit: Prepared, options: CalibrationOptions) -> SelectedFit:
+    """Fit ``fit``'s problem as ``options`` say: by forward kinematics with model selection (``fkm``), or on the
+    loops' implicit residuals (``ikm``: no selection; the result's errors are then recomputed by forward kinematics,
+    the closure residuals kept in ``extra``)."""
     problem = fit.problem
-    fitting: dict[str, Any] = {"solver": options.solver, "loss": options.loss, "max_iter": options.max_iter}
-    full_set, removed, removed_groups, first = fit.parameters, [], [], None
     if options.formulation == "ikm":
-        result = identify(ImplicitProblem(robot, fit.parameters, fit.models, problem.observations), **fitting)
+        result = identify(ImplicitProblem(fit.robot, fit.parameters, fit.models, problem.observations),
+                          **fitting_options(options))
         result.extra["closure_before"] = result.errors_before
         result.extra["closure_after"] = result.errors_after
         result.errors_before = problem.evaluate(result.x0, jacobian=False).errors
         result.errors_after = problem.evaluate(result.x, jacobian=False).errors
-    else:
-        check_length_scale(problem)
-        fitted = select_and_fit(problem, select, **fitting)
-        problem, result, removed, first = fitted.problem, fitted.result, fitted.removed, fitted.first
-        removed_groups = list(fitted.removed_groups) if removed else []
-        if x_true is not None and removed:
-            x_true = x_true[[full_set.index(name) for name in problem.parameters.names]]
-    pset = problem.parameters
-    kept = Prepared(robot, fit.models, pset, fit.samples, fit.dropped, problem, fit.joints_at_reference, fit.payload)
-    status = "" if result.converged else f"NOT CONVERGED ({result.message} after {result.iterations} iterations): "
-    text, shifts = calibrated_robot_text(robot, source_text(robot), pset, result.x,
-                                         note=f"{status}calibrated by pincal from {problem.observations.n_samples} "
-                                              f"samples ({', '.join(m.key for m in fit.models)})",
-                                         read_joints=read_joints(fit.models),
-                                         markers=declared_markers(fit.models))
-    corrections = corrections_of(robot, pset, result.x, options.payload)
-    held = evaluate_held_out(kept, dataset, pset, result.x0, result.x, trusted=result.sigma2 <= NOISE_CONTRADICTED)
+        return SelectedFit(problem, result, result, [], {})
+    check_length_scale(problem)
+    return select_and_fit(problem, options.selection, **fitting_options(options))
+
+
+def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dataset: Dataset,
+                   options: CalibrationOptions, x_true: Array | None, shifts: dict[str, Any],
+                   corrections: Corrections | None) -> dict[str, Any]:
+    """The fields of the :class:`~pincal.calibration.report.CalibrationReport` of one calibration (all but ``cv``)."""
+    problem, result, first, removed = fitted.problem, fitted.result, fitted.first, fitted.removed
+    if x_true is not None and removed:  # the truth of the parameters kept
+        x_true = x_true[[fit.parameters.index(name) for name in problem.parameters.names]]
     content = fit_figures(result, problem, x_true)
     ids = fit.samples.sample_ids
     lengths = sample_length_errors(result.errors_after, problem.observations.n_samples)
@@ -130,13 +172,13 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         "reference_shifts": shifts,
         "corrections": corrections.joints if corrections is not None else {},
         "payload": options.payload.as_dict() if options.payload is not None else None,
-        "links_mass": moving_mass(robot) if options.payload is not None else None,  # what its mass is weighed against
+        "links_mass": moving_mass(fit.robot) if options.payload is not None else None,  # what it is weighed against
         "markers": options.markers,
         "formulation": options.formulation,
-        "selection": {"policy": select if options.formulation == "fkm" else "none", "removed": removed,
-                      "removed_groups": removed_groups, "n_candidates": len(full_set)},
-        "unidentifiable_listing": describe_unidentifiable((first or result).identifiability.unidentifiable,
-                                                          UNIDENTIFIABLE_LINES),
+        "selection": {"policy": options.selection if options.formulation == "fkm" else "none", "removed": removed,
+                      "removed_groups": list(fitted.removed_groups) if removed else [],
+                      "n_candidates": len(fit.parameters)},
+        "unidentifiable_listing": describe_unidentifiable(first.identifiability.unidentifiable, UNIDENTIFIABLE_LINES),
         "n_estimated": len(result.identified),
         "n_residuals": int(problem.row_samples().size),
         "joints_at_reference": fit.joints_at_reference,
@@ -147,16 +189,13 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
                            else None} for k in result.down_weighted()],
         "n_samples_in_file": dataset.n_samples,
         "outlier_test": [ids[k] for k in suspects] if isinstance(suspects, list) else [],
+        # what the data cannot see among all the candidates, not only among the kept ones
+        "n_identifiable": first.identifiability.rank, "n_parameters": len(fit.parameters),
+        "unidentifiable": [c.description for c in first.identifiability.unidentifiable],
     })
-    if first is not None:  # what the data cannot see among all the candidates, not only among the kept ones
-        content.update({"n_identifiable": first.identifiability.rank, "n_parameters": len(full_set),
-                        "unidentifiable": [c.description for c in first.identifiability.unidentifiable]})
     if held is not None:
         content.update({"dropped_test_samples": held.prepared.dropped or None,  # listed, never silently
                         "held_out_outliers": held.outliers, "held_out_outside_range": held.outside_range,
                         "test_readings": held.prepared.problem.n_readings(), **held.figures(),
                         "worse_than_nominal": held.worse_than_nominal})
-    if folds is not None and every is not None:
-        content["cv"] = cross_validate(robot, full_set, fit.models, every.problem.observations, folds, select=select,
-                                       progress=progress, payload=options.payload, **fitting)
-    return Calibration(kept, problem, result, held, CalibrationReport(**content), text, corrections)
+    return content

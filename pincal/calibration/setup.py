@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Collection, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -18,6 +18,7 @@ import numpy.typing as npt
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.samples import usable_part
 from pincal.errors import DataError
+from pincal.identification.choices import MarkerFit
 from pincal.identification.corrections import Payload
 from pincal.identification.measurements import Measurement, parse_key
 from pincal.identification.parameters import ParameterSet, choose_parameters
@@ -71,6 +72,19 @@ def check_payload(robot: Robot, parameters: ParameterSet, payload: Payload | Non
         raise DataError(f"the payload ({payload}) enters only the joint compliances, and no <joint>.compliance is "
                         "among the parameters: add '*.compliance' (--parameters default '*.compliance'), or give no "
                         "payload")
+
+
+def parameters_for(robot: Robot, models: Sequence[Measurement], spec: Sequence[str] | None = None,
+                   markers: MarkerFit = "each", payload: Payload | None = None,
+                   leave_out: Collection[str] = ()) -> ParameterSet:
+    """The parameters of a calibration of ``robot`` by ``models``: those ``spec`` chooses (a named set or patterns,
+    :func:`~pincal.identification.parameters.choose_parameters`; None: the default set) less those named in
+    ``leave_out``; refused with a payload that would change nothing (:func:`check_payload`)."""
+    pset = choose_parameters(robot, models, spec, markers)
+    if leave_out:
+        pset = ParameterSet([p for p in pset if p.name not in set(leave_out)])
+    check_payload(robot, pset, payload)
+    return pset
 
 
 def check_movable(robot: Robot) -> None:
@@ -128,6 +142,11 @@ class Prepared:
         return _prepared(self.robot, part, self.models, parameters or self.parameters, self.payload,
                          self.joints_at_reference, what, allow_empty=True)
 
+    def fitted_by(self, problem: CalibrationProblem) -> Prepared:
+        """The same samples with the parameters of ``problem`` (the problem a fit solved, e.g. over the parameters
+        model selection kept)."""
+        return replace(self, parameters=problem.parameters, problem=problem)
+
 
 def prepare(robot: Robot, dataset: Dataset, options: CalibrationOptions, part: str | None = "train",
             leave_out: Collection[str] = ()) -> Prepared:
@@ -144,10 +163,7 @@ def prepare(robot: Robot, dataset: Dataset, options: CalibrationOptions, part: s
     check_movable(robot)
     models = dataset_models(robot, dataset, options)
     at_reference = joints_at_reference(robot, dataset.joint_names, models)
-    pset = choose_parameters(robot, models, options.parameter_spec, options.markers)
-    if leave_out:
-        pset = ParameterSet([p for p in pset if p.name not in set(leave_out)])
-    check_payload(robot, pset, options.payload)
+    pset = parameters_for(robot, models, options.parameter_spec, options.markers, options.payload, leave_out)
     samples = dataset if part is None else dataset.of_set(part)
     what = {"train": "training ", "test": "held-out "}.get(part or "", "")
     return _prepared(robot, samples, models, pset, options.payload, at_reference, what)

@@ -5,7 +5,7 @@ calibration campaign recovers the geometry, over random seeds and noise levels).
 Jacobian (:func:`pincal.study.pose_selection.jacobian_blocks`), chooses the requested number by condition number or
 D-optimality (:func:`pincal.study.pose_selection.select_poses`) and compares the choice with random sets of the same
 size; the chosen actuated values go to a CSV a user can drive the robot to. ``montecarlo`` repeats
-:class:`pincal.study.montecarlo.SimulatedCalibration` over seeds and noise levels in a process pool and prints
+:class:`pincal.calibration.trial.SimulatedCalibration` over seeds and noise levels in a process pool and prints
 one row per noise level. SI units throughout: m, rad.
 """
 
@@ -118,10 +118,9 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
     table of held-out RMS errors, calibration gains and iterations."""
     import numpy as np
 
-    from pincal.calibration.setup import measurement_models
-    from pincal.identification.parameters import choose_parameters
+    from pincal.calibration.trial import monte_carlo_trial
     from pincal.model.robot import load_robot
-    from pincal.study.montecarlo import SimulatedCalibration, run_monte_carlo
+    from pincal.study.montecarlo import run_monte_carlo
 
     robot = load_robot(args.robot)  # fails here, once, on a bad name rather than in every worker
     if args.trials < 1:
@@ -133,20 +132,16 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
         raise DataError(f"--workers must be at least 1, not {args.workers}")
     if any(not np.isfinite(v) or v < 0 for v in args.noise) or not args.perturb >= 0:
         raise DataError("--noise and --perturb must be non-negative σ values [m, rad]")
-    models = measurement_models(robot, args.measure, args.frame, 1e-5)
-    n_parameters = len(choose_parameters(robot, models, args.parameters))  # a bad pattern fails here, once
     source = str(Path(args.robot).resolve()) if Path(args.robot).is_file() else args.robot
-    trial = SimulatedCalibration(source, tuple(m.key for m in models),
-                                 tuple(args.parameters) if args.parameters else None, n_train=args.samples,
-                                 n_test=args.test_samples, perturb=args.perturb, solver=args.solver,
-                                 spread=args.spread)
+    trial, n_parameters = monte_carlo_trial(robot, source, args.measure, args.frame, args.parameters, args.samples,
+                                            args.test_samples, args.perturb, args.solver, args.spread)
     seeds = list(range(args.seed, args.seed + args.trials))
     start = time.perf_counter()
     result = run_monte_carlo(trial, seeds, list(args.noise), executor=None if args.workers == 1 else "process",
                              max_workers=args.workers, progress=not args.quiet)
     print(f"Monte Carlo on '{robot.name}': {args.trials} trials (seeds {seeds[0]}..{seeds[-1]}) per noise level; "
           f"true errors σ {args.perturb:g} (m, rad) on {n_parameters} parameters")
-    print(f"measuring {', '.join(m.key for m in models)}; {args.samples} postures to calibrate, "
+    print(f"measuring {', '.join(trial.measurements)}; {args.samples} postures to calibrate, "
           f"{args.test_samples} held out")
     print("cells: median [min, max] over the trials. RMS: held-out length errors. G: calibration gain of study 000 "
           "Eq. 4.1 over all parameters (capped when some cannot be identified)")

@@ -1,4 +1,4 @@
-"""The solvers and losses :func:`~pincal.identification.solver.identify` takes, by name.
+"""The solvers, losses and marker fits :func:`~pincal.identification.solver.identify` takes, by name.
 
 Names only, and no import beyond the standard library, so that a command-line parser can read its choices here
 without loading SciPy or Pinocchio. Each name is an entry of a registry: a solver of
@@ -17,3 +17,8 @@ Solver = Literal["lm", "tsvd", "ridge"]
 Loss = Literal["auto", "linear", "cauchy"]
 SOLVERS: tuple[Solver, ...] = get_args(Solver)
 LOSSES: tuple[Loss, ...] = get_args(Loss)
+#: How the declared markers of a frame (``position:<frame>@<marker>``) are fitted: ``each`` marker's offset on its
+#: own (``marker.<frame>@<marker>.*``), or one rigid placement of the frame's ``cluster`` of markers, whose nominal
+#: offsets the data declare (``cluster.<frame>.*``).
+MarkerFit = Literal["each", "cluster"]
+MARKER_FITS: tuple[MarkerFit, ...] = get_args(MarkerFit)

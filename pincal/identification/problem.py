@@ -68,6 +68,13 @@ class Observations:
         """The samples at ``rows``, in that order."""
         return Observations(self.actuated[rows], {k: v[rows] for k, v in self.values.items()})
 
+    @classmethod
+    def neutral(cls, measurements: Sequence[Measurement], actuated: Array) -> Observations:
+        """Observations at ``actuated`` (N, na) [rad or m] with every measured value the model's neutral reading
+        (zeros, an identity quaternion for poses): the problem then predicts absolute values, and its Jacobian,
+        which does not depend on the readings, can be taken there."""
+        return cls(actuated, {m.key: m.neutral(actuated.shape[0]) for m in measurements})
+
 
 @dataclass
 class Prediction:

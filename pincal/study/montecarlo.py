@@ -4,14 +4,11 @@ A *trial* is any picklable callable ``trial(seed, level) -> {metric: value}``; i
 randomness from ``seed`` so that a study is reproducible. Trials run through any
 :class:`concurrent.futures.Executor` (a process pool by default: calibrations are CPU-bound Python),
 or one after the other with ``executor=None``; results come back in (level, seed) order whichever way
-they ran. :class:`SimulatedCalibration` is the ready-made trial: random true errors, random postures,
-noisy measurements, identification, and the calibration gain ``G`` (study 000, Eq. 4.1) with the
-held-out errors before and after.
+they ran. :class:`pincal.calibration.trial.SimulatedCalibration` is the trial of ``pincal montecarlo``.
 """
 
 from __future__ import annotations
 
-import functools
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -22,16 +19,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.errors import ConvergenceError, DataError
-from pincal.identification.choices import Solver
-from pincal.identification.measurements import parse_key
-from pincal.identification.metrics import calibration_gain, error_norms, rms
-from pincal.identification.parameters import choose_parameters
-from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import identify
-from pincal.model.robot import Robot, load_robot
+from pincal.errors import DataError
 from pincal.progress import Progress
-from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 Array = npt.NDArray[np.float64]
 
@@ -128,8 +117,8 @@ def run_monte_carlo(trial: Trial, seeds: Sequence[int], levels: Sequence[Any] = 
     """Run ``trial(seed, level)`` for every level and seed.
 
     Args:
-        trial: Picklable callable returning ``{metric: value}`` (a module-level function or a
-            dataclass instance such as :class:`SimulatedCalibration`, not a lambda, for process pools).
+        trial: Picklable callable returning ``{metric: value}`` (a module-level function or a dataclass instance
+            such as :class:`pincal.calibration.trial.SimulatedCalibration`, not a lambda, for process pools).
         seeds: Random seeds, one trial each per level.
         levels: Study levels (noise σ, or any picklable value the trial understands).
         executor: An Executor to submit to (left open), ``"process"`` for a new process pool (closed
@@ -175,83 +164,3 @@ def _submit(executor: Executor, trial: Trial, jobs: list[tuple[Any, int]],
         done.result()
         bar.advance()
     return [f.result() for f in futures]
-
-
-# --- the ready-made trial ----------------------------------------------------------------------------
-@functools.lru_cache(maxsize=8)
-def _robot(name_or_path: str) -> Robot:
-    """One Robot per process and name (a Robot owns its Data: never shared between threads)."""
-    return load_robot(name_or_path)
-
-
-@dataclass(frozen=True)
-class SimulatedCalibration:
-    """A simulated calibration campaign as a Monte Carlo trial; ``level`` is the noise σ [m, rad].
-
-    Each trial draws true errors (σ = ``perturb`` [m, rad]), ``n_train + n_test`` random postures
-    and noisy readings from its seed, identifies from the training postures (nominal start) and
-    reports:
-
-    - ``gain`` [%]: G of study 000 Eq. 4.1 over all parameters, ``gain_identified`` over the
-      identified ones;
-    - ``rms_before``, ``rms_after`` [m]: RMS length-type error on the held-out postures;
-    - ``parameter_error`` [m, rad]: ``max |x̂ − x_true|`` over the identified parameters;
-    - ``rank``, ``condition_number``, ``iterations``, ``converged`` (1/0).
-
-    Attributes:
-        robot: Robot name or URDF path.
-        measurements: Measurement keys (``position:end_effector``, ``joint:device_lvdt``, ...).
-        parameters: Named set or patterns (see :func:`pincal.identification.parameters.choose_parameters`); None: all.
-        n_train, n_test: Postures to calibrate from and to validate on.
-        perturb: σ of the true parameter errors [m and rad].
-        joint_noise: σ of the actuated readings' noise [m or rad] per unit of ``level`` (0: exact).
-        solver: ``lm``, ``tsvd`` or ``ridge``.
-        spread: Half-range [rad or m] of the random actuated values about the reference, within the URDF limits;
-            None: within the URDF limits (:func:`pincal.study.simulation.actuated_ranges`).
-    """
-
-    robot: str
-    measurements: tuple[str, ...]
-    parameters: tuple[str, ...] | None = None
-    n_train: int = 30
-    n_test: int = 20
-    perturb: float = 1e-3
-    joint_noise: float = 0.0
-    solver: Solver = "lm"
-    spread: float | None = None
-
-    def __call__(self, seed: int, level: Any) -> dict[str, float]:
-        """Run the trial of ``seed`` at noise σ ``level`` [m, rad]; its metrics (only ``converged`` if it did not)."""
-        noise = float(level or 0.0)
-        robot = _robot(self.robot)
-        rng = np.random.default_rng(seed)
-        sigma = max(noise, 1e-7)  # the weights; exact data are weighted as if 0.1 µm
-        models = [parse_key(key, sigma) for key in self.measurements]
-        pset = choose_parameters(robot, models, list(self.parameters) if self.parameters else None)
-        x_true = perturbation(pset, self.perturb, rng)
-        qa, _ = random_actuated(robot, self.n_train + self.n_test, rng, spread=self.spread)
-        train_qa, test_qa = qa[: self.n_train], qa[self.n_train:]
-        train = simulate_observations(robot, pset, x_true, models, train_qa, rng, noise=noise,
-                                      joint_noise=noise * self.joint_noise)
-        try:
-            result = identify(CalibrationProblem(robot, pset, models, train), solver=self.solver)
-        except ConvergenceError:
-            return {"converged": 0.0}
-        metrics = {
-            "gain": calibration_gain(x_true, result.x0, result.x),
-            "gain_identified": calibration_gain(x_true[result.identified], result.x0[result.identified],
-                                                result.x[result.identified]),
-            "parameter_error": float(np.max(np.abs(result.x - x_true)[result.identified])),
-            "rank": float(result.identifiability.rank),
-            "condition_number": float(result.identifiability.condition_number),
-            "iterations": float(result.iterations),
-            "converged": float(result.converged),
-        }
-        if self.n_test:
-            test = simulate_observations(robot, pset, x_true, models, test_qa, rng)
-            problem = CalibrationProblem(robot, pset, models, test)
-            # "before" is the fit's start, as in every report (pincal.calibration.heldout)
-            metrics["rms_before"] = rms(error_norms(problem.evaluate(result.x0, jacobian=False).errors))
-            metrics["rms_after"] = rms(error_norms(problem.evaluate(result.x, jacobian=False).errors))
-        return metrics
-

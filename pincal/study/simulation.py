@@ -139,9 +139,8 @@ def simulate_observations(robot: Robot, parameters: ParameterSet, x_true: Array,
                         f"{', '.join(m.key for m in measurements)}")
     if any(v < 0 for v in sigmas.values()) or joint_noise < 0:
         raise DataError("noise must be non-negative")
-    n = actuated.shape[0]
-    blank = {m.key: m.neutral(n) for m in measurements}
-    problem = CalibrationProblem(robot, parameters, measurements, Observations(actuated, blank), payload=payload)
+    problem = CalibrationProblem(robot, parameters, measurements, Observations.neutral(measurements, actuated),
+                                 payload=payload)
     pred = problem.evaluate(x_true, jacobian=False)
     # each model's reading from its absolute prediction (the neutral readings give the absolute predictions)
     values = {m.key: m.simulate(pred.predicted[m.key], sigmas.get(m.key, 0.0), rng) for m in measurements}

@@ -118,9 +118,10 @@ def test_view_and_report_fit_with_every_option_the_command_line_gives(tmp_path: 
 
 
 def test_the_choices_are_the_registries() -> None:
-    from pincal.calibration.options import LOSS_CHOICES, SELECT_CHOICES, SOLVER_CHOICES
-    from pincal.identification.choices import LOSSES, SOLVERS
+    from pincal.calibration.options import OPTIONS, SELECT_CHOICES
+    from pincal.identification.choices import LOSSES, MARKER_FITS, SOLVERS
     from pincal.identification.selection import SELECTIONS
 
     assert SELECT_CHOICES == ("auto", *SELECTIONS)
-    assert SOLVER_CHOICES == SOLVERS and LOSS_CHOICES == LOSSES
+    assert OPTIONS["solver"].choices == SOLVERS and OPTIONS["loss"].choices == LOSSES
+    assert OPTIONS["markers"].choices == MARKER_FITS == ("each", "cluster")

@@ -15,11 +15,10 @@ from mechanisms import crank_rocker_urdf
 
 import pincal
 import pincal.cli.app
-from pincal.calibration.design import blank_observations
 from pincal.cli.app import main
 from pincal.identification import measurements as ms
 from pincal.identification.parameters import choose_parameters
-from pincal.identification.problem import CalibrationProblem
+from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.io.dataset_reader import read_dataset
 from pincal.study.montecarlo import run_monte_carlo
 from pincal.study.pose_selection import jacobian_blocks, select_poses
@@ -61,7 +60,7 @@ def test_design_beats_random_sets_and_writes_the_chosen_postures(tmp_path: Path,
     models = [ms.position("end_effector", 1e-5)]
     pset = choose_parameters(robot, models, ["model24"])
     qa, _ = random_actuated(robot, 150, np.random.default_rng(1))
-    blocks = jacobian_blocks(CalibrationProblem(robot, pset, models, blank_observations(models, qa)))
+    blocks = jacobian_blocks(CalibrationProblem(robot, pset, models, Observations.neutral(models, qa)))
     selection = select_poses(blocks, 12, scales=pset.scales)
     np.testing.assert_array_equal(data.joints, qa[selection.indices])
     assert chosen == pytest.approx(selection.condition_number, rel=1e-3)

@@ -8,8 +8,9 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pytest
 
+from pincal.calibration.trial import SimulatedCalibration
 from pincal.errors import DataError
-from pincal.study.montecarlo import SimulatedCalibration, run_monte_carlo
+from pincal.study.montecarlo import run_monte_carlo
 
 FIVE_BAR = SimulatedCalibration("five_bar", ("distance_increment:base_link-end_effector",), ("*.offset",),
                                 n_train=10, n_test=5, joint_noise=1.0)

@@ -15,8 +15,6 @@ from pincal.identification.parameters.candidates import (
 )
 from pincal.identification.parameters.defaults import (
     DEFAULT_SET,
-    MARKER_FITS,
-    MarkerFit,
     camera_parameters,
     check_marker_fit,
     choose_parameters,
@@ -62,12 +60,10 @@ __all__ = [
     "DEFAULT_SET",
     "FORCE_SCALE",
     "LENGTH_SCALE",
-    "MARKER_FITS",
     "NAMED_SETS",
     "PARAMETER_KINDS",
     "TORQUE_SCALE",
     "ActsIn",
-    "MarkerFit",
     "Parameter",
     "ParameterKind",
     "ParameterSet",

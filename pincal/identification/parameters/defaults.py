@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import fnmatch
 from collections.abc import Sequence
-from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import DataError, NotFoundError, listing
+from pincal.identification.choices import MARKER_FITS, MarkerFit
 from pincal.identification.measurements import Measurement, split_target
 from pincal.identification.parameters.candidates import (
     NAMED_SETS,
@@ -37,11 +37,6 @@ from pincal.model.urdf import LoopSpec
 
 Array = npt.NDArray[np.float64]
 
-#: How the declared markers of a frame (``position:<frame>@<marker>``) are fitted: ``each`` marker's offset on its
-#: own (``marker.<frame>@<marker>.*``), or one rigid placement of the frame's ``cluster`` of markers, whose nominal
-#: offsets the data declare (``cluster.<frame>.*``).
-MarkerFit = Literal["each", "cluster"]
-MARKER_FITS: tuple[MarkerFit, ...] = ("each", "cluster")
 
 
 def camera_parameters(models: Sequence[Measurement]) -> list[Parameter]:
