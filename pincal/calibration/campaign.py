@@ -21,8 +21,7 @@ from pincal.identification.parameters import ParameterSet, read_joints
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, joint_sensor_zeros, source_text
 from pincal.io.corrections_file import corrections_dict, corrections_of, corrections_path
 from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text
-from pincal.io.files import check_outputs, make_directory, write_texts
-from pincal.io.report_data import json_text
+from pincal.io.files import check_outputs, json_text, make_directory, write_texts
 from pincal.model.robot import Robot
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 

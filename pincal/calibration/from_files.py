@@ -12,8 +12,7 @@ from pincal.calibration.pipeline import Calibration, calibrate
 from pincal.calibration.samples import read_robot_dataset
 from pincal.errors import NotFoundError
 from pincal.io.corrections_file import corrections_dict, corrections_path
-from pincal.io.files import check_outputs, write_texts
-from pincal.io.report_data import json_text
+from pincal.io.files import check_outputs, json_text, write_texts
 from pincal.model.robot import load_robot
 
 

@@ -22,7 +22,7 @@ from pincal.identification.metrics import angle_error_norms, calibration_gain, e
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
-from pincal.io.report_data import json_text
+from pincal.io.files import json_text
 
 Array = npt.NDArray[np.float64]
 

@@ -360,7 +360,7 @@ class CalibrationProblem:
         re-evaluated at each call and held constant in the Jacobian, as iteratively re-weighted least
         squares does.
 
-        A tree (no loops) is evaluated for every sample at once (issue 14), and so is a closed-loop robot
+        A tree (no loops) is evaluated for every sample at once, and so is a closed-loop robot
         (:mod:`~pincal.identification.predictions`); a robot with a joint kind :mod:`~pincal.identification.tree_batch`
         or :mod:`~pincal.model.batch_kinematics` does not take, sample by sample. They give the same numbers (to
         1e-10, tests/identification/test_tree_batch.py and test_loop_batch.py).

@@ -9,10 +9,12 @@ says why it cannot), so that no error surfaces after a long fit.
 
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import Any
 
 from pincal.errors import OutputError
 
@@ -141,3 +143,8 @@ def _staged(target: Path, text: str) -> str:
         raise OutputError(f"cannot write '{target}': {exc.strerror or exc}; every previous output is "
                           "unchanged") from None
     return temporary
+
+
+def json_text(content: dict[str, Any]) -> str:
+    """``content`` as the indented JSON text of pincal's report files (keys in the order given)."""
+    return json.dumps(content, indent=2, sort_keys=False) + "\n"
