@@ -119,7 +119,7 @@ def truth(robot: pincal.Robot, unknown_frames: bool, six_d: bool,
     for k, p in enumerate(pset):
         if p.kind == "offset":
             x[k] = rng.normal(scale=1e-3)
-        elif p.kind == "joint" and p.target in joints:
+        elif p.kind == "joint" and p.owner in joints:
             x[k] = rng.normal(scale=1e-3 if p.unit == "m" else 0.5e-3)
     if unknown_frames:
         for c, value in enumerate(TRUE_BASE):

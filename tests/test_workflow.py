@@ -532,7 +532,7 @@ def ur10_markers(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[s
                       ["train"] * 30 + ["test"] * 6, metadata)
     path = tmp_path_factory.mktemp("ur10_markers") / "markers.csv"
     write_dataset(dataset, path)
-    points = marker_points(pset, x_true, {m.target: np.array(m.nominal) for m in models})
+    points = marker_points(pset, x_true, {m.marker_key: np.array(m.nominal) for m in models})
     distances = {f"{a}-{b}": float(np.linalg.norm(points[f"tool0@{a}"].point - points[f"tool0@{b}"].point))
                  for a, b in (("m1", "m2"), ("m1", "m3"), ("m2", "m3"))}
     return path, distances

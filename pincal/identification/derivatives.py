@@ -67,7 +67,7 @@ def marker_points(pset: ParameterSet, x: Array, nominal: dict[str, Array]) -> di
     offsets: dict[str, list[int]] = {}
     for k, p in enumerate(pset):
         if p.kind == "marker":
-            offsets.setdefault(p.target, []).append(k)
+            offsets.setdefault(p.owner, []).append(k)
     clusters = {target: idx for (_, target, _), idx in pset.groups("cluster").items()}
     out: dict[str, MarkerPoint] = {}
     for target in dict.fromkeys([*nominal, *offsets]):

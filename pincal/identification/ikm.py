@@ -55,19 +55,19 @@ class ImplicitProblem(CalibrationProblem):
                  observations: Observations) -> None:
         if not robot.loops:
             raise DataError(f"the implicit (IKM) formulation needs closed loops; '{robot.name}' has none: use FKM")
-        targets = [m for m in measurements if m.locates_point]
-        if len(targets) != 1 or len(measurements) != 1:
+        located = [m for m in measurements if m.locates_point]
+        if len(located) != 1 or len(measurements) != 1:
             raise DataError("the implicit (IKM) formulation takes exactly one position or pose measurement of the "
                             f"end effector; got {', '.join(m.key for m in measurements) or 'none'}")
-        if targets[0].attachments:
-            raise DataError(f"the implicit (IKM) formulation holds a frame at its measured pose; '{targets[0].key}' "
+        if located[0].attachments:
+            raise DataError(f"the implicit (IKM) formulation holds a frame at its measured pose; '{located[0].key}' "
                             "is a target on the frame whose placement is estimated: use FKM")
         super().__init__(robot, parameters, measurements, observations)
-        self.target = targets[0]
-        missing = np.flatnonzero(~self.seen(self.target.key))
+        self.measurement = located[0]
+        missing = np.flatnonzero(~self.seen(self.measurement.key))
         if missing.size:
             raise DataError(f"the implicit (IKM) formulation holds each sample's measured position fixed, and "
-                            f"'{self.target.key}' was not seen in {missing.size} samples (the first: sample "
+                            f"'{self.measurement.key}' was not seen in {missing.size} samples (the first: sample "
                             f"{int(missing[0])}): leave those samples out, or use FKM")
 
     def row_samples(self) -> IntArray:
@@ -77,7 +77,7 @@ class ImplicitProblem(CalibrationProblem):
     def _task(self, over_v: SampleContext) -> tuple[Array, Array]:
         """Task residual (predicted − measured) of the context's sample and its Jacobian over v: the target's
         own model, given each frame's local Jacobian as its twist and no parameter columns (``over_v``)."""
-        m, model = self.target, over_v.model
+        m, model = self.measurement, over_v.model
         over_v.twists = {f: pin.getFrameJacobian(model, over_v.data, over_v.frame_ids[f], pin.LOCAL) for f in m.frames}
         predicted, jac = np.empty(m.size), np.zeros((m.size, model.nv))
         m.predict(over_v, predicted, jac)
@@ -140,7 +140,7 @@ class ImplicitProblem(CalibrationProblem):
         residual = np.empty((n, rows))
         jac_out = np.zeros((n, rows, p)) if jacobian else None
         passive, act_v = kin.passive_v, kin.actuated_v
-        probes = {f: frame_probe(robot, self.frame_ids[f]) for f in self.target.frames}
+        probes = {f: frame_probe(robot, self.frame_ids[f]) for f in self.measurement.frames}
         for k in range(n):
             over_v.sample = ctx.sample = k
             q = self._close(k, robot, qa_all[k], over_v)
@@ -161,15 +161,15 @@ class ImplicitProblem(CalibrationProblem):
             ctx.dv = dv
             ctx.twists = {f: sens.probe_twist(data, probes[f])
                           + pin.getFrameJacobian(model, data, self.frame_ids[f], pin.LOCAL) @ dv for f in probes}
-            dt = np.zeros((self.target.size, p))
-            self.target.predict(ctx, np.empty(self.target.size), dt)
+            dt = np.zeros((self.measurement.size, p))
+            self.measurement.predict(ctx, np.empty(self.measurement.size), dt)
             cp, tp = cjac[:, passive], tjac[:, passive]
             tp_pinv, null = _split(tp)
             a = cp @ null
             closure_pinv = linalg.pseudo_inverse(a, "the closure Jacobian on the task null space (IKM)", 1e-15)
             projector = np.eye(rows) - a @ closure_pinv if a.size else np.eye(rows)
             jac_out[k] = projector @ (dc - cp @ (tp_pinv @ dt))
-        sigma = self.target.sigma
+        sigma = self.measurement.sigma
         out_res = (residual / sigma).reshape(-1)
         out_jac = None if jac_out is None else (jac_out / sigma).reshape(-1, p)
         return Prediction(out_res, out_jac, {CLOSURE_KEY: residual}, {})

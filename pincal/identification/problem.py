@@ -139,29 +139,29 @@ class CalibrationProblem:
         if self.joint_sigma is not None:
             # the readings' noise enters each sample's covariance through d(prediction)/d(reading), which
             # the actuated offset columns give: add those missing as nuisance columns (dropped on output)
-            present = {p.target for p in parameters if p.kind == "offset"}
+            present = {p.owner for p in parameters if p.kind == "offset"}
             extra = [offset_parameter(j, joint_unit(robot, j)) for j in robot.actuated_joints if j not in present]
             parameters = ParameterSet(list(parameters.parameters) + extra)
         self._all = parameters
         self.kinematic = parameters.of_kind(*kinds_where(kinematic=True))
         self.kinematic_set = parameters.subset(self.kinematic)
         actuated = {name: k for k, name in enumerate(robot.actuated_joints)}
-        self.actuated_offsets = [(actuated[p.target], k) for k, p in enumerate(parameters)
-                                 if p.kind == "offset" and p.target in actuated]
-        self.reading_offsets = {p.target: k for k, p in enumerate(parameters)
-                                if p.kind == "offset" and p.target not in actuated}
+        self.actuated_offsets = [(actuated[p.owner], k) for k, p in enumerate(parameters)
+                                 if p.kind == "offset" and p.owner in actuated]
+        self.reading_offsets = {p.owner: k for k, p in enumerate(parameters)
+                                if p.kind == "offset" and p.owner not in actuated}
         corrections = [(k, p) for k, p in enumerate(parameters) if p.kind_class.in_corrections]
-        strays = [p.name for _, p in corrections if p.target not in actuated]
+        strays = [p.name for _, p in corrections if p.owner not in actuated]
         if strays:
             raise DataError(f"corrections {listing(strays)} are of joints that are not actuated; harmonics and "
                             "compliance correct actuated joints' values")
-        regressors = correction_regressors(robot, [(p.target, p.term) for _, p in corrections], observations.actuated,
+        regressors = correction_regressors(robot, [(p.owner, p.term) for _, p in corrections], observations.actuated,
                                            payload)
         #: (actuated joint, column, (N,) regressor): the joint's value moves by x[column] × regressor per sample; a
         #: reading offset is the term whose regressor is 1, a harmonic or a compliance one that varies by sample
         ones = np.ones(observations.n_samples)
         self.actuated_terms = [(joint, k, ones) for joint, k in self.actuated_offsets] + [
-            (actuated[p.target], k, r) for (k, p), r in zip(corrections, regressors, strict=True)]
+            (actuated[p.owner], k, r) for (k, p), r in zip(corrections, regressors, strict=True)]
         self.base = parameters.groups("base").get(("base", "base", ""), [])
         # each measured marker's nominal offset [m] on its frame (zero when the data declare none)
         self.marker_nominals = {target: np.array(nominal if nominal is not None else (0.0, 0.0, 0.0))

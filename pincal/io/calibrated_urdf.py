@@ -53,7 +53,7 @@ def written_frame(measurement: Measurement, frame: str, parameters: ParameterSet
     declared = [t for t in measurement.markers if split_target(t)[1]]
     if declared:
         return marker_link(declared[0])
-    marked = any(p.kind == "marker" and p.target == frame for p in parameters)
+    marked = any(p.kind == "marker" and p.owner == frame for p in parameters)
     return marker_link(frame) if marked and measurement.reads_markers else frame
 
 
@@ -172,15 +172,15 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
             base = loop.predecessor_origin if side == "predecessor" else loop.successor_origin
             loop_origins[(target, side)] = base * exp
     for k, p in enumerate(parameters):
-        if p.kind == "offset" and p.target in robot.actuated_joints and x[k] != 0.0:
-            for name, motion in _offset_motions(robot.model, p.target, x[k]).items():
+        if p.kind == "offset" and p.owner in robot.actuated_joints and x[k] != 0.0:
+            for name, motion in _offset_motions(robot.model, p.owner, x[k]).items():
                 joint_origins[name] = joint_origins.get(name, root[name]) * motion
     shifts = _reassemble(robot, source_text, joint_origins, loop_origins, root) if ext.loops else {}
     tree = ET.fromstring(source_text)
     fixed_links = _measurement_frame_link(tree, parameters, x, joint_origins, root, measurement_frame)
     fixed_links += _marker_links(tree, parameters, x, joint_origins, root, markers or {})
     fixed_links += _attached_links(tree, parameters, x, joint_origins, root, measurement_frame)
-    offsets = {p.target: float(x[k]) for k, p in enumerate(parameters) if p.kind == "offset"}
+    offsets = {p.owner: float(x[k]) for k, p in enumerate(parameters) if p.kind == "offset"}
     read = [j for j in dict.fromkeys([*read_joints, *offsets]) if j not in robot.actuated_joints]
     sensor_zeros = {j: shifts.get(j, 0.0) - offsets.get(j, 0.0) for j in read}
     meshes = loadable_mesh_filenames(tree, robot.source.parent if robot.source is not None else None)

@@ -61,7 +61,7 @@ def corrections_of(robot: Robot, parameters: ParameterSet, x: Array,
     joints: dict[str, dict[str, float]] = {}
     for p, value in zip(parameters, x, strict=True):
         if p.kind_class.in_corrections:
-            joints.setdefault(p.target, {})[p.term] = float(value)
+            joints.setdefault(p.owner, {})[p.term] = float(value)
     return Corrections(robot.name, joints, payload) if joints else None
 
 

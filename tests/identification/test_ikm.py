@@ -37,7 +37,7 @@ def _delta(n: int, seed: int, base_only: bool = True):
 def test_residual_vanishes_at_the_truth_and_jacobian_matches() -> None:
     _, _, x_true, problem = _delta(10, seed=1, base_only=False)
     pred = problem.evaluate(x_true)
-    assert np.max(np.abs(pred.residual)) * problem.target.sigma < 1e-11  # metres
+    assert np.max(np.abs(pred.residual)) * problem.measurement.sigma < 1e-11  # metres
     assert pred.jacobian is not None
     fd = finite_difference_jacobian(problem, x_true)
     assert np.max(np.abs(pred.jacobian - fd)) < 1e-5 * np.max(np.abs(fd))

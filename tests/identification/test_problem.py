@@ -69,7 +69,7 @@ def _marker_problem(name: str, frame: str, occluded: dict[str, list[int]] | None
     models = [ms.position(frame, marker=m, nominal=n) for m, n in nominal.items()]
     models += [ms.position(frame), ms.distance(frame, robot.model.frames[1].name)]
     pset = candidate_parameters(robot, frames=[frame], offsets=list(robot.actuated_joints), base=True, markers=True)
-    pset = ParameterSet(pset.parameters + [p for m in models[:3] for p in marker_parameters(m.target)]
+    pset = ParameterSet(pset.parameters + [p for m in models[:3] for p in marker_parameters(m.marker_key)]
                         + cluster_parameters(frame))
     rng = np.random.default_rng(3)
     qa, _ = random_actuated(robot, 5, rng)

@@ -87,7 +87,7 @@ def _problems(name: str, joint_sigma: float | None) -> tuple[CalibrationProblem,
     models = models_of()
     actuated_readings = [m for m in models if isinstance(m, ms.JointReading) and m.joint in robot.actuated_joints]
     pool = parameter_pool(robot, [m for m in models if m not in actuated_readings])  # their offsets are there
-    extra = [p for m in models if isinstance(m, ms.Position) and m.marker for p in marker_parameters(m.target)]
+    extra = [p for m in models if isinstance(m, ms.Position) and m.marker for p in marker_parameters(m.marker_key)]
     clusters = sorted({m.frame for m in models if isinstance(m, ms.Position) and m.marker})
     pset = ParameterSet(pool.parameters + [p for p in extra + [c for f in clusters for c in cluster_parameters(f)]
                                            if p.name not in pool])

@@ -19,10 +19,10 @@ def test_declared_markers_take_their_nominal_offsets_and_sigma() -> None:
     models = measurements_for(robot, KEYS, list(robot.actuated_joints), metadata=metadata)
     assert all(isinstance(m, Position) for m in models)
     m1, m2, origin = models
-    assert (m1.frame, m1.marker, m1.target) == ("tool0", "m1", "tool0@m1")
+    assert (m1.frame, m1.marker, m1.marker_key) == ("tool0", "m1", "tool0@m1")
     assert (m1.nominal, m1.sigma) == ((0.01, 0.0, 0.05), 1e-3)
     assert (m2.nominal, m2.sigma) == ((-0.02, 0.03, 0.0), 2e-4)
-    assert (origin.marker, origin.target, origin.nominal) == ("", "tool0", None)
+    assert (origin.marker, origin.marker_key, origin.nominal) == ("", "tool0", None)
 
 
 @pytest.mark.parametrize(("metadata", "message"), [

@@ -91,7 +91,7 @@ def _sensor_zeros(text: str) -> dict[str, float]:
 def _point_frame(m: Measurement, frame: str, pset: ParameterSet) -> str:
     if isinstance(m, Position) and m.marker:
         return f"{frame}_marker_{m.marker}"
-    marked = any(p.kind == "marker" and p.target == frame for p in pset)
+    marked = any(p.kind == "marker" and p.owner == frame for p in pset)
     return f"{frame}_marker" if marked and not isinstance(m, Pose) else frame
 
 
@@ -259,7 +259,7 @@ def test_declared_markers_become_links_at_their_calibrated_points(name: str, fra
                                  position(frame, marker="m2", nominal=(-0.03, 0.04, 0.0)),
                                  position(frame, marker="m3", nominal=(0.0, -0.02, 0.06))]
     pset = choose_parameters(robot, models, ["default", f"!marker.{frame}@m3.*"] if fit == "each" else None, fit)
-    assert not any(p.target == f"{frame}@m3" for p in pset)
+    assert not any(p.owner == f"{frame}@m3" for p in pset)
     assert ("cluster" in {p.kind for p in pset}) == (fit == "cluster")
     for step, path in enumerate((tmp_path / "cal.urdf", tmp_path / "again.urdf")):
         x = perturbation(pset, 1e-2, np.random.default_rng(6 + step))  # 1 cm, 10 mrad

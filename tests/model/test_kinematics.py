@@ -170,7 +170,7 @@ def samples_both_robots_reach(robot: pincal.Robot, pset: ParameterSet, x_true: n
     offsets = np.zeros(robot.n_actuated)
     for k, p in enumerate(pset):
         if p.kind == "offset":
-            offsets[robot.actuated_joints.index(p.target)] = x_true[k]
+            offsets[robot.actuated_joints.index(p.owner)] = x_true[k]
     true = apply_parameters(robot, pset.subset(kinematic), x_true[kinematic])
     qa, _ = random_actuated(robot, 2 * n, rng, spread=spread)
     reached = [a for a in qa if true.solve_fk_report(a + offsets).converged]

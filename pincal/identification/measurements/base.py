@@ -61,14 +61,15 @@ class Attachment:
     """A placement a measurement model carries whose parameters the set estimates (a camera, a target).
 
     Attributes:
-        kind: ``camera`` (on frame ``target``) or ``target`` (the world target, ``target`` empty; or a pose
-            target ``<frame>@<target>`` on a frame).
-        target: See ``kind``.
+        kind: ``camera`` (on frame ``owner``) or ``target`` (the world target, ``owner`` empty; or a pose target
+            ``<frame>@<target>`` on a frame).
+        owner: What the placement belongs to (see ``kind``), as :attr:`Parameter.owner
+            <pincal.identification.parameters.Parameter.owner>` names it.
         components: The placement's estimated components, among :data:`PLACEMENT_COMPONENTS`.
     """
 
     kind: str
-    target: str
+    owner: str
     components: tuple[str, ...] = PLACEMENT_COMPONENTS
 
 

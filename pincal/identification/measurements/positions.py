@@ -51,8 +51,8 @@ class Position(Measurement):
         return position(frame, sigma or 1e-5, marker)
 
     @property
-    def target(self) -> str:
-        """The marker target measured: ``<frame>@<marker>`` for a declared marker, else ``<frame>``."""
+    def marker_key(self) -> str:
+        """The point measured: ``<frame>@<marker>`` for a declared marker, else ``<frame>``."""
         return f"{self.frame}@{self.marker}" if self.marker else self.frame
 
     @property
@@ -67,25 +67,25 @@ class Position(Measurement):
 
     @property
     def markers(self) -> Mapping[str, tuple[float, float, float] | None]:
-        """Its marker target -> the nominal offset [m] the data declare for it (None: not declared)."""
-        return {self.target: self.nominal}
+        """Its point (:attr:`marker_key`) -> the nominal offset [m] the data declare for it (None: not declared)."""
+        return {self.marker_key: self.nominal}
 
     def with_markers(self, nominals: Mapping[str, tuple[float, float, float]]) -> Measurement:
         """This model with its marker's declared nominal offset [m], if ``nominals`` holds one."""
-        return replace(self, nominal=nominals[self.target]) if self.target in nominals else self
+        return replace(self, nominal=nominals[self.marker_key]) if self.marker_key in nominals else self
 
     def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
         """The marker's position [m] in the measurement frame, and its derivative (its marker and cluster columns
         ``R_base R_frame ∂p/∂θ`` included)."""
-        _predict_point(ctx, self.frame, ctx.marker(self.target), out, jac)
-        columns, derivative = ctx.marker_derivative(self.target)
+        _predict_point(ctx, self.frame, ctx.marker(self.marker_key), out, jac)
+        columns, derivative = ctx.marker_derivative(self.marker_key)
         if jac is not None and columns:
             jac[:3, columns] += ctx.base.rotation @ ctx.placement(self.frame).rotation @ derivative
 
     def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
         """:meth:`predict` for every sample: ``R_base p + t_base``, ``p = R_F m + t_F``."""
-        _predict_points(batch, self.frame, batch.shared.marker(self.target), out, jac)
-        columns, derivative = batch.shared.marker_derivative(self.target)
+        _predict_points(batch, self.frame, batch.shared.marker(self.marker_key), out, jac)
+        columns, derivative = batch.shared.marker_derivative(self.marker_key)
         if jac is not None and columns:
             jac[:, :, columns] += rotate(batch.base.rotation, rotate(batch.rotations[self.frame], derivative))
 

@@ -46,7 +46,7 @@ def camera_parameters(models: Sequence[Measurement]) -> list[Parameter]:
     components: dict[tuple[str, str], set[str]] = {}
     for m in models:
         for a in m.attachments:
-            components.setdefault((a.kind, a.target), set()).update(a.components)
+            components.setdefault((a.kind, a.owner), set()).update(a.components)
     order = sorted(components, key=lambda name: (name[0] != "camera", name[1] != "", name[1]))
     return [p for kind, target in order
             for p in placement_parameters(kind, target, components=[c for c in COMPONENTS
@@ -56,7 +56,7 @@ def camera_parameters(models: Sequence[Measurement]) -> list[Parameter]:
 def sees_world_target(models: Sequence[Measurement]) -> bool:
     """Whether a camera on the robot sees a target fixed in the world (eye-in-hand): the world frame is then
     seen only through that target, as an external measurement frame is through ``base.*``."""
-    return any(a.kind == "target" and not a.target for m in models for a in m.attachments)
+    return any(a.kind == "target" and not a.owner for m in models for a in m.attachments)
 
 
 def marker_targets(models: Sequence[Measurement]) -> list[str]:
@@ -78,8 +78,8 @@ def _estimated_on_frames(models: Sequence[Measurement]) -> list[str]:
     """The frames whose measured point or placement on the frame is estimated (a marker, a camera, a pose target):
     a tool placement on them would duplicate it."""
     frames = {split_target(t)[0] for m in models for t in m.markers}
-    frames |= {a.target if a.kind == "camera" else split_target(a.target)[0]
-               for m in models for a in m.attachments if a.target}
+    frames |= {a.owner if a.kind == "camera" else split_target(a.owner)[0]
+               for m in models for a in m.attachments if a.owner}
     return sorted(frames)
 
 

@@ -62,8 +62,9 @@ class Parameter:
         kind: The name of its kind (:data:`~pincal.identification.parameters.kinds.PARAMETER_KINDS`): ``joint``,
             ``anchor``, ``offset``, ``base``, ``marker``, ``cluster``, ``camera``, ``target``, ``harmonic`` or
             ``compliance``; :attr:`kind_class` is the kind itself.
-        target: Joint name, loop name, frame name (marker target ``<frame>@<marker>`` for a declared marker, pose
-            target ``<frame>@<target>``; empty for the world target), or device constant name.
+        owner: What the parameter belongs to: a joint name, loop name, frame name (``<frame>@<marker>`` for a
+            declared marker, ``<frame>@<target>`` for a pose target; empty for the world target), or device constant
+            name.
         component: Index in (tx, ty, tz, rx, ry, rz) for placements, in (x, y, z) for markers, in
             (sin1, cos1, sin2, cos2) for harmonics.
         side: ``predecessor`` or ``successor`` for anchors.
@@ -72,7 +73,7 @@ class Parameter:
 
     name: str
     kind: str
-    target: str
+    owner: str
     component: int = 0
     side: str = ""
     unit: ParameterUnit = "m"
@@ -96,8 +97,8 @@ class Parameter:
 
     @property
     def group(self) -> tuple[str, str, str]:
-        """The placement this parameter belongs to: (kind, target, side)."""
-        return (self.kind, self.target, self.side)
+        """The placement this parameter belongs to: (kind, owner, side)."""
+        return (self.kind, self.owner, self.side)
 
 
 def placement_parameters(kind: str, target: str, side: str = "",
