@@ -193,9 +193,23 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
         "n_identifiable": first.identifiability.rank, "n_parameters": len(fit.parameters),
         "unidentifiable": [c.description for c in first.identifiability.unidentifiable],
     })
+    content["sample_errors"] = sample_errors(ids, result.errors_before, result.errors_after, "train")
     if held is not None:
+        content["sample_errors"] += sample_errors(held.prepared.samples.sample_ids, held.errors_before,
+                                                  held.errors_after, "test")
         content.update({"dropped_test_samples": held.prepared.dropped or None,  # listed, never silently
                         "held_out_outliers": held.outliers, "held_out_outside_range": held.outside_range,
                         "test_readings": held.prepared.problem.n_readings(), **held.figures(),
                         "worse_than_nominal": held.worse_than_nominal})
     return content
+
+
+def sample_errors(ids: list[str], before: dict[str, Array], after: dict[str, Array], part: str) -> list[dict[str, Any]]:
+    """Per sample of ``part`` (``train`` or ``test``): its id and its length-type error [m] before (the fit's start)
+    and after (None for a sample with no length reading)."""
+    n = len(ids)
+    per_before, per_after = sample_length_errors(before, n), sample_length_errors(after, n)
+    if per_before is None or per_after is None:
+        return [{"sample": s, "set": part, "before": None, "after": None} for s in ids]
+    return [{"sample": s, "set": part, "before": float(b) if np.isfinite(b) else None,
+             "after": float(a) if np.isfinite(a) else None} for s, b, a in zip(ids, per_before, per_after, strict=True)]

@@ -114,6 +114,9 @@ class CalibrationReport:
     test_max_angle_after: float | None = field(default=None, metadata=OPTIONAL)
     worse_than_nominal: bool | None = field(default=None, metadata=OPTIONAL)
     cv: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    sample_errors: list[dict[str, Any]] = field(default_factory=list)
+    covariance: dict[str, Any] = field(default_factory=dict)
+    provenance: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
     #: The JSON keys a report read by :meth:`from_json` held (every field for a report built by a calibration).
     present: frozenset[str] = field(default=frozenset(), compare=False, repr=False, metadata={"internal": True})
 
@@ -234,6 +237,7 @@ def fit_figures(result: CalibrationResult, problem: CalibrationProblem, x_true: 
                               "identified": k in set(result.identified)}
                        for k, name in enumerate(result.names)},
         "unidentifiable": [c.description for c in ident.unidentifiable],
+        "covariance": covariance_of(result),
     }
     if angles_before.size:
         out.update({"rms_angle_before": _clean(rms(angles_before)), "rms_angle_after": _clean(rms(angles_after)),
@@ -244,3 +248,12 @@ def fit_figures(result: CalibrationResult, problem: CalibrationProblem, x_true: 
         out["parameter_errors_before"] = float(np.linalg.norm(x_true - result.x0))
         out["parameter_errors_after"] = float(np.linalg.norm(x_true - result.x))
     return out
+
+
+def covariance_of(result: CalibrationResult) -> dict[str, Any]:
+    """The estimates' covariance over the identified parameters, ``C_ij = ρ_ij σ_i σ_j`` [products of the parameters'
+    units: m², m·rad, rad²]: their names and the matrix (None where the fit could not give it)."""
+    std = result.std[result.identified]
+    matrix = result.correlation * np.outer(std, std)
+    return {"parameters": [result.names[k] for k in result.identified],
+            "matrix": [[_clean(float(v)) for v in row] for row in matrix]}

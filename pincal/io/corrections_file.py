@@ -16,6 +16,7 @@ robot carries another load must not reuse the compliance terms as they are: the 
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -26,6 +27,7 @@ import numpy.typing as npt
 from pincal.errors import DataError, listing
 from pincal.identification.corrections import HARMONIC_TERMS, Payload, correction_regressors, payload_from_dict
 from pincal.identification.parameters import ParameterSet
+from pincal.model.catalog import known_robot_names, robot_path
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -65,9 +67,9 @@ def corrections_of(robot: Robot, parameters: ParameterSet, x: Array,
     return Corrections(robot.name, joints, payload) if joints else None
 
 
-def corrections_dict(corrections: Corrections, nominal: Robot) -> dict[str, Any]:
-    """The file's content: format, formula, units, where τ_g comes from, the payload (None: none) and the
-    coefficients."""
+def corrections_dict(corrections: Corrections, nominal: Robot, folder: Path | None = None) -> dict[str, Any]:
+    """The file's content: format, formula, units, where τ_g comes from (the nominal URDF, by its path relative to
+    ``folder``, the corrections file's, when given), the payload (None: none) and the coefficients."""
     return {
         "format": FORMAT,
         "robot": corrections.robot,
@@ -78,7 +80,7 @@ def corrections_dict(corrections: Corrections, nominal: Robot) -> dict[str, Any]
         "tau_g": "gravity torque [N m or N] of the nominal robot at the readings q_r (Pinocchio "
                  "computeGeneralizedGravity, 9.81 m/s^2 along -z of the root), plus J_p(q_r)^T m (0, 0, 9.81) of "
                  "the payload's point p when there is one",
-        "nominal_urdf": str(nominal.source) if nominal.source is not None else nominal.name,
+        "nominal_urdf": _named_from(nominal, folder),
         "payload": corrections.payload.as_dict() if corrections.payload is not None else None,
         "joints": corrections.joints,
     }
@@ -131,3 +133,23 @@ def corrected_readings(corrections: Corrections, nominal: Robot, actuated: npt.A
     for (joint, term), regressor in zip(kinds, regressors, strict=True):
         out[:, index[joint]] += corrections.joints[joint][term] * regressor
     return out.reshape(readings.shape)
+
+
+def _named_from(robot: Robot, folder: Path | None) -> str:
+    """The robot's URDF as a file in ``folder`` names it: a known robot by its name (:mod:`pincal.model.catalog`),
+    another relative to ``folder`` (absolute with no folder, or where no relative path leads)."""
+    if robot.source is None or _is_catalog(robot):
+        return robot.name
+    if folder is None:
+        return str(robot.source)
+    try:
+        return Path(os.path.relpath(Path(robot.source).resolve(), folder.resolve())).as_posix()
+    except ValueError:
+        return Path(robot.source).resolve().as_posix()
+
+
+def _is_catalog(robot: Robot) -> bool:
+    """Whether ``robot`` was loaded by its name from pincal's catalog of known robots."""
+    if robot.name not in known_robot_names() or robot.source is None:
+        return False
+    return Path(robot.source).resolve() == robot_path(robot.name).resolve()

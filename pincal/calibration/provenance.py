@@ -1,0 +1,141 @@
+"""Where an output came from: the pincal version, the robot and data files with their SHA-256, and the options.
+
+Every file a calibration writes records its provenance, with no clock time, so that identical inputs give
+byte-identical outputs: the report JSON under ``provenance``, the calibrated URDF as one element
+``<pincal_provenance pincal_version="…" robot="…" robot_sha256="…" data="…" data_sha256="…" options="…"/>`` inside
+``<robot>`` (URDF readers ignore elements they do not know). A file is named by its path relative to the folder of
+the output that names it (a catalog robot by its name), so an output moved with its inputs still finds them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+from xml.sax.saxutils import quoteattr
+
+from pincal.calibration.options import CalibrationOptions
+from pincal.errors import DataError
+from pincal.model.robot import Robot
+
+#: The element of a calibrated URDF that holds its provenance.
+ELEMENT = "pincal_provenance"
+
+
+def version() -> str:
+    """The running pincal's version."""
+    from pincal import __version__
+
+    return __version__
+
+
+def sha256(path: str | Path) -> str:
+    """The SHA-256 of a file's bytes, in hex."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as stream:
+        for block in iter(lambda: stream.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def options_dict(options: CalibrationOptions) -> dict[str, Any]:
+    """``options`` as JSON values (tuples as lists, a payload as its dict), in field order."""
+    out: dict[str, Any] = {}
+    for f in fields(options):
+        value = getattr(options, f.name)
+        if isinstance(value, tuple):
+            value = list(value)
+        elif hasattr(value, "as_dict"):
+            value = value.as_dict()
+        out[f.name] = value
+    return out
+
+
+@dataclass(frozen=True)
+class Source:
+    """An input file: as the user named it (``name``: a catalog robot's name, or a path) and its SHA-256."""
+
+    name: str
+    path: Path | None
+    sha256: str | None
+
+    def named_from(self, folder: Path) -> str:
+        """The file's name as an output in ``folder`` records it: its path relative to ``folder`` (absolute when
+        no relative path leads there, e.g. another drive), or the catalog name."""
+        if self.path is None:
+            return self.name
+        try:
+            return Path(os.path.relpath(self.path.resolve(), folder.resolve())).as_posix()
+        except ValueError:
+            return self.path.resolve().as_posix()
+
+
+def robot_source(given: str, robot: Robot) -> Source:
+    """The robot as given (a catalog name or a URDF path) and its URDF's SHA-256."""
+    is_file = Path(given).is_file()
+    digest = sha256(robot.source) if robot.source is not None and Path(robot.source).is_file() else None
+    return Source(given, Path(given) if is_file else None, digest)
+
+
+def file_source(path: str | Path) -> Source:
+    """A data or job file and its SHA-256."""
+    return Source(str(path), Path(path), sha256(path))
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """What made an output: the pincal version, the robot, the data (the files read: a job file and its data
+    files), and the options."""
+
+    robot: Source
+    data: Sequence[Source]
+    options: dict[str, Any]
+    pincal_version: str = ""
+
+    def as_dict(self, folder: Path) -> dict[str, Any]:
+        """The report's ``provenance`` for an output in ``folder``."""
+        return {"pincal_version": self.pincal_version or version(),
+                "robot": {"file": self.robot.named_from(folder), "sha256": self.robot.sha256},
+                "data": [{"file": d.named_from(folder), "sha256": d.sha256} for d in self.data],
+                "options": self.options}
+
+    def urdf_element(self, folder: Path) -> str:
+        """The ``<pincal_provenance …/>`` element of a calibrated URDF in ``folder``."""
+        attributes = {"pincal_version": self.pincal_version or version(), "robot": self.robot.named_from(folder),
+                      "robot_sha256": self.robot.sha256 or "",
+                      "data": " ".join(d.named_from(folder) for d in self.data),
+                      "data_sha256": " ".join(d.sha256 or "" for d in self.data),
+                      "options": json.dumps(self.options, sort_keys=False)}
+        return f"<{ELEMENT} " + " ".join(f"{k}={quoteattr(v)}" for k, v in attributes.items()) + "/>"
+
+
+def with_provenance(urdf_text: str, provenance: Provenance, folder: Path) -> str:
+    """``urdf_text`` with its provenance element as the first child of ``<robot>`` (one it held is replaced)."""
+    text = re.sub(rf"\n?[ \t]*<{ELEMENT}\b[^>]*/>", "", urdf_text)
+    start = re.search(r"<robot\b[^>]*>", text)
+    if start is None:
+        raise DataError("the calibrated URDF has no <robot> element")
+    return f"{text[:start.end()]}\n  {provenance.urdf_element(folder)}{text[start.end():]}"
+
+
+def recorded_robot(path: str | Path) -> str | None:
+    """The nominal robot a calibrated URDF or a report JSON records (a catalog name, or a URDF path resolved against
+    the output's folder); None when it records none."""
+    path = Path(path)
+    text = path.read_text(encoding="utf-8")
+    if path.suffix.lower() == ".json":
+        provenance = json.loads(text).get("provenance") or {}
+        name = (provenance.get("robot") or {}).get("file")
+    else:
+        element = ET.fromstring(text).find(ELEMENT)
+        name = element.get("robot") if element is not None else None
+    if not name:
+        return None
+    beside = path.parent / name
+    return str(beside) if beside.is_file() else name
