@@ -36,6 +36,8 @@ TOLERANCE = 1e-9
 RANDOM_STARTS = 6
 #: Smallest ratio of the task Jacobian's extreme singular values at an accepted posture.
 SINGULAR_RATIO = 1e-6
+#: Below this ratio, a target the inverse kinematics does not reach is said to lie near a singular posture.
+NEAR_SINGULAR = 1e-2
 #: How far [rad or m] an actuated value may pass its URDF limit and still count as within it.
 LIMIT_SLACK = 1e-9
 #: The choices of ``targets_in``.
@@ -210,7 +212,7 @@ class _Solver:
 
     def __init__(self, model: Model, frame: str, tolerance: float, seed: int) -> None:
         self.model, self.robot, self.tolerance = model, model.robot, tolerance
-        self.fid = self.robot.frame_id(frame)
+        self.fid, self.name = self.robot.frame_id(frame), frame
         robot = self.robot
         self.lower = np.array([robot.model.lowerPositionLimit[a.idx_q] if a.nq == 1 else -np.inf
                                for a in robot.kinematics.actuated])
@@ -256,12 +258,43 @@ class _Solver:
         return (f"outside the joint limits: {what} {name} = {values[k]:.6g} {unit}, limits [{self.lower[k]:.6g}, "
                 f"{self.upper[k]:.6g}]")
 
+    def ratio(self, q: Array, pose: bool) -> float:
+        """Smallest over largest singular value of the frame's Jacobian over the actuated joints at ``q``."""
+        try:
+            jac = self.robot.kinematics.frame_jacobian_actuated(q, self.fid)[: 6 if pose else 3]
+            s = np.linalg.svd(jac, compute_uv=False)
+        except (np.linalg.LinAlgError, ValueError, RuntimeError):
+            return 0.0
+        return float(s[-1] / s[0]) if s.size and s[0] > 0 and np.all(np.isfinite(s)) else 0.0
+
     def singular(self, q: Array, pose: bool) -> str | None:
-        jac = self.robot.kinematics.frame_jacobian_actuated(q, self.fid)[: 6 if pose else 3]
-        s = np.linalg.svd(jac, compute_uv=False)
-        ratio = float(s[-1] / s[0]) if s.size and s[0] > 0 else 0.0
+        ratio = self.ratio(q, pose)
         if ratio < SINGULAR_RATIO:
             return f"singular posture: the frame's Jacobian has singular values in the ratio {ratio:.3g}"
+        return None
+
+    def actuated_newton(self, start: Array, goal: pin.SE3 | Array, max_iter: int = 40) -> Array | None:
+        """Gauss–Newton over the actuated values alone from ``start`` [rad or m], the loops closed by forward kinematics
+        (the reference assembly, as the robot runs): the configuration reaching ``goal``, or None."""
+        robot, qa, guess = self.robot, np.array(start, dtype=float), None
+        for _ in range(max_iter):
+            fk = robot.solve_fk_report(qa, guess)
+            if not fk.converged:
+                return None
+            guess = fk.q
+            placement = robot.placement(fk.q, self.name)
+            jac = robot.kinematics.frame_jacobian_actuated(fk.q, self.fid)
+            if isinstance(goal, pin.SE3):
+                rel = goal.rotation.T @ placement.rotation
+                error = np.concatenate([placement.translation - goal.translation, pin.log3(rel)])
+                jac = np.vstack([jac[:3], pin.Jlog3(rel) @ placement.rotation.T @ jac[3:]])
+            else:
+                error, jac = placement.translation - goal, jac[:3]
+            if float(np.abs(error).max()) <= SOLVE_TOLERANCE:
+                return fk.q
+            step = np.linalg.lstsq(jac, -error, rcond=1e-10)[0]
+            size = float(np.linalg.norm(step))
+            qa = qa + (step * (0.2 / size) if size > 0.2 else step)
         return None
 
     def solve(self, goal: pin.SE3 | Array, previous: Array | None) -> tuple[str, Array | None, Array | None, tuple[
@@ -273,11 +306,16 @@ class _Solver:
         for start in self.starts(previous):
             tried += 1
             report = robot.kinematics.solve_ik(goal, self.fid, start.copy(), SOLVE_TOLERANCE)
-            if not report.converged:
-                reasons.append((report.residual, f"inverse kinematics did not converge (nearest: largest residual "
-                                                  f"{report.residual:.3g} m or rad)"))
+            q = report.q if report.converged else self.actuated_newton(robot.actuated_values(start), goal)
+            if q is None:
+                miss = gap(robot.placement(report.q, self.name), goal)[0]
+                ratio = self.ratio(report.q, pose)
+                edge = (f", near a singular posture (singular values in the ratio {ratio:.2g}: the edge of the "
+                        "workspace)" if ratio < NEAR_SINGULAR else "")
+                reasons.append((report.residual, f"inverse kinematics did not converge: the nearest posture found "
+                                                  f"leaves the frame {miss:.3g} m from the target{edge}"))
                 continue
-            wanted = self.into_limits(robot.actuated_values(report.q), robot.actuated_values(start))
+            wanted = self.into_limits(robot.actuated_values(q), robot.actuated_values(start))
             why = self.outside(wanted, "the model's")
             raw, inversion = self.model.raw(wanted)
             why = why or self.outside(raw, "the raw command of")
@@ -288,7 +326,7 @@ class _Solver:
             if not fk.converged:
                 reasons.append((0.0, "the loops do not close at the commands"))
                 continue
-            placement = robot.placement(fk.q, robot.model.frames[self.fid].name)
+            placement = robot.placement(fk.q, self.name)
             residual = gap(placement, goal)
             worst = max(r for r in residual if not math.isnan(r))
             if not worst <= self.tolerance:
