@@ -3,7 +3,10 @@ to a controller that keeps its nominal model (``pincal compensate``, docs/compen
 
 Per target, in file order: inverse kinematics of the calibrated model (closed loops included) from the previous
 target's answer, then the reference configuration, then :data:`RANDOM_STARTS` random postures within the joint limits;
-the actuated values are brought into their URDF limits (a revolute joint by whole turns); the corrections file is
+a start whose inverse kinematics does not converge, or ends outside the joint limits, goes on by Gauss–Newton over
+the actuated joints alone, the loops closed by forward kinematics and the joints held within their limits (a redundant
+robot reaches with its other joints); the actuated values are brought into their URDF limits (a revolute joint by whole
+turns); the corrections file is
 inverted (:func:`~pincal.io.corrections_file.raw_commands`); and the answer is checked the way the robot will run it:
 forward kinematics of the calibrated model at the corrected commands, on its reference assembly, must put the frame on
 the target to :data:`TOLERANCE`, at a posture that is not singular. A target no start passes is unreachable, with the
@@ -275,8 +278,10 @@ class _Solver:
 
     def actuated_newton(self, start: Array, goal: pin.SE3 | Array, max_iter: int = 40) -> Array | None:
         """Gauss–Newton over the actuated values alone from ``start`` [rad or m], the loops closed by forward kinematics
-        (the reference assembly, as the robot runs): the configuration reaching ``goal``, or None."""
-        robot, qa, guess = self.robot, np.array(start, dtype=float), None
+        (the reference assembly, as the robot runs), kept within the joint limits (a joint at a limit that the step
+        would pass is held there, the others solve without it): the configuration reaching ``goal``, or None."""
+        robot, guess = self.robot, None
+        qa = np.clip(np.array(start, dtype=float), self.lower, self.upper)
         for _ in range(max_iter):
             fk = robot.solve_fk_report(qa, guess)
             if not fk.converged:
@@ -293,8 +298,12 @@ class _Solver:
             if float(np.abs(error).max()) <= SOLVE_TOLERANCE:
                 return fk.q
             step = np.linalg.lstsq(jac, -error, rcond=1e-10)[0]
+            held = ((qa <= self.lower) & (step < 0)) | ((qa >= self.upper) & (step > 0))
+            if held.any():
+                step = np.zeros_like(step)
+                step[~held] = np.linalg.lstsq(jac[:, ~held], -error, rcond=1e-10)[0]
             size = float(np.linalg.norm(step))
-            qa = qa + (step * (0.2 / size) if size > 0.2 else step)
+            qa = np.clip(qa + (step * (0.2 / size) if size > 0.2 else step), self.lower, self.upper)
         return None
 
     def solve(self, goal: pin.SE3 | Array, previous: Array | None) -> tuple[str, Array | None, Array | None, tuple[
@@ -316,6 +325,9 @@ class _Solver:
                                                   f"leaves the frame {miss:.3g} m from the target{edge}"))
                 continue
             wanted = self.into_limits(robot.actuated_values(q), robot.actuated_values(start))
+            if self.outside(wanted, "") and (inside := self.actuated_newton(wanted, goal)) is not None:
+                q = inside  # the same target with the joints held within their limits
+                wanted = self.into_limits(robot.actuated_values(q), wanted)
             why = self.outside(wanted, "the model's")
             raw, inversion = self.model.raw(wanted)
             why = why or self.outside(raw, "the raw command of")

@@ -260,3 +260,32 @@ def test_the_output_never_overwrites_an_input(tmp_path: Path) -> None:
     done = run_pincal("compensate", "delta", str(targets), "--out", str(targets))
     assert done.returncode == 2 and "is the input file" in done.stderr
     assert targets.read_bytes() == before
+
+
+def test_the_tiago_reaches_its_measured_points_within_its_limits(tmp_path: Path) -> None:
+    """Real data (examples/data, docs/results/tiago_mocap.md): the calibrated TIAGo, eight joints for a point, reaches
+    every measured marker position with commands within its URDF limits (the torso's 0–0.35 m among them)."""
+    from conftest import ROOT
+
+    from pincal.io.dataset_reader import read_dataset
+
+    data = ROOT / "examples" / "data" / "tiago_mocap_marker1.csv"
+    done = run_pincal("calibrate", "tiago_no_hand", str(data), "--out", str(tmp_path / "cal.urdf"))
+    assert done.returncode == 0, done.stdout + done.stderr
+    points = read_dataset(data).measurements["position:wrist_ft_tool_link"]
+    targets = tmp_path / "targets.csv"
+    _write_targets(targets, "position:wrist_ft_tool_link", points)
+    out = tmp_path / "commands.csv"
+    done = run_pincal("compensate", str(tmp_path / "cal.urdf"), str(targets), "--out", str(out))
+    assert done.returncode == 0, done.stdout + done.stderr
+    metadata, rows = _read(out)
+    assert metadata["frame"] == "wrist_ft_tool_link_marker" and {r["status"] for r in rows} == {"ok"}
+    robot = pincal.load_robot(tmp_path / "cal.urdf")
+    commands = _commands(rows, robot.actuated_joints)
+    lower = np.array([robot.model.lowerPositionLimit[a.idx_q] if a.nq == 1 else -np.inf
+                      for a in robot.kinematics.actuated])
+    upper = np.array([robot.model.upperPositionLimit[a.idx_q] if a.nq == 1 else np.inf
+                      for a in robot.kinematics.actuated])
+    assert np.all(commands >= lower - 1e-9) and np.all(commands <= upper + 1e-9)
+    reached = _errors(robot, "wrist_ft_tool_link_marker", commands, points)
+    assert reached.max() < 1e-9
