@@ -40,12 +40,13 @@ FORMULA = "q = q_r + sin1 sin(q_r) + cos1 cos(q_r) + sin2 sin(2 q_r) + cos2 cos(
 @dataclass(frozen=True)
 class Corrections:
     """Per actuated joint, its correction coefficients: term (``sin1``, ``cos1``, ``sin2``, ``cos2`` [rad or m],
-    ``compliance`` [rad/(N m) or m/N]) -> value; and the payload whose torque the compliances multiply with the
-    links' (None: the links' alone)."""
+    ``compliance`` [rad/(N m) or m/N]) -> value; the payload whose torque the compliances multiply with the
+    links' (None: the links' alone); the nominal URDF (path or robot name) the file names, ``""`` when unknown."""
 
     robot: str
     joints: dict[str, dict[str, float]]
     payload: Payload | None = None
+    nominal_urdf: str = ""
 
 
 def corrections_path(urdf: str | Path) -> Path:
@@ -109,7 +110,7 @@ def read_corrections(path: str | Path) -> Corrections:
                             f"{listing(TERMS)}")
         out[str(joint)] = {str(t): float(v) for t, v in terms.items()}
     payload = payload_from_dict(content.get("payload"), f"'{path}': ")
-    return Corrections(str(content.get("robot", "")), out, payload)
+    return Corrections(str(content.get("robot", "")), out, payload, str(content.get("nominal_urdf") or ""))
 
 
 def corrected_readings(corrections: Corrections, nominal: Robot, actuated: npt.ArrayLike) -> Array:
@@ -153,3 +154,31 @@ def _is_catalog(robot: Robot) -> bool:
     if robot.name not in known_robot_names() or robot.source is None:
         return False
     return Path(robot.source).resolve() == robot_path(robot.name).resolve()
+
+
+#: Most fixed-point iterations of :func:`raw_commands`.
+MAX_INVERSION_ITERATIONS = 50
+
+
+def raw_commands(corrections: Corrections, nominal: Robot, wanted: npt.ArrayLike,
+                 tol: float = 1e-13) -> tuple[Array, Array]:
+    """The raw commands ``q_r`` [rad or m] whose corrected values are ``wanted``: the inverse of
+    :func:`corrected_readings`, ``q_r + δq(q_r) = q``, for rows ``wanted`` (N, na) or one (na,).
+
+    Fixed-point iteration ``q_r ← q − δq(q_r)`` from ``q_r = q``: it contracts by ``|∂δq/∂q_r|`` per step (of the order
+    of the coefficients, 1e-3 for a millimetre-sized robot), so a few steps reach ``tol``.
+
+    Returns:
+        ``q_r`` (the shape of ``wanted``) and, per row, the largest ``|q_r + δq(q_r) − q|`` [rad or m] left.
+    """
+    target = np.asarray(wanted, dtype=float)
+    rows = target.reshape(-1, nominal.n_actuated)
+    raw = rows.copy()
+    residual = np.zeros(len(rows))
+    for _ in range(MAX_INVERSION_ITERATIONS):
+        gap = corrected_readings(corrections, nominal, raw) - rows
+        residual = np.abs(gap).max(axis=1, initial=0.0)
+        if not residual.max(initial=0.0) > tol:
+            break
+        raw -= gap
+    return raw.reshape(target.shape), residual

@@ -30,13 +30,14 @@ def _loaded(argv: list[str]) -> tuple[str, str]:
 
 @pytest.mark.parametrize("argv", [["--help"], *([c, "--help"] for c in ("info", "simulate", "calibrate", "demo",
                                                                           "fleet", "view", "report", "design",
-                                                                          "montecarlo"))])
+                                                                          "montecarlo", "compensate"))])
 def test_help_imports_no_numerical_library(argv: list[str]) -> None:
     assert _loaded(argv) == ("0", "[]")
 
 
 @pytest.mark.parametrize("argv", [[], ["calibrate", "delta", "d.csv", "--solver", "gn"], ["simulate", "delta"],
-                                  ["report", "delta", "d.csv", "--max-iter", "0", "--out", "x.html"]])
+                                  ["report", "delta", "d.csv", "--max-iter", "0", "--out", "x.html"],
+                                  ["compensate", "delta", "t.csv"]])
 def test_an_argument_error_imports_no_numerical_library(argv: list[str]) -> None:
     assert _loaded(argv) == ("2", "[]")
 

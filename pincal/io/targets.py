@@ -1,0 +1,202 @@
+"""Target files and command files: what ``pincal compensate`` reads and writes (docs/compensate.md).
+
+A **targets** file is a dataset CSV (docs/dataset.md) without joint columns: an optional ``sample`` column (ids) and
+one measurement group, the place each row asks a frame to reach, in metres:
+
+- ``position:<frame>:x,y,z`` (or ``position:<frame>@<marker>:…``): a point;
+- ``pose:<frame>:x,y,z,qx,qy,qz,qw`` (or ``pose:<frame>@<target>:…``): a placement, unit quaternion.
+
+A ``set`` column is allowed and ignored, so a dataset's measurement columns can be cut out as they are; a
+``status`` column (a nominal targets file) must say ``ok`` on every row. The
+**commands** file holds per target the raw actuated commands [rad or m], the residual of the calibrated model at
+those commands and a status; a **nominal targets** file the targets' columns again, in the nominal model's base frame.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.errors import DataError, listing
+from pincal.identification.measurements.context import split_target
+from pincal.io.dataset import MAX_PLAUSIBLE_LENGTH, QUATERNION_NORM_TOLERANCE, SAMPLE_COLUMN, SET_COLUMN
+from pincal.io.dataset_reader import cell_number, read_table
+
+Array = npt.NDArray[np.float64]
+
+#: The components of each target kind, in column order.
+TARGET_COMPONENTS = {"position": ("x", "y", "z"), "pose": ("x", "y", "z", "qx", "qy", "qz", "qw")}
+#: The status of a target reached.
+OK = "ok"
+#: The start of the status of a target not reached; the reason follows.
+UNREACHABLE = "unreachable"
+RESIDUAL_POSITION = "residual_position"
+RESIDUAL_ORIENTATION = "residual_orientation"
+STATUS = "status"
+
+
+@dataclass(frozen=True)
+class Targets:
+    """Targets read from a file.
+
+    Attributes:
+        key: The measurement key of the columns (``position:end_effector``, ``pose:tool0@tag``).
+        ids: The rows' sample ids.
+        values: (N, 3) positions [m], or (N, 7) poses: x, y, z [m], then a unit quaternion qx, qy, qz, qw.
+        metadata: The file's ``# key: value`` lines.
+    """
+
+    key: str
+    ids: list[str]
+    values: Array
+    metadata: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def kind(self) -> str:
+        """``position`` or ``pose``."""
+        return self.key.partition(":")[0]
+
+    @property
+    def frame(self) -> str:
+        """The frame named in the key, without its marker or target: ``tool0`` of ``position:tool0@m1``."""
+        return split_target(self.key.partition(":")[2])[0]
+
+    @property
+    def attachment(self) -> str:
+        """The marker or pose target named after ``@`` in the key, or ``""``."""
+        return split_target(self.key.partition(":")[2])[1]
+
+
+def read_targets(path: str | Path) -> Targets:
+    """Read a targets file (this module's docstring, docs/compensate.md).
+
+    Raises:
+        DataError: naming the file, and the column and line at fault: no target columns or two groups of them, a
+            group with a component missing, another column, a cell that is no finite number, a quaternion not of
+            unit norm, a length that looks like millimetres, a duplicated or empty sample id, no rows.
+    """
+    source = Path(path)
+    try:
+        return _parse(source)
+    except DataError as exc:
+        raise DataError(f"{source.name}: {exc}") from None
+
+
+def _parse(source: Path) -> Targets:
+    table = read_table(source)
+    where = f"header (line {table.header_line})"
+    groups: dict[str, dict[str, int]] = {}
+    sample = status = None
+    for i, name in enumerate(table.header):
+        if name == SAMPLE_COLUMN:
+            sample = i
+            continue
+        if name == STATUS:
+            status = i
+            continue
+        if name == SET_COLUMN:
+            continue
+        key, _, component = name.rpartition(":")
+        kind = key.partition(":")[0]
+        if kind not in TARGET_COMPONENTS or not key.partition(":")[2]:
+            raise DataError(f"{where}: column '{name}' is not a target; a targets file has '{SAMPLE_COLUMN}' and the "
+                            "columns of one position:<frame>:x,y,z or pose:<frame>:x,y,z,qx,qy,qz,qw "
+                            "(docs/compensate.md)")
+        if component not in TARGET_COMPONENTS[kind]:
+            raise DataError(f"{where}: column '{name}' has component '{component}'; a {kind} has components: "
+                            f"{listing(TARGET_COMPONENTS[kind])}")
+        if component in groups.get(key, {}):
+            raise DataError(f"{where}: column '{name}' appears twice")
+        groups.setdefault(key, {})[component] = i
+    if len(groups) != 1:
+        what = "none" if not groups else listing(groups)
+        raise DataError(f"{where}: a targets file holds the columns of exactly one position or pose; found {what}")
+    ((key, columns),) = groups.items()
+    components = TARGET_COMPONENTS[key.partition(":")[0]]
+    missing = [c for c in components if c not in columns]
+    if missing:
+        raise DataError(f"{where}: target '{key}' lacks the columns {listing(f'{key}:{c}' for c in missing)}")
+    if not table.rows:
+        raise DataError("no targets: the file has a header and no rows")
+    if status is not None:
+        for line, cells in table.rows:
+            if cells[status] != OK:
+                raise DataError(f"line {line}: status '{cells[status]}': this row holds no target; remove it")
+    values = np.array([[cell_number(cells[columns[c]], f"{key}:{c}", line) for c in components]
+                       for line, cells in table.rows])
+    ids = [cells[sample] if sample is not None else str(r) for r, (_, cells) in enumerate(table.rows)]
+    lines = [line for line, _ in table.rows]
+    seen: dict[str, int] = {}
+    for sid, line in zip(ids, lines, strict=True):
+        if not sid:
+            raise DataError(f"column '{SAMPLE_COLUMN}', line {line}: the sample id is empty")
+        if sid in seen:
+            raise DataError(f"column '{SAMPLE_COLUMN}': sample id '{sid}' is used twice (lines {seen[sid]} and {line})")
+        seen[sid] = line
+    far = np.flatnonzero(np.abs(values[:, :3]).max(axis=1) > MAX_PLAUSIBLE_LENGTH)
+    if far.size:
+        r = int(far[0])
+        raise DataError(f"line {lines[r]}: the target {values[r, :3].tolist()} lies beyond {MAX_PLAUSIBLE_LENGTH:g} m: "
+                        "it looks like millimetres; pincal expects metres")
+    if values.shape[1] == 7:
+        norms = np.linalg.norm(values[:, 3:], axis=1)
+        bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_NORM_TOLERANCE)
+        if bad.size:
+            r = int(bad[0])
+            raise DataError(f"line {lines[r]}: quaternion (qx, qy, qz, qw) of norm {norms[r]:.6g}; a unit quaternion "
+                            f"is needed (|‖q‖ − 1| ≤ {QUATERNION_NORM_TOLERANCE:g})")
+        values[:, 3:] /= norms[:, None]
+    return Targets(key, ids, values, dict(table.metadata))
+
+
+def _cell(value: float) -> str:
+    return "" if math.isnan(value) else repr(float(value))
+
+
+def _text(metadata: Mapping[str, str], header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    buffer = io.StringIO()
+    for key, value in metadata.items():
+        buffer.write(f"# {key}: {value}\n")
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(header)
+    writer.writerows(rows)
+    return buffer.getvalue()
+
+
+def commands_text(ids: Sequence[str], joints: Sequence[str], commands: Array, residuals: Array,
+                  statuses: Sequence[str], metadata: Mapping[str, str], orientation: bool) -> str:
+    """The commands file: ``sample``, one column per actuated joint (the raw commands [rad or m]),
+    ``residual_position`` [m], ``residual_orientation`` [rad] (pose targets only) and ``status``; a row not reached
+    has empty commands and residuals.
+
+    Args:
+        ids: Sample ids.
+        joints: The actuated joints, the columns of ``commands``.
+        commands: (N, na) raw commands, NaN on a row not reached.
+        residuals: (N, 2) position [m] and orientation [rad] residual, NaN on a row not reached.
+        statuses: ``ok`` or ``unreachable: <reason>`` per row.
+        metadata: ``# key: value`` lines.
+        orientation: Whether to write the orientation residual (pose targets).
+    """
+    header = [SAMPLE_COLUMN, *joints, RESIDUAL_POSITION] + ([RESIDUAL_ORIENTATION] if orientation else []) + [STATUS]
+    width = 2 if orientation else 1
+    rows = [[sid, *(_cell(v) for v in command), *(_cell(v) for v in residual[:width]), status]
+            for sid, command, residual, status in zip(ids, commands, residuals, statuses, strict=True)]
+    return _text(metadata, header, rows)
+
+
+def targets_text(key: str, ids: Sequence[str], values: Array, statuses: Sequence[str],
+                 metadata: Mapping[str, str]) -> str:
+    """A targets file: ``sample``, the columns of ``key`` with ``values`` (N, 3 or 7) [m, unit quaternion], empty on a
+    row whose status is not ``ok``, and ``status``. :func:`read_targets` reads it back when every row is ``ok``."""
+    components = TARGET_COMPONENTS[key.partition(":")[0]]
+    header = [SAMPLE_COLUMN, *(f"{key}:{c}" for c in components), STATUS]
+    rows = [[sid, *(_cell(v) for v in row), status] for sid, row, status in zip(ids, values, statuses, strict=True)]
+    return _text(metadata, header, rows)
