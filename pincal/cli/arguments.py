@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from pincal.calibration.options import OPTIONS, PARAMETERS_HELP
 from pincal.errors import DataError
+from pincal.io.mesh_files import MESH_MODES
 
 if TYPE_CHECKING:
     from pincal.identification.corrections import Payload
@@ -54,6 +55,14 @@ def non_negative_float(text: str) -> float:
 def add_robot(parser: argparse.ArgumentParser, note: str = "") -> None:
     """The positional ROBOT: a URDF path or a known robot name."""
     parser.add_argument("robot", help="URDF file or known robot name" + (f" ({note})" if note else ""))
+
+
+def add_meshes(parser: argparse.ArgumentParser, written: str) -> None:
+    """``--meshes keep|copy``: what the mesh file names of a written URDF become (pincal.io.mesh_files)."""
+    parser.add_argument("--meshes", choices=MESH_MODES, default=MESH_MODES[0],
+                        help=f"mesh files of {written}: keep (default: package:// names as in the robot's URDF, "
+                             "relative ones rewritten relative to the written file) or copy (every mesh copied "
+                             "beside it into <name>_meshes/, named by relative paths); never an absolute path")
 
 
 def add_measurement(parser: argparse.ArgumentParser) -> None:
