@@ -127,9 +127,9 @@ def simulation_outputs(robot: Robot, out: str | Path, meshes: MeshMode = "keep")
         OutputError: ``out`` is a file or cannot be created, or a file would replace the robot's URDF.
         NotFoundError: ``meshes`` is ``copy`` and a mesh of the robot is found nowhere here.
     """
+    copies = _mesh_plan(robot, Path(out) / SIMULATION_FILES[1], meshes).copies  # a mesh found nowhere: no folder made
     folder = make_directory(out, "--out")
     paths = [folder / name for name in SIMULATION_FILES]
-    copies = _mesh_plan(robot, paths[1], meshes).copies
     check_outputs([("--out", p) for p in paths] + [("--meshes copy", dest) for _, dest in copies],
                   [p for p in (robot.source, *(found for found, _ in copies)) if p is not None])
     return paths

@@ -12,11 +12,13 @@ from typing import TYPE_CHECKING, Any
 
 from pincal.calibration.options import OPTIONS, PARAMETERS_HELP
 from pincal.errors import DataError
-from pincal.io.mesh_files import MESH_MODES
 
 if TYPE_CHECKING:
     from pincal.identification.corrections import Payload
 
+#: ``--meshes`` choices, the default first: pincal.io.mesh_files.MESH_MODES, spelled here so that parsing imports no
+#: NumPy (tests/cli/test_export.py holds them equal).
+MESH_MODES = ("keep", "copy")
 MEASURE_HELP = "position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME"
 
 
