@@ -157,4 +157,4 @@ def write_simulation(sim: Simulation, out: Path, meshes: MeshMode = "keep") -> l
     corrections = corrections_of(sim.robot, sim.parameters, sim.x_true, sim.payload)
     if corrections is not None:  # the true joint harmonics and compliances, as a calibration writes them
         texts.append((corrections_path(paths[1]), json_text(corrections_dict(corrections, sim.robot))))
-    return write_texts(texts + plan.files())[:len(texts)]
+    return write_texts([*texts, *plan.files()])[:len(texts)]

@@ -12,8 +12,8 @@ from pincal.calibration.options import OptionSource, check_cv_seed
 from pincal.calibration.pipeline import Calibration, calibrate
 from pincal.calibration.samples import read_robot_dataset
 from pincal.errors import NotFoundError
-from pincal.io.corrections_file import corrections_dict, corrections_path
 from pincal.io.calibrated_urdf import source_text
+from pincal.io.corrections_file import corrections_dict, corrections_path
 from pincal.io.files import check_outputs, write_texts
 from pincal.io.mesh_files import MeshMode, MeshPlan, plan_meshes
 from pincal.io.report_data import json_text
@@ -48,8 +48,9 @@ def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, repor
     robot = load_robot(robot_path)
     beside = str(corrections_path(out_urdf)) if out_urdf else None
     plan = _mesh_plan(robot, out_urdf, meshes)
-    outputs = [(what, path) for what, path in (("--out", out_urdf), ("--report", report_path),
-                                               ("--out (its corrections file)", beside)) if path]
+    outputs: list[tuple[str, str | Path]] = [
+        (what, path) for what, path in (("--out", out_urdf), ("--report", report_path),
+                                        ("--out (its corrections file)", beside)) if path]
     outputs += [("--meshes copy", dest) for _, dest in plan.copies]
     check_outputs(outputs, [p for p in (robot.source, data_path, *(f for f, _ in plan.copies)) if p is not None])
     dataset = read_robot_dataset(data_path, robot)

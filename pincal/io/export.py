@@ -22,7 +22,7 @@ from typing import Literal
 import pinocchio as pin
 
 from pincal.errors import RobotFileError
-from pincal.model.dh import CONVENTIONS, DHTable, Residual, conversion_residual, dh_table
+from pincal.model.dh import CONVENTIONS, Convention, DHTable, Residual, conversion_residual, dh_table
 from pincal.model.robot import Robot
 
 ExportFormat = Literal["yaml", "dh", "mdh"]
@@ -164,7 +164,7 @@ def dh_export(robot: Robot, urdf_text: str, source: str, convention: str, end: s
     """
     if convention not in CONVENTIONS:
         raise RobotFileError(f"convention '{convention}' is not one of {', '.join(CONVENTIONS)}")
-    conv = "dh" if convention == "dh" else "mdh"
+    conv: Convention = "dh" if convention == "dh" else "mdh"
     base = base or default_base(urdf_text)
     end = end or robot.end_effector
     table = dh_table(robot, end, base, conv)

@@ -283,7 +283,7 @@ def chain_configuration(robot: Robot, joints: list[int], values: Array) -> Array
             q[jm.idx_q] = value
         else:
             q[jm.idx_q:jm.idx_q + 2] = [math.cos(value), math.sin(value)]
-    return q
+    return np.asarray(q, dtype=float)
 
 
 @dataclass(frozen=True)

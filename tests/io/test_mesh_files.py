@@ -1,5 +1,6 @@
 """The mesh names of a written URDF (pincal.io.mesh_files): ``keep`` leaves ``package://`` names as they are and
-makes relative ones relative to the output; ``copy`` copies every mesh beside the output; no absolute path either way."""
+makes relative ones relative to the output; ``copy`` copies every mesh beside the output; no absolute path either
+way."""
 
 from __future__ import annotations
 
