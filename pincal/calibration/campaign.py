@@ -22,6 +22,7 @@ from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, j
 from pincal.io.corrections_file import corrections_dict, corrections_of, corrections_path
 from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text
 from pincal.io.files import check_outputs, json_text, make_directory, write_texts
+from pincal.io.mesh_files import MeshMode, MeshPlan, plan_meshes
 from pincal.model.robot import Robot
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
@@ -110,36 +111,46 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
 SIMULATION_FILES = ("measurements.csv", "truth.urdf", "truth.json")
 
 
-def simulation_outputs(robot: Robot, out: str | Path) -> list[Path]:
+def _mesh_plan(robot: Robot, truth: Path, meshes: MeshMode) -> MeshPlan:
+    return plan_meshes(source_text(robot), robot.source.parent if robot.source is not None else None, truth, meshes)
+
+
+def simulation_outputs(robot: Robot, out: str | Path, meshes: MeshMode = "keep") -> list[Path]:
     """The files :func:`write_simulation` writes into ``out``, checked (:func:`~pincal.io.files.check_outputs`):
-    ``out`` is a directory or can be made one, and none of the files is the robot's own URDF.
+    ``out`` is a directory or can be made one, and none of the files is the robot's own URDF or one of its meshes.
 
     Raises:
         OutputError: ``out`` is a file or cannot be created, or a file would replace the robot's URDF.
+        NotFoundError: ``meshes`` is ``copy`` and a mesh of the robot is found nowhere here.
     """
+    copies = _mesh_plan(robot, Path(out) / SIMULATION_FILES[1], meshes).copies  # a mesh found nowhere: no folder made
     folder = make_directory(out, "--out")
     paths = [folder / name for name in SIMULATION_FILES]
-    check_outputs([("--out", p) for p in paths], [robot.source] if robot.source is not None else [])
+    check_outputs([("--out", p) for p in paths] + [("--meshes copy", dest) for _, dest in copies],
+                  [p for p in (robot.source, *(found for found, _ in copies)) if p is not None])
     return paths
 
 
-def write_simulation(sim: Simulation, out: Path) -> list[Path]:
-    """Write measurements.csv, truth.urdf and truth.json into ``out``; returns the paths.
+def write_simulation(sim: Simulation, out: Path, meshes: MeshMode = "keep") -> list[Path]:
+    """Write measurements.csv, truth.urdf and truth.json into ``out`` (with ``meshes`` ``copy``, the meshes into
+    ``out/truth_meshes/``: :mod:`pincal.io.mesh_files`); returns the paths of the first three.
 
     ``truth.urdf`` is the true robot written as a calibrated URDF (docs/calibrated_urdf.md): its forward
     kinematics at the actuated readings of ``measurements.csv``, in its root frame (the measurement frame
     when ``base.*`` carries errors), reproduces the measurements up to the noise; the sensors of read
     passive joints read ``q + zero`` (its ``<joint_sensor>`` elements, also in ``truth.json``).
     """
-    paths = simulation_outputs(sim.robot, out)
+    paths = simulation_outputs(sim.robot, out, meshes)
+    plan = _mesh_plan(sim.robot, paths[1], meshes)
     read = read_joints(sim.measurements)
     text, shifts = calibrated_robot_text(sim.robot, source_text(sim.robot), sim.parameters, sim.x_true,
                                          note="the TRUE robot of a pincal simulation (nominal + known errors)",
                                          read_joints=read, markers=declared_markers(sim.measurements))
     truth = {"robot": sim.robot.name, "units": "SI: m, rad", "parameters": sim.parameters.as_dict(sim.x_true),
              "reference_shifts": shifts, "joint_sensor_zeros": joint_sensor_zeros(text)}
-    texts = list(zip(paths, (dataset_text(sim.dataset), text, json_text(truth)), strict=True))
+    texts: list[tuple[Path, str | bytes]] = list(zip(paths, (dataset_text(sim.dataset), plan.text(text),
+                                                             json_text(truth)), strict=True))
     corrections = corrections_of(sim.robot, sim.parameters, sim.x_true, sim.payload)
     if corrections is not None:  # the true joint harmonics and compliances, as a calibration writes them
         texts.append((corrections_path(paths[1]), json_text(corrections_dict(corrections, sim.robot))))
-    return write_texts(texts)
+    return write_texts([*texts, *plan.files()])[:len(texts)]

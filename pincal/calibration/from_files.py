@@ -1,5 +1,6 @@
 """A calibration from files: the outputs checked before any work (never over an input), then written whole or not
-at all — from a robot and a data file (:func:`calibrate_files`) or from a job file (:func:`calibrate_job`)."""
+at all, each recording its provenance (:mod:`pincal.calibration.provenance`) — from a robot and a data file
+(:func:`calibrate_files`) or from a job file (:func:`calibrate_job`)."""
 
 from __future__ import annotations
 
@@ -14,48 +15,73 @@ from pincal.calibration.pipeline import Calibration, calibrate, options_of
 from pincal.calibration.provenance import Provenance, file_source, options_dict, robot_source, with_provenance
 from pincal.calibration.samples import read_robot_dataset
 from pincal.errors import NotFoundError
+from pincal.io.calibrated_urdf import source_text
 from pincal.io.corrections_file import corrections_dict, corrections_path
 from pincal.io.files import check_outputs, json_text, write_texts
+from pincal.io.mesh_files import MeshMode, MeshPlan, plan_meshes
 from pincal.model.robot import Robot, load_robot
 
 
-def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, report_path: str | None,
-                    **options: Any) -> Calibration:
-    """:func:`calibrate` from files: the outputs are checked before the fit (never over an input, parents
-    created) and each is written whole or not at all."""
-    robot = load_robot(robot_path)
-    beside = str(corrections_path(out_urdf)) if out_urdf else None
-    outputs = [(what, path) for what, path in (("--out", out_urdf), ("--report", report_path),
-                                               ("--out (its corrections file)", beside)) if path]
-    check_outputs(outputs, [p for p in (robot.source, data_path) if p is not None])
-    dataset = read_robot_dataset(data_path, robot)
-    cal = calibrate(robot, dataset, **options)
-    provenance = Provenance(robot_source(robot_path, robot), [file_source(data_path)],
-                            options_dict(options_of(None, {k: v for k, v in options.items() if k in OPTIONS})))
-    return _written(cal, robot, provenance, out_urdf, report_path, beside)
+def _mesh_plan(robot: Robot, out: str | Path | None, meshes: MeshMode) -> MeshPlan:
+    """The calibrated URDF's meshes at ``out`` (:mod:`pincal.io.mesh_files`), worked out before the fit."""
+    if out is None:
+        return MeshPlan({})
+    return plan_meshes(source_text(robot), robot.source.parent if robot.source is not None else None, out, meshes)
 
 
-def _written(cal: Calibration, robot: Robot, provenance: Provenance, out_urdf: str | Path | None,
-             report_path: str | Path | None, beside: str | Path | None) -> Calibration:
-    """``cal`` with its provenance, its outputs written (all or none): the calibrated URDF, the report, and the
-    corrections file beside the URDF when the URDF cannot hold every estimate."""
-    texts: list[tuple[str | Path | None, str]] = []
-    if out_urdf:
-        cal.urdf_text = with_provenance(cal.urdf_text, provenance, Path(out_urdf).parent)
-        texts.append((out_urdf, cal.urdf_text))
-    if report_path:
-        cal.report = replace(cal.report, provenance=provenance.as_dict(Path(report_path).parent))
-        texts.append((report_path, cal.report.to_json()))
-    if cal.corrections is not None and beside:  # what the URDF cannot hold goes beside it
-        texts.append((beside, json_text(corrections_dict(cal.corrections, robot, Path(beside).parent))))
-    write_texts([(path, text) for path, text in texts if path])
+def _checked_outputs(robot: Robot, out: str | Path | None, report: str | Path | None, meshes: MeshMode,
+                     inputs: list[str | Path], flags: tuple[str, str]) -> tuple[MeshPlan, Path | None]:
+    """The mesh plan and the corrections file of a calibration's outputs, every output checked before the fit (none
+    over an input, parents created); ``flags`` name the URDF and report outputs in messages."""
+    beside = corrections_path(out) if out else None
+    plan = _mesh_plan(robot, out, meshes)
+    outputs: list[tuple[str, str | Path]] = [
+        (what, path) for what, path in ((flags[0], out), (flags[1], report),
+                                        (f"{flags[0]} (its corrections file)", beside)) if path]
+    outputs += [("--meshes copy", dest) for _, dest in plan.copies]
+    check_outputs(outputs, [p for p in (robot.source, *inputs, *(f for f, _ in plan.copies)) if p is not None])
+    return plan, beside
+
+
+def _written(cal: Calibration, robot: Robot, provenance: Provenance, out: str | Path | None,
+             report: str | Path | None, beside: Path | None, plan: MeshPlan) -> Calibration:
+    """``cal`` with its provenance, its outputs written, all or none: the calibrated URDF (its mesh names for where it
+    lands), the report, the corrections file beside the URDF when the URDF cannot hold every estimate, and the mesh
+    copies."""
+    texts: list[tuple[str | Path, str | bytes]] = []
+    if out:
+        cal.urdf_text = with_provenance(cal.urdf_text, provenance, Path(out).parent)
+        texts += [(out, plan.text(cal.urdf_text)), *plan.files()]
+    if report:
+        cal.report = replace(cal.report, provenance=provenance.as_dict(Path(report).parent))
+        texts.append((report, cal.report.to_json()))
+    if cal.corrections is not None and beside is not None:  # what the URDF cannot hold goes beside it
+        texts.append((beside, json_text(corrections_dict(cal.corrections, robot, beside.parent))))
+    write_texts(texts)
     return cal
 
 
-def calibrate_job(job: Job) -> Calibration:
+def _options(keywords: dict[str, Any]) -> dict[str, Any]:
+    """Every calibration option as the provenance records it: ``keywords`` over the defaults."""
+    return options_dict(options_of(None, {k: v for k, v in keywords.items() if k in OPTIONS}))
+
+
+def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, report_path: str | None,
+                    meshes: MeshMode = "keep", **options: Any) -> Calibration:
+    """:func:`calibrate` from files: the outputs are checked before the fit (never over an input, parents
+    created) and each is written whole or not at all; ``meshes`` says what the calibrated URDF's meshes become
+    (:mod:`pincal.io.mesh_files`)."""
+    robot = load_robot(robot_path)
+    plan, beside = _checked_outputs(robot, out_urdf, report_path, meshes, [data_path], ("--out", "--report"))
+    cal = calibrate(robot, read_robot_dataset(data_path, robot), **options)
+    provenance = Provenance(robot_source(robot_path, robot), [file_source(data_path)], _options(options))
+    return _written(cal, robot, provenance, out_urdf, report_path, beside, plan)
+
+
+def calibrate_job(job: Job, meshes: MeshMode = "keep") -> Calibration:
     """:func:`calibrate` as a job file says (:mod:`pincal.calibration.job`): its robot, its data read into SI units, its
     options; the outputs are checked before the fit (never over an input, the job file included) and each is written
-    whole or not at all."""
+    whole or not at all; ``meshes`` as for :func:`calibrate_files`."""
     def source(option: str) -> OptionSource:  # the command line's value in place of the job's, or the job's own
         return "command line" if option in job.overrides else job.path
 
@@ -67,11 +93,8 @@ def calibrate_job(job: Job) -> Calibration:
             payload.check(robot)
         except NotFoundError as exc:  # the same culprit, the job file named
             raise NotFoundError(f"{job.path}: {exc}", exc.kind, exc.name, exc.choices) from None
-    beside = corrections_path(job.out) if job.out else None
-    outputs = [(what, path) for what, path in (("out", job.out), ("report", job.report),
-                                               ("out (its corrections file)", beside)) if path]
-    check_outputs(outputs, [p for p in (robot.source, job.path, *job.files) if p is not None])
+    plan, beside = _checked_outputs(robot, job.out, job.report, meshes, [job.path, *job.files], ("out", "report"))
     cal = calibrate(robot, job_dataset(job, robot), **job.options)
     provenance = Provenance(robot_source(str(job.robot), robot), [file_source(p) for p in (job.path, *job.files)],
-                            options_dict(options_of(None, {k: v for k, v in job.options.items() if k in OPTIONS})))
-    return _written(cal, robot, provenance, job.out, job.report, beside)
+                            _options(job.options))
+    return _written(cal, robot, provenance, job.out, job.report, beside, plan)

@@ -15,10 +15,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from pincal.calibration.options import check_cv_seed
-from pincal.cli import compensate, report_page, study, view
+from pincal.cli import compensate, export, report_page, study, view
 from pincal.cli.arguments import (
     add_calibration_options,
     add_measurement,
+    add_meshes,
     add_parameters,
     add_payload,
     add_perturb,
@@ -87,17 +88,19 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     """``pincal simulate``: draw true errors, random postures and noisy measurements of a robot and write the
     dataset, the true URDF and ``truth.json`` to ``--out``."""
     from pincal.calibration.campaign import check_sample_counts, simulate, simulation_outputs, write_simulation
+    from pincal.io.mesh_files import mesh_folder
     from pincal.model.robot import load_robot
 
     robot = load_robot(args.robot)
     check_sample_counts(args.samples, args.test_samples)
     created = not Path(args.out).exists()
-    simulation_outputs(robot, args.out)  # refused before any work: a file, an unwritable place, the robot's URDF
+    simulation_outputs(robot, args.out, args.meshes)  # refused before any work: a file, an unwritable place, the
+    # robot's URDF, a mesh to copy found nowhere
     try:
         sim = simulate(robot, args.measure, args.samples, args.test_samples, frame=args.frame, perturb=args.perturb,
                        noise=args.noise, seed=args.seed, parameter_spec=args.parameters, progress=not args.quiet,
                        spread=args.spread, payload=args.payload)
-        paths = write_simulation(sim, Path(args.out))
+        paths = write_simulation(sim, Path(args.out), args.meshes)
     except PincalError:
         if created:  # the directory made above, still empty: nothing is left behind
             with contextlib.suppress(OSError):
@@ -108,6 +111,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
           f"(m, rad) on {len(sim.parameters)} parameters; measurement noise σ {args.noise:g}")
     for path in paths:
         print(f"wrote {path}")
+    if args.meshes == "copy":
+        print(f"wrote {mesh_folder(paths[1])}/ (the meshes truth.urdf names)")
     return 0
 
 
@@ -123,6 +128,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from pincal.calibration.job import read_job
     from pincal.calibration.summary import summary_text
     from pincal.io.corrections_file import corrections_path
+    from pincal.io.mesh_files import mesh_folder
 
     options = given_options(args)  # options not given are left out: a job file's value stands, else the default
     job_file = args.robot.endswith(JOB_SUFFIX)
@@ -137,11 +143,11 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             raise PincalError("calibrate: --markers cluster applies to a dataset named on the command line, not yet to "
                               "a job file")
         job = read_job(args.robot).overridden(args.out, args.report, **options)
-        cal = calibrate_job(job)
+        cal = calibrate_job(job, args.meshes)
         out, report_path = job.out, job.report
     else:
         check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
-        cal = calibrate_files(args.robot, args.data, args.out, args.report, progress=True, **options)
+        cal = calibrate_files(args.robot, args.data, args.out, args.report, args.meshes, progress=True, **options)
         out, report_path = args.out, args.report
     print(summary_text(cal.report, cal.result.seconds, str(report_path) if report_path else None))
     for path in (out, report_path):
@@ -149,6 +155,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             print(f"wrote {path}")
     if out and cal.corrections is not None:
         print(f"wrote {corrections_path(out)} (joint corrections the URDF cannot hold: docs/calibrated_urdf.md)")
+    if out and args.meshes == "copy":
+        print(f"wrote {mesh_folder(out)}/ (the meshes the URDF names)")
     return 0 if cal.report.usable else 1
 
 
@@ -273,6 +281,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "hexapod44) and name patterns, as for calibrate (default: the default set)")
     add_payload(sim, "truth.corrections.json records it")
     sim.add_argument("--out", required=True, help="output directory")
+    add_meshes(sim, "truth.urdf")
     sim.add_argument("--quiet", action="store_true", help="no progress bar")
     sim.set_defaults(func=cmd_simulate)
 
@@ -289,6 +298,7 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("data", nargs="?", help="measurement CSV (see docs/dataset.md)")
     cal.add_argument("--out", help="calibrated URDF to write")
     cal.add_argument("--report", help="report JSON to write")
+    add_meshes(cal, "the calibrated URDF")
     add_calibration_options(cal)
     cal.set_defaults(func=cmd_calibrate)
 
@@ -317,7 +327,7 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.add_argument("--scheduler", help="address of a Dask scheduler (pip install 'pincal[dask]')")
     fleet.set_defaults(func=cmd_fleet)
 
-    for module in (view, report_page, study, compensate):  # command groups of their own
+    for module in (view, report_page, study, compensate, export):  # command groups of their own
         module.register(sub)
     return parser
 

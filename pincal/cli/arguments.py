@@ -16,6 +16,9 @@ from pincal.errors import DataError
 if TYPE_CHECKING:
     from pincal.identification.corrections import Payload
 
+#: ``--meshes`` choices, the default first: pincal.io.mesh_files.MESH_MODES, spelled here so that parsing imports no
+#: NumPy (tests/cli/test_export.py holds them equal).
+MESH_MODES = ("keep", "copy")
 MEASURE_HELP = "position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME"
 
 
@@ -54,6 +57,14 @@ def non_negative_float(text: str) -> float:
 def add_robot(parser: argparse.ArgumentParser, note: str = "") -> None:
     """The positional ROBOT: a URDF path or a known robot name."""
     parser.add_argument("robot", help="URDF file or known robot name" + (f" ({note})" if note else ""))
+
+
+def add_meshes(parser: argparse.ArgumentParser, written: str) -> None:
+    """``--meshes keep|copy``: what the mesh file names of a written URDF become (pincal.io.mesh_files)."""
+    parser.add_argument("--meshes", choices=MESH_MODES, default=MESH_MODES[0],
+                        help=f"mesh files of {written}: keep (default: package:// names as in the robot's URDF, "
+                             "relative ones rewritten relative to the written file) or copy (every mesh copied "
+                             "beside it into <name>_meshes/, named by relative paths); never an absolute path")
 
 
 def add_measurement(parser: argparse.ArgumentParser) -> None:

@@ -24,7 +24,6 @@ from pincal.errors import ConvergenceError, DataError, RobotFileError, listing, 
 from pincal.identification.derivatives import marker_points
 from pincal.identification.measurements import Measurement, split_target
 from pincal.identification.parameters import ParameterSet, attached_name, kinds_where
-from pincal.model.catalog import resolve_mesh_file
 from pincal.model.robot import Robot, _build_model, check_reference_assembly
 from pincal.model.urdf import origin_to_se3, read_extensions
 from pincal.model.urdf_writer import FixedLink, calibrated_urdf_text
@@ -122,8 +121,8 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     - instrumented passive joints (``<joint>.offset`` of a non-actuated joint, and ``read_joints``):
       ``<joint_sensor joint="..." zero="z"/>``: the sensor reads ``q + z``, q the joint's value in the
       file, ``z = shift − δq`` [m or rad];
-    - mesh files: ``package://`` and relative names that resolve to local files are written as
-      ``file://`` absolute paths (:func:`pincal.model.catalog.resolve_mesh_file`), so plain loaders find them.
+    - mesh files: named as in the source; where the file is written decides their names there
+      (:mod:`pincal.io.mesh_files`).
 
     Loading the file and running forward kinematics at the raw actuated readings then reproduces the
     calibrated model's prediction of every measured quantity, in the measurement frame.
@@ -183,9 +182,8 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     offsets = {p.owner: float(x[k]) for k, p in enumerate(parameters) if p.kind == "offset"}
     read = [j for j in dict.fromkeys([*read_joints, *offsets]) if j not in robot.actuated_joints]
     sensor_zeros = {j: shifts.get(j, 0.0) - offsets.get(j, 0.0) for j in read}
-    meshes = loadable_mesh_filenames(tree, robot.source.parent if robot.source is not None else None)
     text = calibrated_urdf_text(source_text, joint_origins, loop_origins, header_note=note, fixed_links=fixed_links,
-                                sensor_zeros=sensor_zeros, mesh_filenames=meshes)
+                                sensor_zeros=sensor_zeros)
     if ext.loops:
         check_reference_assembly(Robot(_build_model(text, "calibrated URDF"), read_extensions(text).loops,
                                        robot.actuated_joints, robot.name), "calibrated URDF")
@@ -347,19 +345,6 @@ def declared_markers(models: Sequence[Measurement]) -> dict[str, tuple[float, fl
     their frames (zero when the data declare none): what :func:`calibrated_robot_text` takes as ``markers``."""
     return {target: nominal if nominal is not None else (0.0, 0.0, 0.0)
             for m in models for target, nominal in m.markers.items() if split_target(target)[1]}
-
-
-def loadable_mesh_filenames(tree: ET.Element, urdf_dir: Path | None) -> dict[str, str]:
-    """Mesh file name -> ``file://`` absolute path, for the ``package://`` and relative names of the URDF that
-    resolve to local files (a plain loader resolves neither from elsewhere); others are left out."""
-    out = {}
-    for mesh in tree.findall("link/*/geometry/mesh"):
-        name = mesh.get("filename", "")
-        if name.startswith("package://") or not (name.startswith("file://") or Path(name).is_absolute()):
-            found = resolve_mesh_file(name, urdf_dir)
-            if found is not None:
-                out[name] = f"file://{found.as_posix()}"
-    return out
 
 
 def joint_sensor_zeros(text: str) -> dict[str, float]:

@@ -101,9 +101,10 @@ def write_text(path: str | Path, text: str) -> Path:
     return write_texts([(path, text)])[0]
 
 
-def write_texts(files: Sequence[tuple[str | Path, str]]) -> list[Path]:
-    """Write several files as one: every text goes to a temporary file first, and only when all are on disk
-    are they renamed over their targets, so a failure (a full disk) leaves every old file in place.
+def write_texts(files: Sequence[tuple[str | Path, str | bytes]]) -> list[Path]:
+    """Write several files as one: every text (UTF-8) or bytes (as they are: a mesh) goes to a temporary file
+    first, and only when all are on disk are they renamed over their targets, so a failure (a full disk) leaves
+    every old file in place.
 
     Raises:
         OutputError: as :func:`write_text`; no target has been touched.
@@ -121,7 +122,7 @@ def write_texts(files: Sequence[tuple[str | Path, str]]) -> list[Path]:
     return [target for _, target in staged]
 
 
-def _staged(target: Path, text: str) -> str:
+def _staged(target: Path, text: str | bytes) -> str:
     """``text`` written to a temporary file beside ``target``, with ``target``'s permissions; its path."""
     _refuse_non_file(target, f"output '{target}'")
     try:
@@ -133,8 +134,8 @@ def _staged(target: Path, text: str) -> str:
     except OSError as exc:
         raise OutputError(f"cannot write '{target}': {exc.strerror or exc}") from None
     try:
-        with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
-            stream.write(text)
+        with os.fdopen(handle, "wb") as stream:
+            stream.write(text if isinstance(text, bytes) else text.encode("utf-8"))
             stream.flush()
             os.fsync(stream.fileno())
         os.chmod(temporary, mode)

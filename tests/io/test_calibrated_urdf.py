@@ -297,46 +297,15 @@ def test_recalibrating_a_calibrated_file(name: str, keys: list[str], tmp_path: P
     assert len(tree.findall("joint_sensor")) == len(read)
 
 
-def test_mesh_files_are_found_by_plain_loaders(tmp_path: Path) -> None:
-    """example-robot-data's ``package://`` meshes become ``file://`` paths: yourdfpy loads a calibrated UR10's
-    meshes from wherever the file is written, as it does the original's from its own directory."""
-    import yourdfpy
-
-    for name in ("ur10", "panda"):
-        robot = pincal.load_robot(name)
-        models = [parse_key(f"position:{robot.end_effector}")]
-        pset = choose_parameters(robot, models)
-        text = _write(robot, pset, np.zeros(len(pset)), models, tmp_path / f"{name}.urdf")
-        names = [mesh.get("filename", "") for mesh in ET.fromstring(text).iter("mesh")]
-        assert names and all(n.startswith("file:///") and Path(n[len("file://"):]).is_file() for n in names), name
-        assert "package://" in source_text(robot)
-    original = yourdfpy.URDF.load(str(pincal.load_robot("ur10").source), load_meshes=True)
-    calibrated = yourdfpy.URDF.load(str(tmp_path / "ur10.urdf"), load_meshes=True)
-    assert len(calibrated.scene.geometry) == len(original.scene.geometry) > 0
-
-
-def test_relative_and_package_meshes_resolve_to_local_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """A mesh relative to the source file, a ``package://`` mesh of the package holding the file, one from a
-    ``ROS_PACKAGE_PATH`` entry: all written as ``file://`` paths; a mesh found nowhere is left as written."""
-    package = tmp_path / "ws" / "my_robot"
-    (package / "urdf").mkdir(parents=True)
-    (package / "meshes").mkdir()
-    (package / "meshes" / "a.stl").write_text("solid a\nendsolid a\n")
-    (tmp_path / "ros" / "other").mkdir(parents=True)
-    (tmp_path / "ros" / "other" / "b.stl").write_text("solid b\nendsolid b\n")
-    monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "ros"))
-    meshes = ["../meshes/a.stl", "package://my_robot/meshes/a.stl", "package://other/b.stl", "package://gone/c.stl"]
-    visuals = "".join(f"<visual><geometry><mesh filename='{m}'/></geometry></visual>" for m in meshes)
-    (package / "urdf" / "r.urdf").write_text(
-        f"<robot name='r'><link name='a'>{visuals}</link><link name='b'/>"
-        "<joint name='j' type='revolute'><parent link='a'/><child link='b'/><origin xyz='0 0 0.1'/>"
-        "<axis xyz='0 0 1'/><limit lower='-1' upper='1' effort='1' velocity='1'/></joint></robot>")
-    robot = pincal.load_robot(package / "urdf" / "r.urdf")
-    pset = choose_parameters(robot, [parse_key("position:b")])
-    text, _ = calibrated_robot_text(robot, source_text(robot), pset, np.zeros(len(pset)))
-    a, b = (package / "meshes" / "a.stl").resolve(), (tmp_path / "ros" / "other" / "b.stl").resolve()
-    assert [m.get("filename") for m in ET.fromstring(text).iter("mesh")] == \
-        [f"file://{a}", f"file://{a}", f"file://{b}", "package://gone/c.stl"]
+def test_mesh_names_are_the_sources() -> None:
+    """The calibrated text names its meshes as the source does: where the file is written decides their names
+    there (pincal.io.mesh_files, tests/io/test_mesh_files.py)."""
+    robot = pincal.load_robot("ur10")
+    pset = choose_parameters(robot, [parse_key("position:tool0")])
+    text, _ = calibrated_robot_text(robot, source_text(robot), pset, np.full(len(pset), 1e-3))
+    names = [mesh.get("filename", "") for mesh in ET.fromstring(text).iter("mesh")]
+    assert names == [mesh.get("filename", "") for mesh in ET.fromstring(source_text(robot)).iter("mesh")]
+    assert len(names) == 14 and all(n.startswith("package://example-robot-data/") for n in names)
 
 
 @pytest.mark.parametrize(("name", "kinds"), [

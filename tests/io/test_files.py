@@ -130,3 +130,11 @@ def test_a_set_of_outputs_is_written_all_or_none(tmp_path: Path, monkeypatch: py
     monkeypatch.undo()
     assert write_texts([(first, "new csv\n"), (second, "new urdf\n")]) == [first, second]
     assert (first.read_text(), second.read_text()) == ("new csv\n", "new urdf\n")
+
+
+def test_bytes_are_written_as_they_are(tmp_path: Path) -> None:
+    """A mesh copy is bytes: written unchanged, beside a text written as UTF-8 with its line ends kept."""
+    mesh, text = tmp_path / "m.stl", tmp_path / "t.urdf"
+    data = bytes(range(256)) + b"\r\n"
+    assert write_texts([(mesh, data), (text, "é\r\n")]) == [mesh, text]
+    assert mesh.read_bytes() == data and text.read_bytes() == "é\r\n".encode()

@@ -1,0 +1,76 @@
+"""``pincal export``: a (calibrated) URDF's joint placements as per-joint YAML, or as a DH / modified-DH table."""
+
+from __future__ import annotations
+
+import argparse
+
+from pincal.cli.arguments import add_robot, non_negative_int, positive_float, positive_int
+from pincal.errors import PincalError
+
+#: pincal.io.export's FORMATS, TOLERANCE [m, rad] and POSTURES, spelled here so that parsing imports no NumPy
+#: (tests/cli/test_export.py holds them equal).
+FORMATS = ("yaml", "dh", "mdh")
+DEFAULT_TOLERANCE = 1e-6
+DEFAULT_POSTURES = 100
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    """``pincal export``: write the export and say what it holds; a DH table's conversion residual is printed."""
+    from pincal.io.calibrated_urdf import source_text
+    from pincal.io.export import dh_export, joint_origins_yaml
+    from pincal.io.files import check_outputs, write_text
+    from pincal.model.robot import load_robot
+
+    if args.format == "yaml" and (args.frame or args.base):
+        raise PincalError("export: --frame and --base choose a DH table's chain; --format yaml writes every joint")
+    robot = load_robot(args.robot)
+    text = source_text(robot)
+    check_outputs([("--out", args.out)], [robot.source] if robot.source is not None else [])
+    if args.format == "yaml":
+        write_text(args.out, joint_origins_yaml(text, str(robot.source)))
+        print(f"wrote {args.out}: the origin of each of the URDF's joints (x, y, z [m], roll, pitch, yaw [rad])")
+        return 0
+    done = dh_export(robot, text, str(robot.source), args.format, args.frame, args.base, args.tolerance,
+                     args.postures, args.seed)
+    table, residual = done.table, done.residual
+    print(f"{args.format} table of {table.base_frame} -> {table.end_frame}, {len(table.rows)} joints; conversion "
+          f"residual over {residual.postures} random postures: {residual.position:.3g} m, "
+          f"{residual.orientation:.3g} rad")
+    names = ("theta", "d", "a", "alpha") if args.format == "dh" else ("alpha", "a", "theta", "d")
+    print(f"  {'joint':<28}" + "".join(f"{n + (' [rad]' if n in ('theta', 'alpha') else ' [m]'):>16}" for n in names))
+    for row in table.rows:
+        values = {"theta": row.theta, "d": row.d, "a": row.a, "alpha": row.alpha}
+        print(f"  {row.joint:<28}" + "".join(f"{values[n]:>16.9g}" for n in names))
+    for first, second, angle, distance in table.near_parallel:
+        print(f"  note: axes of {first} and {second} are {angle:.3g} rad from parallel: their common normal is "
+              f"{distance:.3g} m away (exact, but d values large and cancelling)")
+    write_text(args.out, done.text)
+    print(f"wrote {args.out}")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add ``export`` to the ``pincal`` subcommands."""
+    parser = sub.add_parser(
+        "export", help="a URDF's joint placements as per-joint YAML, or a DH / modified-DH table",
+        description="yaml: every joint's <origin> (x, y, z [m], roll, pitch, yaw [rad], URDF rpy) keyed by joint "
+                    "name, as ur_description's default_kinematics.yaml lays them out, and each loop's anchors; any "
+                    "robot. dh, mdh: the serial chain from --base to --frame as a classic or modified (Craig) "
+                    "Denavit-Hartenberg table in YAML, with the base and tool transforms that make it exact and "
+                    "its conversion residual against Pinocchio's forward kinematics; refused for closed loops, "
+                    "joints neither revolute nor prismatic, or a residual above --tolerance "
+                    "(docs/calibrated_urdf.md, 'Exports').",
+        epilog="examples: pincal export cal.urdf --format yaml --out kinematics.yaml; "
+               "pincal export cal.urdf --format dh --out dh.yaml")
+    add_robot(parser, "e.g. a calibrated URDF")
+    parser.add_argument("--format", choices=FORMATS, default=FORMATS[0], help="what to write (default yaml)")
+    parser.add_argument("--out", required=True, help="the YAML file to write")
+    parser.add_argument("--frame", help="dh, mdh: the chain's end frame (default: the robot's measured frame)")
+    parser.add_argument("--base", help="dh, mdh: the chain's base frame (default: the URDF's root link; in a "
+                                       "calibrated URDF the robot's own root below measurement_frame)")
+    parser.add_argument("--tolerance", type=positive_float, default=DEFAULT_TOLERANCE,
+                        help=f"dh, mdh: largest conversion residual written [m, rad] (default {DEFAULT_TOLERANCE:g})")
+    parser.add_argument("--postures", type=positive_int, default=DEFAULT_POSTURES,
+                        help=f"dh, mdh: random postures the residual is measured at (default {DEFAULT_POSTURES})")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="dh, mdh: their random seed (default 0)")
+    parser.set_defaults(func=cmd_export)
