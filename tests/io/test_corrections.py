@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -165,8 +166,8 @@ def test_the_corrections_file_round_trips_its_payload(tmp_path: Path) -> None:
     ur10 = pincal.load_robot("ur10")
     corrections = Corrections("ur10", {"elbow_joint": {"compliance": 1e-4}}, Payload(2.5, "tool0", (0.1, 0.0, 0.0)))
     path = tmp_path / "c.corrections.json"
-    path.write_text(json.dumps(corrections_dict(corrections, ur10)))
-    assert read_corrections(path) == corrections
+    path.write_text(json.dumps(corrections_dict(corrections, ur10, tmp_path)))
+    assert read_corrections(path) == replace(corrections, nominal_urdf="ur10")  # a known robot by its name
     qa = np.array([0.1, -0.8, 1.2, -0.4, 0.3, 0.0])
     moved = corrected_readings(corrections, ur10, qa) - qa
     assert moved[2] == pytest.approx(1e-4 * gravity_torques(ur10, qa[None], corrections.payload)[0, 2], rel=1e-12)
