@@ -18,9 +18,13 @@ ROBOTS = ROOT / "robots_urdf"
 PINCAL = Path(sys.executable).parent / "pincal"
 
 
-def run_pincal(*args: str, timeout: float = 300) -> subprocess.CompletedProcess[str]:
-    """``pincal ARGS`` as a user runs it: the console script in a subprocess, output captured as text."""
-    return subprocess.run([str(PINCAL), *args], capture_output=True, text=True, timeout=timeout, check=False)
+def run_pincal(*args: str, timeout: float = 300, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    """``pincal ARGS`` as a user runs it: the console script in a subprocess (in ``cwd``, made if missing), output
+    captured as text."""
+    if cwd is not None:
+        cwd.mkdir(parents=True, exist_ok=True)
+    return subprocess.run([str(PINCAL), *args], capture_output=True, text=True, timeout=timeout, check=False,
+                          cwd=cwd)
 
 
 @pytest.fixture(scope="session")
