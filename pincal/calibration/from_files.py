@@ -4,19 +4,20 @@ at all, each recording its provenance (:mod:`pincal.calibration.provenance`) —
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from pincal.calibration.job import Job, load_job_robot
+from pincal.calibration.job import Job, load_job_robot, read_job
 from pincal.calibration.job_data import job_dataset
-from pincal.calibration.options import OPTIONS, OptionSource, check_cv_seed
+from pincal.calibration.options import OPTIONS, CalibrationOptions, OptionSource, check_cv_seed
 from pincal.calibration.pipeline import Calibration, calibrate, options_of
 from pincal.calibration.provenance import Provenance, file_source, options_dict, robot_source, with_provenance
 from pincal.calibration.samples import read_robot_dataset
-from pincal.errors import NotFoundError
+from pincal.errors import NotFoundError, PincalError
 from pincal.io.calibrated_urdf import source_text
 from pincal.io.corrections_file import corrections_dict, corrections_path
+from pincal.io.dataset import Dataset
 from pincal.io.files import check_outputs, json_text, write_texts
 from pincal.io.mesh_files import MeshMode, MeshPlan, plan_meshes
 from pincal.model.robot import Robot, load_robot
@@ -98,3 +99,44 @@ def calibrate_job(job: Job, meshes: MeshMode = "keep") -> Calibration:
     provenance = Provenance(robot_source(str(job.robot), robot), [file_source(p) for p in (job.path, *job.files)],
                             _options(job.options))
     return _written(cal, robot, provenance, job.out, job.report, beside, plan)
+
+
+#: A file named so is a job file (docs/job_file.md): ``pincal calibrate JOB.toml``.
+JOB_SUFFIX = ".toml"
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """What a command calibrates: the robot, the dataset (in SI units), the options, and the files read."""
+
+    robot: Robot
+    dataset: Dataset
+    options: CalibrationOptions
+    files: list[Path]
+
+
+def read_inputs(command: str, robot_or_job: str, data: str | None, options: dict[str, Any]) -> Inputs:
+    """The robot and dataset of ``pincal COMMAND ROBOT DATA`` or ``pincal COMMAND JOB.toml`` (its robot, its data
+    read into SI units, its options with ``options`` over them), the options checked.
+
+    Raises:
+        PincalError: a job file with DATA, or a robot without; an option the job file or the command line cannot
+            take (naming which).
+    """
+    if robot_or_job.endswith(JOB_SUFFIX):
+        if data is not None:
+            raise PincalError(f"{command}: '{robot_or_job}' is a job file, which names its own data; give no DATA "
+                              f"(got '{data}'), or a robot: pincal {command} ROBOT DATA")
+        if options.get("markers", "each") != "each":
+            raise PincalError(f"{command}: --markers cluster applies to a dataset named on the command line, not yet "
+                              "to a job file")
+        job = read_job(robot_or_job).overridden(**{k: v for k, v in options.items() if k != "markers"})
+        check_cv_seed(job.options.get("cv"), job.options.get("cv_seed", 0), job.path, job.path)
+        robot = load_job_robot(job)
+        return Inputs(robot, job_dataset(job, robot), options_of(None, job.options), [job.path, *job.files])
+    if data is None:
+        raise PincalError(f"{command}: DATA is missing: give pincal {command} ROBOT DATA.csv, or a job file "
+                          f"JOB{JOB_SUFFIX} (docs/job_file.md); got only '{robot_or_job}'")
+    check_cv_seed(options.get("cv"), options.get("cv_seed", 0), "command line", "command line")
+    robot = load_robot(robot_or_job)
+    return Inputs(robot, read_robot_dataset(data, robot), options_of(None, options), [Path(data)])

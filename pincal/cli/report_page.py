@@ -43,4 +43,4 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     report.add_argument("--out", required=True, help="HTML file to write")
     report.add_argument("--truth", metavar="TRUTH.json",
                         help="true parameters (truth.json of pincal simulate) to compare the estimates with")
-    report.set_defaults(func=cmd_report)
+    report.set_defaults(func=cmd_report, command="report")

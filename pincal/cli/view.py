@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING, Any
 
-from pincal.calibration.options import OPTIONS, CalibrationOptions, check_cv_seed
+from pincal.calibration.options import OPTIONS
 from pincal.cli.arguments import add_calibration_options, add_robot, given_options
 from pincal.errors import DataError, PincalError
 
@@ -21,19 +21,16 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
 
     Returns the view and the calibration (None with ``--result``).
     """
+    from pincal.calibration.from_files import read_inputs
     from pincal.calibration.pipeline import calibrate
     from pincal.calibration.report import CalibrationReport
-    from pincal.calibration.samples import read_robot_dataset
     from pincal.io.files import check_outputs
-    from pincal.model.robot import load_robot
     from pincal.viz.scene import CalibrationView, check_same_data
 
-    check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
-    options = CalibrationOptions(**given_options(args))
-    robot = load_robot(args.robot)
-    inputs = (robot.source, args.data, args.result, getattr(args, "truth", None))
+    read = read_inputs(args.command, args.robot, args.data, given_options(args))
+    robot, dataset, options = read.robot, read.dataset, read.options
+    inputs = (robot.source, *read.files, args.result, getattr(args, "truth", None))
     check_outputs([("--out", args.out)], [p for p in inputs if p is not None])  # before any work
-    dataset = read_robot_dataset(args.data, robot)
     if args.result:
         report = CalibrationReport.read(args.result)
         check_result_options(args, report)
@@ -100,8 +97,9 @@ def _payload_text(recorded: Any) -> str:
 
 def add_view_options(parser: argparse.ArgumentParser) -> None:
     """ROBOT, DATA, ``--result`` and every calibration option, shared by ``view`` and ``report``."""
-    add_robot(parser)
-    parser.add_argument("data", help="measurement CSV (rows with set=test are held out)")
+    add_robot(parser, "or a job file JOB.toml naming its robot, data and options: docs/job_file.md")
+    parser.add_argument("data", nargs="?", help="measurement CSV (rows with set=test are held out); none with a job "
+                                                "file")
     parser.add_argument("--result", metavar="REPORT.json",
                         help="reuse the results JSON of 'pincal calibrate --report' instead of calibrating again")
     add_calibration_options(parser)
@@ -151,4 +149,4 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     view.add_argument("--open", nargs="?", const="", metavar="ZMQ_URL",
                       help="also draw in meshcat: a running server (e.g. tcp://127.0.0.1:6000) or, without a "
                            "URL, a new one kept until Enter")
-    view.set_defaults(func=cmd_view)
+    view.set_defaults(func=cmd_view, command="view")

@@ -4,12 +4,13 @@ Dataset in SI units (pincal.calibration.job_data)."""
 from __future__ import annotations
 
 import csv
+import json
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ROOT
+from conftest import ROOT, run_pincal
 
 import pincal
 from pincal.calibration.job import Job, read_job
@@ -351,3 +352,25 @@ def test_the_fuller_example_of_docs_job_file_is_a_valid_job(tmp_path: Path) -> N
     assert job.joints == {"shoulder_pan_joint": "J1", "shoulder_lift_joint": "J2"}
     assert [m.key for m in job.measures] == ["position:tool0", "distance:base_link-tool0"]
     assert job.out == tmp_path / "out" / "my_arm_calibrated.urdf"
+
+
+def test_report_and_view_take_a_job_file_as_calibrate_does(tmp_path: Path) -> None:
+    job = ROOT / "examples" / "tiago_job.toml"
+    done = run_pincal("calibrate", str(job), "--report", str(tmp_path / "r.json"), "--max-iter", "30")
+    assert done.returncode == 0, done.stderr
+    fitted = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"))
+    assert fitted["n_test_samples"] == 6  # the job's held-out rows: every 5th from 4 of 34
+    page = tmp_path / "p.html"
+    done = run_pincal("report", str(job), "--out", str(page), "--max-iter", "30", "--quiet")
+    assert done.returncode == 0, done.stderr
+    assert f"{fitted['test_rms_after'] * 1e3:.4f} mm" in page.read_text(encoding="utf-8")  # the job's fit
+    scene = tmp_path / "s.html"
+    done = run_pincal("view", str(job), "--out", str(scene), "--result", str(tmp_path / "r.json"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    assert f"{fitted['n_samples']} samples" in done.stdout  # the fitted samples drawn, as with a CSV
+    for argv, message in [(("report", str(job), "extra.csv", "--out", str(page)), "is a job file, which names its "
+                                                                                  "own data"),
+                          (("view", "delta", "--out", str(scene)), "view: DATA is missing")]:
+        done = run_pincal(*argv)
+        assert done.returncode == 2 and done.stderr.startswith("pincal: error: ") and message in done.stderr
+        assert len(done.stderr.splitlines()) == 1
