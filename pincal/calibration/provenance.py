@@ -124,18 +124,52 @@ def with_provenance(urdf_text: str, provenance: Provenance, folder: Path) -> str
     return f"{text[:start.end()]}\n  {provenance.urdf_element(folder)}{text[start.end():]}"
 
 
-def recorded_robot(path: str | Path) -> str | None:
-    """The nominal robot a calibrated URDF or a report JSON records (a catalog name, or a URDF path resolved against
-    the output's folder); None when it records none."""
-    path = Path(path)
-    text = path.read_text(encoding="utf-8")
-    if path.suffix.lower() == ".json":
-        provenance = json.loads(text).get("provenance") or {}
-        name = (provenance.get("robot") or {}).get("file")
-    else:
-        element = ET.fromstring(text).find(ELEMENT)
-        name = element.get("robot") if element is not None else None
-    if not name:
-        return None
-    beside = path.parent / name
-    return str(beside) if beside.is_file() else name
+@dataclass(frozen=True)
+class Recorded:
+    """What an output records of its inputs: the nominal robot (a known name, or a URDF path resolved against the
+    output's folder) and the data (the data file, or the job file, resolved likewise), each with its SHA-256; None
+    where nothing is recorded."""
+
+    robot: str | None = None
+    robot_sha256: str | None = None
+    data: Path | None = None
+    data_sha256: str | None = None
+
+
+def _resolved(entry: str, folder: Path) -> str:
+    """A recorded robot: a path relative to ``folder`` when a file is there or the entry looks like a path, else the
+    entry as it is (a known robot's name)."""
+    candidate = folder / entry
+    return str(candidate) if candidate.is_file() or Path(entry).suffix or "/" in entry else entry
+
+
+def read_provenance(path: str | Path) -> Recorded:
+    """The provenance a calibrated URDF (its ``<pincal_provenance>`` element) or a report JSON (its ``provenance``)
+    records; an empty one when it records none or cannot be read."""
+    source = Path(path)
+    folder = source.parent
+    try:
+        text = source.read_text(encoding="utf-8")
+        if source.suffix.lower() == ".json":
+            content = json.loads(text)
+            recorded = content.get("provenance") if isinstance(content, dict) else None
+            if not isinstance(recorded, dict):
+                return Recorded()
+            robot: dict[str, Any] = recorded.get("robot") or {}
+            data = recorded.get("data") or [{}]
+            first: dict[str, Any] = data[0] if isinstance(data, list) and isinstance(data[0], dict) else {}
+            if not isinstance(robot, dict):
+                robot = {}
+            robot_name, robot_sha = robot.get("file"), robot.get("sha256")
+            data_name, data_sha = first.get("file"), first.get("sha256")
+        else:
+            element = ET.fromstring(text).find(ELEMENT)
+            if element is None:
+                return Recorded()
+            robot_name, robot_sha = element.get("robot"), element.get("robot_sha256")
+            data_name = (element.get("data") or "").split(" ")[0]
+            data_sha = (element.get("data_sha256") or "").split(" ")[0]
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, ET.ParseError):
+        return Recorded()
+    return Recorded(_resolved(str(robot_name), folder) if robot_name else None, robot_sha or None,
+                    folder / str(data_name) if data_name else None, data_sha or None)

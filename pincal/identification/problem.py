@@ -299,11 +299,11 @@ class CalibrationProblem:
         self._qa_solved.record(k, qa)
         return report.q
 
-    def initial_guess(self) -> Array:
-        """A starting point: zero, except the placements closed forms give from the nominal robot (the cameras and
-        targets, else an unknown measurement frame registered to the measured points:
+    def initial_guess(self, start: Array | None = None) -> Array:
+        """A starting point: zero (or ``start``, [m, rad]), except the placements closed forms give from the nominal
+        robot (the cameras and targets, else an unknown measurement frame registered to the measured points:
         :func:`pincal.identification.starts.initial_guess`)."""
-        return starts.initial_guess(self)
+        return starts.initial_guess(self, start)
 
     def settle_assembly(self, x: Array) -> list[int]:
         """Samples whose remembered configuration at ``x`` is not on the reference assembly, each reset to it.

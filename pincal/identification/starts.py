@@ -21,18 +21,20 @@ if TYPE_CHECKING:
 Array = npt.NDArray[np.float64]
 
 
-def initial_guess(problem: CalibrationProblem) -> Array:
-    """A starting point: zero, except the placements closed forms give from the nominal robot.
+def initial_guess(problem: CalibrationProblem, start: Array | None = None) -> Array:
+    """A starting point: zero (or ``start``, the values [m, rad] to start the other parameters from), except the
+    placements closed forms give from the nominal robot.
 
     - cameras and their targets (each with all six placement parameters): an eye-in-hand camera seeing a pose
       target solves ``A_i X = Y B_i⁻¹`` (A_i the camera's frame in the world, B_i the target seen, X the camera on
       the frame, Y the target in the world), a point target ``p_i = X⁻¹ A_i⁻¹ y``; a pose target on a frame
       seen by a fixed camera solves ``A_i X = Y B_i``, Y the inverse of the camera's placement ``base``
-      (:mod:`pincal.identification.handeye`). Data that do not determine them leave them at zero;
+      (:mod:`pincal.identification.handeye`). Data that do not determine them leave them where they start;
     - otherwise an unknown measurement frame (all six ``base.*``) registered in closed form to the measured
       positions (Kabsch: measured ≈ R · predicted + t, least squares).
     """
-    x = np.zeros(len(problem.parameters))
+    x = np.zeros(len(problem.parameters)) if start is None else np.array(start, dtype=float)
+    x[[k for k in problem.base if k < len(x)]] = 0.0  # the registration below is of the robot as it stands at x
     located = camera_starts(problem, x)
     if located or len(problem.base) != 6 or any(k >= len(problem.parameters) for k in problem.base):
         return x

@@ -29,7 +29,7 @@ def _loaded(argv: list[str]) -> tuple[str, str]:
 
 
 @pytest.mark.parametrize("argv", [["--help"], *([c, "--help"] for c in ("info", "simulate", "calibrate", "demo",
-                                                                          "fleet", "view", "report", "design",
+                                                                          "fleet", "view", "report", "design", "check",
                                                                           "montecarlo", "compensate", "export"))])
 def test_help_imports_no_numerical_library(argv: list[str]) -> None:
     assert _loaded(argv) == ("0", "[]")

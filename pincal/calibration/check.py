@@ -1,0 +1,437 @@
+"""``pincal check``: a calibrated model's predictions of new measurements, beside the nominal robot's.
+
+Both robots predict every usable sample of the data (rows of either set), through the same preparation as a
+calibration (:func:`~pincal.calibration.setup.prepare`) with the measurement *setup* as the only parameters: the
+measurement frame (``base.*``), the markers, the cameras and targets. Their values:
+
+- the model, as it stands: the setup the file holds (its ``measurement_frame`` root, its ``<frame>_marker`` links,
+  its camera and target links), nothing estimated;
+- the nominal robot: its setup placed in closed form on the data, as calibrate's "before" (the measurement frame by
+  Kabsch, cameras and targets hand-eye, markers at their nominal offsets);
+- with ``register``: each robot's setup re-estimated on the data by least squares from those starts, the robot's
+  geometry held, so that a day whose tracker, markers or cameras moved is judged on the robot alone.
+
+Errors in m (lengths) and rad (angles); every figure is predicted − measured.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.calibration.check_model import CheckedModel
+from pincal.calibration.heldout import worse_than_nominal
+from pincal.calibration.options import CalibrationOptions
+from pincal.calibration.pipeline import fitting_options
+from pincal.calibration.samples import check_length_scale, held_out_outside_range
+from pincal.calibration.setup import Prepared, dataset_models, parameters_for, prepare
+from pincal.errors import DataError
+from pincal.identification.measurements import Measurement, split_target
+from pincal.identification.metrics import angle_columns, length_columns, rms, sample_length_errors
+from pincal.identification.parameters import influencing_joints, read_joints
+from pincal.identification.problem import CalibrationProblem
+from pincal.identification.solver import identify
+from pincal.identification.starts import set_placement
+from pincal.io.calibrated_urdf import attached_link, marker_link
+from pincal.io.dataset import Dataset
+from pincal.model.robot import Robot
+
+Array = npt.NDArray[np.float64]
+
+#: The parameter kinds of the measurement setup: what a day's measurements may have moved, not the robot.
+SETUP_KINDS = ("base", "marker", "cluster", "camera", "target")
+
+MODEL_AS_IS = ("MODEL as it stands: the measurement frame, markers, cameras and targets the file holds; nothing "
+               "estimated")
+MODEL_REGISTERED = ("MODEL's robot with its measurement setup (measurement frame, markers, cameras, targets) "
+                    "re-estimated on DATA by least squares, its geometry held")
+NOMINAL_PLACED = ("the nominal robot with its measurement setup placed in closed form on DATA (measurement frame by "
+                  "Kabsch, cameras and targets hand-eye, markers at their nominal offsets), as calibrate's 'before'")
+NOMINAL_REGISTERED = ("the nominal robot with its measurement setup re-estimated on DATA by least squares, as "
+                      "MODEL's")
+
+
+@dataclass(frozen=True)
+class Side:
+    """One robot's predictions of the checked samples.
+
+    Attributes:
+        prepared: Its problem over the setup parameters, on the checked samples.
+        x: The setup's values [m, rad], in ``prepared.parameters``' order.
+        errors: Per measurement key, (N, rows) errors predicted − measured [m, rad].
+        converged: Whether the registration converged (None: nothing was estimated).
+    """
+
+    prepared: Prepared
+    x: Array
+    errors: dict[str, Array]
+    converged: bool | None = None
+
+    def setup(self) -> dict[str, float]:
+        """The setup's values by parameter name [m, rad]."""
+        return {name: float(v) for name, v in zip(self.prepared.parameters.names, self.x, strict=True)}
+
+
+@dataclass(frozen=True)
+class Check:
+    """A model checked on data, beside the nominal robot.
+
+    Attributes:
+        model, nominal: The two robots' predictions of the same samples.
+        registered: Whether the setups were re-estimated (``register``).
+        dropped: The samples left out, with the reason (``{"sample", "reason"}``; the robot it concerns named).
+        outside_range: Readings of actuated joints outside the range the calibration fitted
+            (:func:`~pincal.calibration.samples.held_out_outside_range`); empty when not known.
+        range_note: Why the fitted range is not known (None when it is).
+        n_samples_in_file: The data's rows.
+    """
+
+    model: Side
+    nominal: Side
+    registered: bool
+    dropped: list[dict[str, str]]
+    outside_range: list[dict[str, Any]]
+    range_note: str | None
+    n_samples_in_file: int
+
+    @property
+    def sample_ids(self) -> list[str]:
+        """The checked samples' ids, in file order."""
+        return self.model.prepared.samples.sample_ids
+
+    @property
+    def outside_samples(self) -> list[str]:
+        """The ids of the samples with a reading outside the fitted range, in file order."""
+        flagged = {entry["sample"] for entry in self.outside_range}
+        return [s for s in self.sample_ids if s in flagged]
+
+    @property
+    def worse_than_nominal(self) -> bool:
+        """Whether the model predicts the data worse than the nominal robot: by the RMS of the length readings
+        (positions, distances), or with none, by the RMS of the σ-weighted errors."""
+        n = len(self.sample_ids)
+        if sample_length_errors(self.model.errors, n) is not None:
+            return worse_than_nominal(self.nominal.errors, self.model.errors, n, [])
+        return bool(weighted_rms(self.model) > weighted_rms(self.nominal) * (1 + 1e-6))
+
+    def figures(self, rows: Sequence[int] | None = None) -> dict[str, Any]:
+        """RMS and max of the length errors [m] (and of the orientation errors [rad], with poses) of the model and
+        of the nominal robot, over the samples ``rows`` (None: all)."""
+        model, nominal = _rows(self.model.errors, rows), _rows(self.nominal.errors, rows)
+        out: dict[str, Any] = {"n_samples": len(self.sample_ids) if rows is None else len(rows)}
+        for suffix, pick in (("", _length_norms), ("_angle", _angle_norms)):
+            a, b = pick(model), pick(nominal)
+            if suffix and not a.size:
+                continue
+            out.update({f"rms{suffix}": _number(rms(a)), f"max{suffix}": _largest(a),
+                        f"nominal_rms{suffix}": _number(rms(b)), f"nominal_max{suffix}": _largest(b)})
+        return out
+
+    def quantities(self) -> list[dict[str, Any]]:
+        """Per measurement and quantity (``length`` [m], ``angle`` [rad], ``reading`` [its unit]): the readings'
+        count, RMS and max error of the model and of the nominal robot."""
+        out = []
+        for m in self.model.prepared.models:
+            a, b = self.model.errors[m.key], self.nominal.errors[m.key]
+            parts = []
+            if length_columns(m.key):
+                parts.append(("length", "m", slice(0, length_columns(m.key))))
+            if angle_columns(m.key).stop > angle_columns(m.key).start:
+                parts.append(("angle", "rad", angle_columns(m.key)))
+            if not parts:
+                parts.append(("reading", m.row_units()[0], slice(0, a.shape[1])))
+            for quantity, unit, columns in parts:
+                na, nb = _norms(a[:, columns]), _norms(b[:, columns])
+                out.append({"measurement": m.key, "quantity": quantity, "unit": unit, "n": int(na.size),
+                            "rms": _number(rms(na)), "max": _largest(na), "nominal_rms": _number(rms(nb)),
+                            "nominal_max": _largest(nb)})
+        return out
+
+    def samples(self) -> list[dict[str, Any]]:
+        """Per checked sample: its id, its length error [m] and orientation error [rad] (None without such a
+        reading) under the model and the nominal robot, and whether a reading lies outside the fitted range."""
+        n = len(self.sample_ids)
+        outside = set(self.outside_samples)
+        length_a, length_b = (sample_length_errors(s.errors, n) for s in (self.model, self.nominal))
+        angle_a, angle_b = (sample_angle_errors(s.errors, n) for s in (self.model, self.nominal))
+        out = []
+        for k, sample in enumerate(self.sample_ids):
+            entry: dict[str, Any] = {"sample": sample}
+            if length_a is not None and length_b is not None:
+                entry.update({"error": _number(length_a[k]), "nominal_error": _number(length_b[k])})
+            if angle_a is not None and angle_b is not None:
+                entry.update({"angle_error": _number(angle_a[k]), "nominal_angle_error": _number(angle_b[k])})
+            entry["outside_range"] = sample in outside
+            out.append(entry)
+        return out
+
+
+def _rows(errors: dict[str, Array], rows: Sequence[int] | None) -> dict[str, Array]:
+    return errors if rows is None else {key: err[list(rows)] for key, err in errors.items()}
+
+
+def _norms(errors: Array) -> Array:
+    """Each row's norm, rows not taken (NaN) left out."""
+    norms = np.linalg.norm(errors, axis=1)
+    return np.asarray(norms[np.isfinite(norms)], dtype=np.float64)
+
+
+def _length_norms(errors: dict[str, Array]) -> Array:
+    parts = [_norms(err[:, :length_columns(key)]) for key, err in errors.items() if length_columns(key)]
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def _angle_norms(errors: dict[str, Array]) -> Array:
+    parts = [_norms(err[:, angle_columns(key)]) for key, err in errors.items()
+             if angle_columns(key).stop > angle_columns(key).start]
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def _number(value: float) -> float | None:
+    """A figure for JSON: None when not finite (no reading)."""
+    return float(value) if np.isfinite(value) else None
+
+
+def _largest(values: Array) -> float | None:
+    return float(values.max()) if values.size else None
+
+
+def sample_angle_errors(errors: dict[str, Array], n: int) -> Array | None:
+    """Each sample's orientation error [rad] (the rotation rows of its pose readings together; NaN for a sample with
+    none), or None when no orientation is measured."""
+    keys = [key for key in errors if angle_columns(key).stop > angle_columns(key).start]
+    if not keys:
+        return None
+    squares, taken = np.zeros(n), np.zeros(n, dtype=bool)
+    for key in keys:
+        rows = errors[key][:, angle_columns(key)]
+        seen = ~np.isnan(rows).all(axis=1)
+        squares[seen] += np.sum(rows[seen] ** 2, axis=1)
+        taken |= seen
+    return np.where(taken, np.sqrt(squares), np.nan)
+
+
+def weighted_rms(side: Side) -> float:
+    """The RMS of a side's errors, each row divided by its σ (dimensionless)."""
+    parts = []
+    for m in side.prepared.models:
+        err = side.errors[m.key] / m.row_sigmas()
+        parts.append(err[np.isfinite(err)])
+    values = np.concatenate(parts) if parts else np.zeros(0)
+    return rms(values)
+
+
+def prepare_setup(robot: Robot, dataset: Dataset, options: CalibrationOptions) -> Prepared:
+    """Every usable sample of ``dataset`` prepared for ``robot`` with the measurement setup as the parameters (the
+    default set's ``base``, ``marker``, ``camera`` and ``target`` parameters, each declared marker on its own)."""
+    models = dataset_models(robot, dataset, options)
+    others = [p.name for p in parameters_for(robot, models, None, "each") if p.kind not in SETUP_KINDS]
+    return prepare(robot, dataset, options, part=None, leave_out=others)
+
+
+def file_setup(problem: CalibrationProblem, register: bool) -> Array:
+    """The setup as a calibrated robot's file holds it, as values [m, rad] of ``problem``'s setup parameters: each
+    marker's point is its ``<frame>_marker`` link (less its declared nominal offset), each camera and target its link
+    (docs/calibrated_urdf.md); the measurement frame is the file's root (zero). A marker without a link is at its
+    nominal offset.
+
+    Raises:
+        DataError: a camera or target without its link, unless ``register`` (which places it on the data).
+    """
+    robot, parameters = problem.robot, problem.parameters
+    q = robot.q_reference
+    x = np.zeros(len(parameters))
+    declared = {t: nominal for m in problem.measurements for t, nominal in m.markers.items()}
+
+    def relative(frame: str, link: str) -> pin.SE3 | None:
+        if not robot.model.existFrame(link):
+            return None
+        placement = robot.placement(q, link)
+        return robot.placement(q, frame).inverse() * placement if frame else placement
+
+    for (_, owner, _), idx in parameters.groups("marker").items():
+        found = relative(split_target(owner)[0], marker_link(owner))
+        if found is not None:
+            point = found.translation - np.asarray(declared.get(owner) or (0.0, 0.0, 0.0))
+            for k in idx:
+                x[k] = point[parameters.parameters[k].component]
+    for (kind, owner, _), idx in parameters.groups("camera", "target").items():
+        link = attached_link(kind, owner)
+        found = relative(owner if kind == "camera" else split_target(owner)[0] if owner else "", link)
+        if found is not None:
+            set_placement(problem, x, idx, found)
+        elif not register:
+            raise DataError(f"MODEL has no link '{link}' (where a calibrated URDF holds its {kind}): without it the "
+                            "model cannot predict the camera readings as it stands; check with --register, which "
+                            "places the cameras and targets on DATA")
+    return x
+
+
+def _side(prepared: Prepared, x: Array, register: bool, options: CalibrationOptions) -> Side:
+    """A robot's predictions at ``x``, or, with ``register``, at its setup re-estimated from ``x`` by σ-weighted least
+    squares (the solver and iteration limit of ``options``)."""
+    problem = prepared.problem
+    converged = None
+    if register and len(prepared.parameters):
+        result = identify(problem, x, **{**fitting_options(options), "loss": "linear"})  # least squares
+        x, converged = result.x, bool(result.converged)
+    return Side(prepared, x, problem.evaluate(x, jacobian=False).errors, converged)
+
+
+def _common(model: Prepared, nominal: Prepared, model_data: Dataset,
+            data: Dataset) -> tuple[Prepared, Prepared, list[dict[str, str]]]:
+    """The two preparations on the samples both robots can use, and every sample left out with the robot it
+    concerns."""
+    dropped = [{"sample": d["sample"], "reason": f"MODEL: {d['reason']}"} for d in model.dropped]
+    dropped += [{"sample": d["sample"], "reason": f"nominal robot: {d['reason']}"} for d in nominal.dropped]
+    both = set(model.samples.sample_ids) & set(nominal.samples.sample_ids)
+    if not both:
+        raise DataError(f"none of the {data.n_samples} samples can be used by both MODEL and the nominal robot: "
+                        f"{dropped[0]['reason'] if dropped else 'no data'}")
+    rows = [k for k, s in enumerate(data.sample_ids) if s in both]
+    if len(both) < model.samples.n_samples:
+        model = model.on(model_data.subset(rows))
+    if len(both) < nominal.samples.n_samples:
+        nominal = nominal.on(data.subset(rows))
+    order = {s: k for k, s in enumerate(data.sample_ids)}
+    return model, nominal, sorted(dropped, key=lambda d: order.get(d["sample"], 0))
+
+
+def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: CalibrationOptions,
+                register: bool = False, fitted: Dataset | None = None, range_note: str | None = None) -> Check:
+    """Predict every usable sample of ``dataset`` with ``model`` and with ``nominal`` (see the module's account of
+    each side's setup); ``register`` re-estimates both setups. ``fitted`` is the data the calibration fitted (its
+    ``train`` rows set the fitted range; None: not known, ``range_note`` says why).
+
+    Raises:
+        DataError: the data measure a frame a robot lacks, no sample usable by both, lengths in the wrong unit, a
+            camera the model holds no link for (without ``register``).
+    """
+    options = options.replace(parameter_spec=None, markers="each", payload=None)
+    nominal_prepared = prepare_setup(nominal, dataset, options)
+    model_data = model.readings(dataset, nominal)
+    model_prepared = prepare_setup(model.robot, model_data, options)
+    model_prepared, nominal_prepared, dropped = _common(model_prepared, nominal_prepared, model_data, dataset)
+    check_length_scale(nominal_prepared.problem)
+    x_model = file_setup(model_prepared.problem, register)
+    if register:
+        x_model = model_prepared.problem.initial_guess(x_model)
+    model_side = _side(model_prepared, x_model, register, options)
+    nominal_side = _side(nominal_prepared, nominal_prepared.problem.initial_guess(), register, options)
+    outside: list[dict[str, Any]] = []
+    if fitted is not None:
+        moving = influencing_joints(nominal, sorted({f for m in nominal_prepared.models for f in m.frames}),
+                                    read_joints(nominal_prepared.models))
+        train = fitted.of_set("train") if "train" in fitted.sets else fitted
+        outside = held_out_outside_range(nominal, train, nominal_prepared.samples, joints=moving)
+    return Check(model_side, nominal_side, register, dropped, outside, range_note, dataset.n_samples)
+
+
+def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
+    """The report JSON of a check (docs/check.md): SI units, lengths in m, angles in rad."""
+    models: list[Measurement] = check.model.prepared.models
+    ids = check.sample_ids
+    outside = [k for k, s in enumerate(ids) if s in set(check.outside_samples)]
+    inside = [k for k in range(len(ids)) if k not in set(outside)]
+    content: dict[str, Any] = {
+        "format": "pincal check 1",
+        "units": "SI: m, rad",
+        **dict(sources),
+        "registered": check.registered,
+        "model_means": MODEL_REGISTERED if check.registered else MODEL_AS_IS,
+        "nominal_means": NOMINAL_REGISTERED if check.registered else NOMINAL_PLACED,
+        "n_samples_in_file": check.n_samples_in_file,
+        "measurements": [m.key for m in models],
+        **check.figures(),
+        "worse_than_nominal": check.worse_than_nominal,
+        "quantities": check.quantities(),
+        "samples": check.samples(),
+        "dropped_samples": check.dropped,
+        "outside_range": {"known": check.range_note is None, "note": check.range_note,
+                          "readings": check.outside_range, "samples": check.outside_samples,
+                          **(check.figures(outside) if outside else {})},
+        "inside_range": check.figures(inside) if outside else None,
+        "setup": {"parameters": list(check.model.prepared.parameters.names),
+                  "model": check.model.setup(), "nominal": check.nominal.setup(),
+                  "model_converged": check.model.converged, "nominal_converged": check.nominal.converged},
+    }
+    return content
+
+
+def fitted_data(model: CheckedModel, nominal: Robot) -> tuple[Dataset | None, str | None]:
+    """The data the calibration fitted, as the model's provenance records it, or None and why not (no record, the
+    file gone or changed since, or unreadable)."""
+    from pincal.calibration.job import read_job
+    from pincal.calibration.job_data import job_dataset
+    from pincal.calibration.provenance import sha256
+    from pincal.calibration.samples import read_robot_dataset
+    from pincal.errors import PincalError
+
+    path, recorded = model.provenance.data, model.provenance.data_sha256
+    if path is None:
+        return None, "MODEL records no calibration data (no provenance): postures outside the fitted range cannot be " \
+                     "flagged"
+    if not path.is_file():
+        return None, f"the calibration's data '{path}' (recorded in MODEL) is not there: postures outside the " \
+                     "fitted range cannot be flagged"
+    if recorded and sha256(path) != recorded:
+        return None, f"the calibration's data '{path}' changed since the calibration (its SHA-256 differs): " \
+                     "postures outside the fitted range cannot be flagged"
+    try:
+        if path.suffix.lower() == ".toml":
+            return job_dataset(read_job(path), nominal), None
+        return read_robot_dataset(path, nominal), None
+    except PincalError as exc:
+        return None, f"the calibration's data '{path}' cannot be read ({exc}): postures outside the fitted range " \
+                     "cannot be flagged"
+
+
+def run_check(model_path: str, data_path: str, nominal_path: str | None, options: dict[str, Any],
+              register: bool = False, outputs: Sequence[tuple[str, str]] = ()) -> tuple[Check, dict[str, Any]]:
+    """``pincal check`` from files: MODEL (a calibrated URDF, a robot name or a report JSON), DATA (a CSV or a job
+    file, whose options apply under ``options``), the nominal robot (``nominal_path``, else the one MODEL records);
+    ``outputs`` (``(what, path)``) are checked before any work (never over an input). Returns the check and its
+    report content.
+
+    Raises:
+        DataError: no nominal robot given or recorded; as :func:`check_model`.
+    """
+    from pincal.calibration.check_model import load_model
+    from pincal.calibration.job import read_job
+    from pincal.calibration.job_data import job_dataset
+    from pincal.calibration.provenance import read_provenance, sha256
+    from pincal.calibration.samples import read_robot_dataset
+    from pincal.io.corrections_file import corrections_path
+    from pincal.io.files import check_outputs
+    from pincal.model.robot import load_robot
+
+    provenance = read_provenance(model_path)
+    nominal_name = nominal_path or provenance.robot
+    if nominal_name is None:
+        raise DataError(f"MODEL '{model_path}' records no nominal robot (no pincal provenance in it): give the robot "
+                        "it was calibrated from with --nominal ROBOT")
+    nominal = load_robot(nominal_name)
+    job = read_job(data_path) if data_path.endswith(".toml") else None
+    inputs: list[str | Path] = [model_path, corrections_path(model_path), data_path, *(job.files if job else ()),
+                                *(p for p in (nominal.source, provenance.data) if p is not None)]
+    check_outputs(outputs, inputs)
+    if job is not None:
+        options = {**job.options, **options}
+    dataset = job_dataset(job, nominal) if job is not None else read_robot_dataset(data_path, nominal)
+    model = load_model(model_path, nominal, dataset)
+    fitted, note = fitted_data(model, nominal)
+    changed = (nominal_path is None and provenance.robot_sha256 and nominal.source is not None
+               and sha256(nominal.source) != provenance.robot_sha256)
+    result = check_model(model, nominal, dataset, CalibrationOptions(**options), register, fitted, note)
+    sources = {"model": model_path, "nominal": str(nominal.source or nominal.name),
+               "nominal_given": nominal_path is not None, "data": data_path}
+    content = check_content(result, sources)
+    if changed:
+        content["nominal_changed"] = True
+    return result, content

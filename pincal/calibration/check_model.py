@@ -1,0 +1,140 @@
+"""The model ``pincal check`` evaluates: a calibrated URDF (with its corrections file beside it), a robot by name, or
+a calibration's report JSON rebuilt on its nominal robot, with what the calibration recorded of its inputs
+(:mod:`pincal.calibration.provenance`).
+
+A model holds the calibrated robot, the joint corrections its readings take (harmonics, compliance) and the zeros of
+its instrumented passive joints' sensors (docs/calibrated_urdf.md). SI units: m, rad.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.calibration.provenance import Recorded, read_provenance
+from pincal.calibration.report import CalibrationReport
+from pincal.errors import DataError, RobotFileError
+from pincal.identification.choices import MarkerFit
+from pincal.identification.corrections import Payload, payload_from_dict
+from pincal.identification.measurements import Measurement, parse_key
+from pincal.identification.parameters import choose_parameters, read_joints
+from pincal.io.adapters import declared_marker_offsets
+from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, joint_sensor_zeros, source_text
+from pincal.io.corrections_file import (
+    Corrections,
+    corrected_readings,
+    corrections_of,
+    corrections_path,
+    read_corrections,
+)
+from pincal.io.dataset import Dataset
+from pincal.model.robot import Robot, load_robot, robot_from_urdf_text
+
+Array = npt.NDArray[np.float64]
+
+@dataclass(frozen=True)
+class CheckedModel:
+    """The model ``check`` predicts with.
+
+    Attributes:
+        robot: The calibrated robot (raw actuated readings in, predictions in its root frame: the measurement frame
+            when the calibration estimated it).
+        source: What it was read from (a path or a name), for messages and the report.
+        corrections: The joint corrections its actuated readings take (None: none).
+        sensor_zeros: Instrumented passive joint -> the reading when the joint is at zero in the model [m or rad].
+        provenance: What the calibration recorded of its inputs.
+    """
+
+    robot: Robot
+    source: str
+    corrections: Corrections | None = None
+    sensor_zeros: dict[str, float] = field(default_factory=dict)
+    provenance: Recorded = field(default_factory=Recorded)
+
+    def readings(self, dataset: Dataset, nominal: Robot) -> Dataset:
+        """``dataset`` with its joint readings as this model takes them: the actuated ones corrected (harmonics,
+        compliance with ``nominal``'s gravity torques), each read passive joint less its sensor's zero."""
+        joints = dataset.joints.copy()
+        names = dataset.joint_names
+        if self.corrections is not None:
+            reference = nominal.actuated_values(nominal.q_reference)
+            actuated = np.column_stack([joints[:, names.index(j)] if j in names else np.full(len(joints), reference[k])
+                                        for k, j in enumerate(nominal.actuated_joints)])
+            corrected = corrected_readings(self.corrections, nominal, actuated)
+            for k, joint in enumerate(nominal.actuated_joints):
+                if joint in names:
+                    joints[:, names.index(joint)] = corrected[:, k]
+        for joint, zero in self.sensor_zeros.items():
+            if joint in names:
+                joints[:, names.index(joint)] -= zero
+        return Dataset(names, joints, dataset.measurements, dataset.sample_ids, dataset.sets, dataset.metadata)
+
+
+def is_report(path: str | Path) -> bool:
+    """Whether ``path`` names a report JSON (by its suffix)."""
+    return Path(path).suffix.lower() == ".json"
+
+
+def load_model(path: str, nominal: Robot, dataset: Dataset) -> CheckedModel:
+    """The model at ``path``: a calibrated URDF or a robot name (with ``<name>.corrections.json`` beside a URDF when
+    there is one), or a report JSON rebuilt on ``nominal`` (its parameters' values applied as ``calibrate --out``
+    writes them; ``dataset`` gives the nominal offsets of declared markers).
+
+    Raises:
+        RobotFileError, NotFoundError: the URDF cannot be read, or the name is not known.
+        DataError: a report that is not one, or whose parameters ``nominal`` does not have; a model whose actuated
+            joints are not ``nominal``'s.
+    """
+    if is_report(path):
+        model = _rebuilt(path, nominal, dataset)
+    else:
+        robot = load_robot(path)
+        beside = corrections_path(path)
+        corrections = read_corrections(beside) if robot.source is not None and beside.is_file() else None
+        zeros = joint_sensor_zeros(source_text(robot)) if robot.source is not None else {}
+        model = CheckedModel(robot, path, corrections, zeros, read_provenance(path))
+    if list(model.robot.actuated_joints) != list(nominal.actuated_joints):
+        raise DataError(f"MODEL '{path}' actuates {', '.join(model.robot.actuated_joints)}, the nominal robot "
+                        f"'{nominal.name}' {', '.join(nominal.actuated_joints)}: give the nominal robot MODEL was "
+                        "calibrated from (--nominal)")
+    return model
+
+
+def _rebuilt(path: str, nominal: Robot, dataset: Dataset) -> CheckedModel:
+    """A report JSON's calibrated robot: its parameters' values applied to ``nominal``."""
+    report = CalibrationReport.read(path)
+    declared = declared_marker_offsets(dataset.metadata)
+    models: list[Measurement] = [parse_key(key).with_markers(declared) for key in report.measurements]
+    names = list(report.parameters)
+    try:
+        parameters = choose_parameters(nominal, models, names, _marker_fit(report))
+    except (DataError, KeyError) as exc:
+        raise DataError(f"MODEL '{path}': its parameters are not those of robot '{nominal.name}' measured by "
+                        f"{', '.join(report.measurements) or 'nothing'}: {exc}") from None
+    if len(parameters) != len(names):
+        raise DataError(f"MODEL '{path}': {len(names)} parameters, of which robot '{nominal.name}' has "
+                        f"{len(parameters)}: is --nominal the robot it was calibrated from?")
+    x = np.array([float(report.parameters[name]["value"]) for name in parameters.names])
+    text, _ = calibrated_robot_text(nominal, source_text(nominal), parameters, x, read_joints=read_joints(models),
+                                    markers=declared_markers(models))
+    try:
+        robot = robot_from_urdf_text(text)
+    except RobotFileError as exc:
+        raise DataError(f"MODEL '{path}': its calibrated robot cannot be built: {exc}") from None
+    payload = _payload(report.payload, path)
+    return CheckedModel(robot, path, corrections_of(nominal, parameters, x, payload), joint_sensor_zeros(text),
+                        read_provenance(path))
+
+
+def _marker_fit(report: CalibrationReport) -> MarkerFit:
+    """How the report's calibration fitted declared markers."""
+    return "cluster" if report.markers == "cluster" else "each"
+
+
+def _payload(recorded: Any, path: str) -> Payload | None:
+    """The payload a report records (None: none)."""
+    return payload_from_dict(recorded, f"MODEL '{path}': payload: ")

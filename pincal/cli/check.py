@@ -1,0 +1,122 @@
+"""``pincal check``: a calibrated model's errors on new measurements, beside the nominal robot's."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import Any
+
+from pincal.calibration.options import OPTIONS
+from pincal.cli.arguments import add_calibration_options, given_options
+
+#: The calibration options ``check`` takes: the weights, and the registration's solver and iteration limit.
+CHECK_OPTIONS = ("sigma", "solver", "max_iter")
+
+#: How a quantity's unit is shown: SI in the files, mm and mrad on the terminal.
+SHOWN = {"m": ("mm", 1e3), "rad": ("mrad", 1e3)}
+
+
+def _shown(value: float | None, unit: str) -> str:
+    name, scale = SHOWN.get(unit, (unit, 1.0))
+    return "–" if value is None or not math.isfinite(value) else f"{value * scale:.4f} {name}"
+
+
+def _pair(figures: dict[str, Any], suffix: str, unit: str) -> str:
+    return (f"MODEL {_shown(figures.get(f'rms{suffix}'), unit)} RMS, {_shown(figures.get(f'max{suffix}'), unit)} "
+            f"max; nominal {_shown(figures.get(f'nominal_rms{suffix}'), unit)} RMS, "
+            f"{_shown(figures.get(f'nominal_max{suffix}'), unit)} max")
+
+
+def summary_text(content: dict[str, Any]) -> str:
+    """The terminal summary of a check's report content (lengths in mm, angles in mrad)."""
+    lines = [f"pincal check: MODEL '{content['model']}' on {content['n_samples']} of the "
+             f"{content['n_samples_in_file']} samples of '{content['data']}' (every row, set=train and set=test alike)",
+             f"  MODEL:   {content['model_means']}",
+             f"  nominal: '{content['nominal']}'{' (--nominal)' if content['nominal_given'] else ''}, "
+             f"{content['nominal_means']}", ""]
+    width = max(len(q["measurement"]) for q in content["quantities"])
+    lines.append(f"  {'measurement':<{width}}  {'quantity':<8} {'readings':>8}  {'MODEL RMS':>14} {'MODEL max':>14}"
+                 f"  {'nominal RMS':>14} {'nominal max':>14}")
+    for q in content["quantities"]:
+        lines.append(f"  {q['measurement']:<{width}}  {q['quantity']:<8} {q['n']:>8}  "
+                     f"{_shown(q['rms'], q['unit']):>14} {_shown(q['max'], q['unit']):>14}  "
+                     f"{_shown(q['nominal_rms'], q['unit']):>14} {_shown(q['nominal_max'], q['unit']):>14}")
+    lines.append("")
+    if content.get("rms") is not None:
+        lines.append(f"lengths:      {_pair(content, '', 'm')}")
+    if "rms_angle" in content:
+        lines.append(f"orientations: {_pair(content, '_angle', 'rad')}")
+    dropped = content["dropped_samples"]
+    if dropped:
+        lines.append(f"samples left out ({len(dropped)}):")
+        lines += [f"  {d['sample']}: {d['reason']}" for d in dropped[:10]]
+        if len(dropped) > 10:
+            lines.append(f"  … and {len(dropped) - 10} more (the report's 'dropped_samples')")
+    outside = content["outside_range"]
+    if not outside["known"]:
+        lines.append(f"fitted range: not known: {outside['note']}")
+    elif outside["samples"]:
+        lines.append(f"outside the joint ranges the calibration fitted: {len(outside['samples'])} samples "
+                     f"({', '.join(outside['samples'][:12])}{' …' if len(outside['samples']) > 12 else ''})")
+        lines.append(f"  outside: {_pair(outside, '', 'm')}")
+        lines.append(f"  inside:  {_pair(content['inside_range'], '', 'm')}")
+    else:
+        lines.append("every posture lies within the joint ranges the calibration fitted")
+    if content.get("nominal_changed"):
+        lines.append("warning: the nominal URDF changed since the calibration (its SHA-256 differs from the one "
+                     "MODEL records)")
+    if content["worse_than_nominal"]:
+        lines.append("verdict: MODEL predicts DATA WORSE than the nominal robot")
+        if not content["registered"]:
+            lines.append("  hint: the nominal side's measurement setup is placed on DATA, MODEL's is the file's: if "
+                         "the tracker, the markers or the cameras moved since the calibration, check with --register")
+    else:
+        lines.append("verdict: MODEL predicts DATA no worse than the nominal robot")
+    return "\n".join(lines)
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    """``pincal check``: predict DATA with MODEL and with the nominal robot, print the errors side by side, write
+    ``--report`` and ``--html``; exit status 1 when MODEL predicts DATA worse than the nominal robot."""
+    from pincal.calibration.check import run_check
+    from pincal.io.files import json_text, write_texts
+
+    outputs = [(what, path) for what, path in (("--report", args.report), ("--html", args.html)) if path]
+    check, content = run_check(args.model, args.data, args.nominal, given_options(args), args.register, outputs)
+    print(summary_text(content))
+    texts = []
+    if args.report:
+        texts.append((args.report, json_text(content)))
+    if args.html:
+        from pincal.viz.check_page import check_page
+
+        texts.append((args.html, check_page(content)))
+    for path in write_texts(texts):
+        print(f"wrote {path}")
+    return 1 if check.worse_than_nominal else 0
+
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add the ``check`` command."""
+    check = sub.add_parser(
+        "check", help="predict new measurements with a calibrated model, beside the nominal robot",
+        description="Predict every measurement of DATA (every row, set=train and set=test alike) with MODEL and "
+                    "with the nominal robot; print the RMS and max error of each quantity side by side. MODEL is "
+                    "used as it stands (its measurement frame, markers, cameras and targets as the file holds "
+                    "them); the nominal robot's measurement setup is placed on DATA in closed form, as calibrate's "
+                    "'before'. --register re-estimates both setups on DATA (least squares), the robots held. Exit "
+                    "status 1 when MODEL predicts DATA worse than the nominal robot (docs/check.md).",
+        epilog="example: pincal check cal.urdf new_day.csv --register --report check.json --html check.html")
+    check.add_argument("model", metavar="MODEL",
+                       help="calibrated URDF (its .corrections.json beside it is read), a known robot name, or the "
+                            "report JSON of 'pincal calibrate --report'")
+    check.add_argument("data", metavar="DATA", help="measurement CSV (docs/dataset.md) or job file JOB.toml")
+    check.add_argument("--nominal", metavar="ROBOT",
+                       help="the nominal robot (URDF or known name; default: the one MODEL records)")
+    check.add_argument("--register", action="store_true",
+                       help="re-estimate the measurement setup (measurement frame, markers, cameras, targets) of "
+                            "both robots on DATA, their geometry held")
+    check.add_argument("--report", metavar="R.json", help="report JSON to write (SI units)")
+    check.add_argument("--html", metavar="PAGE.html", help="self-contained HTML page to write")
+    add_calibration_options(check, skip=[name for name in OPTIONS if name not in CHECK_OPTIONS])
+    check.set_defaults(func=cmd_check)

@@ -1,0 +1,241 @@
+"""``pincal check MODEL DATA``: a calibrated model predicts new measurements, beside the nominal robot (docs/check.md).
+
+A simulated Delta is calibrated; a second simulation of the *same* truth (same seed: the truth is drawn before the
+postures, so ``truth.json`` is the same file) on other postures is the new data. The calibrated model predicts them
+to the noise (σ 10 µm per coordinate) where the nominal robot is off by a millimetre; moving the tracker (a rigid
+motion of the new positions) spoils the model as it stands, and ``--register`` recovers it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import run_pincal
+
+from pincal.io.dataset import dataset_text
+from pincal.io.dataset_reader import read_dataset
+
+NOISE = 1e-5  # [m] per coordinate: a 3D error of about √3 · 10 µm
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "data"
+
+
+def _ok(done: object, *codes: int) -> None:
+    assert done.returncode in (codes or (0,)), done.stderr  # type: ignore[attr-defined]
+
+
+@pytest.fixture(scope="module")
+def delta(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """D/: a Delta simulated (40 + 20 postures, seed 1) and calibrated (cal.urdf, r.json); N/: 90 postures of the
+    same truth, new.csv: 30 of them the calibration did not see; moved.csv: their positions in a tracker frame moved
+    by 0.3 rad and 0.2 m."""
+    root = tmp_path_factory.mktemp("check")
+    _ok(run_pincal("simulate", "delta", "--measure", "position", "--samples", "40", "--test-samples", "20", "--seed",
+                   "1", "--out", str(root / "D"), "--quiet"))
+    _ok(run_pincal("calibrate", "delta", str(root / "D" / "measurements.csv"), "--out", str(root / "D" / "cal.urdf"),
+                   "--report", str(root / "D" / "r.json")))
+    _ok(run_pincal("simulate", "delta", "--measure", "position", "--samples", "90", "--seed", "1", "--out",
+                   str(root / "N"), "--quiet"))
+    assert (root / "N" / "truth.json").read_bytes() == (root / "D" / "truth.json").read_bytes()  # the same robot
+    old, drawn = (read_dataset(root / d / "measurements.csv") for d in ("D", "N"))
+    other = [k for k, row in enumerate(drawn.joints) if not any(np.allclose(row, seen) for seen in old.joints)]
+    new = drawn.subset(other[:30])  # postures the calibration did not see
+    assert new.n_samples == 30
+    (root / "new.csv").write_text(dataset_text(new), encoding="utf-8")
+    rotation, shift = pin.rpy.rpyToMatrix(0.1, -0.05, 0.3), np.array([0.2, -0.1, 0.05])
+    new.measurements = {key: values @ rotation.T + shift for key, values in new.measurements.items()}
+    (root / "moved.csv").write_text(dataset_text(new), encoding="utf-8")
+    return root
+
+
+def _check(*args: str, code: int = 0, where: Path | None = None) -> dict:
+    """``pincal check ARGS --report`` (the report in ``where``, default beside DATA): its exit status checked, its
+    report read."""
+    folder = where or Path(args[1]).parent
+    report = folder / f"check-{hashlib.sha1(' '.join(args).encode()).hexdigest()[:8]}.json"
+    done = run_pincal("check", *args, "--report", str(report))
+    assert done.returncode == code, done.stdout + done.stderr
+    content = json.loads(report.read_text(encoding="utf-8"))
+    content["stdout"] = done.stdout
+    return content
+
+
+def test_the_calibrated_model_predicts_new_postures_to_the_noise(delta: Path) -> None:
+    out = _check(str(delta / "D" / "cal.urdf"), str(delta / "new.csv"), "--nominal", "delta")
+    assert out["rms"] < 3 * NOISE and out["max"] < 10 * NOISE  # [m]
+    assert 3e-4 < out["nominal_rms"] < 5e-3  # the nominal robot: about a millimetre off
+    assert out["registered"] is False and out["worse_than_nominal"] is False
+    assert out["n_samples"] == out["n_samples_in_file"] == 30 and len(out["samples"]) == 30
+    (quantity,) = out["quantities"]
+    assert quantity["measurement"] == "position:end_effector" and quantity["unit"] == "m" and quantity["n"] == 30
+    assert quantity["rms"] == pytest.approx(out["rms"], rel=1e-12)
+    errors = np.array([s["error"] for s in out["samples"]])
+    assert math.sqrt(np.mean(errors**2)) == pytest.approx(out["rms"], rel=1e-9)
+    assert max(s["nominal_error"] for s in out["samples"]) == pytest.approx(out["nominal_max"], rel=1e-12)
+    assert "nothing estimated" in out["model_means"] and "closed form" in out["nominal_means"]
+    assert "position:end_effector" in out["stdout"] and " mm" in out["stdout"]
+
+
+def test_a_moved_tracker_spoils_the_model_as_it_stands_and_register_recovers_it(delta: Path) -> None:
+    model, moved = str(delta / "D" / "cal.urdf"), str(delta / "moved.csv")
+    as_is = _check(model, moved, "--nominal", "delta", code=1)
+    assert as_is["rms"] > 0.05 and as_is["worse_than_nominal"] is True
+    assert "--register" in as_is["stdout"]  # the hint
+    assert as_is["nominal_rms"] < 5e-3  # the nominal side is registered in closed form: the motion is absorbed
+    registered = _check(model, moved, "--nominal", "delta", "--register")
+    assert registered["rms"] < 3 * NOISE and registered["nominal_rms"] > 3e-4
+    assert registered["registered"] is True and registered["setup"]["model_converged"] is True
+    base = registered["setup"]["model"]
+    assert math.hypot(base["base.tx"], base["base.ty"], base["base.tz"]) > 0.1  # the tracker's motion, found
+
+
+def test_a_wrong_model_is_worse_than_nominal(delta: Path) -> None:
+    """A Delta with 5 mm / 5 mrad errors of its own (another simulation's truth) is not this robot."""
+    _ok(run_pincal("simulate", "delta", "--measure", "position", "--samples", "2", "--perturb", "5e-3", "--seed",
+                   "7", "--out", str(delta / "W"), "--quiet"))
+    for register in ((), ("--register",)):
+        out = _check(str(delta / "W" / "truth.urdf"), str(delta / "new.csv"), "--nominal", "delta",
+                     *register, code=1)
+        assert out["rms"] > out["nominal_rms"] and out["worse_than_nominal"] is True
+        assert "WORSE" in out["stdout"]
+
+
+def test_a_report_json_is_the_same_model_as_its_urdf(delta: Path) -> None:
+    data = str(delta / "new.csv")
+    from_urdf = _check(str(delta / "D" / "cal.urdf"), data, "--nominal", "delta", "--register")
+    from_json = _check(str(delta / "D" / "r.json"), data, "--nominal", "delta", "--register")
+    for key in ("rms", "max", "nominal_rms", "nominal_max"):
+        assert from_json[key] == pytest.approx(from_urdf[key], rel=1e-9, abs=1e-12), key
+    assert [s["error"] for s in from_json["samples"]] == pytest.approx([s["error"] for s in from_urdf["samples"]],
+                                                                       rel=1e-9, abs=1e-12)
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_the_recorded_nominal_and_the_fitted_range(delta: Path, tmp_path: Path) -> None:
+    """A calibrated URDF and a report JSON that record their nominal robot and data need no --nominal. The same
+    Delta calibrated on postures within ±0.4 rad: the new postures outside the range of the fitted (set=train) ones,
+    by more than 5 % of it, are flagged and have figures of their own."""
+    folder = tmp_path / "cal"
+    _ok(run_pincal("simulate", "delta", "--measure", "position", "--samples", "40", "--spread", "0.4", "--seed", "1",
+                   "--out", str(folder / "sim"), "--quiet"))
+    assert (folder / "sim" / "truth.json").read_bytes() == (delta / "D" / "truth.json").read_bytes()
+    data = folder / "sim" / "measurements.csv"
+    _ok(run_pincal("calibrate", "delta", str(data), "--out", str(folder / "cal.urdf"), "--report",
+                   str(folder / "r.json")))  # both record their nominal robot and data (docs/calibrated_urdf.md)
+    text = (folder / "cal.urdf").read_text(encoding="utf-8")
+    assert f'data="sim/measurements.csv" data_sha256="{_sha(data)}"' in text
+    (folder / "plain.urdf").write_text(re.sub(r"\n\s*<pincal_provenance[^>]*/>", "", text), encoding="utf-8")
+    fitted = read_dataset(data).of_set("train")
+    new = read_dataset(delta / "new.csv")
+    low, high = fitted.joints.min(axis=0), fitted.joints.max(axis=0)
+    margin = 0.05 * (high - low)
+    expected = [new.sample_ids[k] for k in range(new.n_samples)
+                if np.any((new.joints[k] < low - margin) | (new.joints[k] > high + margin))]
+    assert 5 <= len(expected) < 30
+    for model in ("cal.urdf", "r.json"):
+        out = _check(str(folder / model), str(delta / "new.csv"))
+        assert out["nominal"].endswith("delta.urdf") and out["nominal_given"] is False
+        assert out["outside_range"]["known"] is True
+        assert out["outside_range"]["samples"] == expected
+        assert [s["sample"] for s in out["samples"] if s["outside_range"]] == expected
+        outside = [s["error"] for s in out["samples"] if s["outside_range"]]
+        assert out["outside_range"]["n_samples"] == len(expected)
+        assert out["outside_range"]["rms"] == pytest.approx(math.sqrt(np.mean(np.square(outside))), rel=1e-9)
+        assert out["inside_range"]["n_samples"] == 30 - len(expected)
+        assert "outside the joint ranges the calibration fitted" in out["stdout"]
+    unrecorded = _check(str(folder / "plain.urdf"), str(delta / "new.csv"), "--nominal", "delta")
+    assert unrecorded["outside_range"]["known"] is False and "cannot be flagged" in unrecorded["stdout"]
+
+
+def test_tiago_calibrated_on_some_postures_checked_on_the_others(tmp_path: Path) -> None:
+    """Real data: the TIAGo calibrated on its set=train postures and checked on its six set=test ones. As it
+    stands, the model's errors are the calibration's own held-out figure; re-registering the mocap frame and the
+    marker on those six can only lower them, and the nominal robot stays worse."""
+    source = EXAMPLES / "tiago_mocap_marker1.csv"
+    _ok(run_pincal("calibrate", "tiago_no_hand", str(source), "--out", str(tmp_path / "cal.urdf"), "--report",
+                   str(tmp_path / "r.json")))
+    lines = source.read_text(encoding="utf-8").splitlines()
+    rows = [line for line in lines if not line.startswith("#")]
+    column = rows[0].split(",").index("set")
+    held = [row for row in rows[1:] if row.split(",")[column] == "test"]
+    (tmp_path / "test.csv").write_text("\n".join([*(line for line in lines if line.startswith("#")), rows[0], *held])
+                                       + "\n", encoding="utf-8")
+    calibration = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"))
+    as_is = _check(str(tmp_path / "cal.urdf"), str(tmp_path / "test.csv"), "--nominal", "tiago_no_hand")
+    assert as_is["n_samples"] == calibration["n_test_samples"] == 6
+    assert as_is["rms"] == pytest.approx(calibration["test_rms_after"], rel=1e-9)
+    assert as_is["max"] == pytest.approx(calibration["test_max_after"], rel=1e-9)
+    registered = _check(str(tmp_path / "cal.urdf"), str(tmp_path / "test.csv"), "--nominal", "tiago_no_hand",
+                        "--register")
+    assert registered["rms"] <= as_is["rms"]
+    assert 1e-3 < registered["rms"] < registered["nominal_rms"] < 0.01
+    # the job file of the same data (the raw mocap file, read as the job says): every row, the same figures as the CSV
+    job = _check(str(tmp_path / "cal.urdf"), str(EXAMPLES.parent / "tiago_job.toml"), "--nominal", "tiago_no_hand",
+                 where=tmp_path)
+    csv = _check(str(tmp_path / "cal.urdf"), str(source), "--nominal", "tiago_no_hand", where=tmp_path)
+    assert job["n_samples"] == csv["n_samples"] == 34
+    for key in ("rms", "max", "nominal_rms", "nominal_max"):
+        assert job[key] == pytest.approx(csv[key], rel=1e-6), key
+
+
+def test_the_html_page_states_the_figures(delta: Path) -> None:
+    page = delta / "check.html"
+    done = run_pincal("check", str(delta / "D" / "cal.urdf"), str(delta / "new.csv"), "--nominal",
+                      "delta", "--html", str(page))
+    assert done.returncode == 0, done.stderr
+    text = page.read_text(encoding="utf-8")
+    assert "<table>" in text and "position:end_effector" in text and "http" not in text.replace("http-equiv", "")
+    alt = text.split('alt="', 1)[1].split('"', 1)[0]
+    assert "30 samples" in alt and "MODEL RMS" in alt and "nominal robot RMS" in alt and " mm" in alt
+
+
+def _error_line(done: object) -> str:
+    lines = done.stderr.strip().splitlines()  # type: ignore[attr-defined]
+    assert done.returncode == 2 and len(lines) == 1, done.stderr  # type: ignore[attr-defined]
+    assert lines[0].startswith("pincal: error: ")
+    return lines[0]
+
+
+def test_errors_are_one_line(delta: Path, tmp_path: Path) -> None:
+    model, data = str(delta / "D" / "cal.urdf"), delta / "new.csv"
+    bare = tmp_path / "bare.urdf"  # a calibrated URDF that records nothing of its inputs
+    text = (delta / "D" / "cal.urdf").read_text(encoding="utf-8")
+    bare.write_text(re.sub(r"\n\s*<pincal_provenance[^>]*/>", "", text), encoding="utf-8")
+    assert "--nominal" in _error_line(run_pincal("check", str(bare), str(data)))  # no provenance, no --nominal
+    other = tmp_path / "other.csv"
+    other.write_text(data.read_text(encoding="utf-8").replace("position:end_effector:", "position:tool9:"),
+                     encoding="utf-8")
+    assert "tool9" in _error_line(run_pincal("check", model, str(other), "--nominal", "delta"))
+    before = data.read_bytes()
+    line = _error_line(run_pincal("check", model, str(data), "--nominal", "delta", "--report", str(data)))
+    assert "input" in line and data.read_bytes() == before
+
+
+@pytest.mark.parametrize(("robot", "kinds", "quantities"), [
+    ("hexapod_device", ["pose", "joint:device_lvdt"], {("pose:end_effector", "length"), ("pose:end_effector", "angle"),
+                                                        ("joint:device_lvdt", "reading")}),
+    ("ur10", ["camera:tool0"], {("camera:tool0", "length"), ("camera:tool0", "angle")}),
+])
+def test_other_kinds_to_the_noise(robot: str, kinds: list[str], quantities: set, tmp_path: Path) -> None:
+    """A closed-loop robot read by poses and an instrumented passive joint (its <joint_sensor> zero applied), and an
+    eye-in-hand camera (read from the file's camera and target links): the same truth on other postures is predicted
+    to the noise as the model stands, and the nominal robot is not."""
+    for out, samples in (("fit", "30"), ("new", "60")):
+        _ok(run_pincal("simulate", robot, "--measure", *kinds, "--samples", samples, "--seed", "3", "--out",
+                       str(tmp_path / out), "--quiet"))
+    assert (tmp_path / "fit" / "truth.json").read_bytes() == (tmp_path / "new" / "truth.json").read_bytes()
+    _ok(run_pincal("calibrate", robot, str(tmp_path / "fit" / "measurements.csv"), "--out", str(tmp_path / "cal.urdf")))
+    out = _check(str(tmp_path / "cal.urdf"), str(tmp_path / "new" / "measurements.csv"), "--nominal", robot)
+    assert {(q["measurement"], q["quantity"]) for q in out["quantities"]} == quantities
+    for q in out["quantities"]:
+        assert q["rms"] < 3 * NOISE and q["nominal_rms"] > 10 * q["rms"], q
+    assert out["rms_angle"] < 3 * NOISE and out["nominal_rms_angle"] > 1e-3  # [rad]
