@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.provenance import sha256, version
 from pincal.calibration.setup import check_movable, measurement_models, parameters_for
 from pincal.errors import ConvergenceError, DataError
 from pincal.identification.corrections import Payload
@@ -102,7 +103,8 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
     n = n_train + n_test
     dataset = Dataset(joint_names, np.hstack(joints), measured, [str(k) for k in range(n)],
                       ["train"] * n_train + ["test"] * n_test,
-                      {"robot": robot.name, "units": "SI (m, rad)", "perturb": repr(perturb), "seed": str(seed),
+                      {"robot": robot.name, "pincal": version(), "units": "SI (m, rad)", "perturb": repr(perturb),
+                       "seed": str(seed),
                        **{f"sigma {m.key.split(':', 1)[0]} {m.key.split(':', 1)[1]}": repr(max(noise, 1e-9))
                           for m in models}})
     return Simulation(robot, pset, x_true, dataset, models, payload)
@@ -146,7 +148,9 @@ def write_simulation(sim: Simulation, out: Path, meshes: MeshMode = "keep") -> l
     text, shifts = calibrated_robot_text(sim.robot, source_text(sim.robot), sim.parameters, sim.x_true,
                                          note="the TRUE robot of a pincal simulation (nominal + known errors)",
                                          read_joints=read, markers=declared_markers(sim.measurements))
-    truth = {"robot": sim.robot.name, "units": "SI: m, rad", "parameters": sim.parameters.as_dict(sim.x_true),
+    truth = {"robot": sim.robot.name, "pincal_version": version(),
+             "robot_sha256": sha256(sim.robot.source) if sim.robot.source is not None else None,
+             "units": "SI: m, rad", "parameters": sim.parameters.as_dict(sim.x_true),
              "reference_shifts": shifts, "joint_sensor_zeros": joint_sensor_zeros(text)}
     texts: list[tuple[Path, str | bytes]] = list(zip(paths, (dataset_text(sim.dataset), plan.text(text),
                                                              json_text(truth)), strict=True))

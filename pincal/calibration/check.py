@@ -405,7 +405,7 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     from pincal.calibration.check_model import load_model
     from pincal.calibration.job import read_job
     from pincal.calibration.job_data import job_dataset
-    from pincal.calibration.provenance import read_provenance, sha256
+    from pincal.calibration.provenance import file_digests, read_provenance, sha256, version
     from pincal.calibration.samples import read_robot_dataset
     from pincal.io.corrections_file import corrections_path
     from pincal.io.files import check_outputs
@@ -430,7 +430,9 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
                and sha256(nominal.source) != provenance.robot_sha256)
     result = check_model(model, nominal, dataset, CalibrationOptions(**options), register, fitted, note)
     sources = {"model": model_path, "nominal": str(nominal.source or nominal.name),
-               "nominal_given": nominal_path is not None, "data": data_path}
+               "nominal_given": nominal_path is not None, "data": data_path,
+               "provenance": {"pincal_version": version(),
+                              "sha256": file_digests(model_path, data_path, nominal.source)}}
     content = check_content(result, sources)
     if changed:
         content["nominal_changed"] = True

@@ -44,6 +44,11 @@ def sha256(path: str | Path) -> str:
     return digest.hexdigest()
 
 
+def file_digests(*paths: str | Path | None) -> dict[str, str]:
+    """``{file: SHA-256}`` of the files among ``paths`` (a name that is no file, e.g. a known robot's, left out)."""
+    return {str(p): sha256(p) for p in paths if p is not None and Path(p).is_file()}
+
+
 def options_dict(options: CalibrationOptions) -> dict[str, Any]:
     """``options`` as JSON values (tuples as lists, a payload as its dict), in field order."""
     out: dict[str, Any] = {}

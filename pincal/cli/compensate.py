@@ -23,6 +23,7 @@ def cmd_compensate(args: argparse.Namespace) -> int:
     import numpy as np
 
     from pincal.calibration.compensate import TOLERANCE, compensate, load_model, nominal_targets, targets_frame
+    from pincal.calibration.provenance import file_digests, version
     from pincal.io.files import check_outputs, write_text
     from pincal.io.targets import commands_text, read_targets, targets_text
     from pincal.model.robot import load_robot
@@ -59,8 +60,9 @@ def cmd_compensate(args: argparse.Namespace) -> int:
             print(f"  sample {targets.ids[k]}: {result.statuses[k].partition(': ')[2]}")
         if len(missed) > SHOWN:
             print(f"  ... and {len(missed) - SHOWN} more")
-    common = {"robot": robot.name, "model": str(args.model), "corrections": corrections,
-              "targets": f"{args.targets} ({targets.key})"}
+    common = {"pincal": version(), "robot": robot.name, "model": str(args.model), "corrections": corrections,
+              "targets": f"{args.targets} ({targets.key})",
+              **{f"sha256 {name}": digest for name, digest in file_digests(args.model, args.targets).items()}}
     if args.nominal_targets:
         assert nominal is not None
         values, statuses, frame = nominal_targets(result, nominal)

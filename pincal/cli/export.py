@@ -16,6 +16,7 @@ DEFAULT_POSTURES = 100
 
 def cmd_export(args: argparse.Namespace) -> int:
     """``pincal export``: write the export and say what it holds; a DH table's conversion residual is printed."""
+    from pincal.calibration.provenance import file_digests, version
     from pincal.io.calibrated_urdf import source_text
     from pincal.io.export import dh_export, joint_origins_yaml
     from pincal.io.files import check_outputs, write_text
@@ -26,11 +27,13 @@ def cmd_export(args: argparse.Namespace) -> int:
     robot = load_robot(args.robot)
     text = source_text(robot)
     check_outputs([("--out", args.out)], [robot.source] if robot.source is not None else [])
+    digest = file_digests(robot.source).get(str(robot.source))
+    source = f"{args.robot} ({f'SHA-256 {digest}, ' if digest else ''}by pincal {version()})"
     if args.format == "yaml":
-        write_text(args.out, joint_origins_yaml(text, str(robot.source)))
+        write_text(args.out, joint_origins_yaml(text, source))
         print(f"wrote {args.out}: the origin of each of the URDF's joints (x, y, z [m], roll, pitch, yaw [rad])")
         return 0
-    done = dh_export(robot, text, str(robot.source), args.format, args.frame, args.base, args.tolerance,
+    done = dh_export(robot, text, source, args.format, args.frame, args.base, args.tolerance,
                      args.postures, args.seed)
     table, residual = done.table, done.residual
     print(f"{args.format} table of {table.base_frame} -> {table.end_frame}, {len(table.rows)} joints; conversion "

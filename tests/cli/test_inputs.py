@@ -300,15 +300,14 @@ def test_demo_names_every_file_it_writes(tmp_path: Path) -> None:
 @pytest.mark.parametrize("command", [["view", "--out", "unused.html"], ["report", "--out", "unused.html"],
                                      ["calibrate"]])
 def test_a_data_or_job_file_given_as_the_robot_is_named(five_bar_data: Path, command: list[str]) -> None:
-    """Swapped arguments, or a job file given to view/report, were 'X is not well-formed XML: ... line 1, column 1'."""
+    """Swapped arguments were 'X is not well-formed XML: ... line 1, column 1'; a job file takes no DATA."""
     job = ROOT / "examples" / "tiago_job.toml"  # the repository's (pincal may be installed elsewhere)
     line = one_line_error(run_pincal(command[0], str(five_bar_data), "five_bar", *command[1:]))
     assert line == (f"pincal: error: robot file '{five_bar_data}' is a data file (CSV): the robot comes first, then "
                     "the data (pincal calibrate ROBOT DATA.csv); give a URDF file or a known robot name")
-    if command[0] != "calibrate":
-        line = one_line_error(run_pincal(command[0], str(job), str(five_bar_data), *command[1:]))
-        assert line == (f"pincal: error: robot file '{job}' is a job file (TOML): only 'pincal calibrate JOB.toml' "
-                        "reads one (docs/job_file.md); give a URDF file or a known robot name")
+    line = one_line_error(run_pincal(command[0], str(job), str(five_bar_data), *command[1:]))
+    assert line == (f"pincal: error: {command[0]}: '{job}' is a job file, which names its own data; give no DATA "
+                    f"(got '{five_bar_data}'), or a robot: pincal {command[0]} ROBOT DATA")
 
 
 def test_argparse_errors_are_one_line_in_pincal_form() -> None:
