@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import json
+import os
 import re
 import statistics
+import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, run_pincal
+from conftest import PINCAL, ROOT, run_pincal
 
 README = (ROOT / "README.md").read_text(encoding="utf-8")
 TIAGO_PAGE = (ROOT / "docs" / "results" / "tiago_mocap.md").read_text(encoding="utf-8")
@@ -114,3 +116,23 @@ def test_the_readme_s_python_runs_as_written(tmp_path: Path, monkeypatch: pytest
     assert (tmp_path / "delta_calibrated.urdf").is_file()
     report = namespace["cal"].report  # type: ignore[attr-defined]
     assert report.cv["plan"] == "5-fold × 4" and report.test_rms_after < 0.1 * report.test_rms_before
+
+
+def test_the_readme_lifecycle_runs_as_written(tmp_path: Path) -> None:
+    """The README's 'After the calibration' lines, run in order in an empty folder, and the figures it quotes."""
+    block = re.search(r"## After the calibration.*?```bash\n(.*?)```", README, re.DOTALL)
+    assert block is not None
+    lines = [line.split("  #")[0].strip() for line in block.group(1).splitlines() if line.strip()]
+    assert [line.split()[1] for line in lines if line.startswith("pincal")] == [
+        "design", "simulate", "calibrate", "simulate", "check", "compensate", "export"]
+    for line in lines:
+        path = f"{PINCAL.parent}{os.pathsep}{os.environ['PATH']}"  # the pincal under test first
+        done = subprocess.run(line, shell=True, cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                              check=False, env={**os.environ, "PATH": path})
+        assert done.returncode == 0, (line, done.stderr)
+    check = json.loads((tmp_path / "check.json").read_text(encoding="utf-8"))
+    quoted = re.search(r"RMS\s+([\d.]+) mm against ([\d.]+) mm for the nominal robot", README)
+    assert quoted is not None
+    assert f"{check['rms'] * 1e3:.2g}" == quoted.group(1) and f"{check['nominal_rms'] * 1e3:.3g}" == quoted.group(2)
+    commands = (tmp_path / "commands.csv").read_text(encoding="utf-8")
+    assert commands.count(",ok\n") == 2 and (tmp_path / "joints.yaml").read_text(encoding="utf-8").count("x: ") > 3
