@@ -16,6 +16,7 @@ import re
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
+from importlib import metadata
 from pathlib import Path
 from typing import Any
 from xml.sax.saxutils import quoteattr
@@ -29,10 +30,8 @@ ELEMENT = "pincal_provenance"
 
 
 def version() -> str:
-    """The running pincal's version."""
-    from pincal import __version__
-
-    return __version__
+    """The installed pincal's version (its package metadata: pyproject's ``version``)."""
+    return metadata.version("pincal")
 
 
 def sha256(path: str | Path) -> str:
