@@ -429,10 +429,12 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     changed = (nominal_path is None and provenance.robot_sha256 and nominal.source is not None
                and sha256(nominal.source) != provenance.robot_sha256)
     result = check_model(model, nominal, dataset, CalibrationOptions(**options), register, fitted, note)
-    sources = {"model": model_path, "nominal": str(nominal.source or nominal.name),
+    nominal_file = nominal_name if Path(nominal_name).is_file() else None  # else a known robot, by its name
+    sources = {"model": model_path, "nominal": nominal_name,
                "nominal_given": nominal_path is not None, "data": data_path,
                "provenance": {"pincal_version": version(),
-                              "sha256": file_digests(model_path, data_path, nominal.source)}}
+                              "sha256": file_digests(model_path, corrections_path(model_path), data_path,
+                                                     *(job.files if job else ()), nominal_file)}}
     content = check_content(result, sources)
     if changed:
         content["nominal_changed"] = True

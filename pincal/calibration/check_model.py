@@ -87,12 +87,14 @@ def load_model(path: str, nominal: Robot, dataset: Dataset) -> CheckedModel:
     Raises:
         RobotFileError, NotFoundError: the URDF cannot be read, or the name is not known.
         DataError: a report that is not one, or whose parameters ``nominal`` does not have; a model whose actuated
-            joints are not ``nominal``'s.
+            joints are not ``nominal``'s; a calibrated URDF whose corrections file is missing or changed.
     """
     if is_report(path):
         model = _rebuilt(path, nominal, dataset)
     else:
         robot = load_robot(path)
+        if Path(path).is_file():
+            read_provenance(path).check_corrections(path)
         beside = corrections_path(path)
         corrections = read_corrections(beside) if robot.source is not None and beside.is_file() else None
         zeros = joint_sensor_zeros(source_text(robot)) if robot.source is not None else {}

@@ -25,7 +25,9 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal.calibration.provenance import read_provenance
 from pincal.errors import DataError, listing
+from pincal.identification.parameters import influencing_joints
 from pincal.io.calibrated_urdf import MEASUREMENT_FRAME, attached_link, marker_link
 from pincal.io.corrections_file import Corrections, corrected_readings, corrections_path, raw_commands, read_corrections
 from pincal.io.targets import OK, UNREACHABLE, Targets
@@ -88,6 +90,8 @@ def load_model(model: str | Path, nominal: Robot | None = None) -> Model:
     """
     robot = load_robot(model)
     path = corrections_path(model)
+    if Path(model).is_file():
+        read_provenance(model).check_corrections(model)
     if not Path(model).is_file() or not path.is_file():
         return Model(robot)
     corrections = read_corrections(path)
@@ -224,6 +228,10 @@ class _Solver:
         self.turns = np.array([a.nq == 1 and joint_unit(robot, a.name) == "rad" for a in robot.kinematics.actuated])
         self.seed = seed
         self._random: list[Array] | None = None
+        moving = set(influencing_joints(robot, [frame]))
+        #: Actuated joints that cannot move the frame (a TIAGo's head and wheels for its hand): held at the reference.
+        self.idle = np.array([name not in moving for name in robot.actuated_joints])
+        self.reference = robot.actuated_values(robot.q_reference)
 
     def random_starts(self) -> list[Array]:
         """:data:`RANDOM_STARTS` closed random postures within the limits, drawn once (seeded)."""
@@ -325,9 +333,11 @@ class _Solver:
                                                   f"leaves the frame {miss:.3g} m from the target{edge}"))
                 continue
             wanted = self.into_limits(robot.actuated_values(q), robot.actuated_values(start))
+            wanted[self.idle] = self.reference[self.idle]
             if self.outside(wanted, "") and (inside := self.actuated_newton(wanted, goal)) is not None:
                 q = inside  # the same target with the joints held within their limits
                 wanted = self.into_limits(robot.actuated_values(q), wanted)
+                wanted[self.idle] = self.reference[self.idle]
             why = self.outside(wanted, "the model's")
             raw, inversion = self.model.raw(wanted)
             why = why or self.outside(raw, "the raw command of")

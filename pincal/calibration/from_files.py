@@ -4,6 +4,7 @@ at all, each recording its provenance (:mod:`pincal.calibration.provenance`) —
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -16,7 +17,7 @@ from pincal.calibration.provenance import Provenance, file_source, options_dict,
 from pincal.calibration.samples import read_robot_dataset
 from pincal.errors import NotFoundError, PincalError
 from pincal.io.calibrated_urdf import source_text
-from pincal.io.corrections_file import corrections_dict, corrections_path
+from pincal.io.corrections_file import corrections_dict, corrections_path, robot_files
 from pincal.io.dataset import Dataset
 from pincal.io.files import check_outputs, json_text, write_texts
 from pincal.io.mesh_files import MeshMode, MeshPlan, plan_meshes
@@ -40,7 +41,7 @@ def _checked_outputs(robot: Robot, out: str | Path | None, report: str | Path | 
         (what, path) for what, path in ((flags[0], out), (flags[1], report),
                                         (f"{flags[0]} (its corrections file)", beside)) if path]
     outputs += [("--meshes copy", dest) for _, dest in plan.copies]
-    check_outputs(outputs, [p for p in (robot.source, *inputs, *(f for f, _ in plan.copies)) if p is not None])
+    check_outputs(outputs, [*robot_files(robot), *inputs, *(f for f, _ in plan.copies)])
     return plan, beside
 
 
@@ -50,14 +51,17 @@ def _written(cal: Calibration, robot: Robot, provenance: Provenance, out: str | 
     lands), the report, the corrections file beside the URDF when the URDF cannot hold every estimate, and the mesh
     copies."""
     texts: list[tuple[str | Path, str | bytes]] = []
+    named = None
+    if cal.corrections is not None and beside is not None:  # what the URDF cannot hold goes beside it
+        text = json_text(corrections_dict(cal.corrections, robot, beside.parent))
+        texts.append((beside, text))
+        named = (beside.name, hashlib.sha256(text.encode("utf-8")).hexdigest())
     if out:
-        cal.urdf_text = with_provenance(cal.urdf_text, provenance, Path(out).parent)
+        cal.urdf_text = with_provenance(cal.urdf_text, provenance, Path(out).parent, named)
         texts += [(out, plan.text(cal.urdf_text)), *plan.files()]
     if report:
         cal.report = replace(cal.report, provenance=provenance.as_dict(Path(report).parent))
         texts.append((report, cal.report.to_json()))
-    if cal.corrections is not None and beside is not None:  # what the URDF cannot hold goes beside it
-        texts.append((beside, json_text(corrections_dict(cal.corrections, robot, beside.parent))))
     write_texts(texts)
     return cal
 

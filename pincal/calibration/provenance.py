@@ -109,23 +109,28 @@ class Provenance:
                 "data": [{"file": d.named_from(folder), "sha256": d.sha256} for d in self.data],
                 "options": self.options}
 
-    def urdf_element(self, folder: Path) -> str:
-        """The ``<pincal_provenance …/>`` element of a calibrated URDF in ``folder``."""
+    def urdf_element(self, folder: Path, corrections: tuple[str, str] | None = None) -> str:
+        """The ``<pincal_provenance …/>`` element of a calibrated URDF in ``folder``; ``corrections``: the name and
+        SHA-256 of the corrections file written beside it (the joint corrections the URDF cannot hold)."""
         attributes = {"pincal_version": self.pincal_version or version(), "robot": self.robot.named_from(folder),
                       "robot_sha256": self.robot.sha256 or "",
                       "data": " ".join(d.named_from(folder) for d in self.data),
                       "data_sha256": " ".join(d.sha256 or "" for d in self.data),
                       "options": json.dumps(self.options, sort_keys=False)}
+        if corrections is not None:
+            attributes["corrections"], attributes["corrections_sha256"] = corrections
         return f"<{ELEMENT} " + " ".join(f"{k}={quoteattr(v)}" for k, v in attributes.items()) + "/>"
 
 
-def with_provenance(urdf_text: str, provenance: Provenance, folder: Path) -> str:
-    """``urdf_text`` with its provenance element as the first child of ``<robot>`` (one it held is replaced)."""
+def with_provenance(urdf_text: str, provenance: Provenance, folder: Path,
+                    corrections: tuple[str, str] | None = None) -> str:
+    """``urdf_text`` with its provenance element as the first child of ``<robot>`` (one it held is replaced);
+    ``corrections`` as for :meth:`Provenance.urdf_element`."""
     text = re.sub(rf"\n?[ \t]*<{ELEMENT}\b[^>]*/>", "", urdf_text)
     start = re.search(r"<robot\b[^>]*>", text)
     if start is None:
         raise DataError("the calibrated URDF has no <robot> element")
-    return f"{text[:start.end()]}\n  {provenance.urdf_element(folder)}{text[start.end():]}"
+    return f"{text[:start.end()]}\n  {provenance.urdf_element(folder, corrections)}{text[start.end():]}"
 
 
 @dataclass(frozen=True)
@@ -138,6 +143,25 @@ class Recorded:
     robot_sha256: str | None = None
     data: Path | None = None
     data_sha256: str | None = None
+    corrections: Path | None = None
+    corrections_sha256: str | None = None
+
+    def check_corrections(self, model: str | Path) -> None:
+        """Refuse a calibrated URDF whose corrections file (named in its provenance) is missing or changed: without
+        it the URDF predicts and commands the robot without its joint corrections, silently wrong.
+
+        Raises:
+            DataError: naming the file.
+        """
+        if self.corrections is None:
+            return
+        if not self.corrections.is_file():
+            raise DataError(f"'{model}' was calibrated with joint corrections the URDF cannot hold, in "
+                            f"'{self.corrections}', which is not there: put it back beside the URDF "
+                            "(docs/calibrated_urdf.md, 'The corrections file')")
+        if self.corrections_sha256 and sha256(self.corrections) != self.corrections_sha256:
+            raise DataError(f"'{self.corrections}' is not the corrections file '{model}' was calibrated with (its "
+                            "SHA-256 differs)")
 
 
 def _resolved(entry: str, folder: Path) -> str:
@@ -173,6 +197,10 @@ def read_provenance(path: str | Path) -> Recorded:
             robot_name, robot_sha = element.get("robot"), element.get("robot_sha256")
             data_name = (element.get("data") or "").split(" ")[0]
             data_sha = (element.get("data_sha256") or "").split(" ")[0]
+            corrections = element.get("corrections")
+            return Recorded(_resolved(str(robot_name), folder) if robot_name else None, robot_sha or None,
+                            folder / data_name if data_name else None, data_sha or None,
+                            folder / corrections if corrections else None, element.get("corrections_sha256"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError, ET.ParseError):
         return Recorded()
     return Recorded(_resolved(str(robot_name), folder) if robot_name else None, robot_sha or None,

@@ -127,8 +127,9 @@ class CalibrationReport:
 
     @property
     def has_held_out(self) -> bool:
-        """True when held-out samples were evaluated (the ``test_*`` figures are there)."""
-        return self.test_rms_before is not None
+        """True when held-out samples were evaluated (the ``test_*`` figures are there; a figure of a quantity the
+        held-out samples do not measure is None, or NaN before the report is written)."""
+        return self.n_test_samples is not None
 
     @property
     def usable(self) -> bool:
@@ -140,8 +141,9 @@ class CalibrationReport:
         return json_text(self.as_dict())
 
     def as_dict(self) -> dict[str, Any]:
-        """The JSON's content as a dict (the optional fields that hold None left out)."""
-        return {f.name: getattr(self, f.name) for f in fields(self) if not f.metadata.get("internal")
+        """The JSON's content as a dict (the optional fields that hold None left out; a figure that is not a number,
+        e.g. the RMS length error of samples with no length reading, as None: JSON has no NaN)."""
+        return {f.name: _json_value(getattr(self, f.name)) for f in fields(self) if not f.metadata.get("internal")
                 and not (f.metadata.get("optional") and getattr(self, f.name) is None)}
 
     @classmethod
@@ -196,6 +198,17 @@ def before_means(problem: CalibrationProblem) -> str:
         means = BEFORE_MEANS_PLACED if problem.placed_in_closed_form else BEFORE_MEANS_UNPLACED
         return "; ".join([means, *problem.not_in_closed_form])
     return BEFORE_MEANS_REGISTERED if registered_base(problem.parameters) else BEFORE_MEANS_NOMINAL
+
+
+def _json_value(value: Any) -> Any:
+    """``value`` with every float that is not finite made None, through lists and dicts."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _json_value(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_value(v) for v in value]
+    return value
 
 
 def _clean(v: float) -> float | None:

@@ -8,7 +8,7 @@ that cannot be used; :func:`held_out_outside_range` names held-out readings outs
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -44,13 +44,23 @@ def read_robot_dataset(path: str | Path, robot: Robot, min_samples: int = 2) -> 
     checked with the measurement models (:func:`~pincal.io.adapters.joints_at_reference`)."""
     dataset = read_dataset(path, None, min_samples, joint_kinds=joint_kinds(robot),
                            joint_like=[str(n) for n in robot.model.names[1:]])
-    recorded = dataset.metadata.get("robot")
+    check_recorded_robot(dataset.metadata, robot, path)
+    return dataset
+
+
+def check_recorded_robot(metadata: Mapping[str, str], robot: Robot, path: str | Path) -> None:
+    """Refuse a file whose ``# robot:`` line names another robot than ``robot`` (its URDF's ``<robot name>`` or file
+    name).
+
+    Raises:
+        DataError: naming the file and both robots.
+    """
+    recorded = metadata.get("robot")
     names = {robot.name} | ({robot.source.stem} if robot.source is not None else set())
     if recorded is not None and recorded not in names:
         raise DataError(f"{path}: its '# robot: {recorded}' line says the data are of robot '{recorded}', not of "
                         f"{' or '.join(repr(n) for n in sorted(names))} (the URDF's <robot name> or file name); give "
                         "the robot the data were taken on, or correct that line")
-    return dataset
 
 
 def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, str]]]:

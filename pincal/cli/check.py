@@ -77,7 +77,8 @@ def summary_text(content: dict[str, Any]) -> str:
 
 def cmd_check(args: argparse.Namespace) -> int:
     """``pincal check``: predict DATA with MODEL and with the nominal robot, print the errors side by side, write
-    ``--report`` and ``--html``; exit status 1 when MODEL predicts DATA worse than the nominal robot."""
+    ``--report`` and ``--html``; exit status 1 when MODEL predicts DATA worse than the nominal robot, or a
+    registration did not converge."""
     from pincal.calibration.check import run_check
     from pincal.io.files import json_text, write_texts
 
@@ -93,7 +94,12 @@ def cmd_check(args: argparse.Namespace) -> int:
         texts.append((args.html, check_page(content)))
     for path in write_texts(texts):
         print(f"wrote {path}")
-    return 1 if check.worse_than_nominal else 0
+    unconverged = [side for side, done in (("MODEL", check.model.converged), ("nominal robot", check.nominal.converged))
+                   if done is False]
+    if unconverged:  # the comparison is of setups not yet fitted
+        print(f"NOT CONVERGED: the registration of the {' and the '.join(unconverged)} reached the iteration limit "
+              "(--max-iter): the figures compare setups not yet fitted")
+    return 1 if check.worse_than_nominal or unconverged else 0
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -105,7 +111,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                     "used as it stands (its measurement frame, markers, cameras and targets as the file holds "
                     "them); the nominal robot's measurement setup is placed on DATA in closed form, as calibrate's "
                     "'before'. --register re-estimates both setups on DATA (least squares), the robots held. Exit "
-                    "status 1 when MODEL predicts DATA worse than the nominal robot (docs/check.md).",
+                    "status 1 when MODEL predicts DATA worse than the nominal robot, or a registration did not "
+                    "converge (docs/check.md).",
         epilog="example: pincal check cal.urdf new_day.csv --register --report check.json --html check.html")
     check.add_argument("model", metavar="MODEL",
                        help="calibrated URDF (its .corrections.json beside it is read), a known robot name, or the "

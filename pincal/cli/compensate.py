@@ -24,6 +24,7 @@ def cmd_compensate(args: argparse.Namespace) -> int:
 
     from pincal.calibration.compensate import TOLERANCE, compensate, load_model, nominal_targets, targets_frame
     from pincal.calibration.provenance import file_digests, version
+    from pincal.calibration.samples import check_recorded_robot
     from pincal.io.files import check_outputs, write_text
     from pincal.io.targets import commands_text, read_targets, targets_text
     from pincal.model.robot import load_robot
@@ -38,6 +39,7 @@ def cmd_compensate(args: argparse.Namespace) -> int:
         inputs.append(model.corrections_file)
         check_outputs([("--out", args.out)], inputs)
     targets = read_targets(args.targets)
+    check_recorded_robot(targets.metadata, model.robot, args.targets)
     result = compensate(model, targets, args.frame, args.targets_in, args.tolerance or TOLERANCE, args.seed)
     robot = model.robot
     where = targets_frame(result)
@@ -62,7 +64,10 @@ def cmd_compensate(args: argparse.Namespace) -> int:
             print(f"  ... and {len(missed) - SHOWN} more")
     common = {"pincal": version(), "robot": robot.name, "model": str(args.model), "corrections": corrections,
               "targets": f"{args.targets} ({targets.key})",
-              **{f"sha256 {name}": digest for name, digest in file_digests(args.model, args.targets).items()}}
+              **({"gravity torques of": args.nominal or model.corrections.nominal_urdf}
+                 if model.corrections is not None and model.torque_robot is not None else {}),
+              **{f"sha256 {name}": digest
+                 for name, digest in file_digests(args.model, model.corrections_file, args.targets).items()}}
     if args.nominal_targets:
         assert nominal is not None
         values, statuses, frame = nominal_targets(result, nominal)

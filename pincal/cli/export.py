@@ -18,6 +18,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     """``pincal export``: write the export and say what it holds; a DH table's conversion residual is printed."""
     from pincal.calibration.provenance import file_digests, version
     from pincal.io.calibrated_urdf import source_text
+    from pincal.io.corrections_file import corrections_path, robot_files
     from pincal.io.export import dh_export, joint_origins_yaml
     from pincal.io.files import check_outputs, write_text
     from pincal.model.robot import load_robot
@@ -26,9 +27,14 @@ def cmd_export(args: argparse.Namespace) -> int:
         raise PincalError("export: --frame and --base choose a DH table's chain; --format yaml writes every joint")
     robot = load_robot(args.robot)
     text = source_text(robot)
-    check_outputs([("--out", args.out)], [robot.source] if robot.source is not None else [])
+    check_outputs([("--out", args.out)], robot_files(robot))
     digest = file_digests(robot.source).get(str(robot.source))
     source = f"{args.robot} ({f'SHA-256 {digest}, ' if digest else ''}by pincal {version()})"
+    beside = corrections_path(robot.source) if robot.source is not None else None
+    if beside is not None and beside.is_file():  # the table alone is not the whole calibrated model
+        source += f"; apply the joint corrections of {beside.name} to the readings first (docs/calibrated_urdf.md)"
+        print(f"note: {beside.name} holds joint corrections the URDF cannot: a controller applies them to the raw "
+              "readings before this export's kinematics")
     if args.format == "yaml":
         write_text(args.out, joint_origins_yaml(text, source))
         print(f"wrote {args.out}: the origin of each of the URDF's joints (x, y, z [m], roll, pitch, yaw [rad])")

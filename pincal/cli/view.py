@@ -24,12 +24,13 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
     from pincal.calibration.from_files import read_inputs
     from pincal.calibration.pipeline import calibrate
     from pincal.calibration.report import CalibrationReport
+    from pincal.io.corrections_file import robot_files
     from pincal.io.files import check_outputs
     from pincal.viz.scene import CalibrationView, check_same_data
 
     read = read_inputs(args.command, args.robot, args.data, given_options(args))
     robot, dataset, options = read.robot, read.dataset, read.options
-    inputs = (robot.source, *read.files, args.result, getattr(args, "truth", None))
+    inputs = (*robot_files(robot), *read.files, args.result, getattr(args, "truth", None))
     check_outputs([("--out", args.out)], [p for p in inputs if p is not None])  # before any work
     if args.result:
         report = CalibrationReport.read(args.result)

@@ -68,6 +68,15 @@ def corrections_of(robot: Robot, parameters: ParameterSet, x: Array,
     return Corrections(robot.name, joints, payload) if joints else None
 
 
+def robot_files(robot: Robot) -> list[Path]:
+    """The files a robot was read from: its URDF and the corrections file beside it, if there is one (inputs no
+    output may replace)."""
+    if robot.source is None:
+        return []
+    beside = corrections_path(robot.source)
+    return [Path(robot.source), *([beside] if beside.is_file() else [])]
+
+
 def corrections_dict(corrections: Corrections, nominal: Robot, folder: Path | None = None) -> dict[str, Any]:
     """The file's content: format, formula, units, where τ_g comes from (the nominal URDF, by its path relative to
     ``folder``, the corrections file's, when given), the payload (None: none) and the coefficients."""
@@ -88,7 +97,8 @@ def corrections_dict(corrections: Corrections, nominal: Robot, folder: Path | No
 
 
 def read_corrections(path: str | Path) -> Corrections:
-    """Read a corrections file.
+    """Read a corrections file; its ``nominal_urdf``, a path relative to the file, is resolved against the file's
+    folder (a known robot's name stays a name).
 
     Raises:
         DataError: unreadable, not JSON, another format, an unknown term (named), or a malformed payload.
@@ -110,7 +120,10 @@ def read_corrections(path: str | Path) -> Corrections:
                             f"{listing(TERMS)}")
         out[str(joint)] = {str(t): float(v) for t, v in terms.items()}
     payload = payload_from_dict(content.get("payload"), f"'{path}': ")
-    return Corrections(str(content.get("robot", "")), out, payload, str(content.get("nominal_urdf") or ""))
+    nominal = str(content.get("nominal_urdf") or "")
+    beside = Path(path).parent / nominal  # a path relative to the file (a known robot: its name)
+    return Corrections(str(content.get("robot", "")), out, payload, str(beside) if nominal and beside.is_file()
+                       else nominal)
 
 
 def corrected_readings(corrections: Corrections, nominal: Robot, actuated: npt.ArrayLike) -> Array:

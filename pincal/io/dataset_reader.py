@@ -8,7 +8,7 @@ from __future__ import annotations
 import csv
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -211,14 +211,24 @@ def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = 
         raise DataError(f"{source.name}: {exc}") from None
 
 
+def check_si_units(metadata: Mapping[str, str]) -> None:
+    """Refuse a file whose ``# units:`` line names a unit other than metres and radians (a ``# units: mm`` line is
+    never read as metres).
+
+    Raises:
+        DataError: naming the line.
+    """
+    units = re.findall(r"[a-zµ°]+", metadata.get("units", "").lower())
+    foreign = sorted({u for u in units if u in FOREIGN_UNITS})
+    if foreign:
+        raise DataError(f"metadata 'units: {metadata['units']}' names {', '.join(foreign)}; pincal reads metres and "
+                        "radians: convert the file to SI, and state '# units: SI (m, rad)'")
+
+
 def _parse(text: str, required: Sequence[str], min_samples: int, kinds: dict[str, str],
            known: Sequence[str] | None, joint_like: Sequence[str] = ()) -> Dataset:
     metadata, header_line, header, rows = _split(text)
-    units = re.findall(r"[a-zµ°]+", metadata.get("units", "").lower())
-    foreign = sorted({u for u in units if u in FOREIGN_UNITS})
-    if foreign:  # the file says so itself: a '# units: mm' line is never read as metres
-        raise DataError(f"metadata 'units: {metadata['units']}' names {', '.join(foreign)}; pincal reads metres and "
-                        "radians: convert the file to SI, and state '# units: SI (m, rad)'")
+    check_si_units(metadata)
     layout = _layout(header, header_line, required, known, joint_like)
     if len(rows) < min_samples:
         raise DataError(f"{len(rows)} samples; at least {min_samples} are needed")

@@ -27,7 +27,7 @@ import numpy.typing as npt
 from pincal.errors import DataError, listing
 from pincal.identification.measurements.context import split_target
 from pincal.io.dataset import MAX_PLAUSIBLE_LENGTH, QUATERNION_NORM_TOLERANCE, SAMPLE_COLUMN, SET_COLUMN
-from pincal.io.dataset_reader import cell_number, read_table
+from pincal.io.dataset_reader import cell_number, check_si_units, read_table
 
 Array = npt.NDArray[np.float64]
 
@@ -91,6 +91,7 @@ def read_targets(path: str | Path) -> Targets:
 
 def _parse(source: Path) -> Targets:
     table = read_table(source)
+    check_si_units(table.metadata)
     where = f"header (line {table.header_line})"
     groups: dict[str, dict[str, int]] = {}
     sample = status = None

@@ -74,3 +74,19 @@ def test_the_report_holds_per_sample_errors_and_the_covariance(tmp_path: Path) -
     assert matrix.shape == (len(identified), len(identified)) and np.allclose(matrix, matrix.T)
     assert np.allclose(np.sqrt(np.diag(matrix)), [report["parameters"][n]["std"] for n in identified], rtol=1e-12)
     assert np.linalg.eigvalsh(matrix).min() > 0
+
+
+def test_a_figure_that_is_not_a_number_is_null_in_the_report(tmp_path: Path) -> None:
+    """Joint readings only: no length error to average, so the held-out RMS is null (JSON has no NaN) and the
+    held-out samples are still counted."""
+    sim = tmp_path / "sim"
+    assert run_pincal("simulate", "five_bar", "--measure", "joint:scale_joint", "--samples", "20", "--test-samples",
+                      "5", "--seed", "3", "--out", str(sim), "--quiet").returncode == 0
+    done = run_pincal("calibrate", "five_bar", str(sim / "measurements.csv"), "--report", str(tmp_path / "r.json"))
+    assert done.returncode == 0, done.stderr
+
+    def refuse(constant: str) -> None:
+        raise AssertionError(f"{constant} in the report JSON")
+
+    report = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"), parse_constant=refuse)
+    assert report["n_test_samples"] == 5 and report["test_rms_before"] is None and report["test_rms_after"] is None

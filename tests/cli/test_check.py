@@ -143,7 +143,7 @@ def test_the_recorded_nominal_and_the_fitted_range(delta: Path, tmp_path: Path) 
     assert 5 <= len(expected) < 30
     for model in ("cal.urdf", "r.json"):
         out = _check(str(folder / model), str(delta / "new.csv"))
-        assert out["nominal"].endswith("delta.urdf") and out["nominal_given"] is False
+        assert out["nominal"] == "delta" and out["nominal_given"] is False  # the recorded name
         assert out["outside_range"]["known"] is True
         assert out["outside_range"]["samples"] == expected
         assert [s["sample"] for s in out["samples"] if s["outside_range"]] == expected
@@ -178,6 +178,9 @@ def test_tiago_calibrated_on_some_postures_checked_on_the_others(tmp_path: Path)
                         "--register")
     assert registered["rms"] <= as_is["rms"]
     assert 1e-3 < registered["rms"] < registered["nominal_rms"] < 0.01
+    cut = _check(str(tmp_path / "cal.urdf"), str(tmp_path / "test.csv"), "--nominal", "tiago_no_hand", "--register",
+                 "--max-iter", "1", code=1)  # a registration stopped before it converged: exit 1, said
+    assert cut["setup"]["nominal_converged"] is False and "NOT CONVERGED" in cut["stdout"]
     # the job file of the same data (the raw mocap file, read as the job says): every row, the same figures as the CSV
     job = _check(str(tmp_path / "cal.urdf"), str(EXAMPLES.parent / "tiago_job.toml"), "--nominal", "tiago_no_hand",
                  where=tmp_path)

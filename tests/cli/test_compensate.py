@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -218,7 +219,16 @@ def test_the_corrections_file_is_inverted(tmp_path: Path) -> None:
     assert _rms(after) < 3 * c.held_out_rms
     alone = tmp_path / "alone"
     alone.mkdir()
-    shutil.copy(c.calibrated, alone / "cal.urdf")
+    shutil.copy(c.calibrated, alone / "cal.urdf")  # without its corrections file, which it names: refused
+    done = run_pincal("compensate", str(alone / "cal.urdf"), str(c.targets), "--out", str(alone / "commands.csv"))
+    assert done.returncode == 2 and "cal.corrections.json', which is not there" in done.stderr, done.stderr
+    for command in (("check", str(alone / "cal.urdf"), str(c.folder / "measurements.csv")),
+                    ("export", str(c.calibrated), "--format", "yaml", "--out", str(c.folder / "cal.corrections.json"))):
+        done = run_pincal(*command)  # check refuses it too; no output replaces a model's corrections file
+        assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert read_corrections(c.folder / "cal.corrections.json").joints
+    text = (alone / "cal.urdf").read_text(encoding="utf-8")  # a URDF that does not know of its corrections
+    (alone / "cal.urdf").write_text(re.sub(r"\n\s*<pincal_provenance[^>]*/>", "", text), encoding="utf-8")
     done = run_pincal("compensate", str(alone / "cal.urdf"), str(c.targets), "--out", str(alone / "commands.csv"))
     assert done.returncode == 0 and "corrections: none" in done.stdout
     plain = _commands(_read(alone / "commands.csv")[1], c.truth.actuated_joints)
@@ -241,6 +251,8 @@ POSE = "sample," + ",".join(f"pose:end_effector:{c}" for c in ("x", "y", "z", "q
     (f"{POSE}\nt0,0,0,-0.4,0,0,0,1", (), "which has 3 degrees of freedom: give position targets"),
     (f"{POSE}\nt0,0,0,-0.4,0,0,0.5,1", (), "line 2: quaternion (qx, qy, qz, qw) of norm 1.11803"),
     (f"{POSITION}\nt0,0,0,-400", (), "it looks like millimetres"),
+    (f"# units: mm\n{POSITION}\nt0,0,0,-400", (), "metadata 'units: mm' names mm"),
+    (f"# robot: five_bar\n{POSITION}\nt0,0,0,-0.4", (), "says the data are of robot 'five_bar', not of 'delta'"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, text: str, extra: tuple[str, ...], message: str) -> None:
     targets = tmp_path / "targets.csv"
@@ -287,5 +299,8 @@ def test_the_tiago_reaches_its_measured_points_within_its_limits(tmp_path: Path)
     upper = np.array([robot.model.upperPositionLimit[a.idx_q] if a.nq == 1 else np.inf
                       for a in robot.kinematics.actuated])
     assert np.all(commands >= lower - 1e-9) and np.all(commands <= upper + 1e-9)
+    reference = robot.actuated_values(robot.q_reference)  # the head and wheels cannot move the hand: left there
+    idle = [k for k, name in enumerate(robot.actuated_joints) if name.startswith(("head_", "wheel_"))]
+    assert len(idle) == 4 and np.all(commands[:, idle] == reference[idle])
     reached = _errors(robot, "wrist_ft_tool_link_marker", commands, points)
     assert reached.max() < 1e-9

@@ -198,3 +198,23 @@ def test_a_payload_the_calibration_cannot_use_is_refused_in_one_line(loaded_sim:
     done = run_pincal("calibrate", "ur10", str(loaded_sim / "measurements.csv"), *args)
     assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
     assert message in done.stderr
+
+
+def test_the_nominal_urdf_is_found_beside_the_corrections_file(tmp_path: Path) -> None:
+    """A corrections file names its nominal URDF relative to itself: read from any working directory, the path is
+    resolved against the file's folder (a known robot's name stays a name)."""
+    robot_file = tmp_path / "robot" / "r.urdf"
+    robot_file.parent.mkdir()
+    robot_file.write_text(pincal.robot_path("ur10").read_text(encoding="utf-8"), encoding="utf-8")
+    ur10 = pincal.load_robot(robot_file)
+    folder = tmp_path / "out"
+    folder.mkdir()
+    path = folder / "cal.corrections.json"
+    corrections = Corrections("ur10", {"elbow_joint": {"sin1": 1e-4}})
+    content = corrections_dict(corrections, ur10, folder)
+    assert content["nominal_urdf"] == "../robot/r.urdf"
+    path.write_text(json.dumps(content), encoding="utf-8")
+    assert Path(read_corrections(path).nominal_urdf).resolve() == robot_file.resolve()
+    path.write_text(json.dumps(corrections_dict(corrections, pincal.load_robot("ur10"), folder)), encoding="utf-8")
+    assert read_corrections(path).nominal_urdf == "ur10"
+
