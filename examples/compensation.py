@@ -18,7 +18,7 @@ import csv
 import io
 import json
 import math
-import shutil
+import re
 import sys
 import tempfile
 import time
@@ -144,9 +144,11 @@ def measure(case: Case, n_targets: int, folder: Path) -> dict[str, Any]:
     row: dict[str, Any] = {"robot": case.name, "kind": case.kind, "targets": n_targets,
                            "held_out_rms": report["test_rms_after"], "held_out_max": report["test_max_after"]}
     models = {"nominal": case.robot, "registered": str(folder / "reg.urdf"), "compensated": str(folder / "cal.urdf")}
-    if truth_corrections is not None:  # the calibrated URDF alone: its corrections file left behind
-        (folder / "alone").mkdir()
-        shutil.copy(folder / "cal.urdf", folder / "alone" / "cal.urdf")
+    if truth_corrections is not None:  # the calibrated URDF alone: its corrections file left behind, and the record
+        (folder / "alone").mkdir()  # that names it taken out (pincal refuses a URDF whose corrections file is missing)
+        text = (folder / "cal.urdf").read_text(encoding="utf-8")
+        (folder / "alone" / "cal.urdf").write_text(re.sub(r"\n\s*<pincal_provenance[^>]*/>", "", text),
+                                                   encoding="utf-8")
         models["without corrections"] = str(folder / "alone" / "cal.urdf")
     for label, model in models.items():
         out = folder / f"{label.replace(' ', '_')}.csv"
