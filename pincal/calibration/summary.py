@@ -48,8 +48,9 @@ def _heavy_payload(report: CalibrationReport) -> str | None:
 
 def summary_text(report: CalibrationReport, seconds: float, report_path: str | None = None) -> str:
     """The summary ``pincal calibrate`` prints: the verdict lines first (not converged, worse than nominal, residuals
-    above the stated noise), the fit's account, the before/after table [mm, mrad], where every sample went, the
-    warnings, and the combinations the data cannot separate; ``seconds`` is the fit's wall time."""
+    above the stated noise, implausible corrections with their likely cause), the fit's account, the before/after
+    table [mm, mrad], where every sample went, the warnings, and the combinations the data cannot separate;
+    ``seconds`` is the fit's wall time."""
     lines = [f"NOT CONVERGED: {report.message} after {report.iterations} iterations; the estimate below is "
              "where the solver stopped, not a calibration (try --max-iter, fewer --parameters or more samples)"
              if not report.converged else None,
@@ -57,12 +58,12 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
              f"(RMS {mm(report.test_rms_after)} against {mm(report.test_rms_before)}); keep the nominal model, "
              "or fit fewer parameters, or measure postures that cover the held-out range"
              if report.worse_than_nominal else None,
-             *_implausible(report),
              # said first: "converged" must not read as "fits the data"
              f"THE FIT DOES NOT REACH THE STATED NOISE: residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ after "
              "calibration; "
              "either the stated σ is wrong or the model cannot fit these data (see the warning below)"
              if (report.sigma2 or 0.0) > NOISE_CONTRADICTED else None,
+             *_implausible(report),  # after the one-line verdicts: it lists the parameters
              f"samples {report.n_samples}, parameters {report.n_parameters}, "
              f"identifiable {report.n_identifiable}, estimated {report.n_estimated}"
              f", condition number {report.condition_number:.3g}" if report.condition_number else "",
