@@ -344,6 +344,13 @@ class _Reader:
             raise self.error(key, f"'{plan}' is not K (folds), KxR (K folds, R shuffles, e.g. \"5x4\") or \"loo\"")
         return plan
 
+    def option_factor(self, value: Any, key: str) -> float | str:
+        if isinstance(value, str) and value.strip().lower() == "off":
+            return "off"
+        if isinstance(value, bool) or not isinstance(value, int | float) or not 0.0 < value < math.inf:
+            raise self.error(key, f"{_shown(value)} is not a factor > 0 or \"off\"")
+        return float(value)
+
     def option_payload(self, value: Any, key: str) -> Payload | None:
         payload = self.table(value, key)
         self.keys(payload, PAYLOAD_KEYS, f"in {key}")

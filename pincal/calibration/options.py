@@ -28,6 +28,12 @@ SELECT_CHOICES = ("auto", "bic", "none")
 
 PARAMETERS_HELP = ("named sets (default, model24, model24i, hexapod42, hexapod44) and name patterns, combined in "
                    "order; !pattern removes (default: the default set, docs/dataset.md 'Parameters')")
+PLAUSIBLE_HELP = ("refuse (exit 1) a result whose corrections exceed F times the plausible size of their kind: "
+                  "joint and loop-anchor placements 20 mm and 2 deg, reading offsets 5 deg (20 mm), harmonics 1 deg "
+                  "(5 mm); the measurement frame, markers, cameras and targets have no bound; and data whose "
+                  "positions spread more than 1 + F/2 times as far as the nominal robot's (or less than its "
+                  "inverse); the run names the parameters and the likely cause (default 1; off: no such check; "
+                  "docs/calibrated_urdf.md, 'Plausible corrections')")
 SIGMA_HELP = ("one measurement σ [m, rad] for weighting every channel, over the file's '# sigma' lines (default: "
               "those lines, else 1e-5; 1e-6 m for distances)")
 
@@ -42,7 +48,7 @@ class Option:
         help: The help text (units in brackets).
         choices: The values allowed, or None.
         kind: ``text``, ``texts`` (one or more), ``int`` (≥ 1), ``seed`` (≥ 0), ``sigma`` (finite > 0), ``plan``
-            (``K``, ``KxR`` or ``loo``), ``payload``.
+            (``K``, ``KxR`` or ``loo``), ``payload``, ``factor`` (finite > 0, or ``off``).
         metavar: The value's name in the help, or None.
         api_only: Given only through the library (not on the command line, not in a job file).
     """
@@ -79,6 +85,8 @@ class CalibrationOptions:
         cv_seed: Seed of the first cross-validation shuffle (K-fold plans only).
         markers: ``each`` marker's offset, or one rigid ``cluster`` placement of a frame's markers.
         payload: A point mass the robot carried, for the joint compliances; None: none.
+        plausible: A factor (> 0) on the plausible size of each kind's corrections
+            (:attr:`~pincal.identification.parameters.kinds.ParameterKind.plausible`), or ``"off"``: no check.
     """
 
     parameter_spec: tuple[str, ...] | None = field(default=None, metadata=_how(
@@ -118,6 +126,9 @@ class CalibrationOptions:
              "that frame (default 0,0,0); its gravity torque adds to the links' in the joint compliances "
              "('*.compliance'), and is refused without one; the corrections file and the report record it"))
 
+    plausible: float | str = field(default=1.0, metadata=_how(
+        flag="--plausible", key="plausible", kind="factor", metavar="F|off", help=PLAUSIBLE_HELP))
+
     markers: MarkerFit = field(default="each", metadata=_how(
         flag="--markers", key=None, choices=MARKER_FITS,
         help="markers declared on a frame (position:<frame>@<marker> columns): each (default) fits each marker's "
@@ -141,6 +152,8 @@ class CalibrationOptions:
                 raise DataError(f"{name}={value!r}: a σ is a finite number > 0 [m, rad] (or None for the data's)")
         if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int) or self.max_iter < 1:
             raise DataError(f"max_iter is {self.max_iter}: at least one iteration is needed")
+        if plausible_factor(self.plausible) is None and self.plausible != "off":
+            raise DataError(f"plausible={self.plausible!r}: give a factor > 0 on the plausible corrections, or 'off'")
         if isinstance(self.cv_seed, bool) or not isinstance(self.cv_seed, int):
             raise DataError(f"cv_seed={self.cv_seed!r}: give a whole number ≥ 0")
 
@@ -167,6 +180,14 @@ class CalibrationOptions:
         if self.select != "auto":
             return self.select
         return "none" if self.named_parameters or self.formulation != "fkm" else "bic"
+
+
+def plausible_factor(value: object) -> float | None:
+    """The factor on the plausible corrections ``value`` gives (a finite number > 0), else None (``"off"`` or not a
+    factor)."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not 0.0 < value < math.inf:
+        return None
+    return float(value)
 
 
 def _plural(name: str) -> str:

@@ -21,6 +21,7 @@ import numpy.typing as npt
 from pincal.calibration.crossval import Folds, check_cross_validation, cross_validate, parse_cv
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, evaluate_held_out
 from pincal.calibration.options import CalibrationOptions, check_cv_seed
+from pincal.calibration.plausibility import implausible_corrections, implausible_scales, likely_cause
 from pincal.calibration.report import CalibrationReport, fit_figures
 from pincal.calibration.samples import check_length_scale
 from pincal.calibration.setup import Prepared, check_movable, prepare
@@ -87,10 +88,14 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     check_trainable(dataset)
     fit = prepare(robot, dataset, options)
     every, folds = cross_validation_folds(fit, dataset, options)  # checked before any fit
+    length_scale = check_length_scale(fit.problem)
     fitted = fit_prepared(fit, options)
     kept = fit.fitted_by(fitted.problem)
     result = fitted.result
+    checked = plausibility(fitted, length_scale, options.plausible)
     status = "" if result.converged else f"NOT CONVERGED ({result.message} after {result.iterations} iterations): "
+    if checked["implausible"] or checked["implausible_scale"]:
+        status += "IMPLAUSIBLE (corrections beyond what a robot of this model needs; the report's implausible): "
     text, shifts = calibrated_robot_text(robot, source_text(robot), kept.parameters, result.x,
                                          note=f"{status}calibrated by pincal from {fit.samples.n_samples} samples "
                                               f"({', '.join(m.key for m in fit.models)})",
@@ -99,6 +104,7 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     held = evaluate_held_out(kept, dataset, kept.parameters, result.x0, result.x,
                              trusted=result.sigma2 <= NOISE_CONTRADICTED)
     content = report_content(fit, fitted, held, dataset, options, x_true, shifts, corrections)
+    content.update(checked)
     if folds is not None and every is not None:
         content["cv"] = cross_validate(robot, fit.parameters, fit.models, every.problem.observations, folds,
                                        select=options.selection, progress=progress, payload=options.payload,
@@ -153,8 +159,17 @@ def fit_prepared(fit: Prepared, options: CalibrationOptions) -> SelectedFit:
         result.errors_before = problem.evaluate(result.x0, jacobian=False).errors
         result.errors_after = problem.evaluate(result.x, jacobian=False).errors
         return SelectedFit(problem, result, result, [], {})
-    check_length_scale(problem)
     return select_and_fit(problem, options.selection, **fitting_options(options))
+
+
+def plausibility(fitted: SelectedFit, length_scale: dict[str, float], plausible: float | str) -> dict[str, Any]:
+    """The report's account of plausibility (:mod:`pincal.calibration.plausibility`): the data's length scale, the
+    corrections and scales beyond ``plausible`` times the documented limits, and their likely cause."""
+    corrections = implausible_corrections(fitted.problem.parameters, fitted.result, plausible)
+    scales = implausible_scales(length_scale, plausible)
+    return {"length_scale": length_scale, "plausible": plausible, "implausible": corrections,
+            "implausible_scale": scales,
+            "implausible_cause": likely_cause(corrections, scales, length_scale, fitted.result.sigma2)}
 
 
 def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dataset: Dataset,

@@ -50,6 +50,10 @@ class CalibrationReport:
     (``test_*``) over the held-out samples', "before" being the fit's start in both (``before_means`` says what that
     is). ``parameters`` maps each parameter to ``{"value", "std", "identified"}``; ``dropped_samples`` and
     ``down_weighted`` list samples by id with the reason or weight; ``cv`` is the cross-validation's account.
+    ``length_scale`` is each measured position's spread over the nominal robot's at the same readings; ``implausible``
+    and ``implausible_scale`` list the corrections and the scales beyond what a robot of this model plausibly needs
+    (the factor ``plausible`` on the documented limits, :mod:`pincal.calibration.plausibility`), and
+    ``implausible_cause`` says what they most likely come from.
     """
 
     schema_version: int = SCHEMA_VERSION
@@ -113,6 +117,11 @@ class CalibrationReport:
     test_max_angle_before: float | None = field(default=None, metadata=OPTIONAL)
     test_max_angle_after: float | None = field(default=None, metadata=OPTIONAL)
     worse_than_nominal: bool | None = field(default=None, metadata=OPTIONAL)
+    length_scale: dict[str, float] = field(default_factory=dict)
+    plausible: float | str = 1.0
+    implausible: list[dict[str, Any]] = field(default_factory=list)
+    implausible_scale: list[dict[str, Any]] = field(default_factory=list)
+    implausible_cause: str = ""
     cv: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
     sample_errors: list[dict[str, Any]] = field(default_factory=list)
     covariance: dict[str, Any] = field(default_factory=dict)
@@ -132,9 +141,14 @@ class CalibrationReport:
         return self.n_test_samples is not None
 
     @property
+    def is_implausible(self) -> bool:
+        """True when a correction or the data's length scale is beyond what a robot of this model plausibly needs."""
+        return bool(self.implausible or self.implausible_scale)
+
+    @property
     def usable(self) -> bool:
-        """Whether the result may be used: converged and not worse than nominal on the held-out samples."""
-        return bool(self.converged) and not self.worse_than_nominal
+        """Whether the result may be used: converged, not worse than nominal on the held-out samples, and plausible."""
+        return bool(self.converged) and not self.worse_than_nominal and not self.is_implausible
 
     def to_json(self) -> str:
         """The report JSON: indented, in field order, optional fields that hold None left out."""

@@ -2,7 +2,7 @@
 
 Every command reads data through :func:`read_robot_dataset`; :func:`usable_part` drops (and names) the samples
 that cannot be used; :func:`held_out_outside_range` names held-out readings outside the fitted range;
-:func:`check_length_scale` refuses lengths read in the wrong unit. SI units: m, rad.
+:func:`check_length_scale` refuses lengths read in the wrong unit and gives the data's length scale. SI units: m, rad.
 """
 
 from __future__ import annotations
@@ -169,14 +169,17 @@ def held_out_outside_range(robot: Robot, train: Dataset, test: Dataset, margin: 
 LENGTH_SCALE_RATIO = 30.0
 
 
-def check_length_scale(problem: CalibrationProblem) -> None:
-    """Refuse positions read in the wrong unit (DataError naming the measurement): the spread of each measured
-    position (the median distance [m] from their median point, indifferent to a frame's placement and to gross
-    outliers) against the nominal robot's at the same joint readings, from the calibration's start. Data in metres
-    read as millimetres shrink 1000× (the fit would squash the robot onto them); a frame that barely moves (a spread
-    under 1 mm) is not judged."""
+def check_length_scale(problem: CalibrationProblem) -> dict[str, float]:
+    """Refuse positions read in the wrong unit (DataError naming the measurement), and give the length scale of each
+    measured position: the ratio of its spread (the median distance [m] from the median point, indifferent to a
+    frame's placement and to gross outliers) to the nominal robot's at the same joint readings, from the
+    calibration's start. Data in metres read as millimetres shrink 1000× (the fit would squash the robot onto them):
+    beyond :data:`LENGTH_SCALE_RATIO` either way they are refused; a smaller scale far from 1 is judged with the
+    corrections (:mod:`pincal.calibration.plausibility`). A frame that barely moves (a spread under 1 mm) is not
+    judged and has no scale."""
     x0 = problem.initial_guess()
     predicted = problem.evaluate(x0, jacobian=False).predicted
+    scales: dict[str, float] = {}
     for m in problem.measurements:
         if length_columns(m.key) != 3 or m.key not in predicted:
             continue
@@ -195,3 +198,5 @@ def check_length_scale(problem: CalibrationProblem) -> None:
                             f"median, the nominal robot's at the same joint readings {spread_nominal * 1e3:.3g} mm "
                             f"({shown}): are the lengths in the unit stated (metres in a CSV; a job file's [data] "
                             "units)?")
+        scales[m.key] = 1.0 / ratio
+    return scales

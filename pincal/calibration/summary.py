@@ -5,6 +5,7 @@ recomputes a figure. Lengths are printed in mm, angles in mrad.
 
 from __future__ import annotations
 
+import math
 import textwrap
 
 from pincal.calibration.heldout import NOISE_CONTRADICTED
@@ -15,8 +16,6 @@ from pincal.identification.corrections import payload_from_dict
 def mm(value: float | None) -> str:
     """A length [m] in mm for the terminal ("-" when missing)."""
     return "-" if value is None or value != value else f"{value * 1e3:.4f} mm"
-
-
 
 
 def mrad(value: float | None) -> str:
@@ -49,8 +48,9 @@ def _heavy_payload(report: CalibrationReport) -> str | None:
 
 def summary_text(report: CalibrationReport, seconds: float, report_path: str | None = None) -> str:
     """The summary ``pincal calibrate`` prints: the verdict lines first (not converged, worse than nominal, residuals
-    above the stated noise), the fit's account, the before/after table [mm, mrad], where every sample went, the
-    warnings, and the combinations the data cannot separate; ``seconds`` is the fit's wall time."""
+    above the stated noise, implausible corrections with their likely cause), the fit's account, the before/after
+    table [mm, mrad], where every sample went, the warnings, and the combinations the data cannot separate;
+    ``seconds`` is the fit's wall time."""
     lines = [f"NOT CONVERGED: {report.message} after {report.iterations} iterations; the estimate below is "
              "where the solver stopped, not a calibration (try --max-iter, fewer --parameters or more samples)"
              if not report.converged else None,
@@ -63,6 +63,7 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
              "calibration; "
              "either the stated σ is wrong or the model cannot fit these data (see the warning below)"
              if (report.sigma2 or 0.0) > NOISE_CONTRADICTED else None,
+             *_implausible(report),  # after the one-line verdicts: it lists the parameters
              f"samples {report.n_samples}, parameters {report.n_parameters}, "
              f"identifiable {report.n_identifiable}, estimated {report.n_estimated}"
              f", condition number {report.condition_number:.3g}" if report.condition_number else "",
@@ -112,6 +113,47 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
         lines.append(f"  (all {count} in full: the report's 'unidentifiable')" if report_path else
                      f"  (all {count} in full: --report FILE writes them, under 'unidentifiable')")
     return "\n".join(line for line in lines if line is not None)
+
+
+#: Most implausible corrections listed one per line in the summary; the report JSON lists them all.
+IMPLAUSIBLE_LINES = 8
+
+
+def correction(value: float, unit: str) -> str:
+    """A correction [m or rad, or a compliance's unit] for the terminal: mm, degrees, or as it is."""
+    if unit == "m":
+        return f"{value * 1e3:+.1f} mm"
+    if unit == "rad":
+        return f"{math.degrees(value):+.2f}°"
+    return f"{value:+.3g} {unit}"
+
+
+def _implausible(report: CalibrationReport) -> list[str]:
+    """The verdict lines of an implausible result: the scales and the corrections beyond their limits, the likely
+    cause and how to change the limits (nothing for a plausible one)."""
+    if not report.is_implausible:
+        return []
+    n = len(report.implausible)
+    found = (["the data's lengths are scaled against this robot's"] if report.implausible_scale else []) \
+        + ([f"{n} correction{'s' if n != 1 else ''} beyond what a robot of this model needs"] if n else [])
+    lines = textwrap.wrap(f"IMPLAUSIBLE: {' and '.join(found)} (--plausible {report.plausible:g} times the limits of "
+                          "docs/calibrated_urdf.md, 'Plausible corrections'); the result is refused", 120,
+                          subsequent_indent="  ", break_on_hyphens=False)
+    for s in report.implausible_scale:
+        lines += textwrap.wrap(f"  - the measured positions '{s['measurement']}' spread {s['scale']:.3g} times as far "
+                               "as the nominal robot's at the same joint readings (plausible within "
+                               f"{s['limit']:.3g} times either way)", 120, subsequent_indent="    ",
+                               break_on_hyphens=False)
+    lines += [f"  - {c['parameter']} corrected by {correction(c['value'], c['unit'])} (limit "
+              f"{correction(c['limit'], c['unit']).lstrip('+')})" for c in report.implausible[:IMPLAUSIBLE_LINES]]
+    if len(report.implausible) > IMPLAUSIBLE_LINES:
+        lines.append(f"  … and {len(report.implausible) - IMPLAUSIBLE_LINES} more (the report's 'implausible')")
+    if report.implausible_cause:
+        lines += textwrap.wrap(f"likely cause: {report.implausible_cause}", 120, initial_indent="  ",
+                               subsequent_indent="    ", break_on_hyphens=False)
+    lines.append("  (if the data are right for this robot: --plausible F widens the limits F times, --plausible off "
+                 "turns the check off)")
+    return lines
 
 
 def _selection_line(report: CalibrationReport) -> str | None:
@@ -241,6 +283,10 @@ def verdict(report: CalibrationReport) -> str:
         return f"NOT CONVERGED ({report.message})"
     if report.worse_than_nominal:
         return "WORSE THAN NOMINAL"
+    if report.is_implausible:
+        return "IMPLAUSIBLE (" + ", ".join([s["measurement"] + " scaled" for s in report.implausible_scale]
+                                           + [c["parameter"] for c in report.implausible][:3]) + \
+            (" …)" if len(report.implausible) > 3 else ")")
     if (report.sigma2 or 0.0) > NOISE_CONTRADICTED:
         return f"converged; residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ"
     return "converged"

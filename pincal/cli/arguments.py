@@ -7,6 +7,7 @@ The calibration options are made from :class:`~pincal.calibration.options.Calibr
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Collection
 from typing import TYPE_CHECKING, Any
 
@@ -121,8 +122,22 @@ def add_payload(parser: argparse.ArgumentParser, note: str) -> None:
                              f"joint compliances ('*.compliance'), and is refused without one; {note}")
 
 
+def factor_or_off(text: str) -> float | str:
+    """An argparse type: a finite factor > 0, or ``off``."""
+    if text.strip().lower() == "off":
+        return "off"
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value < math.inf:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a factor > 0 or 'off'")
+    return value
+
+
 #: The argparse type of each kind of calibration option (:attr:`~pincal.calibration.options.Option.kind`).
-_TYPES: dict[str, Any] = {"int": positive_int, "seed": non_negative_int, "sigma": positive_float, "payload": payload}
+_TYPES: dict[str, Any] = {"int": positive_int, "seed": non_negative_int, "sigma": positive_float, "payload": payload,
+                          "factor": factor_or_off}
 
 
 def add_calibration_options(parser: argparse.ArgumentParser, skip: Collection[str] = ()) -> None:

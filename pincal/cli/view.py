@@ -109,8 +109,15 @@ def add_view_options(parser: argparse.ArgumentParser) -> None:
 
 def exit_status(view: CalibrationView) -> int:
     """The exit status of a command that fits (or reads a fit): 1 when the result may not be used (not converged,
-    or worse than nominal on the held-out samples, as ``calibrate`` says it), else 0."""
-    return 0 if view.report.usable else 1
+    worse than nominal on the held-out samples, or implausible, as ``calibrate`` says it, said on stderr), else 0."""
+    from pincal.calibration.summary import verdict
+
+    report = view.report
+    if report.usable:
+        return 0
+    cause = f"; likely cause: {report.implausible_cause}" if report.is_implausible and report.implausible_cause else ""
+    print(f"the result may not be used: {verdict(report)}{cause}", file=sys.stderr)
+    return 1
 
 
 def cmd_view(args: argparse.Namespace) -> int:

@@ -21,6 +21,7 @@ import numpy.typing as npt
 
 from pincal.calibration.pipeline import Calibration
 from pincal.calibration.report import CalibrationReport
+from pincal.calibration.summary import correction
 from pincal.errors import DataError
 from pincal.io.files import make_directory, write_text
 from pincal.progress import Progress
@@ -165,6 +166,18 @@ def _cards(report: CalibrationReport) -> str:
                      f'<span class="after">{mm_text(after)}</span></div>'
                      f'<div class="gain">{_ratio(before, after)}</div></div>')
     return '<div class="cards">' + "".join(cards) + "</div>"
+
+
+def _implausible(report: CalibrationReport) -> str:
+    """The refusal of an implausible result: what is beyond its limit, and the likely cause (empty otherwise)."""
+    if not report.is_implausible:
+        return ""
+    items = [f"the measured positions {html.escape(s['measurement'])} spread {s['scale']:.3g} times as far as the "
+             f"nominal robot's" for s in report.implausible_scale]
+    items += [f"{html.escape(c['parameter'])} corrected by {html.escape(correction(c['value'], c['unit']))} (limit "
+              f"{html.escape(correction(c['limit'], c['unit']).lstrip('+'))})" for c in report.implausible]
+    return (f'<p class="warn">Implausible result, refused: {"; ".join(items)}. Likely cause: '
+            f"{html.escape(report.implausible_cause)}.</p>")
 
 
 def _verdict(report: CalibrationReport) -> str:
@@ -398,7 +411,7 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
 {html.escape(', '.join(report.measurements))} · {_text(report.n_parameters)} parameters ·
 pincal {__version__}{' · ' + sources if sources else ''}</p>
 {_cards(report)}
-{_verdict(report)}
+{_implausible(report)}{_verdict(report)}
 <h2>The robot in 3D</h2>
 <iframe id="scene" title="3D scene: nominal and calibrated robot with the sample errors" srcdoc="{srcdoc}"></iframe>
 <p class="caption">Orange: the calibrated robot; blue ghost: the nominal one, both in the measurement frame

@@ -6,10 +6,16 @@ that it cannot and the corrections file beside it does. The rest of pincal asks 
 (:func:`parameter_kind`, :attr:`Parameter.kind_class <pincal.identification.parameters.Parameter.kind_class>`)
 instead of comparing names; a new parameter kind is one subclass of :class:`ParameterKind` with its ``name``.
 The kinds register in the order they are declared (the order messages list them).
+
+Each kind also says how large a correction of it is plausible (:attr:`ParameterKind.plausible`): a robot's geometry
+is off its URDF by millimetres and fractions of a degree, its readings' zeros by a few degrees at most; a correction
+far beyond that is the sign of data that do not belong to the model (another robot, another unit, swapped columns).
+The setup (the measurement frame, markers, cameras, targets) has no bound: a tracker may stand metres away.
 """
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 from pincal.errors import not_found
@@ -42,6 +48,9 @@ class ParameterKind:
     urdf: ClassVar[str] = ""
     #: Whether the corrections file beside a calibrated URDF holds them (what a URDF cannot express).
     in_corrections: ClassVar[bool] = False
+    #: The largest plausible correction of one of its parameters, by unit (``m``: a length [m], ``rad``: an angle
+    #: [rad]); a unit left out, or an empty mapping, has no bound (the setup's kinds, the compliances).
+    plausible: ClassVar[dict[str, float]] = {}
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -52,6 +61,11 @@ class ParameterKind:
     def kinematic(cls) -> bool:
         """Whether its parameters change the robot model itself (the others act in the readings or the models)."""
         return cls.acts_in == "model"
+
+    @classmethod
+    def plausible_limit(cls, unit: str) -> float | None:
+        """The largest plausible correction [``unit``] of one of its parameters in ``unit``; None: no bound."""
+        return cls.plausible.get(unit)
 
     @classmethod
     def prefix(cls, target: str, side: str = "") -> str:
@@ -87,8 +101,21 @@ def kinds_where(*, kinematic: bool | None = None, in_urdf: bool | None = None,
                  and (in_corrections is None or kind.in_corrections == in_corrections))
 
 
+#: A placement of the robot's geometry: 20 mm and 2°. Calibrations of industrial arms correct their joint placements by
+#: well under 5 mm and 1° (the TIAGo arm of docs/results/tiago_mocap.md by a few mm once its setup is set apart); a
+#: robot of another model differs by tens to hundreds of millimetres (a UR5 from a UR10: 187 mm in the upper arm).
+PLACEMENT_PLAUSIBLE = {"m": 0.020, "rad": math.radians(2.0)}
+#: A joint reading's zero: 5° (20 mm for a prismatic joint). Encoder zeros and mastering are off by well under a
+#: degree; 5° leaves room for a coarse zeroing, and a wrong sign or a swapped column is off by far more.
+OFFSET_PLAUSIBLE = {"m": 0.020, "rad": math.radians(5.0)}
+#: A harmonic of a reading: 1° (5 mm for a prismatic joint). Transmission errors are arcminutes.
+HARMONIC_PLAUSIBLE = {"m": 0.005, "rad": math.radians(1.0)}
+
+
 class _Placement(ParameterKind):
     """A placement of the kinematic tree: translations and rotations are selected as groups."""
+
+    plausible = PLACEMENT_PLAUSIBLE
 
     @classmethod
     def selection_group(cls, parameter: Parameter) -> str | None:
@@ -122,6 +149,7 @@ class ReadingOffset(ParameterKind):
 
     name = "offset"
     acts_in = "reading"
+    plausible = OFFSET_PLAUSIBLE
     urdf = "folded into the joint's origin (a read joint's: its <joint_sensor> zero)"
 
     @classmethod
@@ -206,6 +234,7 @@ class Harmonic(ParameterKind):
 
     name = "harmonic"
     acts_in = "reading"
+    plausible = HARMONIC_PLAUSIBLE
     in_corrections = True
 
     @classmethod

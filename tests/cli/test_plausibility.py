@@ -1,0 +1,175 @@
+"""Implausible results are refused, through the command line: data of another robot (a UR5's calibrated as a UR10),
+positions in another unit (a Delta's multiplied by 3), while healthy simulated runs and the TIAGo mocap data pass;
+``--plausible`` changes the limits or turns the check off; the report JSON holds what was found."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import ROOT, run_pincal
+
+import pincal
+
+#: The documented plausible correction of a joint placement's translation [m] (docs/calibrated_urdf.md).
+PLACEMENT_LIMIT = 0.020
+
+
+def _simulate(folder: Path, robot: str, samples: int = 30, test_samples: int = 0) -> Path:
+    done = run_pincal("simulate", robot, "--samples", str(samples), "--test-samples", str(test_samples), "--seed", "1",
+                      "--quiet", "--out", str(folder))
+    assert done.returncode == 0, done.stderr
+    return folder / "measurements.csv"
+
+
+def _rewritten(source: Path, target: Path, factor: float = 1.0, drop_robot_line: bool = False) -> Path:
+    """``source`` with its position cells multiplied by ``factor`` (its '# units' line kept), and without its
+    '# robot:' line when ``drop_robot_line``."""
+    lines, header = [], None
+    for line in source.read_text(encoding="utf-8").splitlines():
+        if line.startswith("#"):
+            if not (drop_robot_line and line.startswith("# robot:")):
+                lines.append(line)
+            continue
+        cells = line.split(",")
+        if header is None:
+            header = cells
+        else:
+            cells = [repr(float(c) * factor) if name.startswith("position:") and c else c
+                     for name, c in zip(header, cells, strict=True)]
+        lines.append(",".join(cells))
+    target.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return target
+
+
+@pytest.fixture(scope="module")
+def ur5_data(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A UR5's simulated measurements with no '# robot:' line: nothing says they are not a UR10's."""
+    folder = tmp_path_factory.mktemp("ur5")
+    return _rewritten(_simulate(folder / "sim", "ur5", 40, 10), folder / "ur5.csv", drop_robot_line=True)
+
+
+@pytest.fixture(scope="module")
+def delta_data(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("delta")
+    return _simulate(folder / "sim", "delta", 30, 10)
+
+
+def _placement(robot: str, joint: str) -> np.ndarray:
+    model = pincal.load_robot(robot).model
+    return np.array(model.jointPlacements[model.getJointId(joint)].translation)
+
+
+def test_a_ur5_calibrated_as_a_ur10_is_refused_naming_the_arm_s_lengths(ur5_data: Path, tmp_path: Path) -> None:
+    report = tmp_path / "r.json"
+    done = run_pincal("calibrate", "ur10", str(ur5_data), "--report", str(report), "--out", str(tmp_path / "c.urdf"))
+    assert done.returncode == 1, done.stderr
+    first = done.stdout.splitlines()[0]
+    assert first.startswith("IMPLAUSIBLE"), done.stdout
+    assert "wrong robot model" in done.stdout
+    content = json.loads(report.read_text(encoding="utf-8"))
+    found = {c["parameter"]: c for c in content["implausible"]}
+    # the upper arm and the forearm: the UR5's are shorter than the UR10's by what its URDF says
+    for joint, axis in (("elbow_joint", 2), ("wrist_1_joint", 2)):
+        shorter = _placement("ur5", joint)[axis] - _placement("ur10", joint)[axis]
+        assert abs(shorter) > 5 * PLACEMENT_LIMIT
+        flagged = [c for name, c in found.items() if name.startswith(f"{joint}.")]
+        assert flagged, (joint, sorted(found))
+        assert abs(abs(flagged[0]["value"]) - abs(shorter)) < 0.01, (joint, flagged, shorter)
+        assert f"{flagged[0]['parameter']} corrected by" in done.stdout
+    for entry in found.values():
+        assert entry["limit"] == pytest.approx(PLACEMENT_LIMIT) and entry["unit"] == "m"
+        assert abs(entry["value"]) > entry["limit"]
+        assert content["parameters"][entry["parameter"]]["value"] == pytest.approx(entry["fitted"])
+    assert content["implausible_scale"] == [] and "wrong robot model" in content["implausible_cause"]
+    assert content["rms_after"] < 1e-4  # the fit itself looks perfect: only the corrections give it away
+    assert "IMPLAUSIBLE" in (tmp_path / "c.urdf").read_text(encoding="utf-8")
+
+
+def test_the_limit_is_a_factor_and_can_be_turned_off(ur5_data: Path, tmp_path: Path) -> None:
+    wide = tmp_path / "wide.json"
+    done = run_pincal("calibrate", "ur10", str(ur5_data), "--plausible", "4", "--report", str(wide))
+    assert done.returncode == 1, done.stderr
+    limits = [c["limit"] for c in json.loads(wide.read_text(encoding="utf-8"))["implausible"]]
+    assert limits and limits == pytest.approx([4 * PLACEMENT_LIMIT] * len(limits))
+    off = tmp_path / "off.json"
+    done = run_pincal("calibrate", "ur10", str(ur5_data), "--plausible", "off", "--report", str(off))
+    assert done.returncode == 0, done.stdout
+    assert "IMPLAUSIBLE" not in done.stdout
+    content = json.loads(off.read_text(encoding="utf-8"))
+    assert content["implausible"] == [] and content["plausible"] == "off"
+    done = run_pincal("calibrate", "ur10", str(ur5_data), "--plausible", "50")  # limits of a metre: let through
+    assert done.returncode == 0, done.stdout
+    for wrong in ("0", "-1", "never"):
+        done = run_pincal("calibrate", "ur10", str(ur5_data), "--plausible", wrong)
+        assert done.returncode == 2 and "--plausible" in done.stderr, done.stderr
+
+
+def test_view_report_and_fleet_refuse_it_too(ur5_data: Path, tmp_path: Path) -> None:
+    done = run_pincal("view", "ur10", str(ur5_data), "--out", str(tmp_path / "v.html"), "--quiet")
+    assert done.returncode == 1 and "IMPLAUSIBLE" in done.stderr, done.stderr
+    fleet = tmp_path / "fleet"
+    fleet.mkdir()
+    (fleet / "arm.csv").write_bytes(ur5_data.read_bytes())
+    done = run_pincal("fleet", "ur10", str(fleet), "--out", str(tmp_path / "out"), "--workers", "1")
+    assert done.returncode == 1, done.stderr
+    assert "IMPLAUSIBLE (elbow_joint" in done.stdout
+
+
+def test_positions_three_times_too_large_are_refused_as_another_unit(delta_data: Path, tmp_path: Path) -> None:
+    scaled = _rewritten(delta_data, tmp_path / "feet.csv", factor=3.0)
+    report = tmp_path / "r.json"
+    done = run_pincal("calibrate", "delta", str(scaled), "--report", str(report))
+    assert done.returncode == 1, done.stderr
+    assert "IMPLAUSIBLE" in done.stdout and "another unit" in done.stdout
+    content = json.loads(report.read_text(encoding="utf-8"))
+    [entry] = content["implausible_scale"]
+    assert entry["measurement"] == "position:end_effector"
+    assert entry["scale"] == pytest.approx(3.0, rel=0.05)
+    assert content["length_scale"]["position:end_effector"] == pytest.approx(entry["scale"])
+    assert "another unit" in content["implausible_cause"]
+
+
+def test_positions_twice_too_large_name_the_placements_the_fit_stretched(delta_data: Path, tmp_path: Path) -> None:
+    """Twice the size, the Delta's fit converges by stretching its legs: the placements are named with the scale."""
+    scaled = _rewritten(delta_data, tmp_path / "twice.csv", factor=2.0)
+    report = tmp_path / "r.json"
+    done = run_pincal("calibrate", "delta", str(scaled), "--report", str(report))
+    assert done.returncode == 1, done.stderr
+    content = json.loads(report.read_text(encoding="utf-8"))
+    assert content["converged"]
+    assert content["implausible_scale"][0]["scale"] == pytest.approx(2.0, rel=0.05)
+    largest = max(abs(c["value"]) for c in content["implausible"])
+    assert largest > 0.1  # tenths of a metre: a Delta twice its size
+    assert content["implausible"][0]["parameter"] in done.stdout
+
+
+@pytest.mark.parametrize("robot", ["delta", "hexapod", "five_bar", "ur10", "panda"])
+def test_a_healthy_simulated_run_is_not_flagged(robot: str, tmp_path: Path) -> None:
+    data = _simulate(tmp_path / "sim", robot, 25)
+    report = tmp_path / "r.json"
+    done = run_pincal("calibrate", robot, str(data), "--report", str(report))
+    assert done.returncode == 0, done.stdout
+    content = json.loads(report.read_text(encoding="utf-8"))
+    assert content["implausible"] == [] and content["implausible_scale"] == [] and content["implausible_cause"] == ""
+    for scale in content["length_scale"].values():
+        assert abs(scale - 1.0) < 0.02  # true errors of 1 mm on a robot tens of centimetres wide
+    assert "IMPLAUSIBLE" not in done.stdout
+
+
+def test_the_tiago_mocap_data_are_not_flagged(tmp_path: Path) -> None:
+    """Real data: the arm is fitted with its mocap frame and marker metres and centimetres away, and its
+    arm_1_joint.ty moves with the frame (fitted tens of millimetres, none of it needed)."""
+    report = tmp_path / "r.json"
+    done = run_pincal("calibrate", "tiago_no_hand", str(ROOT / "examples" / "data" / "tiago_mocap_marker1.csv"),
+                      "--report", str(report))
+    assert done.returncode == 0, done.stdout
+    content = json.loads(report.read_text(encoding="utf-8"))
+    assert content["implausible"] == [] and content["implausible_scale"] == []
+    fitted = content["parameters"]
+    assert abs(fitted["base.tz"]["value"]) > 10 * PLACEMENT_LIMIT  # the setup: unbounded
+    assert max(abs(v["value"]) for name, v in fitted.items() if name.startswith("arm_1_joint.t")) > PLACEMENT_LIMIT
+    done = run_pincal("calibrate", str(ROOT / "examples" / "tiago_job.toml"))
+    assert done.returncode == 0 and "IMPLAUSIBLE" not in done.stdout, done.stdout
