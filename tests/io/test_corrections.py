@@ -126,14 +126,16 @@ def loaded_sim(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_a_compliance_under_a_payload_is_recovered_and_the_file_applies_it(tmp_path: Path, loaded_sim: Path) -> None:
     """UR10 carrying 8 kg: calibrated with that payload, the compliances come back and the fit reaches the noise;
-    without it the fit stays at tenths of a millimetre. The corrections file records the payload, and the calibrated
+    without it the fit stays at tenths of a millimetre, with a correction no UR10 needs (refused). The corrections file records the payload, and the calibrated
     URDF fed the readings it corrects predicts the held-out postures exactly as the calibration reports."""
     data = loaded_sim / "measurements.csv"
     truth = read_corrections(loaded_sim / "truth.corrections.json")
     assert truth.payload == Payload(8.0, "tool0", (0.0, 0.0, 0.15))
     unloaded = run_pincal("calibrate", "ur10", str(data), "--parameters", *PAYLOAD_SPEC, "--report",
                           str(tmp_path / "u.json"))
-    assert unloaded.returncode == 0, unloaded.stderr
+    # without the payload the compliances cannot explain the deflections: a wrist placement absorbs them, -9 degrees,
+    # which no UR10 needs: refused (exit 1)
+    assert unloaded.returncode == 1 and "IMPLAUSIBLE" in unloaded.stdout, unloaded.stdout + unloaded.stderr
     out, report = tmp_path / "cal.urdf", tmp_path / "r.json"
     done = run_pincal("calibrate", "ur10", str(data), "--parameters", *PAYLOAD_SPEC, "--payload", PAYLOAD, "--out",
                       str(out), "--report", str(report))
