@@ -126,8 +126,9 @@ def loaded_sim(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_a_compliance_under_a_payload_is_recovered_and_the_file_applies_it(tmp_path: Path, loaded_sim: Path) -> None:
     """UR10 carrying 8 kg: calibrated with that payload, the compliances come back and the fit reaches the noise;
-    without it the fit stays at tenths of a millimetre, with a correction no UR10 needs (refused). The corrections file records the payload, and the calibrated
-    URDF fed the readings it corrects predicts the held-out postures exactly as the calibration reports."""
+    without it the fit stays at tenths of a millimetre, with a correction no UR10 needs (refused). The corrections
+    file records the payload, and the calibrated URDF fed the readings it corrects predicts the held-out postures
+    exactly as the calibration reports."""
     data = loaded_sim / "measurements.csv"
     truth = read_corrections(loaded_sim / "truth.corrections.json")
     assert truth.payload == Payload(8.0, "tool0", (0.0, 0.0, 0.15))
