@@ -132,7 +132,7 @@ def out_of_limits(robot: Robot, part: Dataset, margin: float = LIMIT_MARGIN) -> 
 RANGE_MARGIN = 0.10
 
 
-def _outside(fitted: Array, held: Array, angular: bool, margin: float) -> Array:
+def _outside(fitted: Array, held: Array, angular: bool, margin: float) -> npt.NDArray[np.intp]:
     """The ``held`` readings beyond ``margin`` × the width of the ``fitted`` readings' range [min, max] (``angular``:
     readings [rad] of a revolute joint, which moves the robot alike at q and q ± 2π, compared on the circle: a range
     that spans the circle, margins included, leaves none outside)."""
