@@ -436,9 +436,9 @@ def test_held_out_readings_outside_the_training_range_are_listed(tmp_path: Path)
     robot = pincal.load_robot(_crank_rocker(tmp_path))
     key = "position:rocker"
     train = Dataset(["crank_joint"], [[-0.5], [0.1], [0.5]], {key: np.zeros((3, 3))}, ["a", "b", "c"], ["train"] * 3)
-    test = Dataset(["crank_joint"], [[0.0], [0.549], [0.9], [-1.2]], {key: np.zeros((4, 3))}, ["d", "e", "f", "g"],
-                   ["test"] * 4)
-    # 0.549 is within 5 % of the training range (1.0) of its maximum: not listed
+    test = Dataset(["crank_joint"], [[0.0], [0.549], [0.59], [0.9], [-1.2]], {key: np.zeros((5, 3))},
+                   ["d", "e", "h", "f", "g"], ["test"] * 5)
+    # 0.549 and 0.59 are within 10 % of the training range (1.0) of its maximum: not listed
     assert held_out_outside_range(robot, train, test) == [
         {"sample": "f", "joint": "crank_joint", "value": 0.9, "range": [-0.5, 0.5]},
         {"sample": "g", "joint": "crank_joint", "value": -1.2, "range": [-0.5, 0.5]}]
@@ -472,7 +472,7 @@ def test_the_summary_warns_when_held_out_samples_are_extrapolation(tmp_path: Pat
     done = run_pincal("calibrate", str(robot), str(narrow), "--report", str(report))
     assert done.returncode in (0, 1), done.stderr
     low, high = crank[inside].min(), crank[inside].max()
-    tol = 0.05 * (high - low)
+    tol = 0.10 * (high - low)
     expected = [data.sample_ids[k] for k in np.flatnonzero(~inside) if not low - tol <= crank[k] <= high + tol]
     listed = json.loads(report.read_text())["held_out_outside_range"]
     assert [entry["sample"] for entry in listed] == expected and len(expected) > 3

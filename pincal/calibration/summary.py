@@ -7,10 +7,12 @@ from __future__ import annotations
 
 import math
 import textwrap
+from collections.abc import Sequence
 
 from pincal.calibration.heldout import NOISE_CONTRADICTED
 from pincal.calibration.report import CalibrationReport
 from pincal.identification.corrections import payload_from_dict
+from pincal.identification.parameters import DEFAULT_SET, NAMED_SETS
 
 
 def mm(value: float | None) -> str:
@@ -46,11 +48,13 @@ def _heavy_payload(report: CalibrationReport) -> str | None:
             f"({links:.3g} kg, from the URDF): check its mass [kg] and its frame")
 
 
-def summary_text(report: CalibrationReport, seconds: float, report_path: str | None = None) -> str:
+def summary_text(report: CalibrationReport, seconds: float, report_path: str | None = None,
+                 parameter_spec: Sequence[str] | None = None) -> str:
     """The summary ``pincal calibrate`` prints: the verdict lines first (not converged, worse than nominal, residuals
     above the stated noise, implausible corrections with their likely cause), the fit's account, the before/after
     table [mm, mrad], where every sample went, the warnings, and the combinations the data cannot separate;
-    ``seconds`` is the fit's wall time."""
+    ``seconds`` is the fit's wall time; ``parameter_spec``, the parameters as the user named them (default: as the
+    report's provenance records them)."""
     lines = [f"NOT CONVERGED: {report.message} after {report.iterations} iterations; the estimate below is "
              "where the solver stopped, not a calibration (try --max-iter, fewer --parameters or more samples)"
              if not report.converged else None,
@@ -107,12 +111,32 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
     lines += _generalization(report)
     if report.unidentifiable:
         lines.append("")
-        lines.append(f"not identifiable from these data ({len(report.unidentifiable)} directions):")
+        lines.append(_unidentifiable_heading(report, parameter_spec))
         lines += report.unidentifiable_listing or [f"  - {text}" for text in report.unidentifiable]
         count = len(report.unidentifiable)
         lines.append(f"  (all {count} in full: the report's 'unidentifiable')" if report_path else
                      f"  (all {count} in full: --report FILE writes them, under 'unidentifiable')")
     return "\n".join(line for line in lines if line is not None)
+
+
+def _named_parameters(report: CalibrationReport, spec: Sequence[str] | None) -> bool:
+    """Whether the user named parameters one by one (``--parameters`` patterns), not only sets of candidates (the
+    default set, the named sets)."""
+    if spec is None:
+        spec = ((report.provenance or {}).get("options") or {}).get("parameter_spec")
+    return any(token not in (DEFAULT_SET, *NAMED_SETS) for token in spec or [])
+
+
+def _unidentifiable_heading(report: CalibrationReport, spec: Sequence[str] | None) -> str:
+    """The heading of the directions the data cannot see: a note for the default set, whose candidates overlap by
+    construction (placements whose motion duplicates another's, directions no measurement sees); a warning when the
+    user named parameters one by one."""
+    count = len(report.unidentifiable)
+    if _named_parameters(report, spec):
+        return (f"warning: the parameters named are not all identifiable from these data ({count} "
+                f"direction{'s' if count != 1 else ''}):")
+    return (f"what these data cannot see ({count} of {report.n_parameters} candidate directions; expected of "
+            "candidate sets, left at minimum norm):")
 
 
 #: Most implausible corrections listed one per line in the summary; the report JSON lists them all.

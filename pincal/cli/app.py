@@ -144,12 +144,13 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
                               "a job file")
         job = read_job(args.robot).overridden(args.out, args.report, **options)
         cal = calibrate_job(job, args.meshes)
-        out, report_path = job.out, job.report
+        out, report_path, spec = job.out, job.report, job.options.get("parameter_spec")
     else:
         check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
+        spec = options.get("parameter_spec")
         cal = calibrate_files(args.robot, args.data, args.out, args.report, args.meshes, progress=True, **options)
         out, report_path = args.out, args.report
-    print(summary_text(cal.report, cal.result.seconds, str(report_path) if report_path else None))
+    print(summary_text(cal.report, cal.result.seconds, str(report_path) if report_path else None, spec))
     for path in (out, report_path):
         if path:
             print(f"wrote {path}")

@@ -119,9 +119,9 @@ TIAGO_DATA = Path(__file__).resolve().parents[2] / "examples" / "data" / "tiago_
 
 
 def _identifiability_block(stdout: str) -> list[str]:
-    """The summary's lines from 'not identifiable from these data' to the end (empty when there is none)."""
+    """The summary's lines from 'what these data cannot see' to the end (empty when there is none)."""
     lines = stdout.splitlines()
-    start = next((k for k, line in enumerate(lines) if line.startswith("not identifiable from these data")), None)
+    start = next((k for k, line in enumerate(lines) if line.startswith("what these data cannot see")), None)
     return [] if start is None else [line for line in lines[start:] if not line.startswith("wrote ")]
 
 
