@@ -4,15 +4,13 @@ A loss re-weights whole samples (IRLS): after each accepted step, each sample's 
 residual norm ``e`` through the loss's weighting (:data:`IMPLEMENTED_LOSSES`, a name → function table as SciPy's
 ``least_squares`` keeps), with a scale estimated from the median sample, so no threshold is set by hand in data units.
 ``auto``, :func:`~pincal.identification.solver.identify`'s default, is a plan on top of these: least squares, then
-Cauchy refits if :func:`outlier_samples` finds a sample implausible, then a last Cauchy refit with weight 0 for the
-samples still implausible at the Cauchy fit (rejected: Cauchy's pull on a gross outlier falls only as 1/e, and
-along directions the other samples hardly determine even that pull moves the estimate far).
+Cauchy refits if :func:`outlier_samples` finds a sample implausible.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
@@ -30,10 +28,6 @@ Weighting = Callable[[Array, BoolArray], Array]
 #: Outlier test of ``loss="auto"``: the probability that clean data (Gaussian noise) raise a false
 #: alarm anywhere in the dataset (Bonferroni: each sample is tested at this level over N).
 OUTLIER_FALSE_ALARM = 1e-3
-#: Rejection test of ``auto`` (weight 0, not Cauchy's): a sample is rejected when clean data would show a residual
-#: as implausible in one dataset in a million (the outlier test's alarm level, 1e-3, also flags the tail of
-#: model misfit, which the Cauchy weights handle).
-REJECTION_FALSE_ALARM = 1e-6
 CAUCHY_C = 2.3849  # 95 % efficiency under Gaussian noise
 #: Internal loss of ``auto``'s robust start: least trimmed squares over the best-fitting :data:`TRIM_KEEP` of the
 #: samples, chosen afresh at each step (concentration steps, Rousseeuw & Van Driessen 2006).
@@ -71,25 +65,20 @@ def sample_squares(problem: Problem, residual: Array) -> tuple[Array, IntArray]:
     return squares, np.bincount(samples, minlength=n).astype(np.int64)
 
 
-def sample_weights(problem: Problem, pred: Prediction, weighting: Weighting | None,
-                   rejected: Sequence[int] = ()) -> Array:
-    """Per-sample robust weights (IRLS) of ``weighting`` (one of :data:`IMPLEMENTED_LOSSES`) at ``pred``, 0 for the
-    ``rejected`` samples (indices).
+def sample_weights(problem: Problem, pred: Prediction, weighting: Weighting | None) -> Array:
+    """Per-sample robust weights (IRLS) of ``weighting`` (one of :data:`IMPLEMENTED_LOSSES`) at ``pred``.
 
     A sample with fewer rows than most (some markers not seen) has its norm scaled to the most common row count,
     ``e · sqrt(d_typical / d_k)``, so that it is judged per reading; a sample with no row keeps weight 1 and
     counts in neither the scale nor the trimmed share."""
     n = problem.observations.n_samples
     if weighting is None:
-        weights = np.ones(n)
-    else:
-        squares, dims = sample_squares(problem, pred.residual)
-        used = dims > 0
-        typical = float(np.median(dims[used])) if used.any() else 1.0
-        norms = np.sqrt(squares * typical / np.maximum(dims, 1))
-        weights = weighting(norms, used)
-    weights[list(rejected)] = 0.0
-    return weights
+        return np.ones(n)
+    squares, dims = sample_squares(problem, pred.residual)
+    used = dims > 0
+    typical = float(np.median(dims[used])) if used.any() else 1.0
+    norms = np.sqrt(squares * typical / np.maximum(dims, 1))
+    return weighting(norms, used)
 
 
 def row_weights(problem: Problem, weights: Array) -> Array:
@@ -97,13 +86,12 @@ def row_weights(problem: Problem, weights: Array) -> Array:
     return np.asarray(weights[problem.row_samples()], dtype=np.float64)
 
 
-def outlier_samples(problem: Problem, pred: Prediction, n_fitted: int = 0,
-                    false_alarm: float = OUTLIER_FALSE_ALARM) -> list[int]:
+def outlier_samples(problem: Problem, pred: Prediction, n_fitted: int = 0) -> list[int]:
     """Samples whose residual is implausible given the noise level the data themselves show.
 
     With ``e_k`` a sample's weighted residual norm over ``d_k`` rows, the noise scale is
     ``s² = median(e_k² / m_k)`` (``m_k`` the median of χ²_{d_k}), and a sample is flagged when
-    ``e_k² > s² · χ²_{d_k}(1 − α/N)``, α = ``false_alarm``; ``s²`` is corrected by
+    ``e_k² > s² · χ²_{d_k}(1 − α/N)``, α = ``OUTLIER_FALSE_ALARM``; ``s²`` is corrected by
     ``rows / (rows − n_fitted)`` for the degrees of freedom the fit used: clean data raise a false alarm in
     about one dataset in a thousand. Nothing here is set by hand in data units.
     """
@@ -119,50 +107,5 @@ def outlier_samples(problem: Problem, pred: Prediction, n_fitted: int = 0,
         scale2 *= rows / (rows - n_fitted)
     if scale2 <= 0.0:
         return []
-    limit = scale2 * chi2.ppf(1.0 - false_alarm / int(used.sum()), np.maximum(dims, 1))
+    limit = scale2 * chi2.ppf(1.0 - OUTLIER_FALSE_ALARM / int(used.sum()), np.maximum(dims, 1))
     return [int(k) for k in np.flatnonzero(used & (sq > limit))]
-
-
-def implausible_with_leverage(problem: Problem, pred: Prediction, rejected: Sequence[int], active: Sequence[int],
-                              scales: Array) -> list[int]:
-    """Samples implausible at a least-squares fit that left the ``rejected`` samples out (weight 0), each judged
-    by the spread its residual has there: ``σ²(I − H_k)`` for a fitted sample, ``σ²(I + J_k (J_fᵀJ_f)⁻¹ J_kᵀ)`` for
-    a rejected one (a prediction), ``J`` the Jacobian of the weighted residual over the ``active`` columns
-    (scaled by ``scales`` [m, rad]), ``J_f`` its fitted rows. Both give a sample the statistic it would have were
-    it fitted, so a rejected sample is readmitted exactly when fitting it would not flag it; ``σ²`` is that of
-    :func:`outlier_samples` over the fitted samples, the false-alarm level :data:`REJECTION_FALSE_ALARM`."""
-    from scipy.stats import chi2
-
-    assert pred.jacobian is not None
-    sq, dims = sample_squares(problem, pred.residual)
-    used = dims > 0
-    out = np.zeros(used.size, dtype=bool)
-    out[list(rejected)] = True
-    fitted = used & ~out
-    if fitted.sum() < 3:
-        return sorted(int(k) for k in rejected)
-    samples = problem.row_samples()
-    jac = pred.jacobian[:, list(active)] * scales[list(active)]
-    _, s, vt = np.linalg.svd(jac[fitted[samples]], full_matrices=False)
-    keep = s > s[0] * 1e-12 if s.size else s > 0
-    projector = vt[keep].T / s[keep]  # J_k · projector: the sample's rows in the fitted rows' whitened coordinates
-    scale2 = float(np.median(sq[fitted] / chi2.median(dims[fitted])))
-    rows = int(dims[fitted].sum())
-    if rows > len(active):
-        scale2 *= rows / (rows - len(active))
-    if scale2 <= 0.0:
-        return []
-    limit = scale2 * chi2.ppf(1.0 - REJECTION_FALSE_ALARM / int(used.sum()), np.maximum(dims, 1))
-    flagged = []
-    for k in np.flatnonzero(used):
-        here = samples == k
-        lever = jac[here] @ projector
-        spread = np.eye(int(here.sum())) + (1.0 if out[k] else -1.0) * (lever @ lever.T)
-        r = pred.residual[here]
-        try:
-            stat = float(r @ np.linalg.solve(spread, r))
-        except np.linalg.LinAlgError:
-            stat = float(sq[k])
-        if stat > limit[k]:
-            flagged.append(int(k))
-    return flagged

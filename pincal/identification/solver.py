@@ -27,7 +27,6 @@ from __future__ import annotations
 import functools
 import math
 import time
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -42,11 +41,9 @@ from pincal.identification.ikm import ChainProblem, ImplicitProblem, chain_block
 from pincal.identification.lm import LevenbergMarquardt
 from pincal.identification.losses import (
     IMPLEMENTED_LOSSES,
-    REJECTION_FALSE_ALARM,
     TRIM_KEEP,
     TRIMMED,
     Weighting,
-    implausible_with_leverage,
     outlier_samples,
     row_weights,
     sample_squares,
@@ -102,9 +99,8 @@ def identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", l
     ``loss="auto"`` (the default) fits by least squares, tests every sample against the noise level the
     fit shows (:func:`outlier_samples`) and, if any sample is implausible, refits with the Cauchy loss
     from the least-squares fit and from the starting point, and keeps the refit whose median sample
-    residual is the smaller (clustered outliers pull the least-squares fit towards them); samples still
-    far beyond the noise there are rejected (weight 0) and the Cauchy fit redone without them
-    (:func:`_without_rejected`); the result lists the samples it down-weighted.
+    residual is the smaller (clustered outliers pull the least-squares fit towards them); the result
+    lists the samples it down-weighted.
     """
     # the dense algebra here is small (hundreds × tens): multi-threaded BLAS only adds overhead, and
     # on a loaded 2-core machine it made identification ten times slower
@@ -151,55 +147,9 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: Solver, loss: Los
     second.seconds += sum(c.seconds for c in others)
     second = chained(first, second)
     second.extra["first_pass_iterations"] = first.iterations
-    second = _without_rejected(problem, second, solver, **options)
     second.loss = "auto (cauchy)"
     second.extra["outlier_test"] = suspects
     return second
-
-
-#: Rounds of :func:`_without_rejected`: each refits without the samples implausible at the last fit.
-MAX_REJECTION_ROUNDS = 3
-
-
-def _without_rejected(problem: Problem, fit: CalibrationResult, solver: Solver, **options: Any) -> CalibrationResult:
-    """``fit`` (a Cauchy fit) refit from its start with weight 0 for the samples that stay implausible.
-
-    The samples :func:`outlier_samples` finds implausible at ``fit`` are left out of a least-squares fit, and the
-    set is re-tested there (the test's noise scale is that of a least-squares fit) until it holds; then the Cauchy
-    fit is redone from ``fit``'s start without them, listed in ``extra["rejected_samples"]``. ``fit`` itself is
-    returned when no sample is rejected or no refit can be evaluated.
-
-    Cauchy's pull on a sample ``e`` off falls only as ``1/e``: along the directions the other samples hardly
-    determine (standard deviations of tenths of a radian), one sample whose joint reading is wrong still moves
-    the estimate by degrees, and a refit from the pulled estimate stays there."""
-    current, rejected, iterations, seconds = fit, list[int](), 0, 0.0
-    for _ in range(MAX_REJECTION_ROUNDS):
-        pred = current.final if current.final is not None and current.final.jacobian is not None else \
-            evaluated(problem, current.x, jacobian=True)
-        if pred is None:
-            break
-        implausible = (outlier_samples(problem, pred, current.identifiability.rank, REJECTION_FALSE_ALARM)
-                       if current is fit else
-                       implausible_with_leverage(problem, pred, rejected, current.identifiability.base_indices,
-                                                 problem.parameters.scales))
-        if implausible == rejected:
-            break
-        refit = _attempt(problem, fit.x0, solver, "linear", rejected=implausible, **options)
-        if refit is None:
-            break
-        current, rejected = refit, implausible
-        iterations, seconds = iterations + refit.iterations, seconds + refit.seconds
-    if not rejected:
-        return fit
-    final = _attempt(problem, fit.x0, solver, "cauchy", rejected=rejected, **options)
-    if final is None:
-        return fit
-    final = chained(fit, final)
-    final.extra.update({k: v for k, v in fit.extra.items() if k not in final.extra})
-    final.extra["rejected_samples"] = rejected
-    final.extra["rejection_iterations"] = iterations  # the least-squares fits that settled the rejected set
-    final.seconds += seconds
-    return final
 
 
 def _attempt(problem: Problem, x0: Array, solver: Solver, loss: str, **options: Any) -> CalibrationResult | None:
@@ -278,8 +228,7 @@ def _check_identifiable(ident: Identifiability, n_parameters: int, n_residuals: 
 def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: str = "linear",
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              min_information: float = 0.0,
-             tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False,
-             rejected: Sequence[int] = ()) -> CalibrationResult:
+             tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False) -> CalibrationResult:
     """Estimate the parameters from the data.
 
     Args:
@@ -306,7 +255,6 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         tsvd_rcond: TSVD truncation, relative to the largest singular value.
         ridge: Ridge parameter in scaled units.
         strict: Refuse (IdentifiabilityError) when not every parameter is identifiable.
-        rejected: Samples (indices) that weigh 0 whatever the loss.
 
     Raises:
         DataError: unknown solver or loss, or fewer residuals than identifiable parameters.
@@ -330,7 +278,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
     active = ident.base_indices
     _check_identifiable(ident, len(pset), pred.residual.size, strict)
     d = scales
-    weights = sample_weights(problem, pred, weighting, rejected)
+    weights = sample_weights(problem, pred, weighting)
     rw = np.sqrt(row_weights(problem, weights))
     cost = 0.5 * float(np.sum((rw * pred.residual) ** 2))
     history = [cost]
@@ -409,7 +357,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         x, pred, cost = x + d * dz, new, new_cost
         assert pred.jacobian is not None
         if not least_squares:
-            weights = sample_weights(problem, pred, weighting, rejected)
+            weights = sample_weights(problem, pred, weighting)
             rw = np.sqrt(row_weights(problem, weights))
             cost = 0.5 * float(np.sum((rw * pred.residual) ** 2))
         history.append(cost)
@@ -450,7 +398,7 @@ def _uncertainty(pred: Prediction, rw: Array, active: list[int], names: list[str
     estimates' standard deviations (a posteriori and a priori, NaN outside ``active``) [parameter units] and their
     correlations; NaN when the active columns are dependent."""
     assert pred.jacobian is not None
-    dof = max(int(np.count_nonzero(rw)) - len(active), 1)  # a rejected sample's rows (weight 0) carry no freedom
+    dof = max(pred.residual.size - len(active), 1)
     sigma2 = float(np.sum((rw * pred.residual) ** 2)) / dof
     std, apriori = np.full(len(names), np.nan), np.full(len(names), np.nan)
     try:
