@@ -16,6 +16,7 @@ Errors in m (lengths) and rad (angles); every figure is predicted − measured.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -402,7 +403,7 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     Raises:
         DataError: no nominal robot given or recorded; as :func:`check_model`.
     """
-    from pincal.calibration.check_model import load_model
+    from pincal.calibration.check_model import is_report, load_model
     from pincal.calibration.job import read_job
     from pincal.calibration.job_data import job_dataset
     from pincal.calibration.provenance import file_digests, read_provenance, sha256, version
@@ -411,6 +412,11 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     from pincal.io.files import check_outputs
     from pincal.model.robot import load_robot
 
+    if is_report(model_path):  # an unreadable report is named as such, not as one that records nothing
+        try:
+            json.loads(Path(model_path).read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise DataError(f"MODEL '{model_path}' is not a readable report JSON: {exc}") from None
     provenance = read_provenance(model_path)
     nominal_name = nominal_path or provenance.robot
     if nominal_name is None:

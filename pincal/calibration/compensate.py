@@ -88,6 +88,9 @@ def load_model(model: str | Path, nominal: Robot | None = None) -> Model:
         RobotFileError, NotFoundError: the model cannot be loaded; DataError: a bad corrections file, or compliance
             terms whose nominal robot is not found.
     """
+    if Path(model).suffix.lower() == ".json":
+        raise DataError(f"MODEL '{model}' is a JSON file: compensate takes the calibrated URDF ('pincal calibrate "
+                        "--out') or a robot, not a report")
     robot = load_robot(model)
     path = corrections_path(model)
     if Path(model).is_file():

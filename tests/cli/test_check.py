@@ -214,6 +214,9 @@ def test_errors_are_one_line(delta: Path, tmp_path: Path) -> None:
     text = (delta / "D" / "cal.urdf").read_text(encoding="utf-8")
     bare.write_text(re.sub(r"\n\s*<pincal_provenance[^>]*/>", "", text), encoding="utf-8")
     assert "--nominal" in _error_line(run_pincal("check", str(bare), str(data)))  # no provenance, no --nominal
+    cut = tmp_path / "cut.json"  # a report JSON cut short is named so, not as one that records no robot
+    cut.write_text((delta / "D" / "r.json").read_text(encoding="utf-8")[:500], encoding="utf-8")
+    assert "is not a readable report JSON" in _error_line(run_pincal("check", str(cut), str(data)))
     other = tmp_path / "other.csv"
     other.write_text(data.read_text(encoding="utf-8").replace("position:end_effector:", "position:tool9:"),
                      encoding="utf-8")

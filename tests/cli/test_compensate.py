@@ -264,6 +264,16 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, text: str, extra: tupl
     assert not (tmp_path / "out.csv").exists()
 
 
+def test_a_report_json_is_not_a_model_to_command(tmp_path: Path) -> None:
+    report = tmp_path / "r.json"
+    report.write_text("{}", encoding="utf-8")
+    targets = tmp_path / "targets.csv"
+    targets.write_text(f"{POSITION}\nt0,0,0,-0.4\n", encoding="utf-8")
+    done = run_pincal("compensate", str(report), str(targets), "--out", str(tmp_path / "out.csv"))
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "compensate takes the calibrated URDF" in done.stderr
+
+
 def test_the_output_never_overwrites_an_input(tmp_path: Path) -> None:
     targets = tmp_path / "targets.csv"
     targets.write_text("sample,position:end_effector:x,position:end_effector:y,position:end_effector:z\n"
