@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 import textwrap
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from pincal.calibration.heldout import NOISE_CONTRADICTED
 from pincal.calibration.report import CalibrationReport
@@ -23,6 +23,13 @@ def mm(value: float | None) -> str:
 def mrad(value: float | None) -> str:
     """An angle [rad] in mrad for the terminal ("-" when missing)."""
     return "-" if value is None or value != value else f"{value * 1e3:.4f} mrad"
+
+
+def _figure_rows(quantity: str, part: str, unit: Callable[[float | None], str], rms_before: float | None,
+                 rms_after: float | None, max_before: float | None, max_after: float | None) -> list[str]:
+    """The RMS and max rows of the before/after table for one quantity of one part (fit or held out)."""
+    return [f"{f'RMS {quantity} error ({part})':32}{_column(unit(rms_before))}{_column(unit(rms_after))}",
+            f"{f'max {quantity} error ({part})':32}{_column(unit(max_before))}{_column(unit(max_after))}"]
 
 
 def _column(value: str) -> str:
@@ -79,23 +86,17 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
              f"iterations, {seconds:.3f} s",
              "",
              f"{'':32}{'before':>14}{'after':>14}",
-             f"{'RMS position error (fit)':32}{_column(mm(report.rms_before))}{_column(mm(report.rms_after))}",
-             f"{'max position error (fit)':32}{_column(mm(report.max_before))}{_column(mm(report.max_after))}"]
+             *_figure_rows("position", "fit", mm, report.rms_before, report.rms_after, report.max_before,
+                           report.max_after)]
     if report.rms_angle_before is not None:
-        lines += [f"{'RMS orientation error (fit)':32}{_column(mrad(report.rms_angle_before))}"
-                  f"{_column(mrad(report.rms_angle_after))}",
-                  f"{'max orientation error (fit)':32}{_column(mrad(report.max_angle_before))}"
-                  f"{_column(mrad(report.max_angle_after))}"]
+        lines += _figure_rows("orientation", "fit", mrad, report.rms_angle_before, report.rms_angle_after,
+                              report.max_angle_before, report.max_angle_after)
     if report.has_held_out:
-        lines += [f"{'RMS position error (held out)':32}{_column(mm(report.test_rms_before))}"
-                  f"{_column(mm(report.test_rms_after))}",
-                  f"{'max position error (held out)':32}{_column(mm(report.test_max_before))}"
-                  f"{_column(mm(report.test_max_after))}"]
+        lines += _figure_rows("position", "held out", mm, report.test_rms_before, report.test_rms_after,
+                              report.test_max_before, report.test_max_after)
     if report.test_rms_angle_before is not None:
-        lines += [f"{'RMS orientation error (held out)':32}{_column(mrad(report.test_rms_angle_before))}"
-                  f"{_column(mrad(report.test_rms_angle_after))}",
-                  f"{'max orientation error (held out)':32}{_column(mrad(report.test_max_angle_before))}"
-                  f"{_column(mrad(report.test_max_angle_after))}"]
+        lines += _figure_rows("orientation", "held out", mrad, report.test_rms_angle_before,
+                              report.test_rms_angle_after, report.test_max_angle_before, report.test_max_angle_after)
     if report.before_means:
         lines.append(f"(before: {report.before_means})")
     if report.joints_at_reference:
