@@ -3,18 +3,39 @@ answer a Ctrl-C with one line."""
 
 from __future__ import annotations
 
+import signal
 import sys
+from types import FrameType
+
+_interrupted = False
+
+
+def _on_interrupt(signum: int, frame: FrameType | None) -> None:
+    """Remember the Ctrl-C, then raise it as Python's own handler does.
+
+    CPython raises a pending ``KeyboardInterrupt`` wherever the interpreter next checks for signals; when that
+    happens inside a C extension that clears errors (Boost.Python's converters do), the exception is lost and
+    the command would run on as if no key had been pressed. The flag lets :func:`main` honour it anyway."""
+    global _interrupted
+    _interrupted = True
+    raise KeyboardInterrupt
 
 
 def main() -> int:
     """Run the command line (:func:`pincal.cli.app.main`); an interrupt at any point ends with exit code 130."""
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not when started with SIGINT ignored
+        signal.signal(signal.SIGINT, _on_interrupt)
     try:
         from pincal.cli.app import main as run
 
-        return run()
-    except KeyboardInterrupt:
+        code = run()  # answers an interrupt it sees with one line and 130 itself
+    except KeyboardInterrupt:  # one during the imports, before the command line could answer it
+        code = 130
+        print("pincal: interrupted", file=sys.stderr)
+    if _interrupted and code != 130:  # an interrupt some library swallowed still ends the command as interrupted
         print("pincal: interrupted", file=sys.stderr)
         return 130
+    return code
 
 
 if __name__ == "__main__":
