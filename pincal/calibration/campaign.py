@@ -14,11 +14,12 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.provenance import sha256, version
-from pincal.calibration.setup import check_movable, measurement_models, parameters_for
+from pincal.calibration.setup import check_movable, idle_parameters, measurement_models, parameters_for
 from pincal.errors import ConvergenceError, DataError
 from pincal.identification.corrections import Payload
 from pincal.identification.measurements import Measurement
 from pincal.identification.parameters import ParameterSet, read_joints
+from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, joint_sensor_zeros, source_text
 from pincal.io.corrections_file import corrections_dict, corrections_of, corrections_path
 from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text
@@ -69,8 +70,9 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
         perturb: σ of the true errors [m and rad].
         noise: σ of the measurement noise [m, and rad for angles].
         seed: Random seed (same seed, same files).
-        parameter_spec: Which parameters carry errors (named set or patterns); default: all
-            candidates.
+        parameter_spec: Which parameters carry errors (named set or patterns); default: the default set's candidates
+            less those that move no measurement at the drawn postures (as the calibration's default set leaves them
+            out, :meth:`~pincal.calibration.setup.Prepared.without_idle`).
         progress: Show a progress bar while drawing postures (on a terminal).
         spread: Half-range [rad or m] of the actuated values about the reference, within the URDF limits;
             None: within the URDF limits (see :func:`~pincal.study.simulation.actuated_ranges`).
@@ -85,6 +87,9 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
     pset = parameters_for(robot, models, parameter_spec, payload=payload)
     x_true = perturbation(pset, perturb, rng)
     qa, _ = random_actuated(robot, n_train + n_test, rng, spread=spread, progress=progress)
+    if parameter_spec is None:  # as the calibration's default set: no error where it would move no measurement
+        at_nominal = CalibrationProblem(robot, pset, models, Observations.neutral(models, qa), payload=payload)
+        x_true[idle_parameters(at_nominal, np.zeros(len(pset)))] = 0.0
     try:
         obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise, joint_noise=joint_noise,
                                     payload=payload)

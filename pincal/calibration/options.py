@@ -34,6 +34,10 @@ PLAUSIBLE_HELP = ("refuse (exit 1) a result whose corrections exceed F times the
                   "positions spread more than 1 + F/2 times as far as the nominal robot's (or less than its "
                   "inverse); the run names the parameters and the likely cause (default 1; off: no such check; "
                   "docs/calibrated_urdf.md, 'Plausible corrections')")
+PRIOR_HELP = ("keep what the data barely see near the URDF: a prior about nominal of F times each kind's prior σ "
+              "(joint and loop-anchor placements 5 mm and 0.5 deg, reading offsets 1 deg (5 mm), harmonics 0.2 deg "
+              "(1 mm); the measurement frame, markers, cameras and targets have none), the maximum a posteriori fit "
+              "(default 1; off: least squares; docs/calibrated_urdf.md, 'The prior')")
 SIGMA_HELP = ("one measurement σ [m, rad] for weighting every channel, over the file's '# sigma' lines (default: "
               "those lines, else 1e-5; 1e-6 m for distances)")
 
@@ -87,6 +91,9 @@ class CalibrationOptions:
         payload: A point mass the robot carried, for the joint compliances; None: none.
         plausible: A factor (> 0) on the plausible size of each kind's corrections
             (:attr:`~pincal.identification.parameters.kinds.ParameterKind.plausible`), or ``"off"``: no check.
+        prior: A factor (> 0) on each kind's prior σ about nominal
+            (:attr:`~pincal.identification.parameters.kinds.ParameterKind.prior`, :mod:`pincal.identification.prior`),
+            or ``"off"``: least squares.
     """
 
     parameter_spec: tuple[str, ...] | None = field(default=None, metadata=_how(
@@ -128,6 +135,8 @@ class CalibrationOptions:
 
     plausible: float | str = field(default=1.0, metadata=_how(
         flag="--plausible", key="plausible", kind="factor", metavar="F|off", help=PLAUSIBLE_HELP))
+    prior: float | str = field(default=1.0, metadata=_how(
+        flag="--prior", key="prior", kind="factor", metavar="F|off", help=PRIOR_HELP))
 
     markers: MarkerFit = field(default="each", metadata=_how(
         flag="--markers", key=None, choices=MARKER_FITS,
@@ -154,6 +163,8 @@ class CalibrationOptions:
             raise DataError(f"max_iter is {self.max_iter}: at least one iteration is needed")
         if plausible_factor(self.plausible) is None and self.plausible != "off":
             raise DataError(f"plausible={self.plausible!r}: give a factor > 0 on the plausible corrections, or 'off'")
+        if plausible_factor(self.prior) is None and self.prior != "off":
+            raise DataError(f"prior={self.prior!r}: give a factor > 0 on the prior σ, or 'off'")
         if isinstance(self.cv_seed, bool) or not isinstance(self.cv_seed, int):
             raise DataError(f"cv_seed={self.cv_seed!r}: give a whole number ≥ 0")
 

@@ -20,13 +20,13 @@ import numpy.typing as npt
 
 from pincal.calibration.crossval import Folds, check_cross_validation, cross_validate, parse_cv
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, evaluate_held_out
-from pincal.calibration.options import CalibrationOptions, check_cv_seed
+from pincal.calibration.options import CalibrationOptions, check_cv_seed, plausible_factor
 from pincal.calibration.plausibility import implausible_corrections, implausible_scales, likely_cause
 from pincal.calibration.report import CalibrationReport, fit_figures
 from pincal.calibration.samples import check_length_scale
 from pincal.calibration.setup import Prepared, check_movable, prepare
 from pincal.errors import DataError
-from pincal.identification.combinations import describe_unidentifiable
+from pincal.identification.combinations import describe_unidentifiable, digest
 from pincal.identification.corrections import moving_mass
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.metrics import sample_length_errors
@@ -143,7 +143,8 @@ def cross_validation_folds(fit: Prepared, dataset: Dataset,
 
 def fitting_options(options: CalibrationOptions) -> dict[str, Any]:
     """The keywords of :func:`~pincal.identification.solver.identify` that ``options`` set."""
-    return {"solver": options.solver, "loss": options.loss, "max_iter": options.max_iter}
+    return {"solver": options.solver, "loss": options.loss, "max_iter": options.max_iter,
+            "prior": plausible_factor(options.prior)}
 
 
 def fit_prepared(fit: Prepared, options: CalibrationOptions) -> SelectedFit:
@@ -194,9 +195,11 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
                       "removed_groups": list(fitted.removed_groups) if removed else [],
                       "n_candidates": len(fit.parameters)},
         "unidentifiable_listing": describe_unidentifiable(first.identifiability.unidentifiable, UNIDENTIFIABLE_LINES),
+        "unidentifiable_digest": digest(first.identifiability.unidentifiable, len(fit.parameters)),
         "n_estimated": len(result.identified),
         "n_residuals": int(problem.row_samples().size),
         "joints_at_reference": fit.joints_at_reference,
+        "no_effect": fit.no_effect,
         "dropped_samples": fit.dropped,
         "down_weighted_samples": [ids[k] for k in result.down_weighted()],
         "down_weighted": [{"sample": ids[k], "weight": float(result.sample_weights[k]),

@@ -53,7 +53,8 @@ class CalibrationReport:
     ``length_scale`` is each measured position's spread over the nominal robot's at the same readings; ``implausible``
     and ``implausible_scale`` list the corrections and the scales beyond what a robot of this model plausibly needs
     (the factor ``plausible`` on the documented limits, :mod:`pincal.calibration.plausibility`), and
-    ``implausible_cause`` says what they most likely come from.
+    ``implausible_cause`` says what they most likely come from. ``no_effect`` names the default candidates left out
+    because they move no measurement of the fitted samples.
     """
 
     schema_version: int = SCHEMA_VERSION
@@ -96,9 +97,11 @@ class CalibrationReport:
     formulation: str = "fkm"
     selection: dict[str, Any] = field(default_factory=dict)
     unidentifiable_listing: list[str] = field(default_factory=list)
+    unidentifiable_digest: str = ""
     n_estimated: int = 0
     n_residuals: int = 0
     joints_at_reference: list[str] = field(default_factory=list)
+    no_effect: list[str] = field(default_factory=list)
     dropped_samples: list[dict[str, str]] = field(default_factory=list)
     down_weighted: list[dict[str, Any]] = field(default_factory=list)
     n_samples_in_file: int = 0

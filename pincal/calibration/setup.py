@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Collection, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -111,6 +111,26 @@ def dataset_models(robot: Robot, dataset: Dataset, options: CalibrationOptions) 
     return models
 
 
+#: A parameter whose Jacobian column (over every sample) is below this fraction of the largest moves no measurement:
+#: structural zeros sit at 1e-10 or below, the weakest real effects at 1e-3 and above (every robot of the catalog).
+NO_EFFECT = 1e-7
+#: How far [m, rad] the setup's parameters are moved before judging which parameters move no measurement.
+SETUP_PROBE = 0.05
+
+
+def idle_parameters(problem: CalibrationProblem, x: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+    """Which of ``problem``'s parameters move no measurement of its samples near ``x`` [m, rad]: a Jacobian column
+    below :data:`NO_EFFECT` of the largest (placements whose motion a loop or a joint absorbs at the nominal
+    geometry). The setup's parameters (measurement frame, markers, cameras, targets) are first moved off ``x`` by
+    :data:`SETUP_PROBE`: their start is arbitrary (a marker at its frame's origin would hide the last joint's zero)."""
+    setup = np.array([p.kind_class.acts_in == "measurement" for p in problem.parameters])
+    probe = np.random.default_rng(0).choice([-1.0, 1.0], size=x.size) * SETUP_PROBE
+    jacobian = problem.evaluate(np.where(setup, x + probe, x)).jacobian
+    assert jacobian is not None  # asked for
+    norms = np.linalg.norm(jacobian, axis=0)
+    return np.asarray(norms <= NO_EFFECT * max(float(norms.max(initial=0.0)), np.finfo(float).tiny))
+
+
 @dataclass(frozen=True)
 class Prepared:
     """One part of a dataset made into a calibration problem.
@@ -124,6 +144,7 @@ class Prepared:
         problem: The problem on ``samples``.
         joints_at_reference: Actuated joints with no column, left at their reference (they move nothing measured).
         payload: The payload of the compliance terms, or None.
+        no_effect: Default candidates left out because they move no measurement of these samples.
     """
 
     robot: Robot
@@ -134,6 +155,7 @@ class Prepared:
     problem: CalibrationProblem
     joints_at_reference: list[str]
     payload: Payload | None = None
+    no_effect: list[str] = field(default_factory=list)
 
     def on(self, part: Dataset, parameters: ParameterSet | None = None, what: str = "") -> Prepared:
         """The same models and payload on other samples (``part``'s usable ones, ``what`` says which in messages),
@@ -147,14 +169,29 @@ class Prepared:
         model selection kept)."""
         return replace(self, parameters=problem.parameters, problem=problem)
 
+    def without_idle(self) -> Prepared:
+        """The same problem less the parameters that move no measurement of its samples (a Jacobian column below
+        :data:`NO_EFFECT` of the largest, at the start): a candidate set's placements whose motion a loop or a
+        joint absorbs, which the data can never estimate."""
+        problem = self.problem
+        idle = idle_parameters(problem, problem.initial_guess())
+        if not idle.any() or idle.all():
+            return self
+        kept = ParameterSet([p for p, out in zip(self.parameters, idle, strict=True) if not out])
+        reduced = CalibrationProblem(self.robot, kept, self.models, problem.observations, payload=self.payload)
+        return replace(self, parameters=kept, problem=reduced,
+                       no_effect=[n for n, out in zip(self.parameters.names, idle, strict=True) if out])
+
 
 def prepare(robot: Robot, dataset: Dataset, options: CalibrationOptions, part: str | None = "train",
             leave_out: Collection[str] = ()) -> Prepared:
     """The calibration problem of ``dataset``'s samples of set ``part`` (None: every sample) under ``options``.
 
     The parameters are those ``options`` choose (``parameter_spec``, ``markers``) less those named in ``leave_out``
-    (e.g. those model selection left out of a fit). Samples that cannot be used (no reading, a reading outside the
-    joint limits, a posture the nominal robot cannot assemble) are left out and listed in :attr:`Prepared.dropped`.
+    (e.g. those model selection left out of a fit); the default set leaves out the candidates that move no
+    measurement of these samples (:meth:`Prepared.without_idle`). Samples that cannot be used (no reading, a reading
+    outside the joint limits, a posture the nominal robot cannot assemble) are left out and listed in
+    :attr:`Prepared.dropped`.
 
     Raises:
         DataError: the data measure nothing; an actuated joint that moves a measured frame has no column; a payload
@@ -166,7 +203,9 @@ def prepare(robot: Robot, dataset: Dataset, options: CalibrationOptions, part: s
     pset = parameters_for(robot, models, options.parameter_spec, options.markers, options.payload, leave_out)
     samples = dataset if part is None else dataset.of_set(part)
     what = {"train": "training ", "test": "held-out "}.get(part or "", "")
-    return _prepared(robot, samples, models, pset, options.payload, at_reference, what)
+    prepared = _prepared(robot, samples, models, pset, options.payload, at_reference, what)
+    # the default set holds no candidate the data can never see; parameters the user names stay, to be reported
+    return prepared.without_idle() if not options.parameter_spec else prepared
 
 
 def _prepared(robot: Robot, part: Dataset, models: list[Measurement], pset: ParameterSet, payload: Payload | None,

@@ -112,11 +112,7 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
     lines += _generalization(report)
     if report.unidentifiable:
         lines.append("")
-        lines.append(_unidentifiable_heading(report, parameter_spec))
-        lines += report.unidentifiable_listing or [f"  - {text}" for text in report.unidentifiable]
-        count = len(report.unidentifiable)
-        lines.append(f"  (all {count} in full: the report's 'unidentifiable')" if report_path else
-                     f"  (all {count} in full: --report FILE writes them, under 'unidentifiable')")
+        lines += _unseen(report, parameter_spec, report_path)
     return "\n".join(line for line in lines if line is not None)
 
 
@@ -126,6 +122,20 @@ def _named_parameters(report: CalibrationReport, spec: Sequence[str] | None) -> 
     if spec is None:
         spec = ((report.provenance or {}).get("options") or {}).get("parameter_spec")
     return any(token not in (DEFAULT_SET, *NAMED_SETS) for token in spec or [])
+
+
+def _unseen(report: CalibrationReport, spec: Sequence[str] | None, report_path: str | None) -> list[str]:
+    """What the data cannot see: for candidate sets, the expected redundancy in a sentence; parameters the user named
+    that the data cannot separate, one line each (the first :data:`UNIDENTIFIABLE_LINES`)."""
+    count = len(report.unidentifiable)
+    if report.unidentifiable_digest and not _named_parameters(report, spec):
+        where = "listed in the report's 'unidentifiable'" if report_path else "--report FILE lists each"
+        return textwrap.wrap(f"not seen by these data: {report.unidentifiable_digest}; {where}", 120,
+                             subsequent_indent="  ", break_on_hyphens=False)
+    return [_unidentifiable_heading(report, spec),
+            *(report.unidentifiable_listing or [f"  - {text}" for text in report.unidentifiable]),
+            f"  (all {count} in full: the report's 'unidentifiable')" if report_path else
+            f"  (all {count} in full: --report FILE writes them, under 'unidentifiable')"]
 
 
 def _unidentifiable_heading(report: CalibrationReport, spec: Sequence[str] | None) -> str:
@@ -193,7 +203,8 @@ def _selection_line(report: CalibrationReport) -> str | None:
 
 #: Cross-validated error above this multiple of the fit error is called overfitting.
 OVERFIT_RATIO = 1.5
-#: Fewer measured values than this per estimated parameter are called few.
+#: Fewer measured values than this per estimated parameter are called few (when no held-out sample or
+#: cross-validation measures the generalization).
 VALUES_PER_PARAMETER = 5
 
 
@@ -220,7 +231,8 @@ def _generalization(report: CalibrationReport) -> list[str]:
                          "follows these samples more closely than it predicts new ones (overfitting)")
     rows = report.n_residuals
     estimated = report.n_estimated
-    if rows and estimated and rows < VALUES_PER_PARAMETER * estimated:
+    measured = report.has_held_out or bool(cv)  # generalization is measured: the figures above say it, not a count
+    if rows and estimated and rows < VALUES_PER_PARAMETER * estimated and not measured:
         lines.append(f"warning: {rows / estimated:.2g} measured values per estimated parameter "
                      f"(< {VALUES_PER_PARAMETER}): check generalization with --cv 5, or add postures")
     return lines

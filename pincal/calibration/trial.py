@@ -80,7 +80,9 @@ class SimulatedCalibration:
             cal = calibrate(robot, sim.dataset, options)
         except ConvergenceError:
             return {"converged": 0.0}
-        result, x_true = cal.result, sim.x_true
+        result = cal.result
+        # the truth of the parameters calibrated (the default set leaves out those that move no measurement)
+        x_true = sim.x_true[[sim.parameters.index(name) for name in result.names]]
         metrics = {
             "gain": calibration_gain(x_true, result.x0, result.x),
             "gain_identified": calibration_gain(x_true[result.identified], result.x0[result.identified],

@@ -140,6 +140,22 @@ def describe_unidentifiable(combinations: Sequence[Combination], limit: int = 10
     return lines + ([f"{MORE_INDENT}… and {left_out} more"] if left_out else [])
 
 
+def digest(combinations: Sequence[Combination], n_candidates: int) -> str:
+    """One sentence on what a candidate set's unseen directions are: how many of ``n_candidates``, how many are pairs
+    seen only together, larger combinations and parameters with no effect, with one example; "" when none."""
+    if not combinations:
+        return ""
+    sizes = [len(c.names) for c in combinations]
+    kinds = [(sizes.count(2), "pair", "pairs", "seen only together"),
+             (sum(size > 2 for size in sizes), "combination", "combinations", "of 3+"),
+             (sizes.count(1), "parameter", "parameters", "with no effect")]
+    parts = [f"{count} {one if count == 1 else many} {what}" for count, one, many, what in kinds if count]
+    example = next((c for c in combinations if len(c.names) > 1), combinations[0])
+    shown = ", ".join(example.names[:3]) + (f" (+{len(example.names) - 3} more)" if len(example.names) > 3 else "")
+    return (f"{len(combinations)} of {n_candidates} candidate directions, as expected of overlapping candidates: "
+            f"{', '.join(parts)} (e.g. {shown}), left at minimum norm")
+
+
 def combination_lines(combinations: Sequence[Combination], limit: int) -> tuple[list[str], int]:
     """At most ``limit`` lines for :func:`describe_unidentifiable`, and how many combinations they leave out."""
     if limit < 0:

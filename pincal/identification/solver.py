@@ -49,6 +49,7 @@ from pincal.identification.losses import (
     sample_squares,
     sample_weights,
 )
+from pincal.identification.prior import WithPrior, prior_sigma
 from pincal.identification.problem import Prediction, Problem
 from pincal.identification.result import CalibrationResult, chained
 from pincal.identification.ridge import Ridge
@@ -93,7 +94,7 @@ def _threadpools() -> ThreadpoolController:
 def identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: Loss = "auto", *,
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              min_information: float = 0.0, tsvd_rcond: float = 1e-6, ridge: float = 1e-6,
-             strict: bool = False) -> CalibrationResult:
+             strict: bool = False, prior: float | None = None) -> CalibrationResult:
     """Estimate the parameters from the data (the arguments are described at :func:`_fit`).
 
     ``loss="auto"`` (the default) fits by least squares, tests every sample against the noise level the
@@ -106,7 +107,8 @@ def identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", l
     # on a loaded 2-core machine it made identification ten times slower
     with _threadpools().limit(limits=1, user_api="blas"):
         options = {"identifiable_only": identifiable_only, "max_iter": max_iter, "tol": tol, "rank_tol": rank_tol,
-                   "min_information": min_information, "tsvd_rcond": tsvd_rcond, "ridge": ridge, "strict": strict}
+                   "min_information": min_information, "tsvd_rcond": tsvd_rcond, "ridge": ridge, "strict": strict,
+                   "prior": prior}
         return _identify_auto(problem, x0, solver, loss, **options)
 
 
@@ -179,7 +181,7 @@ def _identify(problem: Problem, x0: Array | None, solver: Solver, loss: str, **o
     """:func:`_fit`, then refit while some sample's remembered configuration proves to be off the reference
     assembly at the estimate (:meth:`~pincal.identification.problem.CalibrationProblem.settle_assembly`): its
     residual was measured on the wrong robot posture, so the fit and its robust weights are redone."""
-    result = _fit(problem, x0, solver, loss, **options)
+    result = _with_prior_weighed(problem, _fit(problem, x0, solver, loss, **options), solver, loss, options)
     moved_all: list[int] = []
     for _ in range(MAX_RESETTLES):
         moved = problem.settle_assembly(result.x)
@@ -194,6 +196,28 @@ def _identify(problem: Problem, x0: Array | None, solver: Solver, loss: str, **o
     if moved_all:
         result.extra["resettled_samples"] = sorted(set(moved_all))
     return result
+
+
+#: The a-posteriori variance factor below which the data show less noise than stated, and the prior is weighed
+#: against the noise they show.
+QUIETER_THAN_STATED = 0.5
+
+
+def _with_prior_weighed(problem: Problem, result: CalibrationResult, solver: Solver, loss: str,
+                        options: dict[str, Any]) -> CalibrationResult:
+    """``result``, refit once from its estimate with the prior weighed against the noise the data show when they
+    show much less than stated (a-posteriori factor ``s²`` below :data:`QUIETER_THAN_STATED`): each prior σ divided
+    by ``s``, as if the data rows were whitened by the noise they show. A σ stated ten times too large would
+    otherwise make the data look a hundred times less informative, and the prior pull what they see well. A fit
+    short of the stated noise (``s² > 1``: a model error, or a σ stated too small) never makes the prior stronger."""
+    factor = options.get("prior")
+    if factor is None or not math.isfinite(result.sigma2) or result.sigma2 >= QUIETER_THAN_STATED:
+        return result
+    weighed = {**options, "prior": factor / math.sqrt(max(result.sigma2, 1e-300))}
+    try:
+        return chained(result, _fit(problem, result.x, solver, loss, **weighed))
+    except ConvergenceError:  # the refit could not be evaluated: the first fit stands
+        return result
 
 
 def _chosen(solver: str, loss: str) -> tuple[type[Method], Weighting | None]:
@@ -228,7 +252,8 @@ def _check_identifiable(ident: Identifiability, n_parameters: int, n_residuals: 
 def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: str = "linear",
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              min_information: float = 0.0,
-             tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False) -> CalibrationResult:
+             tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False,
+             prior: float | None = None) -> CalibrationResult:
     """Estimate the parameters from the data.
 
     Args:
@@ -255,6 +280,8 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         tsvd_rcond: TSVD truncation, relative to the largest singular value.
         ridge: Ridge parameter in scaled units.
         strict: Refuse (IdentifiabilityError) when not every parameter is identifiable.
+        prior: A factor on each parameter kind's prior σ about nominal (:mod:`pincal.identification.prior`): the
+            maximum a posteriori estimate, its posterior covariance; None: least squares, no prior.
 
     Raises:
         DataError: unknown solver or loss, or fewer residuals than identifiable parameters.
@@ -265,21 +292,23 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
     start = time.perf_counter()
     pset = problem.parameters
     scales = pset.scales
+    model = WithPrior(problem, prior_sigma(pset, prior))  # its residual: the data's rows, then the prior's
     x = problem.initial_guess() if x0 is None else np.array(x0, dtype=float)
     start_x = x.copy()
-    pred = problem.evaluate(x)
-    assert pred.jacobian is not None
+    pred = model.evaluate(x)
+    data = model.data(pred)
+    assert pred.jacobian is not None and data.jacobian is not None
     if not (np.all(np.isfinite(pred.residual)) and np.all(np.isfinite(pred.jacobian))):
         raise DataError("the residuals or their Jacobian are not finite at the starting point: check the data "
                         "for values out of range")
     errors_before = pred.errors
-    ident = analyse(pred.jacobian, pset.names, scales, units=[p.unit if p.unit in ("m", "rad") else "" for p in pset],
-                    tol=_practical_tol(pred.jacobian, scales, rank_tol, min_information))
+    ident = analyse(data.jacobian, pset.names, scales, units=[p.unit if p.unit in ("m", "rad") else "" for p in pset],
+                    tol=_practical_tol(data.jacobian, scales, rank_tol, min_information))
     active = ident.base_indices
-    _check_identifiable(ident, len(pset), pred.residual.size, strict)
+    _check_identifiable(ident, len(pset), data.residual.size, strict)
     d = scales
-    weights = sample_weights(problem, pred, weighting)
-    rw = np.sqrt(row_weights(problem, weights))
+    weights = sample_weights(problem, data, weighting)
+    rw = np.sqrt(model.row_weights(row_weights(problem, weights)))
     cost = 0.5 * float(np.sum((rw * pred.residual) ** 2))
     history = [cost]
     floors = exact_fit_floors(problem, FLOOR_SIGMA_FRACTION)
@@ -311,7 +340,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
             dz = steps.solve(lam) * shrink
             if accelerate:
                 counts["evaluations"] += 1
-                dz = method.accelerated(problem, x, d, rw, dz, steps, lam)
+                dz = method.accelerated(model, x, d, rw, dz, steps, lam)
                 counts["accelerated"] += int(dz is not None)
             # a trial needs only the residual, and the Jacobian is computed once a step is accepted; but while the
             # first trials are accepted (the previous iteration's was) the first is evaluated with its Jacobian at
@@ -319,7 +348,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
             eager = eager_first and attempt == 0
             if eager:
                 steps.release()  # the m × n reflectors go before the trial's Jacobian is built
-            trial = evaluated(problem, x + d * dz, jacobian=eager) if dz is not None else None
+            trial = evaluated(model, x + d * dz, jacobian=eager) if dz is not None else None
             counts["evaluations"] += int(dz is not None)
             if trial is not None:
                 new_cost = 0.5 * float(np.sum((rw * trial.residual) ** 2))
@@ -329,7 +358,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
                 if new_cost <= cost:
                     assert dz is not None
                     steps.release()  # the m × n reflectors go before the new Jacobian is built
-                    new = evaluated(problem, x + d * dz)  # None: a sample turned singular, rejected as before
+                    new = evaluated(model, x + d * dz)  # None: a sample turned singular, rejected as before
                     counts["evaluations"] += 1
                     if new is not None:
                         accepted = True
@@ -357,8 +386,8 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         x, pred, cost = x + d * dz, new, new_cost
         assert pred.jacobian is not None
         if not least_squares:
-            weights = sample_weights(problem, pred, weighting)
-            rw = np.sqrt(row_weights(problem, weights))
+            weights = sample_weights(problem, model.data(pred), weighting)
+            rw = np.sqrt(model.row_weights(row_weights(problem, weights)))
             cost = 0.5 * float(np.sum((rw * pred.residual) ** 2))
         history.append(cost)
         lam = max(lam / 10.0, 1e-20)
@@ -377,29 +406,31 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
     # identifiability at the estimate: a special nominal geometry (parallel axes) can hide directions
     # that the generic true robot shows
     steps = None  # its m × n reflectors are not needed any more
-    assert pred.jacobian is not None
-    ident = analyse(pred.jacobian, pset.names, scales, units=[p.unit if p.unit in ("m", "rad") else "" for p in pset],
-                    tol=_practical_tol(pred.jacobian, scales, rank_tol, min_information))
+    data = model.data(pred)
+    assert pred.jacobian is not None and data.jacobian is not None
+    ident = analyse(data.jacobian, pset.names, scales, units=[p.unit if p.unit in ("m", "rad") else "" for p in pset],
+                    tol=_practical_tol(data.jacobian, scales, rank_tol, min_information))
     active = ident.base_indices
-    sigma2, std, apriori, corr = _uncertainty(pred, rw, list(active), pset.names)
+    sigma2, std, apriori, corr = _uncertainty(pred, rw, list(active), pset.names, model.rows)
     result = CalibrationResult(pset.names, start_x, x, std, list(active), ident, corr, iterations, converged, message,
                                history, errors_before, pred.errors,
                                weights, sigma2, time.perf_counter() - start, solver, loss, std_apriori=apriori,
                                extra={"rejected_steps": counts["rejected"], "evaluations": counts["evaluations"],
                                       "accelerated_steps": counts["accelerated"],
                                       "rank_changes": int(np.count_nonzero(np.diff(kept)))})
-    result.final = Prediction(pred.residual, None, pred.errors, pred.predicted)
+    result.final = Prediction(data.residual, None, data.errors, data.predicted)
     return result
 
 
-def _uncertainty(pred: Prediction, rw: Array, active: list[int], names: list[str]
+def _uncertainty(pred: Prediction, rw: Array, active: list[int], names: list[str], rows: int
                  ) -> tuple[float, Array, Array, Array]:
-    """The a-posteriori variance factor σ² of the fit (weighted residual ``rw · r``, ``active`` parameters), the
-    estimates' standard deviations (a posteriori and a priori, NaN outside ``active``) [parameter units] and their
-    correlations; NaN when the active columns are dependent."""
+    """The a-posteriori variance factor σ² of the fit (weighted residual ``rw · r`` of its first ``rows`` rows, the
+    data's, ``active`` parameters), the estimates' standard deviations (a posteriori and a priori, NaN outside
+    ``active``) [parameter units] and their correlations, from every row (a prior's included: the posterior
+    covariance); NaN when the active columns are dependent."""
     assert pred.jacobian is not None
-    dof = max(pred.residual.size - len(active), 1)
-    sigma2 = float(np.sum((rw * pred.residual) ** 2)) / dof
+    dof = max(rows - len(active), 1)
+    sigma2 = float(np.sum((rw[:rows] * pred.residual[:rows]) ** 2)) / dof
     std, apriori = np.full(len(names), np.nan), np.full(len(names), np.nan)
     try:
         shape = covariance(pred.jacobian, 1.0, active, names, row_weights=rw)  # (JᵀJ)⁻¹: σ² scales it

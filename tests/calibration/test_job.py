@@ -347,7 +347,7 @@ def test_the_fuller_example_of_docs_job_file_is_a_valid_job(tmp_path: Path) -> N
     assert job.robot == str(tmp_path / "urdf" / "my_arm.urdf") and job.file_names == ("day1.csv", "day2.csv")
     assert job.options == {"parameter_spec": ["default", "!base.*"], "select": "auto", "cv": "5x4", "cv_seed": 0,
                            "loss": "auto", "solver": "lm", "formulation": "fkm", "max_iter": 100,
-                           "plausible": 1.0}
+                           "plausible": 1.0, "prior": 1.0}
     assert (job.length_unit, job.angle_unit, job.sample, job.ignore) == ("mm", "deg", "pose_id",
                                                                          ("timestamp", "marker_quality"))
     assert job.joints == {"shoulder_pan_joint": "J1", "shoulder_lift_joint": "J2"}

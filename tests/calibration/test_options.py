@@ -23,7 +23,7 @@ OTHER = {"parameter_spec": (["model24"], ("model24",)), "solver": (["tsvd"], "ts
          "sigma": (["2e-5"], 2e-5), "formulation": (["ikm"], "ikm"), "max_iter": (["7"], 7),
          "select": (["none"], "none"), "cv": (["5x2"], "5x2"), "cv_seed": (["3"], 3),
          "markers": (["cluster"], "cluster"), "payload": (["1.5@tool0:0,0,0.1"], None),
-         "plausible": (["2.5"], 2.5)}
+         "plausible": (["2.5"], 2.5), "prior": (["off"], "off")}
 
 
 def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
@@ -76,7 +76,8 @@ def test_the_job_file_reads_every_option_it_has_a_key_for(tmp_path: Path) -> Non
     assert set(keyed.values()) <= set(JOB_KEYS)
     values = {"parameters": '["model24"]', "solver": '"tsvd"', "loss": '"cauchy"', "sigma": "2e-5",
               "formulation": '"ikm"', "max_iter": "7", "select": '"none"', "cv": '"5x2"', "cv_seed": "3",
-              "payload": '{ mass = 1.5, frame = "tool0", offset = [0, 0, 0.1] }', "plausible": "2.5"}
+              "payload": '{ mass = 1.5, frame = "tool0", offset = [0, 0, 0.1] }', "plausible": "2.5",
+              "prior": '"off"'}
     assert set(values) == set(keyed.values())
     job = write_job(tmp_path, top="\n".join(f"{k} = {v}" for k, v in values.items()))
     options = read_job(job).options

@@ -98,7 +98,7 @@ def test_an_unknown_key_is_named_with_the_valid_ones(tmp_path: Path) -> None:
     line = one_line_error(run_pincal("calibrate", str(job)))
     assert line == (f"pincal: error: {job}: key 'slover' does not exist at the top level; keys are: robot, data, "
                     "joints, measure, out, report, parameters, select, loss, solver, sigma, max_iter, formulation, cv, "
-                    "cv_seed, payload, plausible")
+                    "cv_seed, payload, plausible, prior")
 
 
 def test_a_cv_seed_that_seeds_nothing_names_the_job_file_or_the_flag(tmp_path: Path) -> None:

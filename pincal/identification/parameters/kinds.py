@@ -51,6 +51,9 @@ class ParameterKind:
     #: The largest plausible correction of one of its parameters, by unit (``m``: a length [m], ``rad``: an angle
     #: [rad]); a unit left out, or an empty mapping, has no bound (the setup's kinds, the compliances).
     plausible: ClassVar[dict[str, float]] = {}
+    #: The standard deviation of its parameters about nominal that the calibration assumes before the data
+    #: (:mod:`pincal.identification.prior`), by unit; a unit left out, or an empty mapping, has no prior.
+    prior: ClassVar[dict[str, float]] = {}
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -110,12 +113,20 @@ PLACEMENT_PLAUSIBLE = {"m": 0.020, "rad": math.radians(2.0)}
 OFFSET_PLAUSIBLE = {"m": 0.020, "rad": math.radians(5.0)}
 #: A harmonic of a reading: 1° (5 mm for a prismatic joint). Transmission errors are arcminutes.
 HARMONIC_PLAUSIBLE = {"m": 0.005, "rad": math.radians(1.0)}
+#: The prior of a placement: 5 mm and 0.5° about nominal, a quarter of the plausible size: machining and assembly
+#: leave a geometry within a few millimetres and tenths of a degree of its drawing.
+PLACEMENT_PRIOR = {"m": 0.005, "rad": math.radians(0.5)}
+#: The prior of a reading's zero: 1° (5 mm): a zeroed encoder is off by tenths of a degree.
+OFFSET_PRIOR = {"m": 0.005, "rad": math.radians(1.0)}
+#: The prior of a harmonic: 0.2° (1 mm).
+HARMONIC_PRIOR = {"m": 0.001, "rad": math.radians(0.2)}
 
 
 class _Placement(ParameterKind):
     """A placement of the kinematic tree: translations and rotations are selected as groups."""
 
     plausible = PLACEMENT_PLAUSIBLE
+    prior = PLACEMENT_PRIOR
 
     @classmethod
     def selection_group(cls, parameter: Parameter) -> str | None:
@@ -150,6 +161,7 @@ class ReadingOffset(ParameterKind):
     name = "offset"
     acts_in = "reading"
     plausible = OFFSET_PLAUSIBLE
+    prior = OFFSET_PRIOR
     urdf = "folded into the joint's origin (a read joint's: its <joint_sensor> zero)"
 
     @classmethod
@@ -235,6 +247,7 @@ class Harmonic(ParameterKind):
     name = "harmonic"
     acts_in = "reading"
     plausible = HARMONIC_PLAUSIBLE
+    prior = HARMONIC_PRIOR
     in_corrections = True
 
     @classmethod

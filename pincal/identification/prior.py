@@ -1,0 +1,90 @@
+"""A prior toward the nominal geometry: maximum a posteriori instead of least squares.
+
+A robot's geometry is off its URDF by millimetres and fractions of a degree; data that barely excite a direction can
+still move the estimate along it by much more, fitting noise: the model then predicts worse than the nominal robot
+outside the postures it saw. The prior says what the URDF already knows: each parameter of a kind that has one
+(:attr:`~pincal.identification.parameters.kinds.ParameterKind.prior`) is normal about its nominal value, with that
+standard deviation times a factor. :class:`WithPrior` adds one residual row ``x_k / σ_k`` per such parameter to a
+problem's weighted residual, so that least squares on it is the maximum a posteriori estimate and ``(JᵀJ)⁻¹`` of the
+augmented Jacobian its posterior covariance. Directions the data see well are not moved (their information is far
+above the prior's); a weakly seen one stays near nominal. The setup (measurement frame, markers, cameras, targets)
+has no prior: a tracker may stand anywhere.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.identification.parameters import ParameterSet
+from pincal.identification.problem import Observations, Prediction, Problem
+
+Array = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+
+def prior_sigma(parameters: ParameterSet, factor: float | None) -> Array:
+    """Each parameter's prior standard deviation [its unit]: its kind's (by unit) times ``factor``; infinite (no
+    prior) for kinds without one, and for every parameter when ``factor`` is None."""
+    sigma = np.full(len(parameters), math.inf)
+    if factor is None:
+        return sigma
+    for k, parameter in enumerate(parameters):
+        value = parameter.kind_class.prior.get(parameter.unit)
+        if value is not None:
+            sigma[k] = factor * value
+    return sigma
+
+
+class WithPrior:
+    """``problem`` with one more residual row ``x_k / σ_k`` per parameter of finite prior σ (``sigma`` [parameter
+    units]), after the data's rows; everything else is the problem's. :meth:`data` takes a prediction back to the
+    data's rows."""
+
+    def __init__(self, problem: Problem, sigma: Array) -> None:
+        self.problem = problem
+        self.parameters: ParameterSet = problem.parameters
+        self.observations: Observations = problem.observations
+        self.bounded = np.flatnonzero(np.isfinite(sigma))
+        self.inverse = 1.0 / sigma[self.bounded]
+        self.rows = int(problem.row_samples().size)
+
+    def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
+        """The problem's prediction at ``x`` [m, rad] with the prior's rows appended to its residual and Jacobian."""
+        pred = self.problem.evaluate(x, jacobian)
+        if not self.bounded.size:
+            return pred
+        residual = np.concatenate([pred.residual, x[self.bounded] * self.inverse])
+        full = None
+        if pred.jacobian is not None:
+            rows = np.zeros((self.bounded.size, x.size))
+            rows[np.arange(self.bounded.size), self.bounded] = self.inverse
+            full = np.vstack([pred.jacobian, rows])
+        return Prediction(residual, full, pred.errors, pred.predicted)
+
+    def data(self, pred: Prediction) -> Prediction:
+        """``pred`` (of :meth:`evaluate`) on the data's rows only."""
+        if not self.bounded.size:
+            return pred
+        jacobian = None if pred.jacobian is None else pred.jacobian[:self.rows]
+        return Prediction(pred.residual[:self.rows], jacobian, pred.errors, pred.predicted)
+
+    def row_weights(self, data_weights: Array) -> Array:
+        """Row weights: the data rows' ``data_weights``, then 1 for each prior row (a prior is never down-weighted)."""
+        if not self.bounded.size:
+            return data_weights
+        return np.concatenate([data_weights, np.ones(self.bounded.size)])
+
+    def row_samples(self) -> IntArray:
+        """The data rows' samples (the prior's rows belong to none)."""
+        return self.problem.row_samples()
+
+    def initial_guess(self) -> Array:
+        """The problem's."""
+        return self.problem.initial_guess()
+
+    def settle_assembly(self, x: Array) -> list[int]:
+        """The problem's."""
+        return self.problem.settle_assembly(x)
