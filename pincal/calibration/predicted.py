@@ -16,7 +16,8 @@ isotropic S).
 Outside the joint ranges the fit saw, the linear propagation already grows with the lever arms, but it assumes the
 model is right; what the fit absorbed of unmodelled effects inside its range can grow outside it. The bound is then
 widened by the factor ``1 + Σ_j d_j / w_j`` (``d_j`` [rad or m]: how far joint j's reading lies beyond the fitted
-range, ``w_j``: the range's width, at least :data:`MIN_WIDTH`): one range width beyond doubles the bound.
+range and its margin of 10 % of the width on each side, as the held-out warning counts it; ``w_j``: the range's
+width, at least :data:`MIN_WIDTH`): one range width beyond doubles the bound.
 docs/predicted_accuracy.md explains the choice. Every length in m, every angle in rad.
 """
 
@@ -31,6 +32,7 @@ import numpy.typing as npt
 from scipy.stats import chi2
 
 from pincal.calibration.report import parameter_covariance
+from pincal.calibration.samples import RANGE_MARGIN
 from pincal.errors import ConvergenceError
 from pincal.identification.metrics import length_columns
 from pincal.identification.problem import CalibrationProblem, Observations
@@ -69,6 +71,37 @@ class PredictedErrors:
         return np.isfinite(errors) & np.isfinite(self.bound) & (errors <= self.bound)
 
 
+@dataclass(frozen=True)
+class FitCovariance:
+    """The covariance a fit gives its estimates, as the predictions use it.
+
+    Attributes:
+        matrix: (q, q) covariance [m², m·rad, rad²] of the estimated parameters (NaN where not known).
+        columns: Their indices in the problem's parameter order.
+        sigma2: The fit's a-posteriori variance factor (scales the stated measurement σ² into the noise part).
+    """
+
+    matrix: Array
+    columns: list[int]
+    sigma2: float
+
+    @classmethod
+    def of_result(cls, result: CalibrationResult) -> FitCovariance:
+        """As the fit ``result`` gives it (:func:`~pincal.calibration.report.parameter_covariance`)."""
+        return cls(parameter_covariance(result), list(result.identified), float(result.sigma2))
+
+    @classmethod
+    def of_report(cls, covariance: dict[str, Any], sigma2: float | None, names: Sequence[str]) -> FitCovariance:
+        """As a report JSON holds it (its ``covariance``: ``parameters`` and ``matrix``, and its ``sigma2``), over the
+        parameters ``names`` in a problem's order; NaN when the report holds none."""
+        held = list(covariance.get("parameters") or [])
+        matrix = np.array([[np.nan if v is None else float(v) for v in row] for row in covariance.get("matrix") or []])
+        columns = [list(names).index(n) for n in held if n in names]
+        if len(columns) != len(held) or matrix.shape != (len(held), len(held)) or sigma2 is None:
+            return cls(np.full((1, 1), np.nan), [0], float("nan"))
+        return cls(matrix, columns, float(sigma2))
+
+
 def fitted_ranges(robot: Robot, actuated: Array, joints: Sequence[str] | None = None) -> dict[str, list[float]]:
     """The range [min, max] [rad or m] of each actuated joint's readings ``actuated`` (N, na) in the fit, for the
     ``joints`` given (default: every actuated joint)."""
@@ -79,36 +112,40 @@ def fitted_ranges(robot: Robot, actuated: Array, joints: Sequence[str] | None = 
 
 def widening(robot: Robot, actuated: Array, ranges: dict[str, list[float]]) -> Array:
     """Each sample's bound factor ``1 + Σ_j d_j / max(w_j, MIN_WIDTH)`` for its readings ``actuated`` (N, na)
-    [rad or m]: ``d_j`` how far beyond the fitted range of joint j (``ranges``) it lies, ``w_j`` that range's width."""
+    [rad or m]: ``d_j`` how far beyond the fitted range of joint j (``ranges``), widened by ``RANGE_MARGIN`` × its
+    width on each side as the held-out warning counts it, it lies; ``w_j`` that range's width."""
     columns = {name: k for k, name in enumerate(robot.actuated_joints)}
     factor = np.ones(actuated.shape[0])
     for joint, (low, high) in ranges.items():
         if joint not in columns:
             continue
         values = actuated[:, columns[joint]]
+        low, high = low - RANGE_MARGIN * (high - low), high + RANGE_MARGIN * (high - low)
         beyond = np.maximum(low - values, 0.0) + np.maximum(values - high, 0.0)
-        factor += beyond / max(high - low, MIN_WIDTH)
+        factor += beyond / max((high - low) / (1 + 2 * RANGE_MARGIN), MIN_WIDTH)
     return factor
 
 
-def predicted_errors(problem: CalibrationProblem, result: CalibrationResult, x: Array,
+def predicted_errors(problem: CalibrationProblem, fit: CalibrationResult | FitCovariance, x: Array,
                      factor: Array | None = None) -> PredictedErrors:
     """The predicted length-type errors of ``problem``'s samples for the model at ``x`` [m, rad] (in ``problem``'s
-    parameter order, the one ``result`` was fitted in), the covariance ``result`` gives, each bound multiplied by
-    ``factor`` (N,) (default 1: :func:`widening` gives it outside the fitted range)."""
+    parameter order, the one ``fit`` was fitted in), with the covariance the fit gives (its result, or
+    :class:`FitCovariance`), each bound multiplied by ``factor`` (N,) (default 1: :func:`widening` gives it outside
+    the fitted range)."""
+    fit = fit if isinstance(fit, FitCovariance) else FitCovariance.of_result(fit)
     n = problem.observations.n_samples
     factor = np.ones(n) if factor is None else factor
     prediction = problem.evaluate(x, jacobian=True)
     assert prediction.jacobian is not None
-    covariance = parameter_covariance(result)
+    covariance = fit.matrix
     rows, row_sigma, length_row = _row_layout(problem)
-    jacobian = prediction.jacobian[:, result.identified] * row_sigma[:, None]  # back to [m] per parameter unit
-    noise = result.sigma2 * row_sigma**2
+    jacobian = prediction.jacobian[:, fit.columns] * row_sigma[:, None]  # back to [m] per parameter unit
+    noise = fit.sigma2 * row_sigma**2
     width = int(sum(length_columns(m.key) for m in problem.measurements))
     sigma, bound = np.full((n, width), np.nan), np.full(n, np.nan)
     for k in range(n):
         mine = np.flatnonzero((rows == k) & length_row)
-        if mine.size == 0 or not np.all(np.isfinite(covariance)):
+        if mine.size == 0 or not np.all(np.isfinite(covariance)) or not np.isfinite(fit.sigma2):
             continue
         s = jacobian[mine] @ covariance @ jacobian[mine].T + np.diag(noise[mine])
         sigma[k, _columns_of(problem, k)] = np.sqrt(np.diag(s))
