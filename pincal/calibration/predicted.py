@@ -205,23 +205,25 @@ def workspace_prediction(problem: CalibrationProblem, result: CalibrationResult,
                          ranges: dict[str, list[float]], n: int = WORKSPACE_POSTURES,
                          seed: int = 0) -> dict[str, Any] | None:
     """The predicted error over the workspace: ``n`` postures drawn within the joint limits (as ``pincal simulate``
-    draws them, seeded), each with the predicted position of the first measured point [m] and its 95 % bound [m]
-    (widened beyond the fitted ``ranges``), and the bounds' median and maximum [m]; None when the model measures no
-    length or no posture can be drawn."""
+    draws them, seeded; those the calibrated robot cannot close left out), each with the predicted position of the
+    first measured point [m] and its 95 % bound [m] (widened beyond the fitted ``ranges``), and the bounds' median and
+    maximum [m]; None when the model measures no length or no posture can be drawn."""
     if not any(length_columns(m.key) == 3 for m in problem.measurements):
         return None
     try:
         actuated, _ = random_actuated(problem.robot, n, np.random.default_rng(seed))
+        calibrated = problem.robot_at(x)  # a posture the nominal robot closes the calibrated one may not
+        actuated = actuated[[calibrated.solve_fk_report(qa).converged for qa in actuated]]
+        postures = workspace_postures(problem, actuated)
+        factor = widening(problem.robot, actuated, ranges)
+        predicted = predicted_errors(postures, result, x, factor)
+        key = next(m.key for m in problem.measurements if length_columns(m.key) == 3)
+        positions = postures.evaluate(x, jacobian=False).predicted[key][:, :3]
     except ConvergenceError:
         return None
-    postures = workspace_postures(problem, actuated)
-    factor = widening(problem.robot, actuated, ranges)
-    predicted = predicted_errors(postures, result, x, factor)
-    key = next(m.key for m in problem.measurements if length_columns(m.key) == 3)
-    positions = postures.evaluate(x, jacobian=False).predicted[key][:, :3]
     bounds = predicted.bound
     finite = bounds[np.isfinite(bounds)]
-    return {"postures": int(n), "measurement": key, "positions": positions.tolist(), "bounds": bounds.tolist(),
+    return {"postures": len(actuated), "measurement": key, "positions": positions.tolist(), "bounds": bounds.tolist(),
             "widening": factor.tolist(), "outside_fitted_range": int(np.count_nonzero(factor > 1.0)),
             "median_bound": float(np.median(finite)) if finite.size else None,
             "max_bound": float(np.max(finite)) if finite.size else None}
