@@ -46,9 +46,10 @@ def _predicted(report: CalibrationReport) -> list[str]:
         widened = held.get("widened") or []
         factors = [s["widening"] for s in held.get("samples_predicted", []) if s.get("widening", 1.0) > 1.0]
         lines.append(f"predicted 95 % bound (held out): median {mm(held['median_bound'])}; {held['inside']} of "
-                     f"{held['samples']} held-out errors within their bound ({held['fraction']:.0%})"
-                     + (f"; {len(widened)} widened beyond the fitted joint range (× up to {max(factors):.2f})"
-                        if factors else ""))
+                     f"{held['samples']} errors within their bound ({held['fraction']:.0%})")
+        if factors:
+            lines.append(f"  bounds of {len(widened)} held-out samples widened beyond the fitted joint range (× up to "
+                         f"{max(factors):.2f})")
     if space and space.get("median_bound") is not None:
         lines.append(f"predicted 95 % bound over the workspace ({space['postures']} postures within the joint "
                      f"limits): median {mm(space['median_bound'])}, max {mm(space['max_bound'])}")

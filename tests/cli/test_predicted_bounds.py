@@ -52,7 +52,7 @@ def test_calibrate_predicts_each_held_out_error(delta: Path) -> None:
         assert 2.0 * max(sigma) < entry["bound"] < 4.0 * max(sigma)  # √χ²₃(95 %) = 2.80 for isotropic errors
     line = next(x for x in (delta / "calibrate.txt").read_text(encoding="utf-8").splitlines()
                 if x.startswith("predicted 95 % bound (held out)"))
-    assert f"{inside} of 30 held-out errors within their bound" in line
+    assert f"{inside} of 30 errors within their bound" in line
     space = report["predicted_workspace"]
     assert space["postures"] > 50 and len(space["bounds"]) == len(space["positions"]) == space["postures"]
     assert space["outside_fitted_range"] > 0  # the whole joint limits reach beyond ±0.3 rad
