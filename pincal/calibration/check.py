@@ -30,6 +30,7 @@ from pincal.calibration.check_model import CheckedModel
 from pincal.calibration.heldout import worse_than_nominal
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.pipeline import fitting_options
+from pincal.calibration.predicted import FitCovariance, PredictedErrors, coverage, predicted_errors, widening
 from pincal.calibration.samples import check_length_scale, held_out_outside_range
 from pincal.calibration.setup import Prepared, dataset_models, parameters_for, prepare
 from pincal.errors import DataError
@@ -91,6 +92,10 @@ class Check:
             (:func:`~pincal.calibration.samples.held_out_outside_range`); empty when not known.
         range_note: Why the fitted range is not known (None when it is).
         n_samples_in_file: The data's rows.
+        predicted: Each sample's predicted error under MODEL (σ per length row, the 95 % bound [m] widened beyond
+            the fitted joint range), from the calibration's covariance; None when MODEL holds none (``predicted_note``
+            says why).
+        predicted_note: Why there is no prediction (None when there is).
     """
 
     model: Side
@@ -100,6 +105,8 @@ class Check:
     outside_range: list[dict[str, Any]]
     range_note: str | None
     n_samples_in_file: int
+    predicted: PredictedErrors | None = None
+    predicted_note: str | None = None
 
     @property
     def sample_ids(self) -> list[str]:
@@ -169,8 +176,24 @@ class Check:
             if angle_a is not None and angle_b is not None:
                 entry.update({"angle_error": _number(angle_a[k]), "nominal_angle_error": _number(angle_b[k])})
             entry["outside_range"] = sample in outside
+            if self.predicted is not None:
+                bound = self.predicted.bound[k]
+                entry.update({"bound": _number(bound), "widening": float(self.predicted.widening[k]),
+                              "sigma": [_number(v) for v in self.predicted.sigma[k]]})
             out.append(entry)
         return out
+
+    def predicted_account(self) -> dict[str, Any]:
+        """The predicted bounds' account: how many of MODEL's length errors lie within their 95 % bound, the median
+        bound [m], the samples whose bound was widened beyond the fitted range (or why there is no prediction)."""
+        if self.predicted is None:
+            return {"known": False, "note": self.predicted_note}
+        errors = sample_length_errors(self.model.errors, len(self.sample_ids))
+        finite = self.predicted.bound[np.isfinite(self.predicted.bound)]
+        return {"known": True, "level": 0.95,
+                **coverage(self.predicted, errors if errors is not None else np.full(len(self.sample_ids), np.nan)),
+                "median_bound": _number(float(np.median(finite))) if finite.size else None,
+                "widened": [s for s, w in zip(self.sample_ids, self.predicted.widening, strict=True) if w > 1.0]}
 
 
 def _rows(errors: dict[str, Array], rows: Sequence[int] | None) -> dict[str, Array]:
@@ -331,7 +354,38 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
                                     read_joints(nominal_prepared.models))
         train = fitted.of_set("train") if "train" in fitted.sets else fitted
         outside = held_out_outside_range(nominal, train, nominal_prepared.samples, joints=moving)
-    return Check(model_side, nominal_side, register, dropped, outside, range_note, dataset.n_samples)
+    predicted, note = predicted_check(model, nominal_prepared)
+    return Check(model_side, nominal_side, register, dropped, outside, range_note, dataset.n_samples, predicted, note)
+
+
+NO_COVARIANCE = ("MODEL holds no covariance of its estimates (a calibrated URDF or a name): give the report JSON of "
+                 "its calibration as MODEL for each posture's predicted error")
+
+
+def predicted_check(model: CheckedModel, nominal: Prepared) -> tuple[PredictedErrors | None, str | None]:
+    """Each checked sample's predicted error under MODEL (:mod:`pincal.calibration.predicted`): the calibration's
+    estimates and covariance, as its report holds them, on ``nominal``'s samples; widened beyond the fitted range MODEL
+    records. None and why when MODEL is no report or its estimates have no covariance."""
+    report = model.calibration
+    if report is None:
+        return None, NO_COVARIANCE
+    from pincal.identification.parameters import choose_parameters
+
+    names = list(report.parameters)
+    try:
+        parameters = choose_parameters(nominal.robot, nominal.models, names, "cluster" if report.markers == "cluster"
+                                       else "each")
+    except (DataError, KeyError):
+        return None, "MODEL's parameters are not those of these measurements: no predicted errors"
+    x = np.array([float(report.parameters[name]["value"]) for name in parameters.names])
+    on = nominal.on(nominal.samples, parameters)
+    fit = FitCovariance.of_report(report.covariance, report.sigma2, parameters.names)
+    ranges = report.fitted_range or model.provenance.fitted_range or {}
+    factor = widening(nominal.robot, on.problem.observations.actuated, ranges)
+    predicted = predicted_errors(on.problem, fit, x, factor)
+    if not np.any(np.isfinite(predicted.bound)):
+        return None, "MODEL's report holds no covariance of its estimates for these measurements"
+    return predicted, None
 
 
 def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
@@ -358,6 +412,7 @@ def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
                           "readings": check.outside_range, "samples": check.outside_samples,
                           **(check.figures(outside) if outside else {})},
         "inside_range": check.figures(inside) if outside else None,
+        "predicted": check.predicted_account(),
         "setup": {"parameters": list(check.model.prepared.parameters.names),
                   "model": check.model.setup(), "nominal": check.nominal.setup(),
                   "model_converged": check.model.converged, "nominal_converged": check.nominal.converged},

@@ -47,6 +47,8 @@ class CheckedModel:
         corrections: The joint corrections its actuated readings take (None: none).
         sensor_zeros: Instrumented passive joint -> the reading when the joint is at zero in the model [m or rad].
         provenance: What the calibration recorded of its inputs.
+        calibration: The calibration's report, when MODEL is one (its estimates and their covariance give each
+            posture's predicted error); None for a calibrated URDF or a name.
     """
 
     robot: Robot
@@ -54,6 +56,7 @@ class CheckedModel:
     corrections: Corrections | None = None
     sensor_zeros: dict[str, float] = field(default_factory=dict)
     provenance: Recorded = field(default_factory=Recorded)
+    calibration: CalibrationReport | None = None
 
     def readings(self, dataset: Dataset, nominal: Robot) -> Dataset:
         """``dataset`` with its joint readings as this model takes them: the actuated ones corrected (harmonics,
@@ -129,7 +132,7 @@ def _rebuilt(path: str, nominal: Robot, dataset: Dataset) -> CheckedModel:
         raise DataError(f"MODEL '{path}': its calibrated robot cannot be built: {exc}") from None
     payload = _payload(report.payload, path)
     return CheckedModel(robot, path, corrections_of(nominal, parameters, x, payload), joint_sensor_zeros(text),
-                        read_provenance(path))
+                        read_provenance(path), report)
 
 
 def _marker_fit(report: CalibrationReport) -> MarkerFit:

@@ -58,12 +58,15 @@ class Model:
         corrections: The corrections file's content, None when there is none.
         corrections_file: Where it was read from.
         torque_robot: The robot the corrections' gravity torques come from (the nominal one for compliance terms).
+        fitted_range: The actuated joints' ranges [min, max] [rad or m] the calibration fitted, as the URDF's
+            provenance records them (None: not recorded).
     """
 
     robot: Robot
     corrections: Corrections | None = None
     corrections_file: Path | None = None
     torque_robot: Robot | None = None
+    fitted_range: dict[str, list[float]] | None = None
 
     def corrected(self, raw: Array) -> Array:
         """The joint values [rad or m] the robot takes at raw commands (N, na) or (na,)."""
@@ -93,10 +96,13 @@ def load_model(model: str | Path, nominal: Robot | None = None) -> Model:
                         "--out') or a robot, not a report")
     robot = load_robot(model)
     path = corrections_path(model)
+    ranges = None
     if Path(model).is_file():
-        read_provenance(model).check_corrections(model)
+        recorded = read_provenance(model)
+        recorded.check_corrections(model)
+        ranges = recorded.fitted_range
     if not Path(model).is_file() or not path.is_file():
-        return Model(robot)
+        return Model(robot, fitted_range=ranges)
     corrections = read_corrections(path)
     torque_robot = nominal
     needs_masses = any("compliance" in terms for terms in corrections.joints.values())
@@ -108,7 +114,20 @@ def load_model(model: str | Path, nominal: Robot | None = None) -> Model:
     if torque_robot is not None and torque_robot.actuated_joints != robot.actuated_joints:
         raise DataError(f"the nominal robot '{torque_robot.name}' actuates {listing(torque_robot.actuated_joints)}, "
                         f"the model {listing(robot.actuated_joints)}: they are not the same robot")
-    return Model(robot, corrections, path, torque_robot)
+    return Model(robot, corrections, path, torque_robot, ranges)
+
+
+def beyond_fitted_range(compensation: Compensation) -> list[int]:
+    """The targets whose commands [rad or m] lie beyond the actuated joints' ranges the calibration fitted (and
+    their margin, :func:`~pincal.calibration.predicted.widening`): the model extrapolates there."""
+    ranges = compensation.model.fitted_range
+    if not ranges:
+        return []
+    from pincal.calibration.predicted import widening
+
+    reached = compensation.reached
+    commands = np.where(reached[:, None], compensation.commands, 0.0)
+    return [int(k) for k in np.flatnonzero(reached & (widening(compensation.model.robot, commands, ranges) > 1.0))]
 
 
 def base_link(robot: Robot) -> str:

@@ -57,6 +57,7 @@ def _written(cal: Calibration, robot: Robot, provenance: Provenance, out: str | 
         texts.append((beside, text))
         named = (beside.name, hashlib.sha256(text.encode("utf-8")).hexdigest())
     if out:
+        provenance = replace(provenance, fitted_range=cal.report.fitted_range)
         cal.urdf_text = with_provenance(cal.urdf_text, provenance, Path(out).parent, named)
         texts += [(out, plan.text(cal.urdf_text)), *plan.files()]
     if report:

@@ -14,11 +14,13 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.predicted import PredictedErrors, coverage, fitted_ranges, predicted_errors, widening
 from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
 from pincal.identification.losses import outlier_samples
 from pincal.identification.metrics import angle_error_norms, error_norms, rms, sample_length_errors
 from pincal.identification.parameters import ParameterSet, influencing_joints, read_joints
+from pincal.identification.result import CalibrationResult
 from pincal.io.dataset import Dataset
 
 Array = npt.NDArray[np.float64]
@@ -58,6 +60,10 @@ class HeldOut:
         outside_range: Held-out readings of actuated joints outside the fitted range
             (:func:`~pincal.calibration.samples.held_out_outside_range`).
         worse_than_nominal: Whether the estimate predicts the held-out samples worse than the start.
+        predicted: Each held-out sample's predicted error after calibration (σ per length row and the 95 % bound,
+            widened outside the fitted range: :mod:`~pincal.calibration.predicted`); None without the fit's result.
+        fitted_range: The fitted samples' range [min, max] [rad or m] of each actuated joint that moves what is
+            measured.
     """
 
     prepared: Prepared
@@ -66,6 +72,8 @@ class HeldOut:
     outliers: list[str]
     outside_range: list[dict[str, Any]]
     worse_than_nominal: bool
+    predicted: PredictedErrors | None = None
+    fitted_range: dict[str, list[float]] | None = None
 
     @property
     def n_samples(self) -> int:
@@ -93,9 +101,14 @@ class HeldOut:
                         "test_max_angle_after": float(angles_after.max())})
         return out
 
+    def coverage(self) -> dict[str, Any] | None:
+        """How many held-out length errors after calibration lie within their predicted 95 % bound (``inside``,
+        ``samples``, ``fraction``); None without a prediction."""
+        return coverage(self.predicted, self.sample_errors()[1]) if self.predicted is not None else None
+
 
 def evaluate_held_out(fit: Prepared, dataset: Dataset, parameters: ParameterSet, x0: Array, x: Array,
-                      trusted: bool = True) -> HeldOut | None:
+                      trusted: bool = True, result: CalibrationResult | None = None) -> HeldOut | None:
     """The ``test`` samples of ``dataset`` (None when it has none) predicted at the fit's start ``x0`` and at its
     estimate ``x`` [m, rad], both in ``parameters``' order; ``fit`` is the training part (its samples set the fitted
     range). ``trusted``: the fit reached the noise level, so held-out outliers are left out of the comparison with the
@@ -111,4 +124,10 @@ def evaluate_held_out(fit: Prepared, dataset: Dataset, parameters: ParameterSet,
                                 read_joints(fit.models))
     outside = held_out_outside_range(fit.robot, fit.samples, test.samples, joints=moving)
     worse = worse_than_nominal(before, held.errors, test.samples.n_samples, strange if trusted else [])
-    return HeldOut(test, before, held.errors, [test.samples.sample_ids[k] for k in strange], outside, worse)
+    ranges = fitted_ranges(fit.robot, fit.problem.observations.actuated, moving)
+    predicted = None
+    if result is not None and problem.observations.n_samples:
+        factor = widening(fit.robot, problem.observations.actuated, ranges)
+        predicted = predicted_errors(problem, result, x, factor)
+    return HeldOut(test, before, held.errors, [test.samples.sample_ids[k] for k in strange], outside, worse,
+                   predicted, ranges)

@@ -22,6 +22,7 @@ from pincal.calibration.crossval import Folds, check_cross_validation, cross_val
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, evaluate_held_out
 from pincal.calibration.options import CalibrationOptions, check_cv_seed, plausible_factor
 from pincal.calibration.plausibility import implausible_corrections, implausible_scales, likely_cause
+from pincal.calibration.predicted import fitted_ranges, held_out_predictions, workspace_prediction
 from pincal.calibration.report import CalibrationReport, fit_figures
 from pincal.calibration.samples import check_length_scale
 from pincal.calibration.setup import Prepared, check_movable, prepare
@@ -30,7 +31,7 @@ from pincal.identification.combinations import describe_unidentifiable, digest
 from pincal.identification.corrections import moving_mass
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.metrics import sample_length_errors
-from pincal.identification.parameters import read_joints
+from pincal.identification.parameters import influencing_joints, read_joints
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
 from pincal.identification.selection import SelectedFit, select_and_fit
@@ -102,7 +103,7 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
                                          read_joints=read_joints(fit.models), markers=declared_markers(fit.models))
     corrections = corrections_of(robot, kept.parameters, result.x, options.payload)
     held = evaluate_held_out(kept, dataset, kept.parameters, result.x0, result.x,
-                             trusted=result.sigma2 <= NOISE_CONTRADICTED)
+                             trusted=result.sigma2 <= NOISE_CONTRADICTED, result=result)
     content = report_content(fit, fitted, held, dataset, options, x_true, shifts, corrections)
     content.update(checked)
     if folds is not None and every is not None:
@@ -212,6 +213,7 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
         "unidentifiable": [c.description for c in first.identifiability.unidentifiable],
     })
     content["sample_errors"] = sample_errors(ids, result.errors_before, result.errors_after, "train")
+    content.update(prediction_content(fit.fitted_by(problem), result, held))
     if held is not None:
         content["sample_errors"] += sample_errors(held.prepared.samples.sample_ids, held.errors_before,
                                                   held.errors_after, "test")
@@ -220,6 +222,19 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
                         "test_readings": held.prepared.problem.n_readings(), **held.figures(),
                         "worse_than_nominal": held.worse_than_nominal})
     return content
+
+
+def prediction_content(fit: Prepared, result: CalibrationResult, held: HeldOut | None) -> dict[str, Any]:
+    """The report's predicted accuracy (:mod:`pincal.calibration.predicted`): the fitted joint ranges, the predicted
+    error over the workspace, and the held-out samples' predicted bounds with their coverage."""
+    moving = influencing_joints(fit.robot, sorted({f for m in fit.models for f in m.frames}), read_joints(fit.models))
+    ranges = fitted_ranges(fit.robot, fit.problem.observations.actuated, moving)
+    out: dict[str, Any] = {"fitted_range": ranges,
+                           "predicted_workspace": workspace_prediction(fit.problem, result, result.x, ranges)}
+    if held is not None and held.predicted is not None:
+        out["predicted_held_out"] = held_out_predictions(held.prepared.samples.sample_ids, held.predicted,
+                                                         held.sample_errors()[1])
+    return out
 
 
 def sample_errors(ids: list[str], before: dict[str, Array], after: dict[str, Array], part: str) -> list[dict[str, Any]]:

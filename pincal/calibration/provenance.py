@@ -2,9 +2,11 @@
 
 Every file a calibration writes records its provenance, with no clock time, so that identical inputs give
 byte-identical outputs: the report JSON under ``provenance``, the calibrated URDF as one element
-``<pincal_provenance pincal_version="…" robot="…" robot_sha256="…" data="…" data_sha256="…" options="…"/>`` inside
-``<robot>`` (URDF readers ignore elements they do not know). A file is named by its path relative to the folder of
-the output that names it (a catalog robot by its name), so an output moved with its inputs still finds them.
+``<pincal_provenance pincal_version="…" robot="…" robot_sha256="…" data="…" data_sha256="…" options="…"
+fitted_range="…"/>`` inside ``<robot>`` (``fitted_range``: the fitted samples' range [min, max] [rad or m] of each
+actuated joint, as JSON, the report's ``fitted_range``; URDF readers ignore elements they do not know). A file is
+named by its path relative to the folder of the output that names it (a catalog robot by its name), so an output
+moved with its inputs still finds them.
 """
 
 from __future__ import annotations
@@ -101,6 +103,7 @@ class Provenance:
     data: Sequence[Source]
     options: dict[str, Any]
     pincal_version: str = ""
+    fitted_range: dict[str, list[float]] | None = None
 
     def as_dict(self, folder: Path) -> dict[str, Any]:
         """The report's ``provenance`` for an output in ``folder``."""
@@ -117,6 +120,8 @@ class Provenance:
                       "data": " ".join(d.named_from(folder) for d in self.data),
                       "data_sha256": " ".join(d.sha256 or "" for d in self.data),
                       "options": json.dumps(self.options, sort_keys=False)}
+        if self.fitted_range is not None:
+            attributes["fitted_range"] = json.dumps(self.fitted_range)
         if corrections is not None:
             attributes["corrections"], attributes["corrections_sha256"] = corrections
         return f"<{ELEMENT} " + " ".join(f"{k}={quoteattr(v)}" for k, v in attributes.items()) + "/>"
@@ -145,6 +150,7 @@ class Recorded:
     data_sha256: str | None = None
     corrections: Path | None = None
     corrections_sha256: str | None = None
+    fitted_range: dict[str, list[float]] | None = None
 
     def check_corrections(self, model: str | Path) -> None:
         """Refuse a calibrated URDF whose corrections file (named in its provenance) is missing or changed: without
@@ -190,6 +196,7 @@ def read_provenance(path: str | Path) -> Recorded:
                 robot = {}
             robot_name, robot_sha = robot.get("file"), robot.get("sha256")
             data_name, data_sha = first.get("file"), first.get("sha256")
+            ranges = _ranges(content.get("fitted_range"))
         else:
             element = ET.fromstring(text).find(ELEMENT)
             if element is None:
@@ -200,8 +207,18 @@ def read_provenance(path: str | Path) -> Recorded:
             corrections = element.get("corrections")
             return Recorded(_resolved(str(robot_name), folder) if robot_name else None, robot_sha or None,
                             folder / data_name if data_name else None, data_sha or None,
-                            folder / corrections if corrections else None, element.get("corrections_sha256"))
+                            folder / corrections if corrections else None, element.get("corrections_sha256"),
+                            _ranges(json.loads(element.get("fitted_range") or "null")))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError, ET.ParseError):
         return Recorded()
     return Recorded(_resolved(str(robot_name), folder) if robot_name else None, robot_sha or None,
-                    folder / str(data_name) if data_name else None, data_sha or None)
+                    folder / str(data_name) if data_name else None, data_sha or None, fitted_range=ranges)
+
+
+def _ranges(value: Any) -> dict[str, list[float]] | None:
+    """A recorded ``fitted_range`` ({joint: [min, max]} [rad or m]) as it should be, else None."""
+    if not isinstance(value, dict):
+        return None
+    good = {str(k): [float(v[0]), float(v[1])] for k, v in value.items()
+            if isinstance(v, list) and len(v) == 2 and all(isinstance(e, int | float) for e in v)}
+    return good if len(good) == len(value) else None

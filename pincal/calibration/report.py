@@ -54,7 +54,11 @@ class CalibrationReport:
     and ``implausible_scale`` list the corrections and the scales beyond what a robot of this model plausibly needs
     (the factor ``plausible`` on the documented limits, :mod:`pincal.calibration.plausibility`), and
     ``implausible_cause`` says what they most likely come from. ``no_effect`` names the default candidates left out
-    because they move no measurement of the fitted samples.
+    because they move no measurement of the fitted samples. ``fitted_range`` is each actuated joint's range
+    [min, max] [rad or m] in the fitted samples (those that move what is measured); ``predicted_held_out`` the held-out
+    samples' predicted errors (σ per length row and the 95 % bound [m], widened beyond the fitted range) and how many
+    errors lie within their bound, ``predicted_workspace`` the predicted 95 % bound [m] at postures drawn within the
+    joint limits (:mod:`pincal.calibration.predicted`).
     """
 
     schema_version: int = SCHEMA_VERSION
@@ -128,6 +132,9 @@ class CalibrationReport:
     cv: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
     sample_errors: list[dict[str, Any]] = field(default_factory=list)
     covariance: dict[str, Any] = field(default_factory=dict)
+    fitted_range: dict[str, list[float]] = field(default_factory=dict)
+    predicted_workspace: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    predicted_held_out: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
     provenance: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
     #: The JSON keys a report read by :meth:`from_json` held (every field for a report built by a calibration).
     present: frozenset[str] = field(default=frozenset(), compare=False, repr=False, metadata={"internal": True})
@@ -280,10 +287,17 @@ def fit_figures(result: CalibrationResult, problem: CalibrationProblem, x_true: 
     return out
 
 
-def covariance_of(result: CalibrationResult) -> dict[str, Any]:
-    """The estimates' covariance over the identified parameters, ``C_ij = ρ_ij σ_i σ_j`` [products of the parameters'
-    units: m², m·rad, rad²]: their names and the matrix (None where the fit could not give it)."""
+def parameter_covariance(result: CalibrationResult) -> Array:
+    """The estimates' covariance over the identified parameters (``result.identified``'s order) as the fit gives it,
+    ``C_ij = ρ_ij σ_i σ_j`` [products of the parameters' units: m², m·rad, rad²]; NaN where it could not. Every use
+    of the covariance (the report's, the predicted errors') reads it here."""
     std = result.std[result.identified]
-    matrix = result.correlation * np.outer(std, std)
+    return np.asarray(result.correlation * np.outer(std, std), dtype=float)
+
+
+def covariance_of(result: CalibrationResult) -> dict[str, Any]:
+    """The estimates' covariance over the identified parameters (:func:`parameter_covariance`) [m², m·rad, rad²]:
+    their names and the matrix (None where the fit could not give it)."""
+    matrix = parameter_covariance(result)
     return {"parameters": [result.names[k] for k in result.identified],
             "matrix": [[_clean(float(v)) for v in row] for row in matrix]}

@@ -37,6 +37,25 @@ def _column(value: str) -> str:
     return f" {value:>13}"
 
 
+def _predicted(report: CalibrationReport) -> list[str]:
+    """The predicted accuracy's lines: the held-out samples' 95 % bounds and how many errors they hold, the bound over
+    the workspace (pincal.calibration.predicted)."""
+    lines = []
+    held, space = report.predicted_held_out, report.predicted_workspace
+    if held and held.get("median_bound") is not None:
+        widened = held.get("widened") or []
+        factors = [s["widening"] for s in held.get("samples_predicted", []) if s.get("widening", 1.0) > 1.0]
+        lines.append(f"predicted 95 % bound (held out): median {mm(held['median_bound'])}; {held['inside']} of "
+                     f"{held['samples']} errors within their bound ({held['fraction']:.0%})")
+        if factors:
+            lines.append(f"  bounds of {len(widened)} held-out samples widened beyond the fitted joint range (× up to "
+                         f"{max(factors):.2f})")
+    if space and space.get("median_bound") is not None:
+        lines.append(f"predicted 95 % bound over the workspace ({space['postures']} postures within the joint "
+                     f"limits): median {mm(space['median_bound'])}, max {mm(space['max_bound'])}")
+    return lines
+
+
 def _heavy_payload(report: CalibrationReport) -> str | None:
     """A warning when the payload [kg] outweighs every moving link of the robot together (grams typed as kilograms,
     a load meant for another robot). When the URDF gives the links no mass there is nothing to weigh it against: a
@@ -99,6 +118,7 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
                               report.test_rms_angle_after, report.test_max_angle_before, report.test_max_angle_after)
     if report.before_means:
         lines.append(f"(before: {report.before_means})")
+    lines += _predicted(report)
     if report.joints_at_reference:
         joints = report.joints_at_reference
         lines += textwrap.wrap(f"not in the file, at their reference (they move nothing measured): {', '.join(joints)}",

@@ -14,6 +14,8 @@ CHECK_OPTIONS = ("sigma", "solver", "max_iter")
 
 #: How a quantity's unit is shown: SI in the files, mm and mrad on the terminal.
 SHOWN = {"m": ("mm", 1e3), "rad": ("mrad", 1e3)}
+#: How many postures the terminal lists with their predicted bound (the report lists them all).
+SAMPLE_LINES = 12
 
 
 def _shown(value: float | None, unit: str) -> str:
@@ -62,6 +64,7 @@ def summary_text(content: dict[str, Any]) -> str:
         lines.append(f"  inside:  {_pair(content['inside_range'], '', 'm')}")
     else:
         lines.append("every posture lies within the joint ranges the calibration fitted")
+    lines += _predicted_lines(content)
     if content.get("nominal_changed"):
         lines.append("warning: the nominal URDF changed since the calibration (its SHA-256 differs from the one "
                      "MODEL records)")
@@ -73,6 +76,27 @@ def summary_text(content: dict[str, Any]) -> str:
     else:
         lines.append("verdict: MODEL predicts DATA no worse than the nominal robot")
     return "\n".join(lines)
+
+
+def _predicted_lines(content: dict[str, Any]) -> list[str]:
+    """The predicted bounds' lines: each posture's bound and the coverage, and a warning for bounds widened beyond the
+    fitted joint range."""
+    predicted = content["predicted"]
+    if not predicted["known"]:
+        return [f"predicted errors: not known: {predicted['note']}"]
+    lines = [f"predicted 95 % bound: median {predicted['median_bound'] * 1e3:.4f} mm; {predicted['inside']} of "
+             f"{predicted['samples']} errors of MODEL within their bound ({predicted['fraction']:.0%})"]
+    lines += [f"  {s['sample']}: error {s['error'] * 1e3:.4f} mm, bound {s['bound'] * 1e3:.4f} mm"
+              + (f" (widened × {s['widening']:.2f})" if s["widening"] > 1.0 else "")
+              for s in content["samples"][:SAMPLE_LINES] if s.get("bound") is not None and s.get("error") is not None]
+    if len(content["samples"]) > SAMPLE_LINES:
+        lines.append(f"  … and {len(content['samples']) - SAMPLE_LINES} more (the report's 'samples')")
+    widened = predicted["widened"]
+    if widened:
+        lines.append(f"warning: {len(widened)} postures lie beyond the joint ranges the calibration fitted "
+                     f"({', '.join(widened[:8])}{' …' if len(widened) > 8 else ''}): their bounds are widened, "
+                     "MODEL extrapolates there")
+    return lines
 
 
 def cmd_check(args: argparse.Namespace) -> int:

@@ -22,7 +22,14 @@ def cmd_compensate(args: argparse.Namespace) -> int:
     unreachable."""
     import numpy as np
 
-    from pincal.calibration.compensate import TOLERANCE, compensate, load_model, nominal_targets, targets_frame
+    from pincal.calibration.compensate import (
+        TOLERANCE,
+        beyond_fitted_range,
+        compensate,
+        load_model,
+        nominal_targets,
+        targets_frame,
+    )
     from pincal.calibration.provenance import file_digests, version
     from pincal.calibration.samples import check_recorded_robot
     from pincal.io.files import check_outputs, write_text
@@ -55,6 +62,11 @@ def cmd_compensate(args: argparse.Namespace) -> int:
                     if model.corrections is not None else "")
         print(f"reached {int(reached.sum())} of {len(reached)}: largest residual of the model at the commands "
               f"{position:.3g} m{angle}{inverted} ({result.seconds:.2f} s)")
+    beyond = beyond_fitted_range(result)
+    if beyond:
+        shown = ", ".join(targets.ids[k] for k in beyond[:8]) + (" …" if len(beyond) > 8 else "")
+        print(f"warning: the commands of {len(beyond)} targets ({shown}) leave the joint ranges the calibration "
+              "fitted: the model extrapolates there, its accuracy is not known")
     missed = np.flatnonzero(~reached).tolist()
     if missed:
         print(f"unreachable {len(missed)} of {len(reached)} (kept in the file, commands empty):")
