@@ -5,10 +5,10 @@ Writes ``coverage.md`` under ``results/`` (``--out DIR`` elsewhere, ``--publish`
 for the numbers).
 
 For every robot in ``robots_urdf/`` and the UR10, campaigns are simulated as ``pincal simulate ROBOT --samples 60
---test-samples 40 --seed S`` does (true errors of σ 1 mm / 1 mrad on every default candidate that moves a measurement, 10 µm noise,
-postures within the joint limits) and calibrated with the defaults (``pincal calibrate ROBOT measurements.csv``);
-each held-out posture's error after calibration is compared with the 95 % bound the report predicts for it
-(``predicted_held_out``). A seed whose true robot cannot be assembled is skipped and said. The real TIAGo data
+--test-samples 40 --seed S`` does (true errors of σ 1 mm / 1 mrad on every default candidate that moves a measurement,
+10 µm noise, postures within the joint limits) and calibrated with the defaults (``pincal calibrate ROBOT
+measurements.csv``); each held-out posture's error after calibration is compared with the 95 % bound the report predicts
+for it (``predicted_held_out``). A seed whose true robot cannot be assembled is skipped and said. The real TIAGo data
 (``examples/data/tiago_mocap_marker1.csv``, its ``set=test`` postures held out) are calibrated the same way.
 """
 
@@ -86,8 +86,8 @@ def page(rows: list[dict[str, Any]], tiago: dict[str, Any], quick: bool) -> str:
            f"{n_test} held out, as", "",
            f"    pincal simulate ROBOT --samples {n_train} --test-samples {n_test} --seed S --out sim",
            "    pincal calibrate ROBOT sim/measurements.csv --report report.json", "",
-           "make them (S = 0, 1, …; true errors of σ 1 mm / 1 mrad on every default candidate that moves a measurement, "
-           "10 µm noise). The "
+           "make them (S = 0, 1, …; true errors of σ 1 mm / 1 mrad on every default candidate that moves a "
+           "measurement, 10 µm noise). The "
            "report's `predicted_held_out` gives each held-out posture its 95 % bound (docs/predicted_accuracy.md); "
            "the table counts the held-out errors within it.", "",
            "| robot | held-out errors within the bound | coverage | median bound (mm) | seeds skipped |",
