@@ -9,9 +9,9 @@ smaller λ being rejected. From the first rejected step on, :func:`accelerated` 
 (Transtrum & Sethna's geodesic acceleration, one residual evaluation per trial). Before each iteration's trials,
 :func:`settled` may end the fit: an exact fit (every error within 100 × the FK tolerance, 1 nm); for noisy data, a
 remaining Gauss–Newton improvement along the practically identified directions below one unit of χ² at the noise
-level the residual shows, whatever σ was stated (these two end a crawl once it cannot matter); and, for any fit, a
-Gauss–Newton model that predicts a decrease of at most ``tol`` times the cost (the decrease test, asked before a
-trial is spent on it).
+level the residual shows, or at the stated one if that is smaller (these two end a crawl once it cannot matter);
+and, for any fit, a Gauss–Newton model that predicts a decrease of at most ``tol`` times the cost (the decrease test,
+asked before a trial is spent on it).
 """
 
 from __future__ import annotations
@@ -120,14 +120,15 @@ def accelerated(problem: Problem, x: Array, d: Array, rw: Array, v: Array, steps
 
 def noise_scale(cost: float, dof: int) -> float:
     """The variance of the noise the fit has reached, in units of the stated σ²: the residual's own level
-    ``2 · cost / dof`` when it lies above :data:`CAUTIOUS_SIGMA` (what remains to gain is judged against the noise
-    the data show, not against the stated σ: a σ stated 10 or 100 times too large or too small stops the fit where
-    the right one would); 0 below that (an exact fit, due to go on to the numerical floor) and with no degree of
-    freedom left (an exact fit is due, not a noise level)."""
+    ``2 · cost / dof`` up to 1, the stated noise (a σ stated larger than the noise, as a cautious engineer states it,
+    is judged by the noise the residual shows: the fit stops where a σ matching it would stop, for least squares and
+    robust losses alike; a residual above the stated noise is judged by the stated σ, which is then the stricter);
+    0 below :data:`CAUTIOUS_SIGMA` (an exact fit, due to go on to the numerical floor) and with no degree of freedom
+    left (an exact fit is due, not a noise level)."""
     if dof <= 0:
         return 0.0
     level = 2.0 * cost / dof
-    return level if level >= CAUTIOUS_SIGMA else 0.0
+    return min(level, 1.0) if level >= CAUTIOUS_SIGMA else 0.0
 
 
 def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], numerical: dict[str, Array],
@@ -146,9 +147,9 @@ def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], num
       :data:`PRACTICAL_INFORMATION` in units of the noise reached), and the Gauss–Newton model's whole
       remaining improvement of χ² along the directions the data do identify in practice, the decrement
       ``‖U_kᵀ r‖²`` over them, is below :data:`NOISE_LEVEL_DECREMENT` in units of the noise the residual itself
-      shows (:func:`noise_scale`; never with no degree of freedom left, where an exact fit is due): no test could
-      tell the estimate from the optimum, and the rest would only fit noise. The stated σ does not enter (its
-      scale cancels), so a σ stated too large or too small stops the fit where the right one does.
+      shows, or the stated one when that is smaller (:func:`noise_scale`; never with no degree of freedom left, where
+      an exact fit is due): no test could tell the estimate from the optimum, and the rest would only fit noise. A σ
+      stated too large stops the fit where a σ matching the residual does.
     - The fit's decrease test asked of the Gauss–Newton model before a trial is evaluated (the predicted reduction
       of MINPACK's ftol test, without its actual-reduction half): no step of the linearised model gains more than
       ``½‖U_kᵀ r‖²``; when that is at most ``tol · cost``, a trial would only measure the noise of the closed loops'
