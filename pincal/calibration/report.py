@@ -53,7 +53,9 @@ class CalibrationReport:
     ``length_scale`` is each measured position's spread over the nominal robot's at the same readings; ``implausible``
     and ``implausible_scale`` list the corrections and the scales beyond what a robot of this model plausibly needs
     (the factor ``plausible`` on the documented limits, :mod:`pincal.calibration.plausibility`), and
-    ``implausible_cause`` says what they most likely come from.
+    ``implausible_cause`` says what they most likely come from. ``estimated_sigma`` holds the σ [m, rad] estimated from
+    the data for the readings no ``# sigma`` line (nor ``--sigma``) states, per measurement key and row kind
+    (``length``, ``angle``; :mod:`pincal.calibration.noise`).
     """
 
     schema_version: int = SCHEMA_VERSION
@@ -123,6 +125,7 @@ class CalibrationReport:
     implausible_scale: list[dict[str, Any]] = field(default_factory=list)
     implausible_cause: str = ""
     cv: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    estimated_sigma: dict[str, dict[str, float]] | None = field(default=None, metadata=OPTIONAL)
     sample_errors: list[dict[str, Any]] = field(default_factory=list)
     covariance: dict[str, Any] = field(default_factory=dict)
     provenance: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
