@@ -78,10 +78,11 @@ def deep_noise(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[str
 def test_a_sigma_per_component_in_a_file_and_a_job_file(tmp_path: Path,
                                                          deep_noise: tuple[Path, list[str], list[str]]) -> None:
     """σ = [1e-5, 1e-5, 2e-3] (x, y, z) weights the noisy depth down: the held-out error is several times smaller
-    than with one σ for every axis, from a data file's '# sigma' line and from a job file's [[measure]] alike."""
+    than with one σ for every axis (1 mm, about the pooled noise), from a data file's '# sigma' line and from a job
+    file's [[measure]] alike."""
     _, header, rows = deep_noise
     files = {}
-    for name, line in (("one", "# sigma position: 1e-5"), ("each", "# sigma position: [1e-5, 1e-5, 2e-3]")):
+    for name, line in (("one", "# sigma position: 1e-3"), ("each", "# sigma position: [1e-5, 1e-5, 2e-3]")):
         files[name] = tmp_path / f"{name}.csv"
         files[name].write_text("\n".join([*header, line, *rows]) + "\n")
     one, _ = calibrated(tmp_path, "one", "delta", str(files["one"]))
@@ -111,7 +112,7 @@ def test_a_sigma_per_component_through_the_api(deep_noise: tuple[Path, list[str]
     path.write_text("\n".join([*header, *rows]) + "\n")
     robot, data = pincal.load_robot("delta"), pincal.read_dataset(path)
     each = calibrate(robot, data, sigma=[1e-5, 1e-5, 2e-3]).report
-    one = calibrate(robot, data, sigma=1e-5).report
+    one = calibrate(robot, data, sigma=1e-3).report
     assert each.test_rms_after is not None and one.test_rms_after is not None
     assert each.test_rms_after < one.test_rms_after / 3
     with pytest.raises(pincal.DataError, match="a σ is a finite number > 0"):
@@ -130,7 +131,8 @@ def test_select_cv_chooses_the_groups_by_cross_validated_error(tmp_path: Path) -
         report, _ = calibrated(tmp_path, f"cv_{perturb}", "delta", str(sim / "measurements.csv"), "--select", "cv")
         assert report["selection"]["policy"] == "cv"
         choices[perturb] = report["selection"]["removed_groups"]
-        again, _ = calibrated(tmp_path, f"again_{perturb}", "delta", str(sim / "measurements.csv"), "--select", "cv")
-        assert again["selection"] == report["selection"] and again["rms_after"] == report["rms_after"]
+        if perturb == "0":
+            again, _ = calibrated(tmp_path, "again", "delta", str(sim / "measurements.csv"), "--select", "cv")
+            assert again["selection"] == report["selection"] and again["rms_after"] == report["rms_after"]
     assert choices["1e-3"] == []
     assert choices["0"] == ["translations", "rotations", "offsets"]
