@@ -48,14 +48,14 @@ class MeasureColumns:
     Attributes:
         key: The measurement key (``position:wrist_ft_tool_link``, ``distance:a-b``).
         columns: The data file's column of each component, in the model's order (x, y, z; x, y, z, qx, qy, qz, qw; d).
-        sigma: σ of its values [m], or None.
+        sigma: σ of its values [m, rad]: one, or one per residual row; None: not stated.
         sigma_angle: σ of a pose's orientation [rad], or None.
         where: Its place in the job, ``[measure 1]``.
     """
 
     key: str
     columns: tuple[str, ...]
-    sigma: float | None
+    sigma: float | tuple[float, ...] | None
     sigma_angle: float | None
     where: str
 
@@ -196,6 +196,14 @@ class _Reader:
             raise self.error(where, f"{_shown(value)} is not a number > 0 (a standard deviation in SI units: m, rad)")
         return float(value)
 
+    def sigmas(self, value: Any, where: str) -> float | tuple[float, ...]:
+        """One σ [m, rad], or a non-empty list of them: one per residual row (``[1e-3, 1e-3, 3e-3]``)."""
+        if not isinstance(value, list):
+            return self.sigma(value, where)
+        if not value:
+            raise self.error(where, "[] gives no σ: write one number, or one per residual row ([1e-3, 1e-3, 3e-3])")
+        return tuple(self.sigma(item, f"{where} (item {k + 1})") for k, item in enumerate(value))
+
     def whole(self, value: Any, where: str, minimum: int) -> int:
         if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
             raise self.error(where, f"{_shown(value)} is not a whole number ≥ {minimum}")
@@ -308,7 +316,7 @@ class _Reader:
             raise self.error(f"{where} sigma_angle", f"only a pose or a camera's pose target has an orientation; a "
                                                      f"{kind} has sigma alone")
         return MeasureColumns(key, tuple(columns),
-                              self.sigma(entry["sigma"], f"{where} sigma") if "sigma" in entry else None,
+                              self.sigmas(entry["sigma"], f"{where} sigma") if "sigma" in entry else None,
                               self.sigma(entry["sigma_angle"], f"{where} sigma_angle") if "sigma_angle" in entry
                               else None, where)
 
@@ -331,6 +339,9 @@ class _Reader:
 
     def option_sigma(self, value: Any, key: str) -> float:
         return self.sigma(value, key)
+
+    def option_sigmas(self, value: Any, key: str) -> float | tuple[float, ...]:
+        return self.sigmas(value, key)
 
     def option_int(self, value: Any, key: str) -> int:
         return self.whole(value, key, 1)

@@ -209,7 +209,8 @@ def _metadata(job: Job, robot: Robot) -> dict[str, str]:
     for measure in job.measures:
         kind, _, name = measure.key.partition(":")
         if measure.sigma is not None:
-            metadata[f"sigma {kind} {name}"] = repr(measure.sigma)
+            stated = measure.sigma if isinstance(measure.sigma, tuple) else (measure.sigma,)
+            metadata[f"sigma {kind} {name}"] = " ".join(repr(v) for v in stated)
         if measure.sigma_angle is not None:
             metadata[f"sigma {kind} angle"] = repr(measure.sigma_angle)
     return metadata

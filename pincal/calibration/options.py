@@ -23,8 +23,9 @@ if TYPE_CHECKING:
 #: How the residuals are formed: forward kinematics (measured − predicted) or implicit loop residuals (IKM).
 Formulation = Literal["fkm", "ikm"]
 FORMULATIONS: tuple[Formulation, ...] = get_args(Formulation)
-#: Model selection: ``auto`` (``bic`` for the default parameter set, ``none`` for a named one), ``bic`` or ``none``.
-SELECT_CHOICES = ("auto", "bic", "none")
+#: Model selection: ``auto`` (``bic`` for the default parameter set, ``none`` for a named one), ``bic``, ``cv`` or
+#: ``none``.
+SELECT_CHOICES = ("auto", "bic", "cv", "none")
 
 PARAMETERS_HELP = ("named sets (default, model24, model24i, hexapod42, hexapod44) and name patterns, combined in "
                    "order; !pattern removes (default: the default set, docs/dataset.md 'Parameters')")
@@ -38,8 +39,9 @@ PRIOR_HELP = ("keep what the data barely see near the URDF: a prior about nomina
               "(joint and loop-anchor placements 5 mm and 0.5 deg, reading offsets 1 deg (5 mm), harmonics 0.2 deg "
               "(1 mm); the measurement frame, markers, cameras and targets have none), the maximum a posteriori fit "
               "(default 1; off: least squares; docs/calibrated_urdf.md, 'The prior')")
-SIGMA_HELP = ("one measurement σ [m, rad] for weighting every channel, over the file's '# sigma' lines (default: "
-              "those lines, else 1e-5; 1e-6 m for distances)")
+SIGMA_HELP = ("one measurement σ [m, rad] for weighting every channel, or one per residual row as A,B,C (e.g. "
+              "1e-3,1e-3,3e-3 for a camera's depth noise three times its lateral noise), over the file's '# sigma' "
+              "lines (default: those lines, else estimated from the data: docs/dataset.md 'Noise')")
 
 
 @dataclass(frozen=True)
@@ -51,7 +53,8 @@ class Option:
         key: The job-file key (``max_iter``), or None when a job file cannot give it.
         help: The help text (units in brackets).
         choices: The values allowed, or None.
-        kind: ``text``, ``texts`` (one or more), ``int`` (≥ 1), ``seed`` (≥ 0), ``sigma`` (finite > 0), ``plan``
+        kind: ``text``, ``texts`` (one or more), ``int`` (≥ 1), ``seed`` (≥ 0), ``sigma`` (finite > 0),
+            ``sigmas`` (one, or one per residual row), ``plan``
             (``K``, ``KxR`` or ``loo``), ``payload``, ``factor`` (finite > 0, or ``off``).
         metavar: The value's name in the help, or None.
         api_only: Given only through the library (not on the command line, not in a job file).
@@ -80,11 +83,12 @@ class CalibrationOptions:
         solver: ``lm`` (Levenberg–Marquardt on the identifiable directions), ``tsvd`` or ``ridge``.
         loss: ``auto`` (least squares, then a Cauchy refit when the data hold implausible samples), ``linear``,
             ``cauchy``.
-        sigma: One measurement σ [m, rad] over the data's ``# sigma`` lines; None: those lines.
+        sigma: One measurement σ [m, rad] over the data's ``# sigma`` lines, or one per residual row (a tuple); None:
+            those lines, else estimated from the data.
         pose_sigma_angle: σ of pose orientations [rad] over the data's; None: the data's (library only).
         formulation: ``fkm`` (measured − predicted by forward kinematics) or ``ikm`` (implicit loop residuals).
         max_iter: The solver's iteration limit.
-        select: Model selection: ``auto``, ``bic`` or ``none``.
+        select: Model selection: ``auto``, ``bic``, ``cv`` or ``none``.
         cv: Cross-validation plan: ``K``, ``KxR`` or ``loo``; None: none.
         cv_seed: Seed of the first cross-validation shuffle (K-fold plans only).
         markers: ``each`` marker's offset, or one rigid ``cluster`` placement of a frame's markers.
@@ -101,8 +105,10 @@ class CalibrationOptions:
     select: str = field(default="auto", metadata=_how(
         flag="--select", key="select", choices=SELECT_CHOICES,
         help="model selection: bic leaves out the groups of parameters (joint translations, rotations, reading "
-             "offsets) the Bayesian information criterion rejects, then refits; none fits every identifiable "
-             "parameter; auto (default): bic for the default parameters, none for --parameters you name"))
+             "offsets) the Bayesian information criterion rejects, then refits; cv leaves out the groups whose "
+             "combination predicts unseen samples best (5-fold cross-validation, one seeded shuffle; a fit per "
+             "combination and fold); none fits every identifiable parameter; auto (default): bic for the default "
+             "parameters, none for --parameters you name"))
     loss: Loss = field(default="auto", metadata=_how(
         flag="--loss", key="loss", choices=LOSSES,
         help="auto (default): least squares, then a robust (Cauchy) refit if the data hold samples their own noise "
@@ -110,7 +116,8 @@ class CalibrationOptions:
     solver: Solver = field(default="lm", metadata=_how(
         flag="--solver", key="solver", choices=SOLVERS,
         help="lm: Levenberg-Marquardt on the identifiable directions (default); tsvd; ridge"))
-    sigma: float | None = field(default=None, metadata=_how(flag="--sigma", key="sigma", kind="sigma", help=SIGMA_HELP))
+    sigma: float | tuple[float, ...] | None = field(default=None, metadata=_how(
+        flag="--sigma", key="sigma", kind="sigmas", metavar="SIGMA[,SIGMA...]", help=SIGMA_HELP))
     max_iter: int = field(default=100, metadata=_how(
         flag="--max-iter", key="max_iter", kind="int",
         help="iteration limit of the solver (default 100); a run that reaches it exits 1"))
@@ -155,10 +162,15 @@ class CalibrationOptions:
             value = getattr(self, name)
             if option.choices is not None and value not in option.choices:
                 raise DataError(f"unknown {name} '{value}'; {_plural(name)} are: {listing(option.choices)}")
+        if isinstance(self.sigma, list | tuple):
+            object.__setattr__(self, "sigma", tuple(self.sigma))
         for name in ("sigma", "pose_sigma_angle"):
             value = getattr(self, name)
-            if value is not None and not (isinstance(value, int | float) and 0.0 < value < math.inf):
-                raise DataError(f"{name}={value!r}: a σ is a finite number > 0 [m, rad] (or None for the data's)")
+            values = value if isinstance(value, tuple) and name == "sigma" and value else (value,)
+            if value is not None and not all(isinstance(v, int | float) and not isinstance(v, bool)
+                                             and 0.0 < v < math.inf for v in values):
+                raise DataError(f"{name}={value!r}: a σ is a finite number > 0 [m, rad], or for sigma one per residual "
+                                "row (or None for the data's)")
         if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int) or self.max_iter < 1:
             raise DataError(f"max_iter is {self.max_iter}: at least one iteration is needed")
         if plausible_factor(self.plausible) is None and self.plausible != "off":

@@ -3,6 +3,7 @@
 :func:`calibrate` is the whole of it::
 
     fit = prepare(robot, dataset, options)                  # models, parameters, usable samples, problem
+    # without '# sigma' lines: σ estimated by a provisional fit (calibration.noise), then prepared again
     result = identify / select_and_fit(fit.problem, ...)    # Levenberg–Marquardt on analytic Jacobians
     held = evaluate_held_out(fit, dataset, ...)             # "before" = the fit's start, "after" = the estimate
     report = CalibrationReport(...)                         # every figure, once
@@ -20,6 +21,7 @@ import numpy.typing as npt
 
 from pincal.calibration.crossval import Folds, check_cross_validation, cross_validate, parse_cv
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, evaluate_held_out
+from pincal.calibration.noise import provisional_noise, with_noise
 from pincal.calibration.options import CalibrationOptions, check_cv_seed, plausible_factor
 from pincal.calibration.plausibility import implausible_corrections, implausible_scales, likely_cause
 from pincal.calibration.predicted import fitted_ranges, held_out_predictions, workspace_prediction
@@ -88,6 +90,10 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     check_cv_seed(options.cv, options.cv_seed)
     check_trainable(dataset)
     fit = prepare(robot, dataset, options)
+    estimated = provisional_noise(fit.problem, dataset.metadata, options, **fitting_options(options))
+    if estimated:  # weighted by the noise the data show, as '# sigma' lines would: before selection
+        dataset = with_noise(dataset, estimated)
+        fit = prepare(robot, dataset, options)
     every, folds = cross_validation_folds(fit, dataset, options)  # checked before any fit
     length_scale = check_length_scale(fit.problem)
     fitted = fit_prepared(fit, options)
@@ -106,6 +112,7 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
                              trusted=result.sigma2 <= NOISE_CONTRADICTED, result=result)
     content = report_content(fit, fitted, held, dataset, options, x_true, shifts, corrections)
     content.update(checked)
+    content["estimated_sigma"] = estimated or None
     if folds is not None and every is not None:
         content["cv"] = cross_validate(robot, fit.parameters, fit.models, every.problem.observations, folds,
                                        select=options.selection, progress=progress, payload=options.payload,
@@ -133,8 +140,9 @@ def cross_validation_folds(fit: Prepared, dataset: Dataset,
         DataError: ``--select bic`` with ``--formulation ikm``; cross-validation the models cannot do, or folds the
             samples cannot make.
     """
-    if options.select == "bic" and options.formulation != "fkm":
-        raise DataError("--select bic chooses among fkm fits; with --formulation ikm use --select none (or auto)")
+    if options.select in ("bic", "cv") and options.formulation != "fkm":
+        raise DataError(f"--select {options.select} chooses among fkm fits; with --formulation ikm use --select none "
+                        "(or auto)")
     if options.cv is None:
         return None, None
     check_cross_validation(fit.models, options.formulation)

@@ -59,6 +59,9 @@ class CalibrationReport:
     samples' predicted errors (σ per length row and the 95 % bound [m], widened beyond the fitted range) and how many
     errors lie within their bound, ``predicted_workspace`` the predicted 95 % bound [m] at postures drawn within the
     joint limits (:mod:`pincal.calibration.predicted`).
+    ``estimated_sigma`` holds the σ [m, rad] estimated from
+    the data for the readings no ``# sigma`` line (nor ``--sigma``) states, per measurement key and row kind
+    (``length``, ``angle``; :mod:`pincal.calibration.noise`).
     """
 
     schema_version: int = SCHEMA_VERSION
@@ -130,6 +133,7 @@ class CalibrationReport:
     implausible_scale: list[dict[str, Any]] = field(default_factory=list)
     implausible_cause: str = ""
     cv: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    estimated_sigma: dict[str, dict[str, float]] | None = field(default=None, metadata=OPTIONAL)
     sample_errors: list[dict[str, Any]] = field(default_factory=list)
     covariance: dict[str, Any] = field(default_factory=dict)
     fitted_range: dict[str, list[float]] = field(default_factory=dict)

@@ -323,15 +323,32 @@ def _accounting(report: CalibrationReport) -> list[str]:
                      "that many; check the measuring set-up and the model before using the result")
     if len(dropped) > LISTED or len(weighted) > LISTED:
         lines.append(f"  (the first {LISTED} of each are listed; --report writes them all)")
+    lines += _estimated_sigma(report)
     sigma2 = report.sigma2
     if sigma2 is not None and sigma2 > 0:
         ratio = sigma2**0.5
-        lines.append(f"a-posteriori σ: {ratio:.3g} × the stated σ (σ² factor {sigma2:.4g}); the standard deviations "
+        stated = "estimated" if report.estimated_sigma else "stated"
+        lines.append(f"a-posteriori σ: {ratio:.3g} × the {stated} σ (σ² factor {sigma2:.4g}); the standard deviations "
                      "use it")
         if not 1 / 3 <= ratio <= 3:
             lines.append(f"warning: the residuals are {ratio:.3g} × the stated noise: the stated σ (--sigma or the "
                          "file's '# sigma' lines) is wrong, or the model misses an effect")
     return lines
+
+
+def _estimated_sigma(report: CalibrationReport) -> list[str]:
+    """The σ estimated from the data for the readings no '# sigma' line states: one line, in mm and mrad (a joint
+    reading's in its own unit, rad or m)."""
+    if not report.estimated_sigma:
+        return []
+    parts = []
+    for key, kinds in report.estimated_sigma.items():
+        length = kinds.get("length")
+        shown = [f"{length:.3g} (rad or m)" if key.startswith("joint:") else f"{length * 1e3:.3g} mm"] \
+            if length is not None else []
+        shown += [f"{kinds['angle'] * 1e3:.3g} mrad"] if "angle" in kinds else []
+        parts.append(f"{key} {', '.join(shown)}")
+    return [f"σ estimated from the data (no '# sigma' line): {'; '.join(parts)}"]
 
 
 def verdict(report: CalibrationReport) -> str:

@@ -135,8 +135,15 @@ def factor_or_off(text: str) -> float | str:
     return value
 
 
+def sigmas(text: str) -> float | tuple[float, ...]:
+    """An argparse type: one σ > 0 [m, rad], or one per residual row written ``a,b,c``."""
+    values = tuple(positive_float(word) for word in text.split(","))
+    return values[0] if len(values) == 1 else values
+
+
 #: The argparse type of each kind of calibration option (:attr:`~pincal.calibration.options.Option.kind`).
-_TYPES: dict[str, Any] = {"int": positive_int, "seed": non_negative_int, "sigma": positive_float, "payload": payload,
+_TYPES: dict[str, Any] = {"int": positive_int, "seed": non_negative_int, "sigma": positive_float, "sigmas": sigmas,
+                          "payload": payload,
                           "factor": factor_or_off}
 
 

@@ -8,9 +8,10 @@ at second order than at first (measured on a hexapod with pose data, κ 5e7), so
 smaller λ being rejected. From the first rejected step on, :func:`accelerated` corrects the step for that curvature
 (Transtrum & Sethna's geodesic acceleration, one residual evaluation per trial). Before each iteration's trials,
 :func:`settled` may end the fit: an exact fit (every error within 100 × the FK tolerance, 1 nm); for noisy data, a
-cost at the noise level whose remaining Gauss–Newton improvement along the practically identified directions is below
-one unit of χ² (these two end a crawl once it cannot matter); and, for any fit, a Gauss–Newton model that predicts a
-decrease of at most ``tol`` times the cost (the decrease test, asked before a trial is spent on it).
+remaining Gauss–Newton improvement along the practically identified directions below one unit of χ² at the noise
+level the residual shows, or at the stated one if that is smaller (these two end a crawl once it cannot matter);
+and, for any fit, a Gauss–Newton model that predicts a decrease of at most ``tol`` times the cost (the decrease test,
+asked before a trial is spent on it).
 """
 
 from __future__ import annotations
@@ -34,8 +35,8 @@ GEODESIC_ALPHA = 0.1
 #: Once the cost is at the noise level, a remaining Gauss–Newton improvement of χ² below this is
 #: statistically nil: the optimum lies inside the estimate's 1σ confidence region.
 NOISE_LEVEL_DECREMENT = 1.0
-#: Smallest residual level (½χ²·2/dof, in units of the stated σ²) taken for noise under a σ stated too large: a
-#: residual below 0.1 % of the stated σ (RMS) is an exact fit's, which goes on to the numerical floor (noise-free
+#: Smallest residual level (½χ²·2/dof, in units of the stated σ²) taken for noise: a residual below 0.1 % of the
+#: stated σ (RMS) is an exact fit's, which goes on to the numerical floor (noise-free
 #: data leave about (1e-10 m / σ)², 1e-10 at σ = 10 µm).
 CAUTIOUS_SIGMA = 1e-6
 #: ... over the directions the data identify in practice: singular value of the weighted, scaled Jacobian at
@@ -117,21 +118,24 @@ def accelerated(problem: Problem, x: Array, d: Array, rw: Array, v: Array, steps
     return v
 
 
-def noise_scale(cost: float, dof: int, cautious: bool = True) -> float:
-    """The variance of the noise the fit has reached, in units of the stated σ²: 1 when the cost is at the stated
-    noise level (½χ² at least ¼ of the ``dof`` degrees of freedom); with ``cautious``, the residual's own level
-    ``2 · cost / dof`` when it lies below that but above :data:`CAUTIOUS_SIGMA` (a σ stated larger than the noise, as
-    a cautious engineer states it: the residual levels off there, and what remains is judged against its own noise);
-    0 otherwise, and with no degree of freedom left (an exact fit is due, not a noise level)."""
+def noise_scale(cost: float, dof: int) -> float:
+    """The variance of the noise the fit has reached, in units of the stated σ²: the residual's own level
+    ``2 · cost / dof`` up to 1, the stated noise (a σ stated larger than the noise, as a cautious engineer states it,
+    is judged by the noise the residual shows: the fit stops where a σ matching it would stop, for least squares and
+    robust losses alike; a residual above the stated noise is judged by the stated σ, which is then the stricter);
+    0 below :data:`CAUTIOUS_SIGMA` (an exact fit, due to go on to the numerical floor) and with no degree of freedom
+    left (an exact fit is due, not a noise level)."""
     if dof <= 0:
         return 0.0
     level = 2.0 * cost / dof
-    return 1.0 if level >= 0.5 else level if cautious and level >= CAUTIOUS_SIGMA else 0.0
+    return min(level, 1.0) if level >= CAUTIOUS_SIGMA else 0.0
 
 
 def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], numerical: dict[str, Array],
             rejected: bool, tol: float = 0.0, cautious: bool = True) -> str:
-    """Why the fit needs no more LM steps, or ``""`` (``cost``: ½‖r‖², r the weighted residual ``steps`` holds).
+    """Why the fit needs no more LM steps, or ``""`` (``cost``: ½‖r‖², r the weighted residual ``steps`` holds;
+    ``cautious``, the :class:`~pincal.identification.steps.Method` interface's, is not read: the noise level is the
+    residual's own for least squares and robust losses alike).
 
     The first two stops are for the crawl along weakly identifiable, strongly nonlinear directions, where LM goes
     on decreasing the cost by little for many iterations; the third is the fit's decrease test, asked before a trial.
@@ -140,12 +144,12 @@ def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], num
       the numerical floor (what is left is below what FK reproduces).
     - At the noise level: LM has had to reject a step (``rejected``: the model is nonlinear on the scale
       of its steps) or some kept direction is hidden by the noise (singular value below
-      :data:`PRACTICAL_INFORMATION`), the cost is at the noise level (½χ² at least ¼ of the degrees of
-      freedom, i.e. χ² at least half what noise of the stated σ gives; never with no degree of freedom left,
-      where an exact fit is due), and the Gauss–Newton model's whole
+      :data:`PRACTICAL_INFORMATION` in units of the noise reached), and the Gauss–Newton model's whole
       remaining improvement of χ² along the directions the data do identify in practice, the decrement
-      ``‖U_kᵀ r‖²`` over them, is below :data:`NOISE_LEVEL_DECREMENT`: no test could tell the estimate from
-      the optimum, and the rest would only fit noise.
+      ``‖U_kᵀ r‖²`` over them, is below :data:`NOISE_LEVEL_DECREMENT` in units of the noise the residual itself
+      shows, or the stated one when that is smaller (:func:`noise_scale`; never with no degree of freedom left, where
+      an exact fit is due): no test could tell the estimate from the optimum, and the rest would only fit noise. A σ
+      stated too large stops the fit where a σ matching the residual does.
     - The fit's decrease test asked of the Gauss–Newton model before a trial is evaluated (the predicted reduction
       of MINPACK's ftol test, without its actual-reduction half): no step of the linearised model gains more than
       ``½‖U_kᵀ r‖²``; when that is at most ``tol · cost``, a trial would only measure the noise of the closed loops'
@@ -154,7 +158,7 @@ def settled(steps: Steps, lam: float, cost: float, errors: dict[str, Array], num
     if lam >= steps.smallest_damping and at_floor(errors, numerical):
         return "converged (exact fit: every error within the numerical floor)"
     dof = steps.rows - steps.kept  # none (as many residuals as kept directions): an exact fit is due, not noise
-    scale = noise_scale(cost, dof, cautious)
+    scale = noise_scale(cost, dof)
     information = PRACTICAL_INFORMATION * math.sqrt(scale)
     if steps.kept and scale > 0.0 and (rejected or steps.s[-1] < information) \
             and steps.decrement(information) <= NOISE_LEVEL_DECREMENT * scale:

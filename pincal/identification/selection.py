@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,10 +31,10 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg
 
-from pincal.errors import DataError, listing
+from pincal.errors import DataError, PincalError, listing
 from pincal.identification.identifiability import RANK_TOLERANCE
 from pincal.identification.parameters import Parameter
-from pincal.identification.problem import CalibrationProblem
+from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.result import CalibrationResult
 from pincal.identification.solver import identify
 
@@ -128,9 +129,13 @@ def select_groups(jacobian: Array, y0: Array, groups: list[str | None]) -> Selec
     return Selection(kept, best[2], scores)
 
 
-#: Model selection policies: ``bic`` (the groups with the smallest information criterion, the default) or ``none``
-#: (fit every identifiable parameter).
-SELECTIONS = ("bic", "none")
+#: Model selection policies: ``bic`` (the groups with the smallest information criterion, the default), ``cv`` (the
+#: groups with the smallest cross-validated error, :func:`select_by_cv`) or ``none`` (fit every identifiable
+#: parameter).
+SELECTIONS = ("bic", "cv", "none")
+#: ``cv`` selection's plan: K folds of one shuffle of the samples, seeded (the same choice on every run).
+CV_FOLDS = 5
+CV_SEED = 0
 
 
 @dataclass
@@ -168,6 +173,8 @@ def select_and_fit(problem: CalibrationProblem, policy: str = "bic", **options: 
     first = identify(problem, **options)
     if policy == "none" or len(first.identified) < 2 or not first.converged:  # no choice made on a failed fit
         return SelectedFit(problem, first, first, [], {})
+    if policy == "cv":
+        return select_by_cv(problem, first, **options)
     pred = problem.evaluate(first.x)
     assert pred.jacobian is not None
     rows = np.sqrt(first.sample_weights[problem.row_samples()])
@@ -177,20 +184,84 @@ def select_and_fit(problem: CalibrationProblem, policy: str = "bic", **options: 
     choice = select_groups(jac * pset.scales, y0, [group_of(p) for p in pset])
     if not choice.removed_groups:
         return SelectedFit(problem, first, first, [], choice.scores)
+    return _refit_without(problem, first, choice.removed_groups, choice.scores, _fitted_criterion, **options)
+
+
+def _reduced(problem: CalibrationProblem, kept: list[int], observations: Observations | None = None
+             ) -> CalibrationProblem:
+    """``problem`` over the parameters ``kept`` (indices), on ``observations`` (default: its own)."""
+    return CalibrationProblem(problem.robot, problem.parameters.subset(kept), problem.measurements,
+                              problem.observations if observations is None else observations,
+                              None if problem.joint_sigma is None else list(problem.joint_sigma), problem.payload)
+
+
+def _refit_without(problem: CalibrationProblem, first: CalibrationResult, removed_groups: tuple[str, ...],
+                   scores: dict[tuple[str, ...], float],
+                   criterion: Callable[[CalibrationProblem, CalibrationResult], float] | None,
+                   **options: Any) -> SelectedFit:
+    """The fit without ``removed_groups``, refitted from the nominal start; ``first`` kept instead when the refit
+    fails or scores worse on ``criterion`` (None: no such check)."""
+    pset = problem.parameters
     # a left-out group goes whole, its unidentifiable members too; everything else stays as chosen (the base
     # entire, so that the start registers the measurement frame as before)
-    removed = [p.name for p in pset if group_of(p) in choice.removed_groups]
-    kept = [k for k, p in enumerate(pset) if group_of(p) not in choice.removed_groups]
+    removed = [p.name for p in pset if group_of(p) in removed_groups]
+    kept = [k for k, p in enumerate(pset) if group_of(p) not in removed_groups]
     if not kept:
-        return SelectedFit(problem, first, first, [], choice.scores)
-    reduced = CalibrationProblem(problem.robot, pset.subset(kept), problem.measurements, problem.observations,
-                                 None if problem.joint_sigma is None else list(problem.joint_sigma), problem.payload)
+        return SelectedFit(problem, first, first, [], scores)
+    reduced = _reduced(problem, kept)
     refit = identify(reduced, **options)
     # the choice was made on the fit linearized at its estimate; the refit starts from the nominal robot, where fewer
     # directions may be identifiable (a planar four-bar's anchor rotations): kept only if it scores better for real
-    if not refit.converged or _fitted_criterion(reduced, refit) > _fitted_criterion(problem, first):
-        return SelectedFit(problem, first, first, [], choice.scores)
-    return SelectedFit(reduced, refit, first, removed, choice.scores, choice.removed_groups)
+    if not refit.converged or (criterion is not None and criterion(reduced, refit) > criterion(problem, first)):
+        return SelectedFit(problem, first, first, [], scores)
+    return SelectedFit(reduced, refit, first, removed, scores, removed_groups)
+
+
+def select_by_cv(problem: CalibrationProblem, first: CalibrationResult, **options: Any) -> SelectedFit:
+    """Leave out the groups of parameters whose combination predicts unseen samples best: every combination of the
+    groups present (:data:`GROUPS`) is fitted on :data:`CV_FOLDS` − 1 folds of the samples (one shuffle seeded
+    :data:`CV_SEED`) and scored by the mean square of the weighted residuals [σ²] it leaves on the fold left out,
+    over every fold; the smallest wins (on equal scores, the one with fewer parameters), and is refitted on every
+    sample. A combination whose fit fails on some fold scores infinity. ``first`` is the fit of every parameter.
+    ``options`` go to :func:`~pincal.identification.solver.identify`."""
+    pset = problem.parameters
+    groups = [group_of(p) for p in pset]
+    present = [g for g in GROUPS if g in groups]
+    n = problem.observations.n_samples
+    k = min(CV_FOLDS, n)
+    order = np.random.default_rng(CV_SEED).permutation(n)
+    folds = [np.sort(order[f::k]) for f in range(k)]
+    scores: dict[tuple[str, ...], float] = {}
+    best: tuple[float, int, tuple[str, ...]] | None = None
+    for size in range(len(present) + 1):
+        for drop in itertools.combinations(present, size):
+            kept = [j for j, g in enumerate(groups) if g not in drop]
+            if not kept:
+                continue
+            scores[drop] = _cross_validated(problem, kept, folds, **options)
+            if best is None or (scores[drop], len(kept)) < best[:2]:
+                best = (scores[drop], len(kept), drop)
+    if best is None or not best[2] or not math.isfinite(best[0]):
+        return SelectedFit(problem, first, first, [], scores)
+    return _refit_without(problem, first, best[2], scores, None, **options)
+
+
+def _cross_validated(problem: CalibrationProblem, kept: list[int], folds: list[npt.NDArray[np.int64]],
+                     **options: Any) -> float:
+    """The mean square of the weighted residuals [σ²] that fits of the parameters ``kept`` on all folds but one leave
+    on the one left out, over every fold (infinity when a fold's fit fails)."""
+    n = problem.observations.n_samples
+    total, rows = 0.0, 0
+    for test in folds:
+        train = np.setdiff1d(np.arange(n), test)
+        try:
+            fit = identify(_reduced(problem, kept, problem.observations.subset(train)), **options)
+            residual = _reduced(problem, kept, problem.observations.subset(test)).evaluate(fit.x, jacobian=False)
+        except PincalError:
+            return math.inf
+        total += float(residual.residual @ residual.residual)
+        rows += residual.residual.size
+    return total / rows if rows else math.inf
 
 
 def _fitted_criterion(problem: CalibrationProblem, result: CalibrationResult) -> float:

@@ -117,7 +117,9 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: Solver, loss: Los
         return _identify(problem, x0, solver, loss, **options)
     first = _identify(problem, x0, solver, "linear", **options)
     first.loss = "auto (linear)"  # what was asked, and what it came to: least squares, no sample implausible
-    if at_floor(first.errors_after, exact_fit_floors(problem, FLOOR_SIGMA_FRACTION)):  # nothing to reject
+    # an exact fit has nothing to reject; judged on the numerical floor alone, not on the stated σ: a σ stated ten
+    # times too large would put every real error under a tenth of it and skip the outlier test
+    if at_floor(first.errors_after, exact_fit_floors(problem, 0.0)):
         first.extra["outlier_test"] = []
         return first
     # gross outliers can pull the least-squares fit where the loops no longer close: then every start is robust

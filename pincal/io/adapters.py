@@ -60,11 +60,15 @@ def declared_marker_offsets(metadata: dict[str, str]) -> dict[str, tuple[float, 
     return out
 
 
-def channel_sigma(key: str, metadata: dict[str, str], default: float | None, angle: bool = False) -> float | None:
+#: What a σ is: one value [m or rad] for every row of a measurement, or one per residual row.
+Sigma = float | tuple[float, ...]
+
+
+def channel_sigma(key: str, metadata: dict[str, str], default: Sigma | None, angle: bool = False) -> Sigma | None:
     """σ of a measurement channel from dataset metadata: ``# sigma <kind> <name>: value`` (e.g.
     ``# sigma position end_effector: 1e-5``, ``# sigma joint device_lvdt: 1e-6``), else
     ``# sigma <kind>: value``; ``# sigma pose angle: ...`` (``# sigma camera angle: ...``) for pose orientations [m or
-    rad]."""
+    rad]. A value may be one σ per residual row, ``[1e-3, 1e-3, 3e-3]`` (a tuple)."""
     kind, _, name = key.partition(":")
     candidates = [f"sigma {kind} angle"] if angle else [f"sigma {kind} {name}", f"sigma {kind}"]
     for candidate in candidates:
@@ -73,16 +77,33 @@ def channel_sigma(key: str, metadata: dict[str, str], default: float | None, ang
     return default
 
 
-def _sigma_value(key: str, text: str) -> float:
-    """The σ of a ``# sigma ...: value`` metadata line [m or rad] (DataError naming the line's key)."""
+def _sigma_value(key: str, text: str) -> Sigma:
+    """The σ of a ``# sigma ...: value`` metadata line [m or rad]: one number, or one per residual row written
+    ``[a, b, c]`` or ``a b c`` (DataError naming the line's key)."""
+    words = text.strip().strip("[]()").replace(",", " ").split()
     try:
-        value = float(text)
+        values = [float(word) for word in words]
     except ValueError:
-        raise DataError(f"metadata '{key}' is '{text}', not a number") from None
-    if not 1e-15 <= value <= 1e3:
-        raise DataError(f"metadata '{key}' is {value!r}: a standard deviation [m or rad] must lie between 1e-15 "
-                        "and 1e3")
-    return value
+        raise DataError(f"metadata '{key}' is '{text}', not a number (or one number per residual row, "
+                        "[a, b, c])") from None
+    if not values or not all(1e-15 <= value <= 1e3 for value in values):
+        raise DataError(f"metadata '{key}' is {text.strip()!r}: a standard deviation [m or rad] must lie between "
+                        "1e-15 and 1e3")
+    return values[0] if len(values) == 1 else tuple(values)
+
+
+def one_sigma(sigma: Sigma | None) -> float | None:
+    """The single σ a model keeps beside per-row ones (their RMS) [m or rad]; None stays None."""
+    if sigma is None or isinstance(sigma, int | float):
+        return sigma
+    return float(np.sqrt(np.mean(np.square(sigma))))
+
+
+def weighted(model: Measurement, sigma: Sigma | None) -> Measurement:
+    """``model`` with ``sigma``'s per-row values, when it gives one per residual row (itself otherwise)."""
+    if sigma is None or isinstance(sigma, int | float):
+        return model
+    return model.with_component_sigma(sigma)
 
 
 def check_sigma_metadata(metadata: dict[str, str]) -> None:
@@ -102,13 +123,13 @@ def check_sigma_metadata(metadata: dict[str, str]) -> None:
 
 
 def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_columns: Sequence[str],
-                     sigma: float | None = None, metadata: dict[str, str] | None = None) -> list[Measurement]:
+                     sigma: Sigma | None = None, metadata: dict[str, str] | None = None) -> list[Measurement]:
     """Measurement models for a dataset: its measurement columns, plus a joint reading for every
     non-actuated joint column (instrumented passive joints: encoders, LVDTs, scales).
 
-    Weights: ``sigma`` [m, rad] if given (overrides everything), else per-channel σ from the
-    dataset's metadata (:func:`channel_sigma`), else the models' defaults. Declared markers
-    (``position:<frame>@<marker>``) take their nominal offsets from the metadata
+    Weights: ``sigma`` [m, rad] if given (overrides everything; one per residual row for every model when a
+    sequence), else per-channel σ from the dataset's metadata (:func:`channel_sigma`), else the models' defaults.
+    Declared markers (``position:<frame>@<marker>``) take their nominal offsets from the metadata
     (:func:`declared_marker_offsets`); a declaration with no columns is refused (DataError).
     """
     meta = metadata or {}
@@ -117,9 +138,10 @@ def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_column
     nominal = declared_marker_offsets(meta)
     models = []
     for key in measurement_keys:
-        model = parse_key(key, sigma or channel_sigma(key, meta, None))
-        if model.angle_rows:
-            angle = sigma or channel_sigma(key, meta, None, angle=True)
+        stated = sigma or channel_sigma(key, meta, None)
+        model = weighted(parse_key(key, one_sigma(stated)), stated)
+        if model.angle_rows and model.component_sigma is None:
+            angle = one_sigma(sigma or channel_sigma(key, meta, None, angle=True))
             if angle:
                 model = model.with_angle_sigma(angle)
         models.append(model.with_markers(nominal))
@@ -134,7 +156,8 @@ def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_column
             if not robot.model.existJointName(joint):
                 raise DataError(f"column '{joint}' is not a joint of '{robot.name}'; joints are: "
                                 f"{listing(robot.model.names[1:])}")
-            models.append(joint_reading(joint, sigma or channel_sigma(f"joint:{joint}", meta, None) or 1e-5))
+            stated = sigma or channel_sigma(f"joint:{joint}", meta, None)
+            models.append(weighted(joint_reading(joint, one_sigma(stated) or 1e-5), stated))
     return models
 
 

@@ -267,12 +267,14 @@ def test_a_sigma_line_pincal_would_not_use_is_refused(five_bar_data: Path, tmp_p
 
 @pytest.mark.parametrize("command", ["calibrate", "view", "report"])
 def test_the_sigma_help_says_the_files_lines_are_the_default(command: str) -> None:
-    """--help said '(default 1e-5)' [m] while a file's '# sigma' lines weight its channels when --sigma is not given."""
+    """--help said '(default 1e-5)' [m] while a file's '# sigma' lines weight its channels when --sigma is not given
+    (and, without them, σ is estimated from the data)."""
     done = run_pincal(command, "--help")
     assert done.returncode == 0
     text = " ".join(done.stdout.split())
-    assert ("one measurement σ [m, rad] for weighting every channel, over the file's '# sigma' lines (default: those "
-            "lines, else 1e-5; 1e-6 m for distances)") in text
+    assert ("one measurement σ [m, rad] for weighting every channel, or one per residual row as A,B,C (e.g. "
+            "1e-3,1e-3,3e-3 for a camera's depth noise three times its lateral noise), over the file's '# sigma' lines "
+            "(default: those lines, else estimated from the data: docs/dataset.md 'Noise')") in text
 
 
 def test_fleet_names_a_data_dir_that_is_missing_or_a_file(tmp_path: Path) -> None:

@@ -83,7 +83,7 @@ def test_select_and_fit_refits_the_kept_groups_and_keeps_the_base() -> None:
     assert not any(name in kept for name in fitted.removed)
     assert len(kept) + len(fitted.removed) == len(pset)
     assert fitted.first.names == pset.names and fitted.result.names == kept
-    with pytest.raises(DataError, match="unknown selection 'aic'; selections are: bic, none"):
+    with pytest.raises(DataError, match="unknown selection 'aic'; selections are: bic, cv, none"):
         select_and_fit(CalibrationProblem(robot, pset, models, obs), "aic")
 
 

@@ -21,10 +21,11 @@ declares (:mod:`pincal.plugins`).
 
 from __future__ import annotations
 
+import math
 import re
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -107,6 +108,9 @@ class Measurement(ABC):
     key: str
     size: int
     sigma: float
+    #: σ of each residual row [each row's unit] over ``sigma`` (a camera's depth noise three times its lateral noise:
+    #: ``(1e-3, 1e-3, 3e-3)``); None: ``sigma`` on every row (and a pose's ``sigma_angle`` on its angle rows).
+    component_sigma: tuple[float, ...] | None = field(default=None, kw_only=True)
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -217,8 +221,37 @@ class Measurement(ABC):
         return ["m"] * self.size
 
     def row_sigmas(self) -> Array:
-        """σ of each residual row (same units as the row)."""
+        """σ of each residual row (same units as the row): :attr:`component_sigma` if given, else
+        :meth:`uniform_row_sigmas`."""
+        if self.component_sigma is not None:
+            return np.array(self.component_sigma, dtype=np.float64)
+        return self.uniform_row_sigmas()
+
+    def uniform_row_sigmas(self) -> Array:
+        """σ of each residual row from the one ``sigma`` (a subclass with angle rows gives them their own)."""
         return np.full(self.size, self.sigma)
+
+    def with_component_sigma(self, sigmas: Sequence[float]) -> Measurement:
+        """This model with one σ per residual row [each row's unit, :meth:`row_units`].
+
+        Raises:
+            DataError: not one finite σ > 0 per row (the message lists the rows).
+        """
+        values = tuple(float(v) for v in sigmas)
+        if len(values) != self.size or not all(0.0 < v < math.inf for v in values):
+            rows = ", ".join(f"{c} [{u}]" for c, u in zip(self.row_names(), self.row_units(), strict=True))
+            raise DataError(f"measurement '{self.key}': σ {list(sigmas)} must give one finite value > 0 per residual "
+                            f"row, {self.size}: {rows}")
+        return replace(self, component_sigma=values)
+
+    def row_names(self) -> tuple[str, ...]:
+        """The residual rows' names: the data components when there is one per row, else numbers (a pose's
+        ``x y z rx ry rz``)."""
+        if len(self.components) == self.size:
+            return self.components
+        if self.length_rows == 3 and self.angle_rows == 3 and self.size == 6:
+            return ("x", "y", "z", "rx", "ry", "rz")
+        return tuple(str(i) for i in range(self.size))
 
     def check(self, robot: Robot) -> None:
         """Raise NotFoundError if the robot lacks what this model looks at."""

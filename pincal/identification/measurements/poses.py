@@ -95,7 +95,7 @@ class Pose(Measurement):
         """Three position rows [m], then three orientation rows [rad]."""
         return ["m", "m", "m", "rad", "rad", "rad"]
 
-    def row_sigmas(self) -> Array:
+    def uniform_row_sigmas(self) -> Array:
         """``sigma`` [m] for the position rows, ``sigma_angle`` [rad] for the orientation rows."""
         return np.array([self.sigma] * 3 + [self.sigma_angle] * 3)
 
