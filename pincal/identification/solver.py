@@ -217,7 +217,7 @@ def _with_prior_weighed(problem: Problem, result: CalibrationResult, solver: Sol
         return result
     weighed = {**options, "prior": factor / math.sqrt(max(result.sigma2, 1e-300))}
     try:
-        return chained(result, _fit(problem, result.x, solver, loss, **weighed))
+        return chained(result, _fit(problem, result.x0, solver, loss, **weighed))
     except ConvergenceError:  # the refit could not be evaluated: the first fit stands
         return result
 

@@ -35,22 +35,32 @@ def test_without_sigma_lines_the_noise_is_estimated_and_said(tmp_path: Path) -> 
     assert 0.5e-3 < sigma < 3e-3
     assert f"σ estimated from the data (no '# sigma' line): position:wrist_ft_tool_link {sigma * 1e3:.3g} mm" in out
     assert "estimated_sigma" not in stated
-    for key in ("n_estimated", "rms_after", "test_rms_after"):
-        assert estimated[key] == pytest.approx(stated[key], rel=1e-6), key
+    assert estimated["n_estimated"] == stated["n_estimated"]
     assert estimated["selection"]["removed_groups"] == stated["selection"]["removed_groups"]
+    # the prior toward nominal weighs against σ: 1.4 mm estimated against 1 mm stated moves the figures a little
+    for key in ("rms_after", "test_rms_after"):
+        assert estimated[key] == pytest.approx(stated[key], rel=0.03), key
+    # least squares alone (--prior off) gets the very figures of the file's 1 mm
+    least = {name: calibrated(tmp_path, f"{name}_off", "tiago_no_hand", str(path), "--prior", "off")[0]
+             for name, path in (("stated", TIAGO_DATA), ("estimated", bare))}
+    for key in ("n_estimated", "rms_after", "test_rms_after"):
+        assert least["estimated"][key] == pytest.approx(least["stated"][key], rel=1e-6), key
 
 
 def test_a_sigma_stated_100_times_too_large_converges_to_the_same_fit(tmp_path: Path) -> None:
-    """The TIAGo file states 1 mm, about its noise; stating 10 mm or 0.1 m (100×) gives the same fit: the noise stop
-    judges what remains to gain by the noise the residual shows, not by a σ stated larger."""
-    reports = {sigma: calibrated(tmp_path, sigma, "tiago_no_hand", str(TIAGO_DATA), "--sigma", sigma)[0]
-               for sigma in ("0.1", "1e-2")}
-    stated, _ = calibrated(tmp_path, "stated", "tiago_no_hand", str(TIAGO_DATA))
-    for report in reports.values():
-        assert report["converged"]
-        assert report["n_estimated"] == stated["n_estimated"]
-        assert report["rms_after"] == pytest.approx(stated["rms_after"], rel=1e-6)
-        assert report["test_rms_after"] == pytest.approx(stated["test_rms_after"], rel=1e-6)
+    """The TIAGo file states 1 mm, about its noise; stating 10 mm or 0.1 m (100×) gives the same fit by least squares
+    (``--prior off``): the noise stop judges what remains to gain by the noise the residual shows, not by a σ stated
+    larger. With the prior (the default), weighed against the noise the data show (1.35 mm, not the 1 mm stated),
+    the same model and figures within 3 %."""
+    for extra, tolerance in ((("--prior", "off"), 1e-6), ((), 0.03)):
+        reports = {sigma: calibrated(tmp_path, f"{sigma}{extra}", "tiago_no_hand", str(TIAGO_DATA), "--sigma", sigma,
+                                     *extra)[0] for sigma in ("0.1", "1e-2")}
+        stated, _ = calibrated(tmp_path, f"stated{extra}", "tiago_no_hand", str(TIAGO_DATA), *extra)
+        for report in reports.values():
+            assert report["converged"]
+            assert report["n_estimated"] == stated["n_estimated"]
+            assert report["rms_after"] == pytest.approx(stated["rms_after"], rel=tolerance)
+            assert report["test_rms_after"] == pytest.approx(stated["test_rms_after"], rel=tolerance)
 
 
 @pytest.fixture(scope="module")
