@@ -230,7 +230,8 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
     (solid), ``samples/points/<k>`` (measured points; the calibrated end effector when nothing 3D is
     measured), ``samples/error_before/<k>`` and ``samples/error_after/<k>`` (magnified segments from
     the measured point towards each model's prediction), ``samples/current`` (the animated
-    highlight). The animation has one frame per sample (time = sample index, in seconds).
+    highlight), ``workspace`` (the report's workspace postures, a point cloud coloured by their predicted 95 %
+    bound, when the report holds them). The animation has one frame per sample (time = sample index, in seconds).
     """
     import meshcat.geometry as mg
     from meshcat.animation import Animation
