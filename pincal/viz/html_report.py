@@ -25,7 +25,8 @@ from pincal.calibration.summary import correction
 from pincal.errors import DataError
 from pincal.io.files import make_directory, write_text
 from pincal.progress import Progress
-from pincal.viz.scene import CalibrationView, static_scene
+from pincal.viz.scene import CalibrationView, static_scene, workspace_points
+from pincal.viz.static_page import workspace_text
 
 Array = npt.NDArray[np.float64]
 
@@ -104,10 +105,10 @@ def _ratio(before: float | None, after: float | None) -> str:
     return f"{before / after:.3g}× smaller" if before >= after else f"{after / before:.3g}× larger"
 
 
-def _png(figure: Any, alt: str) -> str:
+def _png(figure: Any, alt: str, palette: bool = False) -> str:
     from pincal.viz.plots import png_bytes
 
-    data = base64.b64encode(png_bytes(figure)).decode("ascii")
+    data = base64.b64encode(png_bytes(figure, palette=palette)).decode("ascii")
     return f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}"></figure>'
 
 
@@ -308,6 +309,39 @@ def _combinations(report: CalibrationReport) -> str:
             f'<ul class="combos">{items}</ul>')
 
 
+def _numbers(values: Any) -> Array:
+    """A list of the report JSON as floats, NaN for a value it does not hold (``null``)."""
+    return np.array([np.nan if v is None else float(v) for v in values or []], dtype=float)
+
+
+def predicted_uncertainty(report: CalibrationReport) -> str:
+    """The figure of the predicted position uncertainty over the workspace (the report's ``predicted_workspace``)
+    and, with held-out samples, their bound against their actual error (``predicted_held_out``, ``sample_errors``),
+    with its caption; empty when the report holds no workspace prediction (a report of an older pincal)."""
+    from pincal.viz.plots import predicted_uncertainty as figure
+
+    workspace = workspace_points(report)
+    if workspace is None:
+        return ""
+    positions, bounds = workspace
+    space = report.predicted_workspace or {}
+    held = report.predicted_held_out or {}
+    after = {e["sample"]: e["after"] for e in report.sample_errors if e.get("set") == "test"}
+    entries = held.get("samples_predicted") or []
+    held_bounds = _numbers([e.get("bound") for e in entries]) if entries else None
+    held_errors = _numbers([after.get(e.get("sample")) for e in entries]) if entries else None
+    coverage = (f"; held out: {_text(held['inside'])} of {_text(held['samples'])} errors within their bound"
+                if held.get("samples") else "")
+    text = (f"predicted 95 % bound of the position of {_text(space.get('measurement'))} at "
+            f"{len(bounds)} postures drawn within the joint limits: median "
+            f"{mm_text(space.get('median_bound'), 3)}, largest {mm_text(space.get('max_bound'), 3)}, "
+            f"{_text(space.get('outside_fitted_range', 0))} beyond the fitted joint range (bound widened){coverage}")
+    drawn = _png(figure(positions, bounds, held_bounds, held_errors), text, palette=True)
+    return (f'<div id="predicted-uncertainty">{drawn}'
+            f'<p class="caption">{text[0].upper() + text[1:]}. Positions in the measurement frame; the 3D scene '
+            "shows the same postures as dots coloured by their bound.</p></div>")
+
+
 def error_figures(report: CalibrationReport) -> dict[str, float | None]:
     """The RMS position errors [m] the error figures state, read from the report: ``fit before``, ``fit after``
     and, with held-out samples, ``held out before`` and ``held out after``."""
@@ -387,6 +421,7 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
     scene, summary = static_scene(view, quiet=quiet)
     srcdoc = html.escape(scene, quote=True)
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in summary.notes)
+    dots = workspace_text(summary)  # the workspace points, coloured by their predicted bound
     shifts = report.reference_shifts or {}
     shift_text = ""
     if shifts:
@@ -417,13 +452,14 @@ pincal {__version__}{' · ' + sources if sources else ''}</p>
 <p class="caption">Orange: the calibrated robot; blue ghost: the nominal one, both in the measurement frame
 ({html.escape(_difference_text(summary.robot_difference))});
 black dots: measured points; segments: each sample's error, {magnified}. Use the slider (or ← →) to step through
-the samples; drag to orbit, scroll to zoom.</p>
+the samples; drag to orbit, scroll to zoom.{' ' + html.escape(dots[:1].upper() + dots[1:]) + ' mm.' if dots else ''}</p>
 <p class="caption" id="scene-status">3D scene: waiting for the viewer (needs JavaScript and WebGL).</p>
 {f'<ul class="caption">{notes}</ul>' if notes else ''}
 <h2>Summary</h2>
 {_summary_table(report, n_test)}
 <h2>Errors</h2>
 {''.join(figures[:2]) if has_lengths else '<p>No length-type measurement: see the parameter estimates.</p>'}
+{predicted_uncertainty(report)}
 <h2>Parameters</h2>
 {''.join(figures[2:] if has_lengths else figures)}
 <p>Deviations from the nominal robot (lengths in mm, angles in degrees); σ is the standard deviation of the

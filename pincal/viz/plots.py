@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import io
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -22,10 +23,18 @@ MM = 1e3
 DEG = 180.0 / np.pi
 
 
-def png_bytes(figure: Figure, dpi: int = 100) -> bytes:
-    """The figure as PNG bytes."""
+def png_bytes(figure: Figure, dpi: int = 100, palette: bool = False) -> bytes:
+    """The figure as PNG bytes; with ``palette``, in 256 colours (a third of the size of a figure of many coloured
+    points, with no visible change)."""
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png", dpi=dpi)
+    if not palette:
+        return buffer.getvalue()
+    from PIL import Image  # matplotlib's own dependency
+
+    image = Image.open(buffer).convert("RGB").quantize(256, method=Image.Quantize.FASTOCTREE)
+    buffer = io.BytesIO()
+    image.save(buffer, format="png", optimize=True)
     return buffer.getvalue()
 
 
@@ -160,3 +169,54 @@ def convergence(cost_history: Sequence[float]) -> Figure:
     ax.set_title("Convergence")
     ax.grid(True, which="major", alpha=0.3)
     return figure
+
+
+#: Colour map of the predicted 95 % bounds, in the figure and in the 3D scene.
+BOUND_COLORMAP = "viridis"
+
+
+def predicted_uncertainty(positions: Array, bounds: Array, held_bounds: Array | None = None,
+                          held_errors: Array | None = None) -> Figure:
+    """The predicted position uncertainty over the workspace: the postures' predicted positions ``positions``
+    (N, 3) [m] in the measurement frame, seen from above (x–y) and from the side (x–z), coloured by their predicted
+    95 % bound ``bounds`` (N,) [m] on one colour bar [mm]; with ``held_bounds`` and ``held_errors`` (M,) [m], a third
+    panel sets each held-out posture's actual error against its bound, with the line error = bound (points below it
+    lie within their bound). Postures without a bound (NaN) are left out."""
+    known = np.isfinite(bounds) & np.all(np.isfinite(positions), axis=1)
+    points, values = positions[known] * MM, bounds[known] * MM
+    held = held_bounds is not None and held_errors is not None and bool(np.any(np.isfinite(held_bounds)))
+    figure = Figure(figsize=(10.5 if held else 7.5, 3.6), layout="constrained")
+    axes = figure.subplots(1, 3 if held else 2)
+    low, high = (float(values.min()), float(values.max())) if values.size else (0.0, 1.0)
+    for ax, (i, j), view in zip(axes, ((0, 1), (0, 2)), ("from above", "from the side"), strict=False):
+        drawn = ax.scatter(points[:, i], points[:, j], c=values, cmap=BOUND_COLORMAP, vmin=low, vmax=high, s=14)
+        ax.set_xlabel(f"{'xyz'[i]} [mm]")
+        ax.set_ylabel(f"{'xyz'[j]} [mm]")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(f"{len(values)} postures, {view}", fontsize=9)
+        ax.grid(True, alpha=0.3)
+    figure.colorbar(drawn, ax=list(axes[:2]), label="predicted 95 % bound [mm]", shrink=0.9)
+    if held:
+        assert held_bounds is not None and held_errors is not None
+        _bound_against_error(axes[2], held_bounds, held_errors)
+    figure.suptitle("Predicted position uncertainty over the workspace (postures within the joint limits)",
+                    fontsize=11)
+    return figure
+
+
+def _bound_against_error(ax: Any, bounds: Array, errors: Array) -> None:
+    """Each held-out posture's actual error [m] against its predicted 95 % bound [m], with the line error = bound."""
+    known = np.isfinite(bounds) & np.isfinite(errors)
+    x, y = bounds[known] * MM, errors[known] * MM
+    inside = y <= x
+    ax.plot(x[inside], y[inside], "o", color=AFTER, markersize=4, label=f"within the bound ({inside.sum()})")
+    ax.plot(x[~inside], y[~inside], "o", color=BEFORE, markersize=4, label=f"beyond it ({(~inside).sum()})")
+    top = float(max(x.max(initial=0.0), y.max(initial=0.0))) * 1.05 or 1.0
+    ax.plot([0.0, top], [0.0, top], "--", color="#555555", linewidth=1, label="error = bound")
+    ax.set_xlim(0.0, top)
+    ax.set_ylim(0.0, top)
+    ax.set_xlabel("predicted 95 % bound [mm]")
+    ax.set_ylabel("actual error after calibration [mm]")
+    ax.set_title(f"{len(x)} held-out postures", fontsize=9)
+    ax.legend(fontsize=8, loc="upper left")
+    ax.grid(True, alpha=0.3)

@@ -41,6 +41,7 @@ from pincal.viz.visuals import (
     MAX_MESH_BYTES,
     NOMINAL_COLOR,
     POINT_COLOR,
+    bound_colors,
     error_colors,
     robot_visuals,
     segment_pose,
@@ -229,7 +230,8 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
     (solid), ``samples/points/<k>`` (measured points; the calibrated end effector when nothing 3D is
     measured), ``samples/error_before/<k>`` and ``samples/error_after/<k>`` (magnified segments from
     the measured point towards each model's prediction), ``samples/current`` (the animated
-    highlight). The animation has one frame per sample (time = sample index, in seconds).
+    highlight), ``workspace`` (the report's workspace postures, a point cloud coloured by their predicted 95 %
+    bound, when the report holds them). The animation has one frame per sample (time = sample index, in seconds).
     """
     import meshcat.geometry as mg
     from meshcat.animation import Animation
@@ -292,6 +294,10 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
                                                        mg.MeshLambertMaterial(color=color))
                 root["samples"][group][tag].set_transform(segment_pose(points[k], end))
             progress.advance()
+    workspace = workspace_points(view.report)
+    if workspace is not None:
+        _draw_workspace(root["workspace"], *workspace, size=0.02 * radius)
+        cloud = np.vstack([cloud, workspace[0]])
     current = root["samples/current"]
     current.set_object(mg.Sphere(5 * thickness), mg.MeshLambertMaterial(color=CURRENT_COLOR, opacity=0.45))
     current.set_transform(translation_pose(points[0]))
@@ -310,7 +316,34 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
 
     _set_camera(vis, cloud)
     return SceneSummary([names[f] for f in frame_ids], len(visuals), n, magnification, scale, sample_before,
-                        sample_after, notes, has_points, view.has_lengths, difference)
+                        sample_after, notes, has_points, view.has_lengths, difference,
+                        *(_bound_range(workspace[1]) if workspace is not None else (0, math.nan, math.nan)))
+
+
+def workspace_points(report: CalibrationReport) -> tuple[Array, Array] | None:
+    """The report's workspace postures (``predicted_workspace``): their predicted positions (N, 3) [m] in the
+    measurement frame and predicted 95 % bounds (N,) [m], those with a bound; None when the report holds none."""
+    space = report.predicted_workspace or {}
+    positions = np.array(space.get("positions") or [], dtype=float).reshape(-1, 3)
+    bounds = np.array([np.nan if b is None else float(b) for b in space.get("bounds") or []], dtype=float)
+    if len(positions) != len(bounds):
+        return None
+    known = np.isfinite(bounds) & np.all(np.isfinite(positions), axis=1)
+    return (positions[known], bounds[known]) if np.any(known) else None
+
+
+def _bound_range(bounds: Array) -> tuple[int, float, float]:
+    """How many postures, and the smallest and largest bound [m]: the ends of the scene's colour scale."""
+    return len(bounds), float(bounds.min()), float(bounds.max())
+
+
+def _draw_workspace(node: Any, positions: Array, bounds: Array, size: float) -> None:
+    """The workspace postures' predicted positions (N, 3) [m] as one point cloud at ``node``, each point of
+    ``size`` [m] coloured by its bound (N,) [m] from the smallest to the largest."""
+    import meshcat.geometry as mg
+
+    colors = bound_colors(bounds, float(bounds.min()), float(bounds.max()))
+    node.set_object(mg.PointCloud(positions.T.astype(np.float32), colors.T.astype(np.float32), size=size))
 
 
 def _set_camera(vis: Any, cloud: Array) -> None:

@@ -40,6 +40,9 @@ class SceneSummary:
         has_lengths: Whether the sample errors are lengths (else there are none to show).
         robot_difference: Largest distance [m] between a frame of the nominal robot and the same frame of the
             calibrated one, both drawn in the measurement frame, over the samples (NaN when no frame is drawn).
+        workspace_postures: Postures drawn within the joint limits shown as points coloured by their predicted
+            95 % bound (0 when the report holds no workspace prediction).
+        workspace_low, workspace_high: The smallest and largest of those bounds [m]: the ends of their colour scale.
     """
 
     frames: list[str]
@@ -53,6 +56,9 @@ class SceneSummary:
     has_points: bool
     has_lengths: bool
     robot_difference: float = float("nan")
+    workspace_postures: int = 0
+    workspace_low: float = float("nan")
+    workspace_high: float = float("nan")
 
 
 class StaticScene:
@@ -177,6 +183,14 @@ var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
   function node(path) { return viewer.scene_tree.find(["meshcat", "pincal"].concat(path)); }
   function meshes(path) { var n = 0; node(path).object.traverse(function (o) { if (o.isMesh) n++; }); return n; }
   function where(path) { return node(path).object.position.toArray(); }
+  function workspacePoints() {  // the points of the workspace cloud, 0 without one
+    var n = 0, root = node([]);
+    if (!root.children.workspace) return 0;
+    root.children.workspace.object.traverse(function (o) {
+      if (o.isPoints) n += o.geometry.attributes.position.count;
+    });
+    return n;
+  }
   var frames = Object.keys(node(["robot_calibrated"]).children), placed = {};
   frames.forEach(function (f) { placed[f] = where(["robot_calibrated", f]); });
   var status = {
@@ -184,7 +198,7 @@ var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
     points: meshes(["samples", "points"]), error_before: meshes(["samples", "error_before"]),
     error_after: meshes(["samples", "error_after"]), animation_seconds: animator.duration,
     sample: +slider.value, current_point: where(["samples", "current"]), calibrated_frames: placed,
-    webgl: !!(viewer.renderer && viewer.renderer.getContext())
+    webgl: !!(viewer.renderer && viewer.renderer.getContext()), workspace: workspacePoints()
   };
   var out = document.getElementById("pincal-scene-status");
   out.textContent = JSON.stringify(status);
@@ -193,25 +207,49 @@ var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
 """
 
 
-def _legend(summary: SceneSummary, title: str) -> str:
+def _colour_bar(colormap: str, low_mm: float, high_mm: float) -> str:
+    """A colour bar of ``colormap`` with five ticks from ``low_mm`` to ``high_mm`` [mm]."""
     from matplotlib import colormaps
 
-    cmap = colormaps[ERROR_COLORMAP]
+    cmap = colormaps[colormap]
     stops = ", ".join("#{:02x}{:02x}{:02x}".format(*(int(255 * c) for c in cmap(t)[:3])) for t in np.linspace(0, 1, 6))
-    scale_mm = summary.error_scale * 1e3
-    ticks = "".join(f"<span>{v:.3g}</span>" for v in np.linspace(0, scale_mm, 5))
+    ticks = "".join(f"<span>{v:.3g}</span>" for v in np.linspace(low_mm, high_mm, 5))
+    return (f"<div class='bar' style='background: linear-gradient(to right, {stops})'></div>"
+            f"<div class='ticks'>{ticks}</div>")
+
+
+def workspace_text(summary: SceneSummary) -> str:
+    """What the scene's workspace points show, in words (empty without them)."""
+    if not summary.workspace_postures:
+        return ""
+    return (f"coloured dots: the predicted positions at {summary.workspace_postures} postures drawn within the joint "
+            f"limits, coloured by their predicted 95 % bound, {summary.workspace_low * 1e3:.3g} to "
+            f"{summary.workspace_high * 1e3:.3g}")
+
+
+def _workspace_legend(summary: SceneSummary) -> str:
+    """The legend of the workspace points: what they are and their colour scale [mm] (empty without them)."""
+    from pincal.viz.plots import BOUND_COLORMAP
+
+    if not summary.workspace_postures:
+        return ""
+    return (f"<div id='pincal-workspace-legend'>{html.escape(workspace_text(summary))} mm:</div>"
+            + _colour_bar(BOUND_COLORMAP, summary.workspace_low * 1e3, summary.workspace_high * 1e3))
+
+
+def _legend(summary: SceneSummary, title: str) -> str:
     points = "measured point" if summary.has_points else "calibrated end effector (no 3D measurement)"
     segments = (f"<div>each sample's error, from the measured point towards each model's prediction, "
                 f"magnified ×{summary.magnification:g} and coloured by size [mm]: long before calibration, "
                 "short after</div>"
-                f"<div class='bar' style='background: linear-gradient(to right, {stops})'></div>"
-                f"<div class='ticks'>{ticks}</div>") if summary.has_points else ""
+                + _colour_bar(ERROR_COLORMAP, 0.0, summary.error_scale * 1e3)) if summary.has_points else ""
     return f"""<div id="pincal-panel">
 <h1>{html.escape(title)}</h1>
 <div><span class="key" style="background:#{NOMINAL_COLOR:06x};opacity:.45"></span> nominal robot (ghost)
  &nbsp;<span class="key" style="background:#{CALIBRATED_COLOR:06x}"></span> calibrated robot
  &nbsp;<span class="key" style="background:#{POINT_COLOR:06x};border-radius:50%"></span> {points}</div>
 {segments}
+{_workspace_legend(summary)}
 <div style="margin-top:4px"><button id="pincal-prev" title="previous sample (←)">&#9664;</button>
 <input type="range" id="pincal-sample" min="0" max="{summary.n_samples - 1}" value="0">
 <button id="pincal-next" title="next sample (→)">&#9654;</button>

@@ -45,6 +45,18 @@ def error_colors(values: Array, scale: float) -> list[int]:
     return [int(r * 255) << 16 | int(g * 255) << 8 | int(b * 255) for r, g, b, _ in np.atleast_2d(rgba)]
 
 
+def bound_colors(values: Array, low: float, high: float) -> Array:
+    """RGB colours (N, 3) in [0, 1] of predicted bounds ``values`` (N,) [m] on the colour map of the report's
+    uncertainty figure (:data:`pincal.viz.plots.BOUND_COLORMAP`), from ``low`` to ``high`` [m]."""
+    import matplotlib
+
+    from pincal.viz.plots import BOUND_COLORMAP
+
+    cmap = matplotlib.colormaps[BOUND_COLORMAP]
+    span = high - low if high > low else 1.0
+    return np.asarray(cmap(np.clip((np.asarray(values) - low) / span, 0.0, 1.0)), dtype=float)[:, :3]
+
+
 @dataclass(frozen=True)
 class Visual:
     """One shape fixed to a Pinocchio frame.

@@ -80,7 +80,7 @@ def test_report_parameter_table_and_combinations(case: dict[str, Path]) -> None:
 def test_report_figures_are_embedded_pngs_with_content(case: dict[str, Path]) -> None:
     page = case["report"].read_text(encoding="utf-8")
     images = re.findall(r'<img alt="([^"]+)" src="data:image/png;base64,([^"]+)"', page)
-    assert len(images) == 4  # histograms, per sample, parameters, convergence
+    assert len(images) == 5  # histograms, per sample, predicted uncertainty, parameters, convergence
     for alt, data in images:
         image = np.asarray(Image.open(io.BytesIO(base64.b64decode(data))).convert("RGB"))
         assert image.shape[0] > 200 and image.shape[1] > 300, alt

@@ -76,7 +76,7 @@ def test_the_error_figures_state_the_json_s_figures(pages: tuple[dict, str]) -> 
     for when, where, key in (("before", "fit", "rms_before"), ("after", "fit", "rms_after"),
                              ("before", "held out", "test_rms_before"), ("after", "held out", "test_rms_after")):
         assert f"{when}, {where}: RMS {_mm(report[key])}" in histogram, key
-    assert len(alts) == 4 and all(":" in a for a in alts)  # every plot says what it draws, in figures
+    assert len(alts) == 5 and all(":" in a for a in alts)  # every plot says what it draws, in figures
     figure = plots.error_histograms(np.ones(3), np.ones(3), np.ones(2), np.ones(2),
                                     error_figures(CalibrationReport.from_json(report)))
     legend = [t.get_text() for t in figure.axes[0].get_legend().get_texts()]
