@@ -75,8 +75,7 @@ def find_bad_readings(problem: Problem, x: Array, residual: Array, rank: int,
                       refit: Callable[[list[int]], CalibrationResult | None]
                       ) -> tuple[list[BadReading], CalibrationResult | None]:
     """The samples of a robust fit (estimate ``x`` [m, rad], weighted ``residual``, ``rank`` directions fitted) whose
-    joint reading is wrong, and the fit without them; when none is named, the fit without the largest sample judged
-    (None when no sample was judged or the refit fails).
+    joint reading is wrong, and the fit without them (None when there is none or the refit fails).
 
     A gross error pulls even a robust fit towards it along the directions the other samples hardly see (a Delta's
     rod pitches, by degrees), so that at the fit a wrong reading's residual is partly absorbed: each sample the
@@ -92,7 +91,6 @@ def find_bad_readings(problem: Problem, x: Array, residual: Array, rank: int,
     likely = [k for c, k in enumerate(suspects) if np.nanmax(1.0 - after[c] / before[c], initial=0.0) >= LIKELY_SHARE]
     found: list[BadReading] = []
     fits: dict[int, CalibrationResult] = {}
-    unnamed: list[CalibrationResult] = []
     for k in likely:
         without = refit([k])
         if without is None:
@@ -104,13 +102,9 @@ def find_bad_readings(problem: Problem, x: Array, residual: Array, rank: int,
         if named:
             found += named
             fits[k] = without
-        else:
-            unnamed.append(without)
     if len(found) == 1:
         return found, fits[found[0].sample]
-    if found:
-        return found, refit([b.sample for b in found])
-    return [], (unnamed[0] if unnamed else None)
+    return found, (refit([b.sample for b in found]) if found else None)
 
 
 def _examinable(problem: Problem) -> bool:

@@ -160,33 +160,18 @@ def _without_bad_readings(problem: Problem, fit: CalibrationResult, solver: Solv
                           **options: Any) -> CalibrationResult:
     """``fit`` (a Cauchy fit) redone from its start with weight 0 for the samples whose residual one wrong joint
     reading explains (:func:`~pincal.identification.readings.find_bad_readings`), listed in
-    ``extra["bad_readings"]``. When none is named but a flagged sample mostly one reading's was refit without, a
-    Cauchy fit from there replaces ``fit`` if its median sample residual is the smaller (the fit leaned on that
-    sample); otherwise ``fit`` itself."""
+    ``extra["bad_readings"]``; ``fit`` itself when there is none or the refit fails."""
     pred = fit.final if fit.final is not None else evaluated(problem, fit.x, jacobian=False)
     if pred is None:
         return fit
     bad, refit = find_bad_readings(problem, fit.x, pred.residual, fit.identifiability.rank,
                                    lambda left: _attempt(problem, fit.x0, solver, "cauchy", left_out=left, **options))
-    if refit is None:
+    if not bad or refit is None:
         return fit
-    if not bad:  # a sample the fit leans on: a robust refit from the fit without it, if that fits the others better
-        return _from_better_start(problem, fit, refit.x, solver, **options)
     refit = chained(fit, refit)
     refit.extra.update({key: value for key, value in fit.extra.items() if key not in refit.extra})
     refit.extra["bad_readings"] = bad
     return refit
-
-
-def _from_better_start(problem: Problem, fit: CalibrationResult, start: Array, solver: Solver,
-                       **options: Any) -> CalibrationResult:
-    """A Cauchy fit from ``start`` in place of ``fit`` when its median sample residual is the smaller."""
-    other = _attempt(problem, start, solver, "cauchy", **options)
-    if other is None or not _median_sample_residual(problem, other.x) < _median_sample_residual(problem, fit.x):
-        return fit
-    other = chained(fit, other)
-    other.extra.update({key: value for key, value in fit.extra.items() if key not in other.extra})
-    return other
 
 
 def _attempt(problem: Problem, x0: Array, solver: Solver, loss: str, **options: Any) -> CalibrationResult | None:

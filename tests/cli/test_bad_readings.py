@@ -2,8 +2,9 @@
 sample's readings: ``pincal calibrate`` ends exit 0, as accurate as on the clean file, and names the sample and the
 joint; the clean files name none.
 
-Each case edits one cell of a campaign ``pincal simulate`` wrote. The five-bar case takes ~10 s (its least-squares
-first pass is pulled 0.1 m by the wrong crank reading and takes ~50 iterations before the robust refits)."""
+Each case edits one cell of a campaign ``pincal simulate`` wrote. The five-bar and hexapod cases take 6-10 s: their
+least-squares first pass, pulled 0.1 m or 20 mm by the wrong reading, takes 50-140 iterations before the robust
+refits."""
 
 from __future__ import annotations
 
