@@ -35,6 +35,7 @@ from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.metrics import sample_length_errors
 from pincal.identification.parameters import influencing_joints, read_joints
 from pincal.identification.problem import CalibrationProblem
+from pincal.identification.readings import BadReading
 from pincal.identification.result import CalibrationResult
 from pincal.identification.selection import SelectedFit, select_and_fit
 from pincal.identification.solver import identify
@@ -214,6 +215,8 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
         "down_weighted": [{"sample": ids[k], "weight": float(result.sample_weights[k]),
                            "error_after": float(lengths[k]) if lengths is not None and np.isfinite(lengths[k])
                            else None} for k in result.down_weighted()],
+        "bad_readings": [{"sample": ids[b.sample], "joint": b.joint, "off": b.off, "unit": b.unit,
+                          "explained": b.explained} for b in bad_readings_of(result)],
         "n_samples_in_file": dataset.n_samples,
         "outlier_test": [ids[k] for k in suspects] if isinstance(suspects, list) else [],
         # what the data cannot see among all the candidates, not only among the kept ones
@@ -243,6 +246,12 @@ def prediction_content(fit: Prepared, result: CalibrationResult, held: HeldOut |
         out["predicted_held_out"] = held_out_predictions(held.prepared.samples.sample_ids, held.predicted,
                                                          held.sample_errors()[1])
     return out
+
+
+def bad_readings_of(result: CalibrationResult) -> list[BadReading]:
+    """The samples ``result``'s fit left out as bad joint readings (:mod:`pincal.identification.readings`)."""
+    found = result.extra.get("bad_readings", [])
+    return [b for b in found if isinstance(b, BadReading)] if isinstance(found, list) else []
 
 
 def sample_errors(ids: list[str], before: dict[str, Array], after: dict[str, Array], part: str) -> list[dict[str, Any]]:

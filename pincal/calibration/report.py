@@ -49,7 +49,9 @@ class CalibrationReport:
     The fit's figures (``rms_before`` … ``max_after``) are over the fitted samples' readings; the held-out ones
     (``test_*``) over the held-out samples', "before" being the fit's start in both (``before_means`` says what that
     is). ``parameters`` maps each parameter to ``{"value", "std", "identified"}``; ``dropped_samples`` and
-    ``down_weighted`` list samples by id with the reason or weight; ``cv`` is the cross-validation's account.
+    ``down_weighted`` list samples by id with the reason or weight; ``bad_readings`` the fitted samples left out (weight
+    0) because one wrong joint reading explains their error: ``{"sample", "joint", "off" [rad or m], "unit",
+    "explained" (0–1)}``; ``cv`` is the cross-validation's account.
     ``length_scale`` is each measured position's spread over the nominal robot's at the same readings; ``implausible``
     and ``implausible_scale`` list the corrections and the scales beyond what a robot of this model plausibly needs
     (the factor ``plausible`` on the documented limits, :mod:`pincal.calibration.plausibility`), and
@@ -111,6 +113,7 @@ class CalibrationReport:
     no_effect: list[str] = field(default_factory=list)
     dropped_samples: list[dict[str, str]] = field(default_factory=list)
     down_weighted: list[dict[str, Any]] = field(default_factory=list)
+    bad_readings: list[dict[str, Any]] = field(default_factory=list)
     n_samples_in_file: int = 0
     outlier_test: list[str] = field(default_factory=list)
     dropped_test_samples: list[dict[str, str]] | None = field(default=None, metadata=OPTIONAL)

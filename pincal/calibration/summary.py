@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 import textwrap
 from collections.abc import Callable, Sequence
+from typing import Any
 
 from pincal.calibration.heldout import NOISE_CONTRADICTED
 from pincal.calibration.report import CalibrationReport
@@ -281,6 +282,15 @@ LISTED = 10
 ROBUST_WARNING_FRACTION = 0.25
 
 
+def bad_reading_text(entry: dict[str, Any]) -> str:
+    """One bad joint reading of the report (``bad_readings``) in words: the sample, the joint, how far its reading looks
+    off (rad, or mm for a prismatic joint) and the share of the sample's error that explains."""
+    off = float(entry["off"])
+    size = f"{off * 1e3:+.1f} mm" if entry.get("unit") == "m" else f"{off:+.3f} rad"
+    return (f"sample {entry['sample']}: {entry['joint']} reading looks {size} off (explains "
+            f"{math.floor(1000.0 * float(entry['explained'])) / 10.0:.1f} % of its error); left out")
+
+
 def _accounting(report: CalibrationReport) -> list[str]:
     """Where every sample of the file went, and whether the residuals agree with the stated noise."""
     dropped = report.dropped_samples + (report.dropped_test_samples or [])
@@ -293,11 +303,17 @@ def _accounting(report: CalibrationReport) -> list[str]:
     if dropped:
         lines.append(f"dropped ({len(dropped)}):")
         lines += [f"  - sample {d['sample']}: {d['reason']}" for d in dropped[:LISTED]]
-    if weighted:
-        lines.append(f"down-weighted by the robust loss ({len(weighted)}):")
+    bad = report.bad_readings or []
+    if bad:
+        lines.append(f"bad joint readings, left out of the fit ({len(bad)}):")
+        lines += [f"  - {bad_reading_text(entry)}" for entry in bad[:LISTED]]
+    named = {str(entry["sample"]) for entry in bad}
+    weighted_only = [w for w in weighted if str(w["sample"]) not in named]
+    if weighted_only:
+        lines.append(f"down-weighted by the robust loss ({len(weighted_only)}):")
         lines += [f"  - sample {w['sample']}: weight {w['weight']:.3g}"
                   + (f", error {mm(w['error_after'])} after calibration" if w["error_after"] is not None else "")
-                  for w in weighted[:LISTED]]
+                  for w in weighted_only[:LISTED]]
     strange = report.held_out_outliers or []
     if strange:
         lines.append(f"held-out samples the calibrated model cannot explain ({len(strange)}; they weigh on the "

@@ -4,13 +4,14 @@ A loss re-weights whole samples (IRLS): after each accepted step, each sample's 
 residual norm ``e`` through the loss's weighting (:data:`IMPLEMENTED_LOSSES`, a name → function table as SciPy's
 ``least_squares`` keeps), with a scale estimated from the median sample, so no threshold is set by hand in data units.
 ``auto``, :func:`~pincal.identification.solver.identify`'s default, is a plan on top of these: least squares, then
-Cauchy refits if :func:`outlier_samples` finds a sample implausible.
+Cauchy refits if :func:`outlier_samples` finds a sample implausible, and a last refit without the samples whose joint
+reading is wrong (:mod:`pincal.identification.readings`: weight 0, whatever the loss).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -65,20 +66,25 @@ def sample_squares(problem: Problem, residual: Array) -> tuple[Array, IntArray]:
     return squares, np.bincount(samples, minlength=n).astype(np.int64)
 
 
-def sample_weights(problem: Problem, pred: Prediction, weighting: Weighting | None) -> Array:
-    """Per-sample robust weights (IRLS) of ``weighting`` (one of :data:`IMPLEMENTED_LOSSES`) at ``pred``.
+def sample_weights(problem: Problem, pred: Prediction, weighting: Weighting | None,
+                   left_out: Sequence[int] = ()) -> Array:
+    """Per-sample robust weights (IRLS) of ``weighting`` (one of :data:`IMPLEMENTED_LOSSES`) at ``pred``; 0 for the
+    samples ``left_out`` (indices: bad joint readings, :mod:`pincal.identification.readings`).
 
     A sample with fewer rows than most (some markers not seen) has its norm scaled to the most common row count,
     ``e · sqrt(d_typical / d_k)``, so that it is judged per reading; a sample with no row keeps weight 1 and
     counts in neither the scale nor the trimmed share."""
     n = problem.observations.n_samples
     if weighting is None:
-        return np.ones(n)
-    squares, dims = sample_squares(problem, pred.residual)
-    used = dims > 0
-    typical = float(np.median(dims[used])) if used.any() else 1.0
-    norms = np.sqrt(squares * typical / np.maximum(dims, 1))
-    return weighting(norms, used)
+        weights = np.ones(n)
+    else:
+        squares, dims = sample_squares(problem, pred.residual)
+        used = dims > 0
+        typical = float(np.median(dims[used])) if used.any() else 1.0
+        norms = np.sqrt(squares * typical / np.maximum(dims, 1))
+        weights = weighting(norms, used)
+    weights[list(left_out)] = 0.0
+    return weights
 
 
 def row_weights(problem: Problem, weights: Array) -> Array:
@@ -86,26 +92,37 @@ def row_weights(problem: Problem, weights: Array) -> Array:
     return np.asarray(weights[problem.row_samples()], dtype=np.float64)
 
 
-def outlier_samples(problem: Problem, pred: Prediction, n_fitted: int = 0) -> list[int]:
-    """Samples whose residual is implausible given the noise level the data themselves show.
-
-    With ``e_k`` a sample's weighted residual norm over ``d_k`` rows, the noise scale is
-    ``s² = median(e_k² / m_k)`` (``m_k`` the median of χ²_{d_k}), and a sample is flagged when
-    ``e_k² > s² · χ²_{d_k}(1 − α/N)``, α = ``OUTLIER_FALSE_ALARM``; ``s²`` is corrected by
-    ``rows / (rows − n_fitted)`` for the degrees of freedom the fit used: clean data raise a false alarm in
-    about one dataset in a thousand. Nothing here is set by hand in data units.
-    """
+def noise_scale(problem: Problem, residual: Array, n_fitted: int = 0) -> float:
+    """The noise scale the data show [σ² units of the weighted residual]: ``s² = median(e_k² / m_k)`` over the
+    samples with rows (``e_k`` a sample's weighted residual norm over ``d_k`` rows, ``m_k`` the median of χ²_{d_k}),
+    corrected by ``rows / (rows − n_fitted)`` for the degrees of freedom the fit used; 0 with fewer than three
+    samples."""
     from scipy.stats import chi2
 
-    sq, dims = sample_squares(problem, pred.residual)
+    sq, dims = sample_squares(problem, residual)
     used = dims > 0
     if used.sum() < 3:
-        return []
+        return 0.0
     scale2 = float(np.median(sq[used] / chi2.median(dims[used])))
     rows = int(dims.sum())
     if rows > n_fitted:  # fitted residuals are smaller than the noise by the fitted degrees of freedom
         scale2 *= rows / (rows - n_fitted)
+    return scale2
+
+
+def outlier_samples(problem: Problem, pred: Prediction, n_fitted: int = 0) -> list[int]:
+    """Samples whose residual is implausible given the noise level the data themselves show.
+
+    With ``e_k`` a sample's weighted residual norm over ``d_k`` rows and ``s²`` the noise scale
+    (:func:`noise_scale`), a sample is flagged when ``e_k² > s² · χ²_{d_k}(1 − α/N)``, α = ``OUTLIER_FALSE_ALARM``:
+    clean data raise a false alarm in about one dataset in a thousand. Nothing here is set by hand in data units.
+    """
+    from scipy.stats import chi2
+
+    scale2 = noise_scale(problem, pred.residual, n_fitted)
     if scale2 <= 0.0:
         return []
+    sq, dims = sample_squares(problem, pred.residual)
+    used = dims > 0
     limit = scale2 * chi2.ppf(1.0 - OUTLIER_FALSE_ALARM / int(used.sum()), np.maximum(dims, 1))
     return [int(k) for k in np.flatnonzero(used & (sq > limit))]

@@ -27,6 +27,7 @@ from __future__ import annotations
 import functools
 import math
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -51,6 +52,7 @@ from pincal.identification.losses import (
 )
 from pincal.identification.prior import WithPrior, prior_sigma
 from pincal.identification.problem import Prediction, Problem
+from pincal.identification.readings import find_bad_readings
 from pincal.identification.result import CalibrationResult, chained
 from pincal.identification.ridge import Ridge
 from pincal.identification.steps import (
@@ -100,8 +102,9 @@ def identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", l
     ``loss="auto"`` (the default) fits by least squares, tests every sample against the noise level the
     fit shows (:func:`outlier_samples`) and, if any sample is implausible, refits with the Cauchy loss
     from the least-squares fit and from the starting point, and keeps the refit whose median sample
-    residual is the smaller (clustered outliers pull the least-squares fit towards them); the result
-    lists the samples it down-weighted.
+    residual is the smaller (clustered outliers pull the least-squares fit towards them); then a sample
+    whose error one wrong joint reading explains is left out (weight 0) and the Cauchy fit redone
+    (:func:`_without_bad_readings`); the result lists the samples it down-weighted.
     """
     # the dense algebra here is small (hundreds × tens): multi-threaded BLAS only adds overhead, and
     # on a loaded 2-core machine it made identification ten times slower
@@ -151,9 +154,28 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: Solver, loss: Los
     second.seconds += sum(c.seconds for c in others)
     second = chained(first, second)
     second.extra["first_pass_iterations"] = first.iterations
+    second = _without_bad_readings(problem, second, solver, **options)
     second.loss = "auto (cauchy)"
     second.extra["outlier_test"] = suspects
     return second
+
+
+def _without_bad_readings(problem: Problem, fit: CalibrationResult, solver: Solver,
+                          **options: Any) -> CalibrationResult:
+    """``fit`` (a Cauchy fit) redone from its start with weight 0 for the samples whose residual one wrong joint
+    reading explains (:func:`~pincal.identification.readings.find_bad_readings`), listed in
+    ``extra["bad_readings"]``; ``fit`` itself when there is none or the refit fails."""
+    pred = fit.final if fit.final is not None else evaluated(problem, fit.x, jacobian=False)
+    if pred is None:
+        return fit
+    bad, refit = find_bad_readings(problem, fit.x, pred.residual, fit.identifiability.rank,
+                                   lambda left: _attempt(problem, fit.x0, solver, "cauchy", left_out=left, **options))
+    if not bad or refit is None:
+        return fit
+    refit = chained(fit, refit)
+    refit.extra.update({key: value for key, value in fit.extra.items() if key not in refit.extra})
+    refit.extra["bad_readings"] = bad
+    return refit
 
 
 def _attempt(problem: Problem, x0: Array, solver: Solver, loss: str, **options: Any) -> CalibrationResult | None:
@@ -255,7 +277,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              min_information: float = 0.0,
              tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False,
-             prior: float | None = None) -> CalibrationResult:
+             prior: float | None = None, left_out: Sequence[int] = ()) -> CalibrationResult:
     """Estimate the parameters from the data.
 
     Args:
@@ -284,6 +306,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         strict: Refuse (IdentifiabilityError) when not every parameter is identifiable.
         prior: A factor on each parameter kind's prior σ about nominal (:mod:`pincal.identification.prior`): the
             maximum a posteriori estimate, its posterior covariance; None: least squares, no prior.
+        left_out: Samples (indices) that weigh 0 whatever the loss (bad joint readings).
 
     Raises:
         DataError: unknown solver or loss, or fewer residuals than identifiable parameters.
@@ -309,7 +332,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
     active = ident.base_indices
     _check_identifiable(ident, len(pset), data.residual.size, strict)
     d = scales
-    weights = sample_weights(problem, data, weighting)
+    weights = sample_weights(problem, data, weighting, left_out)
     rw = np.sqrt(model.row_weights(row_weights(problem, weights)))
     cost = 0.5 * float(np.sum((rw * pred.residual) ** 2))
     history = [cost]
@@ -388,7 +411,7 @@ def _fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss:
         x, pred, cost = x + d * dz, new, new_cost
         assert pred.jacobian is not None
         if not least_squares:
-            weights = sample_weights(problem, model.data(pred), weighting)
+            weights = sample_weights(problem, model.data(pred), weighting, left_out)
             rw = np.sqrt(model.row_weights(row_weights(problem, weights)))
             cost = 0.5 * float(np.sum((rw * pred.residual) ** 2))
         history.append(cost)
@@ -431,7 +454,7 @@ def _uncertainty(pred: Prediction, rw: Array, active: list[int], names: list[str
     ``active``) [parameter units] and their correlations, from every row (a prior's included: the posterior
     covariance); NaN when the active columns are dependent."""
     assert pred.jacobian is not None
-    dof = max(rows - len(active), 1)
+    dof = max(int(np.count_nonzero(rw[:rows])) - len(active), 1)  # a sample left out (weight 0): no degree of freedom
     sigma2 = float(np.sum((rw[:rows] * pred.residual[:rows]) ** 2)) / dof
     std, apriori = np.full(len(names), np.nan), np.full(len(names), np.nan)
     try:

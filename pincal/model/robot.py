@@ -428,7 +428,8 @@ def unusable_samples(robot: Robot, actuated: Array, max_condition: float = 1e5) 
     for k, qa in enumerate(np.asarray(actuated, dtype=float)):
         report = robot.solve_fk_report(qa)
         if not report.converged:
-            out.append((k, f"forward kinematics did not converge (closure residual {report.residual:.3g})"))
+            what = "the loops cannot be assembled at its readings: " if robot.loops else ""
+            out.append((k, f"{what}forward kinematics did not converge (closure residual {report.residual:.3g})"))
             continue
         if robot.loops:
             _, jac = robot.kinematics.closure_jacobian(report.q)

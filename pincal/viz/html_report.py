@@ -21,7 +21,7 @@ import numpy.typing as npt
 
 from pincal.calibration.pipeline import Calibration
 from pincal.calibration.report import CalibrationReport
-from pincal.calibration.summary import correction
+from pincal.calibration.summary import bad_reading_text, correction
 from pincal.errors import DataError
 from pincal.io.files import make_directory, write_text
 from pincal.progress import Progress
@@ -253,6 +253,8 @@ def _summary_table(report: CalibrationReport, n_test: int | None) -> str:
         facts += (f"<tr><td>down-weighted samples (robust loss)</td>"
                   f"<td>{len(down)}: {'sample' if len(down) == 1 else 'samples'} "
                   f"{html.escape(', '.join(map(str, down)))}</td></tr>")
+    for entry in report.bad_readings or []:
+        facts += f"<tr><td>bad joint reading</td><td>{html.escape(bad_reading_text(entry))}</td></tr>"
     return (f'<div class="cards"><div><table>{facts}</table></div><div>{"".join(table)}</div></div>')
 
 

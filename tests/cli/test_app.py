@@ -146,6 +146,7 @@ def test_real_tiago_data_with_the_default_command(tmp_path: Path) -> None:
     assert data["n_parameters"] == 52 and data["n_identifiable"] == 33 and data["no_effect"] == []
     assert len(data["unidentifiable"]) == 52 - 33  # the report has every direction
     assert data["n_estimated"] < data["n_identifiable"]
+    assert data["bad_readings"] == [] and "bad joint readings" not in out  # real residuals, no wrong reading
     held_out = next(line for line in out.splitlines() if line.startswith("RMS position error (held out)"))
     before, after = (float(v) for v in held_out.split()[-4::2])
     assert after < 5.0 and before > 10 * after  # [mm]; 52.9 → 4.2 on this file
@@ -217,6 +218,7 @@ def test_real_tiago_data_with_three_markers(tmp_path: Path) -> None:
     assert data["readings"] == {f"position:wrist_ft_tool_link@m{k}": 28 for k in (1, 2, 3)}
     assert {f"marker.wrist_ft_tool_link@m{k}.{a}" for k in (1, 2, 3) for a in "xyz"} <= set(data["parameters"])
     assert data["n_residuals"] == 84 * 3
+    assert data["bad_readings"] == []  # a large real residual is not a wrong joint reading
     fit = next(line for line in lines if line.startswith("RMS position error (fit)"))
     held_out = next(line for line in lines if line.startswith("RMS position error (held out)"))
     assert float(fit.split()[-2]) < 3.0 and float(held_out.split()[-2]) < 5.0  # [mm]; 2.23 and 4.20 on this file

@@ -40,6 +40,7 @@ def test_a_clean_simulated_campaign_raises_no_alarm(tmp_path: Path, robot: str, 
     assert _alarms(done.stdout) == []
     content = json.loads(report.read_text())
     assert content["converged"] is True and content["held_out_outside_range"] == []
+    assert content["bad_readings"] == [] and content["dropped_samples"] == []
     unseen = content["n_parameters"] - content["n_identifiable"]
     assert unseen > 0  # the default set's candidates overlap: the note says so calmly
     # in one sentence, each direction in the report only

@@ -1,0 +1,209 @@
+"""Bad joint readings: samples whose residual one wrong actuated-joint reading explains.
+
+A sample whose joint reading is wrong (one joint off, a digit lost) has a residual that a single change of that
+reading removes. For each candidate sample (one the outlier test of ``auto`` finds implausible) and each actuated
+joint ``i``, the reading change ``δ`` [rad or m] that best explains the sample's weighted residual is found by
+Gauss–Newton on ``r_k(q_k + δ e_i)``, with ``∂r_k/∂q_i`` the analytic column of that joint's reading offset
+(the same derivative the ``<joint>.offset`` parameters have), iterated on the full prediction: a five-bar crank read
+0.3 rad off moves the tool ~0.1 m, and one linear step leaves hundreds of times the noise (the second-order term).
+The sample is judged at a fit without it (:func:`find_bad_readings`), and its reading is taken for wrong when
+
+- the error it removes is gross: ``‖r‖² − ‖r(δ)‖² ≥ G² · s² · d`` (G = :data:`GROSS_FACTOR`, ``d`` the sample's
+  rows): at least ten times the norm the noise gives a sample's readings;
+- what remains is noise: ``‖r(δ)‖² ≤ s² · χ²_{d−1}(1 − α)``, α = :data:`READING_FALSE_ALARM`;
+- it explains at least :data:`EXPLAINED_SHARE` of the sample's squared residual;
+- no other joint does as well (one reading is named, or none).
+
+A residual merely large, as real data have, is none of this: real motion-capture data (the TIAGo files) hold a sample
+whose error of ~10 mm is 98 % one joint's, but only a few noise norms: the Cauchy weight handles such a sample. Only a
+gross error needs leaving out: its pull along the directions the other samples hardly see moves even a robust
+estimate by degrees (a Delta's rod pitches). ``s²`` is the noise scale the data show
+(:func:`~pincal.identification.losses.noise_scale`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.errors import ConvergenceError, DataError
+from pincal.identification.losses import noise_scale, outlier_samples, sample_squares
+from pincal.identification.parameters import ParameterSet, joint_unit, offset_parameter
+from pincal.identification.problem import CalibrationProblem, Observations, Prediction, Problem
+from pincal.identification.result import CalibrationResult
+
+Array = npt.NDArray[np.float64]
+
+#: False-alarm level of the test that what a reading's change leaves is noise.
+READING_FALSE_ALARM = 1e-3
+#: How many times the norm of a sample's noise the error a wrong reading explains must be, at least.
+GROSS_FACTOR = 10.0
+#: Least share of a sample's squared weighted residual that one reading's change must explain.
+EXPLAINED_SHARE = 0.95
+#: Least share of a flagged sample's squared residual, at the robust fit, that one reading's change must explain for
+#: the sample to be judged at a fit without it.
+LIKELY_SHARE = 0.5
+#: Most flagged samples judged at a fit without them (each costs one robust fit), the largest first.
+MAX_CANDIDATES = 5
+#: Gauss–Newton iterations on one reading's change (each one evaluation of the candidate samples).
+READING_ITERATIONS = 8
+
+
+@dataclass(frozen=True)
+class BadReading:
+    """One sample's wrong joint reading.
+
+    Attributes:
+        sample: The sample's index in the problem.
+        joint: The actuated joint whose reading is wrong.
+        off: How far the reading is off [rad or m]: the reading minus the value that explains the measurement.
+        unit: ``rad`` or ``m``.
+        explained: The share (0–1) of the sample's squared weighted residual that the change explains.
+    """
+
+    sample: int
+    joint: str
+    off: float
+    unit: str
+    explained: float
+
+
+def find_bad_readings(problem: Problem, x: Array, residual: Array, rank: int,
+                      refit: Callable[[list[int]], CalibrationResult | None]
+                      ) -> tuple[list[BadReading], CalibrationResult | None]:
+    """The samples of a robust fit (estimate ``x`` [m, rad], weighted ``residual``, ``rank`` directions fitted) whose
+    joint reading is wrong, and the fit without them (None when there is none or the refit fails).
+
+    A gross error pulls even a robust fit towards it along the directions the other samples hardly see (a Delta's
+    rod pitches, by degrees), so that at the fit a wrong reading's residual is partly absorbed: each sample the
+    outlier test flags and one reading's change explains at least :data:`LIKELY_SHARE` of, is judged at ``refit``
+    (a fit from the start with that sample at weight 0), where its residual is its prediction error
+    (:func:`bad_readings`); the :data:`MAX_CANDIDATES` largest at most."""
+    suspects = outlier_samples(problem, _prediction(residual), rank)
+    if not suspects or not isinstance(problem, CalibrationProblem) or not _examinable(problem):
+        return [], None
+    squares, _ = sample_squares(problem, residual)
+    suspects = sorted(suspects, key=lambda k: -squares[k])[:MAX_CANDIDATES]
+    _, before, after = _reading_changes(problem, x, suspects)
+    likely = [k for c, k in enumerate(suspects) if np.nanmax(1.0 - after[c] / before[c], initial=0.0) >= LIKELY_SHARE]
+    found: list[BadReading] = []
+    fits: dict[int, CalibrationResult] = {}
+    for k in likely:
+        without = refit([k])
+        if without is None:
+            continue
+        left = without.final.residual if without.final is not None else None
+        if left is None:
+            continue
+        named = bad_readings(problem, without.x, [k], noise_scale(problem, left, without.identifiability.rank))
+        if named:
+            found += named
+            fits[k] = without
+    if len(found) == 1:
+        return found, fits[found[0].sample]
+    return found, (refit([b.sample for b in found]) if found else None)
+
+
+def _examinable(problem: Problem) -> bool:
+    """Whether :func:`bad_readings` examines ``problem``: a forward-kinematics problem without incremental
+    measurements (one sample's prediction depends on that sample's readings alone)."""
+    return isinstance(problem, CalibrationProblem) and not any(m.incremental for m in problem.measurements)
+
+
+def _prediction(residual: Array) -> Prediction:
+    """A prediction that holds only a weighted residual (what the outlier test reads)."""
+    return Prediction(residual, None, {}, {})
+
+
+def bad_readings(problem: Problem, x: Array, candidates: Sequence[int], scale2: float) -> list[BadReading]:
+    """The ``candidates`` (sample indices) whose residual at ``x`` [m, rad] one actuated joint's wrong reading
+    explains (module docstring), with ``scale2`` the noise scale ``s²`` of the weighted residual [σ² units].
+
+    Only a forward-kinematics problem (:class:`~pincal.identification.problem.CalibrationProblem`) without
+    incremental measurements is examined; for any other, none."""
+    from scipy.stats import chi2
+
+    if not candidates or scale2 <= 0.0 or not isinstance(problem, CalibrationProblem) or not _examinable(problem):
+        return []
+    rows = list(candidates)
+    changes, before, after = _reading_changes(problem, x, rows)
+    robot = problem.robot
+    n_joints = robot.n_actuated
+    dims = np.bincount(problem.row_samples(), minlength=problem.observations.n_samples)[rows]
+    beyond = GROSS_FACTOR**2 * scale2 * dims
+    noise = scale2 * chi2.ppf(1.0 - READING_FALSE_ALARM, np.maximum(dims - 1, 1))
+    found = []
+    for c, k in enumerate(rows):
+        explains = [(before[c] - after[c, i] >= beyond[c] and after[c, i] <= noise[c]
+                     and after[c, i] <= (1.0 - EXPLAINED_SHARE) * before[c]) for i in range(n_joints)]
+        if sum(explains) != 1:
+            continue
+        i = explains.index(True)
+        joint = robot.actuated_joints[i]
+        found.append(BadReading(k, joint, -float(changes[c, i]), joint_unit(robot, joint),
+                                1.0 - float(after[c, i] / before[c])))
+    return found
+
+
+def _reading_changes(problem: CalibrationProblem, x: Array, rows: list[int]) -> tuple[Array, Array, Array]:
+    """For the samples ``rows``: the change of each actuated reading [rad or m] that best explains the sample's
+    weighted residual (Gauss–Newton, one joint at a time, keeping the best iterate), the squared residual norm
+    without it and with it (NaN where the loops do not close)."""
+    robot = problem.robot
+    present = {p.owner for p in problem.parameters if p.kind == "offset"}
+    extra = [offset_parameter(j, joint_unit(robot, j)) for j in robot.actuated_joints if j not in present]
+    pset = ParameterSet(list(problem.parameters.parameters) + extra)
+    columns = [pset.index(f"{j}.offset") for j in robot.actuated_joints]
+    full = np.concatenate([np.asarray(x, dtype=float), np.zeros(len(extra))])
+    observed = problem.observations.subset(rows)
+    n, n_joints = len(rows), robot.n_actuated
+    before, slopes, grads = _sample_terms(problem, pset, full, observed, np.zeros((n, n_joints)), columns)
+    changes, after = np.zeros((n, n_joints)), np.full((n, n_joints), np.nan)
+    for i in range(n_joints):
+        delta, best = np.zeros((n, n_joints)), before.copy()
+        step = _gauss_newton_step(slopes[:, i], grads[:, i])
+        for _ in range(READING_ITERATIONS):
+            if np.all(np.abs(step) <= 1e-9):
+                break
+            delta[:, i] += step
+            squares, slope, grad = _sample_terms(problem, pset, full, observed, delta, columns)
+            better = squares < best
+            best[better], changes[better, i] = squares[better], delta[better, i]
+            step = _gauss_newton_step(slope[:, i], grad[:, i])
+        after[:, i] = best
+    return changes, before, after
+
+
+def _gauss_newton_step(slopes: Array, grads: Array) -> Array:
+    """The Gauss–Newton step ``−(gᵀr)/(gᵀg)`` of one reading per sample [rad or m]; 0 where it is undefined."""
+    step = np.zeros(slopes.shape)
+    ok = np.isfinite(slopes) & np.isfinite(grads) & (slopes > 0.0)
+    step[ok] = -grads[ok] / slopes[ok]
+    return step
+
+
+def _sample_terms(problem: CalibrationProblem, pset: ParameterSet, x: Array, observed: Observations, delta: Array,
+                  columns: list[int]) -> tuple[Array, Array, Array]:
+    """Each sample's squared weighted residual norm ``‖r‖²``, and per actuated joint ``‖g‖²`` and ``gᵀr`` (``g``
+    = ∂r/∂q of that joint's reading, from its offset column ``columns``) with its readings changed by ``delta``
+    (N, n_a) [rad or m]; NaN for a sample whose loops do not close there. Samples are evaluated one by one, so that
+    one that cannot be assembled spoils no other."""
+    n, n_joints = observed.n_samples, len(columns)
+    squares, slopes, grads = np.full(n, np.nan), np.full((n, n_joints), np.nan), np.full((n, n_joints), np.nan)
+    joint_sigma = None if problem.joint_sigma is None else [float(v) for v in problem.joint_sigma]
+    for s in range(n):
+        single = Observations(observed.actuated[s:s + 1] + delta[s], {key: v[s:s + 1] for key, v in
+                                                                       observed.values.items()})
+        try:
+            pred = CalibrationProblem(problem.robot, pset, problem.measurements, single, joint_sigma,
+                                      problem.payload).evaluate(x)
+        except (ConvergenceError, DataError):
+            continue
+        assert pred.jacobian is not None
+        g = pred.jacobian[:, columns]
+        squares[s], slopes[s], grads[s] = float(pred.residual @ pred.residual), np.sum(g**2, axis=0), g.T @ \
+            pred.residual
+    return squares, slopes, grads
