@@ -237,6 +237,8 @@ def _with_prior_weighed(problem: Problem, result: CalibrationResult, solver: Sol
     factor = options.get("prior")
     if factor is None or not math.isfinite(result.sigma2) or result.sigma2 >= QUIETER_THAN_STATED:
         return result
+    if at_floor(result.errors_after, exact_fit_floors(problem, 0.0, EXACT_FIT_AMPLIFICATION)):  # exact: no noise
+        return result
     weighed = {**options, "prior": factor / math.sqrt(max(result.sigma2, 1e-300))}
     try:
         return chained(result, _fit(problem, result.x0, solver, loss, **weighed))
