@@ -23,6 +23,7 @@ from pincal.calibration.options import JOB_OPTIONS, OPTIONS
 from pincal.errors import DataError, NotFoundError, listing, not_found
 from pincal.identification.corrections import Payload, payload_from_dict
 from pincal.identification.measurements import KIND_CLASSES
+from pincal.io.bag_dataset import BagSource
 from pincal.io.dataset import MEASUREMENT_COMPONENTS, parse_measurement_key
 from pincal.model.robot import Robot, load_robot
 
@@ -93,6 +94,7 @@ class Job:
         joints: Joint name -> the column of its readings, those the job maps.
         measures: The measurements and their columns.
         overrides: The options given elsewhere (the command line) in place of the job's, by name.
+        bag: The ROS bag the data come from (a ``[bag]`` table, :mod:`pincal.calibration.job_bag`), or None.
     """
 
     path: Path
@@ -110,6 +112,7 @@ class Job:
     joints: dict[str, str] = field(default_factory=dict)
     measures: tuple[MeasureColumns, ...] = ()
     overrides: tuple[str, ...] = ()
+    bag: BagSource | None = None
 
     def overridden(self, out: str | Path | None = None, report: str | Path | None = None,
                    **options: Any) -> Job:
@@ -145,6 +148,10 @@ def read_job(path: str | Path) -> Job:
         raise DataError(f"cannot read job file '{source}': {exc.strerror or exc}") from None
     except ValueError as exc:  # tomllib.TOMLDecodeError, UnicodeDecodeError
         raise DataError(f"{source}: not a valid TOML file: {exc}") from None
+    if "bag" in doc:  # the data is a ROS bag (docs/bags.md)
+        from pincal.calibration.job_bag import read_bag_job
+
+        return read_bag_job(_Reader(source), doc)
     return _Reader(source).job(doc)
 
 

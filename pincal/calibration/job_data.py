@@ -12,6 +12,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.job import ANGLE_UNITS, LENGTH_UNITS, HeldOut, Job
+from pincal.calibration.job_bag import bag_job_dataset
 from pincal.errors import DataError, listing, not_found
 from pincal.identification.measurements import KIND_CLASSES, parse_key
 from pincal.io.dataset import MAX_SAMPLES, OCCLUDABLE_KINDS, Dataset
@@ -48,6 +49,8 @@ def job_dataset(job: Job, robot: Robot) -> Dataset:
         DataError: naming the job file, the place in it or the data file, the column and the line at fault.
         NotFoundError: a joint or frame the robot does not have.
     """
+    if job.bag is not None:  # a ROS bag's static postures (docs/bags.md)
+        return bag_job_dataset(job, job.bag, robot)
     for joint in job.joints:
         robot.joint_id(joint, f"{job.path}: [joints] {joint}: ")
     for measure in job.measures:

@@ -1,5 +1,6 @@
 """The command line starts light: parsing the arguments (``--help``, ``--version``-like help of every command, an
-argument error) imports neither Pinocchio nor SciPy (nor NumPy); the work's modules load when a command runs."""
+argument error) imports neither Pinocchio nor SciPy (nor NumPy, nor rosbags); the work's modules load when a command
+runs."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import sys
 
 import pytest
 
-HEAVY = ("pinocchio", "scipy", "matplotlib", "meshcat", "numpy")
+HEAVY = ("pinocchio", "scipy", "matplotlib", "meshcat", "numpy", "rosbags")
 
 PROBE = """
 import sys
@@ -30,14 +31,15 @@ def _loaded(argv: list[str]) -> tuple[str, str]:
 
 @pytest.mark.parametrize("argv", [["--help"], *([c, "--help"] for c in ("info", "simulate", "calibrate", "demo",
                                                                           "fleet", "view", "report", "design", "check",
-                                                                          "montecarlo", "compensate", "export"))])
+                                                                          "montecarlo", "compensate", "export",
+                                                                          "import"))])
 def test_help_imports_no_numerical_library(argv: list[str]) -> None:
     assert _loaded(argv) == ("0", "[]")
 
 
 @pytest.mark.parametrize("argv", [[], ["calibrate", "delta", "d.csv", "--solver", "gn"], ["simulate", "delta"],
                                   ["report", "delta", "d.csv", "--max-iter", "0", "--out", "x.html"],
-                                  ["compensate", "delta", "t.csv"]])
+                                  ["compensate", "delta", "t.csv"], ["import", "ur10", "r.bag", "--joints", "/j"]])
 def test_an_argument_error_imports_no_numerical_library(argv: list[str]) -> None:
     assert _loaded(argv) == ("2", "[]")
 
