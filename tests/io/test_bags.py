@@ -1,19 +1,35 @@
 """Reading ROS bags (pincal.io.bags) and finding static postures in them (pincal.io.postures): bags written by the
-``rosbags`` writer in a temporary directory (tests/bag_recording.py), as ROS 1, ROS 2 sqlite3 and ROS 2 mcap."""
+``rosbags`` writer in a temporary directory (examples/ros_bag.py), as ROS 1, ROS 2 sqlite3 and ROS 2 mcap."""
 
 from __future__ import annotations
 
+import importlib.util
+import sys
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import pytest
-from bag_recording import JOINT_RATE, START, Stop, trajectory, write_bag
+from conftest import ROOT
 from scipy.spatial.transform import Rotation
 
 from pincal.errors import DataError, NotFoundError
 from pincal.io.bags import JointStates, MeasurementSource, MeasurementStream, read_bag
 from pincal.io.postures import StillRule, average_quaternion, find_postures
 
+
+def _example(name: str) -> ModuleType:
+    """The module of ``examples/<name>.py``."""
+    spec = importlib.util.spec_from_file_location(name, ROOT / "examples" / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # its dataclasses look themselves up there
+    spec.loader.exec_module(module)
+    return module
+
+
+ros_bag = _example("ros_bag")
+Stop, trajectory, write_bag, START = ros_bag.Stop, ros_bag.trajectory, ros_bag.write_bag, ros_bag.START
 NAMES = ["j1", "j2", "j3"]
 QUATERNION = Rotation.from_rotvec([0.3, -0.2, 1.1]).as_quat()  # x, y, z, w
 
@@ -92,7 +108,7 @@ def test_each_posture_is_kept_and_averaged_or_dropped_with_its_reason() -> None:
                                                                "measurement moving"]
     assert postures[0].start == pytest.approx(0.0) and postures[1].start == pytest.approx(2.0, abs=0.06)
     for posture, stop in zip(postures[:3], stops, strict=False):
-        assert posture.kept and posture.n_states >= 1.5 * JOINT_RATE - 1
+        assert posture.kept and posture.n_states >= 1.5 * ros_bag.JOINT_RATE - 1
         np.testing.assert_allclose(posture.joints, stop.joints, atol=1e-5)  # 1e-5 noise averaged over 150 readings
         np.testing.assert_allclose(posture.position, stop.measurement[:3], atol=2e-4)
         assert posture.quaternion is not None

@@ -1,13 +1,22 @@
-"""Recordings of a robot moving between static postures, written as ROS bags with the ``rosbags`` writer (ROS 1
-``.bag``, ROS 2 sqlite3 or mcap): joint states at 100 Hz (the joints in a shuffled order, a gripper joint besides),
-and one measurement at 50 Hz (a PoseStamped topic, a TF child frame on ``/tf`` beside another transform, or a
-PointStamped topic), each with noise; smooth transitions (zero velocity at both ends) between the postures. A
-quaternion's sign is flipped at random, as trackers do: averaging must not care."""
+"""A ROS bag of a robot measured at static postures, as a motion-capture session records it: the example of
+docs/bags.md, and the bags of the tests.
+
+Run: ``python examples/ros_bag.py sim/measurements.csv run.bag`` (``--storage sqlite3`` or ``mcap`` for a ROS 2 bag
+directory; ``--measure tf`` or ``point`` for the measurement as a TF child frame or a marker point).
+
+The robot moves through the training postures of a dataset (``pincal simulate ... --measure pose``), holding each
+1.6 s, with smooth moves of 0.6 s between them (zero velocity at both ends). Three stops are added that
+``pincal import`` must not keep: one held 0.5 s (too short), one with the tracker occluded, one where the tracked body
+slides 5 mm while the joints are still. Joint states at 100 Hz (the joints in a shuffled order, a gripper joint
+besides, noise 1e-5 rad), the tool's pose at 50 Hz (noise 0.3 mm and 0.3 mrad per reading, the quaternion's sign
+flipped at random, as trackers do). Written with the ``rosbags`` writer: no ROS installation needed.
+"""
 
 from __future__ import annotations
 
+import argparse
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +42,6 @@ class Stop:
     hold: float = 2.0
     fault: str = ""
     drift: float = 5e-3
-    extra: dict[str, Any] = field(default_factory=dict)
 
 
 def _smooth(u: np.ndarray) -> np.ndarray:
@@ -178,3 +186,53 @@ def write_bag(path: Path, storage: str, names: Sequence[str], recording: dict[st
         for t, which, msg in events:
             writer.write(connections[which], round((t + 0.002) * 1e9), serialize(msg, types[which]))
     return path
+
+
+#: Each measurement kind's topic, and the TF frames (parent, child).
+TOPICS = {"pose": "/mocap/tool", "tf": "/tf", "point": "/marker"}
+TF_FRAMES = ("mocap", "tool")
+HOLD = 1.6  # [s]
+TRANSITION = 0.6  # [s]
+#: Where the three stops not to keep go among the postures, and what is wrong with each.
+FAULTS = ((3, "short"), (8, "occluded"), (13, "moving"))
+
+
+def session_stops(joints: np.ndarray, poses: np.ndarray) -> list[Stop]:
+    """The stops of a session through the postures ``joints`` (N, n) [rad or m] whose tool poses are ``poses`` (N, 7)
+    (x, y, z [m], qx, qy, qz, qw), with the three faulty stops of :data:`FAULTS` inserted (their joints 0.1 rad away
+    from a neighbour's)."""
+    stops = [Stop(q, pose, hold=HOLD) for q, pose in zip(joints, poses, strict=True)]
+    for at, fault in FAULTS:
+        k = min(at, len(joints) - 1)
+        stops.insert(at, Stop(joints[k] + 0.1, poses[k], hold=0.5 if fault == "short" else HOLD,
+                              fault="" if fault == "short" else fault))
+    return stops
+
+
+def main() -> None:
+    """Write the bag of the training postures of a dataset (module docstring)."""
+    from pincal.io.dataset_reader import read_dataset
+
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("data", help="a dataset with a pose measurement (pincal simulate ... --measure pose)")
+    parser.add_argument("out", help="the bag: a .bag file (ros1), or a directory (sqlite3, mcap)")
+    parser.add_argument("--storage", choices=("ros1", "sqlite3", "mcap"), default="ros1")
+    parser.add_argument("--measure", choices=tuple(TOPICS), default="pose")
+    parser.add_argument("--no-stamps", action="store_true", help="header stamps left at zero (the bag time counts)")
+    parser.add_argument("--seed", type=int, default=5)
+    args = parser.parse_args()
+    data = read_dataset(args.data).of_set("train")
+    key = next(k for k in data.measurements if k.startswith("pose:"))
+    recording = trajectory(session_stops(data.joints, data.measurements[key]), TRANSITION, args.seed)
+    if args.measure == "point":
+        recording["values"] = recording["values"][:, :3]
+    write_bag(Path(args.out), args.storage, data.joint_names, recording, args.measure, TOPICS[args.measure],
+              TF_FRAMES, stamps=not args.no_stamps, seed=args.seed)
+    what = f"TF {TF_FRAMES[0]} -> {TF_FRAMES[1]} on /tf" if args.measure == "tf" else TOPICS[args.measure]
+    print(f"wrote {args.out} ({args.storage}): {data.n_samples} postures of {args.data} and 3 stops not to keep "
+          f"(too short, tracker occluded, body sliding); {recording['joints'].shape[0]} joint states on "
+          f"/joint_states, {recording['values'].shape[0]} readings of {key.partition(':')[2]} ({what})")
+
+
+if __name__ == "__main__":
+    main()
