@@ -314,7 +314,8 @@ def attached_link(kind: str, target: str) -> str:
 def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_origins: dict[str, pin.SE3],
                     root: dict[str, pin.SE3], measurement_frame: str) -> list[FixedLink]:
     """Each calibrated camera, target and plane (its z axis the normal) as a link: on its frame's link, or the world
-    target and plane on the robot's root link; a camera or target link of an earlier calibration gets the new placement as its joint's origin."""
+    target and plane on the robot's root link; such a link of an earlier calibration gets the new placement as its
+    joint's origin."""
     out = []
     links = {link.get("name") for link in tree.findall("link")}
     robot_root, robot_root_placement = _root_link(tree), pin.SE3.Identity()

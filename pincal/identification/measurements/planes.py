@@ -55,6 +55,7 @@ class PlanePoint(Measurement):
     kinds: ClassVar[tuple[str, ...]] = ("plane_point",)
     components: ClassVar[tuple[str, ...]] = ("distance",)
     length_rows: ClassVar[int] = 1
+    zero_when_unwritten: ClassVar[bool] = True
 
     frame: str = ""
     support: str = ""
