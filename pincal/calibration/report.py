@@ -37,7 +37,7 @@ BEFORE_MEANS_PLACED = ("the nominal robot, with its cameras and targets placed t
 BEFORE_MEANS_UNPLACED = ("the nominal robot, with its cameras and targets at the identity (the training data did not "
                          "determine them in closed form), for fit and held-out samples alike")
 BEFORE_MEANS_PLANES = ("the nominal robot, with each contact plane fitted to its training contact points in closed "
-                       "form (SVD), for fit and held-out samples alike")
+                       "form (least squares), for fit and held-out samples alike")
 
 
 #: The metadata of a field left out of the JSON while it holds None.

@@ -155,9 +155,10 @@ PLANE_SPREAD = 1e-3
 
 def fit_plane(points: Array, distances: Array, axes: Array | None = None) -> pin.SE3:
     """The plane ``G`` (its normal along its z axis) through ``points`` (n, 3) [m] at the signed ``distances`` (n,)
-    [m] they read, by SVD, as a placement whose ``log6`` is ``(0, 0, tz, rx, ry, 0)``: the offset along the normal
-    and two tilts, the plane's parameters. The normal is turned toward +z; ``axes`` (n, 3) (rows NaN where not
-    read) give it when the points are nearly on a line.
+    [m] they read (the normal by SVD when they are all 0, else by least squares under a unit norm), as a placement
+    whose ``log6`` is ``(0, 0, tz, rx, ry, 0)``: the offset along the normal and two tilts, the plane's parameters.
+    Points at equal heights (contacts) turn the normal toward +z; ``axes`` (n, 3) (rows NaN where not read) give it
+    when the points are nearly on a line.
 
     Raises:
         DataError: fewer than three points, or points on a line without axes to give the normal.
@@ -166,16 +167,50 @@ def fit_plane(points: Array, distances: Array, axes: Array | None = None) -> pin
         raise DataError(f"{len(points)} contact points do not fix a plane (three or more do)")
     centre = points.mean(axis=0)
     _, spread, vt = linalg.svd(points - centre, "the contact points about their centre")
-    normal = vt[2]
     if spread[1] <= PLANE_SPREAD * spread[0]:
         read = axes[np.all(np.isfinite(axes), axis=1)] if axes is not None else np.zeros((0, 3))
         if not len(read):
             raise DataError("the contact points lie on a line: their plane's tilt about it is not determined")
         normal = (read * np.sign(read @ read[0])[:, None]).mean(axis=0)
-        normal /= np.linalg.norm(normal)
-    normal = normal if normal[2] >= 0 else -normal
+        normal = _upward(normal / np.linalg.norm(normal))
+    else:
+        normal = _unit_normal(points - centre, distances - distances.mean(), spread, vt)
     offset = float(np.mean(points @ normal - distances))
     return plane_placement(normal, offset)
+
+
+def _upward(normal: Array) -> Array:
+    """The unit ``normal`` (3,) turned toward +z (where the data do not tell its sign)."""
+    return normal if normal[2] >= 0 else -normal
+
+
+def _unit_normal(centred: Array, heights: Array, spread: Array, vt: Array) -> Array:
+    """The unit ``n`` minimising ``Σ (n·p_i − h_i)²`` over the centred points ``p_i`` (n, 3) [m] and centred heights
+    ``h_i`` (n,) [m] (least squares under a unit-norm constraint, Gander 1980): ``n = (AᵀA − λI)⁻¹ Aᵀh`` with the
+    λ below the smallest ``σ²`` that makes it a unit vector, found by bisection; the direction of least spread when
+    every height is 0 (``spread``, ``vt``: the SVD of the points)."""
+    g = vt @ (centred.T @ heights)
+    squares = spread ** 2
+    if not np.any(heights) or abs(g[2]) <= 1e-12 * max(np.abs(g).max(), 1e-300):
+        return _upward(vt[2])  # equal heights do not tell up from down
+
+    def length(lam: float) -> float:
+        return float(np.sum((g / (squares - lam)) ** 2))
+
+    high, low = squares[2], squares[2] - max(np.abs(g).sum(), 1.0)
+    while length(low) > 1.0:
+        low = squares[2] - 2.0 * (squares[2] - low)
+    for _ in range(200):  # length is increasing in λ on (−∞, σ²_min)
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if length(mid) < 1.0 else (low, mid)
+    normal: Array = vt.T @ (g / (squares - low))
+    normal /= np.linalg.norm(normal)
+    level = _upward(vt[2])  # the heights' sign, unless it fits them no better than the plane of least spread does
+
+    def misfit(n: Array) -> float:
+        return float(np.sum((centred @ n - heights) ** 2))
+
+    return normal if misfit(normal) < 0.5 * misfit(level) else level
 
 
 def plane_placement(normal: Array, offset: float) -> pin.SE3:

@@ -68,6 +68,9 @@ def test_the_closed_form_fits_the_plane_through_noisy_points_as_offset_and_tilts
     assert np.allclose(delta[[2, 3, 4]], [TILTED["tz"], TILTED["rx"], TILTED["ry"]], atol=2e-4)
     shifted = fit_plane(points + 0.01 * truth.rotation[:, 2], np.full(len(points), 0.01))  # each read 10 mm off it
     assert np.allclose(pin.log6(shifted).vector, delta, atol=1e-9)
+    read = rng.uniform(-0.05, 0.05, 40)  # off the plane, as a dial gauge reads them: the distances place it
+    off = fit_plane(points + read[:, None] * truth.rotation[:, 2], read)
+    assert np.allclose(pin.log6(off).vector, delta, atol=1e-9)
     with pytest.raises(DataError, match="lie on a line"):
         fit_plane(np.outer(np.linspace(0, 1, 5), [1.0, 2.0, 0.5]), np.zeros(5))
     axes = np.tile(truth.rotation[:, 2], (5, 1))  # on a line, but the frames' axes give the normal
