@@ -4,11 +4,14 @@ columns, a job file that reads a file with a defective header by column position
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import run_pincal
+from conftest import ROOT, run_pincal
+
+DATASET_DOC = (ROOT / "docs" / "dataset.md").read_text(encoding="utf-8")
 
 #: A job for the simulated UR10 campaign; {data}, {header} and the column references are filled in per test.
 JOB = """robot = "ur10"
@@ -70,9 +73,16 @@ def write_job(folder: Path, data: Path, header: str, by_position: bool) -> Path:
 
 
 def test_a_plane_contact_campaign_calibrates_from_its_csv(campaign: Path, tmp_path: Path) -> None:
+    """The command of docs/dataset.md ("Contact with a plane"), with the figures it quotes."""
     report = report_of("calibrate", "ur10", str(campaign), report=tmp_path / "r.json")
     assert {"plane.tz", "plane.rx", "plane.ry"} <= set(report["parameters"])
     assert report["rms_after"] < 3e-5 < 1e-3 < report["rms_before"]  # to the noise (10 µm), from millimetres
+    quoted = re.search(r"RMS distance\s+([\d.]+) → ([\d.]+) mm, RMS tilt ([\d.]+) → ([\d.]+) mrad, (\d+) of (\d+) "
+                       "candidates identifiable", DATASET_DOC)
+    assert quoted is not None
+    assert quoted.groups() == (f"{report['rms_before'] * 1e3:.2f}", f"{report['rms_after'] * 1e3:.3f}",
+                               f"{report['rms_angle_before'] * 1e3:.2f}", f"{report['rms_angle_after'] * 1e3:.3f}",
+                               str(report["n_identifiable"]), str(report["n_parameters"]))
 
 
 def test_a_job_reads_a_defective_header_by_position_as_it_reads_names(campaign: Path, tmp_path: Path) -> None:
