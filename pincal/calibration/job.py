@@ -34,10 +34,15 @@ ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "deg": math.pi / 180.0}
 
 #: Keys of each level of a job file.
 JOB_KEYS = ("robot", "data", "joints", "measure", "out", "report", *JOB_OPTIONS)
-DATA_KEYS = ("file", "files", "units", "held_out", "sample", "ignore")
+DATA_KEYS = ("file", "files", "units", "held_out", "sample", "ignore", "header")
 UNIT_KEYS = ("length", "angle")
-MEASURE_KEYS = ("kind", "frame", "frames", "columns", "sigma", "sigma_angle")
+MEASURE_KEYS = ("kind", "frame", "frames", "columns", "sigma", "sigma_angle", "support")
 PAYLOAD_KEYS = ("mass", "frame", "offset")
+#: What the first line of a data file is: the column ``names`` (the default), a header to ``skip`` (names defective or
+#: misplaced: every column is named by its position), or ``none`` (the first line is data).
+HEADERS = ("names", "skip", "none")
+#: A data file's column as a job names it: its header name, or its position (1 for the first column).
+Column = str | int
 #: ``held_out = "every 5th from 4"``: every K-th row of the data, counted from 0 over the files in order.
 EVERY = re.compile(r"every\s+(\d+)(?:st|nd|rd|th)?(?:\s+from\s+(\d+))?", re.IGNORECASE)
 
@@ -48,14 +53,15 @@ class MeasureColumns:
 
     Attributes:
         key: The measurement key (``position:wrist_ft_tool_link``, ``distance:a-b``).
-        columns: The data file's column of each component, in the model's order (x, y, z; x, y, z, qx, qy, qz, qw; d).
+        columns: The data file's column of each component (a name, or a position from 1), in the model's order (x, y,
+            z; x, y, z, qx, qy, qz, qw; d); empty for a contact written in no column (every value 0).
         sigma: σ of its values [m, rad]: one, or one per residual row; None: not stated.
         sigma_angle: σ of a pose's orientation [rad], or None.
         where: Its place in the job, ``[measure 1]``.
     """
 
     key: str
-    columns: tuple[str, ...]
+    columns: tuple[Column, ...]
     sigma: float | tuple[float, ...] | None
     sigma_angle: float | None
     where: str
@@ -92,6 +98,8 @@ class Job:
         sample: The column of the sample ids, or None (ids: the row numbers).
         ignore: Columns of the data files that are not read.
         joints: Joint name -> the column of its readings, those the job maps.
+        header: What each data file's first line is (:data:`HEADERS`); a column is named by its header name, or by
+            its position from 1 (the only way when the header is skipped or absent).
         measures: The measurements and their columns.
         overrides: The options given elsewhere (the command line) in place of the job's, by name.
         bag: The ROS bag the data come from (a ``[bag]`` table, :mod:`pincal.calibration.job_bag`), or None.
@@ -107,12 +115,13 @@ class Job:
     length_unit: str = "m"
     angle_unit: str = "rad"
     held_out: HeldOut | None = None
-    sample: str | None = None
-    ignore: tuple[str, ...] = ()
-    joints: dict[str, str] = field(default_factory=dict)
+    sample: Column | None = None
+    ignore: tuple[Column, ...] = ()
+    joints: dict[str, Column] = field(default_factory=dict)
     measures: tuple[MeasureColumns, ...] = ()
     overrides: tuple[str, ...] = ()
     bag: BagSource | None = None
+    header: str = "names"
 
     def overridden(self, out: str | Path | None = None, report: str | Path | None = None,
                    **options: Any) -> Job:
@@ -211,6 +220,23 @@ class _Reader:
             raise self.error(where, "[] gives no σ: write one number, or one per residual row ([1e-3, 1e-3, 3e-3])")
         return tuple(self.sigma(item, f"{where} (item {k + 1})") for k, item in enumerate(value))
 
+    def column(self, value: Any, where: str) -> Column:
+        """A column: its header name (a non-empty string) or its position (a whole number from 1)."""
+        if isinstance(value, int) and not isinstance(value, bool):
+            return self.whole(value, where, 1)
+        if not isinstance(value, str) or not value.strip():
+            raise self.error(where, f"{_shown(value)} is neither a column's name nor its position (1 for the first "
+                                    "column)")
+        return value.strip()
+
+    def columns(self, value: Any, where: str) -> list[Column]:
+        """A column, or a non-empty list of them."""
+        if not isinstance(value, list):
+            return [self.column(value, where)]
+        if not value:
+            raise self.error(where, "[] names no column")
+        return [self.column(item, f"{where} (item {k + 1})") for k, item in enumerate(value)]
+
     def whole(self, value: Any, where: str, minimum: int) -> int:
         if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
             raise self.error(where, f"{_shown(value)} is not a whole number ≥ {minimum}")
@@ -250,14 +276,16 @@ class _Reader:
         outputs = {name: self.file(doc[name], name, must_exist=False)[0] if name in doc else None
                    for name in ("out", "report")}
         measures = tuple(self.measure(entry, k + 1) for k, entry in enumerate(self.measure_list(doc)))
-        joints = {self.text(joint, "[joints]"): self.text(column, f"[joints] {joint}")
+        joints = {self.text(joint, "[joints]"): self.column(column, f"[joints] {joint}")
                   for joint, column in self.table(doc.get("joints", {}), "[joints]").items()}
         job = Job(self.path, robot, tuple(path for path, _ in found), tuple(written for _, written in found),
                   outputs["out"], outputs["report"], self.options(doc), length, angle,
                   self.held_out(data["held_out"]) if "held_out" in data else None,
-                  self.text(data["sample"], "[data] sample") if "sample" in data else None,
-                  tuple(self.texts(data["ignore"], "[data] ignore")) if "ignore" in data else (), joints, measures)
+                  self.column(data["sample"], "[data] sample") if "sample" in data else None,
+                  tuple(self.columns(data["ignore"], "[data] ignore")) if "ignore" in data else (), joints, measures,
+                  header=self.choice(data.get("header", "names"), HEADERS, "[data] header"))
         self.claims(job)
+        self.positions(job)
         if len(job.files) > 1 and any(m.key.startswith("distance_increment:") for m in measures):
             raise self.error(f"[data] {key}", "a distance_increment measurement needs a single data file (each "
                                               "increment is the change since the previous row of its file)")
@@ -297,10 +325,14 @@ class _Reader:
     def measure(self, entry: dict[str, Any], number: int) -> MeasureColumns:
         where = f"[measure {number}]"
         self.keys(entry, MEASURE_KEYS, f"in {where}")
-        for key in ("kind", "columns"):
-            if key not in entry:
-                raise self.error(where, f"'{key}' is missing (keys are: {listing(MEASURE_KEYS)})")
+        if "kind" not in entry:
+            raise self.error(where, f"'kind' is missing (keys are: {listing(MEASURE_KEYS)})")
         kind = self.choice(entry["kind"], list(MEASUREMENT_COMPONENTS), f"{where} kind")
+        unwritten = KIND_CLASSES[kind].zero_when_unwritten
+        if "columns" not in entry and not unwritten:
+            raise self.error(where, f"'columns' is missing (keys are: {listing(MEASURE_KEYS)})")
+        if "support" in entry and not unwritten:
+            raise self.error(f"{where} support", f"only a contact with a plane is held by a support; a {kind} is not")
         two = kind.startswith("distance")
         name, other = ("frames", "frame") if two else ("frame", "frames")
         if name not in entry or other in entry:
@@ -310,13 +342,15 @@ class _Reader:
         if len(frames) != (2 if two else 1):
             raise self.error(f"{where} {name}", f"{len(frames)} frames; a {kind} measurement joins two")
         key = f"{kind}:{'-'.join(frames)}"
+        if "support" in entry:
+            key += f"@{self.text(entry['support'], f'{where} support')}"
         try:
             parse_measurement_key(key)
         except DataError as exc:
             raise self.error(f"{where} {name}", str(exc)) from None
         components = MEASUREMENT_COMPONENTS[kind]
-        columns = self.texts(entry["columns"], f"{where} columns")
-        if len(columns) != len(components):
+        columns = self.columns(entry["columns"], f"{where} columns") if "columns" in entry else []
+        if len(columns) != len(components) and columns:
             raise self.error(f"{where} columns", f"{len(columns)} columns; a {kind} needs {len(components)}, one per "
                                                  f"component in this order: {listing(components)}")
         if "sigma_angle" in entry and not KIND_CLASSES[kind].angle_rows:
@@ -377,12 +411,26 @@ class _Reader:
         except DataError as exc:
             raise DataError(f"{self.path}: {exc}") from None
 
-    def claims(self, job: Job) -> None:
-        """Refuse a column that the job gives two meanings."""
-        claimed: dict[str, str] = {}
+    def positions(self, job: Job) -> None:
+        """Refuse a column named by its header name when the job does not read the header."""
+        if job.header == "names":
+            return
         named = [(c, f"{m.where} columns") for m in job.measures for c in m.columns]
         named += [(column, f"[joints] {joint}") for joint, column in job.joints.items()]
-        named += [(job.sample, "[data] sample")] if job.sample else []
+        named += [(job.sample, "[data] sample")] if job.sample is not None else []
+        named += [(job.held_out.column, "[data] held_out")] if job.held_out and job.held_out.column else []
+        named += [(column, "[data] ignore") for column in job.ignore]
+        for column, where in named:
+            if isinstance(column, str):
+                raise self.error(where, f"'{column}' names a column by its header, and [data] header = "
+                                        f"\"{job.header}\" reads none: name it by its position (1 for the first)")
+
+    def claims(self, job: Job) -> None:
+        """Refuse a column that the job gives two meanings."""
+        claimed: dict[Column, str] = {}
+        named = [(c, f"{m.where} columns") for m in job.measures for c in m.columns]
+        named += [(column, f"[joints] {joint}") for joint, column in job.joints.items()]
+        named += [(job.sample, "[data] sample")] if job.sample is not None else []
         named += [(job.held_out.column, "[data] held_out")] if job.held_out and job.held_out.column else []
         named += [(column, "[data] ignore") for column in job.ignore]
         for column, where in named:

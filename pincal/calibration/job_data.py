@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration.job import ANGLE_UNITS, LENGTH_UNITS, HeldOut, Job
+from pincal.calibration.job import ANGLE_UNITS, LENGTH_UNITS, Column, HeldOut, Job
 from pincal.calibration.job_bag import bag_job_dataset
 from pincal.errors import DataError, listing, not_found
 from pincal.identification.measurements import KIND_CLASSES, parse_key
@@ -58,7 +58,7 @@ def job_dataset(job: Job, robot: Robot) -> Dataset:
             robot.frame_id(frame, f"{job.path}: {measure.where} frame: ")
     parts = [_file_dataset(job, robot, k) for k in range(len(job.files))]
     headers = list(dict.fromkeys(column for _, _, header in parts for column in header))
-    absent = [column for column in job.ignore if column not in headers]
+    absent = [column for column in job.ignore if isinstance(column, str) and column not in headers]
     if absent:
         raise DataError(f"{job.path}: [data] ignore: {listing(absent)} {'is' if len(absent) == 1 else 'are'} a "
                         f"column of no data file; columns are: {listing(headers)}")
@@ -91,7 +91,7 @@ def _file_dataset(job: Job, robot: Robot, k: int) -> tuple[Dataset, npt.NDArray[
     columns."""
     where = f"{job.path}: [data] file '{job.file_names[k]}'"
     try:
-        table = read_table(job.files[k])
+        table = _positional(read_table(job.files[k]), job.header)
     except DataError as exc:
         raise DataError(f"{where}: {exc}") from None
     recorded = table.metadata.get("robot")
@@ -110,18 +110,21 @@ def _file_dataset(job: Job, robot: Robot, k: int) -> tuple[Dataset, npt.NDArray[
         for measure in job.measures:
             kind = measure.key.partition(":")[0]
             incremental = parse_key(measure.key).incremental
+            if not measure.columns:  # a contact the file does not write: every value 0
+                measurements[measure.key] = parse_key(measure.key).neutral(len(rows))
+                continue
             values = np.array([[cell_number(cells[i], table.header[i], line,
                                             first_increment=r == 0 and incremental,
                                             may_be_empty=kind in OCCLUDABLE_KINDS)
                                 for i in columns.measures[measure.key]] for r, (line, cells) in enumerate(rows)])
             values = values.reshape(len(rows), len(columns.measures[measure.key]))
-            _check_not_seen(values, measure.columns, rows)
+            _check_not_seen(values, [table.header[i] for i in columns.measures[measure.key]], rows)
             measurements[measure.key] = values * np.array([length if unit == "m" else 1.0  # a quaternion has none
                                                            for unit in KIND_CLASSES[kind].component_units()])
         ids = [cells[columns.sample] if columns.sample is not None else str(r) for r, (_, cells) in enumerate(rows)]
         empty = [line for (line, _), sample in zip(rows, ids, strict=True) if not sample]
         if empty:
-            raise DataError(f"column '{job.sample}', line {empty[0]}: the sample id is empty")
+            raise DataError(f"column '{table.header[columns.sample or 0]}', line {empty[0]}: the sample id is empty")
         held = np.array([_held(cells[columns.held_out], table.header[columns.held_out], line)
                          if columns.held_out is not None else False for line, cells in rows], dtype=bool)
         dataset = Dataset(list(columns.joints), joints, measurements, ids, ["train"] * len(rows))
@@ -146,28 +149,50 @@ def _check_not_seen(values: npt.NDArray[np.float64], names: Sequence[str], rows:
                         "or a target that was not seen leaves all its cells empty, one seen fills them all")
 
 
+def _positional(table: Table, header: str) -> Table:
+    """The table as the job reads it: a header to ``skip`` or ``none`` (the first line is data) gives each column the
+    name ``column <position>`` (from 1), by which messages name it."""
+    if header == "names":
+        return table
+    rows = ([(table.header_line, table.header)] if header == "none" else []) + table.rows
+    return Table(table.metadata, [f"column {i + 1}" for i in range(len(table.header))], table.header_line, rows)
+
+
 def _columns(job: Job, robot: Robot, table: Table, k: int) -> _Columns:
     """Where data file ``k`` holds each quantity; every column accounted for."""
     header = {name: i for i, name in enumerate(table.header)}
     file = f" in data file '{job.file_names[k]}'"
 
-    def find(column: str, where: str) -> int:
+    def find(column: Column, where: str) -> int:
+        if isinstance(column, int):
+            if column > len(table.header):
+                raise DataError(f"{job.path}: {where}: column {column} is beyond the {len(table.header)} columns "
+                                f"of data file '{job.file_names[k]}'")
+            return column - 1
         if column not in header:
             raise not_found("column", column, table.header, file, f"{job.path}: {where}: ")
         return header[column]
 
     measures = {m.key: [find(c, f"{m.where} columns") for c in m.columns] for m in job.measures}
     joints = {joint: find(column, f"[joints] {joint}") for joint, column in job.joints.items()}
-    sample = find(job.sample, "[data] sample") if job.sample else None
+    sample = find(job.sample, "[data] sample") if job.sample is not None else None
+    ignored = {find(c, "[data] ignore") for c in job.ignore if isinstance(c, int)}
+    ignored |= {i for i, name in enumerate(table.header) if name in job.ignore}
     held = find(job.held_out.column, "[data] held_out") if job.held_out and job.held_out.column else None
-    used = {i for indices in measures.values() for i in indices} | set(joints.values())
-    used |= {i for i in (sample, held) if i is not None}
+    claims = [i for indices in measures.values() for i in indices] + list(joints.values())
+    claims += [i for i in (sample, held) if i is not None]
+    twice = sorted({i for i in claims if claims.count(i) > 1} | (set(claims) & ignored))
+    if twice:
+        raise DataError(f"{job.path}: [data] file '{job.file_names[k]}': column '{table.header[twice[0]]}' is named "
+                        "twice (by its name and by its position, or also under [data] ignore); a column has one "
+                        "meaning")
+    used = set(claims)
     robot_joints = [str(name) for name in robot.model.names[1:]]
     for i, name in enumerate(table.header):  # by default, a column named like one of the robot's joints
-        if i not in used and name not in job.ignore and name in robot_joints and name not in joints:
+        if i not in used and i not in ignored and name in robot_joints and name not in joints:
             joints[name] = i
             used.add(i)
-    unknown = [name for i, name in enumerate(table.header) if i not in used and name not in job.ignore]
+    unknown = [name for i, name in enumerate(table.header) if i not in used and i not in ignored]
     if unknown:
         raise DataError(f"{job.path}: [data] file '{job.file_names[k]}': columns {listing(unknown)} are not joints of "
                         f"robot '{robot.name}' and the job does not name them: list them under [data] ignore, or map "

@@ -36,6 +36,8 @@ BEFORE_MEANS_PLACED = ("the nominal robot, with its cameras and targets placed t
                        "(hand-eye), for fit and held-out samples alike")
 BEFORE_MEANS_UNPLACED = ("the nominal robot, with its cameras and targets at the identity (the training data did not "
                          "determine them in closed form), for fit and held-out samples alike")
+BEFORE_MEANS_PLANES = ("the nominal robot, with each contact plane fitted to its training contact points in closed "
+                       "form (least squares), for fit and held-out samples alike")
 
 
 #: The metadata of a field left out of the JSON while it holds None.
@@ -225,6 +227,8 @@ def registered_base(parameters: ParameterSet) -> bool:
 
 def before_means(problem: CalibrationProblem) -> str:
     """What the "before" errors are of: the starting point :meth:`CalibrationProblem.initial_guess` gave."""
+    if problem.parameters.of_kind("plane") and not problem.parameters.of_kind("camera", "target"):
+        return "; ".join([BEFORE_MEANS_PLANES, *problem.not_in_closed_form])
     if problem.parameters.of_kind("camera", "target"):
         means = BEFORE_MEANS_PLACED if problem.placed_in_closed_form else BEFORE_MEANS_UNPLACED
         return "; ".join([means, *problem.not_in_closed_form])

@@ -89,7 +89,7 @@ def marker_points(pset: ParameterSet, x: Array, nominal: dict[str, Array]) -> di
 
 
 def attached_placements(pset: ParameterSet, x: Array) -> dict[str, AttachedPlacement]:
-    """Each camera and target with parameters at ``x``: its placement ``exp6(δ)`` and right Jacobian.
+    """Each camera, target and plane with parameters at ``x``: its placement ``exp6(δ)`` and right Jacobian.
 
     Args:
         pset: The parameter set ``x`` refers to.
@@ -100,7 +100,7 @@ def attached_placements(pset: ParameterSet, x: Array) -> dict[str, AttachedPlace
         ``target``, ``target.<frame>@<target>``) -> its :class:`AttachedPlacement`.
     """
     out: dict[str, AttachedPlacement] = {}
-    for (kind, target, _), idx in pset.groups("camera", "target").items():
+    for (kind, target, _), idx in pset.groups("camera", "target", "plane").items():
         delta = pset.placement_delta(x, idx)
         jacobian = right_jacobian(delta, [pset.parameters[k].component for k in idx])
         out[attached_name(kind, target)] = AttachedPlacement(pin.exp6(delta), list(idx), jacobian)

@@ -22,7 +22,7 @@ import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, RobotFileError, listing, not_found
 from pincal.identification.derivatives import marker_points
-from pincal.identification.measurements import Measurement, split_target
+from pincal.identification.measurements import PLANE, Measurement, split_target
 from pincal.identification.parameters import ParameterSet, attached_name, kinds_where
 from pincal.model.robot import Robot, _build_model, check_reference_assembly
 from pincal.model.urdf import origin_to_se3, read_extensions
@@ -300,18 +300,22 @@ def _marker_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_or
 
 
 def attached_link(kind: str, target: str) -> str:
-    """Name of the link a calibrated camera or target becomes: ``<frame>_camera``, ``camera_target`` (the world
-    target, ``target`` empty) or ``<frame>_target_<target>``."""
+    """Name of the link a calibrated camera, target or plane becomes: ``<frame>_camera``, ``camera_target`` (the world
+    target, ``target`` empty), ``<frame>_target_<target>``, ``contact_plane`` (a plane in the world) or
+    ``<support>_plane``."""
     if kind == "camera":
         return f"{target}_camera"
+    if kind == PLANE:
+        return f"{target}_plane" if target else "contact_plane"
     frame, name = split_target(target)
     return f"{frame}_target_{name}" if target else "camera_target"
 
 
 def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_origins: dict[str, pin.SE3],
                     root: dict[str, pin.SE3], measurement_frame: str) -> list[FixedLink]:
-    """Each calibrated camera and target as a link: on its frame's link, or the world target on the robot's root
-    link; a camera or target link of an earlier calibration gets the new placement as its joint's origin."""
+    """Each calibrated camera, target and plane (its z axis the normal) as a link: on its frame's link, or the world
+    target and plane on the robot's root link; such a link of an earlier calibration gets the new placement as its
+    joint's origin."""
     out = []
     links = {link.get("name") for link in tree.findall("link")}
     robot_root, robot_root_placement = _root_link(tree), pin.SE3.Identity()
@@ -320,10 +324,10 @@ def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_
         child = next(j.find("child") for j in tree.findall("joint") if j.get("name") == frame_joint)  # tracker frame
         if child is not None and child.get("link"):
             robot_root, robot_root_placement = child.get("link", ""), root[frame_joint]
-    for (kind, target, _), idx in parameters.groups("camera", "target").items():
+    for (kind, target, _), idx in parameters.groups("camera", "target", PLANE).items():
         link = attached_link(kind, target)
         joint = f"{link}_joint"
-        world_target = kind == "target" and not target
+        world_target = kind in ("target", PLANE) and not target
         parent = robot_root if world_target else _frame_link(tree, split_target(target)[0])
         placement = pin.exp6(parameters.placement_delta(x, idx))  # the world target: in the model's world frame,
         if world_target:  # the file's root link, which a calibrated file's robot root hangs below
@@ -334,8 +338,7 @@ def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_
                                      f"{attached_name(kind, target)}: rename it")
             joint_origins[joint] = placement  # the camera or target of an earlier calibration: re-estimated
             continue
-        what = ("camera" if kind == "camera" else "target") + (f" on '{split_target(target)[0]}'" if target
-                                                               else " fixed in the robot's world frame")
+        what = kind + (f" on '{split_target(target)[0]}'" if target else " fixed in the robot's world frame")
         out.append(FixedLink(joint, parent, link, placement, f"pincal: the calibrated {what}"))
     return out
 

@@ -25,6 +25,7 @@ EXAMPLE_ROBOT_DATA: dict[str, str] = {
     "tiago_no_hand": "tiago_description/robots/tiago_no_hand.urdf",
     "kinova": "kinova_description/robots/kinova.urdf",
     "iiwa": "iiwa_description/urdf/iiwa.urdf",
+    "talos": "talos_data/robots/talos_full_v2.urdf",
 }
 
 

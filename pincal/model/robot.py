@@ -10,7 +10,7 @@ import functools
 import os
 import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Literal
 
@@ -25,6 +25,7 @@ from pincal.model.closure import LoopClosure
 from pincal.model.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveReport
 from pincal.model.measured_frame import END_EFFECTOR_NAMES as END_EFFECTOR_NAMES  # where it was
 from pincal.model.measured_frame import FrameChoice, default_measured_frame
+from pincal.model.mimic import with_mimics
 from pincal.model.urdf import LoopSpec, check_finite_origins, read_extensions
 
 Array = npt.NDArray[np.float64]
@@ -297,10 +298,12 @@ def _captured_stderr() -> Iterator[list[str]]:
             lines.extend(line.strip() for line in sink.read().decode(errors="replace").splitlines())
 
 
-def _build_model(text: str, source: str) -> pin.Model:
+def _build_model(text: str, source: str, mimics: Mapping[str, tuple[str, float, float]] | None = None) -> pin.Model:
+    """Pinocchio's model of the file's tree, each of ``mimics`` (follower -> leader, multiplier, offset) following
+    its leader (:mod:`pincal.model.mimic`)."""
     with _captured_stderr() as messages:
         try:
-            return pin.buildModelFromXML(text, mimic=True)  # a <mimic> joint follows its leader
+            return with_mimics(pin.buildModelFromXML(text), mimics or {}, source)
         except (RuntimeError, ValueError, IndexError) as exc:
             error: Exception = exc
     detail = "; ".join(m for m in messages if m and not m.startswith("at line")) or str(error)
@@ -360,7 +363,7 @@ def robot_from_urdf_text(text: str, source: Path | None = None) -> Robot:
     where = str(source) if source else "URDF"
     ext = read_extensions(text, where)
     check_finite_origins(text, where)
-    model = _build_model(text, where)
+    model = _build_model(text, where, ext.mimics)
     if model.njoints - 1 > MAX_JOINTS:
         raise RobotFileError(f"{where} has {model.njoints - 1} joints; pincal takes at most {MAX_JOINTS} (Pinocchio's "
                              "working data grow with the cube of the chain length: 1.8 GB for 300 joints)")

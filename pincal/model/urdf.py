@@ -72,7 +72,8 @@ class UrdfExtensions:
     transmitted_joints: list[str]
     links: list[str]
     joints: dict[str, str]  # joint name -> URDF type
-    mimics: dict[str, tuple[str, float]]  # follower joint -> (leader joint, multiplier), from <mimic>
+    mimics: dict[str, tuple[str, float, float]]  # follower -> (leader, multiplier, offset [rad or m]), from <mimic>
+    notes: tuple[str, ...] = ()  # what the file says that pincal ignores, and why
 
 
 def _floats(text: str | None, count: int, what: str) -> np.ndarray:
@@ -157,7 +158,7 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
     _check_top_level(root, source)
     loops = _loops(root, set(link_list), link_list)
     transmitted = _transmitted_joints(root, joints)
-    mimics = _mimics(root, joints, source)
+    mimics, notes = _mimics(root, joints, source)
     driven = [j for j in transmitted if j in mimics]
     if driven:
         raise RobotFileError(f"{source}: joint {listing(driven)} has both a <transmission> and a <mimic> element; a "
@@ -165,7 +166,7 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
     if mimics and loops:
         raise RobotFileError(f"{source}: joint {listing(list(mimics))} has a <mimic> element; pincal supports mimic "
                              "joints in serial robots only, not in robots with <loop> elements")
-    return UrdfExtensions(root.get("name", "robot"), loops, transmitted, link_list, joints, mimics)
+    return UrdfExtensions(root.get("name", "robot"), loops, transmitted, link_list, joints, mimics, tuple(notes))
 
 
 def _check_names(link_list: list[str], joint_list: list[str], source: str) -> None:
@@ -241,9 +242,13 @@ def _transmitted_joints(root: ET.Element, joints: dict[str, str]) -> list[str]:
     return transmitted
 
 
-def _mimics(root: ET.Element, joints: dict[str, str], source: str) -> dict[str, tuple[str, float]]:
-    """``<mimic joint= multiplier= offset=>`` elements: a follower joint at ``multiplier · leader + offset``."""
-    mimics: dict[str, tuple[str, float]] = {}
+def _mimics(root: ET.Element, joints: dict[str, str], source: str
+            ) -> tuple[dict[str, tuple[str, float, float]], list[str]]:
+    """``<mimic joint= multiplier= offset=>`` elements: a follower joint at ``multiplier · leader + offset``
+    [rad or m], as follower -> (leader, multiplier, offset); and the notes on those ignored (a fixed joint cannot
+    move, so its ``<mimic>`` says nothing)."""
+    mimics: dict[str, tuple[str, float, float]] = {}
+    notes: list[str] = []
     for joint in root.findall("joint"):
         node = joint.find("mimic")
         if node is None:
@@ -253,16 +258,19 @@ def _mimics(root: ET.Element, joints: dict[str, str], source: str) -> dict[str, 
         if leader not in joints or joints[leader] not in SCALAR_JOINT_TYPES:
             raise RobotFileError(f"{what} follows '{leader}', which is not a revolute, continuous or prismatic joint "
                                  "of the file")
+        multiplier = float(_floats(node.get("multiplier", "1"), 1, f"{what} multiplier")[0])
+        offset = float(_floats(node.get("offset", "0"), 1, f"{what} offset")[0])
+        if joints[name] == "fixed":
+            notes.append(f"the <mimic> of fixed joint '{name}' is ignored: a fixed joint does not move")
+            continue
         if joints[name] not in SCALAR_JOINT_TYPES:
             raise RobotFileError(f"{what}: only revolute, continuous and prismatic joints can mimic")
-        multiplier = float(_floats(node.get("multiplier", "1"), 1, f"{what} multiplier")[0])
-        _floats(node.get("offset", "0"), 1, f"{what} offset")
-        mimics[name] = (leader, multiplier)
-    for name, (leader, _) in mimics.items():
+        mimics[name] = (leader, multiplier, offset)
+    for name, (leader, _, _) in mimics.items():
         if leader in mimics:
             raise RobotFileError(f"{source}: joint '{name}' mimics '{leader}', which mimics another joint; a leader "
                                  "must be a joint of its own")
-    return mimics
+    return mimics, notes
 
 
 #: Largest plausible joint-origin translation [m]: beyond it a value is a typo or a unit error.

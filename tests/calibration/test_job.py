@@ -153,7 +153,7 @@ def test_a_payload_is_read_and_overridden(tmp_path: Path) -> None:
     ({"data": 'units = { angel = "deg" }'}, "key 'angel' does not exist in [data] units; keys are: length, angle"),
     ({"measure": 'frme = "x"'}, "key 'frme' does not exist in [measure 1]; keys are: kind, frame, frames, columns"),
     ({"measure": 'cv = "5"'}, "key 'cv' does not exist in [measure 1]; keys are: kind, frame, frames, columns, sigma, "
-                              "sigma_angle ('cv' is a top-level key: write it above the first [table])"),
+                              "sigma_angle, support ('cv' is a top-level key: write it above the first [table])"),
     ({"data": 'units = { length = "furlong" }'}, "job.toml: [data] units: length: 'furlong' is not one of: m, cm, mm"),
     ({"top": "max_iter = 0"}, "job.toml: max_iter: 0 (int) is not a whole number ≥ 1"),
     ({"top": 'max_iter = "100"'}, "max_iter: '100' is not a whole number ≥ 1"),

@@ -38,7 +38,7 @@ def _models(robot: pincal.Robot) -> list[ms.Measurement]:
     frame, base = robot.end_effector, robot.model.frames[1].name
     return [ms.position(frame), ms.pose(frame), ms.distance(frame, base), ms.distance(frame, base, increment=True),
             ms.joint_reading(PASSIVE[robot.name]), ms.position(frame, marker="m1", nominal=(0.01, 0.02, 0.0)),
-            Height(f"height:{frame}", 1, 1e-6, frame)]
+            Height(f"height:{frame}", 1, 1e-6, frame), ms.plane_point(frame), ms.plane_contact(frame, base)]
 
 
 def _problems(name: str, joint_sigma: float | None, n: int = N_SAMPLES

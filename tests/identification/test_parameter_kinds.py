@@ -26,7 +26,7 @@ from pincal.identification.selection import group_of
 
 def test_the_registry_holds_every_kind_in_the_order_they_were_declared() -> None:
     assert list(PARAMETER_KINDS) == ["joint", "anchor", "offset", "base", "marker", "cluster", "camera", "target",
-                                     "harmonic", "compliance"]
+                                     "plane", "harmonic", "compliance"]
     assert all(kind.name == name for name, kind in PARAMETER_KINDS.items())
 
 
@@ -34,7 +34,8 @@ def test_kinds_say_where_they_act_and_where_a_calibration_writes_them() -> None:
     assert kinds_where(kinematic=True) == ("joint", "anchor")
     assert kinds_where(in_corrections=True) == ("harmonic", "compliance")
     # what the calibrated URDF holds, listed in its refusal of a kind it cannot hold
-    assert kinds_where(in_urdf=True) == ("joint", "anchor", "offset", "base", "marker", "cluster", "camera", "target")
+    assert kinds_where(in_urdf=True) == ("joint", "anchor", "offset", "base", "marker", "cluster", "camera", "target",
+                                         "plane")
     assert {name for name, kind in PARAMETER_KINDS.items() if kind.acts_in == "reading"} == {
         "offset", "harmonic", "compliance"}
 

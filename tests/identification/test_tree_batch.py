@@ -55,6 +55,10 @@ def _cameras() -> list[ms.Measurement]:
     return [ms.camera_pose("tool0"), ms.camera_point("tool0"), ms.pose("wrist_2_link", target="tag")]
 
 
+def _planes() -> list[ms.Measurement]:
+    return [ms.plane_point("tool0"), ms.plane_contact("tool0", "forearm_link"), ms.plane_contact("wrist_2_link")]
+
+
 def _passive() -> list[ms.Measurement]:
     return [ms.position("tool0"), ms.joint_reading("wrist_3_joint")]
 
@@ -71,12 +75,14 @@ CASES: dict[str, tuple[Callable[[], pincal.Robot], Callable[[], list[ms.Measurem
     "tiago markers": (lambda: pincal.load_robot("tiago_no_hand"), _tiago),
     "panda mimic": (lambda: pincal.load_robot("panda"), _panda),
     "ur10 cameras": (lambda: pincal.load_robot("ur10"), _cameras),
+    "ur10 planes": (lambda: pincal.load_robot("ur10"), _planes),
     "ur10 passive wrist": (_ur10_passive_wrist, _passive)}
 
 #: Placements far from the identity [m, rad] for the cameras and targets (exp6's Jacobian matters there).
 FAR = {"camera.tool0.tx": 0.05, "camera.tool0.rx": 0.4, "camera.tool0.ry": -1.2, "camera.tool0.rz": 2.0,
        "target.tx": 1.0, "target.ty": 0.4, "target.rz": -0.8, "target.wrist_2_link@tag.tz": 0.08,
-       "target.wrist_2_link@tag.rx": 1.0, "base.tx": 2.0, "base.rz": 1.5, "base.rx": 0.2}
+       "target.wrist_2_link@tag.rx": 1.0, "base.tx": 2.0, "base.rz": 1.5, "base.rx": 0.2,
+       "plane.tz": 0.4, "plane.rx": 0.3, "plane.forearm_link.ry": -0.5}
 
 
 def _problems(name: str, joint_sigma: float | None) -> tuple[CalibrationProblem, CalibrationProblem, np.ndarray]:

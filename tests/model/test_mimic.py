@@ -103,3 +103,49 @@ def test_a_transmission_on_a_mimic_joint_is_refused(tmp_path: Path) -> None:
     done = run_pincal("info", str(path))
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert "joint panda_finger_joint2 has both a <transmission> and a <mimic> element" in done.stderr
+
+
+TALOS_FINGERS = ["gripper_left_inner_double_joint", "gripper_left_fingertip_1_joint", "gripper_left_fingertip_2_joint",
+                 "gripper_left_motor_single_joint", "gripper_left_inner_single_joint",
+                 "gripper_left_fingertip_3_joint"]
+
+
+def test_talos_fingers_sorted_before_their_leader_follow_it() -> None:
+    by_name = pincal.load_robot("talos")
+    by_path = pincal.load_robot(str(pincal.robot_path("talos")))
+    assert by_name.model.nq == by_path.model.nq == 32  # 44 joints, 12 of them finger followers
+    assert not set(TALOS_FINGERS) & set(by_name.actuated_joints) and "gripper_left_joint" in by_name.actuated_joints
+    text = pincal.robot_path("talos").read_text()
+    free = pin.buildModelFromXML(text)  # every joint free, in Pinocchio's order (the fingers before their motor)
+    assert free.getJointId("gripper_left_fingertip_1_joint") < free.getJointId("gripper_left_joint")
+    qa = np.zeros(by_name.n_actuated)
+    qa[by_name.actuated_joints.index("gripper_left_joint")] = -0.5
+    q = by_name.solve_fk(qa)
+    q_free = pin.neutral(free)
+    for joint, sign in [("gripper_left_joint", 1.0), *((f, 1.0 if f == TALOS_FINGERS[0] else -1.0)
+                                                        for f in TALOS_FINGERS)]:
+        q_free[free.idx_qs[free.getJointId(joint)]] = -0.5 * sign  # the file's multipliers: +1 once, -1 else
+    data = free.createData()
+    pin.framesForwardKinematics(free, data, q_free)
+    for link in ("gripper_left_fingertip_1_link", "gripper_left_fingertip_3_link", "gripper_left_motor_double_link"):
+        expected = data.oMf[free.getFrameId(link)].translation
+        assert np.abs(by_name.placement(q, link).translation - expected).max() <= 1e-12
+
+
+def test_a_fixed_joint_mimic_is_ignored() -> None:
+    reduced = pincal.load_robot(pincal.robot_path("talos").with_name("talos_reduced.urdf"))
+    assert reduced.model.nq == 32 and "gripper_left_inner_double_joint" not in list(reduced.model.names)
+
+
+def test_talos_gripper_calibrates_through_the_cli(tmp_path: Path) -> None:
+    sim = tmp_path / "sim"
+    frame = "gripper_left_fingertip_1_link"
+    done = run_pincal("simulate", "talos", "--samples", "40", "--test-samples", "10", "--measure", "position",
+                      "--frame", frame, "--seed", "1", "--quiet", "--out", str(sim))
+    assert done.returncode == 0, done.stderr
+    done = run_pincal("calibrate", "talos", str(sim / "measurements.csv"), "--out", str(tmp_path / "cal.urdf"))
+    assert done.returncode == 0, done.stderr
+    held_out = next(line for line in done.stdout.splitlines() if line.startswith("RMS position error (held out)"))
+    before, after = (float(v) for v in held_out.split()[-4::2])
+    assert after < 0.1 and before > 20 * after  # [mm]
+    assert pincal.load_robot(tmp_path / "cal.urdf").model.nq == 32

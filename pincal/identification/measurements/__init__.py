@@ -32,6 +32,15 @@ from pincal.identification.measurements.poses import Pose, pose
 from pincal.identification.measurements.camera import CameraPoint, CameraPose, camera_point, camera_pose
 from pincal.identification.measurements.distances import Distance, distance
 from pincal.identification.measurements.joint import JointReading, joint_reading
+from pincal.identification.measurements.planes import (
+    PLANE,
+    PLANE_COMPONENTS,
+    PlaneContact,
+    PlanePoint,
+    plane_contact,
+    plane_name,
+    plane_point,
+)
 # isort: on
 
 __all__ = [
@@ -39,6 +48,8 @@ __all__ = [
     "KIND_CLASSES",
     "MARKER_NAME",
     "PLACEMENT_COMPONENTS",
+    "PLANE",
+    "PLANE_COMPONENTS",
     "QUATERNION",
     "WORLD_TARGET",
     "AttachedPlacement",
@@ -50,6 +61,8 @@ __all__ = [
     "KeyParser",
     "MarkerPoint",
     "Measurement",
+    "PlaneContact",
+    "PlanePoint",
     "Pose",
     "Position",
     "SampleContext",
@@ -59,6 +72,9 @@ __all__ = [
     "distance",
     "joint_reading",
     "parse_key",
+    "plane_contact",
+    "plane_name",
+    "plane_point",
     "point_derivative",
     "pose",
     "position",

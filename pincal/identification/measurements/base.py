@@ -104,6 +104,9 @@ class Measurement(ABC):
     #: Whether the model reads points at its frames' marker offsets (``marker.<frame>.*``): the calibrated URDF then
     #: places the point it reads on the frame's marker link.
     reads_markers: ClassVar[bool] = False
+    #: Whether a reading states a contact whose values are all 0 when none is written (a frame on a plane): a job
+    #: file may then give the measurement no columns.
+    zero_when_unwritten: ClassVar[bool] = False
 
     key: str
     size: int

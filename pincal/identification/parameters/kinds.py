@@ -19,7 +19,7 @@ import math
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 from pincal.errors import not_found
-from pincal.identification.measurements import WORLD_TARGET, camera_name
+from pincal.identification.measurements import PLANE, WORLD_TARGET, camera_name, plane_name
 from pincal.model.robot import Unit
 
 if TYPE_CHECKING:
@@ -239,6 +239,22 @@ class TargetPlacement(ParameterKind):
     def prefix(cls, target: str, side: str = "") -> str:
         """``target`` (the world target, ``target`` empty) or ``target.<frame>@<target>``."""
         return f"{WORLD_TARGET}.{target}" if target else WORLD_TARGET
+
+
+class PlanePlacement(ParameterKind):
+    """``plane.<c>``: the plane a frame touches, fixed in the robot's world; ``plane.<support>.<c>``: fixed on the
+    robot frame ``support`` (the sole a humanoid stands on). Its placement ``exp6(δ)`` (support ← plane) has the
+    plane's normal along its z axis; only ``tz`` [m] (the offset along the normal) and ``rx``, ``ry`` [rad] (the
+    tilts) are parameters: what the plane's points cannot tell (where on the plane, the rotation about the
+    normal) is not one."""
+
+    name = PLANE
+    urdf = "a plane link (its z axis the normal) on the support's link, or on the robot's root link"
+
+    @classmethod
+    def prefix(cls, target: str, side: str = "") -> str:
+        """``plane`` (fixed in the world, ``target`` empty) or ``plane.<support>``."""
+        return plane_name(target)
 
 
 class Harmonic(ParameterKind):

@@ -1,0 +1,229 @@
+"""Contact with a plane: a frame of the robot lies on a flat plate or table whose pose is unknown (no external
+sensor, only the joint readings).
+
+The plane is fixed in the robot's world, or on a robot frame (its *support*: the sole a humanoid stands on). Its
+placement ``G = exp6(δ)`` in the support's frame has the plane's normal along its z axis; its parameters
+``plane[.<support>].tz|rx|ry`` are the offset along the normal [m] and two tilts [rad]. Where on the plane the frame
+touches, and the rotation about the normal, are not parameters: contact cannot see them.
+
+Two kinds, both with the contact frame ``F`` expressed in the support's frame, ``C = S⁻¹ F``:
+
+- ``plane_point:<frame>[@<support>]``: the frame's origin on the plane; one row, the signed distance
+  ``e_zᵀ G⁻¹ p_C`` [m] (a touch probe reads 0; a dial gauge reads its displacement);
+- ``plane:<frame>[@<support>]``: the frame flush on the plane, its z axis along the plane's normal (either way); the
+  distance, then the x and y components of the frame's z axis in the plane's coordinates, ``(R_Gᵀ R_C e_z)_{x,y}``
+  [rad, small angles] (0 when flush).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import ClassVar
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.errors import DataError
+from pincal.identification.batch import BatchContext
+from pincal.identification.measurements.base import Attachment, Measurement
+from pincal.identification.measurements.context import AttachedPlacement, SampleContext, split_target
+from pincal.model.rotations import rotate, skew
+
+Array = npt.NDArray[np.float64]
+
+#: The attached placement (and parameter prefix) of a plane fixed in the robot's world.
+PLANE = "plane"
+#: The plane's estimated placement components: the offset along its normal [m] and its two tilts [rad].
+PLANE_COMPONENTS = ("tz", "rx", "ry")
+_EZ = np.array([0.0, 0.0, 1.0])
+
+
+def plane_name(support: str) -> str:
+    """The attached placement (and parameter prefix) of the plane fixed on ``support``: ``plane.<support>``, or
+    ``plane`` for the plane fixed in the robot's world (``support`` empty)."""
+    return f"{PLANE}.{support}" if support else PLANE
+
+
+@dataclass(frozen=True)
+class PlanePoint(Measurement):
+    """A frame's origin lies on an unknown plane: the signed distance [m] from the plane (key
+    ``plane_point:<frame>`` for a plane fixed in the world, ``plane_point:<frame>@<support>`` for one fixed on the
+    robot frame ``support``). The plane's offset and tilts (``plane[.<support>].tz|rx|ry``) are estimated with the
+    robot."""
+
+    kinds: ClassVar[tuple[str, ...]] = ("plane_point",)
+    components: ClassVar[tuple[str, ...]] = ("distance",)
+    length_rows: ClassVar[int] = 1
+    zero_when_unwritten: ClassVar[bool] = True
+
+    frame: str = ""
+    support: str = ""
+
+    @classmethod
+    def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
+        """The model of key ``plane_point:<frame>[@<support>]``; σ [m] defaults to 1e-4."""
+        frame, support = _frames(kind, rest)
+        return plane_point(frame, support, sigma or 1e-4)
+
+    @property
+    def frames(self) -> tuple[str, ...]:
+        """The contact frame, then the support (if the plane is fixed on a robot frame)."""
+        return (self.frame, self.support) if self.support else (self.frame,)
+
+    @property
+    def attachments(self) -> tuple[Attachment, ...]:
+        """The plane (``plane[.<support>].tz|rx|ry``)."""
+        return (Attachment(PLANE, self.support, PLANE_COMPONENTS),)
+
+    def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
+        """``d = e_zᵀ G⁻¹ S⁻¹ p_F``. With ``ΔW = W_F − W_S`` (the spatial twists ``Ad(F) ξ_F``, ``Ad(S) ξ_S``), the
+        robot's columns are ``n_wᵀ (ΔW_v − p̂_F ΔW_ω)``, ``n_w = R_S R_G e_z`` the normal in the world; the plane's
+        ``e_zᵀ (−J_v + q̂ J_ω)``, ``q = G⁻¹ p_C`` (J: the right Jacobian of ``exp6``)."""
+        state = _ContactState.of(ctx, self.frame, self.support)
+        out[:] = state.rows(self.size)
+        if jac is not None:
+            state.jacobian(ctx, self.frame, self.support, jac)
+
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample."""
+        _predict_batch(self, batch, out, jac)
+
+
+@dataclass(frozen=True)
+class PlaneContact(PlanePoint):
+    """A frame lies flush on an unknown plane, its z axis along the plane's normal (key ``plane:<frame>`` or
+    ``plane:<frame>@<support>``): the signed distance [m], then the x and y components of the frame's z axis in the
+    plane's coordinates [rad] (the two tilts; 0 when flush, whichever way the axis points)."""
+
+    kinds: ClassVar[tuple[str, ...]] = ("plane",)
+    components: ClassVar[tuple[str, ...]] = ("distance", "tilt_x", "tilt_y")
+    length_rows: ClassVar[int] = 1
+    angle_rows: ClassVar[int] = 2
+    units: ClassVar[tuple[str, ...]] = ("m", "rad", "rad")
+
+    sigma_angle: float = 1e-3
+
+    @classmethod
+    def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
+        """The model of key ``plane:<frame>[@<support>]``; σ defaults to 1e-4 m for the distance and 1e-3 rad for
+        the tilts (one σ given: both)."""
+        frame, support = _frames(kind, rest)
+        return plane_contact(frame, support, sigma or 1e-4, sigma or 1e-3)
+
+    def with_angle_sigma(self, sigma_angle: float) -> Measurement:
+        """This model with σ ``sigma_angle`` [rad] on its tilt rows."""
+        return replace(self, sigma_angle=sigma_angle)
+
+    def row_units(self) -> list[str]:
+        """The distance [m], then the two tilts [rad]."""
+        return ["m", "rad", "rad"]
+
+    def uniform_row_sigmas(self) -> Array:
+        """``sigma`` [m] for the distance, ``sigma_angle`` [rad] for the tilts."""
+        return np.array([self.sigma, self.sigma_angle, self.sigma_angle])
+
+
+@dataclass
+class _ContactState:
+    """One sample's contact frame against its plane: what the rows and their derivatives are made of."""
+
+    frame: pin.SE3  # F in the robot's world
+    support: pin.SE3  # S in the robot's world (the identity for a plane fixed in the world)
+    plane: AttachedPlacement  # G in the support's frame
+
+    @classmethod
+    def of(cls, ctx: SampleContext, frame: str, support: str) -> _ContactState:
+        """The state of ``frame`` against the plane on ``support`` at this sample."""
+        held = ctx.placement(support) if support else pin.SE3.Identity()
+        return cls(ctx.placement(frame), held, ctx.attached_placement(plane_name(support)))
+
+    @property
+    def local_point(self) -> Array:
+        """``q = G⁻¹ S⁻¹ p_F`` [m]: the frame's origin in the plane's coordinates."""
+        point: Array = self.plane.placement.actInv(self.support.actInv(self.frame.translation))
+        return point
+
+    @property
+    def local_axis(self) -> Array:
+        """``a = R_Gᵀ R_Sᵀ R_F e_z``: the frame's z axis in the plane's coordinates."""
+        axis: Array = self.plane.placement.rotation.T @ self.support.rotation.T @ self.frame.rotation[:, 2]
+        return axis
+
+    def rows(self, size: int) -> Array:
+        """The distance [m] and (size 3) the two tilts [rad]."""
+        return np.concatenate([self.local_point[2:], self.local_axis[:2]])[:size]
+
+    def jacobian(self, ctx: SampleContext, frame: str, support: str, jac: Array) -> None:
+        """Write the rows' derivatives into ``jac`` (size, p)."""
+        spatial = self.frame.action @ ctx.twists[frame]
+        if support:
+            spatial = spatial - self.support.action @ ctx.twists[support]
+        to_plane = self.plane.placement.rotation.T @ self.support.rotation.T  # world -> plane coordinates
+        normal = to_plane[2]
+        jac[0] = normal @ (spatial[:3] - pin.skew(self.frame.translation) @ spatial[3:])
+        if len(jac) == 3:
+            jac[1:] = (-to_plane @ pin.skew(self.frame.rotation[:, 2]) @ spatial[3:])[:2]
+        plane = self.plane
+        if plane.columns:
+            jac[0, plane.columns] += -plane.jacobian[2] + (pin.skew(self.local_point) @ plane.jacobian[3:])[2]
+            if len(jac) == 3:
+                jac[1:, plane.columns] += (pin.skew(self.local_axis) @ plane.jacobian[3:])[:2]
+
+
+def _predict_batch(model: PlanePoint, batch: BatchContext, out: Array, jac: Array | None) -> None:
+    """:meth:`PlanePoint.predict` for every sample (``out`` (N, size), ``jac`` (N, size, p)): the rows applied to
+    the frame's spatial twists less the support's."""
+    plane = batch.shared.attached_placement(plane_name(model.support))
+    rot_f, pos_f = batch.rotations[model.frame], batch.translations[model.frame]
+    n = len(pos_f)
+    if model.support:
+        rot_s, pos_s = batch.rotations[model.support], batch.translations[model.support]
+    else:
+        rot_s, pos_s = np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros((n, 3))
+    to_plane = rotate(plane.placement.rotation.T, rot_s.transpose(0, 2, 1))  # (N, 3, 3) world -> plane
+    point = np.matmul(to_plane, (pos_f - pos_s)[:, :, None])[:, :, 0] - plane.placement.rotation.T @ \
+        plane.placement.translation
+    axis = np.matmul(to_plane, rot_f[:, :, 2:])[:, :, 0]
+    out[:, 0] = point[:, 2]
+    if model.size == 3:
+        out[:, 1:] = axis[:, :2]
+    if jac is None:
+        return
+    rows = np.zeros((n, model.size, 6))
+    normal = to_plane[:, 2]
+    rows[:, 0, :3] = normal
+    rows[:, 0, 3:] = np.cross(pos_f, normal)  # nᵀ(−p̂ w) = (p × n)ᵀ w
+    if model.size == 3:
+        rows[:, 1:, 3:] = -np.matmul(to_plane, skew(rot_f[:, :, 2]))[:, :2]
+    batch.derivative(model.frame, rows, out=jac)
+    if model.support:
+        jac -= batch.derivative(model.support, rows)
+    if plane.columns:
+        jp = plane.jacobian
+        jac[:, 0, plane.columns] += -jp[2] + np.matmul(skew(point), jp[3:])[:, 2]
+        if model.size == 3:
+            jac[:, 1:, plane.columns] += np.matmul(skew(axis), jp[3:])[:, :2]
+
+
+def _frames(kind: str, rest: str) -> tuple[str, str]:
+    """``(frame, support)`` of a key's rest ``<frame>`` or ``<frame>@<support>``."""
+    frame, support = split_target(rest)
+    if not frame or ("@" in rest and not support):
+        raise DataError(f"measurement '{kind}:{rest}' must name a frame as '{kind}:<frame>', or a frame and the "
+                        f"robot frame the plane is fixed on as '{kind}:<frame>@<support>'")
+    return frame, support
+
+
+def plane_point(frame: str, support: str = "", sigma: float = 1e-4) -> PlanePoint:
+    """The model of ``frame``'s origin on an unknown plane fixed in the world (``support`` empty) or on the robot
+    frame ``support``, with σ [m]."""
+    key = f"plane_point:{frame}@{support}" if support else f"plane_point:{frame}"
+    return PlanePoint(key, 1, sigma, frame=frame, support=support)
+
+
+def plane_contact(frame: str, support: str = "", sigma: float = 1e-4, sigma_angle: float = 1e-3) -> PlaneContact:
+    """The model of ``frame`` flush on an unknown plane fixed in the world (``support`` empty) or on the robot frame
+    ``support``: the distance with σ [m], the two tilts with ``sigma_angle`` [rad]."""
+    key = f"plane:{frame}@{support}" if support else f"plane:{frame}"
+    return PlaneContact(key, 3, sigma, frame=frame, support=support, sigma_angle=sigma_angle)
