@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from pincal.calibration.options import JOB_OPTIONS, OPTIONS
+from pincal.calibration.samples import ANGLE_UNIT_SIZES, LENGTH_UNIT_SIZES
 from pincal.errors import DataError, NotFoundError, listing, not_found
 from pincal.identification.corrections import Payload, payload_from_dict
 from pincal.identification.measurements import KIND_CLASSES
@@ -27,15 +28,17 @@ from pincal.io.dataset import MEASUREMENT_COMPONENTS, parse_measurement_key
 from pincal.model.robot import Robot, load_robot
 
 #: Length units a data file may be written in: their size in metres.
-LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "in": 0.0254}
+LENGTH_UNITS = LENGTH_UNIT_SIZES
 #: Angle units a data file may be written in: their size in radians.
-ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "deg": math.pi / 180.0}
+ANGLE_UNITS = ANGLE_UNIT_SIZES
 
 #: Keys of each level of a job file.
 JOB_KEYS = ("robot", "data", "joints", "measure", "out", "report", *JOB_OPTIONS)
 DATA_KEYS = ("file", "files", "units", "held_out", "sample", "ignore")
 UNIT_KEYS = ("length", "angle")
-MEASURE_KEYS = ("kind", "frame", "frames", "columns", "sigma", "sigma_angle")
+MEASURE_KEYS = ("kind", "frame", "frames", "columns", "units", "sigma", "sigma_angle")
+#: Keys of a joint given as a table under ``[joints]``: ``torso_lift_joint = { column = "T", units = "m" }``.
+JOINT_KEYS = ("column", "units")
 PAYLOAD_KEYS = ("mass", "frame", "offset")
 #: ``held_out = "every 5th from 4"``: every K-th row of the data, counted from 0 over the files in order.
 EVERY = re.compile(r"every\s+(\d+)(?:st|nd|rd|th)?(?:\s+from\s+(\d+))?", re.IGNORECASE)
@@ -51,6 +54,8 @@ class MeasureColumns:
         sigma: σ of its values [m, rad]: one, or one per residual row; None: not stated.
         sigma_angle: σ of a pose's orientation [rad], or None.
         where: Its place in the job, ``[measure 1]``.
+        length_unit: The length unit its columns are written in (a key of :data:`LENGTH_UNITS`), or None: the
+            job's ``[data] units``.
     """
 
     key: str
@@ -58,6 +63,7 @@ class MeasureColumns:
     sigma: float | tuple[float, ...] | None
     sigma_angle: float | None
     where: str
+    length_unit: str | None = None
 
 
 @dataclass(frozen=True)
@@ -91,6 +97,8 @@ class Job:
         sample: The column of the sample ids, or None (ids: the row numbers).
         ignore: Columns of the data files that are not read.
         joints: Joint name -> the column of its readings, those the job maps.
+        joint_units: Joint name -> the unit its readings are written in (a key of :data:`LENGTH_UNITS` or
+            :data:`ANGLE_UNITS`), those the job states; the others are in ``length_unit`` or ``angle_unit``.
         measures: The measurements and their columns.
         overrides: The options given elsewhere (the command line) in place of the job's, by name.
     """
@@ -110,6 +118,7 @@ class Job:
     joints: dict[str, str] = field(default_factory=dict)
     measures: tuple[MeasureColumns, ...] = ()
     overrides: tuple[str, ...] = ()
+    joint_units: dict[str, str] = field(default_factory=dict)
 
     def overridden(self, out: str | Path | None = None, report: str | Path | None = None,
                    **options: Any) -> Job:
@@ -243,13 +252,13 @@ class _Reader:
         outputs = {name: self.file(doc[name], name, must_exist=False)[0] if name in doc else None
                    for name in ("out", "report")}
         measures = tuple(self.measure(entry, k + 1) for k, entry in enumerate(self.measure_list(doc)))
-        joints = {self.text(joint, "[joints]"): self.text(column, f"[joints] {joint}")
-                  for joint, column in self.table(doc.get("joints", {}), "[joints]").items()}
+        joints, joint_units = self.joints(self.table(doc.get("joints", {}), "[joints]"))
         job = Job(self.path, robot, tuple(path for path, _ in found), tuple(written for _, written in found),
                   outputs["out"], outputs["report"], self.options(doc), length, angle,
                   self.held_out(data["held_out"]) if "held_out" in data else None,
                   self.text(data["sample"], "[data] sample") if "sample" in data else None,
-                  tuple(self.texts(data["ignore"], "[data] ignore")) if "ignore" in data else (), joints, measures)
+                  tuple(self.texts(data["ignore"], "[data] ignore")) if "ignore" in data else (), joints, measures,
+                  joint_units=joint_units)
         self.claims(job)
         if len(job.files) > 1 and any(m.key.startswith("distance_increment:") for m in measures):
             raise self.error(f"[data] {key}", "a distance_increment measurement needs a single data file (each "
@@ -261,6 +270,23 @@ class _Reader:
         self.keys(units, UNIT_KEYS, "in [data] units")
         return (self.choice(units.get("length", "m"), list(LENGTH_UNITS), "[data] units: length"),
                 self.choice(units.get("angle", "rad"), list(ANGLE_UNITS), "[data] units: angle"))
+
+    def joints(self, table: dict[str, Any]) -> tuple[dict[str, str], dict[str, str]]:
+        """``[joints]``: joint -> its column, and joint -> its unit where one is given. An entry is a column's name,
+        or a table ``{ column = "T", units = "m" }`` (the column defaults to the joint's name)."""
+        columns: dict[str, str] = {}
+        units: dict[str, str] = {}
+        for joint, value in table.items():
+            name, where = self.text(joint, "[joints]"), f"[joints] {joint}"
+            if not isinstance(value, dict):
+                columns[name] = self.text(value, where)
+                continue
+            self.keys(value, JOINT_KEYS, f"in {where}")
+            if "column" in value:
+                columns[name] = self.text(value["column"], f"{where} column")
+            if "units" in value:
+                units[name] = self.choice(value["units"], [*LENGTH_UNITS, *ANGLE_UNITS], f"{where} units")
+        return columns, units
 
     def held_out(self, value: Any) -> HeldOut:
         where = "[data] held_out"
@@ -318,7 +344,9 @@ class _Reader:
         return MeasureColumns(key, tuple(columns),
                               self.sigmas(entry["sigma"], f"{where} sigma") if "sigma" in entry else None,
                               self.sigma(entry["sigma_angle"], f"{where} sigma_angle") if "sigma_angle" in entry
-                              else None, where)
+                              else None, where,
+                              self.choice(entry["units"], list(LENGTH_UNITS), f"{where} units") if "units" in entry
+                              else None)
 
     def options(self, doc: dict[str, Any]) -> dict[str, Any]:
         """The calibration options the job gives, each read as its :class:`~pincal.calibration.options.Option`
