@@ -132,9 +132,10 @@ def check_units(fit: Prepared, dataset: Dataset, plausible: float | str) -> dict
         DataError: naming the column, the unit it was read in and the likely one.
     """
     limit = scale_limit(plausible)
+    scales = check_length_scale(fit.problem, dataset.metadata, limit if limit is not None else LENGTH_SCALE_RATIO)
     if limit is not None:
         check_joint_scale(fit.robot, dataset)
-    return check_length_scale(fit.problem, dataset.metadata, limit if limit is not None else LENGTH_SCALE_RATIO)
+    return scales
 
 
 def check_trainable(dataset: Dataset) -> None:
