@@ -18,6 +18,14 @@ ROBOTS = ROOT / "robots_urdf"
 PINCAL = Path(sys.executable).parent / "pincal"
 
 
+def readme_four_bar() -> str:
+    """The four-bar URDF the README shows ("A closed-loop URDF from scratch"), as a user copies it."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    blocks = [b for b in text.split("```xml\n")[1:] if '<robot name="four_bar">' in b]
+    assert len(blocks) == 1, "the README shows one four-bar URDF"
+    return blocks[0].split("```")[0]
+
+
 def run_pincal(*args: str, timeout: float = 300, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
     """``pincal ARGS`` as a user runs it: the console script in a subprocess (in ``cwd``, made if missing), output
     captured as text."""

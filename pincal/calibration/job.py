@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from pincal.calibration.options import JOB_OPTIONS, OPTIONS
+from pincal.calibration.samples import ANGLE_UNIT_SIZES, LENGTH_UNIT_SIZES
 from pincal.errors import DataError, NotFoundError, listing, not_found
 from pincal.identification.corrections import Payload, payload_from_dict
 from pincal.identification.measurements import KIND_CLASSES
@@ -28,15 +29,17 @@ from pincal.io.dataset import MEASUREMENT_COMPONENTS, parse_measurement_key
 from pincal.model.robot import Robot, load_robot
 
 #: Length units a data file may be written in: their size in metres.
-LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "in": 0.0254}
+LENGTH_UNITS = LENGTH_UNIT_SIZES
 #: Angle units a data file may be written in: their size in radians.
-ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "deg": math.pi / 180.0}
+ANGLE_UNITS = ANGLE_UNIT_SIZES
 
 #: Keys of each level of a job file.
 JOB_KEYS = ("robot", "data", "joints", "measure", "out", "report", *JOB_OPTIONS)
 DATA_KEYS = ("file", "files", "units", "held_out", "sample", "ignore", "header")
 UNIT_KEYS = ("length", "angle")
-MEASURE_KEYS = ("kind", "frame", "frames", "columns", "sigma", "sigma_angle", "support")
+MEASURE_KEYS = ("kind", "frame", "frames", "columns", "units", "sigma", "sigma_angle", "support")
+#: Keys of a joint given as a table under ``[joints]``: ``torso_lift_joint = { column = "T", units = "m" }``.
+JOINT_KEYS = ("column", "units")
 PAYLOAD_KEYS = ("mass", "frame", "offset")
 #: What the first line of a data file is: the column ``names`` (the default), a header to ``skip`` (names defective or
 #: misplaced: every column is named by its position), or ``none`` (the first line is data).
@@ -58,6 +61,8 @@ class MeasureColumns:
         sigma: σ of its values [m, rad]: one, or one per residual row; None: not stated.
         sigma_angle: σ of a pose's orientation [rad], or None.
         where: Its place in the job, ``[measure 1]``.
+        length_unit: The length unit its columns are written in (a key of :data:`LENGTH_UNITS`), or None: the
+            job's ``[data] units``.
     """
 
     key: str
@@ -65,6 +70,7 @@ class MeasureColumns:
     sigma: float | tuple[float, ...] | None
     sigma_angle: float | None
     where: str
+    length_unit: str | None = None
 
 
 @dataclass(frozen=True)
@@ -100,6 +106,8 @@ class Job:
         joints: Joint name -> the column of its readings, those the job maps.
         header: What each data file's first line is (:data:`HEADERS`); a column is named by its header name, or by
             its position from 1 (the only way when the header is skipped or absent).
+        joint_units: Joint name -> the unit its readings are written in (a key of :data:`LENGTH_UNITS` or
+            :data:`ANGLE_UNITS`), those the job states; the others are in ``length_unit`` or ``angle_unit``.
         measures: The measurements and their columns.
         overrides: The options given elsewhere (the command line) in place of the job's, by name.
         bag: The ROS bag the data come from (a ``[bag]`` table, :mod:`pincal.calibration.job_bag`), or None.
@@ -122,6 +130,7 @@ class Job:
     overrides: tuple[str, ...] = ()
     bag: BagSource | None = None
     header: str = "names"
+    joint_units: dict[str, str] = field(default_factory=dict)
 
     def overridden(self, out: str | Path | None = None, report: str | Path | None = None,
                    **options: Any) -> Job:
@@ -276,14 +285,13 @@ class _Reader:
         outputs = {name: self.file(doc[name], name, must_exist=False)[0] if name in doc else None
                    for name in ("out", "report")}
         measures = tuple(self.measure(entry, k + 1) for k, entry in enumerate(self.measure_list(doc)))
-        joints = {self.text(joint, "[joints]"): self.column(column, f"[joints] {joint}")
-                  for joint, column in self.table(doc.get("joints", {}), "[joints]").items()}
+        joints, joint_units = self.joints(self.table(doc.get("joints", {}), "[joints]"))
         job = Job(self.path, robot, tuple(path for path, _ in found), tuple(written for _, written in found),
                   outputs["out"], outputs["report"], self.options(doc), length, angle,
                   self.held_out(data["held_out"]) if "held_out" in data else None,
                   self.column(data["sample"], "[data] sample") if "sample" in data else None,
                   tuple(self.columns(data["ignore"], "[data] ignore")) if "ignore" in data else (), joints, measures,
-                  header=self.choice(data.get("header", "names"), HEADERS, "[data] header"))
+                  header=self.choice(data.get("header", "names"), HEADERS, "[data] header"), joint_units=joint_units)
         self.claims(job)
         self.positions(job)
         if len(job.files) > 1 and any(m.key.startswith("distance_increment:") for m in measures):
@@ -296,6 +304,24 @@ class _Reader:
         self.keys(units, UNIT_KEYS, "in [data] units")
         return (self.choice(units.get("length", "m"), list(LENGTH_UNITS), "[data] units: length"),
                 self.choice(units.get("angle", "rad"), list(ANGLE_UNITS), "[data] units: angle"))
+
+    def joints(self, table: dict[str, Any]) -> tuple[dict[str, Column], dict[str, str]]:
+        """``[joints]``: joint -> its column, and joint -> its unit where one is given. An entry is a column (its name,
+        or its position from 1), or a table ``{ column = "T", units = "m" }`` (the column defaults to the joint's
+        name)."""
+        columns: dict[str, Column] = {}
+        units: dict[str, str] = {}
+        for joint, value in table.items():
+            name, where = self.text(joint, "[joints]"), f"[joints] {joint}"
+            if not isinstance(value, dict):
+                columns[name] = self.column(value, where)
+                continue
+            self.keys(value, JOINT_KEYS, f"in {where}")
+            if "column" in value:
+                columns[name] = self.column(value["column"], f"{where} column")
+            if "units" in value:
+                units[name] = self.choice(value["units"], [*LENGTH_UNITS, *ANGLE_UNITS], f"{where} units")
+        return columns, units
 
     def held_out(self, value: Any) -> HeldOut:
         where = "[data] held_out"
@@ -359,7 +385,9 @@ class _Reader:
         return MeasureColumns(key, tuple(columns),
                               self.sigmas(entry["sigma"], f"{where} sigma") if "sigma" in entry else None,
                               self.sigma(entry["sigma_angle"], f"{where} sigma_angle") if "sigma_angle" in entry
-                              else None, where)
+                              else None, where,
+                              self.choice(entry["units"], list(LENGTH_UNITS), f"{where} units") if "units" in entry
+                              else None)
 
     def options(self, doc: dict[str, Any]) -> dict[str, Any]:
         """The calibration options the job gives, each read as its :class:`~pincal.calibration.options.Option`

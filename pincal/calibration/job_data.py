@@ -51,8 +51,9 @@ def job_dataset(job: Job, robot: Robot) -> Dataset:
     """
     if job.bag is not None:  # a ROS bag's static postures (docs/bags.md)
         return bag_job_dataset(job, job.bag, robot)
-    for joint in job.joints:
+    for joint in {**job.joints, **job.joint_units}:
         robot.joint_id(joint, f"{job.path}: [joints] {joint}: ")
+    _check_joint_units(job, robot)
     for measure in job.measures:
         for frame in parse_key(measure.key).frames:
             robot.frame_id(frame, f"{job.path}: {measure.where} frame: ")
@@ -83,7 +84,7 @@ def job_dataset(job: Job, robot: Robot) -> Dataset:
     if job.held_out is not None and job.held_out.column is None:
         held = _held_rows(job.held_out, job, n)
     sets = ["test" if h else "train" for h in held]
-    return Dataset(order, joints, measurements, ids, sets, _metadata(job, robot))
+    return Dataset(order, joints, measurements, ids, sets, _metadata(job, robot, parts[0][0].joint_names))
 
 
 def _file_dataset(job: Job, robot: Robot, k: int) -> tuple[Dataset, npt.NDArray[np.bool_], list[str]]:
@@ -100,12 +101,11 @@ def _file_dataset(job: Job, robot: Robot, k: int) -> tuple[Dataset, npt.NDArray[
         raise DataError(f"{where}: its '# robot: {recorded}' line says the data are of robot '{recorded}', not of "
                         f"'{robot.name}'")
     columns = _columns(job, robot, table, k)
-    length, angle = LENGTH_UNITS[job.length_unit], ANGLE_UNITS[job.angle_unit]
     rows = table.rows
     try:
         joints = np.array([[cell_number(cells[i], table.header[i], line) for i in columns.joints.values()]
                            for line, cells in rows]).reshape(len(rows), len(columns.joints))
-        joints *= np.array([length if joint_unit(robot, j) == "m" else angle for j in columns.joints])
+        joints *= np.array([_unit_size(joint_units(job, robot, j)) for j in columns.joints])
         measurements = {}
         for measure in job.measures:
             kind = measure.key.partition(":")[0]
@@ -119,6 +119,7 @@ def _file_dataset(job: Job, robot: Robot, k: int) -> tuple[Dataset, npt.NDArray[
                                 for i in columns.measures[measure.key]] for r, (line, cells) in enumerate(rows)])
             values = values.reshape(len(rows), len(columns.measures[measure.key]))
             _check_not_seen(values, [table.header[i] for i in columns.measures[measure.key]], rows)
+            length = LENGTH_UNITS[measure.length_unit or job.length_unit]
             measurements[measure.key] = values * np.array([length if unit == "m" else 1.0  # a quaternion has none
                                                            for unit in KIND_CLASSES[kind].component_units()])
         ids = [cells[columns.sample] if columns.sample is not None else str(r) for r, (_, cells) in enumerate(rows)]
@@ -133,7 +134,8 @@ def _file_dataset(job: Job, robot: Robot, k: int) -> tuple[Dataset, npt.NDArray[
         hint = ""
         if "looks like" in str(exc):
             hint = (f" (the job reads lengths in {job.length_unit} and angles in {job.angle_unit}: state the file's "
-                    "units under [data] units)")
+                    "units under [data] units, or a column's own as [[measure]] units or [joints] NAME = { units "
+                    "= ... })")
         raise DataError(f"{where}: {exc}{hint}") from None
     return dataset, held, table.header
 
@@ -179,6 +181,9 @@ def _columns(job: Job, robot: Robot, table: Table, k: int) -> _Columns:
     ignored = {find(c, "[data] ignore") for c in job.ignore if isinstance(c, int)}
     ignored |= {i for i, name in enumerate(table.header) if name in job.ignore}
     held = find(job.held_out.column, "[data] held_out") if job.held_out and job.held_out.column else None
+    for joint in job.joint_units:  # a unit without a column: the column named like the joint
+        if joint not in joints:
+            joints[joint] = find(joint, f"[joints] {joint}")
     claims = [i for indices in measures.values() for i in indices] + list(joints.values())
     claims += [i for i in (sample, held) if i is not None]
     twice = sorted({i for i in claims if claims.count(i) > 1} | (set(claims) & ignored))
@@ -230,12 +235,46 @@ def _joint_kinds(robot: Robot, joints: Sequence[str]) -> dict[str, str]:
             if model.joints[model.getJointId(j)].nq == 1}
 
 
-def _metadata(job: Job, robot: Robot) -> dict[str, str]:
-    """The Dataset's metadata: the robot, the units, and the σ of each channel the job states
-    (:func:`~pincal.io.adapters.channel_sigma` reads them)."""
+def joint_units(job: Job, robot: Robot, joint: str) -> str:
+    """The unit ``joint``'s readings are written in: the job's for that joint, else its length or angle unit."""
+    if joint in job.joint_units:
+        return job.joint_units[joint]
+    return job.length_unit if joint_unit(robot, joint) == "m" else job.angle_unit
+
+
+def _unit_size(unit: str) -> float:
+    """A unit's size in metres or radians."""
+    return LENGTH_UNITS[unit] if unit in LENGTH_UNITS else ANGLE_UNITS[unit]
+
+
+def _check_joint_units(job: Job, robot: Robot) -> None:
+    """Refuse a joint's unit of the other kind (an angle for a prismatic joint, a length for a revolute one)."""
+    for joint, unit in job.joint_units.items():
+        lengths = joint_unit(robot, joint) == "m"
+        if (unit in LENGTH_UNITS) != lengths:
+            kind, units = ("prismatic", LENGTH_UNITS) if lengths else ("revolute", ANGLE_UNITS)
+            raise DataError(f"{job.path}: [joints] {joint} units: '{unit}' is not a unit of a {kind} joint's "
+                            f"readings; units are: {listing(units)}")
+
+
+def _label(column: Column) -> str:
+    """A column as a message names it: its header name, or ``#7`` for the 7th column named by its position."""
+    return column if isinstance(column, str) else f"#{column}"
+
+
+def _metadata(job: Job, robot: Robot, joints: Sequence[str]) -> dict[str, str]:
+    """The Dataset's metadata: the robot, the units, the σ of each channel the job states
+    (:func:`~pincal.io.adapters.channel_sigma` reads them), and each quantity's columns and the unit they are written
+    in (``column NAME``, ``unit NAME``: the length-scale checks of :mod:`pincal.calibration.samples` name them)."""
     metadata = {"robot": robot.name, "units": "SI (m, rad)", "job": str(job.path)}
+    columns = {m.key: m.columns for m in job.measures}
+    for joint in joints:
+        metadata[f"column {joint}"] = _label(job.joints.get(joint, joint))
+        metadata[f"unit {joint}"] = joint_units(job, robot, joint)
     for measure in job.measures:
         kind, _, name = measure.key.partition(":")
+        metadata[f"column {kind} {name}"] = ", ".join(map(_label, columns[measure.key]))
+        metadata[f"unit {kind} {name}"] = measure.length_unit or job.length_unit
         if measure.sigma is not None:
             stated = measure.sigma if isinstance(measure.sigma, tuple) else (measure.sigma,)
             metadata[f"sigma {kind} {name}"] = " ".join(repr(v) for v in stated)

@@ -23,10 +23,10 @@ from pincal.calibration.crossval import Folds, check_cross_validation, cross_val
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, evaluate_held_out
 from pincal.calibration.noise import provisional_noise, with_noise
 from pincal.calibration.options import CalibrationOptions, check_cv_seed, plausible_factor
-from pincal.calibration.plausibility import implausible_corrections, implausible_scales, likely_cause
+from pincal.calibration.plausibility import implausible_corrections, implausible_scales, likely_cause, scale_limit
 from pincal.calibration.predicted import fitted_ranges, held_out_predictions, workspace_prediction
 from pincal.calibration.report import CalibrationReport, fit_figures
-from pincal.calibration.samples import check_length_scale
+from pincal.calibration.samples import LENGTH_SCALE_RATIO, check_joint_scale, check_length_scale
 from pincal.calibration.setup import Prepared, check_movable, prepare
 from pincal.errors import DataError
 from pincal.identification.combinations import describe_unidentifiable, digest
@@ -91,12 +91,12 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     check_cv_seed(options.cv, options.cv_seed)
     check_trainable(dataset)
     fit = prepare(robot, dataset, options)
+    length_scale = check_units(fit, dataset, options.plausible)  # before any fit, the provisional one included
     estimated = provisional_noise(fit.problem, dataset.metadata, options, **fitting_options(options))
     if estimated:  # weighted by the noise the data show, as '# sigma' lines would: before selection
         dataset = with_noise(dataset, estimated)
         fit = prepare(robot, dataset, options)
     every, folds = cross_validation_folds(fit, dataset, options)  # checked before any fit
-    length_scale = check_length_scale(fit.problem)
     fitted = fit_prepared(fit, options)
     kept = fit.fitted_by(fitted.problem)
     result = fitted.result
@@ -119,6 +119,23 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
                                        select=options.selection, progress=progress, payload=options.payload,
                                        **fitting_options(options))
     return Calibration(kept, fitted.problem, result, held, CalibrationReport(**content), text, corrections)
+
+
+def check_units(fit: Prepared, dataset: Dataset, plausible: float | str) -> dict[str, float]:
+    """Refuse, before any fit, a column read in a wrong unit: positions whose spread differs from the nominal robot's
+    beyond the plausible band (:func:`~pincal.calibration.plausibility.scale_limit`; with ``plausible`` off, only
+    beyond :data:`~pincal.calibration.samples.LENGTH_SCALE_RATIO`), and joint readings that span a sliver of their
+    range (:func:`~pincal.calibration.samples.check_joint_scale`, skipped with ``plausible`` off). Returns the length
+    scale of each measured position.
+
+    Raises:
+        DataError: naming the column, the unit it was read in and the likely one.
+    """
+    limit = scale_limit(plausible)
+    scales = check_length_scale(fit.problem, dataset.metadata, limit if limit is not None else LENGTH_SCALE_RATIO)
+    if limit is not None:
+        check_joint_scale(fit.robot, dataset)
+    return scales
 
 
 def check_trainable(dataset: Dataset) -> None:

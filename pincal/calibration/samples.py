@@ -181,18 +181,41 @@ def held_out_outside_range(robot: Robot, train: Dataset, test: Dataset, margin: 
 
 
 #: Largest ratio between the spread of measured positions and the nominal robot's at the same joint readings (either
-#: way) before the data are taken for lengths in another unit: a nominal robot is off by millimetres, not by its size.
+#: way) at which the data are fitted whatever ``--plausible`` says: a nominal robot is off by millimetres, not by its
+#: size.
 LENGTH_SCALE_RATIO = 30.0
+#: Length units a data file may be written in: their size in metres (the keys of a job's ``units``).
+LENGTH_UNIT_SIZES = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "in": 0.0254}
+#: Angle units a data file may be written in: their size in radians.
+ANGLE_UNIT_SIZES = {"rad": 1.0, "mrad": 1e-3, "deg": math.pi / 180.0}
+#: A unit explains a scale when their sizes agree within this factor (the spread ratio of right data lies within
+#: 15 % of 1 on the TIAGo mocap data).
+UNIT_MATCH = 1.3
 
 
-def check_length_scale(problem: CalibrationProblem) -> dict[str, float]:
-    """Refuse positions read in the wrong unit (DataError naming the measurement), and give the length scale of each
-    measured position: the ratio of its spread (the median distance [m] from the median point, indifferent to a
-    frame's placement and to gross outliers) to the nominal robot's at the same joint readings, from the
-    calibration's start. Data in metres read as millimetres shrink 1000× (the fit would squash the robot onto them):
-    beyond :data:`LENGTH_SCALE_RATIO` either way they are refused; a smaller scale far from 1 is judged with the
-    corrections (:mod:`pincal.calibration.plausibility`). A frame that barely moves (a spread under 1 mm) is not
-    judged and has no scale."""
+def likely_unit(stated: str, factor: float, units: Mapping[str, float]) -> str | None:
+    """The unit the values were most likely written in, when read in ``stated`` they come out ``factor`` times too
+    large: the unit of ``units`` (name → size in SI) whose size is ``size(stated) / factor`` within
+    :data:`UNIT_MATCH`; None when no unit is."""
+    wanted = units[stated] / factor
+    best = min(units, key=lambda u: abs(math.log(units[u] / wanted)))
+    return best if best != stated and abs(math.log(units[best] / wanted)) <= math.log(UNIT_MATCH) else None
+
+
+def check_length_scale(problem: CalibrationProblem, metadata: Mapping[str, str] | None = None,
+                       limit: float = LENGTH_SCALE_RATIO) -> dict[str, float]:
+    """Refuse positions read in the wrong unit, before any fit, and give the length scale of each measured position:
+    the ratio of its spread (the median distance [m] from the median point, indifferent to a frame's placement and to
+    gross outliers) to the nominal robot's at the same joint readings, from the calibration's start. Data in metres
+    read as millimetres shrink 1000× (the fit would squash the robot onto them): beyond ``limit`` either way
+    (default :data:`LENGTH_SCALE_RATIO`; the pipeline gives the plausible band of ``--plausible``) they are refused,
+    naming the columns, the unit they were read in and the unit that explains the scale (``metadata``: a job's
+    ``column KEY`` and ``unit KEY`` entries; a CSV is in metres). A frame that barely moves (a spread under 1 mm) is not
+    judged and has no scale.
+
+    Raises:
+        DataError: the measurement, its columns, both spreads [mm] and the likely unit.
+    """
     x0 = problem.initial_guess()
     predicted = problem.evaluate(x0, jacobian=False).predicted
     scales: dict[str, float] = {}
@@ -208,11 +231,78 @@ def check_length_scale(problem: CalibrationProblem) -> dict[str, float]:
         if spread_nominal < 1e-3:
             continue
         ratio = spread_nominal / spread_measured if spread_measured > 0.0 else math.inf
-        if not 1.0 / LENGTH_SCALE_RATIO <= ratio <= LENGTH_SCALE_RATIO:
-            shown = f"{ratio:.0f}× as much" if ratio >= 1.0 else f"{1.0 / ratio:.0f}× less"
-            raise DataError(f"the measured positions '{m.key}' spread {spread_measured * 1e3:.3g} mm about their "
-                            f"median, the nominal robot's at the same joint readings {spread_nominal * 1e3:.3g} mm "
-                            f"({shown}): are the lengths in the unit stated (metres in a CSV; a job file's [data] "
-                            "units)?")
+        if not 1.0 / limit <= ratio <= limit:
+            raise DataError(_scale_message(m.key, spread_measured, spread_nominal, metadata or {}, limit))
         scales[m.key] = 1.0 / ratio
     return scales
+
+
+def _scale_message(key: str, measured: float, nominal: float, metadata: Mapping[str, str], limit: float) -> str:
+    """Why the positions ``key`` (spread ``measured``, the nominal robot's ``nominal`` [m]) look read in a wrong
+    unit: their columns, the unit they were read in, the likely one."""
+    name = key.replace(":", " ")
+    stated = metadata.get(f"unit {name}", "m")
+    columns = metadata.get(f"column {name}", ", ".join(f"{key}:{c}" for c in "xyz"))
+    factor = measured / nominal if nominal > 0.0 else math.inf
+    shown = f"{factor:.3g}× as much" if factor >= 1.0 else f"{1.0 / factor:.3g}× less"
+    unit = likely_unit(stated, factor, LENGTH_UNIT_SIZES) if math.isfinite(factor) and factor > 0.0 else None
+    job = "job" in metadata
+    state = ("state it as [[measure]] units or [data] units" if job else "convert the file to metres, or describe it "
+             "in a job file with its units (docs/job_file.md)")
+    cause = (f"the columns are likely in {unit}, not {stated}: {state}" if unit is not None else
+             f"no length unit explains a factor of {factor:.3g} (a wrong unit, or a robot of another size; "
+             f"--plausible F widens the {limit:.3g}× band, --plausible off keeps only {LENGTH_SCALE_RATIO:.0f}×)")
+    return (f"the measured positions '{key}' (columns {columns}, read in {stated}) spread {measured * 1e3:.4g} mm "
+            f"about their median, the nominal robot's at the same joint readings {nominal * 1e3:.4g} mm ({shown}, "
+            f"beyond {limit:.3g}× either way): {cause}")
+
+
+#: A joint's readings look written in a larger unit than read when, as read, they span less than this share of its
+#: URDF range, and converted they span at least :data:`SCALED_SPAN` of it within its limits.
+NARROW_SPAN = 0.01
+SCALED_SPAN = 0.1
+
+
+def check_joint_scale(robot: Robot, dataset: Dataset) -> None:
+    """Refuse a joint's readings read in too small a unit, before any fit: a torso written in metres and read as
+    millimetres spans 0.15 mm of its 350 mm range, where in metres it spans 150 mm within its URDF limits. A column
+    is refused when, as read, it spans under :data:`NARROW_SPAN` of its joint's range and some unit of the joint's
+    kind (m, cm, mm, um, in; rad, mrad, deg) would put every reading within the limits and span at least
+    :data:`SCALED_SPAN` of it. The column and the unit come from the dataset's metadata (a job's ``column NAME``
+    and ``unit NAME``; a CSV is in m and rad).
+
+    Raises:
+        DataError: naming the joint, its column, the span of its readings [m or rad], its range and the likely unit.
+    """
+    model = robot.model
+    for c, name in enumerate(dataset.joint_names):
+        if not model.existJointName(name) or model.joints[model.getJointId(name)].nq != 1:
+            continue
+        idx = model.joints[model.getJointId(name)].idx_q
+        lower, upper = float(model.lowerPositionLimit[idx]), float(model.upperPositionLimit[idx])
+        values = dataset.joints[:, c][np.isfinite(dataset.joints[:, c])]
+        if not (math.isfinite(lower) and math.isfinite(upper) and lower < upper) or len(values) < 2:
+            continue
+        width, span = upper - lower, float(np.ptp(values))
+        if not 0.0 < span < NARROW_SPAN * width:
+            continue
+        units = LENGTH_UNIT_SIZES if joint_unit(robot, name) == "m" else ANGLE_UNIT_SIZES
+        stated = dataset.metadata.get(f"unit {name}", "m" if units is LENGTH_UNIT_SIZES else "rad")
+        fits = [u for u, size in units.items() if size > units[stated] and _fits(values * size / units[stated],
+                                                                                 lower, upper)]
+        if fits:
+            unit = max(fits, key=lambda u: units[u])
+            column = dataset.metadata.get(f"column {name}", name)
+            si = joint_unit(robot, name)
+            raise DataError(f"joint '{name}' (column '{column}', read in {stated}) reads {values.min():.4g} to "
+                            f"{values.max():.4g} {si}, {span / width:.2%} of its URDF range [{lower:.4g}, "
+                            f"{upper:.4g}] {si}: the column is likely in {unit}, not {stated} (in a job file: "
+                            f"[joints] {name} = {{ units = \"{unit}\" }}; --plausible off skips this check)")
+
+
+def _fits(values: Array, lower: float, upper: float) -> bool:
+    """Whether ``values`` lie within [lower, upper] (with :data:`LIMIT_MARGIN` of the range) and span at least
+    :data:`SCALED_SPAN` of it."""
+    tol = LIMIT_MARGIN * (upper - lower)
+    return bool(np.all(values >= lower - tol) and np.all(values <= upper + tol)
+                and np.ptp(values) >= SCALED_SPAN * (upper - lower))

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from pincal.calibration.options import check_cv_seed
-from pincal.cli import bag_import, check, compensate, export, report_page, study, view
+from pincal.cli import assemble, bag_import, check, compensate, export, report_page, study, view
 from pincal.cli.arguments import (
     add_calibration_options,
     add_measurement,
@@ -328,7 +328,8 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.add_argument("--scheduler", help="address of a Dask scheduler (pip install 'pincal[dask]')")
     fleet.set_defaults(func=cmd_fleet)
 
-    for module in (view, report_page, study, check, compensate, export, bag_import):  # command groups of their own
+    for module in (view, report_page, study, check, compensate, export, bag_import,
+                   assemble):  # command groups of their own
         module.register(sub)
     return parser
 

@@ -115,7 +115,7 @@ def robot_visuals(robot: Robot, max_mesh_bytes: int = MAX_MESH_BYTES) -> tuple[l
 
     Boxes, cylinders and spheres are drawn as such; meshes are embedded when their file is found
     locally and is small enough, else the link's collision mesh, else they are skipped (noted). A robot
-    with nothing drawable gets a skeleton: a sphere per joint and a rod to each child joint.
+    with nothing drawable gets a skeleton (:func:`_skeleton`): its joints, links, loops and frames as bars.
     """
     import meshcat.geometry as mg
 
@@ -157,11 +157,15 @@ def robot_visuals(robot: Robot, max_mesh_bytes: int = MAX_MESH_BYTES) -> tuple[l
                 notes.append(f"link '{name}': visual {k} ({tag}) not drawn")
     if not visuals:
         visuals = _skeleton(robot)
-        notes.append("no drawable visuals: the robot is drawn as a skeleton of its joints")
+        notes.append("no drawable visuals: the robot is drawn as a skeleton of its joints, loops and frames")
     return visuals, notes
 
 
 def _skeleton(robot: Robot) -> list[Visual]:
+    """A robot without visuals as bars: a sphere per joint, a rod from each joint to each child joint, to each loop
+    anchor on its link (so a loop's coupler and rocker meet where the loop closes, marked by a sphere) and to each
+    link frame away from its joint (a measured frame, a tool); all fixed to the joints' frames, sizes [m] from the
+    robot's reach."""
     import meshcat.geometry as mg
 
     model = robot.model
@@ -171,15 +175,32 @@ def _skeleton(robot: Robot) -> list[Visual]:
     radius = 0.012 * size
     out = []
     for j in range(1, model.njoints):
-        fid = int(model.getFrameId(model.names[j], pin.FrameType.JOINT))
-        out.append(Visual(fid, "joint", mg.Sphere(2 * radius), np.eye(4)))
-        offset = model.jointPlacements[j].translation
-        if np.linalg.norm(offset) > 1e-9:
-            parent = model.parents[j]
-            parent_frame = 0 if parent == 0 else int(model.getFrameId(model.names[parent], pin.FrameType.JOINT))
-            rod = mg.Cylinder(float(np.linalg.norm(offset)), radius)
-            out.append(Visual(parent_frame, f"rod_to_{model.names[j]}", rod, segment_pose(np.zeros(3), offset)))
+        out.append(Visual(_joint_frame(model, j), "joint", mg.Sphere(2 * radius), np.eye(4)))
+        out += _rod(model, model.parents[j], f"rod_to_{model.names[j]}", model.jointPlacements[j].translation, radius)
+    for spec, (j1, m1, j2, m2) in zip(robot.loops, robot.closure.anchors() if robot.loops else [], strict=True):
+        for role, joint, anchor in (("predecessor", j1, m1), ("successor", j2, m2)):
+            out += _rod(model, joint, f"loop_{spec.name}_{role}", anchor.translation, radius)
+        out.append(Visual(_joint_frame(model, j1), f"loop_{spec.name}", mg.Sphere(1.5 * radius),
+                          translation_pose(m1.translation)))
+    for frame in model.frames:
+        if frame.type == pin.FrameType.BODY and frame.parentJoint > 0:
+            out += _rod(model, frame.parentJoint, f"to_{frame.name}", frame.placement.translation, radius)
     return out
+
+
+def _joint_frame(model: pin.Model, joint: int) -> int:
+    """The Pinocchio frame of joint ``joint`` (the universe's frame 0 for joint 0)."""
+    return 0 if joint == 0 else int(model.getFrameId(model.names[joint], pin.FrameType.JOINT))
+
+
+def _rod(model: pin.Model, joint: int, name: str, end: Array, radius: float) -> list[Visual]:
+    """A rod of ``radius`` [m] from joint ``joint``'s origin to ``end`` (3,) [m] in its frame; none when they meet."""
+    import meshcat.geometry as mg
+
+    length = float(np.linalg.norm(end))
+    if length <= 1e-9:
+        return []
+    return [Visual(_joint_frame(model, joint), name, mg.Cylinder(length, radius), segment_pose(np.zeros(3), end))]
 
 
 def segment_pose(start: Array, end: Array) -> Array:

@@ -44,10 +44,11 @@ def tiago() -> pincal.Robot:
 
 
 def write_job(folder: Path, top: str = "", data: str = "", measure: str = "", file: str | Path = RAW,
-              text: str | None = None) -> Path:
-    """A job for the raw TIAGo file (or ``text`` as it is) in ``folder``."""
+              text: str | None = None, joints: str = "") -> Path:
+    """A job for the raw TIAGo file (or ``text`` as it is) in ``folder``; ``joints``: lines of a [joints] table."""
     path = folder / "job.toml"
-    path.write_text(text if text is not None else JOB.format(top=top, data=data, measure=measure, file=file),
+    table = f"[joints]\n{joints}" if joints else ""
+    path.write_text(text if text is not None else JOB.format(top=top, data=data, measure=measure, file=file) + table,
                     encoding="utf-8")
     return path
 
@@ -90,6 +91,33 @@ def test_units_are_converted_to_si(tmp_path: Path, tiago: pincal.Robot) -> None:
     np.testing.assert_allclose(ours.joints, si.joints, rtol=1e-15, atol=0)
     np.testing.assert_allclose(ours.measurements["position:wrist_ft_tool_link"],
                                si.measurements["position:wrist_ft_tool_link"], rtol=1e-15, atol=0)
+
+
+def test_a_unit_per_measurement_and_per_joint_over_the_file_wide_one(tmp_path: Path, tiago: pincal.Robot) -> None:
+    """Markers in mm, the torso in cm, the arm in mrad, beside a file-wide m and deg: each column read in its own."""
+    header, rows = raw_rows()
+    factor = {c: 1e3 for c in header if c[0] in "xyz"} | {"torso_lift_joint": 1e2}
+    scaled = [[repr(float(v) * factor.get(c, 1e3)) for c, v in zip(header, row, strict=True)] for row in rows]
+    path = write_csv(tmp_path / "mixed.csv", header, scaled)
+    arm = "".join(f'arm_{k}_joint = {{ units = "mrad" }}\n' for k in range(1, 8))
+    si = job_dataset(read_job(write_job(tmp_path)), tiago)
+    job = read_job(write_job(tmp_path, data='units = { length = "m", angle = "deg" }', measure='units = "mm"',
+                             joints=f'torso_lift_joint = {{ column = "torso_lift_joint", units = "cm" }}\n{arm}',
+                             file=path))
+    assert job.measures[0].length_unit == "mm" and job.joint_units["torso_lift_joint"] == "cm"
+    ours = job_dataset(job, tiago)
+    np.testing.assert_allclose(ours.joints, si.joints, rtol=1e-14, atol=0)
+    np.testing.assert_allclose(ours.measurements["position:wrist_ft_tool_link"],
+                               si.measurements["position:wrist_ft_tool_link"], rtol=1e-14, atol=0)
+    assert ours.metadata["unit torso_lift_joint"] == "cm" and ours.metadata["unit arm_1_joint"] == "mrad"
+    assert ours.metadata["column position wrist_ft_tool_link"] == "x1, y1, z1"
+
+
+def test_a_joint_unit_of_the_other_kind_is_refused(tmp_path: Path, tiago: pincal.Robot) -> None:
+    job = read_job(write_job(tmp_path, joints='torso_lift_joint = { units = "deg" }'))
+    with pytest.raises(DataError, match=r"\[joints\] torso_lift_joint units: 'deg' is not a unit of a prismatic "
+                                        "joint's readings; units are: m, cm, mm, um, in"):
+        job_dataset(job, tiago)
 
 
 def test_held_out_rows_by_pattern_by_list_and_by_column(tmp_path: Path, tiago: pincal.Robot) -> None:
@@ -152,9 +180,15 @@ def test_a_payload_is_read_and_overridden(tmp_path: Path) -> None:
     ({"data": 'held_ot = "x"'}, "job.toml: key 'held_ot' does not exist in [data]; keys are: file, files, units"),
     ({"data": 'units = { angel = "deg" }'}, "key 'angel' does not exist in [data] units; keys are: length, angle"),
     ({"measure": 'frme = "x"'}, "key 'frme' does not exist in [measure 1]; keys are: kind, frame, frames, columns"),
-    ({"measure": 'cv = "5"'}, "key 'cv' does not exist in [measure 1]; keys are: kind, frame, frames, columns, sigma, "
-                              "sigma_angle, support ('cv' is a top-level key: write it above the first [table])"),
+    ({"measure": 'cv = "5"'}, "key 'cv' does not exist in [measure 1]; keys are: kind, frame, frames, columns, units, "
+                              "sigma, sigma_angle, support ('cv' is a top-level key: write it above the first "
+                              "[table])"),
     ({"data": 'units = { length = "furlong" }'}, "job.toml: [data] units: length: 'furlong' is not one of: m, cm, mm"),
+    ({"measure": 'units = "deg"'}, "job.toml: [measure 1] units: 'deg' is not one of: m, cm, mm, um, in"),
+    ({"joints": 'torso_lift_joint = { unit = "m" }'},
+     "job.toml: key 'unit' does not exist in [joints] torso_lift_joint; keys are: column, units"),
+    ({"joints": 'torso_lift_joint = { units = "furlong" }'},
+     "job.toml: [joints] torso_lift_joint units: 'furlong' is not one of: m, cm, mm, um, in, rad, mrad, deg"),
     ({"top": "max_iter = 0"}, "job.toml: max_iter: 0 (int) is not a whole number ≥ 1"),
     ({"top": 'max_iter = "100"'}, "max_iter: '100' is not a whole number ≥ 1"),
     ({"top": "sigma = -1e-3"}, "sigma: -0.001 (float) is not a number > 0"),
@@ -284,7 +318,8 @@ def test_a_frame_the_robot_lacks_is_named(tmp_path: Path, tiago: pincal.Robot) -
                                              "repeats line 2"),
     (lambda h, r: (h, [[repr(float(v) * 1e3) if c == "x1" else v for c, v in zip(h, row, strict=True)] for row in r]),
      "looks like millimetres; pincal expects metres (|value| > 20 m on 34 of 34 rows) (the job reads lengths in m "
-     "and angles in rad: state the file's units under [data] units)"),
+     "and angles in rad: state the file's units under [data] units, or a column's own as [[measure]] units or "
+     "[joints] NAME = { units = ... })"),
 ])
 def test_a_bad_cell_is_named_with_the_file_the_column_and_the_line(tmp_path: Path, tiago: pincal.Robot,
                                                                    edit: object, message: str) -> None:

@@ -246,7 +246,7 @@ def test_lengths_read_in_the_wrong_unit_are_refused_not_fitted(tmp_path: Path) -
     (tmp_path / "data" / "tiago_mocap_raw.csv").write_bytes(RAW.read_bytes())
     job = copy_job(tmp_path, **{'units = { length = "m"': 'units = { length = "mm"'})
     line = one_line_error(run_pincal("calibrate", str(job)))
-    assert line.startswith("pincal: error: the measured positions 'position:") and "× as much" in line
-    assert "are the lengths in the unit stated" in line
+    assert line.startswith("pincal: error: the measured positions 'position:") and "× less" in line
+    assert "(columns x1, y1, z1, read in mm)" in line and "the columns are likely in m, not mm" in line
     # and the right unit still calibrates
     assert run_pincal("calibrate", str(copy_job(tmp_path))).returncode == 0

@@ -120,29 +120,30 @@ def test_view_report_and_fleet_refuse_it_too(ur5_data: Path, tmp_path: Path) -> 
     assert "IMPLAUSIBLE (elbow_joint" in done.stdout
 
 
-def test_positions_three_times_too_large_are_refused_as_another_unit(delta_data: Path, tmp_path: Path) -> None:
+def test_positions_three_times_too_large_are_refused_before_the_fit(delta_data: Path, tmp_path: Path) -> None:
+    """Beyond the plausible band (1.5x) the run ends before any fit, naming the columns and the factor."""
     scaled = _rewritten(delta_data, tmp_path / "feet.csv", factor=3.0)
     report = tmp_path / "r.json"
     done = run_pincal("calibrate", "delta", str(scaled), "--report", str(report))
-    assert done.returncode == 1, done.stderr
-    assert "IMPLAUSIBLE" in done.stdout and "another unit" in done.stdout
-    content = json.loads(report.read_text(encoding="utf-8"))
-    [entry] = content["implausible_scale"]
-    assert entry["measurement"] == "position:end_effector"
-    assert entry["scale"] == pytest.approx(3.0, rel=0.05)
-    assert content["length_scale"]["position:end_effector"] == pytest.approx(entry["scale"])
-    assert "another unit" in content["implausible_cause"]
+    assert done.returncode == 2 and done.stdout == "" and not report.exists(), done.stderr
+    line = done.stderr.strip()
+    assert line.startswith("pincal: error: the measured positions 'position:end_effector' (columns "
+                           "position:end_effector:x, position:end_effector:y, position:end_effector:z, read in m)")
+    assert "(3× as much, beyond 1.5× either way): no length unit explains a factor of 3" in line
 
 
 def test_positions_twice_too_large_name_the_placements_the_fit_stretched(delta_data: Path, tmp_path: Path) -> None:
-    """Twice the size, the Delta's fit converges by stretching its legs: the placements are named with the scale."""
+    """Twice the size within a band widened by --plausible 3 (2.5x), the Delta's fit converges by stretching its
+    legs: the placements are named with the data's scale; by default the run ends before the fit."""
     scaled = _rewritten(delta_data, tmp_path / "twice.csv", factor=2.0)
+    assert "(2× as much, beyond 1.5× either way)" in run_pincal("calibrate", "delta", str(scaled)).stderr
     report = tmp_path / "r.json"
-    done = run_pincal("calibrate", "delta", str(scaled), "--report", str(report))
+    done = run_pincal("calibrate", "delta", str(scaled), "--report", str(report), "--plausible", "3")
     assert done.returncode == 1, done.stderr
     content = json.loads(report.read_text(encoding="utf-8"))
-    assert content["converged"]
-    assert content["implausible_scale"][0]["scale"] == pytest.approx(2.0, rel=0.05)
+    assert content["converged"] and content["implausible_scale"] == []
+    assert content["length_scale"]["position:end_effector"] == pytest.approx(2.0, rel=0.05)
+    assert "spread 2 times as far as this robot's would" in content["implausible_cause"]
     largest = max(abs(c["value"]) for c in content["implausible"])
     assert largest > 0.1  # tenths of a metre: a Delta twice its size
     assert content["implausible"][0]["parameter"] in done.stdout
