@@ -92,7 +92,7 @@ def row_weights(problem: Problem, weights: Array) -> Array:
     return np.asarray(weights[problem.row_samples()], dtype=np.float64)
 
 
-def chi2_upper(tail: float | Array, dof: float | Array) -> Array:
+def chi2_upper(tail: float | Array, dof: float | npt.ArrayLike) -> Array:
     """The value a χ² variable with ``dof`` degrees of freedom exceeds with probability ``tail`` (dimensionless):
     ``chi2.ppf(1 − tail, dof)``, by ``scipy.special.chdtri``: exact, without the cancellation of ``1 − tail`` for a
     small tail, and without importing ``scipy.stats`` (half a second of a command's start)."""
