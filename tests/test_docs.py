@@ -39,6 +39,7 @@ def test_the_demo_figure_of_the_readme(tmp_path: Path) -> None:
     assert _mm(report["test_rms_before"], len(before.split(".")[1])) == before
     assert _mm(report["test_rms_after"], len(after.split(".")[1])) == after
     assert "RMS position error (held out)" in stdout
+    assert (demo / "report.html").stat().st_size <= 1_000_000  # the viewer packed, numbers in single precision
 
 
 def test_the_tiago_cross_validation_figure(tmp_path: Path) -> None:
