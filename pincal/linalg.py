@@ -148,11 +148,14 @@ def largest_singular_value(matrix: npt.ArrayLike, column_scales: npt.ArrayLike |
 
 
 def singular_values(matrix: npt.ArrayLike, what: str) -> Array:
-    """Singular values of ``matrix``, descending (robust as :func:`svd`)."""
+    """Singular values of ``matrix``, descending (robust as :func:`svd`); of each matrix of a stack (N, m, n), one
+    row each."""
     a = np.asarray(matrix, dtype=np.float64)
     try:
         return np.asarray(np.linalg.svd(a, compute_uv=False), np.float64)
     except np.linalg.LinAlgError:
+        if a.ndim == 3:
+            return np.array([singular_values(one, f"{what} (matrix {k} of the stack)") for k, one in enumerate(a)])
         _finite(a, what)
         try:
             return np.asarray(scipy.linalg.svd(a, compute_uv=False, lapack_driver="gesvd", check_finite=False),

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_limits
 
 import pincal
 
@@ -16,6 +17,9 @@ ROOT = Path(__file__).resolve().parents[1]
 ROBOTS = ROOT / "robots_urdf"
 #: The installed console script, beside the interpreter running the tests (the venv's bin/).
 PINCAL = Path(sys.executable).parent / "pincal"
+#: One BLAS and OpenMP thread in each test process, as the ``pincal`` command runs: with one test worker per core
+#: (``-n auto``), more threads only contend for the same cores.
+SINGLE_THREADED = threadpool_limits(limits=1)
 
 
 def readme_four_bar() -> str:

@@ -29,11 +29,11 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy.stats import chi2
 
 from pincal.calibration.report import parameter_covariance
 from pincal.calibration.samples import RANGE_MARGIN
 from pincal.errors import ConvergenceError
+from pincal.identification.losses import chi2_upper
 from pincal.identification.metrics import length_columns
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.result import CalibrationResult
@@ -160,7 +160,7 @@ def norm_quantile(s: Array, level: float = LEVEL) -> float:
     if trace <= 0.0:
         return 0.0
     a, nu = trace2 / trace, trace**2 / trace2
-    return float(np.sqrt(a * chi2.ppf(level, nu)))
+    return float(np.sqrt(a * chi2_upper(1.0 - level, nu)))
 
 
 def _row_layout(problem: CalibrationProblem) -> tuple[npt.NDArray[np.int64], Array, npt.NDArray[np.bool_]]:

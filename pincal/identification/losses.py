@@ -92,18 +92,25 @@ def row_weights(problem: Problem, weights: Array) -> Array:
     return np.asarray(weights[problem.row_samples()], dtype=np.float64)
 
 
+def chi2_upper(tail: float | Array, dof: float | npt.ArrayLike) -> Array:
+    """The value a χ² variable with ``dof`` degrees of freedom exceeds with probability ``tail`` (dimensionless):
+    ``chi2.ppf(1 − tail, dof)``, by ``scipy.special.chdtri``: exact, without the cancellation of ``1 − tail`` for a
+    small tail, and without importing ``scipy.stats`` (half a second of a command's start)."""
+    from scipy.special import chdtri
+
+    return np.asarray(chdtri(dof, tail), dtype=np.float64)
+
+
 def noise_scale(problem: Problem, residual: Array, n_fitted: int = 0) -> float:
     """The noise scale the data show [σ² units of the weighted residual]: ``s² = median(e_k² / m_k)`` over the
     samples with rows (``e_k`` a sample's weighted residual norm over ``d_k`` rows, ``m_k`` the median of χ²_{d_k}),
     corrected by ``rows / (rows − n_fitted)`` for the degrees of freedom the fit used; 0 with fewer than three
     samples."""
-    from scipy.stats import chi2
-
     sq, dims = sample_squares(problem, residual)
     used = dims > 0
     if used.sum() < 3:
         return 0.0
-    scale2 = float(np.median(sq[used] / chi2.median(dims[used])))
+    scale2 = float(np.median(sq[used] / chi2_upper(0.5, dims[used])))
     rows = int(dims.sum())
     if rows > n_fitted:  # fitted residuals are smaller than the noise by the fitted degrees of freedom
         scale2 *= rows / (rows - n_fitted)
@@ -117,12 +124,10 @@ def outlier_samples(problem: Problem, pred: Prediction, n_fitted: int = 0) -> li
     (:func:`noise_scale`), a sample is flagged when ``e_k² > s² · χ²_{d_k}(1 − α/N)``, α = ``OUTLIER_FALSE_ALARM``:
     clean data raise a false alarm in about one dataset in a thousand. Nothing here is set by hand in data units.
     """
-    from scipy.stats import chi2
-
     scale2 = noise_scale(problem, pred.residual, n_fitted)
     if scale2 <= 0.0:
         return []
     sq, dims = sample_squares(problem, pred.residual)
     used = dims > 0
-    limit = scale2 * chi2.ppf(1.0 - OUTLIER_FALSE_ALARM / int(used.sum()), np.maximum(dims, 1))
+    limit = scale2 * chi2_upper(OUTLIER_FALSE_ALARM / int(used.sum()), np.maximum(dims, 1))
     return [int(k) for k in np.flatnonzero(used & (sq > limit))]

@@ -16,10 +16,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial import cKDTree
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -105,7 +108,11 @@ class SolvedInputs:
             self._rebuild()
 
     def _rebuild(self) -> None:
-        """One tree over every solved sample; the scanned list empty."""
+        """One tree over every solved sample; the scanned list empty. SciPy's spatial package loads here, with the
+        first tree (over :data:`LEAF` solved samples): a smaller dataset never needs it, and a command's start
+        spares its import."""
+        from scipy.spatial import cKDTree
+
         solved = np.flatnonzero(~np.any(np.isnan(self.values), axis=1)).astype(np.int64)
         self._tree = cKDTree(self._coordinates(self.values[solved]), boxsize=self._period)
         self._tree_samples = solved

@@ -30,7 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import ConvergenceError, DataError
-from pincal.identification.losses import noise_scale, outlier_samples, sample_squares
+from pincal.identification.losses import chi2_upper, noise_scale, outlier_samples, sample_squares
 from pincal.identification.parameters import ParameterSet, joint_unit, offset_parameter
 from pincal.identification.problem import CalibrationProblem, Observations, Prediction, Problem
 from pincal.identification.result import CalibrationResult
@@ -124,8 +124,6 @@ def bad_readings(problem: Problem, x: Array, candidates: Sequence[int], scale2: 
 
     Only a forward-kinematics problem (:class:`~pincal.identification.problem.CalibrationProblem`) without
     incremental measurements is examined; for any other, none."""
-    from scipy.stats import chi2
-
     if not candidates or scale2 <= 0.0 or not isinstance(problem, CalibrationProblem) or not _examinable(problem):
         return []
     rows = list(candidates)
@@ -134,7 +132,7 @@ def bad_readings(problem: Problem, x: Array, candidates: Sequence[int], scale2: 
     n_joints = robot.n_actuated
     dims = np.bincount(problem.row_samples(), minlength=problem.observations.n_samples)[rows]
     beyond = GROSS_FACTOR**2 * scale2 * dims
-    noise = scale2 * chi2.ppf(1.0 - READING_FALSE_ALARM, np.maximum(dims - 1, 1))
+    noise = scale2 * chi2_upper(READING_FALSE_ALARM, np.maximum(dims - 1, 1))
     found = []
     for c, k in enumerate(rows):
         explains = [(before[c] - after[c, i] >= beyond[c] and after[c, i] <= noise[c]

@@ -2,7 +2,9 @@
 
 Boxes, cylinders and spheres become meshcat primitives; meshes are embedded from local files only
 (``package://``, ``file://`` or relative to the URDF; nothing is ever downloaded) and only when small
-enough to keep a static page light, else the link's collision mesh stands in. A robot with nothing
+enough to keep a static page light, else the link's collision mesh stands in. A binary STL mesh is embedded as
+an indexed triangle mesh, simplified by vertex clustering to at most :data:`MAX_MESH_TRIANGLES` triangles (a
+picture of the robot needs no finer: TIAGo's page went from 7.9 MB to under 2 MB). A robot with nothing
 drawable is drawn as a skeleton of its joints. Poses are (4, 4) homogeneous matrices [m].
 """
 
@@ -34,6 +36,10 @@ GHOST_OPACITY = 0.3
 ERROR_COLORMAP = "RdYlGn_r"
 #: Mesh files larger than this are not embedded (the link's collision mesh is tried instead).
 MAX_MESH_BYTES = 400_000
+#: Triangles a binary STL mesh keeps at most on a page (vertex clustering, :func:`clustered_mesh`).
+MAX_MESH_TRIANGLES = 400
+#: A binary STL triangle: normal, three corners [file units], attribute.
+STL_TRIANGLE = np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
 
 
 def error_colors(values: Array, scale: float) -> list[int]:
@@ -80,9 +86,56 @@ def _cylinder_along_z(origin: pin.SE3) -> Array:
     return homogeneous
 
 
+def binary_stl_corners(path: Path) -> Array | None:
+    """The triangles' corners (3·T, 3) [file units] of a binary STL file, three per triangle; None for a file that
+    is not one (ASCII STL)."""
+    data = path.read_bytes()
+    count = int.from_bytes(data[80:84], "little") if len(data) >= 84 else -1
+    if count < 0 or len(data) != 84 + STL_TRIANGLE.itemsize * count:
+        return None
+    triangles = np.frombuffer(data, dtype=STL_TRIANGLE, count=count, offset=84)
+    return np.asarray(triangles["corners"].reshape(-1, 3), dtype=np.float64)
+
+
+def _clusters(corners: Array, divisions: int) -> tuple[Array, npt.NDArray[np.int64]]:
+    """The corners (3·T, 3), scaled to [0, 1] along the mesh's longest side, merged per cell of a grid of
+    ``divisions`` cells along it: each cluster's mean (V, 3) and the triangles (T', 3) as indices into it, without
+    the triangles a merge collapsed or repeated."""
+    cells = np.minimum(corners * divisions, divisions).astype(np.int64)
+    keys = (cells[:, 0] * (divisions + 1) + cells[:, 1]) * (divisions + 1) + cells[:, 2]
+    _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
+    vertices = np.column_stack([np.bincount(inverse, corners[:, c], len(counts)) for c in range(3)]) / counts[:, None]
+    faces = inverse.reshape(-1, 3).astype(np.int64)
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
+    ordered = np.sort(faces, axis=1)
+    _, first = np.unique((ordered[:, 0] * len(counts) + ordered[:, 1]) * len(counts) + ordered[:, 2],
+                         return_index=True)
+    return vertices, faces[np.sort(first)]
+
+
+def clustered_mesh(corners: Array, max_triangles: int = MAX_MESH_TRIANGLES) -> tuple[Array, npt.NDArray[np.int64]]:
+    """A triangle soup's corners (3·T, 3) [file units] as an indexed mesh (vertices (V, 3) [file units], triangles
+    (T', 3)) of at most ``max_triangles`` triangles, by vertex clustering (Rossignac & Borrel 1993): corners merged
+    per cell of a grid over the mesh's extent, 4096 cells along its longest side (which shares the corners of
+    neighbouring triangles and changes nothing visible), coarser until the triangles fit; a surface's triangles go
+    as the square of the cells along a side, so each try aims below the limit directly."""
+    low = corners.min(axis=0)
+    extent = float(np.ptp(corners, axis=0).max()) or 1.0
+    unit = (corners - low) / extent
+    divisions = 4096
+    vertices, faces = _clusters(unit, divisions)
+    while len(faces) > max_triangles and divisions > 2:
+        divisions = max(2, min(divisions // 2, int(divisions * 0.8 * math.sqrt(max_triangles / len(faces)))))
+        vertices, faces = _clusters(unit, divisions)
+    return vertices * extent + low, faces
+
+
 def _mesh_geometry(path: Path) -> Any:
     import meshcat.geometry as mg
 
+    corners = binary_stl_corners(path) if path.suffix.lower() == ".stl" else None
+    if corners is not None and len(corners):
+        return mg.TriangularMeshGeometry(*clustered_mesh(corners))
     loaders = {".stl": mg.StlMeshGeometry, ".obj": mg.ObjMeshGeometry, ".dae": mg.DaeMeshGeometry}
     return loaders[path.suffix.lower()].from_file(str(path))
 

@@ -329,6 +329,7 @@ def test_the_html_report_shows_selection_and_cross_validation(tmp_path: Path) ->
     text = page.read_text()
     assert "estimated (after model selection)</td><td>25 (left out: rotations)" in text
     assert "RMS position error (cross-validated, 3-fold, 34 samples)" in text
+    assert page.stat().st_size <= 2_000_000  # the meshes simplified: a page that opens fast
 
 
 def test_the_html_report_shows_the_payload_and_each_markers_cross_validated_error(tmp_path: Path) -> None:

@@ -4,10 +4,13 @@ runs."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
+from conftest import PINCAL
 
 HEAVY = ("pinocchio", "scipy", "matplotlib", "meshcat", "numpy", "rosbags")
 
@@ -48,3 +51,28 @@ def test_a_command_that_works_loads_them() -> None:
     """The probe can fail: a command that does its work imports Pinocchio."""
     code, modules = _loaded(["info", "delta"])
     assert code == "0" and "pinocchio" in modules
+
+
+#: A plugin (loaded before the command runs) that reports the thread count of every BLAS library loaded.
+BLAS_PROBE = """
+import sys
+
+import numpy
+from threadpoolctl import threadpool_info
+
+print("blas threads", sorted({p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"}),
+      file=sys.stderr)
+"""
+
+
+@pytest.mark.parametrize(("variables", "threads"), [({}, "[1]"), ({"OPENBLAS_NUM_THREADS": "2"}, "[2]")])
+def test_a_command_runs_blas_on_one_thread_unless_the_user_chose(tmp_path: Path, variables: dict[str, str],
+                                                                  threads: str) -> None:
+    plugin = tmp_path / "blas_probe.py"
+    plugin.write_text(BLAS_PROBE, encoding="utf-8")
+    env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+    env |= {"PINCAL_PLUGINS": str(plugin), **variables}
+    done = subprocess.run([str(PINCAL), "info", "delta"], capture_output=True, text=True, timeout=120, check=False,
+                          env=env)
+    assert done.returncode == 0, done.stderr
+    assert f"blas threads {threads}" in done.stderr

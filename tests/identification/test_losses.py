@@ -6,7 +6,7 @@ import numpy as np
 
 import pincal
 from pincal.identification import measurements as ms
-from pincal.identification.losses import IMPLEMENTED_LOSSES, TRIM_KEEP, TRIMMED, sample_weights
+from pincal.identification.losses import IMPLEMENTED_LOSSES, TRIM_KEEP, TRIMMED, chi2_upper, sample_weights
 from pincal.identification.parameters import default_parameters
 from pincal.identification.problem import CalibrationProblem
 from pincal.study.simulation import random_actuated, simulate_observations
@@ -47,3 +47,15 @@ def test_each_weighting_on_known_norms() -> None:
     kept = trimmed(norms, used)
     assert kept.tolist() == [1.0, 0.0, 1.0, 0.0, 1.0, 1.0]
     assert int(kept[used].sum()) == int(np.ceil(TRIM_KEEP * used.sum()))
+
+
+def test_the_chi2_quantiles_are_scipy_stats_ones() -> None:
+    """The outlier test's and the predicted bound's χ² quantiles, taken without ``scipy.stats``, are its ``ppf``: the
+    median, a 95 % level at a fractional ν (Welch–Satterthwaite), and Bonferroni tails down to 1e-3 / 10⁶."""
+    from scipy.stats import chi2
+
+    dof = np.array([1, 2, 3, 6, 7.3, 12, 40])
+    assert np.allclose(chi2_upper(0.5, dof), chi2.median(dof), rtol=1e-12)
+    assert np.allclose(chi2_upper(0.05, dof), chi2.ppf(0.95, dof), rtol=1e-12)
+    for tail in (1e-3, 1e-3 / 60, 1e-9):
+        assert np.allclose(chi2_upper(tail, dof), chi2.isf(tail, dof), rtol=1e-10)

@@ -30,7 +30,7 @@ from pincal.model.catalog import resolve_mesh_file
 from pincal.progress import Progress
 from pincal.viz.scene import CalibrationView, configurations, draw_calibration, static_scene
 from pincal.viz.static_page import StaticScene
-from pincal.viz.visuals import robot_visuals
+from pincal.viz.visuals import MAX_MESH_TRIANGLES, STL_TRIANGLE, binary_stl_corners, clustered_mesh, robot_visuals
 
 N_TRAIN = 30
 LINKS_WITH_VISUALS = {"base", "arm_1", "rod_1", "arm_2", "rod_2", "arm_3", "rod_3", "platform", "end_effector"}
@@ -69,12 +69,50 @@ def test_meshes_embedded_from_local_files_or_replaced() -> None:
 
     ur10 = pincal.load_robot("ur10")
     visuals, notes = robot_visuals(ur10)
-    # the visual .dae files are over the size budget: the links' collision .stl files stand in
+    # the visual .dae files are over the size budget: the links' collision .stl files stand in, simplified
     assert notes == [] and len(visuals) == 7
-    assert all(isinstance(v.geometry, mg.MeshGeometry) and v.geometry.mesh_format == "stl" for v in visuals)
+    assert all(isinstance(v.geometry, mg.TriangularMeshGeometry) for v in visuals)
+    assert all(0 < len(v.geometry.faces) <= MAX_MESH_TRIANGLES for v in visuals)
     visuals, notes = robot_visuals(ur10, max_mesh_bytes=0)
     assert len([n for n in notes if "not drawn" in n]) == 7 and "skeleton" in notes[-1]
     assert len([v for v in visuals if v.name == "joint"]) == ur10.model.njoints - 1
+
+
+def _box_soup(divisions: int) -> np.ndarray:
+    """The corners of a unit cube's faces, each face split into ``divisions``² squares of two triangles [m]."""
+    t = np.linspace(0.0, 1.0, divisions + 1)
+    corners = []
+    for axis in range(3):
+        for side in (0.0, 1.0):
+            for i in range(divisions):
+                for j in range(divisions):
+                    square = [(t[i], t[j]), (t[i + 1], t[j]), (t[i + 1], t[j + 1]), (t[i], t[j + 1])]
+                    points = [np.insert(np.array(uv), axis, side) for uv in square]
+                    corners += [points[0], points[1], points[2], points[0], points[2], points[3]]
+    return np.array(corners)
+
+
+def test_a_mesh_is_shared_and_simplified_to_the_triangle_budget() -> None:
+    fine = _box_soup(30)  # 10 800 triangles as an STL file holds them: three corners each, none shared
+    vertices, faces = clustered_mesh(fine, max_triangles=10**6)
+    assert len(faces) == len(fine) // 3 and len(vertices) == 6 * 31**2 - 12 * 31 + 8  # shared, none lost
+    np.testing.assert_allclose(vertices[faces].reshape(-1, 3), fine, atol=1e-3)
+    vertices, faces = clustered_mesh(fine, max_triangles=400)
+    assert 12 <= len(faces) <= 400
+    # still the cube, to within a grid cell (400 triangles on six faces: at most 5 cells along a side, 0.2 m each)
+    distance = np.minimum(np.abs(vertices), np.abs(vertices - 1.0)).min(axis=1)
+    assert distance.max() < 0.2 and np.ptp(vertices, axis=0).min() > 0.8
+
+
+def test_a_binary_stl_file_reads_as_its_triangles(tmp_path: Path) -> None:
+    soup = _box_soup(1)
+    records = np.zeros(len(soup) // 3, dtype=STL_TRIANGLE)
+    records["corners"] = soup.reshape(-1, 3, 3)
+    path = tmp_path / "cube.stl"
+    path.write_bytes(b"\0" * 80 + len(records).to_bytes(4, "little") + records.tobytes())
+    np.testing.assert_array_equal(binary_stl_corners(path), soup)
+    path.write_text("solid cube\nendsolid cube\n")
+    assert binary_stl_corners(path) is None
 
 
 def test_package_uris_resolve_beside_the_urdf(tmp_path: Path) -> None:

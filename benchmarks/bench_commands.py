@@ -1,0 +1,145 @@
+"""Whole commands as a user waits for them: process start to exit, CPU time (user + sys) and wall time, medians of
+several runs, beside the imports no command can avoid, and a revision before beside the working tree, in one run.
+
+Run: ``python benchmarks/bench_commands.py`` (``--before REV``, default ``e429d2a``: main before issue 27's work;
+``--repeats K``, default 5; ``--only NAME ...``). Both copies of ``pincal/`` (REV's by ``git archive``, the working
+tree's copied) are run in turns by the same interpreter, as the console script runs them (``pincal.__main__.main``),
+with no thread variable set, as a user's shell has none. The machine may be shared: CPU time is the figure to read
+(a busy machine stretches the wall time far more), and ratios measured side by side in one run are what carry over
+to another machine. The data are simulated once, by the working tree's ``pincal simulate``.
+
+Printed: per command, the median CPU time before and after, their ratio, the median wall time after, and the CPU
+time after as a multiple of the floor beside it (``python -c "import numpy"`` for what needs no numerical library,
+``python -c "import numpy, scipy.linalg, pinocchio"`` for the rest); for ``report``, the page's size.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+BEFORE = "e429d2a"  # main before issue 27's work
+LAUNCH = "import sys; from pincal.__main__ import main; sys.argv[0] = 'pincal'; sys.exit(main())"
+THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
+           "NUMEXPR_NUM_THREADS")
+FLOORS = {"numpy": "import numpy", "numpy+scipy+pin": "import numpy, scipy.linalg, pinocchio"}
+
+
+def export(revision: str | None, into: Path) -> Path:
+    """``pincal/`` with its robot files (``pincal/robots_urdf``) as of ``revision`` (None: the working tree)."""
+    into.mkdir(parents=True)
+    if revision is None:
+        shutil.copytree(ROOT / "pincal", into / "pincal", ignore=shutil.ignore_patterns("__pycache__"))
+        shutil.copytree(ROOT / "robots_urdf", into / "robots_urdf")
+    else:
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", revision, "pincal", "robots_urdf"], check=True,
+                                 capture_output=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
+    (into / "robots_urdf").rename(into / "pincal" / "robots_urdf")
+    return into
+
+
+def environment(source: Path | None) -> dict[str, str]:
+    """The environment of a run: ``source`` first on the Python path, no thread variable."""
+    env = {k: v for k, v in os.environ.items() if k not in THREADS and k != "PYTHONPATH"}
+    if source is not None:
+        env["PYTHONPATH"] = str(source)
+    return env
+
+
+def timed(command: list[str], env: dict[str, str], cwd: Path) -> tuple[float, float]:
+    """One run of ``command``: (CPU time [s] of the process and its children, wall time [s])."""
+    before, start = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
+    done = subprocess.run(command, env=env, cwd=cwd, capture_output=True, text=True, check=False)
+    wall, after = time.perf_counter() - start, resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode != 0:
+        raise SystemExit(f"{' '.join(command)} failed:\n{done.stderr}")
+    return after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime, wall
+
+
+def cases(work: Path) -> dict[str, tuple[list[str], str]]:
+    """Each command's arguments and the floor it is compared with."""
+    return {
+        "pincal --help": (["--help"], "numpy"),
+        "pincal calibrate delta (60 + 40 samples)": (["calibrate", "delta", str(work / "delta/measurements.csv")],
+                                                     "numpy+scipy+pin"),
+        "pincal calibrate ur10 (1000 samples)": (["calibrate", "ur10", str(work / "ur10/measurements.csv")],
+                                                 "numpy+scipy+pin"),
+        "pincal demo": (["demo", "--out", str(work / "demo")], "numpy+scipy+pin"),
+        "pincal report (TIAGo job)": (["report", str(ROOT / "examples/tiago_job.toml"), "--out",
+                                       str(work / "tiago.html")], "numpy+scipy+pin"),
+    }
+
+
+def simulate(work: Path, after: Path) -> None:
+    """The datasets, written once by the working tree's ``pincal simulate``."""
+    env = environment(after)
+    for robot, samples, tests in (("delta", 60, 40), ("ur10", 1000, 0)):
+        timed([sys.executable, "-c", LAUNCH, "simulate", robot, "--samples", str(samples), "--test-samples", str(tests),
+               "--seed", "1", "--quiet", "--out", str(work / robot)], env, work)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--before", default=BEFORE, help=f"the revision to compare with (default {BEFORE})")
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--only", nargs="*", help="commands whose name contains one of these words")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as folder:
+        work = Path(folder)
+        sources = {"before": export(args.before, work / "before"), "after": export(None, work / "after")}
+        simulate(work, sources["after"])
+        chosen = {name: case for name, case in cases(work).items()
+                  if not args.only or any(word in name for word in args.only)}
+        cpu: dict[tuple[str, str], list[float]] = {}
+        wall: dict[tuple[str, str], list[float]] = {}
+        for _ in range(args.repeats):  # interleaved: every command before and after, then again
+            for name, code in FLOORS.items():
+                c, w = timed([sys.executable, "-c", code], environment(None), work)
+                cpu.setdefault((name, "floor"), []).append(c)
+                wall.setdefault((name, "floor"), []).append(w)
+            for name, (argv, _) in chosen.items():
+                for side, source in sources.items():
+                    c, w = timed([sys.executable, "-c", LAUNCH, *argv], environment(source), work)
+                    cpu.setdefault((name, side), []).append(c)
+                    wall.setdefault((name, side), []).append(w)
+        report(args, chosen, cpu, wall, work)
+
+
+def report(args: argparse.Namespace, chosen: dict[str, tuple[list[str], str]],
+           cpu: dict[tuple[str, str], list[float]], wall: dict[tuple[str, str], list[float]], work: Path) -> None:
+    """The table of medians."""
+    med = {key: statistics.median(values) for key, values in cpu.items()}
+    med_wall = {key: statistics.median(values) for key, values in wall.items()}
+    print(f"python {platform.python_version()}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}; "
+          f"medians of {args.repeats} runs; before = {args.before}, after = the working tree")
+    for name in FLOORS:
+        print(f"floor `python -c \"{FLOORS[name]}\"`: CPU {med[(name, 'floor')]:.3f} s, "
+              f"wall {med_wall[(name, 'floor')]:.3f} s")
+    print()
+    print("| command | CPU before [s] | CPU after [s] | after / before | wall after [s] | CPU after / floor |")
+    print("|---|---|---|---|---|---|")
+    for name, (_, floor) in chosen.items():
+        before, after = med[(name, "before")], med[(name, "after")]
+        print(f"| `{name}` | {before:.2f} | {after:.2f} | {after / before:.2f} | {med_wall[(name, 'after')]:.2f} | "
+              f"{after / med[(floor, 'floor')]:.2f} × `{floor}` |")
+    page = work / "tiago.html"
+    if page.exists():
+        print(f"\nTIAGo report page (after): {page.stat().st_size / 1e6:.2f} MB")
+    demo = work / "demo" / "report.html"
+    if demo.exists():
+        print(f"Delta demo report page (after): {demo.stat().st_size / 1e6:.2f} MB")
+
+
+if __name__ == "__main__":
+    main()
