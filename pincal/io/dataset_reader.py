@@ -33,6 +33,7 @@ from pincal.io.dataset import (
     is_increment,
     parse_measurement_key,
 )
+from pincal.io.files import input_problem
 
 Array = npt.NDArray[np.float64]
 
@@ -166,6 +167,9 @@ def _split(text: str) -> tuple[dict[str, str], int, list[str], list[tuple[int, l
 
 def _file_text(source: Path) -> str:
     """The text of a CSV file, refused at once when it is larger than a calibration takes (bytes or rows)."""
+    problem = input_problem(source)
+    if problem:
+        raise DataError(f"dataset '{source}' {problem}")
     try:
         size = source.stat().st_size
         if size > MAX_FILE_BYTES:
@@ -179,9 +183,23 @@ def _file_text(source: Path) -> str:
             if rows > MAX_SAMPLES:
                 raise DataError(f"dataset '{source}' has {rows} rows; pincal calibrates at most {MAX_SAMPLES} "
                                 "samples in one run (time grows with the samples): split or thin the file")
+        return _utf8_text(raw, source)
+    except OSError as exc:
+        raise DataError(f"cannot read dataset '{source}': {exc.strerror or exc}") from None
+
+
+def _utf8_text(raw: bytes, source: Path) -> str:
+    """The text of a CSV file's bytes, which must be UTF-8 (a BOM allowed, as spreadsheets write one); a UTF-16 file,
+    with or without its BOM, is named as such."""
+    utf16 = raw[:2] in (b"\xff\xfe", b"\xfe\xff") or b"\x00" in raw
+    if utf16:
+        raise DataError(f"dataset '{source}' is not UTF-8 text: its bytes hold NUL characters, as UTF-16 does; "
+                        "pincal reads CSV files in the UTF-8 encoding: save it as UTF-8 (e.g. 'CSV UTF-8')")
+    try:
         return raw.decode("utf-8-sig")  # -sig: spreadsheets start UTF-8 files with a BOM
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DataError(f"cannot read dataset '{source}': {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise DataError(f"dataset '{source}' is not UTF-8 text (byte {exc.start}: {raw[exc.start:exc.start + 1]!r}); "
+                        "pincal reads CSV files in the UTF-8 encoding: save it as UTF-8 (e.g. 'CSV UTF-8')") from None
 
 
 def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = None, min_samples: int = 1,
