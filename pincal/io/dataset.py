@@ -252,7 +252,7 @@ def dataset_text(dataset: Dataset) -> str:
     """``dataset`` as CSV text; :func:`read_dataset` gives it back exactly (floats as ``repr``).
 
     Raises:
-        DataError: metadata, sample ids or values that could not be read back as written.
+        DataError: metadata, sample ids, column names or values that could not be read back as written.
     """
     for key, value in dataset.metadata.items():
         if not key.strip() or key != key.strip() or ":" in key or "\n" in key or "\n" in value \
@@ -276,6 +276,11 @@ def dataset_text(dataset: Dataset) -> str:
     for key in dataset.measurements:
         components = MEASUREMENT_COMPONENTS[key.partition(":")[0]]
         header.extend(f"{key}:{c}" for c in components)
+    for column in header:
+        if len(column) > csv.field_size_limit() or column != column.strip():
+            raise DataError(f"column '{column[:60]}{'...' if len(column) > 60 else ''}' ({len(column)} characters) "
+                            f"cannot be read back from a CSV file (at most {csv.field_size_limit()} characters, no "
+                            "surrounding spaces): give its joint or frame a shorter name")
     buffer = io.StringIO()
     for key, value in dataset.metadata.items():
         buffer.write(f"# {key}: {value}\n")

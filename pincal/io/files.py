@@ -13,6 +13,7 @@ import json
 import os
 import stat
 import tempfile
+from collections import deque
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -119,6 +120,18 @@ def make_directory(directory: str | Path, what: str) -> Path:
     return folder
 
 
+#: The existing files that writes replaced, oldest first, until :func:`take_replaced` takes them.
+_REPLACED: deque[Path] = deque(maxlen=1000)
+
+
+def take_replaced() -> list[Path]:
+    """The existing files that :func:`write_texts` replaced since the last call, oldest first (then forgotten): the
+    command line says so, as a replaced output's old content is gone."""
+    taken = list(dict.fromkeys(_REPLACED))
+    _REPLACED.clear()
+    return taken
+
+
 def write_text(path: str | Path, text: str) -> Path:
     """Write ``text`` (UTF-8) to ``path`` whole or not at all: a temporary file in the same directory, then
     renamed over ``path`` (an existing file keeps its permissions). Returns the path.
@@ -132,7 +145,7 @@ def write_text(path: str | Path, text: str) -> Path:
 def write_texts(files: Sequence[tuple[str | Path, str | bytes]]) -> list[Path]:
     """Write several files as one: every text (UTF-8) or bytes (as they are: a mesh) goes to a temporary file
     first, and only when all are on disk are they renamed over their targets, so a failure (a full disk) leaves
-    every old file in place.
+    every old file in place. The files that existed are recorded for :func:`take_replaced`.
 
     Raises:
         OutputError: as :func:`write_text`; no target has been touched.
@@ -146,6 +159,8 @@ def write_texts(files: Sequence[tuple[str | Path, str | bytes]]) -> list[Path]:
             Path(temporary).unlink(missing_ok=True)
         raise
     for temporary, target in staged:
+        if target.exists():
+            _REPLACED.append(target)
         os.replace(temporary, target)
     return [target for _, target in staged]
 
