@@ -94,8 +94,9 @@ def design_poses(robot: Robot, measure: Sequence[str], frame: str | None, parame
     :func:`~pincal.calibration.setup.measurement_models` reads them) and calibrating ``parameter_spec``.
 
     Raises:
-        DataError: more than :data:`~pincal.io.dataset.MAX_SAMPLES` ``candidates``; ``poses`` outside 1..``candidates``; postures too few to measure as many values as the parameters
-            the candidates can identify (naming the least that can work).
+        DataError: more than :data:`~pincal.io.dataset.MAX_SAMPLES` ``candidates``; ``poses`` outside
+            1..``candidates``; postures too few to measure as many values as the parameters the candidates can
+            identify (naming the least that can work).
     """
     if candidates > MAX_SAMPLES:  # before any work: each candidate costs a posture and a Jacobian block
         raise DataError(f"--candidates {candidates}: pincal draws at most {MAX_SAMPLES} candidate postures, as many "

@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from pincal import validation
 from pincal.errors import DataError, listing
 from pincal.identification.measurements import KIND_CLASSES, parse_key
 from pincal.io.files import write_text
@@ -244,7 +245,13 @@ def _format(value: float) -> str:
 
 
 def write_dataset(dataset: Dataset, path: str | Path) -> None:
-    """Write ``dataset`` as CSV (:func:`dataset_text`) to ``path``, whole or not at all."""
+    """Write ``dataset`` as CSV (:func:`dataset_text`) to ``path``, whole or not at all.
+
+    Raises:
+        TypeError: ``dataset`` not a :class:`Dataset`, ``path`` not a path (named, with the value).
+    """
+    validation.instance("dataset", dataset, Dataset, "a Dataset")
+    validation.path("path", path)
     write_text(path, dataset_text(dataset))
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from pincal import validation
 from pincal.errors import DataError, listing
 from pincal.identification.measurements import KIND_CLASSES, QUATERNION
 from pincal.io.dataset import (
@@ -220,8 +221,11 @@ def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = 
         DataError: naming the column, the line and the value at fault, for missing or unknown columns,
             incomplete measurements, non-numbers, empty/NaN cells, duplicated columns or rows, too few
             rows, non-unit quaternions, and values that look like millimetres or degrees.
+        TypeError, ArgumentError: an argument of the wrong type or value (named, with the value).
     """
-    source = Path(path)
+    source = Path(validation.path("path", path))
+    joint_names_required = validation.optional_texts("joint_names_required", joint_names_required)
+    validation.whole("min_samples", min_samples, 0)
     text = _file_text(source)
     try:
         return _parse(text, joint_names_required or [], min_samples, joint_kinds or {}, known_joints, joint_like)

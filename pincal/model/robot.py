@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal import linalg
+from pincal import linalg, validation
 from pincal.errors import ConvergenceError, DataError, LoopError, RobotFileError, listing, not_found
 from pincal.model.catalog import known_robot_names, robot_path
 from pincal.model.closure import LoopClosure
@@ -343,7 +343,7 @@ def load_robot(path: str | Path) -> Robot:
         RobotFileError: unreadable or invalid file; LoopError for loop and actuation problems.
         NotFoundError: neither a file nor a known robot name.
     """
-    p = Path(path)
+    p = Path(validation.path("path", path))
     try:
         is_file, is_dir, exists = p.is_file(), p.is_dir(), p.exists()
     except OSError:  # e.g. a name longer than the file system allows

@@ -44,8 +44,8 @@ def actuated_ranges(robot: Robot, spread: float | None = None) -> tuple[Array, A
 
     By default, a joint's URDF limits; for a joint without finite limits (a continuous joint, or limits whose span
     overflows the floats) and for the robots of :data:`SPREAD`, a half-range about the reference
-    (:data:`UNBOUNDED_SPREAD`, :data:`SPREAD`) within its limits. A ``spread`` [rad or m] gives every joint the range ``reference ± spread`` within its
-    limits.
+    (:data:`UNBOUNDED_SPREAD`, :data:`SPREAD`) within its limits. A ``spread`` [rad or m] gives every joint the
+    range ``reference ± spread`` within its limits.
 
     Raises:
         DataError: a negative or non-finite ``spread``, or one that leaves a joint no value within its limits.

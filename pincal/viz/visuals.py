@@ -145,10 +145,9 @@ def _visual(link: ET.Element, visual: ET.Element, source: Path | None,
         return size if isinstance(size, str) else (mg.Box(size), origin.homogeneous)
     if shape is not None and tag == "cylinder":
         length, radius = _numbers(shape, "length", 1), _numbers(shape, "radius", 1)
-        for values in (length, radius):
-            if isinstance(values, str):
-                return values
-        return mg.Cylinder(length[0], radius[0]), _cylinder_along_z(origin)  # type: ignore[index]
+        if isinstance(length, str) or isinstance(radius, str):
+            return length if isinstance(length, str) else str(radius)
+        return mg.Cylinder(length[0], radius[0]), _cylinder_along_z(origin)
     if shape is not None and tag == "sphere":
         radius = _numbers(shape, "radius", 1)
         return radius if isinstance(radius, str) else (mg.Sphere(radius[0]), origin.homogeneous)
