@@ -346,6 +346,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``pincal`` console script; returns the exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    files = sys.modules.get("pincal.io.files")
+    if files is not None:
+        files.take_replaced()  # what the library replaced before this command is not this command's to say
     try:
         load_plugins()  # the user's kinds (PINCAL_PLUGINS), before any command reads a key or a file
         status = int(args.func(args))
