@@ -236,7 +236,7 @@ class _Reader:
                 raise DataError(f"{self.path}: '{key}' is missing: a job names its robot, and its data in a [data] "
                                 "table (see docs/job_file.md)")
         robot = self.text(doc["robot"], "robot")
-        if (self.base / robot).is_file() or Path(robot).suffix or "/" in robot:  # a path, else a robot's name
+        if input_problem(self.base / robot) is None or Path(robot).suffix or "/" in robot:  # a path, else a name
             robot = str(self.file(robot, "robot")[0])
         data = self.table(doc["data"], "[data]")
         self.keys(data, DATA_KEYS, "in [data]")

@@ -79,6 +79,12 @@ def test_a_job_file_nested_20000_deep_is_named(tmp_path: Path) -> None:
         f"pincal: error: {job}: arrays or tables nested too deeply to read; a job file nests a few levels")
 
 
+def test_a_job_robot_name_too_long_for_a_file_name_is_named(tmp_path: Path) -> None:
+    """A million-character robot name: once an OSError (file name too long) as an internal error."""
+    job = write(tmp_path, "job.toml", f'robot = "{"x" * 1_000_000}"\n[data]\nfile = "a.csv"\n')
+    assert "'a.csv' does not exist" in one_line_error(run_pincal("calibrate", str(job)))
+
+
 def job_text(data: str) -> str:
     return (f'robot = "five_bar"\n[data]\nfile = "{data}"\nignore = ["sample", "set"]\n'
             '[[measure]]\nkind = "position"\nframe = "end_effector"\n'
