@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from pincal.errors import (
+    ArgumentError,
     ConvergenceError,
     DataError,
     IdentifiabilityError,
@@ -92,6 +93,7 @@ _LAZY: dict[str, str] = {
 }
 
 __all__ = [
+    "ArgumentError",
     "Calibration",
     "CalibrationOptions",
     "CalibrationProblem",

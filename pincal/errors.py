@@ -20,6 +20,10 @@ class LoopError(RobotFileError):
     """A ``<loop>`` or ``<transmission>`` element is malformed, names something missing, or does not close."""
 
 
+class ArgumentError(PincalError, ValueError):
+    """A library call's argument has a value the call cannot take (the message names the argument and the value)."""
+
+
 class ConvergenceError(PincalError):
     """An iterative solver (closed-loop FK/IK, identification) did not converge."""
 

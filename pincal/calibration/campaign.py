@@ -9,10 +9,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from pincal import validation
 from pincal.calibration.provenance import sha256, version
 from pincal.calibration.setup import check_movable, idle_parameters, measurement_models, parameters_for
 from pincal.errors import ConvergenceError, DataError
@@ -55,6 +57,25 @@ def check_sample_counts(n_train: int, n_test: int) -> None:
                         "so it simulates no more")
 
 
+def _check_arguments(robot: Any, kinds: Any, n_train: Any, n_test: Any, frame: Any, perturb: Any, noise: Any,
+                     seed: Any, parameter_spec: Any, spread: Any, payload: Any, joint_noise: Any) -> None:
+    """Refuse the arguments of :func:`simulate` the command line would refuse, naming each."""
+    validation.instance("robot", robot, Robot, "a Robot (pincal.load_robot)")
+    validation.texts("kinds", kinds)
+    validation.whole("n_train", n_train, 1)
+    validation.whole("n_test", n_test, 0)
+    if frame is not None:
+        validation.instance("frame", frame, str, "a frame name (str) or None")
+    validation.real("perturb", perturb, "m, rad")
+    validation.real("noise", noise, "m, rad")
+    validation.real("joint_noise", joint_noise, "rad or m")
+    validation.whole("seed", seed, 0)
+    validation.optional_texts("parameter_spec", parameter_spec)
+    validation.optional_real("spread", spread, "rad or m")
+    if payload is not None:
+        validation.instance("payload", payload, Payload, "a Payload or None")
+
+
 def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, frame: str | None = None,
              perturb: float = 1e-3, noise: float = 1e-5, seed: int = 0,
              parameter_spec: Sequence[str] | None = None, progress: bool = False,
@@ -79,7 +100,12 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
         payload: A point mass the robot carries; its gravity torque adds to the links' in the true compliances'
             deflections (refused without a compliance parameter: :func:`~pincal.calibration.setup.check_payload`).
         joint_noise: σ of the noise on the actuated readings [rad or m] (0: the readings are the true values).
+
+    Raises:
+        TypeError, ArgumentError: an argument of the wrong type or value (named, with the value).
     """
+    _check_arguments(robot, kinds, n_train, n_test, frame, perturb, noise, seed, parameter_spec, spread, payload,
+                     joint_noise)
     check_sample_counts(n_train, n_test)
     check_movable(robot)
     rng = np.random.default_rng(seed)

@@ -20,6 +20,7 @@ from pincal.errors import DataError, listing
 from pincal.identification.measurements import Measurement
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations
+from pincal.io.dataset import MAX_SAMPLES
 from pincal.model.robot import Robot
 from pincal.study.pose_selection import PoseSelection, condition_number, jacobian_blocks, log_det, select_poses
 from pincal.study.simulation import random_actuated
@@ -93,9 +94,13 @@ def design_poses(robot: Robot, measure: Sequence[str], frame: str | None, parame
     :func:`~pincal.calibration.setup.measurement_models` reads them) and calibrating ``parameter_spec``.
 
     Raises:
-        DataError: ``poses`` outside 1..``candidates``; postures too few to measure as many values as the parameters
-            the candidates can identify (naming the least that can work).
+        DataError: more than :data:`~pincal.io.dataset.MAX_SAMPLES` ``candidates``; ``poses`` outside
+            1..``candidates``; postures too few to measure as many values as the parameters the candidates can
+            identify (naming the least that can work).
     """
+    if candidates > MAX_SAMPLES:  # before any work: each candidate costs a posture and a Jacobian block
+        raise DataError(f"--candidates {candidates}: pincal draws at most {MAX_SAMPLES} candidate postures, as many "
+                        "as it calibrates samples in one run")
     if candidates < 1 or not 1 <= poses <= candidates:
         raise DataError(f"cannot choose {poses} of {candidates} candidate postures: need "
                         "1 <= --poses <= --candidates")

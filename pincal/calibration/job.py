@@ -26,6 +26,7 @@ from pincal.identification.corrections import Payload, payload_from_dict
 from pincal.identification.measurements import KIND_CLASSES
 from pincal.io.bag_dataset import BagSource
 from pincal.io.dataset import MEASUREMENT_COMPONENTS, parse_measurement_key
+from pincal.io.files import input_problem
 from pincal.model.robot import Robot, load_robot
 
 #: Length units a data file may be written in: their size in metres.
@@ -160,12 +161,21 @@ def read_job(path: str | Path) -> Job:
     """
     source = Path(path)
     try:
-        with source.open("rb") as stream:
-            doc = tomllib.load(stream)
+        raw = source.read_bytes()
     except OSError as exc:
         raise DataError(f"cannot read job file '{source}': {exc.strerror or exc}") from None
-    except ValueError as exc:  # tomllib.TOMLDecodeError, UnicodeDecodeError
+    try:
+        text = raw.decode("utf-8-sig")  # a byte-order mark, as some editors write, is no content
+    except UnicodeDecodeError as exc:
+        raise DataError(f"{source}: not UTF-8 text (byte {exc.start}): a TOML job file's encoding is UTF-8; save "
+                        "it as UTF-8") from None
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
         raise DataError(f"{source}: not a valid TOML file: {exc}") from None
+    except RecursionError:
+        raise DataError(f"{source}: arrays or tables nested too deeply to read; a job file nests a few "
+                        "levels") from None
     if "bag" in doc:  # the data is a ROS bag (docs/bags.md)
         from pincal.calibration.job_bag import read_bag_job
 
@@ -255,8 +265,8 @@ class _Reader:
         """A path as written and resolved against the job's directory; an input must be a file."""
         written = self.text(value, where)
         path = self.base / Path(written).expanduser()
-        if must_exist and not path.is_file():
-            what = "is a directory" if path.is_dir() else "does not exist"
+        what = input_problem(path) if must_exist else None
+        if what:
             raise self.error(where, f"'{written}' {what} (looked for '{path.absolute()}': paths in a job file are "
                                     "relative to its directory)")
         return path, written
@@ -268,7 +278,7 @@ class _Reader:
                 raise DataError(f"{self.path}: '{key}' is missing: a job names its robot, and its data in a [data] "
                                 "table (see docs/job_file.md)")
         robot = self.text(doc["robot"], "robot")
-        if (self.base / robot).is_file() or Path(robot).suffix or "/" in robot:  # a path, else a robot's name
+        if input_problem(self.base / robot) is None or Path(robot).suffix or "/" in robot:  # a path, else a name
             robot = str(self.file(robot, "robot")[0])
         data = self.table(doc["data"], "[data]")
         self.keys(data, DATA_KEYS, "in [data]")

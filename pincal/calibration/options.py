@@ -10,10 +10,12 @@ them.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, get_args
 
+from pincal import validation
 from pincal.errors import DataError, listing, not_found
 from pincal.identification.choices import LOSSES, MARKER_FITS, SOLVERS, Loss, MarkerFit, Solver
 
@@ -156,8 +158,7 @@ class CalibrationOptions:
 
     def __post_init__(self) -> None:
         """Check every value (DataError naming the option and the values allowed)."""
-        if self.parameter_spec is not None:
-            object.__setattr__(self, "parameter_spec", tuple(self.parameter_spec))
+        object.__setattr__(self, "parameter_spec", validation.optional_texts("parameter_spec", self.parameter_spec))
         for name, option in OPTIONS.items():
             value = getattr(self, name)
             if option.choices is not None and value not in option.choices:
@@ -177,8 +178,20 @@ class CalibrationOptions:
             raise DataError(f"plausible={self.plausible!r}: give a factor > 0 on the plausible corrections, or 'off'")
         if plausible_factor(self.prior) is None and self.prior != "off":
             raise DataError(f"prior={self.prior!r}: give a factor > 0 on the prior σ, or 'off'")
-        if isinstance(self.cv_seed, bool) or not isinstance(self.cv_seed, int):
+        if isinstance(self.cv_seed, bool) or not isinstance(self.cv_seed, int) or self.cv_seed < 0:
             raise DataError(f"cv_seed={self.cv_seed!r}: give a whole number ≥ 0")
+        self._check_objects()
+
+    def _check_objects(self) -> None:
+        """Check the options that are objects: the cross-validation plan's form and the payload's type."""
+        if self.cv is not None and (not isinstance(self.cv, str)
+                                    or re.fullmatch(r"\s*(loo|[0-9]+(x[0-9]+)?)\s*", self.cv.lower()) is None):
+            raise DataError(f"cv={validation.shown(self.cv)}: give K (folds), KxR (K folds, R shuffles, e.g. '5x4') "
+                            "or 'loo' as a string, or None")
+        if self.payload is not None:
+            from pincal.identification.corrections import Payload
+
+            validation.instance("payload", self.payload, Payload, "a Payload or None")
 
     def replace(self, **changes: Any) -> CalibrationOptions:
         """These options with ``changes`` (keywords of :class:`CalibrationOptions`); unknown names are refused.

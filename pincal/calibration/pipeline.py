@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal import validation
 from pincal.calibration.crossval import Folds, check_cross_validation, cross_validate, parse_cv
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, evaluate_held_out
 from pincal.calibration.noise import provisional_noise, with_noise
@@ -85,7 +86,12 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
 
     Raises:
         DataError: an option out of range; no training sample (every row is ``set=test``, or none can be used).
+        TypeError: ``robot``, ``dataset`` or ``options`` of the wrong type (named, with the value).
     """
+    validation.instance("robot", robot, Robot, "a Robot (pincal.load_robot)")
+    validation.instance("dataset", dataset, Dataset, "a Dataset (pincal.read_dataset)")
+    if options is not None:
+        validation.instance("options", options, CalibrationOptions, "CalibrationOptions or None")
     options = options_of(options, keywords)
     check_movable(robot)
     check_cv_seed(options.cv, options.cv_seed)

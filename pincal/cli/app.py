@@ -338,16 +338,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def say_replaced() -> None:
+    """Say which existing files the command replaced (their old content is gone)."""
+    files = sys.modules.get("pincal.io.files")  # not imported: nothing written
+    replaced = files.take_replaced() if files is not None else []
+    if replaced:
+        print(f"note: replaced the existing {'file' if len(replaced) == 1 else 'files'} "
+              f"{', '.join(str(p) for p in replaced)}")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``pincal`` console script; returns the exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    files = sys.modules.get("pincal.io.files")
+    if files is not None:
+        files.take_replaced()  # what the library replaced before this command is not this command's to say
     try:
         load_plugins()  # the user's kinds (PINCAL_PLUGINS), before any command reads a key or a file
-        return int(args.func(args))
+        status = int(args.func(args))
+        say_replaced()
+        return status
     except PincalError as exc:
         if args.debug:
             raise
+        say_replaced()
         print(f"pincal: error: {exc}", file=sys.stderr)
         return EXIT_ERROR
     except KeyboardInterrupt:

@@ -29,7 +29,7 @@ import numpy.typing as npt
 import scipy.linalg
 import scipy.linalg.lapack
 
-from pincal import linalg
+from pincal import linalg, validation
 from pincal.errors import ConvergenceError, DataError, IdentifiabilityError, listing
 from pincal.identification.combinations import (
     MORE_INDENT,
@@ -113,7 +113,7 @@ def _checked(jacobian: npt.ArrayLike, names: Sequence[str], scales: npt.ArrayLik
     """``jacobian`` and ``scales`` as float arrays, or :class:`DataError` naming what is wrong."""
     J = _checked_jacobian(jacobian)
     p = J.shape[1]
-    names = list(names)
+    names = list(validation.texts("names", names))
     if len(names) != p:
         raise DataError(f"{len(names)} parameter names for a Jacobian with {p} columns; names: {listing(names)}")
     repeated = sorted({name for name in names if names.count(name) > 1})
@@ -142,7 +142,10 @@ def _checked_units(units: Sequence[str] | None, names: Sequence[str]) -> list[st
 
 
 def _checked_jacobian(jacobian: npt.ArrayLike) -> Array:
-    J = np.asarray(jacobian, dtype=float)
+    try:
+        J = np.asarray(jacobian, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"jacobian={validation.shown(jacobian)}: expected an m × p matrix of numbers") from None
     if J.ndim != 2 or J.shape[0] == 0 or J.shape[1] == 0:
         raise DataError(f"the Jacobian must be a non-empty m × p matrix; got shape {J.shape}")
     if not np.all(np.isfinite(J)):

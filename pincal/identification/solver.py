@@ -34,8 +34,8 @@ import numpy as np
 import numpy.typing as npt
 from threadpoolctl import ThreadpoolController
 
-from pincal import linalg
-from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
+from pincal import linalg, validation
+from pincal.errors import ArgumentError, ConvergenceError, DataError, IdentifiabilityError
 from pincal.identification.choices import LOSSES, Loss, Solver
 from pincal.identification.identifiability import Identifiability, analyse, correlations, covariance
 from pincal.identification.ikm import ChainProblem, ImplicitProblem, chain_blocks
@@ -93,6 +93,21 @@ def _threadpools() -> ThreadpoolController:
     return ThreadpoolController()
 
 
+def _check_arguments(problem: Any, x0: Any, max_iter: Any, tol: Any, prior: Any) -> None:
+    """Refuse arguments of :func:`identify` of the wrong type or value, naming each (TypeError, ArgumentError)."""
+    if not hasattr(problem, "parameters") or not hasattr(problem, "observations"):
+        raise TypeError(f"problem={validation.shown(problem)}: expected a calibration problem (CalibrationProblem, "
+                        "ImplicitProblem)")
+    if x0 is not None:
+        start = np.asarray(x0, dtype=float)
+        if start.shape != (len(problem.parameters),) or not np.all(np.isfinite(start)):
+            raise ArgumentError(f"x0 has shape {start.shape}{'' if np.all(np.isfinite(start)) else ' and NaN/inf'}: "
+                                f"give {len(problem.parameters)} finite values [m, rad], one per parameter")
+    validation.whole("max_iter", max_iter, 1)
+    validation.real("tol", tol, strict=True)
+    validation.optional_real("prior", prior, strict=True)
+
+
 def identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: Loss = "auto", *,
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              min_information: float = 0.0, tsvd_rcond: float = 1e-6, ridge: float = 1e-6,
@@ -106,6 +121,7 @@ def identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", l
     whose error one wrong joint reading explains is left out (weight 0) and the Cauchy fit redone
     (:func:`_without_bad_readings`); the result lists the samples it down-weighted.
     """
+    _check_arguments(problem, x0, max_iter, tol, prior)
     # the dense algebra here is small (hundreds × tens): multi-threaded BLAS only adds overhead, and
     # on a loaded 2-core machine it made identification ten times slower
     with _threadpools().limit(limits=1, user_api="blas"):

@@ -75,18 +75,17 @@ def _joint_axis_motion(model: pin.Model, joint: str, value: float) -> pin.SE3:
     return joint_motion(model, jid, q)
 
 
-def _offset_motions(model: pin.Model, joint: str, value: float) -> dict[str, pin.SE3]:
+def _offset_motions(model: pin.Model, joint: str, value: float, rest: pin.Data,
+                    data: pin.Data) -> dict[str, pin.SE3]:
     """The motion, as a placement, of every joint that ``joint`` at ``value`` [rad or m] moves: the joint
-    itself and its ``<mimic>`` followers (Pinocchio moves them with it)."""
+    itself and its ``<mimic>`` followers (Pinocchio moves them with it). ``rest`` holds the forward kinematics
+    at the neutral configuration; ``data`` is overwritten (both made once: a long chain's take seconds)."""
     q = pin.neutral(model)
-    rest = model.createData()
-    pin.forwardKinematics(model, rest, q)
     jm = model.joints[model.getJointId(joint)]
     if jm.nq == 1:
         q[jm.idx_q] = value
     else:
         q[jm.idx_q:jm.idx_q + 2] = [math.cos(value), math.sin(value)]
-    data = model.createData()
     pin.forwardKinematics(model, data, q)
     return {str(model.names[j]): model.jointPlacements[j].inverse() * data.liMi[j] for j in range(1, model.njoints)
             if not np.array_equal(data.liMi[j].homogeneous, rest.liMi[j].homogeneous)}
@@ -170,9 +169,11 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
             loop = loops[target]
             base = loop.predecessor_origin if side == "predecessor" else loop.successor_origin
             loop_origins[(target, side)] = base * exp
+    rest, moved = robot.model.createData(), robot.model.createData()
+    pin.forwardKinematics(robot.model, rest, pin.neutral(robot.model))
     for k, p in enumerate(parameters):
         if p.kind == "offset" and p.owner in robot.actuated_joints and x[k] != 0.0:
-            for name, motion in _offset_motions(robot.model, p.owner, x[k]).items():
+            for name, motion in _offset_motions(robot.model, p.owner, x[k], rest, moved).items():
                 joint_origins[name] = joint_origins.get(name, root[name]) * motion
     shifts = _reassemble(robot, source_text, joint_origins, loop_origins, root) if ext.loops else {}
     tree = ET.fromstring(source_text)

@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from pincal import validation
 from pincal.errors import DataError, listing
 from pincal.identification.measurements import KIND_CLASSES, parse_key
 from pincal.io.files import write_text
@@ -244,7 +245,13 @@ def _format(value: float) -> str:
 
 
 def write_dataset(dataset: Dataset, path: str | Path) -> None:
-    """Write ``dataset`` as CSV (:func:`dataset_text`) to ``path``, whole or not at all."""
+    """Write ``dataset`` as CSV (:func:`dataset_text`) to ``path``, whole or not at all.
+
+    Raises:
+        TypeError: ``dataset`` not a :class:`Dataset`, ``path`` not a path (named, with the value).
+    """
+    validation.instance("dataset", dataset, Dataset, "a Dataset")
+    validation.path("path", path)
     write_text(path, dataset_text(dataset))
 
 
@@ -252,7 +259,7 @@ def dataset_text(dataset: Dataset) -> str:
     """``dataset`` as CSV text; :func:`read_dataset` gives it back exactly (floats as ``repr``).
 
     Raises:
-        DataError: metadata, sample ids or values that could not be read back as written.
+        DataError: metadata, sample ids, column names or values that could not be read back as written.
     """
     for key, value in dataset.metadata.items():
         if not key.strip() or key != key.strip() or ":" in key or "\n" in key or "\n" in value \
@@ -276,6 +283,11 @@ def dataset_text(dataset: Dataset) -> str:
     for key in dataset.measurements:
         components = MEASUREMENT_COMPONENTS[key.partition(":")[0]]
         header.extend(f"{key}:{c}" for c in components)
+    for column in header:
+        if len(column) > csv.field_size_limit() or column != column.strip():
+            raise DataError(f"column '{column[:60]}{'...' if len(column) > 60 else ''}' ({len(column)} characters) "
+                            f"cannot be read back from a CSV file (at most {csv.field_size_limit()} characters, no "
+                            "surrounding spaces): give its joint or frame a shorter name")
     buffer = io.StringIO()
     for key, value in dataset.metadata.items():
         buffer.write(f"# {key}: {value}\n")

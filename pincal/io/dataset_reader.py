@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from pincal import validation
 from pincal.errors import DataError, listing
 from pincal.identification.measurements import KIND_CLASSES, QUATERNION
 from pincal.io.dataset import (
@@ -33,6 +34,7 @@ from pincal.io.dataset import (
     is_increment,
     parse_measurement_key,
 )
+from pincal.io.files import input_problem
 
 Array = npt.NDArray[np.float64]
 
@@ -166,6 +168,9 @@ def _split(text: str) -> tuple[dict[str, str], int, list[str], list[tuple[int, l
 
 def _file_text(source: Path) -> str:
     """The text of a CSV file, refused at once when it is larger than a calibration takes (bytes or rows)."""
+    problem = input_problem(source)
+    if problem:
+        raise DataError(f"dataset '{source}' {problem}")
     try:
         size = source.stat().st_size
         if size > MAX_FILE_BYTES:
@@ -179,9 +184,23 @@ def _file_text(source: Path) -> str:
             if rows > MAX_SAMPLES:
                 raise DataError(f"dataset '{source}' has {rows} rows; pincal calibrates at most {MAX_SAMPLES} "
                                 "samples in one run (time grows with the samples): split or thin the file")
+        return _utf8_text(raw, source)
+    except OSError as exc:
+        raise DataError(f"cannot read dataset '{source}': {exc.strerror or exc}") from None
+
+
+def _utf8_text(raw: bytes, source: Path) -> str:
+    """The text of a CSV file's bytes, which must be UTF-8 (a BOM allowed, as spreadsheets write one); a UTF-16 file,
+    with or without its BOM, is named as such."""
+    utf16 = raw[:2] in (b"\xff\xfe", b"\xfe\xff") or b"\x00" in raw
+    if utf16:
+        raise DataError(f"dataset '{source}' is not UTF-8 text: its bytes hold NUL characters, as UTF-16 does; "
+                        "pincal reads CSV files in the UTF-8 encoding: save it as UTF-8 (e.g. 'CSV UTF-8')")
+    try:
         return raw.decode("utf-8-sig")  # -sig: spreadsheets start UTF-8 files with a BOM
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DataError(f"cannot read dataset '{source}': {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise DataError(f"dataset '{source}' is not UTF-8 text (byte {exc.start}: {raw[exc.start:exc.start + 1]!r}); "
+                        "pincal reads CSV files in the UTF-8 encoding: save it as UTF-8 (e.g. 'CSV UTF-8')") from None
 
 
 def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = None, min_samples: int = 1,
@@ -202,8 +221,11 @@ def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = 
         DataError: naming the column, the line and the value at fault, for missing or unknown columns,
             incomplete measurements, non-numbers, empty/NaN cells, duplicated columns or rows, too few
             rows, non-unit quaternions, and values that look like millimetres or degrees.
+        TypeError, ArgumentError: an argument of the wrong type or value (named, with the value).
     """
-    source = Path(path)
+    source = Path(validation.path("path", path))
+    joint_names_required = validation.optional_texts("joint_names_required", joint_names_required)
+    validation.whole("min_samples", min_samples, 0)
     text = _file_text(source)
     try:
         return _parse(text, joint_names_required or [], min_samples, joint_kinds or {}, known_joints, joint_like)

@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import json
 import os
+import stat
 import tempfile
+from collections import deque
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -30,8 +32,12 @@ def _umask() -> int:
 NEW_FILE_MODE = 0o666 & ~_umask()
 
 
-def _resolved(path: str | Path) -> Path:
-    return Path(path).expanduser().resolve()
+def resolved(path: str | Path) -> Path:
+    """``path`` made absolute with its symbolic links followed; a link loop is left as written (nothing to follow)."""
+    try:
+        return Path(path).expanduser().resolve()
+    except RuntimeError:  # a symbolic link loop (Python < 3.13)
+        return Path(path).expanduser().absolute()
 
 
 def check_outputs(outputs: Iterable[tuple[str, str | Path]], inputs: Iterable[str | Path] = ()) -> None:
@@ -45,10 +51,10 @@ def check_outputs(outputs: Iterable[tuple[str, str | Path]], inputs: Iterable[st
         OutputError: an output is an input, two outputs are the same file, an output is a directory, or its
             directory cannot be created or written.
     """
-    read = {_resolved(p): str(p) for p in inputs}
+    read = {resolved(p): str(p) for p in inputs}
     seen: dict[Path, str] = {}
     for what, path in outputs:
-        target = _resolved(path)
+        target = resolved(path)
         if target in read:
             raise OutputError(f"{what} '{path}' is the input file '{read[target]}': pincal never writes over its "
                               "input; choose another output name")
@@ -59,9 +65,32 @@ def check_outputs(outputs: Iterable[tuple[str, str | Path]], inputs: Iterable[st
         make_directory(target.parent, f"{what} '{path}'")
 
 
+def input_problem(path: Path) -> str | None:
+    """Why ``path`` cannot be read as an input file, in words that follow its name (``is a directory``), or None
+    for a regular file (a symbolic link to one included)."""
+    try:
+        info = path.stat()
+    except FileNotFoundError:
+        dangling = path.is_symlink()
+        return "is a symbolic link to a file that does not exist" if dangling else "does not exist"
+    except OSError as exc:  # a symbolic link loop, a name too long, a directory not searchable
+        return f"cannot be opened: {exc.strerror or exc}"
+    if stat.S_ISDIR(info.st_mode):
+        return "is a directory"
+    if not stat.S_ISREG(info.st_mode):
+        return "is not a regular file (a device, a pipe or a socket)"
+    return None
+
+
 def _refuse_non_file(target: Path, what: str) -> None:
     """Refuse an existing output that is not a regular file: a directory, or a device or pipe that a rename
-    would replace."""
+    would replace; and a place behind a symbolic link loop."""
+    for place in (target, *target.parents):
+        problem = input_problem(place)
+        if problem and problem.startswith("cannot be opened"):
+            raise OutputError(f"{what}: '{place}' {problem}")
+        if problem is None or problem == "is a directory":
+            break
     if target.is_dir():
         raise OutputError(f"{what} is a directory; give a file name")
     if target.exists() and not target.is_file():
@@ -91,6 +120,18 @@ def make_directory(directory: str | Path, what: str) -> Path:
     return folder
 
 
+#: The existing files that writes replaced, oldest first, until :func:`take_replaced` takes them.
+_REPLACED: deque[Path] = deque(maxlen=1000)
+
+
+def take_replaced() -> list[Path]:
+    """The existing files that :func:`write_texts` replaced since the last call, oldest first (then forgotten): the
+    command line says so, as a replaced output's old content is gone."""
+    taken = list(dict.fromkeys(_REPLACED))
+    _REPLACED.clear()
+    return taken
+
+
 def write_text(path: str | Path, text: str) -> Path:
     """Write ``text`` (UTF-8) to ``path`` whole or not at all: a temporary file in the same directory, then
     renamed over ``path`` (an existing file keeps its permissions). Returns the path.
@@ -104,7 +145,7 @@ def write_text(path: str | Path, text: str) -> Path:
 def write_texts(files: Sequence[tuple[str | Path, str | bytes]]) -> list[Path]:
     """Write several files as one: every text (UTF-8) or bytes (as they are: a mesh) goes to a temporary file
     first, and only when all are on disk are they renamed over their targets, so a failure (a full disk) leaves
-    every old file in place.
+    every old file in place. The files that existed are recorded for :func:`take_replaced`.
 
     Raises:
         OutputError: as :func:`write_text`; no target has been touched.
@@ -118,6 +159,8 @@ def write_texts(files: Sequence[tuple[str | Path, str | bytes]]) -> list[Path]:
             Path(temporary).unlink(missing_ok=True)
         raise
     for temporary, target in staged:
+        if target.exists():
+            _REPLACED.append(target)
         os.replace(temporary, target)
     return [target for _, target in staged]
 

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Literal
 
 from pincal.errors import NotFoundError, listing
+from pincal.io.files import resolved
 from pincal.model.catalog import resolve_mesh_file
 
 MeshMode = Literal["keep", "copy"]
@@ -83,7 +84,7 @@ def plan_meshes(source_text: str, source_dir: Path | None, out: str | Path, mode
             URL): the first such name, and how many more.
     """
     names = _mesh_names(source_text)
-    out_dir = Path(out).expanduser().resolve().parent
+    out_dir = resolved(out).parent
     if mode == "keep":
         if source_dir is None:
             return MeshPlan({})

@@ -10,6 +10,7 @@ import functools
 import os
 import sys
 import tempfile
+import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Literal
@@ -18,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal import linalg
+from pincal import linalg, validation
 from pincal.errors import ConvergenceError, DataError, LoopError, RobotFileError, listing, not_found
 from pincal.model.catalog import known_robot_names, robot_path
 from pincal.model.closure import LoopClosure
@@ -312,6 +313,21 @@ def _build_model(text: str, source: str, mimics: Mapping[str, tuple[str, float, 
 
 #: Most non-fixed joints a robot may have: Pinocchio's data for one 200-joint chain take 0.6 GB.
 MAX_JOINTS = 200
+#: Most ``<joint>`` elements of any type a URDF may have: Pinocchio's parser recurses down a chain and overflows
+#: the stack (SIGSEGV) past a few thousand.
+MAX_URDF_JOINTS = 2000
+
+
+def _check_joint_count(text: str, where: str) -> None:
+    """Refuse a URDF with more joints than pincal takes, counted in the XML before Pinocchio builds the model."""
+    joints = ET.fromstring(text).findall("joint")
+    moving = sum(1 for joint in joints if joint.get("type") != "fixed")
+    if moving > MAX_JOINTS:
+        raise RobotFileError(f"{where} has {moving} joints; pincal takes at most {MAX_JOINTS} (Pinocchio's "
+                             "working data grow with the cube of the chain length: 1.8 GB for 300 joints)")
+    if len(joints) > MAX_URDF_JOINTS:
+        raise RobotFileError(f"{where} has {len(joints)} <joint> elements; pincal takes at most {MAX_URDF_JOINTS}, "
+                             f"fixed ones included, and at most {MAX_JOINTS} that move")
 
 
 def load_robot(path: str | Path) -> Robot:
@@ -330,7 +346,7 @@ def load_robot(path: str | Path) -> Robot:
         RobotFileError: unreadable or invalid file; LoopError for loop and actuation problems.
         NotFoundError: neither a file nor a known robot name.
     """
-    p = Path(path)
+    p = Path(validation.path("path", path))
     try:
         is_file, is_dir, exists = p.is_file(), p.is_dir(), p.exists()
     except OSError:  # e.g. a name longer than the file system allows
@@ -363,10 +379,8 @@ def robot_from_urdf_text(text: str, source: Path | None = None) -> Robot:
     where = str(source) if source else "URDF"
     ext = read_extensions(text, where)
     check_finite_origins(text, where)
+    _check_joint_count(text, where)
     model = _build_model(text, where, ext.mimics)
-    if model.njoints - 1 > MAX_JOINTS:
-        raise RobotFileError(f"{where} has {model.njoints - 1} joints; pincal takes at most {MAX_JOINTS} (Pinocchio's "
-                             "working data grow with the cube of the chain length: 1.8 GB for 300 joints)")
     if ext.loops:
         actuated = ext.transmitted_joints
     else:

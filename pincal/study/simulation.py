@@ -42,10 +42,10 @@ def perturbation(parameters: ParameterSet, scale: float, rng: np.random.Generato
 def actuated_ranges(robot: Robot, spread: float | None = None) -> tuple[Array, Array]:
     """The range [lower, upper] (na,) [rad or m] random actuated values are drawn from, per actuated joint.
 
-    By default, a joint's URDF limits; for a joint without finite limits (a continuous joint) and for the
-    robots of :data:`SPREAD`, a half-range about the reference (:data:`UNBOUNDED_SPREAD`, :data:`SPREAD`)
-    within its limits. A ``spread`` [rad or m] gives every joint the range ``reference ± spread`` within its
-    limits.
+    By default, a joint's URDF limits; for a joint without finite limits (a continuous joint, or limits whose span
+    overflows the floats) and for the robots of :data:`SPREAD`, a half-range about the reference
+    (:data:`UNBOUNDED_SPREAD`, :data:`SPREAD`) within its limits. A ``spread`` [rad or m] gives every joint the
+    range ``reference ± spread`` within its limits.
 
     Raises:
         DataError: a negative or non-finite ``spread``, or one that leaves a joint no value within its limits.
@@ -59,7 +59,8 @@ def actuated_ranges(robot: Robot, spread: float | None = None) -> tuple[Array, A
     for k, joint in enumerate(robot.kinematics.actuated):
         limits = (float(model.lowerPositionLimit[joint.idx_q]), float(model.upperPositionLimit[joint.idx_q]))
         lo, hi = limits if joint.nq == 1 else (-np.pi, np.pi)
-        bounded = joint.nq == 1 and np.isfinite(lo) and np.isfinite(hi) and lo < hi
+        with np.errstate(over="ignore"):  # limits of ±1e308: a span beyond the floats is no bound to draw within
+            bounded = joint.nq == 1 and bool(np.isfinite(hi - lo)) and lo < hi
         half: float | None = default
         if spread is not None:
             half = spread

@@ -154,13 +154,65 @@ def _mesh_visual(link: ET.Element, visual: ET.Element, urdf_dir: Path, budget: i
         path = resolve_mesh_file(mesh.get("filename", ""), urdf_dir)
         if path is None or path.suffix.lower() not in (".stl", ".obj", ".dae") or path.stat().st_size > budget:
             continue
-        scale = [float(v) for v in mesh.get("scale", "1 1 1").split()]
+        scale = _numbers(mesh, "scale", 3, "1 1 1", signed=True)
+        if isinstance(scale, str):
+            continue
         placement = origin_to_se3(element.find("origin"), f"link '{link.get('name')}' mesh").homogeneous
         found.append((path.suffix.lower() == ".dae", path, placement @ np.diag([*scale, 1.0])))
     if not found:
         return None
     _, path, placement = min(found, key=lambda item: item[0])
     return _mesh_geometry(path), placement
+
+
+def _numbers(shape: ET.Element, attribute: str, count: int, default: str | None = None,
+             signed: bool = False) -> list[float] | str:
+    """The ``count`` finite numbers [m, or a scale factor] of a geometry attribute, ≥ 0 unless ``signed`` (a mesh's
+    scale may mirror it), or why there are none."""
+    written = shape.get(attribute, default)
+    if written is None:
+        return f"no {attribute}"
+    try:
+        values = [float(v) for v in written.split()]
+    except ValueError:
+        values = []
+    if len(values) != count or not all(math.isfinite(v) and (signed or v >= 0) for v in values):
+        plural = "s" if count > 1 else ""
+        return f'{attribute}="{written[:40]}" is not {count} finite number{plural}{"" if signed else " ≥ 0"}'
+    return values
+
+
+def _visual(link: ET.Element, visual: ET.Element, source: Path | None,
+            budget: int) -> tuple[Any, Array] | str:
+    """One URDF visual as a meshcat geometry and its (4, 4) pose in the link frame [m], or why it is not drawn."""
+    import meshcat.geometry as mg
+
+    shape = visual.find("geometry/*")
+    try:
+        origin = origin_to_se3(visual.find("origin"), "its")
+    except RobotFileError as exc:
+        return str(exc)
+    tag = shape.tag if shape is not None else "none"
+    if shape is not None and tag == "box":
+        size = _numbers(shape, "size", 3)
+        return size if isinstance(size, str) else (mg.Box(size), origin.homogeneous)
+    if shape is not None and tag == "cylinder":
+        length, radius = _numbers(shape, "length", 1), _numbers(shape, "radius", 1)
+        if isinstance(length, str) or isinstance(radius, str):
+            return length if isinstance(length, str) else str(radius)
+        return mg.Cylinder(length[0], radius[0]), _cylinder_along_z(origin)
+    if shape is not None and tag == "sphere":
+        radius = _numbers(shape, "radius", 1)
+        return radius if isinstance(radius, str) else (mg.Sphere(radius[0]), origin.homogeneous)
+    if shape is not None and tag == "mesh" and source is not None:
+        scale = _numbers(shape, "scale", 3, "1 1 1", signed=True)
+        if isinstance(scale, str):
+            return scale
+        mesh = _mesh_visual(link, visual, Path(source).parent, budget)
+        if mesh is None:
+            return (f"mesh '{shape.get('filename', '')}' not found locally, or over {budget // 1000} kB")
+        return mesh
+    return "not a shape pincal draws"
 
 
 def robot_visuals(robot: Robot, max_mesh_bytes: int = MAX_MESH_BYTES) -> tuple[list[Visual], list[str]]:
@@ -170,7 +222,6 @@ def robot_visuals(robot: Robot, max_mesh_bytes: int = MAX_MESH_BYTES) -> tuple[l
     locally and is small enough, else the link's collision mesh, else they are skipped (noted). A robot
     with nothing drawable gets a skeleton (:func:`_skeleton`): its joints, links, loops and frames as bars.
     """
-    import meshcat.geometry as mg
 
     model = robot.model
     visuals: list[Visual] = []
@@ -187,27 +238,13 @@ def robot_visuals(robot: Robot, max_mesh_bytes: int = MAX_MESH_BYTES) -> tuple[l
             continue
         fid = int(model.getFrameId(name, pin.FrameType.BODY))
         for k, visual in enumerate(link.findall("visual")):
-            origin = origin_to_se3(visual.find("origin"), f"link '{name}' visual")
             shape = visual.find("geometry/*")
             tag = shape.tag if shape is not None else "none"
-            values = [float(v) for v in (shape.get("size") or "").split()] if shape is not None else []
-            if shape is not None and tag == "box" and len(values) == 3:
-                visuals.append(Visual(fid, f"visual_{k}", mg.Box(values), origin.homogeneous))
-            elif shape is not None and tag == "cylinder":
-                cylinder = mg.Cylinder(float(shape.get("length", 0)), float(shape.get("radius", 0)))
-                visuals.append(Visual(fid, f"visual_{k}", cylinder, _cylinder_along_z(origin)))
-            elif shape is not None and tag == "sphere":
-                visuals.append(Visual(fid, f"visual_{k}", mg.Sphere(float(shape.get("radius", 0))),
-                                      origin.homogeneous))
-            elif tag == "mesh" and robot.source is not None:
-                mesh = _mesh_visual(link, visual, Path(robot.source).parent, max_mesh_bytes)
-                if mesh is None:
-                    notes.append(f"link '{name}': mesh '{shape.get('filename') if shape is not None else ''}' "
-                                 f"not drawn (not found locally, or over {max_mesh_bytes // 1000} kB)")
-                else:
-                    visuals.append(Visual(fid, f"visual_{k}", *mesh))
+            drawn = _visual(link, visual, robot.source, max_mesh_bytes)
+            if isinstance(drawn, str):
+                notes.append(f"link '{name}': visual {k} ({tag}) not drawn: {drawn}")
             else:
-                notes.append(f"link '{name}': visual {k} ({tag}) not drawn")
+                visuals.append(Visual(fid, f"visual_{k}", *drawn))
     if not visuals:
         visuals = _skeleton(robot)
         notes.append("no drawable visuals: the robot is drawn as a skeleton of its joints, loops and frames")

@@ -120,16 +120,16 @@ def _loop_support(robot: Robot, loop: LoopSpec) -> set[int]:
             for j in model.supports[model.frames[model.getFrameId(link)].parentJoint]}
 
 
-def _own_motion(robot: Robot, joint: str) -> str | None:
+def _own_motion(robot: Robot, joint: str, data: pin.Data) -> str | None:
     """The placement component that duplicates a one-DOF joint's own motion (rotation about a revolute axis
     along x, y or z of the joint frame is a change of its angle; translation along a prismatic axis, of its
-    position), or None (an axis not along x, y or z, a mimic follower, a multi-DOF joint)."""
+    position), or None (an axis not along x, y or z, a mimic follower, a multi-DOF joint). ``data`` holds the
+    joint Jacobians at the reference (``pin.computeJointJacobians``): one for all joints, as a long chain's data
+    take seconds to make."""
     model = robot.model
     jid = robot.joint_id(joint)
     if model.joints[jid].nv != 1:
         return None
-    data = model.createData()
-    pin.computeJointJacobians(model, data, robot.q_reference)
     twist = pin.getJointJacobian(model, data, jid, pin.LOCAL)[:, model.joints[jid].idx_v]
     for part, prefix in ((twist[3:], "r"), (twist[:3], "t")):
         if np.linalg.norm(part) > 0.5:
@@ -167,13 +167,14 @@ def default_parameters(robot: Robot, models: Sequence[Measurement], markers: Mar
     normal = planar_normal(robot)
     data = model.createData()
     pin.framesForwardKinematics(model, data, robot.q_reference)
+    pin.computeJointJacobians(model, data, robot.q_reference)
     firsts = [j for j in joints if model.parents[robot.joint_id(j)] == 0]
     params: list[Parameter] = []
     for joint in joints:
         if (external or sees_world_target(models)) and firsts == [joint]:
             continue  # one chain from the root: its first placement and the base (or world target) are one and the same
         jid = robot.joint_id(joint)
-        own = _own_motion(robot, joint)
+        own = _own_motion(robot, joint, data)
         comps = [c for c in _in_plane(data.oMi[jid], normal) if c != own]
         params += placement_parameters("joint", joint, components=comps)
     for frame in frames:
