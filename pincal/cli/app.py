@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from pincal.calibration.options import check_cv_seed
-from pincal.cli import check, compensate, export, report_page, study, view
+from pincal.cli import check, compensate, export, report_page, robots, study, view
 from pincal.cli.arguments import (
     add_calibration_options,
     add_measurement,
@@ -64,6 +64,7 @@ def _describe(robot: Robot) -> str:
     lines.append(f"configuration: nq {model.nq}, nv {model.nv}; closure rows {robot.closure.rows}; "
                  f"mobility {robot.mobility()}")
     lines.append(f"closure residual at the reference configuration: {worst:.3g} (m, rad)")
+    lines += [f"note: {note}" for note in robot.notes]
     choice = robot.measured_frame_choice
     if choice.frame is None:
         lines.append(f"measured frame (default): none: {choice.reason}")
@@ -328,7 +329,7 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.add_argument("--scheduler", help="address of a Dask scheduler (pip install 'pincal[dask]')")
     fleet.set_defaults(func=cmd_fleet)
 
-    for module in (view, report_page, study, check, compensate, export):  # command groups of their own
+    for module in (view, report_page, study, check, compensate, export, robots):  # command groups of their own
         module.register(sub)
     return parser
 

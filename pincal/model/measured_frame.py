@@ -22,6 +22,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import NotFoundError, listing
+from pincal.model.jacobians import frame_jacobian
 
 if TYPE_CHECKING:
     from pincal.model.robot import Robot
@@ -83,7 +84,7 @@ def frame_motion(robot: Robot, frame_ids: list[int]) -> Array:
         tangent = robot.kinematics.configuration_jacobian(q)
         pin.computeJointJacobians(model, data, q)
         for k, fid in enumerate(frame_ids):
-            twist = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED) @ tangent
+            twist = frame_jacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED) @ tangent
             motion[k] = max(motion[k], float(np.linalg.norm(twist)))
     return motion
 
