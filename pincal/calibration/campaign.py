@@ -93,14 +93,15 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
         if parameter_spec is None:  # as the calibration's default set: no error where it would move no measurement
             x_true[idle_parameters(at_nominal, np.zeros(len(pset)))] = 0.0
         failed = true_robot_failures(at_nominal, x_true)
-        if not failed:
+        if len(failed) in (0, len(qa)):  # every posture, drawn anywhere: the true robot is beyond assembling
             break
         qa[failed], _ = random_actuated(robot, len(failed), rng, spread=spread)  # drawn again, checked again
     if failed:
+        tried = "" if len(failed) == len(qa) else f" after {REDRAWS} redraws"
         raise ConvergenceError(f"{len(failed)} of {len(qa)} random postures of '{robot.name}' that the nominal robot "
                                f"assembles could not be assembled by the simulated robot (true errors of σ "
-                               f"{perturb:g} m, rad) after {REDRAWS} redraws: give smaller errors (--perturb) or a "
-                               "smaller spread about the reference (--spread)")
+                               f"{perturb:g} m, rad){tried}: give smaller errors (--perturb) or a smaller spread "
+                               "about the reference (--spread)")
     try:
         obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise, joint_noise=joint_noise,
                                     payload=payload)

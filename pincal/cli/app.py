@@ -70,8 +70,7 @@ def _describe(robot: Robot) -> str:
         lines.append(f"measured frame (default): none: {choice.reason}")
     else:
         p = robot.placement(robot.q_reference, choice.frame).translation
-        why = "named like an end effector" if choice.rule == "named" else "the one moving link with none below it"
-        lines.append(f"measured frame (default): {choice.frame}, moved by the actuated joints ({why}); at "
+        lines.append(f"measured frame (default): {choice.frame}, moved by the actuated joints ({choice.why}); at "
                      f"({p[0]:.6f}, {p[1]:.6f}, {p[2]:.6f}) m at the reference")
     return "\n".join(lines)
 
