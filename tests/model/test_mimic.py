@@ -136,6 +136,8 @@ def test_talos_fingers_sorted_before_their_leader_follow_it() -> None:
 def test_a_fixed_joint_mimic_is_ignored() -> None:
     reduced = pincal.load_robot(pincal.robot_path("talos").with_name("talos_reduced.urdf"))
     assert reduced.model.nq == 32 and "gripper_left_inner_double_joint" not in list(reduced.model.names)
+    assert "the <mimic> of fixed joint 'gripper_left_inner_double_joint' is ignored: a fixed joint does not move" \
+        in reduced.notes
 
 
 def test_talos_gripper_calibrates_through_the_cli(tmp_path: Path) -> None:
