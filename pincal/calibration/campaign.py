@@ -98,10 +98,10 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
         qa[failed], _ = random_actuated(robot, len(failed), rng, spread=spread)  # drawn again, checked again
     if failed:
         tried = "" if len(failed) == len(qa) else f" after {REDRAWS} redraws"
-        raise ConvergenceError(f"{len(failed)} of {len(qa)} random postures of '{robot.name}' that the nominal robot "
-                               f"assembles could not be assembled by the simulated robot (true errors of σ "
-                               f"{perturb:g} m, rad){tried}: give smaller errors (--perturb) or a smaller spread "
-                               "about the reference (--spread)")
+        raise ConvergenceError(f"the simulated robot, with true errors of σ {perturb:g} (m, rad), cannot be assembled "
+                               f"at {len(failed)} of {len(qa)} random postures of '{robot.name}' that the nominal "
+                               f"robot assembles{tried}: give smaller errors (--perturb) or a smaller spread about "
+                               "the reference (--spread)")
     try:
         obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise, joint_noise=joint_noise,
                                     payload=payload)

@@ -67,5 +67,5 @@ def test_postures_the_simulated_robot_cannot_assemble_are_counted(tmp_path: Path
     done = run_pincal("simulate", "ucr3", "--perturb", "0.05", "--samples", "20", "--seed", "1", "--quiet", "--out",
                       str(tmp_path / "sim"))
     assert done.returncode == 2 and len(done.stderr.splitlines()) == 1
-    assert "20 of 20 random postures of 'ucr3' that the nominal robot assembles could not be assembled by the " \
-           "simulated robot (true errors of σ 0.05 m, rad): give smaller errors (--perturb)" in done.stderr
+    assert "the simulated robot, with true errors of σ 0.05 (m, rad), cannot be assembled at 20 of 20 random " \
+           "postures of 'ucr3' that the nominal robot assembles: give smaller errors (--perturb)" in done.stderr
