@@ -27,7 +27,7 @@ from pincal.io.corrections_file import corrections_dict, corrections_of, correct
 from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text
 from pincal.io.files import check_outputs, json_text, make_directory, write_texts
 from pincal.io.mesh_files import MeshMode, MeshPlan, plan_meshes
-from pincal.model.robot import Robot
+from pincal.model.robot import Robot, unusable_samples
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 Array = npt.NDArray[np.float64]
@@ -111,11 +111,23 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
     rng = np.random.default_rng(seed)
     models = measurement_models(robot, kinds, frame, max(noise, 1e-9))
     pset = parameters_for(robot, models, parameter_spec, payload=payload)
-    x_true = perturbation(pset, perturb, rng)
+    drawn = perturbation(pset, perturb, rng)
     qa, _ = random_actuated(robot, n_train + n_test, rng, spread=spread, progress=progress)
-    if parameter_spec is None:  # as the calibration's default set: no error where it would move no measurement
+    for _ in range(REDRAWS + 1):
+        x_true = drawn.copy()
         at_nominal = CalibrationProblem(robot, pset, models, Observations.neutral(models, qa), payload=payload)
-        x_true[idle_parameters(at_nominal, np.zeros(len(pset)))] = 0.0
+        if parameter_spec is None:  # as the calibration's default set: no error where it would move no measurement
+            x_true[idle_parameters(at_nominal, np.zeros(len(pset)))] = 0.0
+        failed = true_robot_failures(at_nominal, x_true)
+        if len(failed) in (0, len(qa)):  # every posture, drawn anywhere: the true robot is beyond assembling
+            break
+        qa[failed], _ = random_actuated(robot, len(failed), rng, spread=spread)  # drawn again, checked again
+    if failed:
+        tried = "" if len(failed) == len(qa) else f" after {REDRAWS} redraws"
+        raise ConvergenceError(f"the simulated robot, with true errors of σ {perturb:g} (m, rad), cannot be assembled "
+                               f"at {len(failed)} of {len(qa)} random postures of '{robot.name}' that the nominal "
+                               f"robot assembles{tried}: give smaller errors (--perturb) or a smaller spread about "
+                               "the reference (--spread)")
     try:
         obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise, joint_noise=joint_noise,
                                     payload=payload)
@@ -139,6 +151,20 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
                        **{f"sigma {m.key.split(':', 1)[0]} {m.key.split(':', 1)[1]}": repr(max(noise, 1e-9))
                           for m in models}})
     return Simulation(robot, pset, x_true, dataset, models, payload)
+
+
+#: Rounds of redrawing the postures the simulated (true) robot cannot assemble: near the edge of the workspace, a
+#: posture the nominal robot assembles may lie outside the true robot's.
+REDRAWS = 20
+
+
+def true_robot_failures(at_nominal: CalibrationProblem, x_true: Array) -> list[int]:
+    """The samples of ``at_nominal`` that the true robot (nominal + ``x_true`` [m, rad]) cannot assemble, or
+    assembles at a singular configuration (:func:`~pincal.model.robot.unusable_samples`); none for a serial robot."""
+    if not at_nominal.robot.loops:
+        return []
+    true_robot = at_nominal.robot_at(x_true)
+    return [k for k, _ in unusable_samples(true_robot, at_nominal.actuated_values(x_true))]
 
 
 SIMULATION_FILES = ("measurements.csv", "truth.urdf", "truth.json")

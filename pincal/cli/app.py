@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from pincal.calibration.options import check_cv_seed
-from pincal.cli import assemble, bag_import, check, compensate, export, report_page, study, view
+from pincal.cli import assemble, bag_import, check, compensate, export, report_page, robots, study, view
 from pincal.cli.arguments import (
     add_calibration_options,
     add_measurement,
@@ -64,13 +64,13 @@ def _describe(robot: Robot) -> str:
     lines.append(f"configuration: nq {model.nq}, nv {model.nv}; closure rows {robot.closure.rows}; "
                  f"mobility {robot.mobility()}")
     lines.append(f"closure residual at the reference configuration: {worst:.3g} (m, rad)")
+    lines += [f"note: {note}" for note in robot.notes]
     choice = robot.measured_frame_choice
     if choice.frame is None:
         lines.append(f"measured frame (default): none: {choice.reason}")
     else:
         p = robot.placement(robot.q_reference, choice.frame).translation
-        why = "named like an end effector" if choice.rule == "named" else "the one moving link with none below it"
-        lines.append(f"measured frame (default): {choice.frame}, moved by the actuated joints ({why}); at "
+        lines.append(f"measured frame (default): {choice.frame}, moved by the actuated joints ({choice.why}); at "
                      f"({p[0]:.6f}, {p[1]:.6f}, {p[2]:.6f}) m at the reference")
     return "\n".join(lines)
 
@@ -332,8 +332,8 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.add_argument("--scheduler", help="address of a Dask scheduler (pip install 'pincal[dask]')")
     fleet.set_defaults(func=cmd_fleet)
 
-    for module in (view, report_page, study, check, compensate, export, bag_import,
-                   assemble):  # command groups of their own
+    for module in (view, report_page, study, check, compensate, export, bag_import, assemble,
+                   robots):  # command groups of their own
         module.register(sub)
     return parser
 

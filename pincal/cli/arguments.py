@@ -73,7 +73,8 @@ def add_measurement(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--measure", nargs="+", default=["position"], help=MEASURE_HELP)
     parser.add_argument("--frame", help="measured frame for position/pose (default: a frame named like an end "
                                         "effector, else the one link the actuated joints move with none moving below "
-                                        "it; refused when that is not one link)")
+                                        "it, else the link every loop closes on (a platform); refused when that is "
+                                        "not one link)")
 
 
 def add_perturb(parser: argparse.ArgumentParser) -> None:

@@ -31,6 +31,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import DataError, listing
+from pincal.model.jacobians import computed_frame_jacobian
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -146,7 +147,7 @@ def payload_torque(robot: Robot, payload: Payload, q: Array, data: pin.Data | No
     model = robot.model
     data = data if data is not None else model.createData()
     frame = payload.check(robot)
-    jacobian = pin.computeFrameJacobian(model, data, q, frame, pin.LOCAL_WORLD_ALIGNED)
+    jacobian = computed_frame_jacobian(model, data, q, frame, pin.LOCAL_WORLD_ALIGNED)
     lever = pin.updateFramePlacement(model, data, frame).rotation @ np.asarray(payload.offset)
     point = jacobian[:3] - pin.skew(lever) @ jacobian[3:]
     return np.asarray(-payload.mass * (point.T @ model.gravity.linear), dtype=float)

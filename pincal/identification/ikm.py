@@ -30,6 +30,7 @@ from pincal.identification.derivatives import KinematicSensitivity, frame_probe
 from pincal.identification.measurements import MarkerPoint, Measurement, SampleContext
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations, Prediction
+from pincal.model.jacobians import frame_jacobian
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -78,7 +79,7 @@ class ImplicitProblem(CalibrationProblem):
         """Task residual (predicted − measured) of the context's sample and its Jacobian over v: the target's
         own model, given each frame's local Jacobian as its twist and no parameter columns (``over_v``)."""
         m, model = self.measurement, over_v.model
-        over_v.twists = {f: pin.getFrameJacobian(model, over_v.data, over_v.frame_ids[f], pin.LOCAL) for f in m.frames}
+        over_v.twists = {f: frame_jacobian(model, over_v.data, over_v.frame_ids[f], pin.LOCAL) for f in m.frames}
         predicted, jac = np.empty(m.size), np.zeros((m.size, model.nv))
         m.predict(over_v, predicted, jac)
         return m.error(predicted[None], over_v.measured(m.key)[None], model)[0], jac
@@ -160,7 +161,7 @@ class ImplicitProblem(CalibrationProblem):
                 dc[:, col] += cjac[:, act_v[joint]]
             ctx.dv = dv
             ctx.twists = {f: sens.probe_twist(data, probes[f])
-                          + pin.getFrameJacobian(model, data, self.frame_ids[f], pin.LOCAL) @ dv for f in probes}
+                          + frame_jacobian(model, data, self.frame_ids[f], pin.LOCAL) @ dv for f in probes}
             dt = np.zeros((self.measurement.size, p))
             self.measurement.predict(ctx, np.empty(self.measurement.size), dt)
             cp, tp = cjac[:, passive], tjac[:, passive]

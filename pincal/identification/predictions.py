@@ -17,6 +17,7 @@ from pincal.errors import ConvergenceError
 from pincal.identification.batch import BatchContext, SpatialJacobian
 from pincal.identification.derivatives import KinematicSensitivity, Probe, frame_probe
 from pincal.identification.measurements import Measurement, SampleContext
+from pincal.model.jacobians import frame_jacobian
 from pincal.model.kinematics import damped_pseudo_inverse
 from pincal.model.robot import SOLVE_TOLERANCE, Robot
 
@@ -120,7 +121,7 @@ def predict_samples(problem: CalibrationProblem, robot: Robot, sens: KinematicSe
         if jacobian:
             assert sens is not None and dv is not None
             for f, fid in problem.frame_ids.items():
-                local = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
+                local = frame_jacobian(model, data, fid, pin.LOCAL)
                 twists[f] = sens.probe_twist(data, probes[f]) + local @ dv
         ctx.sample, ctx.q, ctx.twists, ctx.dv = k, q, twists, dv
         for m in problem.measurements:

@@ -10,22 +10,81 @@ from __future__ import annotations
 import importlib.metadata
 import importlib.resources
 import os
+from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
 from pincal.errors import NotFoundError, listing
 
-#: Robot name -> (distribution, path suffix inside it) for example-robot-data robots.
+#: Robot name -> path inside example-robot-data's ``robots/`` directory: every URDF it ships that has a joint to
+#: calibrate and loads (``ur3.urdf`` has no robot name, ``alex_psyonic_hands.urdf`` a ``<mimic>`` naming a joint it
+#: lacks; ``quadrotor_base.urdf``, ``iris*.urdf`` are drones: no joint, or only propellers). A floating-base robot
+#: is loaded with its root link fixed.
 EXAMPLE_ROBOT_DATA: dict[str, str] = {
-    "ur3": "ur_description/urdf/ur3_robot.urdf",
-    "ur5": "ur_description/urdf/ur5_robot.urdf",
-    "ur10": "ur_description/urdf/ur10_robot.urdf",
-    "panda": "panda_description/urdf/panda.urdf",
-    "tiago": "tiago_description/robots/tiago.urdf",
-    "tiago_no_hand": "tiago_description/robots/tiago_no_hand.urdf",
+    "a1": "a1_description/urdf/a1.urdf",
+    "alex": "alex_description/urdf/alex_nub_hands.urdf",
+    "alex_sake_hands": "alex_description/urdf/alex_sake_hands.urdf",
+    "alexander": "alexander_description/urdf/alexander_v1.lowerBodyOnly.urdf",
+    "allegro_left_hand": "allegro_hand_description/urdf/allegro_left_hand.urdf",
+    "allegro_right_hand": "allegro_hand_description/urdf/allegro_right_hand.urdf",
+    "anymal": "anymal_b_simple_description/robots/anymal.urdf",
+    "anymal_kinova": "anymal_b_simple_description/robots/anymal-kinova.urdf",
+    "anymal_c": "anymal_c_simple_description/urdf/anymal.urdf",
+    "asr_twodof": "asr_twodof_description/urdf/TwoDofs.urdf",
+    "b1": "b1_description/urdf/b1.urdf",
+    "b1_z1": "b1_description/urdf/b1-z1.urdf",
+    "baxter": "baxter_description/urdf/baxter.urdf",
+    "bolt": "bolt_description/robots/bolt.urdf",
+    "borinot": "borinot_description/urdf/borinot_flying_arm_2.urdf",
+    "centauro": "centauro_description/urdf/centauro.urdf",
+    "double_pendulum": "double_pendulum_description/urdf/double_pendulum.urdf",
+    "double_pendulum_continuous": "double_pendulum_description/urdf/double_pendulum_continuous.urdf",
+    "double_pendulum_simple": "double_pendulum_description/urdf/double_pendulum_simple.urdf",
+    "finger_edu": "finger_edu_description/robots/finger_edu.urdf",
+    "g1": "g1_description/urdf/g1_29dof_rev_1_0.urdf",
+    "g1_with_hands": "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf",
+    "go1": "go1_description/urdf/go1.urdf",
+    "go2": "go2_description/urdf/go2.urdf",
+    "hextilt": "hextilt_description/urdf/hextilt_flying_arm_5.urdf",
+    "human": "human_description/robots/human.urdf",
+    "hyq": "hyq_description/robots/hyq_no_sensors.urdf",
+    "icub": "icub_description/robots/icub.urdf",
+    "icub_reduced": "icub_description/robots/icub_reduced.urdf",
     "kinova": "kinova_description/robots/kinova.urdf",
-    "iiwa": "iiwa_description/urdf/iiwa.urdf",
+    "laikago": "laikago_description/urdf/laikago.urdf",
+    "panda": "panda_description/urdf/panda.urdf",
+    "panda_collision": "panda_description/urdf/panda_collision.urdf",
+    "pr2": "pr2_description/urdf/pr2.urdf",
+    "quadruped": "quadruped_description/urdf/quadruped.urdf",
+    "romeo": "romeo_description/urdf/romeo.urdf",
+    "romeo_laas_small": "romeo_description/urdf/romeo_laas_small.urdf",
+    "romeo_small": "romeo_description/urdf/romeo_small.urdf",
+    "simple_humanoid": "simple_humanoid_description/urdf/simple_humanoid.urdf",
+    "simple_humanoid_classical": "simple_humanoid_description/urdf/simple_humanoid_classical.urdf",
+    "so100": "so_arm_description/urdf/so100.urdf",
+    "so101": "so_arm_description/urdf/so101.urdf",
+    "solo8": "solo_description/robots/solo.urdf",
+    "solo12": "solo_description/robots/solo12.urdf",
     "talos": "talos_data/robots/talos_full_v2.urdf",
+    "talos_box": "talos_data/robots/talos_full_v2_box.urdf",
+    "talos_arm": "talos_data/robots/talos_left_arm.urdf",
+    "talos_reduced": "talos_data/robots/talos_reduced.urdf",
+    "talos_reduced_box": "talos_data/robots/talos_reduced_box.urdf",
+    "talos_reduced_corrected": "talos_data/robots/talos_reduced_corrected.urdf",
+    "tiago": "tiago_description/robots/tiago.urdf",
+    "tiago_dual": "tiago_description/robots/tiago_dual.urdf",
+    "tiago_no_hand": "tiago_description/robots/tiago_no_hand.urdf",
+    "tiago_pro": "tiago_pro_description/robots/tiago_pro.urdf",
+    "ur3": "ur_description/urdf/ur3_robot.urdf",
+    "ur3_gripper": "ur_description/urdf/ur3_gripper.urdf",
+    "ur3_limited": "ur_description/urdf/ur3_joint_limited_robot.urdf",
+    "ur5": "ur_description/urdf/ur5_robot.urdf",
+    "ur5_gripper": "ur_description/urdf/ur5_gripper.urdf",
+    "ur5_limited": "ur_description/urdf/ur5_joint_limited_robot.urdf",
+    "ur10": "ur_description/urdf/ur10_robot.urdf",
+    "ur10_limited": "ur_description/urdf/ur10_joint_limited_robot.urdf",
+    "xarm7": "xarm_description/urdf/xarm7.urdf",
+    "z1": "z1_description/urdf/z1.urdf",
 }
 
 
@@ -75,7 +134,48 @@ def robot_path(name: str) -> Path:
             raise NotFoundError(f"robot '{name}': {path} is missing from example-robot-data")
         return path
     raise NotFoundError(f"no robot file or known robot named '{name}'; known robots are: "
-                        f"{listing(known_robot_names())}")
+                        f"{listing(known_robot_names())}; 'pincal robots' lists them with their files")
+
+
+@dataclass(frozen=True)
+class KnownRobot:
+    """A robot reachable by name, as ``pincal robots`` lists it.
+
+    Attributes:
+        name: The name :func:`robot_path` takes.
+        origin: ``pincal`` (``robots_urdf/``) or ``example-robot-data``.
+        file: The URDF's path within its origin (``delta.urdf``, ``talos_data/robots/talos_full_v2.urdf``).
+        joints: Its movable joints, ``<mimic>`` followers included; None when it does not load.
+        actuated: Its actuated joints; None when it does not load.
+        loops: Its loop closures; None when it does not load.
+        problem: Why it does not load (example-robot-data not installed, ...); empty when it does.
+    """
+
+    name: str
+    origin: str
+    file: str
+    joints: int | None
+    actuated: int | None
+    loops: int | None
+    problem: str = ""
+
+
+def known_robots() -> list[KnownRobot]:
+    """Every name :func:`robot_path` accepts with the file it comes from, each loaded for its joint counts."""
+    from pincal.errors import PincalError
+    from pincal.model.robot import load_robot  # the robot module imports this one
+
+    out: list[KnownRobot] = []
+    for name in known_robot_names():
+        origin = "pincal" if name in shipped_robots() else "example-robot-data"
+        file = f"{name}.urdf" if origin == "pincal" else EXAMPLE_ROBOT_DATA[name]
+        try:
+            robot = load_robot(robot_path(name))
+        except PincalError as exc:
+            out.append(KnownRobot(name, origin, file, None, None, None, str(exc)))
+            continue
+        out.append(KnownRobot(name, origin, file, robot.model.njoints - 1, robot.n_actuated, len(robot.loops)))
+    return out
 
 
 def package_directories(package: str, near: Path | None = None) -> list[Path]:

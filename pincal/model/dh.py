@@ -37,6 +37,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import DataError, NotFoundError, RobotFileError, listing
+from pincal.model.jacobians import joint_jacobian
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -173,7 +174,7 @@ def _axes(robot: Robot, joints: list[int], base: pin.SE3, q0: Array) -> list[tup
         if jm.nv != 1:
             what = "a <mimic> follower" if jm.nv == 0 else f"a {jm.shortname()} joint of {jm.nv} coordinates"
             raise RobotFileError(f"joint '{name}' is {what}: a DH table holds revolute and prismatic joints only")
-        twist = base.inverse().act(pin.Motion(pin.getJointJacobian(model, data, j, pin.WORLD)[:, jm.idx_v]))
+        twist = base.inverse().act(pin.Motion(joint_jacobian(model, data, j, pin.WORLD)[:, jm.idx_v]))
         v, w = twist.linear, twist.angular
         if np.linalg.norm(w) < 1e-9:
             out.append(((base.inverse() * data.oMi[j]).translation, _unit(v), True))

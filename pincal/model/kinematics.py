@@ -29,6 +29,7 @@ from scipy.linalg import lapack
 
 from pincal import linalg
 from pincal.model.closure import LoopClosure
+from pincal.model.jacobians import frame_jacobian as pin_frame_jacobian
 
 if TYPE_CHECKING:
     from pincal.model.batch_kinematics import BatchKinematics
@@ -348,7 +349,7 @@ class ClosedLoopKinematics:
         """Frame Jacobian (6 × nv) at ``q`` in ``reference``; the closure Jacobian is left in data."""
         pin.computeJointJacobians(self.model, self.data, q)
         pin.updateFramePlacement(self.model, self.data, frame_id)
-        jac: Array = pin.getFrameJacobian(self.model, self.data, frame_id, reference)
+        jac: Array = pin_frame_jacobian(self.model, self.data, frame_id, reference)
         return jac
 
     def frame_jacobian_actuated(self, q: Array, frame_id: int,

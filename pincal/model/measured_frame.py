@@ -2,9 +2,10 @@
 
 A frame named like an end effector (:data:`END_EFFECTOR_NAMES`) is taken first, if it moves. Otherwise the default
 is the one link frame that the actuated joints move and below which, in the kinematic tree of the file
-(the loops cut), no link moves: the end of the one moving branch. A robot with several such ends (a
-four-bar cut at its coupler joint ends in the coupler and the rocker; an arm with two fingers) has no
-obvious choice, and none is made: the measured frame must be named. A frame the actuated joints do not
+(the loops cut), no link moves: the end of the one moving branch. A parallel robot's tree ends in each leg and in
+the platform; there the moving link on which every loop closes is the platform, whatever its name. A robot with
+several ends and no such link (an arm with two fingers) has no obvious choice, and none is made: the measured
+frame must be named. A frame the actuated joints do not
 move is never chosen: measuring it identifies nothing but the measurement frame.
 
 "Moved" is tested on the twist of the frame per unit actuated velocity, through the loops
@@ -22,6 +23,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import NotFoundError, listing
+from pincal.model.jacobians import frame_jacobian
 
 if TYPE_CHECKING:
     from pincal.model.robot import Robot
@@ -43,7 +45,7 @@ class FrameChoice:
     Attributes:
         frame: The chosen frame; None when no frame is obvious.
         rule: ``named`` (a name from :data:`END_EFFECTOR_NAMES`), ``moving end`` (the one moving link with
-            no moving link below it) or ``none``.
+            no moving link below it), ``platform`` (the moving link every loop closes on) or ``none``.
         candidates: The moving links with no moving link below them.
         reason: Why no frame was chosen (empty when one was).
     """
@@ -52,6 +54,12 @@ class FrameChoice:
     rule: str
     candidates: tuple[str, ...] = ()
     reason: str = ""
+
+    @property
+    def why(self) -> str:
+        """The rule that chose the frame, in words (empty when none was chosen)."""
+        return {"named": "named like an end effector", "moving end": "the one moving link with none below it",
+                "platform": "the link every loop closes on: the platform"}.get(self.rule, "")
 
     def error(self) -> NotFoundError:
         """The refusal as an error that carries the candidates (``choices``)."""
@@ -83,7 +91,7 @@ def frame_motion(robot: Robot, frame_ids: list[int]) -> Array:
         tangent = robot.kinematics.configuration_jacobian(q)
         pin.computeJointJacobians(model, data, q)
         for k, fid in enumerate(frame_ids):
-            twist = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED) @ tangent
+            twist = frame_jacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED) @ tangent
             motion[k] = max(motion[k], float(np.linalg.norm(twist)))
     return motion
 
@@ -114,10 +122,22 @@ def moving_ends(robot: Robot) -> list[str]:
     return [str(model.frames[fid].name) for fid in moving if fid not in above]
 
 
+def loops_platform(robot: Robot) -> str | None:
+    """The one link every loop closes on (as predecessor or successor) when the actuated joints move it: a parallel
+    robot's platform, whatever its name; None for a robot without loops, or without such a link."""
+    if not robot.loops:
+        return None
+    common = set.intersection(*({loop.predecessor, loop.successor} for loop in robot.loops))
+    if len(common) != 1:
+        return None
+    link = common.pop()
+    return link if frame_moves(robot, link) else None
+
+
 def default_measured_frame(robot: Robot) -> FrameChoice:
     """The frame measured when none is named: the first name of :data:`END_EFFECTOR_NAMES` that the actuated
-    joints move, else the one moving end of the tree (:func:`moving_ends`); no choice when there are several
-    ends or none."""
+    joints move, else the one moving end of the tree (:func:`moving_ends`), else the link every loop closes on
+    (:func:`loops_platform`); no choice when there are several ends and no such link, or no end."""
     still = []
     for name in END_EFFECTOR_NAMES:
         if robot.model.existFrame(name):
@@ -127,6 +147,9 @@ def default_measured_frame(robot: Robot) -> FrameChoice:
     ends = tuple(moving_ends(robot))
     if len(ends) == 1:
         return FrameChoice(ends[0], "moving end", ends)
+    platform = loops_platform(robot)
+    if platform is not None:
+        return FrameChoice(platform, "platform", ends)
     if still:
         named = f"robot '{robot.name}': its actuated joints do not move {listing(still)} (named like an end effector)"
     else:

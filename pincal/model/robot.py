@@ -11,7 +11,7 @@ import os
 import sys
 import tempfile
 import xml.etree.ElementTree as ET
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Literal
 
@@ -49,14 +49,16 @@ class Robot:
         loops: Loop declarations, anchors in link frames [m, rad].
         actuated_joints: Names of the actuated joints, the order of ``q_actuated`` vectors.
         source: Path of the URDF file this robot was loaded from, if any.
+        notes: What the file says that pincal ignores, and why (a transmission on a fixed joint, ...).
         q_reference: The reference configuration (Pinocchio's neutral, where the file is assembled).
 
     A Robot owns one ``pinocchio.Data``: its methods are not thread-safe; use one Robot per thread.
     """
 
     def __init__(self, model: pin.Model, loops: list[LoopSpec], actuated_joints: list[str],
-                 name: str = "robot", source: Path | None = None) -> None:
+                 name: str = "robot", source: Path | None = None, notes: Sequence[str] = ()) -> None:
         self.name = name
+        self.notes = list(notes)
         self.model = model
         self.loops = list(loops)
         self.actuated_joints = list(actuated_joints)
@@ -389,7 +391,7 @@ def robot_from_urdf_text(text: str, source: Path | None = None) -> Robot:
             raise RobotFileError(f"{where}: serial robot with multi-DOF joints {listing(multi)}; a serial "
                                  "robot's joints must be revolute, continuous or prismatic")
         actuated = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv == 1]  # not mimics
-    robot = Robot(model, ext.loops, actuated, name=ext.robot_name, source=source)
+    robot = Robot(model, ext.loops, actuated, name=ext.robot_name, source=source, notes=ext.notes)
     check_reference_assembly(robot, where)
     return robot
 

@@ -155,17 +155,22 @@ def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
     joints = {n.get("name", ""): n.get("type", "") for n in root.findall("joint")}
     _check_names(link_list, joint_list, source)
     _check_tree(root, source)
-    _check_top_level(root, source)
     loops = _loops(root, set(link_list), link_list)
-    transmitted = _transmitted_joints(root, joints)
+    transmission_problems = _check_top_level(root, source)
+    transmitted, unusable = _transmitted_joints(root, joints)
     mimics, notes = _mimics(root, joints, source)
-    driven = [j for j in transmitted if j in mimics]
-    if driven:
-        raise RobotFileError(f"{source}: joint {listing(driven)} has both a <transmission> and a <mimic> element; a "
-                             "mimic joint follows its leader and cannot be actuated on its own")
+    transmission_problems += unusable + [
+        (f"joint '{j}' has both a <transmission> and a <mimic> element",
+         "a mimic joint follows its leader and cannot be actuated on its own") for j in transmitted if j in mimics]
     if mimics and loops:
         raise RobotFileError(f"{source}: joint {listing(list(mimics))} has a <mimic> element; pincal supports mimic "
                              "joints in serial robots only, not in robots with <loop> elements")
+    if loops and transmission_problems:  # the transmissions choose a closed-loop robot's actuated joints
+        what, valid = transmission_problems[0]
+        raise LoopError(f"{source}: {what}; {valid}")
+    notes += [f"{what}: ignored (a serial robot's actuated joints are its movable joints)"
+              for what, _ in transmission_problems]
+    transmitted = [j for j in transmitted if j not in mimics]
     return UrdfExtensions(root.get("name", "robot"), loops, transmitted, link_list, joints, mimics, tuple(notes))
 
 
@@ -194,16 +199,22 @@ def _check_tree(root: ET.Element, source: str) -> None:
                                  "URDF is a tree: cut a closed chain with a <loop> element (README, Loops in URDF)")
 
 
-def _check_top_level(root: ET.Element, source: str) -> None:
-    """Refuse a ``<loop>`` or ``<transmission>`` nested in another element instead of a child of ``<robot>``."""
+def _check_top_level(root: ET.Element, source: str) -> list[tuple[str, str]]:
+    """Refuse a ``<loop>`` nested in another element instead of a child of ``<robot>``; return the same problem of
+    each ``<transmission>`` (a ``<ros2_control>`` block holds some) as (what, what would be valid): only a
+    closed-loop robot refuses it."""
+    problems: list[tuple[str, str]] = []
     for tag in ("loop", "transmission"):  # Pinocchio ignores them anywhere; pincal reads only top-level ones
         top = {id(n) for n in root.findall(tag)}
         for parent in root.iter():
             for child in parent:
                 if child.tag == tag and id(child) not in top:
-                    raise RobotFileError(f"{source}: <{tag} name='{child.get('name', '')}'> is inside <{parent.tag} "
-                                         f"name='{parent.get('name', '')}'>; <{tag}> elements must be children of "
-                                         "<robot>")
+                    what = (f"<{tag} name='{child.get('name', '')}'> is inside <{parent.tag} "
+                            f"name='{parent.get('name', '')}'>")
+                    if tag == "loop":
+                        raise RobotFileError(f"{source}: {what}; <loop> elements must be children of <robot>")
+                    problems.append((what, "<transmission> elements must be children of <robot>"))
+    return problems
 
 
 def _loops(root: ET.Element, links: set[str], link_list: list[str]) -> list[LoopSpec]:
@@ -217,29 +228,31 @@ def _loops(root: ET.Element, links: set[str], link_list: list[str]) -> list[Loop
     return loops
 
 
-def _transmitted_joints(root: ET.Element, joints: dict[str, str]) -> list[str]:
-    """The actuated joints the ``<transmission>`` elements name, in file order; each must exist, be
-    revolute, continuous or prismatic, and be named by one transmission only."""
+def _transmitted_joints(root: ET.Element, joints: dict[str, str]) -> tuple[list[str], list[tuple[str, str]]]:
+    """The actuated joints the ``<transmission>`` elements name, in file order; and, as (what, what would be valid),
+    the problem of each left out: naming no joint, a joint that does not exist or is not revolute, continuous or
+    prismatic, or a joint another transmission names."""
     transmitted: list[str] = []
+    problems: list[tuple[str, str]] = []
     movable = [j for j, t in joints.items() if t in SCALAR_JOINT_TYPES]
     for node in root.findall("transmission"):
         tname = node.get("name", "?")
         joint_nodes = node.findall("joint")
         if not joint_nodes:
-            raise LoopError(f"transmission '{tname}' names no joint")
+            problems.append((f"transmission '{tname}' names no joint", f"movable joints are: {listing(movable)}"))
         for jn in joint_nodes:
             jname = jn.get("name", "")
             if jname not in joints:
-                raise LoopError(f"transmission '{tname}' names joint '{jname}', which does not exist; "
-                                f"movable joints are: {listing(movable)}")
-            if joints[jname] not in SCALAR_JOINT_TYPES:
-                raise LoopError(f"transmission '{tname}' names joint '{jname}' of type "
-                                f"'{joints[jname]}'; only revolute, continuous and prismatic joints "
-                                "can be actuated")
-            if jname in transmitted:
-                raise LoopError(f"joint '{jname}' is named by two transmissions")
-            transmitted.append(jname)
-    return transmitted
+                problems.append((f"transmission '{tname}' names joint '{jname}', which does not exist",
+                                 f"movable joints are: {listing(movable)}"))
+            elif joints[jname] not in SCALAR_JOINT_TYPES:
+                problems.append((f"transmission '{tname}' names joint '{jname}' of type '{joints[jname]}'",
+                                 "only revolute, continuous and prismatic joints can be actuated"))
+            elif jname in transmitted:
+                problems.append((f"joint '{jname}' is named by two transmissions", "name it once"))
+            else:
+                transmitted.append(jname)
+    return transmitted, problems
 
 
 def _mimics(root: ET.Element, joints: dict[str, str], source: str
@@ -265,6 +278,9 @@ def _mimics(root: ET.Element, joints: dict[str, str], source: str
             continue
         if joints[name] not in SCALAR_JOINT_TYPES:
             raise RobotFileError(f"{what}: only revolute, continuous and prismatic joints can mimic")
+        if (joints[name] == "continuous") != (joints[leader] == "continuous"):  # cos/sin pair against one value
+            raise RobotFileError(f"{what}: a {joints[name]} joint cannot follow '{leader}', a {joints[leader]} joint; "
+                                 "a continuous joint mimics a continuous one only")
         mimics[name] = (leader, multiplier, offset)
     for name, (leader, _, _) in mimics.items():
         if leader in mimics:

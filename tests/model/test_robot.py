@@ -101,7 +101,7 @@ def test_not_a_urdf(tmp_path: Path) -> None:
         pincal.load_robot(_write(tmp_path, "<sdf/>"))
     with pytest.raises(pincal.RobotFileError, match="does not exist"):
         pincal.load_robot(tmp_path / "missing.urdf")
-    with pytest.raises(pincal.NotFoundError, match=r"known robots are: .*delta.*ur10"):
+    with pytest.raises(pincal.NotFoundError, match=r"known robots are: .*delta.*'pincal robots' lists them"):
         pincal.load_robot("no_such_robot")
 
 

@@ -18,6 +18,7 @@ from pincal.identification.parameters.parameter import (
     offset_parameter,
     placement_parameters,
 )
+from pincal.model.jacobians import joint_jacobian
 from pincal.model.robot import Robot, joint_unit
 
 Array = npt.NDArray[np.float64]
@@ -46,7 +47,7 @@ def planar_normal(robot: Robot, tol: float = 1e-9) -> Array | None:
         joint = model.joints[jid]
         if joint.nv != 1:
             return None
-        col = pin.getJointJacobian(model, data, jid, pin.LOCAL_WORLD_ALIGNED)[:, joint.idx_v]
+        col = joint_jacobian(model, data, jid, pin.LOCAL_WORLD_ALIGNED)[:, joint.idx_v]
         if np.linalg.norm(col[3:]) > tol:
             axis = col[3:] / np.linalg.norm(col[3:])
             if normal is None:

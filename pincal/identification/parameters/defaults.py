@@ -32,6 +32,7 @@ from pincal.identification.parameters.parameter import (
     offset_parameter,
     placement_parameters,
 )
+from pincal.model.jacobians import joint_jacobian
 from pincal.model.robot import Robot, joint_unit
 from pincal.model.urdf import LoopSpec
 
@@ -130,7 +131,7 @@ def _own_motion(robot: Robot, joint: str, data: pin.Data) -> str | None:
     jid = robot.joint_id(joint)
     if model.joints[jid].nv != 1:
         return None
-    twist = pin.getJointJacobian(model, data, jid, pin.LOCAL)[:, model.joints[jid].idx_v]
+    twist = joint_jacobian(model, data, jid, pin.LOCAL)[:, model.joints[jid].idx_v]
     for part, prefix in ((twist[3:], "r"), (twist[:3], "t")):
         if np.linalg.norm(part) > 0.5:
             axis = int(np.argmax(np.abs(part)))

@@ -1,0 +1,81 @@
+"""Robots by name: every name ``pincal robots`` lists loads, simulates and calibrates; what a file says that pincal
+ignores is said (``pincal info``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import run_pincal
+
+import pincal
+from pincal.calibration.campaign import simulate
+from pincal.calibration.pipeline import calibrate
+from pincal.model.catalog import EXAMPLE_ROBOT_DATA, example_robot_data_dir, known_robot_names
+
+
+def _measured_frame(robot: pincal.Robot) -> str:
+    """The default measured frame, else the moving end with the longest chain of joints above it."""
+    choice = robot.measured_frame_choice
+    if choice.frame is not None:
+        return choice.frame
+    model = robot.model
+    return max(choice.candidates, key=lambda f: len(model.supports[model.frames[model.getFrameId(f)].parentJoint]))
+
+
+def test_every_known_robot_loads_simulates_and_calibrates() -> None:
+    """One process for every name, 30 postures each (≈ 30 s: 69 robots)."""
+    names = known_robot_names()
+    assert {"talos", "kinova", "pr2", "romeo", "baxter", "tiago_pro", "delta", "hexapod"} <= set(names)
+    for name in names:
+        robot = pincal.load_robot(name)
+        sim = simulate(robot, ["position"], 30, 0, frame=_measured_frame(robot), seed=0)
+        report = calibrate(robot, sim.dataset).report
+        assert report.converged, name
+        assert report.rms_before is not None and report.rms_after is not None
+        assert report.rms_after < max(0.1 * report.rms_before, 5e-5), name  # [m]: down to the noise (σ 1e-5 m)
+
+
+def test_every_example_robot_data_file_named_is_there() -> None:
+    root = example_robot_data_dir()
+    assert root is not None
+    assert all((root / file).is_file() for file in EXAMPLE_ROBOT_DATA.values())
+    assert "iiwa" not in known_robot_names()  # example-robot-data ships no iiwa.urdf
+
+
+def test_a_transmission_on_a_fixed_or_missing_joint_is_ignored_with_a_note() -> None:
+    kinova = pincal.load_robot("kinova")
+    assert kinova.n_actuated == 6
+    assert any("'j2s6s200_joint_finger_1' of type 'fixed': ignored" in note for note in kinova.notes)
+    arm = pincal.load_robot("talos_arm")
+    assert any("names joint 'arm_left_1_joint', which does not exist: ignored" in note for note in arm.notes)
+    done = run_pincal("info", "kinova")
+    assert done.returncode == 0, done.stderr
+    assert "note: transmission 'j2s6s200_joint_finger_1_trans' names joint 'j2s6s200_joint_finger_1' of type " \
+           "'fixed': ignored" in done.stdout
+
+
+def test_pincal_robots_lists_the_names_with_their_joints_and_files() -> None:
+    done = run_pincal("robots")
+    assert done.returncode == 0, done.stderr
+    rows = {line.split()[0]: line.split() for line in done.stdout.splitlines() if line.startswith("  ")}
+    assert set(known_robot_names()) <= set(rows)
+    talos = pin.buildModelFromXML(pincal.robot_path("talos").read_text())  # every joint free: 44, of which 12 mimic
+    assert rows["talos"][1:5] == [str(talos.njoints - 1), "32", "0", "example-robot-data:"]
+    assert rows["talos"][5] == "talos_data/robots/talos_full_v2.urdf"
+    assert rows["delta"][1:5] == ["12", "3", "3", "robots_urdf/delta.urdf"]
+
+
+@pytest.mark.parametrize(("name", "frame"), [("kinova", "j2s6s200_end_effector"), ("romeo", "LWristYawLink")])
+def test_robots_of_example_robot_data_calibrate_through_the_cli(tmp_path: pytest.TempPathFactory, name: str,
+                                                                 frame: str) -> None:
+    sim = tmp_path / "sim"  # type: ignore[operator]
+    done = run_pincal("simulate", name, "--samples", "30", "--test-samples", "10", "--frame", frame, "--seed", "3",
+                      "--quiet", "--out", str(sim))
+    assert done.returncode == 0, done.stderr
+    done = run_pincal("calibrate", name, str(sim / "measurements.csv"), "--out", str(sim / "cal.urdf"))
+    assert done.returncode == 0, done.stderr
+    held_out = next(line for line in done.stdout.splitlines() if line.startswith("RMS position error (held out)"))
+    before, after = (float(v) for v in held_out.split()[-4::2])
+    assert after < 0.1 * before  # [mm]
+    assert np.isfinite(before)
