@@ -127,7 +127,7 @@ def test_identify_refuses_values_it_would_silently_misuse(five_bar: pincal.Robot
     n = len(problem.parameters)
     for keywords, message in [
         ({"max_iter": -1}, "max_iter=-1: must be a whole number ≥ 1"),
-        ({"tol": math.nan}, "tol=nan: must be a finite number > 0"),
+        ({"tol": math.nan}, "tol=nan: must be a finite number ≥ 0"),
         ({"prior": -1.0}, "prior=-1.0: must be a finite number > 0"),
         ({"x0": [1.0]}, f"x0 has shape (1,): give {n} finite values [m, rad], one per parameter"),
     ]:

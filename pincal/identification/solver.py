@@ -104,7 +104,7 @@ def _check_arguments(problem: Any, x0: Any, max_iter: Any, tol: Any, prior: Any)
             raise ArgumentError(f"x0 has shape {start.shape}{'' if np.all(np.isfinite(start)) else ' and NaN/inf'}: "
                                 f"give {len(problem.parameters)} finite values [m, rad], one per parameter")
     validation.whole("max_iter", max_iter, 1)
-    validation.real("tol", tol, strict=True)
+    validation.real("tol", tol)  # 0: iterate until no step decreases the cost
     validation.optional_real("prior", prior, strict=True)
 
 
