@@ -87,6 +87,10 @@ CALIBRATE_TYPES: list[tuple[Callable[[pincal.Robot, pincal.Dataset], Any], type[
     (lambda r, d: pincal.calibrate(r, d, parameter_spec=5), TypeError, "parameter_spec=5: expected a list of"),
     (lambda r, d: pincal.CalibrationOptions(cv_seed=-1), pincal.DataError, "cv_seed=-1: give a whole number ≥ 0"),
     (lambda r, d: pincal.CalibrationOptions(cv="x"), pincal.DataError, "cv='x': give K (folds)"),
+    (lambda r, d: pincal.calibrate(r, d, x_true="a"), TypeError, "x_true='a': expected an array of numbers"),
+    (lambda r, d: pincal.calibrate(r, d, x_true=[1e-3] * 2), pincal.ArgumentError, "x_true has shape (2,): give "),
+    (lambda r, d: pincal.calibrate(r, d, parameter_spec=["*.offset"], x_true=[math.nan] * 2), pincal.ArgumentError,
+     "x_true has shape (2,) and NaN/inf: give "),
 ]
 
 

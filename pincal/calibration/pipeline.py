@@ -13,6 +13,7 @@ SI units throughout: m, rad.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,7 +30,7 @@ from pincal.calibration.predicted import fitted_ranges, held_out_predictions, wo
 from pincal.calibration.report import CalibrationReport, fit_figures
 from pincal.calibration.samples import LENGTH_SCALE_RATIO, check_joint_scale, check_length_scale
 from pincal.calibration.setup import Prepared, check_movable, prepare
-from pincal.errors import DataError
+from pincal.errors import ArgumentError, DataError
 from pincal.identification.combinations import describe_unidentifiable, digest
 from pincal.identification.corrections import moving_mass
 from pincal.identification.ikm import ImplicitProblem
@@ -97,6 +98,7 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     check_cv_seed(options.cv, options.cv_seed)
     check_trainable(dataset)
     fit = prepare(robot, dataset, options)
+    x_true = _checked_truth(x_true, fit.parameters.names)
     length_scale = check_units(fit, dataset, options.plausible)  # before any fit, the provisional one included
     estimated = provisional_noise(fit.problem, dataset.metadata, options, **fitting_options(options))
     if estimated:  # weighted by the noise the data show, as '# sigma' lines would: before selection
@@ -204,6 +206,26 @@ def plausibility(fitted: SelectedFit, length_scale: dict[str, float], plausible:
     return {"length_scale": length_scale, "plausible": plausible, "implausible": corrections,
             "implausible_scale": scales,
             "implausible_cause": likely_cause(corrections, scales, length_scale, fitted.result.sigma2)}
+
+
+def _checked_truth(x_true: Any, names: Sequence[str]) -> Array | None:
+    """``x_true`` as a vector of one finite true deviation [m, rad] per candidate parameter, or None.
+
+    Raises:
+        TypeError: not an array of numbers.
+        ArgumentError: the wrong length, or NaN/inf.
+    """
+    if x_true is None:
+        return None
+    try:
+        truth = np.asarray(x_true, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"x_true={validation.shown(x_true)}: expected an array of numbers [m, rad], one per "
+                        "candidate parameter") from None
+    if truth.shape != (len(names),) or not np.all(np.isfinite(truth)):
+        raise ArgumentError(f"x_true has shape {truth.shape}{'' if np.all(np.isfinite(truth)) else ' and NaN/inf'}: "
+                            f"give {len(names)} finite values [m, rad], one per candidate parameter")
+    return truth
 
 
 def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dataset: Dataset,

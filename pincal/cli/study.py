@@ -35,7 +35,12 @@ from pincal.study.criteria import CRITERIA
 if TYPE_CHECKING:  # the work's modules load when a command runs, not to parse its arguments
     from pincal.study.montecarlo import MonteCarloResult
 
+#: The most trials ``pincal montecarlo`` runs per noise level.
+MAX_TRIALS = 10_000
+
+
 # --- design --------------------------------------------------------------------------------------
+
 def cmd_design(args: argparse.Namespace) -> int:
     """``pincal design``: choose ``--poses`` of ``--candidates`` random postures by the conditioning of the scaled
     identification Jacobian, compare with random sets, and print or write their actuated values [rad or m]."""
@@ -119,12 +124,19 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
     import numpy as np
 
     from pincal.calibration.trial import monte_carlo_trial
+    from pincal.io.dataset import MAX_SAMPLES
     from pincal.model.robot import load_robot
     from pincal.study.montecarlo import run_monte_carlo
 
     robot = load_robot(args.robot)  # fails here, once, on a bad name rather than in every worker
     if args.trials < 1:
         raise DataError(f"--trials must be at least 1, not {args.trials}")
+    if args.trials > MAX_TRIALS:
+        raise DataError(f"--trials {args.trials}: pincal runs at most {MAX_TRIALS} trials per noise level (a "
+                        "median over a few hundred is already stable)")
+    if max(args.samples, args.test_samples) > MAX_SAMPLES:
+        raise DataError(f"--samples {args.samples}, --test-samples {args.test_samples}: pincal simulates at most "
+                        f"{MAX_SAMPLES} postures of each")
     if args.samples < 1 or args.test_samples < 1:
         raise DataError(f"--samples and --test-samples must be at least 1 (got {args.samples}, "
                         f"{args.test_samples}): the table compares held-out errors")

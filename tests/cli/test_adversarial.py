@@ -189,3 +189,11 @@ def test_replacing_an_existing_output_is_said(five_bar_csv: Path, tmp_path: Path
         done = run_pincal("calibrate", "five_bar", str(five_bar_csv), "--out", str(cal))
         assert done.returncode == 0, done.stderr
         assert (f"note: replaced the existing file {cal}" in done.stdout) is replaced
+
+
+def test_montecarlo_trials_and_samples_are_capped() -> None:
+    """A hundred million trials (or postures) ends at once in one line, as ``design --candidates`` does."""
+    line = one_line_error(run_pincal("montecarlo", "five_bar", "--trials", "100000000"))
+    assert "--trials 100000000: pincal runs at most 10000 trials per noise level" in line
+    line = one_line_error(run_pincal("montecarlo", "five_bar", "--samples", "100000000"))
+    assert "pincal simulates at most 20000 postures of each" in line
