@@ -183,6 +183,16 @@ def read_job(path: str | Path) -> Job:
     return _Reader(source).job(doc)
 
 
+def _named_columns(job: Job) -> list[tuple[Column, str]]:
+    """Every column the job names (by header name or position), with where it names it."""
+    named = [(c, f"{m.where} columns") for m in job.measures for c in m.columns]
+    named += [(column, f"[joints] {joint}") for joint, column in job.joints.items()]
+    named += [(job.sample, "[data] sample")] if job.sample is not None else []
+    named += [(job.held_out.column, "[data] held_out")] if job.held_out and job.held_out.column else []
+    named += [(column, "[data] ignore") for column in job.ignore]
+    return named
+
+
 class _Reader:
     """The checks of one job file's values; every message starts with the file and the place in it."""
 
@@ -453,12 +463,7 @@ class _Reader:
         """Refuse a column named by its header name when the job does not read the header."""
         if job.header == "names":
             return
-        named = [(c, f"{m.where} columns") for m in job.measures for c in m.columns]
-        named += [(column, f"[joints] {joint}") for joint, column in job.joints.items()]
-        named += [(job.sample, "[data] sample")] if job.sample is not None else []
-        named += [(job.held_out.column, "[data] held_out")] if job.held_out and job.held_out.column else []
-        named += [(column, "[data] ignore") for column in job.ignore]
-        for column, where in named:
+        for column, where in _named_columns(job):
             if isinstance(column, str):
                 raise self.error(where, f"'{column}' names a column by its header, and [data] header = "
                                         f"\"{job.header}\" reads none: name it by its position (1 for the first)")
@@ -466,12 +471,7 @@ class _Reader:
     def claims(self, job: Job) -> None:
         """Refuse a column that the job gives two meanings."""
         claimed: dict[Column, str] = {}
-        named = [(c, f"{m.where} columns") for m in job.measures for c in m.columns]
-        named += [(column, f"[joints] {joint}") for joint, column in job.joints.items()]
-        named += [(job.sample, "[data] sample")] if job.sample is not None else []
-        named += [(job.held_out.column, "[data] held_out")] if job.held_out and job.held_out.column else []
-        named += [(column, "[data] ignore") for column in job.ignore]
-        for column, where in named:
+        for column, where in _named_columns(job):
             if column in claimed:
                 raise self.error(where, f"column '{column}' is also named by {claimed[column]}; a column has one "
                                         "meaning")
