@@ -2,12 +2,13 @@
 
 Both robots predict every usable sample of the data (rows of either set), through the same preparation as a
 calibration (:func:`~pincal.calibration.setup.prepare`) with the measurement *setup* as the only parameters: the
-measurement frame (``base.*``), the markers, the cameras and targets. Their values:
+measurement frame (``base.*``), the markers, the cameras and targets, the contact planes
+(:mod:`pincal.calibration.check_setup`). Their values:
 
 - the model, as it stands: the setup the file holds (its ``measurement_frame`` root, its ``<frame>_marker`` links,
-  its camera and target links), nothing estimated;
+  its camera, target and plane links), nothing estimated;
 - the nominal robot: its setup placed in closed form on the data, as calibrate's "before" (the measurement frame by
-  Kabsch, cameras and targets hand-eye, markers at their nominal offsets);
+  Kabsch, cameras and targets hand-eye, planes fitted to the contact points, markers at their nominal offsets);
 - with ``register``: each robot's setup re-estimated on the data by least squares from those starts, the robot's
   geometry held, so that a day whose tracker, markers or cameras moved is judged on the robot alone.
 
@@ -18,46 +19,37 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-import pinocchio as pin
 
 from pincal.calibration.check_model import CheckedModel
+from pincal.calibration.check_setup import (
+    MODEL_AS_IS,
+    MODEL_REGISTERED,
+    NOMINAL_PLACED,
+    NOMINAL_REGISTERED,
+    file_setup,
+    prepare_setup,
+)
 from pincal.calibration.heldout import worse_than_nominal
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.pipeline import fitting_options
 from pincal.calibration.predicted import FitCovariance, PredictedErrors, coverage, predicted_errors, widening
 from pincal.calibration.samples import check_length_scale, held_out_outside_range
-from pincal.calibration.setup import Prepared, dataset_models, parameters_for, prepare
+from pincal.calibration.setup import Prepared
 from pincal.errors import DataError
-from pincal.identification.measurements import Measurement, split_target
+from pincal.identification.measurements import Measurement
 from pincal.identification.metrics import angle_columns, length_columns, rms, sample_length_errors
 from pincal.identification.parameters import influencing_joints, read_joints
-from pincal.identification.problem import CalibrationProblem
 from pincal.identification.solver import identify
-from pincal.identification.starts import set_placement
-from pincal.io.calibrated_urdf import attached_link, marker_link
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
-
-#: The parameter kinds of the measurement setup: what a day's measurements may have moved, not the robot.
-SETUP_KINDS = ("base", "marker", "cluster", "camera", "target")
-
-MODEL_AS_IS = ("MODEL as it stands: the measurement frame, markers, cameras and targets the file holds; nothing "
-               "estimated")
-MODEL_REGISTERED = ("MODEL's robot with its measurement setup (measurement frame, markers, cameras, targets) "
-                    "re-estimated on DATA by least squares, its geometry held")
-NOMINAL_PLACED = ("the nominal robot with its measurement setup placed in closed form on DATA (measurement frame by "
-                  "Kabsch, cameras and targets hand-eye, markers at their nominal offsets), as calibrate's 'before'")
-NOMINAL_REGISTERED = ("the nominal robot with its measurement setup re-estimated on DATA by least squares, as "
-                      "MODEL's")
-
 
 @dataclass(frozen=True)
 class Side:
@@ -251,52 +243,6 @@ def weighted_rms(side: Side) -> float:
     return rms(values)
 
 
-def prepare_setup(robot: Robot, dataset: Dataset, options: CalibrationOptions) -> Prepared:
-    """Every usable sample of ``dataset`` prepared for ``robot`` with the measurement setup as the parameters (the
-    default set's ``base``, ``marker``, ``camera`` and ``target`` parameters, each declared marker on its own)."""
-    models = dataset_models(robot, dataset, options)
-    others = [p.name for p in parameters_for(robot, models, None, "each") if p.kind not in SETUP_KINDS]
-    return prepare(robot, dataset, options, part=None, leave_out=others)
-
-
-def file_setup(problem: CalibrationProblem, register: bool) -> Array:
-    """The setup as a calibrated robot's file holds it, as values [m, rad] of ``problem``'s setup parameters: each
-    marker's point is its ``<frame>_marker`` link (less its declared nominal offset), each camera and target its link
-    (docs/calibrated_urdf.md); the measurement frame is the file's root (zero). A marker without a link is at its
-    nominal offset.
-
-    Raises:
-        DataError: a camera or target without its link, unless ``register`` (which places it on the data).
-    """
-    robot, parameters = problem.robot, problem.parameters
-    q = robot.q_reference
-    x = np.zeros(len(parameters))
-    declared = {t: nominal for m in problem.measurements for t, nominal in m.markers.items()}
-
-    def relative(frame: str, link: str) -> pin.SE3 | None:
-        if not robot.model.existFrame(link):
-            return None
-        placement = robot.placement(q, link)
-        return robot.placement(q, frame).inverse() * placement if frame else placement
-
-    for (_, owner, _), idx in parameters.groups("marker").items():
-        found = relative(split_target(owner)[0], marker_link(owner))
-        if found is not None:
-            point = found.translation - np.asarray(declared.get(owner) or (0.0, 0.0, 0.0))
-            for k in idx:
-                x[k] = point[parameters.parameters[k].component]
-    for (kind, owner, _), idx in parameters.groups("camera", "target").items():
-        link = attached_link(kind, owner)
-        found = relative(owner if kind == "camera" else split_target(owner)[0] if owner else "", link)
-        if found is not None:
-            set_placement(problem, x, idx, found)
-        elif not register:
-            raise DataError(f"MODEL has no link '{link}' (where a calibrated URDF holds its {kind}): without it the "
-                            "model cannot predict the camera readings as it stands; check with --register, which "
-                            "places the cameras and targets on DATA")
-    return x
-
-
 def _side(prepared: Prepared, x: Array, register: bool, options: CalibrationOptions) -> Side:
     """A robot's predictions at ``x``, or, with ``register``, at its setup re-estimated from ``x`` by σ-weighted least
     squares (the solver and iteration limit of ``options``)."""
@@ -449,14 +395,16 @@ def fitted_data(model: CheckedModel, nominal: Robot) -> tuple[Dataset | None, st
 
 
 def run_check(model_path: str, data_path: str, nominal_path: str | None, options: dict[str, Any],
-              register: bool = False, outputs: Sequence[tuple[str, str]] = ()) -> tuple[Check, dict[str, Any]]:
+              register: bool = False, outputs: Sequence[tuple[str, str]] = (),
+              rows: str | None = None) -> tuple[Check, dict[str, Any]]:
     """``pincal check`` from files: MODEL (a calibrated URDF, a robot name or a report JSON), DATA (a CSV or a job
     file, whose options apply under ``options``), the nominal robot (``nominal_path``, else the one MODEL records);
-    ``outputs`` (``(what, path)``) are checked before any work (never over an input). Returns the check and its
-    report content.
+    ``rows`` the set checked (``train`` or ``test``: a CSV's ``set`` column, a job's ``held_out`` rows; None: every
+    row); ``outputs`` (``(what, path)``) are checked before any work (never over an input). Returns the check and
+    its report content.
 
     Raises:
-        DataError: no nominal robot given or recorded; as :func:`check_model`.
+        DataError: no nominal robot given or recorded; no row of set ``rows``; as :func:`check_model`.
     """
     from pincal.calibration.check_model import is_report, load_model
     from pincal.calibration.job import read_job
@@ -485,18 +433,37 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     if job is not None:
         options = {**job.options, **options}
     dataset = job_dataset(job, nominal) if job is not None else read_robot_dataset(data_path, nominal)
+    n_rows = dataset.n_samples
+    if rows is not None:
+        dataset = rows_of_set(dataset, rows, data_path)
     model = load_model(model_path, nominal, dataset)
     fitted, note = fitted_data(model, nominal)
     changed = (nominal_path is None and provenance.robot_sha256 and nominal.source is not None
                and sha256(nominal.source) != provenance.robot_sha256)
     result = check_model(model, nominal, dataset, CalibrationOptions(**options), register, fitted, note)
+    result = replace(result, n_samples_in_file=n_rows)
     nominal_file = nominal_name if Path(nominal_name).is_file() else None  # else a known robot, by its name
     sources = {"model": model_path, "nominal": nominal_name,
-               "nominal_given": nominal_path is not None, "data": data_path,
+               "nominal_given": nominal_path is not None, "data": data_path, "rows": rows or "all",
                "provenance": {"pincal_version": version(),
+                              "options": {**options, "register": register, "set": rows},
                               "sha256": file_digests(model_path, corrections_path(model_path), data_path,
                                                      *(job.files if job else ()), nominal_file)}}
     content = check_content(result, sources)
     if changed:
         content["nominal_changed"] = True
     return result, content
+
+
+def rows_of_set(dataset: Dataset, name: str, data_path: str) -> Dataset:
+    """The rows of ``dataset`` in set ``name`` (``train`` or ``test``).
+
+    Raises:
+        DataError: ``dataset`` has no row of that set.
+    """
+    chosen = dataset.of_set(name)
+    if not chosen.n_samples:
+        counts = ", ".join(f"{s} {dataset.sets.count(s)}" for s in sorted(set(dataset.sets)))
+        raise DataError(f"DATA '{data_path}' has no set={name} row ({counts}): mark the rows to check in its 'set' "
+                        "column, or a job file's held_out, or leave --set out to check every row")
+    return chosen

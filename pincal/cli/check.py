@@ -31,8 +31,10 @@ def _pair(figures: dict[str, Any], suffix: str, unit: str) -> str:
 
 def summary_text(content: dict[str, Any]) -> str:
     """The terminal summary of a check's report content (lengths in mm, angles in mrad)."""
+    rows = ("every row, set=train and set=test alike" if content["rows"] == "all"
+            else f"its set={content['rows']} rows, --set")
     lines = [f"pincal check: MODEL '{content['model']}' on {content['n_samples']} of the "
-             f"{content['n_samples_in_file']} samples of '{content['data']}' (every row, set=train and set=test alike)",
+             f"{content['n_samples_in_file']} samples of '{content['data']}' ({rows})",
              f"  MODEL:   {content['model_means']}",
              f"  nominal: '{content['nominal']}'{' (--nominal)' if content['nominal_given'] else ''}, "
              f"{content['nominal_means']}", ""]
@@ -107,7 +109,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     from pincal.io.files import json_text, write_texts
 
     outputs = [(what, path) for what, path in (("--report", args.report), ("--html", args.html)) if path]
-    check, content = run_check(args.model, args.data, args.nominal, given_options(args), args.register, outputs)
+    check, content = run_check(args.model, args.data, args.nominal, given_options(args), args.register, outputs,
+                               args.set)
     print(summary_text(content))
     texts = []
     if args.report:
@@ -130,13 +133,14 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``check`` command."""
     check = sub.add_parser(
         "check", help="predict new measurements with a calibrated model, beside the nominal robot",
-        description="Predict every measurement of DATA (every row, set=train and set=test alike) with MODEL and "
+        description="Predict every measurement of DATA (every row, set=train and set=test alike; --set: one set) "
+                    "with MODEL and "
                     "with the nominal robot; print the RMS and max error of each quantity side by side. MODEL is "
-                    "used as it stands (its measurement frame, markers, cameras and targets as the file holds "
-                    "them); the nominal robot's measurement setup is placed on DATA in closed form, as calibrate's "
-                    "'before'. --register re-estimates both setups on DATA (least squares), the robots held. Exit "
-                    "status 1 when MODEL predicts DATA worse than the nominal robot, or a registration did not "
-                    "converge (docs/check.md).",
+                    "used as it stands (its measurement frame, markers, cameras, targets and contact planes as the "
+                    "file holds them); the nominal robot's measurement setup is placed on DATA in closed form, as "
+                    "calibrate's 'before'. --register re-estimates both setups on DATA (least squares), the robots "
+                    "held. Exit status 1 when MODEL predicts DATA worse than the nominal robot, or a registration "
+                    "did not converge (docs/check.md).",
         epilog="example: pincal check cal.urdf new_day.csv --register --report check.json --html check.html")
     check.add_argument("model", metavar="MODEL",
                        help="calibrated URDF (its .corrections.json beside it is read), a known robot name, or the "
@@ -145,8 +149,12 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     check.add_argument("--nominal", metavar="ROBOT",
                        help="the nominal robot (URDF or known name; default: the one MODEL records)")
     check.add_argument("--register", action="store_true",
-                       help="re-estimate the measurement setup (measurement frame, markers, cameras, targets) of "
+                       help="re-estimate the measurement setup (measurement frame, markers, cameras, targets, "
+                            "contact planes) of "
                             "both robots on DATA, their geometry held")
+    check.add_argument("--set", choices=("train", "test"),
+                       help="check only the rows of this set (a CSV's 'set' column; a job file's held_out rows are "
+                            "'test'): calibrate on train, check on test (default: every row)")
     check.add_argument("--report", metavar="R.json", help="report JSON to write (SI units)")
     check.add_argument("--html", metavar="PAGE.html", help="self-contained HTML page to write")
     add_calibration_options(check, skip=[name for name in OPTIONS if name not in CHECK_OPTIONS])

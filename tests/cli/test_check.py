@@ -221,6 +221,8 @@ def test_errors_are_one_line(delta: Path, tmp_path: Path) -> None:
     other.write_text(data.read_text(encoding="utf-8").replace("position:end_effector:", "position:tool9:"),
                      encoding="utf-8")
     assert "tool9" in _error_line(run_pincal("check", model, str(other), "--nominal", "delta"))
+    line = _error_line(run_pincal("check", model, str(data), "--nominal", "delta", "--set", "test"))
+    assert "no set=test row (train 30)" in line  # a set with no row is said, not checked as an empty set
     before = data.read_bytes()
     line = _error_line(run_pincal("check", model, str(data), "--nominal", "delta", "--report", str(data)))
     assert "input" in line and data.read_bytes() == before
@@ -245,3 +247,47 @@ def test_other_kinds_to_the_noise(robot: str, kinds: list[str], quantities: set,
     for q in out["quantities"]:
         assert q["rms"] < 3 * NOISE and q["nominal_rms"] > 10 * q["rms"], q
     assert out["rms_angle"] < 3 * NOISE and out["nominal_rms_angle"] > 1e-3  # [rad]
+
+
+def test_tiago_job_calibrated_then_checked_on_its_held_out_rows(tmp_path: Path) -> None:
+    """The lifecycle on real data as a user runs it: the job file calibrates on its rows but the held-out ones, and
+    ``check --set test`` takes those rows of the same job file. As it stands the model's figures are the calibration's
+    own held-out ones; with ``--register`` (the mocap frame and the marker re-estimated on the six) they can only be
+    lower, and the nominal robot, registered the same way, stays worse."""
+    job = EXAMPLES.parent / "tiago_job.toml"
+    _ok(run_pincal("calibrate", str(job), "--out", str(tmp_path / "cal.urdf"), "--report", str(tmp_path / "r.json")))
+    calibration = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"))
+    as_is = _check(str(tmp_path / "cal.urdf"), str(job), "--set", "test", where=tmp_path)
+    assert (as_is["rows"], as_is["n_samples"], as_is["n_samples_in_file"]) == ("test", 6, 34)
+    assert "its set=test rows" in as_is["stdout"]
+    assert as_is["rms"] == pytest.approx(calibration["test_rms_after"], rel=1e-9)
+    registered = _check(str(tmp_path / "cal.urdf"), str(job), "--set", "test", "--register", where=tmp_path)
+    assert registered["provenance"]["options"]["register"] is True
+    assert registered["setup"]["model_converged"] is True
+    assert registered["rms"] <= as_is["rms"] and registered["rms"] < registered["nominal_rms"]
+    assert registered["outside_range"]["known"] is True  # the job file the calibration recorded gives the range
+    raw = EXAMPLES / "tiago_mocap_raw.csv"  # no set column: every row is train
+    line = _error_line(run_pincal("check", str(tmp_path / "cal.urdf"), str(job), "--set", "train", "--report",
+                                  str(raw)))
+    assert "input" in line
+
+
+@pytest.mark.parametrize("key", ["plane:tool0", "plane_point:tool0"])
+def test_contact_with_a_plane_is_checked_against_the_calibrated_plane(key: str, tmp_path: Path) -> None:
+    """Contact data: MODEL's calibrated plane (its ``contact_plane`` link) predicts other postures of the same truth to
+    the noise, the nominal robot with its plane fitted in closed form does not; ``--register`` re-estimates the plane
+    (the table may have moved), and a MODEL without the plane link is refused without it."""
+    for out, samples in (("fit", "40"), ("new", "80")):
+        _ok(run_pincal("simulate", "ur10", "--measure", key, "--samples", samples, "--seed", "3", "--out",
+                       str(tmp_path / out), "--quiet"))
+    _ok(run_pincal("calibrate", "ur10", str(tmp_path / "fit" / "measurements.csv"), "--out",
+                   str(tmp_path / "cal.urdf")))
+    new = str(tmp_path / "new" / "measurements.csv")
+    for extra in ((), ("--register",)):
+        out = _check(str(tmp_path / "cal.urdf"), new, *extra, where=tmp_path)
+        assert any(name.startswith("plane.") for name in out["setup"]["parameters"])
+        assert out["rms"] < 3 * NOISE < 0.1 * out["nominal_rms"], out["stdout"]
+    text = (tmp_path / "cal.urdf").read_text(encoding="utf-8")
+    (tmp_path / "bare.urdf").write_text(text.replace('"contact_plane"', '"other_plane"'), encoding="utf-8")
+    line = _error_line(run_pincal("check", str(tmp_path / "bare.urdf"), new, "--nominal", "ur10"))
+    assert "contact_plane" in line and "--register" in line

@@ -1,0 +1,85 @@
+"""The measurement setup of ``pincal check``: what a day's measurements may have moved without touching the robot.
+
+The setup is the measurement frame (``base.*``), the markers, the cameras and their targets, and the planes a frame
+touches. A check prepares each robot with these as its only parameters (:func:`prepare_setup`); the model's values are
+those its calibrated URDF holds (:func:`file_setup`, docs/calibrated_urdf.md), [m, rad].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.calibration.options import CalibrationOptions
+from pincal.calibration.setup import Prepared, dataset_models, parameters_for, prepare
+from pincal.errors import DataError
+from pincal.identification.measurements import PLANE, split_target
+from pincal.identification.problem import CalibrationProblem
+from pincal.identification.starts import set_placement
+from pincal.io.calibrated_urdf import attached_link, marker_link
+from pincal.io.dataset import Dataset
+from pincal.model.robot import Robot
+
+Array = npt.NDArray[np.float64]
+
+#: The parameter kinds of the measurement setup: what a day's measurements may have moved, not the robot.
+SETUP_KINDS = ("base", "marker", "cluster", "camera", "target", PLANE)
+
+MODEL_AS_IS = ("MODEL as it stands: the measurement frame, markers, cameras, targets and contact planes the file "
+               "holds; nothing estimated")
+MODEL_REGISTERED = ("MODEL's robot with its measurement setup (measurement frame, markers, cameras, targets, contact "
+                    "planes) re-estimated on DATA by least squares, its geometry held")
+NOMINAL_PLACED = ("the nominal robot with its measurement setup placed in closed form on DATA (measurement frame by "
+                  "Kabsch, cameras and targets hand-eye, contact planes fitted to the contact points, markers at "
+                  "their nominal offsets), as calibrate's 'before'")
+NOMINAL_REGISTERED = ("the nominal robot with its measurement setup re-estimated on DATA by least squares, as "
+                      "MODEL's")
+
+
+def prepare_setup(robot: Robot, dataset: Dataset, options: CalibrationOptions) -> Prepared:
+    """Every usable sample of ``dataset`` prepared for ``robot`` with the measurement setup as the parameters (the
+    default set's ``base``, ``marker``, ``camera``, ``target`` and ``plane`` parameters, each declared marker on its
+    own)."""
+    models = dataset_models(robot, dataset, options)
+    others = [p.name for p in parameters_for(robot, models, None, "each") if p.kind not in SETUP_KINDS]
+    return prepare(robot, dataset, options, part=None, leave_out=others)
+
+
+def file_setup(problem: CalibrationProblem, register: bool) -> Array:
+    """The setup as a calibrated robot's file holds it, as values [m, rad] of ``problem``'s setup parameters: each
+    marker's point is its ``<frame>_marker`` link (less its declared nominal offset), each camera, target and contact
+    plane its link (``contact_plane`` in the world, ``<support>_plane`` on a support; docs/calibrated_urdf.md); the
+    measurement frame is the file's root (zero). A marker without a link is at its nominal offset.
+
+    Raises:
+        DataError: a camera, target or plane without its link, unless ``register`` (which places it on the data).
+    """
+    robot, parameters = problem.robot, problem.parameters
+    q = robot.q_reference
+    x = np.zeros(len(parameters))
+    declared = {t: nominal for m in problem.measurements for t, nominal in m.markers.items()}
+
+    def relative(frame: str, link: str) -> pin.SE3 | None:
+        if not robot.model.existFrame(link):
+            return None
+        placement = robot.placement(q, link)
+        return robot.placement(q, frame).inverse() * placement if frame else placement
+
+    for (_, owner, _), idx in parameters.groups("marker").items():
+        found = relative(split_target(owner)[0], marker_link(owner))
+        if found is not None:
+            point = found.translation - np.asarray(declared.get(owner) or (0.0, 0.0, 0.0))
+            for k in idx:
+                x[k] = point[parameters.parameters[k].component]
+    for (kind, owner, _), idx in parameters.groups("camera", "target", PLANE).items():
+        link = attached_link(kind, owner)
+        found = relative(owner if kind == "camera" else split_target(owner)[0] if owner else "", link)
+        if found is not None:
+            set_placement(problem, x, idx, found)
+        elif not register:
+            readings = "contact" if kind == PLANE else "camera"
+            raise DataError(f"MODEL has no link '{link}' (where a calibrated URDF holds its {kind}): without it the "
+                            f"model cannot predict the {readings} readings as it stands; check with --register, which "
+                            f"places the {'planes' if kind == PLANE else 'cameras and targets'} on DATA")
+    return x
