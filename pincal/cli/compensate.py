@@ -30,17 +30,21 @@ def cmd_compensate(args: argparse.Namespace) -> int:
         nominal_targets,
         targets_frame,
     )
-    from pincal.calibration.provenance import file_digests, version
+    from pincal.calibration.provenance import file_digests, read_provenance, version
     from pincal.calibration.samples import check_recorded_robot
     from pincal.io.files import check_outputs, write_text
     from pincal.io.targets import commands_text, read_targets, targets_text
     from pincal.model.robot import load_robot
 
-    if args.nominal_targets and not args.nominal:
-        raise DataError("--nominal-targets needs --nominal ROBOT: the nominal model the controller keeps")
-    inputs = [p for p in (args.model, args.targets, args.nominal) if p and Path(p).is_file()]
+    nominal_name = args.nominal
+    if args.nominal_targets and not nominal_name:
+        nominal_name = read_provenance(args.model).robot
+        if nominal_name is None:
+            raise DataError(f"--nominal-targets needs the nominal model the controller keeps: MODEL '{args.model}' "
+                            "records none (no pincal provenance in it); give it with --nominal ROBOT")
+    inputs = [p for p in (args.model, args.targets, nominal_name) if p and Path(p).is_file()]
     check_outputs([("--out", args.out)], inputs)
-    nominal = load_robot(args.nominal) if args.nominal else None
+    nominal = load_robot(nominal_name) if nominal_name else None
     model = load_model(args.model, nominal)
     if model.corrections_file is not None:
         inputs.append(model.corrections_file)
@@ -76,7 +80,7 @@ def cmd_compensate(args: argparse.Namespace) -> int:
             print(f"  ... and {len(missed) - SHOWN} more")
     common = {"pincal": version(), "robot": robot.name, "model": str(args.model), "corrections": corrections,
               "targets": f"{args.targets} ({targets.key})",
-              **({"gravity torques of": args.nominal or model.corrections.nominal_urdf}
+              **({"gravity torques of": nominal_name or model.corrections.nominal_urdf}
                  if model.corrections is not None and model.torque_robot is not None else {}),
               **{f"sha256 {name}": digest
                  for name, digest in file_digests(args.model, model.corrections_file, args.targets).items()}}
@@ -85,7 +89,7 @@ def cmd_compensate(args: argparse.Namespace) -> int:
         values, statuses, frame = nominal_targets(result, nominal)
         nominal_root = nominal.model.frames[1].name
         text = targets_text(targets.key, targets.ids, values, statuses, {
-            **common, "nominal": str(args.nominal),
+            **common, "nominal": str(nominal_name) + ("" if args.nominal else " (recorded in MODEL)"),
             "contents": f"the targets to send a controller that keeps the nominal model: its frame {frame} at the raw "
                         "commands, which the calibrated model puts on each target",
             "targets in": f"the nominal robot's root link '{nominal_root}'", "frame": frame, "units": "SI (m, rad)"})
@@ -95,6 +99,7 @@ def cmd_compensate(args: argparse.Namespace) -> int:
             **common, "contents": "raw actuated commands [rad or m] that bring the frame on each target; the residual "
                                   "[m, rad] of the model at the commands; status",
             "targets in": where, "frame": result.frame, "tolerance": f"{result.tolerance:g} (m, rad)",
+            "seed": str(args.seed),
             "units": "SI (m, rad)"}, orientation=targets.kind == "pose")
         missed_nominal = []
     write_text(args.out, text)
@@ -118,7 +123,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                     "instead the targets to send a controller that keeps the nominal model. Exit status: 0 every "
                     "target reached, 1 some unreachable (the file is written), 2 an error.",
         epilog="example: pincal compensate cal.urdf targets.csv --out commands.csv; "
-               "pincal compensate cal.urdf targets.csv --nominal delta --nominal-targets --out nominal_targets.csv")
+               "pincal compensate cal.urdf targets.csv --nominal-targets --out nominal_targets.csv")
     p.add_argument("model", metavar="MODEL", help="calibrated URDF (its .corrections.json beside it is read), another "
                                                   "URDF or a known robot name (nothing corrected)")
     p.add_argument("targets", metavar="TARGETS", help="targets CSV [m, unit quaternions] (docs/compensate.md)")
@@ -133,8 +138,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="the nominal robot (URDF or name): for --nominal-targets, and for the gravity torques of "
                         "compliance corrections (default: the nominal URDF the corrections file names)")
     p.add_argument("--nominal-targets", action="store_true",
-                   help="write the targets to send a controller that keeps the --nominal model (in its root frame), "
-                        "instead of joint commands")
+                   help="write the targets to send a controller that keeps the nominal model (--nominal, default "
+                        "the one MODEL records; in its root frame), instead of joint commands")
     p.add_argument("--tolerance", type=positive_float, metavar="TOL",
                    help="largest residual [m, rad] of the model at the commands for a reached target (default 1e-9)")
     p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the random starts (default 0)")
