@@ -6,6 +6,8 @@
 
 from __future__ import annotations
 
+import hashlib
+import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal import validation
-from pincal.calibration.provenance import sha256, version
+from pincal.calibration.provenance import Provenance, robot_source, sha256, version, with_provenance
 from pincal.calibration.setup import check_movable, idle_parameters, measurement_models, parameters_for
 from pincal.errors import ConvergenceError, DataError
 from pincal.identification.corrections import Payload
@@ -148,9 +150,23 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
                       ["train"] * n_train + ["test"] * n_test,
                       {"robot": robot.name, "pincal": version(), "units": "SI (m, rad)", "perturb": repr(perturb),
                        "seed": str(seed),
+                       **({"robot sha256": sha256(robot.source)} if robot.source is not None else {}),
+                       "simulate": json.dumps(simulation_options(kinds, n_train, n_test, frame, perturb, noise, seed,
+                                                                 parameter_spec, spread, payload, joint_noise)),
                        **{f"sigma {m.key.split(':', 1)[0]} {m.key.split(':', 1)[1]}": repr(max(noise, 1e-9))
                           for m in models}})
     return Simulation(robot, pset, x_true, dataset, models, payload)
+
+
+def simulation_options(kinds: Sequence[str], n_train: int, n_test: int, frame: str | None, perturb: float,
+                       noise: float, seed: int, parameter_spec: Sequence[str] | None, spread: float | None,
+                       payload: Payload | None, joint_noise: float) -> dict[str, Any]:
+    """The arguments of :func:`simulate` as its outputs record them (JSON values; lengths [m], angles [rad], mass
+    [kg])."""
+    return {"measure": list(kinds), "samples": n_train, "test_samples": n_test, "frame": frame, "perturb": perturb,
+            "noise": noise, "joint_noise": joint_noise, "seed": seed,
+            "parameters": list(parameter_spec) if parameter_spec is not None else None, "spread": spread,
+            "payload": payload.as_dict() if payload is not None else None}
 
 
 #: Rounds of redrawing the postures the simulated (true) robot cannot assemble: near the edge of the workspace, a
@@ -190,9 +206,11 @@ def simulation_outputs(robot: Robot, out: str | Path, meshes: MeshMode = "keep")
     return paths
 
 
-def write_simulation(sim: Simulation, out: Path, meshes: MeshMode = "keep") -> list[Path]:
+def write_simulation(sim: Simulation, out: Path, meshes: MeshMode = "keep", given: str | None = None) -> list[Path]:
     """Write measurements.csv, truth.urdf and truth.json into ``out`` (with ``meshes`` ``copy``, the meshes into
-    ``out/truth_meshes/``: :mod:`pincal.io.mesh_files`); returns the paths of the first three.
+    ``out/truth_meshes/``: :mod:`pincal.io.mesh_files`), and truth.corrections.json when the truth has joint
+    corrections; returns the paths of the first three. ``truth.urdf`` (its ``<pincal_provenance>`` element) and
+    the corrections file record the robot (``given``: as the user named it) and the simulation's arguments.
 
     ``truth.urdf`` is the true robot written as a calibrated URDF (docs/calibrated_urdf.md): its forward
     kinematics at the actuated readings of ``measurements.csv``, in its root frame (the measurement frame
@@ -209,9 +227,22 @@ def write_simulation(sim: Simulation, out: Path, meshes: MeshMode = "keep") -> l
              "robot_sha256": sha256(sim.robot.source) if sim.robot.source is not None else None,
              "units": "SI: m, rad", "parameters": sim.parameters.as_dict(sim.x_true),
              "reference_shifts": shifts, "joint_sensor_zeros": joint_sensor_zeros(text)}
+    provenance = simulation_provenance(sim, given)
+    corrections = corrections_of(sim.robot, sim.parameters, sim.x_true, sim.payload)
+    beside: list[tuple[Path, str | bytes]] = []
+    named = None
+    if corrections is not None:  # the true joint harmonics and compliances, as a calibration writes them
+        content = {**corrections_dict(corrections, sim.robot), "provenance": provenance.as_dict(out)}
+        beside.append((corrections_path(paths[1]), json_text(content)))
+        named = (corrections_path(paths[1]).name, hashlib.sha256(str(beside[0][1]).encode("utf-8")).hexdigest())
+    text = with_provenance(text, provenance, out, named)
     texts: list[tuple[Path, str | bytes]] = list(zip(paths, (dataset_text(sim.dataset), plan.text(text),
                                                              json_text(truth)), strict=True))
-    corrections = corrections_of(sim.robot, sim.parameters, sim.x_true, sim.payload)
-    if corrections is not None:  # the true joint harmonics and compliances, as a calibration writes them
-        texts.append((corrections_path(paths[1]), json_text(corrections_dict(corrections, sim.robot))))
-    return write_texts([*texts, *plan.files()])[:len(texts)]
+    return write_texts([*texts, *beside, *plan.files()])[:len(texts)]
+
+
+def simulation_provenance(sim: Simulation, given: str | None = None) -> Provenance:
+    """What a simulation's truth files record: the pincal version, the robot (``given``: as the user named it, else
+    its name) and its URDF's SHA-256, no data (the simulation made them), and the simulation's arguments."""
+    options = json.loads(sim.dataset.metadata.get("simulate", "{}"))
+    return Provenance(robot_source(given or sim.robot.name, sim.robot), [], options, version())

@@ -53,7 +53,8 @@ def _written(cal: Calibration, robot: Robot, provenance: Provenance, out: str | 
     texts: list[tuple[str | Path, str | bytes]] = []
     named = None
     if cal.corrections is not None and beside is not None:  # what the URDF cannot hold goes beside it
-        text = json_text(corrections_dict(cal.corrections, robot, beside.parent))
+        text = json_text({**corrections_dict(cal.corrections, robot, beside.parent),
+                          "provenance": provenance.as_dict(beside.parent)})
         texts.append((beside, text))
         named = (beside.name, hashlib.sha256(text.encode("utf-8")).hexdigest())
     if out:
@@ -112,12 +113,14 @@ JOB_SUFFIX = ".toml"
 
 @dataclass(frozen=True)
 class Inputs:
-    """What a command calibrates: the robot, the dataset (in SI units), the options, and the files read."""
+    """What a command calibrates: the robot, the dataset (in SI units), the options, the files read, and the robot
+    as the command or the job file named it."""
 
     robot: Robot
     dataset: Dataset
     options: CalibrationOptions
     files: list[Path]
+    robot_given: str = ""
 
 
 def read_inputs(command: str, robot_or_job: str, data: str | None, options: dict[str, Any]) -> Inputs:
@@ -138,10 +141,11 @@ def read_inputs(command: str, robot_or_job: str, data: str | None, options: dict
         job = read_job(robot_or_job).overridden(**{k: v for k, v in options.items() if k != "markers"})
         check_cv_seed(job.options.get("cv"), job.options.get("cv_seed", 0), job.path, job.path)
         robot = load_job_robot(job)
-        return Inputs(robot, job_dataset(job, robot), options_of(None, job.options), [job.path, *job.files])
+        return Inputs(robot, job_dataset(job, robot), options_of(None, job.options), [job.path, *job.files],
+                      str(job.robot))
     if data is None:
         raise PincalError(f"{command}: DATA is missing: give pincal {command} ROBOT DATA.csv, or a job file "
                           f"JOB{JOB_SUFFIX} (docs/job_file.md); got only '{robot_or_job}'")
     check_cv_seed(options.get("cv"), options.get("cv_seed", 0), "command line", "command line")
     robot = load_robot(robot_or_job)
-    return Inputs(robot, read_robot_dataset(data, robot), options_of(None, options), [Path(data)])
+    return Inputs(robot, read_robot_dataset(data, robot), options_of(None, options), [Path(data)], robot_or_job)

@@ -100,7 +100,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         sim = simulate(robot, args.measure, args.samples, args.test_samples, frame=args.frame, perturb=args.perturb,
                        noise=args.noise, seed=args.seed, parameter_spec=args.parameters, progress=not args.quiet,
                        spread=args.spread, payload=args.payload)
-        paths = write_simulation(sim, Path(args.out), args.meshes)
+        paths = write_simulation(sim, Path(args.out), args.meshes, given=args.robot)
     except PincalError:
         if created:  # the directory made above, still empty: nothing is left behind
             with contextlib.suppress(OSError):

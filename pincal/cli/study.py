@@ -73,13 +73,19 @@ def cmd_design(args: argparse.Namespace) -> int:
     chosen = qa[selection.indices]
     units = [joint_unit(robot, j) for j in robot.actuated_joints]
     if args.out:
+        from pincal.calibration.provenance import sha256, version
+
         out = Path(args.out)
         write_dataset(Dataset(list(robot.actuated_joints), chosen, {}, [str(k) for k in range(len(chosen))],
                               ["train"] * len(chosen),
-                              {"robot": robot.name, "units": "SI (m, rad)", "design": args.criterion,
+                              {"robot": robot.name, "pincal": version(),
+                               **({"robot sha256": sha256(robot.source)} if robot.source is not None else {}),
+                               "parameters": " ".join(args.parameters or ["default"]),
+                               "units": "SI (m, rad)", "design": args.criterion,
                                "condition number": f"{selection.condition_number:.6g}",
                                "candidates": str(args.candidates), "seed": str(args.seed),
-                               "measure": keys}), out)
+                               "measure": keys, **({"spread": repr(args.spread)} if args.spread is not None else {})}),
+                      out)
         print(f"wrote {out}: {len(chosen)} postures (in measuring order) × {len(units)} actuated joints "
               f"({', '.join(f'{j} [{u}]' for j, u in zip(robot.actuated_joints, units, strict=True))})")
     else:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from pincal.calibration.options import OPTIONS
@@ -11,6 +13,7 @@ from pincal.cli.arguments import add_calibration_options, add_robot, given_optio
 from pincal.errors import DataError, PincalError
 
 if TYPE_CHECKING:  # the work's modules load when a command runs, not to parse its arguments
+    from pincal.calibration.from_files import Inputs
     from pincal.calibration.pipeline import Calibration
     from pincal.calibration.report import CalibrationReport
     from pincal.viz.scene import CalibrationView
@@ -30,6 +33,7 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
 
     read = read_inputs(args.command, args.robot, args.data, given_options(args))
     robot, dataset, options = read.robot, read.dataset, read.options
+    provenance = page_provenance(read, args)
     inputs = (*robot_files(robot), *read.files, args.result, getattr(args, "truth", None))
     check_outputs([("--out", args.out)], [p for p in inputs if p is not None])  # before any work
     if args.result:
@@ -40,11 +44,24 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
             check_same_data(view, dataset)
         except DataError as exc:  # which of the command's files the message is about
             raise DataError(f"--result '{args.result}': {exc}") from None
+        view.report = replace(view.report, provenance=provenance)
         return view, None
     if not args.quiet:
         print(f"calibrating '{robot.name}' from {dataset.n_samples} samples ...", file=sys.stderr)
     calibration = calibrate(robot, dataset, options)
-    return CalibrationView.from_calibration(calibration), calibration
+    view = CalibrationView.from_calibration(calibration)
+    view.report = replace(view.report, provenance=provenance)
+    return view, calibration
+
+
+def page_provenance(read: Inputs, args: argparse.Namespace) -> dict[str, Any]:
+    """What a page records of its inputs: the pincal version, the robot and data files (``--result`` among them) with
+    their SHA-256, the options; paths relative to the page's folder."""
+    from pincal.calibration.provenance import Provenance, file_source, options_dict, robot_source
+
+    data = [file_source(p) for p in (*read.files, *([args.result] if args.result else []))]
+    return Provenance(robot_source(read.robot_given, read.robot), data,
+                      options_dict(read.options)).as_dict(Path(args.out).parent)
 
 
 #: The options a ``--result`` JSON records, and where: a fit's option given with ``--result`` must be the recorded one.

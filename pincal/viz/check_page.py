@@ -14,6 +14,7 @@ from matplotlib.figure import Figure
 
 from pincal.viz.html_report import STYLE
 from pincal.viz.plots import png_bytes
+from pincal.viz.static_page import provenance_html
 
 #: Display unit and scale of each SI unit.
 SHOWN = {"m": ("mm", 1e3), "rad": ("mrad", 1e3)}
@@ -91,5 +92,6 @@ def check_page(content: dict[str, Any]) -> str:
 {_plot(content)}
 <p>{range_text}</p>
 {f'<h2>Samples left out</h2><ul>{dropped}</ul>' if dropped else ''}
+{provenance_html(content.get("provenance"))}
 </main></body></html>
 """

@@ -26,7 +26,7 @@ from pincal.errors import DataError
 from pincal.io.files import make_directory, write_text
 from pincal.progress import Progress
 from pincal.viz.scene import CalibrationView, static_scene, workspace_points
-from pincal.viz.static_page import workspace_text
+from pincal.viz.static_page import provenance_html, workspace_text
 
 Array = npt.NDArray[np.float64]
 
@@ -470,6 +470,7 @@ estimate (±2σ bars in the figure). Parameters that are not identifiable keep m
 {shift_text}
 <h2>What the data cannot separate</h2>
 {_combinations(report)}
+{provenance_html(report.provenance)}
 </main>
 <script>{SCENE_LISTENER}</script>
 </body></html>

@@ -373,7 +373,7 @@ def static_scene(view: CalibrationView, title: str | None = None, quiet: bool = 
     scene = StaticScene()
     summary = draw_calibration(scene.visualizer(), view, quiet)
     name = title or f"pincal · {view.problem.robot.name}: nominal vs calibrated, {summary.n_samples} samples"
-    return scene_page(scene, summary, name), summary
+    return scene_page(scene, summary, name, view.report.provenance), summary
 
 
 #: Longest wait for a reply of the meshcat server [ms].

@@ -288,8 +288,20 @@ def _mm(size: float) -> str:
     return f"{size * 1e3:.4g}" if np.isfinite(size) else "–"
 
 
-def scene_page(scene: StaticScene, summary: SceneSummary, title: str) -> str:
-    """A self-contained HTML page of the recorded scene, with a legend and a sample slider."""
+def provenance_html(provenance: dict[str, Any] | None) -> str:
+    """A page's provenance (the pincal version, the input files with their SHA-256, the options: docs/check.md,
+    docs/calibrated_urdf.md) as a folded block of its JSON; empty when there is none."""
+    if not provenance:
+        return ""
+    text = html.escape(json.dumps(provenance, indent=1))
+    version = html.escape(str(provenance.get("pincal_version")))
+    return (f'<details class="provenance"><summary>Provenance: pincal {version}'
+            f", the input files with their SHA-256, the options</summary><pre>{text}</pre></details>")
+
+
+def scene_page(scene: StaticScene, summary: SceneSummary, title: str, provenance: dict[str, Any] | None = None) -> str:
+    """A self-contained HTML page of the recorded scene, with a legend and a sample slider; ``provenance`` recorded
+    in a comment."""
     commands = json.dumps([base64.b64encode(c).decode("ascii") for c in scene.packed()])
     samples = json.dumps({"count": summary.n_samples,
                           "before": [_mm(v) for v in summary.sample_before] if summary.has_lengths else None,
@@ -299,4 +311,11 @@ def scene_page(scene: StaticScene, summary: SceneSummary, title: str) -> str:
             f"<style>{PAGE_STYLE}</style></head>\n<body>\n<div id=\"meshcat-pane\"></div>\n"
             f"{_legend(summary, title)}\n<script id=\"pincal-viewer\" type=\"application/gzip\">{packed_javascript()}"
             f"</script>\n<script>{script}{LOADER}</script>\n"
-            "</body></html>\n")
+            f"{_provenance_comment(provenance)}</body></html>\n")
+
+
+def _provenance_comment(provenance: dict[str, Any] | None) -> str:
+    """``provenance`` as an HTML comment (its JSON, ``--`` escaped), or nothing."""
+    if not provenance:
+        return ""
+    return "<!-- pincal provenance: " + json.dumps(provenance).replace("--", "-\\u002d") + " -->\n"

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import hashlib
+import html
 import json
 import math
 import xml.etree.ElementTree as ET
@@ -90,3 +91,65 @@ def test_a_figure_that_is_not_a_number_is_null_in_the_report(tmp_path: Path) -> 
 
     report = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"), parse_constant=refuse)
     assert report["n_test_samples"] == 5 and report["test_rms_before"] is None and report["test_rms_after"] is None
+
+
+def _every_output(folder: Path) -> None:
+    """Every command's outputs, in ``folder``, the files named relative to it: simulate (with joint compliance, so
+    that corrections files are written), design, calibrate, report, view, check, compensate, export."""
+    folder.mkdir(parents=True)
+    fit = ("--parameters", "default", "*.compliance", "--payload", "2@tool0")
+    runs = [("simulate", "ur10", "--samples", "12", "--test-samples", "3", "--seed", "2", "--out", "sim", "--quiet",
+             *fit),
+            ("design", "ur10", "--poses", "12", "--candidates", "40", "--out", "poses.csv", "--quiet"),
+            ("calibrate", "ur10", "sim/measurements.csv", *fit, "--out", "cal.urdf", "--report", "cal.json"),
+            ("report", "ur10", "sim/measurements.csv", *fit, "--out", "cal.html", "--quiet"),
+            ("view", "ur10", "sim/measurements.csv", *fit, "--out", "view.html", "--quiet"),
+            ("check", "cal.urdf", "sim/measurements.csv", "--set", "test", "--report", "check.json", "--html",
+             "check.html"),
+            ("export", "cal.urdf", "--format", "yaml", "--out", "joints.yaml")]
+    for args in runs:
+        done = run_pincal(*args, cwd=folder)
+        assert done.returncode == 0, (args, done.stdout, done.stderr)
+    (folder / "targets.csv").write_text("sample,position:tool0:x,position:tool0:y,position:tool0:z\nA,0.5,0.3,0.4\n",
+                                        encoding="utf-8")
+    for args in (("--out", "commands.csv"), ("--nominal-targets", "--out", "nominal.csv")):
+        done = run_pincal("compensate", "cal.urdf", "targets.csv", *args, cwd=folder)
+        assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_every_command_records_its_inputs_and_repeats_from_another_folder(tmp_path: Path) -> None:
+    """Each output of each command names the pincal version, its input files with their SHA-256 and its options,
+    and the same commands run in another folder (another depth) give the same bytes."""
+    first, second = tmp_path / "a", tmp_path / "b" / "c" / "d"
+    _every_output(first)
+    _every_output(second)
+    written = sorted(p.relative_to(first) for p in first.rglob("*") if p.is_file())
+    assert len(written) == 16  # 15 outputs and the targets
+    for name in written:
+        assert (first / name).read_bytes() == (second / name).read_bytes(), name
+    data, robot = _sha(first / "sim" / "measurements.csv"), _sha(Path(pincal.robot_path("ur10")))
+    metadata = dict(line[2:].split(": ", 1) for line in (first / "sim" / "measurements.csv").read_text(
+        encoding="utf-8").splitlines() if line.startswith("# "))
+    assert metadata["pincal"] == pincal.__version__ and metadata["robot sha256"] == robot
+    assert json.loads(metadata["simulate"])["payload"]["mass"] == 2.0
+    truth = ET.parse(first / "sim" / "truth.urdf").getroot().find("pincal_provenance")
+    assert truth is not None and truth.get("robot_sha256") == robot
+    assert json.loads(truth.get("options", ""))["seed"] == 2
+    assert truth.get("corrections_sha256") == _sha(first / "sim" / "truth.corrections.json")
+    for corrections in ("sim/truth.corrections.json", "cal.corrections.json"):
+        recorded = json.loads((first / corrections).read_text(encoding="utf-8"))["provenance"]
+        assert recorded["pincal_version"] == pincal.__version__ and recorded["robot"]["sha256"] == robot
+    assert json.loads((first / "cal.corrections.json").read_text(encoding="utf-8"))["provenance"]["data"][0][
+        "sha256"] == data
+    poses = (first / "poses.csv").read_text(encoding="utf-8")
+    assert f"# pincal: {pincal.__version__}" in poses and f"# robot sha256: {robot}" in poses
+    for page in ("cal.html", "view.html", "check.html"):
+        text = (first / page).read_text(encoding="utf-8")
+        assert data in text and pincal.__version__ in text, page
+    assert html.unescape((first / "cal.html").read_text(encoding="utf-8")).count('"select": "auto"') >= 1
+    check = json.loads((first / "check.json").read_text(encoding="utf-8"))["provenance"]
+    assert check["sha256"]["sim/measurements.csv"] == data and check["options"] == {"register": False, "set": "test"}
+    commands = (first / "commands.csv").read_text(encoding="utf-8")
+    assert f"# sha256 cal.urdf: {_sha(first / 'cal.urdf')}" in commands and "# seed: 0" in commands
+    assert "# nominal: ur10 (recorded in MODEL)" in (first / "nominal.csv").read_text(encoding="utf-8")
+    assert _sha(first / "cal.urdf") in (first / "joints.yaml").read_text(encoding="utf-8")

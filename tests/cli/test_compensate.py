@@ -246,7 +246,7 @@ POSE = "sample," + ",".join(f"pose:end_effector:{c}" for c in ("x", "y", "z", "q
      "lacks the columns position:end_effector:z"),
     ("sample,arm_1_joint,position:end_effector:x,position:end_effector:y,position:end_effector:z\nt0,0,0,0,-0.4", (),
      "column 'arm_1_joint' is not a target"),
-    (f"{POSITION}\nt0,0,0,-0.4", ("--nominal-targets",), "MODEL 'delta' records none (no pincal provenance in it); give it with --nominal ROBOT"),
+    (f"{POSITION}\nt0,0,0,-0.4", ("--nominal-targets",), "records none (no pincal provenance in it)"),
     ("sample,position:nowhere:x,position:nowhere:y,position:nowhere:z\nt0,0,0,-0.4", (),
      "frame 'nowhere' does not exist"),
     (f"{POSE}\nt0,0,0,-0.4,0,0,0,1", (), "which has 3 degrees of freedom: give position targets"),
