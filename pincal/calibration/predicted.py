@@ -33,7 +33,7 @@ import numpy.typing as npt
 from pincal.calibration.report import parameter_covariance
 from pincal.calibration.samples import RANGE_MARGIN
 from pincal.errors import ConvergenceError
-from pincal.identification.losses import chi2_upper
+from pincal.identification.chi2 import chi2_upper
 from pincal.identification.metrics import length_columns
 from pincal.identification.predictions import remember
 from pincal.identification.problem import CalibrationProblem, Observations, Prediction
