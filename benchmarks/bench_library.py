@@ -27,7 +27,7 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_commands import BEFORE, environment, export  # noqa: E402
+from bench_commands import BEFORE, environment, export
 
 ROUND = r"""
 import json, statistics, sys, time
