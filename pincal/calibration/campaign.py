@@ -29,7 +29,8 @@ from pincal.io.corrections_file import corrections_dict, corrections_of, correct
 from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text
 from pincal.io.files import check_outputs, json_text, make_directory, write_texts
 from pincal.io.mesh_files import MeshMode, MeshPlan, plan_meshes
-from pincal.model.robot import Robot, unusable_samples
+from pincal.model.assemblable import unusable_samples
+from pincal.model.robot import Robot
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 Array = npt.NDArray[np.float64]
@@ -176,7 +177,8 @@ REDRAWS = 20
 
 def true_robot_failures(at_nominal: CalibrationProblem, x_true: Array) -> list[int]:
     """The samples of ``at_nominal`` that the true robot (nominal + ``x_true`` [m, rad]) cannot assemble, or
-    assembles at a singular configuration (:func:`~pincal.model.robot.unusable_samples`); none for a serial robot."""
+    assembles at a singular configuration (:func:`~pincal.model.assemblable.unusable_samples`); none for a serial
+    robot."""
     if not at_nominal.robot.loops:
         return []
     true_robot = at_nominal.robot_at(x_true)

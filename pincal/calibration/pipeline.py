@@ -45,6 +45,7 @@ from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, s
 from pincal.io.corrections_file import Corrections, corrections_of
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
+from pincal.progress import Progress
 
 Array = npt.NDArray[np.float64]
 
@@ -83,7 +84,7 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     orientation errors [rad]) by forward kinematics, so the ``fkm`` and ``ikm`` formulations can be compared; "before"
     is the fit's start for the fit and the held-out samples alike (``report.before_means`` says what it is). Samples
     that cannot be used are dropped and listed; ``x_true`` (a simulation's true deviations [m, rad]) adds the
-    calibration gain G; ``progress`` shows the cross-validation's folds on stderr (on a terminal).
+    calibration gain G; ``progress`` shows the stages, then the cross-validation's folds, on stderr (on a terminal).
 
     Raises:
         DataError: an option out of range; no training sample (every row is ``set=test``, or none can be used).
@@ -97,31 +98,36 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     check_movable(robot)
     check_cv_seed(options.cv, options.cv_seed)
     check_trainable(dataset)
-    fit = prepare(robot, dataset, options)
-    x_true = _checked_truth(x_true, fit.parameters.names)
-    length_scale = check_units(fit, dataset, options.plausible)  # before any fit, the provisional one included
-    estimated = provisional_noise(fit.problem, dataset.metadata, options, **fitting_options(options))
-    if estimated:  # weighted by the noise the data show, as '# sigma' lines would: before selection
-        dataset = with_noise(dataset, estimated)
+    # the stages on stderr when it is a terminal; the cross-validation after them has its own bar
+    with Progress("calibrate: prepare, fit, evaluate", 3, quiet=not progress) as stages:
         fit = prepare(robot, dataset, options)
-    every, folds = cross_validation_folds(fit, dataset, options)  # checked before any fit
-    fitted = fit_prepared(fit, options)
-    kept = fit.fitted_by(fitted.problem)
-    result = fitted.result
-    checked = plausibility(fitted, length_scale, options.plausible)
-    status = "" if result.converged else f"NOT CONVERGED ({result.message} after {result.iterations} iterations): "
-    if checked["implausible"] or checked["implausible_scale"]:
-        status += "IMPLAUSIBLE (corrections beyond what a robot of this model needs; the report's implausible): "
-    text, shifts = calibrated_robot_text(robot, source_text(robot), kept.parameters, result.x,
-                                         note=f"{status}calibrated by pincal from {fit.samples.n_samples} samples "
-                                              f"({', '.join(m.key for m in fit.models)})",
-                                         read_joints=read_joints(fit.models), markers=declared_markers(fit.models))
-    corrections = corrections_of(robot, kept.parameters, result.x, options.payload)
-    held = evaluate_held_out(kept, dataset, kept.parameters, result.x0, result.x,
-                             trusted=result.sigma2 <= NOISE_CONTRADICTED, result=result)
-    content = report_content(fit, fitted, held, dataset, options, x_true, shifts, corrections)
-    content.update(checked)
-    content["estimated_sigma"] = estimated or None
+        x_true = _checked_truth(x_true, fit.parameters.names)
+        length_scale = check_units(fit, dataset, options.plausible)  # before any fit, the provisional one included
+        estimated = provisional_noise(fit.problem, dataset.metadata, options, **fitting_options(options))
+        if estimated:  # weighted by the noise the data show, as '# sigma' lines would: before selection
+            dataset = with_noise(dataset, estimated)
+            fit = prepare(robot, dataset, options)
+        every, folds = cross_validation_folds(fit, dataset, options)  # checked before any fit
+        stages.advance()
+        fitted = fit_prepared(fit, options)
+        kept = fit.fitted_by(fitted.problem)
+        result = fitted.result
+        stages.advance()
+        checked = plausibility(fitted, length_scale, options.plausible)
+        status = "" if result.converged else f"NOT CONVERGED ({result.message} after {result.iterations} iterations): "
+        if checked["implausible"] or checked["implausible_scale"]:
+            status += "IMPLAUSIBLE (corrections beyond what a robot of this model needs; the report's implausible): "
+        text, shifts = calibrated_robot_text(robot, source_text(robot), kept.parameters, result.x,
+                                             note=f"{status}calibrated by pincal from {fit.samples.n_samples} samples "
+                                                  f"({', '.join(m.key for m in fit.models)})",
+                                             read_joints=read_joints(fit.models), markers=declared_markers(fit.models))
+        corrections = corrections_of(robot, kept.parameters, result.x, options.payload)
+        held = evaluate_held_out(kept, dataset, kept.parameters, result.x0, result.x,
+                                 trusted=result.sigma2 <= NOISE_CONTRADICTED, result=result)
+        content = report_content(fit, fitted, held, dataset, options, x_true, shifts, corrections)
+        content.update(checked)
+        content["estimated_sigma"] = estimated or None
+        stages.advance()
     if folds is not None and every is not None:
         content["cv"] = cross_validate(robot, fit.parameters, fit.models, every.problem.observations, folds,
                                        select=options.selection, progress=progress, payload=options.payload,

@@ -33,10 +33,12 @@ import numpy.typing as npt
 from pincal.calibration.report import parameter_covariance
 from pincal.calibration.samples import RANGE_MARGIN
 from pincal.errors import ConvergenceError
-from pincal.identification.losses import chi2_upper
+from pincal.identification.chi2 import chi2_upper
 from pincal.identification.metrics import length_columns
-from pincal.identification.problem import CalibrationProblem, Observations
+from pincal.identification.predictions import remember
+from pincal.identification.problem import CalibrationProblem, Observations, Prediction
 from pincal.identification.result import CalibrationResult
+from pincal.model.assemblable import assemble
 from pincal.model.robot import Robot
 from pincal.study.simulation import random_actuated
 
@@ -127,15 +129,15 @@ def widening(robot: Robot, actuated: Array, ranges: dict[str, list[float]]) -> A
 
 
 def predicted_errors(problem: CalibrationProblem, fit: CalibrationResult | FitCovariance, x: Array,
-                     factor: Array | None = None) -> PredictedErrors:
+                     factor: Array | None = None, prediction: Prediction | None = None) -> PredictedErrors:
     """The predicted length-type errors of ``problem``'s samples for the model at ``x`` [m, rad] (in ``problem``'s
     parameter order, the one ``fit`` was fitted in), with the covariance the fit gives (its result, or
     :class:`FitCovariance`), each bound multiplied by ``factor`` (N,) (default 1: :func:`widening` gives it outside
-    the fitted range)."""
+    the fitted range); ``prediction``: ``problem``'s evaluation at ``x`` with its Jacobian, if made already."""
     fit = fit if isinstance(fit, FitCovariance) else FitCovariance.of_result(fit)
     n = problem.observations.n_samples
     factor = np.ones(n) if factor is None else factor
-    prediction = problem.evaluate(x, jacobian=True)
+    prediction = problem.evaluate(x, jacobian=True) if prediction is None else prediction
     assert prediction.jacobian is not None
     covariance = fit.matrix
     rows, row_sigma, length_row = _row_layout(problem)
@@ -211,14 +213,18 @@ def workspace_prediction(problem: CalibrationProblem, result: CalibrationResult,
     if not any(length_columns(m.key) == 3 for m in problem.measurements):
         return None
     try:
-        actuated, _ = random_actuated(problem.robot, n, np.random.default_rng(seed))
-        calibrated = problem.robot_at(x)  # a posture the nominal robot closes the calibrated one may not
-        actuated = actuated[[calibrated.solve_fk_report(qa).converged for qa in actuated]]
+        actuated, q = random_actuated(problem.robot, n, np.random.default_rng(seed))
+        # a posture the nominal robot closes the calibrated one may not; the nominal configurations start its solves
+        solved = assemble(problem.robot_at(x), actuated, np.inf, guesses=q)
+        closed, q = solved.usable, solved.q
+        actuated = actuated[closed]
         postures = workspace_postures(problem, actuated)
+        remember(postures, q[closed])
         factor = widening(problem.robot, actuated, ranges)
-        predicted = predicted_errors(postures, result, x, factor)
+        prediction = postures.evaluate(x, jacobian=True)
+        predicted = predicted_errors(postures, result, x, factor, prediction)
         key = next(m.key for m in problem.measurements if length_columns(m.key) == 3)
-        positions = postures.evaluate(x, jacobian=False).predicted[key][:, :3]
+        positions = prediction.predicted[key][:, :3]
     except ConvergenceError:
         return None
     bounds = predicted.bound

@@ -24,7 +24,8 @@ from pincal.identification.parameters import (
 from pincal.identification.problem import CalibrationProblem
 from pincal.io.dataset import OCCLUDABLE_KINDS, Dataset
 from pincal.io.dataset_reader import read_dataset
-from pincal.model.robot import Robot, unusable_samples
+from pincal.model.assemblable import assemble
+from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
 
@@ -63,13 +64,14 @@ def check_recorded_robot(metadata: Mapping[str, str], robot: Robot, path: str | 
                         "the robot the data were taken on, or correct that line")
 
 
-def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, str]]]:
-    """The samples of ``part`` that can be used, and each dropped one with its reason.
+def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, str]], Array | None]:
+    """The samples of ``part`` that can be used, each dropped one with its reason, and the usable samples'
+    configurations (N, nq) the nominal robot closes them in (None for a robot without loops: nothing is solved).
 
     Dropped: samples with no reading at all (every marker's cells empty, and nothing else measured),
     readings outside the URDF joint limits (a reading the robot cannot have is a wrong
     reading), and postures the nominal robot cannot assemble or that sit at a singularity
-    (:func:`~pincal.model.robot.unusable_samples`).
+    (:func:`~pincal.model.assemblable.assemble`).
     """
     reasons: dict[int, str] = dict(unseen_samples(robot, part))
     for k, reason in out_of_limits(robot, part):
@@ -79,10 +81,12 @@ def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, st
                                 else np.full(part.n_samples, reference[k])
                                 for k, j in enumerate(robot.actuated_joints)])
     inside = [k for k in range(part.n_samples) if k not in reasons]
-    for k, reason in unusable_samples(robot, actuated[inside]):
+    solved = assemble(robot, actuated[inside]) if robot.loops else None
+    for k, reason in solved.reasons.items() if solved is not None else ():
         reasons[inside[k]] = reason
     dropped = [{"sample": part.sample_ids[k], "reason": reasons[k]} for k in sorted(reasons)]
-    return part.subset([k for k in range(part.n_samples) if k not in reasons]), dropped
+    usable = [k for k in range(part.n_samples) if k not in reasons]
+    return part.subset(usable), dropped, None if solved is None else solved.q[solved.usable]
 
 
 def unseen_samples(robot: Robot, part: Dataset) -> list[tuple[int, str]]:

@@ -22,6 +22,7 @@ from pincal.identification.choices import MarkerFit
 from pincal.identification.corrections import Payload
 from pincal.identification.measurements import Measurement, parse_key
 from pincal.identification.parameters import ParameterSet, choose_parameters
+from pincal.identification.predictions import remember, remembered
 from pincal.identification.problem import CalibrationProblem
 from pincal.io.adapters import joints_at_reference, measurements_for, observations_from
 from pincal.io.dataset import Dataset
@@ -179,6 +180,7 @@ class Prepared:
             return self
         kept = ParameterSet([p for p, out in zip(self.parameters, idle, strict=True) if not out])
         reduced = CalibrationProblem(self.robot, kept, self.models, problem.observations, payload=self.payload)
+        remember(reduced, remembered(problem))
         return replace(self, parameters=kept, problem=reduced,
                        no_effect=[n for n, out in zip(self.parameters.names, idle, strict=True) if out])
 
@@ -210,10 +212,11 @@ def prepare(robot: Robot, dataset: Dataset, options: CalibrationOptions, part: s
 
 def _prepared(robot: Robot, part: Dataset, models: list[Measurement], pset: ParameterSet, payload: Payload | None,
               at_reference: list[str], what: str, allow_empty: bool = False) -> Prepared:
-    samples, dropped = usable_part(robot, part)
+    samples, dropped, closed = usable_part(robot, part)
     if samples.n_samples == 0 and not allow_empty:
         raise DataError(f"none of the {len(dropped)} {what}samples can be used: "
                         f"{dropped[0]['reason'] if dropped else 'no data'}")
     obs = observations_from(robot, samples.joint_names, samples.joints, samples.measurements, models)
     problem = CalibrationProblem(robot, pset, models, obs, payload=payload)
+    remember(problem, closed)  # the usability check's configurations start the first solves
     return Prepared(robot, models, pset, samples, dropped, problem, at_reference, payload)

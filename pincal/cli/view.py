@@ -48,7 +48,7 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
         return view, None
     if not args.quiet:
         print(f"calibrating '{robot.name}' from {dataset.n_samples} samples ...", file=sys.stderr)
-    calibration = calibrate(robot, dataset, options)
+    calibration = calibrate(robot, dataset, options, progress=not args.quiet)
     view = CalibrationView.from_calibration(calibration)
     view.report = replace(view.report, provenance=provenance)
     return view, calibration

@@ -16,6 +16,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import numpy.typing as npt
 
+from pincal.identification.chi2 import chi2_upper
 from pincal.identification.problem import Prediction, Problem
 
 Array = npt.NDArray[np.float64]
@@ -90,15 +91,6 @@ def sample_weights(problem: Problem, pred: Prediction, weighting: Weighting | No
 def row_weights(problem: Problem, weights: Array) -> Array:
     """Per-sample weights expanded to the residual rows."""
     return np.asarray(weights[problem.row_samples()], dtype=np.float64)
-
-
-def chi2_upper(tail: float | Array, dof: float | npt.ArrayLike) -> Array:
-    """The value a χ² variable with ``dof`` degrees of freedom exceeds with probability ``tail`` (dimensionless):
-    ``chi2.ppf(1 − tail, dof)``, by ``scipy.special.chdtri``: exact, without the cancellation of ``1 − tail`` for a
-    small tail, and without importing ``scipy.stats`` (half a second of a command's start)."""
-    from scipy.special import chdtri
-
-    return np.asarray(chdtri(dof, tail), dtype=np.float64)
 
 
 def noise_scale(problem: Problem, residual: Array, n_fitted: int = 0) -> float:

@@ -223,6 +223,27 @@ def solve_all(problem: CalibrationProblem, robot: Robot, qa_all: Array, x: Array
     return q
 
 
+def remember(problem: CalibrationProblem, q: Array | None) -> None:
+    """Take ``q`` (N, nq), every sample's closed configuration on the reference assembly of ``problem``'s robot at or
+    near the parameters its next evaluation asks for (a usability check's, another problem's on the same samples),
+    as the warm starts of its next solves: Newton from them, refused where it jumps, as from a configuration solved
+    by ``problem`` itself. Nothing for None or a robot without loops."""
+    if q is None or not problem.robot.loops:
+        return
+    q = np.asarray(q, dtype=float)
+    if q.shape != (problem.observations.n_samples, problem.robot.model.nq):
+        raise ValueError(f"configurations of shape {q.shape}, expected "
+                         f"({problem.observations.n_samples}, {problem.robot.model.nq})")
+    problem._q_cache = list(q.copy())
+
+
+def remembered(problem: CalibrationProblem) -> Array | None:
+    """Every sample's last configuration (N, nq) of ``problem``'s solves; None while a sample has none."""
+    if not problem.robot.loops or any(q is None for q in problem._q_cache):
+        return None
+    return np.array(problem._q_cache)
+
+
 def predicted_change(problem: CalibrationProblem, x: Array, rows: IntArray) -> Array | None:
     """(len(rows), n_passive) the passive joints' first-order change [rad or m] from the remembered
     configurations of samples ``rows`` to ``x``: the last Jacobian evaluation's dv/dθ times the parameters'

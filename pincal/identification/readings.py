@@ -30,7 +30,8 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import ConvergenceError, DataError
-from pincal.identification.losses import chi2_upper, noise_scale, outlier_samples, sample_squares
+from pincal.identification.chi2 import chi2_upper
+from pincal.identification.losses import noise_scale, outlier_samples, sample_squares
 from pincal.identification.parameters import ParameterSet, joint_unit, offset_parameter
 from pincal.identification.problem import CalibrationProblem, Observations, Prediction, Problem
 from pincal.identification.result import CalibrationResult

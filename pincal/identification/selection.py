@@ -34,6 +34,7 @@ import scipy.linalg
 from pincal.errors import DataError, PincalError, listing
 from pincal.identification.identifiability import RANK_TOLERANCE
 from pincal.identification.parameters import Parameter
+from pincal.identification.predictions import remember, remembered
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.result import CalibrationResult
 from pincal.identification.solver import identify
@@ -190,9 +191,12 @@ def select_and_fit(problem: CalibrationProblem, policy: str = "bic", **options: 
 def _reduced(problem: CalibrationProblem, kept: list[int], observations: Observations | None = None
              ) -> CalibrationProblem:
     """``problem`` over the parameters ``kept`` (indices), on ``observations`` (default: its own)."""
-    return CalibrationProblem(problem.robot, problem.parameters.subset(kept), problem.measurements,
-                              problem.observations if observations is None else observations,
-                              None if problem.joint_sigma is None else list(problem.joint_sigma), problem.payload)
+    reduced = CalibrationProblem(problem.robot, problem.parameters.subset(kept), problem.measurements,
+                                 problem.observations if observations is None else observations,
+                                 None if problem.joint_sigma is None else list(problem.joint_sigma), problem.payload)
+    if observations is None:  # the same samples: their last configurations start its solves
+        remember(reduced, remembered(problem))
+    return reduced
 
 
 def _refit_without(problem: CalibrationProblem, first: CalibrationResult, removed_groups: tuple[str, ...],

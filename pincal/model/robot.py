@@ -11,7 +11,7 @@ import os
 import sys
 import tempfile
 import xml.etree.ElementTree as ET
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Literal
 
@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal import linalg, validation
+from pincal import validation
 from pincal.errors import ConvergenceError, DataError, LoopError, RobotFileError, listing, not_found
 from pincal.model.catalog import known_robot_names, robot_path
 from pincal.model.closure import LoopClosure
@@ -438,60 +438,6 @@ def check_reference_assembly(robot: Robot, where: str = "URDF") -> None:
                         f"passive joints at the reference configuration (passive closure rank {rank_p} < "
                         f"{robot.kinematics.passive_v.size}): a singular reference or a wrong choice of "
                         "actuated joints")
-
-
-def unusable_samples(robot: Robot, actuated: Array, max_condition: float = 1e5) -> list[tuple[int, str]]:
-    """Samples the nominal robot cannot assemble (FK does not converge) or that sit at a singularity
-    (the passive joints are not determined by the actuated readings), with the reason for each.
-
-    ``actuated`` (N, na) [rad or m]. A closed-loop robot that :mod:`pincal.model.batch_kinematics` takes closes every
-    sample's loops at once and judges their passive closure Jacobians as one stack; the samples it does not close,
-    and the robots it does not take, are solved one by one; a robot without loops has none."""
-    actuated = np.asarray(actuated, dtype=float)
-    if not robot.loops:  # nothing to close: every reading assembles, and no passive joint can be undetermined
-        return []
-    batch = robot.kinematics.batch
-    if batch.unsupported is not None or len(actuated) == 0 or not np.all(np.isfinite(actuated)):
-        return _unusable_one_by_one(robot, actuated, range(len(actuated)), max_condition)
-    q, solved = batch.solve(robot.model, robot.closure, actuated, None, SOLVE_TOLERANCE)
-    rows = np.flatnonzero(solved)
-    out = _unusable_one_by_one(robot, actuated, np.flatnonzero(~solved).tolist(), max_condition)
-    if rows.size:
-        jacobian = batch.state(robot.model, robot.closure, q[rows]).jacobian
-        assert jacobian is not None
-        s = linalg.singular_values(jacobian[:, :, robot.kinematics.passive_v], "the passive closure Jacobians")
-        for k, values in zip(rows.tolist(), s, strict=True):
-            reason = _singular(values, max_condition)
-            if reason:
-                out.append((k, reason))
-    return sorted(out)
-
-
-def _singular(s: Array, max_condition: float) -> str:
-    """Why a sample whose passive closure Jacobian has singular values ``s`` (descending) is singular; empty if not."""
-    if s[-1] <= 0.0 or s[0] / s[-1] > max_condition:
-        return (f"singular configuration (passive closure Jacobian condition number "
-                f"{(s[0] / s[-1]) if s[-1] > 0 else float('inf'):.3g})")
-    return ""
-
-
-def _unusable_one_by_one(robot: Robot, actuated: Array, samples: Iterable[int],
-                         max_condition: float) -> list[tuple[int, str]]:
-    """:func:`unusable_samples` among ``samples`` (rows of ``actuated``), each solved alone."""
-    out: list[tuple[int, str]] = []
-    for k in samples:
-        report = robot.solve_fk_report(actuated[k])
-        if not report.converged:
-            what = "the loops cannot be assembled at its readings: " if robot.loops else ""
-            out.append((k, f"{what}forward kinematics did not converge (closure residual {report.residual:.3g})"))
-            continue
-        if robot.loops:
-            _, jac = robot.kinematics.closure_jacobian(report.q)
-            reason = _singular(linalg.singular_values(jac[:, robot.kinematics.passive_v],
-                                                      "the passive closure Jacobian"), max_condition)
-            if reason:
-                out.append((k, reason))
-    return out
 
 
 def joint_unit(robot: Robot, joint: str) -> Unit:

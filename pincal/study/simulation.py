@@ -11,12 +11,12 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
 from pincal.identification.corrections import Payload
 from pincal.identification.measurements import Measurement
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations
+from pincal.model.assemblable import assemble
 from pincal.model.robot import Robot
 from pincal.progress import Progress
 
@@ -26,6 +26,8 @@ Array = npt.NDArray[np.float64]
 #: describe the workspace: drawn within those limits, most hexapod (77 %) and 3-UCR (90 %) postures cannot be
 #: assembled, and most five-bar ones (55 %) put a passive joint outside its own limits.
 SPREAD = {"five_bar": 0.35, "hexapod": 0.12, "hexapod_device": 0.12, "ucr3": 0.04}
+#: Random postures judged at once while drawing (at least; twice the number still needed when that is more).
+DRAWS_AT_ONCE = 16
 #: Half-range about the reference [rad or m] of an actuated joint without finite URDF limits (a continuous
 #: joint), on a closed-loop robot and on a serial one.
 UNBOUNDED_SPREAD = {"closed": 0.5, "serial": float(np.pi)}
@@ -81,7 +83,9 @@ def random_actuated(robot: Robot, n: int, rng: np.random.Generator, spread: floa
 
     Inputs are uniform within :func:`actuated_ranges` (by default the URDF joint limits; with ``spread``
     [rad or m], ``±spread`` about the reference within the limits); samples whose FK fails or whose passive
-    closure Jacobian is ill-conditioned (near a singularity) are redrawn.
+    closure Jacobian is ill-conditioned (near a singularity) are redrawn. The draws are judged many at once
+    (:func:`~pincal.model.assemblable.assemble`), and ``rng`` is left exactly as if they had been drawn and judged
+    one by one: the postures and the draws after them do not depend on how many were judged together.
     ``progress`` shows a bar on stderr (when it is a terminal), one tick per accepted sample.
 
     Raises:
@@ -89,30 +93,32 @@ def random_actuated(robot: Robot, n: int, rng: np.random.Generator, spread: floa
         DataError: a bad ``spread`` (see :func:`actuated_ranges`).
     """
     lo, hi = actuated_ranges(robot, spread)
+    budget = 50 * n + 100
     qa_out: list[Array] = []
     q_out: list[Array] = []
     attempts = 0
     with Progress(f"postures of '{robot.name}'", n, quiet=not progress) as bar:
         while len(qa_out) < n:
-            attempts += 1
-            if attempts > 50 * n + 100:
+            if attempts >= budget:
                 ranges = ", ".join(f"{j.name} [{a:.4g}, {b:.4g}]"
                                    for j, a, b in zip(robot.kinematics.actuated, lo, hi, strict=True))
                 raise ConvergenceError(f"only {len(qa_out)} of {n} random postures of '{robot.name}' could be "
-                                       f"assembled in {attempts - 1} draws within {ranges} [rad or m]; give a smaller "
+                                       f"assembled in {attempts} draws within {ranges} [rad or m]; give a smaller "
                                        "spread about the reference (--spread)")
-            qa = rng.uniform(lo, hi)
-            report = robot.solve_fk_report(qa)
-            if not report.converged:
-                continue
-            if robot.loops:
-                _, jac = robot.kinematics.closure_jacobian(report.q)
-                s = linalg.singular_values(jac[:, robot.kinematics.passive_v], "the passive closure Jacobian")
-                if s[-1] <= 0 or s[0] / s[-1] > max_condition:
-                    continue
-            qa_out.append(qa)
-            q_out.append(report.q)
-            bar.advance()
+            need = n - len(qa_out)
+            state = rng.bit_generator.state
+            draws = rng.uniform(lo, hi, size=(min(budget - attempts, max(DRAWS_AT_ONCE, 2 * need)), len(lo)))
+            solved = assemble(robot, draws, max_condition)
+            ok, q = solved.usable, solved.q
+            kept = np.flatnonzero(ok)[:need]
+            used = int(kept[-1]) + 1 if len(kept) == need else len(draws)
+            if used < len(draws):  # the generator as if only the draws used had been made
+                rng.bit_generator.state = state
+                rng.uniform(lo, hi, size=(used, len(lo)))
+            attempts += used
+            qa_out.extend(draws[kept])
+            q_out.extend(q[kept])
+            bar.advance(len(kept))
     return np.array(qa_out), np.array(q_out)
 
 

@@ -21,6 +21,8 @@ AFTER = "#1e8449"
 TRUTH = "#1f3a93"
 MM = 1e3
 DEG = 180.0 / np.pi
+#: Width [in] of one character of a 7-point tick label (the parameter names).
+LABEL_WIDTH = 0.058
 
 
 def png_bytes(figure: Figure, dpi: int = 100, palette: bool = False) -> bytes:
@@ -36,6 +38,18 @@ def png_bytes(figure: Figure, dpi: int = 100, palette: bool = False) -> bytes:
     buffer = io.BytesIO()
     image.save(buffer, format="png", optimize=True)
     return buffer.getvalue()
+
+
+def margins(figure: Figure, left: float = 0.75, right: float = 0.2, bottom: float = 0.55, top: float = 0.4,
+            wspace: float = 0.0) -> None:
+    """Place the axes by fixed margins [in] around them (and ``wspace`` [in] between panels), instead of a layout
+    engine that measures every tick label at each draw (matplotlib's constrained layout: a third of a report's
+    figures' time)."""
+    width, height = figure.get_size_inches()
+    columns = max(len(figure.axes), 1)
+    inner = max(width - left - right - wspace * (columns - 1), 0.1) / columns
+    figure.subplots_adjust(left=left / width, right=1.0 - right / width, bottom=bottom / height, top=1.0 - top / height,
+                           wspace=wspace / inner)
 
 
 def _rms(values: Array) -> float:
@@ -55,8 +69,9 @@ def error_histograms(before: Array, after: Array, test_before: Array | None = No
     before, after = before[np.isfinite(before)], after[np.isfinite(after)]
     if test_before is not None and test_after is not None:
         test_before, test_after = test_before[np.isfinite(test_before)], test_after[np.isfinite(test_after)]
-    figure = Figure(figsize=(7.5, 3.6), layout="constrained")
+    figure = Figure(figsize=(7.5, 3.6))
     ax = figure.subplots()
+    margins(figure)
     series = [v for v in (before, after, test_before, test_after) if v is not None and len(v)]
     positive = np.concatenate(series) * MM
     positive = positive[positive > 0]
@@ -84,8 +99,9 @@ def errors_per_sample(before: Array, after: Array, test_before: Array | None = N
                       test_after: Array | None = None) -> Figure:
     """Each sample's position error [m] before and after, fit samples then held-out ones (a sample with no
     reading, NaN, has no point)."""
-    figure = Figure(figsize=(7.5, 3.4), layout="constrained")
+    figure = Figure(figsize=(7.5, 3.4))
     ax = figure.subplots()
+    margins(figure)
     n = len(before)
     index = np.arange(n)
     ax.vlines(index, after * MM, before * MM, color="#bbbbbb", linewidth=0.8)
@@ -129,8 +145,10 @@ def parameter_estimates(names: Sequence[str], units: Sequence[str], values: Arra
     others = [k for k in order if units[k] not in ("m", "rad")]
     panels = [p for p in panels if p[1]] + ([("other", others)] if others else [])
     rows = max((len(p[1]) for p in panels), default=1)
-    figure = Figure(figsize=(4.2 * len(panels) + 1.6, 0.24 * rows + 1.8), layout="constrained")
+    figure = Figure(figsize=(4.2 * len(panels) + 1.6, 0.24 * rows + 1.8))
     axes = np.atleast_1d(figure.subplots(1, max(len(panels), 1), squeeze=False)[0])
+    names_width = max((len(names[k]) for _, ks in panels for k in ks), default=4) * LABEL_WIDTH + 0.15  # [in]
+    margins(figure, left=names_width, bottom=0.85, top=0.45, wspace=names_width + 0.1)
     scale = {"m": (MM, "deviation [mm]"), "rad": (DEG, "deviation [deg]"), "other": (1.0, "deviation [SI]")}
     for ax, (unit, ks) in zip(axes, panels, strict=False):
         factor, label = scale[unit]
@@ -150,7 +168,7 @@ def parameter_estimates(names: Sequence[str], units: Sequence[str], values: Arra
                axes[0].plot([], [], "o", color="#888888", mfc="none", label="not identifiable (minimum norm)")[0]]
     if truth is not None:
         handles.append(axes[0].plot([], [], "x", color=TRUTH, label="truth (simulation)")[0])
-    figure.legend(handles=handles, loc="outside lower center", ncol=len(handles), fontsize=8, frameon=False)
+    figure.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8, frameon=False)
     title = "Estimated parameter deviations from the nominal robot"
     if len(order) < len(names):
         title += f" ({len(order)} of {len(names)} shown)"
@@ -160,8 +178,9 @@ def parameter_estimates(names: Sequence[str], units: Sequence[str], values: Arra
 
 def convergence(cost_history: Sequence[float]) -> Figure:
     """The weighted cost ½‖r‖² after each accepted iteration (log scale)."""
-    figure = Figure(figsize=(4.5, 3.0), layout="constrained")
+    figure = Figure(figsize=(4.5, 3.0))
     ax = figure.subplots()
+    margins(figure, left=0.85)
     cost = np.asarray(cost_history, float)
     ax.semilogy(np.arange(len(cost)), np.maximum(cost, 1e-300), "o-", color="#34495e", markersize=4)
     ax.set_xlabel("iteration")
@@ -185,8 +204,9 @@ def predicted_uncertainty(positions: Array, bounds: Array, held_bounds: Array | 
     known = np.isfinite(bounds) & np.all(np.isfinite(positions), axis=1)
     points, values = positions[known] * MM, bounds[known] * MM
     held = held_bounds is not None and held_errors is not None and bool(np.any(np.isfinite(held_bounds)))
-    figure = Figure(figsize=(10.5 if held else 7.5, 3.6), layout="constrained")
+    figure = Figure(figsize=(10.5 if held else 7.5, 3.6))
     axes = figure.subplots(1, 3 if held else 2)
+    margins(figure, left=0.7, right=0.25, bottom=0.5, top=0.6, wspace=0.9)
     low, high = (float(values.min()), float(values.max())) if values.size else (0.0, 1.0)
     for ax, (i, j), view in zip(axes, ((0, 1), (0, 2)), ("from above", "from the side"), strict=False):
         drawn = ax.scatter(points[:, i], points[:, j], c=values, cmap=BOUND_COLORMAP, vmin=low, vmax=high, s=14)

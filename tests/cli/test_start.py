@@ -25,8 +25,8 @@ print(code, sorted(m for m in {heavy!r} if m in sys.modules))
 """
 
 
-def _loaded(argv: list[str]) -> tuple[str, str]:
-    done = subprocess.run([sys.executable, "-P", "-c", PROBE.format(argv=argv, heavy=HEAVY)], capture_output=True,
+def _loaded(argv: list[str], heavy: tuple[str, ...] = HEAVY) -> tuple[str, str]:
+    done = subprocess.run([sys.executable, "-P", "-c", PROBE.format(argv=argv, heavy=heavy)], capture_output=True,
                           text=True, timeout=120, check=False)
     code, _, modules = done.stdout.strip().splitlines()[-1].partition(" ")
     return code, modules
@@ -51,6 +51,20 @@ def test_a_command_that_works_loads_them() -> None:
     """The probe can fail: a command that does its work imports Pinocchio."""
     code, modules = _loaded(["info", "delta"])
     assert code == "0" and "pinocchio" in modules
+
+
+def test_a_calibration_loads_no_statistics_nor_special_functions_nor_plots(tmp_path: Path) -> None:
+    """The calibrate path takes its χ² quantiles without ``scipy.stats`` or ``scipy.special`` (each a tenth of a second
+    or more of every start) and draws nothing; the report command does load matplotlib (the probe can fail)."""
+    data = tmp_path / "d"
+    done = subprocess.run([str(PINCAL), "simulate", "delta", "--samples", "30", "--test-samples", "10", "--quiet",
+                           "--out", str(data)], capture_output=True, text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr
+    light = ("scipy.stats", "scipy.special", "matplotlib")
+    csv = str(data / "measurements.csv")
+    assert _loaded(["calibrate", "delta", csv, "--out", str(tmp_path / "cal.urdf")], light) == ("0", "[]")
+    code, modules = _loaded(["report", "delta", csv, "--quiet", "--out", str(tmp_path / "r.html")], light)
+    assert code == "0" and "matplotlib" in modules
 
 
 #: A plugin (loaded before the command runs) that reports the thread count of every BLAS library loaded.

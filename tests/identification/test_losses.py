@@ -6,7 +6,8 @@ import numpy as np
 
 import pincal
 from pincal.identification import measurements as ms
-from pincal.identification.losses import IMPLEMENTED_LOSSES, TRIM_KEEP, TRIMMED, chi2_upper, sample_weights
+from pincal.identification.chi2 import chi2_upper
+from pincal.identification.losses import IMPLEMENTED_LOSSES, TRIM_KEEP, TRIMMED, sample_weights
 from pincal.identification.parameters import default_parameters
 from pincal.identification.problem import CalibrationProblem
 from pincal.study.simulation import random_actuated, simulate_observations
@@ -50,12 +51,19 @@ def test_each_weighting_on_known_norms() -> None:
 
 
 def test_the_chi2_quantiles_are_scipy_stats_ones() -> None:
-    """The outlier test's and the predicted bound's χ² quantiles, taken without ``scipy.stats``, are its ``ppf``: the
-    median, a 95 % level at a fractional ν (Welch–Satterthwaite), and Bonferroni tails down to 1e-3 / 10⁶."""
+    """The outlier test's and the predicted bound's χ² quantiles, taken without ``scipy.stats`` or ``scipy.special``,
+    are its ``ppf``: the median, a 95 % level at a fractional ν (Welch–Satterthwaite), Bonferroni tails down to
+    1e-3 / 10⁶ and beyond, degrees of freedom from 0.3 to 10⁴; and ``scipy.special.chdtri``'s to 1e-12 on random
+    draws of both."""
+    from scipy.special import chdtri
     from scipy.stats import chi2
 
-    dof = np.array([1, 2, 3, 6, 7.3, 12, 40])
+    dof = np.array([0.3, 1, 2, 3, 6, 7.3, 12, 40, 1e4])
     assert np.allclose(chi2_upper(0.5, dof), chi2.median(dof), rtol=1e-12)
     assert np.allclose(chi2_upper(0.05, dof), chi2.ppf(0.95, dof), rtol=1e-12)
-    for tail in (1e-3, 1e-3 / 60, 1e-9):
+    for tail in (0.999, 1e-3, 1e-3 / 60, 1e-9, 1e-15):
         assert np.allclose(chi2_upper(tail, dof), chi2.isf(tail, dof), rtol=1e-10)
+    rng = np.random.default_rng(0)
+    tails, dofs = np.exp(rng.uniform(np.log(1e-15), np.log(0.9999), 300)), np.exp(rng.uniform(np.log(0.2), 8.5, 300))
+    assert np.allclose(chi2_upper(tails, dofs), chdtri(dofs, tails), rtol=1e-12, atol=0.0)
+    assert np.all(np.isnan(chi2_upper(np.array([0.0, 1.0, 0.5]), np.array([3.0, 3.0, 0.0]))))

@@ -63,7 +63,8 @@ def test_singular_samples_are_named() -> None:
 
     from mechanisms import FOUR_BAR, FOUR_BAR_CRANK_HOME, four_bar_urdf
 
-    from pincal.model.robot import robot_from_urdf_text, unusable_samples
+    from pincal.model.assemblable import unusable_samples
+    from pincal.model.robot import robot_from_urdf_text
 
     robot = robot_from_urdf_text(four_bar_urdf())
     a, b, c, d = (FOUR_BAR[k] for k in "abcd")

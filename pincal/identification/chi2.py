@@ -1,0 +1,95 @@
+"""Quantiles of the χ² distribution, without SciPy's special-function package (a tenth of a second of every
+command's start).
+
+:func:`chi2_upper` solves ``Q(ν/2, x/2) = tail`` for ``x``, ``Q`` the regularised upper incomplete gamma function,
+by Newton's method on ``log Q`` from the Wilson–Hilferty approximation, within a bracket that halves where a step would
+leave it. ``Q`` comes from its power series below ``a + 1`` and from its continued fraction (modified Lentz) above, the
+two classical expansions (Numerical Recipes, 3rd ed., §6.2); both converge to the double precision. The quantile
+agrees with ``scipy.special.chdtri`` to about 1e-14 relative (checked in the tests), for any degrees of freedom > 0
+(fractional ones included) and any tail in (0, 1). Dimensionless throughout.
+"""
+
+from __future__ import annotations
+
+import math
+from statistics import NormalDist
+
+import numpy as np
+import numpy.typing as npt
+
+Array = npt.NDArray[np.float64]
+
+#: Most terms of a series or a continued fraction, and most Newton steps.
+MAX_TERMS = 1000
+#: Relative precision of the expansions and of the quantile.
+EPS = 1e-16
+
+
+def chi2_upper(tail: float | Array, dof: float | npt.ArrayLike) -> Array:
+    """The value a χ² variable with ``dof`` degrees of freedom exceeds with probability ``tail``:
+    ``chi2.ppf(1 − tail, dof)`` without the cancellation of ``1 − tail`` for a small tail; broadcast over both."""
+    tails, dofs = np.broadcast_arrays(np.asarray(tail, dtype=float), np.asarray(dof, dtype=float))
+    out = np.empty(tails.shape)
+    pairs: dict[tuple[float, float], float] = {}
+    for index, (t, d) in enumerate(zip(tails.ravel().tolist(), dofs.ravel().tolist(), strict=True)):
+        if (t, d) not in pairs:
+            pairs[(t, d)] = _quantile(t, d)
+        out.flat[index] = pairs[(t, d)]
+    return out
+
+
+def _quantile(tail: float, dof: float) -> float:
+    """``x`` with ``Q(dof/2, x/2) = tail``; NaN outside ``0 < tail < 1``, ``dof > 0``."""
+    if not (0.0 < tail < 1.0 and dof > 0.0) or math.isnan(tail + dof):
+        return math.nan
+    a, target = dof / 2.0, math.log(tail)
+    z = -NormalDist().inv_cdf(tail)  # the normal upper quantile, exact for a small tail
+    h = 2.0 / (9.0 * dof)
+    x = max(dof * (1.0 - h + z * math.sqrt(h)) ** 3, 1e-300) / 2.0  # Wilson–Hilferty, in x/2
+    low, high = 0.0, math.inf
+    for _ in range(MAX_TERMS):
+        log_q = _log_upper_gamma(a, x)
+        if log_q > target:
+            low = x  # Q decreases with x: the root lies above
+        else:
+            high = x
+        slope = -math.exp((a - 1.0) * math.log(x) - x - math.lgamma(a) - log_q)  # d log Q / dx
+        step = (log_q - target) / slope if slope != 0.0 else math.inf
+        nxt = x - step
+        if not low < nxt < high:  # out of the bracket: halve it (double the low end while unbounded)
+            nxt = (low + high) / 2.0 if math.isfinite(high) else max(2.0 * x, 1.0)
+        if abs(nxt - x) <= 4 * EPS * x:
+            return 2.0 * nxt
+        x = nxt
+    return 2.0 * x
+
+
+def _log_upper_gamma(a: float, x: float) -> float:
+    """``log Q(a, x)``, the regularised upper incomplete gamma function (``a > 0``, ``x > 0``)."""
+    prefix = a * math.log(x) - x - math.lgamma(a)
+    if x < a + 1.0:  # P(a, x) by its series; Q = 1 − P
+        term = total = 1.0 / a
+        for n in range(1, MAX_TERMS):
+            term *= x / (a + n)
+            total += term
+            if abs(term) < abs(total) * EPS:
+                break
+        return math.log1p(-math.exp(prefix) * total)
+    # Q(a, x) by its continued fraction (modified Lentz)
+    tiny = 1e-300
+    b = x + 1.0 - a
+    c, d = 1.0 / tiny, 1.0 / b
+    h = d
+    for n in range(1, MAX_TERMS):
+        an = -n * (n - a)
+        b += 2.0
+        d = an * d + b
+        d = tiny if abs(d) < tiny else d
+        c = b + an / c
+        c = tiny if abs(c) < tiny else c
+        d = 1.0 / d
+        delta = d * c
+        h *= delta
+        if abs(delta - 1.0) < EPS:
+            break
+    return prefix + math.log(h)

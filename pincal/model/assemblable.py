@@ -1,0 +1,117 @@
+"""Which postures a robot assembles: every sample's loops closed at once, the samples it cannot close and those at a
+singularity named, with the configurations found.
+
+A closed-loop robot that :mod:`pincal.model.batch_kinematics` takes closes every sample's loops at once (stacked
+Newton steps from the given warm starts, or continuation from the reference) and judges their passive closure
+Jacobians as one stack; the samples it does not close, and the robots it does not take, are solved one by one by
+:meth:`~pincal.model.robot.Robot.solve_fk_report`. A sample is singular when its passive closure Jacobian's
+condition number exceeds a bound: the actuated readings do not determine its passive joints. Units: rad or m.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal import linalg
+from pincal.model.robot import SOLVE_TOLERANCE, Robot
+
+Array = npt.NDArray[np.float64]
+
+#: Largest condition number of a usable sample's passive closure Jacobian.
+MAX_CONDITION = 1e5
+
+
+@dataclass(frozen=True)
+class Assembled:
+    """Samples solved: their configurations (N, nq) on the reference assembly (a row of a sample that does not close:
+    undefined) and why each unusable sample cannot be used (sample row -> reason)."""
+
+    q: Array
+    reasons: dict[int, str]
+
+    @property
+    def usable(self) -> npt.NDArray[np.bool_]:
+        """Which samples can be used (N,)."""
+        ok = np.ones(len(self.q), dtype=bool)
+        ok[list(self.reasons)] = False
+        return ok
+
+
+def assemble(robot: Robot, actuated: Array, max_condition: float = MAX_CONDITION,
+             guesses: Array | None = None) -> Assembled:
+    """Every sample of ``actuated`` (N, na) [rad or m] solved on ``robot`` (warm from ``guesses`` (N, nq) if given, as
+    :meth:`~pincal.model.robot.Robot.solve_fk` takes a guess), and those that cannot be used with the reason: the
+    loops do not close, or the passive closure Jacobian's condition number exceeds ``max_condition``. A robot without
+    loops closes every sample and none is singular."""
+    actuated = np.asarray(actuated, dtype=float)
+    n = len(actuated)
+    q = np.zeros((n, robot.model.nq))
+    ok = np.zeros(n, dtype=bool)
+    batch = robot.kinematics.batch if robot.loops and n else None
+    stacked = batch is not None and batch.unsupported is None and bool(np.all(np.isfinite(actuated)))
+    if stacked:
+        assert batch is not None
+        q[:], ok[:] = batch.solve(robot.model, robot.closure, actuated, guesses, SOLVE_TOLERANCE)
+    reasons: dict[int, str] = {}
+    for k in np.flatnonzero(~ok).tolist():
+        report = robot.solve_fk_report(actuated[k], None if guesses is None else guesses[k])
+        if report.converged:
+            q[k], ok[k] = report.q, True
+        else:
+            what = "the loops cannot be assembled at its readings: " if robot.loops else ""
+            reasons[k] = f"{what}forward kinematics did not converge (closure residual {report.residual:.3g})"
+    rows = np.flatnonzero(ok)
+    if robot.loops and rows.size:
+        if stacked:
+            assert batch is not None
+            jacobian = batch.state(robot.model, robot.closure, q[rows]).jacobian
+            assert jacobian is not None
+        else:
+            jacobian = np.array([robot.kinematics.closure_jacobian(q[k])[1] for k in rows])
+        s = linalg.singular_values(jacobian[:, :, robot.kinematics.passive_v], "the passive closure Jacobians")
+        for k, values in zip(rows.tolist(), s, strict=True):
+            reason = singular(values, max_condition)
+            if reason:
+                reasons[k] = reason
+    return Assembled(q, dict(sorted(reasons.items())))
+
+
+def unusable_samples(robot: Robot, actuated: Array, max_condition: float = MAX_CONDITION) -> list[tuple[int, str]]:
+    """Samples of ``actuated`` (N, na) [rad or m] the nominal robot cannot assemble (FK does not converge) or that sit
+    at a singularity (the passive joints are not determined by the actuated readings), with the reason for each; a
+    robot without loops has none (nothing is solved)."""
+    if not robot.loops:
+        return []
+    return list(assemble(robot, actuated, max_condition).reasons.items())
+
+
+def singular(s: Array, max_condition: float) -> str:
+    """Why a sample whose passive closure Jacobian has singular values ``s`` (descending) is singular; empty if not."""
+    if s[-1] <= 0.0 or s[0] / s[-1] > max_condition:
+        return (f"singular configuration (passive closure Jacobian condition number "
+                f"{(s[0] / s[-1]) if s[-1] > 0 else float('inf'):.3g})")
+    return ""
+
+
+def unusable_one_by_one(robot: Robot, actuated: Array, samples: Iterable[int],
+                        max_condition: float = MAX_CONDITION) -> list[tuple[int, str]]:
+    """:func:`unusable_samples` among ``samples`` (rows of ``actuated``), each solved alone (the reference the stacked
+    path is checked against)."""
+    out: list[tuple[int, str]] = []
+    for k in samples:
+        report = robot.solve_fk_report(actuated[k])
+        if not report.converged:
+            what = "the loops cannot be assembled at its readings: " if robot.loops else ""
+            out.append((k, f"{what}forward kinematics did not converge (closure residual {report.residual:.3g})"))
+            continue
+        if robot.loops:
+            _, jac = robot.kinematics.closure_jacobian(report.q)
+            reason = singular(linalg.singular_values(jac[:, robot.kinematics.passive_v],
+                                                     "the passive closure Jacobian"), max_condition)
+            if reason:
+                out.append((k, reason))
+    return out
