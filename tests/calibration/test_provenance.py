@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+import pytest
 from conftest import run_pincal
 
 import pincal
@@ -153,3 +154,12 @@ def test_every_command_records_its_inputs_and_repeats_from_another_folder(tmp_pa
     assert f"# sha256 cal.urdf: {_sha(first / 'cal.urdf')}" in commands and "# seed: 0" in commands
     assert "# nominal: ur10 (recorded in MODEL)" in (first / "nominal.csv").read_text(encoding="utf-8")
     assert _sha(first / "cal.urdf") in (first / "joints.yaml").read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize("value", ["plain", 'a "quoted" name', "it's", "both ' and \"", "<&>\n\t\r", ""])
+def test_attribute_values_are_quoted_as_xml_sax_quotes_them(value: str) -> None:
+    from xml.sax.saxutils import quoteattr
+
+    from pincal.calibration.provenance import _quoted
+
+    assert _quoted(value) == quoteattr(value)
