@@ -19,7 +19,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.identification.measurements import AttachedPlacement, MarkerPoint, split_target
-from pincal.identification.parameters import ParameterSet, attached_name
+from pincal.identification.parameters import AnchorPlacement, MarkerOffset, ParameterSet, attached_name
 from pincal.identification.parameters.candidates import _descends
 from pincal.model.robot import Robot
 
@@ -66,7 +66,7 @@ def marker_points(pset: ParameterSet, x: Array, nominal: dict[str, Array]) -> di
     """
     offsets: dict[str, list[int]] = {}
     for k, p in enumerate(pset):
-        if p.kind == "marker":
+        if p.is_a(MarkerOffset):
             offsets.setdefault(p.owner, []).append(k)
     clusters = {target: idx for (_, target, _), idx in pset.groups("cluster").items()}
     out: dict[str, MarkerPoint] = {}
@@ -130,7 +130,7 @@ class KinematicSensitivity:
         for (kind, target, side), idx in pset.groups("joint", "anchor").items():
             comps = [pset.parameters[k].component for k in idx]
             jexp = right_jacobian(pset.placement_delta(x, idx), comps)
-            if kind == "anchor":
+            if kind == AnchorPlacement.name:
                 self.anchor_terms[(target, side)] = (idx, jexp)
             elif model.existJointName(target):
                 jid = model.getJointId(target)

@@ -10,7 +10,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import NotFoundError, listing
-from pincal.identification.parameters.kinds import kinds_where
+from pincal.identification.parameters.kinds import JointPlacement, kinds_where
 from pincal.identification.parameters.parameter import (
     COMPONENTS,
     ParameterSet,
@@ -205,7 +205,7 @@ def apply_parameters(robot: Robot, pset: ParameterSet, x: Array) -> Robot:
     loops = {loop.name: loop for loop in robot.loops}
     for (kind, target, side), idx in pset.groups(*kinds_where(kinematic=True)).items():
         exp = pin.exp6(pset.placement_delta(x, idx))
-        if kind == "joint":
+        if kind == JointPlacement.name:
             if model.existJointName(target):
                 jid = model.getJointId(target)
                 model.jointPlacements[jid] = model.jointPlacements[jid] * exp

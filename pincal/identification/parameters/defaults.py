@@ -20,6 +20,7 @@ from pincal.identification.parameters.candidates import (
     candidate_parameters,
     planar_normal,
 )
+from pincal.identification.parameters.kinds import CameraPlacement, TargetPlacement
 from pincal.identification.parameters.parameter import (
     AXES,
     COMPONENTS,
@@ -57,7 +58,7 @@ def camera_parameters(models: Sequence[Measurement]) -> list[Parameter]:
 def sees_world_target(models: Sequence[Measurement]) -> bool:
     """Whether a camera on the robot sees a target fixed in the world (eye-in-hand): the world frame is then
     seen only through that target, as an external measurement frame is through ``base.*``."""
-    return any(a.kind == "target" and not a.owner for m in models for a in m.attachments)
+    return any(a.kind == TargetPlacement.name and not a.owner for m in models for a in m.attachments)
 
 
 def marker_targets(models: Sequence[Measurement]) -> list[str]:
@@ -79,7 +80,7 @@ def _estimated_on_frames(models: Sequence[Measurement]) -> list[str]:
     """The frames whose measured point or placement on the frame is estimated (a marker, a camera, a pose target):
     a tool placement on them would duplicate it."""
     frames = {split_target(t)[0] for m in models for t in m.markers}
-    frames |= {a.owner if a.kind == "camera" else split_target(a.owner)[0]
+    frames |= {a.owner if a.kind == CameraPlacement.name else split_target(a.owner)[0]
                for m in models for a in m.attachments if a.owner}
     return sorted(frames)
 

@@ -19,7 +19,7 @@ import math
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 from pincal.errors import not_found
-from pincal.identification.measurements import PLANE, WORLD_TARGET, camera_name, plane_name
+from pincal.identification.measurements import PLANE, WORLD_TARGET, camera_name, plane_name, split_target
 from pincal.model.robot import Unit
 
 if TYPE_CHECKING:
@@ -85,6 +85,13 @@ class ParameterKind:
     def selection_group(cls, parameter: Parameter) -> str | None:
         """The group model selection may leave out that ``parameter`` belongs to; None: it always stays."""
         return None
+
+    @classmethod
+    def urdf_link(cls, target: str) -> str:
+        """The name of the link a calibrated URDF gives the placement of this kind on ``target``: only the kinds
+        held as a link of their own (cameras, targets, planes) have one; TypeError for the others."""
+        raise TypeError(f"a calibrated URDF holds {cls.name} parameters as {cls.urdf or 'no link'}, not as a link "
+                        "of their own")
 
 
 def parameter_kind(name: str) -> type[ParameterKind]:
@@ -227,6 +234,11 @@ class CameraPlacement(ParameterKind):
         """``camera.<frame>``."""
         return camera_name(target)
 
+    @classmethod
+    def urdf_link(cls, target: str) -> str:
+        """``<frame>_camera``."""
+        return f"{target}_camera"
+
 
 class TargetPlacement(ParameterKind):
     """``target.<c>``: the target the eye-in-hand cameras see, in the world; ``target.<frame>@<target>.<c>``: a pose
@@ -239,6 +251,12 @@ class TargetPlacement(ParameterKind):
     def prefix(cls, target: str, side: str = "") -> str:
         """``target`` (the world target, ``target`` empty) or ``target.<frame>@<target>``."""
         return f"{WORLD_TARGET}.{target}" if target else WORLD_TARGET
+
+    @classmethod
+    def urdf_link(cls, target: str) -> str:
+        """``camera_target`` (the world target, ``target`` empty) or ``<frame>_target_<target>``."""
+        frame, name = split_target(target)
+        return f"{frame}_target_{name}" if target else "camera_target"
 
 
 class PlanePlacement(ParameterKind):
@@ -255,6 +273,11 @@ class PlanePlacement(ParameterKind):
     def prefix(cls, target: str, side: str = "") -> str:
         """``plane`` (fixed in the world, ``target`` empty) or ``plane.<support>``."""
         return plane_name(target)
+
+    @classmethod
+    def urdf_link(cls, target: str) -> str:
+        """``contact_plane`` (a plane in the world, ``target`` empty) or ``<support>_plane``."""
+        return f"{target}_plane" if target else "contact_plane"
 
 
 class Harmonic(ParameterKind):

@@ -83,6 +83,10 @@ class Parameter:
         """The parameter's kind (NotFoundError listing the kinds for a name none registered)."""
         return parameter_kind(self.kind)
 
+    def is_a(self, kind: type[ParameterKind]) -> bool:
+        """Whether the parameter is of ``kind`` (a :class:`ParameterKind` subclass) or of a kind derived from it."""
+        return issubclass(self.kind_class, kind)
+
     @property
     def scale(self) -> float:
         """Typical size [m, rad, rad/(N m) or m/N], used to scale the identification problem: 1 mm, 1 mrad, and
