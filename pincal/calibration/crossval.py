@@ -92,10 +92,11 @@ def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measuremen
 
     The ``r``-th shuffle is a permutation seeded ``folds.seed + r``: the plan holds the seed (``parse_cv(text,
     n_samples, seed)``; its label in the report names it). The arguments after ``select`` are keyword-only. A fold
-    whose fit fails is listed and left out; one whose fit stopped short of convergence is counted. Returns the plan, the RMS position error of the
-    predictions [m] (``rms``, pooled over every fold and repeat; None when no fold could be fitted), the same per
-    length-type reading when there are several (``rms_by_reading``, e.g. each marker of a body) and of the
-    orientation [rad] for poses (``rms_angle``), the predictions' count, the failed fits and the unconverged ones.
+    whose fit fails is listed and left out; one whose fit stopped short of convergence is counted. Returns the plan,
+    the RMS position error of the predictions [m] (``rms``, pooled over every fold and repeat; None when no fold
+    could be fitted), the same per length-type reading when there are several (``rms_by_reading``, e.g. each marker of
+    a body) and of the orientation [rad] for poses (``rms_angle``), the predictions' count, the failed fits and the
+    unconverged ones.
     """
     n = obs.n_samples
     lengths, angles, failed, unconverged = [], [], [], 0

@@ -100,10 +100,10 @@ def attached_placements(pset: ParameterSet, x: Array) -> dict[str, AttachedPlace
         ``target``, ``target.<frame>@<target>``) -> its :class:`AttachedPlacement`.
     """
     out: dict[str, AttachedPlacement] = {}
-    for (kind, target, _), idx in pset.groups("camera", "target", "plane").items():
+    for (kind, owner, _), idx in pset.groups("camera", "target", "plane").items():
         delta = pset.placement_delta(x, idx)
         jacobian = right_jacobian(delta, [pset.parameters[k].component for k in idx])
-        out[attached_name(kind, target)] = AttachedPlacement(pin.exp6(delta), list(idx), jacobian)
+        out[attached_name(kind, owner)] = AttachedPlacement(pin.exp6(delta), list(idx), jacobian)
     return out
 
 
@@ -127,16 +127,16 @@ class KinematicSensitivity:
         self.fixed: list[tuple[int, pin.SE3, int, list[int], Array]] = []
         self.anchor_terms: dict[tuple[str, str], tuple[list[int], Array]] = {}
         self._fixed_cache: dict[int, list[tuple[list[int], Array]]] = {}  # id(probe) -> its fixed-joint terms
-        for (kind, target, side), idx in pset.groups("joint", "anchor").items():
+        for (kind, owner, side), idx in pset.groups("joint", "anchor").items():
             comps = [pset.parameters[k].component for k in idx]
             jexp = right_jacobian(pset.placement_delta(x, idx), comps)
             if kind == AnchorPlacement.name:
-                self.anchor_terms[(target, side)] = (idx, jexp)
-            elif model.existJointName(target):
-                jid = model.getJointId(target)
+                self.anchor_terms[(owner, side)] = (idx, jexp)
+            elif model.existJointName(owner):
+                jid = model.getJointId(owner)
                 self.joint_map[6 * (jid - 1):6 * jid, idx] += jexp
             else:
-                fid = model.getFrameId(target, pin.FrameType.FIXED_JOINT)
+                fid = model.getFrameId(owner, pin.FrameType.FIXED_JOINT)
                 frame = model.frames[fid]
                 parent = int(frame.parentJoint)
                 placement = frame.placement.copy()

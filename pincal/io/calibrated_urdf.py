@@ -169,14 +169,14 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     joint_origins: dict[str, pin.SE3] = {}
     loop_origins: dict[tuple[str, str], pin.SE3] = {}
     loops = {lp.name: lp for lp in ext.loops}
-    for (kind, target, side), idx in parameters.groups(*kinds_where(kinematic=True)).items():
+    for (kind, owner, side), idx in parameters.groups(*kinds_where(kinematic=True)).items():
         exp = pin.exp6(parameters.placement_delta(x, idx))
         if kind == JointPlacement.name:
-            joint_origins[target] = joint_origins.get(target, root[target]) * exp
+            joint_origins[owner] = joint_origins.get(owner, root[owner]) * exp
         else:
-            loop = loops[target]
+            loop = loops[owner]
             base = loop.predecessor_origin if side == "predecessor" else loop.successor_origin
-            loop_origins[(target, side)] = base * exp
+            loop_origins[(owner, side)] = base * exp
     rest, moved = robot.model.createData(), robot.model.createData()
     pin.forwardKinematics(robot.model, rest, pin.neutral(robot.model))
     for k, p in enumerate(parameters):
@@ -308,11 +308,11 @@ def _marker_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_or
     return out
 
 
-def attached_link(kind: str, target: str) -> str:
+def attached_link(kind: str, owner: str) -> str:
     """Name of the link a calibrated camera, target or plane becomes: ``<frame>_camera``, ``camera_target`` (the world
-    target, ``target`` empty), ``<frame>_target_<target>``, ``contact_plane`` (a plane in the world) or
+    target, ``owner`` empty), ``<frame>_target_<target>``, ``contact_plane`` (a plane in the world) or
     ``<support>_plane``: the kind says (:meth:`~pincal.identification.parameters.ParameterKind.urdf_link`)."""
-    return parameter_kind(kind).urdf_link(target)
+    return parameter_kind(kind).urdf_link(owner)
 
 
 def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_origins: dict[str, pin.SE3],
@@ -328,21 +328,21 @@ def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_
         child = next(j.find("child") for j in tree.findall("joint") if j.get("name") == frame_joint)  # tracker frame
         if child is not None and child.get("link"):
             robot_root, robot_root_placement = child.get("link", ""), root[frame_joint]
-    for (kind, target, _), idx in parameters.groups("camera", "target", PLANE).items():
-        link = attached_link(kind, target)
+    for (kind, owner, _), idx in parameters.groups("camera", "target", PLANE).items():
+        link = attached_link(kind, owner)
         joint = f"{link}_joint"
-        world_target = not target  # the world target and a plane in the world; a camera is always on a frame
-        parent = robot_root if world_target else _frame_link(tree, split_target(target)[0])
+        world_target = not owner  # the world target and a plane in the world; a camera is always on a frame
+        parent = robot_root if world_target else _frame_link(tree, split_target(owner)[0])
         placement = pin.exp6(parameters.placement_delta(x, idx))  # the world target: in the model's world frame,
         if world_target:  # the file's root link, which a calibrated file's robot root hangs below
             placement = robot_root_placement.inverse() * placement
         if link in links:
             if not _fixed_joint(tree, joint, parent, link):
                 raise RobotFileError(f"the URDF already has a link '{link}', the name of the calibrated "
-                                     f"{attached_name(kind, target)}: rename it")
+                                     f"{attached_name(kind, owner)}: rename it")
             joint_origins[joint] = placement  # the camera or target of an earlier calibration: re-estimated
             continue
-        what = kind + (f" on '{split_target(target)[0]}'" if target else " fixed in the robot's world frame")
+        what = kind + (f" on '{split_target(owner)[0]}'" if owner else " fixed in the robot's world frame")
         out.append(FixedLink(joint, parent, link, placement, f"pincal: the calibrated {what}"))
     return out
 

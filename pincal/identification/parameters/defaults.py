@@ -50,9 +50,9 @@ def camera_parameters(models: Sequence[Measurement]) -> list[Parameter]:
         for a in m.attachments:
             components.setdefault((a.kind, a.owner), set()).update(a.components)
     order = sorted(components, key=lambda name: (name[0] != "camera", name[1] != "", name[1]))
-    return [p for kind, target in order
-            for p in placement_parameters(kind, target, components=[c for c in COMPONENTS
-                                                                    if c in components[(kind, target)]])]
+    return [p for kind, owner in order
+            for p in placement_parameters(kind, owner, components=[c for c in COMPONENTS
+                                                                    if c in components[(kind, owner)]])]
 
 
 def sees_world_target(models: Sequence[Measurement]) -> bool:

@@ -105,13 +105,13 @@ class Parameter:
         return (self.kind, self.owner, self.side)
 
 
-def placement_parameters(kind: str, target: str, side: str = "",
+def placement_parameters(kind: str, owner: str, side: str = "",
                          components: Sequence[str] = COMPONENTS) -> list[Parameter]:
     """The parameters of one placement (a joint origin, a loop anchor, the base, a marker cluster, a camera, a
     target): named and measured as the kind says."""
-    owner = parameter_kind(kind)
-    prefix = owner.prefix(target, side)
-    return [Parameter(f"{prefix}.{c}", kind, target, COMPONENTS.index(c), side, owner.unit(c)) for c in components]
+    of_kind = parameter_kind(kind)
+    prefix = of_kind.prefix(owner, side)
+    return [Parameter(f"{prefix}.{c}", kind, owner, COMPONENTS.index(c), side, of_kind.unit(c)) for c in components]
 
 
 def offset_parameter(joint: str, unit: Unit) -> Parameter:
@@ -143,10 +143,10 @@ def cluster_parameters(frame: str) -> list[Parameter]:
     return placement_parameters("cluster", frame)
 
 
-def attached_name(kind: str, target: str) -> str:
+def attached_name(kind: str, owner: str) -> str:
     """The name of a camera's or a target's placement (its parameters' prefix): ``camera.<frame>``, ``target`` (the
-    world target, ``target`` empty) or ``target.<frame>@<target>``."""
-    return parameter_kind(kind).prefix(target)
+    world target, ``owner`` empty) or ``target.<frame>@<target>``, ``owner`` the frame or the pose target on it."""
+    return parameter_kind(kind).prefix(owner)
 
 
 @dataclass
@@ -193,7 +193,7 @@ class ParameterSet:
         return [k for k, p in enumerate(self.parameters) if p.kind in kinds]
 
     def groups(self, *kinds: str) -> dict[tuple[str, str, str], list[int]]:
-        """Indices per placement (kind, target, side), for the given kinds."""
+        """Indices per placement (kind, owner, side), for the given kinds."""
         out: dict[tuple[str, str, str], list[int]] = {}
         for k, p in enumerate(self.parameters):
             if p.kind in kinds:
