@@ -61,8 +61,9 @@ def sees_world_target(models: Sequence[Measurement]) -> bool:
     return any(a.kind == TargetPlacement.name and not a.owner for m in models for a in m.attachments)
 
 
-def marker_targets(models: Sequence[Measurement]) -> list[str]:
-    """The marker targets the measurements read (``<frame>`` or ``<frame>@<marker>``), sorted."""
+def marker_keys(models: Sequence[Measurement]) -> list[str]:
+    """The points the measurements read on frames (``<frame>`` or ``<frame>@<marker>``: each a position's
+    :attr:`~pincal.identification.measurements.Position.marker_key`), sorted."""
     return sorted({t for m in models for t in m.markers})
 
 
@@ -201,10 +202,10 @@ def default_parameters(robot: Robot, models: Sequence[Measurement], markers: Mar
     if external:
         params += placement_parameters("base", "base")
     clustered = clustered_frames(models) if markers == "cluster" else []
-    for target in marker_targets(models):
-        frame, marker = split_target(target)
+    for key in marker_keys(models):
+        frame, marker = split_target(key)
         if not (marker and frame in clustered):  # a marker of a cluster moves with the cluster's placement
-            params += marker_parameters(target)
+            params += marker_parameters(key)
     for frame in clustered:
         params += cluster_parameters(frame)
     return ParameterSet(params + camera_parameters(models))
@@ -257,7 +258,7 @@ def parameter_pool(robot: Robot, models: Sequence[Measurement]) -> ParameterSet:
     corrections = [p for j in robot.actuated_joints if j in moving
                    for p in (*harmonic_parameters(j, joint_unit(robot, j)),
                              compliance_parameter(j, joint_unit(robot, j)))]
-    return ParameterSet(pool.parameters + [p for t in marker_targets(models) for p in marker_parameters(t)]
+    return ParameterSet(pool.parameters + [p for key in marker_keys(models) for p in marker_parameters(key)]
                         + [p for f in clustered_frames(models) for p in cluster_parameters(f)]
                         + camera_parameters(models) + corrections)
 

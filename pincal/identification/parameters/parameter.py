@@ -34,6 +34,7 @@ import numpy.typing as npt
 from pincal.errors import DataError, NotFoundError, listing, not_found
 from pincal.identification.parameters.kinds import (
     Compliance,
+    MarkerOffset,
     ParameterKind,
     ParameterUnit,
     ReadingOffset,
@@ -132,10 +133,10 @@ def compliance_parameter(joint: str, unit: Unit) -> Parameter:
     return Parameter(f"{joint}.compliance", Compliance.name, joint, 0, "", Compliance.unit("compliance", unit))
 
 
-def marker_parameters(target: str) -> list[Parameter]:
-    """The marker offset [m] of marker target ``target`` (``<frame>`` or ``<frame>@<marker>``): its x, y, z
+def marker_parameters(key: str) -> list[Parameter]:
+    """The marker offset [m] of the point ``key`` (``<frame>`` or ``<frame>@<marker>``): its x, y, z
     components in the frame."""
-    return [Parameter(f"marker.{target}.{a}", "marker", target, k, "", "m") for k, a in enumerate(AXES)]
+    return [Parameter(f"marker.{key}.{a}", MarkerOffset.name, key, k, "", "m") for k, a in enumerate(AXES)]
 
 
 def cluster_parameters(frame: str) -> list[Parameter]:
