@@ -48,7 +48,7 @@ def right_jacobian(delta: Array, components: list[int]) -> Array:
 
 
 def marker_points(pset: ParameterSet, x: Array, nominal: dict[str, Array]) -> dict[str, MarkerPoint]:
-    """Each marker target's point on its frame at ``x``, with its derivative (:class:`MarkerPoint`).
+    """Each marker key's point on its frame at ``x``, with its derivative (:class:`MarkerPoint`).
 
     A target's point [m] in its frame is ``p = exp6(δ_c) · n``, ``n = nominal + δ_m``: ``δ_m`` its offset
     parameters ``marker.<target>.*`` (components without a parameter are zero), ``δ_c`` the placement of its

@@ -143,7 +143,7 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
         read_joints: Passive joints whose sensors are read (``joint:<name>`` measurements) besides those
             with an offset parameter; each gets a ``<joint_sensor>``.
         measurement_frame: Name of the measurement frame's link.
-        markers: Declared marker target (``<frame>@<marker>``) -> its nominal offset [m] in the frame: each
+        markers: Declared marker key (``<frame>@<marker>``) -> its nominal offset [m] in the frame: each
             becomes a link, with or without parameters of its own.
 
     Returns:

@@ -154,7 +154,7 @@ def default_parameters(robot: Robot, models: Sequence[Measurement], markers: Mar
     - the anchors of the loops those joints close;
     - reading offsets of the influencing actuated joints and of the read joints;
     - the measurement frame (``base.*``) when positions or poses are measured in an external frame, and a marker
-      offset (``marker.<target>.*``) for each marker target whose position is measured (``<frame>``, and each
+      offset (``marker.<key>.*``) for each marker key whose position is measured (``<frame>``, and each
       declared marker ``<frame>@<marker>``); with ``markers="cluster"``, the declared markers of a frame get one
       cluster placement (``cluster.<frame>.*``) instead, and need their nominal offsets (:func:`check_marker_fit`);
     - the cameras and targets (:func:`camera_parameters`); a world target seen by an eye-in-hand camera leaves the
@@ -247,7 +247,7 @@ def _tool_joint(robot: Robot, frame: str) -> str | None:
 def parameter_pool(robot: Robot, models: Sequence[Measurement]) -> ParameterSet:
     """Every parameter ``--parameters`` patterns may name: all joint and anchor placements, fixed joints leading
     to measured frames, offsets of the actuated and the read joints, the base placement when positions or poses
-    are measured in an external frame, the marker offsets of the measured marker targets, the cluster placement of
+    are measured in an external frame, the marker offsets of the measured marker keys, the cluster placement of
     each frame carrying declared markers, and the harmonics (``<joint>.sin1`` …) and compliance
     (``<joint>.compliance``) of the actuated joints that move a measured frame."""
     frames = sorted({f for m in models for f in m.frames})

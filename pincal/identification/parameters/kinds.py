@@ -195,14 +195,14 @@ class BasePlacement(ParameterKind):
 
 
 class MarkerOffset(ParameterKind):
-    """``marker.<target>.<x|y|z>``: a measured point's offset on its frame [m]."""
+    """``marker.<key>.<x|y|z>``: a measured point's offset on its frame [m]."""
 
     name = "marker"
     urdf = "a marker link on the frame"
 
     @classmethod
     def prefix(cls, owner: str, side: str = "") -> str:
-        """``marker.<target>``."""
+        """``marker.<key>``."""
         return f"marker.{owner}"
 
     @classmethod
