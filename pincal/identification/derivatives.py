@@ -51,7 +51,7 @@ def marker_points(pset: ParameterSet, x: Array, nominal: dict[str, Array]) -> di
     """Each marker key's point on its frame at ``x``, with its derivative (:class:`MarkerPoint`).
 
     A target's point [m] in its frame is ``p = exp6(δ_c) · n``, ``n = nominal + δ_m``: ``δ_m`` its offset
-    parameters ``marker.<target>.*`` (components without a parameter are zero), ``δ_c`` the placement of its
+    parameters ``marker.<key>.*`` (components without a parameter are zero), ``δ_c`` the placement of its
     frame's cluster ``cluster.<frame>.*`` for a declared marker ``<frame>@<marker>`` (identity without one). Then
     ``∂p/∂δ_m = R_c`` and ``∂p/∂δ_c = R_c [I, −n̂] Jexp6(δ_c)`` (the right Jacobian of ``exp6``).
 
