@@ -46,7 +46,7 @@ import pincal  # noqa: E402
 from pincal import linalg  # noqa: E402
 from pincal.calibration.campaign import simulate  # noqa: E402
 from pincal.errors import IdentifiabilityError  # noqa: E402
-from pincal.identification import lm, solver  # noqa: E402
+from pincal.identification import fitting, lm  # noqa: E402
 from pincal.identification.identifiability import analyse, correlations, covariance  # noqa: E402
 from pincal.identification.parameters import choose_parameters  # noqa: E402
 from pincal.identification.problem import CalibrationProblem, Prediction  # noqa: E402
@@ -157,11 +157,12 @@ def old_fit(problem: Any, max_iter: int = 100, tol: float = 1e-9, rank_tol: floa
         if decrease <= tol * max(cost, 1e-300) or step_size <= tol or cost <= 1e-30:
             break
         noise_level = cost > 0.05 * pred.residual.size
-        slow = slow + 1 if decrease <= solver.STATIONARY * max(cost, 1e-300) or (noise_level and decrease < 1e-2) else 0
+        stationary = decrease <= fitting.STATIONARY * max(cost, 1e-300) or (noise_level and decrease < 1e-2)
+        slow = slow + 1 if stationary else 0
         if slow >= 3:
             break
     active = analyse(pred.jacobian, pset.names, d, units=units, tol=rank_tol).base_indices
-    try:  # the covariance at the end, as _fit computes it
+    try:  # the covariance at the end, as fitting.fit computes it
         correlations(covariance(pred.jacobian[:, active], 1.0, names=[pset.names[k] for k in active]))
     except IdentifiabilityError:
         pass
@@ -169,7 +170,7 @@ def old_fit(problem: Any, max_iter: int = 100, tol: float = 1e-9, rank_tol: floa
 
 
 def new_fit(problem: Any) -> tuple[Array, int]:
-    result = solver._fit(problem, loss="linear")
+    result = fitting.fit(problem, loss="linear")
     return result.x, result.iterations
 
 

@@ -93,3 +93,103 @@ def test_no_exported_name_is_shadowed_by_a_module(package: str) -> None:
     module = importlib.import_module(package)
     modules = {info.name for info in pkgutil.iter_modules(module.__path__)}
     assert not modules & set(module.__all__), sorted(modules & set(module.__all__))
+
+
+#: The most lines a module of pincal may have; past it, a module is split by concept.
+MAX_MODULE_LINES = 500
+#: Modules of the parallel work on checking, compensating and exporting a calibration, which that work changes (it
+#: splits ``calibration/check.py`` and its commands keep their names until it lands). Each entry must still be true:
+#: once the module is short enough, or the name no longer shared, the entry goes.
+PENDING_LENGTH = {"calibration/check.py"}
+PENDING_NAMES = {"check", "compensate", "export"}
+
+
+def _module_lengths() -> dict[str, int]:
+    """Each module under pincal/ (path relative to it) -> its number of lines."""
+    return {str(p.relative_to(PACKAGE)): len(p.read_text(encoding="utf-8").splitlines())
+            for p in PACKAGE.rglob("*.py")}
+
+
+def _shared_names() -> dict[str, list[str]]:
+    """Each name two or more modules (or sub-packages) under pincal/ have in different packages -> their paths."""
+    names: dict[str, list[str]] = {}
+    for path in PACKAGE.rglob("*.py"):
+        if path.parent == PACKAGE and path.name in ("__init__.py", "__main__.py"):
+            continue
+        name = path.parent.name if path.name == "__init__.py" else path.stem
+        names.setdefault(name, []).append(str(path.relative_to(PACKAGE)))
+    return {name: paths for name, paths in names.items() if len(paths) > 1}
+
+
+def test_every_module_is_at_most_500_lines() -> None:
+    """No module under pincal/ is longer than :data:`MAX_MODULE_LINES` lines (but those :data:`PENDING_LENGTH`
+    names, each of which must still be longer)."""
+    long = {path: n for path, n in _module_lengths().items() if n > MAX_MODULE_LINES}
+    assert set(long) - PENDING_LENGTH == set(), f"modules longer than {MAX_MODULE_LINES} lines: {long}"
+    assert PENDING_LENGTH <= set(long), f"short enough, to leave PENDING_LENGTH: {PENDING_LENGTH - set(long)}"
+
+
+def test_no_two_modules_share_a_name() -> None:
+    """A module's name says what it holds once: no two modules (or sub-packages) under pincal/ have the same name
+    in different packages (but those :data:`PENDING_NAMES` names, each of which must still be shared)."""
+    shared = _shared_names()
+    assert set(shared) - PENDING_NAMES == set(), shared
+    assert PENDING_NAMES <= set(shared), f"no longer shared, to leave PENDING_NAMES: {PENDING_NAMES - set(shared)}"
+
+
+def test_the_layer_drawing_names_every_part_of_pincal() -> None:
+    """The drawing at the top of docs/architecture.md shows each package and each shared module of pincal."""
+    drawing = ARCHITECTURE.split("```", 2)[1]
+    parts = sorted(p.stem if p.suffix else p.name for p in PACKAGE.iterdir()
+                   if (p.suffix == ".py" and not p.name.startswith("__")) or (p / "__init__.py").is_file())
+    missing = [part for part in parts if f"pincal.{part}" not in drawing]
+    assert not missing, f"the drawing in docs/architecture.md lacks {missing}"
+
+
+def test_every_command_module_registers_itself_in_the_app() -> None:
+    """The recipe for a new command: a module in cli/ with ``register`` and a ``cmd_…`` function, in the list
+    ``cli/app.py`` registers (app and the shared arguments aside)."""
+    app = (PACKAGE / "cli" / "app.py").read_text(encoding="utf-8")
+    listed = re.search(r"for module in \(([^)]*)\)", app)
+    assert listed is not None
+    registered = set(re.findall(r"\w+", listed.group(1)))
+    for path in sorted((PACKAGE / "cli").glob("*.py")):
+        if path.stem in ("__init__", "app", "arguments"):
+            continue
+        text = path.read_text(encoding="utf-8")
+        assert "\ndef register(" in text and "\ndef cmd_" in text, f"cli/{path.name} has no register or cmd_ function"
+        assert path.stem in registered, f"cli/app.py does not register cli/{path.name}"
+
+
+def _recipe(title: str) -> str:
+    """The bullet of docs/architecture.md's "Where a change goes" that starts with ``title`` in bold."""
+    found = re.search(rf"^- \*\*{re.escape(title)}\*\*.*?(?=^- \*\*|\Z)", ARCHITECTURE, re.MULTILINE | re.DOTALL)
+    assert found is not None, title
+    return found.group(0)
+
+
+def test_the_sensor_recipe_names_what_a_measurement_kind_declares() -> None:
+    """Each class attribute a measurement kind may declare, and each method it may override to say what it reads,
+    is named in the recipe for a new sensor."""
+    from pincal.identification.measurements import Measurement
+
+    recipe = _recipe("A new sensor")
+    declared = [n for n, hint in Measurement.__annotations__.items() if "ClassVar" in str(hint)]
+    declared += ["from_key", "predict", "predict_batch", "error", "neutral", "simulate", "markers", "attachments",
+                 "read_joints", "locates_point"]
+    assert all(hasattr(Measurement, n) or n == "from_key" for n in declared)
+    missing = [n for n in declared if f"`{n}`" not in recipe]
+    assert not missing, f"the sensor recipe does not name {missing}"
+
+
+def test_the_parameter_kind_recipe_names_what_a_kind_declares() -> None:
+    """Each class attribute of :class:`ParameterKind` and each class method a kind overrides is named in the recipe
+    for a new parameter kind."""
+    from pincal.identification.parameters import ParameterKind
+
+    recipe = _recipe("A new parameter kind")
+    declared = [n for n, hint in ParameterKind.__annotations__.items() if "ClassVar" in str(hint)]
+    declared += [n for n, v in vars(ParameterKind).items() if isinstance(v, classmethod) and not n.startswith("_")
+                 and n not in ("kinematic", "plausible_limit")]  # these two read acts_in and plausible
+    missing = [n for n in declared if f"`{n}`" not in recipe]
+    assert not missing, f"the parameter-kind recipe does not name {missing}"

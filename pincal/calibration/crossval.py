@@ -91,17 +91,13 @@ def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measuremen
     :func:`~pincal.identification.selection.select_and_fit`.
 
     The ``r``-th shuffle is a permutation seeded ``folds.seed + r``: the plan holds the seed (``parse_cv(text,
-    n_samples, seed)``; its label in the report names it). A ``seed=`` keyword, this function's until the seed moved
-    into :class:`Folds`, is refused with a TypeError saying where it went, and the arguments after ``select`` are
-    keyword-only, so an old call's positional seed is not taken for ``progress``. A fold whose fit fails is listed
-    and left out; one whose fit stopped short of convergence is counted. Returns the plan, the RMS position error of the
-    predictions [m] (``rms``, pooled over every fold and repeat; None when no fold could be fitted), the same per
-    length-type reading when there are several (``rms_by_reading``, e.g. each marker of a body) and of the
-    orientation [rad] for poses (``rms_angle``), the predictions' count, the failed fits and the unconverged ones.
+    n_samples, seed)``; its label in the report names it). The arguments after ``select`` are keyword-only. A fold
+    whose fit fails is listed and left out; one whose fit stopped short of convergence is counted. Returns the plan,
+    the RMS position error of the predictions [m] (``rms``, pooled over every fold and repeat; None when no fold
+    could be fitted), the same per length-type reading when there are several (``rms_by_reading``, e.g. each marker of
+    a body) and of the orientation [rad] for poses (``rms_angle``), the predictions' count, the failed fits and the
+    unconverged ones.
     """
-    if "seed" in options:
-        raise TypeError(f"cross_validate() takes the shuffles' seed from its plan, not seed={options['seed']!r}: "
-                        "give Folds(k, repeats, seed=...) or parse_cv(text, n_samples, seed)")
     n = obs.n_samples
     lengths, angles, failed, unconverged = [], [], [], 0
     by_reading: dict[str, list[Array]] = {m.key: [] for m in models if length_columns(m.key)}

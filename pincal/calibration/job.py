@@ -29,11 +29,6 @@ from pincal.io.dataset import MEASUREMENT_COMPONENTS, parse_measurement_key
 from pincal.io.files import input_problem
 from pincal.model.robot import Robot, load_robot
 
-#: Length units a data file may be written in: their size in metres.
-LENGTH_UNITS = LENGTH_UNIT_SIZES
-#: Angle units a data file may be written in: their size in radians.
-ANGLE_UNITS = ANGLE_UNIT_SIZES
-
 #: Keys of each level of a job file.
 JOB_KEYS = ("robot", "data", "joints", "measure", "out", "report", *JOB_OPTIONS)
 DATA_KEYS = ("file", "files", "units", "held_out", "sample", "ignore", "header")
@@ -62,7 +57,7 @@ class MeasureColumns:
         sigma: σ of its values [m, rad]: one, or one per residual row; None: not stated.
         sigma_angle: σ of a pose's orientation [rad], or None.
         where: Its place in the job, ``[measure 1]``.
-        length_unit: The length unit its columns are written in (a key of :data:`LENGTH_UNITS`), or None: the
+        length_unit: The length unit its columns are written in (a key of :data:`LENGTH_UNIT_SIZES`), or None: the
             job's ``[data] units``.
     """
 
@@ -99,16 +94,16 @@ class Job:
         options: Keyword arguments of :func:`pincal.calibration.calibrate` (``parameter_spec``, ``select``, ``loss``,
             ``solver``, ``sigma`` [m], ``max_iter``, ``formulation``, ``cv``, ``cv_seed``, ``payload``), those the
             job gives.
-        length_unit: The data files' length unit (a key of :data:`LENGTH_UNITS`).
-        angle_unit: The data files' angle unit (a key of :data:`ANGLE_UNITS`).
+        length_unit: The data files' length unit (a key of :data:`LENGTH_UNIT_SIZES`).
+        angle_unit: The data files' angle unit (a key of :data:`ANGLE_UNIT_SIZES`).
         held_out: Which rows are held out, or None.
         sample: The column of the sample ids, or None (ids: the row numbers).
         ignore: Columns of the data files that are not read.
         joints: Joint name -> the column of its readings, those the job maps.
         header: What each data file's first line is (:data:`HEADERS`); a column is named by its header name, or by
             its position from 1 (the only way when the header is skipped or absent).
-        joint_units: Joint name -> the unit its readings are written in (a key of :data:`LENGTH_UNITS` or
-            :data:`ANGLE_UNITS`), those the job states; the others are in ``length_unit`` or ``angle_unit``.
+        joint_units: Joint name -> the unit its readings are written in (a key of :data:`LENGTH_UNIT_SIZES` or
+            :data:`ANGLE_UNIT_SIZES`), those the job states; the others are in ``length_unit`` or ``angle_unit``.
         measures: The measurements and their columns.
         overrides: The options given elsewhere (the command line) in place of the job's, by name.
         bag: The ROS bag the data come from (a ``[bag]`` table, :mod:`pincal.calibration.job_bag`), or None.
@@ -322,8 +317,8 @@ class _Reader:
     def units(self, value: Any) -> tuple[str, str]:
         units = self.table(value, "[data] units")
         self.keys(units, UNIT_KEYS, "in [data] units")
-        return (self.choice(units.get("length", "m"), list(LENGTH_UNITS), "[data] units: length"),
-                self.choice(units.get("angle", "rad"), list(ANGLE_UNITS), "[data] units: angle"))
+        return (self.choice(units.get("length", "m"), list(LENGTH_UNIT_SIZES), "[data] units: length"),
+                self.choice(units.get("angle", "rad"), list(ANGLE_UNIT_SIZES), "[data] units: angle"))
 
     def joints(self, table: dict[str, Any]) -> tuple[dict[str, Column], dict[str, str]]:
         """``[joints]``: joint -> its column, and joint -> its unit where one is given. An entry is a column (its name,
@@ -340,7 +335,7 @@ class _Reader:
             if "column" in value:
                 columns[name] = self.column(value["column"], f"{where} column")
             if "units" in value:
-                units[name] = self.choice(value["units"], [*LENGTH_UNITS, *ANGLE_UNITS], f"{where} units")
+                units[name] = self.choice(value["units"], [*LENGTH_UNIT_SIZES, *ANGLE_UNIT_SIZES], f"{where} units")
         return columns, units
 
     def held_out(self, value: Any) -> HeldOut:
@@ -406,7 +401,7 @@ class _Reader:
                               self.sigmas(entry["sigma"], f"{where} sigma") if "sigma" in entry else None,
                               self.sigma(entry["sigma_angle"], f"{where} sigma_angle") if "sigma_angle" in entry
                               else None, where,
-                              self.choice(entry["units"], list(LENGTH_UNITS), f"{where} units") if "units" in entry
+                              self.choice(entry["units"], list(LENGTH_UNIT_SIZES), f"{where} units") if "units" in entry
                               else None)
 
     def options(self, doc: dict[str, Any]) -> dict[str, Any]:

@@ -11,8 +11,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration.job import ANGLE_UNITS, LENGTH_UNITS, Column, HeldOut, Job
+from pincal.calibration.job import Column, HeldOut, Job
 from pincal.calibration.job_bag import bag_job_dataset
+from pincal.calibration.samples import ANGLE_UNIT_SIZES, LENGTH_UNIT_SIZES
 from pincal.errors import DataError, listing, not_found
 from pincal.identification.measurements import KIND_CLASSES, parse_key
 from pincal.io.dataset import MAX_SAMPLES, OCCLUDABLE_KINDS, Dataset
@@ -119,7 +120,7 @@ def _file_dataset(job: Job, robot: Robot, k: int) -> tuple[Dataset, npt.NDArray[
                                 for i in columns.measures[measure.key]] for r, (line, cells) in enumerate(rows)])
             values = values.reshape(len(rows), len(columns.measures[measure.key]))
             _check_not_seen(values, [table.header[i] for i in columns.measures[measure.key]], rows)
-            length = LENGTH_UNITS[measure.length_unit or job.length_unit]
+            length = LENGTH_UNIT_SIZES[measure.length_unit or job.length_unit]
             measurements[measure.key] = values * np.array([length if unit == "m" else 1.0  # a quaternion has none
                                                            for unit in KIND_CLASSES[kind].component_units()])
         ids = [cells[columns.sample] if columns.sample is not None else str(r) for r, (_, cells) in enumerate(rows)]
@@ -244,15 +245,15 @@ def joint_units(job: Job, robot: Robot, joint: str) -> str:
 
 def _unit_size(unit: str) -> float:
     """A unit's size in metres or radians."""
-    return LENGTH_UNITS[unit] if unit in LENGTH_UNITS else ANGLE_UNITS[unit]
+    return LENGTH_UNIT_SIZES[unit] if unit in LENGTH_UNIT_SIZES else ANGLE_UNIT_SIZES[unit]
 
 
 def _check_joint_units(job: Job, robot: Robot) -> None:
     """Refuse a joint's unit of the other kind (an angle for a prismatic joint, a length for a revolute one)."""
     for joint, unit in job.joint_units.items():
         lengths = joint_unit(robot, joint) == "m"
-        if (unit in LENGTH_UNITS) != lengths:
-            kind, units = ("prismatic", LENGTH_UNITS) if lengths else ("revolute", ANGLE_UNITS)
+        if (unit in LENGTH_UNIT_SIZES) != lengths:
+            kind, units = ("prismatic", LENGTH_UNIT_SIZES) if lengths else ("revolute", ANGLE_UNIT_SIZES)
             raise DataError(f"{job.path}: [joints] {joint} units: '{unit}' is not a unit of a {kind} joint's "
                             f"readings; units are: {listing(units)}")
 

@@ -1,7 +1,7 @@
 """The measurement noise of data that state none: estimated from the data before model selection.
 
-A file without ``# sigma`` lines (and no ``--sigma``) used to weight its readings by a default σ (1e-5 m) that says
-nothing of the instrument. Instead, :func:`estimate_noise` fits every identifiable parameter once (a provisional fit)
+Data without ``# sigma`` lines (and no ``--sigma``) say nothing of the instrument, and the model's default σ
+(1e-5 m) says nothing of it either. So :func:`estimate_noise` fits every identifiable parameter once (a provisional fit)
 and takes the a-posteriori RMS of each reading's residuals, corrected for the degrees of freedom the fit used
 (``σ̂² = Σ w_k e_k² / Σ w_k · m / (m − p)``: ``e_k`` the errors of sample k's rows, ``w_k`` its robust weight, m rows,
 p identified parameters), per measurement key and per kind of row (lengths [m], angles [rad]). The σ of a row kind

@@ -21,7 +21,7 @@ from pincal.errors import DataError
 from pincal.identification.choices import MarkerFit
 from pincal.identification.corrections import Payload
 from pincal.identification.measurements import Measurement, parse_key
-from pincal.identification.parameters import ParameterSet, choose_parameters
+from pincal.identification.parameters import Compliance, ParameterSet, choose_parameters
 from pincal.identification.predictions import remember, remembered
 from pincal.identification.problem import CalibrationProblem
 from pincal.io.adapters import joints_at_reference, measurements_for, observations_from
@@ -69,7 +69,7 @@ def check_payload(robot: Robot, parameters: ParameterSet, payload: Payload | Non
     if payload is None:
         return
     payload.check(robot)
-    if not any(p.kind == "compliance" for p in parameters):
+    if not any(p.is_a(Compliance) for p in parameters):
         raise DataError(f"the payload ({payload}) enters only the joint compliances, and no <joint>.compliance is "
                         "among the parameters: add '*.compliance' (--parameters default '*.compliance'), or give no "
                         "payload")

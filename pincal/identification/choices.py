@@ -2,7 +2,7 @@
 
 Names only, and no import beyond the standard library, so that a command-line parser can read its choices here
 without loading SciPy or Pinocchio. Each name is an entry of a registry: a solver of
-:data:`pincal.identification.solver.METHODS` (one module per method), a loss of
+:data:`pincal.identification.fitting.METHODS` (one module per method), a loss of
 :data:`pincal.identification.losses.IMPLEMENTED_LOSSES` or ``auto`` (:func:`~pincal.identification.solver.identify`'s
 own plan on top of them); a test holds the names and the registries together.
 """

@@ -19,7 +19,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.identification.measurements import AttachedPlacement, MarkerPoint, split_target
-from pincal.identification.parameters import ParameterSet, attached_name
+from pincal.identification.parameters import AnchorPlacement, MarkerOffset, ParameterSet, attached_name
 from pincal.identification.parameters.candidates import _descends
 from pincal.model.robot import Robot
 
@@ -48,10 +48,10 @@ def right_jacobian(delta: Array, components: list[int]) -> Array:
 
 
 def marker_points(pset: ParameterSet, x: Array, nominal: dict[str, Array]) -> dict[str, MarkerPoint]:
-    """Each marker target's point on its frame at ``x``, with its derivative (:class:`MarkerPoint`).
+    """Each marker key's point on its frame at ``x``, with its derivative (:class:`MarkerPoint`).
 
     A target's point [m] in its frame is ``p = exp6(δ_c) · n``, ``n = nominal + δ_m``: ``δ_m`` its offset
-    parameters ``marker.<target>.*`` (components without a parameter are zero), ``δ_c`` the placement of its
+    parameters ``marker.<key>.*`` (components without a parameter are zero), ``δ_c`` the placement of its
     frame's cluster ``cluster.<frame>.*`` for a declared marker ``<frame>@<marker>`` (identity without one). Then
     ``∂p/∂δ_m = R_c`` and ``∂p/∂δ_c = R_c [I, −n̂] Jexp6(δ_c)`` (the right Jacobian of ``exp6``).
 
@@ -66,7 +66,7 @@ def marker_points(pset: ParameterSet, x: Array, nominal: dict[str, Array]) -> di
     """
     offsets: dict[str, list[int]] = {}
     for k, p in enumerate(pset):
-        if p.kind == "marker":
+        if p.is_a(MarkerOffset):
             offsets.setdefault(p.owner, []).append(k)
     clusters = {target: idx for (_, target, _), idx in pset.groups("cluster").items()}
     out: dict[str, MarkerPoint] = {}
@@ -100,10 +100,10 @@ def attached_placements(pset: ParameterSet, x: Array) -> dict[str, AttachedPlace
         ``target``, ``target.<frame>@<target>``) -> its :class:`AttachedPlacement`.
     """
     out: dict[str, AttachedPlacement] = {}
-    for (kind, target, _), idx in pset.groups("camera", "target", "plane").items():
+    for (kind, owner, _), idx in pset.groups("camera", "target", "plane").items():
         delta = pset.placement_delta(x, idx)
         jacobian = right_jacobian(delta, [pset.parameters[k].component for k in idx])
-        out[attached_name(kind, target)] = AttachedPlacement(pin.exp6(delta), list(idx), jacobian)
+        out[attached_name(kind, owner)] = AttachedPlacement(pin.exp6(delta), list(idx), jacobian)
     return out
 
 
@@ -127,16 +127,16 @@ class KinematicSensitivity:
         self.fixed: list[tuple[int, pin.SE3, int, list[int], Array]] = []
         self.anchor_terms: dict[tuple[str, str], tuple[list[int], Array]] = {}
         self._fixed_cache: dict[int, list[tuple[list[int], Array]]] = {}  # id(probe) -> its fixed-joint terms
-        for (kind, target, side), idx in pset.groups("joint", "anchor").items():
+        for (kind, owner, side), idx in pset.groups("joint", "anchor").items():
             comps = [pset.parameters[k].component for k in idx]
             jexp = right_jacobian(pset.placement_delta(x, idx), comps)
-            if kind == "anchor":
-                self.anchor_terms[(target, side)] = (idx, jexp)
-            elif model.existJointName(target):
-                jid = model.getJointId(target)
+            if kind == AnchorPlacement.name:
+                self.anchor_terms[(owner, side)] = (idx, jexp)
+            elif model.existJointName(owner):
+                jid = model.getJointId(owner)
                 self.joint_map[6 * (jid - 1):6 * jid, idx] += jexp
             else:
-                fid = model.getFrameId(target, pin.FrameType.FIXED_JOINT)
+                fid = model.getFrameId(owner, pin.FrameType.FIXED_JOINT)
                 frame = model.frames[fid]
                 parent = int(frame.parentJoint)
                 placement = frame.placement.copy()

@@ -31,6 +31,7 @@ from pincal.identification.measurements import Measurement, SampleContext
 from pincal.identification.neighbours import SolvedInputs
 from pincal.identification.parameters import (
     ParameterSet,
+    ReadingOffset,
     apply_parameters,
     joint_unit,
     kinds_where,
@@ -139,7 +140,7 @@ class CalibrationProblem:
         if self.joint_sigma is not None:
             # the readings' noise enters each sample's covariance through d(prediction)/d(reading), which
             # the actuated offset columns give: add those missing as nuisance columns (dropped on output)
-            present = {p.owner for p in parameters if p.kind == "offset"}
+            present = {p.owner for p in parameters if p.is_a(ReadingOffset)}
             extra = [offset_parameter(j, joint_unit(robot, j)) for j in robot.actuated_joints if j not in present]
             parameters = ParameterSet(list(parameters.parameters) + extra)
         self._all = parameters
@@ -147,9 +148,9 @@ class CalibrationProblem:
         self.kinematic_set = parameters.subset(self.kinematic)
         actuated = {name: k for k, name in enumerate(robot.actuated_joints)}
         self.actuated_offsets = [(actuated[p.owner], k) for k, p in enumerate(parameters)
-                                 if p.kind == "offset" and p.owner in actuated]
+                                 if p.is_a(ReadingOffset) and p.owner in actuated]
         self.reading_offsets = {p.owner: k for k, p in enumerate(parameters)
-                                if p.kind == "offset" and p.owner not in actuated}
+                                if p.is_a(ReadingOffset) and p.owner not in actuated}
         corrections = [(k, p) for k, p in enumerate(parameters) if p.kind_class.in_corrections]
         strays = [p.name for _, p in corrections if p.owner not in actuated]
         if strays:

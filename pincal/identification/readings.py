@@ -32,7 +32,7 @@ import numpy.typing as npt
 from pincal.errors import ConvergenceError, DataError
 from pincal.identification.chi2 import chi2_upper
 from pincal.identification.losses import noise_scale, outlier_samples, sample_squares
-from pincal.identification.parameters import ParameterSet, joint_unit, offset_parameter
+from pincal.identification.parameters import ParameterSet, ReadingOffset, joint_unit, offset_parameter
 from pincal.identification.problem import CalibrationProblem, Observations, Prediction, Problem
 from pincal.identification.result import CalibrationResult
 
@@ -152,7 +152,7 @@ def _reading_changes(problem: CalibrationProblem, x: Array, rows: list[int]) -> 
     weighted residual (Gauss–Newton, one joint at a time, keeping the best iterate), the squared residual norm
     without it and with it (NaN where the loops do not close)."""
     robot = problem.robot
-    present = {p.owner for p in problem.parameters if p.kind == "offset"}
+    present = {p.owner for p in problem.parameters if p.is_a(ReadingOffset)}
     extra = [offset_parameter(j, joint_unit(robot, j)) for j in robot.actuated_joints if j not in present]
     pset = ParameterSet(list(problem.parameters.parameters) + extra)
     columns = [pset.index(f"{j}.offset") for j in robot.actuated_joints]

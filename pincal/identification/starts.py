@@ -65,7 +65,7 @@ def initial_guess(problem: CalibrationProblem, start: Array | None = None) -> Ar
 def camera_starts(problem: CalibrationProblem, x: Array) -> bool:
     """Write the closed-form starts of the cameras and targets into ``x``; True if one placed the measurement
     frame (``base``, the fixed camera of a pose target)."""
-    groups = {attached_name(kind, target): idx for (kind, target, _), idx
+    groups = {attached_name(kind, owner): idx for (kind, owner, _), idx
               in problem.parameters.groups("camera", "target").items()}
     cameras = [m for m in problem.measurements if any(a.kind != PLANE for a in m.attachments)]
     problem.placed_in_closed_form, problem.not_in_closed_form = [], []
@@ -116,7 +116,7 @@ def plane_starts(problem: CalibrationProblem, x: Array) -> None:
     nearly on a line and the frames' axes are read). Planes the points do not determine stay where they start (the
     summary says why)."""
     groups = problem.parameters.groups(PLANE)
-    for support in sorted({target for (_, target, _) in groups}):
+    for support in sorted({owner for (_, owner, _) in groups}):
         models = [m for m in problem.measurements if any(a.kind == PLANE and a.owner == support
                                                          for a in m.attachments)]
         points, axes, distances = _contact_points(problem, models)

@@ -5,7 +5,7 @@ are at the numerical floor.
 A method (:mod:`~pincal.identification.lm`, :mod:`~pincal.identification.tsvd`,
 :mod:`~pincal.identification.ridge`) decides which singular values of the scaled Jacobian its steps move along and
 how it damps them; :func:`pincal.identification.solver.identify` picks it by name from
-:data:`pincal.identification.solver.METHODS` and drives the iterations without asking which it is.
+:data:`pincal.identification.fitting.METHODS` and drives the iterations without asking which it is.
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ class Method(ABC):
     a trial. The step along the kept singular triplets ``(s_i, u_i, v_i)`` of the scaled Jacobian is
     ``δz = -Σ_i v_i s_i/(s_i² + μ) u_iᵀ r``.
 
-    One subclass per module, registered under its :attr:`name` in :data:`pincal.identification.solver.METHODS`; one
+    One subclass per module, registered under its :attr:`name` in :data:`pincal.identification.fitting.METHODS`; one
     instance per fit, made by :meth:`configured`.
     """
 

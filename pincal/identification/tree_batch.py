@@ -31,8 +31,6 @@ import pinocchio as pin
 
 from pincal.identification.batch import SpatialJacobian, Workspace
 from pincal.identification.derivatives import KinematicSensitivity, Probe
-from pincal.model.joint_motion import MOTION_TOLERANCE as MOTION_TOLERANCE  # re-exported: their home until now
-from pincal.model.joint_motion import TEST_VALUES as TEST_VALUES
 from pincal.model.joint_motion import JointMotion, joint_motion, joint_value
 from pincal.model.robot import Robot
 

@@ -23,7 +23,15 @@ import pinocchio as pin
 from pincal.errors import ConvergenceError, DataError, RobotFileError, listing, not_found
 from pincal.identification.derivatives import marker_points
 from pincal.identification.measurements import PLANE, Measurement, split_target
-from pincal.identification.parameters import ParameterSet, attached_name, kinds_where
+from pincal.identification.parameters import (
+    JointPlacement,
+    MarkerOffset,
+    ParameterSet,
+    ReadingOffset,
+    attached_name,
+    kinds_where,
+    parameter_kind,
+)
 from pincal.model.robot import Robot, _build_model, check_reference_assembly
 from pincal.model.urdf import origin_to_se3, read_extensions
 from pincal.model.urdf_writer import FixedLink, calibrated_urdf_text
@@ -52,7 +60,7 @@ def written_frame(measurement: Measurement, frame: str, parameters: ParameterSet
     declared = [t for t in measurement.markers if split_target(t)[1]]
     if declared:
         return marker_link(declared[0])
-    marked = any(p.kind == "marker" and p.owner == frame for p in parameters)
+    marked = any(p.is_a(MarkerOffset) and p.owner == frame for p in parameters)
     return marker_link(frame) if marked and measurement.reads_markers else frame
 
 
@@ -135,7 +143,7 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
         read_joints: Passive joints whose sensors are read (``joint:<name>`` measurements) besides those
             with an offset parameter; each gets a ``<joint_sensor>``.
         measurement_frame: Name of the measurement frame's link.
-        markers: Declared marker target (``<frame>@<marker>``) -> its nominal offset [m] in the frame: each
+        markers: Declared marker key (``<frame>@<marker>``) -> its nominal offset [m] in the frame: each
             becomes a link, with or without parameters of its own.
 
     Returns:
@@ -161,18 +169,18 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     joint_origins: dict[str, pin.SE3] = {}
     loop_origins: dict[tuple[str, str], pin.SE3] = {}
     loops = {lp.name: lp for lp in ext.loops}
-    for (kind, target, side), idx in parameters.groups(*kinds_where(kinematic=True)).items():
+    for (kind, owner, side), idx in parameters.groups(*kinds_where(kinematic=True)).items():
         exp = pin.exp6(parameters.placement_delta(x, idx))
-        if kind == "joint":
-            joint_origins[target] = joint_origins.get(target, root[target]) * exp
+        if kind == JointPlacement.name:
+            joint_origins[owner] = joint_origins.get(owner, root[owner]) * exp
         else:
-            loop = loops[target]
+            loop = loops[owner]
             base = loop.predecessor_origin if side == "predecessor" else loop.successor_origin
-            loop_origins[(target, side)] = base * exp
+            loop_origins[(owner, side)] = base * exp
     rest, moved = robot.model.createData(), robot.model.createData()
     pin.forwardKinematics(robot.model, rest, pin.neutral(robot.model))
     for k, p in enumerate(parameters):
-        if p.kind == "offset" and p.owner in robot.actuated_joints and x[k] != 0.0:
+        if p.is_a(ReadingOffset) and p.owner in robot.actuated_joints and x[k] != 0.0:
             for name, motion in _offset_motions(robot.model, p.owner, x[k], rest, moved).items():
                 joint_origins[name] = joint_origins.get(name, root[name]) * motion
     shifts = _reassemble(robot, source_text, joint_origins, loop_origins, root) if ext.loops else {}
@@ -180,7 +188,7 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     fixed_links = _measurement_frame_link(tree, parameters, x, joint_origins, root, measurement_frame)
     fixed_links += _marker_links(tree, parameters, x, joint_origins, root, markers or {})
     fixed_links += _attached_links(tree, parameters, x, joint_origins, root, measurement_frame)
-    offsets = {p.owner: float(x[k]) for k, p in enumerate(parameters) if p.kind == "offset"}
+    offsets = {p.owner: float(x[k]) for k, p in enumerate(parameters) if p.is_a(ReadingOffset)}
     read = [j for j in dict.fromkeys([*read_joints, *offsets]) if j not in robot.actuated_joints]
     sensor_zeros = {j: shifts.get(j, 0.0) - offsets.get(j, 0.0) for j in read}
     text = calibrated_urdf_text(source_text, joint_origins, loop_origins, header_note=note, fixed_links=fixed_links,
@@ -300,16 +308,11 @@ def _marker_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_or
     return out
 
 
-def attached_link(kind: str, target: str) -> str:
+def attached_link(kind: str, owner: str) -> str:
     """Name of the link a calibrated camera, target or plane becomes: ``<frame>_camera``, ``camera_target`` (the world
-    target, ``target`` empty), ``<frame>_target_<target>``, ``contact_plane`` (a plane in the world) or
-    ``<support>_plane``."""
-    if kind == "camera":
-        return f"{target}_camera"
-    if kind == PLANE:
-        return f"{target}_plane" if target else "contact_plane"
-    frame, name = split_target(target)
-    return f"{frame}_target_{name}" if target else "camera_target"
+    target, ``owner`` empty), ``<frame>_target_<target>``, ``contact_plane`` (a plane in the world) or
+    ``<support>_plane``: the kind says (:meth:`~pincal.identification.parameters.ParameterKind.urdf_link`)."""
+    return parameter_kind(kind).urdf_link(owner)
 
 
 def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_origins: dict[str, pin.SE3],
@@ -325,21 +328,21 @@ def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_
         child = next(j.find("child") for j in tree.findall("joint") if j.get("name") == frame_joint)  # tracker frame
         if child is not None and child.get("link"):
             robot_root, robot_root_placement = child.get("link", ""), root[frame_joint]
-    for (kind, target, _), idx in parameters.groups("camera", "target", PLANE).items():
-        link = attached_link(kind, target)
+    for (kind, owner, _), idx in parameters.groups("camera", "target", PLANE).items():
+        link = attached_link(kind, owner)
         joint = f"{link}_joint"
-        world_target = kind in ("target", PLANE) and not target
-        parent = robot_root if world_target else _frame_link(tree, split_target(target)[0])
+        world_target = not owner  # the world target and a plane in the world; a camera is always on a frame
+        parent = robot_root if world_target else _frame_link(tree, split_target(owner)[0])
         placement = pin.exp6(parameters.placement_delta(x, idx))  # the world target: in the model's world frame,
         if world_target:  # the file's root link, which a calibrated file's robot root hangs below
             placement = robot_root_placement.inverse() * placement
         if link in links:
             if not _fixed_joint(tree, joint, parent, link):
                 raise RobotFileError(f"the URDF already has a link '{link}', the name of the calibrated "
-                                     f"{attached_name(kind, target)}: rename it")
+                                     f"{attached_name(kind, owner)}: rename it")
             joint_origins[joint] = placement  # the camera or target of an earlier calibration: re-estimated
             continue
-        what = kind + (f" on '{split_target(target)[0]}'" if target else " fixed in the robot's world frame")
+        what = kind + (f" on '{split_target(owner)[0]}'" if owner else " fixed in the robot's world frame")
         out.append(FixedLink(joint, parent, link, placement, f"pincal: the calibrated {what}"))
     return out
 

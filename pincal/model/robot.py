@@ -24,7 +24,6 @@ from pincal.errors import ConvergenceError, DataError, LoopError, RobotFileError
 from pincal.model.catalog import known_robot_names, robot_path
 from pincal.model.closure import LoopClosure
 from pincal.model.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveReport
-from pincal.model.measured_frame import END_EFFECTOR_NAMES as END_EFFECTOR_NAMES  # where it was
 from pincal.model.measured_frame import FrameChoice, default_measured_frame
 from pincal.model.mimic import with_mimics
 from pincal.model.urdf import LoopSpec, check_finite_origins, read_extensions
@@ -109,7 +108,8 @@ class Robot:
     @property
     def end_effector(self) -> str:
         """The default measured (end-effector) frame: ``end_effector`` in pincal's robot files, another name of
-        :data:`END_EFFECTOR_NAMES`, else the one link the actuated joints move with no moving link below it.
+        :data:`~pincal.model.measured_frame.END_EFFECTOR_NAMES`, else the one link the actuated joints move with no
+        moving link below it.
 
         Raises:
             NotFoundError: no such frame is obvious (several moving ends, listed as ``choices``, or none).

@@ -27,7 +27,6 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import DataError
-from pincal.identification.measurements import Pose
 from pincal.identification.problem import CalibrationProblem
 from pincal.study.pose_selection import jacobian_blocks
 
@@ -116,6 +115,11 @@ def quaternion_rows(quaternion: npt.ArrayLike, angular: Array) -> Array:
     return np.asarray(0.5 * (w * np.eye(3) + pin.skew(np.array([x, y, z]))) @ angular)
 
 
+#: The residual rows of a placement measured whole: its position [m], then its local rotation vector [rad]
+#: (:meth:`~pincal.identification.measurements.Measurement.row_names`).
+POSE_ROWS = ("x", "y", "z", "rx", "ry", "rz")
+
+
 def pose_error_jacobians(problem: CalibrationProblem, x: Array | None = None,
                          orientation: str = "rotation") -> Array:
     """``T_R`` per sample, (N, 6, p): position rows [m] and orientation rows of the first pose measurement.
@@ -125,14 +129,15 @@ def pose_error_jacobians(problem: CalibrationProblem, x: Array | None = None,
     is the identity at zero error).
 
     Args:
-        problem: Problem over workspace samples with a :class:`~pincal.identification.measurements.Pose` measurement.
+        problem: Problem over workspace samples with a measurement of a whole placement (rows :data:`POSE_ROWS`:
+            a :class:`~pincal.identification.measurements.Pose`).
         x: Parameters to linearise at (nominal by default).
         orientation: ``rotation`` (local rotation vector [rad]) or ``quaternion`` (study 004's
             q1, q2, q3, dimensionless).
     """
     if orientation not in ("rotation", "quaternion"):
         raise DataError(f"orientation must be 'rotation' or 'quaternion'; got '{orientation}'")
-    poses = [m for m in problem.measurements if isinstance(m, Pose)]
+    poses = [m for m in problem.measurements if m.row_names() == POSE_ROWS]
     if not poses:
         raise DataError(f"no pose measurement among {', '.join(m.key for m in problem.measurements)}")
     start = 0

@@ -32,7 +32,7 @@ import numpy.typing as npt
 from pincal import linalg
 from pincal.errors import DataError
 from pincal.identification.measurements import Measurement
-from pincal.identification.parameters import ParameterSet
+from pincal.identification.parameters import ParameterSet, ReadingOffset
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.model.robot import Robot
 
@@ -161,7 +161,7 @@ def identify_zero_offsets(robot: Robot, parameters: ParameterSet, measurements: 
         raise DataError(f"{len(labels)} names for {t.shape[1]} identified quantities")
     if offsets is None:
         actuated = set(robot.actuated_joints)
-        offsets = [p.name for p in parameters if p.kind == "offset" and p.owner in actuated]
+        offsets = [p.name for p in parameters if p.is_a(ReadingOffset) and p.owner in actuated]
         if mapping is not None:
             raise DataError("with a mapping, name the zero offsets explicitly (offsets=...)")
     missing = [o for o in offsets if o not in labels]

@@ -10,8 +10,14 @@ from pincal.errors import NotFoundError
 from pincal.identification import measurements as ms
 from pincal.identification.parameters import (
     PARAMETER_KINDS,
+    CameraPlacement,
+    Compliance,
+    JointPlacement,
     ParameterKind,
     ParameterSet,
+    PlanePlacement,
+    ReadingOffset,
+    TargetPlacement,
     choose_parameters,
     compliance_parameter,
     harmonic_parameters,
@@ -90,3 +96,19 @@ def test_a_new_kind_is_one_class_that_registers_itself() -> None:
         assert pset.of_kind("scale") == [len(pset) - 1]
     finally:
         PARAMETER_KINDS.pop("scale", None)
+
+
+def test_a_parameter_is_asked_its_kind_by_class() -> None:
+    offset = offset_parameter("joint1", "rad")
+    assert offset.is_a(ReadingOffset) and offset.is_a(ParameterKind)
+    assert not offset.is_a(Compliance) and compliance_parameter("joint1", "rad").is_a(Compliance)
+    assert all(p.is_a(JointPlacement) for p in placement_parameters("joint", "joint1"))
+
+
+def test_attached_kinds_name_their_calibrated_urdf_links() -> None:
+    assert CameraPlacement.urdf_link("tool0") == "tool0_camera"
+    assert TargetPlacement.urdf_link("") == "camera_target"
+    assert TargetPlacement.urdf_link("tool0@board") == "tool0_target_board"
+    assert PlanePlacement.urdf_link("") == "contact_plane" and PlanePlacement.urdf_link("sole") == "sole_plane"
+    with pytest.raises(TypeError, match="offset parameters"):
+        ReadingOffset.urdf_link("joint1")

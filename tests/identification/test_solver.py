@@ -19,12 +19,13 @@ from pincal.errors import DataError, IdentifiabilityError
 from pincal.identification import measurements as ms
 from pincal.identification.choices import LOSSES, SOLVERS, Loss, Solver
 from pincal.identification.derivatives import marker_points
+from pincal.identification.fitting import METHODS
 from pincal.identification.identifiability import analyse
 from pincal.identification.losses import IMPLEMENTED_LOSSES, TRIMMED
 from pincal.identification.metrics import error_norms
 from pincal.identification.parameters import choose_parameters, default_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
-from pincal.identification.solver import METHODS, identify
+from pincal.identification.solver import identify
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 DEVICE = [ms.joint_reading(j) for j in ("device_incl_x", "device_incl_y", "device_lvdt", "device_rotary")]

@@ -25,7 +25,7 @@ from pincal.identification.parameters import (
     parameter_pool,
 )
 from pincal.identification.problem import CalibrationProblem, Observations
-from pincal.identification.tree_batch import joint_motion
+from pincal.model.joint_motion import joint_motion
 from pincal.study.simulation import random_actuated
 
 #: Largest gap between the batched and the per-sample evaluation, relative to the largest entry.

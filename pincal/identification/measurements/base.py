@@ -190,7 +190,7 @@ class Measurement(ABC):
 
     @property
     def markers(self) -> Mapping[str, tuple[float, float, float] | None]:
-        """The marker targets it measures (``<frame>`` or ``<frame>@<marker>``) -> each one's nominal offset [m] in
+        """The marker keys it measures (``<frame>`` or ``<frame>@<marker>``) -> each one's nominal offset [m] in
         its frame as the data declare it (None: not declared, zero); each gets offset parameters."""
         return {}
 

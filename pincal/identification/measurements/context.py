@@ -1,10 +1,10 @@
 """What a measurement model predicts from: one sample's kinematic state, the measured points on the frames (markers)
 and the placements the models carry (cameras, targets), with their parameter derivatives.
 
-A measured point on a frame is named by its *marker target*: ``<frame>`` for the frame's own marker,
+A measured point on a frame is named by its *marker key*: ``<frame>`` for the frame's own marker,
 ``<frame>@<marker>`` for a declared marker. Its position in the frame [m] is
 ``exp6(δ_cluster) · (nominal + δ_marker)``: a nominal offset (declared with the data, zero by default), the
-marker's own offset parameters ``marker.<target>.x|y|z`` and, for declared markers, the rigid placement of the
+marker's own offset parameters ``marker.<key>.x|y|z`` and, for declared markers, the rigid placement of the
 frame's marker cluster ``cluster.<frame>.*`` (each term present only when its parameters are estimated). The
 problem evaluates it once per evaluation (:class:`MarkerPoint`); the models read it through
 :meth:`SampleContext.marker`.
@@ -72,7 +72,7 @@ def target_name(frame: str, target: str) -> str:
 
 
 def split_target(target: str) -> tuple[str, str]:
-    """``(frame, marker)`` of a marker target: ``tool0@m1`` -> ``("tool0", "m1")``, ``tool0`` -> ``("tool0", "")``."""
+    """``(frame, marker)`` of a marker key: ``tool0@m1`` -> ``("tool0", "m1")``, ``tool0`` -> ``("tool0", "")``."""
     frame, at, marker = target.rpartition("@")
     return (frame, marker) if at else (target, "")
 
@@ -124,16 +124,16 @@ class SampleContext:
         """The frame's placement in the robot's world frame at ``q``."""
         return self.data.oMf[self.frame_ids[frame]]
 
-    def marker(self, target: str) -> Array:
-        """The point [m] of marker target ``target`` (``<frame>`` or ``<frame>@<marker>``) in its frame (zero
-        for a target with neither a nominal offset nor parameters)."""
-        point = self.markers.get(target)
+    def marker(self, key: str) -> Array:
+        """The point [m] of marker key ``key`` (``<frame>`` or ``<frame>@<marker>``) in its frame (zero
+        for a point with neither a nominal offset nor parameters)."""
+        point = self.markers.get(key)
         return point.point if point is not None else np.zeros(3)
 
-    def marker_derivative(self, target: str) -> tuple[list[int], Array]:
-        """The parameter columns that move marker target ``target`` on its frame, and the (3, k) derivative of its
+    def marker_derivative(self, key: str) -> tuple[list[int], Array]:
+        """The parameter columns that move marker key ``key`` on its frame, and the (3, k) derivative of its
         point [m] in the frame's coordinates w.r.t. them (no columns: the marker is fixed on its frame)."""
-        point = self.markers.get(target)
+        point = self.markers.get(key)
         return (point.columns, point.derivative) if point is not None else ([], np.zeros((3, 0)))
 
     def attached_placement(self, name: str) -> AttachedPlacement:

@@ -10,7 +10,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import NotFoundError, listing
-from pincal.identification.parameters.kinds import kinds_where
+from pincal.identification.parameters.kinds import JointPlacement, kinds_where
 from pincal.identification.parameters.parameter import (
     COMPONENTS,
     ParameterSet,
@@ -203,22 +203,22 @@ def apply_parameters(robot: Robot, pset: ParameterSet, x: Array) -> Robot:
     """
     model = pin.Model(robot.model)
     loops = {loop.name: loop for loop in robot.loops}
-    for (kind, target, side), idx in pset.groups(*kinds_where(kinematic=True)).items():
+    for (kind, owner, side), idx in pset.groups(*kinds_where(kinematic=True)).items():
         exp = pin.exp6(pset.placement_delta(x, idx))
-        if kind == "joint":
-            if model.existJointName(target):
-                jid = model.getJointId(target)
+        if kind == JointPlacement.name:
+            if model.existJointName(owner):
+                jid = model.getJointId(owner)
                 model.jointPlacements[jid] = model.jointPlacements[jid] * exp
             else:
-                move_fixed_joint(model, target, exp)
+                move_fixed_joint(model, owner, exp)
         else:
-            loop = loops[target]
+            loop = loops[owner]
             pred, succ = loop.predecessor_origin, loop.successor_origin
             if side == "predecessor":
                 pred = pred * exp
             else:
                 succ = succ * exp
-            loops[target] = loop.with_origins(pred, succ)
+            loops[owner] = loop.with_origins(pred, succ)
     return Robot(model, [loops[loop.name] for loop in robot.loops], robot.actuated_joints, robot.name,
                  robot.source)
 

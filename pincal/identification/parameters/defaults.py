@@ -20,6 +20,7 @@ from pincal.identification.parameters.candidates import (
     candidate_parameters,
     planar_normal,
 )
+from pincal.identification.parameters.kinds import CameraPlacement, TargetPlacement
 from pincal.identification.parameters.parameter import (
     AXES,
     COMPONENTS,
@@ -49,19 +50,20 @@ def camera_parameters(models: Sequence[Measurement]) -> list[Parameter]:
         for a in m.attachments:
             components.setdefault((a.kind, a.owner), set()).update(a.components)
     order = sorted(components, key=lambda name: (name[0] != "camera", name[1] != "", name[1]))
-    return [p for kind, target in order
-            for p in placement_parameters(kind, target, components=[c for c in COMPONENTS
-                                                                    if c in components[(kind, target)]])]
+    return [p for kind, owner in order
+            for p in placement_parameters(kind, owner, components=[c for c in COMPONENTS
+                                                                    if c in components[(kind, owner)]])]
 
 
 def sees_world_target(models: Sequence[Measurement]) -> bool:
     """Whether a camera on the robot sees a target fixed in the world (eye-in-hand): the world frame is then
     seen only through that target, as an external measurement frame is through ``base.*``."""
-    return any(a.kind == "target" and not a.owner for m in models for a in m.attachments)
+    return any(a.kind == TargetPlacement.name and not a.owner for m in models for a in m.attachments)
 
 
-def marker_targets(models: Sequence[Measurement]) -> list[str]:
-    """The marker targets the measurements read (``<frame>`` or ``<frame>@<marker>``), sorted."""
+def marker_keys(models: Sequence[Measurement]) -> list[str]:
+    """The points the measurements read on frames (``<frame>`` or ``<frame>@<marker>``: each a position's
+    :attr:`~pincal.identification.measurements.Position.marker_key`), sorted."""
     return sorted({t for m in models for t in m.markers})
 
 
@@ -79,7 +81,7 @@ def _estimated_on_frames(models: Sequence[Measurement]) -> list[str]:
     """The frames whose measured point or placement on the frame is estimated (a marker, a camera, a pose target):
     a tool placement on them would duplicate it."""
     frames = {split_target(t)[0] for m in models for t in m.markers}
-    frames |= {a.owner if a.kind == "camera" else split_target(a.owner)[0]
+    frames |= {a.owner if a.kind == CameraPlacement.name else split_target(a.owner)[0]
                for m in models for a in m.attachments if a.owner}
     return sorted(frames)
 
@@ -152,7 +154,7 @@ def default_parameters(robot: Robot, models: Sequence[Measurement], markers: Mar
     - the anchors of the loops those joints close;
     - reading offsets of the influencing actuated joints and of the read joints;
     - the measurement frame (``base.*``) when positions or poses are measured in an external frame, and a marker
-      offset (``marker.<target>.*``) for each marker target whose position is measured (``<frame>``, and each
+      offset (``marker.<key>.*``) for each marker key whose position is measured (``<frame>``, and each
       declared marker ``<frame>@<marker>``); with ``markers="cluster"``, the declared markers of a frame get one
       cluster placement (``cluster.<frame>.*``) instead, and need their nominal offsets (:func:`check_marker_fit`);
     - the cameras and targets (:func:`camera_parameters`); a world target seen by an eye-in-hand camera leaves the
@@ -200,10 +202,10 @@ def default_parameters(robot: Robot, models: Sequence[Measurement], markers: Mar
     if external:
         params += placement_parameters("base", "base")
     clustered = clustered_frames(models) if markers == "cluster" else []
-    for target in marker_targets(models):
-        frame, marker = split_target(target)
+    for key in marker_keys(models):
+        frame, marker = split_target(key)
         if not (marker and frame in clustered):  # a marker of a cluster moves with the cluster's placement
-            params += marker_parameters(target)
+            params += marker_parameters(key)
     for frame in clustered:
         params += cluster_parameters(frame)
     return ParameterSet(params + camera_parameters(models))
@@ -245,7 +247,7 @@ def _tool_joint(robot: Robot, frame: str) -> str | None:
 def parameter_pool(robot: Robot, models: Sequence[Measurement]) -> ParameterSet:
     """Every parameter ``--parameters`` patterns may name: all joint and anchor placements, fixed joints leading
     to measured frames, offsets of the actuated and the read joints, the base placement when positions or poses
-    are measured in an external frame, the marker offsets of the measured marker targets, the cluster placement of
+    are measured in an external frame, the marker offsets of the measured marker keys, the cluster placement of
     each frame carrying declared markers, and the harmonics (``<joint>.sin1`` …) and compliance
     (``<joint>.compliance``) of the actuated joints that move a measured frame."""
     frames = sorted({f for m in models for f in m.frames})
@@ -256,7 +258,7 @@ def parameter_pool(robot: Robot, models: Sequence[Measurement]) -> ParameterSet:
     corrections = [p for j in robot.actuated_joints if j in moving
                    for p in (*harmonic_parameters(j, joint_unit(robot, j)),
                              compliance_parameter(j, joint_unit(robot, j)))]
-    return ParameterSet(pool.parameters + [p for t in marker_targets(models) for p in marker_parameters(t)]
+    return ParameterSet(pool.parameters + [p for key in marker_keys(models) for p in marker_parameters(key)]
                         + [p for f in clustered_frames(models) for p in cluster_parameters(f)]
                         + camera_parameters(models) + corrections)
 

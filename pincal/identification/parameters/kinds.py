@@ -19,7 +19,7 @@ import math
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 from pincal.errors import not_found
-from pincal.identification.measurements import PLANE, WORLD_TARGET, camera_name, plane_name
+from pincal.identification.measurements import PLANE, WORLD_TARGET, camera_name, plane_name, split_target
 from pincal.model.robot import Unit
 
 if TYPE_CHECKING:
@@ -71,9 +71,9 @@ class ParameterKind:
         return cls.plausible.get(unit)
 
     @classmethod
-    def prefix(cls, target: str, side: str = "") -> str:
-        """The prefix of its parameters' names (``<prefix>.<component>``) for ``target`` (and a loop's ``side``)."""
-        return target
+    def prefix(cls, owner: str, side: str = "") -> str:
+        """The prefix of its parameters' names (``<prefix>.<component>``) for ``owner`` (and a loop's ``side``)."""
+        return owner
 
     @classmethod
     def unit(cls, term: str, joint_unit: Unit = "rad") -> ParameterUnit:
@@ -85,6 +85,13 @@ class ParameterKind:
     def selection_group(cls, parameter: Parameter) -> str | None:
         """The group model selection may leave out that ``parameter`` belongs to; None: it always stays."""
         return None
+
+    @classmethod
+    def urdf_link(cls, owner: str) -> str:
+        """The name of the link a calibrated URDF gives the placement of this kind on ``owner``: only the kinds
+        held as a link of their own (cameras, targets, planes) have one; TypeError for the others."""
+        raise TypeError(f"a calibrated URDF holds {cls.name} parameters as {cls.urdf or 'no link'}, not as a link "
+                        "of their own")
 
 
 def parameter_kind(name: str) -> type[ParameterKind]:
@@ -150,9 +157,9 @@ class AnchorPlacement(_Placement):
     urdf = "the loop anchor's origin"
 
     @classmethod
-    def prefix(cls, target: str, side: str = "") -> str:
+    def prefix(cls, owner: str, side: str = "") -> str:
         """``<loop>.<side>``."""
-        return f"{target}.{side}"
+        return f"{owner}.{side}"
 
 
 class ReadingOffset(ParameterKind):
@@ -182,21 +189,21 @@ class BasePlacement(ParameterKind):
     urdf = "the measurement frame's link, the file's new root"
 
     @classmethod
-    def prefix(cls, target: str, side: str = "") -> str:
+    def prefix(cls, owner: str, side: str = "") -> str:
         """``base``."""
         return "base"
 
 
 class MarkerOffset(ParameterKind):
-    """``marker.<target>.<x|y|z>``: a measured point's offset on its frame [m]."""
+    """``marker.<key>.<x|y|z>``: a measured point's offset on its frame [m]."""
 
     name = "marker"
     urdf = "a marker link on the frame"
 
     @classmethod
-    def prefix(cls, target: str, side: str = "") -> str:
-        """``marker.<target>``."""
-        return f"marker.{target}"
+    def prefix(cls, owner: str, side: str = "") -> str:
+        """``marker.<key>``."""
+        return f"marker.{owner}"
 
     @classmethod
     def unit(cls, term: str, joint_unit: Unit = "rad") -> ParameterUnit:
@@ -211,9 +218,9 @@ class ClusterPlacement(ParameterKind):
     urdf = "the cluster's marker links on the frame"
 
     @classmethod
-    def prefix(cls, target: str, side: str = "") -> str:
+    def prefix(cls, owner: str, side: str = "") -> str:
         """``cluster.<frame>``."""
-        return f"cluster.{target}"
+        return f"cluster.{owner}"
 
 
 class CameraPlacement(ParameterKind):
@@ -223,9 +230,14 @@ class CameraPlacement(ParameterKind):
     urdf = "a camera link on the frame"
 
     @classmethod
-    def prefix(cls, target: str, side: str = "") -> str:
+    def prefix(cls, owner: str, side: str = "") -> str:
         """``camera.<frame>``."""
-        return camera_name(target)
+        return camera_name(owner)
+
+    @classmethod
+    def urdf_link(cls, owner: str) -> str:
+        """``<frame>_camera``."""
+        return f"{owner}_camera"
 
 
 class TargetPlacement(ParameterKind):
@@ -236,9 +248,15 @@ class TargetPlacement(ParameterKind):
     urdf = "a target link (on the robot's root link, or on the frame)"
 
     @classmethod
-    def prefix(cls, target: str, side: str = "") -> str:
-        """``target`` (the world target, ``target`` empty) or ``target.<frame>@<target>``."""
-        return f"{WORLD_TARGET}.{target}" if target else WORLD_TARGET
+    def prefix(cls, owner: str, side: str = "") -> str:
+        """``target`` (the world target, ``owner`` empty) or ``target.<frame>@<target>``."""
+        return f"{WORLD_TARGET}.{owner}" if owner else WORLD_TARGET
+
+    @classmethod
+    def urdf_link(cls, owner: str) -> str:
+        """``camera_target`` (the world target, ``owner`` empty) or ``<frame>_target_<target>``."""
+        frame, name = split_target(owner)
+        return f"{frame}_target_{name}" if owner else "camera_target"
 
 
 class PlanePlacement(ParameterKind):
@@ -252,9 +270,14 @@ class PlanePlacement(ParameterKind):
     urdf = "a plane link (its z axis the normal) on the support's link, or on the robot's root link"
 
     @classmethod
-    def prefix(cls, target: str, side: str = "") -> str:
-        """``plane`` (fixed in the world, ``target`` empty) or ``plane.<support>``."""
-        return plane_name(target)
+    def prefix(cls, owner: str, side: str = "") -> str:
+        """``plane`` (fixed in the world, ``owner`` empty) or ``plane.<support>``."""
+        return plane_name(owner)
+
+    @classmethod
+    def urdf_link(cls, owner: str) -> str:
+        """``contact_plane`` (a plane in the world, ``owner`` empty) or ``<support>_plane``."""
+        return f"{owner}_plane" if owner else "contact_plane"
 
 
 class Harmonic(ParameterKind):

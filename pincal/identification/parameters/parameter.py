@@ -34,6 +34,7 @@ import numpy.typing as npt
 from pincal.errors import DataError, NotFoundError, listing, not_found
 from pincal.identification.parameters.kinds import (
     Compliance,
+    MarkerOffset,
     ParameterKind,
     ParameterUnit,
     ReadingOffset,
@@ -83,6 +84,10 @@ class Parameter:
         """The parameter's kind (NotFoundError listing the kinds for a name none registered)."""
         return parameter_kind(self.kind)
 
+    def is_a(self, kind: type[ParameterKind]) -> bool:
+        """Whether the parameter is of ``kind`` (a :class:`ParameterKind` subclass) or of a kind derived from it."""
+        return issubclass(self.kind_class, kind)
+
     @property
     def scale(self) -> float:
         """Typical size [m, rad, rad/(N m) or m/N], used to scale the identification problem: 1 mm, 1 mrad, and
@@ -101,13 +106,13 @@ class Parameter:
         return (self.kind, self.owner, self.side)
 
 
-def placement_parameters(kind: str, target: str, side: str = "",
+def placement_parameters(kind: str, owner: str, side: str = "",
                          components: Sequence[str] = COMPONENTS) -> list[Parameter]:
     """The parameters of one placement (a joint origin, a loop anchor, the base, a marker cluster, a camera, a
     target): named and measured as the kind says."""
-    owner = parameter_kind(kind)
-    prefix = owner.prefix(target, side)
-    return [Parameter(f"{prefix}.{c}", kind, target, COMPONENTS.index(c), side, owner.unit(c)) for c in components]
+    of_kind = parameter_kind(kind)
+    prefix = of_kind.prefix(owner, side)
+    return [Parameter(f"{prefix}.{c}", kind, owner, COMPONENTS.index(c), side, of_kind.unit(c)) for c in components]
 
 
 def offset_parameter(joint: str, unit: Unit) -> Parameter:
@@ -128,10 +133,10 @@ def compliance_parameter(joint: str, unit: Unit) -> Parameter:
     return Parameter(f"{joint}.compliance", Compliance.name, joint, 0, "", Compliance.unit("compliance", unit))
 
 
-def marker_parameters(target: str) -> list[Parameter]:
-    """The marker offset [m] of marker target ``target`` (``<frame>`` or ``<frame>@<marker>``): its x, y, z
+def marker_parameters(key: str) -> list[Parameter]:
+    """The marker offset [m] of the point ``key`` (``<frame>`` or ``<frame>@<marker>``): its x, y, z
     components in the frame."""
-    return [Parameter(f"marker.{target}.{a}", "marker", target, k, "", "m") for k, a in enumerate(AXES)]
+    return [Parameter(f"marker.{key}.{a}", MarkerOffset.name, key, k, "", "m") for k, a in enumerate(AXES)]
 
 
 def cluster_parameters(frame: str) -> list[Parameter]:
@@ -139,10 +144,10 @@ def cluster_parameters(frame: str) -> list[Parameter]:
     return placement_parameters("cluster", frame)
 
 
-def attached_name(kind: str, target: str) -> str:
+def attached_name(kind: str, owner: str) -> str:
     """The name of a camera's or a target's placement (its parameters' prefix): ``camera.<frame>``, ``target`` (the
-    world target, ``target`` empty) or ``target.<frame>@<target>``."""
-    return parameter_kind(kind).prefix(target)
+    world target, ``owner`` empty) or ``target.<frame>@<target>``, ``owner`` the frame or the pose target on it."""
+    return parameter_kind(kind).prefix(owner)
 
 
 @dataclass
@@ -189,7 +194,7 @@ class ParameterSet:
         return [k for k, p in enumerate(self.parameters) if p.kind in kinds]
 
     def groups(self, *kinds: str) -> dict[tuple[str, str, str], list[int]]:
-        """Indices per placement (kind, target, side), for the given kinds."""
+        """Indices per placement (kind, owner, side), for the given kinds."""
         out: dict[tuple[str, str, str], list[int]] = {}
         for k, p in enumerate(self.parameters):
             if p.kind in kinds:

@@ -1,4 +1,4 @@
-"""The study commands: ``pincal design`` (which postures to measure) and ``pincal montecarlo`` (how well a
+"""The planning commands: ``pincal design`` (which postures to measure) and ``pincal montecarlo`` (how well a
 calibration campaign recovers the geometry, over random seeds and noise levels).
 
 ``design`` draws random reachable candidate postures, stacks each one's rows of the identification

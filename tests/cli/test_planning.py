@@ -1,4 +1,4 @@
-"""The study commands ``pincal design`` and ``pincal montecarlo``, run through ``pincal.cli.app.main``; and the
+"""The planning commands ``pincal design`` and ``pincal montecarlo``, run through ``pincal.cli.app.main``; and the
 progress bars of long work: shown on a terminal unless ``--quiet``, never by library defaults."""
 
 from __future__ import annotations
