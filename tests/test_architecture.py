@@ -97,13 +97,6 @@ def test_no_exported_name_is_shadowed_by_a_module(package: str) -> None:
 
 #: The most lines a module of pincal may have; past it, a module is split by concept.
 MAX_MODULE_LINES = 500
-#: Modules of the parallel work on checking, compensating and exporting a calibration, which that work changes (it
-#: splits ``calibration/check.py`` and its commands keep their names until it lands). Each entry must still be true:
-#: once the module is short enough, or the name no longer shared, the entry goes.
-PENDING_LENGTH = {"calibration/check.py"}
-PENDING_NAMES = {"check", "compensate", "export"}
-
-
 def _module_lengths() -> dict[str, int]:
     """Each module under pincal/ (path relative to it) -> its number of lines."""
     return {str(p.relative_to(PACKAGE)): len(p.read_text(encoding="utf-8").splitlines())
@@ -122,19 +115,15 @@ def _shared_names() -> dict[str, list[str]]:
 
 
 def test_every_module_is_at_most_500_lines() -> None:
-    """No module under pincal/ is longer than :data:`MAX_MODULE_LINES` lines (but those :data:`PENDING_LENGTH`
-    names, each of which must still be longer)."""
+    """No module under pincal/ is longer than :data:`MAX_MODULE_LINES` lines."""
     long = {path: n for path, n in _module_lengths().items() if n > MAX_MODULE_LINES}
-    assert set(long) - PENDING_LENGTH == set(), f"modules longer than {MAX_MODULE_LINES} lines: {long}"
-    assert PENDING_LENGTH <= set(long), f"short enough, to leave PENDING_LENGTH: {PENDING_LENGTH - set(long)}"
+    assert long == {}, f"modules longer than {MAX_MODULE_LINES} lines: {long}"
 
 
 def test_no_two_modules_share_a_name() -> None:
     """A module's name says what it holds once: no two modules (or sub-packages) under pincal/ have the same name
-    in different packages (but those :data:`PENDING_NAMES` names, each of which must still be shared)."""
-    shared = _shared_names()
-    assert set(shared) - PENDING_NAMES == set(), shared
-    assert PENDING_NAMES <= set(shared), f"no longer shared, to leave PENDING_NAMES: {PENDING_NAMES - set(shared)}"
+    in different packages."""
+    assert _shared_names() == {}
 
 
 def test_the_layer_drawing_names_every_part_of_pincal() -> None:

@@ -15,7 +15,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from pincal.calibration.options import check_cv_seed
-from pincal.cli import assemble, bag_import, check, compensate, export, planning, report_page, robots, view
+from pincal.cli import (
+    assemble,
+    bag_import,
+    check_data,
+    compensation,
+    export_formats,
+    planning,
+    report_page,
+    robots,
+    view,
+)
 from pincal.cli.arguments import (
     add_calibration_options,
     add_measurement,
@@ -332,7 +342,7 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.add_argument("--scheduler", help="address of a Dask scheduler (pip install 'pincal[dask]')")
     fleet.set_defaults(func=cmd_fleet)
 
-    for module in (view, report_page, planning, check, compensate, export, bag_import, assemble,
+    for module in (view, report_page, planning, check_data, compensation, export_formats, bag_import, assemble,
                    robots):  # command groups of their own
         module.register(sub)
     return parser
