@@ -72,16 +72,18 @@ def test_pose_data_print_orientation_errors_and_before_is_the_nominal_robot(ur10
 
 
 def _shift_positions(source: Path, target: Path, offset: tuple[float, float, float]) -> None:
-    """Copy a dataset with every measured position moved by ``offset`` [m] (a tracker placed elsewhere)."""
-    with source.open(newline="") as f:
-        rows = list(csv.reader(f))
-    header = next(k for k, row in enumerate(rows) if row and row[0] == "sample")
-    columns = {name: i for i, name in enumerate(rows[header])}
-    for row in rows[header + 1:]:
+    """Copy a dataset with every measured position moved by ``offset`` [m] (a tracker placed elsewhere); the
+    metadata lines copied as they are (a CSV writer would quote those holding commas)."""
+    lines = source.read_text().splitlines(keepends=True)
+    comments = [line for line in lines if line.startswith("#")]
+    rows = list(csv.reader(line for line in lines if not line.startswith("#")))
+    columns = {name: i for i, name in enumerate(rows[0])}
+    for row in rows[1:]:
         for axis, value in zip("xyz", offset, strict=True):
             i = columns[f"position:end_effector:{axis}"]
             row[i] = repr(float(row[i]) + value)
     with target.open("w", newline="") as f:
+        f.writelines(comments)
         csv.writer(f, lineterminator="\n").writerows(rows)
 
 

@@ -241,12 +241,12 @@ def test_tiago_calibrated_from_its_mocap_data(tmp_path: Path) -> None:
 
 
 def test_the_parser_spells_the_library_choices() -> None:
-    from pincal.cli import arguments, export
+    from pincal.cli import arguments, export_formats
     from pincal.io import export as library
     from pincal.io.mesh_files import MESH_MODES
 
     assert arguments.MESH_MODES == MESH_MODES
-    assert (export.FORMATS, export.DEFAULT_TOLERANCE, export.DEFAULT_POSTURES) == \
+    assert (export_formats.FORMATS, export_formats.DEFAULT_TOLERANCE, export_formats.DEFAULT_POSTURES) == \
         (library.FORMATS, library.TOLERANCE, library.POSTURES)
 
 
