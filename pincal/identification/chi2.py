@@ -22,7 +22,7 @@ Array = npt.NDArray[np.float64]
 #: Most terms of a series or a continued fraction, and most Newton steps.
 MAX_TERMS = 1000
 #: Relative precision of the expansions and of the quantile.
-EPS = 1e-16
+EPS = float(np.finfo(float).eps)
 
 
 def chi2_upper(tail: float | Array, dof: float | npt.ArrayLike) -> Array:
