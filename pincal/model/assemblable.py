@@ -10,7 +10,6 @@ condition number exceeds a bound: the actuated readings do not determine its pas
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,17 +41,18 @@ class Assembled:
 
 
 def assemble(robot: Robot, actuated: Array, max_condition: float = MAX_CONDITION,
-             guesses: Array | None = None) -> Assembled:
+             guesses: Array | None = None, stacked: bool = True) -> Assembled:
     """Every sample of ``actuated`` (N, na) [rad or m] solved on ``robot`` (warm from ``guesses`` (N, nq) if given, as
     :meth:`~pincal.model.robot.Robot.solve_fk` takes a guess), and those that cannot be used with the reason: the
     loops do not close, or the passive closure Jacobian's condition number exceeds ``max_condition``. A robot without
-    loops closes every sample and none is singular."""
+    loops closes every sample and none is singular. ``stacked=False`` solves and judges every sample alone (what the
+    stacked path must agree with)."""
     actuated = np.asarray(actuated, dtype=float)
     n = len(actuated)
     q = np.zeros((n, robot.model.nq))
     ok = np.zeros(n, dtype=bool)
     batch = robot.kinematics.batch if robot.loops and n else None
-    stacked = batch is not None and batch.unsupported is None and bool(np.all(np.isfinite(actuated)))
+    stacked = stacked and batch is not None and batch.unsupported is None and bool(np.all(np.isfinite(actuated)))
     if stacked:
         assert batch is not None
         q[:], ok[:] = batch.solve(robot.model, robot.closure, actuated, guesses, SOLVE_TOLERANCE)
@@ -95,23 +95,3 @@ def singular(s: Array, max_condition: float) -> str:
         return (f"singular configuration (passive closure Jacobian condition number "
                 f"{(s[0] / s[-1]) if s[-1] > 0 else float('inf'):.3g})")
     return ""
-
-
-def unusable_one_by_one(robot: Robot, actuated: Array, samples: Iterable[int],
-                        max_condition: float = MAX_CONDITION) -> list[tuple[int, str]]:
-    """:func:`unusable_samples` among ``samples`` (rows of ``actuated``), each solved alone (the reference the stacked
-    path is checked against)."""
-    out: list[tuple[int, str]] = []
-    for k in samples:
-        report = robot.solve_fk_report(actuated[k])
-        if not report.converged:
-            what = "the loops cannot be assembled at its readings: " if robot.loops else ""
-            out.append((k, f"{what}forward kinematics did not converge (closure residual {report.residual:.3g})"))
-            continue
-        if robot.loops:
-            _, jac = robot.kinematics.closure_jacobian(report.q)
-            reason = singular(linalg.singular_values(jac[:, robot.kinematics.passive_v],
-                                                     "the passive closure Jacobian"), max_condition)
-            if reason:
-                out.append((k, reason))
-    return out

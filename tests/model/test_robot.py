@@ -238,12 +238,12 @@ def test_simulating_a_four_bar_without_an_obvious_frame_is_refused_in_one_line(t
 
 @pytest.mark.parametrize("name", ["delta", "five_bar", "hexapod", "ucr3"])
 def test_the_batched_usability_check_finds_what_solving_each_sample_alone_finds(name: str) -> None:
-    from pincal.model.assemblable import unusable_one_by_one, unusable_samples
+    from pincal.model.assemblable import assemble, unusable_samples
     from pincal.study.simulation import random_actuated
 
     robot = pincal.load_robot(name)
     reachable, _ = random_actuated(robot, 20, np.random.default_rng(4))
     actuated = np.vstack([reachable, 4.0 * reachable[:4]])  # readings far beyond: some cannot be assembled
     found = unusable_samples(robot, actuated)
-    assert found == unusable_one_by_one(robot, actuated, range(len(actuated)))
+    assert found == list(assemble(robot, actuated, stacked=False).reasons.items())
     assert all(k >= 20 for k, _ in found)

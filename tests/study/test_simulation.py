@@ -103,3 +103,16 @@ def test_the_spread_option_says_its_units_and_refuses_nonsense(narrow_crank: Pat
     assert "--spread S" in done.stdout and "[rad for revolute, m for prismatic joints]" in " ".join(done.stdout.split())
     done = run_pincal("simulate", str(narrow_crank), "--spread", "-1", "--out", str(tmp_path / "x"))
     assert done.returncode == 2 and "--spread: -1 is not a finite number > 0" in done.stderr
+
+
+@pytest.mark.parametrize("name", ["delta", "hexapod", "ur10"])
+def test_postures_judged_at_once_leave_the_generator_as_one_by_one(name: str) -> None:
+    """Draws are judged many at once, but the generator moves only past the draws used: thirty postures drawn at once
+    are ten, ten and ten drawn in turn, and the generator's next number is the same after both."""
+    robot = pincal.load_robot(name)
+    together, apart = np.random.default_rng(11), np.random.default_rng(11)
+    qa, q = random_actuated(robot, 30, together)
+    parts = [random_actuated(robot, 10, apart) for _ in range(3)]
+    assert np.array_equal(qa, np.vstack([p[0] for p in parts]))
+    assert np.allclose(q, np.vstack([p[1] for p in parts]), atol=1e-9)
+    assert together.uniform() == apart.uniform()
