@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,6 +24,7 @@ from typing import Any
 from pincal.calibration.report import CalibrationReport
 from pincal.errors import PincalError
 from pincal.io.files import make_directory
+from pincal.progress import Progress
 
 #: A file named so is a job file (docs/job_file.md).
 JOB_SUFFIX = ".toml"
@@ -81,7 +82,7 @@ def run_job(job: FleetJob) -> FleetResult:
 
 
 def calibrate_fleet(jobs: Sequence[FleetJob], executor: concurrent.futures.Executor | None = None,
-                    workers: int | None = None) -> list[FleetResult]:
+                    workers: int | None = None, progress: bool = False) -> list[FleetResult]:
     """Calibrate every job; results in the jobs' order.
 
     Args:
@@ -89,14 +90,25 @@ def calibrate_fleet(jobs: Sequence[FleetJob], executor: concurrent.futures.Execu
         executor: Any ``concurrent.futures.Executor`` (a Dask client's ``get_executor()`` included);
             by default a process pool of ``workers`` processes.
         workers: Processes of the default pool (default: the machine's cores); 1 runs serially in-process.
+        progress: A bar on stderr (when it is a terminal), one tick per robot calibrated.
     """
-    if executor is not None:
-        return list(executor.map(run_job, jobs))
-    count = workers or os.cpu_count() or 1
-    if count == 1 or len(jobs) <= 1:
-        return [run_job(job) for job in jobs]
-    with concurrent.futures.ProcessPoolExecutor(max_workers=count) as pool:
-        return list(pool.map(run_job, jobs))
+    with Progress("robots calibrated", len(jobs), quiet=not progress) as bar:
+        if executor is not None:
+            return _gathered(executor.map(run_job, jobs), bar)
+        count = workers or os.cpu_count() or 1
+        if count == 1 or len(jobs) <= 1:
+            return _gathered(map(run_job, jobs), bar)
+        with concurrent.futures.ProcessPoolExecutor(max_workers=count) as pool:
+            return _gathered(pool.map(run_job, jobs), bar)
+
+
+def _gathered(results: Iterable[FleetResult], bar: Progress) -> list[FleetResult]:
+    """``results`` in order, the bar advanced as each arrives."""
+    out = []
+    for result in results:
+        out.append(result)
+        bar.advance()
+    return out
 
 
 def jobs_from_directory(robot: str, directory: str | Path, out: str | Path, **options: Any) -> list[FleetJob]:

@@ -234,9 +234,9 @@ def cmd_fleet(args: argparse.Namespace) -> int:
         except OSError as exc:  # unreachable, refused, timed out
             raise PincalError(f"cannot reach the Dask scheduler at '{args.scheduler}': {exc}") from None
         with client:
-            results = calibrate_fleet(jobs, executor=client.get_executor())
+            results = calibrate_fleet(jobs, executor=client.get_executor(), progress=True)
     else:
-        results = calibrate_fleet(jobs, workers=args.workers)
+        results = calibrate_fleet(jobs, workers=args.workers, progress=True)
     print(f"{'robot':<24}{'held out before':>16}{'held out after':>16}{'fitted':>8}{'dropped':>9}"
           f"{'down-weighted':>15}  status")
     for r in results:
