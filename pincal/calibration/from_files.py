@@ -85,10 +85,10 @@ def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, repor
     return _written(cal, robot, provenance, out_urdf, report_path, beside, plan)
 
 
-def calibrate_job(job: Job, meshes: MeshMode = "keep") -> Calibration:
+def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -> Calibration:
     """:func:`calibrate` as a job file says (:mod:`pincal.calibration.job`): its robot, its data read into SI units, its
     options; the outputs are checked before the fit (never over an input, the job file included) and each is written
-    whole or not at all; ``meshes`` as for :func:`calibrate_files`."""
+    whole or not at all; ``meshes`` as for :func:`calibrate_files`; ``progress`` as for :func:`calibrate`."""
     def source(option: str) -> OptionSource:  # the command line's value in place of the job's, or the job's own
         return "command line" if option in job.overrides else job.path
 
@@ -101,7 +101,7 @@ def calibrate_job(job: Job, meshes: MeshMode = "keep") -> Calibration:
         except NotFoundError as exc:  # the same culprit, the job file named
             raise NotFoundError(f"{job.path}: {exc}", exc.kind, exc.name, exc.choices) from None
     plan, beside = _checked_outputs(robot, job.out, job.report, meshes, [job.path, *job.files], ("out", "report"))
-    cal = calibrate(robot, job_dataset(job, robot), **job.options)
+    cal = calibrate(robot, job_dataset(job, robot), progress=progress, **job.options)
     provenance = Provenance(robot_source(str(job.robot), robot), [file_source(p) for p in (job.path, *job.files)],
                             _options(job.options))
     return _written(cal, robot, provenance, job.out, job.report, beside, plan)

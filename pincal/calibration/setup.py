@@ -22,7 +22,7 @@ from pincal.identification.choices import MarkerFit
 from pincal.identification.corrections import Payload
 from pincal.identification.measurements import Measurement, parse_key
 from pincal.identification.parameters import Compliance, ParameterSet, choose_parameters
-from pincal.identification.predictions import remember, remembered
+from pincal.identification.predictions import carry_over, remember
 from pincal.identification.problem import CalibrationProblem
 from pincal.io.adapters import joints_at_reference, measurements_for, observations_from
 from pincal.io.dataset import Dataset
@@ -180,7 +180,7 @@ class Prepared:
             return self
         kept = ParameterSet([p for p, out in zip(self.parameters, idle, strict=True) if not out])
         reduced = CalibrationProblem(self.robot, kept, self.models, problem.observations, payload=self.payload)
-        remember(reduced, remembered(problem))
+        carry_over(problem, reduced)
         return replace(self, parameters=kept, problem=reduced,
                        no_effect=[n for n, out in zip(self.parameters.names, idle, strict=True) if out])
 

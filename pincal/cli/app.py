@@ -153,7 +153,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             raise PincalError("calibrate: --markers cluster applies to a dataset named on the command line, not yet to "
                               "a job file")
         job = read_job(args.robot).overridden(args.out, args.report, **options)
-        cal = calibrate_job(job, args.meshes)
+        cal = calibrate_job(job, args.meshes, progress=True)
         out, report_path, spec = job.out, job.report, job.options.get("parameter_spec")
     else:
         check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words

@@ -237,11 +237,15 @@ def remember(problem: CalibrationProblem, q: Array | None) -> None:
     problem._q_cache = list(q.copy())
 
 
-def remembered(problem: CalibrationProblem) -> Array | None:
-    """Every sample's last configuration (N, nq) of ``problem``'s solves; None while a sample has none."""
-    if not problem.robot.loops or any(q is None for q in problem._q_cache):
-        return None
-    return np.array(problem._q_cache)
+def carry_over(source: CalibrationProblem, target: CalibrationProblem) -> None:
+    """``target`` (a problem on ``source``'s samples, over other parameters) starts its solves from ``source``'s last
+    configurations, with the travel ``source`` counted since it last knew them on the reference assembly: the
+    assembly check at the end of a fit (:meth:`CalibrationProblem.settle_assembly`) sees what both problems moved.
+    Nothing while a sample of ``source`` has no configuration, or for a robot without loops."""
+    if not source.robot.loops or any(q is None for q in source._q_cache):
+        return
+    remember(target, np.array(source._q_cache))
+    target._travel += source._travel
 
 
 def predicted_change(problem: CalibrationProblem, x: Array, rows: IntArray) -> Array | None:

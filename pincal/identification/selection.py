@@ -34,7 +34,7 @@ import scipy.linalg
 from pincal.errors import DataError, PincalError, listing
 from pincal.identification.identifiability import RANK_TOLERANCE
 from pincal.identification.parameters import Parameter
-from pincal.identification.predictions import remember, remembered
+from pincal.identification.predictions import carry_over
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.result import CalibrationResult
 from pincal.identification.solver import identify
@@ -195,7 +195,7 @@ def _reduced(problem: CalibrationProblem, kept: list[int], observations: Observa
                                  problem.observations if observations is None else observations,
                                  None if problem.joint_sigma is None else list(problem.joint_sigma), problem.payload)
     if observations is None:  # the same samples: their last configurations start its solves
-        remember(reduced, remembered(problem))
+        carry_over(problem, reduced)
     return reduced
 
 

@@ -23,6 +23,8 @@ MM = 1e3
 DEG = 180.0 / np.pi
 #: Width [in] of one character of a 7-point tick label (the parameter names).
 LABEL_WIDTH = 0.058
+#: Least width [in] of a panel's plot beside its names.
+PANEL_WIDTH = 2.8
 
 
 def png_bytes(figure: Figure, dpi: int = 100, palette: bool = False) -> bytes:
@@ -145,9 +147,11 @@ def parameter_estimates(names: Sequence[str], units: Sequence[str], values: Arra
     others = [k for k in order if units[k] not in ("m", "rad")]
     panels = [p for p in panels if p[1]] + ([("other", others)] if others else [])
     rows = max((len(p[1]) for p in panels), default=1)
-    figure = Figure(figsize=(4.2 * len(panels) + 1.6, 0.24 * rows + 1.8))
-    axes = np.atleast_1d(figure.subplots(1, max(len(panels), 1), squeeze=False)[0])
     names_width = max((len(names[k]) for _, ks in panels for k in ks), default=4) * LABEL_WIDTH + 0.15  # [in]
+    columns = max(len(panels), 1)  # each panel its names and at least PANEL_WIDTH of plot
+    figure = Figure(figsize=(max(4.2 * columns + 1.6, columns * (names_width + 0.1 + PANEL_WIDTH) + 0.1),
+                             0.24 * rows + 1.8))
+    axes = np.atleast_1d(figure.subplots(1, columns, squeeze=False)[0])
     margins(figure, left=names_width, bottom=0.85, top=0.45, wspace=names_width + 0.1)
     scale = {"m": (MM, "deviation [mm]"), "rad": (DEG, "deviation [deg]"), "other": (1.0, "deviation [SI]")}
     for ax, (unit, ks) in zip(axes, panels, strict=False):

@@ -67,3 +67,6 @@ def test_the_chi2_quantiles_are_scipy_stats_ones() -> None:
     tails, dofs = np.exp(rng.uniform(np.log(1e-15), np.log(0.9999), 300)), np.exp(rng.uniform(np.log(0.2), 8.5, 300))
     assert np.allclose(chi2_upper(tails, dofs), chdtri(dofs, tails), rtol=1e-12, atol=0.0)
     assert np.all(np.isnan(chi2_upper(np.array([0.0, 1.0, 0.5]), np.array([3.0, 3.0, 0.0]))))
+    # beyond the range it is checked over: right where the terms suffice, NaN where the doubles run out
+    assert np.allclose(chi2_upper(0.5, np.array([1e5, 1e6])), chdtri(np.array([1e5, 1e6]), 0.5), rtol=1e-11)
+    assert np.all(np.isnan(chi2_upper(0.5, np.array([1e-6, np.inf, np.nan]))))
