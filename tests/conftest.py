@@ -2,8 +2,16 @@
 
 from __future__ import annotations
 
+import atexit
+import contextlib
+import json
+import os
+import select
+import signal
 import subprocess
 import sys
+import tempfile
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +20,7 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 import pincal
+from pincal.__main__ import THREAD_VARIABLES
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOTS = ROOT / "robots_urdf"
@@ -31,12 +40,77 @@ def readme_four_bar() -> str:
 
 
 def run_pincal(*args: str, timeout: float = 300, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
-    """``pincal ARGS`` as a user runs it: the console script in a subprocess (in ``cwd``, made if missing), output
-    captured as text."""
+    """``pincal ARGS`` as a user runs it, in a process of its own (in ``cwd``, made if missing), output captured as
+    text; ``subprocess.TimeoutExpired`` after ``timeout`` seconds, as ``subprocess.run`` raises it.
+
+    The process is forked from :mod:`command_server`, which has imported pincal once, and runs the console script's
+    entry point (``pincal.__main__.main``) with its own folder, environment, output files and exit code; with
+    ``PINCAL_TEST_EXEC=1`` in the environment it is the console script started from scratch instead. How a process
+    starts (its imports) is tested on processes started from scratch (``tests/cli/test_start.py``)."""
     if cwd is not None:
         cwd.mkdir(parents=True, exist_ok=True)
-    return subprocess.run([str(PINCAL), *args], capture_output=True, text=True, timeout=timeout, check=False,
-                          cwd=cwd)
+    if os.environ.get("PINCAL_TEST_EXEC") == "1":
+        return subprocess.run([str(PINCAL), *args], capture_output=True, text=True, timeout=timeout, check=False,
+                              cwd=cwd)
+    return _SERVER.run([str(PINCAL), *args], cwd or Path.cwd(), timeout)
+
+
+class _CommandServer:
+    """The client of one :mod:`command_server` process, started at the first command and ended with the tests."""
+
+    def __init__(self) -> None:
+        self.process: subprocess.Popen[bytes] | None = None
+        self.lock = threading.Lock()
+
+    def _started(self) -> subprocess.Popen[bytes]:
+        if self.process is None or self.process.poll() is not None:
+            environment = {**os.environ, **{name: os.environ.get(name, "1") for name in THREAD_VARIABLES}}
+            self.process = subprocess.Popen([sys.executable, str(Path(__file__).with_name("command_server.py"))],
+                                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=environment,
+                                            bufsize=0)  # unbuffered: a reply read is never one select cannot see
+            atexit.register(self.stop)
+        return self.process
+
+    def stop(self) -> None:
+        """End the server: its stdin closed, it leaves its loop (killed if it does not within 10 s)."""
+        if self.process is not None and self.process.poll() is None:
+            assert self.process.stdin is not None
+            self.process.stdin.close()
+            try:
+                self.process.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+
+    def _reply(self, process: subprocess.Popen[bytes], timeout: float | None) -> dict[str, int] | None:
+        assert process.stdout is not None
+        if timeout is not None and not select.select([process.stdout], [], [], timeout)[0]:
+            return None
+        line = process.stdout.readline()
+        if not line:
+            raise RuntimeError(f"the command server ended (exit code {process.wait()}); see its stderr above")
+        return json.loads(line)
+
+    def run(self, command: list[str], cwd: Path, timeout: float) -> subprocess.CompletedProcess[str]:
+        with self.lock, tempfile.TemporaryDirectory(prefix="pincal-command-") as folder:
+            process = self._started()
+            assert process.stdin is not None
+            out, err = Path(folder, "stdout"), Path(folder, "stderr")
+            request = {"program": command[0], "args": command[1:], "cwd": str(cwd), "env": dict(os.environ),
+                       "stdout": str(out), "stderr": str(err)}
+            process.stdin.write((json.dumps(request) + "\n").encode())
+            process.stdin.flush()
+            pid = self._reply(process, None)["pid"]  # type: ignore[index]
+            ended = self._reply(process, timeout)
+            if ended is None:
+                with contextlib.suppress(ProcessLookupError):  # it may have ended since
+                    os.kill(pid, signal.SIGKILL)
+                self._reply(process, None)
+                raise subprocess.TimeoutExpired(command, timeout, out.read_text(), err.read_text())
+            return subprocess.CompletedProcess(command, ended["code"], out.read_text(), err.read_text())
+
+
+_SERVER = _CommandServer()
 
 
 @pytest.fixture(scope="session")
