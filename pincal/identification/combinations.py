@@ -83,21 +83,32 @@ class Combination:
         return np.concatenate([[1.0], -self.coefficients[1:]])
 
 
+#: Entries within this relative distance of the largest are tied for the pivot (symmetric mechanisms make exact ties,
+#: which round-off would otherwise break one way or the other).
+PIVOT_TIE = 1e-6
+
+
 def _reduced_row_echelon(rows: Array) -> Array:
-    """Gauss–Jordan elimination of linearly independent ``rows`` (k × p), each pivot the largest remaining
-    entry (complete pivoting, for stability): each row 1 at its pivot, 0 at the others' pivots. Entries
-    below :data:`COEFFICIENT_TOLERANCE` times the row's largest are round-off and set to zero."""
-    reduced = np.array(rows, dtype=float)
-    k = reduced.shape[0]
+    """The reduced row echelon form of the space spanned by the orthonormal ``rows`` (k × p), the same whichever basis
+    of the space they are: Gauss–Jordan elimination of the space's projector ``rowsᵀ rows`` (p × p, rank k), each
+    pivot the largest remaining entry (complete pivoting, for stability; among entries equal within
+    :data:`PIVOT_TIE`, the first column, then the first row). Returns the k pivot rows, each 1 at its pivot, 0 at the
+    others' pivots; entries below :data:`COEFFICIENT_TOLERANCE` times the row's largest are round-off and set to
+    zero."""
+    k = rows.shape[0]
+    reduced = rows.T @ rows
     pivots: list[int] = []
     for i in range(k):
-        r, c = (int(index) for index in np.unravel_index(int(np.argmax(np.abs(reduced[i:]))), reduced[i:].shape))
+        size = np.abs(reduced[i:])
+        tied = np.argwhere(size >= (1.0 - PIVOT_TIE) * size.max())
+        r, c = min(((int(row), int(column)) for row, column in tied), key=lambda rc: (rc[1], rc[0]))
         reduced[[i, i + r]] = reduced[[i + r, i]]
         reduced[i] /= reduced[i, c]
-        others = np.arange(k) != i
+        others = np.arange(reduced.shape[0]) != i
         reduced[others] -= np.outer(reduced[others, c], reduced[i])
         reduced[others, c] = 0.0
         pivots.append(c)
+    reduced = reduced[:k]
     for row, c in zip(reduced, pivots, strict=True):
         small = np.abs(row) < COEFFICIENT_TOLERANCE * np.max(np.abs(row))
         small[c] = False

@@ -110,3 +110,27 @@ def test_describe_unidentifiable_limits_and_counts() -> None:
     assert describe_unidentifiable([]) == []
     with pytest.raises(DataError, match="limit must be >= 0"):
         describe_unidentifiable(combinations, limit=-1)
+
+
+def test_the_words_do_not_depend_on_which_basis_of_the_null_space_the_svd_returns() -> None:
+    """A null space of dimension 3 on six parameters, two of its directions symmetric (equal sizes on two legs, as
+    a hexapod's are): every rotation of its basis, as another BLAS may return it, is described in the same words."""
+    from pincal.identification.combinations import sparse_combinations
+
+    directions = np.array([[1.0, 0.879, 0.0, 0.0, 0.0, 0.0],
+                           [0.0, 0.0, 1.0, -0.879, 0.0, 0.0],
+                           [0.0, 0.0, 0.0, 0.0, 1.0, 1.0],
+                           [1.0, 0.0, 1.0, 0.0, 0.5, 0.0]])[[0, 1, 3]]  # a fourth row mixes the groups
+    basis = np.linalg.qr(directions.T)[0].T  # orthonormal rows spanning the same space
+    names = ["leg_1.tz", "leg_2.tz", "leg_3.tz", "leg_4.tz", "leg_5.ty", "leg_6.ty"]
+    scales, units = np.full(6, 1e-3), ["m"] * 6
+    expected = [(c.names, c.description) for c in sparse_combinations(basis, names, scales, units)]
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        rotation = np.linalg.qr(rng.standard_normal((3, 3)))[0]
+        again = sparse_combinations(rotation @ basis, names, scales, units)
+        assert [(c.names, c.description) for c in again] == expected
+    for combination in sparse_combinations(basis, names, scales, units):  # each is a direction of the space
+        step = np.zeros(6)
+        step[[names.index(n) for n in combination.names]] = combination.null_direction
+        assert np.linalg.norm(step - basis.T @ (basis @ step)) < 1e-12 * np.linalg.norm(step)
