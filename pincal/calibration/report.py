@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError
+from pincal.identification.measurements import KIND_CLASSES
 from pincal.identification.metrics import angle_error_norms, calibration_gain, error_norms, rms
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem
@@ -158,6 +159,18 @@ class CalibrationReport:
         """True when held-out samples were evaluated (the ``test_*`` figures are there; a figure of a quantity the
         held-out samples do not measure is None, or NaN before the report is written)."""
         return self.n_test_samples is not None
+
+    @property
+    def error_words(self) -> tuple[str, str]:
+        """What the length errors and the angle errors are: ``("position", "orientation")``, ``("plane distance",
+        "tilt")`` for frames on planes, ``("distance", …)`` for distance readings, as the measured kinds say
+        (``Measurement.error_words``); ``"length"`` and ``"angle"`` when kinds that say it differently mix."""
+        classes = [KIND_CLASSES.get(key.partition(":")[0]) for key in self.measurements]
+        lengths = {kind.error_words[0] for kind in classes if kind is not None and kind.length_rows}
+        angles = {kind.error_words[1] for kind in classes if kind is not None and kind.angle_rows}
+        length = lengths.pop() if len(lengths) == 1 else ("length" if lengths else "position")
+        angle = angles.pop() if len(angles) == 1 else ("angle" if angles else "orientation")
+        return length, angle
 
     @property
     def is_implausible(self) -> bool:

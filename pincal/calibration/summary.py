@@ -27,10 +27,20 @@ def mrad(value: float | None) -> str:
 
 
 def _figure_rows(quantity: str, part: str, unit: Callable[[float | None], str], rms_before: float | None,
-                 rms_after: float | None, max_before: float | None, max_after: float | None) -> list[str]:
-    """The RMS and max rows of the before/after table for one quantity of one part (fit or held out)."""
-    return [f"{f'RMS {quantity} error ({part})':32}{_column(unit(rms_before))}{_column(unit(rms_after))}",
-            f"{f'max {quantity} error ({part})':32}{_column(unit(max_before))}{_column(unit(max_after))}"]
+                 rms_after: float | None, max_before: float | None, max_after: float | None,
+                 width: int = 32) -> list[str]:
+    """The RMS and max rows of the before/after table for one quantity of one part (fit or held out), labels in
+    ``width`` characters."""
+    return [f"{f'RMS {quantity} error ({part})':{width}}{_column(unit(rms_before))}{_column(unit(rms_after))}",
+            f"{f'max {quantity} error ({part})':{width}}{_column(unit(max_before))}{_column(unit(max_after))}"]
+
+
+def _label_width(report: CalibrationReport) -> int:
+    """The width of the before/after table's labels [characters]: 32, or the longest label it prints."""
+    length, angle = report.error_words
+    words = [length] + ([angle] if report.rms_angle_before is not None else [])
+    parts = ["fit"] + (["held out"] if report.has_held_out else []) + (["cross-val."] if report.cv else [])
+    return max(32, *(len(f"RMS {word} error ({part})") for word in words for part in parts))
 
 
 def _column(value: str) -> str:
@@ -82,6 +92,8 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
     table [mm, mrad], where every sample went, the warnings, and the combinations the data cannot separate;
     ``seconds`` is the fit's wall time; ``parameter_spec``, the parameters as the user named them (default: as the
     report's provenance records them)."""
+    length, angle = report.error_words
+    width = _label_width(report)
     lines = [f"NOT CONVERGED: {report.message} after {report.iterations} iterations; the estimate below is "
              "where the solver stopped, not a calibration (try --max-iter, fewer --parameters or more samples)"
              if not report.converged else None,
@@ -105,18 +117,19 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
              f"solver {report.solver}, loss {report.loss}: {report.message} after {report.iterations} "
              f"iterations, {seconds:.3f} s",
              "",
-             f"{'':32}{'before':>14}{'after':>14}",
-             *_figure_rows("position", "fit", mm, report.rms_before, report.rms_after, report.max_before,
-                           report.max_after)]
+             f"{'':{width}}{'before':>14}{'after':>14}",
+             *_figure_rows(length, "fit", mm, report.rms_before, report.rms_after, report.max_before,
+                           report.max_after, width)]
     if report.rms_angle_before is not None:
-        lines += _figure_rows("orientation", "fit", mrad, report.rms_angle_before, report.rms_angle_after,
-                              report.max_angle_before, report.max_angle_after)
+        lines += _figure_rows(angle, "fit", mrad, report.rms_angle_before, report.rms_angle_after,
+                              report.max_angle_before, report.max_angle_after, width)
     if report.has_held_out:
-        lines += _figure_rows("position", "held out", mm, report.test_rms_before, report.test_rms_after,
-                              report.test_max_before, report.test_max_after)
+        lines += _figure_rows(length, "held out", mm, report.test_rms_before, report.test_rms_after,
+                              report.test_max_before, report.test_max_after, width)
     if report.test_rms_angle_before is not None:
-        lines += _figure_rows("orientation", "held out", mrad, report.test_rms_angle_before,
-                              report.test_rms_angle_after, report.test_max_angle_before, report.test_max_angle_after)
+        lines += _figure_rows(angle, "held out", mrad, report.test_rms_angle_before,
+                              report.test_rms_angle_after, report.test_max_angle_before, report.test_max_angle_after,
+                              width)
     if report.before_means:
         lines.append(f"(before: {report.before_means})")
     lines += _predicted(report)
@@ -236,12 +249,13 @@ def _generalization(report: CalibrationReport) -> list[str]:
     if cv and cv["rms"] is None:
         lines.append(f"cross-validation ({cv['plan']}): no fold could be fitted; first: {cv['failed_folds'][0]}")
     elif cv:
-        lines.append(f"{'RMS position error (cross-val.)':32}{'':>14}{mm(cv['rms']):>14}  ({cv['plan']}, "
+        (length, angle), width = report.error_words, _label_width(report)
+        lines.append(f"{f'RMS {length} error (cross-val.)':{width}}{'':>14}{mm(cv['rms']):>14}  ({cv['plan']}, "
                      f"{cv['n_samples']} samples, {cv['n_predictions']} predictions)")
         for key, value in (cv.get("rms_by_reading") or {}).items():
-            lines.append(f"{'  ' + key:32}{'':>14}{mm(value):>14}")
+            lines.append(f"{'  ' + key:{width}}{'':>14}{mm(value):>14}")
         if "rms_angle" in cv:
-            lines.append(f"{'RMS orientation error (cross-val.)':32}{'':>14}{mrad(cv['rms_angle']):>14}")
+            lines.append(f"{f'RMS {angle} error (cross-val.)':{width}}{'':>14}{mrad(cv['rms_angle']):>14}")
         if cv.get("failed_folds"):
             lines.append(f"  ({len(cv['failed_folds'])} fold fits failed and are left out; the report lists them)")
         if cv.get("unconverged_folds"):

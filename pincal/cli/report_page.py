@@ -25,7 +25,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     report = view.report
     held = f"; held out {mm_text(report.test_rms_before)} → {mm_text(report.test_rms_after)}" \
         if report.has_held_out else ""
-    print(f"RMS position error {mm_text(report.rms_before)} → {mm_text(report.rms_after)}{held}")
+    print(f"RMS {report.error_words[0]} error {mm_text(report.rms_before)} → {mm_text(report.rms_after)}{held}")
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): open it in a browser, no network needed")
     return exit_status(view)
 

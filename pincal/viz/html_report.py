@@ -153,9 +153,10 @@ window.addEventListener("message", function (e) {
 
 
 def _cards(report: CalibrationReport) -> str:
-    rows = [("RMS position error, fit samples", report.rms_before, report.rms_after)]
+    length = report.error_words[0]
+    rows = [(f"RMS {length} error, fit samples", report.rms_before, report.rms_after)]
     if report.has_held_out:
-        rows.append(("RMS position error, held-out samples", report.test_rms_before,
+        rows.append((f"RMS {length} error, held-out samples", report.test_rms_before,
                      report.test_rms_after))
         rows.append(("largest error, held-out samples", report.test_max_before, report.test_max_after))
     else:
@@ -219,29 +220,30 @@ def _summary_table(report: CalibrationReport, n_test: int | None) -> str:
         rows.append(("payload (in the gravity torque of the compliances)",
                      f"{payload['mass']:g} kg on {payload['frame']} at ({x:g}, {y:g}, {z:g}) m", ""))
     table = ['<table><tr><th></th><th>before</th><th>after</th></tr>']
-    numbers = [("RMS position error (fit)", "rms_before", "rms_after"),
-               ("max position error (fit)", "max_before", "max_after")]
+    length, angle = report.error_words
+    numbers = [(f"RMS {length} error (fit)", "rms_before", "rms_after"),
+               (f"max {length} error (fit)", "max_before", "max_after")]
     if report.has_held_out:
-        numbers += [("RMS position error (held out)", "test_rms_before", "test_rms_after"),
-                    ("max position error (held out)", "test_max_before", "test_max_after")]
+        numbers += [(f"RMS {length} error (held out)", "test_rms_before", "test_rms_after"),
+                    (f"max {length} error (held out)", "test_max_before", "test_max_after")]
     for label, b, a in numbers:
         table.append(f"<tr><td>{label}</td><td class='before'>{mm_text(getattr(report, b))}</td>"
                      f"<td class='after'>{mm_text(getattr(report, a))}</td></tr>")
-    angles = [("RMS orientation error (fit)", "rms_angle_before", "rms_angle_after"),
-              ("RMS orientation error (held out)", "test_rms_angle_before", "test_rms_angle_after")]
+    angles = [(f"RMS {angle} error (fit)", "rms_angle_before", "rms_angle_after"),
+              (f"RMS {angle} error (held out)", "test_rms_angle_before", "test_rms_angle_after")]
     for label, b, a in angles:
         if getattr(report, b) is not None:
             table.append(f"<tr><td>{label}</td><td class='before'>{mrad_text(getattr(report, b))}</td>"
                          f"<td class='after'>{mrad_text(getattr(report, a))}</td></tr>")
     cv = report.cv
     if cv:
-        table.append(f"<tr><td>RMS position error (cross-validated, {_text(cv['plan'])}, {_text(cv['n_samples'])} "
+        table.append(f"<tr><td>RMS {length} error (cross-validated, {_text(cv['plan'])}, {_text(cv['n_samples'])} "
                      f"samples)</td><td></td><td class='after'>{mm_text(cv['rms'])}</td></tr>")
         for key, value in (cv.get("rms_by_reading") or {}).items():
             table.append(f"<tr><td>&nbsp;&nbsp;{html.escape(key)}</td><td></td>"
                          f"<td class='after'>{mm_text(value)}</td></tr>")
         if "rms_angle" in cv:
-            table.append(f"<tr><td>RMS orientation error (cross-validated)</td><td></td>"
+            table.append(f"<tr><td>RMS {angle} error (cross-validated)</td><td></td>"
                          f"<td class='after'>{mrad_text(cv['rms_angle'])}</td></tr>")
     if report.calibration_gain is not None:
         table.append(f"<tr><td>calibration gain G (study 000, vs the truth)</td><td></td>"
@@ -401,14 +403,15 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
     identified = [bool(report.parameters[n]["identified"]) for n in names]
     truth = None if content.truth is None else np.array([content.truth.get(n, np.nan) for n in names])
     rms = error_figures(report)
+    length = report.error_words[0]
     with Progress("figures", 4, quiet) as progress:
         if has_lengths:
-            figures.append(_png(plots.error_histograms(before, after, test_before, test_after, rms),
-                                "histograms of the position errors before and after calibration: "
+            figures.append(_png(plots.error_histograms(before, after, test_before, test_after, rms, length),
+                                f"histograms of the {length} errors before and after calibration: "
                                 + figures_text(report)))
             progress.advance()
-            figures.append(_png(plots.errors_per_sample(before, after, test_before, test_after),
-                                f"position error of each sample before and after calibration: "
+            figures.append(_png(plots.errors_per_sample(before, after, test_before, test_after, length),
+                                f"{length} error of each sample before and after calibration: "
                                 f"{_per_sample_text(before, after, test_before, test_after)}"))
             progress.advance()
         figures.append(_png(plots.parameter_estimates(names, units, values, std, identified, truth),

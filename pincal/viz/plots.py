@@ -59,8 +59,10 @@ def _rms(values: Array) -> float:
 
 
 def error_histograms(before: Array, after: Array, test_before: Array | None = None,
-                     test_after: Array | None = None, rms: Mapping[str, float | None] | None = None) -> Figure:
-    """Histograms of the per-sample position errors [m] before and after calibration, on a log axis
+                     test_after: Array | None = None, rms: Mapping[str, float | None] | None = None,
+                     quantity: str = "position") -> Figure:
+    """Histograms of the per-sample ``quantity`` errors [m] (position, plane distance, …) before and after calibration,
+    on a log axis
     (the two differ by orders of magnitude); held-out samples as outlines. Samples with no reading (NaN) are
     left out. The legend states the RMS errors [m] ``rms`` gives (``fit before``, ``fit after``, ``held out before``,
     ``held out after``: the report's, over the readings), else those of the samples drawn."""
@@ -89,18 +91,18 @@ def error_histograms(before: Array, after: Array, test_before: Array | None = No
         ax.hist(np.maximum(test_after * MM, low), bins, histtype="step", color=AFTER, linewidth=1.6,
                 linestyle="--", label=f"after, held out ({stated('held out after', test_after)})")
     ax.set_xscale("log")
-    ax.set_xlabel("position error of a sample [mm] (log scale)")
+    ax.set_xlabel(f"{quantity} error of a sample [mm] (log scale)")
     ax.set_ylabel("number of samples")
-    ax.set_title("Position errors before and after calibration")
+    ax.set_title(f"{quantity[0].upper() + quantity[1:]} errors before and after calibration")
     ax.legend(fontsize=8, loc="upper center")
     ax.grid(True, which="major", alpha=0.3)
     return figure
 
 
 def errors_per_sample(before: Array, after: Array, test_before: Array | None = None,
-                      test_after: Array | None = None) -> Figure:
-    """Each sample's position error [m] before and after, fit samples then held-out ones (a sample with no
-    reading, NaN, has no point)."""
+                      test_after: Array | None = None, quantity: str = "position") -> Figure:
+    """Each sample's ``quantity`` error [m] (position, plane distance, …) before and after, fit samples then held-out
+    ones (a sample with no reading, NaN, has no point)."""
     figure = Figure(figsize=(7.5, 3.4))
     ax = figure.subplots()
     margins(figure)
@@ -118,7 +120,7 @@ def errors_per_sample(before: Array, after: Array, test_before: Array | None = N
         ax.text(n - 0.5, 1.0, "  held out →", transform=ax.get_xaxis_transform(), va="top", fontsize=8)
     ax.set_yscale("log")
     ax.set_xlabel("sample")
-    ax.set_ylabel("position error [mm] (log scale)")
+    ax.set_ylabel(f"{quantity} error [mm] (log scale)")
     ax.set_title("Error of each sample")
     ax.legend(fontsize=8, ncol=2, loc="center right")
     ax.grid(True, which="major", alpha=0.3)

@@ -222,6 +222,16 @@ def _frame_poses(robot: Robot, qs: Array, frame_ids: list[int], base: Array) -> 
     return poses
 
 
+def _drawn_frame(view: CalibrationView, robot: Robot) -> str:
+    """The frame a sample is drawn at when it has no measured point: the first frame a measurement looks at (a
+    contact frame, a camera's target), else the robot's end effector."""
+    for measurement in view.problem.measurements:
+        for frame in measurement.frames:
+            if robot.model.existFrame(frame):
+                return frame
+    return robot.end_effector
+
+
 def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
                      max_mesh_bytes: int = MAX_MESH_BYTES) -> SceneSummary:
     """Draw ``view`` into a meshcat ``Visualizer`` (live, or over a :class:`StaticScene`).
@@ -250,7 +260,7 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
     points, before, after = view.point_errors()
     has_points = points is not None
     if points is None or np.isnan(points).any():  # nothing 3D measured, or a sample whose markers were all unseen
-        ee = [int(calibrated.frame_id(calibrated.end_effector))]
+        ee = [int(calibrated.frame_id(_drawn_frame(view, calibrated)))]
         effector = _frame_poses(calibrated, q_calibrated, ee, base)[ee[0]][:, :3, 3]
         if points is None:
             points = effector

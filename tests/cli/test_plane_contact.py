@@ -143,3 +143,26 @@ def test_a_column_named_by_its_name_and_by_its_position_is_refused(tmp_path: Pat
                    encoding="utf-8")
     assert "column 'sample' is named twice (by its name and by its position, or also under [data] ignore)" in \
         one_line_error("calibrate", str(job))
+
+
+def test_the_summary_and_the_page_name_the_errors_of_a_plane_contact(campaign: Path, tmp_path: Path) -> None:
+    """The before/after table says what was measured: distances to the plane [mm] and tilts [mrad], not positions;
+    the page of the TALOS's contact job (no frame named like an end effector) is drawn at its contact frame."""
+    done = run_pincal("calibrate", "ur10", str(campaign), "--report", str(tmp_path / "r.json"))
+    report = json.loads((tmp_path / "r.json").read_text(encoding="utf-8"))
+    rows = {line.split("  ")[0]: line.split() for line in done.stdout.splitlines() if line.startswith(("RMS", "max"))}
+    assert set(rows) == {"RMS plane distance error (fit)", "max plane distance error (fit)", "RMS tilt error (fit)",
+                         "max tilt error (fit)"}, done.stdout
+    assert rows["RMS plane distance error (fit)"][-4:] == [f"{report['rms_before'] * 1e3:.4f}", "mm",
+                                                           f"{report['rms_after'] * 1e3:.4f}", "mm"]
+    assert rows["RMS tilt error (fit)"][-4:] == [f"{report['rms_angle_before'] * 1e3:.4f}", "mrad",
+                                                 f"{report['rms_angle_after'] * 1e3:.4f}", "mrad"]
+    job = ROOT / "examples" / "data" / "talos_table_contact" / "left_job.toml"
+    page = tmp_path / "talos.html"
+    done = run_pincal("report", str(job), "--out", str(page))
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    assert done.stdout.startswith("RMS plane distance error "), done.stdout
+    text = page.read_text(encoding="utf-8")
+    for label in ("RMS plane distance error (held out)", "RMS tilt error (fit)",
+                  'alt="histograms of the plane distance errors before and after calibration'):
+        assert label in text

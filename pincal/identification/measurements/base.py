@@ -94,6 +94,9 @@ class Measurement(ABC):
     #: angles [rad] (an orientation's rotation vector): what the reports' error sizes are made of.
     length_rows: ClassVar[int] = 0
     angle_rows: ClassVar[int] = 0
+    #: What the reports call the size of the length rows and of the angle rows (a frame on a plane: its distance to
+    #: the plane and its tilt).
+    error_words: ClassVar[tuple[str, str]] = ("position", "orientation")
     #: Whether a sample may lack this reading (all its values NaN: an occluded marker); the problem leaves the
     #: missing rows out. Other kinds need every value.
     occludable: ClassVar[bool] = False

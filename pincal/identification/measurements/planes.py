@@ -54,6 +54,7 @@ class PlanePoint(Measurement):
 
     kinds: ClassVar[tuple[str, ...]] = ("plane_point",)
     components: ClassVar[tuple[str, ...]] = ("distance",)
+    error_words: ClassVar[tuple[str, str]] = ("plane distance", "tilt")
     length_rows: ClassVar[int] = 1
     zero_when_unwritten: ClassVar[bool] = True
 
