@@ -112,7 +112,7 @@ def load_model(path: str, nominal: Robot, dataset: Dataset) -> CheckedModel:
 def _rebuilt(path: str, nominal: Robot, dataset: Dataset) -> CheckedModel:
     """A report JSON's calibrated robot: its parameters' values applied to ``nominal``."""
     report = CalibrationReport.read(path)
-    declared = declared_marker_offsets(dataset.metadata)
+    declared = _declared(report, dataset)
     models: list[Measurement] = [parse_key(key).with_markers(declared) for key in report.measurements]
     names = list(report.parameters)
     try:
@@ -133,6 +133,14 @@ def _rebuilt(path: str, nominal: Robot, dataset: Dataset) -> CheckedModel:
     payload = _payload(report.payload, path)
     return CheckedModel(robot, path, corrections_of(nominal, parameters, x, payload), joint_sensor_zeros(text),
                         read_provenance(path), report)
+
+
+def _declared(report: CalibrationReport, dataset: Dataset) -> dict[str, tuple[float, float, float]]:
+    """The nominal marker offsets [m, in their frames] the report's calibrated robot is built on: those its calibration
+    read, as the report records them (a report written before it recorded them: those ``dataset`` declares)."""
+    if "declared_markers" not in report.present:
+        return declared_marker_offsets(dataset.metadata)
+    return {target: (float(x), float(y), float(z)) for target, (x, y, z) in report.declared_markers.items()}
 
 
 def _marker_fit(report: CalibrationReport) -> MarkerFit:

@@ -251,6 +251,7 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
         "payload": options.payload.as_dict() if options.payload is not None else None,
         "links_mass": moving_mass(fit.robot) if options.payload is not None else None,  # what it is weighed against
         "markers": options.markers,
+        "declared_markers": {target: list(offset) for target, offset in declared_markers(fit.models).items()},
         "formulation": options.formulation,
         "selection": {"policy": options.selection if options.formulation == "fkm" else "none", "removed": removed,
                       "removed_groups": list(fitted.removed_groups) if removed else [],

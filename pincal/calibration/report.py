@@ -64,6 +64,9 @@ class CalibrationReport:
     samples' predicted errors (σ per length row and the 95 % bound [m], widened beyond the fitted range) and how many
     errors lie within their bound, ``predicted_workspace`` the predicted 95 % bound [m] at postures drawn within the
     joint limits (:mod:`pincal.calibration.predicted`).
+    ``declared_markers`` holds the nominal offset [m, in its frame] of each declared marker (``<frame>@<marker>``) the
+    calibration read, as the data declared it (zero when they did not): the calibrated robot's marker links are these
+    plus the ``marker.*``/``cluster.*`` estimates.
     ``estimated_sigma`` holds the σ [m, rad] estimated from
     the data for the readings no ``# sigma`` line (nor ``--sigma``) states, per measurement key and row kind
     (``length``, ``angle``; :mod:`pincal.calibration.noise`).
@@ -106,6 +109,7 @@ class CalibrationReport:
     payload: dict[str, Any] | None = None
     links_mass: float | None = field(default=None, metadata=OPTIONAL)
     markers: str = "each"
+    declared_markers: dict[str, list[float]] = field(default_factory=dict)
     formulation: str = "fkm"
     selection: dict[str, Any] = field(default_factory=dict)
     unidentifiable_listing: list[str] = field(default_factory=list)
