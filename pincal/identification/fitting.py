@@ -269,7 +269,7 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
                                extra={"rejected_steps": counts["rejected"], "evaluations": counts["evaluations"],
                                       "accelerated_steps": counts["accelerated"],
                                       "rank_changes": int(np.count_nonzero(np.diff(kept)))})
-    result.final = Prediction(data.residual, None, data.errors, data.predicted)
+    result.final = Prediction(data.residual, data.jacobian, data.errors, data.predicted)
     return result
 
 

@@ -185,6 +185,7 @@ class CalibrationProblem:
         #: The cameras and targets (attached placement names) the last :meth:`initial_guess` placed in closed form.
         self.placed_in_closed_form: list[str] = []
         self.not_in_closed_form: list[str] = []  # why the data did not determine a camera's start: one per reading
+        self._initial: Array | None = None  # the default start, found once (the preparation and the fit ask it)
         #: A tree's batched evaluation (every sample at once), when its joints allow it; False: sample by sample
         #: (the reference path, which the benchmarks and tests also run on trees to compare the two).
         self._tree = TreeBatch(robot, self.frame_ids) if not robot.loops else None
@@ -303,8 +304,12 @@ class CalibrationProblem:
     def initial_guess(self, start: Array | None = None) -> Array:
         """A starting point: zero (or ``start``, [m, rad]), except the placements closed forms give from the nominal
         robot (the cameras and targets, else an unknown measurement frame registered to the measured points:
-        :func:`pincal.identification.starts.initial_guess`)."""
-        return starts.initial_guess(self, start)
+        :func:`pincal.identification.starts.initial_guess`); the default one is found once."""
+        if start is not None:
+            return starts.initial_guess(self, start)
+        if self._initial is None:
+            self._initial = starts.initial_guess(self)
+        return self._initial.copy()
 
     def settle_assembly(self, x: Array) -> list[int]:
         """Samples whose remembered configuration at ``x`` is not on the reference assembly, each reset to it.
