@@ -77,11 +77,13 @@ def _reduced_rows(jacobian: Array, y0: Array) -> Array:
     columns of ``J`` has the residual norm of the same fit on the columns of ``R`` (``Q`` has orthonormal columns
     and ``y0`` lies in their span), and every set of ``J``'s columns the singular values of the same set of ``R``'s.
     The criteria of all the combinations of groups are then computed on k rows instead of m."""
-    augmented = np.column_stack([jacobian, y0])
-    if not augmented.shape[0]:
-        return np.zeros((0, augmented.shape[1]))
+    m, p = jacobian.shape
+    if not m:
+        return np.zeros((0, p + 1))
+    augmented = np.empty((m, p + 1), order="F")  # the one copy, in the order LAPACK factors in place
+    augmented[:, :p], augmented[:, p] = jacobian, y0
     (triangle,) = scipy.linalg.qr(augmented, mode="r", overwrite_a=True, check_finite=False)
-    return np.asarray(triangle[:min(augmented.shape)], dtype=np.float64)
+    return np.asarray(triangle[:min(m, p + 1)], dtype=np.float64)
 
 
 def _criterion(columns: Array, rhs: Array, m: int) -> float:
@@ -220,7 +222,8 @@ def select_and_fit(problem: CalibrationProblem, policy: str = "bic", **options: 
     jac = pred.jacobian * rows[:, None]
     y0 = pred.residual * rows - jac @ first.x
     pset = problem.parameters
-    choice = select_groups(jac * pset.scales, y0, [group_of(p) for p in pset])
+    jac *= pset.scales  # its own copy: scaled in place
+    choice = select_groups(jac, y0, [group_of(p) for p in pset])
     if not choice.removed_groups:
         return SelectedFit(problem, first, first, [], choice.scores)
     return _refit_without(problem, first, choice.removed_groups, choice.scores, _fitted_criterion, **options)
