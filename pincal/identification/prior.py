@@ -55,9 +55,11 @@ class WithPrior:
         """The problem's prediction at ``x`` [m, rad] with the prior's rows appended to its residual and Jacobian."""
         if not self.bounded.size:
             return self.problem.evaluate(x, jacobian)
-        spare = jacobian and isinstance(self.problem, CalibrationProblem)  # its Jacobian made with room for ours
-        pred = self.problem.evaluate(x, jacobian, spare_rows=self.bounded.size) if spare else \
-            self.problem.evaluate(x, jacobian)
+        problem, spare = self.problem, False
+        if jacobian and isinstance(problem, CalibrationProblem):  # its Jacobian made with room for ours
+            pred, spare = problem.evaluate(x, jacobian, spare_rows=self.bounded.size), True
+        else:
+            pred = problem.evaluate(x, jacobian)
         residual = np.concatenate([pred.residual, x[self.bounded] * self.inverse])
         full = pred.jacobian
         if full is not None:
