@@ -34,6 +34,7 @@ from pincal.identification.choices import LOSSES, Solver
 from pincal.identification.identifiability import Identifiability, analyse, correlations, covariance
 from pincal.identification.lm import LevenbergMarquardt
 from pincal.identification.losses import IMPLEMENTED_LOSSES, Weighting, row_weights, sample_weights
+from pincal.identification.parameters import ParameterSet
 from pincal.identification.prior import WithPrior, prior_sigma
 from pincal.identification.problem import Prediction, Problem
 from pincal.identification.result import CalibrationResult
@@ -78,6 +79,19 @@ def _chosen(solver: str, loss: str) -> tuple[type[Method], Weighting | None]:
     if loss not in IMPLEMENTED_LOSSES:
         raise DataError(f"unknown loss '{loss}'; losses are: {', '.join(LOSSES)}")
     return METHODS[solver], IMPLEMENTED_LOSSES[loss]
+
+
+def _check_start(jacobian: Array, parameters: ParameterSet, tol: float, strict: bool) -> None:
+    """:func:`_check_identifiable` at the start (data rows' ``jacobian``, rank tolerance ``tol``): the rank alone (the
+    singular values of ``J diag(s)``) unless it refuses, when the full analysis names what the data cannot see."""
+    n, rows = len(parameters), jacobian.shape[0]
+    scaled = linalg.triangle(jacobian, column_scales=parameters.scales) if rows >= n else jacobian * parameters.scales
+    values = linalg.singular_values(scaled, "the scaled identification Jacobian")
+    rank = int(np.count_nonzero(values > tol * values[0])) if values.size and values[0] > 0.0 else 0
+    if (strict and rank < n) or rank == 0 or (rows < n and rank >= rows):
+        ident = analyse(jacobian, parameters.names, parameters.scales,
+                        units=[p.unit if p.unit in ("m", "rad") else "" for p in parameters], tol=tol)
+        _check_identifiable(ident, n, rows, strict)
 
 
 def _check_identifiable(ident: Identifiability, n_parameters: int, n_residuals: int, strict: bool) -> None:
@@ -153,10 +167,7 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
         raise DataError("the residuals or their Jacobian are not finite at the starting point: check the data "
                         "for values out of range")
     errors_before = pred.errors
-    ident = analyse(data.jacobian, pset.names, scales, units=[p.unit if p.unit in ("m", "rad") else "" for p in pset],
-                    tol=_practical_tol(data.jacobian, scales, rank_tol, min_information))
-    active = ident.base_indices
-    _check_identifiable(ident, len(pset), data.residual.size, strict)
+    _check_start(data.jacobian, pset, _practical_tol(data.jacobian, scales, rank_tol, min_information), strict)
     d = scales
     weights = sample_weights(problem, data, weighting, left_out)
     rw = np.sqrt(model.row_weights(row_weights(problem, weights)))
