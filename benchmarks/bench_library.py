@@ -88,8 +88,9 @@ def timed_method(module, cls, name, label):
             spent[label] += time.process_time() - start
     setattr(owner, name, wrapper)
 PIPELINE, SELECTION = "pincal.calibration.pipeline", "pincal.identification.selection"
-timed_method("pincal.identification.prior", "WithPrior", "evaluate", "  of which its model evaluations")
-timed_method("pincal.identification.steps", "Steps", "__init__", "  of which its QR reductions and their SVDs")
+timed_method("pincal.identification.prior", "WithPrior", "evaluate", "the fit/of which its model evaluations")
+timed_method("pincal.identification.steps", "Steps", "__init__", "the fit/of which its QR reductions and their SVDs")
+timed("pincal.calibration.predicted", "chi2_upper", "predicted accuracy/of which its χ² quantiles")
 timed(PIPELINE, "prepare", "preparation (usable samples, parameters, idle candidates, problem)")
 timed(PIPELINE, "check_units", "unit check (positions' spread at the start)")
 timed(SELECTION, "identify", "the fit (Levenberg-Marquardt, outlier test, identifiability, covariance)")
@@ -122,12 +123,12 @@ def phases(calls: int) -> None:
     total = spent.pop("total")
     print(f"UR10, 1000 positions: calibrate() {total * 1e3:.1f} ms CPU, mean of {calls} calls; its phases:")
     print("| phase | ms |\n|---|---|")
-    parts = {label: seconds for label, seconds in spent.items() if not label.startswith(" ")}
+    parts = {label: seconds for label, seconds in spent.items() if "/" not in label}
     for label, seconds in sorted(parts.items(), key=lambda item: -item[1]):
         print(f"| {label} | {seconds * 1e3:.1f} |")
-        if label.startswith("the fit"):
-            for inner in sorted((k for k in spent if k.startswith(" ")), key=lambda k: -spent[k]):
-                print(f"| {inner.strip()} | {spent[inner] * 1e3:.1f} |")
+        for inner in sorted((k for k in spent if "/" in k and label.startswith(k.split("/")[0])),
+                            key=lambda k: -spent[k]):
+            print(f"| {inner.split('/')[1]} | {spent[inner] * 1e3:.1f} |")
     print(f"| the rest (report figures, plausibility, held-out set, ...) | {(total - sum(parts.values())) * 1e3:.1f} |")
 
 
