@@ -12,7 +12,8 @@ The floor: the bare Pinocchio calls a per-sample evaluation needs, in a Python l
 configurations), per sample. Printed: the median CPU time of ``calibrate()`` and of the floor per sample, measured in
 the same process, and their ratio, as ``× (N × floor)`` (N the samples) and as floor units (calibrate time / floor
 time per sample). Each revision's ``pincal/`` runs in its own process, the two alternating round by round, with one
-BLAS thread; the data are simulated once, by the working tree.
+BLAS thread; the data are simulated once, by the working tree. ``--phases N``: where the working tree's UR10 call
+spends its time instead (each phase timed as the pipeline calls it, mean of N calls).
 """
 
 from __future__ import annotations
@@ -58,6 +59,79 @@ print(json.dumps(out))
 """
 
 
+PHASES = r"""
+import collections, functools, importlib, json, sys, time
+import pincal
+from pincal.calibration import calibrate
+path, calls = sys.argv[1], int(sys.argv[2])
+spent = collections.defaultdict(float)
+def timed(module, name, label):  # the function as the pipeline calls it, its CPU time added to label's
+    owner = importlib.import_module(module)
+    inner = getattr(owner, name)
+    @functools.wraps(inner)
+    def wrapper(*args, **kwargs):
+        start = time.process_time()
+        try:
+            return inner(*args, **kwargs)
+        finally:
+            spent[label] += time.process_time() - start
+    setattr(owner, name, wrapper)
+def timed_method(module, cls, name, label):
+    owner = getattr(importlib.import_module(module), cls)
+    inner = getattr(owner, name)
+    @functools.wraps(inner)
+    def wrapper(*args, **kwargs):
+        start = time.process_time()
+        try:
+            return inner(*args, **kwargs)
+        finally:
+            spent[label] += time.process_time() - start
+    setattr(owner, name, wrapper)
+PIPELINE, SELECTION = "pincal.calibration.pipeline", "pincal.identification.selection"
+timed_method("pincal.identification.prior", "WithPrior", "evaluate", "the fit/of which its model evaluations")
+timed_method("pincal.identification.steps", "Steps", "__init__", "the fit/of which its QR reductions and their SVDs")
+timed("pincal.calibration.predicted", "chi2_upper", "predicted accuracy/of which its χ² quantiles")
+timed(PIPELINE, "prepare", "preparation (usable samples, parameters, idle candidates, problem)")
+timed(PIPELINE, "check_units", "unit check (positions' spread at the start)")
+timed(SELECTION, "identify", "the fit (Levenberg-Marquardt, outlier test, identifiability, covariance)")
+timed(SELECTION, "select_groups", "model selection's group scores")
+timed(PIPELINE, "calibrated_robot_text", "calibrated URDF text")
+timed(PIPELINE, "workspace_prediction", "predicted accuracy over the workspace (100 postures)")
+robot, dataset = pincal.load_robot("ur10"), pincal.read_dataset(path)
+for _ in range(3):
+    calibrate(robot, dataset)
+spent.clear()
+start = time.process_time()
+for _ in range(calls):
+    calibrate(robot, dataset)
+total = time.process_time() - start
+print(json.dumps({"total": total / calls, **{k: v / calls for k, v in spent.items()}}))
+"""
+
+
+def phases(calls: int) -> None:
+    """Print where the working tree's UR10 ``calibrate()`` (1000 samples) spends its CPU time: each phase timed as
+    the pipeline calls it, mean of ``calls`` calls after three warm-up calls, one BLAS thread."""
+    with tempfile.TemporaryDirectory() as folder:
+        work = Path(folder)
+        after = export(None, work / "after")
+        cases = simulate(work, after)
+        env = {**environment(after), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+        done = subprocess.run([sys.executable, "-c", PHASES, cases["UR10, 1000 positions"][1], str(calls)], env=env,
+                              capture_output=True, text=True, check=True, cwd=work)
+    spent = json.loads(done.stdout)
+    total = spent.pop("total")
+    print(f"UR10, 1000 positions: calibrate() {total * 1e3:.1f} ms CPU, mean of {calls} calls; its phases:")
+    print("| phase | ms |\n|---|---|")
+    parts = {label: seconds for label, seconds in spent.items() if "/" not in label}
+    for label, seconds in sorted(parts.items(), key=lambda item: -item[1]):
+        print(f"| {label} | {seconds * 1e3:.1f} |")
+        for inner in sorted((k for k in spent if "/" in k and label.startswith(k.split("/")[0])),
+                            key=lambda k: -spent[k]):
+            print(f"| {inner.split('/')[1]} | {spent[inner] * 1e3:.1f} |")
+    print(f"| the rest (report figures, plausibility, held-out set, ...) | {(total - sum(parts.values())) * 1e3:.1f} |")
+
+
 def simulate(work: Path, after: Path) -> dict[str, tuple[str, str, dict[str, list[str]]]]:
     """The two cases' data, simulated once by the working tree; each case's robot, data file and keywords."""
     env = {**environment(after), "OPENBLAS_NUM_THREADS": "1"}
@@ -75,7 +149,12 @@ def main() -> None:
     parser.add_argument("--before", default=BEFORE, help=f"the revision to compare with (default {BEFORE})")
     parser.add_argument("--repeats", type=int, default=5, help="rounds, each revision once per round")
     parser.add_argument("--runs", type=int, default=7, help="calls of calibrate() per round")
+    parser.add_argument("--phases", type=int, metavar="N",
+                        help="instead: the working tree's UR10 calibrate() phase by phase, mean of N calls")
     args = parser.parse_args()
+    if args.phases:
+        phases(args.phases)
+        return
     with tempfile.TemporaryDirectory() as folder:
         work = Path(folder)
         sources = {"before": export(args.before, work / "before"), "after": export(None, work / "after")}

@@ -13,6 +13,7 @@ SI units throughout: m, rad.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -313,5 +314,6 @@ def sample_errors(ids: list[str], before: dict[str, Array], after: dict[str, Arr
     per_before, per_after = sample_length_errors(before, n), sample_length_errors(after, n)
     if per_before is None or per_after is None:
         return [{"sample": s, "set": part, "before": None, "after": None} for s in ids]
-    return [{"sample": s, "set": part, "before": float(b) if np.isfinite(b) else None,
-             "after": float(a) if np.isfinite(a) else None} for s, b, a in zip(ids, per_before, per_after, strict=True)]
+    return [{"sample": s, "set": part, "before": b if math.isfinite(b) else None,
+             "after": a if math.isfinite(a) else None}
+            for s, b, a in zip(ids, per_before.tolist(), per_after.tolist(), strict=True)]

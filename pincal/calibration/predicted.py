@@ -139,52 +139,82 @@ def predicted_errors(problem: CalibrationProblem, fit: CalibrationResult | FitCo
     factor = np.ones(n) if factor is None else factor
     prediction = problem.evaluate(x, jacobian=True) if prediction is None else prediction
     assert prediction.jacobian is not None
-    covariance = fit.matrix
-    rows, row_sigma, length_row = _row_layout(problem)
-    jacobian = prediction.jacobian[:, fit.columns] * row_sigma[:, None]  # back to [m] per parameter unit
-    noise = fit.sigma2 * row_sigma**2
     width = int(sum(length_columns(m.key) for m in problem.measurements))
     sigma, bound = np.full((n, width), np.nan), np.full(n, np.nan)
-    for k in range(n):
-        mine = np.flatnonzero((rows == k) & length_row)
-        if mine.size == 0 or not np.all(np.isfinite(covariance)) or not np.isfinite(fit.sigma2):
-            continue
-        s = jacobian[mine] @ covariance @ jacobian[mine].T + np.diag(noise[mine])
-        sigma[k, _columns_of(problem, k)] = np.sqrt(np.diag(s))
-        bound[k] = norm_quantile(s) * factor[k]
+    if not np.all(np.isfinite(fit.matrix)) or not np.isfinite(fit.sigma2):
+        return PredictedErrors(sigma, bound, factor)
+    layout = _length_layout(problem)
+    row_sigma = np.where(layout.taken, _row_sigmas(problem)[layout.rows], 0.0)  # (N, w) [m]; 0 where none
+    jacobian = prediction.jacobian[:, fit.columns][layout.rows] * row_sigma[..., None]  # [m] per parameter unit
+    s = jacobian @ fit.matrix @ jacobian.transpose(0, 2, 1)  # (N, w, w) [m²]
+    diagonal = np.arange(s.shape[1])
+    s[:, diagonal, diagonal] += fit.sigma2 * row_sigma**2
+    sigma[layout.samples, layout.columns] = np.sqrt(s[:, diagonal, diagonal][layout.taken])
+    measured = layout.taken.any(axis=1)
+    bound[measured] = norm_quantiles(s[measured]) * factor[measured]
     return PredictedErrors(sigma, bound, factor)
 
 
 def norm_quantile(s: Array, level: float = LEVEL) -> float:
     """The ``level`` quantile [m] of ``‖e‖`` for ``e ~ N(0, s)`` (``s`` [m²]), by Welch–Satterthwaite's
     ``eᵀe ≈ a χ²_ν`` (exact when ``s`` is isotropic)."""
-    trace, trace2 = float(np.trace(s)), float(np.sum(s * s))
-    if trace <= 0.0:
-        return 0.0
-    a, nu = trace2 / trace, trace**2 / trace2
-    return float(np.sqrt(a * chi2_upper(1.0 - level, nu)))
+    return float(norm_quantiles(np.asarray(s, dtype=float)[None], level)[0])
 
 
-def _row_layout(problem: CalibrationProblem) -> tuple[npt.NDArray[np.int64], Array, npt.NDArray[np.bool_]]:
-    """The residual rows' samples, σ [m, rad] and whether each is a length row, in :meth:`evaluate`'s order."""
-    sigmas, lengths = [], []
+def norm_quantiles(s: Array, level: float = LEVEL) -> Array:
+    """:func:`norm_quantile` of each of the covariances ``s`` (K, w, w) [m²]: (K,) quantiles [m]."""
+    trace = np.trace(s, axis1=1, axis2=2)
+    trace2 = np.sum(s * s, axis=(1, 2))
+    out = np.zeros(len(s))
+    positive = trace > 0.0
+    a, nu = trace2[positive] / trace[positive], trace[positive] ** 2 / trace2[positive]
+    out[positive] = np.sqrt(a * chi2_upper(1.0 - level, nu))
+    return out
+
+
+def _row_sigmas(problem: CalibrationProblem) -> Array:
+    """Each residual row's stated σ [m, rad], in :meth:`evaluate`'s order."""
+    return np.concatenate([np.tile(m.row_sigmas(), int(np.count_nonzero(problem.seen(m.key))))
+                           for m in problem.measurements])
+
+
+@dataclass(frozen=True)
+class _LengthLayout:
+    """Each sample's length rows in :meth:`evaluate`'s order (measurements in order, then their components), padded
+    to the most a sample has (w).
+
+    Attributes:
+        rows: (N, w) their residual rows (0 where ``taken`` is False).
+        taken: (N, w) which entries are rows.
+        samples, columns: The taken entries' sample and :attr:`PredictedErrors.sigma` column, in row-major order.
+    """
+
+    rows: npt.NDArray[np.intp]
+    taken: npt.NDArray[np.bool_]
+    samples: npt.NDArray[np.intp]
+    columns: npt.NDArray[np.intp]
+
+
+def _length_layout(problem: CalibrationProblem) -> _LengthLayout:
+    """The :class:`_LengthLayout` of ``problem``'s residual rows."""
+    rows, samples, columns = [], [], []
+    start_row = start_column = 0
     for m in problem.measurements:
-        taken = int(np.count_nonzero(problem.seen(m.key)))
-        sigmas.append(np.tile(m.row_sigmas(), taken))
-        lengths.append(np.tile(np.arange(m.size) < length_columns(m.key), taken))
-    return problem.row_samples(), np.concatenate(sigmas), np.concatenate(lengths)
-
-
-def _columns_of(problem: CalibrationProblem, k: int) -> npt.NDArray[np.intp]:
-    """The length rows sample ``k`` took, as columns of :attr:`PredictedErrors.sigma`."""
-    columns: list[int] = []
-    start = 0
-    for m in problem.measurements:
+        taken = np.flatnonzero(problem.seen(m.key))
         width = length_columns(m.key)
-        if width and problem.seen(m.key)[k]:
-            columns.extend(range(start, start + width))
-        start += width
-    return np.asarray(columns, dtype=np.intp)
+        rows.append((start_row + m.size * np.arange(taken.size)[:, None] + np.arange(width)).ravel())
+        samples.append(np.repeat(taken, width))
+        columns.append(np.tile(start_column + np.arange(width), taken.size))
+        start_row += m.size * taken.size
+        start_column += width
+    order = np.argsort(np.concatenate(samples), kind="stable")  # by sample, each in row order
+    row, sample, column = (np.concatenate(a).astype(np.intp)[order] for a in (rows, samples, columns))
+    counts = np.bincount(sample, minlength=problem.observations.n_samples)
+    position = np.arange(row.size) - np.repeat(np.cumsum(counts) - counts, counts)
+    index = np.zeros((counts.size, int(counts.max(initial=0))), dtype=np.intp)
+    taken_at = np.zeros(index.shape, dtype=bool)
+    index[sample, position], taken_at[sample, position] = row, True
+    return _LengthLayout(index, taken_at, sample, column)
 
 
 def workspace_postures(problem: CalibrationProblem, actuated: Array) -> CalibrationProblem:

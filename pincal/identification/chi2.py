@@ -32,6 +32,10 @@ def chi2_upper(tail: float | Array, dof: float | npt.ArrayLike) -> Array:
     """The value a χ² variable with ``dof`` degrees of freedom exceeds with probability ``tail``:
     ``chi2.ppf(1 − tail, dof)`` without the cancellation of ``1 − tail`` for a small tail; broadcast over both."""
     tails, dofs = np.broadcast_arrays(np.asarray(tail, dtype=float), np.asarray(dof, dtype=float))
+    if tails.size > 1 and bool(np.all(tails == tails.flat[0])):  # one tail (the usual call): each dof solved once
+        values, inverse = np.unique(dofs, return_inverse=True)
+        solved = np.array([_quantile(float(tails.flat[0]), d) for d in values.tolist()])
+        return np.asarray(solved[inverse.reshape(-1)].reshape(tails.shape), dtype=np.float64)
     out = np.empty(tails.shape)
     pairs: dict[tuple[float, float], float] = {}
     for index, (t, d) in enumerate(zip(tails.ravel().tolist(), dofs.ravel().tolist(), strict=True)):

@@ -34,6 +34,7 @@ from pincal.identification.choices import LOSSES, Solver
 from pincal.identification.identifiability import Identifiability, analyse, correlations, covariance
 from pincal.identification.lm import LevenbergMarquardt
 from pincal.identification.losses import IMPLEMENTED_LOSSES, Weighting, row_weights, sample_weights
+from pincal.identification.parameters import ParameterSet
 from pincal.identification.prior import WithPrior, prior_sigma
 from pincal.identification.problem import Prediction, Problem
 from pincal.identification.result import CalibrationResult
@@ -78,6 +79,19 @@ def _chosen(solver: str, loss: str) -> tuple[type[Method], Weighting | None]:
     if loss not in IMPLEMENTED_LOSSES:
         raise DataError(f"unknown loss '{loss}'; losses are: {', '.join(LOSSES)}")
     return METHODS[solver], IMPLEMENTED_LOSSES[loss]
+
+
+def _check_start(jacobian: Array, parameters: ParameterSet, tol: float, strict: bool) -> None:
+    """:func:`_check_identifiable` at the start (data rows' ``jacobian``, rank tolerance ``tol``): the rank alone (the
+    singular values of ``J diag(s)``) unless it refuses, when the full analysis names what the data cannot see."""
+    n, rows = len(parameters), jacobian.shape[0]
+    scaled = linalg.triangle(jacobian, column_scales=parameters.scales) if rows >= n else jacobian * parameters.scales
+    values = linalg.singular_values(scaled, "the scaled identification Jacobian")
+    rank = int(np.count_nonzero(values > tol * values[0])) if values.size and values[0] > 0.0 else 0
+    if (strict and rank < n) or rank == 0 or (rows < n and rank >= rows):
+        ident = analyse(jacobian, parameters.names, parameters.scales,
+                        units=[p.unit if p.unit in ("m", "rad") else "" for p in parameters], tol=tol)
+        _check_identifiable(ident, n, rows, strict)
 
 
 def _check_identifiable(ident: Identifiability, n_parameters: int, n_residuals: int, strict: bool) -> None:
@@ -153,10 +167,7 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
         raise DataError("the residuals or their Jacobian are not finite at the starting point: check the data "
                         "for values out of range")
     errors_before = pred.errors
-    ident = analyse(data.jacobian, pset.names, scales, units=[p.unit if p.unit in ("m", "rad") else "" for p in pset],
-                    tol=_practical_tol(data.jacobian, scales, rank_tol, min_information))
-    active = ident.base_indices
-    _check_identifiable(ident, len(pset), data.residual.size, strict)
+    _check_start(data.jacobian, pset, _practical_tol(data.jacobian, scales, rank_tol, min_information), strict)
     d = scales
     weights = sample_weights(problem, data, weighting, left_out)
     rw = np.sqrt(model.row_weights(row_weights(problem, weights)))
@@ -172,6 +183,7 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
     kept: list[int] = []
     eager_first = True  # evaluate the next first trial with its Jacobian (no first trial rejected yet)
     steps: Steps | None = None
+    reduced: Array | None = None
     for it in range(1, max_iter + 1):
         assert pred.jacobian is not None
         steps = None  # the previous iteration's m × n reflectors go before this one's are built
@@ -181,6 +193,7 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
             settled = method.settled(steps, lam, cost, pred.errors, numerical, accelerate, tol, least_squares)
             if settled:
                 converged, message = True, settled
+                reduced = steps.triangle / d  # R of diag(w)·J at the estimate: the covariance's, on n rows
                 break
         iterations = it
         accepted = False
@@ -262,29 +275,32 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
     ident = analyse(data.jacobian, pset.names, scales, units=[p.unit if p.unit in ("m", "rad") else "" for p in pset],
                     tol=_practical_tol(data.jacobian, scales, rank_tol, min_information))
     active = ident.base_indices
-    sigma2, std, apriori, corr = _uncertainty(pred, rw, list(active), pset.names, model.rows)
+    sigma2, std, apriori, corr = _uncertainty(pred, rw, list(active), pset.names, model.rows, reduced)
     result = CalibrationResult(pset.names, start_x, x, std, list(active), ident, corr, iterations, converged, message,
                                history, errors_before, pred.errors,
                                weights, sigma2, time.perf_counter() - start, solver, loss, std_apriori=apriori,
                                extra={"rejected_steps": counts["rejected"], "evaluations": counts["evaluations"],
                                       "accelerated_steps": counts["accelerated"],
                                       "rank_changes": int(np.count_nonzero(np.diff(kept)))})
-    result.final = Prediction(data.residual, None, data.errors, data.predicted)
+    result.final = Prediction(data.residual, data.jacobian, data.errors, data.predicted)
     return result
 
 
-def _uncertainty(pred: Prediction, rw: Array, active: list[int], names: list[str], rows: int
-                 ) -> tuple[float, Array, Array, Array]:
+def _uncertainty(pred: Prediction, rw: Array, active: list[int], names: list[str], rows: int,
+                 reduced: Array | None = None) -> tuple[float, Array, Array, Array]:
     """The a-posteriori variance factor σ² of the fit (weighted residual ``rw · r`` of its first ``rows`` rows, the
     data's, ``active`` parameters), the estimates' standard deviations (a posteriori and a priori, NaN outside
     ``active``) [parameter units] and their correlations, from every row (a prior's included: the posterior
-    covariance); NaN when the active columns are dependent."""
+    covariance); NaN when the active columns are dependent. ``reduced``: the triangle ``R`` (n columns) of the
+    weighted Jacobian ``diag(rw) J`` when the last iteration made it (``RᵀR = Jᵀ diag(rw)² J``: the same
+    covariance, from n rows instead of m)."""
     assert pred.jacobian is not None
     dof = max(int(np.count_nonzero(rw[:rows])) - len(active), 1)  # a sample left out (weight 0): no degree of freedom
     sigma2 = float(np.sum((rw[:rows] * pred.residual[:rows]) ** 2)) / dof
     std, apriori = np.full(len(names), np.nan), np.full(len(names), np.nan)
     try:
-        shape = covariance(pred.jacobian, 1.0, active, names, row_weights=rw)  # (JᵀJ)⁻¹: σ² scales it
+        jacobian, weights = (pred.jacobian, rw) if reduced is None else (reduced, None)
+        shape = covariance(jacobian, 1.0, active, names, row_weights=weights)  # (JᵀJ)⁻¹: σ² scales it
     except IdentifiabilityError:
         return sigma2, std, apriori, np.full((len(active), len(active)), np.nan)
     std[active] = np.sqrt(sigma2 * np.diag(shape))

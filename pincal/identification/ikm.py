@@ -126,9 +126,10 @@ class ImplicitProblem(CalibrationProblem):
         starts from the reference assembly's FK answer when first closed)."""
         return []
 
-    def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
+    def evaluate(self, x: Array, jacobian: bool = True, spare_rows: int = 0) -> Prediction:
         """Weighted IKM residual (each sample's loop closure [m, rad] at the measured pose, over the target's σ)
-        and its Jacobian w.r.t. ``x``, the passive joints' response projected out."""
+        and its Jacobian w.r.t. ``x``, the passive joints' response projected out (with ``spare_rows`` rows of zeros
+        after the residual's, as :meth:`CalibrationProblem.evaluate` gives them)."""
         robot = self.robot_at(x)
         model, data, kin = robot.model, robot.kinematics.data, robot.kinematics
         n, p, rows = self.observations.n_samples, len(self.parameters), robot.closure.rows
@@ -173,6 +174,8 @@ class ImplicitProblem(CalibrationProblem):
         sigma = self.measurement.sigma
         out_res = (residual / sigma).reshape(-1)
         out_jac = None if jac_out is None else (jac_out / sigma).reshape(-1, p)
+        if out_jac is not None and spare_rows:
+            out_jac = np.vstack([out_jac, np.zeros((spare_rows, p))])
         return Prediction(out_res, out_jac, {CLOSURE_KEY: residual}, {})
 
 

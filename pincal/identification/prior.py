@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.identification.parameters import ParameterSet
-from pincal.identification.problem import Observations, Prediction, Problem
+from pincal.identification.problem import CalibrationProblem, Observations, Prediction, Problem
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -53,15 +53,19 @@ class WithPrior:
 
     def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
         """The problem's prediction at ``x`` [m, rad] with the prior's rows appended to its residual and Jacobian."""
-        pred = self.problem.evaluate(x, jacobian)
         if not self.bounded.size:
-            return pred
+            return self.problem.evaluate(x, jacobian)
+        problem, spare = self.problem, False
+        if jacobian and isinstance(problem, CalibrationProblem):  # its Jacobian made with room for ours
+            pred, spare = problem.evaluate(x, jacobian, spare_rows=self.bounded.size), True
+        else:
+            pred = problem.evaluate(x, jacobian)
         residual = np.concatenate([pred.residual, x[self.bounded] * self.inverse])
-        full = None
-        if pred.jacobian is not None:
-            rows = np.zeros((self.bounded.size, x.size))
-            rows[np.arange(self.bounded.size), self.bounded] = self.inverse
-            full = np.vstack([pred.jacobian, rows])
+        full = pred.jacobian
+        if full is not None:
+            if not spare:
+                full = np.vstack([full, np.zeros((self.bounded.size, x.size))])
+            full[self.rows + np.arange(self.bounded.size), self.bounded] = self.inverse
         return Prediction(residual, full, pred.errors, pred.predicted)
 
     def data(self, pred: Prediction) -> Prediction:

@@ -185,6 +185,7 @@ class CalibrationProblem:
         #: The cameras and targets (attached placement names) the last :meth:`initial_guess` placed in closed form.
         self.placed_in_closed_form: list[str] = []
         self.not_in_closed_form: list[str] = []  # why the data did not determine a camera's start: one per reading
+        self._initial: Array | None = None  # the default start, found once (the preparation and the fit ask it)
         #: A tree's batched evaluation (every sample at once), when its joints allow it; False: sample by sample
         #: (the reference path, which the benchmarks and tests also run on trees to compare the two).
         self._tree = TreeBatch(robot, self.frame_ids) if not robot.loops else None
@@ -303,8 +304,12 @@ class CalibrationProblem:
     def initial_guess(self, start: Array | None = None) -> Array:
         """A starting point: zero (or ``start``, [m, rad]), except the placements closed forms give from the nominal
         robot (the cameras and targets, else an unknown measurement frame registered to the measured points:
-        :func:`pincal.identification.starts.initial_guess`)."""
-        return starts.initial_guess(self, start)
+        :func:`pincal.identification.starts.initial_guess`); the default one is found once."""
+        if start is not None:
+            return starts.initial_guess(self, start)
+        if self._initial is None:
+            self._initial = starts.initial_guess(self)
+        return self._initial.copy()
 
     def settle_assembly(self, x: Array) -> list[int]:
         """Samples whose remembered configuration at ``x`` is not on the reference assembly, each reset to it.
@@ -350,8 +355,9 @@ class CalibrationProblem:
         k = self._qa_solved.nearest(qa, robot.kinematics.actuated_delta)
         return None if k < 0 else self._q_cache[k]
 
-    def evaluate(self, x: Array, jacobian: bool = True) -> Prediction:
-        """Weighted residual and its Jacobian w.r.t. ``x``.
+    def evaluate(self, x: Array, jacobian: bool = True, spare_rows: int = 0) -> Prediction:
+        """Weighted residual and its Jacobian w.r.t. ``x``; the Jacobian with ``spare_rows`` rows of zeros after the
+        residual's (for a caller's own rows, a prior's: no copy of the m × p array to append them).
 
         With ``joint_sigma``, each measurement's rows of each sample are whitened by their covariance
         ``Σ = diag(σ²) + G Σ_q Gᵀ``, where ``Σ_q`` holds the actuated readings' variances and
@@ -381,7 +387,7 @@ class CalibrationProblem:
         if self._batched_trees and not robot.loops:
             assert self._tree is not None
             if jacobian and self._in_place(output_jacobian):  # the models write the Jacobian's own rows
-                full = np.zeros((sum(n * m.size for m in self.measurements), p))
+                full = np.zeros((sum(n * m.size for m in self.measurements) + spare_rows, p))
                 dpreds = self._row_blocks(full)
             elif jacobian:  # kept from one evaluation to the next: _assemble copies them out
                 dpreds = {m.key: self._tree.scratch.array(("jacobian", m.key), (n, m.size, p))
@@ -391,7 +397,7 @@ class CalibrationProblem:
             predictions.predict_tree(self, robot, sens, ctx, qa_all, preds, dpreds)
         else:
             if jacobian and self._in_place(output_jacobian):
-                full = np.zeros((sum(n * m.size for m in self.measurements), p))
+                full = np.zeros((sum(n * m.size for m in self.measurements) + spare_rows, p))
                 dpreds = self._row_blocks(full)
             elif jacobian:
                 dpreds = {m.key: np.zeros((n, m.size, p)) for m in self.measurements}
@@ -399,7 +405,7 @@ class CalibrationProblem:
                 predictions.predict_loops(self, robot, sens, ctx, qa_all, preds, dpreds)
             else:
                 predictions.predict_samples(self, robot, sens, ctx, qa_all, preds, dpreds)
-        return self._assemble(preds, dpreds, output_jacobian, full)
+        return self._assemble(preds, dpreds, output_jacobian, full, spare_rows)
 
     def _in_place(self, output_jacobian: bool) -> bool:
         """Whether the Jacobian's rows can be the models' derivative blocks themselves, scaled in place (one m × p
@@ -425,16 +431,17 @@ class CalibrationProblem:
                              self.frame_ids, self.observations.values, attached=attached_placements(self._all, x))
 
     def _assemble(self, preds: dict[str, Array], dpreds: dict[str, Array], jacobian: bool,
-                  full: Array | None = None) -> Prediction:
-        """Errors, weighted residuals and the Jacobian (written once, into the array returned; or scaled in place
-        when the derivative blocks are ``full``'s own rows, :meth:`_row_blocks`) from each model's predictions and
-        derivatives."""
+                  full: Array | None = None, spare_rows: int = 0) -> Prediction:
+        """Errors, weighted residuals and the Jacobian (written once, into the array returned, with ``spare_rows``
+        rows of zeros after the residual's; or scaled in place when the derivative blocks are ``full``'s own rows,
+        :meth:`_row_blocks`) from each model's predictions and derivatives."""
         errors: dict[str, Array] = {}
         blocks = []
         keep = len(self.parameters)
         sizes = [int(np.count_nonzero(self.seen(m.key))) * m.size for m in self.measurements]
         if full is None and jacobian:
-            full = np.empty((sum(sizes), keep))
+            full = np.empty((sum(sizes) + spare_rows, keep))
+            full[sum(sizes):] = 0.0
         start = 0
         for m, size in zip(self.measurements, sizes, strict=True):
             measured = self.observations.values[m.key]

@@ -34,9 +34,9 @@ class CalibrationResult:
             points, geodesic look-aheads, and the Jacobian at the start and at each accepted step),
             ``accelerated_steps`` (trials with geodesic acceleration) and ``rank_changes`` (iterations at
             which the number of directions moved along changed).
-        final: The problem evaluated at ``x`` by the fit, without the Jacobian (weighted residual [σ units], errors
-            and predictions [m, rad]): :func:`identify` reads it instead of evaluating again; None when the samples'
-            configurations were reset after the fit.
+        final: The problem evaluated at ``x`` by the fit (weighted residual [σ units] and its Jacobian on the data's
+            rows, errors and predictions [m, rad]): :func:`identify` and model selection read it instead of evaluating
+            again; None when the samples' configurations were reset after the fit.
     """
 
     names: list[str]

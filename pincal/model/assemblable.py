@@ -10,6 +10,7 @@ condition number exceeds a bound: the actuated readings do not determine its pas
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,10 +46,12 @@ def assemble(robot: Robot, actuated: Array, max_condition: float = MAX_CONDITION
     """Every sample of ``actuated`` (N, na) [rad or m] solved on ``robot`` (warm from ``guesses`` (N, nq) if given, as
     :meth:`~pincal.model.robot.Robot.solve_fk` takes a guess), and those that cannot be used with the reason: the
     loops do not close, or the passive closure Jacobian's condition number exceeds ``max_condition``. A robot without
-    loops closes every sample and none is singular. ``stacked=False`` solves and judges every sample alone (what the
-    stacked path must agree with)."""
+    loops closes every sample and none is singular (its configurations written at once). ``stacked=False`` solves and
+    judges every sample alone (what the stacked paths must agree with)."""
     actuated = np.asarray(actuated, dtype=float)
     n = len(actuated)
+    if not robot.loops and stacked and _writable(robot, actuated, guesses):
+        return Assembled(_tree_configurations(robot, actuated, guesses), {})
     q = np.zeros((n, robot.model.nq))
     ok = np.zeros(n, dtype=bool)
     batch = robot.kinematics.batch if robot.loops and n else None
@@ -78,6 +81,28 @@ def assemble(robot: Robot, actuated: Array, max_condition: float = MAX_CONDITION
             if reason:
                 reasons[k] = reason
     return Assembled(q, dict(sorted(reasons.items())))
+
+
+def _writable(robot: Robot, actuated: Array, guesses: Array | None) -> bool:
+    """Whether a tree's samples can be written at once: finite readings (N, na) and guesses (N, nq) of the right
+    shapes (otherwise each sample alone says what is wrong)."""
+    n = len(actuated)
+    return (actuated.shape == (n, robot.n_actuated) and bool(np.all(np.isfinite(actuated)))
+            and (guesses is None or np.shape(guesses) == (n, robot.model.nq)))
+
+
+def _tree_configurations(robot: Robot, actuated: Array, guesses: Array | None) -> Array:
+    """(N, nq) a tree's configurations: each guess (default the reference) with the readings ``actuated`` (N, na)
+    [rad or m] written in, as :meth:`~pincal.model.robot.Robot.solve_fk` writes one sample's."""
+    kinematics = robot.kinematics
+    q = np.tile(kinematics.reference, (len(actuated), 1)) if guesses is None else np.array(guesses, dtype=float)
+    for k, joint in enumerate(kinematics.actuated):
+        if joint.nq == 1:
+            q[:, joint.idx_q] = actuated[:, k]
+        else:  # the cosine and sine, as the sample-by-sample path computes them
+            q[:, joint.idx_q] = [math.cos(v) for v in actuated[:, k].tolist()]
+            q[:, joint.idx_q + 1] = [math.sin(v) for v in actuated[:, k].tolist()]
+    return q
 
 
 def unusable_samples(robot: Robot, actuated: Array, max_condition: float = MAX_CONDITION) -> list[tuple[int, str]]:

@@ -42,6 +42,24 @@ def test_a_group_without_effect_is_left_out_and_one_with_effect_kept() -> None:
     assert select_groups(J, y1, groups).removed_groups == ()
 
 
+def test_a_group_that_adds_no_direction_ties_and_the_choice_is_repeatable() -> None:
+    """The rotations' columns lie in the translations' span (as a joint offset's and the next joint's rz do): leaving
+    them out scores exactly what keeping them does (one score for one span, computed once), the choice is one of the
+    two, and the same on every call, whatever the columns' scale."""
+    rng = np.random.default_rng(7)
+    m = 300
+    base = rng.normal(size=(m, 3))
+    y0 = -base @ np.array([1.0, -2.0, 0.5]) + 0.1 * rng.normal(size=m)
+    groups: list[str | None] = ["translations", "translations", "translations", "rotations", "rotations", None]
+    for scale in (1.0, 1e-3, 7.0):
+        J = np.column_stack([base, scale * (base[:, 0] + base[:, 1]), -scale * base[:, 2], rng.normal(size=m)])
+        choice = select_groups(J, y0, groups)
+        assert choice.scores[("rotations",)] == choice.scores[()]
+        assert min(choice.scores.values()) == choice.scores[()]
+        assert choice.removed_groups in ((), ("rotations",))
+        assert select_groups(J.copy(), y0.copy(), groups) == choice
+
+
 def test_groups_of_parameters() -> None:
     robot = pincal.load_robot("ur10")
     models = measurements_for(robot, ["position:tool0"], robot.actuated_joints)

@@ -247,3 +247,19 @@ def test_the_batched_usability_check_finds_what_solving_each_sample_alone_finds(
     found = unusable_samples(robot, actuated)
     assert found == list(assemble(robot, actuated, stacked=False).reasons.items())
     assert all(k >= 20 for k, _ in found)
+
+
+@pytest.mark.parametrize("name", ["ur10", "tiago_no_hand"])  # tiago: two continuous wheel joints (cos, sin)
+def test_a_trees_configurations_written_at_once_are_those_of_each_sample_alone(name: str) -> None:
+    from pincal.model.assemblable import assemble
+
+    robot = pincal.load_robot(name)
+    rng = np.random.default_rng(5)
+    actuated = rng.uniform(-1.0, 1.0, size=(30, robot.n_actuated))
+    guesses = np.array([robot.solve_fk(a) for a in rng.uniform(-1.0, 1.0, size=(30, robot.n_actuated))])
+    for start in (None, guesses):
+        at_once, alone = assemble(robot, actuated, guesses=start), assemble(robot, actuated, guesses=start,
+                                                                           stacked=False)
+        assert np.array_equal(at_once.q, alone.q) and at_once.reasons == alone.reasons == {}
+    with pytest.raises(pincal.DataError, match="NaN"):  # a reading that is not a number: refused as one sample alone is
+        assemble(robot, np.vstack([actuated, np.full(robot.n_actuated, np.nan)]))
