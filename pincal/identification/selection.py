@@ -140,8 +140,9 @@ def select_groups(jacobian: Array, y0: Array, groups: list[str | None]) -> Selec
     Returns:
         The :class:`Selection`; on equal scores the combination with fewer independent parameters wins. A
         combination whose columns span what a combination of fewer left-out groups spans (the same rank) takes that
-        one's score (their fits are the same); between such combinations the criterion on the m rows decides
-        (:func:`_decided_by_the_rows`), as it did when every combination was scored on them.
+        one's score (their fits are the same), and the one of fewer left-out groups stays: a group is left out only
+        where that lowers the criterion, never on round-off (which decided between such equals once, and could
+        decide otherwise on another machine).
     """
     present = [g for g in GROUPS if g in groups]
     m, p = jacobian.shape
@@ -162,43 +163,8 @@ def select_groups(jacobian: Array, y0: Array, groups: list[str | None]) -> Selec
             if best is None or (scores[drop], len(cols)) < best[:2]:
                 best = (scores[drop], len(cols), drop)
     assert best is not None
-    tied = [drop for drop in scores if spans[drop] == spans[best[2]]]
-    chosen = _decided_by_the_rows(jacobian, y0, groups, tied, scale) if len(tied) > 1 else best[2]
+    chosen = spans[best[2]]
     return Selection([k for k, g in enumerate(groups) if g not in chosen], chosen, scores)
-
-
-def _decided_by_the_rows(jacobian: Array, y0: Array, groups: list[str | None], tied: list[tuple[str, ...]],
-                         scale: float) -> tuple[str, ...]:
-    """Among ``tied`` (combinations of one span, so of one score, in the order scored), the one the criterion computed
-    on the m rows of ``jacobian`` ranks first, as when every combination was scored on them: their columns differ,
-    and so does the round-off of their equal criteria, which decides (the first on exact equality, as when the
-    independent columns are the same). The choices of earlier versions are kept; the data give no other reason."""
-    chosen = [_rows_independent(jacobian, [k for k, g in enumerate(groups) if g not in drop], scale) for drop in tied]
-    if all(cols == chosen[0] for cols in chosen):
-        return tied[0]
-    scored = [(_rows_criterion(jacobian[:, cols], y0), len(cols), k) for k, cols in enumerate(chosen)]
-    return tied[min(scored)[2]]
-
-
-def _rows_independent(jacobian: Array, columns: list[int], scale: float) -> list[int]:
-    """:func:`_independent` on the m rows of ``jacobian`` themselves."""
-    if not columns or scale == 0.0:
-        return []
-    (R, pivots) = scipy.linalg.qr(jacobian[:, columns], mode="r", pivoting=True)
-    rank = int(np.count_nonzero(np.abs(np.diag(R)) > RANK_TOLERANCE * scale))
-    return sorted(columns[k] for k in pivots[:rank])
-
-
-def _rows_criterion(jacobian: Array, y0: Array) -> float:
-    """:func:`information_criterion` computed on the m rows of ``jacobian`` themselves (``Q`` formed)."""
-    m, p = jacobian.shape
-    if p:
-        Q, _ = scipy.linalg.qr(jacobian, mode="economic")
-        residual = y0 - Q @ (Q.T @ y0)
-    else:
-        residual = y0
-    mean_square = max(float(residual @ residual) / m, RSS_FLOOR * max(float(y0 @ y0) / m, 1.0))
-    return float(m * math.log(mean_square) + p * math.log(m))
 
 
 def _same_span(drop: tuple[str, ...], rank: int, ranks: dict[tuple[str, ...], int]) -> tuple[str, ...] | None:

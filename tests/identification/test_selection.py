@@ -42,10 +42,10 @@ def test_a_group_without_effect_is_left_out_and_one_with_effect_kept() -> None:
     assert select_groups(J, y1, groups).removed_groups == ()
 
 
-def test_a_group_that_adds_no_direction_ties_and_the_choice_is_repeatable() -> None:
+def test_a_group_that_adds_no_direction_ties_and_stays() -> None:
     """The rotations' columns lie in the translations' span (as a joint offset's and the next joint's rz do): leaving
-    them out scores exactly what keeping them does (one score for one span, computed once), the choice is one of the
-    two, and the same on every call, whatever the columns' scale."""
+    them out scores exactly what keeping them does (one score for one span, computed once), and they stay, whatever
+    the columns' scale: a group is left out only where that lowers the criterion, not on round-off."""
     rng = np.random.default_rng(7)
     m = 300
     base = rng.normal(size=(m, 3))
@@ -56,8 +56,7 @@ def test_a_group_that_adds_no_direction_ties_and_the_choice_is_repeatable() -> N
         choice = select_groups(J, y0, groups)
         assert choice.scores[("rotations",)] == choice.scores[()]
         assert min(choice.scores.values()) == choice.scores[()]
-        assert choice.removed_groups in ((), ("rotations",))
-        assert select_groups(J.copy(), y0.copy(), groups) == choice
+        assert choice.removed_groups == () and choice.kept == [0, 1, 2, 3, 4, 5]
 
 
 def test_groups_of_parameters() -> None:
