@@ -1,8 +1,8 @@
 """The tests' ``pincal`` commands forked from the command server against started from scratch, side by side.
 
-Run: ``python benchmarks/bench_suite.py`` (``--repeats K``, default 3; ``--files PATH ...``, default two CLI test
-modules that run 146 commands). Each round runs the same test files in one pytest process (``-n 0``) twice: with
-``run_pincal`` forking every command from ``tests/command_server.py`` (the suite's way), and with
+Run: ``python benchmarks/bench_suite.py`` (``--repeats K``, default 3; ``--files PATH ...``, default
+``tests/cli/test_check.py``, whose tests run 52 commands). Each round runs the same test files in one pytest process
+(``-n 0``) twice: with ``run_pincal`` forking every command from ``tests/command_server.py`` (the suite's way), and with
 ``PINCAL_TEST_EXEC=1`` (every command the console script started from scratch), the two in turns. Printed: the
 median CPU time (the pytest process and every process under it) and wall time of each, and their ratio. The whole
 suite's own figure is ``.ci/run``'s (benchmarks/RESULTS.md, "The test suite").
@@ -19,7 +19,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_commands import ROOT, timed
 
-FILES = ("tests/cli/test_inputs.py", "tests/cli/test_check.py")
+FILES = ("tests/cli/test_check.py",)
 
 
 def main() -> None:
