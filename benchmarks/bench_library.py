@@ -65,8 +65,9 @@ import pincal
 from pincal.calibration import calibrate
 path, calls = sys.argv[1], int(sys.argv[2])
 spent = collections.defaultdict(float)
-def timed(module, name, label):  # the function as the pipeline calls it, its CPU time added to label's
-    owner = importlib.import_module(module)
+def timed(module, name, label, cls=None):  # the function (or cls's method) as the pipeline calls it, its CPU time
+    owner = importlib.import_module(module)  # added to label's
+    owner = getattr(owner, cls) if cls else owner
     inner = getattr(owner, name)
     @functools.wraps(inner)
     def wrapper(*args, **kwargs):
@@ -77,16 +78,7 @@ def timed(module, name, label):  # the function as the pipeline calls it, its CP
             spent[label] += time.process_time() - start
     setattr(owner, name, wrapper)
 def timed_method(module, cls, name, label):
-    owner = getattr(importlib.import_module(module), cls)
-    inner = getattr(owner, name)
-    @functools.wraps(inner)
-    def wrapper(*args, **kwargs):
-        start = time.process_time()
-        try:
-            return inner(*args, **kwargs)
-        finally:
-            spent[label] += time.process_time() - start
-    setattr(owner, name, wrapper)
+    timed(module, name, label, cls)
 PIPELINE, SELECTION = "pincal.calibration.pipeline", "pincal.identification.selection"
 timed_method("pincal.identification.prior", "WithPrior", "evaluate", "the fit/of which its model evaluations")
 timed_method("pincal.identification.steps", "Steps", "__init__", "the fit/of which its QR reductions and their SVDs")
