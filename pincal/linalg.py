@@ -16,6 +16,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 import scipy.linalg
+import scipy.linalg.lapack
 
 from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
 
@@ -61,6 +62,42 @@ def svd(matrix: npt.ArrayLike, what: str, full_matrices: bool = False) -> tuple[
 
 #: Rows :func:`triangle` reduces at once: its working memory is this many rows of the matrix, whatever its height.
 TRIANGLE_ROWS = 4096
+#: Columns per block of :func:`householder`'s compact WY form: LAPACK's ``geqrt`` with blocks of 8 (16 past 64
+#: columns) reduces a tall matrix of a few tens of columns in about half ``geqrf``'s time on one core (the UR10's
+#: 3040 × 41 Jacobian; ``benchmarks/bench_qr.py``), to the same triangle (to round-off).
+HOUSEHOLDER_BLOCK = 8
+
+
+def householder(matrix: Array, what: str) -> tuple[Array, Array]:
+    """Householder QR of an m × n ``matrix`` (Fortran order, overwritten: no copy), ``matrix = Q R``, in LAPACK's
+    compact WY form (``geqrt``): the factored matrix (``R`` on and above its diagonal, the reflectors below) and the
+    block reflectors' triangular factors ``T`` (nb × min(m, n)). The first k ≤ min(m, n) reflectors are
+    ``factored[:, :k]`` with ``T[:k, :k]`` (the rows past k, of a block wider than k, belong to later reflectors),
+    which :func:`apply_householder` applies. Units: those of ``matrix``.
+
+    Raises:
+        ConvergenceError: LAPACK reports an illegal argument (not expected of a finite matrix).
+    """
+    m, n = matrix.shape
+    block = max(1, min(min(m, n), HOUSEHOLDER_BLOCK if n < 64 else 2 * HOUSEHOLDER_BLOCK))
+    factored, factors, info = scipy.linalg.lapack.dgeqrt(block, matrix, overwrite_a=1)
+    if info != 0:
+        raise ConvergenceError(f"the QR factorization of {what} ({m} × {n}) failed (LAPACK dgeqrt info {info})")
+    return factored, factors
+
+
+def apply_householder(factored: Array, factors: Array, vectors: Array, what: str) -> Array:
+    """``Q_kᵀ Y`` for the first k reflectors of :func:`householder` (``factored`` m × k, ``factors`` min(nb, k) × k)
+    and an m × c ``Y`` (LAPACK ``gemqrt``); units: those of ``Y``.
+
+    Raises:
+        ConvergenceError: LAPACK reports an illegal argument.
+    """
+    out, info = scipy.linalg.lapack.dgemqrt(factored, factors, np.asfortranarray(vectors, dtype=np.float64),
+                                            side="L", trans="T")
+    if info != 0:
+        raise ConvergenceError(f"applying the QR reflectors of {what} failed (LAPACK dgemqrt info {info})")
+    return np.asarray(out, dtype=np.float64)
 
 
 def triangle(matrix: npt.ArrayLike, columns: npt.ArrayLike | None = None, row_scales: npt.ArrayLike | None = None,
@@ -80,10 +117,10 @@ def triangle(matrix: npt.ArrayLike, columns: npt.ArrayLike | None = None, row_sc
             block = block * np.asarray(row_scales, dtype=np.float64)[start:start + TRIANGLE_ROWS, None]
         if column_scales is not None:
             block = block * np.asarray(column_scales, dtype=np.float64)
-        stacked = np.vstack([r, block])
-        r = np.asarray(scipy.linalg.qr(stacked, mode="r", overwrite_a=True, check_finite=False)[0][:n],
-                       dtype=np.float64)
-    return np.triu(r)
+        stacked = np.empty((r.shape[0] + block.shape[0], n), order="F")
+        stacked[:r.shape[0]], stacked[r.shape[0]:] = r, block
+        r = np.triu(householder(stacked, "the matrix")[0][:n])  # below the diagonal: reflectors, not R
+    return r
 
 
 def right_svd(matrix: npt.ArrayLike, what: str) -> tuple[Array, Array]:

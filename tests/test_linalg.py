@@ -155,6 +155,23 @@ def test_the_triangle_by_row_blocks_has_the_matrix_s_gram_matrix(rows: int, monk
     assert np.array_equal(j, kept)
 
 
+@pytest.mark.parametrize(("rows", "columns"), [(50, 3), (50, 9), (100, 17), (3040, 41), (300, 80), (6, 9)])
+def test_the_first_reflectors_of_the_blocked_qr_project_as_lapack_s_unblocked_ones(rows: int, columns: int) -> None:
+    """``householder`` (compact WY, blocks of 8 or 16) gives LAPACK ``geqrf``'s triangle, and ``apply_householder``
+    with its first k reflectors ``Q_kᵀ y`` as ``ormqr`` does, for every k: fewer than a block, a block and a part,
+    all of them, and a matrix wider than tall."""
+    rng = np.random.default_rng(columns)
+    a, y = rng.normal(size=(rows, columns)), rng.normal(size=(rows, 2))
+    factored, factors = linalg.householder(np.asfortranarray(a), "the test matrix")
+    unblocked, tau, _, _ = scipy.linalg.lapack.dgeqrf(np.asfortranarray(a))
+    t = min(rows, columns)
+    np.testing.assert_allclose(np.triu(factored[:t]), np.triu(unblocked[:t]), rtol=0.0, atol=1e-12 * np.abs(a).max())
+    for k in sorted({1, 2, 7, 8, 9, 17, t} & set(range(1, t + 1))):
+        projected = linalg.apply_householder(factored[:, :k], factors[:k, :k], y, "the test matrix")
+        expected = scipy.linalg.lapack.dormqr("L", "T", unblocked[:, :k], tau[:k], np.asfortranarray(y), 64)[0]
+        np.testing.assert_allclose(projected, expected, rtol=0.0, atol=1e-12 * np.abs(y).max() * rows)
+
+
 def test_the_largest_singular_value_from_the_gram_matrix() -> None:
     rng = np.random.default_rng(8)
     a = rng.normal(size=(5000, 30)) * np.logspace(0, -6, 30)

@@ -34,6 +34,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg
 
+from pincal import linalg
 from pincal.errors import DataError, PincalError, listing
 from pincal.identification.identifiability import RANK_TOLERANCE
 from pincal.identification.parameters import Parameter
@@ -85,8 +86,8 @@ def _reduced_rows(jacobian: Array, y0: Array) -> Array:
         return np.zeros((0, p + 1))
     augmented = np.empty((m, p + 1), order="F")  # the one copy, in the order LAPACK factors in place
     augmented[:, :p], augmented[:, p] = jacobian, y0
-    (triangle,) = scipy.linalg.qr(augmented, mode="r", overwrite_a=True, check_finite=False)
-    return np.asarray(triangle[:min(m, p + 1)], dtype=np.float64)
+    factored, _ = linalg.householder(augmented, "the weighted identification Jacobian and the residual")
+    return np.triu(factored[:min(m, p + 1)])
 
 
 def _criterion(columns: Array, rhs: Array, m: int) -> float:

@@ -16,8 +16,6 @@ from typing import ClassVar, Self
 
 import numpy as np
 import numpy.typing as npt
-import scipy.linalg
-import scipy.linalg.lapack
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
@@ -97,12 +95,12 @@ class Steps:
     """The scaled, weighted Jacobian ``J_s = diag(w) J diag(d)`` and residual ``r = diag(w) e`` at one iterate,
     reduced once, and the steps they give.
 
-    One Householder QR of the augmented matrix, ``[J_s | r] = Q [R | Q_tᵀ r]`` (LAPACK ``geqrf``, in place of
-    the only copy made), then the SVD of the small triangle ``R = U_R S Vᵀ`` (t × n, t = min(m, n)): the SVD
-    of ``J_s`` is ``(Q_t U_R) S Vᵀ``, so its m × n left factor is never formed. Every trial of an iteration
-    (each damping λ) reuses it, and the geodesic acceleration projects its second right-hand side with the
-    Householder reflectors (:meth:`project`). The singular values kept are those above the method's
-    :meth:`Method.threshold`.
+    One Householder QR of the augmented matrix, ``[J_s | r] = Q [R | Q_tᵀ r]`` (LAPACK ``geqrt``,
+    :func:`pincal.linalg.householder`, in place of the only copy made), then the SVD of the small triangle
+    ``R = U_R S Vᵀ`` (t × n, t = min(m, n)): the SVD of ``J_s`` is ``(Q_t U_R) S Vᵀ``, so its m × n left factor is
+    never formed. Every trial of an iteration (each damping λ) reuses it, and the geodesic acceleration projects its
+    second right-hand side with the Householder reflectors (:meth:`project`). The singular values kept are those above
+    the method's :meth:`Method.threshold`.
 
     Args:
         jacobian: (m, n) Jacobian of the weighted residual w.r.t. the parameters [1/m, 1/rad].
@@ -123,8 +121,8 @@ class Steps:
         self.rows = m
         self._householder: tuple[Array, Array] | None = None
         if m and n:
-            (reflectors, tau), _ = scipy.linalg.qr(augmented, overwrite_a=True, mode="raw", check_finite=False)
-            self._householder = (reflectors[:, :t], tau[:t])  # Q_t: the first t reflectors (r's own one is not needed)
+            reflectors, factors = linalg.householder(augmented, "the scaled identification Jacobian")
+            self._householder = (reflectors[:, :t], factors[:t, :t])  # Q_t: the first t reflectors (not r's own)
             self.triangle = np.triu(reflectors[:t, :n])
             self.projected_residual = np.array(reflectors[:t, n])
             if not (np.all(np.isfinite(self.triangle)) and np.all(np.isfinite(self.projected_residual))):
@@ -157,18 +155,15 @@ class Steps:
 
     def project(self, vector: Array) -> Array:
         """``Q_tᵀ y`` for an (m,) vector ``y``: its coordinates in the basis of ``J_s``'s column space that
-        :meth:`solve` takes (LAPACK ``ormqr`` with the stored reflectors)."""
+        :meth:`solve` takes (LAPACK ``gemqrt`` with the stored reflectors)."""
         if self._householder is None:
             raise RuntimeError("the Householder reflectors were released; build the steps again to project")
-        reflectors, tau = self._householder
-        if not tau.size:
+        reflectors, factors = self._householder
+        if not factors.size:
             return np.zeros(0)
-        column = np.asfortranarray(vector, dtype=np.float64).reshape(-1, 1)
-        projected, _, info = scipy.linalg.lapack.dormqr("L", "T", reflectors, tau, column, max(64, column.shape[1]))
-        if info != 0:
-            raise ConvergenceError(f"applying the QR reflectors of the scaled identification Jacobian failed "
-                                   f"(LAPACK dormqr info {info})")
-        return np.asarray(projected[:tau.size, 0], dtype=np.float64)
+        projected = linalg.apply_householder(reflectors, factors, np.reshape(vector, (-1, 1)),
+                                             "the scaled identification Jacobian")
+        return np.asarray(projected[:factors.shape[1], 0], dtype=np.float64)
 
     def along(self, v: Array) -> Array:
         """``Q_tᵀ J_s v = R v``: the scaled step ``v``'s first-order change of the residual, projected."""
