@@ -70,3 +70,20 @@ def test_the_chi2_quantiles_are_scipy_stats_ones() -> None:
     # beyond the range it is checked over: right where the terms suffice, NaN where the doubles run out
     assert np.allclose(chi2_upper(0.5, np.array([1e5, 1e6])), chdtri(np.array([1e5, 1e6]), 0.5), rtol=1e-11)
     assert np.all(np.isnan(chi2_upper(0.5, np.array([1e-6, np.inf, np.nan]))))
+
+
+def test_many_degrees_of_freedom_started_from_their_neighbours_are_scipy_s() -> None:
+    """The predicted bounds' call, one tail at many close fractional ν (each solve started from its neighbours' and
+    often ended after one Halley step), gives ``scipy.special.chdtri``'s quantiles as the solve from Wilson–Hilferty
+    does, between invalid entries and across ranges where the neighbours are far apart."""
+    from scipy.special import chdtri
+
+    rng = np.random.default_rng(3)
+    for tail in (0.05, 0.5, 0.9999, 1e-3 / 60, 1e-15):
+        for dofs in (rng.uniform(1.0, 3.0, 100), rng.uniform(0.2, 1.0, 100), np.arange(1.0, 400.0),
+                     np.exp(rng.uniform(np.log(0.2), 8.5, 300))):
+            assert np.allclose(chi2_upper(tail, dofs), chdtri(dofs, tail), rtol=1e-12, atol=0.0)
+    mixed = np.array([1.2, np.nan, 1.3, 0.0, 1.4, 1e6, 2.9])
+    expected = np.array([chdtri(d, 0.05) if 0 < d < 1e5 else np.nan for d in mixed])
+    expected[5] = chdtri(1e6, 0.05)
+    assert np.allclose(chi2_upper(0.05, mixed), expected, rtol=1e-11, atol=0.0, equal_nan=True)
