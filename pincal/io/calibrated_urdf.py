@@ -165,7 +165,8 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
         raise RobotFileError(f"parameters {listing(foreign)} are of a kind a calibrated URDF cannot hold; kinds it "
                              f"holds: {listing(kinds_where(in_urdf=True))}")
     ext = read_extensions(source_text)
-    root = _xml_joint_origins(source_text)
+    tree = ET.fromstring(source_text)  # read, never changed: the source is parsed once here
+    root = _xml_joint_origins(tree)
     joint_origins: dict[str, pin.SE3] = {}
     loop_origins: dict[tuple[str, str], pin.SE3] = {}
     loops = {lp.name: lp for lp in ext.loops}
@@ -184,7 +185,6 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
             for name, motion in _offset_motions(robot.model, p.owner, x[k], rest, moved).items():
                 joint_origins[name] = joint_origins.get(name, root[name]) * motion
     shifts = _reassemble(robot, source_text, joint_origins, loop_origins, root) if ext.loops else {}
-    tree = ET.fromstring(source_text)
     fixed_links = _measurement_frame_link(tree, parameters, x, joint_origins, root, measurement_frame)
     fixed_links += _marker_links(tree, parameters, x, joint_origins, root, markers or {})
     fixed_links += _attached_links(tree, parameters, x, joint_origins, root, measurement_frame)
@@ -367,8 +367,8 @@ def joint_sensor_zeros(text: str) -> dict[str, float]:
     return out
 
 
-def _xml_joint_origins(text: str) -> dict[str, pin.SE3]:
-    tree = ET.fromstring(text)
+def _xml_joint_origins(tree: ET.Element) -> dict[str, pin.SE3]:
+    """Each joint's ``<origin>`` in the URDF ``tree`` (its root element), by joint name."""
     return {j.get("name", ""): origin_to_se3(j.find("origin"), f"joint '{j.get('name')}'")
             for j in tree.findall("joint")}
 

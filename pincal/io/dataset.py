@@ -163,7 +163,7 @@ class Dataset:
     def __post_init__(self) -> None:
         self.joint_names = list(self.joint_names)
         self.joints = np.asarray(self.joints, dtype=float).reshape(-1, len(self.joint_names))
-        self.sample_ids = [str(s) for s in self.sample_ids]
+        self.sample_ids = list(map(str, self.sample_ids))
         self.sets = list(self.sets)
         n = self.joints.shape[0]
         if len(set(self.joint_names)) != len(self.joint_names):
@@ -187,7 +187,7 @@ class Dataset:
         self.measurements = measurements
         if len(self.sample_ids) != n or len(self.sets) != n:
             raise DataError(f"{n} joint rows but {len(self.sample_ids)} sample ids and {len(self.sets)} set names")
-        wrong = sorted({s for s in self.sets if s not in SET_NAMES})
+        wrong = sorted(set(self.sets).difference(SET_NAMES))
         if wrong:
             raise DataError(f"set names {listing(repr(s) for s in wrong)} are not valid; sets are: "
                             f"{listing(SET_NAMES)}")
@@ -228,9 +228,9 @@ class Dataset:
                 measurements[key] = _rebased_increments(values[:, 0], indices)[:, None]
             else:
                 measurements[key] = values[indices].copy()
+        chosen = indices.tolist()  # Python ints: indexing lists with numpy's is several times slower
         return Dataset(list(self.joint_names), self.joints[indices].copy(), measurements,
-                       [self.sample_ids[i] for i in indices], [self.sets[i] for i in indices],
-                       dict(self.metadata))
+                       [self.sample_ids[i] for i in chosen], [self.sets[i] for i in chosen], dict(self.metadata))
 
     def of_set(self, name: str) -> Dataset:
         """The samples of set ``name`` (``train`` or ``test``)."""

@@ -13,6 +13,7 @@ shows exactly the calibrated placements and the added frames.
 
 from __future__ import annotations
 
+import functools
 import re
 import xml.parsers.expat
 from collections.abc import Sequence
@@ -109,9 +110,10 @@ def _tag_end(data: bytes, start: int) -> int:
     raise RobotFileError("unterminated tag in URDF")
 
 
+@functools.lru_cache(maxsize=8)
 def _index(data: bytes) -> _Index:
     """Locate the robot's top-level links and joints, the loops' anchors, their ``<origin>`` start
-    tags, the meshes and the ``<joint_sensor>`` elements."""
+    tags, the meshes and the ``<joint_sensor>`` elements (read only by its callers: one parse per source text)."""
     index = _Index()
     stack: list[tuple[str, _Element | None]] = []
     joint_names: list[str] = []  # of the top-level joints, in file order
