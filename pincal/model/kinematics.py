@@ -76,12 +76,21 @@ def damped_gauss_newton_step(jac: Array, residual: Array, damping: float = 1e-12
     """Step ``-(JᵀJ + μI)⁻¹ Jᵀ r`` with ``μ = damping · (1 + tr(JᵀJ)/n)``; None if singular.
 
     LAPACK's ``dgesv`` directly: for the small systems of closed-loop kinematics (n ≈ 10-30),
-    ``numpy.linalg.solve``'s overhead would be most of the cost.
+    ``numpy.linalg.solve``'s overhead would be most of the cost. With fewer rows than columns (a task a redundant robot
+    reaches in many ways: a point aimed by a six-axis arm) the same step is ``-Jᵀ(JJᵀ + μI)⁻¹ r``: ``JᵀJ`` then has
+    zero eigenvalues that only μ lifts, and solving with it would make the step's null-space part round-off amplified
+    by 1/μ (1e-8 rad that differed between BLAS builds, and sent the next solves elsewhere), where ``JJᵀ`` is as well
+    conditioned as the task.
     """
-    h = jac.T @ jac
-    n = h.shape[0]
-    h.flat[:: n + 1] += damping * (1.0 + float(np.trace(h)) / n)
+    rows, cols = jac.shape
     step: Array
+    if rows < cols:
+        g = jac @ jac.T
+        g.flat[:: rows + 1] += damping * (1.0 + float(np.trace(g)) / cols)  # μ as below: tr(JJᵀ) = tr(JᵀJ)
+        _, _, dual, info = lapack.dgesv(g, np.array(residual, dtype=float), overwrite_a=1, overwrite_b=1)
+        return None if info != 0 else -(jac.T @ dual)
+    h = jac.T @ jac
+    h.flat[:: cols + 1] += damping * (1.0 + float(np.trace(h)) / cols)
     _, _, step, info = lapack.dgesv(h, jac.T @ residual, overwrite_a=1, overwrite_b=1)
     if info != 0:
         return None

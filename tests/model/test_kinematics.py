@@ -223,3 +223,26 @@ def test_a_problem_solves_each_sample_as_a_cold_solve_does() -> None:
         problem = CalibrationProblem(robot, pset, models, Observations(poses, blank))
         for q, qa in zip(problem.configurations(np.zeros(len(pset))), poses, strict=True):
             assert passive_gap(robot, q, robot.solve_fk(qa)) < 1e-9
+
+
+def test_a_redundant_task_s_step_has_no_null_space_part_from_round_off() -> None:
+    """The damped Gauss–Newton step of a task with fewer rows than joints (a point aimed by a six-axis arm) is the
+    minimum-norm step ``−J⁺ r`` up to the damping (1e-10 relative), with no part in the null space of ``J`` beyond
+    round-off: solved through ``JᵀJ``, whose three zero eigenvalues only the damping lifts, that part was round-off
+    amplified 1e10 times (2e-7 to 2e-6 of the step here), and it made the solves after one another differ between BLAS
+    builds. A square task's step is the Newton step."""
+    from pincal.model.kinematics import damped_gauss_newton_step
+
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        jac, residual = rng.normal(size=(3, 6)), rng.normal(size=3) * 1e-3
+        pseudo = np.linalg.pinv(jac)
+        step = damped_gauss_newton_step(jac, residual, damping=1e-10)
+        assert step is not None
+        scale = float(np.max(np.abs(pseudo @ residual)))
+        assert np.max(np.abs((np.eye(6) - pseudo @ jac) @ step)) <= 1e-12 * scale
+        np.testing.assert_allclose(step, -pseudo @ residual, rtol=0.0, atol=1e-8 * scale)
+        square, rhs = rng.normal(size=(6, 6)) + 3.0 * np.eye(6), rng.normal(size=6)
+        newton = damped_gauss_newton_step(square, rhs, damping=0.0)
+        assert newton is not None
+        np.testing.assert_allclose(newton, -np.linalg.solve(square, rhs), rtol=1e-10, atol=0.0)
