@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 import pinocchio as pin
-from study_cli import study_main  # examples/ is on sys.path when run as a script
+from study_cli import round_off, study_main  # examples/ is on sys.path when run as a script
 
 import pincal
 from pincal.identification import measurements as ms
@@ -364,9 +364,9 @@ def _report(quick: bool, counts: dict[str, int], n_candidates: int, max_angle: f
     for k, res in sets.items():
         rr, d0, psi = ERROR_SETS[k]
         lines.append(f"| {k} | ±{rr:g} | {d0:+g} mm / {psi:+g}° | {res['max_error_before']:.2f} → "
-                     f"{_round_off(res['max_error_after'])} | {_round_off(res['psi_after'])} | "
-                     f"{res['pos_before']:.3f} → {_round_off(res['pos_after'])} | {res['rot_before']:.4f} → "
-                     f"{_round_off(res['rot_after'])} | "
+                     f"{round_off(res['max_error_after'])} | {round_off(res['psi_after'])} | "
+                     f"{res['pos_before']:.3f} → {round_off(res['pos_after'])} | {res['rot_before']:.4f} → "
+                     f"{round_off(res['rot_after'])} | "
                      f"{res['iterations']:.0f} | {res['seconds']:.2f} |")
     lines += [
         "",
@@ -456,16 +456,6 @@ def _figures(figures: Path, mc: Any, cases: list[NoiseCase], selection: Any, ran
 def main(argv: list[str] | None = None) -> dict[str, Any]:
     return study_main(run, __doc__, "fewer candidates and noise draws (seconds)", argv)
 
-
-
-#: Below this [mm or °], an error after a noise-free fit is the round-off of the solves, whose digits differ from one
-#: machine to another (BLAS): the page says so rather than print them.
-ROUND_OFF = 1e-8
-
-
-def _round_off(value: float) -> str:
-    """``value`` [mm or °] to two digits, or "< 1e-8" at the level of round-off."""
-    return "< 1e-8" if abs(value) < ROUND_OFF else f"{value:.1e}"
 
 if __name__ == "__main__":
     main(sys.argv[1:])

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 import pinocchio as pin
-from study_cli import study_main  # examples/ is on sys.path when run as a script
+from study_cli import round_off, study_main  # examples/ is on sys.path when run as a script
 
 import pincal
 from pincal.identification import measurements as ms
@@ -447,9 +447,9 @@ def _report(quick: bool, table2: list[dict[str, Any]], table3: list[dict[str, An
         lines.append(
             f"| pincal: {label} | {res['design_kappa']:.3g} | {res['rank']} / {res['practical_rank']} | "
             f"{res['iterations_to_stop']} ({res['iterations']}) | {res['history'][0]:.3f} → "
-            f"{res['final_pose_error']:.1e} | {res['parameter_error_before_mm']:.3f} → "
-            f"{res['parameter_error_mm']:.1e} | {res['validation_position_before_mm']:.3f} → "
-            f"{res['validation_position_after_mm']:.1e} | {res['seconds']:.2f} |")
+            f"{round_off(res['final_pose_error'])} | {res['parameter_error_before_mm']:.3f} → "
+            f"{round_off(res['parameter_error_mm'])} | {res['validation_position_before_mm']:.3f} → "
+            f"{round_off(res['validation_position_after_mm'])} | {res['seconds']:.2f} |")
     lines += [
         "",
         f"**With measurement noise** (σ = {NOISE * 1e3:g} mm on positions and {NOISE / DEG:.5f}° on "

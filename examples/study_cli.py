@@ -1,4 +1,5 @@
-"""The command line shared by the study examples: ``--quick``, ``--out``, ``--json``, ``--serial``."""
+"""The command line shared by the study examples (``--quick``, ``--out``, ``--json``, ``--serial``), and how their
+pages print an error at the level of round-off."""
 
 from __future__ import annotations
 
@@ -11,6 +12,14 @@ from typing import Any
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+#: Below this [mm or °], an error after a noise-free fit is the round-off of the solves, whose digits differ from one
+#: machine to another (BLAS): a page says so rather than print them.
+ROUND_OFF = 1e-8
+
+
+def round_off(value: float) -> str:
+    """``value`` [mm or °] to two digits, or "< 1e-8" at the level of round-off."""
+    return "< 1e-8" if abs(value) < ROUND_OFF else f"{value:.1e}"
 
 
 def _jsonable(value: Any) -> Any:
