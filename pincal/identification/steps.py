@@ -115,7 +115,8 @@ class Steps:
         m, n = jacobian.shape
         augmented = np.empty((m, n + 1), order="F")  # the one m × n copy of J an iteration holds
         np.multiply(jacobian, column_scales, out=augmented[:, :n])
-        augmented[:, :n] *= row_weights[:, None]
+        if not np.all(row_weights == 1.0):  # least squares weighs every row 1: the pass would change nothing
+            augmented[:, :n] *= row_weights[:, None]
         np.multiply(row_weights, residual, out=augmented[:, n])
         t = min(m, n)
         self.rows = m
