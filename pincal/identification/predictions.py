@@ -13,7 +13,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.errors import ConvergenceError
+from pincal.errors import ConvergenceError, DataError
 from pincal.identification.batch import BatchContext, SpatialJacobian
 from pincal.identification.derivatives import KinematicSensitivity, Probe, frame_probe
 from pincal.identification.measurements import Measurement, SampleContext
@@ -235,6 +235,7 @@ def remember(problem: CalibrationProblem, q: Array | None) -> None:
         raise ValueError(f"configurations of shape {q.shape}, expected "
                          f"({problem.observations.n_samples}, {problem.robot.model.nq})")
     problem._q_cache = list(q.copy())
+    problem._start = None  # the start's evaluation, if made, was solved from other configurations
 
 
 def carry_over(source: CalibrationProblem, target: CalibrationProblem) -> None:
@@ -265,3 +266,26 @@ def _local_twist(rotation: Array, translation: Array, spatial: Array) -> Array:
     local: Array = np.vstack([rotation.T @ (spatial[:3] - np.cross(translation, spatial[3:], axis=0)),
                               rotation.T @ spatial[3:]])
     return local
+
+
+def whiten(err: Array, jac: Array, weights: Array, reading_jac: Array, joint_sigma: Array, incremental: bool,
+           rows: npt.NDArray[np.intp]) -> tuple[Array, Array]:
+    """Each sample's rows whitened by ``L⁻¹``, ``L Lᵀ = diag(σ²) + G Σ_q Gᵀ``: ``err`` and ``jac`` hold the samples
+    ``rows`` (those with a reading), ``weights`` the rows' σ [m, rad], ``reading_jac`` (N, rows, na) every sample's
+    ``G``, the predictions' derivative w.r.t. the actuated readings, whose σ is ``joint_sigma`` [rad or m]."""
+    g = reading_jac * joint_sigma  # (N, rows, na), scaled by σ_q
+    if incremental:  # a difference of two samples: independent reading noise at each (diagonal only)
+        var = np.sum(g[rows] ** 2, axis=2) + np.sum(g[rows - 1] ** 2, axis=2) + weights**2
+        scale = np.sqrt(var)
+        return err / scale, jac / scale[..., None]
+    g = g[rows]
+    cov = g @ np.swapaxes(g, 1, 2)
+    cov[:, np.arange(weights.size), np.arange(weights.size)] += weights**2
+    try:
+        chol = np.linalg.cholesky(cov)  # diag(σ²) + G Σ_q Gᵀ, σ > 0: positive definite unless out of range
+    except np.linalg.LinAlgError:
+        raise DataError("a sample's measurement covariance (stated σ and the joint readings' noise) is not "
+                        "positive definite: a σ or a reading is out of range") from None
+    white_err = np.linalg.solve(chol, err[..., None])[..., 0]
+    white_jac = np.linalg.solve(chol, jac)
+    return white_err, white_jac

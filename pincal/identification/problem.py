@@ -186,6 +186,8 @@ class CalibrationProblem:
         self.placed_in_closed_form: list[str] = []
         self.not_in_closed_form: list[str] = []  # why the data did not determine a camera's start: one per reading
         self._initial: Array | None = None  # the default start, found once (the preparation and the fit ask it)
+        #: The start and its evaluation (:meth:`start_prediction`); None: not made, or its configurations replaced since
+        self._start: tuple[Array, Prediction] | None = None
         #: A tree's batched evaluation (every sample at once), when its joints allow it; False: sample by sample
         #: (the reference path, which the benchmarks and tests also run on trees to compare the two).
         self._tree = TreeBatch(robot, self.frame_ids) if not robot.loops else None
@@ -311,6 +313,27 @@ class CalibrationProblem:
             self._initial = starts.initial_guess(self)
         return self._initial.copy()
 
+    def start_prediction(self) -> Prediction:
+        """The evaluation (with the Jacobian) at the default start, :meth:`initial_guess`: made once and kept, so that
+        what asks for it before the fit (the unit check reads its predictions) and the fits that start there share
+        one evaluation; the next :meth:`evaluate` at that point takes it (its Jacobian copied when asked with spare
+        rows, left out when not asked)."""
+        x0 = self.initial_guess()
+        if self._start is None:
+            self._start = (x0, self.evaluate(x0, jacobian=True))
+        return self._start[1]
+
+    def _started(self, x: Array, jacobian: bool, spare_rows: int) -> Prediction | None:
+        """:meth:`start_prediction`'s evaluation as :meth:`evaluate` at ``x`` gives it; None if ``x`` is another."""
+        if self._start is None or not np.array_equal(x, self._start[0]):
+            return None
+        kept = self._start[1]
+        full = kept.jacobian if jacobian and not spare_rows else None
+        if jacobian and spare_rows and kept.jacobian is not None:
+            full = np.zeros((kept.jacobian.shape[0] + spare_rows, kept.jacobian.shape[1]))
+            full[:kept.jacobian.shape[0]] = kept.jacobian
+        return Prediction(kept.residual, full, kept.errors, kept.predicted)
+
     def settle_assembly(self, x: Array) -> list[int]:
         """Samples whose remembered configuration at ``x`` is not on the reference assembly, each reset to it.
 
@@ -338,6 +361,8 @@ class CalibrationProblem:
             if gap is not None and float(gap.max()) > SAME_CONFIGURATION:
                 self._q_cache[k] = report.q
                 moved.append(int(k))
+        if moved:
+            self._start = None  # solved on the configurations replaced here
         return moved
 
     def _nearest_solution(self, robot: Robot, qa: Array) -> Array | None:
@@ -372,6 +397,9 @@ class CalibrationProblem:
         or :mod:`~pincal.model.batch_kinematics` does not take, sample by sample. They give the same numbers (to
         1e-10, tests/identification/test_tree_batch.py and test_loop_batch.py).
         """
+        started = self._started(np.asarray(x, dtype=float), jacobian, spare_rows)
+        if started is not None:
+            return started
         x = self._augment(np.asarray(x, dtype=float))
         output_jacobian = jacobian
         jacobian = jacobian or self.joint_sigma is not None
@@ -462,32 +490,11 @@ class CalibrationProblem:
                     taken = jac if rows.size == len(jac) else jac[rows]
                     np.divide(taken[..., :keep], weights[None, :, None], out=block)
                 continue
-            white_err, white_jac = self._whiten(err[rows], jac[rows], weights, dpreds[m.key], m.incremental, rows)
+            columns = [col for _, col in sorted(self.actuated_offsets)]
+            white_err, white_jac = predictions.whiten(err[rows], jac[rows], weights, dpreds[m.key][..., columns],
+                                                      self.joint_sigma, m.incremental, rows)
             blocks.append(white_err.reshape(-1))
             if block is not None:
                 block[...] = white_jac[..., :keep]
         residual = np.concatenate(blocks)
         return Prediction(residual, full, errors, preds)
-
-    def _whiten(self, err: Array, jac: Array, weights: Array, absolute_jac: Array,
-                incremental: bool, rows: npt.NDArray[np.intp]) -> tuple[Array, Array]:
-        """Whiten each sample's rows by ``L⁻¹``, ``L Lᵀ = diag(σ²) + G Σ_q Gᵀ`` (G from the offset columns);
-        ``err`` and ``jac`` hold the samples ``rows`` (those with a reading), ``absolute_jac`` every sample."""
-        assert self.joint_sigma is not None
-        columns = [col for _, col in sorted(self.actuated_offsets)]
-        g = absolute_jac[..., columns] * self.joint_sigma  # (N, rows, na), scaled by σ_q
-        if incremental:  # a difference of two samples: independent reading noise at each (diagonal only)
-            var = np.sum(g[rows] ** 2, axis=2) + np.sum(g[rows - 1] ** 2, axis=2) + weights**2
-            scale = np.sqrt(var)
-            return err / scale, jac / scale[..., None]
-        g = g[rows]
-        cov = g @ np.swapaxes(g, 1, 2)
-        cov[:, np.arange(weights.size), np.arange(weights.size)] += weights**2
-        try:
-            chol = np.linalg.cholesky(cov)  # diag(σ²) + G Σ_q Gᵀ, σ > 0: positive definite unless out of range
-        except np.linalg.LinAlgError:
-            raise DataError("a sample's measurement covariance (stated σ and the joint readings' noise) is not "
-                            "positive definite: a σ or a reading is out of range") from None
-        white_err = np.linalg.solve(chol, err[..., None])[..., 0]
-        white_jac = np.linalg.solve(chol, jac)
-        return white_err, white_jac

@@ -12,7 +12,7 @@ from pincal.errors import DataError
 from pincal.identification import measurements as ms
 from pincal.identification.parameters import ParameterSet, candidate_parameters, cluster_parameters, marker_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
-from pincal.study.simulation import random_actuated
+from pincal.study.simulation import random_actuated, simulate_observations
 
 DEVICE = ("device_incl_x", "device_incl_y", "device_lvdt", "device_rotary")
 
@@ -134,3 +134,47 @@ def test_a_reading_partly_missing_is_refused() -> None:
     with pytest.raises(DataError, match=r"of sample 0 is NaN or infinite$"):  # a distance cannot be occluded
         CalibrationProblem(problem.robot, problem.parameters, problem.measurements,
                            Observations(problem.observations.actuated, values))
+
+
+@pytest.mark.parametrize("name", ["ur10", "delta"])
+def test_the_unit_check_and_the_fit_share_the_start_s_evaluation(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The unit check reads the predictions of the evaluation at the default start, and the fit starts from that very
+    evaluation instead of making it again (issue 27): the unit check and the fit together evaluate the model as many
+    times as the fit alone counts, and the fit comes out the same, to the last bit, as on a problem nothing
+    evaluated before. Configurations set anew (``remember``) drop the kept evaluation of a closed-loop robot."""
+    from pincal.calibration.samples import check_length_scale
+    from pincal.identification import predictions
+    from pincal.identification.solver import identify
+
+    robot = pincal.load_robot(name)
+    models = [ms.position(robot.end_effector)]
+    pset = candidate_parameters(robot).subset(list(range(12)))
+    rng = np.random.default_rng(4)
+    qa, _ = random_actuated(robot, 40, rng)
+    truth = rng.normal(scale=1e-3, size=len(pset))
+    observations = simulate_observations(robot, pset, truth, models, qa, rng, noise=1e-5)
+    made = {"count": 0}
+    for path in ("predict_tree", "predict_loops"):
+        inner = getattr(predictions, path)
+
+        def counted(*args: object, _inner: object = inner) -> object:
+            made["count"] += 1
+            return _inner(*args)  # type: ignore[operator]
+
+        monkeypatch.setattr(predictions, path, counted)
+    fresh = identify(CalibrationProblem(robot, pset, models, observations), loss="linear")
+    problem = CalibrationProblem(robot, pset, models, observations)
+    problem.initial_guess()
+    made["count"] = 0
+    check_length_scale(problem)
+    assert made["count"] == 1
+    shared = identify(problem, loss="linear")
+    assert made["count"] == shared.extra["evaluations"]  # the fit's first evaluation was the unit check's
+    assert np.array_equal(shared.x, fresh.x) and shared.iterations == fresh.iterations
+    problem.start_prediction()
+    before = made["count"]
+    problem.evaluate(problem.initial_guess())
+    assert made["count"] == before
+    predictions.remember(problem, problem.configurations(problem.initial_guess()))
+    problem.evaluate(problem.initial_guess())
+    assert made["count"] == before + bool(robot.loops)  # a tree's evaluation does not read configurations
