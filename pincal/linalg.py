@@ -79,7 +79,9 @@ def householder(matrix: Array, what: str) -> tuple[Array, Array]:
         ConvergenceError: LAPACK reports an illegal argument (not expected of a finite matrix).
     """
     m, n = matrix.shape
-    block = max(1, min(min(m, n), HOUSEHOLDER_BLOCK if n < 64 else 2 * HOUSEHOLDER_BLOCK))
+    if not m or not n:  # nothing to reduce (LAPACK refuses a block of 0)
+        return matrix, np.zeros((0, 0))
+    block = min(min(m, n), HOUSEHOLDER_BLOCK if n < 64 else 2 * HOUSEHOLDER_BLOCK)
     factored, factors, info = scipy.linalg.lapack.dgeqrt(block, matrix, overwrite_a=1)
     if info != 0:
         raise ConvergenceError(f"the QR factorization of {what} ({m} × {n}) failed (LAPACK dgeqrt info {info})")

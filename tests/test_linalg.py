@@ -172,6 +172,15 @@ def test_the_first_reflectors_of_the_blocked_qr_project_as_lapack_s_unblocked_on
         np.testing.assert_allclose(projected, expected, rtol=0.0, atol=1e-12 * np.abs(y).max() * rows)
 
 
+def test_a_matrix_without_rows_or_columns_reduces_to_nothing() -> None:
+    """No column (an empty parameter set) or no row: an empty triangle, as LAPACK's unblocked QR gave, not LAPACK's
+    refusal of a block of 0 columns."""
+    assert linalg.triangle(np.ones((10, 0))).shape == (0, 0)
+    for shape in ((10, 0), (0, 4)):
+        factored, factors = linalg.householder(np.asfortranarray(np.ones(shape)), "the test matrix")
+        assert factored.shape == shape and factors.size == 0
+
+
 def test_the_largest_singular_value_from_the_gram_matrix() -> None:
     rng = np.random.default_rng(8)
     a = rng.normal(size=(5000, 30)) * np.logspace(0, -6, 30)

@@ -103,6 +103,8 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     with Progress("calibrate: prepare, fit, evaluate", 3, quiet=not progress) as stages:
         fit = prepare(robot, dataset, options)
         x_true = _checked_truth(x_true, fit.parameters.names)
+        if options.formulation == "fkm":  # the fit starts from this evaluation, whose predictions the unit check reads
+            fit.problem.start_prediction()
         length_scale = check_units(fit, dataset, options.plausible)  # before any fit, the provisional one included
         estimated = provisional_noise(fit.problem, dataset.metadata, options, **fitting_options(options))
         if estimated:  # weighted by the noise the data show, as '# sigma' lines would: before selection

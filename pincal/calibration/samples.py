@@ -220,7 +220,7 @@ def check_length_scale(problem: CalibrationProblem, metadata: Mapping[str, str] 
     Raises:
         DataError: the measurement, its columns, both spreads [mm] and the likely unit.
     """
-    predicted = problem.start_prediction().predicted  # the fit starts from this evaluation
+    predicted = problem.evaluate(problem.initial_guess(), jacobian=False).predicted
     scales: dict[str, float] = {}
     for m in problem.measurements:
         if length_columns(m.key) != 3 or m.key not in predicted:

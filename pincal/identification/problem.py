@@ -186,8 +186,7 @@ class CalibrationProblem:
         self.placed_in_closed_form: list[str] = []
         self.not_in_closed_form: list[str] = []  # why the data did not determine a camera's start: one per reading
         self._initial: Array | None = None  # the default start, found once (the preparation and the fit ask it)
-        #: The start and its evaluation (:meth:`start_prediction`); None: not made, or its configurations replaced since
-        self._start: tuple[Array, Prediction] | None = None
+        self._start: tuple[Array, Prediction] | None = None  # the start and its evaluation (start_prediction)
         #: A tree's batched evaluation (every sample at once), when its joints allow it; False: sample by sample
         #: (the reference path, which the benchmarks and tests also run on trees to compare the two).
         self._tree = TreeBatch(robot, self.frame_ids) if not robot.loops else None
@@ -314,24 +313,25 @@ class CalibrationProblem:
         return self._initial.copy()
 
     def start_prediction(self) -> Prediction:
-        """The evaluation (with the Jacobian) at the default start, :meth:`initial_guess`: made once and kept, so that
-        what asks for it before the fit (the unit check reads its predictions) and the fits that start there share
-        one evaluation; the next :meth:`evaluate` at that point takes it (its Jacobian copied when asked with spare
-        rows, left out when not asked)."""
+        """The forward evaluation with the Jacobian at :meth:`initial_guess`, kept for the fit that starts there:
+        :meth:`evaluate` there gives it without the Jacobian (the unit check reads it) and with it once (the fit's
+        first evaluation); any other evaluation, or new configurations, drop it (closed loops' configurations move)."""
         x0 = self.initial_guess()
         if self._start is None:
-            self._start = (x0, self.evaluate(x0, jacobian=True))
+            self._start = (x0, CalibrationProblem.evaluate(self, x0, jacobian=True))
         return self._start[1]
 
     def _started(self, x: Array, jacobian: bool, spare_rows: int) -> Prediction | None:
-        """:meth:`start_prediction`'s evaluation as :meth:`evaluate` at ``x`` gives it; None if ``x`` is another."""
-        if self._start is None or not np.array_equal(x, self._start[0]):
-            return None
-        kept = self._start[1]
-        full = kept.jacobian if jacobian and not spare_rows else None
-        if jacobian and spare_rows and kept.jacobian is not None:
-            full = np.zeros((kept.jacobian.shape[0] + spare_rows, kept.jacobian.shape[1]))
-            full[:kept.jacobian.shape[0]] = kept.jacobian
+        """The kept start's evaluation as :meth:`evaluate` at ``x`` gives it (with the Jacobian once), else None."""
+        kept = self._start[1] if self._start is not None and np.array_equal(x, self._start[0]) else None
+        if kept is None or jacobian:
+            self._start = None
+        if kept is None or kept.jacobian is None or (jacobian and not spare_rows):
+            return kept
+        if not jacobian:
+            return Prediction(kept.residual, None, kept.errors, kept.predicted)
+        full = np.zeros((kept.jacobian.shape[0] + spare_rows, kept.jacobian.shape[1]))
+        full[:kept.jacobian.shape[0]] = kept.jacobian
         return Prediction(kept.residual, full, kept.errors, kept.predicted)
 
     def settle_assembly(self, x: Array) -> list[int]:
