@@ -69,7 +69,8 @@ HOUSEHOLDER_BLOCK = 8
 
 
 def householder(matrix: Array, what: str) -> tuple[Array, Array]:
-    """Householder QR of an m × n ``matrix`` (Fortran order, overwritten: no copy), ``matrix = Q R``, in LAPACK's
+    """Householder QR of an m × n ``matrix`` (overwritten when in Fortran order, else copied: read the factored matrix
+    returned, not ``matrix``), ``matrix = Q R``, in LAPACK's
     compact WY form (``geqrt``): the factored matrix (``R`` on and above its diagonal, the reflectors below) and the
     block reflectors' triangular factors ``T`` (nb × min(m, n)). The first k ≤ min(m, n) reflectors are
     ``factored[:, :k]`` with ``T[:k, :k]`` (the rows past k, of a block wider than k, belong to later reflectors),
