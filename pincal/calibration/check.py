@@ -249,7 +249,7 @@ def _side(prepared: Prepared, x: Array, register: bool, options: CalibrationOpti
     problem = prepared.problem
     converged = None
     if register and len(prepared.parameters):
-        result = identify(problem, x, **{**fitting_options(options), "loss": "linear"})  # least squares
+        result = identify(problem, x, **{**fitting_options(options, False), "loss": "linear"})  # least squares
         x, converged = result.x, bool(result.converged)
     return Side(prepared, x, problem.evaluate(x, jacobian=False).errors, converged)
 

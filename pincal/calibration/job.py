@@ -446,6 +446,13 @@ class _Reader:
             raise self.error(key, f"{_shown(value)} is not a factor > 0 or \"off\"")
         return float(value)
 
+    def option_prior(self, value: Any, key: str) -> float | str:
+        if isinstance(value, str) and value.strip().lower() == "auto":
+            return "auto"
+        if isinstance(value, str) and value.strip().lower() != "off":
+            raise self.error(key, f"{_shown(value)} is not a factor > 0, \"auto\" or \"off\"")
+        return self.option_factor(value, key)
+
     def option_payload(self, value: Any, key: str) -> Payload | None:
         payload = self.table(value, key)
         self.keys(payload, PAYLOAD_KEYS, f"in {key}")

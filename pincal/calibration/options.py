@@ -25,9 +25,9 @@ if TYPE_CHECKING:
 #: How the residuals are formed: forward kinematics (measured − predicted) or implicit loop residuals (IKM).
 Formulation = Literal["fkm", "ikm"]
 FORMULATIONS: tuple[Formulation, ...] = get_args(Formulation)
-#: Model selection: ``auto`` (``bic`` for the default parameter set, ``none`` for a named one), ``bic``, ``cv`` or
-#: ``none``.
-SELECT_CHOICES = ("auto", "bic", "cv", "none")
+#: Model selection: ``auto`` (``evidence`` for the default parameter set with the automatic prior, ``bic`` with a prior
+#: of the user's, ``none`` for a named set), ``evidence``, ``bic``, ``cv`` or ``none``.
+SELECT_CHOICES = ("auto", "evidence", "bic", "cv", "none")
 
 PARAMETERS_HELP = ("named sets (default, model24, model24i, hexapod42, hexapod44) and name patterns, combined in "
                    "order; !pattern removes (default: the default set, docs/dataset.md 'Parameters')")
@@ -39,8 +39,9 @@ PLAUSIBLE_HELP = ("refuse (exit 1) a result whose corrections exceed F times the
                   "docs/calibrated_urdf.md, 'Plausible corrections')")
 PRIOR_HELP = ("keep what the data barely see near the URDF: a prior about nominal of F times each kind's prior σ "
               "(joint and loop-anchor placements 5 mm and 0.5 deg, reading offsets 1 deg (5 mm), harmonics 0.2 deg "
-              "(1 mm); the measurement frame, markers, cameras and targets have none), the maximum a posteriori fit "
-              "(default 1; off: least squares; docs/calibrated_urdf.md, 'The prior')")
+              "(1 mm); the measurement frame, markers, cameras and targets have none), the maximum a posteriori fit; "
+              "auto (default): each group's factor chosen by the data's evidence; off: least squares "
+              "(docs/calibrated_urdf.md, 'The prior')")
 SIGMA_HELP = ("one measurement σ [m, rad] for weighting every channel, or one per residual row as A,B,C (e.g. "
               "1e-3,1e-3,3e-3 for a camera's depth noise three times its lateral noise), over the file's '# sigma' "
               "lines (default: those lines, else estimated from the data: docs/dataset.md 'Noise')")
@@ -99,18 +100,21 @@ class CalibrationOptions:
             (:attr:`~pincal.identification.parameters.kinds.ParameterKind.plausible`), or ``"off"``: no check.
         prior: A factor (> 0) on each kind's prior σ about nominal
             (:attr:`~pincal.identification.parameters.kinds.ParameterKind.prior`, :mod:`pincal.identification.prior`),
-            or ``"off"``: least squares.
+            ``"auto"``: each group's factor chosen by the data's evidence (:mod:`pincal.identification.evidence`), or
+            ``"off"``: least squares.
     """
 
     parameter_spec: tuple[str, ...] | None = field(default=None, metadata=_how(
         flag="--parameters", key="parameters", help=PARAMETERS_HELP, kind="texts"))
     select: str = field(default="auto", metadata=_how(
         flag="--select", key="select", choices=SELECT_CHOICES,
-        help="model selection: bic leaves out the groups of parameters (joint translations, rotations, reading "
-             "offsets) the Bayesian information criterion rejects, then refits; cv leaves out the groups whose "
-             "combination predicts unseen samples best (5-fold cross-validation, one seeded shuffle; a fit per "
-             "combination and fold); none fits every identifiable parameter; auto (default): bic for the default "
-             "parameters, none for --parameters you name"))
+        help="model selection: evidence leaves out the groups of parameters (joint translations, rotations, reading "
+             "offsets, compliances) whose evidence (marginal likelihood) the data do not raise, and holds the others "
+             "as firmly as it says (with --prior auto); bic leaves out the groups the Bayesian information criterion "
+             "rejects, then refits; cv leaves out the groups whose combination predicts unseen samples best (5-fold "
+             "cross-validation, one seeded shuffle; a fit per combination and fold); none fits every identifiable "
+             "parameter; auto (default): evidence for the default parameters (bic with a --prior factor of your "
+             "own), none for --parameters you name"))
     loss: Loss = field(default="auto", metadata=_how(
         flag="--loss", key="loss", choices=LOSSES,
         help="auto (default): least squares, then a robust (Cauchy) refit if the data hold samples their own noise "
@@ -144,8 +148,8 @@ class CalibrationOptions:
 
     plausible: float | str = field(default=1.0, metadata=_how(
         flag="--plausible", key="plausible", kind="factor", metavar="F|off", help=PLAUSIBLE_HELP))
-    prior: float | str = field(default=1.0, metadata=_how(
-        flag="--prior", key="prior", kind="factor", metavar="F|off", help=PRIOR_HELP))
+    prior: float | str = field(default="auto", metadata=_how(
+        flag="--prior", key="prior", kind="prior", metavar="F|auto|off", help=PRIOR_HELP))
 
     markers: MarkerFit = field(default="each", metadata=_how(
         flag="--markers", key=None, choices=MARKER_FITS,
@@ -176,8 +180,8 @@ class CalibrationOptions:
             raise DataError(f"max_iter is {self.max_iter}: at least one iteration is needed")
         if plausible_factor(self.plausible) is None and self.plausible != "off":
             raise DataError(f"plausible={self.plausible!r}: give a factor > 0 on the plausible corrections, or 'off'")
-        if plausible_factor(self.prior) is None and self.prior != "off":
-            raise DataError(f"prior={self.prior!r}: give a factor > 0 on the prior σ, or 'off'")
+        if plausible_factor(self.prior) is None and self.prior not in ("off", "auto"):
+            raise DataError(f"prior={self.prior!r}: give a factor > 0 on the prior σ, 'auto' or 'off'")
         if isinstance(self.cv_seed, bool) or not isinstance(self.cv_seed, int) or self.cv_seed < 0:
             raise DataError(f"cv_seed={self.cv_seed!r}: give a whole number ≥ 0")
         self._check_objects()
@@ -211,11 +215,14 @@ class CalibrationOptions:
 
     @property
     def selection(self) -> str:
-        """The selection policy ``select`` stands for: ``auto`` is ``bic`` for the default parameter set of an
-        ``fkm`` fit, ``none`` otherwise."""
+        """The selection policy ``select`` stands for: ``auto`` is ``evidence`` for the default parameter set of an
+        ``fkm`` fit with the automatic prior (``bic`` with a prior factor of the user's, or none), ``none``
+        otherwise."""
         if self.select != "auto":
             return self.select
-        return "none" if self.named_parameters or self.formulation != "fkm" else "bic"
+        if self.named_parameters or self.formulation != "fkm":
+            return "none"
+        return "evidence" if self.prior == "auto" else "bic"
 
 
 def plausible_factor(value: object) -> float | None:

@@ -5,7 +5,8 @@
     fit = prepare(robot, dataset, options)                  # models, parameters, usable samples, problem
     # without '# sigma' lines: σ estimated by a provisional fit (calibration.noise), then prepared again
     result = identify / select_and_fit(fit.problem, ...)    # Levenberg–Marquardt on analytic Jacobians
-    held = evaluate_held_out(fit, dataset, ...)             # "before" = the fit's start, "after" = the estimate
+    before = register_setup(...)                           # "before": the nominal robot, its setup fitted
+    held = evaluate_held_out(fit, dataset, ...)             # "before" and "after" on the held-out samples
     report = CalibrationReport(...)                         # every figure, once
 
 SI units throughout: m, rad.
@@ -23,12 +24,13 @@ import numpy.typing as npt
 
 from pincal import validation
 from pincal.calibration.crossval import Folds, check_cross_validation, cross_validate, parse_cv
-from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, evaluate_held_out
+from pincal.calibration.growth import ErrorGrowth, estimate_growth
+from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, Registration, evaluate_held_out, register_setup
 from pincal.calibration.noise import provisional_noise, with_noise
 from pincal.calibration.options import CalibrationOptions, check_cv_seed, plausible_factor
 from pincal.calibration.plausibility import implausible_corrections, implausible_scales, likely_cause, scale_limit
-from pincal.calibration.predicted import fitted_ranges, held_out_predictions, workspace_prediction
-from pincal.calibration.report import CalibrationReport, fit_figures
+from pincal.calibration.predicted import FitCovariance, fitted_ranges, held_out_predictions, workspace_prediction
+from pincal.calibration.report import CalibrationReport, before_figures, fit_figures
 from pincal.calibration.samples import LENGTH_SCALE_RATIO, check_joint_scale, check_length_scale
 from pincal.calibration.setup import Prepared, check_movable, prepare
 from pincal.errors import ArgumentError, DataError
@@ -37,10 +39,11 @@ from pincal.identification.corrections import moving_mass
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.metrics import sample_length_errors
 from pincal.identification.parameters import influencing_joints, read_joints
+from pincal.identification.prior import prior_sigma
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.readings import BadReading
 from pincal.identification.result import CalibrationResult
-from pincal.identification.selection import SelectedFit, select_and_fit
+from pincal.identification.selection import AUTO_PRIOR, SelectedFit, select_and_fit
 from pincal.identification.solver import identify
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, source_text
 from pincal.io.corrections_file import Corrections, corrections_of
@@ -67,6 +70,7 @@ class Calibration:
     report: CalibrationReport
     urdf_text: str
     corrections: Corrections | None = None
+    before: Registration | None = None
 
 
 def options_of(options: CalibrationOptions | None, keywords: dict[str, Any]) -> CalibrationOptions:
@@ -106,7 +110,7 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         if options.formulation == "fkm":  # the fit starts from this evaluation, whose predictions the unit check reads
             fit.problem.start_prediction()
         length_scale = check_units(fit, dataset, options.plausible)  # before any fit, the provisional one included
-        estimated = provisional_noise(fit.problem, dataset.metadata, options, **fitting_options(options))
+        estimated = provisional_noise(fit.problem, dataset.metadata, options, **fitting_options(options, False))
         if estimated:  # weighted by the noise the data show, as '# sigma' lines would: before selection
             dataset = with_noise(dataset, estimated)
             fit = prepare(robot, dataset, options)
@@ -125,9 +129,12 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
                                                   f"({', '.join(m.key for m in fit.models)})",
                                              read_joints=read_joints(fit.models), markers=declared_markers(fit.models))
         corrections = corrections_of(robot, kept.parameters, result.x, options.payload)
-        held = evaluate_held_out(kept, dataset, kept.parameters, result.x0, result.x,
-                                 trusted=result.sigma2 <= NOISE_CONTRADICTED, result=result)
-        content = report_content(fit, fitted, held, dataset, options, x_true, shifts, corrections)
+        before = register_setup(fitted.problem, result.x0, **fitting_options(options, False))
+        growth = error_growth(kept, fitted, options, before.x)
+        held = evaluate_held_out(kept, dataset, kept.parameters, before.x, result.x,
+                                 trusted=result.sigma2 <= NOISE_CONTRADICTED, result=result,
+                                 x_start=result.x0 if before.registered else None, growth=growth)
+        content = report_content(fit, fitted, held, dataset, options, x_true, shifts, corrections, before, growth)
         content.update(checked)
         content["estimated_sigma"] = estimated or None
         stages.advance()
@@ -135,7 +142,7 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         content["cv"] = cross_validate(robot, fit.parameters, fit.models, every.problem.observations, folds,
                                        select=options.selection, progress=progress, payload=options.payload,
                                        **fitting_options(options))
-    return Calibration(kept, fitted.problem, result, held, CalibrationReport(**content), text, corrections)
+    return Calibration(kept, fitted.problem, result, held, CalibrationReport(**content), text, corrections, before)
 
 
 def check_units(fit: Prepared, dataset: Dataset, plausible: float | str) -> dict[str, float]:
@@ -185,10 +192,15 @@ def cross_validation_folds(fit: Prepared, dataset: Dataset,
     return every, parse_cv(options.cv, every.samples.n_samples, options.cv_seed)
 
 
-def fitting_options(options: CalibrationOptions) -> dict[str, Any]:
-    """The keywords of :func:`~pincal.identification.solver.identify` that ``options`` set."""
-    return {"solver": options.solver, "loss": options.loss, "max_iter": options.max_iter,
-            "prior": plausible_factor(options.prior)}
+def fitting_options(options: CalibrationOptions, automatic: bool = True) -> dict[str, Any]:
+    """The keywords of :func:`~pincal.identification.selection.select_and_fit` (with ``automatic``: the prior may be
+    :data:`~pincal.identification.selection.AUTO_PRIOR`, the evidence's) or of
+    :func:`~pincal.identification.solver.identify` (without: the automatic prior is the kinds' σ, factor 1) that
+    ``options`` set."""
+    prior: float | str | None = plausible_factor(options.prior)
+    if options.prior == "auto":
+        prior = AUTO_PRIOR if automatic else 1.0
+    return {"solver": options.solver, "loss": options.loss, "max_iter": options.max_iter, "prior": prior}
 
 
 def fit_prepared(fit: Prepared, options: CalibrationOptions) -> SelectedFit:
@@ -198,7 +210,7 @@ def fit_prepared(fit: Prepared, options: CalibrationOptions) -> SelectedFit:
     problem = fit.problem
     if options.formulation == "ikm":
         result = identify(ImplicitProblem(fit.robot, fit.parameters, fit.models, problem.observations),
-                          **fitting_options(options))
+                          **fitting_options(options, False))
         result.extra["closure_before"] = result.errors_before
         result.extra["closure_after"] = result.errors_after
         result.errors_before = problem.evaluate(result.x0, jacobian=False).errors
@@ -239,12 +251,15 @@ def _checked_truth(x_true: Any, names: Sequence[str]) -> Array | None:
 
 def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dataset: Dataset,
                    options: CalibrationOptions, x_true: Array | None, shifts: dict[str, Any],
-                   corrections: Corrections | None) -> dict[str, Any]:
-    """The fields of the :class:`~pincal.calibration.report.CalibrationReport` of one calibration (all but ``cv``)."""
+                   corrections: Corrections | None, before: Registration,
+                   growth: ErrorGrowth | None) -> dict[str, Any]:
+    """The fields of the :class:`~pincal.calibration.report.CalibrationReport` of one calibration (all but ``cv``);
+    "before" is ``before``, the nominal robot with its setup registered."""
     problem, result, first, removed = fitted.problem, fitted.result, fitted.first, fitted.removed
     if x_true is not None and removed:  # the truth of the parameters kept
         x_true = x_true[[fit.parameters.index(name) for name in problem.parameters.names]]
     content = fit_figures(result, problem, x_true)
+    content.update(before_figures(problem, before))
     ids = fit.samples.sample_ids
     lengths = sample_length_errors(result.errors_after, problem.observations.n_samples)
     suspects = result.extra.get("outlier_test", [])
@@ -258,7 +273,9 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
         "formulation": options.formulation,
         "selection": {"policy": options.selection if options.formulation == "fkm" else "none", "removed": removed,
                       "removed_groups": list(fitted.removed_groups) if removed else [],
-                      "n_candidates": len(fit.parameters)},
+                      "n_candidates": len(fit.parameters),
+                      "prior_factors": dict(fitted.evidence.factors) if fitted.evidence is not None else None,
+                      "prior": options.prior},
         "unidentifiable_listing": describe_unidentifiable(first.identifiability.unidentifiable, UNIDENTIFIABLE_LINES),
         "unidentifiable_digest": digest(first.identifiability.unidentifiable, len(fit.parameters)),
         "n_estimated": len(result.identified),
@@ -278,8 +295,8 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
         "n_identifiable": first.identifiability.rank, "n_parameters": len(fit.parameters),
         "unidentifiable": [c.description for c in first.identifiability.unidentifiable],
     })
-    content["sample_errors"] = sample_errors(ids, result.errors_before, result.errors_after, "train")
-    content.update(prediction_content(fit.fitted_by(problem), result, held))
+    content["sample_errors"] = sample_errors(ids, before.errors, result.errors_after, "train")
+    content.update(prediction_content(fit.fitted_by(problem), result, held, before.x, growth))
     if held is not None:
         content["sample_errors"] += sample_errors(held.prepared.samples.sample_ids, held.errors_before,
                                                   held.errors_after, "test")
@@ -290,13 +307,33 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
     return content
 
 
-def prediction_content(fit: Prepared, result: CalibrationResult, held: HeldOut | None) -> dict[str, Any]:
-    """The report's predicted accuracy (:mod:`pincal.calibration.predicted`): the fitted joint ranges, the predicted
-    error over the workspace, and the held-out samples' predicted bounds with their coverage."""
-    moving = influencing_joints(fit.robot, sorted({f for m in fit.models for f in m.frames}), read_joints(fit.models))
-    ranges = fitted_ranges(fit.robot, fit.problem.observations.actuated, moving)
+def moving_joints(fit: Prepared) -> list[str]:
+    """The actuated joints that move what ``fit`` measures (their ranges are the fitted range)."""
+    return influencing_joints(fit.robot, sorted({f for m in fit.models for f in m.frames}), read_joints(fit.models))
+
+
+def error_growth(fit: Prepared, fitted: SelectedFit, options: CalibrationOptions,
+                 x_before: Array) -> ErrorGrowth | None:
+    """How the fit's predicted bound grows beyond its range, and the registered nominal robot's (``x_before``) own
+    error bound, estimated on the fit's samples (:func:`~pincal.calibration.growth.estimate_growth`, with the prior the
+    fit was made with)."""
+    problem = fitted.problem
+    prior = fitted.prior_sigma if fitted.prior_sigma is not None \
+        else prior_sigma(problem.parameters, fitting_options(options, False)["prior"])
+    columns = [fit.robot.actuated_joints.index(j) for j in moving_joints(fit)]
+    return estimate_growth(problem, fitted.result, prior, columns, x_before)
+
+
+def prediction_content(fit: Prepared, result: CalibrationResult, held: HeldOut | None, x_before: Array,
+                       growth: ErrorGrowth | None) -> dict[str, Any]:
+    """The report's predicted accuracy (:mod:`pincal.calibration.predicted`): the fitted joint ranges, the bound's
+    growth beyond them, the predicted error over the workspace, and the held-out samples' predicted bounds with their
+    coverage."""
+    ranges = fitted_ranges(fit.robot, fit.problem.observations.actuated, moving_joints(fit))
+    covariance = FitCovariance.of_result(result, growth)
     out: dict[str, Any] = {"fitted_range": ranges,
-                           "predicted_workspace": workspace_prediction(fit.problem, result, result.x, ranges)}
+                           "error_growth": growth.as_dict() if growth is not None else None,
+                           "predicted_workspace": workspace_prediction(fit.problem, covariance, result.x, ranges)}
     if held is not None and held.predicted is not None:
         out["predicted_held_out"] = held_out_predictions(held.prepared.samples.sample_ids, held.predicted,
                                                          held.sample_errors()[1])

@@ -87,6 +87,10 @@ class CalibrationReport:
     max_before: float | None = None
     max_after: float | None = None
     before_means: str = ""
+    before_parameters: dict[str, float] = field(default_factory=dict)
+    rms_start: float | None = field(default=None, metadata=OPTIONAL)
+    rms_angle_start: float | None = field(default=None, metadata=OPTIONAL)
+    start_means: str = ""
     iterations: int = 0
     converged: bool = False
     message: str = ""
@@ -136,6 +140,8 @@ class CalibrationReport:
     test_rms_angle_after: float | None = field(default=None, metadata=OPTIONAL)
     test_max_angle_before: float | None = field(default=None, metadata=OPTIONAL)
     test_max_angle_after: float | None = field(default=None, metadata=OPTIONAL)
+    test_rms_start: float | None = field(default=None, metadata=OPTIONAL)
+    test_rms_angle_start: float | None = field(default=None, metadata=OPTIONAL)
     worse_than_nominal: bool | None = field(default=None, metadata=OPTIONAL)
     length_scale: dict[str, float] = field(default_factory=dict)
     plausible: float | str = 1.0
@@ -147,6 +153,7 @@ class CalibrationReport:
     sample_errors: list[dict[str, Any]] = field(default_factory=list)
     covariance: dict[str, Any] = field(default_factory=dict)
     fitted_range: dict[str, list[float]] = field(default_factory=dict)
+    error_growth: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
     predicted_workspace: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
     predicted_held_out: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
     provenance: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
@@ -250,6 +257,46 @@ def before_means(problem: CalibrationProblem) -> str:
         means = BEFORE_MEANS_PLACED if problem.placed_in_closed_form else BEFORE_MEANS_UNPLACED
         return "; ".join([means, *problem.not_in_closed_form])
     return BEFORE_MEANS_REGISTERED if registered_base(problem.parameters) else BEFORE_MEANS_NOMINAL
+
+
+#: What each kind of the setup is called where "before" names what it registered.
+SETUP_WORDS = {"base": "measurement frame", "marker": "markers", "cluster": "markers", "camera": "cameras",
+               "target": "targets", "plane": "contact planes"}
+
+
+def registered_means(parameters: ParameterSet, columns: list[int]) -> str:
+    """What "before" is when the setup's parameters (``columns`` of ``parameters``) were fitted: the nominal robot with
+    its measurement frame, markers, … registered to the training data."""
+    words: list[str] = []
+    for k in columns:
+        word = SETUP_WORDS.get(list(parameters)[k].kind_class.name, "device constants")
+        if word not in words:
+            words.append(word)
+    setup = ", ".join(words[:-1]) + f" and {words[-1]}" if len(words) > 1 else words[0]
+    return (f"the nominal robot, its {setup} fitted to the training data with the robot's geometry at nominal "
+            "(registered, as the calibration fits them), for fit and held-out samples alike")
+
+
+def before_figures(problem: CalibrationProblem, before: Any) -> dict[str, Any]:
+    """The report's "before" (``before``, a :class:`~pincal.calibration.heldout.Registration` of ``problem``): its
+    errors on the fitted samples [m, rad], what it is, its setup's values, and the fit's start beside it when the
+    registration moved off it."""
+    from pincal.calibration.heldout import setup_columns
+
+    norms, angles = error_norms(before.errors), angle_error_norms(before.errors)
+    columns = setup_columns(problem.parameters)
+    out: dict[str, Any] = {
+        "rms_before": _clean(rms(norms)), "max_before": _clean(float(norms.max())) if norms.size else None,
+        "before_parameters": {problem.parameters.names[k]: float(before.x[k]) for k in columns},
+        "before_means": registered_means(problem.parameters, columns) if before.registered
+        else "; ".join(filter(None, [before_means(problem), before.note]))}
+    if angles.size:
+        out.update({"rms_angle_before": _clean(rms(angles)), "max_angle_before": _clean(float(angles.max()))})
+    if before.registered:
+        start, start_angles = error_norms(before.start_errors), angle_error_norms(before.start_errors)
+        out.update({"rms_start": _clean(rms(start)), "start_means": before_means(problem),
+                    "rms_angle_start": _clean(rms(start_angles)) if start_angles.size else None})
+    return out
 
 
 def _json_value(value: Any) -> Any:

@@ -110,7 +110,7 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
              f"samples {report.n_samples}, parameters {report.n_parameters}, "
              f"identifiable {report.n_identifiable}, estimated {report.n_estimated}"
              f", condition number {report.condition_number:.3g}" if report.condition_number else "",
-             _selection_line(report),
+             *_selection_line(report),
              f"payload {payload_from_dict(report.payload)}, in the gravity torque of the compliances"
              if report.payload else None,
              _heavy_payload(report),
@@ -131,7 +131,11 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
                               report.test_rms_angle_after, report.test_max_angle_before, report.test_max_angle_after,
                               width)
     if report.before_means:
-        lines.append(f"(before: {report.before_means})")
+        lines += textwrap.wrap(f"(before: {report.before_means})", 120, subsequent_indent=" ")
+    if report.rms_start is not None:
+        held = f", {mm(report.test_rms_start)} (held out)" if report.test_rms_start is not None else ""
+        lines += textwrap.wrap(f"(the fit's start, {report.start_means.split(', for fit')[0]}: RMS "
+                               f"{mm(report.rms_start)} (fit){held})", 120, subsequent_indent=" ")
     lines += _predicted(report)
     if report.joints_at_reference:
         joints = report.joints_at_reference
@@ -225,14 +229,23 @@ def _implausible(report: CalibrationReport) -> list[str]:
     return lines
 
 
-def _selection_line(report: CalibrationReport) -> str | None:
-    """What model selection left out, in one line (None when it left nothing out)."""
+def _selection_line(report: CalibrationReport) -> list[str]:
+    """What model selection left out, and how firmly the evidence holds each group kept (nothing when neither
+    applies)."""
     selection = report.selection or {}
     removed = selection.get("removed") or []
-    if not removed:
-        return None
-    return (f"model selection ({selection['policy']}): left out the {', '.join(selection['removed_groups'])} "
-            f"({len(removed)} parameters at nominal); --select none keeps them")
+    factors = selection.get("prior_factors") or {}
+    held = ", ".join(f"{group} {factor:.2g}×" for group, factor in factors.items() if factor > 0.0)
+    if selection.get("policy") == "evidence":
+        words = f"left out the {', '.join(selection['removed_groups'])} ({len(removed)} parameters at nominal); " \
+            if removed else ""
+        return textwrap.wrap(f"model selection (evidence): {words}the prior holds the {held} of their kinds' σ "
+                             "(docs/calibrated_urdf.md, 'The prior')", 120, subsequent_indent="  ")
+    lines = [f"model selection ({selection['policy']}): left out the {', '.join(selection['removed_groups'])} "
+             f"({len(removed)} parameters at nominal); --select none keeps them"] if removed else []
+    if held:
+        lines.append(f"prior (auto): the evidence holds the {held} of their kinds' σ")
+    return lines
 
 
 #: Cross-validated error above this multiple of the fit error is called overfitting.

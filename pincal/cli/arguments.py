@@ -136,6 +136,16 @@ def factor_or_off(text: str) -> float | str:
     return value
 
 
+def prior_factor(text: str) -> float | str:
+    """An argparse type: a finite factor > 0, ``auto`` or ``off``."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        return factor_or_off(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a factor > 0, 'auto' or 'off'") from None
+
+
 def sigmas(text: str) -> float | tuple[float, ...]:
     """An argparse type: one σ > 0 [m, rad], or one per residual row written ``a,b,c``."""
     values = tuple(positive_float(word) for word in text.split(","))
@@ -145,7 +155,7 @@ def sigmas(text: str) -> float | tuple[float, ...]:
 #: The argparse type of each kind of calibration option (:attr:`~pincal.calibration.options.Option.kind`).
 _TYPES: dict[str, Any] = {"int": positive_int, "seed": non_negative_int, "sigma": positive_float, "sigmas": sigmas,
                           "payload": payload,
-                          "factor": factor_or_off}
+                          "factor": factor_or_off, "prior": prior_factor}
 
 
 def add_calibration_options(parser: argparse.ArgumentParser, skip: Collection[str] = ()) -> None:

@@ -35,7 +35,7 @@ from pincal.identification.identifiability import Identifiability, analyse, corr
 from pincal.identification.lm import LevenbergMarquardt
 from pincal.identification.losses import IMPLEMENTED_LOSSES, Weighting, row_weights, sample_weights
 from pincal.identification.parameters import ParameterSet
-from pincal.identification.prior import WithPrior, prior_sigma
+from pincal.identification.prior import Prior, WithPrior, prior_sigma
 from pincal.identification.problem import Prediction, Problem
 from pincal.identification.result import CalibrationResult
 from pincal.identification.ridge import Ridge
@@ -117,7 +117,7 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
         identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              min_information: float = 0.0,
              tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False,
-             prior: float | None = None, left_out: Sequence[int] = ()) -> CalibrationResult:
+             prior: Prior = None, left_out: Sequence[int] = ()) -> CalibrationResult:
     """Estimate the parameters from the data.
 
     Args:
@@ -144,8 +144,9 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
         tsvd_rcond: TSVD truncation, relative to the largest singular value.
         ridge: Ridge parameter in scaled units.
         strict: Refuse (IdentifiabilityError) when not every parameter is identifiable.
-        prior: A factor on each parameter kind's prior σ about nominal (:mod:`pincal.identification.prior`): the
-            maximum a posteriori estimate, its posterior covariance; None: least squares, no prior.
+        prior: A factor on each parameter kind's prior σ about nominal, or each parameter's prior σ [its unit] (inf:
+            none) (:mod:`pincal.identification.prior`): the maximum a posteriori estimate, its posterior covariance;
+            None: least squares, no prior.
         left_out: Samples (indices) that weigh 0 whatever the loss (bad joint readings).
 
     Raises:

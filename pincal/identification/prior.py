@@ -25,16 +25,24 @@ Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
 
-def prior_sigma(parameters: ParameterSet, factor: float | None) -> Array:
-    """Each parameter's prior standard deviation [its unit]: its kind's (by unit) times ``factor``; infinite (no
-    prior) for kinds without one, and for every parameter when ``factor`` is None."""
+#: A prior as the fits take it: a factor on each kind's prior σ, each parameter's own prior σ [its unit] (inf: none;
+#: :mod:`pincal.identification.evidence` chooses them), or None (least squares).
+Prior = float | Array | None
+
+
+def prior_sigma(parameters: ParameterSet, prior: Prior) -> Array:
+    """Each parameter's prior standard deviation [its unit]: its kind's (by unit) times ``prior`` when that is a
+    factor (infinite, no prior, for kinds without one), the σ ``prior`` gives it when that is an array (one per
+    parameter), and infinite for every parameter when ``prior`` is None."""
     sigma = np.full(len(parameters), math.inf)
-    if factor is None:
+    if prior is None:
         return sigma
+    if np.ndim(prior):
+        return np.array(prior, dtype=float)
     for k, parameter in enumerate(parameters):
         value = parameter.kind_class.prior.get(parameter.unit)
         if value is not None:
-            sigma[k] = factor * value
+            sigma[k] = float(prior) * value
     return sigma
 
 

@@ -36,6 +36,7 @@ import scipy.linalg
 
 from pincal import linalg
 from pincal.errors import DataError, PincalError, listing
+from pincal.identification.evidence import EvidenceChoice, base_sigma, choose_prior
 from pincal.identification.identifiability import RANK_TOLERANCE
 from pincal.identification.parameters import Parameter
 from pincal.identification.predictions import carry_over
@@ -178,10 +179,13 @@ def _same_span(drop: tuple[str, ...], rank: int, ranks: dict[tuple[str, ...], in
     return None
 
 
-#: Model selection policies: ``bic`` (the groups with the smallest information criterion, the default), ``cv`` (the
-#: groups with the smallest cross-validated error, :func:`select_by_cv`) or ``none`` (fit every identifiable
-#: parameter).
-SELECTIONS = ("bic", "cv", "none")
+#: Model selection policies: ``evidence`` (each group held near nominal as firmly as the data's evidence says, left out
+#: where they do not support it: :mod:`pincal.identification.evidence`), ``bic`` (the groups with the smallest
+#: information criterion), ``cv`` (the groups with the smallest cross-validated error, :func:`select_by_cv`) or ``none``
+#: (fit every identifiable parameter).
+SELECTIONS = ("evidence", "bic", "cv", "none")
+#: The prior that asks the evidence for each group's factor (:func:`select_and_fit`).
+AUTO_PRIOR = "auto"
 #: ``cv`` selection's plan: K folds of one shuffle of the samples, seeded (the same choice on every run).
 CV_FOLDS = 5
 CV_SEED = 0
@@ -198,6 +202,9 @@ class SelectedFit:
         removed: Names of the identifiable parameters that selection held at their nominal value.
         scores: The criterion of each combination of groups scored, keyed by the groups it leaves out.
         removed_groups: The groups left out.
+        evidence: The prior the evidence chose (its factor per group), or None when the prior was not automatic.
+        prior_sigma: (p,) the prior σ of ``result``'s fit over ``problem``'s parameters [their units; inf: none], when
+            the evidence chose it (None: the prior the options gave).
     """
 
     problem: CalibrationProblem
@@ -206,35 +213,89 @@ class SelectedFit:
     removed: list[str]
     scores: dict[tuple[str, ...], float]
     removed_groups: tuple[str, ...] = ()
+    evidence: EvidenceChoice | None = None
+    prior_sigma: Array | None = None
 
 
-def select_and_fit(problem: CalibrationProblem, policy: str = "bic", **options: Any) -> SelectedFit:
-    """Fit every parameter of ``problem``, then (``policy="bic"``) leave out the groups of identifiable parameters
-    the data do not support (:func:`select_groups` on the fit's weighted Jacobian) and refit the rest from the
-    nominal start. ``options`` go to
-    :func:`~pincal.identification.solver.identify` for both fits.
+def select_and_fit(problem: CalibrationProblem, policy: str = "evidence", **options: Any) -> SelectedFit:
+    """Fit every parameter of ``problem``, then leave out the groups of identifiable parameters the data do not
+    support and refit the rest from the nominal start: by their evidence (``policy="evidence"``, which also chooses
+    how firmly the prior holds each group kept), by :func:`select_groups` on the fit's weighted Jacobian (``bic``), by
+    cross-validation (``cv``), or none. ``options`` go to :func:`~pincal.identification.solver.identify` for every
+    fit; their ``prior`` may be :data:`AUTO_PRIOR`: the first fit then has the kinds' prior σ (factor 1), and the
+    groups kept get the factors the evidence chooses for them (:func:`~pincal.identification.evidence.choose_prior`).
 
     Raises:
-        DataError: an unknown ``policy``.
+        DataError: an unknown ``policy``, or ``evidence`` without the automatic prior.
     """
     if policy not in SELECTIONS:
         raise DataError(f"unknown selection '{policy}'; selections are: {listing(SELECTIONS)}")
+    automatic = isinstance(options.get("prior"), str) and options["prior"] == AUTO_PRIOR
+    if policy == "evidence" and not automatic:
+        raise DataError("selection by the evidence chooses the prior itself: give the automatic prior ('auto'), or "
+                        "another selection (bic, cv, none) for a prior of your own")
+    if automatic:
+        options = {**options, "prior": 1.0}
     first = identify(problem, **options)
-    if policy == "none" or len(first.identified) < 2 or not first.converged:  # no choice made on a failed fit
+    if len(first.identified) < 2 or not first.converged:  # no choice made on a failed fit
         return SelectedFit(problem, first, first, [], {})
+    if policy == "none":
+        return _with_evidence(SelectedFit(problem, first, first, [], {}), automatic, **options)
     if policy == "cv":
-        return select_by_cv(problem, first, **options)
-    pred = first.final if first.final is not None and first.final.jacobian is not None else problem.evaluate(first.x)
-    assert pred.jacobian is not None
-    rows = np.sqrt(first.sample_weights[problem.row_samples()])
-    jac = pred.jacobian * rows[:, None]
-    y0 = pred.residual * rows - jac @ first.x
+        return _with_evidence(select_by_cv(problem, first, **options), automatic, **options)
+    jac, y0 = _weighted_linear(problem, first)
     pset = problem.parameters
+    if policy == "evidence":
+        return _refit_with_evidence(problem, first, jac, y0, **options)
     jac *= pset.scales  # its own copy: scaled in place
     choice = select_groups(jac, y0, [group_of(p) for p in pset])
     if not choice.removed_groups:
-        return SelectedFit(problem, first, first, [], choice.scores)
-    return _refit_without(problem, first, choice.removed_groups, choice.scores, _fitted_criterion, **options)
+        return _with_evidence(SelectedFit(problem, first, first, [], choice.scores), automatic, **options)
+    chosen = _refit_without(problem, first, choice.removed_groups, choice.scores, _fitted_criterion, **options)
+    return _with_evidence(chosen, automatic, **options)
+
+
+def _weighted_linear(problem: CalibrationProblem, fit: CalibrationResult) -> tuple[Array, Array]:
+    """The weighted Jacobian (its own copy) of ``fit``'s estimate (rows whitened by their σ and the robust weights)
+    and the residual of the linear model it makes at the nominal parameters, ``r(x̂) − J x̂``."""
+    pred = fit.final if fit.final is not None and fit.final.jacobian is not None else problem.evaluate(fit.x)
+    assert pred.jacobian is not None
+    rows = np.sqrt(fit.sample_weights[problem.row_samples()])
+    jac = pred.jacobian * rows[:, None]
+    return jac, pred.residual * rows - jac @ fit.x
+
+
+def _with_evidence(chosen: SelectedFit, automatic: bool, **options: Any) -> SelectedFit:
+    """``chosen`` refitted with the prior factors the evidence chooses for the groups it kept, when the prior is
+    automatic; ``chosen`` itself otherwise."""
+    if not automatic or not chosen.result.converged:
+        return chosen
+    jac, y0 = _weighted_linear(chosen.problem, chosen.result)
+    fitted = _refit_with_evidence(chosen.problem, chosen.result, jac, y0, **options)
+    removed = chosen.removed + [n for n in fitted.removed if n not in chosen.removed]
+    groups = chosen.removed_groups + tuple(g for g in fitted.removed_groups if g not in chosen.removed_groups)
+    return SelectedFit(fitted.problem, fitted.result, chosen.first, removed, chosen.scores, groups, fitted.evidence,
+                       fitted.prior_sigma)
+
+
+def _refit_with_evidence(problem: CalibrationProblem, first: CalibrationResult, jac: Array, y0: Array,
+                         **options: Any) -> SelectedFit:
+    """The groups of ``problem``'s parameters weighed by their evidence on the linear model ``jac``, ``y0``
+    (:func:`_weighted_linear` at ``first``'s estimate): each held by the prior σ it chooses, left out where that is
+    none; the refit from the nominal start, or ``first`` when it fails."""
+    pset = problem.parameters
+    groups = [group_of(p) for p in pset]
+    present = [g for g in GROUPS if g in groups]
+    choice = choose_prior(jac, y0, groups, base_sigma(problem), pset.scales, present)
+    kept = [k for k, g in enumerate(groups) if g not in choice.left_out]
+    removed = [p.name for p in pset if group_of(p) in choice.left_out]
+    if not kept:
+        return SelectedFit(problem, first, first, [], {}, evidence=choice)
+    reduced = _reduced(problem, kept) if removed else problem
+    refit = identify(reduced, **{**options, "prior": choice.sigma[kept]})
+    if not refit.converged:
+        return SelectedFit(problem, first, first, [], {}, evidence=choice)
+    return SelectedFit(reduced, refit, first, removed, {}, choice.left_out, choice, choice.sigma[kept])
 
 
 def _reduced(problem: CalibrationProblem, kept: list[int], observations: Observations | None = None

@@ -25,6 +25,7 @@ from pincal.identification import fitting
 from pincal.identification.choices import Loss, Solver
 from pincal.identification.ikm import ChainProblem, ImplicitProblem, chain_blocks
 from pincal.identification.losses import TRIM_KEEP, TRIMMED, outlier_samples, sample_squares
+from pincal.identification.prior import Prior
 from pincal.identification.problem import Problem
 from pincal.identification.readings import find_bad_readings
 from pincal.identification.result import CalibrationResult, chained
@@ -52,13 +53,19 @@ def _check_arguments(problem: Any, x0: Any, max_iter: Any, tol: Any, prior: Any)
                                 f"give {len(problem.parameters)} finite values [m, rad], one per parameter")
     validation.whole("max_iter", max_iter, 1)
     validation.real("tol", tol)  # 0: iterate until no step decreases the cost
-    validation.optional_real("prior", prior, strict=True)
+    if prior is not None and np.ndim(prior):
+        sigma = np.asarray(prior, dtype=float)
+        if sigma.shape != (len(problem.parameters),) or np.any(np.isnan(sigma)) or np.any(sigma <= 0.0):
+            raise ArgumentError(f"prior has shape {sigma.shape}: give {len(problem.parameters)} prior σ > 0 [parameter "
+                                "units] (inf: none), one per parameter, or one factor")
+    else:
+        validation.optional_real("prior", prior, strict=True)
 
 
 def identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: Loss = "auto", *,
              identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
              min_information: float = 0.0, tsvd_rcond: float = 1e-6, ridge: float = 1e-6,
-             strict: bool = False, prior: float | None = None) -> CalibrationResult:
+             strict: bool = False, prior: Prior = None) -> CalibrationResult:
     """Estimate the parameters from the data (the arguments are described at
     :func:`~pincal.identification.fitting.fit`).
 
@@ -200,8 +207,8 @@ def _with_prior_weighed(problem: Problem, result: CalibrationResult, solver: Sol
     otherwise make the data look a hundred times less informative, and the prior pull what they see well. A fit
     short of the stated noise (``s² > 1``: a model error, or a σ stated too small) never makes the prior stronger."""
     factor = options.get("prior")
-    if factor is None or not math.isfinite(result.sigma2) or result.sigma2 >= QUIETER_THAN_STATED:
-        return result
+    if factor is None or np.ndim(factor) or not math.isfinite(result.sigma2) or result.sigma2 >= QUIETER_THAN_STATED:
+        return result  # a prior of its own σ per parameter (the evidence's) was chosen against the noise already
     if at_floor(result.errors_after, exact_fit_floors(problem, 0.0, EXACT_FIT_AMPLIFICATION)):  # exact: no noise
         return result
     weighed = {**options, "prior": factor / math.sqrt(max(result.sigma2, 1e-300))}
