@@ -27,6 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.check_model import CheckedModel
+from pincal.calibration.check_plausibility import Beyond, Implausible, beyond_plausible, implausible_data
 from pincal.calibration.check_setup import (
     MODEL_AS_IS,
     MODEL_REGISTERED,
@@ -37,9 +38,9 @@ from pincal.calibration.check_setup import (
 )
 from pincal.calibration.heldout import worse_than_nominal
 from pincal.calibration.options import CalibrationOptions
-from pincal.calibration.pipeline import fitting_options
+from pincal.calibration.pipeline import check_units, fitting_options
 from pincal.calibration.predicted import FitCovariance, PredictedErrors, coverage, predicted_errors, widening
-from pincal.calibration.samples import check_length_scale, held_out_outside_range
+from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
 from pincal.errors import DataError
 from pincal.identification.measurements import Measurement
@@ -88,6 +89,8 @@ class Check:
             the fitted joint range), from the calibration's covariance; None when MODEL holds none (``predicted_note``
             says why).
         predicted_note: Why there is no prediction (None when there is).
+        implausible: DATA judged beyond what a robot of the nominal model can produce, with the likely cause, as
+            ``calibrate`` judges them (:mod:`pincal.calibration.check_plausibility`); None when plausible.
     """
 
     model: Side
@@ -99,6 +102,7 @@ class Check:
     n_samples_in_file: int
     predicted: PredictedErrors | None = None
     predicted_note: str | None = None
+    implausible: Implausible | None = None
 
     @property
     def sample_ids(self) -> list[str]:
@@ -280,15 +284,16 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
     ``train`` rows set the fitted range; None: not known, ``range_note`` says why).
 
     Raises:
-        DataError: the data measure a frame a robot lacks, no sample usable by both, lengths in the wrong unit, a
-            camera the model holds no link for (without ``register``).
+        DataError: the data measure a frame a robot lacks, no sample usable by both, lengths or joint readings in the
+            wrong unit (:func:`~pincal.calibration.pipeline.check_units`, as ``calibrate`` refuses them, before any
+            work), a camera the model holds no link for (without ``register``).
     """
-    options = options.replace(parameter_spec=None, markers="each", payload=None)
-    nominal_prepared = prepare_setup(nominal, dataset, options)
+    setup = options.replace(parameter_spec=None, markers="each", payload=None)
+    nominal_prepared = prepare_setup(nominal, dataset, setup)
+    check_units(nominal_prepared, dataset, options.plausible)
     model_data = model.readings(dataset, nominal)
-    model_prepared = prepare_setup(model.robot, model_data, options)
+    model_prepared = prepare_setup(model.robot, model_data, setup)
     model_prepared, nominal_prepared, dropped = _common(model_prepared, nominal_prepared, model_data, dataset)
-    check_length_scale(nominal_prepared.problem)
     x_model = file_setup(model_prepared.problem, register)
     if register:
         x_model = model_prepared.problem.initial_guess(x_model)
@@ -301,7 +306,23 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
         train = fitted.of_set("train") if "train" in fitted.sets else fitted
         outside = held_out_outside_range(nominal, train, nominal_prepared.samples, joints=moving)
     predicted, note = predicted_check(model, nominal_prepared)
-    return Check(model_side, nominal_side, register, dropped, outside, range_note, dataset.n_samples, predicted, note)
+    return Check(model_side, nominal_side, register, dropped, outside, range_note, dataset.n_samples, predicted, note,
+                 _plausibility(nominal_side, register, options))
+
+
+def _plausibility(nominal: Side, register: bool, options: CalibrationOptions) -> Implausible | None:
+    """Whether DATA can be of the nominal robot, as ``calibrate`` judges it
+    (:mod:`pincal.calibration.check_plausibility`), when its errors with its setup fitted to DATA are beyond a robot of
+    its model (registered here for that when the check does not register: a setup placed in closed form may be what
+    is off)."""
+    def beyond(side: Side) -> Beyond | None:
+        return beyond_plausible(rms(_length_norms(side.errors)), rms(_angle_norms(side.errors)), options.plausible)
+
+    found = beyond(nominal)
+    if found is not None and not register:
+        found = beyond(_side(nominal.prepared, nominal.x, True, options))
+    return None if found is None else implausible_data(found, nominal.prepared.robot, nominal.prepared.samples,
+                                                       options)
 
 
 NO_COVARIANCE = ("MODEL holds no covariance of its estimates (a calibrated URDF or a name): give the report JSON of "
@@ -351,6 +372,7 @@ def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
         "measurements": [m.key for m in models],
         **check.figures(),
         "worse_than_nominal": check.worse_than_nominal,
+        "implausible": check.implausible.content() if check.implausible is not None else None,
         "quantities": check.quantities(),
         "samples": check.samples(),
         "dropped_samples": check.dropped,
@@ -406,7 +428,7 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     Raises:
         DataError: no nominal robot given or recorded; no row of set ``rows``; as :func:`check_model`.
     """
-    from pincal.calibration.check_model import is_report, load_model
+    from pincal.calibration.check_model import check_arguments, is_report, load_model
     from pincal.calibration.job import read_job
     from pincal.calibration.job_data import job_dataset
     from pincal.calibration.provenance import file_digests, read_provenance, sha256, version
@@ -415,6 +437,7 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     from pincal.io.files import check_outputs
     from pincal.model.robot import load_robot
 
+    check_arguments(model_path, data_path)
     if is_report(model_path):  # an unreadable report is named as such, not as one that records nothing
         try:
             json.loads(Path(model_path).read_text(encoding="utf-8"))

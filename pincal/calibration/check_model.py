@@ -77,6 +77,77 @@ class CheckedModel:
         return Dataset(names, joints, dataset.measurements, dataset.sample_ids, dataset.sets, dataset.metadata)
 
 
+#: What ``pincal check`` reads, said in every refusal of its arguments.
+MODEL_AND_DATA = ("MODEL is a calibrated URDF, a known robot name or a report JSON (pincal calibrate --out, --report), "
+                  "DATA a measurement CSV or a job file JOB.toml")
+#: How much of a file its kind is told from [bytes]: a URDF's ``<robot>`` element comes after its XML declaration
+#: and a comment or two.
+HEAD_BYTES = 65536
+
+
+def file_kind(path: Path) -> str:
+    """What the regular file at ``path`` holds, by its suffix and its first :data:`HEAD_BYTES` bytes: ``job``
+    (``.toml``), ``json`` (``.json``, or text starting with ``{``), ``urdf`` (XML with a ``<robot`` element), ``xml``,
+    ``csv`` (``.csv``, or a first line that is not a comment starting with ``sample,``), ``binary`` (a NUL byte) or
+    ``text`` (also a file that cannot be read: its reader says why)."""
+    suffix = path.suffix.lower()
+    if suffix in (".toml", ".json", ".csv"):
+        return {".toml": "job", ".json": "json", ".csv": "csv"}[suffix]
+    try:
+        with path.open("rb") as stream:
+            head = stream.read(HEAD_BYTES)
+    except OSError:
+        return "text"
+    if b"\x00" in head:
+        return "binary"
+    text = head.decode("utf-8", errors="replace").lstrip("\ufeff \t\r\n")
+    if text.startswith("<"):
+        return "urdf" if "<robot" in text else "xml"
+    if text.startswith("{"):
+        return "json"
+    first = next((line for line in text.splitlines() if line.strip() and not line.startswith("#")), "")
+    return "csv" if first.startswith("sample,") else "text"
+
+
+#: How each kind of file is named when it is given where another was expected.
+KIND_WORDS = {"job": "a job file (TOML)", "json": "a JSON file (a report?)", "urdf": "a URDF", "xml": "an XML file",
+              "csv": "a measurement CSV", "binary": "binary data, not text",
+              "text": "text that is neither XML nor a measurement CSV"}
+
+
+def check_arguments(model: str, data: str) -> None:
+    """Refuse a MODEL or DATA argument that is not what ``pincal check`` reads, before anything is read: MODEL a
+    directory, a device or pipe, data (a CSV or a job file), a text or binary file that is no URDF, a file that does
+    not exist and no known robot's name; DATA a directory, a device or pipe, a URDF or other XML, a JSON file, a file
+    that does not exist.
+
+    Raises:
+        DataError: one line naming the argument, what it is, and what MODEL and DATA should be.
+    """
+    from pincal.io.files import input_problem
+    from pincal.model.catalog import known_robot_names
+
+    problem = input_problem(Path(model))
+    bare = not (Path(model).suffix or "/" in model)  # a name, not a path (load_robot's rule)
+    if problem in ("does not exist", "is a directory") and bare and model in known_robot_names():
+        problem = None  # a known robot, by its name
+    elif problem == "does not exist" and bare:
+        raise DataError(f"MODEL '{model}' does not exist (no such file, and no known robot of that name): "
+                        f"{MODEL_AND_DATA}")
+    elif problem is not None:
+        raise DataError(f"MODEL '{model}' {problem}, where a model was expected: {MODEL_AND_DATA}")
+    elif (kind := file_kind(Path(model))) in ("job", "csv", "binary", "text"):
+        raise DataError(f"MODEL '{model}' is {KIND_WORDS[kind]}, where a model was expected: {MODEL_AND_DATA}")
+    elif kind == "json" and Path(model).suffix.lower() != ".json":
+        raise DataError(f"MODEL '{model}' is JSON text not named *.json (a report JSON is told by its suffix): "
+                        f"{MODEL_AND_DATA}")
+    problem = input_problem(Path(data))
+    if problem is not None:
+        raise DataError(f"DATA '{data}' {problem}, where data were expected: {MODEL_AND_DATA}")
+    if (kind := file_kind(Path(data))) in ("urdf", "xml", "json"):
+        raise DataError(f"DATA '{data}' is {KIND_WORDS[kind]}, where data were expected: {MODEL_AND_DATA}")
+
+
 def is_report(path: str | Path) -> bool:
     """Whether ``path`` names a report JSON (by its suffix)."""
     return Path(path).suffix.lower() == ".json"

@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import argparse
 import math
+import textwrap
 from typing import Any
 
 from pincal.calibration.options import OPTIONS
 from pincal.cli.arguments import add_calibration_options, given_options
 
-#: The calibration options ``check`` takes: the weights, and the registration's solver and iteration limit.
-CHECK_OPTIONS = ("sigma", "solver", "max_iter")
+#: The calibration options ``check`` takes: the weights, the registration's solver and iteration limit, and the
+#: plausibility factor of calibrate's checks of the data.
+CHECK_OPTIONS = ("sigma", "solver", "max_iter", "plausible")
 
 #: How a quantity's unit is shown: SI in the files, mm and mrad on the terminal.
 SHOWN = {"m": ("mm", 1e3), "rad": ("mrad", 1e3)}
@@ -70,7 +72,11 @@ def summary_text(content: dict[str, Any]) -> str:
     if content.get("nominal_changed"):
         lines.append("warning: the nominal URDF changed since the calibration (its SHA-256 differs from the one "
                      "MODEL records)")
-    if content["worse_than_nominal"]:
+    if content["implausible"] is not None:
+        lines += _implausible_lines(content)
+        lines.append("verdict: none: DATA are not of a robot of this model (IMPLAUSIBLE above); the errors say nothing "
+                     "of MODEL")
+    elif content["worse_than_nominal"]:
         lines.append("verdict: MODEL predicts DATA WORSE than the nominal robot")
         if not content["registered"]:
             lines.append("  hint: the nominal side's measurement setup is placed on DATA, MODEL's is the file's: if "
@@ -78,6 +84,30 @@ def summary_text(content: dict[str, Any]) -> str:
     else:
         lines.append("verdict: MODEL predicts DATA no worse than the nominal robot")
     return "\n".join(lines)
+
+
+def _factor(plausible: float | str) -> str:
+    return f"{plausible:g}" if isinstance(plausible, float | int) else str(plausible)
+
+
+def _implausible_lines(content: dict[str, Any]) -> list[str]:
+    """What calibrate's checks find in DATA (docs/check.md, 'Plausibility'): the nominal robot's errors beyond a robot
+    of its model, the corrections a calibration on DATA would need, and the likely cause, wrapped at 120 columns."""
+    from pincal.calibration.summary import correction
+
+    found = content["implausible"]
+    unit = "m" if found["quantity"] == "length" else "rad"
+    demanded = [f"{c['parameter']} {correction(c['value'], c['unit'])} (limit "
+                f"{correction(c['limit'], c['unit']).lstrip('+')})" for c in found["corrections"][:3]]
+    more = len(found["corrections"]) - len(demanded)
+    fit = (f"; calibrated on DATA, it would need {', '.join(demanded)}{f' and {more} more' if more else ''}"
+           if demanded else f"; {found['note']}" if found["note"] else "")
+    text = (f"IMPLAUSIBLE: the nominal robot predicts DATA {_shown(found['nominal_rms'], unit)} RMS with its "
+            f"measurement setup fitted to DATA, beyond the {correction(found['limit'], unit).lstrip('+')} a robot of "
+            f"this model is off by (--plausible {_factor(found['plausible'])}){fit}")
+    return [*textwrap.wrap(text, 120, subsequent_indent="    ", break_on_hyphens=False),
+            *textwrap.wrap(f"likely cause: {found['cause']}", 120, initial_indent="  ", subsequent_indent="    ",
+                           break_on_hyphens=False)]
 
 
 def _predicted_lines(content: dict[str, Any]) -> list[str]:
@@ -103,8 +133,8 @@ def _predicted_lines(content: dict[str, Any]) -> list[str]:
 
 def cmd_check(args: argparse.Namespace) -> int:
     """``pincal check``: predict DATA with MODEL and with the nominal robot, print the errors side by side, write
-    ``--report`` and ``--html``; exit status 1 when MODEL predicts DATA worse than the nominal robot, or a
-    registration did not converge."""
+    ``--report`` and ``--html``; exit status 1 when MODEL predicts DATA worse than the nominal robot, a registration
+    did not converge, or DATA are implausible for a robot of this model (calibrate's checks)."""
     from pincal.calibration.check import run_check
     from pincal.io.files import json_text, write_texts
 
@@ -126,7 +156,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     if unconverged:  # the comparison is of setups not yet fitted
         print(f"NOT CONVERGED: the registration of the {' and the '.join(unconverged)} reached the iteration limit "
               "(--max-iter): the figures compare setups not yet fitted")
-    return 1 if check.worse_than_nominal or unconverged else 0
+    return 1 if check.worse_than_nominal or unconverged or check.implausible is not None else 0
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -140,7 +170,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                     "file holds them); the nominal robot's measurement setup is placed on DATA in closed form, as "
                     "calibrate's 'before'. --register re-estimates both setups on DATA (least squares), the robots "
                     "held. Exit status 1 when MODEL predicts DATA worse than the nominal robot, or a registration "
-                    "did not converge (docs/check.md).",
+                    "did not converge, or DATA are implausible for a robot of this model, as calibrate judges them "
+                    "(docs/check.md); 2 for lengths or joint readings in a wrong unit (calibrate's checks, before any "
+                    "work).",
         epilog="example: pincal check cal.urdf new_day.csv --register --report check.json --html check.html")
     check.add_argument("model", metavar="MODEL",
                        help="calibrated URDF (its .corrections.json beside it is read), a known robot name, or the "

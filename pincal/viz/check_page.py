@@ -69,6 +69,10 @@ def check_page(content: dict[str, Any]) -> str:
     worse = content["worse_than_nominal"]
     verdict = ('<p class="warn">MODEL predicts DATA <b>worse</b> than the nominal robot.</p>' if worse
                else '<p class="verdict">MODEL predicts DATA no worse than the nominal robot.</p>')
+    implausible = content.get("implausible")
+    if implausible:  # DATA no robot of this model gives as they stand: no verdict on MODEL (docs/check.md)
+        verdict = (f'<p class="warn"><b>IMPLAUSIBLE</b>: DATA are not of a robot of this model; likely cause: '
+                   f'{html.escape(implausible["cause"])}. No verdict on MODEL.</p>')
     outside = content["outside_range"]
     if not outside["known"]:
         range_text = f"Fitted range not known: {html.escape(str(outside['note']))}."

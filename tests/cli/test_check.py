@@ -291,3 +291,24 @@ def test_contact_with_a_plane_is_checked_against_the_calibrated_plane(key: str, 
     (tmp_path / "bare.urdf").write_text(text.replace('"contact_plane"', '"other_plane"'), encoding="utf-8")
     line = _error_line(run_pincal("check", str(tmp_path / "bare.urdf"), new, "--nominal", "ur10"))
     assert "contact_plane" in line and "--register" in line
+
+
+@pytest.mark.parametrize(("model", "data", "culprit", "words"), [
+    ("passwd", "new.csv", "MODEL", "is text that is neither XML nor a measurement CSV, where a model was expected"),
+    ("folder", "new.csv", "MODEL", "is a directory, where a model was expected"),
+    ("new.csv", "new.csv", "MODEL", "is a measurement CSV, where a model was expected"),
+    ("D/cal.urdf", "D/cal.urdf", "DATA", "is a URDF, where data were expected"),
+    ("D/cal.urdf", "D/r.json", "DATA", "is a JSON file (a report?), where data were expected"),
+    ("D/cal.urdf", "folder", "DATA", "is a directory, where data were expected"),
+    ("no_such_robot", "new.csv", "MODEL", "does not exist (no such file, and no known robot of that name)"),
+])
+def test_a_model_or_data_of_the_wrong_kind_is_named_in_one_line(delta: Path, model: str, data: str, culprit: str,
+                                                                words: str) -> None:
+    """MODEL and DATA that are not what check reads: the argument, what it is, and what MODEL and DATA should be."""
+    (delta / "passwd").write_text("root:x:0:0:root:/root:/bin/bash\n", encoding="utf-8")  # a system's text file
+    (delta / "folder").mkdir(exist_ok=True)
+    given = {"MODEL": model if model == "no_such_robot" else str(delta / model), "DATA": str(delta / data)}
+    line = _error_line(run_pincal("check", given["MODEL"], given["DATA"]))
+    assert f"{culprit} '{given[culprit]}' {words}: " in line
+    assert "MODEL is a calibrated URDF, a known robot name or a report JSON" in line
+    assert "DATA a measurement CSV or a job file" in line
