@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal import validation
+from pincal.calibration.carried import with_carried
 from pincal.calibration.crossval import Folds, check_cross_validation, cross_validate, parse_cv
 from pincal.calibration.growth import ErrorGrowth, estimate_growth
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, Registration, evaluate_held_out, register_setup
@@ -112,7 +113,7 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         length_scale = check_units(fit, dataset, options.plausible)  # before any fit, the provisional one included
         estimated = provisional_noise(fit.problem, dataset.metadata, options, **fitting_options(options, False))
         if estimated:  # weighted by the noise the data show, as '# sigma' lines would: before selection
-            dataset = with_noise(dataset, estimated)
+            dataset = with_noise(dataset, estimated, fit.models)
             fit = prepare(robot, dataset, options)
         every, folds = cross_validation_folds(fit, dataset, options)  # checked before any fit
         stages.advance()
@@ -142,7 +143,8 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         content["cv"] = cross_validate(robot, fit.parameters, fit.models, every.problem.observations, folds,
                                        select=options.selection, progress=progress, payload=options.payload,
                                        **fitting_options(options))
-    return Calibration(kept, fitted.problem, result, held, CalibrationReport(**content), text, corrections, before)
+    report = CalibrationReport(**content)
+    return Calibration(kept, fitted.problem, result, held, report, with_carried(text, report), corrections, before)
 
 
 def check_units(fit: Prepared, dataset: Dataset, plausible: float | str) -> dict[str, float]:
@@ -320,7 +322,8 @@ def error_growth(fit: Prepared, fitted: SelectedFit, options: CalibrationOptions
     problem = fitted.problem
     prior = fitted.prior_sigma if fitted.prior_sigma is not None \
         else prior_sigma(problem.parameters, fitting_options(options, False)["prior"])
-    columns = [fit.robot.actuated_joints.index(j) for j in moving_joints(fit)]
+    moving = moving_joints(fit)
+    columns = [k for k, j in enumerate(fit.robot.actuated_joints) if j in moving]
     return estimate_growth(problem, fitted.result, prior, columns, x_before)
 
 

@@ -386,12 +386,13 @@ def _estimated_sigma(report: CalibrationReport) -> list[str]:
         return []
     parts = []
     for key, kinds in report.estimated_sigma.items():
-        length = kinds.get("length")
-        shown = [f"{length:.3g} (rad or m)" if key.startswith("joint:") else f"{length * 1e3:.3g} mm"] \
-            if length is not None else []
-        shown += [f"{kinds['angle'] * 1e3:.3g} mrad"] if "angle" in kinds else []
+        rows, units = kinds.get("rows") or {}, kinds.get("units") or {}
+        shown = [f"{name} {value * 1e3:.3g} {'mm' if units.get(name) == 'm' else 'mrad'}"
+                 if units.get(name) in ("m", "rad") else f"{name} {value:.3g} {units.get(name, '')}".rstrip()
+                 for name, value in rows.items()]
         parts.append(f"{key} {', '.join(shown)}")
-    return [f"σ estimated from the data (no '# sigma' line): {'; '.join(parts)}"]
+    return textwrap.wrap(f"σ estimated from the data, per axis (no '# sigma' line): {'; '.join(parts)}", 120,
+                         subsequent_indent="  ")
 
 
 def verdict(report: CalibrationReport) -> str:
