@@ -7,10 +7,14 @@ measurement frame (``base.*``), the markers, the cameras and targets, the contac
 
 - the model, as it stands: the setup the file holds (its ``measurement_frame`` root, its ``<frame>_marker`` links,
   its camera, target and plane links), nothing estimated;
-- the nominal robot: its setup placed in closed form on the data, as calibrate's "before" (the measurement frame by
-  Kabsch, cameras and targets hand-eye, planes fitted to the contact points, markers at their nominal offsets);
-- with ``register``: each robot's setup re-estimated on the data by least squares from those starts, the robot's
-  geometry held, so that a day whose tracker, markers or cameras moved is judged on the robot alone.
+- the nominal robot: its setup registered on the data (least squares from its placement in closed form: the measurement
+  frame by Kabsch, cameras and targets hand-eye, planes fitted to the contact points, markers at their nominal
+  offsets), as calibrate's "before": the gain shown is the robot's calibration, not the registration of a marker;
+- with ``register``: MODEL's setup re-estimated on the data the same way, its geometry held, so that a day whose
+  tracker, markers or cameras moved is judged on the robot alone.
+
+A registration whose fit ends above its start (the σ-weighted RMS) keeps the start, and says so. The verdict is taken
+on the total and, apart, on the postures beyond the fitted joint range (:mod:`pincal.calibration.check_groups`).
 
 Errors in m (lengths) and rad (angles); every figure is predicted − measured.
 """
@@ -26,12 +30,18 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.check_groups import (
+    fitted_data,
+    group_verdicts,
+    nominal_bounds,
+    outside_recorded,
+    predicted_check,
+)
 from pincal.calibration.check_model import CheckedModel
 from pincal.calibration.check_plausibility import Beyond, Implausible, beyond_plausible, implausible_data
 from pincal.calibration.check_setup import (
     MODEL_AS_IS,
     MODEL_REGISTERED,
-    NOMINAL_PLACED,
     NOMINAL_REGISTERED,
     file_setup,
     prepare_setup,
@@ -39,7 +49,7 @@ from pincal.calibration.check_setup import (
 from pincal.calibration.heldout import worse_than_nominal
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.pipeline import check_units, fitting_options
-from pincal.calibration.predicted import FitCovariance, PredictedErrors, coverage, predicted_errors, widening
+from pincal.calibration.predicted import PredictedErrors, coverage
 from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
 from pincal.errors import DataError
@@ -61,12 +71,14 @@ class Side:
         x: The setup's values [m, rad], in ``prepared.parameters``' order.
         errors: Per measurement key, (N, rows) errors predicted − measured [m, rad].
         converged: Whether the registration converged (None: nothing was estimated).
+        note: Why the registration's start stands, when its fit ended above it (None otherwise).
     """
 
     prepared: Prepared
     x: Array
     errors: dict[str, Array]
     converged: bool | None = None
+    note: str | None = None
 
     def setup(self) -> dict[str, float]:
         """The setup's values by parameter name [m, rad]."""
@@ -91,6 +103,8 @@ class Check:
         predicted_note: Why there is no prediction (None when there is).
         implausible: DATA judged beyond what a robot of the nominal model can produce, with the likely cause, as
             ``calibrate`` judges them (:mod:`pincal.calibration.check_plausibility`); None when plausible.
+        nominal_bound: (N,) the nominal robot's own 95 % bound [m] at each sample, from the calibration MODEL holds
+            (NaN: not known); None without a prediction.
     """
 
     model: Side
@@ -103,6 +117,7 @@ class Check:
     predicted: PredictedErrors | None = None
     predicted_note: str | None = None
     implausible: Implausible | None = None
+    nominal_bound: Array | None = None
 
     @property
     def sample_ids(self) -> list[str]:
@@ -114,6 +129,23 @@ class Check:
         """The ids of the samples with a reading outside the fitted range, in file order."""
         flagged = {entry["sample"] for entry in self.outside_range}
         return [s for s in self.sample_ids if s in flagged]
+
+    @property
+    def beyond(self) -> list[bool]:
+        """Whether each checked sample has a reading beyond the fitted range (and its margin)."""
+        flagged = set(self.outside_samples)
+        return [s in flagged for s in self.sample_ids]
+
+    def groups(self) -> dict[str, Any]:
+        """The verdict inside and beyond the fitted range apart (:func:`~pincal.calibration.check_groups.
+        group_verdicts`)."""
+        return group_verdicts(self.model.errors, self.nominal.errors, self.beyond)
+
+    @property
+    def worse_beyond(self) -> bool:
+        """Whether MODEL predicts the postures beyond its fitted range (enough of them) worse than the nominal
+        robot."""
+        return bool(self.groups()["beyond"]["worse"])
 
     @property
     def worse_than_nominal(self) -> bool:
@@ -159,7 +191,8 @@ class Check:
 
     def samples(self) -> list[dict[str, Any]]:
         """Per checked sample: its id, its length error [m] and orientation error [rad] (None without such a
-        reading) under the model and the nominal robot, and whether a reading lies outside the fitted range."""
+        reading) under the model and the nominal robot, whether a reading lies outside the fitted range, and with a
+        prediction its 95 % bound [m], its distance beyond the fitted range and the nominal robot's own bound [m]."""
         n = len(self.sample_ids)
         outside = set(self.outside_samples)
         length_a, length_b = (sample_length_errors(s.errors, n) for s in (self.model, self.nominal))
@@ -173,15 +206,17 @@ class Check:
                 entry.update({"angle_error": _number(angle_a[k]), "nominal_angle_error": _number(angle_b[k])})
             entry["outside_range"] = sample in outside
             if self.predicted is not None:
-                bound = self.predicted.bound[k]
-                entry.update({"bound": _number(bound), "widening": float(self.predicted.widening[k]),
+                entry.update({"bound": _number(self.predicted.bound[k]), "distance": float(self.predicted.distance[k]),
+                              "nominal_bound": _number(self.nominal_bound[k]) if self.nominal_bound is not None
+                              else None,
                               "sigma": [_number(v) for v in self.predicted.sigma[k]]})
             out.append(entry)
         return out
 
     def predicted_account(self) -> dict[str, Any]:
-        """The predicted bounds' account: how many of MODEL's length errors lie within their 95 % bound, the median
-        bound [m], the samples whose bound was widened beyond the fitted range (or why there is no prediction)."""
+        """The predicted bounds' account: how many of MODEL's length errors lie within their 95 % bound (all, and
+        within and beyond the fitted range apart), the median bound [m], the samples beyond the fitted range (or why
+        there is no prediction)."""
         if self.predicted is None:
             return {"known": False, "note": self.predicted_note}
         errors = sample_length_errors(self.model.errors, len(self.sample_ids))
@@ -189,7 +224,7 @@ class Check:
         return {"known": True, "level": 0.95,
                 **coverage(self.predicted, errors if errors is not None else np.full(len(self.sample_ids), np.nan)),
                 "median_bound": _number(float(np.median(finite))) if finite.size else None,
-                "widened": [s for s, w in zip(self.sample_ids, self.predicted.widening, strict=True) if w > 1.0]}
+                "beyond": [s for s, u in zip(self.sample_ids, self.predicted.distance, strict=True) if u > 0.0]}
 
 
 def _rows(errors: dict[str, Array], rows: Sequence[int] | None) -> dict[str, Array]:
@@ -249,13 +284,19 @@ def weighted_rms(side: Side) -> float:
 
 def _side(prepared: Prepared, x: Array, register: bool, options: CalibrationOptions) -> Side:
     """A robot's predictions at ``x``, or, with ``register``, at its setup re-estimated from ``x`` by σ-weighted least
-    squares (the solver and iteration limit of ``options``)."""
+    squares (the solver and iteration limit of ``options``); the start kept, and said so, where the fit ends above
+    it."""
     problem = prepared.problem
-    converged = None
-    if register and len(prepared.parameters):
-        result = identify(problem, x, **{**fitting_options(options, False), "loss": "linear"})  # least squares
-        x, converged = result.x, bool(result.converged)
-    return Side(prepared, x, problem.evaluate(x, jacobian=False).errors, converged)
+    start = Side(prepared, x, problem.evaluate(x, jacobian=False).errors)
+    if not register or not len(prepared.parameters):
+        return start
+    result = identify(problem, x, **{**fitting_options(options, False), "loss": "linear"})  # least squares
+    side = Side(prepared, result.x, problem.evaluate(result.x, jacobian=False).errors, bool(result.converged))
+    if weighted_rms(side) > weighted_rms(start):
+        return replace(start, converged=side.converged,
+                       note=f"the registration ended at a σ-weighted RMS of {weighted_rms(side):.4g} above its start's "
+                            f"{weighted_rms(start):.4g}: the start is kept")
+    return side
 
 
 def _common(model: Prepared, nominal: Prepared, model_data: Dataset,
@@ -298,16 +339,22 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
     if register:
         x_model = model_prepared.problem.initial_guess(x_model)
     model_side = _side(model_prepared, x_model, register, options)
-    nominal_side = _side(nominal_prepared, nominal_prepared.problem.initial_guess(), register, options)
+    nominal_side = _side(nominal_prepared, nominal_prepared.problem.initial_guess(), True, options)  # always registered
     outside: list[dict[str, Any]] = []
+    moving = influencing_joints(nominal, sorted({f for m in nominal_prepared.models for f in m.frames}),
+                                read_joints(nominal_prepared.models))
+    ranges = model.calibration.fitted_range if model.calibration is not None else None
+    ranges = ranges or model.provenance.fitted_range
     if fitted is not None:
-        moving = influencing_joints(nominal, sorted({f for m in nominal_prepared.models for f in m.frames}),
-                                    read_joints(nominal_prepared.models))
         train = fitted.of_set("train") if "train" in fitted.sets else fitted
         outside = held_out_outside_range(nominal, train, nominal_prepared.samples, joints=moving)
+    elif ranges:  # the ranges MODEL records, where its data are not at hand
+        outside = outside_recorded(nominal, ranges, nominal_prepared.samples, moving)
+        range_note = None
     predicted, note = predicted_check(model, nominal_prepared)
     return Check(model_side, nominal_side, register, dropped, outside, range_note, dataset.n_samples, predicted, note,
-                 _plausibility(nominal_side, register, options))
+                 _plausibility(nominal_side, True, options),
+                 nominal_bounds(model, predicted) if predicted is not None else None)
 
 
 def _plausibility(nominal: Side, register: bool, options: CalibrationOptions) -> Implausible | None:
@@ -325,36 +372,6 @@ def _plausibility(nominal: Side, register: bool, options: CalibrationOptions) ->
                                                        options)
 
 
-NO_COVARIANCE = ("MODEL holds no covariance of its estimates (a calibrated URDF or a name): give the report JSON of "
-                 "its calibration as MODEL for each posture's predicted error")
-
-
-def predicted_check(model: CheckedModel, nominal: Prepared) -> tuple[PredictedErrors | None, str | None]:
-    """Each checked sample's predicted error under MODEL (:mod:`pincal.calibration.predicted`): the calibration's
-    estimates and covariance, as its report holds them, on ``nominal``'s samples; widened beyond the fitted range MODEL
-    records. None and why when MODEL is no report or its estimates have no covariance."""
-    report = model.calibration
-    if report is None:
-        return None, NO_COVARIANCE
-    from pincal.identification.parameters import choose_parameters
-
-    names = list(report.parameters)
-    try:
-        parameters = choose_parameters(nominal.robot, nominal.models, names, "cluster" if report.markers == "cluster"
-                                       else "each")
-    except (DataError, KeyError):
-        return None, "MODEL's parameters are not those of these measurements: no predicted errors"
-    x = np.array([float(report.parameters[name]["value"]) for name in parameters.names])
-    on = nominal.on(nominal.samples, parameters)
-    fit = FitCovariance.of_report(report.covariance, report.sigma2, parameters.names)
-    ranges = report.fitted_range or model.provenance.fitted_range or {}
-    factor = widening(nominal.robot, on.problem.observations.actuated, ranges)
-    predicted = predicted_errors(on.problem, fit, x, factor)
-    if not np.any(np.isfinite(predicted.bound)):
-        return None, "MODEL's report holds no covariance of its estimates for these measurements"
-    return predicted, None
-
-
 def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
     """The report JSON of a check (docs/check.md): SI units, lengths in m, angles in rad."""
     models: list[Measurement] = check.model.prepared.models
@@ -367,11 +384,15 @@ def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
         **dict(sources),
         "registered": check.registered,
         "model_means": MODEL_REGISTERED if check.registered else MODEL_AS_IS,
-        "nominal_means": NOMINAL_REGISTERED if check.registered else NOMINAL_PLACED,
+        "nominal_means": NOMINAL_REGISTERED,
+        "registration_notes": {side: s.note for side, s in (("model", check.model), ("nominal", check.nominal))
+                               if s.note},
         "n_samples_in_file": check.n_samples_in_file,
         "measurements": [m.key for m in models],
         **check.figures(),
         "worse_than_nominal": check.worse_than_nominal,
+        "groups": check.groups(),
+        "worse_beyond": check.worse_beyond,
         "implausible": check.implausible.content() if check.implausible is not None else None,
         "quantities": check.quantities(),
         "samples": check.samples(),
@@ -386,34 +407,6 @@ def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
                   "model_converged": check.model.converged, "nominal_converged": check.nominal.converged},
     }
     return content
-
-
-def fitted_data(model: CheckedModel, nominal: Robot) -> tuple[Dataset | None, str | None]:
-    """The data the calibration fitted, as the model's provenance records it, or None and why not (no record, the
-    file gone or changed since, or unreadable)."""
-    from pincal.calibration.job import read_job
-    from pincal.calibration.job_data import job_dataset
-    from pincal.calibration.provenance import sha256
-    from pincal.calibration.samples import read_robot_dataset
-    from pincal.errors import PincalError
-
-    path, recorded = model.provenance.data, model.provenance.data_sha256
-    if path is None:
-        return None, "MODEL records no calibration data (no provenance): postures outside the fitted range cannot be " \
-                     "flagged"
-    if not path.is_file():
-        return None, f"the calibration's data '{path}' (recorded in MODEL) is not there: postures outside the " \
-                     "fitted range cannot be flagged"
-    if recorded and sha256(path) != recorded:
-        return None, f"the calibration's data '{path}' changed since the calibration (its SHA-256 differs): " \
-                     "postures outside the fitted range cannot be flagged"
-    try:
-        if path.suffix.lower() == ".toml":
-            return job_dataset(read_job(path), nominal), None
-        return read_robot_dataset(path, nominal), None
-    except PincalError as exc:
-        return None, f"the calibration's data '{path}' cannot be read ({exc}): postures outside the fitted range " \
-                     "cannot be flagged"
 
 
 def run_check(model_path: str, data_path: str, nominal_path: str | None, options: dict[str, Any],

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.carried import read_carried
 from pincal.calibration.provenance import Recorded, read_provenance
 from pincal.calibration.report import CalibrationReport
 from pincal.errors import DataError, RobotFileError
@@ -47,8 +48,9 @@ class CheckedModel:
         corrections: The joint corrections its actuated readings take (None: none).
         sensor_zeros: Instrumented passive joint -> the reading when the joint is at zero in the model [m or rad].
         provenance: What the calibration recorded of its inputs.
-        calibration: The calibration's report, when MODEL is one (its estimates and their covariance give each
-            posture's predicted error); None for a calibrated URDF or a name.
+        calibration: The calibration's report, when MODEL is one, or the calibration a calibrated URDF carries
+            (:mod:`pincal.calibration.carried`): its estimates, their covariance and the bound's growth give each
+            posture's predicted error; None for a name, or a URDF that carries none.
     """
 
     robot: Robot
@@ -172,7 +174,8 @@ def load_model(path: str, nominal: Robot, dataset: Dataset) -> CheckedModel:
         beside = corrections_path(path)
         corrections = read_corrections(beside) if robot.source is not None and beside.is_file() else None
         zeros = joint_sensor_zeros(source_text(robot)) if robot.source is not None else {}
-        model = CheckedModel(robot, path, corrections, zeros, read_provenance(path))
+        carried = read_carried(path) if Path(path).is_file() else None  # the calibration a calibrated URDF carries
+        model = CheckedModel(robot, path, corrections, zeros, read_provenance(path), carried)
     if list(model.robot.actuated_joints) != list(nominal.actuated_joints):
         raise DataError(f"MODEL '{path}' actuates {', '.join(model.robot.actuated_joints)}, the nominal robot "
                         f"'{nominal.name}' {', '.join(nominal.actuated_joints)}: give the nominal robot MODEL was "

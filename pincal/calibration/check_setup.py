@@ -30,11 +30,9 @@ MODEL_AS_IS = ("MODEL as it stands: the measurement frame, markers, cameras, tar
                "holds; nothing estimated")
 MODEL_REGISTERED = ("MODEL's robot with its measurement setup (measurement frame, markers, cameras, targets, contact "
                     "planes) re-estimated on DATA by least squares, its geometry held")
-NOMINAL_PLACED = ("the nominal robot with its measurement setup placed in closed form on DATA (measurement frame by "
-                  "Kabsch, cameras and targets hand-eye, contact planes fitted to the contact points, markers at "
-                  "their nominal offsets), as calibrate's 'before'")
-NOMINAL_REGISTERED = ("the nominal robot with its measurement setup re-estimated on DATA by least squares, as "
-                      "MODEL's")
+NOMINAL_REGISTERED = ("the nominal robot with its measurement setup (measurement frame, markers, cameras, targets, "
+                      "contact planes) registered on DATA by least squares from its placement in closed form, as "
+                      "calibrate's 'before'")
 
 
 def prepare_setup(robot: Robot, dataset: Dataset, options: CalibrationOptions) -> Prepared:

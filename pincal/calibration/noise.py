@@ -10,8 +10,8 @@ models", §3.6): with the fit linearised at its estimate, each group g of rows g
 
     σ̂_g² = Σ_{i∈g} w_i e_i² / r_g,    r_g = Σ_{i∈g} (1 − h_ii)
 
-``e_i`` the rows' residuals, ``w_i`` their robust weights, ``r_g`` the group's redundancy (``h_ii`` the leverage of row i
-in the weighted fit, with its prior: the degrees of freedom the fit took from the group), iterated with the weights
+``e_i`` the rows' residuals, ``w_i`` their robust weights, ``r_g`` the group's redundancy (``h_ii`` the leverage of row
+i in the weighted fit, with its prior: the degrees of freedom the fit took from the group), iterated with the weights
 ``1/σ̂_g²`` until they settle (:data:`ITERATIONS`). A row's σ is never taken below the model's default (1e-5 m, rad):
 data that fit more closely than that are near exact, and the default keeps their fit going to the numerical floor. The
 estimates then weight the calibration as ``# sigma`` lines of one σ per row would (:func:`with_noise`); the report's

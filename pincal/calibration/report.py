@@ -68,8 +68,9 @@ class CalibrationReport:
     calibration read, as the data declared it (zero when they did not): the calibrated robot's marker links are these
     plus the ``marker.*``/``cluster.*`` estimates.
     ``estimated_sigma`` holds the σ [m, rad] estimated from
-    the data for the readings no ``# sigma`` line (nor ``--sigma``) states, per measurement key and row kind
-    (``length``, ``angle``; :mod:`pincal.calibration.noise`).
+    the data for the readings no ``# sigma`` line (nor ``--sigma``) states, per measurement key: per residual row
+    (``rows``, with their ``units``) and per row kind (``length``, ``angle``: the RMS of its rows;
+    :mod:`pincal.calibration.noise`).
     """
 
     schema_version: int = SCHEMA_VERSION
@@ -149,7 +150,7 @@ class CalibrationReport:
     implausible_scale: list[dict[str, Any]] = field(default_factory=list)
     implausible_cause: str = ""
     cv: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
-    estimated_sigma: dict[str, dict[str, float]] | None = field(default=None, metadata=OPTIONAL)
+    estimated_sigma: dict[str, dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
     sample_errors: list[dict[str, Any]] = field(default_factory=list)
     covariance: dict[str, Any] = field(default_factory=dict)
     fitted_range: dict[str, list[float]] = field(default_factory=dict)

@@ -69,6 +69,8 @@ def summary_text(content: dict[str, Any]) -> str:
     else:
         lines.append("every posture lies within the joint ranges the calibration fitted")
     lines += _predicted_lines(content)
+    for side, note in (content.get("registration_notes") or {}).items():
+        lines.append(f"note: {'MODEL' if side == 'model' else 'the nominal robot'}: {note}")
     if content.get("nominal_changed"):
         lines.append("warning: the nominal URDF changed since the calibration (its SHA-256 differs from the one "
                      "MODEL records)")
@@ -79,10 +81,18 @@ def summary_text(content: dict[str, Any]) -> str:
     elif content["worse_than_nominal"]:
         lines.append("verdict: MODEL predicts DATA WORSE than the nominal robot")
         if not content["registered"]:
-            lines.append("  hint: the nominal side's measurement setup is placed on DATA, MODEL's is the file's: if "
-                         "the tracker, the markers or the cameras moved since the calibration, check with --register")
+            lines.append("  hint: the nominal side's measurement setup is registered on DATA, MODEL's is the "
+                         "file's: if the tracker, the markers or the cameras moved since the calibration, check with "
+                         "--register")
     else:
         lines.append("verdict: MODEL predicts DATA no worse than the nominal robot")
+    beyond = (content.get("groups") or {}).get("beyond") or {}
+    if content["implausible"] is None and beyond.get("worse"):
+        lines += textwrap.wrap(
+            f"verdict beyond the fitted range: MODEL predicts the {beyond['n']} postures beyond its fitted joint range "
+            f"WORSE than the nominal robot ({_shown(beyond['rms'], 'm')} against {_shown(beyond['nominal_rms'], 'm')} "
+            "RMS), whatever the total: do not use MODEL there (calibrate over postures that cover them)", 120,
+            subsequent_indent="  ")
     return "\n".join(lines)
 
 
@@ -119,15 +129,18 @@ def _predicted_lines(content: dict[str, Any]) -> list[str]:
     lines = [f"predicted 95 % bound: median {predicted['median_bound'] * 1e3:.4f} mm; {predicted['inside']} of "
              f"{predicted['samples']} errors of MODEL within their bound ({predicted['fraction']:.0%})"]
     lines += [f"  {s['sample']}: error {s['error'] * 1e3:.4f} mm, bound {s['bound'] * 1e3:.4f} mm"
-              + (f" (widened × {s['widening']:.2f})" if s["widening"] > 1.0 else "")
+              + (f" ({s['distance']:.2f} range widths beyond the fitted range)" if s["distance"] > 0.0 else "")
+              + (f"; the nominal robot's own {s['nominal_bound'] * 1e3:.4f} mm" if s.get("nominal_bound") else "")
               for s in content["samples"][:SAMPLE_LINES] if s.get("bound") is not None and s.get("error") is not None]
     if len(content["samples"]) > SAMPLE_LINES:
         lines.append(f"  … and {len(content['samples']) - SAMPLE_LINES} more (the report's 'samples')")
-    widened = predicted["widened"]
-    if widened:
-        lines.append(f"warning: {len(widened)} postures lie beyond the joint ranges the calibration fitted "
-                     f"({', '.join(widened[:8])}{' …' if len(widened) > 8 else ''}): their bounds are widened, "
-                     "MODEL extrapolates there")
+    beyond = predicted["beyond"]
+    if beyond:
+        inside, out = predicted["in_range"], predicted["beyond_range"]
+        lines.append(f"warning: {len(beyond)} postures lie beyond the joint ranges the calibration fitted "
+                     f"({', '.join(beyond[:8])}{' …' if len(beyond) > 8 else ''}): MODEL extrapolates there, its "
+                     f"bounds grow with the distance; within their bound: {out['inside']} of {out['samples']} beyond, "
+                     f"{inside['inside']} of {inside['samples']} inside")
     return lines
 
 
@@ -156,7 +169,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     if unconverged:  # the comparison is of setups not yet fitted
         print(f"NOT CONVERGED: the registration of the {' and the '.join(unconverged)} reached the iteration limit "
               "(--max-iter): the figures compare setups not yet fitted")
-    return 1 if check.worse_than_nominal or unconverged or check.implausible is not None else 0
+    return 1 if check.worse_than_nominal or check.worse_beyond or unconverged or check.implausible is not None else 0
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

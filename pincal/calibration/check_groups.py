@@ -1,0 +1,129 @@
+"""What ``pincal check`` judges apart: the postures within the joint ranges the calibration fitted and those beyond,
+and each posture's predicted 95 % bound under MODEL.
+
+A calibration is used beyond its data, and a total can hide a group it predicts badly: a model better than the
+nominal robot on postures like its fitted ones can be worse on those beyond them. So the check's verdict is also taken
+on each group: MODEL predicts the postures beyond its fitted range (at least :data:`MIN_GROUP` of them) worse than the
+nominal robot (its setup registered on the same data) → exit 1, whatever the total. The bounds are those of
+:mod:`pincal.calibration.predicted`, from the calibration MODEL holds: a report JSON, or a calibrated URDF's
+``<pincal_calibration>`` element (:mod:`pincal.calibration.carried`). Lengths in m.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.calibration.check_model import CheckedModel
+from pincal.calibration.growth import ErrorGrowth
+from pincal.calibration.predicted import FitCovariance, PredictedErrors, distance, predicted_errors
+from pincal.calibration.samples import held_out_outside_range
+from pincal.calibration.setup import Prepared
+from pincal.errors import DataError
+from pincal.identification.metrics import rms, sample_length_errors
+from pincal.io.dataset import Dataset
+from pincal.model.robot import Robot
+
+Array = npt.NDArray[np.float64]
+
+#: Fewest postures of a group its own verdict is taken on.
+MIN_GROUP = 3
+#: Why a check has no predicted bounds.
+NO_CALIBRATION = ("MODEL carries no calibration (a URDF written before pincal recorded one, or a robot name): give a "
+                  "calibrated URDF or the report JSON of its calibration as MODEL for each posture's predicted error")
+
+
+def group_verdicts(model_errors: dict[str, Array], nominal_errors: dict[str, Array], beyond: Sequence[bool]
+                   ) -> dict[str, Any]:
+    """Per group (``inside`` and ``beyond`` the fitted range: ``beyond`` per checked sample) its postures with a
+    length reading, MODEL's and the nominal robot's RMS length error [m], and whether MODEL predicts it worse (a group
+    of at least :data:`MIN_GROUP` postures)."""
+    n = len(beyond)
+    model, nominal = sample_length_errors(model_errors, n), sample_length_errors(nominal_errors, n)
+    out: dict[str, Any] = {}
+    for name, where in (("inside", ~np.asarray(beyond, dtype=bool)), ("beyond", np.asarray(beyond, dtype=bool))):
+        if model is None or nominal is None:
+            out[name] = {"n": 0, "rms": None, "nominal_rms": None, "worse": False}
+            continue
+        keep = where & np.isfinite(model) & np.isfinite(nominal)
+        a, b = rms(model[keep]), rms(nominal[keep])
+        count = int(np.count_nonzero(keep))
+        out[name] = {"n": count, "rms": a if count else None, "nominal_rms": b if count else None,
+                     "worse": bool(count >= MIN_GROUP and a > b)}
+    return out
+
+
+def predicted_check(model: CheckedModel, nominal: Prepared) -> tuple[PredictedErrors | None, str | None]:
+    """Each checked sample's predicted error under MODEL (:mod:`pincal.calibration.predicted`): the calibration's
+    estimates, covariance and growth, as its report or its calibrated URDF holds them, on ``nominal``'s samples, at
+    their distance beyond the fitted range it records. None and why when MODEL holds none."""
+    report = model.calibration
+    if report is None:
+        return None, NO_CALIBRATION
+    from pincal.identification.parameters import choose_parameters
+
+    names = list(report.parameters)
+    try:
+        parameters = choose_parameters(nominal.robot, nominal.models, names, "cluster" if report.markers == "cluster"
+                                       else "each")
+    except (DataError, KeyError):
+        return None, "MODEL's parameters are not those of these measurements: no predicted errors"
+    x = np.array([float(report.parameters[name]["value"]) for name in parameters.names])
+    on = nominal.on(nominal.samples, parameters)
+    growth = ErrorGrowth.from_dict(report.error_growth)
+    fit = FitCovariance.of_report(report.covariance, report.sigma2, parameters.names, growth)
+    ranges = report.fitted_range or model.provenance.fitted_range or {}
+    predicted = predicted_errors(on.problem, fit, x, distance(nominal.robot, on.problem.observations.actuated, ranges))
+    if not np.any(np.isfinite(predicted.bound)):
+        return None, "MODEL's calibration holds no covariance of its estimates for these measurements"
+    return predicted, None
+
+
+def nominal_bounds(model: CheckedModel, predicted: PredictedErrors) -> npt.NDArray[np.float64]:
+    """The nominal robot's own 95 % bound [m] at each checked posture (:meth:`~pincal.calibration.growth.ErrorGrowth.
+    nominal`, at the posture's distance), NaN where the calibration holds none."""
+    growth = ErrorGrowth.from_dict(model.calibration.error_growth) if model.calibration is not None else None
+    if growth is None:
+        return np.full(predicted.bound.size, np.nan)
+    return growth.nominal(predicted.distance)
+
+
+def outside_recorded(robot: Robot, ranges: dict[str, list[float]], samples: Dataset,
+                     joints: Sequence[str]) -> list[dict[str, Any]]:
+    """The readings of ``samples`` outside the fitted ``ranges`` MODEL records ({joint: [min, max]} [rad or m]) by
+    more than their margin, as :func:`~pincal.calibration.samples.held_out_outside_range` lists them."""
+    names = [j for j in robot.actuated_joints if j in ranges and j in joints and j in samples.joint_names]
+    limits = np.array([[ranges[j][0] for j in names], [ranges[j][1] for j in names]])
+    bounds = Dataset(names, limits, {}, ["min", "max"], ["train", "train"], {})
+    return held_out_outside_range(robot, bounds, samples, joints=names)
+
+
+def fitted_data(model: CheckedModel, nominal: Robot) -> tuple[Dataset | None, str | None]:
+    """The data the calibration fitted, as the model's provenance records it, or None and why not (no record, the
+    file gone or changed since, or unreadable)."""
+    from pincal.calibration.job import read_job
+    from pincal.calibration.job_data import job_dataset
+    from pincal.calibration.provenance import sha256
+    from pincal.calibration.samples import read_robot_dataset
+    from pincal.errors import PincalError
+
+    path, recorded = model.provenance.data, model.provenance.data_sha256
+    if path is None:
+        return None, "MODEL records no calibration data (no provenance): postures outside the fitted range cannot be " \
+                     "flagged"
+    if not path.is_file():
+        return None, f"the calibration's data '{path}' (recorded in MODEL) is not there: postures outside the " \
+                     "fitted range cannot be flagged"
+    if recorded and sha256(path) != recorded:
+        return None, f"the calibration's data '{path}' changed since the calibration (its SHA-256 differs): " \
+                     "postures outside the fitted range cannot be flagged"
+    try:
+        if path.suffix.lower() == ".toml":
+            return job_dataset(read_job(path), nominal), None
+        return read_robot_dataset(path, nominal), None
+    except PincalError as exc:
+        return None, f"the calibration's data '{path}' cannot be read ({exc}): postures outside the fitted range " \
+                     "cannot be flagged"
