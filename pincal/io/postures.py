@@ -186,8 +186,8 @@ def _measurement_fault(stream: MeasurementStream, pick: npt.NDArray[np.bool_], s
     if half == 0:
         return ""
     positions = stream.positions[pick]
-    moved = float(np.linalg.norm(positions[:half].mean(axis=0) - positions[half:].mean(axis=0)))
-    if moved > drift:
+    moved = float(np.linalg.norm(_mean(positions[:half]) - _mean(positions[half:])))
+    if not moved <= drift:  # an overflow's NaN or infinity is moving too
         return f"measurement moving ({moved * 1e3:.2f} mm between its halves > {drift * 1e3:g} mm)"
     if stream.quaternions is not None:
         first, second = (average_quaternion(q) for q in (stream.quaternions[pick][:half],

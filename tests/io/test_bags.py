@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+import warnings
 from pathlib import Path
 from types import ModuleType
 
@@ -164,3 +165,20 @@ def test_library_arguments_are_refused_as_the_command_line_refuses_them(tmp_path
         average_quaternion(np.zeros((0, 4)))
     with pytest.raises(ArgumentError, match=r"quaternions\[0\] = \[nan, 0.0, 0.0, 1.0\]: not finite"):
         average_quaternion(np.array([[np.nan, 0.0, 0.0, 1.0]]))
+
+
+def test_readings_too_large_to_average_are_neither_a_warning_nor_a_still_measurement() -> None:
+    """Finite readings whose sums overflow: joints at 1e308 average to 1e308 exactly; a marker jumping between
+    ±1e308 is moving (its halves' gap infinite), not kept with a NaN; no RuntimeWarning either way."""
+    times = START + np.arange(200) / ros_bag.JOINT_RATE
+    states = JointStates(times, NAMES, np.full((200, 3), 1e308))
+    jumping = np.repeat([[1e308], [-1e308]], 50, axis=0).reshape(-1, 1) * np.ones((100, 3))
+    still = MeasurementStream(times[::2], np.full((100, 3), 1e308), None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        kept = find_postures(states, NAMES, still)
+        dropped = find_postures(states, NAMES, MeasurementStream(times[::2], jumping, None))
+    assert [p.reason for p in kept] == [""]
+    np.testing.assert_array_equal(kept[0].joints, np.full(3, 1e308))
+    np.testing.assert_array_equal(kept[0].position, np.full(3, 1e308))
+    assert dropped[0].reason == "measurement moving (inf mm between its halves > 1 mm)"
