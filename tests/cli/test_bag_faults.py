@@ -125,7 +125,7 @@ def test_a_joint_never_published_is_refused_at_import_when_it_moves_the_measured
     ("rosbag2_bagfile_information:\n  version: 5\n  topics_with_message_count: [\n   - {a: b\n",
      "line 4, column 4: expected the node content, but found '-'"),
     ("rosbag2_bagfile_information:\n  version: 5: 6\n", "line 2, column 13: mapping values are not allowed here"),
-])
+], ids=["unclosed-list", "two-colons"])
 def test_a_metadata_file_that_does_not_parse_is_one_line_naming_its_line(tmp_path: Path, metadata: str,
                                                                          where: str) -> None:
     bag = tmp_path / "ros2"

@@ -21,7 +21,7 @@ def arm() -> tuple[pincal.Robot, str]:
     ("not xml at all", r"urdf_text='not xml at all': not a URDF: XML syntax error: line 1, column 0"),
     ("<robot name='r'><link></robot>", r"urdf_text=.*: not a URDF: XML mismatched tag: line 1, column 24"),
     ("<html><body/></html>", r"urdf_text: the root element is <html>, not <robot>: not a URDF"),
-])
+], ids=["not-xml", "broken-xml", "not-a-robot"])
 def test_text_that_is_not_a_urdf_is_named(arm: tuple[pincal.Robot, str], text: str, message: str) -> None:
     with pytest.raises(RobotFileError, match=message):
         joint_origins_yaml(text, "given")
