@@ -39,8 +39,8 @@ def cmd_import(args: argparse.Namespace) -> int:
           + (f"; not read: {', '.join(done.extra)}" if done.extra else "") + f"), {done.key} from "
           f"{source.describe()}")
     if done.absent:
-        print(f"  not on {args.joints}: {', '.join(done.absent)} (calibrate takes them at their reference value if "
-              "they move no measured frame)")
+        print(f"  not on {args.joints}: {', '.join(done.absent)} (they move no measured frame: calibrate takes them at "
+              "their reference value)")
     print(f"postures (joints within {rule.tolerance:g} rad or m for {rule.time:g} s or more):")
     for posture in done.postures:
         print(f"  {posture.sample_id:>5}  {posture.line()}")

@@ -19,7 +19,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     from pincal.calibration.provenance import file_digests, version
     from pincal.io.calibrated_urdf import source_text
     from pincal.io.corrections_file import corrections_path, robot_files
-    from pincal.io.export import dh_export, joint_origins_yaml
+    from pincal.io.export import dh_export, joint_origins_yaml, shown_name
     from pincal.io.files import check_outputs, write_text
     from pincal.model.robot import load_robot
 
@@ -42,17 +42,17 @@ def cmd_export(args: argparse.Namespace) -> int:
     done = dh_export(robot, text, source, args.format, args.frame, args.base, args.tolerance,
                      args.postures, args.seed)
     table, residual = done.table, done.residual
-    print(f"{args.format} table of {table.base_frame} -> {table.end_frame}, {len(table.rows)} joints; conversion "
-          f"residual over {residual.postures} random postures: {residual.position:.3g} m, "
+    print(f"{args.format} table of {shown_name(table.base_frame)} -> {shown_name(table.end_frame)}, {len(table.rows)} "
+          f"joints; conversion residual over {residual.postures} random postures: {residual.position:.3g} m, "
           f"{residual.orientation:.3g} rad")
     names = ("theta", "d", "a", "alpha") if args.format == "dh" else ("alpha", "a", "theta", "d")
     print(f"  {'joint':<28}" + "".join(f"{n + (' [rad]' if n in ('theta', 'alpha') else ' [m]'):>16}" for n in names))
     for row in table.rows:
         values = {"theta": row.theta, "d": row.d, "a": row.a, "alpha": row.alpha}
-        print(f"  {row.joint:<28}" + "".join(f"{values[n]:>16.9g}" for n in names))
+        print(f"  {shown_name(row.joint):<28}" + "".join(f"{values[n]:>16.9g}" for n in names))
     for first, second, angle, distance in table.near_parallel:
-        print(f"  note: axes of {first} and {second} are {angle:.3g} rad from parallel: their common normal is "
-              f"{distance:.3g} m away (exact, but d values large and cancelling)")
+        print(f"  note: axes of {shown_name(first)} and {shown_name(second)} are {angle:.3g} rad from parallel: their "
+              f"common normal is {distance:.3g} m away (exact, but d values large and cancelling)")
     write_text(args.out, done.text)
     print(f"wrote {args.out}")
     return 0

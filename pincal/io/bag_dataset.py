@@ -7,7 +7,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from pincal import validation
 from pincal.errors import DataError, listing
+from pincal.identification.parameters import influencing_joints
 from pincal.io.bags import MeasurementSource, read_bag
 from pincal.io.dataset import Dataset
 from pincal.io.postures import DEFAULT_RULE, Posture, StillRule, find_postures, postures_dataset
@@ -50,8 +52,8 @@ class BagImport:
         dataset: The kept postures as a dataset (docs/dataset.md).
         postures: Every posture found, kept or dropped.
         joints: The robot's actuated joints the topic carries: the dataset's joint columns.
-        absent: The robot's actuated joints the topic never carries (taken at their reference value by
-            ``pincal calibrate`` when they move no measured frame).
+        absent: The robot's actuated joints the topic never carries, none of which moves the measured frame (taken at
+            their reference value by ``pincal calibrate``).
         extra: The names the topic carries that are not actuated joints of the robot (grippers), not read.
         key: The dataset's measurement key (``pose:<frame>`` or ``position:<frame>``).
     """
@@ -71,10 +73,18 @@ def bag_dataset(robot: Robot, path: str | Path, joints_topic: str, source: Measu
     ``frame`` (default: the robot's measured frame), in the static postures ``rule`` finds.
 
     Raises:
+        TypeError: an argument of another type (None for the robot or the bag included).
         DataError: the bag, a topic or its messages (:func:`~pincal.io.bags.read_bag`); a topic carrying none of the
-            robot's actuated joints, or no posture found.
+            robot's actuated joints, or never one that moves ``frame``; a joint reading that is not finite; no posture
+            found.
         NotFoundError: a topic, transform or frame that does not exist, listing those that do.
     """
+    validation.instance("robot", robot, Robot, "a Robot (pincal.load_robot)")
+    validation.path("path", path)
+    validation.instance("source", source, MeasurementSource, "a MeasurementSource")
+    validation.instance("rule", rule, StillRule, "a StillRule")
+    if frame is not None:
+        validation.instance("frame", frame, str, "a frame name (str) or None")
     frame = frame or robot.end_effector
     robot.frame_id(frame, "the measured frame: ")
     states, stream = read_bag(path, joints_topic, source)
@@ -82,6 +92,13 @@ def bag_dataset(robot: Robot, path: str | Path, joints_topic: str, source: Measu
     if not joints:
         raise DataError(f"joint states: topic '{joints_topic}' carries none of the actuated joints of '{robot.name}' "
                         f"({listing(robot.actuated_joints)}); it carries: {listing(states.names)}")
+    moving = set(influencing_joints(robot, [frame]))
+    needed = [j for j in robot.actuated_joints if j not in states.names and j in moving]
+    if needed:
+        which = "which moves" if len(needed) == 1 else "which move"
+        raise DataError(f"joint states: topic '{joints_topic}' never carries {listing(needed)}, {which} the measured "
+                        f"frame '{frame}' (a calibration needs its readings); it carries: {listing(states.names)}")
+    states.check_finite(joints, joints_topic)
     postures = find_postures(states, joints, stream, rule)
     if not postures:
         raise DataError(f"no static posture in '{path}': the joints of '{joints_topic}' never stay within "

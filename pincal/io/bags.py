@@ -13,7 +13,10 @@ The measurement is one of (docs/bags.md):
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import itertools
+import math
+import struct
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -21,7 +24,8 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from pincal.errors import DataError, listing, not_found
+from pincal import validation
+from pincal.errors import ArgumentError, DataError, listing, not_found
 
 if TYPE_CHECKING:
     from rosbags.highlevel import AnyReader
@@ -52,6 +56,22 @@ class MeasurementSource:
     parent: str = ""
     child: str = ""
 
+    def __post_init__(self) -> None:
+        """Refuse a kind that is not one of :data:`MESSAGE_TYPES`, a topic or frame that is not a string, and a
+        ``tf`` source without its two frames.
+
+        Raises:
+            TypeError: a topic or frame of another type.
+            ArgumentError: an unknown kind, or a ``tf`` source without a parent and a child frame.
+        """
+        if self.kind not in MESSAGE_TYPES:
+            raise ArgumentError(f"kind={validation.shown(self.kind)}: must be one of {', '.join(MESSAGE_TYPES)}")
+        for name in ("topic", "parent", "child"):
+            validation.instance(name, getattr(self, name), str, "a string")
+        if self.kind == "tf" and not (self.parent and self.child):
+            raise ArgumentError(f"kind='tf' needs parent= and child=, the frames of the transform (got "
+                                f"{self.parent!r}, {self.child!r})")
+
     @property
     def oriented(self) -> bool:
         """Whether the measurement has an orientation (a pose), not a point alone."""
@@ -72,11 +92,34 @@ class JointStates:
         times: (M,) message times [s].
         names: The joint names the messages carry, in the order first seen (grippers and other extras included).
         positions: (M, len(names)) positions [rad or m]; NaN where a message did not carry that joint.
+        carried: (M, len(names)) whether each message carried each joint (a reading NaN or infinite included); None:
+            where ``positions`` is not NaN.
     """
 
     times: Array
     names: list[str]
     positions: Array
+    carried: npt.NDArray[np.bool_] | None = None
+
+    def check_finite(self, names: Sequence[str], topic: str) -> None:
+        """Refuse a NaN or infinite reading of one of the joints ``names`` (those a calibration reads).
+
+        Raises:
+            DataError: the first such message, by its time from the recording's first [s], the joint and the value,
+                and how many messages hold one.
+        """
+        columns = [self.names.index(name) for name in names]
+        values = self.positions[:, columns]
+        carried = self.carried[:, columns] if self.carried is not None else ~np.isnan(values)
+        bad = carried & ~np.isfinite(values)
+        rows = np.flatnonzero(np.any(bad, axis=1))
+        if rows.size:
+            row = int(rows[0])
+            shown = ", ".join(f"{names[int(k)]} = {values[row, k]}" for k in np.flatnonzero(bad[row]))
+            more = f" (and {rows.size - 1} more messages)" if rows.size > 1 else ""
+            at = float(self.times[row] - self.times[0])
+            raise DataError(f"joint states: the message on '{topic}' at t {at:.2f} s (from the recording's first) "
+                            f"holds {shown}{more}: a joint reading must be a finite number [rad or m]")
 
 
 @dataclass(frozen=True)
@@ -102,13 +145,45 @@ def _stamp(header: Any, bag_time_ns: int) -> float:
     return 1e-9 * float(bag_time_ns)
 
 
+def _read_errors() -> tuple[type[Exception], ...]:
+    """What reading a damaged bag raises: rosbags' errors, and those of the bytes it decodes (decompression, sizes,
+    text)."""
+    from rosbags.highlevel import AnyReaderError
+    from rosbags.rosbag1 import ReaderError as Reader1Error
+    from rosbags.rosbag2 import ReaderError as Reader2Error
+    from rosbags.serde import SerdeError
+
+    return AnyReaderError, Reader1Error, Reader2Error, SerdeError, OSError, ValueError, struct.error, IndexError, \
+        KeyError, EOFError
+
+
+def _parser_error(exc: BaseException) -> BaseException | None:
+    """The parser's error under ``exc`` (a YAML parser's, with a ``problem`` and its ``problem_mark``), or None."""
+    cause: BaseException | None = exc
+    while cause is not None:
+        if getattr(cause, "problem", None) and getattr(cause, "problem_mark", None) is not None:
+            return cause
+        cause = cause.__cause__ or cause.__context__
+    return None
+
+
+def one_line(exc: BaseException) -> str:
+    """``exc``'s message on one line: a YAML parser's as ``line 5, column 4: <its problem>``, another's lines
+    joined."""
+    parser = _parser_error(exc)
+    if parser is not None:
+        mark = parser.problem_mark  # type: ignore[attr-defined]
+        return f"line {mark.line + 1}, column {mark.column + 1}: {parser.problem}"  # type: ignore[attr-defined]
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
 def _open(path: Path) -> AnyReader:
     """An open reader of the bag at ``path``.
 
     Raises:
         DataError: the path does not exist or is not a bag rosbags can read.
     """
-    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
 
     if not path.exists():
@@ -116,9 +191,10 @@ def _open(path: Path) -> AnyReader:
     try:
         reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
-    except (AnyReaderError, OSError, ValueError) as exc:
+    except _read_errors() as exc:
+        where = f"{path / 'metadata.yaml'}, " if path.is_dir() and _parser_error(exc) is not None else ""
         raise DataError(f"'{path}' is not a ROS bag pincal can read (a ROS 1 .bag, a ROS 2 bag directory or an "
-                        f".mcap file): {exc}") from None
+                        f".mcap file): {where}{one_line(exc)}") from None
     return reader
 
 
@@ -134,18 +210,41 @@ def _connections(reader: AnyReader, topic: str, msgtype: str, role: str) -> list
     return found
 
 
-def _messages(reader: AnyReader, connections: list[Any]) -> Iterator[tuple[Any, int]]:
-    """Each message of ``connections`` deserialised, with its bag time [ns]."""
-    for connection, bag_time, raw in reader.messages(connections=connections):
-        yield reader.deserialize(raw, connection.msgtype), bag_time
+def _messages(reader: AnyReader, bag: Path, connections: list[Any], role: str) -> Iterator[tuple[int, Any, int]]:
+    """Each message of ``connections``: its number on the topic (from 1, in the bag's order), the message
+    deserialised, its bag time [ns].
+
+    Raises:
+        DataError: the bag's bytes do not hold a message (a damaged bag, its index intact): the bag, the topic and the
+            message named.
+    """
+    errors = _read_errors()
+    topic = connections[0].topic
+    stream = reader.messages(connections=connections)
+    for number in itertools.count(1):
+        try:
+            item = next(stream, None)
+        except errors as exc:
+            raise DataError(f"{role}: '{bag}' is damaged: message {number} on '{topic}' cannot be read: "
+                            f"{one_line(exc)}") from None
+        if item is None:
+            return
+        connection, bag_time, raw = item
+        try:
+            message = reader.deserialize(raw, connection.msgtype)
+        except errors as exc:
+            raise DataError(f"{role}: '{bag}' is damaged: message {number} on '{topic}' (bag time "
+                            f"{1e-9 * bag_time:.3f} s) is not a {connection.msgtype}: {one_line(exc)}") from None
+        yield number, message, bag_time
 
 
-def _joint_states(reader: AnyReader, topic: str) -> JointStates:
+def _joint_states(reader: AnyReader, bag: Path, topic: str) -> JointStates:
     rows: list[tuple[float, dict[str, float]]] = []
-    for msg, bag_time in _messages(reader, _connections(reader, topic, JOINT_STATE, "joint states")):
+    role = "joint states"
+    for number, msg, bag_time in _messages(reader, bag, _connections(reader, topic, JOINT_STATE, role), role):
         positions = np.asarray(msg.position, dtype=float)
         if len(msg.name) != positions.size:
-            raise DataError(f"joint states: a message on '{topic}' names {len(msg.name)} joints but holds "
+            raise DataError(f"joint states: message {number} on '{topic}' names {len(msg.name)} joints but holds "
                             f"{positions.size} positions")
         rows.append((_stamp(msg.header, bag_time), dict(zip(msg.name, positions.tolist(), strict=True))))
     if not rows:
@@ -153,19 +252,29 @@ def _joint_states(reader: AnyReader, topic: str) -> JointStates:
     rows.sort(key=lambda row: row[0])
     names = list(dict.fromkeys(name for _, row in rows for name in row))
     positions = np.array([[row.get(name, np.nan) for name in names] for _, row in rows], dtype=float)
-    return JointStates(np.array([t for t, _ in rows]), names, positions)
+    carried = np.array([[name in row for name in names] for _, row in rows], dtype=bool)
+    return JointStates(np.array([t for t, _ in rows]), names, positions, carried)
 
 
 def _strip(frame: str) -> str:
     return frame.lstrip("/")
 
 
-def _readings(reader: AnyReader, source: MeasurementSource) -> list[tuple[float, list[float]]]:
-    """(time [s], x, y, z [m] and, for a pose, qx, qy, qz, qw) of each reading."""
+#: The fields of a reading, in the order :func:`_readings` gives them.
+READING_FIELDS = ("x", "y", "z", "qx", "qy", "qz", "qw")
+
+
+def _readings(reader: AnyReader, bag: Path, source: MeasurementSource) -> list[tuple[float, list[float]]]:
+    """(time [s], x, y, z [m] and, for a pose, qx, qy, qz, qw) of each reading.
+
+    Raises:
+        DataError: a reading holds a NaN or an infinite value (the message, its time and the field named).
+    """
     role = f"measurement ({source.kind})"
     found = []
     pairs: set[str] = set()
-    for msg, bag_time in _messages(reader, _connections(reader, source.topic, MESSAGE_TYPES[source.kind], role)):
+    connections = _connections(reader, source.topic, MESSAGE_TYPES[source.kind], role)
+    for number, msg, bag_time in _messages(reader, bag, connections, role):
         if source.kind == "point":
             p = msg.point
             found.append((_stamp(msg.header, bag_time), [p.x, p.y, p.z]))
@@ -179,6 +288,11 @@ def _readings(reader: AnyReader, source: MeasurementSource) -> list[tuple[float,
                 if (parent, child) == (_strip(source.parent), _strip(source.child)):
                     p, q = tf.transform.translation, tf.transform.rotation
                     found.append((_stamp(tf.header, bag_time), [p.x, p.y, p.z, q.x, q.y, q.z, q.w]))
+        bad = [(k, v) for k, v in enumerate(found[-1][1]) if not math.isfinite(v)] if found else []
+        if bad:
+            shown = ", ".join(f"{READING_FIELDS[k]} = {v}" for k, v in bad)
+            raise DataError(f"{role}: message {number} on '{source.topic}' (at {found[-1][0]:.3f} s) holds {shown}: "
+                            "every value of a reading must be a finite number")
     if not found and source.kind == "tf":
         raise not_found("transform", f"{source.parent} -> {source.child}", sorted(pairs), f" on {source.topic}",
                         f"{role}: ")
@@ -187,13 +301,14 @@ def _readings(reader: AnyReader, source: MeasurementSource) -> list[tuple[float,
     return sorted(found, key=lambda reading: reading[0])
 
 
-def _stream(reader: AnyReader, source: MeasurementSource) -> MeasurementStream:
-    readings = _readings(reader, source)
+def _stream(reader: AnyReader, bag: Path, source: MeasurementSource) -> MeasurementStream:
+    readings = _readings(reader, bag, source)
     values = np.array([v for _, v in readings], dtype=float)
     quaternions = None
     if source.oriented:
         quaternions = values[:, 3:7]
-        norms = np.linalg.norm(quaternions, axis=1)
+        with np.errstate(over="ignore"):  # a huge component: an infinite norm, refused below
+            norms = np.linalg.norm(quaternions, axis=1)
         if np.any(np.abs(norms - 1.0) > 1e-3):
             k = int(np.argmax(np.abs(norms - 1.0)))
             raise DataError(f"measurement ({source.kind}): the reading at {readings[k][0]:.3f} s has a quaternion of "
@@ -206,11 +321,16 @@ def read_bag(path: str | Path, joints_topic: str, source: MeasurementSource) -> 
     """The joint states of ``joints_topic`` and the measurement ``source`` of the bag at ``path``.
 
     Raises:
-        DataError: not a bag; a topic carrying another message type, or empty; a non-unit quaternion.
+        TypeError: an argument of another type (None for the bag included).
+        DataError: not a bag, or a damaged one; a topic carrying another message type, or empty; a measurement reading
+            that is not finite; a non-unit quaternion.
         NotFoundError: a topic (or a TF transform) the bag does not have, listing those it has.
     """
-    reader = _open(Path(path))
+    bag = Path(validation.path("path", path))
+    topic = validation.instance("joints_topic", joints_topic, str, "a topic name (str)")
+    validation.instance("source", source, MeasurementSource, "a MeasurementSource")
+    reader = _open(bag)
     try:
-        return _joint_states(reader, joints_topic), _stream(reader, source)
+        return _joint_states(reader, bag, topic), _stream(reader, bag, source)
     finally:
         reader.close()

@@ -9,18 +9,25 @@ a DH or modified-DH table (docs/calibrated_urdf.md, "Exports").
 
 Both are YAML (1.1 and 1.2 read the same values: every number has a decimal point). Lengths [m], angles [rad];
 orientations in URDF's roll, pitch, yaw: ``R = Rz(yaw) · Ry(pitch) · Rx(roll)``.
+
+A name (of the robot, a joint, a link, a frame, the source file) goes into the file as a key or value only as a plain
+YAML word or a double-quoted string with its escapes (:func:`_key`), and into a ``#`` comment only as it is when it
+holds no line break nor other control character, else as that quoted string (:func:`shown_name`): no name can end a
+comment or a line and add a key of its own.
 """
 
 from __future__ import annotations
 
 import json
 import re
+import unicodedata
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from typing import Literal
 
 import pinocchio as pin
 
+from pincal import validation
 from pincal.errors import RobotFileError
 from pincal.model.dh import CONVENTIONS, Convention, DHTable, Residual, conversion_residual, dh_table
 from pincal.model.robot import Robot
@@ -43,6 +50,36 @@ def _key(name: str) -> str:
     """A YAML key: the name as is when plain, else a double-quoted (JSON) string."""
     plain = _PLAIN.fullmatch(name) and name.lower() not in _YAML_WORDS
     return name if plain else json.dumps(name)
+
+
+def shown_name(name: str) -> str:
+    """``name`` as a comment or a terminal line shows it: as it is, or, when it holds a line break or another
+    control character (which would end a ``#`` comment), as a double-quoted string with its escapes."""
+    unsafe = any(unicodedata.category(c)[0] == "C" or unicodedata.category(c) in ("Zl", "Zp") for c in name)
+    return json.dumps(name) if unsafe else name
+
+
+def _quoted(name: str) -> str:
+    """``'name'`` in a comment, or ``name`` as :func:`shown_name` escapes it when it must be."""
+    shown = shown_name(name)
+    return shown if shown != name else f"'{name}'"
+
+
+def _parsed(urdf_text: str) -> ET.Element:
+    """The ``<robot>`` element of ``urdf_text``.
+
+    Raises:
+        TypeError: not a string.
+        RobotFileError: not XML, or not a ``<robot>``.
+    """
+    validation.instance("urdf_text", urdf_text, str, "the text of a URDF (str)")
+    try:
+        tree = ET.fromstring(urdf_text)
+    except ET.ParseError as exc:
+        raise RobotFileError(f"urdf_text={validation.shown(urdf_text, 40)}: not a URDF: XML {exc}") from None
+    if tree.tag != "robot":
+        raise RobotFileError(f"urdf_text: the root element is <{tree.tag}>, not <robot>: not a URDF")
+    return tree
 
 
 def _num(value: float) -> str:
@@ -82,10 +119,20 @@ def _origin(node: ET.Element | None, what: str) -> tuple[tuple[float, ...], tupl
 
 
 def joint_origins_yaml(urdf_text: str, source: str) -> str:
-    """The ``yaml`` export of a URDF (module docstring): every joint's origin, every loop's anchors."""
-    tree = ET.fromstring(urdf_text)
-    lines = [f"# pincal export: the joint origins of {source} (robot '{tree.get('name', '')}'), as its <origin>s hold "
-             "them",
+    """The ``yaml`` export of a URDF (module docstring): every joint's origin, every loop's anchors.
+
+    Args:
+        urdf_text: The URDF.
+        source: What it is, for the header comment (its file, its SHA-256).
+
+    Raises:
+        TypeError: an argument that is not a string.
+        RobotFileError: ``urdf_text`` is not a URDF, or an ``<origin>`` is not three numbers.
+    """
+    tree = _parsed(urdf_text)
+    validation.instance("source", source, str, "a description (str)")
+    lines = [f"# pincal export: the joint origins of {shown_name(source)} (robot {_quoted(tree.get('name', ''))}), as "
+             "its <origin>s hold them",
              "# x, y, z [m]: the joint frame's origin in its parent link's frame; roll, pitch, yaw [rad]: its "
              "orientation, URDF's rpy (R = Rz(yaw) Ry(pitch) Rx(roll))",
              "# the layout of ur_description's default_kinematics.yaml, keyed by joint name; parent, child, type as "
@@ -125,7 +172,7 @@ def _root(tree: ET.Element) -> str:
 def default_base(urdf_text: str) -> str:
     """The base frame of a DH table by default: the URDF's root link; in a calibrated URDF whose root is the
     measurement frame, the robot's own root below it (the child of ``measurement_frame_joint``)."""
-    tree = ET.fromstring(urdf_text)
+    tree = _parsed(urdf_text)
     root = _root(tree)
     if root == MEASUREMENT_FRAME:
         for joint in tree.findall("joint"):
@@ -158,10 +205,21 @@ def dh_export(robot: Robot, urdf_text: str, source: str, convention: str, end: s
     robot's measured frame), verified against Pinocchio's forward kinematics.
 
     Raises:
-        RobotFileError: not representable (closed loops, a joint neither revolute nor prismatic), or the
-            conversion residual is above ``tolerance`` [m, rad].
+        TypeError: an argument of another type.
+        ArgumentError: ``tolerance`` not > 0, ``postures`` < 1, ``seed`` < 0.
+        RobotFileError: ``urdf_text`` is not a URDF; not representable (closed loops, a joint neither revolute nor
+            prismatic), or the conversion residual is above ``tolerance`` [m, rad].
         NotFoundError: a frame does not exist, or no end frame is obvious.
     """
+    validation.instance("robot", robot, Robot, "a Robot (pincal.load_robot)")
+    root = _root(_parsed(urdf_text))
+    validation.instance("source", source, str, "a description (str)")
+    for name, frame in (("end", end), ("base", base)):
+        if frame is not None:
+            validation.instance(name, frame, str, "a frame name (str) or None")
+    tolerance = validation.real("tolerance", tolerance, "m, rad", strict=True)
+    postures = validation.whole("postures", postures, 1)
+    seed = validation.whole("seed", seed, 0)
     if convention not in CONVENTIONS:
         raise RobotFileError(f"convention '{convention}' is not one of {', '.join(CONVENTIONS)}")
     conv: Convention = "dh" if convention == "dh" else "mdh"
@@ -173,7 +231,8 @@ def dh_export(robot: Robot, urdf_text: str, source: str, convention: str, end: s
         raise RobotFileError(f"the {conv} table of {base} -> {end} misses the URDF by {residual.position:.3g} m, "
                              f"{residual.orientation:.3g} rad (tolerance {tolerance:g}): not representable")
     title, formula, columns = _LAYOUT[conv]
-    lines = [f"# pincal export: {title} table of {source} (robot '{robot.name}'), chain {base} -> {end}",
+    lines = [f"# pincal export: {title} table of {shown_name(source)} (robot {_quoted(robot.name)}), chain "
+             f"{shown_name(base)} -> {shown_name(end)}",
              "# lengths [m], angles [rad]; the pose of the end frame in the base frame is",
              "#   base * A_1(q_1) * ... * A_n(q_n) * tool,",
              f"#   {formula},",
@@ -182,14 +241,16 @@ def dh_export(robot: Robot, urdf_text: str, source: str, convention: str, end: s
              f"# conversion residual: largest gap to the URDF's forward kinematics (Pinocchio) at the zero posture "
              f"and {residual.postures} random ones within the joint limits (seed {residual.seed}): "
              f"{residual.position:.3g} m, {residual.orientation:.3g} rad"]
-    if base != (root := _root(ET.fromstring(urdf_text))):
-        lines.append(f"# base frame '{base}'; the URDF's root is '{root}': the base frame's placement in it is not "
-                     "in the table")
+    if base != root:
+        lines.append(f"# base frame {_quoted(base)}; the URDF's root is {_quoted(root)}: the base frame's placement in "
+                     "it is not in the table")
     for first, second in table.parallel:
-        lines.append(f"# axes of {first} and {second} parallel: their common normal taken with d = 0")
+        lines.append(f"# axes of {shown_name(first)} and {shown_name(second)} parallel: their common normal taken "
+                     "with d = 0")
     for first, second, angle, distance in table.near_parallel:
-        lines.append(f"# axes of {first} and {second} {angle:.3g} rad from parallel: their common normal is "
-                     f"{distance:.3g} m away, d values large and cancelling (exact, as the residual shows)")
+        lines.append(f"# axes of {shown_name(first)} and {shown_name(second)} {angle:.3g} rad from parallel: their "
+                     f"common normal is {distance:.3g} m away, d values large and cancelling (exact, as the residual "
+                     "shows)")
     lines += [f"convention: {conv}", f"base_frame: {_key(base)}", f"end_frame: {_key(end)}",
               f"base: {_flow(_se3_fields(table.base))}", "joints:"]
     for row in table.rows:

@@ -5,12 +5,21 @@ the target's directory and renamed over the target, so an interrupted run or a f
 previous file intact. :func:`check_outputs` runs before any work: it refuses an output that resolves to
 an input or to another output, or that is a directory, and creates missing parent directories (or
 says why it cannot), so that no error surfaces after a long fit.
+
+A process killed at the instant of a write (SIGKILL, a power cut) leaves its temporary, ``.NAME.XXXXXXXX.part``, in
+the folder. The next write to that folder removes such leftovers (:func:`remove_stale_temporaries`): a writer holds
+an exclusive advisory lock (``flock``) on its temporary from the moment it creates it until it renames it, and the
+kernel drops that lock when the process ends, however it ends; a temporary of that exact naming that nobody holds
+locked is stale, one that another pincal is writing right now is locked and kept. Where the file system has no
+locks (or the platform no ``fcntl``), nothing is removed.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import re
 import stat
 import tempfile
 from collections import deque
@@ -19,6 +28,11 @@ from pathlib import Path
 from typing import Any
 
 from pincal.errors import OutputError
+
+try:
+    import fcntl
+except ImportError:  # not a POSIX platform: no advisory locks, no stale temporary told from a live one
+    fcntl = None  # type: ignore[assignment]
 
 
 def _umask() -> int:
@@ -112,9 +126,10 @@ def make_directory(directory: str | Path, what: str) -> Path:
     except OSError as exc:
         raise OutputError(f"{what}: cannot create directory '{folder}': {exc.strerror or exc}") from None
     try:  # a file written and removed: permissions, read-only mounts and pseudo file systems (/proc) all tell
-        handle, probe = tempfile.mkstemp(dir=folder, prefix=".pincal-probe.")
+        handle, probe = tempfile.mkstemp(dir=folder, prefix=PROBE_PREFIX)
         os.close(handle)
-        os.unlink(probe)
+        with contextlib.suppress(FileNotFoundError):  # removed meanwhile as stale: it was written all the same
+            os.unlink(probe)
     except OSError:
         raise OutputError(f"{what}: directory '{folder}' is not writable") from None
     return folder
@@ -145,48 +160,127 @@ def write_text(path: str | Path, text: str) -> Path:
 def write_texts(files: Sequence[tuple[str | Path, str | bytes]]) -> list[Path]:
     """Write several files as one: every text (UTF-8) or bytes (as they are: a mesh) goes to a temporary file
     first, and only when all are on disk are they renamed over their targets, so a failure (a full disk) leaves
-    every old file in place. The files that existed are recorded for :func:`take_replaced`.
+    every old file in place. The files that existed are recorded for :func:`take_replaced`. The stale temporaries
+    of an earlier write killed in each target's folder are removed first (:func:`remove_stale_temporaries`).
 
     Raises:
         OutputError: as :func:`write_text`; no target has been touched.
     """
-    staged: list[tuple[str, Path]] = []
+    for folder in dict.fromkeys(Path(path).parent for path, _ in files):
+        remove_stale_temporaries(folder)
+    staged: list[tuple[str, int, Path]] = []
     try:
         for path, text in files:
-            staged.append((_staged(Path(path), text), Path(path)))
+            staged.append((*_staged(Path(path), text), Path(path)))
+        for temporary, _, target in staged:
+            if target.exists():
+                _REPLACED.append(target)
+            os.replace(temporary, target)
     except OutputError:
-        for temporary, _ in staged:
+        for temporary, _, _ in staged:
             Path(temporary).unlink(missing_ok=True)
         raise
-    for temporary, target in staged:
-        if target.exists():
-            _REPLACED.append(target)
-        os.replace(temporary, target)
-    return [target for _, target in staged]
+    finally:
+        for _, handle, _ in staged:  # the locks go with the handles: the temporaries are renamed or removed
+            os.close(handle)
+    return [target for _, _, target in staged]
 
 
-def _staged(target: Path, text: str | bytes) -> str:
-    """``text`` written to a temporary file beside ``target``, with ``target``'s permissions; its path."""
+#: The name of a temporary :func:`write_texts` writes beside its target ``NAME``: ``.NAME.XXXXXXXX.part``, the eight
+#: characters drawn by :func:`tempfile.mkstemp`; and of the probe :func:`make_directory` writes and removes.
+TEMPORARY_NAME = re.compile(r"\..+\.[a-z0-9_]{8}\.part")
+PROBE_PREFIX = ".pincal-probe."
+PROBE_NAME = re.compile(re.escape(PROBE_PREFIX) + r"[a-z0-9_]{8}")
+
+
+def _lock(handle: int, wait: bool) -> bool:
+    """Whether an exclusive advisory lock on the open file ``handle`` is now held (False: another process holds it,
+    or the file system or the platform has no locks)."""
+    if fcntl is None:
+        return False
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+    except OSError:
+        return False
+    return True
+
+
+def _same_file(handle: int, path: str | Path) -> bool:
+    """Whether ``path`` (not followed if a link) is still the file open as ``handle``."""
+    try:
+        there, here = os.lstat(path), os.fstat(handle)
+    except OSError:
+        return False
+    return (there.st_dev, there.st_ino) == (here.st_dev, here.st_ino)
+
+
+def remove_stale_temporaries(folder: str | Path) -> list[Path]:
+    """Remove the temporaries a killed pincal left in ``folder``; return their paths.
+
+    Only regular files named exactly as pincal names its temporaries (:data:`TEMPORARY_NAME`, :data:`PROBE_NAME`)
+    are looked at, and only those no process holds locked are removed: a writer locks its temporary from its
+    creation to its rename (module docstring). Nothing is removed where locks are unavailable; a file that cannot
+    be opened or removed is left as it is.
+    """
+    removed: list[Path] = []
+    if fcntl is None:
+        return removed
+    try:
+        entries = [entry for entry in os.scandir(folder)
+                   if TEMPORARY_NAME.fullmatch(entry.name) or PROBE_NAME.fullmatch(entry.name)]
+    except OSError:
+        return removed
+    for entry in entries:
+        try:
+            handle = os.open(entry.path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC)
+        except OSError:  # a link, gone meanwhile, not readable
+            continue
+        try:
+            if stat.S_ISREG(os.fstat(handle).st_mode) and _lock(handle, wait=False) and _same_file(handle, entry.path):
+                os.unlink(entry.path)
+                removed.append(Path(entry.path))
+        except OSError:
+            pass
+        finally:
+            os.close(handle)
+    return removed
+
+
+def _staged(target: Path, text: str | bytes) -> tuple[str, int]:
+    """``text`` written to a temporary file beside ``target``, with ``target``'s permissions: its path, and its open
+    handle, which holds the lock that tells it from a stale one until it is closed (after the rename)."""
     _refuse_non_file(target, f"output '{target}'")
     try:
         mode = target.stat().st_mode & 0o7777
     except OSError:
         mode = NEW_FILE_MODE
+    handle, temporary = _locked_temporary(target)
     try:
-        handle, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".part")
-    except OSError as exc:
-        raise OutputError(f"cannot write '{target}': {exc.strerror or exc}") from None
-    try:
-        with os.fdopen(handle, "wb") as stream:
+        with os.fdopen(handle, "wb", closefd=False) as stream:
             stream.write(text if isinstance(text, bytes) else text.encode("utf-8"))
             stream.flush()
             os.fsync(stream.fileno())
         os.chmod(temporary, mode)
     except OSError as exc:
         Path(temporary).unlink(missing_ok=True)
+        os.close(handle)
         raise OutputError(f"cannot write '{target}': {exc.strerror or exc}; every previous output is "
                           "unchanged") from None
-    return temporary
+    return temporary, handle
+
+
+def _locked_temporary(target: Path) -> tuple[int, str]:
+    """A new temporary beside ``target``, open and locked: (handle, path). Made again if another process's
+    :func:`remove_stale_temporaries` took it for stale in the instant between its creation and its lock."""
+    for _ in range(100):
+        try:
+            handle, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".part")
+        except OSError as exc:
+            raise OutputError(f"cannot write '{target}': {exc.strerror or exc}") from None
+        if not _lock(handle, wait=True) or _same_file(handle, temporary):
+            return handle, temporary
+        os.close(handle)
+    raise OutputError(f"cannot write '{target}': its temporary files keep disappearing")
 
 
 def json_text(content: dict[str, Any]) -> str:

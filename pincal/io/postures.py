@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from pincal import validation
+from pincal.errors import ArgumentError
 from pincal.io.bags import JointStates, MeasurementStream
 from pincal.io.dataset import Dataset
 
@@ -53,6 +55,16 @@ class StillRule:
     tolerance: float = STILL_TOLERANCE
     time: float = STILL_TIME
     drift: float = DRIFT
+
+    def __post_init__(self) -> None:
+        """Refuse what ``pincal import`` refuses of ``--still-tolerance``, ``--still-time`` and ``--drift``.
+
+        Raises:
+            TypeError: not a number.
+            ArgumentError: NaN, infinite, zero or negative.
+        """
+        for name, unit in (("tolerance", "rad or m"), ("time", "s"), ("drift", "m, rad")):
+            object.__setattr__(self, name, validation.real(name, getattr(self, name), unit, strict=True))
 
 
 #: The defaults: STILL_TOLERANCE, STILL_TIME, DRIFT.
@@ -110,8 +122,23 @@ class Posture:
 
 def average_quaternion(quaternions: Array) -> Array:
     """The average orientation of (K, 4) unit quaternions (x, y, z, w): the unit eigenvector of Σ q qᵀ with the
-    largest eigenvalue (Markley et al. 2007, eq. 12), sign chosen with w ≥ 0. Insensitive to each quaternion's sign."""
-    _, vectors = np.linalg.eigh(quaternions.T @ quaternions)
+    largest eigenvalue (Markley et al. 2007, eq. 12), sign chosen with w ≥ 0. Insensitive to each quaternion's sign.
+
+    Raises:
+        ArgumentError: not (K, 4) with K ≥ 1, a value not finite, or a quaternion of zero norm (no orientation).
+    """
+    values = np.asarray(quaternions, dtype=float)
+    if values.ndim != 2 or values.shape[0] == 0 or values.shape[1] != 4:
+        raise ArgumentError(f"quaternions: shape {values.shape}; give (K, 4) quaternions (x, y, z, w), K ≥ 1")
+    if not np.all(np.isfinite(values)):
+        row = int(np.flatnonzero(~np.all(np.isfinite(values), axis=1))[0])
+        raise ArgumentError(f"quaternions[{row}] = {values[row].tolist()}: not finite")
+    with np.errstate(over="ignore", under="ignore"):
+        norms = np.linalg.norm(values, axis=1)
+    if not np.all((norms > 0.0) & np.isfinite(norms)):
+        row = int(np.flatnonzero(~((norms > 0.0) & np.isfinite(norms)))[0])
+        raise ArgumentError(f"quaternions[{row}] = {values[row].tolist()}: not a rotation (norm {norms[row]:g})")
+    _, vectors = np.linalg.eigh(values.T @ values)
     mean = vectors[:, -1]
     return np.asarray(-mean if mean[3] < 0 else mean, dtype=float)
 
@@ -159,8 +186,8 @@ def _measurement_fault(stream: MeasurementStream, pick: npt.NDArray[np.bool_], s
     if half == 0:
         return ""
     positions = stream.positions[pick]
-    moved = float(np.linalg.norm(positions[:half].mean(axis=0) - positions[half:].mean(axis=0)))
-    if moved > drift:
+    moved = float(np.linalg.norm(_mean(positions[:half]) - _mean(positions[half:])))
+    if not moved <= drift:  # an overflow's NaN or infinity is moving too
         return f"measurement moving ({moved * 1e3:.2f} mm between its halves > {drift * 1e3:g} mm)"
     if stream.quaternions is not None:
         first, second = (average_quaternion(q) for q in (stream.quaternions[pick][:half],
@@ -177,7 +204,7 @@ def _posture(number: int, rows: npt.NDArray[np.intp], states: JointStates, colum
     start, end = float(states.times[rows[0]]), float(states.times[rows[-1]])
     raw = states.positions[np.ix_(rows, columns)]
     counts = np.sum(~np.isnan(raw), axis=0)
-    joints = np.array([float(np.mean(c[~np.isnan(c)])) if n else np.nan for c, n in zip(raw.T, counts, strict=True)])
+    joints = np.array([_mean(c[~np.isnan(c)]) if n else np.nan for c, n in zip(raw.T, counts, strict=True)])
     pick = (stream.times >= start) & (stream.times <= end)
     n = int(np.sum(pick))
     reason = ""
@@ -192,8 +219,14 @@ def _posture(number: int, rows: npt.NDArray[np.intp], states: JointStates, colum
     if reason:
         return Posture(number, start - origin, end - origin, len(rows), n, joints, None, None, reason)
     quaternion = average_quaternion(stream.quaternions[pick]) if stream.quaternions is not None else None
-    return Posture(number, start - origin, end - origin, len(rows), n, joints, stream.positions[pick].mean(axis=0),
+    return Posture(number, start - origin, end - origin, len(rows), n, joints, _mean(stream.positions[pick]),
                    quaternion)
+
+
+def _mean(values: Array) -> Array:
+    """The mean of ``values`` along its first axis, taken about its first row: exact for readings that stay within
+    a tolerance of each other, however large they are (a plain sum of huge readings would overflow)."""
+    return np.asarray(values[0] + np.mean(values - values[0], axis=0), dtype=float)
 
 
 def find_postures(states: JointStates, names: Sequence[str], stream: MeasurementStream,
@@ -209,8 +242,9 @@ def find_postures(states: JointStates, names: Sequence[str], stream: Measurement
     columns = np.array([states.names.index(name) for name in names], dtype=np.intp)
     carrying = np.flatnonzero(np.any(~np.isnan(states.positions[:, columns]), axis=1))
     values = _forward_filled(states.positions[np.ix_(carrying, columns)])
-    runs = still_runs(states.times[carrying], values, rule)
-    return [_posture(k + 1, carrying[i:j], states, columns, names, stream, rule) for k, (i, j) in enumerate(runs)]
+    with np.errstate(over="ignore", invalid="ignore"):  # readings far apart: an infinite spread, not a stop
+        runs = still_runs(states.times[carrying], values, rule)
+        return [_posture(k + 1, carrying[i:j], states, columns, names, stream, rule) for k, (i, j) in enumerate(runs)]
 
 
 def postures_dataset(postures: Sequence[Posture], names: Sequence[str], key: str,

@@ -263,3 +263,50 @@ def test_export_refusals_are_one_line(tmp_path: Path, args: list[str], message: 
     assert done.stderr.startswith("pincal: error: ") and message in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1
     assert not out.exists()
+
+
+#: Names that would end a ``#`` comment or a line of YAML (a line feed, a carriage return, YAML 1.1's next line, a
+#: Unicode line separator), each followed by what would become a key of its own.
+HOSTILE = ["yaw\ninjected_key: 666", "shoulder\rcr_key: 7", "elbow\x85nel_key: 8", "wrist\u2028ls_key: 9"]
+HOSTILE_ROBOT, HOSTILE_TOOL = "arm\nrobot_key: 1", "tool\ntool_key: 3"
+
+
+def _hostile_arm() -> str:
+    """A four-joint arm whose robot, joints and end link are named with :data:`HOSTILE` names (XML escapes)."""
+    robot = ET.Element("robot", name=HOSTILE_ROBOT)
+    links = ["base", "l1", "l2", "l3", "l4", HOSTILE_TOOL]
+    for link in links:
+        ET.SubElement(robot, "link", name=link)
+    for k, name in enumerate(HOSTILE):
+        joint = ET.SubElement(robot, "joint", name=name, type="revolute")
+        ET.SubElement(joint, "parent", link=links[k])
+        ET.SubElement(joint, "child", link=links[k + 1])
+        ET.SubElement(joint, "origin", xyz=f"0 0 {0.1 + 0.1 * k}", rpy=f"{0.3 * k} 0 0")
+        ET.SubElement(joint, "axis", xyz="0 0 1" if k % 2 == 0 else "0 1 0")
+        ET.SubElement(joint, "limit", lower="-2", upper="2", effort="1", velocity="1")
+    flange = ET.SubElement(robot, "joint", name="flange", type="fixed")
+    ET.SubElement(flange, "parent", link="l4")
+    ET.SubElement(flange, "child", link=HOSTILE_TOOL)
+    ET.SubElement(flange, "origin", xyz="0.2 0 0")
+    return ET.tostring(robot, encoding="unicode")
+
+
+@pytest.mark.parametrize("convention", ["yaml", "dh", "mdh"])
+def test_no_name_can_add_a_key_to_an_export(tmp_path: Path, convention: str) -> None:
+    """A line break in the robot's, a joint's or a frame's name stays inside its comment or its quoted string: the
+    file parsed by yaml.safe_load has exactly the export's keys, the names exactly as the URDF has them."""
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(_hostile_arm(), encoding="utf-8")
+    out = tmp_path / f"{convention}.yaml"
+    done = run_pincal("export", str(urdf), "--format", convention, "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    written = yaml.safe_load(out.read_text(encoding="utf-8"))
+    if convention == "yaml":
+        assert list(written) == ["kinematics"]
+        assert list(written["kinematics"]) == [*HOSTILE, "flange"]
+        assert written["kinematics"]["flange"]["child"] == HOSTILE_TOOL
+    else:
+        assert list(written) == ["convention", "base_frame", "end_frame", "base", "joints", "tool", "residual"]
+        assert [row["name"] for row in written["joints"]] == HOSTILE
+        assert (written["base_frame"], written["end_frame"]) == ("base", HOSTILE_TOOL)
+        assert len(done.stdout.splitlines()) == 2 + 1 + len(HOSTILE)  # the table printed one line per joint

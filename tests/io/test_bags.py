@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+import warnings
 from pathlib import Path
 from types import ModuleType
 
@@ -13,7 +14,9 @@ import pytest
 from conftest import ROOT
 from scipy.spatial.transform import Rotation
 
-from pincal.errors import DataError, NotFoundError
+import pincal
+from pincal.errors import ArgumentError, DataError, NotFoundError
+from pincal.io.bag_dataset import bag_dataset
 from pincal.io.bags import JointStates, MeasurementSource, MeasurementStream, read_bag
 from pincal.io.postures import StillRule, average_quaternion, find_postures
 
@@ -130,3 +133,52 @@ def test_a_stricter_drift_drops_a_turning_measurement_and_a_silent_joint_drops_i
     assert postures[0].kept
     assert postures[1].reason.startswith("measurement turning (")
     assert postures[2].reason == "joint j3 not published during it"
+
+
+def test_library_arguments_are_refused_as_the_command_line_refuses_them(tmp_path: Path) -> None:
+    """bag_dataset, read_bag, StillRule, MeasurementSource and average_quaternion name the argument and the value:
+    what ``pincal import`` refuses of its flags is refused here too, never a result the command line would not give."""
+    robot = pincal.load_robot("ur10")
+    for rule, message in (({"tolerance": float("nan")}, r"tolerance=nan: must be a finite number > 0 \[rad or m\]"),
+                          ({"time": -1}, r"time=-1: must be a finite number > 0 \[s\]"),
+                          ({"drift": 0.0}, r"drift=0.0: must be a finite number > 0 \[m, rad\]")):
+        with pytest.raises(ArgumentError, match=message):
+            StillRule(**rule)
+    with pytest.raises(TypeError, match=r"time='1': expected a number, not str"):
+        StillRule(time="1")  # type: ignore[arg-type]
+    source = MeasurementSource("pose", "/mocap")
+    with pytest.raises(TypeError, match=r"path=None: expected a path \(str or pathlib.Path\), not NoneType"):
+        bag_dataset(robot, None, "/joint_states", source)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"path=None: expected a path"):
+        read_bag(None, "/joint_states", source)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"robot=None: expected a Robot \(pincal.load_robot\), not NoneType"):
+        bag_dataset(None, tmp_path / "r.bag", "/joint_states", source)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"rule=1.0: expected a StillRule, not float"):
+        bag_dataset(robot, tmp_path / "r.bag", "/joint_states", source, rule=1.0)  # type: ignore[arg-type]
+    with pytest.raises(ArgumentError, match=r"kind='posee': must be one of pose, tf, point"):
+        MeasurementSource("posee", "/mocap")  # type: ignore[arg-type]
+    with pytest.raises(ArgumentError, match=r"kind='tf' needs parent= and child="):
+        MeasurementSource("tf", "/tf")
+    with pytest.raises(ArgumentError, match=r"quaternions\[1\] = \[0.0, 0.0, 0.0, 0.0\]: not a rotation \(norm 0\)"):
+        average_quaternion(np.array([QUATERNION, np.zeros(4)]))
+    with pytest.raises(ArgumentError, match=r"quaternions: shape \(0, 4\); give \(K, 4\) quaternions"):
+        average_quaternion(np.zeros((0, 4)))
+    with pytest.raises(ArgumentError, match=r"quaternions\[0\] = \[nan, 0.0, 0.0, 1.0\]: not finite"):
+        average_quaternion(np.array([[np.nan, 0.0, 0.0, 1.0]]))
+
+
+def test_readings_too_large_to_average_are_neither_a_warning_nor_a_still_measurement() -> None:
+    """Finite readings whose sums overflow: joints at 1e308 average to 1e308 exactly; a marker jumping between
+    ±1e308 is moving (its halves' gap infinite), not kept with a NaN; no RuntimeWarning either way."""
+    times = START + np.arange(200) / ros_bag.JOINT_RATE
+    states = JointStates(times, NAMES, np.full((200, 3), 1e308))
+    jumping = np.repeat([[1e308], [-1e308]], 50, axis=0).reshape(-1, 1) * np.ones((100, 3))
+    still = MeasurementStream(times[::2], np.full((100, 3), 1e308), None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        kept = find_postures(states, NAMES, still)
+        dropped = find_postures(states, NAMES, MeasurementStream(times[::2], jumping, None))
+    assert [p.reason for p in kept] == [""]
+    np.testing.assert_array_equal(kept[0].joints, np.full(3, 1e308))
+    np.testing.assert_array_equal(kept[0].position, np.full(3, 1e308))
+    assert dropped[0].reason == "measurement moving (inf mm between its halves > 1 mm)"

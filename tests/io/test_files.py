@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import errno
 import os
+import re
+import signal
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -138,3 +142,57 @@ def test_bytes_are_written_as_they_are(tmp_path: Path) -> None:
     data = bytes(range(256)) + b"\r\n"
     assert write_texts([(mesh, data), (text, "é\r\n")]) == [mesh, text]
     assert mesh.read_bytes() == data and text.read_bytes() == "é\r\n".encode()
+
+
+#: A pincal write stopped at the instant of its rename, in a process of its own: ``kill`` (SIGKILL there, as a kill at
+#: the worst moment would) or ``wait`` (say ``staged`` and rename only when a line comes on stdin: a live writer).
+_WRITER = """
+import os, signal, sys
+from pincal.io import files
+rename = os.replace
+def stopped(source, target):
+    if sys.argv[1] == "kill":
+        os.kill(os.getpid(), signal.SIGKILL)
+    print("staged", flush=True)
+    sys.stdin.readline()
+    rename(source, target)
+os.replace = stopped
+files.write_text(sys.argv[2], sys.argv[3])
+"""
+
+
+def _temporaries(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if p.name.endswith(".part"))
+
+
+def test_the_next_write_removes_a_killed_writes_temporary_and_keeps_a_live_one(tmp_path: Path) -> None:
+    """A write killed at its rename leaves ``.NAME.XXXXXXXX.part`` (the old file intact); the next ``pincal`` that
+    writes into the folder removes it, and keeps the temporary another pincal is writing at that moment, which that
+    writer then renames as usual. Files of other naming stay."""
+    folder = tmp_path / "out"
+    folder.mkdir()
+    (folder / "kinematics.yaml").write_text("old\n")
+    killed = subprocess.run([sys.executable, "-c", _WRITER, "kill", str(folder / "kinematics.yaml"), "new\n"],
+                            capture_output=True, text=True, timeout=120, check=False)
+    assert killed.returncode == -signal.SIGKILL, killed.stderr
+    stale = _temporaries(folder)
+    assert len(stale) == 1 and re.fullmatch(r"\.kinematics\.yaml\.[a-z0-9_]{8}\.part", stale[0])
+    assert (folder / "kinematics.yaml").read_text() == "old\n"
+    others = [".notes.part", "kinematics.yaml.abcdefgh.part", ".kinematics.yaml.ABCDEFGH.part", ".x.abcdefg.part"]
+    for name in others:
+        (folder / name).write_text("not pincal's\n")
+    with subprocess.Popen([sys.executable, "-c", _WRITER, "wait", str(folder / "live.csv"), "live\n"],
+                          stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True) as live:
+        assert live.stdout is not None and live.stdin is not None
+        assert live.stdout.readline() == "staged\n"
+        writing = [name for name in _temporaries(folder) if name.startswith(".live.csv.")]
+        assert len(writing) == 1
+        done = run_pincal("export", "ur10", "--out", str(folder / "ur10.yaml"))
+        assert done.returncode == 0, done.stderr
+        assert sorted(_temporaries(folder)) == sorted([*writing, *others])
+        live.stdin.write("\n")
+        live.stdin.close()
+        assert live.wait(timeout=120) == 0
+    assert (folder / "live.csv").read_text() == "live\n"
+    assert sorted(_temporaries(folder)) == sorted(others)
+    assert (folder / "kinematics.yaml").read_text() == "old\n"

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from pincal.errors import NotFoundError
+from pincal.errors import NotFoundError, RobotFileError
 from pincal.io.mesh_files import mesh_folder, plan_meshes
 
 MESHES = ["../meshes/a.stl", "package://my_robot/meshes/a.stl", "package://other/b.stl", "file:///abs/c.stl"]
@@ -22,10 +22,11 @@ def _urdf(meshes: list[str]) -> str:
 
 @pytest.fixture
 def workspace(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """A ROS-like package ``my_robot`` (urdf/, meshes/a.stl) and a package ``other`` on ROS_PACKAGE_PATH."""
+    """A ROS package ``my_robot`` (package.xml, urdf/, meshes/a.stl) and a package ``other`` on ROS_PACKAGE_PATH."""
     package = tmp_path / "ws" / "my_robot"
     (package / "urdf").mkdir(parents=True)
     (package / "meshes").mkdir()
+    (package / "package.xml").write_text("<package format='3'><name>my_robot</name></package>\n")
     (package / "meshes" / "a.stl").write_bytes(b"solid a\nendsolid a\n")
     (tmp_path / "ros" / "other").mkdir(parents=True)
     (tmp_path / "ros" / "other" / "b.stl").write_bytes(b"solid b\x00\xff\nendsolid b\n")
@@ -65,3 +66,21 @@ def test_copy_refuses_a_mesh_found_nowhere(workspace: Path, tmp_path: Path) -> N
     with pytest.raises(NotFoundError, match=r"mesh 'package://gone/c.stl' is not found on this machine \(and 1 more: "
                                             r"file:///abs/c.stl\)"):
         plan_meshes(_urdf([*MESHES[:2], "package://gone/c.stl", MESHES[3]]), workspace, tmp_path / "c.urdf", "copy")
+
+
+def test_a_mesh_replaced_after_the_plan_is_refused_when_copied(workspace: Path, tmp_path: Path) -> None:
+    """The copy reads the very file the plan checked: one replaced since (here by a link to a file outside the
+    package, as a swap during a long calibration would) is refused, not copied."""
+    plan = plan_meshes(_urdf(MESHES[:1]), workspace, tmp_path / "out" / "cal.urdf", "copy")
+    mesh = (workspace.parent / "meshes" / "a.stl").resolve()
+    assert [content for _, content in plan.files()] == [b"solid a\nendsolid a\n"]
+    (tmp_path / "secret.stl").write_bytes(b"solid secret\nendsolid secret\n")
+    mesh.unlink()
+    mesh.symlink_to(tmp_path / "secret.stl")
+    with pytest.raises(RobotFileError, match=f"link 'a' mesh '../meshes/a.stl': '{mesh}' was replaced by a symbolic "
+                                             "link since it was checked; nothing written"):
+        plan.files()
+    mesh.unlink()
+    mesh.write_bytes(b"solid a\nendsolid a\n")  # another file of the same name and content: not the one checked
+    with pytest.raises(RobotFileError, match="was replaced or changed since it was checked; nothing written"):
+        plan.files()
