@@ -31,6 +31,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.check_groups import (
+    SAME_ERROR,
     fitted_data,
     group_verdicts,
     nominal_bounds,
@@ -46,7 +47,6 @@ from pincal.calibration.check_setup import (
     file_setup,
     prepare_setup,
 )
-from pincal.calibration.heldout import worse_than_nominal
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.pipeline import check_units, fitting_options
 from pincal.calibration.predicted import PredictedErrors, coverage
@@ -149,12 +149,15 @@ class Check:
 
     @property
     def worse_than_nominal(self) -> bool:
-        """Whether the model predicts the data worse than the nominal robot: by the RMS of the length readings
-        (positions, distances), or with none, by the RMS of the σ-weighted errors."""
+        """Whether the model predicts the data worse than the nominal robot (by more than
+        :data:`~pincal.calibration.check_groups.SAME_ERROR`): by the RMS of the length readings (positions,
+        distances), or with none, by the RMS of the σ-weighted errors."""
         n = len(self.sample_ids)
-        if sample_length_errors(self.model.errors, n) is not None:
-            return worse_than_nominal(self.nominal.errors, self.model.errors, n, [])
-        return bool(weighted_rms(self.model) > weighted_rms(self.nominal) * (1 + 1e-6))
+        model, nominal = sample_length_errors(self.model.errors, n), sample_length_errors(self.nominal.errors, n)
+        if model is not None and nominal is not None:
+            keep = np.isfinite(model) & np.isfinite(nominal)
+            return bool(rms(model[keep]) > (1.0 + SAME_ERROR) * rms(nominal[keep]))
+        return bool(weighted_rms(self.model) > weighted_rms(self.nominal) * (1.0 + SAME_ERROR))
 
     def figures(self, rows: Sequence[int] | None = None) -> dict[str, Any]:
         """RMS and max of the length errors [m] (and of the orientation errors [rad], with poses) of the model and

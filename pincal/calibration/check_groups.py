@@ -31,6 +31,9 @@ Array = npt.NDArray[np.float64]
 
 #: Fewest postures of a group its own verdict is taken on.
 MIN_GROUP = 3
+#: Relative difference of two RMS errors within which MODEL is not called worse: the two setups are registered by two
+#: fits, whose ends differ in the last digits they converge to (a MODEL that is the nominal robot ties with it).
+SAME_ERROR = 0.01
 #: Why a check has no predicted bounds.
 NO_CALIBRATION = ("MODEL carries no calibration (a URDF written before pincal recorded one, or a robot name): give a "
                   "calibrated URDF or the report JSON of its calibration as MODEL for each posture's predicted error")
@@ -39,8 +42,8 @@ NO_CALIBRATION = ("MODEL carries no calibration (a URDF written before pincal re
 def group_verdicts(model_errors: dict[str, Array], nominal_errors: dict[str, Array], beyond: Sequence[bool]
                    ) -> dict[str, Any]:
     """Per group (``inside`` and ``beyond`` the fitted range: ``beyond`` per checked sample) its postures with a
-    length reading, MODEL's and the nominal robot's RMS length error [m], and whether MODEL predicts it worse (a group
-    of at least :data:`MIN_GROUP` postures)."""
+    length reading, MODEL's and the nominal robot's RMS length error [m], and whether MODEL predicts it worse (by more
+    than :data:`SAME_ERROR`; a group of at least :data:`MIN_GROUP` postures)."""
     n = len(beyond)
     model, nominal = sample_length_errors(model_errors, n), sample_length_errors(nominal_errors, n)
     out: dict[str, Any] = {}
@@ -52,7 +55,7 @@ def group_verdicts(model_errors: dict[str, Array], nominal_errors: dict[str, Arr
         a, b = rms(model[keep]), rms(nominal[keep])
         count = int(np.count_nonzero(keep))
         out[name] = {"n": count, "rms": a if count else None, "nominal_rms": b if count else None,
-                     "worse": bool(count >= MIN_GROUP and a > b)}
+                     "worse": bool(count >= MIN_GROUP and a > (1.0 + SAME_ERROR) * b)}
     return out
 
 
