@@ -96,7 +96,7 @@ def register_setup(problem: CalibrationProblem, x0: Array, **options: Any) -> Re
     start = problem.evaluate(x0, jacobian=False).errors
     columns = setup_columns(problem.parameters)
     if not columns:
-        return Registration(x0.copy(), start, start, False, "no setup parameter: the nominal robot as the file says")
+        return Registration(x0.copy(), start, start, False)  # nothing to register: the start is the nominal robot
     joint_sigma = None if problem.joint_sigma is None else list(problem.joint_sigma)
     reduced = CalibrationProblem(problem.robot, problem.parameters.subset(columns), problem.measurements,
                                  problem.observations, joint_sigma, problem.payload)

@@ -1,25 +1,16 @@
-"""Model selection: keep only the kinds of parameters the data support.
+"""Model selection: keep the kinds of parameters the data support, and hold each as firmly as they say.
 
-With few postures a model with more parameters fits better and predicts worse: on the TIAGo arm data
-(34 postures, one marker) the 33 identifiable parameters fit 2.46 mm and predict 4.7 mm in 5-fold
-cross-validation; the same model without the joint axes' tilts and the reading offsets fits 2.83 mm and
-predicts 4.0 mm.
+The policies (:data:`SELECTIONS`), each a fit of every candidate parameter first, then:
 
-The choice is among *groups* of parameters, not single parameters: the joint and anchor translations, their
-rotations, the reading offsets, and the joint harmonics and compliances when they are chosen (:func:`group_of`);
-the measurement frame, the markers and device constants always stay. Every combination of groups is scored by the
-Bayesian information criterion of the fit linearized at the estimate (Schwarz 1978, "Estimating the dimension of a
-model"): for the weighted linear model ``r(x) = y₀ + J x`` over the combination's independent columns (p of them)
-and m residual rows, ``BIC = m ln(RSS/m) + p ln m``, with the noise level estimated from the residuals, so a wrong
-stated σ does not bias the choice. The combination with the smallest BIC is refitted. Every combination is scored on
-the triangle of one QR of the weighted Jacobian and residual (as many rows as parameters, whatever the samples), and
-combinations whose columns span the same directions (a group that adds none) share one score; between them, the
-round-off of the criterion computed on every row decides, as it did when every combination was scored on the rows.
+- ``evidence`` (the default with the automatic prior): the candidate model whose hold-outs predict best, inside the
+  fitted range and beyond it, among the evidence's prior on every group, the information criterion's groups with the
+  evidence's prior, and the nominal robot (:mod:`pincal.identification.prior_choice`);
+- ``bic``: the groups the Bayesian information criterion keeps (:mod:`pincal.identification.criterion`), refitted;
+- ``cv``: the groups whose combination predicts unseen samples best in 5-fold cross-validation (:func:`select_by_cv`);
+- ``none``: every identifiable parameter.
 
-Measured on the TIAGo data, in 5-fold × 4 cross-validation with the selection redone in every fold: BIC
-4.09 mm, AICc 4.19, linearized 5-fold error 4.27, leave-one-out error (PRESS) 4.52, choosing parameter by
-parameter by the leave-one-out error 5.4, no selection 4.7. Rows are weighted (1/σ and the robust loss' sample
-weights), so down-weighted samples do not steer the choice.
+With the automatic prior (``prior="auto"``) the groups kept by ``bic``, ``cv`` or ``none`` are held by the factors the
+evidence chooses for them (:mod:`pincal.identification.evidence`).
 """
 
 from __future__ import annotations
@@ -27,157 +18,27 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-import scipy.linalg
 
-from pincal import linalg
 from pincal.errors import DataError, PincalError, listing
+from pincal.identification import prior_choice
+from pincal.identification.criterion import (
+    GROUPS,
+    RSS_FLOOR,
+    group_of,
+    select_groups,
+)
 from pincal.identification.evidence import EvidenceChoice, base_sigma, choose_prior
-from pincal.identification.identifiability import RANK_TOLERANCE
-from pincal.identification.parameters import Parameter
 from pincal.identification.predictions import carry_over
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.result import CalibrationResult
 from pincal.identification.solver import identify
 
 Array = npt.NDArray[np.float64]
-
-#: The groups selection may leave out, in the order they are named.
-GROUPS = ("translations", "rotations", "offsets", "harmonics", "compliance")
-
-
-def group_of(parameter: Parameter) -> str | None:
-    """The selection group of a parameter: ``translations`` or ``rotations`` of joint and anchor placements,
-    ``offsets`` of joint readings, joint ``harmonics``, joint ``compliance``, or None for what always stays (base,
-    markers, device constants): as its kind says
-    (:meth:`~pincal.identification.parameters.ParameterKind.selection_group`)."""
-    return parameter.kind_class.selection_group(parameter)
-
-
-#: Relative floor on the residual mean square in the criterion: below it, fits differ by round-off only.
-RSS_FLOOR = 1e-24
-
-
-def information_criterion(jacobian: Array, y0: Array) -> float:
-    """``m ln(RSS/m) + p ln m`` of the least-squares fit of ``y0 + J x`` (m rows, p columns, full column rank).
-
-    Args:
-        jacobian: (m, p) weighted Jacobian [1/unit of each parameter] (p may be 0).
-        y0: (m,) weighted residual of the linear model at the nominal parameters (x = 0).
-
-    Returns:
-        The Bayesian information criterion (dimensionless; smaller is better).
-    """
-    m, p = jacobian.shape
-    triangle = _reduced_rows(jacobian, y0)
-    return _criterion(triangle[:, :p], triangle[:, p], m)
-
-
-def _reduced_rows(jacobian: Array, y0: Array) -> Array:
-    """``R`` (k × (p + 1), k = min(m, p + 1)) of the QR ``[J | y0] = Q R``: every least-squares fit of ``y0`` on
-    columns of ``J`` has the residual norm of the same fit on the columns of ``R`` (``Q`` has orthonormal columns
-    and ``y0`` lies in their span), and every set of ``J``'s columns the singular values of the same set of ``R``'s.
-    The criteria of all the combinations of groups are then computed on k rows instead of m."""
-    m, p = jacobian.shape
-    if not m:
-        return np.zeros((0, p + 1))
-    augmented = np.empty((m, p + 1), order="F")  # the one copy, in the order LAPACK factors in place
-    augmented[:, :p], augmented[:, p] = jacobian, y0
-    factored, _ = linalg.householder(augmented, "the weighted identification Jacobian and the residual")
-    return np.triu(factored[:min(m, p + 1)])
-
-
-def _criterion(columns: Array, rhs: Array, m: int) -> float:
-    """:func:`information_criterion` from the rows :func:`_reduced_rows` leaves: ``columns`` (k, p) the chosen
-    columns of ``R``, ``rhs`` (k,) its last column, ``m`` the rows of the Jacobian they reduce."""
-    p = columns.shape[1]
-    if p:
-        Q, _ = scipy.linalg.qr(columns, mode="economic", check_finite=False)
-        residual = rhs - Q @ (Q.T @ rhs)
-    else:
-        residual = rhs
-    mean_square = max(float(residual @ residual) / m, RSS_FLOOR * max(float(rhs @ rhs) / m, 1.0))
-    return float(m * math.log(mean_square) + p * math.log(m))
-
-
-def _independent(triangle: Array, columns: list[int], scale: float) -> list[int]:
-    """The columns among ``columns`` that pivoted QR keeps as independent (pivot above :data:`RANK_TOLERANCE`
-    × ``scale``, the largest singular value of the whole Jacobian), in their order; ``triangle``: the Jacobian's
-    columns reduced by :func:`_reduced_rows` (the same pivots as the Jacobian's own)."""
-    if not columns or scale == 0.0:
-        return []
-    _, R, pivots = scipy.linalg.qr(triangle[:, columns], mode="economic", pivoting=True, check_finite=False)
-    rank = int(np.count_nonzero(np.abs(np.diag(R)) > RANK_TOLERANCE * scale))
-    return sorted(columns[k] for k in pivots[:rank])
-
-
-@dataclass(frozen=True)
-class Selection:
-    """The outcome of :func:`select_groups`.
-
-    Attributes:
-        kept: Column indices kept, ascending.
-        removed_groups: The groups left out (in :data:`GROUPS` order).
-        scores: The criterion of every combination scored, keyed by the groups it leaves out.
-    """
-
-    kept: list[int]
-    removed_groups: tuple[str, ...]
-    scores: dict[tuple[str, ...], float]
-
-
-def select_groups(jacobian: Array, y0: Array, groups: list[str | None]) -> Selection:
-    """The combination of parameter groups with the smallest :func:`information_criterion`.
-
-    Args:
-        jacobian: (m, p) weighted, scaled Jacobian of the parameters [dimensionless]; each combination is scored
-            on its independent columns (pivoted QR).
-        y0: (m,) weighted residual of the linear model at the nominal parameters: ``r(x̂) − J x̂``.
-        groups: (p,) each column's group (:func:`group_of`; None: always kept).
-
-    Returns:
-        The :class:`Selection`; on equal scores the combination with fewer independent parameters wins. A
-        combination whose columns span what a combination of fewer left-out groups spans (the same rank) takes that
-        one's score (their fits are the same), and the one of fewer left-out groups stays: a group is left out only
-        where that lowers the criterion, never on round-off (which decided between such equals once, and could
-        decide otherwise on another machine).
-    """
-    present = [g for g in GROUPS if g in groups]
-    m, p = jacobian.shape
-    triangle = _reduced_rows(jacobian, y0)  # one QR of the m rows; every combination is scored on its k rows
-    columns, rhs = triangle[:, :p], triangle[:, p]
-    scale = float(np.linalg.norm(columns, 2)) if columns.size else 0.0
-    scores: dict[tuple[str, ...], float] = {}
-    ranks: dict[tuple[str, ...], int] = {}
-    spans: dict[tuple[str, ...], tuple[str, ...]] = {}  # each combination -> the first one of its span
-    best: tuple[float, int, tuple[str, ...]] | None = None
-    for n in range(len(present) + 1):
-        for drop in itertools.combinations(present, n):
-            cols = _independent(columns, [k for k, g in enumerate(groups) if g not in drop], scale)
-            ranks[drop] = len(cols)
-            same = _same_span(drop, len(cols), ranks)
-            spans[drop] = drop if same is None else spans[same]
-            scores[drop] = scores[same] if same is not None else _criterion(columns[:, cols], rhs, m)
-            if best is None or (scores[drop], len(cols)) < best[:2]:
-                best = (scores[drop], len(cols), drop)
-    assert best is not None
-    chosen = spans[best[2]]
-    return Selection([k for k, g in enumerate(groups) if g not in chosen], chosen, scores)
-
-
-def _same_span(drop: tuple[str, ...], rank: int, ranks: dict[tuple[str, ...], int]) -> tuple[str, ...] | None:
-    """A combination scored before that leaves out a subset of ``drop``'s groups with the same ``rank``: its
-    columns include ``drop``'s and span the same directions (None if there is none)."""
-    for n in range(len(drop)):
-        for fewer in itertools.combinations(drop, n):
-            if ranks.get(fewer) == rank:
-                return fewer
-    return None
-
 
 #: Model selection policies: ``evidence`` (each group held near nominal as firmly as the data's evidence says, left out
 #: where they do not support it: :mod:`pincal.identification.evidence`), ``bic`` (the groups with the smallest
@@ -205,6 +66,8 @@ class SelectedFit:
         evidence: The prior the evidence chose (its factor per group), or None when the prior was not automatic.
         prior_sigma: (p,) the prior σ of ``result``'s fit over ``problem``'s parameters [their units; inf: none], when
             the evidence chose it (None: the prior the options gave).
+        candidates: The hold-outs' score of each candidate model (``evidence`` selection), else empty.
+        candidate: The candidate chosen (``evidence``, ``bic`` or ``nominal``; empty for the other selections).
     """
 
     problem: CalibrationProblem
@@ -215,6 +78,8 @@ class SelectedFit:
     removed_groups: tuple[str, ...] = ()
     evidence: EvidenceChoice | None = None
     prior_sigma: Array | None = None
+    candidates: dict[str, float] = field(default_factory=dict)
+    candidate: str = ""
 
 
 def select_and_fit(problem: CalibrationProblem, policy: str = "evidence", **options: Any) -> SelectedFit:
@@ -245,10 +110,9 @@ def select_and_fit(problem: CalibrationProblem, policy: str = "evidence", **opti
         return _with_evidence(select_by_cv(problem, first, **options), automatic, **options)
     jac, y0 = _weighted_linear(problem, first)
     pset = problem.parameters
+    choice = select_groups(jac * pset.scales, y0, [group_of(p) for p in pset])
     if policy == "evidence":
-        return _refit_with_evidence(problem, first, jac, y0, **options)
-    jac *= pset.scales  # its own copy: scaled in place
-    choice = select_groups(jac, y0, [group_of(p) for p in pset])
+        return _refit_chosen(problem, first, jac, y0, choice.removed_groups, choice.scores, **options)
     if not choice.removed_groups:
         return _with_evidence(SelectedFit(problem, first, first, [], choice.scores), automatic, **options)
     chosen = _refit_without(problem, first, choice.removed_groups, choice.scores, _fitted_criterion, **options)
@@ -276,6 +140,28 @@ def _with_evidence(chosen: SelectedFit, automatic: bool, **options: Any) -> Sele
     groups = chosen.removed_groups + tuple(g for g in fitted.removed_groups if g not in chosen.removed_groups)
     return SelectedFit(fitted.problem, fitted.result, chosen.first, removed, chosen.scores, groups, fitted.evidence,
                        fitted.prior_sigma)
+
+
+def _refit_chosen(problem: CalibrationProblem, first: CalibrationResult, jac: Array, y0: Array,
+                  bic_left_out: tuple[str, ...], bic_scores: dict[tuple[str, ...], float],
+                  **options: Any) -> SelectedFit:
+    """The candidate model the hold-outs choose (:func:`~pincal.identification.prior_choice.choose`: the evidence's
+    prior on every group, the information criterion's groups with the evidence's prior, or the nominal robot),
+    refitted from the nominal start with its prior; ``first`` when the refit fails."""
+    pset = problem.parameters
+    groups = [group_of(p) for p in pset]
+    present = [g for g in GROUPS if g in groups]
+    picked = prior_choice.choose(problem, first, jac, y0, groups, present, bic_left_out)
+    chosen = picked.chosen
+    removed = [p.name for p, g in zip(pset, groups, strict=True) if g in chosen.left_out]
+    if not chosen.kept:
+        return SelectedFit(problem, first, first, [], bic_scores, evidence=chosen.evidence, candidates=picked.scores)
+    reduced = _reduced(problem, chosen.kept) if removed else problem
+    refit = identify(reduced, **{**options, "prior": chosen.sigma[chosen.kept]})
+    if not refit.converged:
+        return SelectedFit(problem, first, first, [], bic_scores, evidence=chosen.evidence, candidates=picked.scores)
+    return SelectedFit(reduced, refit, first, removed, bic_scores, tuple(g for g in present if g in chosen.left_out),
+                       chosen.evidence, chosen.sigma[chosen.kept], picked.scores, chosen.name)
 
 
 def _refit_with_evidence(problem: CalibrationProblem, first: CalibrationResult, jac: Array, y0: Array,

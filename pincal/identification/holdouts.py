@@ -1,0 +1,124 @@
+"""Hold-outs of a fit, refitted without the samples they hold out, linearised at the fit's estimate.
+
+Each refit is one Gauss–Newton solve from the estimate without the held-out rows, with the fit's robust weights and
+its prior (one σ per parameter; inf: none): no iteration, no new evaluation of the model, so that a hundred hold-outs
+cost less than one fit. Two kinds of hold-out:
+
+- :func:`shuffled_folds`: K folds of one seeded shuffle, every sample held out once (how the fit predicts postures
+  like its own);
+- :func:`range_halves`: for each of the given actuated joints (those that move what is measured), the samples in the
+  lower half of its readings predicted from the upper half, then the other way round (how the fit predicts beyond the
+  range it saw).
+
+Model selection (:mod:`pincal.identification.selection`) scores candidates on them, and the predicted bound
+(:mod:`pincal.calibration.growth`) is estimated from them. Rows are the problem's weighted residual rows [σ units].
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.identification.problem import Problem
+from pincal.identification.result import CalibrationResult
+
+Array = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+
+#: Folds of the shuffled hold-out, and its seed.
+FOLDS = 5
+SEED = 0
+#: Relative eigenvalue below which a refit's direction is not estimated (no prior and no data: pseudo-inverse).
+RCOND = 1e-10
+
+
+def shuffled_folds(n: int, folds: int = FOLDS, seed: int = SEED) -> list[IntArray]:
+    """``folds`` folds of one shuffle of ``n`` samples (seeded ``seed``), each as sorted sample indices."""
+    order = np.random.default_rng(seed).permutation(n)
+    return [np.sort(order[f::folds]).astype(np.intp) for f in range(min(folds, n))]
+
+
+def range_halves(actuated: Array, columns: Sequence[int]) -> list[IntArray]:
+    """For each actuated column of ``actuated`` (N, na) [rad or m] in ``columns``: the samples in the lower half of its
+    readings, then those in the upper half (ties broken by sample order), each as sorted sample indices."""
+    n = actuated.shape[0]
+    out: list[IntArray] = []
+    for column in columns:
+        ranked = np.argsort(actuated[:, column], kind="stable")
+        out += [np.sort(ranked[:n // 2]).astype(np.intp), np.sort(ranked[n // 2:]).astype(np.intp)]
+    return out
+
+
+@dataclass(frozen=True)
+class Linearised:
+    """A fit linearised at a point, in scaled parameters (``x / scale``).
+
+    Attributes:
+        jacobian: (rows, q) the weighted Jacobian of the parameters kept, scaled.
+        residual: (rows,) the weighted residual at the point [σ units].
+        weights: (rows,) each row's robust weight.
+        precision: (q,) the prior's precision, scaled (0: none).
+        x: (q,) the point, scaled.
+        rows: (rows,) each row's sample.
+    """
+
+    jacobian: Array
+    residual: Array
+    weights: Array
+    precision: Array
+    x: Array
+    rows: IntArray
+
+    @classmethod
+    def of_fit(cls, problem: Problem, result: CalibrationResult, residual: Array, jacobian: Array, prior: Array,
+               columns: Sequence[int] | None = None, x: Array | None = None) -> Linearised:
+        """``problem``'s fit linearised at a point: its weighted ``residual`` and ``jacobian`` there (over the
+        parameters ``columns``, default all), ``result``'s robust weights, the prior σ ``prior`` over those parameters
+        [their units; inf: none], the point ``x`` over them (default: ``result``'s estimate)."""
+        chosen = list(range(len(problem.parameters))) if columns is None else list(columns)
+        scales = problem.parameters.scales[chosen]
+        rows = problem.row_samples().astype(np.intp)
+        precision = np.where(np.isfinite(prior), (scales / np.where(np.isfinite(prior), prior, 1.0)) ** 2, 0.0)
+        point = (result.x[chosen] if x is None else x) / scales
+        return cls(jacobian * scales, residual, result.sample_weights[rows], precision, point, rows)
+
+    def refit(self, held: IntArray, keep: Sequence[int] | None = None,
+              precision: Array | None = None) -> tuple[Array, Array, npt.NDArray[np.bool_]]:
+        """The held-out samples' rows after one Gauss–Newton solve without them, toward the prior: their weighted
+        residual, the refit's scaled covariance factor ``(JᵀWJ + P)⁺`` over ``keep`` (default: every parameter; the
+        others held at nominal, 0), and which rows are held out. ``precision`` overrides the prior's."""
+        out = np.isin(self.rows, held)
+        prior = self.precision if precision is None else precision
+        kept = np.arange(self.x.size) if keep is None else np.asarray(keep, dtype=np.intp)
+        dropped = np.setdiff1d(np.arange(self.x.size), kept)
+        residual = self.residual - self.jacobian[:, dropped] @ self.x[dropped]  # the dropped at nominal
+        jacobian = self.jacobian[:, kept]
+        weighted = jacobian * self.weights[:, None]
+        normal = jacobian[~out].T @ weighted[~out] + np.diag(prior[kept])
+        inverse = pseudo_inverse(normal)
+        step = -inverse @ (weighted[~out].T @ residual[~out] + prior[kept] * self.x[kept])
+        return residual[out] + jacobian[out] @ step, inverse, out
+
+    def score(self, folds: Sequence[IntArray], keep: Sequence[int] | None = None,
+              precision: Array | None = None) -> float:
+        """The mean square of the held-out rows' weighted residuals over ``folds`` [σ² units], each row weighed by its
+        robust weight: how well the refits predict what they did not see (infinite without rows)."""
+        total, count = 0.0, 0.0
+        for held in folds:
+            residual, _, out = self.refit(held, keep, precision)
+            total += float(np.sum(self.weights[out] * residual**2))
+            count += float(np.sum(self.weights[out]))
+        return total / count if count > 0.0 else math.inf
+
+
+def pseudo_inverse(matrix: Array) -> Array:
+    """The pseudo-inverse of a symmetric positive semi-definite ``matrix``: directions below :data:`RCOND` of the
+    largest eigenvalue are not estimated."""
+    values, vectors = np.linalg.eigh(matrix)
+    top = float(np.max(values, initial=0.0))
+    keep = values > RCOND * top if top > 0.0 else np.zeros(values.size, dtype=bool)
+    return np.asarray((vectors[:, keep] / values[keep]) @ vectors[:, keep].T, dtype=float)
