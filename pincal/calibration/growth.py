@@ -42,6 +42,7 @@ import numpy.typing as npt
 
 from pincal.calibration.propagation import LengthLayout, length_layout, row_sigmas, sample_bounds
 from pincal.calibration.samples import RANGE_MARGIN
+from pincal.identification.holdouts import FOLDS, SEED, Linearised, range_halves, shuffled_folds
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
 
@@ -49,15 +50,10 @@ Array = npt.NDArray[np.float64]
 
 #: The probability the bounds hold.
 LEVEL = 0.95
-#: Folds of the inside hold-out (one shuffle, seeded :data:`SEED`).
-FOLDS = 5
-SEED = 0
 #: Smallest range width [rad or m] a distance beyond it is counted in (a joint the fit saw still gets a finite one).
 MIN_WIDTH = 0.05
 #: Fewest samples the bounds are estimated from (fewer: none is, and the bound is the covariance's alone).
 MIN_SAMPLES = 8
-#: Relative eigenvalue below which a refit's direction is not estimated (no prior and no data: pseudo-inverse).
-RCOND = 1e-10
 
 
 @dataclass(frozen=True)
@@ -141,39 +137,6 @@ def growth_slope(values: Array, distance: Array, start: float, level: float = LE
     return max(conformal_quantile(np.maximum(values - start, 0.0) / distance, level), 0.0)
 
 
-@dataclass(frozen=True)
-class _Linear:
-    """A fit linearised at a point: its scaled weighted Jacobian and residual, robust weights, prior precision."""
-
-    jacobian: Array  # (rows, q) scaled: metres and radians of one size
-    residual: Array
-    weighted: Array  # the Jacobian times each row's robust weight
-    precision: Array  # (q,) the prior's, scaled (0: none)
-    x: Array  # (q,) the point, scaled
-
-    def refit(self, out: npt.NDArray[np.bool_]) -> tuple[Array, Array]:
-        """The held-out rows' residual after one Gauss–Newton solve without them (toward the prior), and the refit's
-        scaled covariance factor ``(JᵀWJ + P)⁺`` (times the variance factor: the covariance)."""
-        normal = self.jacobian[~out].T @ self.weighted[~out] + np.diag(self.precision)
-        inverse = _pseudo_inverse(normal)
-        step = -inverse @ (self.weighted[~out].T @ self.residual[~out] + self.precision * self.x)
-        return self.residual[out] + self.jacobian[out] @ step, inverse
-
-
-def folds(actuated: Array, columns: Sequence[int], seed: int = SEED
-          ) -> tuple[list[npt.NDArray[np.intp]], list[npt.NDArray[np.intp]]]:
-    """The hold-outs as sorted sample indices: :data:`FOLDS` of one seeded shuffle; and for each of the actuated
-    ``columns``, the lower half of its readings then the upper half (ties broken by sample order)."""
-    n = actuated.shape[0]
-    order = np.random.default_rng(seed).permutation(n)
-    shuffled = [np.sort(order[f::FOLDS]) for f in range(min(FOLDS, n))]
-    halves: list[npt.NDArray[np.intp]] = []
-    for column in columns:
-        ranked = np.argsort(actuated[:, column], kind="stable")
-        halves += [np.sort(ranked[:n // 2]), np.sort(ranked[n // 2:])]
-    return shuffled, halves
-
-
 def estimate_growth(problem: CalibrationProblem, result: CalibrationResult, prior: Array, columns: Sequence[int],
                     x_before: Array) -> ErrorGrowth | None:
     """The :class:`ErrorGrowth` of the fit ``result`` of ``problem`` with the prior σ ``prior`` (p,) [parameter units;
@@ -185,12 +148,12 @@ def estimate_growth(problem: CalibrationProblem, result: CalibrationResult, prio
     layout = length_layout(problem)
     if final is None or final.jacobian is None or n < MIN_SAMPLES or not layout.width:
         return None
-    shuffled, halves = folds(problem.observations.actuated, columns)
-    calibrated = _linearised(problem, result, final.residual, final.jacobian, prior)
+    shuffled = shuffled_folds(n, FOLDS, SEED)
+    halves = range_halves(problem.observations.actuated, columns)
+    calibrated = Linearised.of_fit(problem, result, final.residual, final.jacobian, prior)
     ratios: list[Array] = []
     for held in shuffled:
-        out = np.isin(problem.row_samples(), held)
-        residual, inverse = calibrated.refit(out)
+        residual, inverse, out = calibrated.refit(held)
         scales = problem.parameters.scales
         covariance = result.sigma2 * inverse * np.outer(scales, scales)  # [parameter units²]: x = scale · z
         bound = sample_bounds(problem, final.jacobian, covariance, result.sigma2, held, layout)
@@ -205,7 +168,7 @@ def estimate_growth(problem: CalibrationProblem, result: CalibrationResult, prio
 
 
 def _nominal_bound(problem: CalibrationProblem, result: CalibrationResult, x_before: Array, columns: Sequence[int],
-                   shuffled: list[npt.NDArray[np.intp]], halves: list[npt.NDArray[np.intp]],
+                   shuffled: Sequence[npt.NDArray[np.intp]], halves: Sequence[npt.NDArray[np.intp]],
                    layout: LengthLayout) -> tuple[float, float, float, int]:
     """The nominal robot's ``E₀``, ``E₁`` [m], the hold-outs' reach and how many samples they held out beyond: each
     hold-out refitted with the robot at nominal (its setup alone, from the registered ``x_before``)."""
@@ -214,20 +177,19 @@ def _nominal_bound(problem: CalibrationProblem, result: CalibrationResult, x_bef
     at = problem.evaluate(x_before, jacobian=True)
     assert at.jacobian is not None
     setup = setup_columns(problem.parameters)
-    nominal = _linearised(problem, result, at.residual, at.jacobian[:, setup], np.full(len(setup), math.inf),
-                          setup, x_before[setup])
+    nominal = Linearised.of_fit(problem, result, at.residual, at.jacobian[:, setup], np.full(len(setup), math.inf),
+                                setup, x_before[setup])
     actuated = problem.observations.actuated
-    rows = problem.row_samples()
     inside: list[Array] = []
     for held in shuffled:
-        out = np.isin(rows, held)
-        length = _sample_lengths(problem, layout, held, out, nominal.refit(out)[0])
+        residual, _, out = nominal.refit(held)
+        length = _sample_lengths(problem, layout, held, out, residual)
         inside.append(length[np.isfinite(length)])
     errors: list[Array] = []
     distances: list[Array] = []
     for held in halves:
-        out = np.isin(rows, held)
-        length = _sample_lengths(problem, layout, held, out, nominal.refit(out)[0])
+        residual, _, out = nominal.refit(held)
+        length = _sample_lengths(problem, layout, held, out, residual)
         train = np.setdiff1d(np.arange(actuated.shape[0]), held)
         ranges = [(float(np.min(actuated[train, c])), float(np.max(actuated[train, c]))) for c in columns]
         distance = extrapolation_distance(actuated[held], columns, ranges)
@@ -238,29 +200,6 @@ def _nominal_bound(problem: CalibrationProblem, result: CalibrationResult, x_bef
     beyond, at_distance = (np.concatenate(errors), np.concatenate(distances)) if errors else (np.zeros(0), np.zeros(0))
     nominal1 = growth_slope(beyond, at_distance, nominal0) if math.isfinite(nominal0) else 0.0
     return nominal0, nominal1, float(np.max(at_distance, initial=0.0)), int(beyond.size)
-
-
-def _linearised(problem: CalibrationProblem, result: CalibrationResult, residual: Array, jacobian: Array,
-                prior: Array, columns: Sequence[int] | None = None, x: Array | None = None) -> _Linear:
-    """The fit of ``problem`` linearised at a point: its weighted ``residual`` and ``jacobian`` there over the
-    parameters ``columns`` (default: all) at ``x`` (default: ``result``'s estimate), ``result``'s robust weights and
-    the prior σ ``prior`` over those parameters."""
-    chosen = list(range(len(problem.parameters))) if columns is None else list(columns)
-    scales = problem.parameters.scales[chosen]
-    scaled = jacobian * scales
-    weights = result.sample_weights[problem.row_samples()]
-    precision = np.where(np.isfinite(prior), (scales / np.where(np.isfinite(prior), prior, 1.0)) ** 2, 0.0)
-    point = (result.x if x is None else x) / scales
-    return _Linear(scaled, residual, scaled * weights[:, None], precision, point)
-
-
-def _pseudo_inverse(matrix: Array) -> Array:
-    """The pseudo-inverse of a symmetric positive semi-definite ``matrix``: directions below :data:`RCOND` of the
-    largest eigenvalue are not estimated."""
-    values, vectors = np.linalg.eigh(matrix)
-    top = float(np.max(values, initial=0.0))
-    keep = values > RCOND * top if top > 0.0 else np.zeros(values.size, dtype=bool)
-    return np.asarray((vectors[:, keep] / values[keep]) @ vectors[:, keep].T, dtype=float)
 
 
 def _sample_lengths(problem: CalibrationProblem, layout: LengthLayout, held: npt.NDArray[np.intp],
