@@ -127,8 +127,7 @@ def _terms(linear: _Linear, log_factor2: Array, log_noise: float) -> tuple[float
     for g, columns in enumerate(linear.members):
         variance[columns] = linear.base[columns] ** 2 * math.exp(log_factor2[g])
     precision = 1.0 / variance
-    K = linear.gram / s2 + np.diag(precision)
-    factor = scipy.linalg.cho_factor(K, check_finite=False)
+    factor = _cholesky(linear.gram / s2 + np.diag(precision))
     b = linear.jz / s2
     mu = scipy.linalg.cho_solve(factor, b, check_finite=False)
     log_det_k = 2.0 * float(np.sum(np.log(np.diag(factor[0]))))
@@ -140,6 +139,24 @@ def _terms(linear: _Linear, log_factor2: Array, log_noise: float) -> tuple[float
     residual2 = linear.zz - 2.0 * float(mu @ linear.jz) + float(mu @ linear.gram @ mu)  # ‖P(z − J μ)‖²
     grad[-1] = linear.rows - (residual2 + float(np.sum(k_inv * linear.gram))) / s2
     return value, grad, mu
+
+
+#: Jitter, relative to the largest diagonal term, added to a matrix round-off left short of positive definite (a prior
+#: far weaker than the data on directions they cannot see), tried from the first until one factors.
+JITTER = (1e-14, 1e-12, 1e-10, 1e-8)
+
+
+def _cholesky(matrix: Array) -> tuple[Array, bool]:
+    """The Cholesky factor of the symmetric positive definite ``matrix`` (``scipy.linalg.cho_factor``), with the
+    smallest :data:`JITTER` on its diagonal that lets it factor where round-off leaves it short."""
+    top = float(np.max(np.diag(matrix), initial=0.0))
+    for jitter in (0.0, *JITTER):
+        try:
+            factor, lower = scipy.linalg.cho_factor(matrix + jitter * top * np.eye(len(matrix)), check_finite=False)
+            return np.asarray(factor, dtype=float), bool(lower)
+        except np.linalg.LinAlgError:
+            continue
+    raise DataError("the evidence's matrix is not positive definite: the data and the prior leave a direction free")
 
 
 def _linear(jacobian: Array, y0: Array, groups: Sequence[str | None], present: Sequence[str], base: Array,
