@@ -439,19 +439,16 @@ class _Reader:
             raise self.error(key, f"'{plan}' is not K (folds), KxR (K folds, R shuffles, e.g. \"5x4\") or \"loo\"")
         return plan
 
-    def option_factor(self, value: Any, key: str) -> float | str:
-        if isinstance(value, str) and value.strip().lower() == "off":
-            return "off"
+    def option_factor(self, value: Any, key: str, auto: bool = False) -> float | str:
+        if isinstance(value, str) and value.strip().lower() in (("off", "auto") if auto else ("off",)):
+            return value.strip().lower()
         if isinstance(value, bool) or not isinstance(value, int | float) or not 0.0 < value < math.inf:
-            raise self.error(key, f"{_shown(value)} is not a factor > 0 or \"off\"")
+            choices = 'a factor > 0, "auto" or "off"' if auto else 'a factor > 0 or "off"'
+            raise self.error(key, f"{_shown(value)} is not {choices}")
         return float(value)
 
     def option_prior(self, value: Any, key: str) -> float | str:
-        if isinstance(value, str) and value.strip().lower() == "auto":
-            return "auto"
-        if isinstance(value, str) and value.strip().lower() != "off":
-            raise self.error(key, f"{_shown(value)} is not a factor > 0, \"auto\" or \"off\"")
-        return self.option_factor(value, key)
+        return self.option_factor(value, key, auto=True)
 
     def option_payload(self, value: Any, key: str) -> Payload | None:
         payload = self.table(value, key)
