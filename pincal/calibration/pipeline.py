@@ -277,7 +277,6 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
                       "removed_groups": list(fitted.removed_groups) if removed else [],
                       "n_candidates": len(fit.parameters),
                       "prior_factors": dict(fitted.evidence.factors) if fitted.evidence is not None else None,
-                      "candidate": fitted.candidate or None, "candidates": fitted.candidates or None,
                       "prior": options.prior},
         "unidentifiable_listing": describe_unidentifiable(first.identifiability.unidentifiable, UNIDENTIFIABLE_LINES),
         "unidentifiable_digest": digest(first.identifiability.unidentifiable, len(fit.parameters)),

@@ -237,15 +237,11 @@ def _selection_line(report: CalibrationReport) -> list[str]:
     factors = selection.get("prior_factors") or {}
     held = ", ".join(f"{group} {factor:.2g}×" for group, factor in factors.items() if factor > 0.0)
     if selection.get("policy") == "evidence":
-        scores = selection.get("candidates") or {}
-        named = {"evidence": "every group", "bic": "BIC's groups", "nominal": "the nominal robot"}
-        chose = (f"the hold-outs chose {named.get(selection.get('candidate') or '', '?')} (mean square held out "
-                 + ", ".join(f"{named[k]} {v:.3g}" for k, v in scores.items() if k in named) + "); ") if scores else ""
         words = f"left out the {', '.join(selection['removed_groups'])} ({len(removed)} parameters at nominal); " \
             if removed else ""
         prior = f"the prior holds the {held} of their kinds' σ" if held else "no group estimated"
-        return textwrap.wrap(f"model selection (evidence): {chose}{words}{prior} (docs/calibrated_urdf.md, 'The "
-                             "prior')", 120, subsequent_indent="  ")
+        return textwrap.wrap(f"model selection (evidence): {words}{prior} (docs/calibrated_urdf.md, 'The prior')", 120,
+                             subsequent_indent="  ")
     lines = [f"model selection ({selection['policy']}): left out the {', '.join(selection['removed_groups'])} "
              f"({len(removed)} parameters at nominal); --select none keeps them"] if removed else []
     if held:

@@ -10,13 +10,12 @@ cost less than one fit. Two kinds of hold-out:
   lower half of its readings predicted from the upper half, then the other way round (how the fit predicts beyond the
   range it saw).
 
-Model selection (:mod:`pincal.identification.selection`) scores candidates on them, and the predicted bound
-(:mod:`pincal.calibration.growth`) is estimated from them. Rows are the problem's weighted residual rows [σ units].
+The predicted bound (:mod:`pincal.calibration.growth`) is estimated from them. Rows are the problem's weighted residual
+rows [σ units].
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -86,33 +85,15 @@ class Linearised:
         point = (result.x[chosen] if x is None else x) / scales
         return cls(jacobian * scales, residual, result.sample_weights[rows], precision, point, rows)
 
-    def refit(self, held: IntArray, keep: Sequence[int] | None = None,
-              precision: Array | None = None) -> tuple[Array, Array, npt.NDArray[np.bool_]]:
+    def refit(self, held: IntArray) -> tuple[Array, Array, npt.NDArray[np.bool_]]:
         """The held-out samples' rows after one Gauss–Newton solve without them, toward the prior: their weighted
-        residual, the refit's scaled covariance factor ``(JᵀWJ + P)⁺`` over ``keep`` (default: every parameter; the
-        others held at nominal, 0), and which rows are held out. ``precision`` overrides the prior's."""
+        residual, the refit's scaled covariance factor ``(JᵀWJ + P)⁺``, and which rows are held out."""
         out = np.isin(self.rows, held)
-        prior = self.precision if precision is None else precision
-        kept = np.arange(self.x.size) if keep is None else np.asarray(keep, dtype=np.intp)
-        dropped = np.setdiff1d(np.arange(self.x.size), kept)
-        residual = self.residual - self.jacobian[:, dropped] @ self.x[dropped]  # the dropped at nominal
-        jacobian = self.jacobian[:, kept]
-        weighted = jacobian * self.weights[:, None]
-        normal = jacobian[~out].T @ weighted[~out] + np.diag(prior[kept])
+        weighted = self.jacobian * self.weights[:, None]
+        normal = self.jacobian[~out].T @ weighted[~out] + np.diag(self.precision)
         inverse = pseudo_inverse(normal)
-        step = -inverse @ (weighted[~out].T @ residual[~out] + prior[kept] * self.x[kept])
-        return residual[out] + jacobian[out] @ step, inverse, out
-
-    def score(self, folds: Sequence[IntArray], keep: Sequence[int] | None = None,
-              precision: Array | None = None) -> float:
-        """The mean square of the held-out rows' weighted residuals over ``folds`` [σ² units], each row weighed by its
-        robust weight: how well the refits predict what they did not see (infinite without rows)."""
-        total, count = 0.0, 0.0
-        for held in folds:
-            residual, _, out = self.refit(held, keep, precision)
-            total += float(np.sum(self.weights[out] * residual**2))
-            count += float(np.sum(self.weights[out]))
-        return total / count if count > 0.0 else math.inf
+        step = -inverse @ (weighted[~out].T @ self.residual[~out] + self.precision * self.x)
+        return self.residual[out] + self.jacobian[out] @ step, inverse, out
 
 
 def pseudo_inverse(matrix: Array) -> Array:

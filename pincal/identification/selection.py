@@ -2,9 +2,8 @@
 
 The policies (:data:`SELECTIONS`), each a fit of every candidate parameter first, then:
 
-- ``evidence`` (the default with the automatic prior): the candidate model whose hold-outs predict best, inside the
-  fitted range and beyond it, among the evidence's prior on every group, the information criterion's groups with the
-  evidence's prior, and the nominal robot (:mod:`pincal.identification.prior_choice`);
+- ``evidence`` (the default with the automatic prior): every group held near nominal as firmly as its evidence says
+  (:mod:`pincal.identification.evidence`), a group the data do not support left out;
 - ``bic``: the groups the Bayesian information criterion keeps (:mod:`pincal.identification.criterion`), refitted;
 - ``cv``: the groups whose combination predicts unseen samples best in 5-fold cross-validation (:func:`select_by_cv`);
 - ``none``: every identifiable parameter.
@@ -18,14 +17,13 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError, PincalError, listing
-from pincal.identification import prior_choice
 from pincal.identification.criterion import (
     GROUPS,
     RSS_FLOOR,
@@ -66,8 +64,6 @@ class SelectedFit:
         evidence: The prior the evidence chose (its factor per group), or None when the prior was not automatic.
         prior_sigma: (p,) the prior σ of ``result``'s fit over ``problem``'s parameters [their units; inf: none], when
             the evidence chose it (None: the prior the options gave).
-        candidates: The hold-outs' score of each candidate model (``evidence`` selection), else empty.
-        candidate: The candidate chosen (``evidence``, ``bic`` or ``nominal``; empty for the other selections).
     """
 
     problem: CalibrationProblem
@@ -78,8 +74,6 @@ class SelectedFit:
     removed_groups: tuple[str, ...] = ()
     evidence: EvidenceChoice | None = None
     prior_sigma: Array | None = None
-    candidates: dict[str, float] = field(default_factory=dict)
-    candidate: str = ""
 
 
 def select_and_fit(problem: CalibrationProblem, policy: str = "evidence", **options: Any) -> SelectedFit:
@@ -110,9 +104,9 @@ def select_and_fit(problem: CalibrationProblem, policy: str = "evidence", **opti
         return _with_evidence(select_by_cv(problem, first, **options), automatic, **options)
     jac, y0 = _weighted_linear(problem, first)
     pset = problem.parameters
-    choice = select_groups(jac * pset.scales, y0, [group_of(p) for p in pset])
     if policy == "evidence":
-        return _refit_chosen(problem, first, jac, y0, choice.removed_groups, choice.scores, **options)
+        return _refit_with_evidence(problem, first, jac, y0, **options)
+    choice = select_groups(jac * pset.scales, y0, [group_of(p) for p in pset])
     if not choice.removed_groups:
         return _with_evidence(SelectedFit(problem, first, first, [], choice.scores), automatic, **options)
     chosen = _refit_without(problem, first, choice.removed_groups, choice.scores, _fitted_criterion, **options)
@@ -140,28 +134,6 @@ def _with_evidence(chosen: SelectedFit, automatic: bool, **options: Any) -> Sele
     groups = chosen.removed_groups + tuple(g for g in fitted.removed_groups if g not in chosen.removed_groups)
     return SelectedFit(fitted.problem, fitted.result, chosen.first, removed, chosen.scores, groups, fitted.evidence,
                        fitted.prior_sigma)
-
-
-def _refit_chosen(problem: CalibrationProblem, first: CalibrationResult, jac: Array, y0: Array,
-                  bic_left_out: tuple[str, ...], bic_scores: dict[tuple[str, ...], float],
-                  **options: Any) -> SelectedFit:
-    """The candidate model the hold-outs choose (:func:`~pincal.identification.prior_choice.choose`: the evidence's
-    prior on every group, the information criterion's groups with the evidence's prior, or the nominal robot),
-    refitted from the nominal start with its prior; ``first`` when the refit fails."""
-    pset = problem.parameters
-    groups = [group_of(p) for p in pset]
-    present = [g for g in GROUPS if g in groups]
-    picked = prior_choice.choose(problem, first, jac, y0, groups, present, bic_left_out)
-    chosen = picked.chosen
-    removed = [p.name for p, g in zip(pset, groups, strict=True) if g in chosen.left_out]
-    if not chosen.kept:
-        return SelectedFit(problem, first, first, [], bic_scores, evidence=chosen.evidence, candidates=picked.scores)
-    reduced = _reduced(problem, chosen.kept) if removed else problem
-    refit = identify(reduced, **{**options, "prior": chosen.sigma[chosen.kept]})
-    if not refit.converged:
-        return SelectedFit(problem, first, first, [], bic_scores, evidence=chosen.evidence, candidates=picked.scores)
-    return SelectedFit(reduced, refit, first, removed, bic_scores, tuple(g for g in present if g in chosen.left_out),
-                       chosen.evidence, chosen.sigma[chosen.kept], picked.scores, chosen.name)
 
 
 def _refit_with_evidence(problem: CalibrationProblem, first: CalibrationResult, jac: Array, y0: Array,
