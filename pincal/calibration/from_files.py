@@ -14,6 +14,7 @@ from pincal.calibration.job_data import job_dataset
 from pincal.calibration.options import OPTIONS, CalibrationOptions, OptionSource, check_cv_seed
 from pincal.calibration.pipeline import Calibration, calibrate, options_of
 from pincal.calibration.provenance import Provenance, file_source, options_dict, robot_source, with_provenance
+from pincal.calibration.report import CalibrationReport
 from pincal.calibration.samples import read_robot_dataset
 from pincal.errors import NotFoundError, PincalError
 from pincal.io.calibrated_urdf import source_text
@@ -45,13 +46,21 @@ def _checked_outputs(robot: Robot, out: str | Path | None, report: str | Path | 
     return plan, beside
 
 
+def writes_urdf(report: CalibrationReport, force: bool) -> bool:
+    """Whether a calibration with ``report`` gets its calibrated URDF (and the corrections file and meshes beside it)
+    written: not for a fit that explains nothing (residuals beyond 1000 × σ), unless ``force``."""
+    return force or not report.explains_nothing
+
+
 def _written(cal: Calibration, robot: Robot, provenance: Provenance, out: str | Path | None,
-             report: str | Path | None, beside: Path | None, plan: MeshPlan) -> Calibration:
+             report: str | Path | None, beside: Path | None, plan: MeshPlan, force: bool) -> Calibration:
     """``cal`` with its provenance, its outputs written, all or none: the calibrated URDF (its mesh names for where it
     lands), the report, the corrections file beside the URDF when the URDF cannot hold every estimate, and the mesh
-    copies."""
+    copies; of a fit that explains nothing, the report alone (unless ``force``: :func:`writes_urdf`)."""
     texts: list[tuple[str | Path, str | bytes]] = []
     named = None
+    if not writes_urdf(cal.report, force):
+        out = beside = None
     if cal.corrections is not None and beside is not None:  # what the URDF cannot hold goes beside it
         text = json_text({**corrections_dict(cal.corrections, robot, beside.parent),
                           "provenance": provenance.as_dict(beside.parent)})
@@ -82,7 +91,7 @@ def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, repor
     plan, beside = _checked_outputs(robot, out_urdf, report_path, meshes, [data_path], ("--out", "--report"))
     cal = calibrate(robot, read_robot_dataset(data_path, robot), **options)
     provenance = Provenance(robot_source(robot_path, robot), [file_source(data_path)], _options(options))
-    return _written(cal, robot, provenance, out_urdf, report_path, beside, plan)
+    return _written(cal, robot, provenance, out_urdf, report_path, beside, plan, bool(options.get("force")))
 
 
 def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -> Calibration:
@@ -104,7 +113,7 @@ def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -
     cal = calibrate(robot, job_dataset(job, robot), progress=progress, **job.options)
     provenance = Provenance(robot_source(str(job.robot), robot), [file_source(p) for p in (job.path, *job.files)],
                             _options(job.options))
-    return _written(cal, robot, provenance, job.out, job.report, beside, plan)
+    return _written(cal, robot, provenance, job.out, job.report, beside, plan, bool(job.options.get("force")))
 
 
 #: A file named so is a job file (docs/job_file.md): ``pincal calibrate JOB.toml``.

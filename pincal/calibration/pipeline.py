@@ -26,11 +26,17 @@ from pincal.calibration.crossval import Folds, check_cross_validation, cross_val
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, evaluate_held_out
 from pincal.calibration.noise import provisional_noise, with_noise
 from pincal.calibration.options import CalibrationOptions, check_cv_seed, plausible_factor
-from pincal.calibration.plausibility import implausible_corrections, implausible_scales, likely_cause, scale_limit
+from pincal.calibration.plausibility import (
+    explains_nothing,
+    implausible_corrections,
+    implausible_scales,
+    likely_cause,
+    scale_limit,
+)
 from pincal.calibration.predicted import fitted_ranges, held_out_predictions, workspace_prediction
 from pincal.calibration.report import CalibrationReport, fit_figures
-from pincal.calibration.samples import LENGTH_SCALE_RATIO, check_joint_scale, check_length_scale
-from pincal.calibration.setup import Prepared, check_movable, prepare
+from pincal.calibration.samples import LENGTH_SCALE_RATIO, check_joint_scale, check_length_scale, check_moving_frames
+from pincal.calibration.setup import Prepared, check_movable, dataset_models, prepare
 from pincal.errors import ArgumentError, DataError
 from pincal.identification.combinations import describe_unidentifiable, digest
 from pincal.identification.corrections import moving_mass
@@ -100,6 +106,7 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     check_cv_seed(options.cv, options.cv_seed)
     check_trainable(dataset)
     # the stages on stderr when it is a terminal; the cross-validation after them has its own bar
+    check_moving_frames(robot, dataset_models(robot, dataset, options))  # before the samples are solved
     with Progress("calibrate: prepare, fit, evaluate", 3, quiet=not progress) as stages:
         fit = prepare(robot, dataset, options)
         x_true = _checked_truth(x_true, fit.parameters.names)
@@ -120,6 +127,8 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         status = "" if result.converged else f"NOT CONVERGED ({result.message} after {result.iterations} iterations): "
         if checked["implausible"] or checked["implausible_scale"]:
             status += "IMPLAUSIBLE (corrections beyond what a robot of this model needs; the report's implausible): "
+        if checked["explains_nothing"]:
+            status += f"EXPLAINS NOTHING (residuals {result.sigma2 ** 0.5:.3g} × σ after calibration: not a result): "
         text, shifts = calibrated_robot_text(robot, source_text(robot), kept.parameters, result.x,
                                              note=f"{status}calibrated by pincal from {fit.samples.n_samples} samples "
                                                   f"({', '.join(m.key for m in fit.models)})",
@@ -209,12 +218,14 @@ def fit_prepared(fit: Prepared, options: CalibrationOptions) -> SelectedFit:
 
 def plausibility(fitted: SelectedFit, length_scale: dict[str, float], plausible: float | str) -> dict[str, Any]:
     """The report's account of plausibility (:mod:`pincal.calibration.plausibility`): the data's length scale, the
-    corrections and scales beyond ``plausible`` times the documented limits, and their likely cause."""
+    corrections and scales beyond ``plausible`` times the documented limits, their likely cause, and whether the fit
+    explains nothing (residuals beyond 1000 × σ, whatever ``plausible`` says)."""
     corrections = implausible_corrections(fitted.problem.parameters, fitted.result, plausible)
     scales = implausible_scales(length_scale, plausible)
     return {"length_scale": length_scale, "plausible": plausible, "implausible": corrections,
             "implausible_scale": scales,
-            "implausible_cause": likely_cause(corrections, scales, length_scale, fitted.result.sigma2)}
+            "implausible_cause": likely_cause(corrections, scales, length_scale, fitted.result.sigma2),
+            "explains_nothing": explains_nothing(fitted.result.sigma2)}
 
 
 def _checked_truth(x_true: Any, names: Sequence[str]) -> Array | None:

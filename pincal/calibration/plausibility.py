@@ -40,6 +40,18 @@ SCALE_TOLERANCE = 0.5
 SCALE_NOTED = 0.1
 #: The fit reaches the noise when its a-posteriori variance factor is below this (a 3 σ fit).
 FIT_REACHES_NOISE = 9.0
+#: A fit explains nothing when its a-posteriori variance factor exceeds this: residuals beyond 1000 × σ after
+#: calibration. Real fits stay far below (the TIAGo mocap data at 1.35 σ, the TALOS contacts at 1.9 and 3.8 × the σ
+#: estimated from them, a robot model missing an effect at tens of σ); a camera declared on a frame no joint moves
+#: fits at 9.8e4 σ. No calibrated URDF is written of such a fit (unless ``force``): its corrections are whatever the
+#: solver was left with, and its stated accuracy is off by a thousandfold.
+EXPLAINS_NOTHING = 1e6
+
+
+def explains_nothing(sigma2: float | None) -> bool:
+    """Whether a fit whose a-posteriori variance factor is ``sigma2`` explains nothing of its data: residuals beyond
+    1000 × σ (:data:`EXPLAINS_NOTHING`)."""
+    return sigma2 is not None and sigma2 > EXPLAINS_NOTHING
 
 
 def smallest_equivalent(result: CalibrationResult, limits: Array) -> Array:

@@ -2,7 +2,8 @@
 
 Every command reads data through :func:`read_robot_dataset`; :func:`usable_part` drops (and names) the samples
 that cannot be used; :func:`held_out_outside_range` names held-out readings outside the fitted range;
-:func:`check_length_scale` refuses lengths read in the wrong unit and gives the data's length scale. SI units: m, rad.
+:func:`check_length_scale` refuses lengths read in the wrong unit and gives the data's length scale;
+:func:`check_moving_frames` refuses a measurement of frames no actuated joint moves. SI units: m, rad.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import numpy.typing as npt
 
 from pincal import linalg
 from pincal.errors import DataError
+from pincal.identification.measurements import Measurement
 from pincal.identification.metrics import length_columns
 from pincal.identification.parameters import (
     joint_unit,
@@ -25,6 +27,7 @@ from pincal.identification.problem import CalibrationProblem
 from pincal.io.dataset import OCCLUDABLE_KINDS, Dataset
 from pincal.io.dataset_reader import read_dataset
 from pincal.model.assemblable import assemble
+from pincal.model.measured_frame import MOTION_TOLERANCE, frame_motion
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -62,6 +65,30 @@ def check_recorded_robot(metadata: Mapping[str, str], robot: Robot, path: str | 
         raise DataError(f"{path}: its '# robot: {recorded}' line says the data are of robot '{recorded}', not of "
                         f"{' or '.join(repr(n) for n in sorted(names))} (the URDF's <robot name> or file name); give "
                         "the robot the data were taken on, or correct that line")
+
+
+def check_moving_frames(robot: Robot, models: Sequence[Measurement]) -> None:
+    """Refuse, before any fit, a measurement of frames no actuated joint moves (a camera declared on the robot's base,
+    a point on a link the joints do not carry): its readings are the same in every posture, whatever the robot's
+    geometry, so they can calibrate nothing, and a fit of them explains nothing. Measurements that read only joints
+    (``joint:``) are not judged here.
+
+    Raises:
+        DataError: naming the measurement, the frame and the robot's default measured frame.
+    """
+    frames = sorted({frame for model in models for frame in model.frames})
+    if not frames or robot.n_actuated == 0:
+        return
+    moving = dict(zip(frames, (m > MOTION_TOLERANCE for m in frame_motion(robot, [robot.frame_id(f) for f in frames])),
+                      strict=True))
+    for model in models:
+        if model.frames and not any(moving[frame] for frame in model.frames):
+            still = " and ".join(f"'{frame}'" for frame in model.frames)
+            default = robot.measured_frame_choice.frame
+            instead = f" (e.g. '{default}', the default measured frame)" if default is not None else ""
+            raise DataError(f"measurement '{model.key}' reads frame{'s' if len(model.frames) > 1 else ''} {still}, "
+                            f"which no actuated joint of '{robot.name}' moves: its readings are the same in every "
+                            f"posture and can calibrate nothing; measure a frame the joints move{instead}")
 
 
 def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, str]], Array | None]:

@@ -94,7 +94,8 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
     report's provenance records them)."""
     length, angle = report.error_words
     width = _label_width(report)
-    lines = [f"NOT CONVERGED: {report.message} after {report.iterations} iterations; the estimate below is "
+    lines = [_explains_nothing(report),  # first: nothing below is a result
+             f"NOT CONVERGED: {report.message} after {report.iterations} iterations; the estimate below is "
              "where the solver stopped, not a calibration (try --max-iter, fewer --parameters or more samples)"
              if not report.converged else None,
              f"WORSE THAN NOMINAL: the calibrated model predicts the held-out samples worse than the nominal one "
@@ -102,10 +103,7 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
              "or fit fewer parameters, or measure postures that cover the held-out range"
              if report.worse_than_nominal else None,
              # said first: "converged" must not read as "fits the data"
-             f"THE FIT DOES NOT REACH THE STATED NOISE: residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ after "
-             "calibration; "
-             "either the stated σ is wrong or the model cannot fit these data (see the warning below)"
-             if (report.sigma2 or 0.0) > NOISE_CONTRADICTED else None,
+             _noise_verdict(report),
              *_implausible(report),  # after the one-line verdicts: it lists the parameters
              f"samples {report.n_samples}, parameters {report.n_parameters}, "
              f"identifiable {report.n_identifiable}, estimated {report.n_estimated}"
@@ -134,9 +132,8 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
         lines.append(f"(before: {report.before_means})")
     lines += _predicted(report)
     if report.joints_at_reference:
-        joints = report.joints_at_reference
-        lines += textwrap.wrap(f"not in the file, at their reference (they move nothing measured): {', '.join(joints)}",
-                               120, subsequent_indent="  ", break_on_hyphens=False)[:3]
+        lines += _listed_in_lines("not in the file, at their reference (they move nothing measured)",
+                                  report.joints_at_reference, JOINT_LINES)
     lines += _accounting(report)
     if report.calibration_gain is not None:
         lines.append(f"{'calibration gain G (study 000)':32}{'':>14}{report.calibration_gain:>12.1f} %")
@@ -147,7 +144,61 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
     if report.unidentifiable:
         lines.append("")
         lines += _unseen(report, parameter_spec, report_path)
-    return "\n".join(line for line in lines if line is not None)
+    return "\n".join(_within_width([line for line in lines if line is not None]))
+
+
+#: The summary's widest line [characters]: a terminal of 120 columns shows each whole.
+WIDTH = 120
+#: Most lines the summary gives the joints left at their reference (the report's ``joints_at_reference`` has them all).
+JOINT_LINES = 3
+
+
+def _within_width(lines: list[str]) -> list[str]:
+    """``lines`` with each longer than :data:`WIDTH` wrapped at its words, the continuation indented two spaces more
+    than the line."""
+    out: list[str] = []
+    for line in lines:
+        if len(line) <= WIDTH:
+            out.append(line)
+            continue
+        indent = " " * (len(line) - len(line.lstrip(" ")) + 2)
+        out += textwrap.wrap(line, WIDTH, subsequent_indent=indent, break_on_hyphens=False, break_long_words=False)
+    return out
+
+
+def _listed_in_lines(heading: str, names: Sequence[str], most: int) -> list[str]:
+    """``heading: a, b, c`` in at most ``most`` lines of :data:`WIDTH` characters: the names that fit, then how many
+    more there are ("and 9 more (the report's joints_at_reference)")."""
+    for shown in range(len(names), 0, -1):
+        rest = len(names) - shown
+        more = f", and {rest} more (the report's joints_at_reference)" if rest else ""
+        lines = textwrap.wrap(f"{heading}: {', '.join(names[:shown])}{more}", WIDTH, subsequent_indent="  ",
+                              break_on_hyphens=False)
+        if len(lines) <= most:
+            return lines
+    return textwrap.wrap(f"{heading}: {len(names)} joints (the report's joints_at_reference)", WIDTH,
+                         subsequent_indent="  ")
+
+
+def _explains_nothing(report: CalibrationReport) -> str | None:
+    """The first line of a fit that explains nothing (residuals beyond 1000 × σ: not a result, no calibrated URDF);
+    None for any other."""
+    if not report.explains_nothing:
+        return None
+    return (f"THE FIT EXPLAINS NOTHING: residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ after calibration, beyond "
+            "1000 × σ: not a result, and no calibrated URDF is written of it (--force writes one); either the stated σ "
+            "is off by a thousandfold or the model cannot fit these data (a frame that does not move as the data do, "
+            "another robot's data)")
+
+
+def _noise_verdict(report: CalibrationReport) -> str | None:
+    """The verdict line of a fit that does not reach the stated noise (residuals beyond 3 × σ but not so far that it
+    explains nothing); None within it."""
+    ratio = (report.sigma2 or 0.0) ** 0.5
+    if ratio ** 2 > NOISE_CONTRADICTED and not report.explains_nothing:
+        return (f"THE FIT DOES NOT REACH THE STATED NOISE: residuals {ratio:.3g} × σ after calibration; either the "
+                "stated σ is wrong or the model cannot fit these data (see the warning below)")
+    return None
 
 
 def _named_parameters(report: CalibrationReport, spec: Sequence[str] | None) -> bool:
@@ -383,6 +434,8 @@ def _estimated_sigma(report: CalibrationReport) -> list[str]:
 
 def verdict(report: CalibrationReport) -> str:
     """One robot's outcome in a word or two: what the summary's first line would say."""
+    if report.explains_nothing:
+        return f"EXPLAINS NOTHING (residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ)"
     if not report.converged:
         return f"NOT CONVERGED ({report.message})"
     if report.worse_than_nominal:

@@ -134,7 +134,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     """``pincal calibrate``: identify the parameters from a measurement CSV (or as a job file says), print the
     summary and write the calibrated URDF and the report; exit status 1 when the result is not usable (not converged,
     or worse than nominal on the held-out samples)."""
-    from pincal.calibration.from_files import calibrate_files, calibrate_job
+    from pincal.calibration.from_files import calibrate_files, calibrate_job, writes_urdf
     from pincal.calibration.job import read_job
     from pincal.calibration.summary import summary_text
     from pincal.io.corrections_file import corrections_path
@@ -161,6 +161,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         cal = calibrate_files(args.robot, args.data, args.out, args.report, args.meshes, progress=True, **options)
         out, report_path = args.out, args.report
     print(summary_text(cal.report, cal.result.seconds, str(report_path) if report_path else None, spec))
+    if out and not writes_urdf(cal.report, bool(options.get("force"))):
+        print(f"not written: {out} (the fit explains nothing; --force writes it)")
+        out = None
     for path in (out, report_path):
         if path:
             print(f"wrote {path}")
