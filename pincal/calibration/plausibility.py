@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.columns import ColumnMistake
 from pincal.calibration.options import plausible_factor
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.result import CalibrationResult
@@ -110,12 +111,14 @@ def implausible_scales(length_scale: dict[str, float], plausible: float | str) -
 
 
 def likely_cause(corrections: list[dict[str, Any]], scales: list[dict[str, Any]], length_scale: dict[str, float],
-                 sigma2: float | None) -> str:
+                 sigma2: float | None, mistake: ColumnMistake | None = None) -> str:
     """What the implausible ``corrections`` and ``scales`` most likely come from, in a sentence (empty when there are
-    none): lengths in another unit when the data's spread is scaled; a wrong robot model when the robot's placements
-    are corrected far and the fit nevertheless reaches the noise (``sigma2``, the a-posteriori variance factor);
-    swapped or mislabelled joint columns (or a wrong model) when it does not; a joint's zero or sign when only
-    reading offsets are off."""
+    none): lengths in another unit when the data's spread is scaled; the joint column read with the other sign, or the
+    two exchanged, that the nominal robot's start says explain the data (``mistake``,
+    :func:`~pincal.calibration.columns.column_mistake`); a wrong robot model when the robot's placements are corrected
+    far and the fit nevertheless reaches the noise (``sigma2``, the a-posteriori variance factor); swapped or
+    mislabelled joint columns (or a wrong model) when it does not; a joint's zero or sign when only reading offsets are
+    off."""
     if scales:
         worst = max(scales, key=lambda s: abs(math.log(s["scale"])))
         return (f"lengths in another unit: the measured positions '{worst['measurement']}' spread "
@@ -124,6 +127,8 @@ def likely_cause(corrections: list[dict[str, Any]], scales: list[dict[str, Any]]
                 "another size (a wrong robot model)")
     if not corrections:
         return ""
+    if mistake is not None:
+        return f"{mistake.what}: {mistake.evidence}; {mistake.fix}"
     noted = [(key, scale) for key, scale in length_scale.items() if abs(scale - 1.0) > SCALE_NOTED]
     size = (f"; the data's positions spread {noted[0][1]:.3g} times as far as this robot's would" if noted else "")
     kinds = {c["kind"] for c in corrections}

@@ -9,6 +9,7 @@ that cannot be used; :func:`held_out_outside_range` names held-out readings outs
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -114,6 +115,27 @@ def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, st
     dropped = [{"sample": part.sample_ids[k], "reason": reasons[k]} for k in sorted(reasons)]
     usable = [k for k in range(part.n_samples) if k not in reasons]
     return part.subset(usable), dropped, None if solved is None else solved.q[solved.usable]
+
+
+def dropped_account(dropped: Sequence[Mapping[str, str]], total: int) -> str:
+    """Why the samples ``dropped`` (``{"sample", "reason"}``, of ``total``) were dropped, in one sentence: how many lay
+    outside the joint limits and which joints read outside them how often, then how many for other reasons."""
+    outside: dict[str, int] = {}
+    others = []
+    for entry in dropped:
+        joints = re.findall(r"joint '([^']+)' reads [^,;]*, outside its URDF limits", entry["reason"])
+        for joint in joints:
+            outside[joint] = outside.get(joint, 0) + 1
+        if not joints:
+            others.append(entry["reason"])
+    parts = []
+    if outside:
+        n = len(dropped) - len(others)
+        counts = ", ".join(f"{joint} in {count}" for joint, count in sorted(outside.items(), key=lambda kv: -kv[1]))
+        parts.append(f"{n} with a reading outside the URDF joint limits ({counts})")
+    if others:
+        parts.append(f"{len(others)} for other reasons (first: {others[0]})")
+    return f"{len(dropped)} of the {total} samples were dropped before the fit: {'; '.join(parts)}"
 
 
 def unseen_samples(robot: Robot, part: Dataset) -> list[tuple[int, str]]:

@@ -381,9 +381,9 @@ def _accounting(report: CalibrationReport) -> list[str]:
                   for w in weighted_only[:LISTED]]
     strange = report.held_out_outliers or []
     if strange:
-        lines.append(f"held-out samples the calibrated model cannot explain ({len(strange)}; they weigh on the "
-                     f"held-out figures, not on the comparison with the nominal model): {', '.join(strange[:LISTED])}"
-                     + (" ..." if len(strange) > LISTED else ""))
+        shown = ", ".join(strange[:LISTED]) + (" ..." if len(strange) > LISTED else "")
+        lines += [f"held-out samples the calibrated model cannot explain ({len(strange)}): {shown}",
+                  "  (they weigh on the held-out figures, not on the comparison with the nominal model)"]
     outside = report.held_out_outside_range or []
     if outside:  # one line of at most 120 characters: a few samples, else their count
         ids, joints = (list(dict.fromkeys(str(o[key]) for o in outside)) for key in ("sample", "joint"))

@@ -9,10 +9,11 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from pincal.calibration.options import check_cv_seed
 from pincal.cli import (
@@ -256,7 +257,16 @@ def cmd_fleet(args: argparse.Namespace) -> int:
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with pincal's error form: one line, ``pincal: error: ...``, exit 2 (no usage block)."""
+    """argparse with pincal's error form: one line, ``pincal: error: ...``, exit 2 (no usage block); a negative number
+    in scientific notation (``--sigma -1e-5``) is a value, as ``-0.5`` is, not an unknown option."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # argparse takes '-1e-5' for an option ("expected one argument"): its own test of a negative number knows no
+        # exponent (Python 3.11's _negative_number_matcher, the parser's one place for it; no option of pincal's
+        # looks like a number)
+        self._negative_number_matcher = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$",
+                                                   re.IGNORECASE)
 
     def error(self, message: str) -> NoReturn:
         command = self.prog.removeprefix("pincal").strip()
