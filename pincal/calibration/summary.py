@@ -8,12 +8,32 @@ from __future__ import annotations
 import math
 import textwrap
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 from pincal.calibration.heldout import NOISE_CONTRADICTED
 from pincal.calibration.report import CalibrationReport
 from pincal.identification.corrections import payload_from_dict
 from pincal.identification.parameters import DEFAULT_SET, NAMED_SETS
+
+
+def robot_named(given: str, urdf_name: str) -> str:
+    """A robot as the user named it: a known robot's name as typed (``tiago_no_hand``, whose URDF says
+    ``<robot name="tiago">``); a URDF file by its ``<robot name>`` (its path is said where the files are)."""
+    return urdf_name if not given or Path(given).suffix or "/" in given else given
+
+
+def urdf_name_note(given: str, urdf_name: str) -> str:
+    """``(URDF <robot name="tiago">)`` when the name :func:`robot_named` gives differs from the URDF's, else empty."""
+    return "" if robot_named(given, urdf_name) == urdf_name else f' (URDF <robot name="{urdf_name}">)'
+
+
+def report_robot(report: CalibrationReport) -> tuple[str, str]:
+    """The robot of ``report`` as the user named it and the note on its URDF's name (:func:`robot_named`,
+    :func:`urdf_name_note`, from the report's provenance)."""
+    given = ((report.provenance or {}).get("robot") or {}).get("file")
+    given = given if isinstance(given, str) else ""
+    return robot_named(given, report.robot), urdf_name_note(given, report.robot)
 
 
 def mm(value: float | None) -> str:

@@ -99,6 +99,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     """``pincal simulate``: draw true errors, random postures and noisy measurements of a robot and write the
     dataset, the true URDF and ``truth.json`` to ``--out``."""
     from pincal.calibration.campaign import check_sample_counts, simulate, simulation_outputs, write_simulation
+    from pincal.calibration.summary import robot_named, urdf_name_note
     from pincal.io.mesh_files import mesh_folder
     from pincal.model.robot import load_robot
 
@@ -117,9 +118,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             with contextlib.suppress(OSError):
                 Path(args.out).rmdir()
         raise
-    print(f"simulated {args.samples} + {args.test_samples} postures of '{robot.name}' with errors of "
-          f"σ {args.perturb:g} "
-          f"(m, rad) on {len(sim.parameters)} parameters; measurement noise σ {args.noise:g}")
+    print(f"simulated {args.samples} + {args.test_samples} postures of '{robot_named(args.robot, robot.name)}'"
+          f"{urdf_name_note(args.robot, robot.name)} with errors of σ {args.perturb:g} (m, rad) on "
+          f"{len(sim.parameters)} parameters; measurement noise σ {args.noise:g}")
     for path in paths:
         print(f"wrote {path}")
     if args.meshes == "copy":

@@ -21,7 +21,7 @@ import numpy.typing as npt
 
 from pincal.calibration.pipeline import Calibration
 from pincal.calibration.report import CalibrationReport
-from pincal.calibration.summary import bad_reading_text, correction
+from pincal.calibration.summary import bad_reading_text, correction, report_robot
 from pincal.errors import DataError
 from pincal.io.files import make_directory, write_text
 from pincal.progress import Progress
@@ -412,7 +412,8 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
     tied = (", and the parameters tied to them (see below) may then differ from the truth while predicting the "
             "measurements just as well") if report.unidentifiable and content.truth else ""
     n_test = None if test_before is None else len(test_before)
-    title = f"Calibration of {report.robot or problem.robot.name}"
+    named, note = report_robot(report) if report.robot else (problem.robot.name, "")
+    title = f"Calibration of {named}"
     sources = " · ".join(html.escape(s) for s in content.sources)
     magnified = (f"errors magnified ×{summary.magnification:g}, coloured by size on the scale of the largest error "
                  f"({summary.error_scale * 1e3:.3g} mm)") if summary.has_points else "no 3D measurements"
@@ -423,7 +424,7 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
 <h1>{html.escape(title)}</h1>
 <p class="sub">{_text(report.n_samples)} fit samples{f', {n_test} held out' if n_test else ''} ·
 {html.escape(', '.join(report.measurements))} · {_text(report.n_parameters)} parameters ·
-pincal {__version__}{' · ' + sources if sources else ''}</p>
+pincal {__version__}{' · ' + sources if sources else ''}{' · ' + html.escape(note.strip(' ()')) if note else ''}</p>
 {_cards(report)}
 {_explains_nothing(report)}{_implausible(report)}{_verdict(report)}
 <h2>The robot in 3D</h2>

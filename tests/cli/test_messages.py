@@ -157,3 +157,23 @@ def test_every_summary_line_fits_a_120_column_terminal(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     assert "calibration gain G" in done.stdout
     assert not [line for line in done.stdout.splitlines() if len(line) > 120 and not line.startswith("wrote ")]
+
+
+def test_the_report_page_names_the_robot_as_the_user_gave_it_and_no_none(tmp_path: Path) -> None:
+    """From a job file the page's subtitle ended in a literal 'None' (no DATA on the command line), and the page and
+    the terminal named the robot 'tiago' (its URDF's <robot name>) where the user gave tiago_no_hand."""
+    page = tmp_path / "r.html"
+    job = ROOT / "examples" / "tiago_job.toml"
+    done = run_pincal("report", str(job), "--out", str(page))
+    assert done.returncode == 0, done.stderr
+    assert "calibrating 'tiago_no_hand' (URDF <robot name=\"tiago\">) from 34 samples ..." in done.stderr
+    text = page.read_text(encoding="utf-8")
+    title = text.partition("<h1>")[2].partition("</h1>")[0]
+    subtitle = text.partition('<p class="sub">')[2].partition("</p>")[0]
+    assert title == "Calibration of tiago_no_hand", title
+    assert subtitle.endswith(f"{job} · URDF &lt;robot name=&quot;tiago&quot;&gt;") and "None" not in subtitle, subtitle
+    done = run_pincal("simulate", "tiago_no_hand", "--samples", "3", "--quiet", "--out", str(tmp_path / "sim"))
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("simulated 3 + 0 postures of 'tiago_no_hand' (URDF <robot name=\"tiago\">) with ")
+    done = run_pincal("simulate", "ur10", "--samples", "3", "--quiet", "--out", str(tmp_path / "ur10"))
+    assert done.stdout.startswith("simulated 3 + 0 postures of 'ur10' with "), done.stdout  # one name: said once
