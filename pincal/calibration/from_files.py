@@ -9,6 +9,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from pincal import validation
 from pincal.calibration.job import Job, load_job_robot, read_job
 from pincal.calibration.job_data import job_dataset
 from pincal.calibration.options import OPTIONS, CalibrationOptions, OptionSource, check_cv_seed
@@ -98,6 +99,8 @@ def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -
     """:func:`calibrate` as a job file says (:mod:`pincal.calibration.job`): its robot, its data read into SI units, its
     options; the outputs are checked before the fit (never over an input, the job file included) and each is written
     whole or not at all; ``meshes`` as for :func:`calibrate_files`; ``progress`` as for :func:`calibrate`."""
+    validation.instance("job", job, Job, "a Job (pincal.calibration.job.read_job)")
+
     def source(option: str) -> OptionSource:  # the command line's value in place of the job's, or the job's own
         return "command line" if option in job.overrides else job.path
 

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal import linalg
+from pincal import linalg, validation
 from pincal.errors import DataError
 from pincal.identification.measurements import Measurement
 from pincal.identification.metrics import length_columns
@@ -47,6 +47,7 @@ def read_robot_dataset(path: str | Path, robot: Robot, min_samples: int = 2) -> 
     checked for degrees and millimetres. Every command reads data through here. A file whose ``# robot:`` line
     names another robot is refused. The actuated joints that move a measured frame must have a column; that is
     checked with the measurement models (:func:`~pincal.io.adapters.joints_at_reference`)."""
+    validation.instance("robot", robot, Robot, "a Robot (pincal.load_robot)")
     dataset = read_dataset(path, None, min_samples, joint_kinds=joint_kinds(robot),
                            joint_like=[str(n) for n in robot.model.names[1:]])
     check_recorded_robot(dataset.metadata, robot, path)
@@ -101,6 +102,8 @@ def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, st
     reading), and postures the nominal robot cannot assemble or that sit at a singularity
     (:func:`~pincal.model.assemblable.assemble`).
     """
+    validation.instance("robot", robot, Robot, "a Robot (pincal.load_robot)")
+    validation.instance("part", part, Dataset, "a Dataset (pincal.read_dataset)")
     reasons: dict[int, str] = dict(unseen_samples(robot, part))
     for k, reason in out_of_limits(robot, part):
         reasons[k] = f"{reasons[k]}; {reason}" if k in reasons else reason

@@ -11,6 +11,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from pincal import validation
 from pincal.calibration.heldout import NOISE_CONTRADICTED
 from pincal.calibration.report import CalibrationReport
 from pincal.identification.corrections import payload_from_dict
@@ -112,6 +113,7 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
     table [mm, mrad], where every sample went, the warnings, and the combinations the data cannot separate;
     ``seconds`` is the fit's wall time; ``parameter_spec``, the parameters as the user named them (default: as the
     report's provenance records them)."""
+    validation.instance("report", report, CalibrationReport, "a CalibrationReport (a calibration's .report)")
     length, angle = report.error_words
     width = _label_width(report)
     lines = [_explains_nothing(report),  # first: nothing below is a result

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from pincal.errors import DataError, listing, not_found
+from pincal.errors import ArgumentError, DataError, listing, not_found
 
 if TYPE_CHECKING:
     from rosbags.highlevel import AnyReader
@@ -51,6 +51,11 @@ class MeasurementSource:
     topic: str
     parent: str = ""
     child: str = ""
+
+    def __post_init__(self) -> None:
+        """Refuse a kind the bag reader has no message type for, naming the kinds (once a KeyError deep inside)."""
+        if not isinstance(self.kind, str) or self.kind not in MESSAGE_TYPES:
+            raise ArgumentError(f"MeasurementSource kind={self.kind!r}: kinds are {listing(MESSAGE_TYPES)}")
 
     @property
     def oriented(self) -> bool:
