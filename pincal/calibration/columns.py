@@ -164,7 +164,8 @@ def column_mistake(robot: Robot, part: Dataset, models: list[Measurement]) -> Co
     found: dict[tuple[str, ...], Start] = {}
     for variant in variants:
         corrected = start_of(robot, _corrected(probed, variant), models)
-        if corrected.usable >= as_read.usable and corrected.rms <= CLEARLY_BETTER * as_read.rms:
+        if np.isfinite(corrected.rms) and corrected.usable >= as_read.usable \
+                and corrected.rms <= CLEARLY_BETTER * as_read.rms:
             found[variant] = corrected
     if not found:
         return None

@@ -46,8 +46,8 @@ SIGMA_HELP = ("one measurement σ [m, rad] for weighting every channel, or one p
               "lines (default: those lines, else estimated from the data: docs/dataset.md 'Noise')")
 
 FORCE_HELP = ("write the calibrated URDF even of a fit that explains nothing (residuals beyond 1000 × σ after "
-              "calibration), which is otherwise not written; the exit status stays 1 (docs/calibrated_urdf.md, 'A fit "
-              "that explains nothing')")
+              "calibration, more than half the start's error left), which is otherwise not written; the exit status "
+              "stays 1 (docs/calibrated_urdf.md, 'A fit that explains nothing')")
 
 
 @dataclass(frozen=True)
@@ -105,10 +105,10 @@ class CalibrationOptions:
         prior: A factor (> 0) on each kind's prior σ about nominal
             (:attr:`~pincal.identification.parameters.kinds.ParameterKind.prior`, :mod:`pincal.identification.prior`),
             or ``"off"``: least squares.
-        force: Write the calibrated URDF of a fit that explains nothing (residuals beyond 1000 × σ,
-            :data:`~pincal.calibration.plausibility.EXPLAINS_NOTHING`), which is otherwise not written; the result
-            stays unusable (exit status 1). It changes no figure: only what :mod:`~pincal.calibration.from_files`
-            writes.
+        force: Write the calibrated URDF of a fit that explains nothing (residuals beyond 1000 × σ, most of the start's
+            error left: :data:`~pincal.calibration.plausibility.EXPLAINS_NOTHING`), which is otherwise not written;
+            the result stays unusable (exit status 1). It changes no figure: only what
+            :mod:`~pincal.calibration.from_files` writes.
     """
 
     parameter_spec: tuple[str, ...] | None = field(default=None, metadata=_how(

@@ -49,7 +49,7 @@ from pincal.errors import ArgumentError, DataError
 from pincal.identification.combinations import describe_unidentifiable, digest
 from pincal.identification.corrections import moving_mass
 from pincal.identification.ikm import ImplicitProblem
-from pincal.identification.metrics import sample_length_errors
+from pincal.identification.metrics import angle_error_norms, error_norms, rms, sample_length_errors
 from pincal.identification.parameters import influencing_joints, read_joints
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.readings import BadReading
@@ -257,7 +257,15 @@ def plausibility(fitted: SelectedFit, length_scale: dict[str, float], plausible:
     return {"length_scale": length_scale, "plausible": plausible, "implausible": corrections,
             "implausible_scale": scales,
             "implausible_cause": likely_cause(corrections, scales, length_scale, fitted.result.sigma2, mistake),
-            "explains_nothing": explains_nothing(fitted.result.sigma2)}
+            "explains_nothing": explains_nothing(fitted.result.sigma2, *fit_rms(fitted.result))}
+
+
+def fit_rms(result: CalibrationResult) -> tuple[float, float]:
+    """The fit's RMS error before (its start) and after [m]: of its length readings, else of its angles [rad]."""
+    before, after = error_norms(result.errors_before), error_norms(result.errors_after)
+    if not before.size:
+        before, after = angle_error_norms(result.errors_before), angle_error_norms(result.errors_after)
+    return rms(before), rms(after)
 
 
 def _checked_truth(x_true: Any, names: Sequence[str]) -> Array | None:

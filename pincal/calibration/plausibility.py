@@ -41,18 +41,28 @@ SCALE_TOLERANCE = 0.5
 SCALE_NOTED = 0.1
 #: The fit reaches the noise when its a-posteriori variance factor is below this (a 3 σ fit).
 FIT_REACHES_NOISE = 9.0
-#: A fit explains nothing when its a-posteriori variance factor exceeds this: residuals beyond 1000 × σ after
-#: calibration. Real fits stay far below (the TIAGo mocap data at 1.35 σ, the TALOS contacts at 1.9 and 3.8 × the σ
-#: estimated from them, a robot model missing an effect at tens of σ); a camera declared on a frame no joint moves
-#: fits at 9.8e4 σ. No calibrated URDF is written of such a fit (unless ``force``): its corrections are whatever the
-#: solver was left with, and its stated accuracy is off by a thousandfold.
+#: A fit explains nothing when its a-posteriori variance factor exceeds this (residuals beyond 1000 × σ after
+#: calibration) while it removed less than :data:`EXPLAINED` of the start's RMS error. Real fits stay far below the
+#: factor (the TIAGo mocap data at 1.35 σ, the TALOS contacts at 1.9 and 3.8 × the σ estimated from them); readings
+#: that belong to no posture of theirs stay at tens of thousands of σ (a UR10's readings shuffled between its postures
+#: 6.5e4 σ, 0.99 of the start's error left; a Delta's positions mirrored 1.2e4 σ, 0.64 left). A good fit of readings
+#: whose σ is stated a thousand times too small also ends beyond the factor, but with a hundredth of the start's error
+#: left: a result, whose σ the summary questions. No calibrated URDF is written of a fit that explains nothing (unless
+#: ``force``): its corrections are wherever the solver stopped.
 EXPLAINS_NOTHING = 1e6
+#: The share of the start's RMS error a fit must remove to explain something of its data (see :data:`EXPLAINS_NOTHING`).
+EXPLAINED = 0.5
 
 
-def explains_nothing(sigma2: float | None) -> bool:
-    """Whether a fit whose a-posteriori variance factor is ``sigma2`` explains nothing of its data: residuals beyond
-    1000 × σ (:data:`EXPLAINS_NOTHING`)."""
-    return sigma2 is not None and sigma2 > EXPLAINS_NOTHING
+def explains_nothing(sigma2: float | None, rms_before: float | None, rms_after: float | None) -> bool:
+    """Whether a fit explains nothing of its data: its a-posteriori variance factor ``sigma2`` beyond
+    :data:`EXPLAINS_NOTHING` (residuals beyond 1000 × σ) and its RMS error after calibration ``rms_after`` still more
+    than 1 − :data:`EXPLAINED` of the start's ``rms_before`` [m or rad] (either unknown: the factor alone)."""
+    if sigma2 is None or not sigma2 > EXPLAINS_NOTHING:
+        return False
+    if rms_before is None or rms_after is None or not (math.isfinite(rms_before) and math.isfinite(rms_after)):
+        return True
+    return rms_after > (1.0 - EXPLAINED) * rms_before
 
 
 def smallest_equivalent(result: CalibrationResult, limits: Array) -> Array:

@@ -59,7 +59,8 @@ class CalibrationReport:
     and ``implausible_scale`` list the corrections and the scales beyond what a robot of this model plausibly needs
     (the factor ``plausible`` on the documented limits, :mod:`pincal.calibration.plausibility`), and
     ``implausible_cause`` says what they most likely come from; ``explains_nothing`` is true when the residuals stay
-    beyond 1000 × σ after calibration (:data:`~pincal.calibration.plausibility.EXPLAINS_NOTHING`): not a result, and
+    beyond 1000 × σ after calibration with more than half the start's error left
+    (:data:`~pincal.calibration.plausibility.EXPLAINS_NOTHING`): not a result, and
     no calibrated URDF is written of it unless forced. ``no_effect`` names the default candidates left out
     because they move no measurement of the fitted samples. ``fitted_range`` is each actuated joint's range
     [min, max] [rad or m] in the fitted samples (those that move what is measured); ``predicted_held_out`` the held-out

@@ -207,10 +207,12 @@ def _explains_nothing(report: CalibrationReport) -> str | None:
     None for any other."""
     if not report.explains_nothing:
         return None
+    left = (f", and RMS {mm(report.rms_after)} of the start's {mm(report.rms_before)} left"
+            if report.rms_before is not None and report.rms_after is not None else "")
     return (f"THE FIT EXPLAINS NOTHING: residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ after calibration, beyond "
-            "1000 × σ: not a result, and no calibrated URDF is written of it (--force writes one); either the stated σ "
-            "is off by a thousandfold or the model cannot fit these data (a frame that does not move as the data do, "
-            "another robot's data)")
+            f"1000 × σ{left}: not a result, and no calibrated URDF is written of it (--force writes one); the data "
+            "do not belong to this robot as they are read (another robot's, readings not of their postures, a frame "
+            "that does not move as the data do)")
 
 
 def _noise_verdict(report: CalibrationReport) -> str | None:
@@ -323,8 +325,9 @@ def _generalization(report: CalibrationReport) -> list[str]:
         lines.append(f"cross-validation ({cv['plan']}): no fold could be fitted; first: {cv['failed_folds'][0]}")
     elif cv:
         (length, angle), width = report.error_words, _label_width(report)
-        lines.append(f"{f'RMS {length} error (cross-val.)':{width}}{'':>14}{mm(cv['rms']):>14}  ({cv['plan']}, "
-                     f"{cv['n_samples']} samples, {cv['n_predictions']} predictions)")
+        row = f"{f'RMS {length} error (cross-val.)':{width}}{'':>14}{mm(cv['rms']):>14}"
+        plan = f"({cv['plan']}, {cv['n_samples']} samples, {cv['n_predictions']} predictions)"
+        lines += [f"{row}  {plan}"] if len(row) + 2 + len(plan) <= WIDTH else [row, f"  {plan}"]
         for key, value in (cv.get("rms_by_reading") or {}).items():
             lines.append(f"{'  ' + key:{width}}{'':>14}{mm(value):>14}")
         if "rms_angle" in cv:

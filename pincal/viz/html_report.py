@@ -149,9 +149,10 @@ def _explains_nothing(report: CalibrationReport) -> str:
     if not report.explains_nothing:
         return ""
     return (f'<p class="warn">The fit explains nothing: its residuals stay at {(report.sigma2 or 0.0) ** 0.5:.3g} × σ '
-            "after calibration, beyond 1000 × σ. This is not a result, and <code>pincal calibrate</code> writes no "
-            "calibrated URDF of it (<code>--force</code> writes one): either the stated σ is off by a thousandfold "
-            "or the model cannot fit these data.</p>")
+            f"after calibration, beyond 1000 × σ, with RMS {mm_text(report.rms_after)} of the start's "
+            f"{mm_text(report.rms_before)} left. This is not a result, and <code>pincal calibrate</code> writes no "
+            "calibrated URDF of it (<code>--force</code> writes one): the data do not belong to this robot as they "
+            "are read.</p>")
 
 
 def _verdict(report: CalibrationReport) -> str:
