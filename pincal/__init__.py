@@ -1,12 +1,13 @@
 """pincal: geometric calibration of closed-loop and serial robots described in URDF, on Pinocchio.
 
 The names below load on first use, so that ``import pincal`` (and the ``pincal`` command's start,
-which an early Ctrl-C may interrupt) does not import Pinocchio until it is needed.
+which an early Ctrl-C may interrupt) does not import Pinocchio until it is needed. The console script imports this
+module before :mod:`pincal.__main__` can take over Ctrl-C: it imports no module the interpreter has not already
+loaded (not even ``typing``), so that the window in which an interrupt would still print Python's traceback is as
+short as the interpreter allows.
 """
 
 from __future__ import annotations
-
-from typing import TYPE_CHECKING
 
 from pincal.errors import (
     ArgumentError,
@@ -20,6 +21,8 @@ from pincal.errors import (
     RobotFileError,
 )
 from pincal.lazy import lazy_names
+
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (mypy reads it as typing's)
 
 if TYPE_CHECKING:
     from pincal.calibration import (

@@ -1,12 +1,23 @@
-"""``python -m pincal`` and the ``pincal`` console script: a start that imports nothing heavy before it can
-answer a Ctrl-C with one line, and one BLAS thread for the whole command unless the user chose."""
+"""``python -m pincal`` and the ``pincal`` console script: a start that imports nothing before it can answer a Ctrl-C
+with one line, and one BLAS thread for the whole command unless the user chose.
+
+Between the interpreter's own SIGINT handler (installed before its ``site`` module runs) and :func:`main`'s, a Ctrl-C
+prints Python's traceback. That window is kept to what the interpreter itself needs: the console script imports
+``pincal`` (which imports only :mod:`pincal.errors` and :mod:`pincal.lazy`, and they nothing the interpreter has not
+loaded) and this module, which takes the handler from ``_signal``, the built-in module the interpreter loads at start
+(``signal`` adds enums over it, and importing them cost more than everything else before the handler, on a machine
+busy enough to make a 0.15 s Ctrl-C land there).
+"""
 
 from __future__ import annotations
 
+import _signal  # the built-in under ``signal``, loaded with the interpreter: see the module's docstring
 import os
-import signal
 import sys
-from types import FrameType
+
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (see the module's docstring)
+if TYPE_CHECKING:
+    from types import FrameType
 
 _interrupted = False
 
@@ -37,10 +48,13 @@ def _on_interrupt(signum: int, frame: FrameType | None) -> None:
 
 
 def main() -> int:
-    """Run the command line (:func:`pincal.cli.app.main`); an interrupt at any point ends with exit code 130."""
+    """Run the command line (:func:`pincal.cli.app.main`); an interrupt at any point ends with exit code 130.
+
+    A command started with SIGINT ignored (a background job of a shell script, ``nohup``) keeps ignoring it, as the
+    interpreter and every Unix tool do: a Ctrl-C at the terminal is not meant for it."""
+    if _signal.getsignal(_signal.SIGINT) is _signal.default_int_handler:  # not when started with SIGINT ignored
+        _signal.signal(_signal.SIGINT, _on_interrupt)
     one_blas_thread()
-    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not when started with SIGINT ignored
-        signal.signal(signal.SIGINT, _on_interrupt)
     try:
         from pincal.cli.app import main as run
 

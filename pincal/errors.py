@@ -5,7 +5,9 @@ Messages name the culprit and, where it helps, list what would have been valid.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing: the ``pincal`` command's start imports this
+if TYPE_CHECKING:
+    from collections.abc import Iterable
 
 
 class PincalError(Exception):

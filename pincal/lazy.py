@@ -3,11 +3,12 @@
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
 import sys
-from collections.abc import Callable
-from typing import Any
+
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing: the ``pincal`` command's start imports this
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from typing import Any
 
 
 def lazy_names(package: str, names: dict[str, str]) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
@@ -16,6 +17,9 @@ def lazy_names(package: str, names: dict[str, str]) -> tuple[Callable[[str], Any
     attribute (``pincal.identification.parameters``) is imported then."""
 
     def __getattr__(name: str) -> Any:
+        import importlib  # here, not above: the ``pincal`` command's start imports this module before its Ctrl-C
+        import importlib.util  # handler, and imports nothing the interpreter has not loaded
+
         module = names.get(name)
         if module is not None:
             value = getattr(importlib.import_module(module, package), name)

@@ -149,3 +149,48 @@ def test_the_validators_take_what_they_should() -> None:
     assert validation.path("path", Path("a.csv")) == Path("a.csv")
     assert validation.optional_real("spread", None) is None
     assert validation.shown("x" * 100).endswith("...")
+
+
+def test_the_calibration_entry_points_name_a_missing_robot_dataset_or_report(tmp_path: Path, five_bar: pincal.Robot,
+                                                                              simulation: pincal.Simulation) -> None:
+    """None where a robot, a dataset, a job, a simulation or a report belongs: the argument named (once
+    ``'NoneType' object has no attribute 'model'``, ``... 'options'``, ``... 'error_words'``)."""
+    from pincal.calibration import (
+        calibrate_job,
+        prepare,
+        read_robot_dataset,
+        summary_text,
+        usable_part,
+        write_simulation,
+    )
+
+    options = pincal.CalibrationOptions()
+    cases: list[tuple[Callable[[], Any], str]] = [
+        (lambda: read_robot_dataset(tmp_path / "d.csv", None), "robot=None: expected a Robot"),
+        (lambda: usable_part(None, simulation.dataset), "robot=None: expected a Robot"),
+        (lambda: usable_part(five_bar, None), "part=None: expected a Dataset"),
+        (lambda: prepare(None, simulation.dataset, options), "robot=None: expected a Robot"),
+        (lambda: prepare(five_bar, None, options), "dataset=None: expected a Dataset"),
+        (lambda: prepare(five_bar, simulation.dataset, None), "options=None: expected CalibrationOptions"),
+        (lambda: calibrate_job(None), "job=None: expected a Job"),
+        (lambda: write_simulation(None, tmp_path / "sim"), "sim=None: expected a Simulation"),
+        (lambda: write_simulation(simulation, None), "out=None: expected a path"),
+        (lambda: summary_text(None, 1.0), "report=None: expected a CalibrationReport"),
+    ]
+    for call, start in cases:
+        with pytest.raises(TypeError) as caught:
+            call()
+        assert str(caught.value).startswith(start), str(caught.value)
+    with pytest.raises(pincal.ArgumentError) as refused:  # once NumPy's "need at least one array to concatenate"
+        pincal.simulate(five_bar, [], 5)
+    assert str(refused.value) == ("kinds=[]: give at least one measurement kind, e.g. ['position'] (the kinds of "
+                                  "measurement_models: position, pose, or keys such as distance:A-B, joint:NAME)")
+
+
+def test_an_unknown_bag_measurement_kind_is_named_with_the_kinds() -> None:
+    """Once a KeyError from deep inside the bag reader."""
+    from pincal.io.bags import MeasurementSource
+
+    with pytest.raises(pincal.ArgumentError) as caught:
+        MeasurementSource("odometry", "/odom")  # type: ignore[arg-type]
+    assert str(caught.value) == "kind='odometry': must be one of pose, tf, point"

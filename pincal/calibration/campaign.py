@@ -19,7 +19,7 @@ import numpy.typing as npt
 from pincal import validation
 from pincal.calibration.provenance import Provenance, robot_source, sha256, version, with_provenance
 from pincal.calibration.setup import check_movable, idle_parameters, measurement_models, parameters_for
-from pincal.errors import ConvergenceError, DataError
+from pincal.errors import ArgumentError, ConvergenceError, DataError
 from pincal.identification.corrections import Payload
 from pincal.identification.measurements import Measurement
 from pincal.identification.parameters import ParameterSet, read_joints
@@ -64,7 +64,9 @@ def _check_arguments(robot: Any, kinds: Any, n_train: Any, n_test: Any, frame: A
                      seed: Any, parameter_spec: Any, spread: Any, payload: Any, joint_noise: Any) -> None:
     """Refuse the arguments of :func:`simulate` the command line would refuse, naming each."""
     validation.instance("robot", robot, Robot, "a Robot (pincal.load_robot)")
-    validation.texts("kinds", kinds)
+    if not validation.texts("kinds", kinds):
+        raise ArgumentError("kinds=[]: give at least one measurement kind, e.g. ['position'] (the kinds of "
+                            "measurement_models: position, pose, or keys such as distance:A-B, joint:NAME)")
     validation.whole("n_train", n_train, 1)
     validation.whole("n_test", n_test, 0)
     if frame is not None:
@@ -105,7 +107,7 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
         joint_noise: σ of the noise on the actuated readings [rad or m] (0: the readings are the true values).
 
     Raises:
-        TypeError, ArgumentError: an argument of the wrong type or value (named, with the value).
+        TypeError, ArgumentError: an argument of the wrong type or value (named, with the value), ``kinds`` empty.
     """
     _check_arguments(robot, kinds, n_train, n_test, frame, perturb, noise, seed, parameter_spec, spread, payload,
                      joint_noise)
@@ -219,6 +221,8 @@ def write_simulation(sim: Simulation, out: Path, meshes: MeshMode = "keep", give
     when ``base.*`` carries errors), reproduces the measurements up to the noise; the sensors of read
     passive joints read ``q + zero`` (its ``<joint_sensor>`` elements, also in ``truth.json``).
     """
+    validation.instance("sim", sim, Simulation, "a Simulation (pincal.simulate)")
+    validation.path("out", out)
     paths = simulation_outputs(sim.robot, out, meshes)
     plan = _mesh_plan(sim.robot, paths[1], meshes)
     read = read_joints(sim.measurements)

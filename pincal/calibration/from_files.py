@@ -9,11 +9,13 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from pincal import validation
 from pincal.calibration.job import Job, load_job_robot, read_job
 from pincal.calibration.job_data import job_dataset
 from pincal.calibration.options import OPTIONS, CalibrationOptions, OptionSource, check_cv_seed
 from pincal.calibration.pipeline import Calibration, calibrate, options_of
 from pincal.calibration.provenance import Provenance, file_source, options_dict, robot_source, with_provenance
+from pincal.calibration.report import CalibrationReport
 from pincal.calibration.samples import read_robot_dataset
 from pincal.errors import NotFoundError, PincalError
 from pincal.io.calibrated_urdf import source_text
@@ -45,13 +47,21 @@ def _checked_outputs(robot: Robot, out: str | Path | None, report: str | Path | 
     return plan, beside
 
 
+def writes_urdf(report: CalibrationReport, force: bool) -> bool:
+    """Whether a calibration with ``report`` gets its calibrated URDF (and the corrections file and meshes beside it)
+    written: not for a fit that explains nothing (residuals beyond 1000 × σ), unless ``force``."""
+    return force or not report.explains_nothing
+
+
 def _written(cal: Calibration, robot: Robot, provenance: Provenance, out: str | Path | None,
-             report: str | Path | None, beside: Path | None, plan: MeshPlan) -> Calibration:
+             report: str | Path | None, beside: Path | None, plan: MeshPlan, force: bool) -> Calibration:
     """``cal`` with its provenance, its outputs written, all or none: the calibrated URDF (its mesh names for where it
     lands), the report, the corrections file beside the URDF when the URDF cannot hold every estimate, and the mesh
-    copies."""
+    copies; of a fit that explains nothing, the report alone (unless ``force``: :func:`writes_urdf`)."""
     texts: list[tuple[str | Path, str | bytes]] = []
     named = None
+    if not writes_urdf(cal.report, force):
+        out = beside = None
     if cal.corrections is not None and beside is not None:  # what the URDF cannot hold goes beside it
         text = json_text({**corrections_dict(cal.corrections, robot, beside.parent),
                           "provenance": provenance.as_dict(beside.parent)})
@@ -82,13 +92,15 @@ def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, repor
     plan, beside = _checked_outputs(robot, out_urdf, report_path, meshes, [data_path], ("--out", "--report"))
     cal = calibrate(robot, read_robot_dataset(data_path, robot), **options)
     provenance = Provenance(robot_source(robot_path, robot), [file_source(data_path)], _options(options))
-    return _written(cal, robot, provenance, out_urdf, report_path, beside, plan)
+    return _written(cal, robot, provenance, out_urdf, report_path, beside, plan, bool(options.get("force")))
 
 
 def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -> Calibration:
     """:func:`calibrate` as a job file says (:mod:`pincal.calibration.job`): its robot, its data read into SI units, its
     options; the outputs are checked before the fit (never over an input, the job file included) and each is written
     whole or not at all; ``meshes`` as for :func:`calibrate_files`; ``progress`` as for :func:`calibrate`."""
+    validation.instance("job", job, Job, "a Job (pincal.calibration.job.read_job)")
+
     def source(option: str) -> OptionSource:  # the command line's value in place of the job's, or the job's own
         return "command line" if option in job.overrides else job.path
 
@@ -104,7 +116,7 @@ def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -
     cal = calibrate(robot, job_dataset(job, robot), progress=progress, **job.options)
     provenance = Provenance(robot_source(str(job.robot), robot), [file_source(p) for p in (job.path, *job.files)],
                             _options(job.options))
-    return _written(cal, robot, provenance, job.out, job.report, beside, plan)
+    return _written(cal, robot, provenance, job.out, job.report, beside, plan, bool(job.options.get("force")))
 
 
 #: A file named so is a job file (docs/job_file.md): ``pincal calibrate JOB.toml``.

@@ -46,6 +46,10 @@ SIGMA_HELP = ("one measurement σ [m, rad] for weighting every channel, or one p
               "1e-3,1e-3,3e-3 for a camera's depth noise three times its lateral noise), over the file's '# sigma' "
               "lines (default: those lines, else estimated from the data: docs/dataset.md 'Noise')")
 
+FORCE_HELP = ("write the calibrated URDF even of a fit that explains nothing (residuals beyond 1000 × σ after "
+              "calibration, more than half the start's error left), which is otherwise not written; the exit status "
+              "stays 1 (docs/calibrated_urdf.md, 'A fit that explains nothing')")
+
 
 @dataclass(frozen=True)
 class Option:
@@ -58,7 +62,8 @@ class Option:
         choices: The values allowed, or None.
         kind: ``text``, ``texts`` (one or more), ``int`` (≥ 1), ``seed`` (≥ 0), ``sigma`` (finite > 0),
             ``sigmas`` (one, or one per residual row), ``plan``
-            (``K``, ``KxR`` or ``loo``), ``payload``, ``factor`` (finite > 0, or ``off``).
+            (``K``, ``KxR`` or ``loo``), ``payload``, ``factor`` (finite > 0, or ``off``), ``flag`` (a switch: given
+            or not).
         metavar: The value's name in the help, or None.
         api_only: Given only through the library (not on the command line, not in a job file).
     """
@@ -102,6 +107,10 @@ class CalibrationOptions:
             (:attr:`~pincal.identification.parameters.kinds.ParameterKind.prior`, :mod:`pincal.identification.prior`),
             ``"auto"``: each group's factor chosen by the data's evidence (:mod:`pincal.identification.evidence`), or
             ``"off"``: least squares.
+        force: Write the calibrated URDF of a fit that explains nothing (residuals beyond 1000 × σ, most of the start's
+            error left: :data:`~pincal.calibration.plausibility.EXPLAINS_NOTHING`), which is otherwise not written;
+            the result stays unusable (exit status 1). It changes no figure: only what
+            :mod:`~pincal.calibration.from_files` writes.
     """
 
     parameter_spec: tuple[str, ...] | None = field(default=None, metadata=_how(
@@ -156,6 +165,8 @@ class CalibrationOptions:
         help="markers declared on a frame (position:<frame>@<marker> columns): each (default) fits each marker's "
              "offset on its frame; cluster fits one rigid placement of the frame's markers, whose nominal offsets "
              "the file declares ('# marker m1 on <frame>: x y z' [m])"))
+    force: bool = field(default=False, metadata=_how(
+        flag="--force", key=None, kind="flag", help=FORCE_HELP))
     pose_sigma_angle: float | None = field(default=None, metadata=_how(
         flag="--pose-sigma-angle", key=None, kind="sigma", api_only=True,
         help="σ of pose orientations [rad] over the data's"))
@@ -184,6 +195,8 @@ class CalibrationOptions:
             raise DataError(f"prior={self.prior!r}: give a factor > 0 on the prior σ, 'auto' or 'off'")
         if isinstance(self.cv_seed, bool) or not isinstance(self.cv_seed, int) or self.cv_seed < 0:
             raise DataError(f"cv_seed={self.cv_seed!r}: give a whole number ≥ 0")
+        if not isinstance(self.force, bool):
+            raise DataError(f"force={validation.shown(self.force)}: give True or False")
         self._check_objects()
 
     def _check_objects(self) -> None:

@@ -14,8 +14,9 @@ SI units throughout: m, rad.
 
 from __future__ import annotations
 
+import contextlib
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,21 +25,34 @@ import numpy.typing as npt
 
 from pincal import validation
 from pincal.calibration.carried import with_carried
+from pincal.calibration.columns import check_columns, column_mistake, mistake_named, refuse_column_mistake
 from pincal.calibration.crossval import Folds, check_cross_validation, cross_validate, parse_cv
 from pincal.calibration.growth import ErrorGrowth, estimate_growth
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, Registration, evaluate_held_out, register_setup
 from pincal.calibration.noise import provisional_noise, with_noise
 from pincal.calibration.options import CalibrationOptions, check_cv_seed, plausible_factor
-from pincal.calibration.plausibility import implausible_corrections, implausible_scales, likely_cause, scale_limit
+from pincal.calibration.plausibility import (
+    explains_nothing,
+    implausible_corrections,
+    implausible_scales,
+    likely_cause,
+    scale_limit,
+)
 from pincal.calibration.predicted import FitCovariance, fitted_ranges, held_out_predictions, workspace_prediction
 from pincal.calibration.report import CalibrationReport, before_figures, fit_figures
-from pincal.calibration.samples import LENGTH_SCALE_RATIO, check_joint_scale, check_length_scale
-from pincal.calibration.setup import Prepared, check_movable, prepare
+from pincal.calibration.samples import (
+    LENGTH_SCALE_RATIO,
+    check_joint_scale,
+    check_length_scale,
+    check_moving_frames,
+    dropped_account,
+)
+from pincal.calibration.setup import Prepared, check_movable, dataset_models, prepare
 from pincal.errors import ArgumentError, DataError
 from pincal.identification.combinations import describe_unidentifiable, digest
 from pincal.identification.corrections import moving_mass
 from pincal.identification.ikm import ImplicitProblem
-from pincal.identification.metrics import sample_length_errors
+from pincal.identification.metrics import angle_error_norms, error_norms, rms, sample_length_errors
 from pincal.identification.parameters import influencing_joints, read_joints
 from pincal.identification.prior import prior_sigma
 from pincal.identification.problem import CalibrationProblem
@@ -105,26 +119,37 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     check_cv_seed(options.cv, options.cv_seed)
     check_trainable(dataset)
     # the stages on stderr when it is a terminal; the cross-validation after them has its own bar
+    models = dataset_models(robot, dataset, options)
+    check_moving_frames(robot, models)  # before the samples are solved
     with Progress("calibrate: prepare, fit, evaluate", 3, quiet=not progress) as stages:
-        fit = prepare(robot, dataset, options)
+        try:
+            fit = prepare(robot, dataset, options)
+        except DataError:  # none usable: perhaps none within the joint limits as the columns are read
+            refuse_column_mistake(robot, dataset.of_set("train"), models, options.plausible)
+            raise
         x_true = _checked_truth(x_true, fit.parameters.names)
         if options.formulation == "fkm":  # the fit starts from this evaluation, whose predictions the unit check reads
             fit.problem.start_prediction()
         length_scale = check_units(fit, dataset, options.plausible)  # before any fit, the provisional one included
-        estimated = provisional_noise(fit.problem, dataset.metadata, options, **fitting_options(options, False))
+        check_columns(fit, dataset.of_set("train"), options.plausible)
+        with dropped_named(fit):
+            estimated = provisional_noise(fit.problem, dataset.metadata, options, **fitting_options(options, False))
         if estimated:  # weighted by the noise the data show, as '# sigma' lines would: before selection
             dataset = with_noise(dataset, estimated, fit.models)
             fit = prepare(robot, dataset, options)
         every, folds = cross_validation_folds(fit, dataset, options)  # checked before any fit
         stages.advance()
-        fitted = fit_prepared(fit, options)
+        with dropped_named(fit), mistake_named(fit, dataset.of_set("train"), options.plausible):
+            fitted = fit_prepared(fit, options)
         kept = fit.fitted_by(fitted.problem)
         result = fitted.result
         stages.advance()
-        checked = plausibility(fitted, length_scale, options.plausible)
+        checked = plausibility(fitted, length_scale, options.plausible, fit, dataset.of_set("train"))
         status = "" if result.converged else f"NOT CONVERGED ({result.message} after {result.iterations} iterations): "
         if checked["implausible"] or checked["implausible_scale"]:
             status += "IMPLAUSIBLE (corrections beyond what a robot of this model needs; the report's implausible): "
+        if checked["explains_nothing"]:
+            status += f"EXPLAINS NOTHING (residuals {result.sigma2 ** 0.5:.3g} × σ after calibration: not a result): "
         text, shifts = calibrated_robot_text(robot, source_text(robot), kept.parameters, result.x,
                                              note=f"{status}calibrated by pincal from {fit.samples.n_samples} samples "
                                                   f"({', '.join(m.key for m in fit.models)})",
@@ -145,6 +170,19 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
                                        **fitting_options(options))
     report = CalibrationReport(**content)
     return Calibration(kept, fitted.problem, result, held, report, with_carried(text, report), corrections, before)
+
+
+@contextlib.contextmanager
+def dropped_named(fit: Prepared) -> Iterator[None]:
+    """The fit's DataError ("12 residuals cannot identify 40 parameters ... add samples") with the samples dropped
+    before it named, when there were any: many dropped outside the joint limits point at the file, not at its size."""
+    try:
+        yield
+    except DataError as exc:
+        if type(exc) is not DataError or not fit.dropped:
+            raise
+        total = fit.samples.n_samples + len(fit.dropped)
+        raise DataError(f"{exc}, or correct those dropped: {dropped_account(fit.dropped, total)}") from None
 
 
 def check_units(fit: Prepared, dataset: Dataset, plausible: float | str) -> dict[str, float]:
@@ -221,14 +259,27 @@ def fit_prepared(fit: Prepared, options: CalibrationOptions) -> SelectedFit:
     return select_and_fit(problem, options.selection, **fitting_options(options))
 
 
-def plausibility(fitted: SelectedFit, length_scale: dict[str, float], plausible: float | str) -> dict[str, Any]:
+def plausibility(fitted: SelectedFit, length_scale: dict[str, float], plausible: float | str, fit: Prepared,
+                 part: Dataset) -> dict[str, Any]:
     """The report's account of plausibility (:mod:`pincal.calibration.plausibility`): the data's length scale, the
-    corrections and scales beyond ``plausible`` times the documented limits, and their likely cause."""
+    corrections and scales beyond ``plausible`` times the documented limits, their likely cause (a joint column of
+    ``part``, the training samples ``fit`` prepared, read with the other sign or exchanged with another), and whether
+    the fit explains nothing (residuals beyond 1000 × σ, whatever ``plausible`` says)."""
     corrections = implausible_corrections(fitted.problem.parameters, fitted.result, plausible)
     scales = implausible_scales(length_scale, plausible)
+    mistake = column_mistake(fit.robot, part, fit.models) if corrections and not scales else None
     return {"length_scale": length_scale, "plausible": plausible, "implausible": corrections,
             "implausible_scale": scales,
-            "implausible_cause": likely_cause(corrections, scales, length_scale, fitted.result.sigma2)}
+            "implausible_cause": likely_cause(corrections, scales, length_scale, fitted.result.sigma2, mistake),
+            "explains_nothing": explains_nothing(fitted.result.sigma2, *fit_rms(fitted.result))}
+
+
+def fit_rms(result: CalibrationResult) -> tuple[float, float]:
+    """The fit's RMS error before (its start) and after [m]: of its length readings, else of its angles [rad]."""
+    before, after = error_norms(result.errors_before), error_norms(result.errors_after)
+    if not before.size:
+        before, after = angle_error_norms(result.errors_before), angle_error_norms(result.errors_after)
+    return rms(before), rms(after)
 
 
 def _checked_truth(x_true: Any, names: Sequence[str]) -> Array | None:

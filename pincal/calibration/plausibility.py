@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.columns import ColumnMistake
 from pincal.calibration.options import plausible_factor
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.result import CalibrationResult
@@ -40,6 +41,28 @@ SCALE_TOLERANCE = 0.5
 SCALE_NOTED = 0.1
 #: The fit reaches the noise when its a-posteriori variance factor is below this (a 3 σ fit).
 FIT_REACHES_NOISE = 9.0
+#: A fit explains nothing when its a-posteriori variance factor exceeds this (residuals beyond 1000 × σ after
+#: calibration) while it removed less than :data:`EXPLAINED` of the start's RMS error. Real fits stay far below the
+#: factor (the TIAGo mocap data at 1.35 σ, the TALOS contacts at 1.9 and 3.8 × the σ estimated from them); readings
+#: that belong to no posture of theirs stay at tens of thousands of σ (a UR10's readings shuffled between its postures
+#: 6.5e4 σ, 0.99 of the start's error left; a Delta's positions mirrored 1.2e4 σ, 0.64 left). A good fit of readings
+#: whose σ is stated a thousand times too small also ends beyond the factor, but with a hundredth of the start's error
+#: left: a result, whose σ the summary questions. No calibrated URDF is written of a fit that explains nothing (unless
+#: ``force``): its corrections are wherever the solver stopped.
+EXPLAINS_NOTHING = 1e6
+#: The share of the start's RMS error a fit must remove to explain something of its data (see :data:`EXPLAINS_NOTHING`).
+EXPLAINED = 0.5
+
+
+def explains_nothing(sigma2: float | None, rms_before: float | None, rms_after: float | None) -> bool:
+    """Whether a fit explains nothing of its data: its a-posteriori variance factor ``sigma2`` beyond
+    :data:`EXPLAINS_NOTHING` (residuals beyond 1000 × σ) and its RMS error after calibration ``rms_after`` still more
+    than 1 − :data:`EXPLAINED` of the start's ``rms_before`` [m or rad] (either unknown: the factor alone)."""
+    if sigma2 is None or not sigma2 > EXPLAINS_NOTHING:
+        return False
+    if rms_before is None or rms_after is None or not (math.isfinite(rms_before) and math.isfinite(rms_after)):
+        return True
+    return rms_after > (1.0 - EXPLAINED) * rms_before
 
 
 def smallest_equivalent(result: CalibrationResult, limits: Array) -> Array:
@@ -98,12 +121,14 @@ def implausible_scales(length_scale: dict[str, float], plausible: float | str) -
 
 
 def likely_cause(corrections: list[dict[str, Any]], scales: list[dict[str, Any]], length_scale: dict[str, float],
-                 sigma2: float | None) -> str:
+                 sigma2: float | None, mistake: ColumnMistake | None = None) -> str:
     """What the implausible ``corrections`` and ``scales`` most likely come from, in a sentence (empty when there are
-    none): lengths in another unit when the data's spread is scaled; a wrong robot model when the robot's placements
-    are corrected far and the fit nevertheless reaches the noise (``sigma2``, the a-posteriori variance factor);
-    swapped or mislabelled joint columns (or a wrong model) when it does not; a joint's zero or sign when only
-    reading offsets are off."""
+    none): lengths in another unit when the data's spread is scaled; the joint column read with the other sign, or the
+    two exchanged, that the nominal robot's start says explain the data (``mistake``,
+    :func:`~pincal.calibration.columns.column_mistake`); a wrong robot model when the robot's placements are corrected
+    far and the fit nevertheless reaches the noise (``sigma2``, the a-posteriori variance factor); swapped or
+    mislabelled joint columns (or a wrong model) when it does not; a joint's zero or sign when only reading offsets are
+    off."""
     if scales:
         worst = max(scales, key=lambda s: abs(math.log(s["scale"])))
         return (f"lengths in another unit: the measured positions '{worst['measurement']}' spread "
@@ -112,6 +137,8 @@ def likely_cause(corrections: list[dict[str, Any]], scales: list[dict[str, Any]]
                 "another size (a wrong robot model)")
     if not corrections:
         return ""
+    if mistake is not None:
+        return f"{mistake.what}: {mistake.evidence}; {mistake.fix}"
     noted = [(key, scale) for key, scale in length_scale.items() if abs(scale - 1.0) > SCALE_NOTED]
     size = (f"; the data's positions spread {noted[0][1]:.3g} times as far as this robot's would" if noted else "")
     kinds = {c["kind"] for c in corrections}

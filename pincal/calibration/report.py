@@ -58,7 +58,10 @@ class CalibrationReport:
     ``length_scale`` is each measured position's spread over the nominal robot's at the same readings; ``implausible``
     and ``implausible_scale`` list the corrections and the scales beyond what a robot of this model plausibly needs
     (the factor ``plausible`` on the documented limits, :mod:`pincal.calibration.plausibility`), and
-    ``implausible_cause`` says what they most likely come from. ``no_effect`` names the default candidates left out
+    ``implausible_cause`` says what they most likely come from; ``explains_nothing`` is true when the residuals stay
+    beyond 1000 × σ after calibration with more than half the start's error left
+    (:data:`~pincal.calibration.plausibility.EXPLAINS_NOTHING`): not a result, and
+    no calibrated URDF is written of it unless forced. ``no_effect`` names the default candidates left out
     because they move no measurement of the fitted samples. ``fitted_range`` is each actuated joint's range
     [min, max] [rad or m] in the fitted samples (those that move what is measured); ``predicted_held_out`` the held-out
     samples' predicted errors (σ per length row and the 95 % bound [m], widened beyond the fitted range) and how many
@@ -149,6 +152,7 @@ class CalibrationReport:
     implausible: list[dict[str, Any]] = field(default_factory=list)
     implausible_scale: list[dict[str, Any]] = field(default_factory=list)
     implausible_cause: str = ""
+    explains_nothing: bool = False
     cv: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
     estimated_sigma: dict[str, dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
     sample_errors: list[dict[str, Any]] = field(default_factory=list)
@@ -191,8 +195,10 @@ class CalibrationReport:
 
     @property
     def usable(self) -> bool:
-        """Whether the result may be used: converged, not worse than nominal on the held-out samples, and plausible."""
-        return bool(self.converged) and not self.worse_than_nominal and not self.is_implausible
+        """Whether the result may be used: converged, not worse than nominal on the held-out samples, plausible, and a
+        fit that explains its data."""
+        return bool(self.converged) and not self.worse_than_nominal and not self.is_implausible \
+            and not self.explains_nothing
 
     def to_json(self) -> str:
         """The report JSON: indented, in field order, optional fields that hold None left out."""

@@ -2,12 +2,14 @@
 
 Every command reads data through :func:`read_robot_dataset`; :func:`usable_part` drops (and names) the samples
 that cannot be used; :func:`held_out_outside_range` names held-out readings outside the fitted range;
-:func:`check_length_scale` refuses lengths read in the wrong unit and gives the data's length scale. SI units: m, rad.
+:func:`check_length_scale` refuses lengths read in the wrong unit and gives the data's length scale;
+:func:`check_moving_frames` refuses a measurement of frames no actuated joint moves. SI units: m, rad.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -15,8 +17,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal import linalg
+from pincal import linalg, validation
 from pincal.errors import DataError
+from pincal.identification.measurements import Measurement
 from pincal.identification.metrics import length_columns
 from pincal.identification.parameters import (
     joint_unit,
@@ -25,6 +28,7 @@ from pincal.identification.problem import CalibrationProblem
 from pincal.io.dataset import OCCLUDABLE_KINDS, Dataset
 from pincal.io.dataset_reader import read_dataset
 from pincal.model.assemblable import assemble
+from pincal.model.measured_frame import MOTION_TOLERANCE, frame_motion
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -43,6 +47,7 @@ def read_robot_dataset(path: str | Path, robot: Robot, min_samples: int = 2) -> 
     checked for degrees and millimetres. Every command reads data through here. A file whose ``# robot:`` line
     names another robot is refused. The actuated joints that move a measured frame must have a column; that is
     checked with the measurement models (:func:`~pincal.io.adapters.joints_at_reference`)."""
+    validation.instance("robot", robot, Robot, "a Robot (pincal.load_robot)")
     dataset = read_dataset(path, None, min_samples, joint_kinds=joint_kinds(robot),
                            joint_like=[str(n) for n in robot.model.names[1:]])
     check_recorded_robot(dataset.metadata, robot, path)
@@ -64,6 +69,30 @@ def check_recorded_robot(metadata: Mapping[str, str], robot: Robot, path: str | 
                         "the robot the data were taken on, or correct that line")
 
 
+def check_moving_frames(robot: Robot, models: Sequence[Measurement]) -> None:
+    """Refuse, before any fit, a measurement of frames no actuated joint moves (a camera declared on the robot's base,
+    a point on a link the joints do not carry): its readings are the same in every posture, whatever the robot's
+    geometry, so they can calibrate nothing, and a fit of them explains nothing. Measurements that read only joints
+    (``joint:``) are not judged here.
+
+    Raises:
+        DataError: naming the measurement, the frame and the robot's default measured frame.
+    """
+    frames = sorted({frame for model in models for frame in model.frames})
+    if not frames or robot.n_actuated == 0:
+        return
+    moving = dict(zip(frames, (m > MOTION_TOLERANCE for m in frame_motion(robot, [robot.frame_id(f) for f in frames])),
+                      strict=True))
+    for model in models:
+        if model.frames and not any(moving[frame] for frame in model.frames):
+            still = " and ".join(f"'{frame}'" for frame in model.frames)
+            default = robot.measured_frame_choice.frame
+            instead = f" (e.g. '{default}', the default measured frame)" if default is not None else ""
+            raise DataError(f"measurement '{model.key}' reads frame{'s' if len(model.frames) > 1 else ''} {still}, "
+                            f"which no actuated joint of '{robot.name}' moves: its readings are the same in every "
+                            f"posture and can calibrate nothing; measure a frame the joints move{instead}")
+
+
 def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, str]], Array | None]:
     """The samples of ``part`` that can be used, each dropped one with its reason, and the usable samples'
     configurations (N, nq) the nominal robot closes them in (None for a robot without loops: nothing is solved).
@@ -73,6 +102,8 @@ def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, st
     reading), and postures the nominal robot cannot assemble or that sit at a singularity
     (:func:`~pincal.model.assemblable.assemble`).
     """
+    validation.instance("robot", robot, Robot, "a Robot (pincal.load_robot)")
+    validation.instance("part", part, Dataset, "a Dataset (pincal.read_dataset)")
     reasons: dict[int, str] = dict(unseen_samples(robot, part))
     for k, reason in out_of_limits(robot, part):
         reasons[k] = f"{reasons[k]}; {reason}" if k in reasons else reason
@@ -87,6 +118,27 @@ def usable_part(robot: Robot, part: Dataset) -> tuple[Dataset, list[dict[str, st
     dropped = [{"sample": part.sample_ids[k], "reason": reasons[k]} for k in sorted(reasons)]
     usable = [k for k in range(part.n_samples) if k not in reasons]
     return part.subset(usable), dropped, None if solved is None else solved.q[solved.usable]
+
+
+def dropped_account(dropped: Sequence[Mapping[str, str]], total: int) -> str:
+    """Why the samples ``dropped`` (``{"sample", "reason"}``, of ``total``) were dropped, in one sentence: how many lay
+    outside the joint limits and which joints read outside them how often, then how many for other reasons."""
+    outside: dict[str, int] = {}
+    others = []
+    for entry in dropped:
+        joints = re.findall(r"joint '([^']+)' reads [^,;]*, outside its URDF limits", entry["reason"])
+        for joint in joints:
+            outside[joint] = outside.get(joint, 0) + 1
+        if not joints:
+            others.append(entry["reason"])
+    parts = []
+    if outside:
+        n = len(dropped) - len(others)
+        counts = ", ".join(f"{joint} in {count}" for joint, count in sorted(outside.items(), key=lambda kv: -kv[1]))
+        parts.append(f"{n} with a reading outside the URDF joint limits ({counts})")
+    if others:
+        parts.append(f"{len(others)} for other reasons (first: {others[0]})")
+    return f"{len(dropped)} of the {total} samples were dropped before the fit: {'; '.join(parts)}"
 
 
 def unseen_samples(robot: Robot, part: Dataset) -> list[tuple[int, str]]:

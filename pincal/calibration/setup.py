@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import numpy.typing as npt
 
+from pincal import validation
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.samples import usable_part
 from pincal.errors import DataError
@@ -198,7 +199,11 @@ def prepare(robot: Robot, dataset: Dataset, options: CalibrationOptions, part: s
     Raises:
         DataError: the data measure nothing; an actuated joint that moves a measured frame has no column; a payload
             with no compliance parameter; none of the part's samples can be used.
+        TypeError: ``robot``, ``dataset`` or ``options`` of the wrong type (named, with the value).
     """
+    validation.instance("robot", robot, Robot, "a Robot (pincal.load_robot)")
+    validation.instance("dataset", dataset, Dataset, "a Dataset (pincal.read_dataset)")
+    validation.instance("options", options, CalibrationOptions, "CalibrationOptions")
     check_movable(robot)
     models = dataset_models(robot, dataset, options)
     at_reference = joints_at_reference(robot, dataset.joint_names, models)

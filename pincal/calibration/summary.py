@@ -8,12 +8,33 @@ from __future__ import annotations
 import math
 import textwrap
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
+from pincal import validation
 from pincal.calibration.heldout import NOISE_CONTRADICTED
 from pincal.calibration.report import CalibrationReport
 from pincal.identification.corrections import payload_from_dict
 from pincal.identification.parameters import DEFAULT_SET, NAMED_SETS
+
+
+def robot_named(given: str, urdf_name: str) -> str:
+    """A robot as the user named it: a known robot's name as typed (``tiago_no_hand``, whose URDF says
+    ``<robot name="tiago">``); a URDF file by its ``<robot name>`` (its path is said where the files are)."""
+    return urdf_name if not given or Path(given).suffix or "/" in given else given
+
+
+def urdf_name_note(given: str, urdf_name: str) -> str:
+    """``(URDF <robot name="tiago">)`` when the name :func:`robot_named` gives differs from the URDF's, else empty."""
+    return "" if robot_named(given, urdf_name) == urdf_name else f' (URDF <robot name="{urdf_name}">)'
+
+
+def report_robot(report: CalibrationReport) -> tuple[str, str]:
+    """The robot of ``report`` as the user named it and the note on its URDF's name (:func:`robot_named`,
+    :func:`urdf_name_note`, from the report's provenance)."""
+    given = ((report.provenance or {}).get("robot") or {}).get("file")
+    given = given if isinstance(given, str) else ""
+    return robot_named(given, report.robot), urdf_name_note(given, report.robot)
 
 
 def mm(value: float | None) -> str:
@@ -92,9 +113,11 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
     table [mm, mrad], where every sample went, the warnings, and the combinations the data cannot separate;
     ``seconds`` is the fit's wall time; ``parameter_spec``, the parameters as the user named them (default: as the
     report's provenance records them)."""
+    validation.instance("report", report, CalibrationReport, "a CalibrationReport (a calibration's .report)")
     length, angle = report.error_words
     width = _label_width(report)
-    lines = [f"NOT CONVERGED: {report.message} after {report.iterations} iterations; the estimate below is "
+    lines = [_explains_nothing(report),  # first: nothing below is a result
+             f"NOT CONVERGED: {report.message} after {report.iterations} iterations; the estimate below is "
              "where the solver stopped, not a calibration (try --max-iter, fewer --parameters or more samples)"
              if not report.converged else None,
              f"WORSE THAN NOMINAL: the calibrated model predicts the held-out samples worse than the nominal one "
@@ -102,10 +125,7 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
              "or fit fewer parameters, or measure postures that cover the held-out range"
              if report.worse_than_nominal else None,
              # said first: "converged" must not read as "fits the data"
-             f"THE FIT DOES NOT REACH THE STATED NOISE: residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ after "
-             "calibration; "
-             "either the stated σ is wrong or the model cannot fit these data (see the warning below)"
-             if (report.sigma2 or 0.0) > NOISE_CONTRADICTED else None,
+             _noise_verdict(report),
              *_implausible(report),  # after the one-line verdicts: it lists the parameters
              f"samples {report.n_samples}, parameters {report.n_parameters}, "
              f"identifiable {report.n_identifiable}, estimated {report.n_estimated}"
@@ -138,9 +158,8 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
                                f"{mm(report.rms_start)} (fit){held})", 120, subsequent_indent=" ")
     lines += _predicted(report)
     if report.joints_at_reference:
-        joints = report.joints_at_reference
-        lines += textwrap.wrap(f"not in the file, at their reference (they move nothing measured): {', '.join(joints)}",
-                               120, subsequent_indent="  ", break_on_hyphens=False)[:3]
+        lines += _listed_in_lines("not in the file, at their reference (they move nothing measured)",
+                                  report.joints_at_reference, JOINT_LINES)
     lines += _accounting(report)
     if report.calibration_gain is not None:
         lines.append(f"{'calibration gain G (study 000)':32}{'':>14}{report.calibration_gain:>12.1f} %")
@@ -151,7 +170,63 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
     if report.unidentifiable:
         lines.append("")
         lines += _unseen(report, parameter_spec, report_path)
-    return "\n".join(line for line in lines if line is not None)
+    return "\n".join(_within_width([line for line in lines if line is not None]))
+
+
+#: The summary's widest line [characters]: a terminal of 120 columns shows each whole.
+WIDTH = 120
+#: Most lines the summary gives the joints left at their reference (the report's ``joints_at_reference`` has them all).
+JOINT_LINES = 3
+
+
+def _within_width(lines: list[str]) -> list[str]:
+    """``lines`` with each longer than :data:`WIDTH` wrapped at its words, the continuation indented two spaces more
+    than the line."""
+    out: list[str] = []
+    for line in lines:
+        if len(line) <= WIDTH:
+            out.append(line)
+            continue
+        indent = " " * (len(line) - len(line.lstrip(" ")) + 2)
+        out += textwrap.wrap(line, WIDTH, subsequent_indent=indent, break_on_hyphens=False, break_long_words=False)
+    return out
+
+
+def _listed_in_lines(heading: str, names: Sequence[str], most: int) -> list[str]:
+    """``heading: a, b, c`` in at most ``most`` lines of :data:`WIDTH` characters: the names that fit, then how many
+    more there are ("and 9 more (the report's joints_at_reference)")."""
+    for shown in range(len(names), 0, -1):
+        rest = len(names) - shown
+        more = f", and {rest} more (the report's joints_at_reference)" if rest else ""
+        lines = textwrap.wrap(f"{heading}: {', '.join(names[:shown])}{more}", WIDTH, subsequent_indent="  ",
+                              break_on_hyphens=False)
+        if len(lines) <= most:
+            return lines
+    return textwrap.wrap(f"{heading}: {len(names)} joints (the report's joints_at_reference)", WIDTH,
+                         subsequent_indent="  ")
+
+
+def _explains_nothing(report: CalibrationReport) -> str | None:
+    """The first line of a fit that explains nothing (residuals beyond 1000 × σ: not a result, no calibrated URDF);
+    None for any other."""
+    if not report.explains_nothing:
+        return None
+    left = (f", and RMS {mm(report.rms_after)} of the start's {mm(report.rms_before)} left"
+            if report.rms_before is not None and report.rms_after is not None else "")
+    return (f"THE FIT EXPLAINS NOTHING: residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ after calibration, beyond "
+            f"1000 × σ{left}: not a result, and no calibrated URDF is written of it (--force writes one); the data "
+            "do not belong to this robot as they are read (another robot's, readings not of their postures, a frame "
+            "that does not move as the data do)")
+
+
+def _noise_verdict(report: CalibrationReport) -> str | None:
+    """The verdict line of a fit that does not reach the stated noise (residuals beyond 3 × σ but not so far that it
+    explains nothing); None within it."""
+    ratio = (report.sigma2 or 0.0) ** 0.5
+    if ratio ** 2 > NOISE_CONTRADICTED and not report.explains_nothing:
+        return (f"THE FIT DOES NOT REACH THE STATED NOISE: residuals {ratio:.3g} × σ after calibration; either the "
+                "stated σ is wrong or the model cannot fit these data (see the warning below)")
+    return None
 
 
 def _named_parameters(report: CalibrationReport, spec: Sequence[str] | None) -> bool:
@@ -264,8 +339,9 @@ def _generalization(report: CalibrationReport) -> list[str]:
         lines.append(f"cross-validation ({cv['plan']}): no fold could be fitted; first: {cv['failed_folds'][0]}")
     elif cv:
         (length, angle), width = report.error_words, _label_width(report)
-        lines.append(f"{f'RMS {length} error (cross-val.)':{width}}{'':>14}{mm(cv['rms']):>14}  ({cv['plan']}, "
-                     f"{cv['n_samples']} samples, {cv['n_predictions']} predictions)")
+        row = f"{f'RMS {length} error (cross-val.)':{width}}{'':>14}{mm(cv['rms']):>14}"
+        plan = f"({cv['plan']}, {cv['n_samples']} samples, {cv['n_predictions']} predictions)"
+        lines += [f"{row}  {plan}"] if len(row) + 2 + len(plan) <= WIDTH else [row, f"  {plan}"]
         for key, value in (cv.get("rms_by_reading") or {}).items():
             lines.append(f"{'  ' + key:{width}}{'':>14}{mm(value):>14}")
         if "rms_angle" in cv:
@@ -344,9 +420,9 @@ def _accounting(report: CalibrationReport) -> list[str]:
                   for w in weighted_only[:LISTED]]
     strange = report.held_out_outliers or []
     if strange:
-        lines.append(f"held-out samples the calibrated model cannot explain ({len(strange)}; they weigh on the "
-                     f"held-out figures, not on the comparison with the nominal model): {', '.join(strange[:LISTED])}"
-                     + (" ..." if len(strange) > LISTED else ""))
+        shown = ", ".join(strange[:LISTED]) + (" ..." if len(strange) > LISTED else "")
+        lines += [f"held-out samples the calibrated model cannot explain ({len(strange)}): {shown}",
+                  "  (they weigh on the held-out figures, not on the comparison with the nominal model)"]
     outside = report.held_out_outside_range or []
     if outside:  # one line of at most 120 characters: a few samples, else their count
         ids, joints = (list(dict.fromkeys(str(o[key]) for o in outside)) for key in ("sample", "joint"))
@@ -398,6 +474,8 @@ def _estimated_sigma(report: CalibrationReport) -> list[str]:
 
 def verdict(report: CalibrationReport) -> str:
     """One robot's outcome in a word or two: what the summary's first line would say."""
+    if report.explains_nothing:
+        return f"EXPLAINS NOTHING (residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ)"
     if not report.converged:
         return f"NOT CONVERGED ({report.message})"
     if report.worse_than_nominal:

@@ -9,10 +9,11 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from pincal.calibration.options import check_cv_seed
 from pincal.cli import (
@@ -98,6 +99,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     """``pincal simulate``: draw true errors, random postures and noisy measurements of a robot and write the
     dataset, the true URDF and ``truth.json`` to ``--out``."""
     from pincal.calibration.campaign import check_sample_counts, simulate, simulation_outputs, write_simulation
+    from pincal.calibration.summary import robot_named, urdf_name_note
     from pincal.io.mesh_files import mesh_folder
     from pincal.model.robot import load_robot
 
@@ -116,9 +118,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             with contextlib.suppress(OSError):
                 Path(args.out).rmdir()
         raise
-    print(f"simulated {args.samples} + {args.test_samples} postures of '{robot.name}' with errors of "
-          f"σ {args.perturb:g} "
-          f"(m, rad) on {len(sim.parameters)} parameters; measurement noise σ {args.noise:g}")
+    print(f"simulated {args.samples} + {args.test_samples} postures of '{robot_named(args.robot, robot.name)}'"
+          f"{urdf_name_note(args.robot, robot.name)} with errors of σ {args.perturb:g} (m, rad) on "
+          f"{len(sim.parameters)} parameters; measurement noise σ {args.noise:g}")
     for path in paths:
         print(f"wrote {path}")
     if args.meshes == "copy":
@@ -134,7 +136,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     """``pincal calibrate``: identify the parameters from a measurement CSV (or as a job file says), print the
     summary and write the calibrated URDF and the report; exit status 1 when the result is not usable (not converged,
     or worse than nominal on the held-out samples)."""
-    from pincal.calibration.from_files import calibrate_files, calibrate_job
+    from pincal.calibration.from_files import calibrate_files, calibrate_job, writes_urdf
     from pincal.calibration.job import read_job
     from pincal.calibration.summary import summary_text
     from pincal.io.corrections_file import corrections_path
@@ -161,6 +163,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         cal = calibrate_files(args.robot, args.data, args.out, args.report, args.meshes, progress=True, **options)
         out, report_path = args.out, args.report
     print(summary_text(cal.report, cal.result.seconds, str(report_path) if report_path else None, spec))
+    if out and not writes_urdf(cal.report, bool(options.get("force"))):
+        print(f"not written: {out} (the fit explains nothing; --force writes it)")
+        out = None
     for path in (out, report_path):
         if path:
             print(f"wrote {path}")
@@ -253,7 +258,16 @@ def cmd_fleet(args: argparse.Namespace) -> int:
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with pincal's error form: one line, ``pincal: error: ...``, exit 2 (no usage block)."""
+    """argparse with pincal's error form: one line, ``pincal: error: ...``, exit 2 (no usage block); a negative number
+    in scientific notation (``--sigma -1e-5``) is a value, as ``-0.5`` is, not an unknown option."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # argparse takes '-1e-5' for an option ("expected one argument"): its own test of a negative number knows no
+        # exponent (Python 3.11's _negative_number_matcher, the parser's one place for it; no option of pincal's
+        # looks like a number)
+        self._negative_number_matcher = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$",
+                                                   re.IGNORECASE)
 
     def error(self, message: str) -> NoReturn:
         command = self.prog.removeprefix("pincal").strip()

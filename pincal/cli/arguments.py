@@ -168,6 +168,8 @@ def add_calibration_options(parser: argparse.ArgumentParser, skip: Collection[st
         how: dict[str, Any] = {"dest": name, "help": option.help, "default": None}
         if option.kind == "texts":
             how["nargs"] = "+"
+        elif option.kind == "flag":  # given: True; not given: None, so that the default stands
+            how["action"] = "store_true"
         elif option.kind in _TYPES:
             how["type"] = _TYPES[option.kind]
         if option.choices is not None:

@@ -20,7 +20,7 @@ def cmd_report(args: argparse.Namespace) -> int:
         if not names & set(truth):  # e.g. the truth.json of another robot: a column of dashes, said nowhere
             raise DataError(f"--truth '{args.truth}' holds none of the {len(names)} parameters fitted here (it lists "
                             f"{listing(sorted(truth)) or 'none'}): give the truth.json of this robot's simulation")
-    content = ReportContent(view, truth, (str(args.robot), str(args.data)))
+    content = ReportContent(view, truth, tuple(str(given) for given in (args.robot, args.data) if given is not None))
     path = write_report(content, args.out, args.quiet)
     report = view.report
     held = f"; held out {mm_text(report.test_rms_before)} → {mm_text(report.test_rms_after)}" \

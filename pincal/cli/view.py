@@ -27,6 +27,7 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
     from pincal.calibration.from_files import read_inputs
     from pincal.calibration.pipeline import calibrate
     from pincal.calibration.report import CalibrationReport
+    from pincal.calibration.summary import robot_named, urdf_name_note
     from pincal.io.corrections_file import robot_files
     from pincal.io.files import check_outputs
     from pincal.viz.scene import CalibrationView, check_same_data
@@ -47,7 +48,8 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
         view.report = replace(view.report, provenance=provenance)
         return view, None
     if not args.quiet:
-        print(f"calibrating '{robot.name}' from {dataset.n_samples} samples ...", file=sys.stderr)
+        named, note = robot_named(read.robot_given, robot.name), urdf_name_note(read.robot_given, robot.name)
+        print(f"calibrating '{named}'{note} from {dataset.n_samples} samples ...", file=sys.stderr)
     calibration = calibrate(robot, dataset, options, progress=not args.quiet)
     view = CalibrationView.from_calibration(calibration)
     view.report = replace(view.report, provenance=provenance)

@@ -122,6 +122,33 @@ def check_sigma_metadata(metadata: dict[str, str]) -> None:
         _sigma_value(key, text)
 
 
+def check_sigma_used(metadata: dict[str, str], models: Sequence[Measurement]) -> None:
+    """Refuse a ``# sigma`` line that weights none of ``models``: a σ stated for a kind or a frame the file does not
+    measure (``# sigma camera: 1e-4`` in a file of positions) would be silently ignored, and the σ the user believes
+    stated estimated from the data instead.
+
+    Raises:
+        DataError: naming the line and the measurements the file has.
+    """
+    keys = [m.key for m in models]
+    for key, text in metadata.items():
+        words = key.split()
+        if len(words) < 2 or words[0] != "sigma":
+            continue
+        kind = words[1]
+        if len(words) == 2:
+            used = any(k.partition(":")[0] == kind for k in keys)
+        elif words[2:] == ["angle"]:
+            used = any(m.key.partition(":")[0] == kind and m.angle_rows for m in models)
+        else:
+            used = f"{kind}:{' '.join(words[2:])}" in keys
+        if not used:
+            missing = f"{kind}:{' '.join(words[2:])}" if len(words) > 2 and words[2:] != ["angle"] else kind
+            raise DataError(f"metadata '# {key}: {text.strip()}' states a σ for readings the file does not have (no "
+                            f"{missing} columns; its measurements are {listing(keys) or 'none'}): remove the line, or "
+                            "name a kind or frame of those")
+
+
 def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_columns: Sequence[str],
                      sigma: Sigma | None = None, metadata: dict[str, str] | None = None) -> list[Measurement]:
     """Measurement models for a dataset: its measurement columns, plus a joint reading for every
@@ -158,6 +185,8 @@ def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_column
                                 f"{listing(robot.model.names[1:])}")
             stated = sigma or channel_sigma(f"joint:{joint}", meta, None)
             models.append(weighted(joint_reading(joint, one_sigma(stated) or 1e-5), stated))
+    if sigma is None:
+        check_sigma_used(meta, models)
     return models
 
 

@@ -21,10 +21,12 @@ import numpy.typing as npt
 
 from pincal.calibration.pipeline import Calibration
 from pincal.calibration.report import CalibrationReport
-from pincal.calibration.summary import bad_reading_text, correction
+from pincal.calibration.summary import bad_reading_text, correction, report_robot
 from pincal.errors import DataError
 from pincal.io.files import make_directory, write_text
 from pincal.progress import Progress
+from pincal.viz.page_style import SCENE_LISTENER
+from pincal.viz.page_style import STYLE as STYLE  # check_page reads it here
 from pincal.viz.scene import CalibrationView, static_scene, workspace_points
 from pincal.viz.static_page import provenance_html, workspace_text
 
@@ -112,46 +114,6 @@ def _png(figure: Any, alt: str, palette: bool = False) -> str:
     return f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}"></figure>'
 
 
-STYLE = """
-body { font: 14px/1.45 system-ui, -apple-system, "Segoe UI", sans-serif; color: #1d2733; margin: 0;
-  background: #f4f6f9; }
-main { max-width: 1120px; margin: 0 auto; padding: 18px 24px 40px; }
-h1 { font-size: 24px; margin: 6px 0 2px; } h2 { font-size: 18px; margin: 28px 0 8px; }
-.sub { color: #5b6775; margin: 0 0 14px; }
-.cards { display: flex; gap: 12px; flex-wrap: wrap; }
-.card { background: #fff; border-radius: 8px; padding: 10px 14px; box-shadow: 0 1px 3px rgba(0,0,0,.12);
-  flex: 1 1 220px; }
-.card .what { color: #5b6775; font-size: 12px; text-transform: uppercase; letter-spacing: .03em; }
-.card .nums { font-size: 20px; font-variant-numeric: tabular-nums; }
-.before { color: #c0392b; } .after { color: #1e8449; } .gain { font-size: 13px; color: #1e8449; }
-.verdict { background: #eaf6ee; border-left: 4px solid #1e8449; padding: 8px 12px; margin: 14px 0; }
-.warn { background: #fdf1e6; border-left: 4px solid #e67e22; padding: 8px 12px; margin: 14px 0; }
-iframe { width: 100%; height: 560px; border: 0; border-radius: 8px; box-shadow: 0 1px 3px rgba(0,0,0,.15);
-  background: #fff; }
-.caption { color: #5b6775; font-size: 12px; margin: 4px 0 0; }
-table { border-collapse: collapse; background: #fff; font-variant-numeric: tabular-nums; }
-th, td { padding: 3px 10px; border-bottom: 1px solid #e3e7ec; text-align: right; }
-th:first-child, td:first-child { text-align: left; }
-th { background: #eef1f5; font-weight: 600; }
-tr.unidentified td { color: #8a939e; }
-figure { margin: 8px 0; background: #fff; border-radius: 8px; padding: 6px; display: inline-block;
-  box-shadow: 0 1px 3px rgba(0,0,0,.12); }
-figure img { max-width: 100%; display: block; }
-ul.combos li { margin: 3px 0; }
-code { background: #eef1f5; padding: 0 3px; border-radius: 3px; }
-"""
-
-SCENE_LISTENER = """
-window.addEventListener("message", function (e) {
-  if (!e.data || !e.data.pincalScene) return;
-  var s = e.data.pincalScene, out = document.getElementById("scene-status");
-  out.setAttribute("data-status", JSON.stringify(s));
-  out.textContent = "3D scene loaded: " + s.robot_calibrated + " shapes per robot (" + s.frames.join(", ") +
-    "), " + s.points + " samples" + (s.webgl ? "" : " — WebGL unavailable in this browser");
-});
-"""
-
-
 def _cards(report: CalibrationReport) -> str:
     length = report.error_words[0]
     rows = [(f"RMS {length} error, fit samples", report.rms_before, report.rms_after)]
@@ -182,7 +144,20 @@ def _implausible(report: CalibrationReport) -> str:
             f"{html.escape(report.implausible_cause)}.</p>")
 
 
+def _explains_nothing(report: CalibrationReport) -> str:
+    """The refusal of a fit that explains nothing: residuals beyond 1000 × σ (empty otherwise)."""
+    if not report.explains_nothing:
+        return ""
+    return (f'<p class="warn">The fit explains nothing: its residuals stay at {(report.sigma2 or 0.0) ** 0.5:.3g} × σ '
+            f"after calibration, beyond 1000 × σ, with RMS {mm_text(report.rms_after)} of the start's "
+            f"{mm_text(report.rms_before)} left. This is not a result, and <code>pincal calibrate</code> writes no "
+            "calibrated URDF of it (<code>--force</code> writes one): the data do not belong to this robot as they "
+            "are read.</p>")
+
+
 def _verdict(report: CalibrationReport) -> str:
+    if report.explains_nothing:  # said above: the figures below are no calibration's
+        return ""
     held = report.has_held_out
     before = report.test_rms_before if held else report.rms_before
     after = report.test_rms_after if held else report.rms_after
@@ -438,7 +413,8 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
     tied = (", and the parameters tied to them (see below) may then differ from the truth while predicting the "
             "measurements just as well") if report.unidentifiable and content.truth else ""
     n_test = None if test_before is None else len(test_before)
-    title = f"Calibration of {report.robot or problem.robot.name}"
+    named, note = report_robot(report) if report.robot else (problem.robot.name, "")
+    title = f"Calibration of {named}"
     sources = " · ".join(html.escape(s) for s in content.sources)
     magnified = (f"errors magnified ×{summary.magnification:g}, coloured by size on the scale of the largest error "
                  f"({summary.error_scale * 1e3:.3g} mm)") if summary.has_points else "no 3D measurements"
@@ -449,9 +425,9 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
 <h1>{html.escape(title)}</h1>
 <p class="sub">{_text(report.n_samples)} fit samples{f', {n_test} held out' if n_test else ''} ·
 {html.escape(', '.join(report.measurements))} · {_text(report.n_parameters)} parameters ·
-pincal {__version__}{' · ' + sources if sources else ''}</p>
+pincal {__version__}{' · ' + sources if sources else ''}{' · ' + html.escape(note.strip(' ()')) if note else ''}</p>
 {_cards(report)}
-{_implausible(report)}{_verdict(report)}
+{_explains_nothing(report)}{_implausible(report)}{_verdict(report)}
 <h2>The robot in 3D</h2>
 <iframe id="scene" title="3D scene: nominal and calibrated robot with the sample errors" srcdoc="{srcdoc}"></iframe>
 <p class="caption">Orange: the calibrated robot; blue ghost: the nominal one, both in the measurement frame

@@ -23,7 +23,7 @@ OTHER = {"parameter_spec": (["model24"], ("model24",)), "solver": (["tsvd"], "ts
          "sigma": (["2e-5"], 2e-5), "formulation": (["ikm"], "ikm"), "max_iter": (["7"], 7),
          "select": (["none"], "none"), "cv": (["5x2"], "5x2"), "cv_seed": (["3"], 3),
          "markers": (["cluster"], "cluster"), "payload": (["1.5@tool0:0,0,0.1"], None),
-         "plausible": (["2.5"], 2.5), "prior": (["off"], "off")}
+         "plausible": (["2.5"], 2.5), "prior": (["off"], "off"), "force": ([], True)}
 
 
 def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
@@ -97,6 +97,8 @@ def test_a_bad_keyword_is_refused_by_name() -> None:
         CalibrationOptions(max_iter=0)
     with pytest.raises(DataError, match="sigma=-1e-05"):
         CalibrationOptions(sigma=-1e-5)
+    with pytest.raises(DataError, match="force='yes': give True or False"):
+        CalibrationOptions(force="yes")  # type: ignore[arg-type]
 
 
 def test_view_and_report_fit_with_every_option_the_command_line_gives(tmp_path: Path) -> None:

@@ -1,5 +1,6 @@
 """Implausible results are refused, through the command line: data of another robot (a UR5's calibrated as a UR10),
-positions in another unit (a Delta's multiplied by 3), while healthy simulated runs and the TIAGo mocap data pass;
+positions in another unit (a Delta's multiplied by 3), a fit that explains nothing (residuals beyond 1000 × σ), a
+measurement of a frame no joint moves, while healthy simulated runs, the TIAGo mocap data and the TALOS contacts pass;
 ``--plausible`` changes the limits or turns the check off; the report JSON holds what was found."""
 
 from __future__ import annotations
@@ -157,6 +158,7 @@ def test_a_healthy_simulated_run_is_not_flagged(robot: str, tmp_path: Path) -> N
     assert done.returncode == 0, done.stdout
     content = json.loads(report.read_text(encoding="utf-8"))
     assert content["implausible"] == [] and content["implausible_scale"] == [] and content["implausible_cause"] == ""
+    assert content["explains_nothing"] is False
     for scale in content["length_scale"].values():
         assert abs(scale - 1.0) < 0.02  # true errors of 1 mm on a robot tens of centimetres wide
     assert "IMPLAUSIBLE" not in done.stdout
@@ -170,9 +172,70 @@ def test_the_tiago_mocap_data_are_not_flagged(tmp_path: Path) -> None:
                       "--report", str(report))
     assert done.returncode == 0, done.stdout
     content = json.loads(report.read_text(encoding="utf-8"))
-    assert content["implausible"] == [] and content["implausible_scale"] == []
+    assert content["implausible"] == [] and content["implausible_scale"] == [] and content["explains_nothing"] is False
     fitted = content["parameters"]
     assert abs(fitted["base.tz"]["value"]) > 10 * PLACEMENT_LIMIT  # the setup: unbounded
     assert max(abs(v["value"]) for name, v in fitted.items() if name.startswith("arm_1_joint.t")) > 2 * PLACEMENT_PRIOR
     done = run_pincal("calibrate", str(ROOT / "examples" / "tiago_job.toml"))
     assert done.returncode == 0 and "IMPLAUSIBLE" not in done.stdout, done.stdout
+    # the TALOS contacts (σ estimated from the data, the left arm's fit at 3.75 σ): a result, as before
+    done = run_pincal("calibrate", str(ROOT / "examples" / "data" / "talos_table_contact" / "left_job.toml"))
+    assert done.returncode == 0 and "EXPLAINS NOTHING" not in done.stdout, done.stdout
+
+
+def _shuffled(source: Path, target: Path) -> Path:
+    """``source`` with its rows' position cells in another order (a fixed permutation): readings that belong to no
+    posture of theirs."""
+    lines = source.read_text(encoding="utf-8").splitlines()
+    start = next(k for k, line in enumerate(lines) if not line.startswith("#"))
+    header, rows = lines[start].split(","), [line.split(",") for line in lines[start + 1:]]
+    order = np.random.default_rng(3).permutation(len(rows))
+    rows = [[rows[order[k]][c] if name.startswith("position:") else cell for c, (name, cell)
+             in enumerate(zip(header, row, strict=True))] for k, row in enumerate(rows)]
+    target.write_text("\n".join([*lines[:start + 1], *(",".join(row) for row in rows)]) + "\n", encoding="utf-8")
+    return target
+
+
+def test_a_fit_that_explains_nothing_exits_1_and_writes_no_calibrated_urdf(tmp_path: Path) -> None:
+    """Readings shuffled between the postures, with the file's σ of 10 µm: the measurement frame alone (unbounded,
+    so nothing is implausible) converges at tens of thousands of σ. It is not a result: exit 1, said first, no URDF;
+    --force writes it, saying so in its header."""
+    data = _shuffled(_simulate(tmp_path / "sim", "ur10"), tmp_path / "shuffled.csv")
+    out, report = tmp_path / "cal.urdf", tmp_path / "r.json"
+    done = run_pincal("calibrate", "ur10", str(data), "--parameters", "base.*", "--out", str(out), "--report",
+                      str(report))
+    assert done.returncode == 1, done.stderr
+    first = done.stdout.splitlines()[0]
+    assert first.startswith("THE FIT EXPLAINS NOTHING: residuals ") and "beyond 1000 × σ" in first, done.stdout
+    assert f"not written: {out} (the fit explains nothing; --force writes it)" in done.stdout
+    assert not out.exists() and f"wrote {report}" in done.stdout
+    content = json.loads(report.read_text(encoding="utf-8"))
+    assert content["explains_nothing"] is True and content["converged"] and content["implausible"] == []
+    assert content["sigma2"] > 1e6
+    forced = run_pincal("calibrate", "ur10", str(data), "--parameters", "base.*", "--out", str(out), "--force")
+    assert forced.returncode == 1 and f"wrote {out}" in forced.stdout, forced.stdout
+    assert "EXPLAINS NOTHING (residuals" in out.read_text(encoding="utf-8").splitlines()[1]
+    fleet = tmp_path / "fleet"
+    fleet.mkdir()
+    (fleet / "arm.csv").write_bytes(data.read_bytes())
+    done = run_pincal("fleet", "ur10", str(fleet), "--out", str(tmp_path / "out"), "--workers", "1", "--parameters",
+                      "base.*")
+    assert done.returncode == 1 and "EXPLAINS NOTHING (residuals" in done.stdout, done.stdout
+    assert not (tmp_path / "out" / "arm.urdf").exists() and (tmp_path / "out" / "arm.json").exists()
+
+
+def test_a_camera_on_a_frame_no_joint_moves_is_refused_before_the_fit(tmp_path: Path) -> None:
+    """A camera declared on base_link sees the world target from one place whatever the joints do: once the fit ran
+    to 9.8e4 σ and wrote a calibrated URDF; now one line names the measurement and the frame, nothing written."""
+    done = run_pincal("simulate", "ur10", "--measure", "camera:tool0", "--samples", "20", "--seed", "1", "--quiet",
+                      "--out", str(tmp_path / "sim"))
+    assert done.returncode == 0, done.stderr
+    data = tmp_path / "on_base.csv"
+    data.write_text((tmp_path / "sim" / "measurements.csv").read_text(encoding="utf-8").replace("tool0", "base_link"),
+                    encoding="utf-8")
+    out = tmp_path / "cal.urdf"
+    done = run_pincal("calibrate", "ur10", str(data), "--out", str(out))
+    assert done.returncode == 2 and done.stdout == "" and not out.exists(), done.stdout
+    assert done.stderr == ("pincal: error: measurement 'camera:base_link' reads frame 'base_link', which no actuated "
+                           "joint of 'ur10' moves: its readings are the same in every posture and can calibrate "
+                           "nothing; measure a frame the joints move (e.g. 'tool0', the default measured frame)\n")
