@@ -12,6 +12,7 @@ nominal robot (its setup registered on the same data) → exit 1, whatever the t
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -19,7 +20,7 @@ import numpy.typing as npt
 
 from pincal.calibration.check_model import CheckedModel
 from pincal.calibration.growth import ErrorGrowth
-from pincal.calibration.predicted import FitCovariance, PredictedErrors, distance, predicted_errors
+from pincal.calibration.predicted import FitCovariance, PredictedErrors, distance, predicted_errors, weighed_as_fitted
 from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
 from pincal.errors import DataError
@@ -75,7 +76,7 @@ def predicted_check(model: CheckedModel, nominal: Prepared) -> tuple[PredictedEr
     except (DataError, KeyError):
         return None, "MODEL's parameters are not those of these measurements: no predicted errors"
     x = np.array([float(report.parameters[name]["value"]) for name in parameters.names])
-    on = nominal.on(nominal.samples, parameters)
+    on = replace(nominal, models=weighed_as_fitted(nominal.models, report)).on(nominal.samples, parameters)
     growth = ErrorGrowth.from_dict(report.error_growth)
     fit = FitCovariance.of_report(report.covariance, report.sigma2, parameters.names, growth)
     ranges = report.fitted_range or model.provenance.fitted_range or {}

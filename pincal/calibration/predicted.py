@@ -25,7 +25,8 @@ import numpy.typing as npt
 from pincal.calibration.growth import MIN_WIDTH, ErrorGrowth, extrapolation_distance
 from pincal.calibration.propagation import LEVEL, length_covariances, length_layout, norm_quantile, norm_quantiles
 from pincal.calibration.report import parameter_covariance
-from pincal.errors import ConvergenceError
+from pincal.errors import ConvergenceError, PincalError
+from pincal.identification.choices import MarkerFit
 from pincal.identification.metrics import length_columns
 from pincal.identification.predictions import remember
 from pincal.identification.problem import CalibrationProblem, Observations, Prediction
@@ -216,15 +217,8 @@ def workspace_prediction(problem: CalibrationProblem, fit: FitCovariance, x: Arr
         return None
     try:
         actuated, q = random_actuated(problem.robot, n, np.random.default_rng(seed))
-        # a posture the nominal robot closes the calibrated one may not; the nominal configurations start its solves
-        solved = assemble(problem.robot_at(x), actuated, np.inf, guesses=q)
-        closed, q = solved.usable, solved.q
-        actuated = actuated[closed]
-        postures = workspace_postures(problem, actuated)
-        remember(postures, q[closed])
-        distances = distance(problem.robot, actuated, ranges)
-        prediction = postures.evaluate(x, jacobian=True)
-        predicted = predicted_errors(postures, fit, x, distances, prediction)
+        closed, predicted, prediction = predicted_at(problem, fit, x, actuated, ranges, q)
+        actuated, distances = actuated[closed], predicted.distance
         key = next(m.key for m in problem.measurements if length_columns(m.key) == 3)
         positions = prediction.predicted[key][:, :3]
     except ConvergenceError:
@@ -236,6 +230,66 @@ def workspace_prediction(problem: CalibrationProblem, fit: FitCovariance, x: Arr
             "capped": int(np.count_nonzero(predicted.capped)),
             "median_bound": float(np.median(finite)) if finite.size else None,
             "max_bound": float(np.max(finite)) if finite.size else None}
+
+
+def predicted_at(problem: CalibrationProblem, fit: FitCovariance, x: Array, actuated: Array,
+                 ranges: dict[str, list[float]], guesses: Array | None = None
+                 ) -> tuple[npt.NDArray[np.bool_], PredictedErrors, Prediction]:
+    """The predicted errors of ``problem``'s measurements at the postures ``actuated`` (N, na) [rad or m] for the model
+    at ``x`` [m, rad]: which postures the calibrated robot closes (``guesses``, configurations of the nominal robot,
+    start its solves), their :class:`PredictedErrors` (grown beyond the fitted ``ranges``) and their prediction.
+
+    Raises:
+        ConvergenceError: none can be evaluated.
+    """
+    solved = assemble(problem.robot_at(x), actuated, np.inf, guesses=guesses)
+    closed = solved.usable
+    postures = workspace_postures(problem, actuated[closed])
+    remember(postures, solved.q[closed])
+    prediction = postures.evaluate(x, jacobian=True)
+    distances = distance(problem.robot, actuated[closed], ranges)
+    return closed, predicted_errors(postures, fit, x, distances, prediction), prediction
+
+
+def bounds_at(nominal: Robot, calibration: Any, actuated: Array) -> tuple[Array, Array] | None:
+    """Each posture's 95 % bound [m] under the calibration ``calibration`` holds (a report, or the calibration a
+    calibrated URDF carries: :mod:`pincal.calibration.carried`) on ``nominal``, at the raw readings ``actuated``
+    (N, na) [rad or m], and the nominal robot's own bound there (``E₀ + E₁ u``); NaN where a posture cannot be closed.
+    The bound is that of the first point the calibration measured. None when the calibration's parameters are not
+    ``nominal``'s or it holds no covariance."""
+    from pincal.identification.measurements import parse_key
+    from pincal.identification.parameters import choose_parameters
+
+    declared = {target: (float(a), float(b), float(c)) for target, (a, b, c) in calibration.declared_markers.items()}
+    models = weighed_as_fitted([parse_key(key).with_markers(declared) for key in calibration.measurements], calibration)
+    if not any(length_columns(m.key) == 3 for m in models):
+        return None
+    names = list(calibration.parameters)
+    fitted: MarkerFit = "cluster" if calibration.markers == "cluster" else "each"
+    try:
+        parameters = choose_parameters(nominal, models, names, fitted)
+    except (PincalError, KeyError):
+        return None
+    x = np.array([float(calibration.parameters[name]["value"]) for name in parameters.names])
+    growth = ErrorGrowth.from_dict(calibration.error_growth)
+    fit = FitCovariance.of_report(calibration.covariance, calibration.sigma2, parameters.names, growth)
+    template = CalibrationProblem(nominal, parameters, models, Observations.neutral(models, actuated[:1]))
+    bound, own = np.full(len(actuated), np.nan), np.full(len(actuated), np.nan)
+    try:
+        closed, predicted, _ = predicted_at(template, fit, x, actuated, calibration.fitted_range or {})
+    except ConvergenceError:
+        return bound, own
+    bound[closed] = predicted.bound
+    if growth is not None:
+        own[closed] = growth.nominal(predicted.distance)
+    return bound, own
+
+
+def weighed_as_fitted(models: list[Any], calibration: Any) -> list[Any]:
+    """``models`` with the σ of each row the calibration's fit weighed the same measurement by (its ``row_sigma``):
+    the noise part of a bound is the instrument's as calibrated, whatever σ the new data state."""
+    fitted: dict[str, list[float]] = getattr(calibration, "row_sigma", None) or {}
+    return [m.with_component_sigma(fitted[m.key]) if len(fitted.get(m.key, [])) == m.size else m for m in models]
 
 
 def held_out_predictions(ids: list[str], predicted: PredictedErrors, errors: Array) -> dict[str, Any]:

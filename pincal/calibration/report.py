@@ -70,7 +70,8 @@ class CalibrationReport:
     ``declared_markers`` holds the nominal offset [m, in its frame] of each declared marker (``<frame>@<marker>``) the
     calibration read, as the data declared it (zero when they did not): the calibrated robot's marker links are these
     plus the ``marker.*``/``cluster.*`` estimates.
-    ``estimated_sigma`` holds the σ [m, rad] estimated from
+    ``row_sigma`` holds the σ [m, rad] of each measurement's residual rows the fit weighed them by (stated, or
+    estimated). ``estimated_sigma`` holds the σ [m, rad] estimated from
     the data for the readings no ``# sigma`` line (nor ``--sigma``) states, per measurement key: per residual row
     (``rows``, with their ``units``) and per row kind (``length``, ``angle``: the RMS of its rows;
     :mod:`pincal.calibration.noise`).
@@ -159,6 +160,7 @@ class CalibrationReport:
     covariance: dict[str, Any] = field(default_factory=dict)
     fitted_range: dict[str, list[float]] = field(default_factory=dict)
     error_growth: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    row_sigma: dict[str, list[float]] = field(default_factory=dict)
     predicted_workspace: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
     predicted_held_out: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
     provenance: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
@@ -357,6 +359,7 @@ def fit_figures(result: CalibrationResult, problem: CalibrationProblem, x_true: 
                        for k, name in enumerate(result.names)},
         "unidentifiable": [c.description for c in ident.unidentifiable],
         "covariance": covariance_of(result),
+        "row_sigma": {m.key: [float(v) for v in m.row_sigmas()] for m in problem.measurements},
     }
     if angles_before.size:
         out.update({"rms_angle_before": _clean(rms(angles_before)), "rms_angle_after": _clean(rms(angles_after)),
