@@ -5,7 +5,7 @@ The model and its corrections file are read here (:func:`load_model`), the frame
 (:func:`reached_frame`: it must be one the actuated joints move), the targets placed in the model's world, and every
 target solved by the rule of :mod:`pincal.calibration.joint_commands` (from the reference configuration, then seeded
 random postures; each answer checked by forward kinematics as the robot runs it), in blocks of :data:`BLOCK` targets
-solved together, a progress bar advancing by block.
+solved together, a progress bar advancing as targets are done.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from pincal.io.targets import MAX_TARGETS, OK, TARGET_COMPONENTS, UNREACHABLE, T
 from pincal.model.batch_ik import Goals
 from pincal.model.frame_kinematics import frame_kinematics
 from pincal.model.robot import SOLVE_TOLERANCE, Robot, load_robot
+from pincal.model.rotations import quaternion_matrices
 from pincal.progress import Progress
 
 Array = npt.NDArray[np.float64]
@@ -38,7 +39,8 @@ Array = npt.NDArray[np.float64]
 TOLERANCE = 1e-9
 #: The choices of ``targets_in``.
 TARGET_FRAMES = ("measurement", "base")
-#: Targets solved together (one step of the progress bar): enough that the batched solves' overhead is spread thin.
+#: Targets solved together: enough that the stacked solves' fixed cost is spread thin (2000 UR10 poses took 40 % longer
+#: in blocks of 500, 90 % in blocks of 250).
 BLOCK = 1000
 
 __all__ = ["BLOCK", "TARGET_FRAMES", "TOLERANCE", "Compensation", "Model", "base_link", "beyond_fitted_range",
@@ -156,11 +158,8 @@ def goals(targets: Targets, world_from_targets: pin.SE3) -> Goals:
     positions = values[:, :3] @ rotation.T + translation
     if targets.kind == "position":
         return Goals(positions, None)
-    x, y, z, w = (values[:, 3:] / np.linalg.norm(values[:, 3:], axis=1)[:, None]).T
-    turned = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
-                       2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
-                       2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=1).reshape(-1, 3, 3)
-    return Goals(positions, rotation @ turned)
+    quaternions = values[:, 3:] / np.linalg.norm(values[:, 3:], axis=1)[:, None]  # qx, qy, qz, qw
+    return Goals(positions, rotation @ quaternion_matrices(quaternions))
 
 
 @dataclass(frozen=True)
@@ -251,11 +250,10 @@ def compensate(model: Model, targets: Targets, frame: str | None = None, targets
     with Progress(f"compensate: {n} targets", n, quiet=not progress) as bar:
         for first in range(0, n, BLOCK):
             rows = slice(first, min(n, first + BLOCK))
-            block = solver.solve(every.take(np.arange(n)[rows]))
+            block = solver.solve(every.take(np.arange(n)[rows]), bar.advance)
             commands[rows], configurations[rows] = block.raw, block.configurations
             residuals[rows], inversion[rows] = block.residuals, block.inversion
             statuses += block.statuses
-            bar.advance(len(block.statuses))
     return Compensation(model, targets, name, targets_in, base, commands, residuals, statuses, configurations,
                         inversion, tolerance, time.perf_counter() - start)
 

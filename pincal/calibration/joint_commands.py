@@ -18,6 +18,7 @@ order change it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -132,8 +133,9 @@ class CommandSolver:
             self._starts = [self.robot.q_reference, *q]
         return self._starts
 
-    def solve(self, goals: Goals) -> Commands:
-        """The commands for every target of ``goals`` (world frame), by the rule of this module's docstring."""
+    def solve(self, goals: Goals, advance: Callable[[int], object] | None = None) -> Commands:
+        """The commands for every target of ``goals`` (world frame), by the rule of this module's docstring;
+        ``advance(k)`` is told of k more targets done as they are (a progress bar's)."""
         n, na, nq = len(goals), self.robot.n_actuated, self.robot.model.nq
         statuses = [OK] * n
         raw, configurations = np.full((n, na), np.nan), np.full((n, nq), np.nan)
@@ -151,6 +153,10 @@ class CommandSolver:
             for k, reason in why.items():
                 reasons[int(pending[k])].append(reason)
             pending = pending[~done]
+            if advance is not None:
+                advance(len(rows))
+        if advance is not None and pending.size:
+            advance(int(pending.size))  # the targets no start reached: done too
         for k in pending.tolist():
             # the reason of a start that reached the target in joint space comes first, else the nearest miss
             _, nearest = min(reasons[k], key=lambda item: item[0])

@@ -4,7 +4,8 @@ The solvers of :class:`~pincal.model.kinematics.ClosedLoopKinematics` and of ``p
 targets: their steps, bounds, tolerances and iteration counts, on a
 :class:`~pincal.model.frame_kinematics.FrameKinematics` (every row at once where the batched arrays take the robot, else
 row by row). A row's arithmetic reads that row alone, so its answer depends on its target and start, never on the
-other rows or their order.
+other rows or their order (fewer than :data:`~pincal.model.frame_kinematics.SMALL_BATCH` rows: :func:`newton` is the
+per-sample solver itself, row after row, the same steps without the stacked arrays' fixed cost).
 
 - :func:`newton`: damped Gauss–Newton over all the joints on the loops' residual stacked with the frame's error
   (``p − p_t`` [m], and ``log3(R_tᵀ R)`` [rad] for a pose), the step of
@@ -57,6 +58,12 @@ class Goals:
     def take(self, rows: IntArray | BoolArray) -> Goals:
         """The targets ``rows`` (indices or a mask)."""
         return Goals(self.positions[rows], None if self.rotations is None else self.rotations[rows])
+
+    def target(self, k: int) -> pin.SE3 | Array:
+        """Target ``k`` as the per-sample solvers take it: a placement, or a position (3,) [m]."""
+        if self.rotations is None:
+            return np.array(self.positions[k], dtype=float)
+        return pin.SE3(self.rotations[k], self.positions[k])
 
     def error(self, state: FrameState, jacobian: Array) -> tuple[Array, Array]:
         """The frame's error to each target (N, 3 or 6) [m, rad] and its rows of ``jacobian`` (N, 6, k), the frame's
@@ -114,6 +121,12 @@ def newton(frame: FrameKinematics, goals: Goals, start: Array, tol: Array | floa
     tols = np.broadcast_to(np.asarray(tol, dtype=float), (n,))
     norms = np.full(n, np.inf)
     converged = np.zeros(n, dtype=bool)
+    if n < SMALL_BATCH:  # a few rows: the per-sample solver itself, without the stacked arrays' fixed cost
+        for k in range(n):
+            report = frame.kinematics.solve_ik_newton(q[k].copy(), frame.frame_id, goals.target(k), float(tols[k]),
+                                                      max_iter, max_step)
+            q[k], norms[k], converged[k] = report.q, report.residual, report.converged
+        return Solved(q, norms, converged)
     active = np.arange(n)
     for it in range(max_iter + 1):
         if not active.size:
