@@ -66,9 +66,11 @@ class FrameChoice:
         return NotFoundError(self.reason, "frame", "", self.candidates)
 
 
-def probe_postures(robot: Robot) -> list[Array]:
+def probe_postures(robot: Robot, order: list[int] | None = None) -> list[Array]:
     """The reference configuration and, when it can be assembled, one a step of :data:`MOTION_STEP` away
-    in every actuated joint (towards the inside of the joint limits)."""
+    in every actuated joint (towards the inside of the joint limits). ``order``: each actuated joint's position in
+    the whole robot, when ``robot`` is a part of it (:mod:`pincal.model.parts`), so that a joint takes the same step
+    in either."""
     postures = [robot.q_reference]
     model = robot.model
     qa = robot.actuated_values(robot.q_reference)
@@ -76,7 +78,8 @@ def probe_postures(robot: Robot) -> list[Array]:
     for k, joint in enumerate(robot.kinematics.actuated):
         upper = model.upperPositionLimit[joint.idx_q] if joint.nq == 1 else np.inf
         sign = -1.0 if qa[k] + MOTION_STEP > upper else 1.0
-        step[k] = sign * MOTION_STEP * (1.0 + 0.1 * k)  # unequal steps: no symmetric special posture
+        index = k if order is None else order[k]
+        step[k] = sign * MOTION_STEP * (1.0 + 0.1 * index)  # unequal steps: no symmetric special posture
     report = robot.solve_fk_report(qa + step)
     if report.converged:
         postures.append(report.q)
@@ -84,10 +87,30 @@ def probe_postures(robot: Robot) -> list[Array]:
 
 
 def frame_motion(robot: Robot, frame_ids: list[int]) -> Array:
-    """Largest norm, over :func:`probe_postures`, of each frame's twist per unit actuated velocity (6 × na)."""
+    """Largest norm, over :func:`probe_postures`, of each frame's twist per unit actuated velocity (6 × na), each
+    frame computed on the part of the robot that moves it (:mod:`pincal.model.parts`)."""
+    motion = np.zeros(len(frame_ids))
+    frames = robot.model.frames
+    moved = [p for p, fid in enumerate(frame_ids) if frames[fid].parentJoint != 0]  # no joint moves the others
+    for part, group in robot.parts.by_part([frame_ids[p] for p in moved]):
+        positions = [moved[k] for k in group]
+        if not positions:
+            continue
+        if part.whole:
+            motion[positions] = _frame_motion(robot, [frame_ids[p] for p in positions])
+            continue
+        sub = part.robot
+        ids = [int(sub.model.getFrameId(frames[frame_ids[p]].name, frames[frame_ids[p]].type)) for p in positions]
+        position_of = {name: k for k, name in enumerate(robot.actuated_joints)}
+        order = [position_of[name] for name in sub.actuated_joints]
+        motion[positions] = _frame_motion(sub, ids, order)
+    return motion
+
+
+def _frame_motion(robot: Robot, frame_ids: list[int], order: list[int] | None = None) -> Array:
     model, data = robot.model, robot.kinematics.data
     motion = np.zeros(len(frame_ids))
-    for q in probe_postures(robot):
+    for q in probe_postures(robot, order):
         tangent = robot.kinematics.configuration_jacobian(q)
         pin.computeJointJacobians(model, data, q)
         for k, fid in enumerate(frame_ids):
