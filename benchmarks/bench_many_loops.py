@@ -6,9 +6,9 @@ Run: ``python benchmarks/bench_many_loops.py`` (``--before REV``, default ``1055
 copies of the README's four-bar on one base, 3 joints each (66 loops: 198 joints, inside the 200-joint limit);
 ``assemble`` reads the draft (passive joints at the README's rough angles), ``info`` the assembled file. Both copies of
 ``pincal/`` are exported as ``bench_commands.py`` exports them and run in turns by the same interpreter, as the console
-script runs them. Each run is one process; its CPU time (user + sys) and peak resident memory come from ``wait4``.
-Printed: the medians per command and size, before and after, and their ratios; the floor is ``pincal info`` of one
-four-bar (the imports every command holds).
+script runs them. Each run is one process; its CPU time (user + sys) and peak resident memory come from ``wait4``,
+in a small process that starts it (:data:`PEAK`). Printed: the medians per command and size, before and after, and
+their ratios; the floor is ``pincal info`` of one four-bar (the imports every command holds).
 """
 
 from __future__ import annotations
@@ -31,18 +31,26 @@ from many_four_bars import many_four_bars_urdf  # noqa: E402  (the tests' genera
 BEFORE = "10551e0"  # main when issue 36 was taken up
 
 
-def measured(argv: list[str], env: dict[str, str], cwd: Path) -> tuple[float, float]:
-    """One run of ``pincal ARGV``: (CPU time [s], peak resident memory [MB]) of its process."""
-    with open(os.devnull, "wb") as sink:
-        process = subprocess.Popen([sys.executable, "-c", LAUNCH, *argv], env=env, cwd=cwd, stdout=sink,
-                                   stderr=subprocess.PIPE)
-        assert process.stderr is not None
-        errors = process.stderr.read()
-        _, status, usage = os.wait4(process.pid, 0)
-        process.returncode = os.waitstatus_to_exitcode(status)
-    if process.returncode != 0:
-        raise SystemExit(f"pincal {' '.join(argv)} failed:\n{errors.decode(errors='replace')}")
-    return usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024
+#: Runs a command and writes its exit code, CPU time [s] and peak memory [kB] to a file. Peak memory is measured in a
+#: process started by this small one: Linux counts a process's peak from before its ``exec`` (the forked copy of its
+#: parent), so a command started by a large process would report that process's peak.
+PEAK = ("import os, sys\n"
+        "pid = os.posix_spawn(sys.argv[2], sys.argv[2:], os.environ)\n"
+        "_, status, usage = os.wait4(pid, 0)\n"
+        "open(sys.argv[1], 'w').write(f'{os.waitstatus_to_exitcode(status)} {usage.ru_utime + usage.ru_stime} "
+        "{usage.ru_maxrss}')\n")
+
+
+def measured(argv: list[str], env: dict[str, str], cwd: Path, codes: tuple[int, ...] = (0,)) -> tuple[float, float]:
+    """One run of ``pincal ARGV``: (CPU time [s], peak resident memory [MB]) of its process, which must end with
+    one of the exit ``codes``."""
+    result = cwd / "measured.txt"
+    done = subprocess.run([sys.executable, "-c", PEAK, str(result), sys.executable, "-c", LAUNCH, *argv], env=env,
+                          cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, check=False)
+    code, seconds, peak = result.read_text(encoding="utf-8").split()
+    if int(code) not in codes:
+        raise SystemExit(f"pincal {' '.join(argv)} failed:\n{done.stderr.decode(errors='replace')}")
+    return float(seconds), int(peak) / 1024
 
 
 def main() -> None:

@@ -32,7 +32,7 @@ from pincal.model.parts import (
     reduced_model,
 )
 from pincal.model.robot import MAX_JOINTS, robot_from_urdf_text
-from pincal.model.urdf import LoopSpec, check_finite_origins, origin_to_se3, read_extensions
+from pincal.model.urdf import LoopSpec, check_finite_origins, origin_to_se3, parse_urdf, read_extensions
 from pincal.model.urdf_writer import calibrated_urdf_text
 
 Array = npt.NDArray[np.float64]
@@ -87,12 +87,14 @@ def assemble_urdf(text: str, source: str = "URDF") -> Assembly:
     with each passive joint re-zeroed where the loops close, the actuated joints at zero (module docstring).
 
     Raises:
-        RobotFileError: not a URDF Pinocchio can build; too many joints.
+        RobotFileError: not a URDF Pinocchio can build; too many joints; larger than
+            :data:`~pincal.model.urdf.MAX_URDF_BYTES`.
         LoopError: no ``<loop>``; loops that no value of the passive joints closes (the loop and its residual); an
             assembled file that pincal still refuses (its mobility, its actuation).
     """
-    extensions = read_extensions(text, source)
-    check_finite_origins(text, source)
+    root = parse_urdf(text, source)  # once, for the checks and the origins below
+    extensions = read_extensions(text, source, root)
+    check_finite_origins(text, source, root)
     if not extensions.loops:
         raise LoopError(f"{source} declares no <loop>: a serial robot has nothing to assemble")
     model = _model(text, source)
@@ -100,7 +102,7 @@ def assemble_urdf(text: str, source: str = "URDF") -> Assembly:
     worst: dict[int, float] = {}  # each loop's largest residual row, closed [m, rad]
     moved: dict[str, pin.SE3] = {}
     shifts: dict[int, JointShift] = {}
-    origins = _urdf_origins(text)
+    origins = _urdf_origins(root)
     steps = 0
     before = 0.0
     for loops, part in _blocks(model, extensions.loops):  # independent loops closed block by block
@@ -205,9 +207,8 @@ def _not_closing(closure: LoopClosure, worst: dict[int, float], source: str) -> 
             "actuated joint's zero puts the loop out of reach; assemble turns the passive joints only")
 
 
-def _urdf_origins(text: str) -> dict[str, pin.SE3]:
-    """Each joint's ``<origin>`` as the file writes it [m, rad] (Pinocchio's joint placement may include fixed joints
-    above it)."""
-    root = ET.fromstring(text)
+def _urdf_origins(root: ET.Element) -> dict[str, pin.SE3]:
+    """Each joint's ``<origin>`` as the file (``root``: its ``<robot>`` element) writes it [m, rad] (Pinocchio's joint
+    placement may include fixed joints above it)."""
     return {str(joint.get("name")): origin_to_se3(joint.find("origin"), f"joint '{joint.get('name')}'")
             for joint in root.findall("joint")}

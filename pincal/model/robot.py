@@ -27,7 +27,7 @@ from pincal.model.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveRe
 from pincal.model.measured_frame import FrameChoice, default_measured_frame
 from pincal.model.mimic import with_mimics
 from pincal.model.parts import RobotParts
-from pincal.model.urdf import LoopSpec, check_finite_origins, read_extensions
+from pincal.model.urdf import LoopSpec, check_finite_origins, check_urdf_size, parse_urdf, read_extensions
 
 Array = npt.NDArray[np.float64]
 
@@ -340,9 +340,10 @@ MAX_JOINTS = 200
 MAX_URDF_JOINTS = 2000
 
 
-def _check_joint_count(text: str, where: str) -> None:
-    """Refuse a URDF with more joints than pincal takes, counted in the XML before Pinocchio builds the model."""
-    joints = ET.fromstring(text).findall("joint")
+def _check_joint_count(root: ET.Element, where: str) -> None:
+    """Refuse a URDF (``root``: its ``<robot>`` element) with more joints than pincal takes, counted in the XML
+    before Pinocchio builds the model."""
+    joints = root.findall("joint")
     moving = sum(1 for joint in joints if joint.get("type") != "fixed")
     if moving > MAX_JOINTS:
         raise RobotFileError(f"{where} has {moving} joints; pincal takes at most {MAX_JOINTS} (Pinocchio's "
@@ -390,6 +391,7 @@ def load_robot(path: str | Path) -> Robot:
                 else "a data file (CSV): the robot comes first, then the data (pincal calibrate ROBOT DATA.csv)")
         raise RobotFileError(f"robot file '{path}' is {what}; give a URDF file or a known robot name")
     try:
+        check_urdf_size(p.stat().st_size, f"robot file '{path}'")  # before it is read
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise RobotFileError(f"cannot read '{p}': {exc}") from None
@@ -399,9 +401,10 @@ def load_robot(path: str | Path) -> Robot:
 def robot_from_urdf_text(text: str, source: Path | None = None) -> Robot:
     """Build and check a :class:`Robot` from URDF text (see :func:`load_robot`)."""
     where = str(source) if source else "URDF"
-    ext = read_extensions(text, where)
-    check_finite_origins(text, where)
-    _check_joint_count(text, where)
+    root = parse_urdf(text, where)  # once, for the checks below
+    ext = read_extensions(text, where, root)
+    check_finite_origins(text, where, root)
+    _check_joint_count(root, where)
     model = _build_model(text, where, ext.mimics)
     if ext.loops:
         actuated = ext.transmitted_joints

@@ -3,8 +3,8 @@ calibrated; and what it refuses."""
 
 from __future__ import annotations
 
-import os
 import subprocess
+import sys
 from pathlib import Path
 
 from conftest import PINCAL, readme_four_bar, run_pincal
@@ -65,15 +65,22 @@ def test_assemble_refuses_output_over_input_a_serial_robot_and_lengths_that_do_n
                                                          str(tmp_path / "o.urdf")))
 
 
+#: Runs a command and writes its exit code and peak memory [kB] to a file. The peak is measured in a process started by
+#: this small one: Linux counts a process's peak from before its ``exec`` (the forked copy of its parent), and the test
+#: process may be large.
+PEAK = ("import os, sys\n"
+        "pid = os.posix_spawn(sys.argv[2], sys.argv[2:], os.environ)\n"
+        "_, status, usage = os.wait4(pid, 0)\n"
+        "open(sys.argv[1], 'w').write(f'{os.waitstatus_to_exitcode(status)} {usage.ru_maxrss}')\n")
+
+
 def peak_memory(*args: str, cwd: Path) -> tuple[int, str, float]:
-    """``pincal ARGS`` started from scratch: its exit code, its standard output and its peak resident memory [MB]
-    (the process's own, from ``wait4``)."""
-    with (cwd / "out.txt").open("w+") as out, (cwd / "err.txt").open("w+") as err:
-        process = subprocess.Popen([str(PINCAL), *args], stdout=out, stderr=err, cwd=cwd)
-        _, status, usage = os.wait4(process.pid, 0)
-        process.returncode = os.waitstatus_to_exitcode(status)
-        out.seek(0)
-        return process.returncode, out.read(), usage.ru_maxrss / 1024  # kB on Linux
+    """``pincal ARGS`` started from scratch: its exit code, its standard output and its peak resident memory [MB]."""
+    result = cwd / "peak.txt"
+    done = subprocess.run([sys.executable, "-c", PEAK, str(result), str(PINCAL), *args], cwd=cwd, capture_output=True,
+                          text=True, check=False)
+    code, peak = result.read_text(encoding="utf-8").split()
+    return int(code), done.stdout, int(peak) / 1024
 
 
 def test_independent_loops_give_each_loops_answer(tmp_path: Path) -> None:
