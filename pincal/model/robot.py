@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import os
+import shlex
 import sys
 import tempfile
 import xml.etree.ElementTree as ET
@@ -20,7 +21,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal import validation
-from pincal.errors import ConvergenceError, DataError, LoopError, RobotFileError, listing, not_found
+from pincal.errors import ArgumentError, ConvergenceError, DataError, LoopError, RobotFileError, listing, not_found
 from pincal.model.catalog import known_robot_names, robot_path
 from pincal.model.closure import LoopClosure
 from pincal.model.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveReport
@@ -262,15 +263,23 @@ class Robot:
             tol: Largest accepted residual component (closure and target) [m, rad].
 
         Raises:
+            TypeError: a target that is neither an SE3 nor 3 numbers; a frame name that is not a string.
+            ArgumentError: a position that is not 3 finite numbers, an SE3 with NaN or infinity, a tolerance that
+                is not a positive number.
             ConvergenceError: the target was not reached (unreachable, or a bad guess).
         """
-        name = frame or self.end_effector
-        fid = self.frame_id(name)
+        if frame is not None:
+            validation.instance("frame", frame, str, "a frame name (str)")
+        tol = validation.real("tol", tol, "m, rad", strict=True)
         goal: pin.SE3 | Array
         if isinstance(target, pin.SE3):
+            if not np.all(np.isfinite(target.homogeneous)):
+                raise ArgumentError(f"target={validation.shown(target)}: the placement holds NaN or infinity")
             goal = target
         else:
-            goal = np.asarray(target, dtype=float).reshape(3)
+            goal = validation.finite_vector("target", target, 3, "m")
+        name = frame or self.end_effector
+        fid = self.frame_id(name)
         start = self.q_reference if q_guess is None else self._q(q_guess)
         report = self.kinematics.solve_ik(goal, fid, start, tol)
         if not report.converged:
@@ -433,9 +442,11 @@ def check_reference_assembly(robot: Robot, where: str = "URDF") -> None:
              for k, rows in zip(part.loops, part.robot.closure.loop_slices().values(), strict=True)}
     for k, loop in enumerate(robot.loops):
         if worst[k] > REFERENCE_TOLERANCE:
+            draft = shlex.quote(str(robot.source)) if robot.source is not None else "DRAFT.urdf"
             raise LoopError(f"{where}: loop '{loop.name}' does not close at the reference configuration (all "
-                            f"joints zero): residual {worst[k]:.3g} m/rad > {REFERENCE_TOLERANCE:g}. Assemble "
-                            "the file so that every loop closes with every joint at zero.")
+                            f"joints zero): residual {worst[k]:.3g} m/rad > {REFERENCE_TOLERANCE:g}; assemble it: "
+                            f"pincal assemble {draft} --out ROBOT.urdf turns the passive joints until every loop "
+                            "closes with every joint at zero")
     rank = rank_p = 0
     redundant: list[int] = []
     try:

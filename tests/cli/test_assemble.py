@@ -119,3 +119,11 @@ def test_66_independent_loops_cost_memory_linear_in_the_loops(tmp_path: Path) ->
     assert code == 0 and "configuration: nq 330, nv 198; closure rows 330; mobility 66" in text
     assert "actuated joints (66): crank_joint_0, crank_joint_1, " in text
     assert assembling - floor < 60 and describing - floor < 60, (floor, assembling, describing)
+
+
+def test_info_on_a_draft_names_the_command_that_assembles_it(tmp_path: Path) -> None:
+    draft(tmp_path)
+    line = one_line_error(run_pincal("info", "four_bar_draft.urdf", cwd=tmp_path))
+    assert line.startswith("pincal: error: four_bar_draft.urdf: loop 'coupler_rocker' does not close at the reference "
+                           "configuration (all joints zero): residual 0.00315 m/rad > 1e-09; ")
+    assert "assemble it: pincal assemble four_bar_draft.urdf --out ROBOT.urdf turns the passive joints" in line

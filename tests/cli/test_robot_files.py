@@ -1,5 +1,5 @@
 """Robot files as a user hands them over: one too large to read is refused before it is read; one bloated by blanks
-reads as the robot itself."""
+reads as the robot itself; the frame measured by default, found by its name where the tree has several ends."""
 
 from __future__ import annotations
 
@@ -55,3 +55,31 @@ def test_a_urdf_bloated_by_blanks_reads_as_the_robot_itself(tmp_path: Path) -> N
         [line for line in spaced_out if not line.startswith("#")]
     truth = (tmp_path / "spaced" / "truth.urdf").read_text(encoding="utf-8")
     assert truth.count("<pincal_provenance ") == 1 and " " * 1_000_000 in truth
+
+
+def info_frame_line(robot: str) -> str:
+    """The ``measured frame (default): …`` line of ``pincal info ROBOT``."""
+    done = run_pincal("info", robot)
+    assert done.returncode == 0, done.stderr
+    return next(line for line in done.stdout.splitlines() if line.startswith("measured frame (default): "))
+
+
+@pytest.mark.parametrize(("robot", "frame"), [("kinova", "j2s6s200_end_effector"),
+                                              ("talos_arm", "wrist_left_ft_tool_link"),
+                                              ("anymal_kinova", "j2s6s200_end_effector")])
+def test_the_one_frame_named_like_an_end_effector_or_a_tool_is_measured(robot: str, frame: str) -> None:
+    # Kinova's fingers are three moving ends; the arm's end effector sits above them
+    assert info_frame_line(robot).startswith(f"measured frame (default): {frame}, moved by the actuated joints (the "
+                                             "one frame named like an end effector or a tool); at (")
+
+
+def test_a_tool_frame_on_each_arm_is_named_not_chosen(tmp_path: Path) -> None:
+    assert info_frame_line("talos") == (
+        "measured frame (default): none: robot 'talos' has 2 frames named like an end effector or a tool, on "
+        "different branches: wrist_left_ft_tool_link, wrist_right_ft_tool_link; none of them is the obvious measured "
+        "frame: name it (--frame, or the frame in the measurement keys)")
+    done = run_pincal("simulate", "kinova", "--samples", "5", "--quiet", "--out", "sim", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    columns = next(line for line in (tmp_path / "sim" / "measurements.csv").read_text(encoding="utf-8").splitlines()
+                   if not line.startswith("#")).split(",")
+    assert columns[-3:] == [f"position:j2s6s200_end_effector:{axis}" for axis in "xyz"]
