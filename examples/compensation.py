@@ -1,8 +1,9 @@
 """Compensation: how close simulated robots come to targets, driven with nominal and with compensated commands.
 
-Run: ``python examples/compensation.py`` (about a minute) or ``--quick`` (fewer targets, the same calibrations). Writes
-``compensation.md`` under ``results/`` (``--out DIR`` elsewhere, ``--publish`` for ``docs/results``, ``--json`` for the
-numbers).
+Run: ``python examples/compensation.py`` (about 20 CPU-seconds) or ``--quick`` (fewer targets, the same
+calibrations). Writes ``compensation.md`` under ``results/`` (``--out DIR`` elsewhere, ``--publish`` for
+``docs/results``, ``--json`` for the numbers). tests/test_compensation_page.py reruns each robot alone (:func:`measure`)
+and finds its row (:func:`table_row`) on the published page.
 
 Every robot is a ``pincal simulate`` truth (errors of σ 1 mm / 1 mrad on the default parameters, 10 µm noise),
 calibrated by ``pincal calibrate`` from 30 postures (10 held out). The targets are where the truth puts its measured
@@ -190,7 +191,7 @@ def nominal_controller(case: Case, folder: Path, truth: pincal.Robot, frame: str
                       for j in truth.actuated_joints])
     gap = commands - compensated
     gap[:, turns] = np.angle(np.exp(1j * gap[:, turns]))  # whole turns apart are the same joint values
-    other = int(np.sum(np.nanmax(np.abs(gap), axis=1) > 1e-6))
+    other = int(np.sum(np.abs(np.nan_to_num(gap)).max(axis=1) > 1e-6))  # a row without commands is not counted
     return {**stats(distance), "angle": stats(angle) if targets.shape[1] == 7 else None, "other": other}
 
 
@@ -205,6 +206,23 @@ def mm(entry: dict[str, Any]) -> str:
 
 def mrad(entry: dict[str, Any] | None) -> str:
     return "—" if entry is None else f"{g3(entry['rms'] * 1e3)} / {g3(entry['max'] * 1e3)}"
+
+
+def table_row(r: dict[str, Any]) -> str:
+    """The page's table row of one robot (:func:`measure`)."""
+    held = f"{g3(r['held_out_rms'] * 1e3)} / {g3(r['held_out_max'] * 1e3)}"
+    reached = ", ".join(str(r[k]["reached"]) for k in ("nominal", "registered", "compensated"))
+    controller = r["nominal controller"]
+    return (f"| {r['robot']} | {r['kind']} | {held} | {mm(r['nominal'])} | {mm(r['registered'])} | "
+            f"{mm(r['compensated'])} | {mrad(r['compensated']['angle'])} | {reached} of {r['targets']} | "
+            f"{mm(controller)} | {controller['other']} of {controller['reached']} |")
+
+
+def harmonics_rows(harmonics: dict[str, Any]) -> list[str]:
+    """The rows of the page's table of the corrections file inverted (:func:`measure` of :data:`HARMONICS`)."""
+    return [f"| the nominal robot | {mm(harmonics['nominal'])} |",
+            f"| `cal.urdf` without its corrections file | {mm(harmonics['without corrections'])} |",
+            f"| `cal.urdf` with `cal.corrections.json` inverted | {mm(harmonics['compensated'])} |"]
 
 
 def page(rows: list[dict[str, Any]], harmonics: dict[str, Any], seconds: float, quick: bool) -> str:
@@ -240,13 +258,7 @@ def page(rows: list[dict[str, Any]], harmonics: dict[str, Any], seconds: float, 
         "| nominal controller [mm] | nominal controller: other joint values |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
-    for r in rows:
-        held = f"{g3(r['held_out_rms'] * 1e3)} / {g3(r['held_out_max'] * 1e3)}"
-        reached = ", ".join(str(r[k]["reached"]) for k in ("nominal", "registered", "compensated"))
-        controller = r["nominal controller"]
-        lines.append(f"| {r['robot']} | {r['kind']} | {held} | {mm(r['nominal'])} | {mm(r['registered'])} | "
-                     f"{mm(r['compensated'])} | {mrad(r['compensated']['angle'])} | {reached} of {r['targets']} | "
-                     f"{mm(controller)} | {controller['other']} of {controller['reached']} |")
+    lines += [table_row(r) for r in rows]
     ratios = [r["compensated"]["rms"] / r["held_out_rms"] for r in rows]
     gains = [r["registered"]["rms"] / r["compensated"]["rms"] for r in rows]
     # the reason's first clause: its figures are a solver's last iterate, not reproducible to the digit
@@ -286,9 +298,7 @@ def page(rows: list[dict[str, Any]], harmonics: dict[str, Any], seconds: float, 
         "",
         "| commands from | RMS / max [mm] |",
         "|---|---|",
-        f"| the nominal robot | {mm(harmonics['nominal'])} |",
-        f"| `cal.urdf` without its corrections file | {mm(harmonics['without corrections'])} |",
-        f"| `cal.urdf` with `cal.corrections.json` inverted | {mm(harmonics['compensated'])} |",
+        *harmonics_rows(harmonics),
         "",
         f"Leaving the corrections out costs "
         f"{harmonics['without corrections']['rms'] / harmonics['compensated']['rms']:.0f}× in RMS error.",

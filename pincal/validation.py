@@ -12,9 +12,13 @@ import numbers
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from pincal.errors import ArgumentError
+
+if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
 
 T = TypeVar("T")
 
@@ -62,6 +66,30 @@ def whole(name: str, value: Any, minimum: int = 0) -> int:
     if value < minimum:
         raise ArgumentError(f"{name}={value}: must be a whole number ≥ {minimum}")
     return int(value)
+
+
+def finite_vector(name: str, value: Any, size: int, unit: str = "") -> npt.NDArray[np.float64]:
+    """``value`` (a list, tuple or array) as ``size`` finite floats [``unit``]; NumPy is imported only here.
+
+    Raises:
+        TypeError: not numbers (a string, None, a mapping).
+        ArgumentError: another shape, or NaN or infinity among them.
+    """
+    import numpy as np
+
+    if isinstance(value, (str, bytes)) or value is None:
+        raise _type_error(name, value, f"{size} numbers")
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise _type_error(name, value, f"{size} numbers") from None
+    units = f" [{unit}]" if unit else ""
+    if array.shape != (size,):
+        raise ArgumentError(f"{name}={shown(value)}: must be {size} numbers{units}, not an array of shape "
+                            f"{array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise ArgumentError(f"{name}={shown(value)}: must be {size} finite numbers{units} (NaN or infinity given)")
+    return array
 
 
 def instance(name: str, value: Any, kind: type[T], expected: str) -> T:

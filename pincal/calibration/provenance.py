@@ -130,7 +130,15 @@ def with_provenance(urdf_text: str, provenance: Provenance, folder: Path,
                     corrections: tuple[str, str] | None = None) -> str:
     """``urdf_text`` with its provenance element as the first child of ``<robot>`` (one it held is replaced);
     ``corrections`` as for :meth:`Provenance.urdf_element`."""
-    text = re.sub(rf"\n?[ \t]*<{ELEMENT}\b[^>]*/>", "", urdf_text)
+    # each old element removed with the blanks and the line break before it, found by hand: a pattern that matched
+    # them too would rescan a run of blanks from each of its characters (1 MB of blanks took minutes)
+    pieces: list[str] = []
+    end = 0
+    for element in re.finditer(rf"<{ELEMENT}\b[^>]*/>", urdf_text):
+        before = urdf_text[end:element.start()].rstrip(" \t")
+        pieces.append(before[:-1] if before.endswith("\n") else before)
+        end = element.end()
+    text = "".join(pieces) + urdf_text[end:]
     start = re.search(r"<robot\b[^>]*>", text)
     if start is None:
         raise DataError("the calibrated URDF has no <robot> element")

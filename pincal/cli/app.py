@@ -80,7 +80,8 @@ def _describe(robot: Robot) -> str:
     if choice.frame is None:
         lines.append(f"measured frame (default): none: {choice.reason}")
     else:
-        p = robot.placement(robot.q_reference, choice.frame).translation
+        part = robot.parts.moving([robot.frame_id(choice.frame)]).robot  # its joints only (pincal.model.parts)
+        p = part.placement(part.q_reference, choice.frame).translation
         lines.append(f"measured frame (default): {choice.frame}, moved by the actuated joints ({choice.why}); at "
                      f"({p[0]:.6f}, {p[1]:.6f}, {p[2]:.6f}) m at the reference")
     return "\n".join(lines)

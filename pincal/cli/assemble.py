@@ -13,6 +13,7 @@ def cmd_assemble(args: argparse.Namespace) -> int:
     from pincal.io.files import check_outputs, write_text
     from pincal.io.mesh_files import plan_meshes
     from pincal.model.assembly import assemble_urdf
+    from pincal.model.urdf import check_urdf_size
 
     source = Path(args.urdf)
     if not source.is_file():
@@ -20,6 +21,7 @@ def cmd_assemble(args: argparse.Namespace) -> int:
                              else f"URDF file '{args.urdf}' is not a regular file")
     check_outputs([("--out", args.out)], [source])
     try:
+        check_urdf_size(source.stat().st_size, f"URDF file '{args.urdf}'")  # before it is read
         text = source.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise RobotFileError(f"cannot read '{source}': {exc}") from None

@@ -44,14 +44,15 @@ def cmd_compensate(args: argparse.Namespace) -> int:
                             "records none (no pincal provenance in it); give it with --nominal ROBOT")
     inputs = [p for p in (args.model, args.targets, nominal_name) if p and Path(p).is_file()]
     check_outputs([("--out", args.out)], inputs)
+    targets = read_targets(args.targets)  # its size checked before the model is loaded
     nominal = load_robot(nominal_name) if nominal_name else None
     model = load_model(args.model, nominal)
     if model.corrections_file is not None:
         inputs.append(model.corrections_file)
         check_outputs([("--out", args.out)], inputs)
-    targets = read_targets(args.targets)
     check_recorded_robot(targets.metadata, model.robot, args.targets)
-    result = compensate(model, targets, args.frame, args.targets_in, args.tolerance or TOLERANCE, args.seed)
+    result = compensate(model, targets, args.frame, args.targets_in, args.tolerance or TOLERANCE, args.seed,
+                        progress=not args.quiet)
     robot = model.robot
     where = targets_frame(result)
     corrections = (f"{model.corrections_file} (inverted: the commands are raw readings)"
@@ -113,8 +114,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "compensate", help="joint commands that reach target positions or poses on the calibrated robot",
         description="For each target (a targets CSV: 'sample' and the columns of one position:<frame>:x,y,z or "
                     "pose:<frame>:x,y,z,qx,qy,qz,qw, metres, docs/compensate.md), the raw actuated commands [rad or m] "
-                    "that bring the frame there on MODEL: inverse kinematics through the loops from the previous "
-                    "answer, the reference and random starts; commands within the URDF limits; the corrections file "
+                    "that bring the frame there on MODEL: inverse kinematics through the loops from the reference "
+                    "configuration, then seeded random starts, each target afresh (its answer does not depend on the "
+                    "others); commands within the URDF limits; the corrections file "
                     "beside MODEL (cal.corrections.json: harmonics, compliance) inverted, so the commands are raw "
                     "readings; each checked by forward kinematics of MODEL at the commands. The frame is what the "
                     "columns read in a calibrated URDF: position:<frame> its calibrated marker <frame>_marker when "
@@ -143,4 +145,5 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--tolerance", type=positive_float, metavar="TOL",
                    help="largest residual [m, rad] of the model at the commands for a reached target (default 1e-9)")
     p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the random starts (default 0)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (it is shown only on a terminal)")
     p.set_defaults(func=cmd_compensate)

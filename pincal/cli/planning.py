@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -60,7 +61,18 @@ def cmd_design(args: argparse.Namespace) -> int:
     kappa_random, logdet_random = design.kappa_random, design.logdet_random
     print(f"design for '{robot.name}': {args.poses} of {args.candidates} random reachable postures "
           f"(seed {args.seed}), measuring {keys}, by {args.criterion}")
-    print(f"parameters: {len(pset)}; designed for the {len(selection.columns)} the candidates can identify")
+    off = design.off_nominal
+    print(f"parameters: {len(pset)}; designed for the {len(selection.columns)} the candidates can identify"
+          + (" at the nominal geometry" if off else ""))
+    if off is not None:
+        hidden = off.identifiable - len(selection.columns)
+        cause = (f"exactly parallel joint axes ({'; '.join(', '.join(run) for run in off.parallel_axes)}) hide"
+                 if off.parallel_axes else "exact geometry (axes exactly parallel, perpendicular or meeting) hides")
+        print(textwrap.fill(
+            f"{off.identifiable} on the robot off it (every parameter off by σ {off.sigma:g} m or rad, as a real "
+            f"robot is): the nominal's {cause} {hidden} direction{'s' if hidden > 1 else ''} that a robot slightly "
+            "off shows weakly, and which pincal calibrate, counting at its estimate, can count; no postures can be "
+            "chosen for them on the nominal", width=118, initial_indent="  ", subsequent_indent="  "))
     if selection.dropped:
         print(f"  left out, not separable from the others at any candidate ({len(selection.dropped)}): "
               f"{listing(selection.dropped, 8)}")

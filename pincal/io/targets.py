@@ -37,6 +37,9 @@ TARGET_COMPONENTS = {"position": ("x", "y", "z"), "pose": ("x", "y", "z", "qx", 
 OK = "ok"
 #: The start of the status of a target not reached; the reason follows.
 UNREACHABLE = "unreachable"
+#: Most targets in one file (or one call of compensate): each costs up to seven inverse kinematics solves when it is
+#: unreachable (docs/compensate.md gives the worst wait).
+MAX_TARGETS = 5_000
 RESIDUAL_POSITION = "residual_position"
 RESIDUAL_ORIENTATION = "residual_orientation"
 STATUS = "status"
@@ -126,21 +129,17 @@ def _parse(source: Path) -> Targets:
         raise DataError(f"{where}: target '{key}' lacks the columns {listing(f'{key}:{c}' for c in missing)}")
     if not table.rows:
         raise DataError("no targets: the file has a header and no rows")
+    if len(table.rows) > MAX_TARGETS:  # before any cell is read, and before the model is loaded
+        raise DataError(f"{len(table.rows)} targets: pincal compensate takes at most {MAX_TARGETS} in one run; split "
+                        "the file")
     if status is not None:
         for line, cells in table.rows:
             if cells[status] != OK:
                 raise DataError(f"line {line}: status '{cells[status]}': this row holds no target; remove it")
     values = np.array([[cell_number(cells[columns[c]], f"{key}:{c}", line) for c in components]
                        for line, cells in table.rows])
-    ids = [cells[sample] if sample is not None else str(r) for r, (_, cells) in enumerate(table.rows)]
+    ids = _sample_ids(table.rows, sample)
     lines = [line for line, _ in table.rows]
-    seen: dict[str, int] = {}
-    for sid, line in zip(ids, lines, strict=True):
-        if not sid:
-            raise DataError(f"column '{SAMPLE_COLUMN}', line {line}: the sample id is empty")
-        if sid in seen:
-            raise DataError(f"column '{SAMPLE_COLUMN}': sample id '{sid}' is used twice (lines {seen[sid]} and {line})")
-        seen[sid] = line
     far = np.flatnonzero(np.abs(values[:, :3]).max(axis=1) > MAX_PLAUSIBLE_LENGTH)
     if far.size:
         r = int(far[0])
@@ -155,6 +154,19 @@ def _parse(source: Path) -> Targets:
                             f"is needed (|‖q‖ − 1| ≤ {QUATERNION_NORM_TOLERANCE:g})")
         values[:, 3:] /= norms[:, None]
     return Targets(key, ids, values, dict(table.metadata))
+
+
+def _sample_ids(rows: Sequence[tuple[int, list[str]]], sample: int | None) -> list[str]:
+    """The rows' sample ids (column ``sample``, else ``0, 1, …``); DataError naming an empty or repeated one."""
+    ids = [cells[sample] if sample is not None else str(r) for r, (_, cells) in enumerate(rows)]
+    seen: dict[str, int] = {}
+    for sid, (line, _) in zip(ids, rows, strict=True):
+        if not sid:
+            raise DataError(f"column '{SAMPLE_COLUMN}', line {line}: the sample id is empty")
+        if sid in seen:
+            raise DataError(f"column '{SAMPLE_COLUMN}': sample id '{sid}' is used twice (lines {seen[sid]} and {line})")
+        seen[sid] = line
+    return ids
 
 
 def _cell(value: float) -> str:

@@ -23,8 +23,16 @@ import pinocchio as pin
 
 from pincal.errors import LoopError, RobotFileError, listing
 from pincal.model.closure import LoopClosure
+from pincal.model.parts import (
+    ReducedModel,
+    frames_by_joint,
+    has_mimic_joints,
+    independent_blocks,
+    loop_support,
+    reduced_model,
+)
 from pincal.model.robot import MAX_JOINTS, robot_from_urdf_text
-from pincal.model.urdf import check_finite_origins, origin_to_se3, read_extensions
+from pincal.model.urdf import LoopSpec, check_finite_origins, origin_to_se3, parse_urdf, read_extensions
 from pincal.model.urdf_writer import calibrated_urdf_text
 
 Array = npt.NDArray[np.float64]
@@ -79,42 +87,64 @@ def assemble_urdf(text: str, source: str = "URDF") -> Assembly:
     with each passive joint re-zeroed where the loops close, the actuated joints at zero (module docstring).
 
     Raises:
-        RobotFileError: not a URDF Pinocchio can build; too many joints.
+        RobotFileError: not a URDF Pinocchio can build; too many joints; larger than
+            :data:`~pincal.model.urdf.MAX_URDF_BYTES`.
         LoopError: no ``<loop>``; loops that no value of the passive joints closes (the loop and its residual); an
             assembled file that pincal still refuses (its mobility, its actuation).
     """
-    extensions = read_extensions(text, source)
-    check_finite_origins(text, source)
+    root = parse_urdf(text, source)  # once, for the checks and the origins below
+    extensions = read_extensions(text, source, root)
+    check_finite_origins(text, source, root)
     if not extensions.loops:
         raise LoopError(f"{source} declares no <loop>: a serial robot has nothing to assemble")
     model = _model(text, source)
-    closure = LoopClosure(model, extensions.loops)
-    passive = _passive_joints(model, extensions.transmitted_joints)
-    q, steps, before = _close(model, closure, passive)
-    data = model.createData()
-    pin.forwardKinematics(model, data, q)
-    residual = closure.residual(data)
-    if float(np.max(np.abs(residual))) > CLOSED * 1e3:
-        raise LoopError(_not_closing(closure, residual, source))
-    values = pin.difference(model, pin.neutral(model), q)
-    origins = _urdf_origins(text)
+    closure = LoopClosure(model, extensions.loops)  # every loop's anchors checked, in the file's order
+    worst: dict[int, float] = {}  # each loop's largest residual row, closed [m, rad]
     moved: dict[str, pin.SE3] = {}
-    shifts: list[JointShift] = []
-    for j in passive:
-        name = str(model.names[j])
-        motion = model.jointPlacements[j].inverse() * data.liMi[j]  # M_j(q_j)
-        if np.allclose(motion.homogeneous, np.eye(4), rtol=0.0, atol=1e-15):
-            continue
-        moved[name] = origins[name] * motion
-        value = float(values[model.joints[j].idx_v]) if model.joints[j].nv == 1 else float("nan")
-        unit = "m" if model.joints[j].shortname().startswith("JointModelP") else "rad"
-        shifts.append(JointShift(name, value, float(np.linalg.norm(moved[name].translation
-                                                                     - origins[name].translation)),
-                                 float(np.linalg.norm(pin.log3(motion.rotation))), unit))
+    shifts: dict[int, JointShift] = {}
+    origins = _urdf_origins(root)
+    steps = 0
+    before = 0.0
+    for loops, part in _blocks(model, extensions.loops):  # independent loops closed block by block
+        block = LoopClosure(part.model, [extensions.loops[k] for k in loops])
+        passive = _passive_joints(part.model, extensions.transmitted_joints)
+        q, block_steps, block_before = _close(part.model, block, passive)
+        steps, before = max(steps, block_steps), max(before, block_before)
+        data = pin.Data(part.model)
+        pin.forwardKinematics(part.model, data, q)
+        residual = block.residual(data)
+        worst |= {k: float(np.max(np.abs(residual[rows])))
+                  for k, rows in zip(loops, block.loop_slices().values(), strict=True)}
+        values = pin.difference(part.model, pin.neutral(part.model), q)
+        for j in passive:
+            name = str(part.model.names[j])
+            motion = part.model.jointPlacements[j].inverse() * data.liMi[j]  # M_j(q_j)
+            if np.allclose(motion.homogeneous, np.eye(4), rtol=0.0, atol=1e-15):
+                continue
+            moved[name] = origins[name] * motion
+            joint = part.model.joints[j]
+            value = float(values[joint.idx_v]) if joint.nv == 1 else float("nan")
+            unit = "m" if joint.shortname().startswith("JointModelP") else "rad"
+            shifts[int(model.getJointId(name))] = JointShift(
+                name, value, float(np.linalg.norm(moved[name].translation - origins[name].translation)),
+                float(np.linalg.norm(pin.log3(motion.rotation))), unit)
+    if max(worst.values()) > CLOSED * 1e3:
+        raise LoopError(_not_closing(closure, worst, source))
     assembled = calibrated_urdf_text(text, moved, {}) if moved else text
     robot = robot_from_urdf_text(assembled)  # the checks of every load: closure below 1e-9, mobility, actuation
     after = float(np.max(np.abs(robot.closure_residual(robot.q_reference))))
-    return Assembly(assembled, shifts, before, after, steps)
+    return Assembly(assembled, [shifts[j] for j in sorted(shifts)], before, after, steps)
+
+
+def _blocks(model: pin.Model, loops: list[LoopSpec]) -> list[tuple[tuple[int, ...], ReducedModel]]:
+    """The loops (indices) in independent blocks, each with the model of the joints that move it
+    (:mod:`pincal.model.parts`); all loops on the whole model when they are one block or a joint is a mimic."""
+    groups = independent_blocks(model, loops)
+    if len(groups) == 1 or has_mimic_joints(model):
+        return [(tuple(range(len(loops))), reduced_model(model, frozenset(range(1, model.njoints))))]
+    frames = frames_by_joint(model)
+    return [(group, reduced_model(model, frozenset().union(*(loop_support(model, loops[k]) for k in group)),
+                                  frames)) for group in groups]
 
 
 def _model(text: str, source: str) -> pin.Model:
@@ -139,7 +169,7 @@ def _close(model: pin.Model, closure: LoopClosure, passive: list[int]) -> tuple[
     row at zero [m, rad]."""
     columns = np.concatenate([np.arange(model.joints[j].idx_v, model.joints[j].idx_v + model.joints[j].nv)
                               for j in passive]).astype(int) if passive else np.zeros(0, dtype=int)
-    data = model.createData()
+    data = pin.Data(model)
     q = pin.neutral(model)
     residual, jacobian = _evaluate(model, closure, data, q)
     before = float(np.max(np.abs(residual)))
@@ -167,19 +197,18 @@ def _evaluate(model: pin.Model, closure: LoopClosure, data: pin.Data, q: Array) 
     return closure.residual_and_jacobian(data)
 
 
-def _not_closing(closure: LoopClosure, residual: Array, source: str) -> str:
-    """Why the loops do not close: the loops left open and their largest residual row."""
-    open_loops = {name: float(np.max(np.abs(residual[rows]))) for name, rows in closure.loop_slices().items()
-                  if float(np.max(np.abs(residual[rows]))) > CLOSED * 1e3}
+def _not_closing(closure: LoopClosure, worst: dict[int, float], source: str) -> str:
+    """Why the loops do not close: the loops left open (``worst``: each loop's largest residual row) and their
+    largest residual row."""
+    open_loops = {spec.name: worst[k] for k, spec in enumerate(closure.specs) if worst[k] > CLOSED * 1e3}
     shown = listing(f"'{name}' ({value * 1e3:.4g} mm or mrad)" for name, value in open_loops.items())
     return (f"{source}: no values of the passive joints close loop{'s' if len(open_loops) > 1 else ''} {shown} with "
             "the actuated joints at zero: the lengths do not fit (a link's origin or a loop anchor is off), or an "
             "actuated joint's zero puts the loop out of reach; assemble turns the passive joints only")
 
 
-def _urdf_origins(text: str) -> dict[str, pin.SE3]:
-    """Each joint's ``<origin>`` as the file writes it [m, rad] (Pinocchio's joint placement may include fixed joints
-    above it)."""
-    root = ET.fromstring(text)
+def _urdf_origins(root: ET.Element) -> dict[str, pin.SE3]:
+    """Each joint's ``<origin>`` as the file (``root``: its ``<robot>`` element) writes it [m, rad] (Pinocchio's joint
+    placement may include fixed joints above it)."""
     return {str(joint.get("name")): origin_to_se3(joint.find("origin"), f"joint '{joint.get('name')}'")
             for joint in root.findall("joint")}

@@ -133,7 +133,6 @@ class ClosedLoopKinematics:
                  reference: Array | None = None) -> None:
         self.model = model
         self.reference = pin.neutral(model) if reference is None else np.asarray(reference, dtype=float)
-        self.data = model.createData()
         self.closure = closure
         self.actuated = actuated
         self.actuated_v = np.array([a.idx_v for a in actuated], dtype=int)
@@ -144,6 +143,13 @@ class ClosedLoopKinematics:
         self._scalar_q = np.array([a.idx_q for a in actuated], dtype=int)
         self._all_scalar = all(a.nq == 1 for a in actuated)
         self._continuous = np.array([a.nq == 2 for a in actuated], dtype=bool)
+
+    @functools.cached_property
+    def data(self) -> pin.Data:
+        """Pinocchio's working data of the model, made on first use: they hold nv³ numbers (second-derivative tensors,
+        250 MB for 198 velocities), which a robot described or checked part by part (:mod:`pincal.model.parts`) never
+        needs. ``pinocchio.Data(model)``, not ``model.createData()``, which holds a second copy while it returns."""
+        return pin.Data(self.model)
 
     @functools.cached_property
     def batch(self) -> BatchKinematics:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import os
+import shlex
 import sys
 import tempfile
 import xml.etree.ElementTree as ET
@@ -20,13 +21,14 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal import validation
-from pincal.errors import ConvergenceError, DataError, LoopError, RobotFileError, listing, not_found
+from pincal.errors import ArgumentError, ConvergenceError, DataError, LoopError, RobotFileError, listing, not_found
 from pincal.model.catalog import known_robot_names, robot_path
 from pincal.model.closure import LoopClosure
 from pincal.model.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveReport
 from pincal.model.measured_frame import FrameChoice, default_measured_frame
 from pincal.model.mimic import with_mimics
-from pincal.model.urdf import LoopSpec, check_finite_origins, read_extensions
+from pincal.model.parts import RobotParts
+from pincal.model.urdf import LoopSpec, check_finite_origins, check_urdf_size, parse_urdf, read_extensions
 
 Array = npt.NDArray[np.float64]
 
@@ -119,12 +121,20 @@ class Robot:
             raise choice.error()
         return choice.frame
 
+    @functools.cached_property
+    def parts(self) -> RobotParts:
+        """Its independent loop blocks, and the part that moves given frames (:mod:`pincal.model.parts`)."""
+        return RobotParts(self)
+
     def mobility(self, q: Array | None = None, tol: float = 1e-8) -> int:
-        """Degrees of freedom ``nv - rank(dc/dv)`` at ``q`` (default: the reference configuration)."""
+        """Degrees of freedom ``nv - rank(dc/dv)`` at ``q`` (default: the reference configuration); the rank is the
+        sum of the independent loop blocks' (:mod:`pincal.model.parts`)."""
         if not self.loops:
             return int(self.model.nv)
-        _, jac = self.kinematics.closure_jacobian(self.q_reference if q is None else q)
-        return int(self.model.nv - np.linalg.matrix_rank(jac, tol=tol))
+        q = self.q_reference if q is None else np.asarray(q, dtype=float)
+        rank = sum(int(np.linalg.matrix_rank(part.robot.kinematics.closure_jacobian(q[part.q_index])[1], tol=tol))
+                   for part in self.parts.blocks)
+        return int(self.model.nv - rank)
 
     # --- configurations -------------------------------------------------------------------------
     def actuated_values(self, q: Array) -> Array:
@@ -132,8 +142,19 @@ class Robot:
         return self.kinematics.actuated_values(np.asarray(q, dtype=float))
 
     def closure_residual(self, q: Array) -> Array:
-        """Stacked loop-closure residual at ``q`` [m for positions, rad for angles]."""
-        return self.kinematics.closure_residual(self._q(q))
+        """Stacked loop-closure residual at ``q`` [m for positions, rad for angles], each independent block of loops
+        evaluated on its own joints (:mod:`pincal.model.parts`)."""
+        q = self._q(q)
+        blocks = self.parts.blocks
+        if blocks[0].whole:
+            return self.kinematics.closure_residual(q)
+        out = np.empty(self.closure.rows)
+        rows = list(self.closure.loop_slices().values())
+        for part in blocks:
+            residual = part.robot.kinematics.closure_residual(q[part.q_index])
+            for k, block_rows in zip(part.loops, part.robot.closure.loop_slices().values(), strict=True):
+                out[rows[k]] = residual[block_rows]
+        return out
 
     def placement(self, q: Array, frame: str) -> pin.SE3:
         """Placement of ``frame`` in the world frame at configuration ``q`` [m, rad]."""
@@ -242,15 +263,23 @@ class Robot:
             tol: Largest accepted residual component (closure and target) [m, rad].
 
         Raises:
+            TypeError: a target that is neither an SE3 nor 3 numbers; a frame name that is not a string.
+            ArgumentError: a position that is not 3 finite numbers, an SE3 with NaN or infinity, a tolerance that
+                is not a positive number.
             ConvergenceError: the target was not reached (unreachable, or a bad guess).
         """
-        name = frame or self.end_effector
-        fid = self.frame_id(name)
+        if frame is not None:
+            validation.instance("frame", frame, str, "a frame name (str)")
+        tol = validation.real("tol", tol, "m, rad", strict=True)
         goal: pin.SE3 | Array
         if isinstance(target, pin.SE3):
+            if not np.all(np.isfinite(target.homogeneous)):
+                raise ArgumentError(f"target={validation.shown(target)}: the placement holds NaN or infinity")
             goal = target
         else:
-            goal = np.asarray(target, dtype=float).reshape(3)
+            goal = validation.finite_vector("target", target, 3, "m")
+        name = frame or self.end_effector
+        fid = self.frame_id(name)
         start = self.q_reference if q_guess is None else self._q(q_guess)
         report = self.kinematics.solve_ik(goal, fid, start, tol)
         if not report.converged:
@@ -313,20 +342,21 @@ def _build_model(text: str, source: str, mimics: Mapping[str, tuple[str, float, 
     raise RobotFileError(f"{source}: Pinocchio cannot build the model: {detail}")
 
 
-#: Most non-fixed joints a robot may have: Pinocchio's data for one 200-joint chain take 0.6 GB.
+#: Most non-fixed joints a robot may have: one Pinocchio data of 200 velocities holds 4 × 200³ numbers (0.26 GB).
 MAX_JOINTS = 200
 #: Most ``<joint>`` elements of any type a URDF may have: Pinocchio's parser recurses down a chain and overflows
 #: the stack (SIGSEGV) past a few thousand.
 MAX_URDF_JOINTS = 2000
 
 
-def _check_joint_count(text: str, where: str) -> None:
-    """Refuse a URDF with more joints than pincal takes, counted in the XML before Pinocchio builds the model."""
-    joints = ET.fromstring(text).findall("joint")
+def _check_joint_count(root: ET.Element, where: str) -> None:
+    """Refuse a URDF (``root``: its ``<robot>`` element) with more joints than pincal takes, counted in the XML
+    before Pinocchio builds the model."""
+    joints = root.findall("joint")
     moving = sum(1 for joint in joints if joint.get("type") != "fixed")
     if moving > MAX_JOINTS:
         raise RobotFileError(f"{where} has {moving} joints; pincal takes at most {MAX_JOINTS} (Pinocchio's "
-                             "working data grow with the cube of the chain length: 1.8 GB for 300 joints)")
+                             "working data grow with the cube of the joints: 0.9 GB each for 300)")
     if len(joints) > MAX_URDF_JOINTS:
         raise RobotFileError(f"{where} has {len(joints)} <joint> elements; pincal takes at most {MAX_URDF_JOINTS}, "
                              f"fixed ones included, and at most {MAX_JOINTS} that move")
@@ -370,6 +400,7 @@ def load_robot(path: str | Path) -> Robot:
                 else "a data file (CSV): the robot comes first, then the data (pincal calibrate ROBOT DATA.csv)")
         raise RobotFileError(f"robot file '{path}' is {what}; give a URDF file or a known robot name")
     try:
+        check_urdf_size(p.stat().st_size, f"robot file '{path}'")  # before it is read
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise RobotFileError(f"cannot read '{p}': {exc}") from None
@@ -379,9 +410,10 @@ def load_robot(path: str | Path) -> Robot:
 def robot_from_urdf_text(text: str, source: Path | None = None) -> Robot:
     """Build and check a :class:`Robot` from URDF text (see :func:`load_robot`)."""
     where = str(source) if source else "URDF"
-    ext = read_extensions(text, where)
-    check_finite_origins(text, where)
-    _check_joint_count(text, where)
+    root = parse_urdf(text, where)  # once, for the checks below
+    ext = read_extensions(text, where, root)
+    check_finite_origins(text, where, root)
+    _check_joint_count(root, where)
     model = _build_model(text, where, ext.mimics)
     if ext.loops:
         actuated = ext.transmitted_joints
@@ -398,34 +430,42 @@ def robot_from_urdf_text(text: str, source: Path | None = None) -> Robot:
 
 def check_reference_assembly(robot: Robot, where: str = "URDF") -> None:
     """Refuse a robot whose loops do not close at the reference configuration or whose mobility
-    does not match its actuation."""
+    does not match its actuation. Each independent block of loops is checked on its own joints: the closure Jacobian
+    is block diagonal, its rank the blocks' summed (:mod:`pincal.model.parts`)."""
     if not robot.loops:
         return
-    r, jac = robot.kinematics.closure_jacobian(robot.q_reference)
-    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
+    blocks = [(part, *part.robot.kinematics.closure_jacobian(part.robot.q_reference)) for part in robot.parts.blocks]
+    if not all(np.all(np.isfinite(r)) and np.all(np.isfinite(jac)) for _, r, jac in blocks):
         raise LoopError(f"{where}: the loop closures evaluate to non-finite numbers at the reference "
                         "configuration: an origin, axis or length is out of range")
-    for name, rows in robot.closure.loop_slices().items():
-        worst = float(np.max(np.abs(r[rows])))
-        if worst > REFERENCE_TOLERANCE:
-            raise LoopError(f"{where}: loop '{name}' does not close at the reference configuration (all "
-                            f"joints zero): residual {worst:.3g} m/rad > {REFERENCE_TOLERANCE:g}. Assemble "
-                            "the file so that every loop closes with every joint at zero.")
+    worst = {k: float(np.max(np.abs(r[rows]))) for part, r, _ in blocks
+             for k, rows in zip(part.loops, part.robot.closure.loop_slices().values(), strict=True)}
+    for k, loop in enumerate(robot.loops):
+        if worst[k] > REFERENCE_TOLERANCE:
+            draft = shlex.quote(str(robot.source)) if robot.source is not None else "DRAFT.urdf"
+            raise LoopError(f"{where}: loop '{loop.name}' does not close at the reference configuration (all "
+                            f"joints zero): residual {worst[k]:.3g} m/rad > {REFERENCE_TOLERANCE:g}; assemble it: "
+                            f"pincal assemble {draft} --out ROBOT.urdf turns the passive joints until every loop "
+                            "closes with every joint at zero")
+    rank = rank_p = 0
+    redundant: list[int] = []
     try:
-        rank = int(np.linalg.matrix_rank(jac, tol=1e-8))
-        rank_p = int(np.linalg.matrix_rank(jac[:, robot.kinematics.passive_v], tol=1e-8))
+        for part, _, jac in blocks:
+            block_rank = int(np.linalg.matrix_rank(jac, tol=1e-8))
+            rank += block_rank
+            rank_p += int(np.linalg.matrix_rank(jac[:, part.robot.kinematics.passive_v], tol=1e-8))
+            for k, rows in zip(part.loops, part.robot.closure.loop_slices().values(), strict=True):
+                others = np.ones(jac.shape[0], dtype=bool)
+                others[rows] = False
+                if int(np.linalg.matrix_rank(jac[others], tol=1e-8)) == block_rank:
+                    redundant.append(k)
     except np.linalg.LinAlgError:
         raise LoopError(f"{where}: the closure Jacobian at the reference configuration cannot be decomposed "
                         "(numbers out of range)") from None
-    redundant = []
-    for name, rows in robot.closure.loop_slices().items():
-        others = np.ones(jac.shape[0], dtype=bool)
-        others[rows] = False
-        if int(np.linalg.matrix_rank(jac[others], tol=1e-8)) == rank:
-            redundant.append(name)
     if redundant:
         several = len(redundant) > 1
-        raise LoopError(f"{where}: loop{'s' if several else ''} {listing(redundant)} add{'' if several else 's'} no "
+        names = [robot.loops[k].name for k in sorted(redundant)]
+        raise LoopError(f"{where}: loop{'s' if several else ''} {listing(names)} add{'' if several else 's'} no "
                         f"constraint that the other loops do not already impose (closure rank {rank} with or without "
                         f"{'each' if several else 'it'}): a duplicated or redundant loop; remove it")
     mobility = robot.model.nv - rank

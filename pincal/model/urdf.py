@@ -137,17 +137,55 @@ def _loop(node: ET.Element, links: set[str], link_list: list[str]) -> LoopSpec:
     return LoopSpec(name, kind, pred, pred_origin, succ, succ_origin, axis / norm)
 
 
-def read_extensions(text: str, source: str = "URDF") -> UrdfExtensions:
-    """Parse the tree's names and pincal's ``<loop>``/``<transmission>`` elements from URDF text.
+#: Largest robot file pincal reads [bytes]: 50 times the largest URDF of example-robot-data (TIAGo dual, 0.2 MB). A
+#: robot file is read several times over (checked, built by Pinocchio, indexed for writing, its meshes listed); one
+#: of 50 MB took minutes of CPU. A URDF that large holds what no kinematic model needs (inline data, comments, copies
+#: of visual elements): refused before it is read.
+MAX_URDF_BYTES = 10 * 2**20
+
+
+def check_urdf_size(size: int, source: str = "URDF") -> None:
+    """Refuse a robot file of more than :data:`MAX_URDF_BYTES` (``size`` in bytes, or characters of a text), before
+    anything parses it.
 
     Raises:
-        RobotFileError: the text is not a URDF document.
-        LoopError: a loop or transmission is malformed or names a missing link or joint.
+        RobotFileError: naming the file, its size and the cap.
     """
+    if size > MAX_URDF_BYTES:
+        raise RobotFileError(f"{source} is {size / 2**20:.1f} MiB; pincal reads robot files of at most "
+                             f"{MAX_URDF_BYTES // 2**20} MiB (the largest example-robot-data URDF is 0.2 MB): remove "
+                             "what a kinematic model does not need (comments, inline data, repeated visuals)")
+
+
+def parse_urdf(text: str, source: str = "URDF") -> ET.Element:
+    """The ``<robot>`` element of URDF text, its size checked first (:func:`check_urdf_size`).
+
+    Raises:
+        RobotFileError: too large, not well-formed XML, or not a ``<robot>`` document.
+    """
+    check_urdf_size(len(text), source)
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:
         raise RobotFileError(f"{source} is not well-formed XML: {exc}") from None
+    if root.tag != "robot":
+        raise RobotFileError(f"{source}: root element is <{root.tag}>, expected <robot>")
+    return root
+
+
+def read_extensions(text: str, source: str = "URDF", root: ET.Element | None = None) -> UrdfExtensions:
+    """Parse the tree's names and pincal's ``<loop>``/``<transmission>`` elements from URDF text.
+
+    Args:
+        text: The URDF.
+        source: Its name, for the errors.
+        root: ``text`` parsed already (:func:`parse_urdf`), to read it once.
+
+    Raises:
+        RobotFileError: the text is not a URDF document, or larger than :data:`MAX_URDF_BYTES`.
+        LoopError: a loop or transmission is malformed or names a missing link or joint.
+    """
+    root = parse_urdf(text, source) if root is None else root
     if root.tag != "robot":
         raise RobotFileError(f"{source}: root element is <{root.tag}>, expected <robot>")
     link_list = [n.get("name", "") for n in root.findall("link")]
@@ -293,10 +331,10 @@ def _mimics(root: ET.Element, joints: dict[str, str], source: str
 MAX_ORIGIN = 1e4
 
 
-def check_finite_origins(text: str, source: str = "URDF") -> None:
+def check_finite_origins(text: str, source: str = "URDF", root: ET.Element | None = None) -> None:
     """Refuse joint origins with NaN/inf, non-numeric or implausibly large values (Pinocchio would
-    read them silently)."""
-    root = ET.fromstring(text)
+    read them silently); ``root``: ``text`` parsed already (:func:`parse_urdf`)."""
+    root = parse_urdf(text, source) if root is None else root
     for joint in root.findall("joint"):
         placement = origin_to_se3(joint.find("origin"), f"{source}: joint '{joint.get('name')}'")
         if float(np.max(np.abs(placement.translation))) > MAX_ORIGIN:

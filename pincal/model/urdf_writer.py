@@ -29,7 +29,8 @@ ANCHOR_ROLES = ("predecessor", "successor")
 #: The comment written before new ``<joint_sensor>`` elements.
 SENSOR_COMMENT = ("pincal: instrumented passive joints. The sensor of each reads q + zero [m or rad], q the joint's "
                   "value in this file (its zero is where the calibrated robot closes at zero actuated readings)")
-_ATTRIBUTE = re.compile(rb"""(\s+)([^\s=/>]+)(\s*=\s*)("[^"]*"|'[^']*')""")
+# tried from a run of blanks' first only: from each, the pattern would rescan the rest of the run
+_ATTRIBUTE = re.compile(rb"""(?<!\s)(\s+)([^\s=/>]+)(\s*=\s*)("[^"]*"|'[^']*')""")
 _BOM = b"\xef\xbb\xbf"
 _DECLARATION = re.compile(rb"^(?:\xef\xbb\xbf)?<\?xml[^>]*\?>[ \t]*\r?\n?")
 

@@ -230,6 +230,16 @@ def _scaled_subset(blocks: npt.ArrayLike, indices: Indices, scales: npt.ArrayLik
     return _stacked(b * s, indices, difference)[:, cols]
 
 
+def pool_columns(scaled: Array, names: Sequence[str], difference: bool = False) -> list[int]:
+    """The parameters (column indices) the whole candidate pool can identify, from its scaled row blocks
+    (N, rows, p); ``difference``: rows are differences of consecutive poses."""
+    pool = scaled - scaled.mean(axis=0) if difference else scaled
+    # R of an unpivoted QR has the pool's singular values and column geometry, in p × p
+    factor = np.linalg.qr(pool.reshape(-1, scaled.shape[2]), mode="r")
+    cols, _ = base_parameters(factor, list(names), np.ones(len(names)))
+    return cols
+
+
 def select_poses(candidates: CalibrationProblem | npt.ArrayLike, k: int, criterion: str = "condition",
                  scales: npt.ArrayLike | None = None, columns: Sequence[int] | None = None,
                  names: Sequence[str] | None = None, initial: Sequence[int] = (), exchange: bool = True,
@@ -269,10 +279,7 @@ def select_poses(candidates: CalibrationProblem | npt.ArrayLike, k: int, criteri
     scaled = blocks * s
     dropped: list[str] = []
     if columns is None:
-        pool = scaled - scaled.mean(axis=0) if difference else scaled
-        # R of an unpivoted QR has the pool's singular values and column geometry, in p × p
-        factor = np.linalg.qr(pool.reshape(-1, scaled.shape[2]), mode="r")
-        cols, _ = base_parameters(factor, labels, np.ones(len(labels)))
+        cols = pool_columns(scaled, labels, difference)
         dropped = [labels[j] for j in range(len(labels)) if j not in set(cols)]
     else:
         cols = sorted(int(j) for j in columns)

@@ -3,9 +3,12 @@ calibrated; and what it refuses."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
-from conftest import readme_four_bar, run_pincal
+from conftest import PINCAL, readme_four_bar, run_pincal
+from many_four_bars import many_four_bars_urdf
 from test_job_file import one_line_error
 
 
@@ -60,3 +63,67 @@ def test_assemble_refuses_output_over_input_a_serial_robot_and_lengths_that_do_n
     assert not (tmp_path / "o.urdf").exists()
     assert "does not exist" in one_line_error(run_pincal("assemble", str(tmp_path / "none.urdf"), "--out",
                                                          str(tmp_path / "o.urdf")))
+
+
+#: Runs a command and writes its exit code and peak memory [kB] to a file. The peak is measured in a process started by
+#: this small one: Linux counts a process's peak from before its ``exec`` (the forked copy of its parent), and the test
+#: process may be large.
+PEAK = ("import os, sys\n"
+        "pid = os.posix_spawn(sys.argv[2], sys.argv[2:], os.environ)\n"
+        "_, status, usage = os.wait4(pid, 0)\n"
+        "open(sys.argv[1], 'w').write(f'{os.waitstatus_to_exitcode(status)} {usage.ru_maxrss}')\n")
+
+
+def peak_memory(*args: str, cwd: Path) -> tuple[int, str, float]:
+    """``pincal ARGS`` started from scratch: its exit code, its standard output and its peak resident memory [MB]."""
+    result = cwd / "peak.txt"
+    done = subprocess.run([sys.executable, "-c", PEAK, str(result), str(PINCAL), *args], cwd=cwd, capture_output=True,
+                          text=True, check=False)
+    code, peak = result.read_text(encoding="utf-8").split()
+    return int(code), done.stdout, int(peak) / 1024
+
+
+def test_independent_loops_give_each_loops_answer(tmp_path: Path) -> None:
+    source = draft(tmp_path, many_four_bars_urdf(3, assembled=False))
+    out = tmp_path / "three.urdf"
+    done = run_pincal("assemble", str(source), "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()  # the README four-bar's figures, once per loop
+    assert lines[0].startswith("loops closed at the zero configuration: largest residual 0.00315 m/rad before, ")
+    assert lines[0].endswith(" after (3 Gauss-Newton steps on the passive joints)")
+    for k in range(3):
+        assert (f"  coupler_joint_{k}: closes the loops at +12.7135 mrad, its new zero; origin moved 0.0000 mm, "
+                "turned 12.7135 mrad") in lines
+        assert (f"  rocker_joint_{k}: closes the loops at +8.5072 mrad, its new zero; origin moved 0.0000 mm, "
+                "turned 8.5072 mrad") in lines
+    info = run_pincal("info", str(out))
+    assert info.returncode == 0, info.stderr
+    assert "configuration: nq 15, nv 9; closure rows 15; mobility 3" in info.stdout
+    assert ("measured frame (default): end_effector, moved by the actuated joints (named like an end effector); at "
+            "(0.099127, 0.191098, 0.000000) m at the reference") in info.stdout
+
+
+def test_66_independent_loops_cost_memory_linear_in_the_loops(tmp_path: Path) -> None:
+    # 198 joints, inside the 200-joint limit: one Pinocchio data of the whole model holds 198³ × 4 numbers (250 MB),
+    # and assemble held three of them (0.9 GB); each block of 3 joints needs a few kB
+    (tmp_path / "66_draft.urdf").write_text(many_four_bars_urdf(66, assembled=False), encoding="utf-8")
+    (tmp_path / "one.urdf").write_text(many_four_bars_urdf(1), encoding="utf-8")
+    code, _, floor = peak_memory("info", "one.urdf", cwd=tmp_path)  # the imports: what every command holds
+    assert code == 0
+    code, text, assembling = peak_memory("assemble", "66_draft.urdf", "--out", "66.urdf", cwd=tmp_path)
+    assert code == 0 and text.count("closes the loops at +12.7135 mrad") == 66
+    couplers = {line.strip() for line in (tmp_path / "66.urdf").read_text(encoding="utf-8").splitlines()
+                if line.strip().startswith('<origin xyz="0.0 0.1 0.0"')}
+    assert len(couplers) == 1  # every loop closed as it is closed alone (one solve of all mixed their last digits)
+    code, text, describing = peak_memory("info", "66.urdf", cwd=tmp_path)
+    assert code == 0 and "configuration: nq 330, nv 198; closure rows 330; mobility 66" in text
+    assert "actuated joints (66): crank_joint_0, crank_joint_1, " in text
+    assert assembling - floor < 60 and describing - floor < 60, (floor, assembling, describing)
+
+
+def test_info_on_a_draft_names_the_command_that_assembles_it(tmp_path: Path) -> None:
+    draft(tmp_path)
+    line = one_line_error(run_pincal("info", "four_bar_draft.urdf", cwd=tmp_path))
+    assert line.startswith("pincal: error: four_bar_draft.urdf: loop 'coupler_rocker' does not close at the reference "
+                           "configuration (all joints zero): residual 0.00315 m/rad > 1e-09; ")
+    assert "assemble it: pincal assemble four_bar_draft.urdf --out ROBOT.urdf turns the passive joints" in line

@@ -172,3 +172,33 @@ def test_design_and_montecarlo_take_a_spread_about_the_reference(tmp_path: Path)
         assert done.returncode == 0, done.stderr
         tables[label] = done.stdout.splitlines()[-1]
     assert tables["limits"] != tables["spread"]  # other postures, other errors
+
+
+def test_design_says_why_the_nominal_ur10_identifies_fewer_directions_than_calibrate(tmp_path: Path) -> None:
+    # the nominal UR10's shoulder, elbow and first wrist axes are exactly parallel: 2 directions are invisible there,
+    # and calibrate, which counts at its estimate (the axes slightly off), sees them
+    done = run_pincal("design", "ur10", "--candidates", "100", "--poses", "30", "--quiet")
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[1] == "parameters: 40; designed for the 25 the candidates can identify at the nominal geometry"
+    note = " ".join(line.strip() for line in lines[2:lines.index(next(line for line in lines
+                                                                        if line.startswith("  left out")))])
+    assert note.startswith("27 on the robot off it (every parameter off by σ 0.001 m or rad, as a real robot is): the "
+                           "nominal's exactly parallel joint axes (shoulder_lift_joint, elbow_joint, wrist_1_joint) "
+                           "hide 2 directions that a robot slightly off shows weakly, and which pincal calibrate, "
+                           "counting at its estimate, can count")
+    assert max(len(line) for line in lines[:lines.index("chosen postures, in measuring order (actuated values):")]
+               if not line.startswith("  left out")) <= 120
+    simulated = run_pincal("simulate", "ur10", "--samples", "40", "--seed", "2", "--quiet", "--out", "sim",
+                           cwd=tmp_path)
+    assert simulated.returncode == 0, simulated.stderr
+    calibrated = run_pincal("calibrate", "ur10", "sim/measurements.csv", cwd=tmp_path)
+    assert calibrated.returncode == 0, calibrated.stderr
+    assert calibrated.stdout.startswith("samples 40, parameters 40, identifiable 27, ")  # the count design names
+
+
+def test_design_adds_no_note_where_the_nominal_hides_nothing(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main([*DESIGN, "--quiet"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert re.fullmatch(r"parameters: 24; designed for the \d+ the candidates can identify", lines[1]), lines[1]
+    assert lines[2].startswith("  left out") or lines[2].startswith("scaled identification Jacobian"), lines[2]

@@ -263,3 +263,30 @@ def test_a_trees_configurations_written_at_once_are_those_of_each_sample_alone(n
         assert np.array_equal(at_once.q, alone.q) and at_once.reasons == alone.reasons == {}
     with pytest.raises(pincal.DataError, match="NaN"):  # a reading that is not a number: refused as one sample alone is
         assemble(robot, np.vstack([actuated, np.full(robot.n_actuated, np.nan)]))
+
+
+@pytest.mark.parametrize(("target", "error", "message"), [
+    ([float("nan"), 0.0, 0.0], pincal.ArgumentError, r"^target=\[nan, 0\.0, 0\.0\]: must be 3 finite numbers \[m\]"),
+    ([0.0, 0.0], pincal.ArgumentError, r"^target=\[0\.0, 0\.0\]: must be 3 numbers \[m\], not an array of shape "
+                                       r"\(2,\)"),
+    ((0.0, float("inf"), -0.5), pincal.ArgumentError, r"^target=\(0\.0, inf, -0\.5\): must be 3 finite numbers"),
+    (None, TypeError, r"^target=None: expected 3 numbers, not NoneType"),
+    ("0 0 -0.5", TypeError, r"^target='0 0 -0\.5': expected 3 numbers, not str"),
+])
+def test_solve_ik_names_a_target_it_cannot_take(delta: pincal.Robot, target: object, error: type[Exception],
+                                                message: str) -> None:
+    with pytest.raises(error, match=message):
+        delta.solve_ik(target)  # type: ignore[arg-type]
+
+
+def test_solve_ik_names_a_frame_or_tolerance_it_cannot_take(delta: pincal.Robot) -> None:
+    goal = delta.placement(delta.q_reference, "end_effector")
+    with pytest.raises(TypeError, match=r"^frame=5: expected a frame name \(str\), not int"):
+        delta.solve_ik(goal.translation, frame=5)  # type: ignore[arg-type]
+    with pytest.raises(pincal.ArgumentError, match=r"^tol=nan: must be a finite number > 0 \[m, rad\]"):
+        delta.solve_ik(goal.translation, tol=float("nan"))
+    broken = pin.SE3(goal.rotation, np.array([np.nan, 0.0, 0.0]))
+    with pytest.raises(pincal.ArgumentError, match=r"^target=.*: the placement holds NaN or infinity"):
+        delta.solve_ik(broken)
+    q = delta.solve_ik(goal.translation)  # a good target still reached
+    assert np.allclose(delta.placement(q, "end_effector").translation, goal.translation, atol=1e-10)
