@@ -44,7 +44,7 @@ TARGET_FRAMES = ("measurement", "base")
 BLOCK = 1000
 
 __all__ = ["BLOCK", "TARGET_FRAMES", "TOLERANCE", "Compensation", "Model", "base_link", "beyond_fitted_range",
-           "compensate", "goals", "load_model", "nominal_targets", "reached_frame", "targets_frame"]
+           "compensate", "goals", "load_model", "nominal_targets", "reached_frame", "target_bounds", "targets_frame"]
 
 
 def load_model(model: str | Path, nominal: Robot | None = None) -> Model:
@@ -87,15 +87,46 @@ def load_model(model: str | Path, nominal: Robot | None = None) -> Model:
 
 def beyond_fitted_range(compensation: Compensation) -> list[int]:
     """The targets whose commands [rad or m] lie beyond the actuated joints' ranges the calibration fitted (and
-    their margin, :func:`~pincal.calibration.predicted.widening`): the model extrapolates there."""
+    their margin, :func:`~pincal.calibration.predicted.outside_range`): the model extrapolates there."""
     ranges = compensation.model.fitted_range
     if not ranges:
         return []
-    from pincal.calibration.predicted import widening
+    from pincal.calibration.predicted import outside_range
 
     reached = compensation.reached
     commands = np.where(reached[:, None], compensation.commands, 0.0)
-    return [int(k) for k in np.flatnonzero(reached & (widening(compensation.model.robot, commands, ranges) > 1.0))]
+    return [int(k) for k in np.flatnonzero(reached & outside_range(compensation.model.robot, commands, ranges))]
+
+
+def target_bounds(compensation: Compensation, model_path: str | Path, nominal: Robot | None
+                  ) -> tuple[Array, Array] | None:
+    """Each reached target's predicted 95 % bound [m] at its commands, and the nominal robot's own bound there [m]
+    (:func:`~pincal.calibration.predicted.bounds_at`), from the calibration the URDF at ``model_path`` carries
+    (:mod:`pincal.calibration.carried`) on its nominal robot (``nominal``, else the one it records); NaN for a target
+    not reached. None when the URDF carries no calibration or its nominal robot cannot be loaded."""
+    from pincal.calibration.carried import read_carried
+    from pincal.calibration.predicted import bounds_at
+    from pincal.errors import PincalError
+
+    calibration = read_carried(model_path) if Path(model_path).is_file() else None
+    if calibration is None:
+        return None
+    if nominal is None:
+        recorded = read_provenance(model_path).robot
+        try:
+            nominal = load_robot(recorded) if recorded else None
+        except PincalError:
+            nominal = None
+    if nominal is None or nominal.actuated_joints != compensation.model.robot.actuated_joints:
+        return None
+    reached = compensation.reached
+    bound, own = np.full(len(reached), np.nan), np.full(len(reached), np.nan)
+    if reached.any():
+        found = bounds_at(nominal, calibration, compensation.commands[reached])
+        if found is None:
+            return None
+        bound[reached], own[reached] = found
+    return bound, own
 
 
 def base_link(robot: Robot) -> str:

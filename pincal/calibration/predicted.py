@@ -133,12 +133,6 @@ def outside_range(robot: Robot, actuated: Array, ranges: dict[str, list[float]])
     return distance(robot, actuated, ranges) > 0.0
 
 
-def widening(robot: Robot, actuated: Array, ranges: dict[str, list[float]]) -> Array:
-    """``1 + u``, u the extrapolation distance beyond the fitted ``ranges`` (the rule of thumb the bounds used before
-    :mod:`pincal.calibration.growth`; kept for the warnings that still read it)."""
-    return 1.0 + distance(robot, actuated, ranges)
-
-
 def predicted_errors(problem: CalibrationProblem, fit: CalibrationResult | FitCovariance, x: Array,
                      distances: Array | None = None, prediction: Prediction | None = None) -> PredictedErrors:
     """The predicted length-type errors of ``problem``'s samples for the model at ``x`` [m, rad] (in ``problem``'s

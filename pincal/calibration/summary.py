@@ -75,16 +75,23 @@ def _predicted(report: CalibrationReport) -> list[str]:
     lines = []
     held, space = report.predicted_held_out, report.predicted_workspace
     if held and held.get("median_bound") is not None:
-        widened = held.get("widened") or []
-        factors = [s["widening"] for s in held.get("samples_predicted", []) if s.get("widening", 1.0) > 1.0]
         lines.append(f"predicted 95 % bound (held out): median {mm(held['median_bound'])}; {held['inside']} of "
                      f"{held['samples']} errors within their bound ({held['fraction']:.0%})")
-        if factors:
-            lines.append(f"  bounds of {len(widened)} held-out samples widened beyond the fitted joint range (× up to "
-                         f"{max(factors):.2f})")
+        beyond = held.get("beyond_range") or {}
+        if beyond.get("samples"):
+            inside = held.get("in_range") or {}
+            lines.append(f"  beyond the fitted joint range {beyond['inside']} of {beyond['samples']} within their "
+                         f"bound (grown with the distance), inside it {inside.get('inside', 0)} of "
+                         f"{inside.get('samples', 0)}")
     if space and space.get("median_bound") is not None:
+        capped = f"; {space['capped']} at the nominal robot's own bound" if space.get("capped") else ""
         lines.append(f"predicted 95 % bound over the workspace ({space['postures']} postures within the joint "
-                     f"limits): median {mm(space['median_bound'])}, max {mm(space['max_bound'])}")
+                     f"limits): median {mm(space['median_bound'])}, max {mm(space['max_bound'])}{capped}")
+    growth = report.error_growth
+    if growth and growth.get("nominal0") is not None:
+        lines.append(f"  the data's hold-outs: bound × {growth['rho0'] ** 0.5:.2f} inside the fitted range, + "
+                     f"{mm(growth['nominal1'])} per range width beyond it; the nominal robot's own bound "
+                     f"{mm(growth['nominal0'])} (docs/predicted_accuracy.md)")
     return lines
 
 

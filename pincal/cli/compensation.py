@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 from pincal.cli.arguments import non_negative_int, positive_float
 from pincal.errors import DataError
@@ -28,6 +29,7 @@ def cmd_compensate(args: argparse.Namespace) -> int:
         compensate,
         load_model,
         nominal_targets,
+        target_bounds,
         targets_frame,
     )
     from pincal.calibration.provenance import file_digests, read_provenance, version
@@ -68,10 +70,13 @@ def cmd_compensate(args: argparse.Namespace) -> int:
         print(f"reached {int(reached.sum())} of {len(reached)}: largest residual of the model at the commands "
               f"{position:.3g} m{angle}{inverted} ({result.seconds:.2f} s)")
     beyond = beyond_fitted_range(result)
+    bounds = target_bounds(result, args.model, nominal)
     if beyond:
         shown = ", ".join(targets.ids[k] for k in beyond[:8]) + (" …" if len(beyond) > 8 else "")
         print(f"warning: the commands of {len(beyond)} targets ({shown}) leave the joint ranges the calibration "
-              "fitted: the model extrapolates there, its accuracy is not known")
+              "fitted: the model extrapolates there" + (", its bound grows with the distance" if bounds is not None
+                                                       else ", its accuracy is not known"))
+    print(*bound_lines(targets.ids, bounds), sep="\n")
     missed = np.flatnonzero(~reached).tolist()
     if missed:
         print(f"unreachable {len(missed)} of {len(reached)} (kept in the file, commands empty):")
@@ -101,11 +106,33 @@ def cmd_compensate(args: argparse.Namespace) -> int:
                                   "[m, rad] of the model at the commands; status",
             "targets in": where, "frame": result.frame, "tolerance": f"{result.tolerance:g} (m, rad)",
             "seed": str(args.seed),
-            "units": "SI (m, rad)"}, orientation=targets.kind == "pose")
+            "units": "SI (m, rad)"}, orientation=targets.kind == "pose", bounds=bounds)
         missed_nominal = []
     write_text(args.out, text)
     print(f"wrote {args.out}")
     return EXIT_UNREACHABLE if missed or missed_nominal else 0
+
+
+def bound_lines(ids: list[str], bounds: tuple[Any, Any] | None) -> list[str]:
+    """The lines on the targets' predicted 95 % bounds [mm]: their median and largest, and the targets where the
+    calibrated model's bound exceeds the nominal robot's own (docs/predicted_accuracy.md)."""
+    import numpy as np
+
+    if bounds is None:
+        return ["predicted bounds: not known (MODEL carries no calibration, or its nominal robot is not found: give "
+                "--nominal ROBOT)"]
+    bound, own = bounds
+    known = np.isfinite(bound)
+    if not known.any():
+        return []
+    lines = [f"predicted 95 % bound at the targets (the calibration's measured point at each command): median "
+             f"{np.median(bound[known]) * 1e3:.4f} mm, largest {np.max(bound[known]) * 1e3:.4f} mm"]
+    worse = np.flatnonzero(known & np.isfinite(own) & (bound > own))
+    if worse.size:
+        shown = ", ".join(ids[k] for k in worse[:8]) + (" …" if worse.size > 8 else "")
+        lines.append(f"warning: at {worse.size} targets ({shown}) the calibrated model's bound exceeds the nominal "
+                     "robot's own: the calibration is not predicted to do better there (the file's nominal_bound)")
+    return lines
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

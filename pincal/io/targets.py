@@ -43,6 +43,9 @@ MAX_TARGETS = 5_000
 RESIDUAL_POSITION = "residual_position"
 RESIDUAL_ORIENTATION = "residual_orientation"
 STATUS = "status"
+#: The commands file's columns of each target's predicted 95 % bound and the nominal robot's own [m].
+BOUND = "bound"
+NOMINAL_BOUND = "nominal_bound"
 
 
 @dataclass(frozen=True)
@@ -184,7 +187,8 @@ def _text(metadata: Mapping[str, str], header: Sequence[str], rows: Sequence[Seq
 
 
 def commands_text(ids: Sequence[str], joints: Sequence[str], commands: Array, residuals: Array,
-                  statuses: Sequence[str], metadata: Mapping[str, str], orientation: bool) -> str:
+                  statuses: Sequence[str], metadata: Mapping[str, str], orientation: bool,
+                  bounds: tuple[Array, Array] | None = None) -> str:
     """The commands file: ``sample``, one column per actuated joint (the raw commands [rad or m]),
     ``residual_position`` [m], ``residual_orientation`` [rad] (pose targets only) and ``status``; a row not reached
     has empty commands and residuals.
@@ -197,12 +201,17 @@ def commands_text(ids: Sequence[str], joints: Sequence[str], commands: Array, re
         statuses: ``ok`` or ``unreachable: <reason>`` per row.
         metadata: ``# key: value`` lines.
         orientation: Whether to write the orientation residual (pose targets).
+        bounds: Per row, the predicted 95 % bound [m] at the commands and the nominal robot's own bound there [m]
+            (columns ``bound``, ``nominal_bound``, empty where not known); None: no such columns.
     """
-    header = [SAMPLE_COLUMN, *joints, RESIDUAL_POSITION] + ([RESIDUAL_ORIENTATION] if orientation else []) + [STATUS]
+    extra = [BOUND, NOMINAL_BOUND] if bounds is not None else []
+    header = [SAMPLE_COLUMN, *joints, RESIDUAL_POSITION] + ([RESIDUAL_ORIENTATION] if orientation else []) + extra
     width = 2 if orientation else 1
-    rows = [[sid, *(_cell(v) for v in command), *(_cell(v) for v in residual[:width]), status]
-            for sid, command, residual, status in zip(ids, commands, residuals, statuses, strict=True)]
-    return _text(metadata, header, rows)
+    pairs = np.column_stack(bounds) if bounds is not None else np.zeros((len(ids), 0))
+    rows = [[sid, *(_cell(v) for v in command), *(_cell(v) for v in residual[:width]), *(_cell(v) for v in pair),
+             status]
+            for sid, command, residual, pair, status in zip(ids, commands, residuals, pairs, statuses, strict=True)]
+    return _text(metadata, [*header, STATUS], rows)
 
 
 def targets_text(key: str, ids: Sequence[str], values: Array, statuses: Sequence[str],
