@@ -146,7 +146,8 @@ def estimate_growth(problem: CalibrationProblem, result: CalibrationResult, prio
     final = result.final
     n = problem.observations.n_samples
     layout = length_layout(problem)
-    if final is None or final.jacobian is None or n < MIN_SAMPLES or not layout.width:
+    if final is None or final.jacobian is None or n < MIN_SAMPLES or not layout.width \
+            or final.residual.size != problem.row_samples().size:  # an implicit (ikm) fit's rows are its loops'
         return None
     shuffled = shuffled_folds(n, FOLDS, SEED)
     halves = range_halves(problem.observations.actuated, columns)

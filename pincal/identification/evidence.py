@@ -21,7 +21,8 @@ posteriori estimate of the linear model), over the m rows:
     ∂(−2 ln L)/∂ ln f_g² = n_g − Σ_{i∈g} (K⁻¹_ii + μ_i²) / Λ_ii
     ∂(−2 ln L)/∂ ln s²   = m − (‖z − J μ‖² + tr(J K⁻¹ Jᵀ)) / s²
 
-(the analytic gradient; ``tests/identification/test_evidence.py`` checks it against finite differences). A group whose
+(the analytic gradient; ``tests/identification/test_evidence.py`` checks it against finite differences; the maximum is
+found by MacKay's fixed point, :func:`_optimise`, where the gradient vanishes). A group whose
 factor falls to the smallest searched is left out, as model selection leaves out a group, and named so. Compliance
 has no prior of its kind: its σ here is the compliance that deflects the joint by :data:`COMPLIANCE_DEFLECTION` RMS
 over the samples' gravity torques.
@@ -36,7 +37,6 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 import scipy.linalg
-import scipy.optimize
 
 from pincal.errors import DataError
 from pincal.identification.corrections import gravity_torques
@@ -209,19 +209,65 @@ def choose_prior(jacobian: Array, y0: Array, groups: Sequence[str | None], base:
     return EvidenceChoice(factors, sigma, left, math.exp(theta[-1]), log_evidence)
 
 
+#: Most rounds of the fixed-point iteration, and the change of every log-parameter below which it has converged.
+ROUNDS = 500
+SETTLED = 1e-7
+
+
 def _optimise(linear: _Linear, n_groups: int) -> tuple[float, Array]:
-    """The maximum of ln L over (ln f_g², ln s²) within :data:`FACTOR_RANGE`: (ln L, the log-parameters)."""
-    start = np.zeros(n_groups + 1)
-    start[-1] = math.log(max(linear.zz / max(linear.rows, 1), 1e-300))
+    """The maximum of ln L over (ln f_g², ln s²), the factors within :data:`FACTOR_RANGE`: (ln L, the
+    log-parameters). MacKay's fixed point (1992, "Bayesian interpolation", eqs. 4.9–4.10, with one variance per group
+    and the noise's): with ``γ_g = Σ_{i∈g} (1 − K⁻¹_ii / Λ_ii)`` the directions of group g the data determine,
+    ``f_g² ← Σ_{i∈g} μ_i² / σ_i² / γ_g`` and ``s² ← ‖P(z − J μ)‖² / (rows − Σ_g γ_g)``; where a ``γ`` is too small to
+    divide by, the expectation-maximisation step of the same fixed point,
+    ``f_g² ← Σ_{i∈g} (μ_i² + K⁻¹_ii) / σ_i² / n_g`` and ``s² ← (‖P(z − J μ)‖² + tr(K⁻¹ JᵀPJ)) / rows``. Each round is
+    one factorisation of the q × q matrix ``K``; at the fixed point the analytic gradient (:func:`_terms`)
+    vanishes."""
+    theta = np.zeros(n_groups + 1)
+    theta[-1] = math.log(max(linear.zz / max(linear.rows, 1), 1e-300))
     low, high = (2.0 * math.log(v) for v in FACTOR_RANGE)
-    bounds = [(low, high)] * n_groups + [(start[-1] - 30.0, start[-1] + 10.0)]
+    noise_low, noise_high = theta[-1] - 30.0, theta[-1] + 10.0
+    for _ in range(ROUNDS):
+        updated = _fixed_point(linear, theta)
+        updated[:-1] = np.clip(updated[:-1], low, high)
+        updated[-1] = min(max(updated[-1], noise_low), noise_high)
+        if np.max(np.abs(updated - theta)) < SETTLED:
+            theta = updated
+            break
+        theta = updated
+    value = _terms(linear, theta[:-1], float(theta[-1]))[0]
+    return -0.5 * value, theta
 
-    def objective(theta: Array) -> tuple[float, Array]:
-        value, grad, _ = _terms(linear, theta[:-1], float(theta[-1]))
-        return value, grad
 
-    found = scipy.optimize.minimize(objective, start, jac=True, method="L-BFGS-B", bounds=bounds)
-    return -0.5 * float(found.fun), np.asarray(found.x, dtype=float)
+def _fixed_point(linear: _Linear, theta: Array) -> Array:
+    """One round of :func:`_optimise`'s fixed point from the log-parameters ``theta`` (ln f_g², then ln s²)."""
+    q = linear.base.size
+    s2 = math.exp(theta[-1])
+    variance = np.empty(q)
+    for g, columns in enumerate(linear.members):
+        variance[columns] = linear.base[columns] ** 2 * math.exp(theta[g])
+    factor = _cholesky(linear.gram / s2 + np.diag(1.0 / variance))
+    mu = scipy.linalg.cho_solve(factor, linear.jz / s2, check_finite=False)
+    k_inv = scipy.linalg.cho_solve(factor, np.eye(q), check_finite=False)
+    diag = np.diag(k_inv)
+    residual2 = max(linear.zz - 2.0 * float(mu @ linear.jz) + float(mu @ linear.gram @ mu), 0.0)
+    out = theta.copy()
+    determined = 0.0
+    for g, columns in enumerate(linear.members):
+        gamma = float(np.sum(1.0 - diag[columns] / variance[columns]))
+        signal = float(np.sum(mu[columns] ** 2 / linear.base[columns] ** 2))
+        if gamma > 1e-6 and signal > 0.0:
+            out[g] = math.log(signal / gamma)
+        else:  # the expectation-maximisation step
+            out[g] = math.log(max(float(np.sum((mu[columns] ** 2 + diag[columns]) / linear.base[columns] ** 2))
+                                  / columns.size, 1e-300))
+        determined += gamma
+    free = linear.rows - determined
+    if free > 1e-6 and residual2 > 0.0:
+        out[-1] = math.log(residual2 / free)
+    else:
+        out[-1] = math.log(max((residual2 + float(np.sum(k_inv * linear.gram))) / max(linear.rows, 1), 1e-300))
+    return out
 
 
 def group_names(parameters: ParameterSet) -> list[str | None]:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -30,7 +30,7 @@ from pincal.identification.criterion import (
     group_of,
     select_groups,
 )
-from pincal.identification.evidence import EvidenceChoice, base_sigma, choose_prior
+from pincal.identification.evidence import FACTOR_RANGE, EvidenceChoice, base_sigma, choose_prior
 from pincal.identification.predictions import carry_over
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.result import CalibrationResult
@@ -76,7 +76,7 @@ class SelectedFit:
     prior_sigma: Array | None = None
 
 
-def select_and_fit(problem: CalibrationProblem, policy: str = "evidence", **options: Any) -> SelectedFit:
+def select_and_fit(problem: CalibrationProblem, policy: str = "bic", **options: Any) -> SelectedFit:
     """Fit every parameter of ``problem``, then leave out the groups of identifiable parameters the data do not
     support and refit the rest from the nominal start: by their evidence (``policy="evidence"``, which also chooses
     how firmly the prior holds each group kept), by :func:`select_groups` on the fit's weighted Jacobian (``bic``), by
@@ -129,7 +129,7 @@ def _with_evidence(chosen: SelectedFit, automatic: bool, **options: Any) -> Sele
     if not automatic or not chosen.result.converged:
         return chosen
     jac, y0 = _weighted_linear(chosen.problem, chosen.result)
-    fitted = _refit_with_evidence(chosen.problem, chosen.result, jac, y0, **options)
+    fitted = _refit_with_evidence(chosen.problem, chosen.result, jac, y0, drop=False, **options)
     removed = chosen.removed + [n for n in fitted.removed if n not in chosen.removed]
     groups = chosen.removed_groups + tuple(g for g in fitted.removed_groups if g not in chosen.removed_groups)
     return SelectedFit(fitted.problem, fitted.result, chosen.first, removed, chosen.scores, groups, fitted.evidence,
@@ -137,14 +137,20 @@ def _with_evidence(chosen: SelectedFit, automatic: bool, **options: Any) -> Sele
 
 
 def _refit_with_evidence(problem: CalibrationProblem, first: CalibrationResult, jac: Array, y0: Array,
-                         **options: Any) -> SelectedFit:
+                         drop: bool = True, **options: Any) -> SelectedFit:
     """The groups of ``problem``'s parameters weighed by their evidence on the linear model ``jac``, ``y0``
     (:func:`_weighted_linear` at ``first``'s estimate): each held by the prior σ it chooses, left out where that is
-    none; the refit from the nominal start, or ``first`` when it fails."""
+    none (with ``drop``; else held by the smallest factor, as a named set's parameters stay); the refit from the nominal
+    start, or ``first`` when it fails."""
     pset = problem.parameters
     groups = [group_of(p) for p in pset]
     present = [g for g in GROUPS if g in groups]
-    choice = choose_prior(jac, y0, groups, base_sigma(problem), pset.scales, present)
+    base = base_sigma(problem)
+    choice = choose_prior(jac, y0, groups, base, pset.scales, present)
+    if not drop and choice.left_out:
+        held = np.where([g in choice.left_out for g in groups], base * FACTOR_RANGE[0], choice.sigma)
+        factors = {g: (FACTOR_RANGE[0] if g in choice.left_out else f) for g, f in choice.factors.items()}
+        choice = replace(choice, sigma=held, left_out=(), factors=factors)
     kept = [k for k, g in enumerate(groups) if g not in choice.left_out]
     removed = [p.name for p in pset if group_of(p) in choice.left_out]
     if not kept:

@@ -192,7 +192,7 @@ def test_a_payload_is_read_and_overridden(tmp_path: Path) -> None:
     ({"top": "max_iter = 0"}, "job.toml: max_iter: 0 (int) is not a whole number ≥ 1"),
     ({"top": 'max_iter = "100"'}, "max_iter: '100' is not a whole number ≥ 1"),
     ({"top": "sigma = -1e-3"}, "sigma: -0.001 (float) is not a number > 0"),
-    ({"top": 'select = "aic"'}, "select: 'aic' is not one of: auto, bic, cv, none"),
+    ({"top": 'select = "aic"'}, "select: 'aic' is not one of: auto, evidence, bic, cv, none"),
     ({"top": 'loss = "huber"'}, "loss: 'huber' is not one of: auto, linear, cauchy"),
     ({"top": 'cv = "5y"'}, "cv: '5y' is not K (folds), KxR"),
     ({"top": "cv_seed = -2"}, "cv_seed: -2 (int) is not a whole number ≥ 0"),

@@ -12,7 +12,8 @@ from pincal.calibration.campaign import simulate
 from pincal.calibration.pipeline import calibrate
 from pincal.errors import DataError
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.selection import group_of, information_criterion, select_and_fit, select_groups
+from pincal.identification.criterion import group_of, information_criterion, select_groups
+from pincal.identification.selection import select_and_fit
 from pincal.io.adapters import measurements_for, observations_from
 
 
@@ -70,13 +71,19 @@ def test_groups_of_parameters() -> None:
 
 
 def test_selection_drops_what_the_truth_lacks_and_predicts_no_worse() -> None:
-    """UR10 with errors on translations only: the rotations and offsets are left out, the refit predicts held-out
-    postures at least as well as fitting every identifiable parameter."""
+    """UR10 with errors on translations only: BIC leaves the rotations and offsets out, the refit predicts held-out
+    postures at least as well as fitting every identifiable parameter; the evidence (the default) leaves the rotations
+    out (their factor at the smallest) and predicts as well."""
     robot = pincal.load_robot("ur10")
     sim = simulate(robot, ["position"], 40, 100, perturb=1e-3, noise=1e-4, seed=3,
                    parameter_spec=["*.tx", "*.ty", "*.tz"])
-    selected = calibrate(robot, sim.dataset)
-    everything = calibrate(robot, sim.dataset, select="none")
+    selected = calibrate(robot, sim.dataset, select="bic", prior=1.0)
+    everything = calibrate(robot, sim.dataset, select="none", prior=1.0)
+    evidence = calibrate(robot, sim.dataset)
+    factors = evidence.report.selection["prior_factors"]
+    assert evidence.report.selection["policy"] == "evidence"
+    assert factors["rotations"] == 0.0 and "rotations" in evidence.report.selection["removed_groups"]
+    assert evidence.report.test_rms_after <= 1.05 * selected.report.test_rms_after
     assert selected.report.selection["removed_groups"] == ["rotations", "offsets"]
     assert selected.report.n_estimated < everything.report.n_estimated
     assert selected.report.test_rms_after <= everything.report.test_rms_after
@@ -85,7 +92,7 @@ def test_selection_drops_what_the_truth_lacks_and_predicts_no_worse() -> None:
     named = calibrate(robot, sim.dataset, parameter_spec=["default", "!base.rz"])
     assert named.report.selection["policy"] == "none" and not named.report.selection["removed"]
     default = calibrate(robot, sim.dataset, parameter_spec=["default"])  # the default set by its name: selected
-    assert default.report.selection["policy"] == "bic"
+    assert default.report.selection["policy"] == "evidence"
 
 
 def test_select_and_fit_refits_the_kept_groups_and_keeps_the_base() -> None:
@@ -100,7 +107,7 @@ def test_select_and_fit_refits_the_kept_groups_and_keeps_the_base() -> None:
     assert not any(name in kept for name in fitted.removed)
     assert len(kept) + len(fitted.removed) == len(pset)
     assert fitted.first.names == pset.names and fitted.result.names == kept
-    with pytest.raises(DataError, match="unknown selection 'aic'; selections are: bic, cv, none"):
+    with pytest.raises(DataError, match="unknown selection 'aic'; selections are: evidence, bic, cv, none"):
         select_and_fit(CalibrationProblem(robot, pset, models, obs), "aic")
 
 
