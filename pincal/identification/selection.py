@@ -156,10 +156,13 @@ def _refit_with_evidence(problem: CalibrationProblem, first: CalibrationResult, 
     if not kept:
         return SelectedFit(problem, first, first, [], {}, evidence=choice)
     reduced = _reduced(problem, kept) if removed else problem
-    refit = identify(reduced, **{**options, "prior": choice.sigma[kept]})
+    # the fit weighs the rows by their stated σ, the evidence by the noise they show (s²): its prior, in the fit's
+    # units, is σ / s (the same maximum a posteriori estimate), whatever σ was stated
+    weighed = choice.sigma[kept] / math.sqrt(max(choice.noise, 1e-300))
+    refit = identify(reduced, **{**options, "prior": weighed})
     if not refit.converged:
         return SelectedFit(problem, first, first, [], {}, evidence=choice)
-    return SelectedFit(reduced, refit, first, removed, {}, choice.left_out, choice, choice.sigma[kept])
+    return SelectedFit(reduced, refit, first, removed, {}, choice.left_out, choice, weighed)
 
 
 def _reduced(problem: CalibrationProblem, kept: list[int], observations: Observations | None = None
