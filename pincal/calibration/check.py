@@ -37,12 +37,14 @@ from pincal.calibration.check_groups import (
     nominal_bounds,
     outside_recorded,
     predicted_check,
+    recorded_before,
 )
 from pincal.calibration.check_model import CheckedModel
 from pincal.calibration.check_plausibility import Beyond, Implausible, beyond_plausible, implausible_data
 from pincal.calibration.check_setup import (
     MODEL_AS_IS,
     MODEL_REGISTERED,
+    NOMINAL_AS_CALIBRATED,
     NOMINAL_REGISTERED,
     file_setup,
     prepare_setup,
@@ -342,7 +344,9 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
     if register:
         x_model = model_prepared.problem.initial_guess(x_model)
     model_side = _side(model_prepared, x_model, register, options)
-    nominal_side = _side(nominal_prepared, nominal_prepared.problem.initial_guess(), True, options)  # always registered
+    recorded = recorded_before(model, nominal_prepared) if not register else None
+    nominal_side = _side(nominal_prepared, recorded, False, options) if recorded is not None \
+        else _side(nominal_prepared, nominal_prepared.problem.initial_guess(), True, options)
     outside: list[dict[str, Any]] = []
     moving = influencing_joints(nominal, sorted({f for m in nominal_prepared.models for f in m.frames}),
                                 read_joints(nominal_prepared.models))
@@ -356,7 +360,7 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
         range_note = None
     predicted, note = predicted_check(model, nominal_prepared)
     return Check(model_side, nominal_side, register, dropped, outside, range_note, dataset.n_samples, predicted, note,
-                 _plausibility(nominal_side, True, options),
+                 _plausibility(nominal_side, recorded is None, options),
                  nominal_bounds(model, predicted) if predicted is not None else None)
 
 
@@ -387,7 +391,8 @@ def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
         **dict(sources),
         "registered": check.registered,
         "model_means": MODEL_REGISTERED if check.registered else MODEL_AS_IS,
-        "nominal_means": NOMINAL_REGISTERED,
+        "nominal_means": NOMINAL_AS_CALIBRATED if check.nominal.converged is None and not check.registered
+        else NOMINAL_REGISTERED,
         "registration_notes": {side: s.note for side, s in (("model", check.model), ("nominal", check.nominal))
                                if s.note},
         "n_samples_in_file": check.n_samples_in_file,

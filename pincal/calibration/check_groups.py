@@ -131,3 +131,14 @@ def fitted_data(model: CheckedModel, nominal: Robot) -> tuple[Dataset | None, st
     except PincalError as exc:
         return None, f"the calibration's data '{path}' cannot be read ({exc}): postures outside the fitted range " \
                      "cannot be flagged"
+
+
+def recorded_before(model: CheckedModel, nominal: Prepared) -> Array | None:
+    """The nominal robot's setup as the calibration registered it on its own data (its "before": the
+    ``before_parameters`` MODEL carries), in ``nominal``'s setup parameters; None when MODEL records none, or not of
+    every setup parameter DATA needs."""
+    recorded = model.calibration.before_parameters if model.calibration is not None else {}
+    names = nominal.parameters.names
+    if not recorded or not all(name in recorded for name in names):
+        return None
+    return np.array([float(recorded[name]) for name in names])

@@ -31,8 +31,9 @@ MODEL_AS_IS = ("MODEL as it stands: the measurement frame, markers, cameras, tar
 MODEL_REGISTERED = ("MODEL's robot with its measurement setup (measurement frame, markers, cameras, targets, contact "
                     "planes) re-estimated on DATA by least squares, its geometry held")
 NOMINAL_REGISTERED = ("the nominal robot with its measurement setup (measurement frame, markers, cameras, targets, "
-                      "contact planes) registered on DATA by least squares from its placement in closed form, as "
-                      "calibrate's 'before'")
+                      "contact planes) registered on DATA by least squares from its placement in closed form")
+NOMINAL_AS_CALIBRATED = ("the nominal robot with the measurement setup the calibration registered for it on its own "
+                         "data (calibrate's 'before', recorded in MODEL), as it stands, as MODEL is")
 
 
 def prepare_setup(robot: Robot, dataset: Dataset, options: CalibrationOptions) -> Prepared:

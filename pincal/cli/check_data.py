@@ -7,6 +7,7 @@ import math
 import textwrap
 from typing import Any
 
+from pincal.calibration.check_setup import NOMINAL_AS_CALIBRATED
 from pincal.calibration.options import OPTIONS
 from pincal.cli.arguments import add_calibration_options, given_options
 
@@ -80,12 +81,11 @@ def summary_text(content: dict[str, Any]) -> str:
                      "of MODEL")
     elif content["worse_than_nominal"]:
         lines.append("verdict: MODEL predicts DATA WORSE than the nominal robot")
-        if not content["registered"]:
-            lines.append("  hint: the nominal side's measurement setup is registered on DATA, MODEL's is the "
-                         "file's: if the tracker, the markers or the cameras moved since the calibration, check with "
-                         "--register")
     else:
         lines.append("verdict: MODEL predicts DATA no worse than the nominal robot")
+    hint = _register_hint(content)
+    if hint:
+        lines.append(f"  hint: {hint}")
     beyond = (content.get("groups") or {}).get("beyond") or {}
     if content["implausible"] is None and beyond.get("worse"):
         lines += textwrap.wrap(
@@ -94,6 +94,22 @@ def summary_text(content: dict[str, Any]) -> str:
             "RMS), whatever the total: do not use MODEL there (calibrate over postures that cover them)", 120,
             subsequent_indent="  ")
     return "\n".join(lines)
+
+
+def _register_hint(content: dict[str, Any]) -> str | None:
+    """Why to check with ``--register``, when DATA look measured in another setup than MODEL's: without it, MODEL worse
+    than a nominal robot registered on DATA, or most of MODEL's errors beyond their predicted bound."""
+    if content["registered"] or content["implausible"] is not None:
+        return None
+    predicted = content["predicted"]
+    if predicted["known"] and predicted["samples"] and predicted["inside"] < predicted["samples"] / 2:
+        return (f"{predicted['samples'] - predicted['inside']} of {predicted['samples']} errors of MODEL exceed their "
+                "predicted bound: if the tracker, the markers or the cameras moved since the calibration, check with "
+                "--register")
+    if content["worse_than_nominal"] and content["nominal_means"] != NOMINAL_AS_CALIBRATED:
+        return ("the nominal side's measurement setup is registered on DATA, MODEL's is the file's: if the tracker, "
+                "the markers or the cameras moved since the calibration, check with --register")
+    return None
 
 
 def _factor(plausible: float | str) -> str:
@@ -180,8 +196,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                     "with MODEL and "
                     "with the nominal robot; print the RMS and max error of each quantity side by side. MODEL is "
                     "used as it stands (its measurement frame, markers, cameras, targets and contact planes as the "
-                    "file holds them); the nominal robot's measurement setup is placed on DATA in closed form, as "
-                    "calibrate's 'before'. --register re-estimates both setups on DATA (least squares), the robots "
+                    "file holds them); the nominal robot has the measurement setup the calibration registered for it on its own data "
+                    "(calibrate's 'before', which MODEL records; registered on DATA when MODEL records none). "
+                    "--register re-estimates both setups on DATA (least squares), the robots "
                     "held. Exit status 1 when MODEL predicts DATA worse than the nominal robot, or a registration "
                     "did not converge, or DATA are implausible for a robot of this model, as calibrate judges them "
                     "(docs/check.md); 2 for lengths or joint readings in a wrong unit (calibrate's checks, before any "

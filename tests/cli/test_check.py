@@ -54,13 +54,13 @@ def delta(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
-def _check(*args: str, code: int = 0, where: Path | None = None) -> dict:
-    """``pincal check ARGS --report`` (the report in ``where``, default beside DATA): its exit status checked, its
-    report read."""
+def _check(*args: str, code: int | None = 0, where: Path | None = None) -> dict:
+    """``pincal check ARGS --report`` (the report in ``where``, default beside DATA): its exit status checked (None:
+    0 or 1), its report read."""
     folder = where or Path(args[1]).parent
     report = folder / f"check-{hashlib.sha1(' '.join(args).encode()).hexdigest()[:8]}.json"
     done = run_pincal("check", *args, "--report", str(report))
-    assert done.returncode == code, done.stdout + done.stderr
+    assert done.returncode in ((0, 1) if code is None else (code,)), done.stdout + done.stderr
     content = json.loads(report.read_text(encoding="utf-8"))
     content["stdout"] = done.stdout
     return content
@@ -78,16 +78,17 @@ def test_the_calibrated_model_predicts_new_postures_to_the_noise(delta: Path) ->
     errors = np.array([s["error"] for s in out["samples"]])
     assert math.sqrt(np.mean(errors**2)) == pytest.approx(out["rms"], rel=1e-9)
     assert max(s["nominal_error"] for s in out["samples"]) == pytest.approx(out["nominal_max"], rel=1e-12)
-    assert "nothing estimated" in out["model_means"] and "closed form" in out["nominal_means"]
+    assert "nothing estimated" in out["model_means"]
+    assert "registered for it on its own data" in out["nominal_means"]  # calibrate's "before", as MODEL records it
     assert "position:end_effector" in out["stdout"] and " mm" in out["stdout"]
 
 
 def test_a_moved_tracker_spoils_the_model_as_it_stands_and_register_recovers_it(delta: Path) -> None:
     model, moved = str(delta / "D" / "cal.urdf"), str(delta / "moved.csv")
-    as_is = _check(model, moved, "--nominal", "delta", code=1)
-    assert as_is["rms"] > 0.05 and as_is["worse_than_nominal"] is True
-    assert "--register" in as_is["stdout"]  # the hint
-    assert as_is["nominal_rms"] < 5e-3  # the nominal side is registered in closed form: the motion is absorbed
+    as_is = _check(model, moved, "--nominal", "delta", code=None)
+    assert as_is["rms"] > 0.05 and as_is["nominal_rms"] > 0.05  # both sides in the setup the calibration found
+    assert re.search(r"hint: (\d+) of 30 errors of MODEL exceed their predicted bound: .* check with --register",
+                     as_is["stdout"])  # the hint
     registered = _check(model, moved, "--nominal", "delta", "--register")
     assert registered["rms"] < 3 * NOISE and registered["nominal_rms"] > 3e-4
     assert registered["registered"] is True and registered["setup"]["model_converged"] is True
@@ -133,7 +134,8 @@ def test_the_recorded_nominal_and_the_fitted_range(delta: Path, tmp_path: Path) 
                    str(folder / "r.json")))  # both record their nominal robot and data (docs/calibrated_urdf.md)
     text = (folder / "cal.urdf").read_text(encoding="utf-8")
     assert f'data="sim/measurements.csv" data_sha256="{_sha(data)}"' in text
-    (folder / "plain.urdf").write_text(re.sub(r"\n\s*<pincal_provenance[^>]*/>", "", text), encoding="utf-8")
+    plain = re.sub(r"\n\s*<pincal_calibration>.*?</pincal_calibration>", "", text, flags=re.S)
+    (folder / "plain.urdf").write_text(re.sub(r"\n\s*<pincal_provenance[^>]*/>", "", plain), encoding="utf-8")
     fitted = read_dataset(data).of_set("train")
     new = read_dataset(delta / "new.csv")
     low, high = fitted.joints.min(axis=0), fitted.joints.max(axis=0)
@@ -275,7 +277,7 @@ def test_tiago_job_calibrated_then_checked_on_its_held_out_rows(tmp_path: Path) 
 @pytest.mark.parametrize("key", ["plane:tool0", "plane_point:tool0"])
 def test_contact_with_a_plane_is_checked_against_the_calibrated_plane(key: str, tmp_path: Path) -> None:
     """Contact data: MODEL's calibrated plane (its ``contact_plane`` link) predicts other postures of the same truth to
-    the noise, the nominal robot with its plane fitted in closed form does not; ``--register`` re-estimates the plane
+    the noise, the nominal robot with the plane calibrate registered for it does not; ``--register`` re-estimates the plane
     (the table may have moved), and a MODEL without the plane link is refused without it."""
     for out, samples in (("fit", "40"), ("new", "80")):
         _ok(run_pincal("simulate", "ur10", "--measure", key, "--samples", samples, "--seed", "3", "--out",

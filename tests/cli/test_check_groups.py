@@ -54,19 +54,28 @@ def test_a_model_worse_beyond_its_range_fails_the_check_whatever_the_total(split
     assert content["worse_beyond"] is True
 
 
-def test_the_nominal_robot_is_registered_without_register_too(split: Path, tmp_path: Path) -> None:
-    """Without --register, MODEL keeps the setup its file holds, and the nominal robot has its setup (frame and
-    marker) registered on DATA, as calibrate's "before": its errors are those of a least-squares fit of the setup, not
-    of a marker at its nominal offset."""
-    cal = tmp_path / "cal.urdf"
-    assert run_pincal("calibrate", "tiago_no_hand", str(split / "low.csv"), "--out", str(cal)).returncode == 0
-    report = tmp_path / "check.json"
-    done = run_pincal("check", str(cal), str(split / "all.csv"), "--report", str(report))
-    assert done.returncode in (0, 1), done.stderr
-    content = json.loads(report.read_text())
-    assert "registered on DATA" in content["nominal_means"]
-    assert content["nominal_rms"] < 5e-3  # the marker-at-nominal start is 52.9 mm off on this file
-    assert set(content["setup"]["nominal"]) >= {"base.tx", "marker.wrist_ft_tool_link.x"}
+def test_the_nominal_robot_has_the_setup_calibrate_registered_for_it(split: Path, tmp_path: Path) -> None:
+    """Without --register both sides keep the calibration's setups: MODEL its file's, the nominal robot the frame and
+    marker calibrate registered for it on its own data (the "before" MODEL records), not a marker at its nominal offset;
+    with --register both are registered on DATA."""
+    cal, written = tmp_path / "cal.urdf", tmp_path / "r.json"
+    assert run_pincal("calibrate", "tiago_no_hand", str(split / "low.csv"), "--out", str(cal), "--report",
+                      str(written)).returncode == 0
+    before = json.loads(written.read_text())["before_parameters"]
+    for register in ((), ("--register",)):
+        report = tmp_path / f"check{len(register)}.json"
+        done = run_pincal("check", str(cal), str(split / "all.csv"), *register, "--report", str(report))
+        assert done.returncode in (0, 1), done.stderr
+        content = json.loads(report.read_text())
+        setup = content["setup"]["nominal"]
+        assert set(setup) >= {"base.tx", "marker.wrist_ft_tool_link.x"}
+        assert content["nominal_rms"] < 6e-3  # the marker-at-nominal start is 52.9 mm off on this file
+        if register:
+            assert "registered on DATA" in content["nominal_means"]
+            assert any(abs(setup[name] - before[name]) > 1e-6 for name in setup)  # refitted on the whole file
+        else:
+            assert "registered for it on its own data" in content["nominal_means"]
+            assert setup == pytest.approx({name: before[name] for name in setup}, rel=1e-12, abs=1e-15)
 
 
 def test_a_calibrated_urdf_carries_what_each_bound_needs(split: Path, tmp_path: Path) -> None:

@@ -1,7 +1,7 @@
 """Predicted accuracy as a user runs it (docs/predicted_accuracy.md): ``pincal calibrate`` gives each held-out posture
-a predicted 95 % bound and records the fitted joint ranges; ``pincal check`` with the report JSON gives each posture its
-bound and the coverage, widened with a warning beyond the fitted range; ``pincal compensate`` warns for commands beyond
-it.
+a predicted 95 % bound and records the fitted joint ranges; ``pincal check`` with the report JSON or the calibrated URDF
+gives each posture its bound and the coverage, grown with the distance beyond the fitted range, with a warning;
+``pincal compensate`` warns for commands beyond it and gives each target its bound.
 
 A Delta is simulated with its arms within ±0.3 rad of the reference and calibrated; a second simulation of the same
 truth (same seed: the truth is drawn before the postures) within the whole joint limits is the new data, many of its
@@ -75,23 +75,36 @@ def test_check_gives_each_posture_its_bound_widened_beyond_the_fitted_range(delt
     assert done.returncode in (0, 1), done.stderr
     content = json.loads(out.read_text(encoding="utf-8"))
     predicted = content["predicted"]
-    beyond = [s for s in content["samples"] if s["widening"] > 1.0]
-    within = [s for s in content["samples"] if s["widening"] == 1.0]
-    assert beyond and within and set(predicted["widened"]) == {s["sample"] for s in beyond}
+    beyond = [s for s in content["samples"] if s["distance"] > 0.0]
+    within = [s for s in content["samples"] if s["distance"] == 0.0]
+    assert beyond and within and set(predicted["beyond"]) == {s["sample"] for s in beyond}
     assert all(s["outside_range"] for s in beyond)  # the same postures the fitted-range check flags
     assert predicted["samples"] == 30 and predicted["inside"] == sum(s["error"] <= s["bound"]
                                                                      for s in content["samples"])
+    assert predicted["beyond_range"]["samples"] == len(beyond) and predicted["in_range"]["samples"] == len(within)
     assert min(s["bound"] for s in beyond) > max(s["bound"] for s in within)  # extrapolation is less certain
+    farthest = max(beyond, key=lambda s: s["distance"])
+    assert farthest["bound"] == max(s["bound"] for s in content["samples"])  # the bound grows with the distance
+    assert all(s["bound"] <= s["nominal_bound"] + 1e-3 for s in content["samples"])  # never past the nominal's own
     assert re.search(r"^predicted 95 % bound: median [\d.]+ mm; \d+ of 30 errors of MODEL within", done.stdout, re.M)
     assert re.search(rf"^warning: {len(beyond)} postures lie beyond the joint ranges the calibration fitted",
                      done.stdout, re.M)
-    assert "(widened × " in done.stdout
+    assert "range widths beyond the fitted range)" in done.stdout
 
 
-def test_check_of_a_calibrated_urdf_says_why_there_is_no_bound(delta: Path) -> None:
-    done = run_pincal("check", str(delta / "cal.urdf"), str(delta / "N" / "measurements.csv"))
+def test_check_of_a_calibrated_urdf_gives_the_bounds_the_report_gives(delta: Path) -> None:
+    """The calibrated URDF carries its calibration: check gives each posture the bound it gives with the report JSON;
+    a robot name carries none, and the summary says why."""
+    bounds = {}
+    for model in ("cal.urdf", "r.json"):
+        out = delta / f"check_{model}.json"
+        done = run_pincal("check", str(delta / model), str(delta / "N" / "measurements.csv"), "--report", str(out))
+        assert done.returncode in (0, 1), done.stderr
+        bounds[model] = [s["bound"] for s in json.loads(out.read_text(encoding="utf-8"))["samples"]]
+    assert bounds["cal.urdf"] == pytest.approx(bounds["r.json"], rel=1e-6) and all(b > 0 for b in bounds["cal.urdf"])
+    done = run_pincal("check", "delta", str(delta / "N" / "measurements.csv"), "--nominal", "delta")
     assert done.returncode in (0, 1), done.stderr
-    assert "predicted errors: not known: MODEL holds no covariance" in done.stdout
+    assert "predicted errors: not known: MODEL carries no calibration" in done.stdout
 
 
 def test_compensate_warns_for_commands_beyond_the_fitted_range(delta: Path) -> None:
@@ -107,3 +120,13 @@ def test_compensate_warns_for_commands_beyond_the_fitted_range(delta: Path) -> N
     assert done.returncode in (0, 1), done.stdout + done.stderr  # 1: a target unreachable
     assert re.search(r"^warning: the commands of \d+ targets \(t\d+.*leave the joint ranges the calibration fitted",
                      done.stdout, re.M)
+    assert re.search(r"^predicted 95 % bound at the targets .*: median [\d.]+ mm, largest [\d.]+ mm", done.stdout,
+                     re.M)
+    lines = [x for x in (delta / "commands.csv").read_text(encoding="utf-8").splitlines() if not x.startswith("#")]
+    commands = list(csv.DictReader(lines))
+    reached = [row for row in commands if row["status"] == "ok"]
+    assert reached and all(float(row["bound"]) > 0.0 and float(row["nominal_bound"]) > 0.0 for row in reached)
+    marked = sum(float(row["bound"]) > float(row["nominal_bound"]) for row in reached)
+    if marked:
+        assert re.search(rf"^warning: at {marked} targets .* the calibrated model's bound exceeds the nominal robot's",
+                         done.stdout, re.M)
