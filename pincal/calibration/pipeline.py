@@ -327,7 +327,8 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
         "selection": {"policy": options.selection if options.formulation == "fkm" else "none", "removed": removed,
                       "removed_groups": list(fitted.removed_groups) if removed else [],
                       "n_candidates": len(fit.parameters),
-                      "prior_factors": dict(fitted.evidence.factors) if fitted.evidence is not None else None,
+                      "prior_factors": _held_factors(fitted),
+                      "guard": fitted.guard.as_dict() if fitted.guard is not None else None,
                       "prior": options.prior},
         "unidentifiable_listing": describe_unidentifiable(first.identifiability.unidentifiable, UNIDENTIFIABLE_LINES),
         "unidentifiable_digest": digest(first.identifiability.unidentifiable, len(fit.parameters)),
@@ -358,6 +359,15 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
                         "test_readings": held.prepared.problem.n_readings(), **held.figures(),
                         "worse_than_nominal": held.worse_than_nominal})
     return content
+
+
+def _held_factors(fitted: SelectedFit) -> dict[str, float] | None:
+    """The prior factor each group is held by: the evidence's, divided by the range guard's divisor (None: the prior
+    was not automatic)."""
+    if fitted.evidence is None:
+        return None
+    firmer = fitted.guard.firmer if fitted.guard is not None else 1.0
+    return {group: factor / firmer for group, factor in fitted.evidence.factors.items()}
 
 
 def moving_joints(fit: Prepared) -> list[str]:

@@ -231,6 +231,10 @@ def _noise_verdict(report: CalibrationReport) -> str | None:
     explains nothing); None within it."""
     ratio = (report.sigma2 or 0.0) ** 0.5
     if ratio ** 2 > NOISE_CONTRADICTED and not report.explains_nothing:
+        if report.estimated_sigma:
+            return (f"THE FIT DOES NOT REACH THE NOISE THE DATA SHOW: residuals {ratio:.3g} × the σ estimated from "
+                    "them after calibration; the model, held as the prior holds it, cannot fit these data (see the "
+                    "warning below)")
         return (f"THE FIT DOES NOT REACH THE STATED NOISE: residuals {ratio:.3g} × σ after calibration; either the "
                 "stated σ is wrong or the model cannot fit these data (see the warning below)")
     return None
@@ -318,16 +322,22 @@ def _selection_line(report: CalibrationReport) -> list[str]:
     removed = selection.get("removed") or []
     factors = selection.get("prior_factors") or {}
     held = ", ".join(f"{group} {factor:.2g}×" for group, factor in factors.items() if factor > 0.0)
+    guard = selection.get("guard") or {}
+    firmer = guard.get("firmer", 1.0)
+    guarded = (f"; the range guard holds them {firmer:g}× firmer than the evidence says (each joint's range halves "
+               f"predicted each other {guard['beyond']:.3g} σ² mean square, the nominal robot "
+               f"{guard['nominal_beyond']:.3g})" if firmer != 1.0 else "")
     if selection.get("policy") == "evidence":
         words = f"left out the {', '.join(selection['removed_groups'])} ({len(removed)} parameters at nominal); " \
             if removed else ""
-        prior = f"the prior holds the {held} of their kinds' σ" if held else "no group estimated"
+        prior = f"the prior holds the {held} of their kinds' σ{guarded}" if held else "no group estimated"
         return textwrap.wrap(f"model selection (evidence): {words}{prior} (docs/calibrated_urdf.md, 'The prior')", 120,
                              subsequent_indent="  ")
     lines = [f"model selection ({selection['policy']}): left out the {', '.join(selection['removed_groups'])} "
              f"({len(removed)} parameters at nominal); --select none keeps them"] if removed else []
     if held:
-        lines.append(f"prior (auto): the evidence holds the {held} of their kinds' σ")
+        lines += textwrap.wrap(f"prior (auto): the evidence holds the {held} of their kinds' σ{guarded}", 120,
+                               subsequent_indent="  ")
     return lines
 
 
@@ -457,7 +467,13 @@ def _accounting(report: CalibrationReport) -> list[str]:
         stated = "estimated" if report.estimated_sigma else "stated"
         lines.append(f"a-posteriori σ: {ratio:.3g} × the {stated} σ (σ² factor {sigma2:.4g}); the standard deviations "
                      "use it")
-        if not 1 / 3 <= ratio <= 3:
+        if not 1 / 3 <= ratio <= 3 and report.estimated_sigma:
+            lines += textwrap.wrap(
+                f"warning: the residuals are {ratio:.3g} × the noise the data show (σ estimated with every parameter "
+                "free): the model misses an effect of these postures that only parameters held loosely could absorb "
+                "(the prior and its range guard hold them where they predict beyond the data), or the data hold "
+                "outliers", 120, subsequent_indent="  ")
+        elif not 1 / 3 <= ratio <= 3:
             lines.append(f"warning: the residuals are {ratio:.3g} × the stated noise: the stated σ (--sigma or the "
                          "file's '# sigma' lines) is wrong, or the model misses an effect")
     return lines

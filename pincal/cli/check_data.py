@@ -7,7 +7,6 @@ import math
 import textwrap
 from typing import Any
 
-from pincal.calibration.check_setup import NOMINAL_AS_CALIBRATED
 from pincal.calibration.options import OPTIONS
 from pincal.cli.arguments import add_calibration_options, given_options
 
@@ -99,6 +98,8 @@ def summary_text(content: dict[str, Any]) -> str:
 def _register_hint(content: dict[str, Any]) -> str | None:
     """Why to check with ``--register``, when DATA look measured in another setup than MODEL's: without it, MODEL worse
     than a nominal robot registered on DATA, or most of MODEL's errors beyond their predicted bound."""
+    from pincal.calibration.check_setup import NOMINAL_AS_CALIBRATED
+
     if content["registered"] or content["implausible"] is not None:
         return None
     predicted = content["predicted"]
@@ -196,10 +197,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                     "with MODEL and "
                     "with the nominal robot; print the RMS and max error of each quantity side by side. MODEL is "
                     "used as it stands (its measurement frame, markers, cameras, targets and contact planes as the "
-                    "file holds them); the nominal robot has the measurement setup the calibration registered for it on its own data "
-                    "(calibrate's 'before', which MODEL records; registered on DATA when MODEL records none). "
-                    "--register re-estimates both setups on DATA (least squares), the robots "
-                    "held. Exit status 1 when MODEL predicts DATA worse than the nominal robot, or a registration "
+                    "file holds them); the nominal robot has the measurement setup the calibration registered for "
+                    "it on its own data (calibrate's 'before', which MODEL records; registered on DATA when MODEL "
+                    "records none). --register re-estimates both setups on DATA (least squares), the robots held. Exit status 1 when MODEL predicts DATA worse than the nominal robot, or a registration "
                     "did not converge, or DATA are implausible for a robot of this model, as calibrate judges them "
                     "(docs/check.md); 2 for lengths or joint readings in a wrong unit (calibrate's checks, before any "
                     "work).",

@@ -9,7 +9,9 @@ The policies (:data:`SELECTIONS`), each a fit of every candidate parameter first
 - ``none``: every identifiable parameter.
 
 With the automatic prior (``prior="auto"``) the groups kept by ``bic``, ``cv`` or ``none`` are held by the factors the
-evidence chooses for them (:mod:`pincal.identification.evidence`).
+evidence chooses for them (:mod:`pincal.identification.evidence`), and every such prior passes the range guard
+(:mod:`pincal.identification.guard`): held firmer when the fit's own range hold-outs predict worse than the nominal
+robot.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from pincal.identification.criterion import (
     select_groups,
 )
 from pincal.identification.evidence import FACTOR_RANGE, EvidenceChoice, base_sigma, choose_prior
+from pincal.identification.guard import Guard, range_guard
 from pincal.identification.predictions import carry_over
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.result import CalibrationResult
@@ -63,7 +66,8 @@ class SelectedFit:
         removed_groups: The groups left out.
         evidence: The prior the evidence chose (its factor per group), or None when the prior was not automatic.
         prior_sigma: (p,) the prior σ of ``result``'s fit over ``problem``'s parameters [their units; inf: none], when
-            the evidence chose it (None: the prior the options gave).
+            the evidence chose it (None: the prior the options gave), the range guard's divisor applied.
+        guard: What the range guard found (:mod:`pincal.identification.guard`), when the prior is automatic.
     """
 
     problem: CalibrationProblem
@@ -74,6 +78,7 @@ class SelectedFit:
     removed_groups: tuple[str, ...] = ()
     evidence: EvidenceChoice | None = None
     prior_sigma: Array | None = None
+    guard: Guard | None = None
 
 
 def select_and_fit(problem: CalibrationProblem, policy: str = "bic", **options: Any) -> SelectedFit:
@@ -98,19 +103,37 @@ def select_and_fit(problem: CalibrationProblem, policy: str = "bic", **options: 
     first = identify(problem, **options)
     if len(first.identified) < 2 or not first.converged:  # no choice made on a failed fit
         return SelectedFit(problem, first, first, [], {})
-    if policy == "none":
-        return _with_evidence(SelectedFit(problem, first, first, [], {}), automatic, **options)
-    if policy == "cv":
-        return _with_evidence(select_by_cv(problem, first, **options), automatic, **options)
-    jac, y0 = _weighted_linear(problem, first)
-    pset = problem.parameters
     if policy == "evidence":
-        return _refit_with_evidence(problem, first, jac, y0, **options)
-    choice = select_groups(jac * pset.scales, y0, [group_of(p) for p in pset])
-    if not choice.removed_groups:
-        return _with_evidence(SelectedFit(problem, first, first, [], choice.scores), automatic, **options)
-    chosen = _refit_without(problem, first, choice.removed_groups, choice.scores, _fitted_criterion, **options)
-    return _with_evidence(chosen, automatic, **options)
+        jac, y0 = _weighted_linear(problem, first)
+        return _guarded(_refit_with_evidence(problem, first, jac, y0, **options), **options)
+    if policy == "none":
+        chosen = SelectedFit(problem, first, first, [], {})
+    elif policy == "cv":
+        chosen = select_by_cv(problem, first, **options)
+    else:
+        jac, y0 = _weighted_linear(problem, first)
+        pset = problem.parameters
+        choice = select_groups(jac * pset.scales, y0, [group_of(p) for p in pset])
+        chosen = SelectedFit(problem, first, first, [], choice.scores) if not choice.removed_groups \
+            else _refit_without(problem, first, choice.removed_groups, choice.scores, _fitted_criterion, **options)
+    return _guarded(_with_evidence(chosen, automatic, **options), **options) if automatic else chosen
+
+
+def _guarded(chosen: SelectedFit, **options: Any) -> SelectedFit:
+    """``chosen`` (a fit with the evidence's prior) with its :func:`~pincal.identification.guard.range_guard`: refitted
+    with the robot parameters' prior σ divided by the guard's divisor when that is not 1 (``chosen`` kept, the guard
+    noted, when the refit fails)."""
+    if chosen.prior_sigma is None or not chosen.result.converged:
+        return chosen
+    guard = range_guard(chosen.problem, chosen.result, chosen.prior_sigma)
+    if guard is None or guard.firmer == 1.0:
+        return replace(chosen, guard=guard)
+    robot = np.array([group_of(p) is not None for p in chosen.problem.parameters])
+    firmer = np.where(robot, chosen.prior_sigma / guard.firmer, chosen.prior_sigma)
+    refit = identify(chosen.problem, **{**options, "prior": firmer})
+    if not refit.converged:
+        return replace(chosen, guard=replace(guard, firmer=1.0))
+    return replace(chosen, result=refit, prior_sigma=firmer, guard=guard)
 
 
 def _weighted_linear(problem: CalibrationProblem, fit: CalibrationResult) -> tuple[Array, Array]:

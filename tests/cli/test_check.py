@@ -277,8 +277,8 @@ def test_tiago_job_calibrated_then_checked_on_its_held_out_rows(tmp_path: Path) 
 @pytest.mark.parametrize("key", ["plane:tool0", "plane_point:tool0"])
 def test_contact_with_a_plane_is_checked_against_the_calibrated_plane(key: str, tmp_path: Path) -> None:
     """Contact data: MODEL's calibrated plane (its ``contact_plane`` link) predicts other postures of the same truth to
-    the noise, the nominal robot with the plane calibrate registered for it does not; ``--register`` re-estimates the plane
-    (the table may have moved), and a MODEL without the plane link is refused without it."""
+    the noise, the nominal robot with the plane calibrate registered for it does not; ``--register`` re-estimates the
+    plane (the table may have moved), and a MODEL without the plane link is refused without it."""
     for out, samples in (("fit", "40"), ("new", "80")):
         _ok(run_pincal("simulate", "ur10", "--measure", key, "--samples", samples, "--seed", "3", "--out",
                        str(tmp_path / out), "--quiet"))

@@ -1,0 +1,39 @@
+"""``pincal calibrate`` with the automatic prior passes the range guard (docs/calibrated_urdf.md, 'The prior'): on the
+TALOS right arm's table contacts with four rows at the ends of its joints' ranges held out, the evidence's prior
+predicts each joint's range halves worse than the nominal robot; the guard holds it firmer, says so, and the held-out
+rows are predicted better than by the nominal robot."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from pathlib import Path
+
+from conftest import run_pincal
+
+TALOS = Path(__file__).resolve().parents[2] / "examples" / "data" / "talos_table_contact"
+
+
+def test_the_guard_holds_a_prior_that_extrapolates_worse_than_nominal(tmp_path: Path) -> None:
+    shutil.copy(TALOS / "right_train.csv", tmp_path / "right_train.csv")
+    job = (TALOS / "right_job.toml").read_text(encoding="utf-8")
+    job, count = re.subn(r"^held_out = .*$", "held_out = [2, 12, 23, 24]", job, flags=re.M)
+    assert count == 1
+    (tmp_path / "job.toml").write_text(job, encoding="utf-8")
+    report = tmp_path / "r.json"
+    done = run_pincal("calibrate", str(tmp_path / "job.toml"), "--out", str(tmp_path / "cal.urdf"), "--report",
+                      str(report))
+    assert done.returncode == 0, done.stdout + done.stderr
+    text = " ".join(done.stdout.split())  # the summary wraps its lines at 120 columns
+    found = re.search(r"the range guard holds them (\d+)× firmer than the evidence says \(each joint's range halves "
+                      r"predicted each other ([\d.e+]+) σ² mean square, the nominal robot ([\d.e+]+)\)", text)
+    assert found, done.stdout
+    content = json.loads(report.read_text(encoding="utf-8"))
+    guard = content["selection"]["guard"]
+    assert guard["firmer"] == float(found[1]) > 1.0
+    assert guard["beyond"] <= guard["nominal_beyond"]  # held firmer until no worse than the nominal robot
+    tried = {divisor: beyond for divisor, _, beyond in guard["scores"]}
+    assert tried[1.0] > guard["nominal_beyond"]  # the evidence's own prior: worse
+    assert content["test_rms_after"] < content["test_rms_before"]  # the held-out rows, predicted for real
+    assert (tmp_path / "cal.urdf").is_file()
