@@ -11,8 +11,8 @@ import pincal
 from pincal.calibration.campaign import simulate
 from pincal.calibration.pipeline import calibrate
 from pincal.errors import DataError
-from pincal.identification.problem import CalibrationProblem
 from pincal.identification.criterion import group_of, information_criterion, select_groups
+from pincal.identification.problem import CalibrationProblem
 from pincal.identification.selection import select_and_fit
 from pincal.io.adapters import measurements_for, observations_from
 
