@@ -102,7 +102,8 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     e.g. ``parameter_spec=["model24"]``, ``cv="5x4"``) choose the parameters, the solver and loss, the weights, the
     formulation, model selection and cross-validation. Errors before/after are position errors [m] (and, for poses,
     orientation errors [rad]) by forward kinematics, so the ``fkm`` and ``ikm`` formulations can be compared; "before"
-    is the fit's start for the fit and the held-out samples alike (``report.before_means`` says what it is). Samples
+    is the nominal robot with its setup registered on the training samples, for the fit and the held-out samples
+    alike (``report.before_means`` says what it is; the fit's start is ``report.rms_start``). Samples
     that cannot be used are dropped and listed; ``x_true`` (a simulation's true deviations [m, rad]) adds the
     calibration gain G; ``progress`` shows the stages, then the cross-validation's folds, on stderr (on a terminal).
 
@@ -411,8 +412,8 @@ def bad_readings_of(result: CalibrationResult) -> list[BadReading]:
 
 
 def sample_errors(ids: list[str], before: dict[str, Array], after: dict[str, Array], part: str) -> list[dict[str, Any]]:
-    """Per sample of ``part`` (``train`` or ``test``): its id and its length-type error [m] before (the fit's start)
-    and after (None for a sample with no length reading)."""
+    """Per sample of ``part`` (``train`` or ``test``): its id and its length-type error [m] before (the nominal robot
+    with its setup registered) and after (None for a sample with no length reading)."""
     n = len(ids)
     per_before, per_after = sample_length_errors(before, n), sample_length_errors(after, n)
     if per_before is None or per_after is None:

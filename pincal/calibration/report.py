@@ -50,11 +50,12 @@ class CalibrationReport:
     """A calibration's figures and account; every length in m, every angle in rad.
 
     The fit's figures (``rms_before`` … ``max_after``) are over the fitted samples' readings; the held-out ones
-    (``test_*``) over the held-out samples', "before" being the fit's start in both (``before_means`` says what that
-    is). ``parameters`` maps each parameter to ``{"value", "std", "identified"}``; ``dropped_samples`` and
-    ``down_weighted`` list samples by id with the reason or weight; ``bad_readings`` the fitted samples left out (weight
-    0) because one wrong joint reading explains their error: ``{"sample", "joint", "off" [rad or m], "unit",
-    "explained" (0–1)}``; ``cv`` is the cross-validation's account.
+    (``test_*``) over the held-out samples', "before" being the nominal robot with its setup registered in both
+    (``before_means`` says what that is; the fit's start is ``rms_start``, ``test_rms_start``, ``start_means``).
+    ``parameters`` maps each parameter to ``{"value", "std", "identified"}``; ``dropped_samples`` and ``down_weighted``
+    list samples by id with the reason or weight; ``bad_readings`` the fitted samples left out (weight 0) because one
+    wrong joint reading explains their error: ``{"sample", "joint", "off" [rad or m], "unit", "explained" (0–1)}``;
+    ``cv`` is the cross-validation's account.
     ``length_scale`` is each measured position's spread over the nominal robot's at the same readings; ``implausible``
     and ``implausible_scale`` list the corrections and the scales beyond what a robot of this model plausibly needs
     (the factor ``plausible`` on the documented limits, :mod:`pincal.calibration.plausibility`), and

@@ -161,8 +161,10 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
         lines += textwrap.wrap(f"(before: {report.before_means})", 120, subsequent_indent=" ")
     if report.rms_start is not None:
         held = f", {mm(report.test_rms_start)} (held out)" if report.test_rms_start is not None else ""
-        lines += textwrap.wrap(f"(the fit's start, {report.start_means.split(', for fit')[0]}: RMS "
-                               f"{mm(report.rms_start)} (fit){held})", 120, subsequent_indent=" ")
+        what, _, why = report.start_means.partition(", for fit and held-out samples alike")
+        why = why.removeprefix("; ")  # why a closed form could not place the setup: said, not dropped
+        lines += textwrap.wrap(f"(the fit's start, {what}: RMS {mm(report.rms_start)} (fit){held}"
+                               f"{'; ' + why if why else ''})", 120, subsequent_indent=" ")
     lines += _predicted(report)
     if report.joints_at_reference:
         lines += _listed_in_lines("not in the file, at their reference (they move nothing measured)",

@@ -41,7 +41,7 @@ class SimulatedCalibration:
 
     - ``gain`` [%]: G of study 000 Eq. 4.1 over all parameters, ``gain_identified`` over the identified ones;
     - ``rms_before``, ``rms_after`` [m]: RMS length-type error on the held-out postures (the report's
-      ``test_rms_before``/``test_rms_after``: "before" is the fit's start);
+      ``test_rms_before``/``test_rms_after``: "before" is the nominal robot with its setup registered);
     - ``parameter_error`` [m, rad]: ``max |x̂ − x_true|`` over the identified parameters;
     - ``rank``, ``condition_number``, ``iterations``, ``converged`` (1/0).
 

@@ -1,6 +1,6 @@
 """A wrong joint reading in one fitted sample (one joint off, a digit lost) or a loop that cannot close at one
-sample's readings: ``pincal calibrate`` ends exit 0, as accurate as on the clean file, and names the sample and the
-joint; the clean files name none.
+sample's readings: ``pincal calibrate`` ends exit 0, as accurate as on the clean file (a wrong reading: as without
+its sample), and names the sample and the joint; the clean files name none.
 
 Each case edits one cell of a campaign ``pincal simulate`` wrote. The five-bar and hexapod cases take 6-10 s: their
 least-squares first pass, pulled 0.1 m or 20 mm by the wrong reading, takes 50-140 iterations before the robust
@@ -57,6 +57,13 @@ def _with_reading(clean: Path, out: Path, sample: str, joint: str, edit: Callabl
     return float(before), float(cells[column])
 
 
+def _without(clean: Path, out: Path, sample: str) -> Path:
+    """``clean`` without its fitted ``sample``, written to ``out``."""
+    lines = clean.read_text().splitlines()
+    out.write_text("\n".join(line for line in lines if line.split(",")[:2] != [sample, "train"]) + "\n")
+    return out
+
+
 def _calibrated(robot: str, data: Path, where: Path, name: str) -> tuple[Any, dict[str, Any]]:
     """``pincal calibrate ROBOT DATA --out … --report …`` (exit 0 asserted); its run and its report."""
     report = where / f"{name}.json"
@@ -96,7 +103,10 @@ def test_a_wrong_joint_reading_is_named_and_left_out(campaigns: Callable[[str], 
     assert named["explained"] > 0.99
     assert sample in bad["down_weighted_samples"] and bad["dropped_samples"] == []
     assert f"  - sample {sample}: {joint} reading looks " in done.stdout
-    assert bad["test_rms_after"] <= 1.1 * good["test_rms_after"]
+    # as accurate as the clean file without the sample whose reading is wrong (left out, the posture is lost: on the
+    # five-bar's 30 postures that alone costs 7 % of the held-out RMS); the wrong reading costs nothing more
+    _, spared = _calibrated(robot, _without(clean, tmp_path / "spared.csv", sample), tmp_path, "spared")
+    assert bad["test_rms_after"] <= 1.1 * spared["test_rms_after"]
     assert bad["implausible"] == [] and bad["converged"]
     assert good["bad_readings"] == []  # the clean file names none
 
