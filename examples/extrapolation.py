@@ -264,8 +264,8 @@ def page(campaigns: list[dict[str, Any]], real: list[dict[str, Any]], seconds: f
     lines = ["# Trust beyond the data", "",
              f"Command: `python examples/extrapolation.py{' --quick' if quick else ''} --publish`. This page is "
              f"written by that script; the run that wrote it took {seconds:.0f} s. Lengths are RMS position errors "
-             "(plane distances for TALOS) of held-out postures [mm]; *within the bound* counts the held-out errors within "
-             "their predicted 95 % bound.", "",
+             "(plane distances for TALOS) of held-out postures [mm]; *within the bound* counts the held-out errors "
+             "within their predicted 95 % bound.", "",
              "Models: **nominal**, the nominal robot with its setup (measurement frame, markers, planes) registered on "
              "the same training postures (the *before* of `pincal calibrate`); **before**, the default before this "
              "change (`--select bic --prior 1`, its bound widened by `1 + Σ d_j / w_j` beyond the fitted range); "

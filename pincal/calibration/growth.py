@@ -43,6 +43,7 @@ import numpy.typing as npt
 from pincal.calibration.propagation import LengthLayout, length_layout, row_sigmas, sample_bounds
 from pincal.calibration.samples import RANGE_MARGIN
 from pincal.identification.holdouts import FOLDS, SEED, Linearised, range_halves, shuffled_folds
+from pincal.identification.parameters import joint_unit
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
 
@@ -107,16 +108,28 @@ class ErrorGrowth:
             return None
 
 
-def extrapolation_distance(actuated: Array, columns: Sequence[int], ranges: Sequence[tuple[float, float]]) -> Array:
+def extrapolation_distance(actuated: Array, columns: Sequence[int], ranges: Sequence[tuple[float, float]],
+                           angular: Sequence[bool] | None = None) -> Array:
     """Each posture's distance beyond a fitted range, ``u = Σ_j d_j / max(w_j, MIN_WIDTH)`` (dimensionless): ``d_j``
     [rad or m] how far the reading of actuated column ``columns[j]`` of ``actuated`` (N, na) lies beyond
     ``ranges[j]`` = (min, max) and its margin of ``RANGE_MARGIN`` of the width on each side (as the warnings on
-    postures outside the fitted range count it), ``w_j`` that range's width. 0 inside every range and its margin."""
+    postures outside the fitted range count it), ``w_j`` that range's width. 0 inside every range and its margin.
+    ``angular[j]``: column j reads a revolute joint [rad], which moves the robot alike at q and q ± 2π: its readings
+    are compared on the circle, as the warnings compare them (the nearer end; a range that spans the circle, margins
+    included, leaves none beyond). Default: none is."""
     distance = np.zeros(actuated.shape[0])
-    for column, (low, high) in zip(columns, ranges, strict=True):
+    circular = [False] * len(columns) if angular is None else list(angular)
+    for column, (low, high), around in zip(columns, ranges, circular, strict=True):
         values = actuated[:, column]
         margin = RANGE_MARGIN * (high - low)
-        beyond = np.maximum(low - margin - values, 0.0) + np.maximum(values - high - margin, 0.0)
+        span = high - low + 2.0 * margin
+        if not around:
+            beyond = np.maximum(low - margin - values, 0.0) + np.maximum(values - high - margin, 0.0)
+        elif span >= 2.0 * math.pi:
+            beyond = np.zeros(values.size)
+        else:
+            past = np.remainder(values - (low - margin), 2.0 * math.pi)  # round from the margin's start, in [0, 2π)
+            beyond = np.where(past > span, np.minimum(past - span, 2.0 * math.pi - past), 0.0)
         distance += beyond / max(high - low, MIN_WIDTH)
     return distance
 
@@ -181,6 +194,7 @@ def _nominal_bound(problem: CalibrationProblem, result: CalibrationResult, x_bef
     nominal = Linearised.of_fit(problem, result, at.residual, at.jacobian[:, setup], np.full(len(setup), math.inf),
                                 setup, x_before[setup])
     actuated = problem.observations.actuated
+    angular = [joint_unit(problem.robot, problem.robot.actuated_joints[c]) == "rad" for c in columns]
     inside: list[Array] = []
     for held in shuffled:
         residual, _, out = nominal.refit(held)
@@ -193,7 +207,7 @@ def _nominal_bound(problem: CalibrationProblem, result: CalibrationResult, x_bef
         length = _sample_lengths(problem, layout, held, out, residual)
         train = np.setdiff1d(np.arange(actuated.shape[0]), held)
         ranges = [(float(np.min(actuated[train, c])), float(np.max(actuated[train, c]))) for c in columns]
-        distance = extrapolation_distance(actuated[held], columns, ranges)
+        distance = extrapolation_distance(actuated[held], columns, ranges, angular)
         keep = np.isfinite(length) & (distance > 0.0)
         errors.append(length[keep])
         distances.append(distance[keep])

@@ -11,7 +11,8 @@ The report's held-out figures, the HTML page's figures and tables, ``view`` and 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -37,6 +38,7 @@ from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
 from pincal.identification.solver import identify
 from pincal.io.dataset import Dataset
+from pincal.model.assemblable import assemble
 
 Array = npt.NDArray[np.float64]
 
@@ -183,6 +185,25 @@ class HeldOut:
         return coverage(self.predicted, self.sample_errors()[1]) if self.predicted is not None else None
 
 
+def _assembled_at(test: Prepared, x: Array) -> Prepared:
+    """``test`` less the samples the model at ``x`` cannot assemble (a closed-loop robot whose loops do not close at
+    their readings under the estimate), each listed in its ``dropped`` with the reason."""
+    problem = test.problem
+    if not problem.robot.loops or not problem.observations.n_samples:
+        return test
+    solved = assemble(problem.robot_at(x), problem.observations.actuated, math.inf)
+    if solved.usable.all():
+        return test
+    ids = test.samples.sample_ids
+    lost = [{"sample": ids[k], "reason": f"the calibrated model cannot assemble it: {solved.reasons[k]}"}
+            for k in np.flatnonzero(~solved.usable).tolist()]
+    kept = test.samples.subset(np.flatnonzero(solved.usable))
+    again = test.on(kept, test.parameters, "held-out ") if kept.n_samples else None
+    if again is None:
+        return replace(test, dropped=test.dropped + lost)
+    return replace(again, dropped=test.dropped + again.dropped + lost)
+
+
 def evaluate_held_out(fit: Prepared, dataset: Dataset, parameters: ParameterSet, x0: Array, x: Array,
                       trusted: bool = True, result: CalibrationResult | None = None,
                       x_start: Array | None = None, growth: ErrorGrowth | None = None) -> HeldOut | None:
@@ -194,7 +215,7 @@ def evaluate_held_out(fit: Prepared, dataset: Dataset, parameters: ParameterSet,
     sample's predicted bound."""
     if "test" not in dataset.sets:
         return None
-    test = fit.on(dataset.of_set("test"), parameters, "held-out ")
+    test = _assembled_at(fit.on(dataset.of_set("test"), parameters, "held-out "), x)
     problem = test.problem
     before = problem.evaluate(x0, jacobian=False).errors
     held = problem.evaluate(x, jacobian=False)

@@ -28,6 +28,7 @@ from pincal.calibration.report import parameter_covariance
 from pincal.errors import ConvergenceError, PincalError
 from pincal.identification.choices import MarkerFit
 from pincal.identification.metrics import length_columns
+from pincal.identification.parameters import joint_unit
 from pincal.identification.predictions import remember
 from pincal.identification.problem import CalibrationProblem, Observations, Prediction
 from pincal.identification.result import CalibrationResult
@@ -124,7 +125,8 @@ def distance(robot: Robot, actuated: Array, ranges: dict[str, list[float]]) -> A
     extrapolation_distance`) for its readings ``actuated`` (N, na) [rad or m]; 0 inside them."""
     known = [j for j in ranges if j in robot.actuated_joints]
     return extrapolation_distance(actuated, [robot.actuated_joints.index(j) for j in known],
-                                  [(ranges[j][0], ranges[j][1]) for j in known])
+                                  [(ranges[j][0], ranges[j][1]) for j in known],
+                                  [joint_unit(robot, j) == "rad" for j in known])
 
 
 def outside_range(robot: Robot, actuated: Array, ranges: dict[str, list[float]]) -> npt.NDArray[np.bool_]:

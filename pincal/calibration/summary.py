@@ -14,6 +14,7 @@ from typing import Any
 from pincal import validation
 from pincal.calibration.heldout import NOISE_CONTRADICTED
 from pincal.calibration.report import CalibrationReport
+from pincal.calibration.summary_model import mm, mrad, predicted_lines, selection_lines
 from pincal.identification.corrections import payload_from_dict
 from pincal.identification.parameters import DEFAULT_SET, NAMED_SETS
 
@@ -37,16 +38,6 @@ def report_robot(report: CalibrationReport) -> tuple[str, str]:
     return robot_named(given, report.robot), urdf_name_note(given, report.robot)
 
 
-def mm(value: float | None) -> str:
-    """A length [m] in mm for the terminal ("-" when missing)."""
-    return "-" if value is None or value != value else f"{value * 1e3:.4f} mm"
-
-
-def mrad(value: float | None) -> str:
-    """An angle [rad] in mrad for the terminal ("-" when missing)."""
-    return "-" if value is None or value != value else f"{value * 1e3:.4f} mrad"
-
-
 def _figure_rows(quantity: str, part: str, unit: Callable[[float | None], str], rms_before: float | None,
                  rms_after: float | None, max_before: float | None, max_after: float | None,
                  width: int = 32) -> list[str]:
@@ -67,32 +58,6 @@ def _label_width(report: CalibrationReport) -> int:
 def _column(value: str) -> str:
     """A figure of the before/after table, right-aligned in 14 characters and never run into the one before it."""
     return f" {value:>13}"
-
-
-def _predicted(report: CalibrationReport) -> list[str]:
-    """The predicted accuracy's lines: the held-out samples' 95 % bounds and how many errors they hold, the bound over
-    the workspace (pincal.calibration.predicted)."""
-    lines = []
-    held, space = report.predicted_held_out, report.predicted_workspace
-    if held and held.get("median_bound") is not None:
-        lines.append(f"predicted 95 % bound (held out): median {mm(held['median_bound'])}; {held['inside']} of "
-                     f"{held['samples']} errors within their bound ({held['fraction']:.0%})")
-        beyond = held.get("beyond_range") or {}
-        if beyond.get("samples"):
-            inside = held.get("in_range") or {}
-            lines.append(f"  beyond the fitted joint range {beyond['inside']} of {beyond['samples']} within their "
-                         f"bound (grown with the distance), inside it {inside.get('inside', 0)} of "
-                         f"{inside.get('samples', 0)}")
-    if space and space.get("median_bound") is not None:
-        capped = f"; {space['capped']} at the nominal robot's own bound" if space.get("capped") else ""
-        lines.append(f"predicted 95 % bound over the workspace ({space['postures']} postures within the joint "
-                     f"limits): median {mm(space['median_bound'])}, max {mm(space['max_bound'])}{capped}")
-    growth = report.error_growth
-    if growth and growth.get("nominal0") is not None:
-        lines.append(f"  the data's hold-outs: bound × {growth['rho0'] ** 0.5:.2f} inside the fitted range, + "
-                     f"{mm(growth['nominal1'])} per range width beyond it; the nominal robot's own bound "
-                     f"{mm(growth['nominal0'])} (docs/predicted_accuracy.md)")
-    return lines
 
 
 def _heavy_payload(report: CalibrationReport) -> str | None:
@@ -137,7 +102,7 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
              f"samples {report.n_samples}, parameters {report.n_parameters}, "
              f"identifiable {report.n_identifiable}, estimated {report.n_estimated}"
              f", condition number {report.condition_number:.3g}" if report.condition_number else "",
-             *_selection_line(report),
+             *selection_lines(report),
              f"payload {payload_from_dict(report.payload)}, in the gravity torque of the compliances"
              if report.payload else None,
              _heavy_payload(report),
@@ -165,7 +130,7 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
         why = why.removeprefix("; ")  # why a closed form could not place the setup: said, not dropped
         lines += textwrap.wrap(f"(the fit's start, {what}: RMS {mm(report.rms_start)} (fit){held}"
                                f"{'; ' + why if why else ''})", 120, subsequent_indent=" ")
-    lines += _predicted(report)
+    lines += predicted_lines(report)
     if report.joints_at_reference:
         lines += _listed_in_lines("not in the file, at their reference (they move nothing measured)",
                                   report.joints_at_reference, JOINT_LINES)
@@ -314,32 +279,6 @@ def _implausible(report: CalibrationReport) -> list[str]:
                                subsequent_indent="    ", break_on_hyphens=False)
     lines.append("  (if the data are right for this robot: --plausible F widens the limits F times, --plausible off "
                  "turns the check off)")
-    return lines
-
-
-def _selection_line(report: CalibrationReport) -> list[str]:
-    """What model selection left out, and how firmly the evidence holds each group kept (nothing when neither
-    applies)."""
-    selection = report.selection or {}
-    removed = selection.get("removed") or []
-    factors = selection.get("prior_factors") or {}
-    held = ", ".join(f"{group} {factor:.2g}×" for group, factor in factors.items() if factor > 0.0)
-    guard = selection.get("guard") or {}
-    firmer = guard.get("firmer", 1.0)
-    guarded = (f"; the range guard holds them {firmer:g}× firmer than the evidence says (each joint's range halves "
-               f"predicted each other {guard['beyond']:.3g} σ² mean square, the nominal robot "
-               f"{guard['nominal_beyond']:.3g})" if firmer != 1.0 else "")
-    if selection.get("policy") == "evidence":
-        words = f"left out the {', '.join(selection['removed_groups'])} ({len(removed)} parameters at nominal); " \
-            if removed else ""
-        prior = f"the prior holds the {held} of their kinds' σ{guarded}" if held else "no group estimated"
-        return textwrap.wrap(f"model selection (evidence): {words}{prior} (docs/calibrated_urdf.md, 'The prior')", 120,
-                             subsequent_indent="  ")
-    lines = [f"model selection ({selection['policy']}): left out the {', '.join(selection['removed_groups'])} "
-             f"({len(removed)} parameters at nominal); --select none keeps them"] if removed else []
-    if held:
-        lines += textwrap.wrap(f"prior (auto): the evidence holds the {held} of their kinds' σ{guarded}", 120,
-                               subsequent_indent="  ")
     return lines
 
 

@@ -221,7 +221,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
 def cmd_fleet(args: argparse.Namespace) -> int:
     """``pincal fleet``: calibrate one robot per CSV (or job file) of a directory (process pool or Dask scheduler) and
     print one row per robot; exit status 1 unless every result is usable."""
-    from pincal.calibration.summary import mm, verdict
+    from pincal.calibration.summary import verdict
+    from pincal.calibration.summary_model import mm
     from pincal.fleet import calibrate_fleet, jobs_from_directory
 
     where = Path(args.data_dir)

@@ -199,7 +199,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                     "used as it stands (its measurement frame, markers, cameras, targets and contact planes as the "
                     "file holds them); the nominal robot has the measurement setup the calibration registered for "
                     "it on its own data (calibrate's 'before', which MODEL records; registered on DATA when MODEL "
-                    "records none). --register re-estimates both setups on DATA (least squares), the robots held. Exit status 1 when MODEL predicts DATA worse than the nominal robot, or a registration "
+                    "records none). --register re-estimates both setups on DATA (least squares), the robots held. "
+                    "Exit status 1 when MODEL predicts DATA worse than the nominal robot, or a registration "
                     "did not converge, or DATA are implausible for a robot of this model, as calibrate judges them "
                     "(docs/check.md); 2 for lengths or joint readings in a wrong unit (calibrate's checks, before any "
                     "work).",

@@ -1,15 +1,17 @@
 """The predicted errors' arithmetic: the norm quantile against sampling, the propagation against finite differences
-of the predictions, the widening beyond the fitted range."""
+of the predictions, the distance beyond the fitted range."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.stats import chi2
 
 import pincal
 from pincal.calibration.campaign import simulate
 from pincal.calibration.pipeline import calibrate
-from pincal.calibration.predicted import FitCovariance, norm_quantile, predicted_errors, widening
+from pincal.calibration.predicted import FitCovariance, distance, predicted_errors
+from pincal.calibration.propagation import norm_quantile
 from pincal.calibration.report import covariance_of
 
 
@@ -44,16 +46,23 @@ def test_the_propagation_matches_finite_differences_of_the_predictions() -> None
     for k in range(problem.observations.n_samples):
         s = jacobian[k] @ covariance @ jacobian[k].T + noise * np.eye(3)
         assert np.allclose(held.predicted.sigma[k], np.sqrt(np.diag(s)), rtol=1e-4)
-        assert np.isclose(held.predicted.bound[k], norm_quantile(s), rtol=1e-4)
+        assert np.isclose(held.predicted.linear[k], norm_quantile(s), rtol=1e-4)  # the covariance's own bound
     # the covariance read back from the report JSON's figures gives the same bounds
     again = predicted_errors(problem, FitCovariance.of_report(report, result.sigma2, problem.parameters.names), x)
-    assert np.allclose(again.bound, held.predicted.bound, rtol=1e-9)
+    assert np.allclose(again.linear, held.predicted.linear, rtol=1e-9)
 
 
-def test_the_widening_grows_with_the_distance_beyond_the_range_and_its_margin() -> None:
-    robot = pincal.load_robot("five_bar")
-    joint = robot.actuated_joints[0]
+def test_the_distance_counts_range_widths_beyond_the_margin_on_the_circle() -> None:
+    """A revolute joint's readings are compared on the circle, as the warnings on postures outside the fitted range
+    compare them: 2π past a reading is the same posture, the nearer end counts, and a range that spans the circle
+    leaves none beyond."""
+    robot = pincal.load_robot("ur10")
+    joint = robot.actuated_joints[5]  # the wrist: a revolute joint of limits ±2π
+    actuated = np.zeros((5, robot.n_actuated))
+    actuated[:, 5] = [0.5, 1.05, 2.1, 0.5 + 2 * np.pi, -1.1]
     ranges = {joint: [0.0, 1.0]}  # margin 0.1 on each side: [-0.1, 1.1]; width 1.0
-    actuated = np.zeros((4, robot.n_actuated))
-    actuated[:, 0] = [0.5, 1.05, 2.1, -1.1]
-    assert np.allclose(widening(robot, actuated, ranges), [1.0, 1.0, 2.0, 2.0])
+    assert np.allclose(distance(robot, actuated, ranges), [0.0, 0.0, 1.0, 0.0, 1.0])
+    far = np.zeros((1, robot.n_actuated))
+    far[0, 5] = 1.1 + np.pi + 0.5  # beyond the upper end by π + 0.5: nearer the lower one, 2π − (π + 0.5 + 1.2) away
+    assert distance(robot, far, ranges) == pytest.approx([2 * np.pi - (np.pi + 0.5) - 1.2])
+    assert np.allclose(distance(robot, actuated, {joint: [-3.0, 3.0]}), 0.0)  # with its margins, the whole circle
