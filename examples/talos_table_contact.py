@@ -122,9 +122,12 @@ def verdict(lines: list[Line]) -> list[str]:
                    f"({ratio(held[0], held[1])}× smaller); cross-validated, {mm(cv)} mm against {mm(alone)} mm "
                    f"with the plane alone ({ratio(alone, cv)}× smaller), the tilts {mrad(f['cv_tilt'])} against "
                    f"{mrad(plane['cv_tilt'])} mrad.")
-    best = min(lines, key=lambda line: round(line.figures()["cv_distance"] * 1e4))
-    out.append(f"- Cross-validated, the smallest distance RMS is that of {best.model} "
-               f"({mm(best.figures()['cv_distance'])} mm).")
+    shown = {line.model: round(line.figures()["cv_distance"] * 1e4) for line in lines}  # [0.1 mm], as printed
+    best = [model for model, figure in shown.items() if figure == min(shown.values())]
+    smallest = mm(min(shown.values()) * 1e-4)
+    out.append(f"- Cross-validated, the smallest distance RMS is that of {best[0]} ({smallest} mm)." if len(best) == 1
+               else f"- Cross-validated, {' and '.join(best)} share the smallest distance RMS to 0.1 mm "
+                    f"({smallest} mm).")
     return out
 
 
