@@ -376,7 +376,7 @@ def _plausibility(nominal: Side, register: bool, options: CalibrationOptions) ->
     if found is not None and not register:
         found = beyond(_side(nominal.prepared, nominal.x, True, options))
     return None if found is None else implausible_data(found, nominal.prepared.robot, nominal.prepared.samples,
-                                                       options)
+                                                       nominal.prepared.models, options)
 
 
 def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:

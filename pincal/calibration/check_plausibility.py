@@ -26,6 +26,7 @@ from pincal.calibration.options import CalibrationOptions, plausible_factor
 from pincal.errors import PincalError
 from pincal.identification.parameters.kinds import PLACEMENT_PLAUSIBLE
 from pincal.io.dataset import Dataset
+from pincal.identification.measurements import Measurement
 from pincal.model.robot import Robot
 
 #: The likely cause when no calibration on the data can say more (calibrate's causes, together).
@@ -92,15 +93,27 @@ def beyond_plausible(length_rms: float, angle_rms: float, plausible: float | str
     return None
 
 
-def implausible_data(beyond: Beyond, nominal: Robot, samples: Dataset,
+def implausible_data(beyond: Beyond, nominal: Robot, samples: Dataset, models: list[Measurement],
                      options: CalibrationOptions) -> Implausible | None:
-    """The checked ``samples`` calibrated on ``nominal`` as ``pincal calibrate`` would (every sample fitted, the
-    options of the check, no cross-validation), and judged by its plausibility check: the corrections and scales beyond
-    what a robot of this model needs and their likely cause; None when the calibration finds none (the data are of a
-    robot far off its URDF, but plausibly so). When no calibration can be made (too few samples, a failed solve), the
-    data are judged implausible on ``beyond`` alone, the cause left open."""
+    """The checked ``samples`` judged as ``pincal calibrate`` judges them. A joint column read with the other sign or
+    two columns exchanged (:func:`~pincal.calibration.columns.column_mistake`, which ``calibrate`` refuses before any
+    fit) is the cause, with its evidence and remedy. Otherwise the samples are calibrated on ``nominal`` as
+    ``calibrate`` would (every sample fitted, the options of the check, no cross-validation) and judged by its
+    plausibility check: the corrections and scales beyond what a robot of this model needs and their likely cause;
+    None when the calibration finds none (the data are of a robot far off its URDF, but plausibly so). When no
+    calibration can be made (too few samples, a failed solve), the data are judged implausible on ``beyond`` alone,
+    the cause left open."""
+    from pincal.calibration.columns import column_mistake
     from pincal.calibration.pipeline import calibrate
 
+    try:
+        mistake = column_mistake(nominal, samples, models)
+    except PincalError:  # data the probe cannot read say nothing of their columns
+        mistake = None
+    if mistake is not None:
+        return Implausible(beyond, options.plausible,
+                           cause=f"{mistake.what}: {mistake.evidence}; {mistake.fix}, or give --plausible off to "
+                                 "compare the two robots on the readings as they are")
     fitted = replace(samples, sets=["train"] * samples.n_samples)
     try:
         report = calibrate(nominal, fitted, options.replace(cv=None)).report
