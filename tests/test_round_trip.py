@@ -33,12 +33,15 @@ def planar_arm(names: list[str], length: float) -> str:
             f'<origin xyz="{length} 0 0"/></joint></robot>')
 
 
-@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(names=st.lists(NAMES, min_size=2, max_size=2, unique=True), length=st.floats(1e-3, 6.0),
+@settings(max_examples=10, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(names=st.lists(NAMES, min_size=2, max_size=2, unique=True), length=st.floats(0.05, 6.0),
        samples=st.integers(8, 40), seed=st.integers(0, 2**32 - 1))
 def test_simulated_data_read_back_exactly_and_calibrate(names: list[str], length: float, samples: int,
                                                         seed: int) -> None:
-    """Lengths up to 6 m: the reach (12 m) stays below the 20 m past which the reader takes values for millimetres."""
+    """Lengths from 5 cm to 6 m: the reach (12 m) stays below the 20 m past which the reader takes values for
+    millimetres, and the simulated errors (σ 1 mm, 1 mrad) stay small against the links (a robot a few millimetres
+    long with millimetre errors is not one the linear picture holds for); the examples are drawn the same on every
+    run."""
     with tempfile.TemporaryDirectory() as folder:
         urdf = Path(folder) / "arm.urdf"
         urdf.write_text(planar_arm(names, length), encoding="utf-8")

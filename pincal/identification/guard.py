@@ -10,14 +10,18 @@ with the hold-outs of :mod:`pincal.identification.holdouts` (one linearised solv
   from the upper half and predicted, then the other way round (:func:`~pincal.identification.holdouts.range_halves`);
 - *inside*: five folds of one seeded shuffle (:func:`~pincal.identification.holdouts.shuffled_folds`).
 
-Each score is the mean square of the held-out rows' weighted residuals [σ²]. The nominal robot's is that of the same
-refits with the robot held at nominal (its setup alone refitted). When the chosen prior's *beyond* score exceeds the
-nominal robot's, every robot parameter's prior σ is divided by the smallest of :data:`FIRMER` whose beyond score does
-not (the sum of both scores decides among them), or by the last when none does; the fit is then made again with it.
+Each score is the mean square of the held-out rows' weighted residuals [σ²], each times its sample's robust weight. The
+nominal robot's is that of the same refits with the robot held at nominal (its setup alone refitted). When the chosen
+prior's *beyond* squares exceed the nominal robot's beyond chance (their mean difference, held-out sample by held-out
+sample, above :data:`SIGNIFICANT` standard errors), every robot parameter's prior σ is divided by the smallest of
+:data:`FIRMER` whose beyond score is not above the nominal robot's (the least sum of both scores decides among them),
+or, when none is (the linear picture of the refits does not reach the nominal robot's), by the one of the least beyond
+score; the fit is then made again with it.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -36,6 +40,11 @@ Array = npt.NDArray[np.float64]
 MIN_SAMPLES = 4
 #: The divisors of the robot parameters' prior σ tried, in order (the last: the robot practically held at nominal).
 FIRMER = (3.0, 10.0, 30.0, 100.0, 1000.0)
+#: Scores within this share of the nominal robot's are a tie of rounding, not worse (the chosen prior kept).
+TIE = 1e-6
+#: The chosen prior's held-out squares are worse than the nominal robot's when their mean difference, sample by sample,
+#: is above this many standard errors of it.
+SIGNIFICANT = 2.0
 
 
 @dataclass(frozen=True)
@@ -89,23 +98,50 @@ def range_guard(problem: CalibrationProblem, result: CalibrationResult, prior: A
         precision = linear.precision.copy()
         precision[robot] *= divisor**2
         held = Linearised(linear.jacobian, linear.residual, linear.weights, precision, linear.x, linear.rows)
-        return float(np.mean(_squares(held, inside))), float(np.mean(_squares(held, beyond)))
+        return _score(_squares(held, inside)), _score(_squares(held, beyond))
 
     # the nominal robot: the robot's parameters back at nominal (0), the setup alone refitted
     at_nominal = linear.residual - linear.jacobian[:, robot] @ linear.x[robot]
     nominal = Linearised(linear.jacobian[:, ~robot], at_nominal, linear.weights, linear.precision[~robot],
                          linear.x[~robot], linear.rows)
-    nominal_beyond = float(np.mean(_squares(nominal, beyond)))
+    nominal_squares = _squares(nominal, beyond)
+    nominal_beyond = _score(nominal_squares)
     tried = [(1.0, *scores(1.0))]
-    if tried[0][2] <= nominal_beyond:
+    if not _worse(_squares(linear, beyond), nominal_squares):
         return Guard(1.0, tried[0][2], tried[0][1], nominal_beyond, tuple(tried))
     tried += [(d, *scores(d)) for d in FIRMER]
-    safe = [t for t in tried if t[2] <= nominal_beyond] or [tried[-1]]
+    limit = nominal_beyond * (1.0 + TIE)
+    safe = [t for t in tried if t[2] <= limit] or [min(tried, key=lambda t: (t[2], t[0]))]
     divisor, score_in, score_out = min(safe, key=lambda t: (t[1] + t[2], t[0]))
     return Guard(divisor, score_out, score_in, nominal_beyond, tuple(tried))
 
 
-def _squares(linear: Linearised, folds: list[npt.NDArray[np.intp]]) -> Array:
-    """The squares of the held-out rows' weighted residuals [σ²] over ``folds``, fold after fold."""
-    parts = [linear.refit(held)[0] ** 2 for held in folds]
-    return np.concatenate(parts) if parts else np.zeros(0)
+def _worse(squares: tuple[Array, Array], nominal: tuple[Array, Array]) -> bool:
+    """Whether the held-out squares ``squares`` are worse than the nominal robot's ``nominal`` beyond chance: the mean
+    of their differences, held-out sample by held-out sample, above :data:`SIGNIFICANT` standard errors of it (and
+    beyond a tie of rounding, :data:`TIE`)."""
+    differences = squares[0] - nominal[0]
+    if differences.size < 2 or _score(squares) <= _score(nominal) * (1.0 + TIE):
+        return False
+    error = float(np.std(differences, ddof=1)) / math.sqrt(differences.size)
+    return float(np.mean(differences)) > SIGNIFICANT * error
+
+
+def _score(squares: tuple[Array, Array]) -> float:
+    """The mean square of the held-out rows' weighted residuals [σ²] from :func:`_squares`' sums and row counts."""
+    return float(np.sum(squares[0]) / max(int(np.sum(squares[1])), 1))
+
+
+def _squares(linear: Linearised, folds: list[npt.NDArray[np.intp]]) -> tuple[Array, Array]:
+    """Per held-out sample of each of ``folds``, fold after fold: the sum of the squares of its rows' weighted
+    residuals [σ²], each times its robust weight (a sample the robust loss set aside weighs on no score), and its
+    number of rows."""
+    sums, counts = [], []
+    for held in folds:
+        residual, _, out = linear.refit(held)
+        _, sample = np.unique(linear.rows[out], return_inverse=True)
+        sums.append(np.bincount(sample, weights=linear.weights[out] * residual**2))
+        counts.append(np.bincount(sample).astype(float))
+    if not sums:
+        return np.zeros(0), np.zeros(0)
+    return np.concatenate(sums), np.concatenate(counts)

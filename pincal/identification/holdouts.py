@@ -97,9 +97,13 @@ class Linearised:
 
 
 def pseudo_inverse(matrix: Array) -> Array:
-    """The pseudo-inverse of a symmetric positive semi-definite ``matrix``: directions below :data:`RCOND` of the
-    largest eigenvalue are not estimated."""
-    values, vectors = np.linalg.eigh(matrix)
+    """The pseudo-inverse of a symmetric positive semi-definite ``matrix``, its rows and columns first scaled to a unit
+    diagonal (so that a firm prior on some parameters does not push the others' directions below the cut): directions
+    below :data:`RCOND` of the largest eigenvalue of the scaled matrix are not estimated."""
+    diagonal = np.diag(matrix)
+    scale = np.where(diagonal > 0.0, 1.0 / np.sqrt(np.where(diagonal > 0.0, diagonal, 1.0)), 1.0)
+    values, vectors = np.linalg.eigh(matrix * scale[:, None] * scale[None, :])
     top = float(np.max(values, initial=0.0))
     keep = values > RCOND * top if top > 0.0 else np.zeros(values.size, dtype=bool)
-    return np.asarray((vectors[:, keep] / values[keep]) @ vectors[:, keep].T, dtype=float)
+    scaled = vectors[:, keep] * scale[:, None]
+    return np.asarray((scaled / values[keep]) @ scaled.T, dtype=float)

@@ -26,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError, PincalError, listing
+from pincal.identification.chi2 import chi2_upper
 from pincal.identification.criterion import (
     GROUPS,
     RSS_FLOOR,
@@ -185,7 +186,33 @@ def _refit_with_evidence(problem: CalibrationProblem, first: CalibrationResult, 
     refit = identify(reduced, **{**options, "prior": weighed})
     if not refit.converged:
         return SelectedFit(problem, first, first, [], {}, evidence=choice)
+    if removed and _worse_without(problem, first, refit, choice.noise):
+        return _refit_with_evidence(problem, first, jac, y0, drop=False, **options)
     return SelectedFit(reduced, refit, first, removed, {}, choice.left_out, choice, weighed)
+
+
+#: The chance that fitting every parameter gains what :func:`_worse_without` finds by noise alone.
+WORSE_TAIL = 1e-3
+
+
+def _worse_without(problem: CalibrationProblem, first: CalibrationResult, refit: CalibrationResult,
+                   noise: float) -> bool:
+    """Whether ``refit`` (with groups left out) leaves the weighted squares of ``problem``'s rows above those of
+    ``first`` (every parameter fitted) by more than noise explains: in the evidence's variance factor ``noise`` (s²),
+    beyond the χ² of as many degrees of freedom as ``first`` estimates exceeds with probability :data:`WORSE_TAIL`.
+    The linear model the evidence weighs can let another group stand for the one left out where the robot's own fit
+    cannot (precise data on a small robot); the group is then kept, held by the smallest factor."""
+    rows = problem.row_samples()
+    if first.final is None or refit.final is None or not first.final.residual.size == refit.final.residual.size \
+            == rows.size:  # an implicit fit's rows are not its samples'
+        return False
+
+    def squares(fit: CalibrationResult) -> float:
+        assert fit.final is not None
+        return float(np.sum(fit.sample_weights[rows] * fit.final.residual**2))
+
+    estimated = max(len(problem.parameters), 1)
+    return squares(refit) - squares(first) > float(chi2_upper(WORSE_TAIL, estimated)) * max(noise, 1e-300)
 
 
 def _reduced(problem: CalibrationProblem, kept: list[int], observations: Observations | None = None
