@@ -268,11 +268,14 @@ def plausibility(fitted: SelectedFit, length_scale: dict[str, float], plausible:
     the fit explains nothing (residuals beyond 1000 × σ, whatever ``plausible`` says)."""
     corrections = implausible_corrections(fitted.problem.parameters, fitted.result, plausible)
     scales = implausible_scales(length_scale, plausible)
-    mistake = column_mistake(fit.robot, part, fit.models) if corrections and not scales else None
+    nothing = explains_nothing(fitted.result.sigma2, *fit_rms(fitted.result))
+    mistake = column_mistake(fit.robot, part, fit.models) if (corrections or nothing) and not scales \
+        and plausible != "off" else None
+    cause = likely_cause(corrections, scales, length_scale, fitted.result.sigma2, mistake)
+    if nothing and not cause and mistake is not None:  # the fit explains nothing: a column read wrongly says why
+        cause = f"{mistake.what}: {mistake.evidence}; {mistake.fix}"
     return {"length_scale": length_scale, "plausible": plausible, "implausible": corrections,
-            "implausible_scale": scales,
-            "implausible_cause": likely_cause(corrections, scales, length_scale, fitted.result.sigma2, mistake),
-            "explains_nothing": explains_nothing(fitted.result.sigma2, *fit_rms(fitted.result))}
+            "implausible_scale": scales, "implausible_cause": cause, "explains_nothing": nothing}
 
 
 def fit_rms(result: CalibrationResult) -> tuple[float, float]:

@@ -187,10 +187,12 @@ def _explains_nothing(report: CalibrationReport) -> str | None:
         return None
     left = (f", and RMS {mm(report.rms_after)} of the start's {mm(report.rms_before)} left"
             if report.rms_before is not None and report.rms_after is not None else "")
+    cause = (f"likely cause: {report.implausible_cause}" if report.implausible_cause and not report.implausible
+             and not report.implausible_scale else
+             "the data do not belong to this robot as they are read (another robot's, readings not of their postures, "
+             "a frame that does not move as the data do)")
     return (f"THE FIT EXPLAINS NOTHING: residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ after calibration, beyond "
-            f"1000 × σ{left}: not a result, and no calibrated URDF is written of it (--force writes one); the data "
-            "do not belong to this robot as they are read (another robot's, readings not of their postures, a frame "
-            "that does not move as the data do)")
+            f"1000 × σ{left}: not a result, and no calibrated URDF is written of it (--force writes one); {cause}")
 
 
 def _noise_verdict(report: CalibrationReport) -> str | None:

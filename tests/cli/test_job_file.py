@@ -92,8 +92,12 @@ def test_data_written_in_millimetres_and_degrees_give_the_same_result(tmp_path: 
         assert ours[key] == pytest.approx(si[key], rel=1e-9), key
     assert ours["n_estimated"] == si["n_estimated"]
     factors = [report["selection"].pop("prior_factors") for report in (ours, si)]  # the evidence's, to round-off
+    guards = [report["selection"].pop("guard") for report in (ours, si)]  # the range guard's scores, to round-off
     assert ours["selection"] == si["selection"] and factors[0].keys() == factors[1].keys()
     assert list(factors[0].values()) == pytest.approx(list(factors[1].values()), rel=1e-9)
+    assert guards[0]["firmer"] == guards[1]["firmer"]
+    for key in ("beyond", "inside", "nominal_beyond"):
+        assert guards[0][key] == pytest.approx(guards[1][key], rel=1e-9), key
 
 
 def test_an_unknown_key_is_named_with_the_valid_ones(tmp_path: Path) -> None:

@@ -88,8 +88,9 @@ def test_a_delta_arm_read_with_the_other_sign_is_named_before_the_fit(tmp_path: 
 
 
 def test_a_ur10_wrist_read_with_the_other_sign_is_the_likely_cause(tmp_path: Path) -> None:
-    """The start does not look wrong enough to stop before the fit (130 mm over a 0.8 m workspace); the fit reaches
-    the noise by turning the wrist over, and the likely cause was 'a wrong robot model'."""
+    """The start does not look wrong enough to stop before the fit (130 mm over a 0.8 m workspace); the prior keeps
+    the fit from turning the wrist over, so it explains nothing (exit 1), and names the cause: the joint read with the
+    other sign, not 'a wrong robot model'."""
     data = _simulate(tmp_path / "sim", "ur10", 40, 1)
     flipped = _edited(data, tmp_path / "flipped.csv", negate="wrist_2_joint")
     done = run_pincal("calibrate", "ur10", str(flipped))

@@ -126,7 +126,7 @@ def loaded_sim(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_a_compliance_under_a_payload_is_recovered_and_the_file_applies_it(tmp_path: Path, loaded_sim: Path) -> None:
     """UR10 carrying 8 kg: calibrated with that payload, the compliances come back and the fit reaches the noise;
-    without it the fit stays at tenths of a millimetre, with a correction no UR10 needs (refused). The corrections
+    without it the fit stays at tenths of a millimetre, and the summary says the model misses an effect. The corrections
     file records the payload, and the calibrated URDF fed the readings it corrects predicts the held-out postures
     exactly as the calibration reports."""
     data = loaded_sim / "measurements.csv"
@@ -134,9 +134,11 @@ def test_a_compliance_under_a_payload_is_recovered_and_the_file_applies_it(tmp_p
     assert truth.payload == Payload(8.0, "tool0", (0.0, 0.0, 0.15))
     unloaded = run_pincal("calibrate", "ur10", str(data), "--parameters", *PAYLOAD_SPEC, "--report",
                           str(tmp_path / "u.json"))
-    # without the payload the compliances cannot explain the deflections: a wrist placement absorbs them, -9 degrees,
-    # which no UR10 needs: refused (exit 1)
-    assert unloaded.returncode == 1 and "IMPLAUSIBLE" in unloaded.stdout, unloaded.stdout + unloaded.stderr
+    # without the payload the compliances cannot explain the deflections, and the prior holds the placements that
+    # could absorb them near the URDF: the fit stays far above the noise, and says so
+    assert unloaded.returncode in (0, 1), unloaded.stdout + unloaded.stderr
+    assert "THE FIT DOES NOT REACH THE STATED NOISE" in unloaded.stdout and "the model misses an effect" in \
+        unloaded.stdout.replace("\n  ", " ").replace("  ", " "), unloaded.stdout
     out, report = tmp_path / "cal.urdf", tmp_path / "r.json"
     done = run_pincal("calibrate", "ur10", str(data), "--parameters", *PAYLOAD_SPEC, "--payload", PAYLOAD, "--out",
                       str(out), "--report", str(report))
