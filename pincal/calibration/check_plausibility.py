@@ -24,9 +24,9 @@ from typing import Any
 
 from pincal.calibration.options import CalibrationOptions, plausible_factor
 from pincal.errors import PincalError
+from pincal.identification.measurements import Measurement
 from pincal.identification.parameters.kinds import PLACEMENT_PLAUSIBLE
 from pincal.io.dataset import Dataset
-from pincal.identification.measurements import Measurement
 from pincal.model.robot import Robot
 
 #: The likely cause when no calibration on the data can say more (calibrate's causes, together).
