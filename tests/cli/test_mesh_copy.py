@@ -87,8 +87,8 @@ ATTACKS = {
 
 
 @pytest.mark.parametrize("mesh", list(ATTACKS), ids=["absolute", "file-uri", "dot-dot", "link-to-shadow", "link-out",
-                                                     "package-climbing-out", "not-a-mesh", "not-an-stl", "dev-zero", "dev-null",
-                                                     "folder", "fifo", "package-fifo"])
+                                                     "package-climbing-out", "not-a-mesh", "not-an-stl", "dev-zero",
+                                                     "dev-null", "folder", "fifo", "package-fifo"])
 def test_meshes_copy_refuses_a_file_that_is_not_the_robots_own_mesh(package: dict[str, Path], mesh: str) -> None:
     urdf = package["urdf"].with_name("attack.urdf")
     urdf.write_text(_with_meshes({"base": BASE, "upper": UPPER, "hand": mesh}))
