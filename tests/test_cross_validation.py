@@ -13,7 +13,7 @@ from pincal.calibration.crossval import cross_validate, parse_cv
 from pincal.calibration.options import check_cv_seed
 from pincal.calibration.pipeline import calibrate
 from pincal.calibration.samples import read_robot_dataset
-from pincal.errors import DataError
+from pincal.errors import ArgumentError, DataError
 from pincal.io.dataset import Dataset
 
 
@@ -35,6 +35,17 @@ def test_a_seed_that_seeds_nothing_is_refused_in_the_keywords_words(five_bar: tu
     with pytest.raises(DataError) as refused:
         calibrate(*five_bar, **options)  # type: ignore[arg-type]
     assert str(refused.value) == message
+
+
+def test_select_cv_by_leave_one_out_is_refused_as_an_argument_error(five_bar: tuple[pincal.Robot, Dataset]) -> None:
+    """calibrate(select="cv", cv="loo") would repeat the selection's own cross-validation in each of its folds, one
+    per sample: an ArgumentError in the keywords' words, before any fit (issue 36)."""
+    with pytest.raises(ArgumentError) as refused:
+        calibrate(*five_bar, select="cv", cv="loo")
+    assert str(refused.value) == ("select='cv' with cv='loo' would repeat the cv selection (its own 5-fold "
+                                  "cross-validation of every combination of parameter groups) in each of its folds "
+                                  "(one per sample): minutes to hours of fitting; cross-validate by fewer folds "
+                                  "(cv='5' or cv='5x4'), or leave select at its default")
 
 
 def test_the_default_seed_and_a_k_fold_seed_are_accepted() -> None:

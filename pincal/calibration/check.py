@@ -427,9 +427,10 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     its report content.
 
     Raises:
-        DataError: no nominal robot given or recorded; no row of set ``rows``; as :func:`check_model`.
+        DataError: no nominal robot given or recorded, or one given that MODEL does not record; no row of set
+            ``rows``; as :func:`check_model`.
     """
-    from pincal.calibration.check_model import check_arguments, is_report, load_model
+    from pincal.calibration.check_model import check_arguments, check_nominal, is_report, load_model
     from pincal.calibration.job import read_job
     from pincal.calibration.job_data import job_dataset
     from pincal.calibration.provenance import file_digests, read_provenance, sha256, version
@@ -450,6 +451,7 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
         raise DataError(f"MODEL '{model_path}' records no nominal robot (no pincal provenance in it): give the robot "
                         "it was calibrated from with --nominal ROBOT")
     nominal = load_robot(nominal_name)
+    check_nominal(model_path, nominal_path, nominal, provenance)
     job = read_job(data_path) if data_path.endswith(".toml") else None
     inputs: list[str | Path] = [model_path, corrections_path(model_path), data_path, *(job.files if job else ()),
                                 *(p for p in (nominal.source, provenance.data) if p is not None)]

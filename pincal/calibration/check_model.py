@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.carried import read_carried
-from pincal.calibration.provenance import Recorded, read_provenance
+from pincal.calibration.provenance import Recorded, read_provenance, sha256
 from pincal.calibration.report import CalibrationReport
 from pincal.errors import DataError, RobotFileError
 from pincal.identification.choices import MarkerFit
@@ -115,6 +115,27 @@ def file_kind(path: Path) -> str:
 KIND_WORDS = {"job": "a job file (TOML)", "json": "a JSON file (a report?)", "urdf": "a URDF", "xml": "an XML file",
               "csv": "a measurement CSV", "binary": "binary data, not text",
               "text": "text that is neither XML nor a measurement CSV"}
+
+
+def check_nominal(model: str, given: str | None, nominal: Robot, recorded: Recorded) -> None:
+    """Refuse a nominal robot ``given`` (``--nominal``, loaded as ``nominal``) that is not the one MODEL records it was
+    calibrated from (``recorded``): a UR5 given for a calibrated UR10 would blame DATA for MODEL's robot. The same
+    URDF (its SHA-256 the recorded one) moved elsewhere, or a robot of the recorded name or file name (its URDF edited
+    since), is accepted.
+
+    Raises:
+        DataError: naming both robots and MODEL.
+    """
+    if given is None or recorded.robot is None:
+        return
+    source = Path(nominal.source) if nominal.source is not None else None
+    if recorded.robot_sha256 and source is not None and source.is_file() and sha256(source) == recorded.robot_sha256:
+        return
+    names = {given, Path(given).stem, nominal.name} | ({source.stem} if source is not None else set())
+    if recorded.robot in names or Path(recorded.robot).stem in names:
+        return
+    raise DataError(f"--nominal '{given}' is not the robot MODEL was calibrated from ('{recorded.robot}', as "
+                    f"'{model}' records): leave --nominal out, or give that robot")
 
 
 def check_arguments(model: str, data: str) -> None:

@@ -183,7 +183,7 @@ def design_poses(robot: Robot, measure: Sequence[str], frame: str | None, parame
     Raises:
         DataError: more than :data:`~pincal.io.dataset.MAX_SAMPLES` ``candidates``; ``poses`` outside
             1..``candidates``; postures too few to measure as many values as the parameters the candidates can
-            identify (naming the least that can work).
+            identify (naming the least that can work); a measured frame no actuated joint moves.
     """
     if candidates > MAX_SAMPLES:  # before any work: each candidate costs a posture and a Jacobian block
         raise DataError(f"--candidates {candidates}: pincal draws at most {MAX_SAMPLES} candidate postures, as many "
@@ -191,7 +191,7 @@ def design_poses(robot: Robot, measure: Sequence[str], frame: str | None, parame
     if candidates < 1 or not 1 <= poses <= candidates:
         raise DataError(f"cannot choose {poses} of {candidates} candidate postures: need "
                         "1 <= --poses <= --candidates")
-    models, difference = absolute_measurements(measurement_models(robot, measure, frame, 1e-5))
+    models, difference = absolute_measurements(measurement_models(robot, measure, frame, 1e-5, refuse_still=True))
     pset = parameters_for(robot, models, parameter_spec)
     rng = np.random.default_rng(seed)
     qa, _ = random_actuated(robot, candidates, rng, spread=spread, progress=progress)

@@ -12,7 +12,7 @@ from typing import Any
 from pincal import validation
 from pincal.calibration.job import Job, load_job_robot, read_job
 from pincal.calibration.job_data import job_dataset
-from pincal.calibration.options import OPTIONS, CalibrationOptions, OptionSource, check_cv_seed
+from pincal.calibration.options import OPTIONS, CalibrationOptions, OptionSource, check_cv_seed, check_select_cv
 from pincal.calibration.pipeline import Calibration, calibrate, options_of
 from pincal.calibration.provenance import Provenance, file_source, options_dict, robot_source, with_provenance
 from pincal.calibration.report import CalibrationReport
@@ -105,6 +105,7 @@ def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -
         return "command line" if option in job.overrides else job.path
 
     check_cv_seed(job.options.get("cv"), job.options.get("cv_seed", 0), source("cv"), source("cv_seed"))
+    check_select_cv(job.options.get("select", "auto"), job.options.get("cv"), source("select"), source("cv"))
     robot = load_job_robot(job)
     payload = job.options.get("payload")
     if payload is not None and "payload" not in job.overrides:  # the job's own: name the file
@@ -152,6 +153,7 @@ def read_inputs(command: str, robot_or_job: str, data: str | None, options: dict
                               "to a job file")
         job = read_job(robot_or_job).overridden(**{k: v for k, v in options.items() if k != "markers"})
         check_cv_seed(job.options.get("cv"), job.options.get("cv_seed", 0), job.path, job.path)
+        check_select_cv(job.options.get("select", "auto"), job.options.get("cv"), job.path, job.path)
         robot = load_job_robot(job)
         return Inputs(robot, job_dataset(job, robot), options_of(None, job.options), [job.path, *job.files],
                       str(job.robot))
@@ -159,5 +161,6 @@ def read_inputs(command: str, robot_or_job: str, data: str | None, options: dict
         raise PincalError(f"{command}: DATA is missing: give pincal {command} ROBOT DATA.csv, or a job file "
                           f"JOB{JOB_SUFFIX} (docs/job_file.md); got only '{robot_or_job}'")
     check_cv_seed(options.get("cv"), options.get("cv_seed", 0), "command line", "command line")
+    check_select_cv(options.get("select", "auto"), options.get("cv"), "command line", "command line")
     robot = load_robot(robot_or_job)
     return Inputs(robot, read_robot_dataset(data, robot), options_of(None, options), [Path(data)], robot_or_job)

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, get_args
 
 from pincal import validation
-from pincal.errors import DataError, listing, not_found
+from pincal.errors import ArgumentError, DataError, listing, not_found
 from pincal.identification.choices import LOSSES, MARKER_FITS, SOLVERS, Loss, MarkerFit, Solver
 
 if TYPE_CHECKING:
@@ -303,3 +303,39 @@ def check_cv_seed(cv: str | None, cv_seed: int, cv_source: OptionSource = "keywo
         folds = written("cv", "5x4", cv_source, in_file=False)
         raise DataError(f"{culprit} seeds the shuffles of K-fold plans; {loo} has none (it leaves each sample out in "
                         f"turn): drop {seed_option}, or cross-validate by K folds (e.g. {folds})")
+
+
+#: The most folds a cross-validation of ``select="cv"`` may have (``--cv 5x4``): each repeats the whole selection,
+#: itself a 5-fold cross-validation of every combination of parameter groups.
+MAX_SELECTION_FOLDS = 20
+
+
+def check_select_cv(select: str, cv: str | None, select_source: OptionSource = "keyword",
+                    cv_source: OptionSource = "keyword") -> None:
+    """Refuse, before any fit, a cross-validation of ``select="cv"`` by leave-one-out or by more than
+    :data:`MAX_SELECTION_FOLDS` folds: each fold repeats the selection's own 5-fold cross-validation of every
+    combination of parameter groups (60 samples left out in turn: minutes of fitting). The message names each option
+    as the user gave it, at ``select_source`` and ``cv_source`` (as :func:`check_cv_seed`'s).
+
+    Raises:
+        ArgumentError: given as keywords of :func:`~pincal.calibration.calibrate`; DataError: on the command line or
+            in a job file.
+    """
+    if select != "cv" or not isinstance(cv, str):
+        return
+    word = cv.strip().lower()
+    plan = re.fullmatch(r"([0-9]+)(?:x([0-9]+))?", word)
+    if word == "loo":
+        folds = "each of its folds (one per sample)"
+    elif plan is not None and int(plan.group(1)) * int(plan.group(2) or 1) > MAX_SELECTION_FOLDS:
+        folds = f"each of its {int(plan.group(1)) * int(plan.group(2) or 1)} folds"
+    else:
+        return
+    given = (f"{written('select', 'cv', select_source, in_file=select_source != cv_source)} with "
+             f"{written('cv', cv, cv_source)}")
+    fewer = " or ".join(written("cv", k, cv_source, in_file=False) for k in ("5", "5x4"))
+    default = "--select" if select_source == "command line" else "select"
+    error = ArgumentError if (select_source, cv_source) == ("keyword", "keyword") else DataError
+    raise error(f"{given} would repeat the cv selection (its own 5-fold cross-validation of every combination of "
+                f"parameter groups) in {folds}: minutes to hours of fitting; cross-validate by fewer folds "
+                f"({fewer}), or leave {default} at its default")

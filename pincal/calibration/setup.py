@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from pincal import validation
 from pincal.calibration.options import CalibrationOptions
-from pincal.calibration.samples import usable_part
+from pincal.calibration.samples import check_moving_frames, usable_part
 from pincal.errors import DataError
 from pincal.identification.choices import MarkerFit
 from pincal.identification.corrections import Payload
@@ -33,13 +33,16 @@ from pincal.model.robot import Robot
 Array = npt.NDArray[np.float64]
 
 
-def measurement_models(robot: Robot, kinds: Sequence[str], frame: str | None, sigma: float) -> list[Measurement]:
+def measurement_models(robot: Robot, kinds: Sequence[str], frame: str | None, sigma: float,
+                       refuse_still: bool = False) -> list[Measurement]:
     """Models from CLI words: ``position``/``pose`` (of ``frame``), or full keys such as
     ``distance:frameA-frameB``, ``distance_increment:a-b``, ``joint:device_lvdt``.
 
     ``frame`` None measures the robot's default frame (:attr:`~pincal.model.robot.Robot.end_effector`, which
-    refuses when none is obvious). A named ``frame`` that the actuated joints do not move is measured as asked,
-    with one warning line on stderr: its data can identify nothing but the measurement frame.
+    refuses when none is obvious). A named ``frame`` that the actuated joints do not move (``--frame F``, or in a
+    key ``KIND:F``) is measured as asked, with one warning line on stderr: its data can identify nothing but the
+    measurement frame; with ``refuse_still``, refused (DataError:
+    :func:`~pincal.calibration.samples.check_moving_frames`).
     """
     named, frame = frame is not None, frame or robot.end_effector
     out = []
@@ -52,8 +55,15 @@ def measurement_models(robot: Robot, kinds: Sequence[str], frame: str | None, si
             raise DataError(f"measurement '{key}' reads actuated joint '{actuated[0]}', whose reading is every "
                             "sample's input; joint: measurements are for instrumented passive joints")
         out.append(model)
-    if named and any(":" not in kind for kind in kinds) and not frame_moves(robot, frame):
-        print(f"pincal: warning: the actuated joints of '{robot.name}' do not move frame '{frame}': its measurements "
+    if refuse_still:  # a design for frames nothing moves would mean nothing
+        check_moving_frames(robot, out)
+        return out
+    still = [frame] if named and any(":" not in kind for kind in kinds) and not frame_moves(robot, frame) else []
+    for kind, model in zip(kinds, out, strict=True):  # KIND:FRAME: the frames it names, when none of them moves
+        if ":" in kind and model.frames and not any(frame_moves(robot, f) for f in model.frames):
+            still += [f for f in model.frames if f not in still]
+    for name in still:
+        print(f"pincal: warning: the actuated joints of '{robot.name}' do not move frame '{name}': its measurements "
               "can identify only the measurement frame", file=sys.stderr)
     return out
 

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
-from pincal.calibration.options import check_cv_seed
+from pincal.calibration.options import check_cv_seed, check_select_cv
 from pincal.cli import (
     assemble,
     bag_import,
@@ -160,6 +160,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         out, report_path, spec = job.out, job.report, job.options.get("parameter_spec")
     else:
         check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
+        check_select_cv(options.get("select", "auto"), args.cv, "command line", "command line")
         spec = options.get("parameter_spec")
         cal = calibrate_files(args.robot, args.data, args.out, args.report, args.meshes, progress=True, **options)
         out, report_path = args.out, args.report
@@ -230,6 +231,7 @@ def cmd_fleet(args: argparse.Namespace) -> int:
         what = "is a file, not a directory of CSV files (one per robot)" if where.exists() else "does not exist"
         raise DataError(f"fleet: DATA_DIR '{args.data_dir}' {what}")
     check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
+    check_select_cv(given_options(args).get("select", "auto"), args.cv, "command line", "command line")
     jobs = jobs_from_directory(args.robot, args.data_dir, args.out, **given_options(args))
     if not jobs:
         raise DataError(f"no *.csv or *{JOB_SUFFIX} files in '{args.data_dir}'")

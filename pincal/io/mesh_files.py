@@ -16,6 +16,7 @@ A folder meant to travel with a robot must hold nothing else than the robot's me
 ``copy`` copies a file only when it is a mesh, and is the robot's own (:func:`plan_meshes` refuses anything else,
 before any work, naming the link, the mesh name and the path it reached):
 
+- it is a regular file (a folder, a FIFO or a device is named as such, and never opened);
 - its name ends in a mesh format's suffix (:data:`MESH_FORMATS`, any case), and its first bytes are that format's
   (an STL's ``solid`` or its binary size, a Collada root, Wavefront OBJ statements, a PLY, glTF or Ogre header);
 - the file, every symbolic link on its way followed, lies inside the folder tree it belongs to: for
@@ -43,7 +44,7 @@ from typing import Literal
 
 from pincal.errors import NotFoundError, RobotFileError, listing
 from pincal.io.files import resolved
-from pincal.model.catalog import package_directories, resolve_mesh_file
+from pincal.model.catalog import package_directories
 
 MeshMode = Literal["keep", "copy"]
 #: The choices of ``--meshes``, the default first.
@@ -174,14 +175,18 @@ def _located(name: str, source_dir: Path | None) -> tuple[Path, Path | None] | N
     if name.startswith("package://"):
         package, _, rest = name[len("package://"):].partition("/")
         for folder in package_directories(package, source_dir):
-            if (folder / rest).is_file():
+            if (folder / rest).exists():  # a file, or a folder or device that :func:`_refusal` names as such
                 return folder / rest, resolved(folder)
         return None
-    if resolve_mesh_file(name, source_dir) is None:  # a URL, a missing file, a relative name without a folder
-        return None
     path = Path(name.removeprefix("file://"))
-    if not path.is_absolute() and source_dir is not None:
+    if "://" in name.removeprefix("file://") or (name.startswith("file://") and not path.is_absolute()):  # a URL
+        return None
+    if not path.is_absolute():
+        if source_dir is None:  # a relative name without a folder
+            return None
         path = source_dir / path
+    if not path.exists():  # missing, or a link to nothing
+        return None
     return path, _own_root(source_dir) if source_dir is not None else None
 
 
@@ -195,6 +200,9 @@ def _refusal(name: str, link: str, spelled: Path, root: Path | None) -> str | No
     if not path.is_relative_to(root):
         linked = Path(os.path.normpath(spelled.absolute())).is_relative_to(root)
         return f"{what}{' through a symbolic link' if linked else ''}, outside {root}/ (the robot's own folder tree)"
+    kind = _not_regular(path)
+    if kind:
+        return f"{what}, which is {kind}, not a regular mesh file"
     if path.suffix.lower() not in MESH_FORMATS:
         return f"{what}, not a mesh file (formats: {', '.join(s.lstrip('.').upper() for s in MESH_FORMATS)})"
     try:
@@ -206,6 +214,18 @@ def _refusal(name: str, link: str, spelled: Path, root: Path | None) -> str | No
     if not _looks_like(path, head, size):
         return f"{what}, whose content is not {path.suffix.lstrip('.').upper()}"
     return None
+
+
+def _not_regular(path: Path) -> str | None:
+    """What ``path`` (links followed) is when it is not a regular file (``a folder``, ``a FIFO``, ...), else None;
+    never opened, so that a FIFO or a device is not read."""
+    try:
+        mode = path.stat().st_mode
+    except OSError as exc:
+        return f"unreadable ({exc.strerror or exc})"
+    kinds = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+             (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+    return None if stat.S_ISREG(mode) else next((what for test, what in kinds if test(mode)), "a special file")
 
 
 def _is_relative(name: str) -> bool:

@@ -19,6 +19,7 @@ import pinocchio as pin
 import pytest
 from conftest import run_pincal
 
+import pincal
 from pincal.io.dataset import dataset_text
 from pincal.io.dataset_reader import read_dataset
 
@@ -314,3 +315,23 @@ def test_a_model_or_data_of_the_wrong_kind_is_named_in_one_line(delta: Path, mod
     assert f"{culprit} '{given[culprit]}' {words}: " in line
     assert "MODEL is a calibrated URDF, a known robot name or a report JSON" in line
     assert "DATA a measurement CSV or a job file" in line
+
+
+def test_a_nominal_robot_other_than_the_one_model_records_is_refused(tmp_path: Path) -> None:
+    """A UR10 calibrated by pincal, checked on its own data (without their '# robot:' line) with ``--nominal ur5``
+    (the same joints): the culprit is the nominal robot, not DATA, so one line names both robots; the recorded robot,
+    by name or as a copy of its URDF elsewhere, is accepted (issue 36)."""
+    _ok(run_pincal("simulate", "ur10", "--samples", "30", "--seed", "2", "--out", str(tmp_path / "sim"), "--quiet"))
+    model = tmp_path / "cal.urdf"
+    _ok(run_pincal("calibrate", "ur10", str(tmp_path / "sim" / "measurements.csv"), "--out", str(model), "--select",
+                   "none"))
+    data = tmp_path / "data.csv"
+    lines = (tmp_path / "sim" / "measurements.csv").read_text(encoding="utf-8").splitlines(keepends=True)
+    data.write_text("".join(line for line in lines if not line.startswith("# robot:")), encoding="utf-8")
+    line = _error_line(run_pincal("check", str(model), str(data), "--nominal", "ur5"))
+    assert line == (f"pincal: error: --nominal 'ur5' is not the robot MODEL was calibrated from ('ur10', as '{model}' "
+                    "records): leave --nominal out, or give that robot")
+    copy = tmp_path / "elsewhere.urdf"
+    copy.write_bytes(Path(str(pincal.load_robot("ur10").source)).read_bytes())
+    for nominal in ("ur10", str(copy)):
+        assert _check(str(model), str(data), "--nominal", nominal, where=tmp_path)["rms"] < 3 * NOISE

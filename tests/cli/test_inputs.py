@@ -65,6 +65,24 @@ def test_a_cv_seed_that_seeds_nothing_is_refused_in_the_flags_words(five_bar_dat
     assert not page.exists()
 
 
+@pytest.mark.parametrize("command", ["calibrate", "report", "view"])
+def test_select_cv_cross_validated_by_leave_one_out_or_many_folds_is_refused(five_bar_data: Path, tmp_path: Path,
+                                                                             command: str) -> None:
+    """--select cv is itself a 5-fold cross-validation of every combination of groups, which each fold of --cv
+    repeats: with --cv loo (one fold per sample) or more than 20 folds it would fit for minutes, so it is refused
+    before any work, naming the cost and the alternatives (issue 36)."""
+    page = tmp_path / "page.html"
+    out = [] if command == "calibrate" else ["--out", str(page)]
+    refusal = ("pincal: error: --select cv with --cv {cv} would repeat the cv selection (its own 5-fold "
+               "cross-validation of every combination of parameter groups) in {folds}: minutes to hours of fitting; "
+               "cross-validate by fewer folds (--cv 5 or --cv 5x4), or leave --select at its default")
+    for cv, folds in (("loo", "each of its folds (one per sample)"), ("7x3", "each of its 21 folds")):
+        line = one_line_error(run_pincal(command, "five_bar", str(five_bar_data), "--select", "cv", "--cv", cv,
+                                         *out))
+        assert line == refusal.format(cv=cv, folds=folds)
+    assert not page.exists()
+
+
 def test_a_payload_on_links_without_mass_is_noted_not_weighed_against_them(light_arm: tuple[Path, Path]) -> None:
     """A URDF whose links carry no <inertial>: "outweighs all the robot's moving links together (0 kg)" would be
     true of any payload and mean nothing, so no such warning; a note says that nothing weighs the payload and that

@@ -129,6 +129,21 @@ def test_a_cv_seed_that_seeds_nothing_names_the_job_file_or_the_flag(tmp_path: P
                     'leaves each sample out in turn): drop --cv-seed, or cross-validate by K folds (e.g. cv = "5x4")')
 
 
+def test_select_cv_by_leave_one_out_names_the_job_file_or_the_flag(tmp_path: Path) -> None:
+    """A job's select = "cv" with cv = "loo" repeats the selection's own 5-fold cross-validation in every fold, one per
+    sample: refused before any fit, naming the job file's keys, or the flag given on the command line in their place
+    (issue 36)."""
+    cost = ("would repeat the cv selection (its own 5-fold cross-validation of every combination of parameter groups) "
+            "in each of its folds (one per sample): minutes to hours of fitting; cross-validate by fewer folds ")
+    both = copy_job(tmp_path, str(RAW), **{'# cv = "5x4"': 'cv = "loo"', 'select = "auto"': 'select = "cv"'})
+    line = one_line_error(run_pincal("calibrate", str(both)))
+    assert line == (f'pincal: error: select = "cv" with cv = "loo" in {both} {cost}(cv = "5" or cv = "5x4"), or leave '
+                    "select at its default")
+    line = one_line_error(run_pincal("calibrate", str(both), "--select", "cv"))
+    assert line == (f'pincal: error: --select cv with cv = "loo" in {both} {cost}(cv = "5" or cv = "5x4"), or leave '
+                    "--select at its default")
+
+
 def test_a_data_file_is_looked_for_beside_the_job(tmp_path: Path) -> None:
     (tmp_path / "jobs").mkdir()
     (tmp_path / "raw.csv").write_bytes(RAW.read_bytes())

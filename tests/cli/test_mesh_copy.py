@@ -54,6 +54,7 @@ def package(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     (package / "meshes" / "notes.txt").write_text("not a mesh\n")
     (package / "meshes" / "fake.stl").write_text("user=root password=hunter2\n")
     os.symlink("/etc/shadow", package / "meshes" / "shadow.stl")
+    os.mkfifo(package / "meshes" / "fifo.stl")  # opened for reading, it would block
     os.symlink(root / "outside" / "secret.stl", package / "meshes" / "secret.stl")
     urdf = package / "urdf" / "arm.urdf"
     urdf.write_text(_with_meshes({"base": BASE, "upper": UPPER, "fore": FORE}))
@@ -76,11 +77,18 @@ ATTACKS = {
     "../meshes/notes.txt": ("{root}/ws/my_robot/meshes/notes.txt", ", not a mesh file (formats: STL, DAE, OBJ, "
                                                                      "PLY, GLB, GLTF, MESH)"),
     "../meshes/fake.stl": ("{root}/ws/my_robot/meshes/fake.stl", ", whose content is not STL"),
+    "/dev/zero": ("/dev/zero", OUTSIDE),
+    "/dev/null": ("/dev/null", OUTSIDE),
+    "../meshes": ("{root}/ws/my_robot/meshes", ", which is a folder, not a regular mesh file"),
+    "../meshes/fifo.stl": ("{root}/ws/my_robot/meshes/fifo.stl", ", which is a FIFO, not a regular mesh file"),
+    "package://my_robot/meshes/fifo.stl": ("{root}/ws/my_robot/meshes/fifo.stl",
+                                           ", which is a FIFO, not a regular mesh file"),
 }
 
 
 @pytest.mark.parametrize("mesh", list(ATTACKS), ids=["absolute", "file-uri", "dot-dot", "link-to-shadow", "link-out",
-                                                     "package-climbing-out", "not-a-mesh", "not-an-stl"])
+                                                     "package-climbing-out", "not-a-mesh", "not-an-stl", "dev-zero",
+                                                     "dev-null", "folder", "fifo", "package-fifo"])
 def test_meshes_copy_refuses_a_file_that_is_not_the_robots_own_mesh(package: dict[str, Path], mesh: str) -> None:
     urdf = package["urdf"].with_name("attack.urdf")
     urdf.write_text(_with_meshes({"base": BASE, "upper": UPPER, "hand": mesh}))

@@ -202,3 +202,31 @@ def test_design_adds_no_note_where_the_nominal_hides_nothing(capsys: pytest.Capt
     lines = capsys.readouterr().out.splitlines()
     assert re.fullmatch(r"parameters: 24; designed for the \d+ the candidates can identify", lines[1]), lines[1]
     assert lines[2].startswith("  left out") or lines[2].startswith("scaled identification Jacobian"), lines[2]
+
+
+@pytest.mark.parametrize("measure", ["camera:base_link", "camera_point:world", "position:base_link"])
+def test_simulate_warns_of_a_keyed_frame_no_actuated_joint_moves(measure: str, tmp_path: Path) -> None:
+    """``--measure KIND:FRAME`` of a frame the UR10's joints do not move warns as ``--frame`` does (its data can
+    calibrate nothing; calibrate refuses them), and is simulated as asked (issue 36)."""
+    done = run_pincal("simulate", "ur10", "--samples", "5", "--measure", measure, "--quiet", "--out",
+                      str(tmp_path / "sim"))
+    assert done.returncode == 0, done.stderr
+    frame = measure.split(":")[1]
+    assert done.stderr.splitlines() == [f"pincal: warning: the actuated joints of 'ur10' do not move frame '{frame}': "
+                                        "its measurements can identify only the measurement frame"]
+    assert (tmp_path / "sim" / "measurements.csv").is_file()
+
+
+@pytest.mark.parametrize("measure", [["--measure", "camera:base_link"], ["--measure", "position", "--frame",
+                                                                           "base_link"]])
+def test_design_refuses_a_frame_no_actuated_joint_moves(measure: list[str], tmp_path: Path) -> None:
+    """A design of postures for measuring a frame nothing moves would mean nothing: one line, exit 2, no file."""
+    out = tmp_path / "d.csv"
+    done = run_pincal("design", "ur10", "--poses", "5", "--candidates", "10", *measure, "--out", str(out))
+    assert done.returncode == 2, done.stdout + done.stderr
+    key = "camera:base_link" if "camera:base_link" in measure else "position:base_link"
+    assert done.stderr.splitlines() == [f"pincal: error: measurement '{key}' reads frame 'base_link', which no "
+                                        "actuated joint of 'ur10' moves: its readings are the same in every posture "
+                                        "and can calibrate nothing; measure a frame the joints move (e.g. 'tool0', "
+                                        "the default measured frame)"]
+    assert not out.exists()
