@@ -218,6 +218,19 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+#: A Dask scheduler's address: ``host:port``, or with a comm's scheme (``tcp://host:port``); a host name, an IPv4
+#: address or a bracketed IPv6 one.
+SCHEDULER_ADDRESS = re.compile(r"(?:(?:tcp|tls|ucx|ws|wss)://)?(?:[A-Za-z0-9._-]+|\[[0-9A-Fa-f:.]+\]):(\d{1,5})")
+
+
+def check_scheduler(address: str) -> None:
+    """Refuse a ``--scheduler`` that is no Dask scheduler address (PincalError naming it), before any connection is
+    tried: Dask's own parser raises a bare ValueError for ``bogus`` or ``host:notaport``."""
+    match = SCHEDULER_ADDRESS.fullmatch(address)
+    if match is None or not 0 < int(match.group(1)) < 65536:
+        raise PincalError(f"--scheduler '{address}': not a Dask scheduler address (host:port or tcp://host:port)")
+
+
 def cmd_fleet(args: argparse.Namespace) -> int:
     """``pincal fleet``: calibrate one robot per CSV (or job file) of a directory (process pool or Dask scheduler) and
     print one row per robot; exit status 1 unless every result is usable."""
@@ -230,6 +243,8 @@ def cmd_fleet(args: argparse.Namespace) -> int:
         what = "is a file, not a directory of CSV files (one per robot)" if where.exists() else "does not exist"
         raise DataError(f"fleet: DATA_DIR '{args.data_dir}' {what}")
     check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
+    if args.scheduler:
+        check_scheduler(args.scheduler)
     jobs = jobs_from_directory(args.robot, args.data_dir, args.out, **given_options(args))
     if not jobs:
         raise DataError(f"no *.csv or *{JOB_SUFFIX} files in '{args.data_dir}'")

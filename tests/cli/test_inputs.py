@@ -300,6 +300,20 @@ def test_fleet_names_a_data_dir_that_is_missing_or_a_file(tmp_path: Path) -> Non
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("address", ["bogus", "127.0.0.1:notaport", "tcp://127.0.0.1:70000"])
+def test_fleet_refuses_a_malformed_scheduler_address_before_connecting(tmp_path: Path, address: str) -> None:
+    """Dask's address parser raised a bare ValueError (an internal error, exit 3) for these; no scheduler runs here,
+    so the refusal comes before any connection is tried."""
+    data = tmp_path / "data"
+    data.mkdir()
+    (data / "robot1.csv").write_text("sample,arm_1_joint\n0,0.1\n", encoding="utf-8")
+    line = one_line_error(run_pincal("fleet", "delta", str(data), "--out", str(tmp_path / "out"), "--workers", "1",
+                                     "--scheduler", address))
+    assert line == (f"pincal: error: --scheduler '{address}': not a Dask scheduler address (host:port or "
+                    "tcp://host:port)")
+    assert not (tmp_path / "out").exists()
+
+
 def test_demo_names_every_file_it_writes(tmp_path: Path) -> None:
     """The demo's last line listed the files of ./pincal-demo/ but truth.json."""
     done = subprocess.run([str(PINCAL), "demo"], cwd=tmp_path, capture_output=True, text=True, timeout=300,
