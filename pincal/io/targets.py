@@ -96,7 +96,8 @@ def read_targets(path: str | Path) -> Targets:
 
 
 def _parse(source: Path) -> Targets:
-    table = read_table(source)
+    too_many = f"targets: pincal compensate takes at most {MAX_TARGETS} in one run; split the file"
+    table = read_table(source, MAX_TARGETS, too_many)  # refused by its rows' count, before any row is parsed
     check_si_units(table.metadata)
     where = f"header (line {table.header_line})"
     groups: dict[str, dict[str, int]] = {}
@@ -133,8 +134,7 @@ def _parse(source: Path) -> Targets:
     if not table.rows:
         raise DataError("no targets: the file has a header and no rows")
     if len(table.rows) > MAX_TARGETS:  # before any cell is read, and before the model is loaded
-        raise DataError(f"{len(table.rows)} targets: pincal compensate takes at most {MAX_TARGETS} in one run; split "
-                        "the file")
+        raise DataError(f"{len(table.rows)} {too_many}")
     if status is not None:
         for line, cells in table.rows:
             if cells[status] != OK:

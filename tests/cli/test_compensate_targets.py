@@ -75,11 +75,13 @@ def test_the_commands_of_a_target_do_not_depend_on_the_others(kind: str, tmp_pat
     np.testing.assert_allclose(commands["alone"]["t7"], commands["as drawn"]["t7"], rtol=0, atol=1e-9)
 
 
-def test_more_targets_than_compensate_takes_is_one_line_before_any_work(tmp_path: Path) -> None:
-    """20 000 targets were once accepted (minutes of work, no progress) where every other input is capped."""
+@pytest.mark.parametrize("beyond", [1, 15_001], ids=["one-over", "over-a-calibration's-cap"])
+def test_more_targets_than_compensate_takes_is_one_line_before_any_work(tmp_path: Path, beyond: int) -> None:
+    """20 000 targets were once accepted (minutes of work, no progress) where every other input is capped; then
+    20 001 were refused with a calibration's cap ("at most 20000 samples"), not compensate's own."""
     from pincal.io.targets import MAX_TARGETS
 
-    n = MAX_TARGETS + 1
+    n = MAX_TARGETS + beyond
     values = np.tile([0.0, 0.0, -0.4], (n, 1))
     targets = _write(tmp_path / "many.csv", "position:end_effector", [f"t{k}" for k in range(n)], values)
     done = run_pincal("compensate", "delta", str(targets), "--out", str(tmp_path / "commands.csv"))
