@@ -141,3 +141,24 @@ def test_a_terminal_sees_the_progress_of_many_targets(tmp_path: Path) -> None:
     assert code == 0 and shown == "", shown
     done = run_pincal("compensate", "delta", str(targets), "--out", str(tmp_path / "piped.csv"))
     assert done.returncode == 0 and done.stderr == ""
+
+
+@pytest.mark.parametrize(("kind", "row", "column", "cell", "numbers"), [
+    ("position", "1,,,", "position:end_effector:x", "is empty", "all three numbers (x, y, z)"),
+    ("pose", "1,0,0,-0.4,0,0,0,nan", "pose:end_effector:qw", "is 'nan'",
+     "all seven numbers (x, y, z, qx, qy, qz, qw)"),
+], ids=["empty-position", "nan-quaternion"])
+def test_a_target_with_a_cell_missing_is_named_as_a_target(tmp_path: Path, kind: str, row: str, column: str,
+                                                           cell: str, numbers: str) -> None:
+    """A dataset's rule ("only ... all three cells of a position whose marker was not seen" may be empty) was said of
+    a targets file, where no cell may be empty."""
+    components = ("x", "y", "z") if kind == "position" else ("x", "y", "z", "qx", "qy", "qz", "qw")
+    first = "0,0,0,-0.4" if kind == "position" else "0,0,0,-0.4,0,0,0,1"
+    targets = tmp_path / "targets.csv"
+    targets.write_text(f"sample,{','.join(f'{kind}:end_effector:{c}' for c in components)}\n{first}\n{row}\n",
+                       encoding="utf-8")
+    done = run_pincal("compensate", "delta", str(targets), "--out", str(tmp_path / "commands.csv"))
+    assert done.returncode == 2 and done.stdout == "", done.stdout + done.stderr
+    assert done.stderr == (f"pincal: error: targets.csv: column '{column}', line 3: the cell {cell}; a {kind} target "
+                           f"needs {numbers}: every row is a place to reach\n")
+    assert not (tmp_path / "commands.csv").exists()
