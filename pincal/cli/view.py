@@ -49,7 +49,8 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
         return view, None
     if not args.quiet:
         named, note = robot_named(read.robot_given, robot.name), urdf_name_note(read.robot_given, robot.name)
-        print(f"calibrating '{named}'{note} from {dataset.n_samples} samples ...", file=sys.stderr)
+        # on stdout, flushed before the work: a refusal is then the one line on stderr, as with calibrate
+        print(f"calibrating '{named}'{note} from {dataset.n_samples} samples ...", flush=True)
     calibration = calibrate(robot, dataset, options, progress=not args.quiet)
     view = CalibrationView.from_calibration(calibration)
     view.report = replace(view.report, provenance=provenance)
