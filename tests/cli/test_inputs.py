@@ -249,7 +249,8 @@ def test_a_result_of_another_robot_is_refused_by_its_robot(tmp_path: Path, comma
     """A UR5's calibration given to a UR10's page was refused with a 1600-character list of parameters that differ;
     the robot the result records is compared first."""
     for robot in ("ur5", "ur10"):
-        done = run_pincal("simulate", robot, "--samples", "30", "--seed", "3", "--quiet", "--out", str(tmp_path / robot))
+        done = run_pincal("simulate", robot, "--samples", "30", "--seed", "3", "--quiet", "--out",
+                          str(tmp_path / robot))
         assert done.returncode == 0, done.stderr
     result, page = tmp_path / "ur5.json", tmp_path / "page.html"
     done = run_pincal("calibrate", "ur5", str(tmp_path / "ur5" / "measurements.csv"), "--report", str(result))
