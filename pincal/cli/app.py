@@ -55,21 +55,23 @@ EXIT_BUG = 3
 def _describe(robot: Robot) -> str:
     import numpy as np
 
+    from pincal.io.export import shown_name as shown  # a name with a line break quoted, as export does: one line each
+
     model = robot.model
-    lines = [f"robot: {robot.name}" + (f"  ({robot.source})" if robot.source else "")]
-    links = [f.name for f in model.frames if f.type.name == "BODY"]
+    lines = [f"robot: {shown(robot.name)}" + (f"  ({robot.source})" if robot.source else "")]
+    links = [shown(f.name) for f in model.frames if f.type.name == "BODY"]
     lines.append(f"links ({len(links)}): {', '.join(links)}")
     lines.append(f"joints ({model.njoints - 1} movable):")
     actuated = set(robot.actuated_joints)
     for j in range(1, model.njoints):
         name = model.names[j]
         tag = "  actuated" if name in actuated else ""
-        lines.append(f"  {name:<28} {model.joints[j].shortname():<22} nq={model.joints[j].nq}{tag}")
+        lines.append(f"  {shown(name):<28} {model.joints[j].shortname():<22} nq={model.joints[j].nq}{tag}")
     lines.append(f"loops ({len(robot.loops)}):")
     for loop in robot.loops:
-        lines.append(f"  {loop.name:<28} {loop.type:<10} {loop.predecessor} -> {loop.successor} "
+        lines.append(f"  {shown(loop.name):<28} {loop.type:<10} {shown(loop.predecessor)} -> {shown(loop.successor)} "
                      f"({loop.rows} rows)")
-    lines.append(f"actuated joints ({robot.n_actuated}): {', '.join(robot.actuated_joints)}")
+    lines.append(f"actuated joints ({robot.n_actuated}): {', '.join(map(shown, robot.actuated_joints))}")
     residual = robot.closure_residual(robot.q_reference)
     worst = float(np.max(np.abs(residual), initial=0.0))
     lines.append(f"configuration: nq {model.nq}, nv {model.nv}; closure rows {robot.closure.rows}; "
@@ -82,8 +84,8 @@ def _describe(robot: Robot) -> str:
     else:
         part = robot.parts.moving([robot.frame_id(choice.frame)]).robot  # its joints only (pincal.model.parts)
         p = part.placement(part.q_reference, choice.frame).translation
-        lines.append(f"measured frame (default): {choice.frame}, moved by the actuated joints ({choice.why}); at "
-                     f"({p[0]:.6f}, {p[1]:.6f}, {p[2]:.6f}) m at the reference")
+        lines.append(f"measured frame (default): {shown(choice.frame)}, moved by the actuated joints ({choice.why}); "
+                     f"at ({p[0]:.6f}, {p[1]:.6f}, {p[2]:.6f}) m at the reference")
     return "\n".join(lines)
 
 
@@ -219,6 +221,19 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+#: A Dask scheduler's address: ``host:port``, or with a comm's scheme (``tcp://host:port``); a host name, an IPv4
+#: address or a bracketed IPv6 one.
+SCHEDULER_ADDRESS = re.compile(r"(?:(?:tcp|tls|ucx|ws|wss)://)?(?:[A-Za-z0-9._-]+|\[[0-9A-Fa-f:.]+\]):(\d{1,5})")
+
+
+def check_scheduler(address: str) -> None:
+    """Refuse a ``--scheduler`` that is no Dask scheduler address (PincalError naming it), before any connection is
+    tried: Dask's own parser raises a bare ValueError for ``bogus`` or ``host:notaport``."""
+    match = SCHEDULER_ADDRESS.fullmatch(address)
+    if match is None or not 0 < int(match.group(1)) < 65536:
+        raise PincalError(f"--scheduler '{address}': not a Dask scheduler address (host:port or tcp://host:port)")
+
+
 def cmd_fleet(args: argparse.Namespace) -> int:
     """``pincal fleet``: calibrate one robot per CSV (or job file) of a directory (process pool or Dask scheduler) and
     print one row per robot; exit status 1 unless every result is usable."""
@@ -231,7 +246,12 @@ def cmd_fleet(args: argparse.Namespace) -> int:
         what = "is a file, not a directory of CSV files (one per robot)" if where.exists() else "does not exist"
         raise DataError(f"fleet: DATA_DIR '{args.data_dir}' {what}")
     check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
+<<<<<<< HEAD
     check_select_cv(given_options(args).get("select", "auto"), args.cv, "command line", "command line")
+=======
+    if args.scheduler:
+        check_scheduler(args.scheduler)
+>>>>>>> wip-tests
     jobs = jobs_from_directory(args.robot, args.data_dir, args.out, **given_options(args))
     if not jobs:
         raise DataError(f"no *.csv or *{JOB_SUFFIX} files in '{args.data_dir}'")

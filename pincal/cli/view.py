@@ -27,7 +27,7 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
     from pincal.calibration.from_files import read_inputs
     from pincal.calibration.pipeline import calibrate
     from pincal.calibration.report import CalibrationReport
-    from pincal.calibration.summary import robot_named, urdf_name_note
+    from pincal.calibration.summary import report_robot, robot_named, urdf_name_note
     from pincal.io.corrections_file import robot_files
     from pincal.io.files import check_outputs
     from pincal.viz.scene import CalibrationView, check_same_data
@@ -39,6 +39,9 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
     check_outputs([("--out", args.out)], [p for p in inputs if p is not None])  # before any work
     if args.result:
         report = CalibrationReport.read(args.result)
+        if report.robot and report.robot != robot.name:  # before its parameters are compared with this robot's
+            raise DataError(f"--result '{args.result}' is a calibration of '{report_robot(report)[0]}', not of "
+                            f"'{robot_named(read.robot_given, robot.name)}'")
         check_result_options(args, report)
         try:
             view = CalibrationView.from_result(robot, dataset, report, options)
@@ -49,7 +52,8 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
         return view, None
     if not args.quiet:
         named, note = robot_named(read.robot_given, robot.name), urdf_name_note(read.robot_given, robot.name)
-        print(f"calibrating '{named}'{note} from {dataset.n_samples} samples ...", file=sys.stderr)
+        # on stdout, flushed before the work: a refusal is then the one line on stderr, as with calibrate
+        print(f"calibrating '{named}'{note} from {dataset.n_samples} samples ...", flush=True)
     calibration = calibrate(robot, dataset, options, progress=not args.quiet)
     view = CalibrationView.from_calibration(calibration)
     view.report = replace(view.report, provenance=provenance)

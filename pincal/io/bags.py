@@ -195,6 +195,9 @@ def _open(path: Path) -> AnyReader:
         where = f"{path / 'metadata.yaml'}, " if path.is_dir() and _parser_error(exc) is not None else ""
         raise DataError(f"'{path}' is not a ROS bag pincal can read (a ROS 1 .bag, a ROS 2 bag directory or an "
                         f".mcap file): {where}{one_line(exc)}") from None
+    except TypeError:  # rosbags' MCAP reader on a file cut short after its magic: ord() of an empty read
+        raise DataError(f"'{path}' is not a ROS bag pincal can read (a ROS 1 .bag, a ROS 2 bag directory or an "
+                        ".mcap file): the file ends early (truncated or damaged)") from None
     return reader
 
 

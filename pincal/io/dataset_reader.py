@@ -166,8 +166,9 @@ def _split(text: str) -> tuple[dict[str, str], int, list[str], list[tuple[int, l
     return metadata, header_line, header, rows
 
 
-def _file_text(source: Path) -> str:
-    """The text of a CSV file, refused at once when it is larger than a calibration takes (bytes or rows)."""
+def _file_text(source: Path, max_rows: int = MAX_SAMPLES, too_many: str = "") -> str:
+    """The text of a CSV file, refused at once when it is larger than a calibration takes (bytes, or more rows than
+    ``max_rows``: with ``too_many``, the refusal is the row count followed by that text)."""
     problem = input_problem(source)
     if problem:
         raise DataError(f"dataset '{source}' {problem}")
@@ -179,9 +180,11 @@ def _file_text(source: Path) -> str:
                             "split or thin the file")
         raw = source.read_bytes()
         lines = raw.count(b"\n") + 1
-        if lines > MAX_SAMPLES + 1:  # rows, less the header, comments and blank lines
+        if lines > max_rows + 1:  # rows, less the header, comments and blank lines
             rows = lines - 1 - len(re.findall(rb"^[ \t\r]*(?:#|$)", raw, re.M))
-            if rows > MAX_SAMPLES:
+            if rows > max_rows and too_many:
+                raise DataError(f"{rows} {too_many}")
+            if rows > max_rows:
                 raise DataError(f"dataset '{source}' has {rows} rows; pincal calibrates at most {MAX_SAMPLES} "
                                 "samples in one run (time grows with the samples): split or thin the file")
         return _utf8_text(raw, source)
@@ -376,15 +379,21 @@ class Table:
     rows: list[tuple[int, list[str]]]
 
 
-def read_table(path: str | Path) -> Table:
+def read_table(path: str | Path, max_rows: int = MAX_SAMPLES, too_many: str = "") -> Table:
     """Read a CSV file as :func:`read_dataset` does (size limits, byte-order mark, ``#`` comments, blank lines),
     without interpreting its columns.
+
+    Args:
+        path: The CSV file.
+        max_rows: Most data rows taken; a larger file is refused before it is parsed.
+        too_many: The refusal of a file of more rows, after their count (``targets: pincal compensate takes at most
+            5000 …``); empty: a calibration's (at most :data:`~pincal.io.dataset.MAX_SAMPLES` samples).
 
     Raises:
         DataError: an unreadable or oversized file, a file with no header, or a row with more or fewer cells than
             the header (the message names the line; the caller names the file).
     """
-    metadata, header_line, header, rows = _split(_file_text(Path(path)))
+    metadata, header_line, header, rows = _split(_file_text(Path(path), max_rows, too_many))
     for line, cells in rows:
         if len(cells) != len(header):
             raise DataError(f"line {line} has {len(cells)} cells; the header (line {header_line}) has {len(header)}")

@@ -35,6 +35,8 @@ Array = npt.NDArray[np.float64]
 TARGET_COMPONENTS = {"position": ("x", "y", "z"), "pose": ("x", "y", "z", "qx", "qy", "qz", "qw")}
 #: The status of a target reached.
 OK = "ok"
+#: A target's count of numbers, in words.
+NUMBERS = {3: "three", 7: "seven"}
 #: The start of the status of a target not reached; the reason follows.
 UNREACHABLE = "unreachable"
 #: Most targets in one file (or one call of compensate): each costs up to seven inverse kinematics solves when it is
@@ -96,7 +98,8 @@ def read_targets(path: str | Path) -> Targets:
 
 
 def _parse(source: Path) -> Targets:
-    table = read_table(source)
+    too_many = f"targets: pincal compensate takes at most {MAX_TARGETS} in one run; split the file"
+    table = read_table(source, MAX_TARGETS, too_many)  # refused by its rows' count, before any row is parsed
     check_si_units(table.metadata)
     where = f"header (line {table.header_line})"
     groups: dict[str, dict[str, int]] = {}
@@ -133,13 +136,12 @@ def _parse(source: Path) -> Targets:
     if not table.rows:
         raise DataError("no targets: the file has a header and no rows")
     if len(table.rows) > MAX_TARGETS:  # before any cell is read, and before the model is loaded
-        raise DataError(f"{len(table.rows)} targets: pincal compensate takes at most {MAX_TARGETS} in one run; split "
-                        "the file")
+        raise DataError(f"{len(table.rows)} {too_many}")
     if status is not None:
         for line, cells in table.rows:
             if cells[status] != OK:
                 raise DataError(f"line {line}: status '{cells[status]}': this row holds no target; remove it")
-    values = np.array([[cell_number(cells[columns[c]], f"{key}:{c}", line) for c in components]
+    values = np.array([[_target_number(cells[columns[c]], key, c, line) for c in components]
                        for line, cells in table.rows])
     ids = _sample_ids(table.rows, sample)
     lines = [line for line, _ in table.rows]
@@ -157,6 +159,23 @@ def _parse(source: Path) -> Targets:
                             f"is needed (|‖q‖ − 1| ≤ {QUATERNION_NORM_TOLERANCE:g})")
         values[:, 3:] /= norms[:, None]
     return Targets(key, ids, values, dict(table.metadata))
+
+
+def _target_number(cell: str, key: str, component: str, line: int) -> float:
+    """The number in one cell of a target (column ``key:component``) [m, or a quaternion component]: an empty or NaN
+    cell is named as a target lacking one of its numbers (a dataset's rule on cells a marker left empty does not
+    apply)."""
+    column, kind = f"{key}:{component}", key.partition(":")[0]
+    try:
+        empty = not cell or math.isnan(float(cell))
+    except ValueError:  # not a number: cell_number names it
+        empty = False
+    if empty:
+        what = "is empty" if not cell else f"is '{cell}'"
+        numbers = TARGET_COMPONENTS[kind]
+        raise DataError(f"column '{column}', line {line}: the cell {what}; a {kind} target needs all "
+                        f"{NUMBERS[len(numbers)]} numbers ({', '.join(numbers)}): every row is a place to reach")
+    return cell_number(cell, column, line)
 
 
 def _sample_ids(rows: Sequence[tuple[int, list[str]]], sample: int | None) -> list[str]:

@@ -135,3 +135,17 @@ def test_a_metadata_file_that_does_not_parse_is_one_line_naming_its_line(tmp_pat
     assert status == 2
     assert _one_line(stderr) == (f"'{bag}' is not a ROS bag pincal can read (a ROS 1 .bag, a ROS 2 bag directory or "
                                  f"an .mcap file): {bag / 'metadata.yaml'}, {where}")
+
+
+@pytest.mark.parametrize(("content", "reason"), [
+    (b"\x89MCAP0\r\n", "the file ends early (truncated or damaged)"),  # the magic alone: rosbags' ord() of nothing
+    (b"\x89MCA", "File magic is invalid."),
+], ids=["magic-only", "magic-cut"])
+def test_a_truncated_mcap_file_is_one_line_naming_it(tmp_path: Path, content: bytes, reason: str) -> None:
+    bag = tmp_path / "cut.mcap"
+    bag.write_bytes(content)
+    status, _, stderr = _import(bag, tmp_path / "out.csv")
+    assert status == 2
+    assert _one_line(stderr) == (f"'{bag}' is not a ROS bag pincal can read (a ROS 1 .bag, a ROS 2 bag directory or "
+                                 f"an .mcap file): {reason}")
+    assert not (tmp_path / "out.csv").exists()

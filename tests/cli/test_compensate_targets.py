@@ -75,11 +75,13 @@ def test_the_commands_of_a_target_do_not_depend_on_the_others(kind: str, tmp_pat
     np.testing.assert_allclose(commands["alone"]["t7"], commands["as drawn"]["t7"], rtol=0, atol=1e-9)
 
 
-def test_more_targets_than_compensate_takes_is_one_line_before_any_work(tmp_path: Path) -> None:
-    """20 000 targets were once accepted (minutes of work, no progress) where every other input is capped."""
+@pytest.mark.parametrize("beyond", [1, 15_001], ids=["one-over", "over-a-calibration's-cap"])
+def test_more_targets_than_compensate_takes_is_one_line_before_any_work(tmp_path: Path, beyond: int) -> None:
+    """20 000 targets were once accepted (minutes of work, no progress) where every other input is capped; then
+    20 001 were refused with a calibration's cap ("at most 20000 samples"), not compensate's own."""
     from pincal.io.targets import MAX_TARGETS
 
-    n = MAX_TARGETS + 1
+    n = MAX_TARGETS + beyond
     values = np.tile([0.0, 0.0, -0.4], (n, 1))
     targets = _write(tmp_path / "many.csv", "position:end_effector", [f"t{k}" for k in range(n)], values)
     done = run_pincal("compensate", "delta", str(targets), "--out", str(tmp_path / "commands.csv"))
@@ -139,3 +141,24 @@ def test_a_terminal_sees_the_progress_of_many_targets(tmp_path: Path) -> None:
     assert code == 0 and shown == "", shown
     done = run_pincal("compensate", "delta", str(targets), "--out", str(tmp_path / "piped.csv"))
     assert done.returncode == 0 and done.stderr == ""
+
+
+@pytest.mark.parametrize(("kind", "row", "column", "cell", "numbers"), [
+    ("position", "1,,,", "position:end_effector:x", "is empty", "all three numbers (x, y, z)"),
+    ("pose", "1,0,0,-0.4,0,0,0,nan", "pose:end_effector:qw", "is 'nan'",
+     "all seven numbers (x, y, z, qx, qy, qz, qw)"),
+], ids=["empty-position", "nan-quaternion"])
+def test_a_target_with_a_cell_missing_is_named_as_a_target(tmp_path: Path, kind: str, row: str, column: str,
+                                                           cell: str, numbers: str) -> None:
+    """A dataset's rule ("only ... all three cells of a position whose marker was not seen" may be empty) was said of
+    a targets file, where no cell may be empty."""
+    components = ("x", "y", "z") if kind == "position" else ("x", "y", "z", "qx", "qy", "qz", "qw")
+    first = "0,0,0,-0.4" if kind == "position" else "0,0,0,-0.4,0,0,0,1"
+    targets = tmp_path / "targets.csv"
+    targets.write_text(f"sample,{','.join(f'{kind}:end_effector:{c}' for c in components)}\n{first}\n{row}\n",
+                       encoding="utf-8")
+    done = run_pincal("compensate", "delta", str(targets), "--out", str(tmp_path / "commands.csv"))
+    assert done.returncode == 2 and done.stdout == "", done.stdout + done.stderr
+    assert done.stderr == (f"pincal: error: targets.csv: column '{column}', line 3: the cell {cell}; a {kind} target "
+                           f"needs {numbers}: every row is a place to reach\n")
+    assert not (tmp_path / "commands.csv").exists()

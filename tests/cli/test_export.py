@@ -5,6 +5,7 @@ and UR's published DH parameters — never from the code under test."""
 
 from __future__ import annotations
 
+import json
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -310,3 +311,20 @@ def test_no_name_can_add_a_key_to_an_export(tmp_path: Path, convention: str) -> 
         assert [row["name"] for row in written["joints"]] == HOSTILE
         assert (written["base_frame"], written["end_frame"]) == ("base", HOSTILE_TOOL)
         assert len(done.stdout.splitlines()) == 2 + 1 + len(HOSTILE)  # the table printed one line per joint
+
+
+def test_info_shows_each_name_on_its_own_line(tmp_path: Path) -> None:
+    """``pincal info`` printed a line break inside a joint's name as it is, breaking its table; each name with a
+    control character is now quoted with its escapes, as the exports quote it."""
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(_hostile_arm(), encoding="utf-8")
+    done = run_pincal("info", str(urdf))
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0] == f"robot: {json.dumps(HOSTILE_ROBOT)}  ({urdf})"
+    assert lines[2] == "joints (4 movable):" and lines[7] == "loops (0):"
+    for k, name in enumerate(HOSTILE):
+        assert lines[3 + k].startswith(f"  {json.dumps(name)} ") and lines[3 + k].endswith("nq=1  actuated")
+    assert lines[8] == f"actuated joints (4): {', '.join(json.dumps(name) for name in HOSTILE)}"
+    keys = {"injected_key", "cr_key", "nel_key", "ls_key", "robot_key", "tool_key"}  # the names' second halves
+    assert not [line for line in lines if line.partition(":")[0] in keys]

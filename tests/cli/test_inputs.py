@@ -262,6 +262,23 @@ def test_a_result_is_drawn_over_the_data_it_was_fitted_on_only(five_bar_data: Pa
     assert not page.exists()
 
 
+@pytest.mark.parametrize("command", ["report", "view"])
+def test_a_result_of_another_robot_is_refused_by_its_robot(tmp_path: Path, command: str) -> None:
+    """A UR5's calibration given to a UR10's page was refused with a 1600-character list of parameters that differ;
+    the robot the result records is compared first."""
+    for robot in ("ur5", "ur10"):
+        done = run_pincal("simulate", robot, "--samples", "30", "--seed", "3", "--quiet", "--out",
+                          str(tmp_path / robot))
+        assert done.returncode == 0, done.stderr
+    result, page = tmp_path / "ur5.json", tmp_path / "page.html"
+    done = run_pincal("calibrate", "ur5", str(tmp_path / "ur5" / "measurements.csv"), "--report", str(result))
+    assert done.returncode == 0, done.stderr
+    line = one_line_error(run_pincal(command, "ur10", str(tmp_path / "ur10" / "measurements.csv"), "--result",
+                                     str(result), "--out", str(page)))
+    assert line == f"pincal: error: --result '{result}' is a calibration of 'ur5', not of 'ur10'"
+    assert not page.exists()
+
+
 def test_a_design_of_too_few_postures_to_identify_its_parameters_is_refused(tmp_path: Path) -> None:
     """8 Delta postures measure 24 values, fewer than the 27 parameters the candidates identify: every such set has
     an infinite condition number, so there is nothing to design; refused by name with the least --poses that can
@@ -315,6 +332,20 @@ def test_fleet_names_a_data_dir_that_is_missing_or_a_file(tmp_path: Path) -> Non
     line = one_line_error(run_pincal("fleet", "delta", str(data), "--out", str(tmp_path / "out")))
     assert line == (f"pincal: error: fleet: DATA_DIR '{data}' is a file, not a directory of CSV files (one per "
                     "robot)")
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("address", ["bogus", "127.0.0.1:notaport", "tcp://127.0.0.1:70000"])
+def test_fleet_refuses_a_malformed_scheduler_address_before_connecting(tmp_path: Path, address: str) -> None:
+    """Dask's address parser raised a bare ValueError (an internal error, exit 3) for these; no scheduler runs here,
+    so the refusal comes before any connection is tried."""
+    data = tmp_path / "data"
+    data.mkdir()
+    (data / "robot1.csv").write_text("sample,arm_1_joint\n0,0.1\n", encoding="utf-8")
+    line = one_line_error(run_pincal("fleet", "delta", str(data), "--out", str(tmp_path / "out"), "--workers", "1",
+                                     "--scheduler", address))
+    assert line == (f"pincal: error: --scheduler '{address}': not a Dask scheduler address (host:port or "
+                    "tcp://host:port)")
     assert not (tmp_path / "out").exists()
 
 

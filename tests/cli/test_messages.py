@@ -167,7 +167,7 @@ def test_the_report_page_names_the_robot_as_the_user_gave_it_and_no_none(tmp_pat
     job = ROOT / "examples" / "tiago_job.toml"
     done = run_pincal("report", str(job), "--out", str(page))
     assert done.returncode == 0, done.stderr
-    assert "calibrating 'tiago_no_hand' (URDF <robot name=\"tiago\">) from 34 samples ..." in done.stderr
+    assert "calibrating 'tiago_no_hand' (URDF <robot name=\"tiago\">) from 34 samples ..." in done.stdout
     text = page.read_text(encoding="utf-8")
     title = text.partition("<h1>")[2].partition("</h1>")[0]
     subtitle = text.partition('<p class="sub">')[2].partition("</p>")[0]

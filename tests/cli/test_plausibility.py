@@ -244,3 +244,17 @@ def test_a_camera_on_a_frame_no_joint_moves_is_refused_before_the_fit(tmp_path: 
     assert done.stderr == ("pincal: error: measurement 'camera:base_link' reads frame 'base_link', which no actuated "
                            "joint of 'ur10' moves: its readings are the same in every posture and can calibrate "
                            "nothing; measure a frame the joints move (e.g. 'tool0', the default measured frame)\n")
+
+
+@pytest.mark.parametrize("command", ["view", "report"])
+def test_view_and_report_refuse_implausible_data_in_one_stderr_line(delta_data: Path, tmp_path: Path,
+                                                                   command: str) -> None:
+    """Their progress line ('calibrating ... from N samples ...') went to stderr before the error: two lines where
+    calibrate gives one; it is on stdout now."""
+    scaled = _rewritten(delta_data, tmp_path / "feet.csv", factor=3.0)
+    page = tmp_path / "page.html"
+    done = run_pincal(command, "delta", str(scaled), "--out", str(page))
+    assert done.returncode == 2 and not page.exists(), done.stderr
+    assert len(done.stderr.splitlines()) == 1, done.stderr
+    assert done.stderr.startswith("pincal: error: the measured positions 'position:end_effector' (columns ")
+    assert done.stdout == "calibrating 'delta' from 40 samples ...\n"  # 30 to fit, 10 held out
