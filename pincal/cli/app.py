@@ -246,12 +246,9 @@ def cmd_fleet(args: argparse.Namespace) -> int:
         what = "is a file, not a directory of CSV files (one per robot)" if where.exists() else "does not exist"
         raise DataError(f"fleet: DATA_DIR '{args.data_dir}' {what}")
     check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
-<<<<<<< HEAD
     check_select_cv(given_options(args).get("select", "auto"), args.cv, "command line", "command line")
-=======
     if args.scheduler:
         check_scheduler(args.scheduler)
->>>>>>> wip-tests
     jobs = jobs_from_directory(args.robot, args.data_dir, args.out, **given_options(args))
     if not jobs:
         raise DataError(f"no *.csv or *{JOB_SUFFIX} files in '{args.data_dir}'")
