@@ -39,13 +39,13 @@ THREE = DATA / "tiago_mocap_markers.csv"
 #: ``python benchmarks/bench_tiago_figaroh.py`` (benchmarks/RESULTS.md; about 6 minutes, not rerun here): plan →
 #: (pincal, FIGAROH) RMS [mm], every marker counted, and for three markers (pincal, FIGAROH) marker 1's alone.
 SIDE_BY_SIDE = {
-    "1 marker": {"leave-one-out": (3.584, 4.378), "seeds 0–3": (3.960, 5.287), "seeds 4–7": (4.021, 5.047),
-                 "seeds 8–11": (3.999, 5.922), "seeds 12–15": (3.797, 4.563), "seeds 16–19": (3.764, 4.869)},
-    "3 markers": {"leave-one-out": (4.040, 4.170), "seeds 0–3": (4.548, 5.120), "seeds 4–7": (4.631, 4.958),
-                  "seeds 8–11": (4.845, 5.746), "seeds 12–15": (4.184, 4.498), "seeds 16–19": (4.934, 5.316)},
+    "1 marker": {"leave-one-out": (3.506, 4.378), "seeds 0–3": (4.010, 5.287), "seeds 4–7": (4.160, 5.047),
+                 "seeds 8–11": (4.103, 5.922), "seeds 12–15": (3.819, 4.563), "seeds 16–19": (3.959, 4.869)},
+    "3 markers": {"leave-one-out": (4.092, 4.170), "seeds 0–3": (4.806, 5.120), "seeds 4–7": (4.903, 4.958),
+                  "seeds 8–11": (4.884, 5.746), "seeds 12–15": (4.233, 4.498), "seeds 16–19": (4.843, 5.316)},
 }
-MARKER_1 = {"leave-one-out": (3.728, 3.861), "seeds 0–3": (4.242, 4.801), "seeds 4–7": (4.227, 4.515),
-            "seeds 8–11": (4.539, 5.405), "seeds 12–15": (3.883, 4.178), "seeds 16–19": (4.507, 4.893)}
+MARKER_1 = {"leave-one-out": (3.745, 3.861), "seeds 0–3": (4.450, 4.801), "seeds 4–7": (4.469, 4.515),
+            "seeds 8–11": (4.697, 5.405), "seeds 12–15": (3.896, 4.178), "seeds 16–19": (4.506, 4.893)}
 #: FIGAROH's figures quoted with the targets of issue 13 (leave-one-out, 5-fold × 4 [mm]); its folds are not recorded.
 QUOTED_FIGAROH = {"1 marker": (4.378, 4.690), "3 markers": (3.861, 4.419)}
 #: Relative difference of two cross-validated figures below which they are the same (their third decimal in mm).
