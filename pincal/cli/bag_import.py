@@ -35,7 +35,9 @@ def cmd_import(args: argparse.Namespace) -> int:
         source = MeasurementSource("tf", args.tf_topic, *args.tf)
     rule = StillRule(args.still_tolerance, args.still_time, args.drift)
     done = bag_dataset(robot, args.bag, args.joints, source, args.frame, rule)
-    print(f"{args.bag}: joints from {args.joints} ({len(done.joints)} of '{robot.name}'"
+    from pincal.calibration.summary import robot_named
+
+    print(f"{args.bag}: joints from {args.joints} ({len(done.joints)} of '{robot_named(args.robot, robot.name)}'"
           + (f"; not read: {', '.join(done.extra)}" if done.extra else "") + f"), {done.key} from "
           f"{source.describe()}")
     if done.absent:

@@ -59,8 +59,11 @@ def cmd_compensate(args: argparse.Namespace) -> int:
     where = targets_frame(result)
     corrections = (f"{model.corrections_file} (inverted: the commands are raw readings)"
                    if model.corrections_file else "none")
-    print(f"compensate: {len(targets.ids)} targets '{targets.key}' ({args.targets}) in {where}, on '{robot.name}' "
-          f"({args.model}); frame {result.frame}; corrections: {corrections}")
+    from pincal.calibration.summary import robot_named
+
+    print(f"compensate: {len(targets.ids)} targets '{targets.key}' ({args.targets}) in {where}, on "
+          f"'{robot_named(str(args.model), robot.name)}' ({args.model}); frame {result.frame}; "
+          f"corrections: {corrections}")
     reached = result.reached
     if reached.any():
         position = float(np.nanmax(result.residuals[reached, 0]))

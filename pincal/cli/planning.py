@@ -59,7 +59,10 @@ def cmd_design(args: argparse.Namespace) -> int:
                           args.criterion, args.seed, args.spread, progress=not args.quiet)
     selection, pset, qa, keys = design.selection, design.parameters, design.candidates, design.keys
     kappa_random, logdet_random = design.kappa_random, design.logdet_random
-    print(f"design for '{robot.name}': {args.poses} of {args.candidates} random reachable postures "
+    from pincal.calibration.summary import robot_named, urdf_name_note
+
+    named = f"'{robot_named(args.robot, robot.name)}'{urdf_name_note(args.robot, robot.name)}"
+    print(f"design for {named}: {args.poses} of {args.candidates} random reachable postures "
           f"(seed {args.seed}), measuring {keys}, by {args.criterion}")
     off = design.off_nominal
     print(f"parameters: {len(pset)}; designed for the {len(selection.columns)} the candidates can identify"
@@ -169,7 +172,10 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     result = run_monte_carlo(trial, seeds, list(args.noise), executor=None if args.workers == 1 else "process",
                              max_workers=args.workers, progress=not args.quiet)
-    print(f"Monte Carlo on '{robot.name}': {args.trials} trials (seeds {seeds[0]}..{seeds[-1]}) per noise level; "
+    from pincal.calibration.summary import robot_named, urdf_name_note
+
+    named = f"'{robot_named(args.robot, robot.name)}'{urdf_name_note(args.robot, robot.name)}"
+    print(f"Monte Carlo on {named}: {args.trials} trials (seeds {seeds[0]}..{seeds[-1]}) per noise level; "
           f"true errors σ {args.perturb:g} (m, rad) on {n_parameters} parameters")
     print(f"measuring {', '.join(trial.measurements)}; {args.samples} postures to calibrate, "
           f"{args.test_samples} held out")

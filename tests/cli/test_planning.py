@@ -230,3 +230,16 @@ def test_design_refuses_a_frame_no_actuated_joint_moves(measure: list[str], tmp_
                                         "and can calibrate nothing; measure a frame the joints move (e.g. 'tool0', "
                                         "the default measured frame)"]
     assert not out.exists()
+
+
+def test_design_and_montecarlo_name_the_robot_as_typed(tmp_path: Path) -> None:
+    """``tiago_no_hand`` (whose URDF says ``<robot name="tiago">``, the name of another robot of the list) is named as
+    the user typed it, with the URDF's name beside it, as calibrate names it."""
+    typed = 'tiago_no_hand\' (URDF <robot name="tiago">)'
+    design = run_pincal("design", "tiago_no_hand", "--poses", "12", "--candidates", "30", "--out",
+                        str(tmp_path / "d.csv"), "--quiet")
+    assert design.returncode == 0, design.stderr
+    assert f"design for '{typed}:" in design.stdout
+    carlo = run_pincal("montecarlo", "tiago_no_hand", "--trials", "1", "--samples", "20", "--quiet")
+    assert carlo.returncode == 0, carlo.stderr
+    assert f"Monte Carlo on '{typed}:" in carlo.stdout
