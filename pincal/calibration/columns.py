@@ -73,25 +73,29 @@ class Start:
 @dataclass(frozen=True)
 class ColumnMistake:
     """A joint column read with the other sign (``joints`` one name), or two joints' columns exchanged (two names),
-    and the nominal robot's start as read and as corrected, on ``probed`` samples."""
+    and the nominal robot's start as read and as corrected, on ``probed`` samples; ``others``: the other columns'
+    mistakes that explain the data as well (within :data:`SAME_START`; a symmetric robot, a Delta's arms, cannot tell
+    them apart), ``mirror_too`` when a mirror of the positions does."""
 
     joints: tuple[str, ...]
     as_read: Start
     corrected: Start
     probed: int
     mirror_too: bool = False
+    others: tuple[tuple[str, ...], ...] = ()
 
     @property
     def what(self) -> str:
         """The mistake in words: "joint 'a' looks read with the other sign", "the columns of joints 'a' and 'b' look
         exchanged", "the measured positions look mirrored" (no joint), and that a mirror explains them as well."""
+        also = [f"'{v[0]}' read with the other sign" if len(v) == 1 else f"'{v[0]}' and '{v[1]}' exchanged"
+                for v in self.others if v != MIRRORED]
+        also += ["the measured positions mirrored, a left-handed frame"] if self.mirror_too else []
+        mirror = f" (or {', or '.join(also)}: on this robot the data cannot tell which)" if also else ""
         if not self.joints:
-            return "the measured positions look mirrored (a left-handed measurement frame, or one axis negated)"
-        mirror = (" (or the measured positions are mirrored, a left-handed frame: on this robot the data cannot tell "
-                  "which)") if self.mirror_too else ""
-        if len(self.joints) == 1:
-            return f"joint '{self.joints[0]}' looks read with the other sign{mirror}"
-        return f"the columns of joints '{self.joints[0]}' and '{self.joints[1]}' look exchanged{mirror}"
+            return ("the measured positions look mirrored (a left-handed measurement frame, or one axis negated)"
+                    + mirror)
+        return f"{_described(self.joints)}{mirror}"
 
     @property
     def evidence(self) -> str:
@@ -108,7 +112,16 @@ class ColumnMistake:
         """What to do about it."""
         fix = {0: "negate one axis of the positions", 1: "negate that column"}.get(len(self.joints),
                                                                                   "exchange the two columns' names")
+        if self.others:
+            return "check which of them it is and correct that (exchange the two columns' names, or negate one)"
         return fix + (" (or negate one axis of the positions)" if self.mirror_too else "")
+
+
+def _described(joints: tuple[str, ...]) -> str:
+    """A joint read with the other sign (one name), or two joints' columns exchanged (two), in words."""
+    if len(joints) == 1:
+        return f"joint '{joints[0]}' looks read with the other sign"
+    return f"the columns of joints '{joints[0]}' and '{joints[1]}' look exchanged"
 
 
 def probed_part(part: Dataset, most: int = PROBED_SAMPLES) -> Dataset:
@@ -169,10 +182,11 @@ def column_mistake(robot: Robot, part: Dataset, models: list[Measurement]) -> Co
             found[variant] = corrected
     if not found:
         return None
-    best = min(found, key=lambda variant: found[variant].rms)
-    mirror = found.get(MIRRORED)
-    mirror_too = best != MIRRORED and mirror is not None and mirror.rms <= SAME_START * found[best].rms
-    return ColumnMistake(best, as_read, found[best], probed.n_samples, mirror_too)
+    best = min(found, key=lambda variant: (found[variant].rms, variants.index(variant)))
+    alike = tuple(v for v in variants if v in found and v != best and found[v].rms <= SAME_START * found[best].rms)
+    mirror_too = best != MIRRORED and MIRRORED in alike
+    return ColumnMistake(best, as_read, found[best], probed.n_samples, mirror_too,
+                         tuple(v for v in alike if v != MIRRORED))
 
 
 def _corrected(part: Dataset, joints: tuple[str, ...]) -> Dataset:

@@ -178,3 +178,18 @@ def test_the_report_page_names_the_robot_as_the_user_gave_it_and_no_none(tmp_pat
     assert done.stdout.startswith("simulated 3 + 0 postures of 'tiago_no_hand' (URDF <robot name=\"tiago\">) with ")
     done = run_pincal("simulate", "ur10", "--samples", "3", "--quiet", "--out", str(tmp_path / "ur10"))
     assert done.stdout.startswith("simulated 3 + 0 postures of 'ur10' with "), done.stdout  # one name: said once
+
+
+def test_a_deltas_swapped_arms_name_every_pair_the_data_cannot_tell_apart(tmp_path: Path) -> None:
+    """The Delta's three arms are alike: arms 1 and 2 exchanged start as well as any other pair exchanged (the
+    measurement frame turned by a third of a turn) or the positions mirrored. The refusal names them all and says the
+    data cannot tell which, rather than one pair a user would then fix wrongly."""
+    data = _simulate(tmp_path / "sim", "delta", 60, 1)
+    swapped = _edited(data, tmp_path / "swapped.csv",
+                      header={"arm_1_joint": "arm_2_joint", "arm_2_joint": "arm_1_joint"})
+    done = run_pincal("calibrate", "delta", str(swapped))
+    line = _one_line(done)
+    assert done.returncode == 2 and line.startswith("pincal: error: "), line
+    for a, b in (("arm_1_joint", "arm_2_joint"), ("arm_1_joint", "arm_3_joint"), ("arm_2_joint", "arm_3_joint")):
+        assert f"'{a}' and '{b}'" in line, line
+    assert "the data cannot tell which" in line and "check which of them it is" in line
