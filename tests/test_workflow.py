@@ -329,7 +329,7 @@ def test_a_model_that_cannot_fit_says_so_first(delta_model24: Path, tmp_path: Pa
     mirrored.write_text("\n".join(lines) + "\n")
     done = run_pincal("calibrate", "delta", str(mirrored), "--parameters", "model24")
     assert done.returncode == 2 and done.stdout == "", done.stdout
-    assert "(or the measured positions are mirrored, a left-handed frame: on this robot the data cannot tell which)" \
+    assert "the measured positions mirrored, a left-handed frame: on this robot the data cannot tell which)" \
         in done.stderr
     done = run_pincal("calibrate", "delta", str(mirrored), "--parameters", "model24", "--plausible", "off")
     head = done.stdout.splitlines()[0]  # the verdict comes first
