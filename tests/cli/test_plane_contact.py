@@ -161,7 +161,9 @@ def test_the_summary_and_the_page_name_the_errors_of_a_plane_contact(campaign: P
     page = tmp_path / "talos.html"
     done = run_pincal("report", str(job), "--out", str(page))
     assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
-    assert done.stdout.startswith("RMS plane distance error "), done.stdout
+    lines = done.stdout.splitlines()  # what it does first, then its figures
+    assert lines[0].startswith("calibrating 'talos' from 21 samples") and \
+        lines[1].startswith("RMS plane distance error "), done.stdout
     text = page.read_text(encoding="utf-8")
     for label in ("RMS plane distance error (held out)", "RMS tilt error (fit)",
                   'alt="histograms of the plane distance errors before and after calibration'):
