@@ -144,3 +144,16 @@ def test_the_readme_lifecycle_runs_as_written(tmp_path: Path) -> None:
     assert f"{check['rms'] * 1e3:.2g}" == quoted.group(1) and f"{check['nominal_rms'] * 1e3:.3g}" == quoted.group(2)
     commands = (tmp_path / "commands.csv").read_text(encoding="utf-8")
     assert commands.count(",ok\n") == 2 and (tmp_path / "joints.yaml").read_text(encoding="utf-8").count("x: ") > 3
+
+
+def test_the_readme_example_output_is_what_pincal_demo_prints(tmp_path: Path) -> None:
+    """README's "Example output" is ``pincal demo``'s summary: every line but the solver's (its time varies) as printed,
+    the figures to the 0.1 µm the summary shows."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    start = readme.index("## Example output\n\n```\n") + len("## Example output\n\n```\n")
+    block = readme[start:readme.index("\n```", start)]
+    quoted = [line for line in block.splitlines() if not line.startswith("solver ")]
+    done = run_pincal("demo", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    printed = done.stdout.splitlines()
+    assert all(line in printed for line in quoted), [line for line in quoted if line not in printed]
