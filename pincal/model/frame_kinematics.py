@@ -11,6 +11,7 @@ alone. Units: m, rad.
 
 from __future__ import annotations
 
+import abc
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,7 +57,7 @@ class FrameState:
         return jacobian
 
 
-class FrameKinematics:
+class FrameKinematics(abc.ABC):
     """A frame of a robot at many configurations (the interface; :func:`frame_kinematics` gives one).
 
     Args:
@@ -68,23 +69,23 @@ class FrameKinematics:
     def __init__(self, kinematics: ClosedLoopKinematics, frame_id: int, tol: float) -> None:
         self.kinematics, self.frame_id, self.tol = kinematics, frame_id, tol
 
+    @abc.abstractmethod
     def state(self, q: Array) -> FrameState:
         """The frame and the loops at configurations ``q`` (N, nq)."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def integrate(self, q: Array, step: Array) -> Array:
         """(N, nq) ``q ⊕ step`` for joint velocities ``step`` (N, nv) [rad or m]."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def forward(self, actuated: Array, guesses: Array | None) -> tuple[Array, BoolArray]:
         """Forward kinematics of actuated values (N, na) [rad or m] on the reference assembly, warm from ``guesses``
         (N, nq) where given (:meth:`~pincal.model.kinematics.ClosedLoopKinematics.solve_fk`): (N, nq) configurations
         and (N,) which closed."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def actuated_values(self, q: Array) -> Array:
         """(N, na) the actuated values [rad or m] of configurations ``q`` (N, nq)."""
-        raise NotImplementedError
 
 
 class BatchFrame(FrameKinematics):
