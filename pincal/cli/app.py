@@ -22,6 +22,7 @@ from pincal.cli import (
     check_data,
     compensation,
     export_formats,
+    iso_commands,
     planning,
     report_page,
     robots,
@@ -387,7 +388,7 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.set_defaults(func=cmd_fleet)
 
     for module in (view, report_page, planning, check_data, compensation, export_formats, bag_import, assemble,
-                   robots):  # command groups of their own
+                   robots, iso_commands):  # command groups of their own
         module.register(sub)
     return parser
 
