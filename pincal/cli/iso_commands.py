@@ -77,7 +77,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
     check_outputs([("--out", args.out)], inputs)
     robot = load_robot(args.robot)
     plan = plan_test(robot, region=args.region, orientation=args.orientation, frame=args.frame, model=args.model,
-                     cycles=args.cycles, seed=args.seed, candidates=args.candidates)
+                     cycles=args.cycles, seed=args.seed, candidates=args.candidates,
+                     min_side=args.min_side)
     cube = plan.cube
     print(f"iso9283 plan of '{robot_named(args.robot, robot.name)}', frame {plan.frame}: test cube of side "
           f"{cube.side * 1e3:.1f} mm centred at ({', '.join(f'{c:.4f}' for c in cube.centre)}) m"
@@ -86,7 +87,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         print(f"  {name}: ({', '.join(f'{c:.4f}' for c in position)}) m")
     print(f"orientation: {plan.orientation_note}; joint commands: {plan.commands_note}")
     print(f"sequence: {plan.n_rows} rows ({args.cycles} cycles of P1, P5, P4, P3, P2; then P1, P2, P4 from "
-          f"{len(plan.directions)} directions, {args.cycles} cycles each); largest FK residual of the commands "
+          f"3 directions each, {args.cycles} cycles each); largest FK residual of the commands "
           f"{plan.largest_residual:.2g} m")
     path = write_text(args.out, plan_text(plan, robot_named(args.robot, robot.name)))
     print(f"wrote {path}")
@@ -135,7 +136,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     add_robot(plan)
     plan.add_argument("--out", required=True, help="the plan CSV to write")
     plan.add_argument("--region", type=_region, metavar="XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX",
-                      help="where the cube goes [m, the robot's base frame] (default: anywhere it reaches)")
+                      help="where the cube goes [m, the robot's base frame] (default: anywhere it reaches); "
+                           "--region=-1,… when the first number is negative")
     plan.add_argument("--orientation", type=_quaternion, metavar="QW,QX,QY,QZ",
                       help="the frame's orientation at every pose, in the base frame (default: its orientation "
                            "at the reference configuration); robots of fewer than 6 degrees of freedom take none")
@@ -146,6 +148,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     plan.add_argument("--candidates", type=positive_int, default=400,
                       help="random postures sampling the workspace (default 400)")
     plan.add_argument("--seed", type=non_negative_int, default=0, help="seed of the sampled postures")
+    plan.add_argument("--min-side", type=positive_float, default=0.02,
+                      help="smallest side of a test cube [m] (default 0.02): refused when none fits")
     plan.set_defaults(func=cmd_plan)
 
     evaluate = group.add_parser("evaluate", help="AP, RP, AD, RD and vAP of measured runs",
