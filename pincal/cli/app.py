@@ -21,6 +21,7 @@ from pincal.cli import (
     bag_import,
     check_data,
     compensation,
+    drift_check,
     export_formats,
     iso_commands,
     planning,
@@ -388,7 +389,7 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.set_defaults(func=cmd_fleet)
 
     for module in (view, report_page, planning, check_data, compensation, export_formats, bag_import, assemble,
-                   robots, iso_commands):  # command groups of their own
+                   robots, iso_commands, drift_check):  # command groups of their own
         module.register(sub)
     return parser
 
