@@ -9,6 +9,7 @@ standard's differences of the angles about x, y, z to first order.
 from __future__ import annotations
 
 import itertools
+import re
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -100,7 +101,7 @@ class Iso9283Figures:
     """The ISO 9283 figures of a runs file.
 
     Attributes:
-        poses: Per pose of the pose series (rows without a direction), in order of first appearance.
+        poses: Per pose of the pose series (rows without a direction), in the order of their names (P2 before P10).
         distances: Per pair of poses measured in common cycles of the pose series.
         variations: Per pose measured from two or more directions.
         instrument_uncertainty: The measuring instrument's stated uncertainty [m], or None.
@@ -193,6 +194,11 @@ def variation_figures(name: str, attained: dict[str, Array], deviations: dict[st
     return VariationFigures(name, {d: len(a) for d, a in attained.items()}, vap, vap_abc)
 
 
+def _natural(name: str) -> list[Any]:
+    """A sort key putting P2 before P10."""
+    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", name)]
+
+
 def _commanded(runs: Runs, rows: npt.NDArray[np.intp], pose: str) -> Array:
     values = runs.commanded[rows]
     spread = float(np.abs(values - values[0]).max())
@@ -220,7 +226,7 @@ def evaluate_runs(runs: Runs, instrument_uncertainty: float | None = None) -> Is
     series = np.array([d == "" for d in runs.directions])
     if not series.any():
         raise DataError("no row of the pose series (rows with an empty direction): AP and RP need it")
-    names = list(dict.fromkeys(p for p, s in zip(runs.poses, series, strict=True) if s))
+    names = sorted(dict.fromkeys(p for p, s in zip(runs.poses, series, strict=True) if s), key=_natural)
     poses, commanded, by_cycle = [], {}, {}
     for name in names:
         rows = np.flatnonzero(series & np.array([p == name for p in runs.poses]))

@@ -29,8 +29,8 @@ Array = npt.NDArray[np.float64]
 POSITION = ("x", "y", "z")
 QUATERNION = ("qw", "qx", "qy", "qz")
 COMMANDED = "cmd_"
-#: Most rows of a runs file (the standard's tests hold 5 × 30 + 3 × 3 × 30 rows).
-MAX_RUNS = 20_000
+#: Most rows of a runs file (the standard's tests hold 5 × 30 + 3 × 3 × 30 rows; a study of many cycles more).
+MAX_RUNS = 100_000
 
 
 @dataclass(frozen=True)
