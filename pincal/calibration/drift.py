@@ -12,10 +12,11 @@ Per session, on MODEL (a calibrated URDF: its robot as calibrated, the parameter
    statistic ``T = |(I − P_S̃) ỹ|²`` is χ² with ``m − rank S̃`` degrees of freedom when the robot has not changed; the
    session is a change at level α when ``T`` exceeds that χ²'s upper α quantile.
 3. A changed session names the parameter groups that moved (a joint's offset; a joint's placement; a loop's anchors),
-   by forward selection: the group whose columns ``G̃`` added to the model lower ``T`` the most for their number
-   (``T_g + k_g ln m``) is kept while the drop ``T − T_g`` exceeds χ²'s upper ``α / (groups left)`` quantile with
-   ``k_g`` degrees of freedom and ``T`` still exceeds its own; each group's shift [m, rad] is the generalised least
-   squares estimate with its σ.
+   by forward selection: of the groups whose columns ``G̃`` added to the model leave ``T_g`` within its own threshold,
+   the one of fewest parameters (the simplest explanation the data allow); when none does, the one that lowers ``T``
+   the most for its size (``T_g + k_g ln m``). A group is kept while its drop ``T − T_g`` exceeds χ²'s upper
+   ``α / (groups left)`` quantile with ``k_g`` degrees of freedom and ``T`` still exceeds its own threshold; each
+   group's shift [m, rad] is the generalised least squares estimate with its σ.
 
 Setup parameters never count as a change. SI units throughout: m, rad.
 """
@@ -255,18 +256,17 @@ def _named_groups(names: Sequence[str], setup: Sequence[int], whitened: Array, y
     held = list(setup)
     chosen: list[tuple[str, float, int]] = []
     while groups and statistic > float(chi2_upper(level, m - rank)):
-        best: tuple[float, str, float, int] | None = None
+        tried = []
         for group, cols in groups.items():
             t, r, _, _ = _fit(whitened[:, held + cols], y)
-            k = r - rank
-            if k <= 0:
-                continue
-            score = t + k * math.log(m)
-            if best is None or score < best[0]:
-                best = (score, group, t, k)
-        if best is None:
+            if r > rank:
+                tried.append((group, t, r - rank))
+        if not tried:
             break
-        _, group, t, k = best
+        # the simplest group that leaves the session within the predicted spread, else the best for its size
+        enough = [g for g in tried if g[1] <= float(chi2_upper(level, m - rank - g[2]))]
+        group, t, k = (min(enough, key=lambda g: (g[2], g[1])) if enough
+                       else min(tried, key=lambda g: g[1] + g[2] * math.log(m)))
         if statistic - t <= float(chi2_upper(level / len(groups), k)):
             break
         chosen.append((group, statistic - t, k))
