@@ -6,7 +6,8 @@ Per session, on MODEL (a calibrated URDF: its robot as calibrated, the parameter
 1. The measurement setup (measurement frame, markers, cameras, targets: :mod:`pincal.calibration.check_setup`) is
    re-registered on the session by least squares, the robot held: a tracker moved between sessions is no change of the
    robot.
-2. The σ-weighted residual r (m rows, σ the calibration's own per row) is compared with its predicted spread
+2. The σ-weighted residual r (m rows, σ the session's own where its file states one, else the calibration's per row)
+   is compared with its predicted spread
    ``V = I + J_C C J_Cᵀ`` (the noise, and the calibration's covariance C carried by MODEL propagated by the Jacobian of
    its identified robot parameters). With ``V = L Lᵀ``, ``ỹ = L⁻¹ r`` and the setup's columns ``S̃ = L⁻¹ J_S``, the
    statistic ``T = |(I − P_S̃) ỹ|²`` is χ² with ``m − rank S̃`` degrees of freedom when the robot has not changed; the
@@ -339,12 +340,18 @@ def run_drift(model_path: str, sessions: Sequence[str], level: float = 0.01,
         if sorted(keys) != sorted(calibration.measurements):
             raise DataError(f"session '{path}' measures {', '.join(keys)}; the calibration measured "
                             f"{', '.join(calibration.measurements)}: drift compares the same measurements")
-        sigma = tuple(v for key in keys for v in calibration.row_sigma.get(key, []))
+        # the session's own σ where it states one (another instrument), else the calibration's
+        stated = any(key.startswith("sigma ") for key in dataset.metadata)
+        sigma = None if stated else tuple(v for key in keys for v in calibration.row_sigma.get(key, []))
         options = CalibrationOptions(sigma=sigma or None, markers=calibration.markers)  # type: ignore[arg-type]
         judged.append(judge_session(model, dataset, path, options, calibration.covariance, level))
     drift = Drift(level, judged)
-    command = (recalibration_command(model_path, sessions[-1], drift.parameters, judged[-1].setup)
-               if drift.parameters else None)
+    command = None
+    if drift.parameters:
+        command = recalibration_command(model_path, sessions[-1], drift.parameters, judged[-1].setup)
+    elif any(s.changed for s in judged):  # a change no group explains alone: the whole calibration again
+        stem = model_path.rsplit(".", 1)[0]
+        command = f"pincal calibrate {nominal_name} {sessions[-1]} --out {stem}_recalibrated.urdf"
     content = {"model": model_path, "nominal": nominal_name, **drift.as_dict(), "command": command,
                "provenance": {"pincal_version": version(), "options": {"level": level},
                               "sha256": file_digests(model_path, *sessions)}}

@@ -44,6 +44,10 @@ def cmd_drift(args: argparse.Namespace) -> int:
               f"{s.statistic:>8.1f} / {s.dof:<5} {verdict}")
     if drift.parameters:
         print(f"advice: recalibrate {', '.join(drift.groups)} (from MODEL, the setup with them): {content['command']}")
+    elif content["command"]:
+        changed = ", ".join(s.source for s in drift.sessions if s.changed)
+        print(f"advice: {changed} changed beyond the calibration's predicted spread, but no parameter group explains "
+              f"it alone: measure again, or calibrate anew: {content['command']}")
     else:
         print("advice: no session shows a change beyond the calibration's predicted spread: nothing to recalibrate")
     texts: list[tuple[str | Path, str | bytes]] = []

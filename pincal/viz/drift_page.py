@@ -58,9 +58,16 @@ def drift_page(content: dict[str, Any]) -> str:
         f"<tr><td><code>{html.escape(s['source'])}</code></td><td>{s['n_samples']}</td><td>{s['rms'] * 1e3:.4f}</td>"
         f"<td>{s['expected_rms'] * 1e3:.4f}</td><td>{s['statistic']:.1f} / {s['dof']}</td><td>{_moved(s)}</td></tr>"
         for s in sessions)
-    advice = (f"<p class=\"warn\">Recalibrate {html.escape(', '.join(content['groups']))}: "
-              f"<code>{html.escape(content['command'])}</code></p>" if content["command"]
-              else '<p class="verdict">No session shows a change beyond the calibration\'s predicted spread.</p>')
+    if content["groups"]:
+        advice = (f"<p class=\"warn\">Recalibrate {html.escape(', '.join(content['groups']))}: "
+                  f"<code>{html.escape(content['command'])}</code></p>")
+    elif content["command"]:
+        advice = ("<p class=\"warn\">A change beyond the calibration's predicted spread that no parameter group "
+                  "explains alone: measure again, or calibrate anew: "
+                  f"<code>{html.escape(content['command'])}</code></p>")
+    else:
+        advice = '<p class="verdict">No session shows a change beyond the calibration\'s predicted spread.</p>'
+
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>pincal drift</title><style>{STYLE}</style></head>
 <body><main>

@@ -71,6 +71,18 @@ def test_sessions_of_noise_alone_name_nothing(calibrated: Path) -> None:
     assert "nothing to recalibrate" in done.stdout and done.stdout.count("unchanged") == 2
 
 
+def test_a_noisier_instrument_stating_its_sigma_is_no_change_and_one_not_stating_it_is(calibrated: Path) -> None:
+    """A session of three times the noise, its file's '# sigma' lines saying so, is judged by its own σ; the same
+    file without them, by the calibration's, is a change."""
+    stated = _session(calibrated, "noisy", 31, "--noise", "3e-5")
+    lines = (calibrated / stated).read_text(encoding="utf-8").splitlines()
+    (calibrated / "unstated.csv").write_text("\n".join(line for line in lines if not line.startswith("# sigma")) + "\n",
+                                             encoding="utf-8")
+    done = run_pincal("drift", "cal.urdf", stated, "unstated.csv", "--report", "noisy.json", cwd=calibrated)
+    verdicts = [s["changed"] for s in json.loads((calibrated / "noisy.json").read_text(encoding="utf-8"))["sessions"]]
+    assert verdicts == [False, True] and done.returncode == 1, done.stdout
+
+
 @pytest.mark.parametrize(("arguments", "message"), [
     (["delta", "n1/measurements.csv"], "MODEL 'delta' is not a calibrated URDF file"),
     (["day1/truth.urdf", "n1/measurements.csv"], "carries no pincal calibration"),
