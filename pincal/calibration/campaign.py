@@ -19,7 +19,7 @@ import numpy.typing as npt
 from pincal import validation
 from pincal.calibration.provenance import Provenance, robot_source, sha256, version, with_provenance
 from pincal.calibration.setup import check_movable, idle_parameters, measurement_models, parameters_for
-from pincal.errors import ArgumentError, ConvergenceError, DataError
+from pincal.errors import ArgumentError, ConvergenceError, DataError, not_found
 from pincal.identification.corrections import Payload
 from pincal.identification.measurements import Measurement
 from pincal.identification.parameters import ParameterSet, read_joints
@@ -61,7 +61,8 @@ def check_sample_counts(n_train: int, n_test: int) -> None:
 
 
 def _check_arguments(robot: Any, kinds: Any, n_train: Any, n_test: Any, frame: Any, perturb: Any, noise: Any,
-                     seed: Any, parameter_spec: Any, spread: Any, payload: Any, joint_noise: Any) -> None:
+                     seed: Any, parameter_spec: Any, spread: Any, payload: Any, joint_noise: Any,
+                     posture_seed: Any = None, shift: Any = None) -> None:
     """Refuse the arguments of :func:`simulate` the command line would refuse, naming each."""
     validation.instance("robot", robot, Robot, "a Robot (pincal.load_robot)")
     if not validation.texts("kinds", kinds):
@@ -75,6 +76,13 @@ def _check_arguments(robot: Any, kinds: Any, n_train: Any, n_test: Any, frame: A
     validation.real("noise", noise, "m, rad")
     validation.real("joint_noise", joint_noise, "rad or m")
     validation.whole("seed", seed, 0)
+    if posture_seed is not None:
+        validation.whole("posture_seed", posture_seed, 0)
+    if shift is not None:
+        validation.instance("shift", shift, dict, "a dict of parameter name -> value [m, rad] or None")
+        for name, value in shift.items():
+            validation.instance("shift", name, str, "parameter names (str)")
+            validation.real(f"shift[{name!r}]", value, "m, rad")
     validation.optional_texts("parameter_spec", parameter_spec)
     validation.optional_real("spread", spread, "rad or m")
     if payload is not None:
@@ -84,7 +92,8 @@ def _check_arguments(robot: Any, kinds: Any, n_train: Any, n_test: Any, frame: A
 def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, frame: str | None = None,
              perturb: float = 1e-3, noise: float = 1e-5, seed: int = 0,
              parameter_spec: Sequence[str] | None = None, progress: bool = False,
-             spread: float | None = None, payload: Payload | None = None, joint_noise: float = 0.0) -> Simulation:
+             spread: float | None = None, payload: Payload | None = None, joint_noise: float = 0.0,
+             posture_seed: int | None = None, shift: dict[str, float] | None = None) -> Simulation:
     """Simulate a calibration campaign on ``robot`` with random true errors.
 
     Args:
@@ -105,24 +114,34 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
         payload: A point mass the robot carries; its gravity torque adds to the links' in the true compliances'
             deflections (refused without a compliance parameter: :func:`~pincal.calibration.setup.check_payload`).
         joint_noise: σ of the noise on the actuated readings [rad or m] (0: the readings are the true values).
+        posture_seed: Seed of the postures and the noise alone; ``seed`` then draws only the true errors, so that
+            one ``seed`` and several posture seeds are the same robot measured on new postures (sessions of one
+            robot). None: ``seed`` draws both (the files of earlier versions).
+        shift: Added to the true errors, by parameter name [m, rad] (a robot that changed since: a joint offset that
+            slipped by 2 mrad is ``{"arm_1_joint.offset": 0.002}``); each name must be one of the parameters.
 
     Raises:
         TypeError, ArgumentError: an argument of the wrong type or value (named, with the value), ``kinds`` empty.
+        NotFoundError: a ``shift`` name that is no parameter of the simulation (they are listed).
     """
     _check_arguments(robot, kinds, n_train, n_test, frame, perturb, noise, seed, parameter_spec, spread, payload,
-                     joint_noise)
+                     joint_noise, posture_seed, shift)
     check_sample_counts(n_train, n_test)
     check_movable(robot)
     rng = np.random.default_rng(seed)
     models = measurement_models(robot, kinds, frame, max(noise, 1e-9))
     pset = parameters_for(robot, models, parameter_spec, payload=payload)
     drawn = perturbation(pset, perturb, rng)
+    if posture_seed is not None:  # the robot's errors drawn from seed, the postures and the noise from their own
+        rng = np.random.default_rng([posture_seed, 1])
     qa, _ = random_actuated(robot, n_train + n_test, rng, spread=spread, progress=progress)
     for _ in range(REDRAWS + 1):
         x_true = drawn.copy()
         at_nominal = CalibrationProblem(robot, pset, models, Observations.neutral(models, qa), payload=payload)
         if parameter_spec is None:  # as the calibration's default set: no error where it would move no measurement
             x_true[idle_parameters(at_nominal, np.zeros(len(pset)))] = 0.0
+        for name, value in (shift or {}).items():
+            x_true[_index(pset, name)] += value
         failed = true_robot_failures(at_nominal, x_true)
         if len(failed) in (0, len(qa)):  # every posture, drawn anywhere: the true robot is beyond assembling
             break
@@ -152,10 +171,11 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
     dataset = Dataset(joint_names, np.hstack(joints), measured, [str(k) for k in range(n)],
                       ["train"] * n_train + ["test"] * n_test,
                       {"robot": robot.name, "pincal": version(), "units": "SI (m, rad)", "perturb": repr(perturb),
-                       "seed": str(seed),
+                       "seed": str(seed), **({"posture seed": str(posture_seed)} if posture_seed is not None else {}),
                        **({"robot sha256": sha256(robot.source)} if robot.source is not None else {}),
                        "simulate": json.dumps(simulation_options(kinds, n_train, n_test, frame, perturb, noise, seed,
-                                                                 parameter_spec, spread, payload, joint_noise)),
+                                                                 parameter_spec, spread, payload, joint_noise,
+                                                                 posture_seed, shift)),
                        **{f"sigma {m.key.split(':', 1)[0]} {m.key.split(':', 1)[1]}": repr(max(noise, 1e-9))
                           for m in models}})
     return Simulation(robot, pset, x_true, dataset, models, payload)
@@ -163,13 +183,23 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
 
 def simulation_options(kinds: Sequence[str], n_train: int, n_test: int, frame: str | None, perturb: float,
                        noise: float, seed: int, parameter_spec: Sequence[str] | None, spread: float | None,
-                       payload: Payload | None, joint_noise: float) -> dict[str, Any]:
+                       payload: Payload | None, joint_noise: float, posture_seed: int | None = None,
+                       shift: dict[str, float] | None = None) -> dict[str, Any]:
     """The arguments of :func:`simulate` as its outputs record them (JSON values; lengths [m], angles [rad], mass
-    [kg])."""
+    [kg]); ``posture_seed`` and ``shift`` only when given (the records of earlier versions unchanged)."""
     return {"measure": list(kinds), "samples": n_train, "test_samples": n_test, "frame": frame, "perturb": perturb,
             "noise": noise, "joint_noise": joint_noise, "seed": seed,
             "parameters": list(parameter_spec) if parameter_spec is not None else None, "spread": spread,
-            "payload": payload.as_dict() if payload is not None else None}
+            "payload": payload.as_dict() if payload is not None else None,
+            **({"posture_seed": posture_seed} if posture_seed is not None else {}),
+            **({"shift": dict(shift)} if shift else {})}
+
+
+def _index(parameters: ParameterSet, name: str) -> int:
+    """The position of parameter ``name`` in ``parameters``; NotFoundError listing them when it is none."""
+    if name not in parameters.names:
+        raise not_found("parameter", name, list(parameters.names), " among the simulation's parameters", "shift: ")
+    return list(parameters.names).index(name)
 
 
 #: Rounds of redrawing the postures the simulated (true) robot cannot assemble: near the edge of the workspace, a

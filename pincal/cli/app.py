@@ -21,7 +21,9 @@ from pincal.cli import (
     bag_import,
     check_data,
     compensation,
+    drift_check,
     export_formats,
+    iso_commands,
     planning,
     report_page,
     robots,
@@ -39,6 +41,7 @@ from pincal.cli.arguments import (
     given_options,
     non_negative_float,
     non_negative_int,
+    parameter_shift,
     positive_int,
 )
 from pincal.errors import DataError, PincalError
@@ -114,7 +117,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     try:
         sim = simulate(robot, args.measure, args.samples, args.test_samples, frame=args.frame, perturb=args.perturb,
                        noise=args.noise, seed=args.seed, parameter_spec=args.parameters, progress=not args.quiet,
-                       spread=args.spread, payload=args.payload)
+                       spread=args.spread, payload=args.payload, posture_seed=args.posture_seed,
+                       shift=dict(args.shift) if args.shift else None)
         paths = write_simulation(sim, Path(args.out), args.meshes, given=args.robot)
     except PincalError:
         if created:  # the directory made above, still empty: nothing is left behind
@@ -341,7 +345,14 @@ def build_parser() -> argparse.ArgumentParser:
     add_perturb(sim)
     sim.add_argument("--noise", type=non_negative_float, default=1e-5,
                      help="σ of the measurement noise [m, rad] (default 1e-5)")
-    sim.add_argument("--seed", type=non_negative_int, default=0, help="random seed")
+    sim.add_argument("--seed", type=non_negative_int, default=0,
+                     help="random seed (the robot's errors; and the postures and noise without --posture-seed)")
+    sim.add_argument("--posture-seed", type=non_negative_int,
+                     help="seed of the postures and noise alone: the same --seed with another --posture-seed is the "
+                          "same robot measured on new postures (a later session)")
+    sim.add_argument("--shift", type=parameter_shift, action="append", metavar="NAME=VALUE",
+                     help="add VALUE [m, rad] to the true error of parameter NAME (a robot that changed: "
+                          "--shift arm_1_joint.offset=0.002); repeatable")
     add_spread(sim)
     add_parameters(sim, "parameters with errors: named sets (default, model24, model24i, hexapod42, "
                         "hexapod44) and name patterns, as for calibrate (default: the default set)")
@@ -394,7 +405,7 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.set_defaults(func=cmd_fleet)
 
     for module in (view, report_page, planning, check_data, compensation, export_formats, bag_import, assemble,
-                   robots):  # command groups of their own
+                   robots, iso_commands, drift_check):  # command groups of their own
         module.register(sub)
     return parser
 

@@ -55,6 +55,19 @@ def non_negative_float(text: str) -> float:
     return value
 
 
+def parameter_shift(text: str) -> tuple[str, float]:
+    """An argparse type: ``NAME=VALUE``, a parameter's name and a finite change [m, rad]."""
+    name, sep, value = text.partition("=")
+    try:
+        number = float(value)
+    except ValueError:
+        number = float("nan")
+    if not sep or not name.strip() or not abs(number) < float("inf"):
+        raise argparse.ArgumentTypeError(f"'{text}' is not NAME=VALUE with a finite VALUE [m, rad] "
+                                         "(e.g. arm_1_joint.offset=0.002)")
+    return name.strip(), number
+
+
 def add_robot(parser: argparse.ArgumentParser, note: str = "") -> None:
     """The positional ROBOT: a URDF path or a known robot name."""
     parser.add_argument("robot", help="URDF file or known robot name" + (f" ({note})" if note else ""))
