@@ -22,6 +22,7 @@ from pincal.cli import (
     check_data,
     compensation,
     export_formats,
+    filter_program,
     planning,
     report_page,
     robots,
@@ -377,8 +378,8 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.add_argument("--scheduler", help="address of a Dask scheduler (pip install 'pincal[dask]')")
     fleet.set_defaults(func=cmd_fleet)
 
-    for module in (view, report_page, planning, check_data, compensation, export_formats, bag_import, assemble,
-                   robots):  # command groups of their own
+    for module in (view, report_page, planning, check_data, compensation, export_formats, filter_program, bag_import,
+                   assemble, robots):  # command groups of their own
         module.register(sub)
     return parser
 
