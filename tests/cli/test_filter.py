@@ -17,6 +17,7 @@ import pincal
 from pincal.io.programs import read_program
 
 PROGRAMS = ROOT / "examples" / "data" / "programs"
+KR16 = ROOT / "examples" / "data" / "robots" / "kr16_like.urdf"
 
 
 @pytest.fixture(scope="module")
@@ -28,6 +29,46 @@ def ur10_cal(tmp_path_factory: pytest.TempPathFactory) -> Path:
     done = run_pincal("calibrate", "ur10", str(folder / "measurements.csv"), "--out", str(folder / "cal.urdf"))
     assert done.returncode == 0, done.stderr
     return folder / "cal.urdf"
+
+
+@pytest.fixture(scope="module")
+def kr16_cal(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("kr16")
+    done = run_pincal("simulate", str(KR16), "--measure", "pose", "--frame", "flange", "--samples", "30", "--seed",
+                      "2", "--quiet", "--out", str(folder))
+    assert done.returncode == 0, done.stderr
+    done = run_pincal("calibrate", str(KR16), str(folder / "measurements.csv"), "--out", str(folder / "cal.urdf"))
+    assert done.returncode == 0, done.stderr
+    return folder / "cal.urdf"
+
+
+def _check_targets(source: Path, out: Path, cal_path: Path, nominal_name: str, flange: str, start: np.ndarray,
+                   config: tuple[Path, ...] = ()) -> int:
+    """Every target of ``out`` against ``source``'s: joint targets equal; each Cartesian one, sent to a nominal
+    controller (its inverse kinematics from the posture it reached the one before at), puts the calibrated model's
+    tool on the pose ``source`` wrote, where the pose as written misses it. Returns how many Cartesian targets."""
+    old = read_program(source, pin.SE3.Identity(), config).targets
+    new = read_program(out, pin.SE3.Identity(), config).targets
+    cal, nominal = pincal.load_robot(cal_path), pincal.load_robot(nominal_name)
+    base_n, base_c = (r.placement(r.q_reference, "base") for r in (nominal, cal))
+    q = start
+    count = 0
+    for was, now in zip(old, new, strict=True):
+        if was.pose is None:
+            assert now.joints is not None and np.array_equal(was.joints, now.joints)
+            q = was.joints
+            continue
+        assert now.pose is not None and now.line == was.line
+        count += 1
+        gaps = []
+        for pose in (was.pose, now.pose):
+            q_pose = nominal.solve_ik(base_n * was.frame * pose * was.tool.inverse(), flange, q)
+            landed = base_c.inverse() * cal.placement(q_pose, flange) * was.tool
+            gaps.append(float(np.linalg.norm(landed.translation - (was.frame * was.pose).translation)))
+        q = q_pose
+        assert gaps[0] > 2e-4  # the calibration moves the tool by a fraction of a millimetre or more
+        assert gaps[1] < 1e-6  # as written: 1e-4 mm and 1e-5 degree (KRL), 1e-9 (RAPID's quaternions)
+    return count
 
 
 def _changed_lines(before: str, after: str) -> list[int]:
@@ -95,3 +136,44 @@ def test_filter_refuses_to_write_over_its_input(ur10_cal: Path, tmp_path: Path) 
     assert done.stderr.count("\n") == 1 and program.read_bytes() == before
     done = run_pincal("filter", str(tmp_path / "p.txt"), "--model", str(ur10_cal), "--out", str(tmp_path / "o.txt"))
     assert done.returncode == 2 and "URScript (.script)" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_krl_points_of_the_dat_and_the_src_rewritten(kr16_cal: Path, tmp_path: Path) -> None:
+    out = tmp_path / "filtered" / "palletize.src"
+    config = PROGRAMS / "config_excerpt.dat"
+    done = run_pincal("filter", str(PROGRAMS / "palletize.src"), "--model", str(kr16_cal), "--config", str(config),
+                      "--out", str(out))
+    assert done.returncode == 1, done.stdout + done.stderr  # the relative move is left as written
+    assert "6 Cartesian and 2 joint targets" in done.stdout and "base frame base, flange flange" in done.stdout
+    assert done.stdout.count("warning:") == 1 and "line 42: LIN_REL: a relative move" in done.stdout
+    for suffix, lines in ((".src", [40]), (".dat", [8, 11, 14, 15, 16])):
+        before = (PROGRAMS / f"palletize{suffix}").read_text(encoding="utf-8")
+        assert _changed_lines(before, out.with_suffix(suffix).read_text(encoding="utf-8")) == lines
+    home = np.radians([0.0, -90.0, 90.0, 0.0, 0.0, 0.0])
+    assert _check_targets(PROGRAMS / "palletize.src", out, kr16_cal, str(KR16), "flange", home, (config,)) == 6
+
+
+def test_krl_without_the_controllers_tool_data_leaves_those_points(kr16_cal: Path, tmp_path: Path) -> None:
+    out = tmp_path / "palletize.src"
+    done = run_pincal("filter", str(PROGRAMS / "palletize.src"), "--model", str(kr16_cal), "--out", str(out))
+    assert done.returncode == 1
+    assert "TOOL_DATA[1], which no file given holds (give the controller's $config.dat with --config)" in done.stdout
+    assert "0 Cartesian and 2 joint targets" in done.stdout  # every point's tool is TOOL_DATA[1]: none guessed
+    assert done.stdout.count("its tool or base is not known") == 6
+    for suffix in (".src", ".dat"):
+        assert out.with_suffix(suffix).read_bytes() == (PROGRAMS / f"palletize{suffix}").read_bytes()
+    done = run_pincal("filter", str(PROGRAMS / "palletize.src"), "--model", str(kr16_cal), "--out",
+                      str(tmp_path / "p.dat"))
+    assert done.returncode == 2 and "written as a .src" in done.stderr
+
+
+def test_rapid_robtargets_declared_and_inline_rewritten(kr16_cal: Path, tmp_path: Path) -> None:
+    out = tmp_path / "glue.mod"
+    source = PROGRAMS / "glue.mod"
+    done = run_pincal("filter", str(source), "--model", str(kr16_cal), "--flange", "tool0", "--out", str(out))
+    assert done.returncode == 1, done.stdout + done.stderr  # Offs(pEnd, …) is left as written
+    assert "line 17: MoveL: point 'Offs(pEnd,0,0,100)'" in done.stdout and done.stdout.count("warning:") == 1
+    before, after = source.read_text(encoding="utf-8"), out.read_text(encoding="utf-8")
+    assert _changed_lines(before, after) == [7, 8, 9, 10, 18]
+    home = np.radians([0.0, -30.0, 30.0, 0.0, 60.0, 0.0])
+    assert _check_targets(source, out, kr16_cal, str(KR16), "tool0", home) == 5
