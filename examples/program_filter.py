@@ -247,8 +247,8 @@ def page(rows: list[dict[str, Any]], seconds: float, quick: bool) -> str:
         "",
         f"Filtered, every program puts the truth's tool on its poses to within {max(ratios):.2g}× the calibration's "
         f"held-out RMS ({'within' if max(ratios) <= 3 else 'NOT within'} 3×, what this page checks); as written, it "
-        f"misses them by {min(misses):.2g}× to {max(misses):.2g}× the uncalibrated robot's held-out RMS: by the robot's "
-        f"geometric error. Each rewritten program differs from the one written on the lines of its poses alone "
+        f"misses them by {min(misses):.2g}× to {max(misses):.2g}× the uncalibrated robot's held-out RMS: by the "
+        f"robot's geometric error. Each rewritten program differs from the one written on the lines of its poses alone "
         f"({', '.join(str(r['changed_lines']) for r in rows)} lines); `pincal filter` took "
         f"{max(r['seconds'] for r in rows):.1f} s at most. The *filtered* figures are over the targets rewritten; "
         + ("a target left as written (named by line, with its reason, as `pincal filter` prints it) keeps its "
