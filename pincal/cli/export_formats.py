@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 from pincal.cli.arguments import add_robot, non_negative_int, positive_float, positive_int
 from pincal.errors import PincalError
@@ -10,12 +11,13 @@ from pincal.errors import PincalError
 #: pincal.io.export's FORMATS, TOLERANCE [m, rad] and POSTURES, spelled here so that parsing imports no NumPy
 #: (tests/cli/test_export.py holds them equal).
 FORMATS = ("yaml", "dh", "mdh")
-DEFAULT_TOLERANCE = 1e-6
+DEFAULT_TOLERANCE = 1e-9
 DEFAULT_POSTURES = 100
 
 
 def cmd_export(args: argparse.Namespace) -> int:
     """``pincal export``: write the export and say what it holds; a DH table's conversion residual is printed."""
+    from pincal.calibration.export_proof import dh_deviation, proof_postures, yaml_deviation
     from pincal.calibration.provenance import file_digests, version
     from pincal.io.calibrated_urdf import source_text
     from pincal.io.corrections_file import corrections_path, robot_files
@@ -35,8 +37,11 @@ def cmd_export(args: argparse.Namespace) -> int:
         source += f"; apply the joint corrections of {beside.name} to the readings first (docs/calibrated_urdf.md)"
         print(f"note: {beside.name} holds joint corrections the URDF cannot: a controller applies them to the raw "
               "readings before this export's kinematics")
+    postures = proof_postures(robot, robot.source, args.postures, args.seed)
     if args.format == "yaml":
-        write_text(args.out, joint_origins_yaml(text, source))
+        exported = joint_origins_yaml(text, source)
+        written = proved(exported, [yaml_deviation(exported, text, robot, postures)], text, robot, postures, args)
+        write_text(args.out, written)
         print(f"wrote {args.out}: the origin of each of the URDF's joints (x, y, z [m], roll, pitch, yaw [rad])")
         return 0
     done = dh_export(robot, text, source, args.format, args.frame, args.base, args.tolerance,
@@ -53,9 +58,26 @@ def cmd_export(args: argparse.Namespace) -> int:
     for first, second, angle, distance in table.near_parallel:
         print(f"  note: axes of {shown_name(first)} and {shown_name(second)} are {angle:.3g} rad from parallel: their "
               f"common normal is {distance:.3g} m away (exact, but d values large and cancelling)")
-    write_text(args.out, done.text)
+    write_text(args.out, proved(done.text, [dh_deviation(done.text, robot, postures)], text, robot, postures, args))
     print(f"wrote {args.out}")
     return 0
+
+
+def proved(exported: str, deviations: list[Any], urdf_text: str, robot: Any, postures: Any,
+           args: argparse.Namespace) -> str:
+    """The export with its proof in its header (pincal.calibration.export_proof): the URDF reloaded by Pinocchio and
+    yourdfpy, and ``deviations`` (the export read back); printed; refused above ``--tolerance``."""
+    from pincal.calibration.export_proof import header_line, urdf_deviations, with_header
+
+    every = [*urdf_deviations(urdf_text, robot, postures), *deviations]
+    line = header_line(every, postures)
+    print(line[2:])
+    worst = max(every, key=lambda d: max(d.position, d.orientation))
+    if max(worst.position, worst.orientation) > args.tolerance:
+        raise PincalError(f"export: {worst.reader} reads the {args.format} export {worst.position:.3g} m, "
+                          f"{worst.orientation:.3g} rad away from the model (tolerance {args.tolerance:g}): not "
+                          "written")
+    return with_header(exported, line)
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -78,8 +100,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser.add_argument("--base", help="dh, mdh: the chain's base frame (default: the URDF's root link; in a "
                                        "calibrated URDF the robot's own root below measurement_frame)")
     parser.add_argument("--tolerance", type=positive_float, default=DEFAULT_TOLERANCE,
-                        help=f"dh, mdh: largest conversion residual written [m, rad] (default {DEFAULT_TOLERANCE:g})")
+                        help=f"largest deviation [m, rad] of the export read back (and of a DH table's conversion) "
+                             f"from the model, for it to be written (default {DEFAULT_TOLERANCE:g})")
     parser.add_argument("--postures", type=positive_int, default=DEFAULT_POSTURES,
-                        help=f"dh, mdh: random postures the residual is measured at (default {DEFAULT_POSTURES})")
-    parser.add_argument("--seed", type=non_negative_int, default=0, help="dh, mdh: their random seed (default 0)")
+                        help=f"random postures the export is checked at, besides the fitted ones (default "
+                             f"{DEFAULT_POSTURES})")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="their random seed (default 0)")
     parser.set_defaults(func=cmd_export)

@@ -36,7 +36,7 @@ ExportFormat = Literal["yaml", "dh", "mdh"]
 #: The formats, the default first.
 FORMATS: tuple[ExportFormat, ...] = ("yaml", *CONVENTIONS)
 #: Largest conversion residual of a DH table, position [m] and orientation [rad], for it to be written.
-TOLERANCE = 1e-6
+TOLERANCE = 1e-9
 #: Random postures the residual is measured at (besides the zero posture).
 POSTURES = 100
 #: A calibrated URDF's measurement frame and the joint that hangs the robot below it (pincal.io.calibrated_urdf).
