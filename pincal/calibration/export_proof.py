@@ -58,8 +58,10 @@ class Postures:
 
     def words(self) -> str:
         """In words: how many, of which kind."""
-        return (f"the {self.fitted} postures of the calibration data and {len(self.q) - self.fitted} random ones "
-                f"within the joint limits (seed {self.seed})")
+        drawn = f"random ones within the joint limits (seed {self.seed})"
+        if not self.fitted:
+            return f"{len(self.q)} {drawn.replace('ones', 'postures')}"
+        return f"the {self.fitted} postures of the calibration data and {len(self.q) - self.fitted} {drawn}"
 
 
 def proof_postures(robot: Robot, model_path: str | Path | None, count: int = POSTURES, seed: int = 0) -> Postures:
@@ -276,3 +278,27 @@ def with_header(text: str, line: str) -> str:
     while k < len(lines) and lines[k].startswith("#"):
         k += 1
     return "".join([*lines[:k], line + "\n", *lines[k:]])
+
+
+def ur_deviations(yaml_text: str, tcp: pin.SE3, robot: Robot, base: str, tool: str,
+                  postures: Postures) -> list[Deviation]:
+    """The ur_description kinematics YAML read back and composed as ur_description's chain does (``origin · Rz(q)``
+    per joint, then its fixed ``flange`` and ``tool0``), against ``robot``'s ``tool`` in its ``base``: with the TCP
+    the export names, and without it (what the tool correction alone is)."""
+    from pincal.io.ur_kinematics import JOINTS, KEYS, compose
+
+    blocks = _blocks(yaml_text)
+    missing = [key for key in KEYS if key not in blocks]
+    if missing:
+        raise RobotFileError(f"the ur_description kinematics lack {', '.join(missing)}")
+    entries = [_se3(blocks[key], key) for key in KEYS]
+    with_tcp: list[tuple[pin.SE3, pin.SE3]] = []
+    without: list[tuple[pin.SE3, pin.SE3]] = []
+    for q in postures.q:
+        values = _joint_values(robot, q)
+        composed = compose(entries, np.array([values[name] for name in JOINTS]))[-1]
+        expected = robot.placement(q, base).inverse() * robot.placement(q, tool)
+        with_tcp.append((expected, composed * tcp))
+        without.append((expected, composed))
+    return [_largest("ur_description's chain composed from the YAML, with the TCP", with_tcp),
+            _largest("without the TCP (the calibrated tool frame's correction)", without)]

@@ -10,9 +10,11 @@ from pincal.errors import PincalError
 
 #: pincal.io.export's FORMATS, TOLERANCE [m, rad] and POSTURES, spelled here so that parsing imports no NumPy
 #: (tests/cli/test_export.py holds them equal).
-FORMATS = ("yaml", "dh", "mdh")
+FORMATS = ("yaml", "dh", "mdh", "ur")
 DEFAULT_TOLERANCE = 1e-9
 DEFAULT_POSTURES = 100
+#: A calibrated UR tool frame farther than this [m, rad] from ur_description's tool0 is named, with the TCP to set.
+TCP_NOTE = 1e-6
 
 
 def cmd_export(args: argparse.Namespace) -> int:
@@ -25,8 +27,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     from pincal.io.files import check_outputs, write_text
     from pincal.model.robot import load_robot
 
-    if args.format == "yaml" and (args.frame or args.base):
-        raise PincalError("export: --frame and --base choose a DH table's chain; --format yaml writes every joint")
+    if args.format in ("yaml", "ur") and (args.frame or args.base):
+        raise PincalError(f"export: --frame and --base choose a DH table's chain; --format {args.format} writes every "
+                          "joint")
     robot = load_robot(args.robot)
     text = source_text(robot)
     check_outputs([("--out", args.out)], robot_files(robot))
@@ -44,6 +47,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         write_text(args.out, written)
         print(f"wrote {args.out}: the origin of each of the URDF's joints (x, y, z [m], roll, pitch, yaw [rad])")
         return 0
+    if args.format == "ur":
+        return _ur(args, robot, text, postures, digest or "")
     done = dh_export(robot, text, source, args.format, args.frame, args.base, args.tolerance,
                      args.postures, args.seed)
     table, residual = done.table, done.residual
@@ -60,6 +65,27 @@ def cmd_export(args: argparse.Namespace) -> int:
               f"common normal is {distance:.3g} m away (exact, but d values large and cancelling)")
     write_text(args.out, proved(done.text, [dh_deviation(done.text, robot, postures)], text, robot, postures, args))
     print(f"wrote {args.out}")
+    return 0
+
+
+def _ur(args: argparse.Namespace, robot: Any, urdf_text: str, postures: Any, digest: str) -> int:
+    """``--format ur``: ur_description's kinematics YAML, proved by composing it as ur_description does."""
+    from pincal.calibration.export_proof import ur_deviations
+    from pincal.calibration.provenance import read_provenance
+    from pincal.io.files import write_text
+    from pincal.io.ur_kinematics import ur_kinematics, ur_kinematics_yaml
+    from pincal.model.robot import load_robot
+
+    recorded = read_provenance(robot.source).robot if robot.source is not None else None
+    nominal = load_robot(recorded) if recorded else robot
+    kinematics = ur_kinematics(robot, nominal)
+    exported = ur_kinematics_yaml(kinematics, str(args.robot), digest)
+    chain, alone = ur_deviations(exported, kinematics.tcp, robot, kinematics.base, kinematics.tool, postures)
+    write_text(args.out, proved(exported, [chain], urdf_text, robot, postures, args))
+    if max(alone.position, alone.orientation) > TCP_NOTE:
+        print(f"note: the calibrated tool0 is {alone.position * 1e3:.4f} mm, {alone.orientation * 1e3:.4f} mrad from "
+              "ur_description's tool0: set the TCP the file's header gives (the file's chain with it matches)")
+    print(f"wrote {args.out}: ur_description's kinematics (nominal layout from '{nominal.name}')")
     return 0
 
 

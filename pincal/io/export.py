@@ -32,9 +32,9 @@ from pincal.errors import RobotFileError
 from pincal.model.dh import CONVENTIONS, Convention, DHTable, Residual, conversion_residual, dh_table
 from pincal.model.robot import Robot
 
-ExportFormat = Literal["yaml", "dh", "mdh"]
-#: The formats, the default first.
-FORMATS: tuple[ExportFormat, ...] = ("yaml", *CONVENTIONS)
+ExportFormat = Literal["yaml", "dh", "mdh", "ur"]
+#: The formats, the default first (``ur``: :mod:`pincal.io.ur_kinematics`).
+FORMATS: tuple[ExportFormat, ...] = ("yaml", *CONVENTIONS, "ur")
 #: Largest conversion residual of a DH table, position [m] and orientation [rad], for it to be written.
 TOLERANCE = 1e-9
 #: Random postures the residual is measured at (besides the zero posture).

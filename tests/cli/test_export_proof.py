@@ -68,3 +68,82 @@ def test_a_file_changed_by_a_micrometre_is_caught(calibrated: Path, tmp_path: Pa
         same = (yaml_deviation(written, text, robot, postures) if fmt == "yaml"
                 else dh_deviation(written, robot, postures))
         assert same.position <= 1e-9
+
+
+UR_CHAIN = """<robot name="ur_description_chain">
+  <link name="base_link_inertia"/>{links}
+  <link name="flange"/><link name="tool0"/>{joints}
+  <joint name="wrist_3-flange" type="fixed"><parent link="wrist_3_link"/><child link="flange"/>
+    <origin xyz="0 0 0" rpy="0 -1.5707963267948966 -1.5707963267948966"/></joint>
+  <joint name="flange-tool0" type="fixed"><parent link="flange"/><child link="tool0"/>
+    <origin xyz="0 0 0" rpy="1.5707963267948966 0 1.5707963267948966"/></joint>
+</robot>"""
+UR_LINKS = ["shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link", "wrist_2_link", "wrist_3_link"]
+UR_JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+             "wrist_3_joint"]
+
+
+def _ur_description_chain(kinematics: dict[str, dict[str, float]]) -> pincal.Robot:
+    """The arm as ur_description's macro builds it from a kinematics file: each joint's origin its entry, axis z."""
+    keys = ["shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3"]
+    parents = ["base_link_inertia", *UR_LINKS[:-1]]
+    joints = "".join(
+        f'\n  <joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
+        f'<origin xyz="{e["x"]!r} {e["y"]!r} {e["z"]!r}" rpy="{e["roll"]!r} {e["pitch"]!r} {e["yaw"]!r}"/>'
+        '<axis xyz="0 0 1"/><limit lower="-6.3" upper="6.3" effort="1" velocity="1"/></joint>'
+        for name, parent, child, e in zip(UR_JOINTS, parents, UR_LINKS, (kinematics[k] for k in keys), strict=True))
+    links = "".join(f'\n  <link name="{name}"/>' for name in UR_LINKS)
+    from pincal.model.robot import robot_from_urdf_text
+
+    return robot_from_urdf_text(UR_CHAIN.format(links=links, joints=joints))
+
+
+@pytest.mark.parametrize("measured", ["position", "pose"])
+def test_ur_kinematics_compose_in_ur_descriptions_chain(calibrated: Path, tmp_path: Path, measured: str) -> None:
+    """Calibrated from points, the tool frame is not corrected; from poses it is, and the export names the TCP."""
+    import numpy as np
+    import pinocchio as pin
+    import yaml
+
+    if measured == "pose":
+        assert run_pincal("simulate", "ur10", "--measure", "pose", "--samples", "30", "--seed", "1", "--quiet",
+                          "--out", str(tmp_path)).returncode == 0
+        calibrated = tmp_path / "cal.urdf"
+        assert run_pincal("calibrate", "ur10", str(tmp_path / "measurements.csv"), "--out",
+                          str(calibrated)).returncode == 0
+    out = tmp_path / "kinematics.yaml"
+    done = run_pincal("export", str(calibrated), "--format", "ur", "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    assert "ur_description's chain composed from the YAML, with the TCP: " in done.stdout
+    text = out.read_text(encoding="utf-8")
+    kinematics = yaml.safe_load(text)["kinematics"]
+    assert list(kinematics) == ["shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3", "hash"]
+    assert kinematics["hash"].startswith("pincal_")
+    tcp_lines = [line for line in text.splitlines() if "set it as the TCP" in line]
+    assert len(tcp_lines) == (measured == "pose") and ("set the TCP" in done.stdout) == (measured == "pose")
+    values = [float(v) for v in tcp_lines[0].split("p[")[1].rstrip("]").split(",")] if tcp_lines else [0.0] * 6
+    tcp = pin.SE3(pin.exp3(np.array(values[3:])), np.array(values[:3]))
+    chain, cal = _ur_description_chain(kinematics), pincal.load_robot(calibrated)
+    rng = np.random.default_rng(5)
+    for q in rng.uniform(-3, 3, size=(20, 6)):
+        expected = cal.placement(q, "base").inverse() * cal.placement(q, "tool0")
+        got = chain.placement(q, "base_link_inertia").inverse() * chain.placement(q, "tool0") * tcp
+        assert np.linalg.norm(got.translation - expected.translation) < 2e-9  # the TCP written to 1e-9
+        assert np.linalg.norm(pin.log3(got.rotation.T @ expected.rotation)) < 2e-9
+
+
+def test_ur_kinematics_of_the_nominal_ur10_are_urs_published_ones(tmp_path: Path) -> None:
+    import yaml
+
+    out = tmp_path / "nominal.yaml"
+    done = run_pincal("export", "ur10", "--format", "ur", "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    assert "set it as the TCP" not in out.read_text(encoding="utf-8")
+    got = yaml.safe_load(out.read_text(encoding="utf-8"))["kinematics"]
+    published = {("shoulder", "z"): 0.1273, ("forearm", "x"): -0.612, ("wrist_1", "x"): -0.5723,
+                 ("wrist_1", "z"): 0.163941, ("wrist_2", "y"): -0.1157, ("wrist_3", "y"): 0.0922,
+                 ("upper_arm", "roll"): 1.5707963267948966, ("wrist_2", "roll"): 1.5707963267948966}
+    for (key, field), value in published.items():
+        assert got[key][field] == pytest.approx(value, abs=1e-9)
+    done = run_pincal("export", "panda", "--format", "ur", "--out", str(tmp_path / "p.yaml"))
+    assert done.returncode == 2 and "not a Universal Robots arm" in done.stderr and done.stderr.count("\n") == 1
