@@ -27,7 +27,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import PincalError, RobotFileError
-from pincal.model.dh import DHRow, DHTable, chain_joints
+from pincal.model.dh import Convention, DHRow, DHTable, chain_joints
 from pincal.model.robot import Robot, robot_from_urdf_text
 
 Array = npt.NDArray[np.float64]
@@ -235,18 +235,18 @@ def read_dh(text: str) -> DHTable:
             row = flow_map(line[4:])
             try:
                 rows.append(DHRow(row["name"], row["type"] == "prismatic", float(row["a"]), float(row["alpha"]),
-                                  float(row["d"]), float(row["theta"])))
+                                  float(row["d"]), float(row["theta"]), float(row.get("beta", "0.0"))))
             except (KeyError, ValueError):
                 raise RobotFileError(f"DH row '{line.strip()[:60]}' is not read") from None
         else:
             key, _, value = line.partition(":")
             fields[key.strip()] = value.strip()
     convention = fields.get("convention", "")
-    if convention not in ("dh", "mdh"):
-        raise RobotFileError(f"convention '{convention}' is not dh or mdh")
-    return DHTable("dh" if convention == "dh" else "mdh", _value(fields.get("base_frame", "")),
-                   _value(fields.get("end_frame", "")), _se3(flow_map(fields["base"]), "base"), tuple(rows),
-                   _se3(flow_map(fields["tool"]), "tool"))
+    if convention not in ("dh", "mdh", "hayati"):
+        raise RobotFileError(f"convention '{convention}' is not dh, mdh or hayati")
+    kind: Convention = "dh" if convention == "dh" else "mdh" if convention == "mdh" else "hayati"
+    return DHTable(kind, _value(fields.get("base_frame", "")), _value(fields.get("end_frame", "")),
+                   _se3(flow_map(fields["base"]), "base"), tuple(rows), _se3(flow_map(fields["tool"]), "tool"))
 
 
 def dh_deviation(dh_text: str, robot: Robot, postures: Postures) -> Deviation:

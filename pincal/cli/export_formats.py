@@ -10,7 +10,7 @@ from pincal.errors import PincalError
 
 #: pincal.io.export's FORMATS, TOLERANCE [m, rad] and POSTURES, spelled here so that parsing imports no NumPy
 #: (tests/cli/test_export.py holds them equal).
-FORMATS = ("yaml", "dh", "mdh", "ur")
+FORMATS = ("yaml", "dh", "mdh", "hayati", "ur")
 DEFAULT_TOLERANCE = 1e-9
 DEFAULT_POSTURES = 100
 #: A calibrated UR tool frame farther than this [m, rad] from ur_description's tool0 is named, with the TCP to set.
@@ -55,12 +55,19 @@ def cmd_export(args: argparse.Namespace) -> int:
     print(f"{args.format} table of {shown_name(table.base_frame)} -> {shown_name(table.end_frame)}, {len(table.rows)} "
           f"joints; conversion residual over {residual.postures} random postures: {residual.position:.3g} m, "
           f"{residual.orientation:.3g} rad")
-    names = ("theta", "d", "a", "alpha") if args.format == "dh" else ("alpha", "a", "theta", "d")
-    print(f"  {'joint':<28}" + "".join(f"{n + (' [rad]' if n in ('theta', 'alpha') else ' [m]'):>16}" for n in names))
+    names = {"dh": ("theta", "d", "a", "alpha"), "hayati": ("theta", "d", "a", "alpha", "beta")}.get(
+        args.format, ("alpha", "a", "theta", "d"))
+    print(f"  {'joint':<28}" + "".join(f"{n + (' [rad]' if n in ('theta', 'alpha', 'beta') else ' [m]'):>16}"
+                                       for n in names))
     for row in table.rows:
-        values = {"theta": row.theta, "d": row.d, "a": row.a, "alpha": row.alpha}
+        values = {"theta": row.theta, "d": row.d, "a": row.a, "alpha": row.alpha, "beta": row.beta}
         print(f"  {shown_name(row.joint):<28}" + "".join(f"{values[n]:>16.9g}" for n in names))
+    for first, _, distance in table.hayati:
+        print(f"  note: {shown_name(first)} in Hayati's form (beta about y, d = 0): its classic d would be "
+              f"{distance:.3g} m, beyond the chain's size {table.size:.3g} m")
     for first, second, angle, distance in table.near_parallel:
+        if any(first == h[0] for h in table.hayati):
+            continue
         print(f"  note: axes of {shown_name(first)} and {shown_name(second)} are {angle:.3g} rad from parallel: their "
               f"common normal is {distance:.3g} m away (exact, but d values large and cancelling)")
     write_text(args.out, proved(done.text, [dh_deviation(done.text, robot, postures)], text, robot, postures, args))

@@ -147,3 +147,44 @@ def test_ur_kinematics_of_the_nominal_ur10_are_urs_published_ones(tmp_path: Path
         assert got[key][field] == pytest.approx(value, abs=1e-9)
     done = run_pincal("export", "panda", "--format", "ur", "--out", str(tmp_path / "p.yaml"))
     assert done.returncode == 2 and "not a Universal Robots arm" in done.stderr and done.stderr.count("\n") == 1
+
+
+def test_hayati_rows_keep_a_calibrated_ur10s_table_within_its_size(calibrated: Path, tmp_path: Path) -> None:
+    """The classic table of the calibrated UR10 has d values of hundreds of metres for its nearly parallel axes;
+    ``--format hayati`` writes those rows in Hayati's form: every length within the arm's size, the table exact."""
+    import numpy as np
+    import pinocchio as pin
+    import yaml
+
+    tables = {}
+    for fmt in ("dh", "hayati"):
+        out = tmp_path / f"{fmt}.yaml"
+        done = run_pincal("export", str(calibrated), "--format", fmt, "--out", str(out))
+        assert done.returncode == 0, done.stderr
+        tables[fmt] = yaml.safe_load(out.read_text(encoding="utf-8"))
+        text = out.read_text(encoding="utf-8")
+    assert max(abs(row["d"]) for row in tables["dh"]["joints"]) > 50  # the absurd classic table
+    rows = tables["hayati"]["joints"]
+    assert max(max(abs(row["d"]), abs(row["a"])) for row in rows) < 1.0
+    swapped = [row["name"] for row in rows if row["beta"] != 0.0]
+    assert swapped == ["shoulder_lift_joint", "elbow_joint"] and all(row["d"] == 0.0 for row in rows
+                                                                    if row["beta"] != 0.0)
+    assert sum("in Hayati's form (beta about y, d = 0), chosen because its classic d" in line
+               for line in text.splitlines()) == 2
+
+    def se3(f: dict[str, float]) -> pin.SE3:
+        return pin.SE3(pin.rpy.rpyToMatrix(f["roll"], f["pitch"], f["yaw"]), np.array([f["x"], f["y"], f["z"]]))
+
+    def rot(axis: str, angle: float) -> pin.SE3:
+        return pin.SE3(pin.utils.rotate(axis, angle), np.zeros(3))
+
+    robot = pincal.load_robot(calibrated)
+    table = tables["hayati"]
+    for q in np.random.default_rng(2).uniform(-3, 3, size=(10, 6)):  # A_i = Rz Tz Tx Rx Ry, as the header says
+        m = se3(table["base"])
+        for row, value in zip(rows, q, strict=True):
+            m = (m * rot("z", row["theta"] + value) * pin.SE3(np.eye(3), np.array([row["a"], 0, row["d"]]))
+                 * rot("x", row["alpha"]) * rot("y", row["beta"]))
+        m = m * se3(table["tool"])
+        expected = robot.placement(q, table["base_frame"]).inverse() * robot.placement(q, table["end_frame"])
+        assert np.linalg.norm(m.translation - expected.translation) < 1e-9
