@@ -163,19 +163,35 @@ class CommandSolver:
             statuses[k] = f"{UNREACHABLE}: {nearest} ({tried} starts)"
         return Commands(statuses, raw, configurations, residuals, inversion)
 
+    def solve_from(self, goals: Goals, starts: Array) -> Commands:
+        """The commands for every target of ``goals`` (world frame) from its own start alone (``starts``: (N, nq)
+        configurations), checked as :meth:`solve` checks them: where a program fixes the branch (``pincal filter``
+        starts each target from the nominal controller's answer). A target not passed from its start is unreachable,
+        with the reason."""
+        n, na, nq = len(goals), self.robot.n_actuated, self.robot.model.nq
+        raw, configurations = np.full((n, na), np.nan), np.full((n, nq), np.nan)
+        residuals, inversion = np.full((n, 2), np.nan), np.full(n, np.nan)
+        done, answers, why = self._attempt(goals, np.asarray(starts, dtype=float))
+        rows = np.flatnonzero(done)
+        raw[rows], configurations[rows], residuals[rows], inversion[rows] = answers
+        statuses = [OK if done[k] else f"{UNREACHABLE}: {why[k][1]}" for k in range(n)]
+        return Commands(statuses, raw, configurations, residuals, inversion)
+
     def _attempt(self, goals: Goals, start: Array) -> tuple[npt.NDArray[np.bool_], tuple[Array, Array, Array, Array],
                                                             dict[int, tuple[float, str]]]:
-        """Every target of ``goals`` from ``start`` (nq,): which passed, their (raw commands, configurations,
-        residuals, inversion gaps), and why each other one failed (row -> (closeness, reason))."""
+        """Every target of ``goals`` from ``start`` (nq,), or each from its own row of ``start`` (N, nq): which passed,
+        their (raw commands, configurations, residuals, inversion gaps), and why each other one failed (row ->
+        (closeness, reason))."""
         frame, n = self.frame, len(goals)
         pose = goals.rotations is not None
         why: dict[int, tuple[float, str]] = {}
-        start_values = frame.actuated_values(start[None, :])[0]
-        ik = solve_ik(frame, goals, np.tile(start, (n, 1)), SOLVE_TOLERANCE)
+        starts = np.array(np.broadcast_to(start, (n, start.shape[-1])), dtype=float)
+        start_values = frame.actuated_values(starts)
+        ik = solve_ik(frame, goals, starts, SOLVE_TOLERANCE)
         q, ok = ik.q.copy(), ik.converged.copy()
         failed = np.flatnonzero(~ok)
         if failed.size:  # Gauss–Newton over the actuated joints alone, within their limits
-            rescue = actuated_newton(frame, goals.take(failed), np.tile(start_values, (failed.size, 1)), self.lower,
+            rescue = actuated_newton(frame, goals.take(failed), start_values[failed], self.lower,
                                      self.upper, SOLVE_TOLERANCE)
             q[failed[rescue.converged]], ok[failed[rescue.converged]] = rescue.q[rescue.converged], True
             lost = failed[~rescue.converged]
@@ -189,7 +205,7 @@ class CommandSolver:
                     why[k] = (closeness, f"inverse kinematics did not converge: the nearest posture found leaves the "
                                          f"frame {miss:.3g} m from the target{edge}")
         rows = np.flatnonzero(ok)
-        wanted = self.settled(frame.actuated_values(q[rows]), start_values)
+        wanted = self.settled(frame.actuated_values(q[rows]), start_values[rows])
         outside = np.flatnonzero(self.outside_rows(wanted))
         if outside.size:  # the same targets with the joints held within their limits
             inside = actuated_newton(frame, goals.take(rows[outside]), wanted[outside], self.lower, self.upper,

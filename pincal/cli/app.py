@@ -23,6 +23,7 @@ from pincal.cli import (
     compensation,
     drift_check,
     export_formats,
+    filter_program,
     iso_commands,
     planning,
     report_page,
@@ -404,8 +405,8 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.add_argument("--scheduler", help="address of a Dask scheduler (pip install 'pincal[dask]')")
     fleet.set_defaults(func=cmd_fleet)
 
-    for module in (view, report_page, planning, check_data, compensation, export_formats, bag_import, assemble,
-                   robots, iso_commands, drift_check):  # command groups of their own
+    for module in (view, report_page, planning, check_data, compensation, export_formats, filter_program, bag_import,
+                   assemble, robots, iso_commands, drift_check):  # command groups of their own
         module.register(sub)
     return parser
 

@@ -3,19 +3,23 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 from pincal.cli.arguments import add_robot, non_negative_int, positive_float, positive_int
 from pincal.errors import PincalError
 
 #: pincal.io.export's FORMATS, TOLERANCE [m, rad] and POSTURES, spelled here so that parsing imports no NumPy
 #: (tests/cli/test_export.py holds them equal).
-FORMATS = ("yaml", "dh", "mdh")
-DEFAULT_TOLERANCE = 1e-6
+FORMATS = ("yaml", "dh", "mdh", "hayati", "ur")
+DEFAULT_TOLERANCE = 1e-9
 DEFAULT_POSTURES = 100
+#: A calibrated UR tool frame farther than this [m, rad] from ur_description's tool0 is named, with the TCP to set.
+TCP_NOTE = 1e-6
 
 
 def cmd_export(args: argparse.Namespace) -> int:
     """``pincal export``: write the export and say what it holds; a DH table's conversion residual is printed."""
+    from pincal.calibration.export_proof import dh_deviation, proof_postures, yaml_deviation
     from pincal.calibration.provenance import file_digests, version
     from pincal.io.calibrated_urdf import source_text
     from pincal.io.corrections_file import corrections_path, robot_files
@@ -23,8 +27,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     from pincal.io.files import check_outputs, write_text
     from pincal.model.robot import load_robot
 
-    if args.format == "yaml" and (args.frame or args.base):
-        raise PincalError("export: --frame and --base choose a DH table's chain; --format yaml writes every joint")
+    if args.format in ("yaml", "ur") and (args.frame or args.base):
+        raise PincalError(f"export: --frame and --base choose a DH table's chain; --format {args.format} writes every "
+                          "joint")
     robot = load_robot(args.robot)
     text = source_text(robot)
     check_outputs([("--out", args.out)], robot_files(robot))
@@ -35,27 +40,77 @@ def cmd_export(args: argparse.Namespace) -> int:
         source += f"; apply the joint corrections of {beside.name} to the readings first (docs/calibrated_urdf.md)"
         print(f"note: {beside.name} holds joint corrections the URDF cannot: a controller applies them to the raw "
               "readings before this export's kinematics")
+    postures = proof_postures(robot, robot.source, args.postures, args.seed)
     if args.format == "yaml":
-        write_text(args.out, joint_origins_yaml(text, source))
+        exported = joint_origins_yaml(text, source)
+        written = proved(exported, [yaml_deviation(exported, text, robot, postures)], text, robot, postures, args)
+        write_text(args.out, written)
         print(f"wrote {args.out}: the origin of each of the URDF's joints (x, y, z [m], roll, pitch, yaw [rad])")
         return 0
+    if args.format == "ur":
+        return _ur(args, robot, text, postures, digest or "")
     done = dh_export(robot, text, source, args.format, args.frame, args.base, args.tolerance,
                      args.postures, args.seed)
     table, residual = done.table, done.residual
     print(f"{args.format} table of {shown_name(table.base_frame)} -> {shown_name(table.end_frame)}, {len(table.rows)} "
           f"joints; conversion residual over {residual.postures} random postures: {residual.position:.3g} m, "
           f"{residual.orientation:.3g} rad")
-    names = ("theta", "d", "a", "alpha") if args.format == "dh" else ("alpha", "a", "theta", "d")
-    print(f"  {'joint':<28}" + "".join(f"{n + (' [rad]' if n in ('theta', 'alpha') else ' [m]'):>16}" for n in names))
+    names = {"dh": ("theta", "d", "a", "alpha"), "hayati": ("theta", "d", "a", "alpha", "beta")}.get(
+        args.format, ("alpha", "a", "theta", "d"))
+    print(f"  {'joint':<28}" + "".join(f"{n + (' [rad]' if n in ('theta', 'alpha', 'beta') else ' [m]'):>16}"
+                                       for n in names))
     for row in table.rows:
-        values = {"theta": row.theta, "d": row.d, "a": row.a, "alpha": row.alpha}
+        values = {"theta": row.theta, "d": row.d, "a": row.a, "alpha": row.alpha, "beta": row.beta}
         print(f"  {shown_name(row.joint):<28}" + "".join(f"{values[n]:>16.9g}" for n in names))
+    for first, _, distance in table.hayati:
+        print(f"  note: {shown_name(first)} in Hayati's form (beta about y, d = 0): its classic d would be "
+              f"{distance:.3g} m, beyond the chain's size {table.size:.3g} m")
     for first, second, angle, distance in table.near_parallel:
+        if any(first == h[0] for h in table.hayati):
+            continue
         print(f"  note: axes of {shown_name(first)} and {shown_name(second)} are {angle:.3g} rad from parallel: their "
               f"common normal is {distance:.3g} m away (exact, but d values large and cancelling)")
-    write_text(args.out, done.text)
+    write_text(args.out, proved(done.text, [dh_deviation(done.text, robot, postures)], text, robot, postures, args))
     print(f"wrote {args.out}")
     return 0
+
+
+def _ur(args: argparse.Namespace, robot: Any, urdf_text: str, postures: Any, digest: str) -> int:
+    """``--format ur``: ur_description's kinematics YAML, proved by composing it as ur_description does."""
+    from pincal.calibration.export_proof import ur_deviations
+    from pincal.calibration.provenance import read_provenance
+    from pincal.io.files import write_text
+    from pincal.io.ur_kinematics import ur_kinematics, ur_kinematics_yaml
+    from pincal.model.robot import load_robot
+
+    recorded = read_provenance(robot.source).robot if robot.source is not None else None
+    nominal = load_robot(recorded) if recorded else robot
+    kinematics = ur_kinematics(robot, nominal)
+    exported = ur_kinematics_yaml(kinematics, str(args.robot), digest)
+    chain, alone = ur_deviations(exported, kinematics.tcp, robot, kinematics.base, kinematics.tool, postures)
+    write_text(args.out, proved(exported, [chain], urdf_text, robot, postures, args))
+    if max(alone.position, alone.orientation) > TCP_NOTE:
+        print(f"note: the calibrated tool0 is {alone.position * 1e3:.4f} mm, {alone.orientation * 1e3:.4f} mrad from "
+              "ur_description's tool0: set the TCP the file's header gives (the file's chain with it matches)")
+    print(f"wrote {args.out}: ur_description's kinematics (nominal layout from '{nominal.name}')")
+    return 0
+
+
+def proved(exported: str, deviations: list[Any], urdf_text: str, robot: Any, postures: Any,
+           args: argparse.Namespace) -> str:
+    """The export with its proof in its header (pincal.calibration.export_proof): the URDF reloaded by Pinocchio and
+    yourdfpy, and ``deviations`` (the export read back); printed; refused above ``--tolerance``."""
+    from pincal.calibration.export_proof import header_line, urdf_deviations, with_header
+
+    every = [*urdf_deviations(urdf_text, robot, postures), *deviations]
+    line = header_line(every, postures)
+    print(line[2:])
+    worst = max(every, key=lambda d: max(d.position, d.orientation))
+    if max(worst.position, worst.orientation) > args.tolerance:
+        raise PincalError(f"export: {worst.reader} reads the {args.format} export {worst.position:.3g} m, "
+                          f"{worst.orientation:.3g} rad away from the model (tolerance {args.tolerance:g}): not "
+                          "written")
+    return with_header(exported, line)
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -78,8 +133,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser.add_argument("--base", help="dh, mdh: the chain's base frame (default: the URDF's root link; in a "
                                        "calibrated URDF the robot's own root below measurement_frame)")
     parser.add_argument("--tolerance", type=positive_float, default=DEFAULT_TOLERANCE,
-                        help=f"dh, mdh: largest conversion residual written [m, rad] (default {DEFAULT_TOLERANCE:g})")
+                        help=f"largest deviation [m, rad] of the export read back (and of a DH table's conversion) "
+                             f"from the model, for it to be written (default {DEFAULT_TOLERANCE:g})")
     parser.add_argument("--postures", type=positive_int, default=DEFAULT_POSTURES,
-                        help=f"dh, mdh: random postures the residual is measured at (default {DEFAULT_POSTURES})")
-    parser.add_argument("--seed", type=non_negative_int, default=0, help="dh, mdh: their random seed (default 0)")
+                        help=f"random postures the export is checked at, besides the fitted ones (default "
+                             f"{DEFAULT_POSTURES})")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="their random seed (default 0)")
     parser.set_defaults(func=cmd_export)

@@ -32,11 +32,11 @@ from pincal.errors import RobotFileError
 from pincal.model.dh import CONVENTIONS, Convention, DHTable, Residual, conversion_residual, dh_table
 from pincal.model.robot import Robot
 
-ExportFormat = Literal["yaml", "dh", "mdh"]
-#: The formats, the default first.
-FORMATS: tuple[ExportFormat, ...] = ("yaml", *CONVENTIONS)
+ExportFormat = Literal["yaml", "dh", "mdh", "hayati", "ur"]
+#: The formats, the default first (``ur``: :mod:`pincal.io.ur_kinematics`).
+FORMATS: tuple[ExportFormat, ...] = ("yaml", *CONVENTIONS, "ur")
 #: Largest conversion residual of a DH table, position [m] and orientation [rad], for it to be written.
-TOLERANCE = 1e-6
+TOLERANCE = 1e-9
 #: Random postures the residual is measured at (besides the zero posture).
 POSTURES = 100
 #: A calibrated URDF's measurement frame and the joint that hangs the robot below it (pincal.io.calibrated_urdf).
@@ -195,6 +195,9 @@ _LAYOUT = {
     "dh": ("classic Denavit-Hartenberg", "A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)", ("theta", "d", "a", "alpha")),
     "mdh": ("modified (Craig) Denavit-Hartenberg", "A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i); row i "
             "holds alpha_{i-1}, a_{i-1}, theta_i, d_i", ("alpha", "a", "theta", "d")),
+    "hayati": ("Denavit-Hartenberg with Hayati's parallel-axis rows", "A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i) "
+               "Ry(beta_i): classic DH where beta_i = 0, Hayati's form where d_i = 0", ("theta", "d", "a", "alpha",
+                                                                                        "beta")),
 }
 
 
@@ -222,7 +225,7 @@ def dh_export(robot: Robot, urdf_text: str, source: str, convention: str, end: s
     seed = validation.whole("seed", seed, 0)
     if convention not in CONVENTIONS:
         raise RobotFileError(f"convention '{convention}' is not one of {', '.join(CONVENTIONS)}")
-    conv: Convention = "dh" if convention == "dh" else "mdh"
+    conv: Convention = "dh" if convention == "dh" else "hayati" if convention == "hayati" else "mdh"
     base = base or default_base(urdf_text)
     end = end or robot.end_effector
     table = dh_table(robot, end, base, conv)
@@ -247,14 +250,21 @@ def dh_export(robot: Robot, urdf_text: str, source: str, convention: str, end: s
     for first, second in table.parallel:
         lines.append(f"# axes of {shown_name(first)} and {shown_name(second)} parallel: their common normal taken "
                      "with d = 0")
+    swapped = {first for first, _, _ in table.hayati}
+    for first, second, distance in table.hayati:
+        lines.append(f"# axes of {shown_name(first)} and {shown_name(second)} nearly parallel: the row of "
+                     f"{shown_name(first)} in Hayati's form (beta about y, d = 0), chosen because its classic d, "
+                     f"{distance:.3g} m, exceeds the chain's size, {table.size:.3g} m")
     for first, second, angle, distance in table.near_parallel:
+        if first in swapped:
+            continue
         lines.append(f"# axes of {shown_name(first)} and {shown_name(second)} {angle:.3g} rad from parallel: their "
                      f"common normal is {distance:.3g} m away, d values large and cancelling (exact, as the residual "
                      "shows)")
     lines += [f"convention: {conv}", f"base_frame: {_key(base)}", f"end_frame: {_key(end)}",
               f"base: {_flow(_se3_fields(table.base))}", "joints:"]
     for row in table.rows:
-        values = {"theta": row.theta, "d": row.d, "a": row.a, "alpha": row.alpha}
+        values = {"theta": row.theta, "d": row.d, "a": row.a, "alpha": row.alpha, "beta": row.beta}
         fields = [("name", _key(row.joint)), ("type", "prismatic" if row.prismatic else "revolute"),
                   *((c, _num(values[c])) for c in columns)]
         lines.append(f"  - {_flow(fields)}")

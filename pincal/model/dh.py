@@ -28,6 +28,7 @@ forward kinematics of the URDF. Lengths [m], angles [rad].
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -41,8 +42,8 @@ from pincal.model.jacobians import joint_jacobian
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
-Convention = Literal["dh", "mdh"]
-CONVENTIONS: tuple[Convention, ...] = ("dh", "mdh")
+Convention = Literal["dh", "mdh", "hayati"]
+CONVENTIONS: tuple[Convention, ...] = ("dh", "mdh", "hayati")
 
 #: Consecutive axes closer to parallel than this [rad] are taken as parallel (common normal through the previous
 #: frame, ``d = 0``); the table then misses the URDF by at most this angle times the chain's reach.
@@ -68,13 +69,17 @@ class DHRow:
     alpha: float
     d: float
     theta: float
+    beta: float = 0.0
 
     def transform(self, convention: Convention, q: float) -> pin.SE3:
-        """``A_i`` at joint value ``q`` [rad or m]."""
+        """``A_i`` at joint value ``q`` [rad or m] (``hayati``: the ``dh`` form, then ``Ry(beta)``)."""
         theta, d = (self.theta, self.d + q) if self.prismatic else (self.theta + q, self.d)
         rz, tz = pin.SE3(_rot("z", theta), np.zeros(3)), pin.SE3(np.eye(3), np.array([0.0, 0.0, d]))
         rx, tx = pin.SE3(_rot("x", self.alpha), np.zeros(3)), pin.SE3(np.eye(3), np.array([self.a, 0.0, 0.0]))
-        return rz * tz * tx * rx if convention == "dh" else rx * tx * rz * tz
+        if convention == "mdh":
+            return rx * tx * rz * tz
+        out = rz * tz * tx * rx
+        return out * pin.SE3(_rot("y", self.beta), np.zeros(3)) if self.beta else out
 
 
 @dataclass(frozen=True)
@@ -90,6 +95,10 @@ class DHTable:
         near_parallel: (joint, next joint, angle between their axes [rad], distance [m] along the first axis from
             the previous frame to their common normal) for axes within :data:`NEAR_PARALLEL` but not parallel.
         parallel: (joint, next joint) pairs taken as parallel (:data:`PARALLEL`).
+        hayati: (joint, next joint, the classic ``d`` [m] it replaces) for the rows written in Hayati's form
+            (``hayati`` convention: :func:`dh_table`).
+        size: The chain's size [m]: the length of the polyline through its joint frames' origins and the end frame's
+            at the zero posture.
     """
 
     convention: Convention
@@ -100,6 +109,8 @@ class DHTable:
     tool: pin.SE3
     near_parallel: tuple[tuple[str, str, float, float], ...] = ()
     parallel: tuple[tuple[str, str], ...] = ()
+    hayati: tuple[tuple[str, str, float], ...] = ()
+    size: float = 0.0
 
     def placement(self, q: Array) -> pin.SE3:
         """The end frame in the base frame at joint values ``q`` (one per row) [rad or m]."""
@@ -113,6 +124,8 @@ def _rot(axis: str, angle: float) -> Array:
     c, s = math.cos(angle), math.sin(angle)
     if axis == "x":
         return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    if axis == "y":
+        return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
@@ -213,15 +226,44 @@ def _row(convention: Convention, a: pin.SE3, b: pin.SE3, joint: str, prismatic: 
     """The row taking frame ``a`` to frame ``b`` (both on the table's lines, module docstring)."""
     xa, za, xb, zb = a.rotation[:, 0], a.rotation[:, 2], b.rotation[:, 0], b.rotation[:, 2]
     step = b.translation - a.translation
-    if convention == "dh":
+    if convention != "mdh":
         return DHRow(joint, prismatic, a=float(step @ xb), alpha=math.atan2(np.cross(za, zb) @ xb, za @ zb),
                      d=float(step @ za), theta=math.atan2(np.cross(xa, xb) @ za, xa @ xb))
     return DHRow(joint, prismatic, a=float(step @ xa), alpha=math.atan2(np.cross(za, zb) @ xa, za @ zb),
                  d=float(step @ zb), theta=math.atan2(np.cross(xa, xb) @ zb, xa @ xb))
 
 
+def _hayati_frame(previous: pin.SE3, p2: Array, z2: Array) -> tuple[pin.SE3, Array]:
+    """Hayati's frame on the line through ``p2`` along ``z2``, after ``previous`` (whose z is the axis before it): its
+    origin where the line crosses the plane through ``previous``'s origin normal to that axis (``d = 0``), x from
+    ``previous``'s origin to it, then ``Rx(alpha) Ry(beta)`` bring z onto the line. Returns the frame and
+    (theta, a, alpha, beta) [rad, m]."""
+    o1, x1, z1 = previous.translation, previous.rotation[:, 0], previous.rotation[:, 2]
+    origin = p2 + ((o1 - p2) @ z1) / (z2 @ z1) * z2
+    step = origin - o1
+    a = float(np.linalg.norm(step))
+    x = step / a if a > MEET else x1
+    y = np.cross(z1, x)
+    beta = math.asin(max(-1.0, min(1.0, float(z2 @ x))))
+    alpha = math.atan2(-float(z2 @ y), float(z2 @ z1))
+    rotation = np.column_stack([x, y, z1]) @ _rot("x", alpha) @ _rot("y", beta)
+    theta = math.atan2(float(np.cross(x1, x) @ z1), float(x1 @ x))
+    return pin.SE3(rotation, origin), np.array([theta, a if a > MEET else 0.0, alpha, beta])
+
+
+def chain_size(robot: Robot, joints: list[int], base: pin.SE3, end: pin.SE3) -> float:
+    """The length [m] of the polyline through the chain's joint frames' origins and the end frame's, from the base
+    frame's, at the zero posture (``base``, ``end``: those frames' placements there)."""
+    data = robot.model.createData()
+    pin.forwardKinematics(robot.model, data, pin.neutral(robot.model))
+    points = [base.translation, *(data.oMi[j].translation for j in joints), end.translation]
+    return float(sum(np.linalg.norm(b - a) for a, b in itertools.pairwise(points)))
+
+
 def dh_table(robot: Robot, end: str, base: str, convention: Convention = "dh") -> DHTable:
-    """The DH table of the chain from frame ``base`` to frame ``end`` (module docstring).
+    """The DH table of the chain from frame ``base`` to frame ``end`` (module docstring). ``hayati``: the classic
+    table, but each row whose classic ``d`` would be longer than the chain (:func:`chain_size`), nearly parallel axes,
+    in Hayati's form, ``Rz(theta) Tx(a) Rx(alpha) Ry(beta)`` (``d = 0``).
 
     Raises:
         RobotFileError: a closed-loop robot; a joint of the chain that is neither revolute nor prismatic (a
@@ -244,20 +286,38 @@ def dh_table(robot: Robot, end: str, base: str, convention: Convention = "dh") -
     p_last, z_last, _ = axes[-1]
     last = _frame(_foot(end_placement.translation, p_last, z_last),
                   _across(end_placement.rotation[:, 0], z_last, end_placement.rotation[:, 1]), z_last)
+    size = chain_size(robot, joints, base_placement, data.oMf[model.getFrameId(end)])
     frames, at, x, near, parallel = [first], first.translation, first.rotation[:, 0], [], []
+    hayati: dict[int, Array] = {}
+    replaced: dict[int, float] = {}
     for k in range(len(axes) - 1):
-        (p1, z1, _), (p2, z2, _) = axes[k], axes[k + 1]
+        (p1, z1, _), (p2, z2, prismatic) = axes[k], axes[k + 1]
         f1, f2, x, is_parallel = _normal(p1, z1, p2, z2, at, x)
         if is_parallel:
             parallel.append((names[k], names[k + 1]))
         angle = math.atan2(float(np.linalg.norm(np.cross(z1, z2))), abs(float(z1 @ z2)))
+        d = float(np.linalg.norm(f1 - at))
         if not is_parallel and angle < NEAR_PARALLEL:
-            near.append((names[k], names[k + 1], angle, float(np.linalg.norm(f1 - at))))
-        frames.append(_frame(f2, x, z2) if convention == "dh" else _frame(f1, x, z1))
+            near.append((names[k], names[k + 1], angle, d))
+        if convention == "hayati" and not is_parallel and d > size and not axes[k][2] and not prismatic:
+            frame, hayati[k] = _hayati_frame(frames[-1], p2, z2)
+            replaced[k] = d
+            frames.append(frame)
+            at, x = frame.translation, frame.rotation[:, 0]
+            continue
+        frames.append(_frame(f1, x, z1) if convention == "mdh" else _frame(f2, x, z2))
         at = f2
     frames.append(last)
-    rows = tuple(_row(convention, frames[k], frames[k + 1], names[k], axes[k][2]) for k in range(len(axes)))
-    return DHTable(convention, base, end, first, rows, last.inverse() * end_placement, tuple(near), tuple(parallel))
+    rows = tuple(_hayati_row(names[k], hayati[k]) if k in hayati else
+                 _row(convention, frames[k], frames[k + 1], names[k], axes[k][2]) for k in range(len(axes)))
+    swapped = tuple((names[k], names[k + 1], replaced[k]) for k in sorted(hayati))
+    return DHTable(convention, base, end, first, rows, last.inverse() * end_placement, tuple(near), tuple(parallel),
+                   swapped, size)
+
+
+def _hayati_row(joint: str, values: Array) -> DHRow:
+    theta, a, alpha, beta = (float(v) for v in values)
+    return DHRow(joint, False, a=a, alpha=alpha, d=0.0, theta=theta, beta=beta)
 
 
 def random_chain_values(robot: Robot, joints: list[int], count: int, seed: int = 0) -> Array:

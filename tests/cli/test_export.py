@@ -310,7 +310,7 @@ def test_no_name_can_add_a_key_to_an_export(tmp_path: Path, convention: str) -> 
         assert list(written) == ["convention", "base_frame", "end_frame", "base", "joints", "tool", "residual"]
         assert [row["name"] for row in written["joints"]] == HOSTILE
         assert (written["base_frame"], written["end_frame"]) == ("base", HOSTILE_TOOL)
-        assert len(done.stdout.splitlines()) == 2 + 1 + len(HOSTILE)  # the table printed one line per joint
+        assert len(done.stdout.splitlines()) == 2 + 1 + len(HOSTILE) + 1  # a line per joint; the reloads' line
 
 
 def test_info_shows_each_name_on_its_own_line(tmp_path: Path) -> None:

@@ -1,0 +1,295 @@
+"""Robot programs read for ``pincal filter`` (docs/filter.md): their targets, in SI units, and where in the text each
+is written, so that a target can be rewritten and every other byte kept.
+
+One reader per language (:mod:`pincal.io.urscript`, :mod:`pincal.io.krl`, :mod:`pincal.io.rapid`) returns a
+:class:`Program`: its files' texts, its :class:`Target` s in program order and the :class:`Problem` s (constructs the
+reader does not read: a target it cannot place, a tool or frame it is not given), each named by file and line.
+A Cartesian target is the pose [m, rad] of the tool centre point in its frame (a UR program's base, a KUKA ``BASE``, an
+ABB work object), with that frame in the robot's base frame and the tool in the flange frame; a joint target its joint
+values [rad] (or [m]). :func:`rewritten` puts new poses into the texts.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from pincal.errors import DataError
+
+Array = npt.NDArray[np.float64]
+
+#: The languages, by the suffix of the program file.
+LANGUAGES = {".script": "urscript", ".urscript": "urscript", ".src": "krl", ".mod": "rapid", ".modx": "rapid"}
+#: Largest program read [characters]: a robot program is text of a few thousand lines.
+MAX_CHARACTERS = 20_000_000
+
+
+@dataclass(frozen=True)
+class Edit:
+    """Text ``text`` in place of characters ``start:end`` of file ``file``."""
+
+    file: str
+    start: int
+    end: int
+    text: str
+
+
+@dataclass(frozen=True)
+class Target:
+    """One target of a program.
+
+    Attributes:
+        file: The file it is written in (a key of :attr:`Program.texts`).
+        line: Its line (1-based) there.
+        name: Its name (a variable) or the move that holds it inline.
+        joints: Joint values [rad or m] of a joint target; None for a Cartesian one.
+        pose: The tool centre point's pose in the target's frame [m, rad]; None for a joint target.
+        tool: The tool centre point in the flange frame.
+        frame: The target's frame in the robot's base frame.
+        context: The tool and frame in words (``tool 'tool1', work object 'wobj1'``).
+        render: The edits that write another pose [m, rad] (in the same frame, for the same tool) in place of it.
+        uses: The lines of the moves that read it.
+        posture: For the joint values [rad] a controller reaches it at, why they are not the posture the target
+            names (KRL's turn bits, RAPID's quadrants), or None when they are; None: the target names none.
+    """
+
+    file: str
+    line: int
+    name: str
+    joints: Array | None
+    pose: pin.SE3 | None
+    tool: pin.SE3
+    frame: pin.SE3
+    context: str
+    render: Callable[[pin.SE3], list[Edit]] | None = None
+    uses: tuple[int, ...] = ()
+    posture: Callable[[Array], str | None] | None = None
+
+    @property
+    def cartesian(self) -> bool:
+        """Whether it is a pose (else joint values)."""
+        return self.pose is not None
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A construct a reader does not read: left as written, with a warning."""
+
+    file: str
+    line: int
+    what: str
+
+
+@dataclass
+class Program:
+    """A program read: its files' texts (the first the program itself), its targets in order, its problems."""
+
+    language: str
+    texts: dict[str, str]
+    targets: list[Target] = field(default_factory=list)
+    problems: list[Problem] = field(default_factory=list)
+
+
+def language_of(path: str | Path) -> str:
+    """The language of a program file by its suffix (:data:`LANGUAGES`).
+
+    Raises:
+        DataError: another suffix.
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix not in LANGUAGES:
+        raise DataError(f"PROGRAM '{path}': pincal filter reads URScript (.script), KUKA KRL (.src with its .dat) and "
+                        f"ABB RAPID (.mod) programs, not '{suffix or 'a file without suffix'}'")
+    return LANGUAGES[suffix]
+
+
+def read_text(path: str | Path, what: str = "PROGRAM") -> str:
+    """A program file's text, its line endings kept (UTF-8, else Latin-1, which KUKA and ABB files may use).
+
+    Raises:
+        DataError: missing, a directory, unreadable or too large.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(f"{what} '{path}' is not a file")
+    data = path.read_bytes()
+    if len(data) > MAX_CHARACTERS:
+        raise DataError(f"{what} '{path}' has {len(data)} bytes; a program of at most {MAX_CHARACTERS} is read")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")
+
+
+def line_of(text: str, position: int) -> int:
+    """The line (1-based) of character ``position`` of ``text``."""
+    return text.count("\n", 0, position) + 1
+
+
+def closing(text: str, start: int, pairs: str = "()[]{}") -> int:
+    """The index of the bracket closing the one at ``start``, brackets nested and strings (double quotes) skipped;
+    -1 when it is not closed."""
+    opens = {pairs[k]: pairs[k + 1] for k in range(0, len(pairs), 2)}
+    stack: list[str] = []
+    k = start
+    while k < len(text):
+        c = text[k]
+        if c == '"':
+            end = text.find('"', k + 1)
+            if end < 0:
+                return -1
+            k = end
+        elif c in opens:
+            stack.append(opens[c])
+        elif stack and c == stack[-1]:
+            stack.pop()
+            if not stack:
+                return k
+        elif c in ")]}":
+            return -1
+        k += 1
+    return -1
+
+
+def split_top(text: str, start: int, end: int, separator: str = ",") -> list[tuple[int, int]]:
+    """The spans of ``text[start:end]`` between top-level separators (outside brackets and strings)."""
+    spans, depth, first, k = [], 0, start, start
+    while k < end:
+        c = text[k]
+        if c == '"':
+            close = text.find('"', k + 1, end)
+            k = close if close >= 0 else end
+        elif c in "([{":
+            depth += 1
+        elif c in ")]}":
+            depth -= 1
+        elif c == separator and depth == 0:
+            spans.append((first, k))
+            first = k + 1
+        k += 1
+    spans.append((first, end))
+    return spans
+
+
+def stripped(text: str, span: tuple[int, int]) -> tuple[int, int]:
+    """``span`` without the white space at its ends."""
+    a, b = span
+    while a < b and text[a].isspace():
+        a += 1
+    while b > a and text[b - 1].isspace():
+        b -= 1
+    return a, b
+
+
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+
+
+def numbers(text: str, start: int, end: int) -> list[tuple[float, int, int]] | None:
+    """The comma-separated numbers of ``text[start:end]`` with their spans; None when an item is not a number."""
+    out = []
+    for span in split_top(text, start, end):
+        a, b = stripped(text, span)
+        if not _NUMBER.fullmatch(text, a, b):
+            return None
+        out.append((float(text[a:b]), a, b))
+    return out
+
+
+def number_text(value: float, decimals: int) -> str:
+    """``value`` with ``decimals`` decimals, ``-0`` written ``0``."""
+    text = f"{value:.{decimals}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
+
+
+def wrapped_near(angle: float, near: float, period: float) -> float:
+    """``angle`` moved by whole periods to lie nearest ``near``."""
+    return angle + period * round((near - angle) / period)
+
+
+def rotation_vector_near(rotation: Array, near: Sequence[float]) -> Array:
+    """The rotation vector [rad] of ``rotation`` nearest ``near`` (of the vectors ``r + 2πk r/|r|`` that give it)."""
+    r = np.asarray(pin.log3(rotation), dtype=float)
+    angle = float(np.linalg.norm(r))
+    if angle < 1e-12:
+        return r
+    axis = r / angle
+    candidates = [axis * (angle + 2 * math.pi * k) for k in (-2, -1, 0, 1)]
+    candidates += [-axis * (2 * math.pi * k - angle) for k in (-1, 1, 2)]
+    target = np.asarray(near, dtype=float)
+    return min(candidates, key=lambda c: float(np.linalg.norm(c - target)))
+
+
+def euler_zyx_near(rotation: Array, near: Sequence[float]) -> tuple[float, float, float]:
+    """(A, B, C) [rad] with ``R = Rz(A) Ry(B) Rx(C)`` (KUKA's angles, URDF's yaw, pitch, roll), of the two families
+    that give ``rotation`` and their whole turns the nearest ``near``."""
+    roll, pitch, yaw = (float(v) for v in pin.rpy.matrixToRpy(rotation))
+    best: tuple[float, float, float] | None = None
+    distance = math.inf
+    for a, b, c in ((yaw, pitch, roll), (yaw + math.pi, math.pi - pitch, roll + math.pi)):
+        triple = tuple(wrapped_near(v, n, 2 * math.pi) for v, n in zip((a, b, c), near, strict=True))
+        gap = sum((v - n) ** 2 for v, n in zip(triple, near, strict=True))
+        if gap < distance:
+            best, distance = (triple[0], triple[1], triple[2]), gap
+    assert best is not None
+    return best
+
+
+def zyx_rotation(a: float, b: float, c: float) -> Array:
+    """``Rz(a) Ry(b) Rx(c)`` [rad]."""
+    return np.asarray(pin.rpy.rpyToMatrix(c, b, a), dtype=float)
+
+
+def rewritten(program: Program, edits: list[Edit]) -> dict[str, str]:
+    """The program's texts with ``edits`` made (which must not overlap); the texts no edit touches as they were.
+
+    Raises:
+        DataError: two edits overlap (a reader's error: never silently dropped).
+    """
+    out = dict(program.texts)
+    for name in out:
+        mine = sorted((e for e in edits if e.file == name), key=lambda e: e.start)
+        for before, after in itertools.pairwise(mine):
+            if after.start < before.end:
+                raise DataError(f"{name}: two rewrites overlap at characters {after.start}..{before.end}")
+        text = out[name]
+        for edit in reversed(mine):
+            text = text[:edit.start] + edit.text + text[edit.end:]
+        out[name] = text
+    return out
+
+
+def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = ()) -> Program:
+    """The program at ``path`` read by its language's reader (:func:`language_of`); ``tcp`` is the tool centre point
+    [m, rad] in the flange frame where the program sets none; ``config``: further files holding a KUKA controller's
+    ``TOOL_DATA`` and ``BASE_DATA`` (``$config.dat``).
+
+    Raises:
+        DataError: an unknown suffix; a file missing or unreadable (a KRL ``.src`` without its ``.dat`` is read
+            alone, its problems saying what it lacks).
+    """
+    language = language_of(path)
+    text = read_text(path)
+    if language == "urscript":
+        from pincal.io.urscript import read_urscript
+
+        return read_urscript(text, str(path), tcp)
+    if language == "krl":
+        from pincal.io.krl import read_krl
+
+        dat = Path(path).with_suffix(".dat")
+        if not dat.is_file() and Path(path).with_suffix(".DAT").is_file():
+            dat = Path(path).with_suffix(".DAT")
+        dat_text = read_text(dat, "the program's .dat") if dat.is_file() else None
+        extra = {str(p): read_text(p, "--config") for p in config}
+        return read_krl(text, str(path), dat_text, str(dat), extra, tcp)
+    from pincal.io.rapid import read_rapid
+
+    return read_rapid(text, str(path), tcp)

@@ -1,0 +1,286 @@
+"""ABB RAPID modules read for ``pincal filter`` (docs/filter.md, "RAPID").
+
+Targets are the points of ``MoveL``, ``MoveJ``, ``MoveC`` (two), their ``DO``/``AO``/``GO``/``Sync`` forms and
+``TriggL``/``TriggJ``/``TriggC``: a ``robtarget`` declared once with a value (``CONST``, ``PERS`` or ``VAR``) or written
+in the move, ``[[x, y, z], [q1, q2, q3, q4], [cf1, cf4, cf6, cfx], [eax_a, …]]`` (millimetres; a unit quaternion
+``q1`` = w); ``MoveAbsJ``'s ``jointtarget`` ``[[j1, …, j6], [eax…]]`` (degrees) are joint targets. A point is the TCP of
+the move's ``tooldata`` (``tool0``: the flange; ``[robhold, [[x, y, z], [q1…q4]], load]``) in its work object
+(``\\WObj:=``, default ``wobj0``: the robot's base; ``[robhold, ufprog, ufmec, uframe, oframe]``, the point in
+``uframe · oframe``). A tool the robot does not hold, a moving work object, an array, ``*`` or an expression
+(``Offs(…)``, ``RelTool(…)``) in a point's place, a search are problems, left as written. The configuration
+``cf1, cf4, cf6`` (quadrants of axes 1, 4, 6) is checked against the posture found; ``cfx`` and the external axes are
+kept.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable
+
+import numpy as np
+import pinocchio as pin
+
+from pincal.io.programs import (
+    Edit,
+    Problem,
+    Program,
+    Target,
+    closing,
+    line_of,
+    number_text,
+    numbers,
+    split_top,
+    stripped,
+)
+
+#: Decimals written: millimetres and quaternion components.
+MM_DECIMALS, QUATERNION_DECIMALS = 4, 9
+#: An axis this close [rad] to a quadrant's edge counts as in either quadrant (round-off decides nothing).
+SLACK = 1e-6
+#: Moves and how many points they take first.
+MOVES = {**{f"{m}{s}": 2 if m.endswith("C") else 1 for m in ("MoveL", "MoveJ", "MoveC")
+            for s in ("", "DO", "AO", "GO", "Sync")}, "TriggL": 1, "TriggJ": 1, "TriggC": 2, "MoveAbsJ": 1}
+_MOVE = re.compile(r"\b(" + "|".join(sorted(MOVES, key=len, reverse=True)) + r"|Search[LC]\w*)\b", re.IGNORECASE)
+_DECL = re.compile(r"\b(CONST|PERS|VAR)\s+(robtarget|jointtarget|tooldata|wobjdata)\s+(\w+)\s*(\{[^}]*\})?\s*:=\s*",
+                   re.IGNORECASE)
+_WOBJ = re.compile(r"\\WObj\s*:=\s*(\w+)", re.IGNORECASE)
+_WORD = re.compile(r"[A-Za-z_]\w*")
+
+Spans = list[tuple[float, int, int]]
+
+
+def comment_free(text: str) -> str:
+    """``text`` with every ``!`` comment blanked (same length); strings kept."""
+    out = list(text)
+    k, quoted = 0, False
+    while k < len(text):
+        c = text[k]
+        if c == '"':
+            quoted = not quoted
+        elif c == "\n":
+            quoted = False
+        elif c == "!" and not quoted:
+            end = text.find("\n", k)
+            end = len(text) if end < 0 else end
+            out[k:end] = " " * (end - k)
+            k = end
+            continue
+        k += 1
+    return "".join(out)
+
+
+def _groups(text: str, start: int, end: int) -> list[tuple[int, int]] | None:
+    """The spans of the top-level items of the aggregate ``[…]`` that is exactly ``text[start:end]``, or None."""
+    a, b = stripped(text, (start, end))
+    if a >= b or text[a] != "[" or closing(text, a) != b - 1:
+        return None
+    return [stripped(text, span) for span in split_top(text, a + 1, b - 1)]
+
+
+def _numbers_of(text: str, span: tuple[int, int], count: int) -> Spans | None:
+    a, b = span
+    if b - a < 2 or text[a] != "[" or closing(text, a) != b - 1:
+        return None
+    found = numbers(text, a + 1, b - 1)
+    return found if found is not None and len(found) == count else None
+
+
+def _placement(text: str, span: tuple[int, int]) -> tuple[pin.SE3, Spans, Spans] | None:
+    """``[[x, y, z], [q1, q2, q3, q4]]`` [mm, unit quaternion w first] in SI units, with the numbers' spans."""
+    groups = _groups(text, *span)
+    return _pose(text, groups) if groups is not None and len(groups) >= 2 else None
+
+
+def _pose(text: str, groups: list[tuple[int, int]]) -> tuple[pin.SE3, Spans, Spans] | None:
+    position, quaternion = _numbers_of(text, groups[0], 3), _numbers_of(text, groups[1], 4)
+    if position is None or quaternion is None:
+        return None
+    w, x, y, z = (v for v, _, _ in quaternion)
+    norm = math.sqrt(w * w + x * x + y * y + z * z)
+    if not 0.99 < norm < 1.01:
+        return None
+    rotation = pin.Quaternion(w / norm, x / norm, y / norm, z / norm).matrix()
+    return pin.SE3(rotation, np.array([v for v, _, _ in position]) / 1e3), position, quaternion
+
+
+def _render(file: str, position: Spans, quaternion: Spans) -> Callable[[pin.SE3], list[Edit]]:
+    old = np.array([v for v, _, _ in quaternion])
+
+    def render(pose: pin.SE3) -> list[Edit]:
+        q = pin.Quaternion(pose.rotation)
+        new = np.array([q.w, q.x, q.y, q.z])
+        new = -new if new @ old < 0 else new
+        edits = [Edit(file, s, e, number_text(v * 1e3, MM_DECIMALS))
+                 for v, (_, s, e) in zip(pose.translation.tolist(), position, strict=True)]
+        return edits + [Edit(file, s, e, number_text(v, QUATERNION_DECIMALS))
+                        for v, (_, s, e) in zip(new.tolist(), quaternion, strict=True)]
+    return render
+
+
+def _quadrants(text: str, groups: list[tuple[int, int]]) -> Callable[[np.ndarray], str | None] | None:
+    """The check of a robtarget's ``cf1, cf4, cf6``: the quadrant ``floor(angle / 90°)`` of axes 1, 4, 6 (joint values
+    [rad] as RAPID counts them); None when they are not numbers."""
+    found = _numbers_of(text, groups[2], 4) if len(groups) > 2 else None
+    if found is None:
+        return None
+    written = [int(v) for v, _, _ in found[:3]]
+
+    def check(joints: np.ndarray) -> str | None:
+        if len(joints) < 6:
+            return None
+        got = [math.floor(joints[k] / (math.pi / 2)) for k in (0, 3, 5)]
+        near = all(any(math.floor((joints[k] + d) / (math.pi / 2)) == w for d in (0.0, -SLACK, SLACK))
+                   for k, w in zip((0, 3, 5), written, strict=True))
+        return None if near else (f"cf1, cf4, cf6 = {written} ask other quadrants of axes 1, 4, 6 than the "
+                                            f"posture found ({got})")
+    return check
+
+
+def _frames(code: str, kinds: dict[str, tuple[str, int, tuple[int, int], str]]) -> dict[str, pin.SE3 | str]:
+    """Tools and work objects by name (lower case): their frame, or why it is not read."""
+    frames: dict[str, pin.SE3 | str] = {"tool0": pin.SE3.Identity(), "wobj0": pin.SE3.Identity()}
+    for name, (kind, line, span, _) in kinds.items():
+        groups = _groups(code, *span)
+        if kind == "tooldata":
+            if groups is None or len(groups) < 2 or code[slice(*groups[0])].upper() not in ("TRUE", "FALSE"):
+                frames[name] = f"tooldata '{name}' (line {line}) is not read"
+            elif code[slice(*groups[0])].upper() != "TRUE":
+                frames[name] = f"tooldata '{name}' (line {line}) is a stationary tool (robhold FALSE)"
+            else:
+                found = _placement(code, groups[1])
+                frames[name] = found[0] if found else f"tooldata '{name}' (line {line}): its tframe is not read"
+        elif kind == "wobjdata":
+            if groups is None or len(groups) < 5:
+                frames[name] = f"wobjdata '{name}' (line {line}) is not read"
+            elif [code[slice(*g)].upper() for g in groups[:3]] != ["FALSE", "TRUE", '""']:
+                frames[name] = (f"wobjdata '{name}' (line {line}) is held by the robot or moved by a mechanical unit "
+                                "(robhold, ufprog, ufmec not FALSE, TRUE, \"\")")
+            else:
+                user, obj = _placement(code, groups[3]), _placement(code, groups[4])
+                frames[name] = (user[0] * obj[0] if user and obj else
+                                f"wobjdata '{name}' (line {line}): its uframe or oframe is not read")
+    return frames
+
+
+def read_rapid(text: str, file: str, tcp: pin.SE3) -> Program:
+    """The targets of a RAPID module (module docstring); ``tcp`` is not used (a RAPID move names its tool) and kept for
+    the readers' common signature."""
+    del tcp
+    program = Program("rapid", {file: text})
+    code = comment_free(text)
+    kinds: dict[str, tuple[str, int, tuple[int, int], str]] = {}
+    seen: dict[str, int] = {}
+    for match in _DECL.finditer(code):
+        name, line = match.group(3).lower(), line_of(text, match.start())
+        seen[name] = seen.get(name, 0) + 1
+        end = closing(code, match.end()) if code.startswith("[", match.end()) else -1
+        if match.group(4) or end < 0:
+            program.problems.append(Problem(file, line, f"{match.group(2)} '{match.group(3)}': "
+                                                        f"{'an array' if match.group(4) else 'its value'} is not read"))
+            continue
+        kinds[name] = (match.group(2).lower(), line, (match.end(), end + 1), match.group(3))
+    frames = _frames(code, kinds)
+    uses: dict[str, list[tuple[int, str, str]]] = {}
+    joints: set[str] = set()
+    for match in _MOVE.finditer(code):
+        line, keyword = line_of(text, match.start()), match.group(1)
+        end = code.find(";", match.end())
+        if keyword.lower().startswith("search"):
+            program.problems.append(Problem(file, line, f"{keyword}: a search, left as written"))
+            continue
+        if end < 0:
+            program.problems.append(Problem(file, line, f"{keyword}: no ';' ends it"))
+            continue
+        fields = [stripped(code, s) for s in split_top(code, match.end(), end)]
+        fields = [f for f in fields if not code.startswith("\\", f[0])]
+        wobj = _WOBJ.search(code, match.end(), end)
+        words = [_WORD.match(code, a) for a, _ in fields]
+        tool = next((w.group(0).lower() for w in words[1:] if w and w.group(0).lower() in frames
+                     and not w.group(0).lower().startswith("wobj") and kinds.get(w.group(0).lower(), ("tooldata",))[0]
+                     == "tooldata"), None)
+        count = MOVES[next(m for m in MOVES if m.lower() == keyword.lower())]
+        for a, b in fields[:count]:
+            point = code[a:b].split("\\")[0].strip()
+            b = a + len(code[a:b].split("\\")[0].rstrip())
+            if keyword.lower() == "moveabsj":
+                _joint(program, file, code, (a, b), point, line, kinds, joints)
+                continue
+            context = (tool or "", wobj.group(1).lower() if wobj else "wobj0")
+            if not tool:
+                program.problems.append(Problem(file, line, f"{keyword}: its tool is not found among the module's "
+                                                            "tooldata: left as written"))
+                continue
+            if _WORD.fullmatch(point):
+                uses.setdefault(point.lower(), []).append((line, *context))
+                continue
+            groups = _groups(code, a, b)
+            if groups is None or len(groups) < 2:
+                shown = point if len(point) <= 30 else point[:27] + "..."
+                program.problems.append(Problem(file, line, f"{keyword}: point '{shown}' is neither a robtarget "
+                                                            "nor its value: left as written"))
+                continue
+            _add(program, file, line, keyword, code, groups, context, frames, (line,))
+    for name, where in uses.items():
+        lines = tuple(line for line, _, _ in where)
+        kind = kinds.get(name, ("", 0, (0, 0), name))
+        if kind[0] != "robtarget" or seen.get(name, 0) != 1:
+            why = ("declared more than once" if seen.get(name, 0) > 1 else "not a robtarget declared with a value")
+            program.problems.append(Problem(file, lines[0], f"point '{name}': {why}: left as written"))
+            continue
+        if len({(t, w) for _, t, w in where}) > 1:
+            program.problems.append(Problem(file, kind[1], f"'{name}' is reached with several tools or work objects "
+                                                           f"(lines {', '.join(map(str, lines))}): left as written"))
+            continue
+        groups = _groups(code, *kind[2])
+        if groups is None or len(groups) < 2:
+            program.problems.append(Problem(file, kind[1], f"robtarget '{name}': its value is not read"))
+            continue
+        _add(program, file, kind[1], kind[3], code, groups, (where[0][1], where[0][2]), frames, lines)
+    for name, (kind_name, line, _, _) in kinds.items():
+        if kind_name in ("robtarget", "jointtarget") and name not in uses and name not in joints:
+            program.problems.append(Problem(file, line, f"{kind_name} '{name}' is read by no move pincal reads: left "
+                                                        "as written"))
+    program.targets.sort(key=lambda t: t.uses[0] if t.uses else t.line)
+    return program
+
+
+def _joint(program: Program, file: str, code: str, span: tuple[int, int], point: str, line: int,
+           kinds: dict[str, tuple[str, int, tuple[int, int], str]], joints: set[str]) -> None:
+    """A ``MoveAbsJ`` point: a jointtarget's name or value [°]."""
+    name = point.lower()
+    if _WORD.fullmatch(point):
+        joints.add(name)
+        if kinds.get(name, ("",))[0] != "jointtarget":
+            program.problems.append(Problem(file, line, f"MoveAbsJ: '{point}' is not a jointtarget declared with a "
+                                                        "value"))
+            return
+        line_at, span = kinds[name][1], kinds[name][2]
+        point = kinds[name][3]
+    else:
+        line_at = line
+    groups = _groups(code, *span)
+    found = _numbers_of(code, groups[0], 6) if groups else None
+    if found is None:
+        program.problems.append(Problem(file, line_at, f"MoveAbsJ: '{point[:30]}' is not a jointtarget of six axes"))
+        return
+    program.targets.append(Target(file, line_at, point, np.radians([v for v, _, _ in found]), None,
+                                  pin.SE3.Identity(), pin.SE3.Identity(), "joints", None, (line,)))
+
+
+def _add(program: Program, file: str, line: int, name: str, code: str, groups: list[tuple[int, int]],
+         context: tuple[str, str], frames: dict[str, pin.SE3 | str], uses: tuple[int, ...]) -> None:
+    found = _pose(code, groups)
+    if found is None:
+        program.problems.append(Problem(file, line, f"'{name}': its position or unit quaternion is not read"))
+        return
+    tool, wobj = (frames.get(n, f"'{n}' is not declared in the module") for n in context)
+    for frame in (tool, wobj):
+        if isinstance(frame, str):
+            program.problems.append(Problem(file, line, f"'{name}': {frame}: left as written"))
+            return
+    assert isinstance(tool, pin.SE3) and isinstance(wobj, pin.SE3)
+    pose, position, quaternion = found
+    program.targets.append(Target(file, line, name, None, pose, tool, wobj, f"tool {context[0]}, work object "
+                                  f"{context[1]}", _render(file, position, quaternion), uses,
+                                  _quadrants(code, groups)))

@@ -1,0 +1,109 @@
+"""The program readers of ``pincal filter``: each language's targets in SI units with their tool and frame, what
+they do not read named by line, and a pose written back read as that pose."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from pincal.errors import DataError
+from pincal.io.krl import read_krl
+from pincal.io.programs import euler_zyx_near, language_of, rewritten, rotation_vector_near, zyx_rotation
+from pincal.io.rapid import read_rapid
+from pincal.io.urscript import read_urscript
+
+
+def _moved(pose: pin.SE3) -> pin.SE3:
+    return pose * pin.SE3(pin.exp3(np.array([1e-3, -2e-3, 3e-3])), np.array([1e-3, 2e-3, -1.5e-3]))
+
+
+def _round_trip(program, k: int, reread) -> tuple[pin.SE3, pin.SE3]:  # type: ignore[no-untyped-def]
+    target = program.targets[k]
+    new = _moved(target.pose)
+    texts = rewritten(program, target.render(new))
+    return new, reread(texts).targets[k].pose
+
+
+def test_urscript_poses_joints_and_tcp() -> None:
+    text = ("def p():\n  # movel(p[9, 9, 9, 0, 0, 0])\n  movel(p[0.1, -0.2, 0.3, 0, 3.14159, 0], a=1.2)\n"
+            "  set_tcp(p[0, 0, 0.2, 0, 0, 0])\n  global wp=p[.5, 0, 1e-1, 0.1, 0.2, 0.3]\n  movej(wp)\n"
+            "  servoj([0, -1.5, 1.5, 0, 1, 0], t=0.002)\n  movep(pose_add(wp, p[0,0,0.01,0,0,0]))\nend\n")
+    tcp = pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.1]))
+    program = read_urscript(text, "p.script", tcp)
+    first, second, third = program.targets
+    assert first.line == 3 and np.allclose(first.pose.translation, [0.1, -0.2, 0.3])
+    assert np.allclose(pin.log3(first.pose.rotation), [0, 3.14159, 0]) and first.tool == tcp
+    assert second.name == "wp" and second.line == 5 and second.uses == (6,)
+    assert np.allclose(second.tool.translation, [0, 0, 0.2]) and np.allclose(second.pose.translation, [0.5, 0, 0.1])
+    assert third.pose is None and np.array_equal(third.joints, [0, -1.5, 1.5, 0, 1, 0])
+    assert [(p.line, p.what.split(":")[0]) for p in program.problems] == [(8, "movep")]
+    new, back = _round_trip(program, 1, lambda texts: read_urscript(texts["p.script"], "p.script", tcp))
+    assert np.allclose(back.homogeneous, new.homogeneous, atol=1e-8)
+
+
+def test_krl_points_in_their_base_with_their_tool() -> None:
+    dat = ("DEFDAT t\nDECL E6POS XP1={X 1000.0,Y -200.0,Z 500.0,A 90.0,B 0.0,C 180.0,S 2,T 35,E1 0.0}\n"
+           "DECL POS XP2={X 10.0,Y 0.0}\nENDDAT\n")
+    src = ("DEF t( )\n$TOOL = TOOL_DATA[2]\n$BASE = BASE_DATA[1]\nLIN XP1 ; PTP XP9\nLIN XP2\n"
+           "PTP {A1 90, A2 -90, A3 90, A4 0, A5 45, A6 0}\nEND\n")
+    config = {"$config.dat": "TOOL_DATA[2]={X 0.0,Y 0.0,Z 100.0,A 0.0,B 0.0,C 0.0}\n"
+                             "BASE_DATA[1]={X 500.0,Y 0.0,Z 0.0,A 0.0,B 0.0,C 0.0}\n"}
+    program = read_krl(src, "t.src", dat, "t.dat", config, pin.SE3.Identity())
+    point, joints = program.targets
+    assert point.file == "t.dat" and point.line == 2 and point.uses == (4,)
+    assert np.allclose(point.pose.translation, [1.0, -0.2, 0.5])
+    assert np.allclose(point.pose.rotation, zyx_rotation(math.pi / 2, 0.0, math.pi))
+    assert np.allclose(point.tool.translation, [0, 0, 0.1]) and np.allclose(point.frame.translation, [0.5, 0, 0])
+    assert np.allclose(joints.joints, np.radians([90, -90, 90, 0, 45, 0]))
+    assert [(p.file, p.line) for p in program.problems] == [("t.dat", 3)]  # XP2 lacks Z, A, B, C
+    assert "partial point" in program.problems[0].what
+    assert point.posture is not None
+    assert point.posture(np.radians([-10, -80, 90, 0, 30, -5])) is None  # T 35: A1, A2, A6 negative
+    assert "T 35" in point.posture(np.radians([10, -80, 90, 0, 30, -5]))
+    new, back = _round_trip(program, 0, lambda texts: read_krl(texts["t.src"], "t.src", texts["t.dat"], "t.dat",
+                                                               config, pin.SE3.Identity()))
+    assert np.allclose(back.homogeneous, new.homogeneous, atol=1e-6)
+
+
+def test_rapid_targets_tools_and_work_objects() -> None:
+    text = ("MODULE m\n  PERS tooldata t1:=[TRUE,[[0,0,100],[1,0,0,0]],[1,[0,0,1],[1,0,0,0],0,0,0]];\n"
+            "  PERS tooldata fixed:=[FALSE,[[0,0,100],[1,0,0,0]],[1,[0,0,1],[1,0,0,0],0,0,0]];\n"
+            "  PERS wobjdata w1:=[FALSE,TRUE,\"\",[[100,0,0],[1,0,0,0]],[[0,50,0],[0.7071068,0,0,0.7071068]]];\n"
+            "  CONST robtarget p1:=[[10,20,30],[0,0,1,0],[0,0,-1,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\n"
+            "  PROC main()\n    MoveL p1, v100, fine, t1\\WObj:=w1; ! MoveL p9, v1, z1, t1;\n"
+            "    MoveJ \\Conc, [[1,2,3],[1,0,0,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]], v100, z10, fixed;\n"
+            "    MoveAbsJ [[0,10,20,30,40,50],[9E9,9E9,9E9,9E9,9E9,9E9]], v100, fine, tool0;\n  ENDPROC\nENDMODULE\n")
+    program = read_rapid(text, "m.mod", pin.SE3.Identity())
+    point, joints = program.targets
+    assert point.name == "p1" and point.line == 5 and point.uses == (7,)
+    assert np.allclose(point.pose.translation, [0.01, 0.02, 0.03])
+    assert np.allclose(point.pose.rotation, pin.Quaternion(0, 0, 1, 0).matrix())  # q1 is w
+    assert np.allclose(point.tool.translation, [0, 0, 0.1])
+    assert np.allclose(point.frame.translation, [0.1, 0.05, 0]) and np.allclose(point.frame.rotation[:, 0], [0, 1, 0])
+    assert np.allclose(joints.joints, np.radians([0, 10, 20, 30, 40, 50]))
+    assert [(p.line, "stationary tool" in p.what) for p in program.problems] == [(8, True)]
+    assert point.posture(np.radians([10, 0, 0, 5, 0, -5])) is None
+    assert "cf1, cf4, cf6" in point.posture(np.radians([100, 0, 0, 5, 0, -5]))
+    new, back = _round_trip(program, 0, lambda texts: read_rapid(texts["m.mod"], "m.mod", pin.SE3.Identity()))
+    assert np.allclose(back.homogeneous, new.homogeneous, atol=1e-7)
+
+
+def test_angles_written_near_the_old_ones() -> None:
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        rotation = pin.exp3(rng.normal(size=3))
+        near = rng.uniform(-4, 4, size=3)
+        a, b, c = euler_zyx_near(rotation, near)
+        assert np.allclose(zyx_rotation(a, b, c), rotation)
+        r = rotation_vector_near(rotation, near)
+        assert np.allclose(pin.exp3(r), rotation)
+    assert np.allclose(rotation_vector_near(pin.exp3(np.array([0, 0, math.pi - 1e-3])), [0, 0, -3.2]),
+                       [0, 0, -math.pi - 1e-3])
+
+
+def test_unknown_suffix_refused() -> None:
+    with pytest.raises(DataError, match="URScript"):
+        language_of("prog.txt")
