@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
@@ -21,11 +22,20 @@ from pincal.calibration.campaign import Simulation, check_sample_counts, simulat
 from pincal.calibration.provenance import sha256, version
 from pincal.calibration.setup import parameters_for
 from pincal.errors import ConvergenceError, DataError, PincalError
-from pincal.identification.measurements import BOARD_DEFAULT, INTRINSICS, Board, Pixel, parse_board, pixel
+from pincal.identification.measurements import (
+    BOARD_DEFAULT,
+    INTRINSICS,
+    Board,
+    Pixel,
+    parse_board,
+    parse_key,
+    pixel,
+)
 from pincal.identification.measurements.pixels import BOARD
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations
-from pincal.io.dataset import Dataset
+from pincal.io.dataset import Dataset, dataset_text
+from pincal.io.files import check_outputs, make_directory, write_texts
 from pincal.model.robot import Robot
 from pincal.study.simulation import perturbation
 
@@ -50,7 +60,7 @@ class PixelSimulation(Simulation):
         board: The board.
         image_size: (width, height) [px].
         intrinsics: The true intrinsics (:data:`~pincal.identification.measurements.INTRINSICS`).
-        views: Each sample's true board placement in the camera (camera ← board) [m, rad].
+        views: Each sample's true board placement in the camera (camera ← board) [m, rad]: the true robot's.
     """
 
     board: Board | None = None
@@ -154,7 +164,7 @@ def simulate_pixels(robot: Robot, frame: str, n_train: int, n_test: int = 0, eye
     for k, p in enumerate(pset):
         if p.kind == "intrinsics":
             x_true[k] = intrinsics[p.component]
-    qs, views = [], []
+    qs = []
     for _ in range(n_train + n_test):
         for _ in range(TRIES):
             view = _view(plate, rng)  # camera ← board
@@ -167,10 +177,13 @@ def simulate_pixels(robot: Robot, frame: str, n_train: int, n_test: int = 0, eye
             raise ConvergenceError(f"'{robot.name}' cannot reach views of the board from '{frame}' in {TRIES} "
                                    "draws: give another frame")
         qs.append(q)
-        views.append(view)
     actuated = np.array([robot.actuated_values(q) for q in qs])
     problem = CalibrationProblem(robot, pset, models, Observations.neutral(models, actuated))
     predicted = problem.evaluate(x_true, jacobian=False).predicted
+    seen_by = parse_key(f"pose:{frame}@{BOARD}" if eye_to_hand else f"camera:{frame}")
+    poses = CalibrationProblem(robot, pset, [seen_by], Observations.neutral([seen_by], actuated))
+    true_views = tuple(pin.SE3(pin.exp3(row[3:]), row[:3])
+                       for row in poses.evaluate(x_true, jacobian=False).predicted[seen_by.key])
     values = {}
     width, height = image_size
     for m in models:
@@ -191,4 +204,40 @@ def simulate_pixels(robot: Robot, frame: str, n_train: int, n_test: int = 0, eye
     dataset = Dataset(list(robot.actuated_joints), actuated, values, [f"{k:04d}" for k in range(n)],
                       ["train"] * n_train + ["test"] * n_test, metadata)
     return PixelSimulation(robot, pset, x_true, dataset, list(models), None, plate, image_size, tuple(intrinsics),
-                           tuple(views))
+                           true_views)
+
+
+#: The rendered images' blur [px] and noise [grey levels]: a focused camera's softness and sensor noise.
+IMAGE_BLUR = 0.8
+IMAGE_NOISE = 2.0
+
+
+def camera_outputs(out: Path, images: Path) -> list[Path]:
+    """The files a camera simulation with images writes besides the simulation's: ``out/joints.csv`` and one PNG
+    per image in ``images``; refused before any work (:func:`~pincal.io.files.check_outputs`)."""
+    joints = out / "joints.csv"
+    check_outputs([("--out", joints)])
+    make_directory(images, "--images")
+    return [joints]
+
+
+def write_images(sim: PixelSimulation, out: Path, images: Path, seed: int = 0) -> list[Path]:
+    """Render every image of ``sim`` into ``images`` (``<sample>.png``: the board warped by the true camera and
+    robot, blurred by :data:`IMAGE_BLUR` px, with noise of :data:`IMAGE_NOISE` grey levels) and write the joint
+    readings, one row per image, as ``out/joints.csv`` (what ``pincal detect --joints`` pairs them with); returns
+    the joints file and the images."""
+    from pincal.io.vision import pixel_rays, render, write_image
+
+    if sim.board is None:
+        raise DataError("the simulation has no board")
+    rng = np.random.default_rng(seed + 1)
+    rays = pixel_rays(sim.intrinsics, sim.image_size)
+    paths = []
+    for sample, view in zip(sim.dataset.sample_ids, sim.views, strict=True):
+        path = images / f"{sample}.png"
+        write_image(path, render(sim.board, view, rays, sim.image_size, IMAGE_BLUR, IMAGE_NOISE, rng))
+        paths.append(path)
+    data = sim.dataset
+    joints = Dataset(list(data.joint_names), data.joints, {}, list(data.sample_ids), list(data.sets),
+                     {"robot": sim.robot.name, "units": "SI (m, rad)"})
+    return [*write_texts([(out / "joints.csv", dataset_text(joints))]), *paths]
