@@ -75,7 +75,7 @@ def pair(detections: Detections, joints: Dataset, measure: str, board: Board,
         if stem not in rows:
             left_out[stem] = f"image '{stem}' has no row in the joints file (sample '{stem}')"
     kept = [k for k, sample in enumerate(joints.sample_ids) if sample in detections.corners]
-    for k, sample in enumerate(joints.sample_ids):
+    for sample in joints.sample_ids:
         if sample not in detections.corners and not any(_stem(p) == sample for p in detections.left_out):
             left_out[f"joints row {sample}"] = f"no image named '{sample}'"
     if not kept:

@@ -121,7 +121,8 @@ def render(board: Board, view: pin.SE3, rays: Array, size: tuple[int, int], blur
     if blur > 0:
         out = cv2.GaussianBlur(out, (0, 0), blur)
     out += rng.normal(scale=noise, size=out.shape)
-    return np.clip(np.rint(out), 0, 255).astype(np.uint8)
+    grey: npt.NDArray[np.uint8] = np.clip(np.rint(out), 0, 255).astype(np.uint8)
+    return grey
 
 
 def write_image(path: Path, image: npt.NDArray[np.uint8]) -> None:

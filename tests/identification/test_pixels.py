@@ -119,3 +119,23 @@ def test_keys_and_metadata_are_checked() -> None:
     board = ms.parse_board("charuco:5x4:0.04:0.03:DICT_4X4_50")
     assert board.n_corners == 12
     assert np.allclose(board.corner(5), [0.08, 0.08, 0.0])
+
+
+@pytest.mark.parametrize(("name", "frame", "eye_to_hand"), [("ur10", "tool0", False), ("panda", "panda_hand", True)])
+def test_the_batched_prediction_is_the_per_sample_one(name: str, frame: str, eye_to_hand: bool) -> None:
+    robot = pincal.load_robot(name)
+    sim = simulate_pixels(robot, frame, 4, 0, eye_to_hand=eye_to_hand, board="charuco:4x3:0.05:0.035:DICT_4X4_50",
+                          seed=3)
+
+    def problem() -> CalibrationProblem:
+        return CalibrationProblem(robot, sim.parameters, sim.measurements,
+                                  Observations(sim.dataset.joints, sim.dataset.measurements))
+
+    batched, per_sample = problem(), problem()
+    assert batched._batched_trees
+    per_sample._batched_trees = False
+    x = sim.x_true + np.random.default_rng(1).normal(scale=1e-4, size=len(sim.x_true))
+    a, b = batched.evaluate(x), per_sample.evaluate(x)
+    assert a.jacobian is not None and b.jacobian is not None
+    assert np.abs(a.residual - b.residual).max() <= 1e-9 * np.abs(b.residual).max()
+    assert np.abs(a.jacobian - b.jacobian).max() <= 1e-9 * np.abs(b.jacobian).max()

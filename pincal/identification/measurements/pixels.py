@@ -35,8 +35,10 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import DataError
+from pincal.identification.batch import BatchContext, point_rows
 from pincal.identification.measurements.base import Attachment, Measurement
 from pincal.identification.measurements.context import WORLD_TARGET, SampleContext, camera_name, target_name
+from pincal.model.rotations import cross_columns, rotate
 
 Array = npt.NDArray[np.float64]
 
@@ -262,6 +264,38 @@ class Pixel(Measurement):
         jac[:2] = dp[0] @ dseen
         jac[:2, columns] += dk[0][:, components]
 
+    def batch_intrinsics(self, batch: BatchContext) -> tuple[Array, list[int], list[int]]:
+        """:meth:`camera_intrinsics` of a batch's evaluation."""
+        return self.camera_intrinsics(batch.shared)
+
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample: the robot's columns are ``∂uv/∂p · (−R_Cᵀ R_Fᵀ (W_v − ĝ W_ω))``, W the
+        frame's spatial twist, g the corner in the world."""
+        rot_f, pos_f = batch.rotations[self.frame], batch.translations[self.frame]
+        camera = batch.shared.attached_placement(camera_name(self.frame))
+        board = batch.shared.attached_placement(WORLD_TARGET)
+        b = self.point()
+        world = board.placement.act(b)
+        local = np.matmul(rot_f.transpose(0, 2, 1), (world - pos_f)[:, :, None])[:, :, 0]
+        seen = (local - camera.placement.translation) @ camera.placement.rotation
+        k, columns, components = self.batch_intrinsics(batch)
+        uv, dp, dk = project(seen, k)
+        out[:, :2] = uv
+        if jac is None:
+            return
+        back = rotate(camera.placement.rotation.T, rot_f.transpose(0, 2, 1))  # R_Cᵀ R_Fᵀ
+        dback = np.matmul(dp, back)
+        at_point = np.hstack([-np.eye(3), pin.skew(world)])
+        batch.derivative(self.frame, np.matmul(dback, at_point), out=jac)
+        if camera.columns:
+            jc = np.broadcast_to(camera.jacobian, (len(seen), 6, len(camera.columns)))
+            jac[:, :, camera.columns] += np.matmul(dp, -jc[:, :3] + cross_columns(seen, jc[:, 3:]))
+        if board.columns:
+            moved = board.placement.rotation @ (board.jacobian[:3] - pin.skew(b) @ board.jacobian[3:])
+            jac[:, :, board.columns] += np.matmul(dback, moved)
+        if columns:
+            jac[:, :, columns] += dk[:, :, components]
+
 
 @dataclass(frozen=True)
 class BoardPixel(Pixel):
@@ -317,6 +351,30 @@ class BoardPixel(Pixel):
                                           @ ctx.base_jacobian)
         jac[:2] = dp[0] @ dseen
         jac[:2, columns] += dk[0][:, components]
+
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample: the robot's columns are ``∂uv/∂p · R_B [I, −ŵ] W``, W the frame's
+        spatial twist."""
+        board = batch.shared.attached_placement(target_name(self.frame, BOARD))
+        b = self.point()
+        on_frame = board.placement.act(b)
+        world = batch.point(self.frame, on_frame)
+        base = batch.base
+        seen = world @ base.rotation.T + base.translation
+        k, columns, components = self.batch_intrinsics(batch)
+        uv, dp, dk = project(seen, k)
+        out[:, :2] = uv
+        if jac is None:
+            return
+        batch.derivative(self.frame, np.matmul(dp, point_rows(world, base.rotation)), out=jac)
+        if board.columns:
+            moved = board.placement.rotation @ (board.jacobian[:3] - pin.skew(b) @ board.jacobian[3:])
+            rot = rotate(base.rotation, batch.rotations[self.frame])  # R_B R_F
+            jac[:, :, board.columns] += np.matmul(np.matmul(dp, rot), moved)
+        if batch.shared.base_columns:
+            jac[:, :, batch.shared.base_columns] = np.matmul(dp, batch.base_columns(world))
+        if columns:
+            jac[:, :, columns] += dk[:, :, components]
 
 
 def _from_key(cls: type[Pixel], kind: str, rest: str, sigma: float | None) -> Pixel:
