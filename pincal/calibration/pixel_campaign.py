@@ -1,8 +1,8 @@
 """Simulated camera campaigns: a ChArUco board seen by a camera on the robot (eye-in-hand) or by a camera fixed in
 the cell (eye-to-hand), the corners' pixels of the true robot and camera (OpenCV's model), and their files.
 
-The views are drawn, not the postures: each image places the camera ``0.35–0.75 m`` from the board, looking at a
-point near its centre from up to 35° off its normal and turned up to 25° about its axis; the nominal robot's inverse
+The views are drawn, not the postures: each image places the camera ``0.3–1.0 m`` from the board, looking at a
+point near its centre from up to 50° off its normal and turned up to 25° about its axis; the nominal robot's inverse
 kinematics gives the joint readings (views it cannot reach within its limits are drawn again). The true robot (the
 nominal one with random errors) then sees the board at those readings; the corners outside the image, or behind the
 camera, are not seen (empty cells). SI units: m, rad; pixels [px].
@@ -45,8 +45,8 @@ Array = npt.NDArray[np.float64]
 DEFAULT_INTRINSICS = (1000.0, 1002.0, 645.0, 478.0, -0.12, 0.08, 4e-4, -3e-4, 0.0)
 DEFAULT_IMAGE_SIZE = (1280, 960)
 #: The camera's distance to the board [m] and the largest tilt off its normal and turn about its axis [rad].
-DISTANCES = (0.35, 0.75)
-TILT = np.radians(35.0)
+DISTANCES = (0.3, 1.0)
+TILT = np.radians(50.0)
 ROLL = np.radians(25.0)
 #: Draws of a view per image before the simulation gives up.
 TRIES = 200
