@@ -204,8 +204,8 @@ def page(runs: dict[str, list[dict[str, object]]], seconds: float) -> str:
              "",
              "| case | pincal (mm) | perfect kinematics (mm) | ratio | " + " | ".join(f"OpenCV {m[7:]} (mm)"
                                                                             for m in methods)
-             + " | intrinsics: largest \\|error\\|/σ | pincal's calibration (s) |",
-             "|---|---|---|---|" + "---|" * len(methods) + "---|---|"]
+             + " | intrinsics: largest \\|error\\|/σ |",
+             "|---|---|---|---|" + "---|" * len(methods) + "---|"]
     verdicts = []
     for label, rs in runs.items():
         ratio = float(np.median([r["pincal"] / r["perfect"] for r in rs]))
@@ -213,7 +213,7 @@ def page(runs: dict[str, list[dict[str, object]]], seconds: float) -> str:
         cells = [f"{np.median([r['others'][m] for r in rs]):.3g}" if m in rs[0]["others"] else "—" for m in methods]
         worst = max(abs(v) for r in rs for v in r["sigmas"].values())
         lines.append(f"| {label} | {pincal_mm:.3g} | {np.median([r['perfect'] for r in rs]):.3g} | {ratio:.2f} | "
-                     + " | ".join(cells) + f" | {worst:.1f} | {np.median([r['seconds'] for r in rs]):.1f} |")
+                     + " | ".join(cells) + f" | {worst:.1f} |")
         best_cv = min(float(np.median([r["others"][m] for r in rs])) for m in rs[0]["others"])
         per_seed = ", ".join(f"{r['pincal'] / r['perfect']:.2f}" for r in rs)
         verdicts.append(

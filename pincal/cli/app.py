@@ -22,11 +22,11 @@ from pincal.cli import (
     check_data,
     compensation,
     export_formats,
+    images,
     planning,
     report_page,
     robots,
     view,
-    vision,
 )
 from pincal.cli.arguments import (
     add_calibration_options,
@@ -109,8 +109,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     robot = load_robot(args.robot)
     check_sample_counts(args.samples, args.test_samples)
-    if vision.is_camera(args.measure):  # a board's corners in pixels, and their images
-        return vision.simulate_camera(args, robot)
+    if images.is_camera(args.measure):  # a board's corners in pixels, and their images
+        return images.simulate_camera(args, robot)
     created = not Path(args.out).exists()
     simulation_outputs(robot, args.out, args.meshes)  # refused before any work: a file, an unwritable place, the
     # robot's URDF, a mesh to copy found nowhere
@@ -335,7 +335,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_payload(sim, "truth.corrections.json records it")
     sim.add_argument("--out", required=True, help="output directory")
     add_meshes(sim, "truth.urdf")
-    vision.add_camera_arguments(sim)
+    images.add_camera_arguments(sim)
     sim.add_argument("--quiet", action="store_true", help="no progress bar")
     sim.set_defaults(func=cmd_simulate)
 
@@ -382,7 +382,7 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.set_defaults(func=cmd_fleet)
 
     for module in (view, report_page, planning, check_data, compensation, export_formats, bag_import, assemble,
-                   robots, vision):  # command groups of their own
+                   robots, images):  # command groups of their own
         module.register(sub)
     return parser
 

@@ -156,3 +156,10 @@ def test_a_camera_file_without_a_camera_matrix_is_named(tmp_path: Path) -> None:
     bad.write_text("image_width: 640\n")
     with pytest.raises(DataError, match=r"info\.yaml: no camera_matrix or k or K list of numbers"):
         vision.read_camera_file(bad)
+
+
+def test_check_refuses_pixels_in_one_line(images: Path) -> None:
+    done = run_pincal("check", "ur10", "sim/measurements.csv", "--nominal", "ur10", cwd=images)
+    assert done.returncode == 2
+    assert done.stderr.startswith("pincal: error: pincal check takes no pixel measurements yet")
+    assert len(done.stderr.splitlines()) == 1
