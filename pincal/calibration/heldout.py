@@ -31,7 +31,7 @@ from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
 from pincal.errors import PincalError
 from pincal.identification.losses import outlier_samples
-from pincal.identification.metrics import angle_error_norms, error_norms, rms, sample_length_errors
+from pincal.identification.metrics import angle_error_norms, error_norms, pixel_error_norms, rms, sample_length_errors
 from pincal.identification.parameters import ParameterSet, influencing_joints, read_joints
 from pincal.identification.predictions import carry_over
 from pincal.identification.problem import CalibrationProblem
@@ -173,6 +173,9 @@ class HeldOut:
             out.update({"test_rms_angle_before": rms(angles_before), "test_rms_angle_after": rms(angles_after),
                         "test_max_angle_before": float(angles_before.max()),
                         "test_max_angle_after": float(angles_after.max())})
+        pixels = pixel_error_norms(self.errors_before)
+        if pixels.size:
+            out["test_pixels"] = {"rms_before": rms(pixels), "rms_after": rms(pixel_error_norms(self.errors_after))}
         if self.errors_start is not None:
             out["test_rms_start"] = rms(error_norms(self.errors_start))
             angles = angle_error_norms(self.errors_start)

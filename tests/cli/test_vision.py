@@ -60,8 +60,16 @@ def test_images_detected_and_calibrated_give_the_true_intrinsics(images: Path) -
     errors = errors[np.isfinite(errors)]
     assert len(errors) > 0.9 * sum(np.isfinite(v).sum() for v in exact.measurements.values())
     assert np.sqrt(np.mean(errors ** 2)) < 0.3  # px: the detector's sub-pixel corners on a blurred, noisy image
-    _ok(run_pincal("calibrate", "ur10", "det.csv", "--report", "r.json", cwd=images))
+    summary = _ok(run_pincal("calibrate", "ur10", "det.csv", "--report", "r.json", cwd=images))
     assert _within_3_sigma(images / "r.json", images / "sim" / "truth.json", "intrinsics.tool0") == []
+    # the summary's reprojection errors: the nominal robot's pixels px off, the calibrated one's at the noise
+    rows = {line.split("  ")[0]: line.split()[-4:] for line in summary.splitlines() if "reprojection" in line}
+    assert set(rows) == {"RMS reprojection error (fit)", "RMS reprojection error (held out)"}
+    report = json.loads((images / "r.json").read_text())
+    for part, key in (("fit", "pixels"), ("held out", "test_pixels")):
+        before, after = report[key]["rms_before"], report[key]["rms_after"]
+        assert rows[f"RMS reprojection error ({part})"] == [f"{before:.3f}", "px", f"{after:.3f}", "px"]
+        assert after < 0.3 < 1.0 < before
 
 
 def test_a_fixed_camera_seeing_a_board_on_the_hand(tmp_path: Path) -> None:
