@@ -110,10 +110,11 @@ def register_setup(problem: CalibrationProblem, x0: Array, **options: Any) -> Re
     x = np.zeros_like(x0)
     x[columns] = fitted.x
     errors = problem.evaluate(x, jacobian=False).errors
-    fitted_rms, start_rms = rms(error_norms(errors)), rms(error_norms(start))
+    norms, scale, unit = (error_norms, 1e3, "mm") if error_norms(start).size else (pixel_error_norms, 1.0, "px")
+    fitted_rms, start_rms = rms(norms(errors)), rms(norms(start))
     if not fitted_rms < start_rms:
         return Registration(x0.copy(), start, start, False, f"the setup's fit ended at an RMS above the start's "
-                            f"({fitted_rms * 1e3:.4f} against {start_rms * 1e3:.4f} mm); the start stands")
+                            f"({fitted_rms * scale:.4f} against {start_rms * scale:.4f} {unit}); the start stands")
     return Registration(x, errors, start, True)
 
 

@@ -305,6 +305,8 @@ def before_figures(problem: CalibrationProblem, before: Any) -> dict[str, Any]:
         else "; ".join(filter(None, [before_means(problem), before.note]))}
     if angles.size:
         out.update({"rms_angle_before": _clean(rms(angles)), "max_angle_before": _clean(float(angles.max()))})
+    if pixel_error_norms(before.errors).size:  # the registered robot's reprojection error, beside the fit's after
+        out["pixels_before"] = _clean(rms(pixel_error_norms(before.errors)))
     if before.registered:
         start, start_angles = error_norms(before.start_errors), angle_error_norms(before.start_errors)
         out.update({"rms_start": _clean(rms(start)), "start_means": before_means(problem),
