@@ -334,6 +334,9 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
             wrong unit (:func:`~pincal.calibration.pipeline.check_units`, as ``calibrate`` refuses them, before any
             work), a camera the model holds no link for (without ``register``).
     """
+    if any(key.partition(":")[0] in ("pixel", "board_pixel") for key in dataset.measurements):
+        raise DataError("pincal check takes no pixel measurements yet (a calibrated URDF holds no camera intrinsics): "
+                        "give the images to check as held-out rows (set=test) of pincal calibrate")
     setup = options.replace(parameter_spec=None, markers="each", payload=None)
     nominal_prepared = prepare_setup(nominal, dataset, setup)
     check_units(nominal_prepared, dataset, options.plausible)

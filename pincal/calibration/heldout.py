@@ -31,7 +31,7 @@ from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
 from pincal.errors import PincalError
 from pincal.identification.losses import outlier_samples
-from pincal.identification.metrics import angle_error_norms, error_norms, rms, sample_length_errors
+from pincal.identification.metrics import angle_error_norms, error_norms, pixel_error_norms, rms, sample_length_errors
 from pincal.identification.parameters import ParameterSet, influencing_joints, read_joints
 from pincal.identification.predictions import carry_over
 from pincal.identification.problem import CalibrationProblem
@@ -110,10 +110,11 @@ def register_setup(problem: CalibrationProblem, x0: Array, **options: Any) -> Re
     x = np.zeros_like(x0)
     x[columns] = fitted.x
     errors = problem.evaluate(x, jacobian=False).errors
-    fitted_rms, start_rms = rms(error_norms(errors)), rms(error_norms(start))
+    norms, scale, unit = (error_norms, 1e3, "mm") if error_norms(start).size else (pixel_error_norms, 1.0, "px")
+    fitted_rms, start_rms = rms(norms(errors)), rms(norms(start))
     if not fitted_rms < start_rms:
         return Registration(x0.copy(), start, start, False, f"the setup's fit ended at an RMS above the start's "
-                            f"({fitted_rms * 1e3:.4f} against {start_rms * 1e3:.4f} mm); the start stands")
+                            f"({fitted_rms * scale:.4f} against {start_rms * scale:.4f} {unit}); the start stands")
     return Registration(x, errors, start, True)
 
 
@@ -173,6 +174,9 @@ class HeldOut:
             out.update({"test_rms_angle_before": rms(angles_before), "test_rms_angle_after": rms(angles_after),
                         "test_max_angle_before": float(angles_before.max()),
                         "test_max_angle_after": float(angles_after.max())})
+        pixels = pixel_error_norms(self.errors_before)
+        if pixels.size:
+            out["test_pixels"] = {"rms_before": rms(pixels), "rms_after": rms(pixel_error_norms(self.errors_after))}
         if self.errors_start is not None:
             out["test_rms_start"] = rms(error_norms(self.errors_start))
             angles = angle_error_norms(self.errors_start)

@@ -318,6 +318,8 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
         x_true = x_true[[fit.parameters.index(name) for name in problem.parameters.names]]
     content = fit_figures(result, problem, x_true)
     content.update(before_figures(problem, before))
+    if "pixels_before" in content:  # "before" is the registered nominal robot, as for the lengths
+        content["pixels"]["rms_before"] = content.pop("pixels_before")
     ids = fit.samples.sample_ids
     lengths = sample_length_errors(result.errors_after, problem.observations.n_samples)
     suspects = result.extra.get("outlier_test", [])

@@ -19,7 +19,7 @@ import numpy.typing as npt
 
 from pincal.errors import DataError
 from pincal.identification.measurements import KIND_CLASSES
-from pincal.identification.metrics import angle_error_norms, calibration_gain, error_norms, rms
+from pincal.identification.metrics import angle_error_norms, calibration_gain, error_norms, pixel_error_norms, rms
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
@@ -110,6 +110,9 @@ class CalibrationReport:
     reference_shifts: dict[str, float] = field(default_factory=dict)
     rms_angle_before: float | None = field(default=None, metadata=OPTIONAL)
     rms_angle_after: float | None = field(default=None, metadata=OPTIONAL)
+    #: Reprojection RMS [px] of the pixel readings, fitted and held out, before and after.
+    pixels: dict[str, float | None] | None = field(default=None, metadata=OPTIONAL)
+    test_pixels: dict[str, float | None] | None = field(default=None, metadata=OPTIONAL)
     max_angle_before: float | None = field(default=None, metadata=OPTIONAL)
     max_angle_after: float | None = field(default=None, metadata=OPTIONAL)
     calibration_gain: float | None = field(default=None, metadata=OPTIONAL)
@@ -302,6 +305,8 @@ def before_figures(problem: CalibrationProblem, before: Any) -> dict[str, Any]:
         else "; ".join(filter(None, [before_means(problem), before.note]))}
     if angles.size:
         out.update({"rms_angle_before": _clean(rms(angles)), "max_angle_before": _clean(float(angles.max()))})
+    if pixel_error_norms(before.errors).size:  # the registered robot's reprojection error, beside the fit's after
+        out["pixels_before"] = _clean(rms(pixel_error_norms(before.errors)))
     if before.registered:
         start, start_angles = error_norms(before.start_errors), angle_error_norms(before.start_errors)
         out.update({"rms_start": _clean(rms(start)), "start_means": before_means(problem),
@@ -366,6 +371,10 @@ def fit_figures(result: CalibrationResult, problem: CalibrationProblem, x_true: 
         out.update({"rms_angle_before": _clean(rms(angles_before)), "rms_angle_after": _clean(rms(angles_after)),
                     "max_angle_before": _clean(float(angles_before.max())),
                     "max_angle_after": _clean(float(angles_after.max()))})
+    pixels_before = pixel_error_norms(result.errors_before)
+    if pixels_before.size:
+        out["pixels"] = {"rms_before": _clean(rms(pixels_before)),
+                         "rms_after": _clean(rms(pixel_error_norms(result.errors_after)))}
     if x_true is not None:
         out["calibration_gain"] = _clean(calibration_gain(x_true, result.x0, result.x))
         out["parameter_errors_before"] = float(np.linalg.norm(x_true - result.x0))

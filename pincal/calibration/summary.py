@@ -38,6 +38,16 @@ def report_robot(report: CalibrationReport) -> tuple[str, str]:
     return robot_named(given, report.robot), urdf_name_note(given, report.robot)
 
 
+def _finite(value: float | None) -> bool:
+    """Whether a figure was measured (not None, not NaN)."""
+    return value is not None and math.isfinite(value)
+
+
+def px(value: float | None) -> str:
+    """A reprojection error [px], or ``-``."""
+    return "-" if value is None else f"{value:.3f} px"
+
+
 def _figure_rows(quantity: str, part: str, unit: Callable[[float | None], str], rms_before: float | None,
                  rms_after: float | None, max_before: float | None, max_after: float | None,
                  width: int = 32) -> list[str]:
@@ -110,18 +120,22 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
              f"iterations, {seconds:.3f} s",
              "",
              f"{'':{width}}{'before':>14}{'after':>14}",
-             *_figure_rows(length, "fit", mm, report.rms_before, report.rms_after, report.max_before,
-                           report.max_after, width)]
+             *(_figure_rows(length, "fit", mm, report.rms_before, report.rms_after, report.max_before,
+                            report.max_after, width) if not report.pixels or _finite(report.rms_before) else [])]
     if report.rms_angle_before is not None:
         lines += _figure_rows(angle, "fit", mrad, report.rms_angle_before, report.rms_angle_after,
                               report.max_angle_before, report.max_angle_after, width)
-    if report.has_held_out:
+    if report.has_held_out and (not report.test_pixels or _finite(report.test_rms_before)):
         lines += _figure_rows(length, "held out", mm, report.test_rms_before, report.test_rms_after,
                               report.test_max_before, report.test_max_after, width)
     if report.test_rms_angle_before is not None:
         lines += _figure_rows(angle, "held out", mrad, report.test_rms_angle_before,
                               report.test_rms_angle_after, report.test_max_angle_before, report.test_max_angle_after,
                               width)
+    for part, figures in (("fit", report.pixels), ("held out", report.test_pixels)):
+        if figures:
+            lines.append(f"{f'RMS reprojection error ({part})':{width}}{_column(px(figures['rms_before']))}"
+                         f"{_column(px(figures['rms_after']))}")
     if report.before_means:
         lines += textwrap.wrap(f"(before: {report.before_means})", 120, subsequent_indent=" ")
     if report.rms_start is not None:

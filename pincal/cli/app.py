@@ -24,6 +24,7 @@ from pincal.cli import (
     drift_check,
     export_formats,
     filter_program,
+    images,
     iso_commands,
     planning,
     report_page,
@@ -112,6 +113,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     robot = load_robot(args.robot)
     check_sample_counts(args.samples, args.test_samples)
+    if images.is_camera(args.measure):  # a board's corners in pixels, and their images
+        return images.simulate_camera(args, robot)
     created = not Path(args.out).exists()
     simulation_outputs(robot, args.out, args.meshes)  # refused before any work: a file, an unwritable place, the
     # robot's URDF, a mesh to copy found nowhere
@@ -360,6 +363,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_payload(sim, "truth.corrections.json records it")
     sim.add_argument("--out", required=True, help="output directory")
     add_meshes(sim, "truth.urdf")
+    images.add_camera_arguments(sim)
     sim.add_argument("--quiet", action="store_true", help="no progress bar")
     sim.set_defaults(func=cmd_simulate)
 
@@ -406,7 +410,7 @@ def build_parser() -> argparse.ArgumentParser:
     fleet.set_defaults(func=cmd_fleet)
 
     for module in (view, report_page, planning, check_data, compensation, export_formats, filter_program, bag_import,
-                   assemble, robots, iso_commands, drift_check):  # command groups of their own
+                   assemble, robots, iso_commands, drift_check, images):  # command groups of their own
         module.register(sub)
     return parser
 

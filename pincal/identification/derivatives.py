@@ -13,14 +13,22 @@ Through the loops (implicit-function theorem, actuated joints held): with closur
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.identification.measurements import AttachedPlacement, MarkerPoint, split_target
+from pincal.identification.measurements import (
+    AttachedPlacement,
+    IntrinsicTerms,
+    MarkerPoint,
+    intrinsics_name,
+    split_target,
+)
 from pincal.identification.parameters import AnchorPlacement, MarkerOffset, ParameterSet, attached_name
 from pincal.identification.parameters.candidates import _descends
+from pincal.identification.parameters.kinds import CameraIntrinsics
 from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
@@ -105,6 +113,19 @@ def attached_placements(pset: ParameterSet, x: Array) -> dict[str, AttachedPlace
         jacobian = right_jacobian(delta, [pset.parameters[k].component for k in idx])
         out[attached_name(kind, owner)] = AttachedPlacement(pin.exp6(delta), list(idx), jacobian)
     return out
+
+
+def intrinsic_terms(pset: ParameterSet, x: Array) -> dict[str, IntrinsicTerms]:
+    """Each camera's intrinsics parameters at ``x`` [px, 1]: name (``intrinsics.<frame>``, ``intrinsics``) -> their
+    values, columns and components."""
+    return {intrinsics_name(owner): IntrinsicTerms(x[idx], list(idx), [pset.parameters[k].component for k in idx])
+            for (_, owner, _), idx in pset.groups(CameraIntrinsics.name).items()}
+
+
+def attached_terms(pset: ParameterSet, x: Array) -> dict[str, Any]:
+    """What the measurement models carry at ``x``, as :class:`~pincal.identification.measurements.SampleContext`'s
+    keywords: ``attached`` (:func:`attached_placements`) and ``intrinsics`` (:func:`intrinsic_terms`)."""
+    return {"attached": attached_placements(pset, x), "intrinsics": intrinsic_terms(pset, x)}
 
 
 class KinematicSensitivity:

@@ -47,6 +47,14 @@ def angle_error_norms(errors: dict[str, Array]) -> Array:
     return np.asarray(norms[~np.isnan(norms)], dtype=np.float64)
 
 
+def pixel_error_norms(errors: dict[str, Array]) -> Array:
+    """Reprojection errors [px] of the pixel readings (a board corner's ``|(Δu, Δv)|``), one per reading taken."""
+    parts = [np.linalg.norm(err[:, :2], axis=1) for key, err in errors.items()
+             if (model := KIND_CLASSES.get(key.split(":", 1)[0])) is not None and model.units[:1] == ("px",)]
+    norms = np.concatenate(parts) if parts else np.zeros(0)
+    return np.asarray(norms[~np.isnan(norms)], dtype=np.float64)
+
+
 def sample_length_errors(errors: dict[str, Array], n: int) -> Array | None:
     """Each sample's length-type error [m] (the position, pose position and distance rows of the readings it took,
     together; NaN for a sample that took none, e.g. saw no marker), or None when nothing length-like is measured."""

@@ -25,7 +25,7 @@ import pinocchio as pin
 from pincal.errors import ConvergenceError, DataError, listing, not_found
 from pincal.identification import predictions, starts
 from pincal.identification.corrections import Payload, correction_regressors
-from pincal.identification.derivatives import KinematicSensitivity, attached_placements, marker_points, right_jacobian
+from pincal.identification.derivatives import KinematicSensitivity, attached_terms, marker_points, right_jacobian
 from pincal.identification.loop_batch import LoopBatch
 from pincal.identification.measurements import Measurement, SampleContext
 from pincal.identification.neighbours import SolvedInputs
@@ -456,7 +456,7 @@ class CalibrationProblem:
         base_jacobian = right_jacobian(base_delta, [self._all.parameters[k].component for k in self.base])
         return SampleContext(model, data, x, pin.exp6(base_delta), base_jacobian, self.base,
                              marker_points(self._all, x, self.marker_nominals), self.reading_offsets,
-                             self.frame_ids, self.observations.values, attached=attached_placements(self._all, x))
+                             self.frame_ids, self.observations.values, **attached_terms(self._all, x))
 
     def _assemble(self, preds: dict[str, Array], dpreds: dict[str, Array], jacobian: bool,
                   full: Array | None = None, spare_rows: int = 0) -> Prediction:

@@ -13,8 +13,9 @@ import pinocchio as pin
 
 from pincal import linalg
 from pincal.errors import DataError
-from pincal.identification.measurements import PLANE, Measurement, plane_name
+from pincal.identification.measurements import PLANE, Measurement, Pixel, plane_name
 from pincal.identification.parameters import attached_name
+from pincal.identification.pixel_starts import pixel_starts
 
 if TYPE_CHECKING:
     from pincal.identification.problem import CalibrationProblem
@@ -67,12 +68,13 @@ def camera_starts(problem: CalibrationProblem, x: Array) -> bool:
     frame (``base``, the fixed camera of a pose target)."""
     groups = {attached_name(kind, owner): idx for (kind, owner, _), idx
               in problem.parameters.groups("camera", "target").items()}
-    cameras = [m for m in problem.measurements if any(a.kind != PLANE for a in m.attachments)]
+    cameras = [m for m in problem.measurements
+               if any(a.kind != PLANE for a in m.attachments) and not isinstance(m, Pixel)]
     problem.placed_in_closed_form, problem.not_in_closed_form = [], []
+    located = pixel_starts(problem, x)
     if not cameras:
-        return False
+        return located
     nominal = problem.robot.model.createData()
-    located = False
     for m in cameras:
         taken = np.flatnonzero(problem.seen(m.key))
         frame = problem.frame_ids[m.frames[0]]  # the frame carrying the camera or the target

@@ -171,7 +171,7 @@ def measurements_for(robot: Robot, measurement_keys: Sequence[str], joint_column
             angle = one_sigma(sigma or channel_sigma(key, meta, None, angle=True))
             if angle:
                 model = model.with_angle_sigma(angle)
-        models.append(model.with_markers(nominal))
+        models.append(model.with_markers(nominal).with_metadata(meta))
     measured = {t for m in models for t in m.markers if split_target(t)[1]}
     stray = [t for t in nominal if t not in measured]
     if stray:

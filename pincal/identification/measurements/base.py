@@ -144,6 +144,12 @@ class Measurement(ABC):
         return False
 
     @property
+    def in_measurement_frame(self) -> bool:
+        """Whether its readings are taken in the measurement frame, whose placement ``base.*`` is then estimated:
+        those that locate a point, and a fixed camera's pixels."""
+        return self.locates_point
+
+    @property
     def columns(self) -> tuple[str, ...]:
         """The dataset's column names of this measurement, in the order of its values."""
         names = self.components or tuple(str(i) for i in range(self.size))
@@ -199,6 +205,11 @@ class Measurement(ABC):
 
     def with_markers(self, nominals: Mapping[str, tuple[float, float, float]]) -> Measurement:
         """This model with the nominal offsets [m] the data declare for its markers (itself if it has none)."""
+        return self
+
+    def with_metadata(self, metadata: Mapping[str, str]) -> Measurement:
+        """This model with what the dataset's metadata declare for it (a board, a camera's intrinsics); itself if
+        it reads none."""
         return self
 
     def with_angle_sigma(self, sigma_angle: float) -> Measurement:

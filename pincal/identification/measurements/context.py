@@ -56,6 +56,21 @@ class AttachedPlacement:
     jacobian: Array = field(default_factory=lambda: np.zeros((6, 0)))
 
 
+@dataclass
+class IntrinsicTerms:
+    """A camera's intrinsics parameters at one estimate.
+
+    Attributes:
+        delta: (k,) the parameters' values [px, or 1 for the distortion], added to the nominal intrinsics.
+        columns: Their parameter columns.
+        components: The intrinsic each column is (index in fx, fy, cx, cy, k1, k2, p1, p2, k3).
+    """
+
+    delta: Array
+    columns: list[int]
+    components: list[int]
+
+
 def camera_name(frame: str) -> str:
     """The attached placement (and parameter prefix) of the camera fixed on ``frame``: ``camera.<frame>``."""
     return f"camera.{frame}"
@@ -102,6 +117,8 @@ class SampleContext:
         dv: (nv, p) the configuration's velocity per unit parameter (None without Jacobian).
         attached: Attached placement name (``camera.<frame>``, ``target``, ``target.<frame>@<target>``) -> its
             placement and parameter derivative (those with parameters only).
+        intrinsics: A camera's intrinsics name (``intrinsics.<frame>``, ``intrinsics``) -> its parameters (those
+            with parameters only).
     """
 
     model: pin.Model
@@ -119,6 +136,7 @@ class SampleContext:
     twists: dict[str, Array] = field(default_factory=dict)
     dv: Array | None = None
     attached: dict[str, AttachedPlacement] = field(default_factory=dict)
+    intrinsics: dict[str, IntrinsicTerms] = field(default_factory=dict)
 
     def placement(self, frame: str) -> pin.SE3:
         """The frame's placement in the robot's world frame at ``q``."""

@@ -20,7 +20,7 @@ from pincal.identification.parameters.candidates import (
     candidate_parameters,
     planar_normal,
 )
-from pincal.identification.parameters.kinds import CameraPlacement, TargetPlacement
+from pincal.identification.parameters.kinds import CameraIntrinsics, CameraPlacement, TargetPlacement
 from pincal.identification.parameters.parameter import (
     AXES,
     COMPONENTS,
@@ -29,6 +29,7 @@ from pincal.identification.parameters.parameter import (
     cluster_parameters,
     compliance_parameter,
     harmonic_parameters,
+    intrinsics_parameters,
     marker_parameters,
     offset_parameter,
     placement_parameters,
@@ -49,10 +50,12 @@ def camera_parameters(models: Sequence[Measurement]) -> list[Parameter]:
     for m in models:
         for a in m.attachments:
             components.setdefault((a.kind, a.owner), set()).update(a.components)
-    order = sorted(components, key=lambda name: (name[0] != "camera", name[1] != "", name[1]))
+    order = sorted(components, key=lambda name: (name[0] == CameraIntrinsics.name, name[0] != "camera",
+                                                 name[1] != "", name[1]))
     return [p for kind, owner in order
-            for p in placement_parameters(kind, owner, components=[c for c in COMPONENTS
-                                                                    if c in components[(kind, owner)]])]
+            for p in (intrinsics_parameters(owner) if kind == CameraIntrinsics.name else
+                      placement_parameters(kind, owner, components=[c for c in COMPONENTS
+                                                                    if c in components[(kind, owner)]]))]
 
 
 def sees_world_target(models: Sequence[Measurement]) -> bool:
@@ -163,7 +166,7 @@ def default_parameters(robot: Robot, models: Sequence[Measurement], markers: Mar
     check_marker_fit(markers, models)
     frames = sorted({f for m in models for f in m.frames})
     read = read_joints(models)
-    external = any(m.locates_point for m in models)
+    external = any(m.in_measurement_frame for m in models)
     marked = _estimated_on_frames(models)
     joints = influencing_joints(robot, frames, read)
     model = robot.model
@@ -252,7 +255,7 @@ def parameter_pool(robot: Robot, models: Sequence[Measurement]) -> ParameterSet:
     (``<joint>.compliance``) of the actuated joints that move a measured frame."""
     frames = sorted({f for m in models for f in m.frames})
     read = read_joints(models)
-    external = any(m.locates_point for m in models)
+    external = any(m.in_measurement_frame for m in models)
     pool = candidate_parameters(robot, frames=frames, offsets=list(robot.actuated_joints) + read, base=external)
     moving = set(influencing_joints(robot, frames, read))
     corrections = [p for j in robot.actuated_joints if j in moving

@@ -19,14 +19,22 @@ import math
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 from pincal.errors import not_found
-from pincal.identification.measurements import PLANE, WORLD_TARGET, camera_name, plane_name, split_target
+from pincal.identification.measurements import (
+    INTRINSICS,
+    PLANE,
+    WORLD_TARGET,
+    camera_name,
+    intrinsics_name,
+    plane_name,
+    split_target,
+)
 from pincal.model.robot import Unit
 
 if TYPE_CHECKING:
     from pincal.identification.parameters.parameter import Parameter
 
 #: A parameter's unit: a length or an angle, or a compliance (angle per torque, length per force).
-ParameterUnit = Literal["m", "rad", "rad/(N m)", "m/N"]
+ParameterUnit = Literal["m", "rad", "rad/(N m)", "m/N", "px", "1"]
 #: Where a kind's parameters act: the robot ``model`` (a placement in the kinematic tree or a loop: its derivative from
 #: frame Jacobians through the loops), an actuated joint's ``reading`` (its value moves by the parameter times a
 #: regressor of the reading), or the ``measurement`` models (the measurement frame, markers, cameras, targets: the
@@ -278,6 +286,25 @@ class PlanePlacement(ParameterKind):
     def urdf_link(cls, owner: str) -> str:
         """``contact_plane`` (a plane in the world, ``owner`` empty) or ``<support>_plane``."""
         return f"{owner}_plane" if owner else "contact_plane"
+
+
+class CameraIntrinsics(ParameterKind):
+    """``intrinsics.<frame>.<c>``: the intrinsics of the camera on a frame (``intrinsics.<c>``: of the fixed camera),
+    added to the nominal values the data declare: ``fx, fy, cx, cy`` [px], ``k1, k2, p1, p2, k3`` [1] (OpenCV's
+    model, :mod:`pincal.identification.measurements.pixels`)."""
+
+    name = "intrinsics"
+    urdf = "none: the report and truth.json hold a camera's intrinsics"
+
+    @classmethod
+    def prefix(cls, owner: str, side: str = "") -> str:
+        """``intrinsics.<frame>``, or ``intrinsics`` for the fixed camera (``owner`` empty)."""
+        return intrinsics_name(owner)
+
+    @classmethod
+    def unit(cls, term: str, joint_unit: Unit = "rad") -> ParameterUnit:
+        """[px] for ``fx, fy, cx, cy``, [1] for the distortion."""
+        return "px" if term in INTRINSICS[:4] else "1"
 
 
 class Harmonic(ParameterKind):

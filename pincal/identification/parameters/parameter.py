@@ -32,7 +32,9 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError, NotFoundError, listing, not_found
+from pincal.identification.measurements import INTRINSICS
 from pincal.identification.parameters.kinds import (
+    CameraIntrinsics,
     Compliance,
     MarkerOffset,
     ParameterKind,
@@ -48,6 +50,9 @@ COMPONENTS = ("tx", "ty", "tz", "rx", "ry", "rz")
 AXES = ("x", "y", "z")
 #: Default parameter scales: the typical size of a geometric error [m] and [rad].
 LENGTH_SCALE = 1e-3
+#: A camera's focal length or principal point [px], and a distortion coefficient [1]: their typical corrections.
+PIXEL_SCALE = 1.0
+DISTORTION_SCALE = 1e-3
 ANGLE_SCALE = 1e-3
 #: Typical gravity torque [N m] and force [N] on a joint, for the scale of a compliance.
 TORQUE_SCALE = 10.0
@@ -90,10 +95,11 @@ class Parameter:
 
     @property
     def scale(self) -> float:
-        """Typical size [m, rad, rad/(N m) or m/N], used to scale the identification problem: 1 mm, 1 mrad, and
-        for a compliance the deflection of 1 mrad under 10 N m (1 mm under 100 N)."""
+        """Typical size [m, rad, rad/(N m), m/N, px or 1], used to scale the identification problem: 1 mm, 1 mrad,
+        for a compliance the deflection of 1 mrad under 10 N m (1 mm under 100 N), 1 px, and 1e-3 for a distortion
+        coefficient."""
         return {"m": LENGTH_SCALE, "rad": ANGLE_SCALE, "rad/(N m)": ANGLE_SCALE / TORQUE_SCALE,
-                "m/N": LENGTH_SCALE / FORCE_SCALE}[self.unit]
+                "m/N": LENGTH_SCALE / FORCE_SCALE, "px": PIXEL_SCALE, "1": DISTORTION_SCALE}[self.unit]
 
     @property
     def term(self) -> str:
@@ -142,6 +148,14 @@ def marker_parameters(key: str) -> list[Parameter]:
 def cluster_parameters(frame: str) -> list[Parameter]:
     """The placement of the cluster of declared markers on ``frame`` (tx, ty, tz [m], rx, ry, rz [rad])."""
     return placement_parameters("cluster", frame)
+
+
+def intrinsics_parameters(owner: str) -> list[Parameter]:
+    """The intrinsics of the camera on frame ``owner`` (empty: the fixed camera), ``intrinsics[.<frame>].<c>``:
+    ``fx, fy, cx, cy`` [px], ``k1, k2, p1, p2, k3`` [1]."""
+    prefix = CameraIntrinsics.prefix(owner)
+    return [Parameter(f"{prefix}.{c}", CameraIntrinsics.name, owner, k, "", CameraIntrinsics.unit(c))
+            for k, c in enumerate(INTRINSICS)]
 
 
 def attached_name(kind: str, owner: str) -> str:

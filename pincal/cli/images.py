@@ -1,0 +1,122 @@
+"""``pincal detect`` (a ChArUco board's corners in images, paired with joint readings) and ``pincal simulate``'s
+camera campaigns (``--measure pixel:FRAME`` or ``board_pixel:FRAME``, with ``--images``): argparse and printing."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from pincal.errors import DataError
+
+BOARD_HELP = ("the ChArUco board: charuco:COLSxROWS:SQUARE:MARKER:DICT, lengths in metres (e.g. "
+              "charuco:8x6:0.03:0.022:DICT_4X4_50, the default of simulate)")
+
+
+def is_camera(measure: list[str]) -> bool:
+    """Whether ``--measure`` asks for pixels (``pixel:FRAME``, ``board_pixel:FRAME``)."""
+    return any(m.partition(":")[0] in ("pixel", "board_pixel") for m in measure)
+
+
+def add_camera_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--board`` and ``--images`` of ``pincal simulate``."""
+    parser.add_argument("--board", help="with --measure pixel:FRAME or board_pixel:FRAME: " + BOARD_HELP)
+    parser.add_argument("--images", help="with --measure pixel:FRAME or board_pixel:FRAME: render the images into "
+                                         "this directory and write DIR/joints.csv (--out); measurements.csv then "
+                                         "holds the exact corners")
+
+
+def simulate_camera(args: argparse.Namespace, robot: Any) -> int:
+    """``pincal simulate ROBOT --measure pixel:FRAME``: a simulated camera campaign (its images with
+    ``--images``)."""
+    from pincal.calibration.campaign import simulation_outputs, write_simulation
+    from pincal.calibration.pixel_campaign import camera_outputs, simulate_pixels, write_images
+    from pincal.identification.measurements import BOARD_DEFAULT
+    from pincal.io.detections import pixel_kind
+
+    if len(args.measure) != 1:
+        raise DataError(f"--measure {' '.join(args.measure)}: a camera simulation measures one pixel:FRAME or "
+                        "board_pixel:FRAME alone")
+    kind, frame = pixel_kind(args.measure[0])
+    robot.frame_id(frame)
+    out = Path(args.out)
+    simulation_outputs(robot, out, args.meshes)
+    if args.images is not None:
+        from pincal.io.vision import opencv
+
+        opencv()  # before any work: images need OpenCV
+        camera_outputs(out, Path(args.images))
+    noise = 0.0 if args.images is not None else args.noise
+    sim = simulate_pixels(robot, frame, args.samples, args.test_samples, eye_to_hand=kind == "board_pixel",
+                          board=args.board or BOARD_DEFAULT, perturb=args.perturb, noise=noise, seed=args.seed)
+    paths = write_simulation(sim, out, args.meshes, given=args.robot)
+    if args.images is not None:
+        paths += write_images(sim, out, Path(args.images), args.seed)
+    seen = sum(int((v[:, 0] == v[:, 0]).sum()) for v in sim.dataset.measurements.values())
+    print(f"simulated {args.samples} + {args.test_samples} images of board {sim.board.spec if sim.board else ''} "
+          f"seen by a camera {'fixed in the cell, the board on' if kind == 'board_pixel' else 'on'} '{frame}' of "
+          f"'{robot.name}', with robot errors of σ {args.perturb:g} (m, rad); {seen} corners seen, pixel noise σ "
+          f"{noise:g} px")
+    for path in paths[:4]:
+        print(f"wrote {path}")
+    if len(paths) > 4:
+        print(f"wrote {len(paths) - 4} images into {args.images}/")
+    return 0
+
+
+def cmd_detect(args: argparse.Namespace) -> int:
+    """``pincal detect``: the board's corners in each image, paired with the joint readings by name."""
+    from pincal.identification.measurements import parse_board
+    from pincal.io.dataset import dataset_text
+    from pincal.io.dataset_reader import read_dataset
+    from pincal.io.detections import pair, pixel_kind
+    from pincal.io.files import check_outputs, write_texts
+    from pincal.io.vision import detect_corners, opencv, read_camera_file
+
+    board = parse_board(args.board)
+    pixel_kind(args.measure)
+    inputs = [*args.images, args.joints, *([args.camera_file] if args.camera_file else [])]
+    check_outputs([("--out", args.out)], inputs)
+    opencv()
+    held = read_camera_file(args.camera_file) if args.camera_file else None
+    joints = read_dataset(args.joints)
+    detections = detect_corners(args.images, board, args.min_corners, args.min_sharpness)
+    paired = pair(detections, joints, args.measure, board, held)
+    for what, why in paired.left_out.items():
+        print(f"left out {what}: {why}")
+    write_texts([(args.out, dataset_text(paired.dataset))])
+    data = paired.dataset
+    corners = sum(int((v[:, 0] == v[:, 0]).sum()) for v in data.measurements.values())
+    print(f"detected {corners} corners in {data.n_samples} of {len(args.images)} images "
+          f"({len(paired.left_out)} left out); wrote {args.out}")
+    return 0
+
+
+def register(sub: Any) -> None:
+    """Add ``pincal detect`` to the subcommands."""
+    from pincal.cli.arguments import non_negative_float, positive_int
+
+    det = sub.add_parser("detect", help="find a ChArUco board's corners in images; write a measurement CSV",
+                         description="Detect the board's corners (OpenCV's aruco module: pip install "
+                                     "\"pincal[vision]\") in each image, pair each image with the row of the joints "
+                                     "CSV whose sample is the image's file name without its extension, and write "
+                                     "the pixels as a measurement CSV for pincal calibrate. Images unpaired, "
+                                     "duplicated, blurred or with too few corners are named and left out.",
+                         epilog="example: pincal detect images/*.png --board charuco:8x6:0.03:0.022:DICT_4X4_50 "
+                                "--joints joints.csv --measure pixel:tool0 --out detections.csv")
+    det.add_argument("images", nargs="+", help="image files (PNG, JPEG, …)")
+    det.add_argument("--board", required=True, help=BOARD_HELP)
+    det.add_argument("--joints", required=True, help="CSV of joint readings: sample (the image's name), optional "
+                                                     "set, one column per joint [rad or m]")
+    det.add_argument("--measure", required=True, help="pixel:FRAME (the camera on FRAME, the board fixed in the "
+                                                      "cell) or board_pixel:FRAME (the board on FRAME, the camera "
+                                                      "fixed)")
+    det.add_argument("--camera-file", help="hold the intrinsics at an OpenCV calibration file's (YAML/XML) or a ROS "
+                                           "camera_info YAML's (default: estimated with the robot)")
+    det.add_argument("--min-corners", type=positive_int, default=6, help="fewest corners an image must show "
+                                                                         "(default 6)")
+    det.add_argument("--min-sharpness", type=non_negative_float, default=30.0,
+                     help="least variance of an image's Laplacian [grey levels²]: below it an image is blurred and "
+                          "left out (default 30)")
+    det.add_argument("--out", required=True, help="the detections CSV to write")
+    det.set_defaults(func=cmd_detect)

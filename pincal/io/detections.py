@@ -1,0 +1,104 @@
+"""The detections CSV of ``pincal detect``: each image's board corners [px] paired with its joint readings by name.
+
+An image pairs with the row of the joints CSV whose ``sample`` is the image file's stem (``0003.png`` with sample
+``0003``). Images without a row, rows without an image, and the images :func:`~pincal.io.vision.detect_corners`
+leaves out are named with the reason, never dropped silently. The result is a measurement CSV
+(docs/dataset.md): the joint columns, then ``pixel:<frame>@<corner>:u|v`` (eye-in-hand) or
+``board_pixel:<frame>@<corner>:u|v`` (eye-to-hand) for every corner seen at least once, empty where an image did
+not show it; its metadata name the board (``# board: …``), the image size, and, from a camera file, the intrinsics
+held (``# intrinsics <frame> held: …``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from pincal.errors import DataError, listing
+from pincal.identification.measurements import Board
+from pincal.io.dataset import Dataset
+from pincal.io.vision import Detections, intrinsics_text
+
+Array = npt.NDArray[np.float64]
+
+#: The measurement kinds a detections file holds: a camera on the frame, or a board on the frame.
+PIXEL_KINDS = ("pixel", "board_pixel")
+
+
+@dataclass
+class Paired:
+    """The detections paired with the joints.
+
+    Attributes:
+        dataset: The measurement CSV's content.
+        left_out: Image or joint row -> why it is not in the dataset.
+    """
+
+    dataset: Dataset
+    left_out: dict[str, str] = field(default_factory=dict)
+
+
+def pixel_kind(measure: str) -> tuple[str, str]:
+    """``(kind, frame)`` of ``pixel:<frame>`` or ``board_pixel:<frame>``.
+
+    Raises:
+        DataError: another form.
+    """
+    kind, _, frame = measure.partition(":")
+    if kind not in PIXEL_KINDS or not frame or "@" in frame:
+        raise DataError(f"--measure '{measure}' is not pixel:<frame> (a camera on the frame) nor "
+                        "board_pixel:<frame> (a board on the frame, seen by a fixed camera)")
+    return kind, frame
+
+
+def pair(detections: Detections, joints: Dataset, measure: str, board: Board,
+         held: Sequence[float] | None = None) -> Paired:
+    """The measurement dataset of ``detections`` paired by name with the rows of ``joints``.
+
+    Args:
+        detections: The corners found.
+        joints: The joint readings, one row per image (``sample`` the image's stem; a ``set`` column is kept).
+        measure: ``pixel:<frame>`` or ``board_pixel:<frame>``.
+        board: The board the corners are of.
+        held: Intrinsics to hold the camera at (from a camera file), or None: estimated.
+
+    Raises:
+        DataError: no image pairs with a joint row, or ``measure`` is malformed.
+    """
+    kind, frame = pixel_kind(measure)
+    left_out = dict(detections.left_out)
+    rows = {sample: k for k, sample in enumerate(joints.sample_ids)}
+    for stem in detections.corners:
+        if stem not in rows:
+            left_out[stem] = f"image '{stem}' has no row in the joints file (sample '{stem}')"
+    kept = [k for k, sample in enumerate(joints.sample_ids) if sample in detections.corners]
+    for sample in joints.sample_ids:
+        if sample not in detections.corners and not any(_stem(p) == sample for p in detections.left_out):
+            left_out[f"joints row {sample}"] = f"no image named '{sample}'"
+    if not kept:
+        raise DataError(f"no image pairs with a joint row by name (images: "
+                        f"{listing(sorted(detections.corners)) or 'none kept'}; samples: "
+                        f"{listing(joints.sample_ids[:8])})")
+    ids = sorted({int(i) for k in kept for i in detections.corners[joints.sample_ids[k]][0]})
+    values = {f"{kind}:{frame}@{i}": np.full((len(kept), 2), np.nan) for i in ids}
+    for r, k in enumerate(kept):
+        corner_ids, uv = detections.corners[joints.sample_ids[k]]
+        for i, point in zip(corner_ids.tolist(), uv, strict=True):
+            values[f"{kind}:{frame}@{i}"][r] = point
+    metadata = {**{key: value for key, value in joints.metadata.items() if key == "robot"}, "board": board.spec,
+                "image size": f"{detections.size[0]} {detections.size[1]}"}
+    if held is not None:
+        camera = frame if kind == "pixel" else ""
+        metadata[f"intrinsics {camera}".strip() + " held"] = intrinsics_text(held)
+    dataset = Dataset(list(joints.joint_names), joints.joints[kept], values,
+                      [joints.sample_ids[k] for k in kept], [joints.sets[k] for k in kept], metadata)
+    return Paired(dataset, left_out)
+
+
+def _stem(path: str) -> str:
+    """A file path's stem (``images/0003.png`` -> ``0003``)."""
+    name = path.replace("\\", "/").rsplit("/", 1)[-1]
+    return name.rsplit(".", 1)[0] if "." in name else name
