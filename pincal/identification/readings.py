@@ -37,6 +37,7 @@ from pincal.identification.problem import CalibrationProblem, Observations, Pred
 from pincal.identification.result import CalibrationResult
 
 Array = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
 
 #: False-alarm level of the test that what a reading's change leaves is noise.
 READING_FALSE_ALARM = 1e-3
@@ -150,29 +151,39 @@ def bad_readings(problem: Problem, x: Array, candidates: Sequence[int], scale2: 
 def _reading_changes(problem: CalibrationProblem, x: Array, rows: list[int]) -> tuple[Array, Array, Array]:
     """For the samples ``rows``: the change of each actuated reading [rad or m] that best explains the sample's
     weighted residual (Gauss–Newton, one joint at a time, keeping the best iterate), the squared residual norm
-    without it and with it (NaN where the loops do not close)."""
+    without it and with it (NaN where the loops do not close).
+
+    Every (sample, joint) pair steps at once: one evaluation per iteration of the pairs of every joint still
+    iterating (:func:`_sample_terms`); a joint stops, as alone, when none of its samples' steps exceeds 1e-9."""
     robot = problem.robot
     present = {p.owner for p in problem.parameters if p.is_a(ReadingOffset)}
     extra = [offset_parameter(j, joint_unit(robot, j)) for j in robot.actuated_joints if j not in present]
     pset = ParameterSet(list(problem.parameters.parameters) + extra)
-    columns = [pset.index(f"{j}.offset") for j in robot.actuated_joints]
+    columns = np.array([pset.index(f"{j}.offset") for j in robot.actuated_joints], dtype=int)
     full = np.concatenate([np.asarray(x, dtype=float), np.zeros(len(extra))])
     observed = problem.observations.subset(rows)
     n, n_joints = len(rows), robot.n_actuated
-    before, slopes, grads = _sample_terms(problem, pset, full, observed, np.zeros((n, n_joints)), columns)
-    changes, after = np.zeros((n, n_joints)), np.full((n, n_joints), np.nan)
-    for i in range(n_joints):
-        delta, best = np.zeros((n, n_joints)), before.copy()
-        step = _gauss_newton_step(slopes[:, i], grads[:, i])
-        for _ in range(READING_ITERATIONS):
-            if np.all(np.abs(step) <= 1e-9):
-                break
-            delta[:, i] += step
-            squares, slope, grad = _sample_terms(problem, pset, full, observed, delta, columns)
-            better = squares < best
-            best[better], changes[better, i] = squares[better], delta[better, i]
-            step = _gauss_newton_step(slope[:, i], grad[:, i])
-        after[:, i] = best
+    samples = np.arange(n)
+    before, slopes, grads = _sample_terms(problem, pset, full, observed, samples, np.zeros((n, n_joints)),
+                                          np.broadcast_to(columns, (n, n_joints)))
+    changes, after = np.zeros((n, n_joints)), before[:, None].repeat(n_joints, axis=1)
+    delta = np.zeros((n, n_joints))  # pair (c, i): joint i of sample c moved by delta[c, i]
+    step = _gauss_newton_step(slopes, grads)
+    active = np.ones(n_joints, dtype=bool)
+    for _ in range(READING_ITERATIONS):
+        active &= np.any(np.abs(step) > 1e-9, axis=0)
+        if not np.any(active):
+            break
+        delta[:, active] += step[:, active]
+        joints = np.flatnonzero(active)
+        pairs, which = np.repeat(samples, joints.size), np.tile(joints, n)  # sample-major: (c, i) for i active
+        moved = np.zeros((pairs.size, n_joints))
+        moved[np.arange(pairs.size), which] = delta[pairs, which]
+        squares, slope, grad = _sample_terms(problem, pset, full, observed, pairs, moved, columns[which][:, None])
+        better = squares < after[pairs, which]
+        after[pairs[better], which[better]] = squares[better]
+        changes[pairs[better], which[better]] = delta[pairs[better], which[better]]
+        step[pairs, which] = _gauss_newton_step(slope[:, 0], grad[:, 0])
     return changes, before, after
 
 
@@ -184,25 +195,40 @@ def _gauss_newton_step(slopes: Array, grads: Array) -> Array:
     return step
 
 
-def _sample_terms(problem: CalibrationProblem, pset: ParameterSet, x: Array, observed: Observations, delta: Array,
-                  columns: list[int]) -> tuple[Array, Array, Array]:
-    """Each sample's squared weighted residual norm ``‖r‖²``, and per actuated joint ``‖g‖²`` and ``gᵀr`` (``g``
-    = ∂r/∂q of that joint's reading, from its offset column ``columns``) with its readings changed by ``delta``
-    (N, n_a) [rad or m]; NaN for a sample whose loops do not close there. Samples are evaluated one by one, so that
-    one that cannot be assembled spoils no other."""
-    n, n_joints = observed.n_samples, len(columns)
-    squares, slopes, grads = np.full(n, np.nan), np.full((n, n_joints), np.nan), np.full((n, n_joints), np.nan)
+def _sample_terms(problem: CalibrationProblem, pset: ParameterSet, x: Array, observed: Observations,
+                  samples: IntArray, delta: Array, columns: npt.NDArray[np.int_]) -> tuple[Array, Array, Array]:
+    """For each evaluated copy ``e`` of sample ``samples[e]`` of ``observed``, its readings changed by ``delta[e]``
+    (n_a,) [rad or m]: its squared weighted residual norm ``‖r‖²``, and per column ``columns[e, j]`` of ``pset`` (an
+    actuated reading's offset) ``‖g‖²`` and ``gᵀr`` (``g`` = ∂r/∂q of that reading); NaN for a copy whose loops do
+    not close there. The copies are evaluated at once (one problem over all of them); should that fail, each alone,
+    so that one that cannot be assembled spoils no other."""
+    copies = Observations(observed.actuated[samples] + delta, {key: v[samples] for key, v in observed.values.items()})
+    try:
+        return _terms_at_once(problem, pset, x, copies, columns)
+    except (ConvergenceError, DataError):
+        if copies.n_samples == 1:
+            nan = np.full((1, columns.shape[1]), np.nan)
+            return np.full(1, np.nan), nan, nan.copy()
+    parts = [_sample_terms(problem, pset, x, copies, np.array([e]), np.zeros((1, delta.shape[1])), columns[e:e + 1])
+             for e in range(copies.n_samples)]
+    squares, slopes, grads = zip(*parts, strict=True)
+    return np.concatenate(squares), np.concatenate(slopes), np.concatenate(grads)
+
+
+def _terms_at_once(problem: CalibrationProblem, pset: ParameterSet, x: Array, copies: Observations,
+                   columns: npt.NDArray[np.int_]) -> tuple[Array, Array, Array]:
+    """:func:`_sample_terms` of every copy in one evaluation (ConvergenceError or DataError when one fails)."""
     joint_sigma = None if problem.joint_sigma is None else [float(v) for v in problem.joint_sigma]
-    for s in range(n):
-        single = Observations(observed.actuated[s:s + 1] + delta[s], {key: v[s:s + 1] for key, v in
-                                                                       observed.values.items()})
-        try:
-            pred = CalibrationProblem(problem.robot, pset, problem.measurements, single, joint_sigma,
-                                      problem.payload).evaluate(x)
-        except (ConvergenceError, DataError):
-            continue
-        assert pred.jacobian is not None
-        g = pred.jacobian[:, columns]
-        squares[s], slopes[s], grads[s] = float(pred.residual @ pred.residual), np.sum(g**2, axis=0), g.T @ \
-            pred.residual
-    return squares, slopes, grads
+    batch = CalibrationProblem(problem.robot, pset, problem.measurements, copies, joint_sigma, problem.payload)
+    pred = batch.evaluate(x)
+    assert pred.jacobian is not None
+    owner, m = batch.row_samples(), copies.n_samples
+    g = np.take_along_axis(pred.jacobian, columns[owner], axis=1)  # each row's own columns
+    r = pred.residual
+
+    def per_copy(values: Array) -> Array:
+        return np.asarray(np.bincount(owner, weights=values, minlength=m), dtype=float)
+
+    slopes = np.stack([per_copy(g[:, j] ** 2) for j in range(columns.shape[1])], axis=1)
+    grads = np.stack([per_copy(g[:, j] * r) for j in range(columns.shape[1])], axis=1)
+    return per_copy(r * r), slopes, grads
