@@ -9,7 +9,7 @@ import pincal
 from pincal.identification import measurements as ms
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
-from pincal.identification.readings import _reading_changes, _sample_terms, bad_readings
+from pincal.identification.readings import _reading_changes, _sample_terms, bad_readings, deleted_squares
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 SIGMA = 1e-5  # m
@@ -97,3 +97,26 @@ def test_the_copies_evaluated_at_once_are_each_as_evaluated_alone() -> None:
         for got, expected in zip(together, alone, strict=True):
             assert np.allclose(got[e], expected[0], rtol=1e-9, atol=1e-12)
     assert np.isfinite(together[0][[0, 2, 3]]).all() and together[0][0] != together[0][2]
+
+
+def test_the_deleted_squares_are_the_residuals_of_a_linear_fit_without_each_sample() -> None:
+    """For a linear weighted least-squares fit the screen's estimate is exact: each sample's squared residual at the
+    fit of the other samples, made here by a solve without it; a prior's rows after the data's are ignored."""
+    rng = np.random.default_rng(7)
+    rows = np.repeat(np.arange(12), 3)  # 12 samples of 3 rows
+    jacobian = np.vstack([rng.normal(size=(36, 5)), np.eye(5)])  # 5 prior rows after the data's
+    measured = rng.normal(size=36)
+    weights = rng.uniform(0.2, 1.0, 12)
+    columns = [0, 1, 3, 4]
+
+    def fit(keep: np.ndarray) -> np.ndarray:
+        w = np.sqrt(weights[rows][keep])
+        x, *_ = np.linalg.lstsq(jacobian[:36][keep][:, columns] * w[:, None], measured[keep] * w, rcond=None)
+        return np.asarray(jacobian[:36][:, columns] @ x - measured)
+
+    residual = np.concatenate([fit(np.ones(36, dtype=bool)), np.zeros(5)])
+    samples = [0, 5, 11]
+    estimated = deleted_squares(rows, residual, jacobian, weights, columns, samples)
+    for k, value in zip(samples, estimated, strict=True):
+        alone = fit(rows != k)[rows == k]
+        assert np.isclose(value, alone @ alone, rtol=1e-9)
