@@ -92,20 +92,22 @@ def find_bad_readings(problem: Problem, x: Array, residual: Array, rank: int,
     (a fit from the start with that sample at weight 0), where its residual is its prediction error
     (:func:`bad_readings`); the :data:`MAX_CANDIDATES` largest at most. With ``linearised`` (the fit's Jacobian of
     the weighted residual, its sample weights and the columns it estimated), a sample whose prediction error
-    linearised at the fit (:func:`deleted_squares`) is below 1 / :data:`SCREEN_MARGIN` of the gross error is not
-    refitted: no refit could name it."""
+    linearised at the fit (:func:`deleted_squares`) is below 1 / :data:`SCREEN_MARGIN` of the gross error is
+    neither examined nor refitted: no refit could name it."""
     suspects = outlier_samples(problem, _prediction(residual), rank)
     if not suspects or not isinstance(problem, CalibrationProblem) or not _examinable(problem):
         return [], None
     squares, _ = sample_squares(problem, residual)
     suspects = sorted(suspects, key=lambda k: -squares[k])[:MAX_CANDIDATES]
-    _, before, after = _reading_changes(problem, x, suspects)
-    likely = [k for c, k in enumerate(suspects) if np.nanmax(1.0 - after[c] / before[c], initial=0.0) >= LIKELY_SHARE]
-    if likely and linearised is not None:
+    if linearised is not None:  # first the screen, from the fit's factorisation: no refit could name those below it
         rows = problem.row_samples()
         gross = GROSS_FACTOR**2 * noise_scale(problem, residual, rank) * np.bincount(rows, minlength=len(squares))
-        deleted = deleted_squares(rows, residual, *linearised, likely)
-        likely = [k for k, d in zip(likely, deleted, strict=True) if not SCREEN_MARGIN * d < gross[k]]
+        deleted = deleted_squares(rows, residual, *linearised, suspects)
+        suspects = [k for k, d in zip(suspects, deleted, strict=True) if not SCREEN_MARGIN * d < gross[k]]
+        if not suspects:
+            return [], None
+    _, before, after = _reading_changes(problem, x, suspects)
+    likely = [k for c, k in enumerate(suspects) if np.nanmax(1.0 - after[c] / before[c], initial=0.0) >= LIKELY_SHARE]
     found: list[BadReading] = []
     fits: dict[int, CalibrationResult] = {}
     for k in likely:
