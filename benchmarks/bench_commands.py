@@ -2,16 +2,18 @@
 several runs, beside the imports no command can avoid, and a revision before beside the working tree, in one run.
 
 Run: ``python benchmarks/bench_commands.py`` (``--before REV``, default ``e429d2a``: main before issue 27's work;
-``--repeats K``, default 5; ``--only NAME ...``). Both copies of ``pincal/`` (REV's by ``git archive``, the working
-tree's copied), each byte-compiled as ``pip install`` leaves a package, are run in turns by the same interpreter, as the
-console script runs them (``pincal.__main__.main``), with no thread variable set, as a user's shell has none. The
+``--repeats K``, default 5; ``--only NAME ...``, e.g. ``--only TIAGo`` for the TIAGo job's report and calibrations).
+Both copies of ``pincal/`` (REV's by ``git archive``, the working tree's copied), each byte-compiled as ``pip install``
+leaves a package, are run in turns by the same interpreter, as the console script runs them
+(``pincal.__main__.main``), with no thread variable set, as a user's shell has none. The
 machine may be shared: CPU time is the figure to read (a busy machine stretches the wall time far more), and ratios
 measured side by side in one run are what carry over to another machine. The data are simulated once, by the
 working tree's ``pincal simulate``.
 
 Printed: per command, the median CPU time before and after, their ratio, the median wall time after, and the CPU
 time after as a multiple of the floor beside it (``python -c "import numpy"`` for what needs no numerical library,
-``python -c "import numpy, scipy.linalg, pinocchio"`` for the rest); for ``report``, the page's size.
+``python -c "import numpy, scipy.linalg, pinocchio"`` for the rest, ``python -c "import numpy, pinocchio"`` for the
+TIAGo job's calibrations, issue 42's floor); for ``report``, the page's size.
 """
 
 from __future__ import annotations
@@ -34,7 +36,11 @@ BEFORE = "e429d2a"  # main before issue 27's work
 LAUNCH = "import sys; from pincal.__main__ import main; sys.argv[0] = 'pincal'; sys.exit(main())"
 THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
            "NUMEXPR_NUM_THREADS")
-FLOORS = {"numpy": "import numpy", "numpy+scipy+pin": "import numpy, scipy.linalg, pinocchio"}
+#: The TIAGo job's calibrations (34 fitted postures of real data: the robust path, with a bad-reading search in every
+#: fit): the default, cross-validated, and with model selection by cross-validation.
+TIAGO = {"": [], ", --cv 5x4": ["--cv", "5x4"], ", --cv loo": ["--cv", "loo"], ", --select cv": ["--select", "cv"]}
+FLOORS = {"numpy": "import numpy", "numpy+scipy+pin": "import numpy, scipy.linalg, pinocchio",
+          "numpy+pin": "import numpy, pinocchio"}
 
 
 def export(revision: str | None, into: Path) -> Path:
@@ -83,6 +89,8 @@ def cases(work: Path) -> dict[str, tuple[list[str], str]]:
         "pincal demo": (["demo", "--out", str(work / "demo")], "numpy+scipy+pin"),
         "pincal report (TIAGo job)": (["report", str(ROOT / "examples/tiago_job.toml"), "--out",
                                        str(work / "tiago.html")], "numpy+scipy+pin"),
+        **{f"pincal calibrate (TIAGo job{label})": (["calibrate", str(ROOT / "examples/tiago_job.toml"), *extra],
+                                                    "numpy+pin") for label, extra in TIAGO.items()},
     }
 
 
@@ -138,6 +146,11 @@ def report(args: argparse.Namespace, chosen: dict[str, tuple[list[str], str]],
         before, after = med[(name, "before")], med[(name, "after")]
         print(f"| `{name}` | {before:.2f} | {after:.2f} | {after / before:.2f} | {med_wall[(name, 'after')]:.2f} | "
               f"{after / med[(floor, 'floor')]:.2f} × `{floor}` |")
+    default, selected = "pincal calibrate (TIAGo job)", "pincal calibrate (TIAGo job, --select cv)"
+    if default in chosen and selected in chosen:
+        print("\n`--select cv` / the default (TIAGo job): before "
+              f"{med[(selected, 'before')] / med[(default, 'before')]:.2f}, after "
+              f"{med[(selected, 'after')] / med[(default, 'after')]:.2f}")
     page = work / "tiago.html"
     if page.exists():
         print(f"\nTIAGo report page (after): {page.stat().st_size / 1e6:.2f} MB")

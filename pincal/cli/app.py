@@ -210,7 +210,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
     out = make_directory(args.out, "--out")  # before any work
     print(DEMO_TEXT.format(n_train=args.samples, n_test=args.test_samples, noise_um=args.noise * 1e6), flush=True)
-    with Progress("simulate, calibrate, write the report", 3) as progress:
+    with Progress("simulate, calibrate", 2) as progress:
         robot = load_robot(robot_path("delta"))
         sim = simulate(robot, ["position"], args.samples, args.test_samples, perturb=1e-3, noise=args.noise,
                        seed=args.seed, parameter_spec=["model24"])
@@ -218,10 +218,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
         progress.advance()
         cal = calibrate(robot, sim.dataset, parameter_spec=["model24"], x_true=sim.x_true)
         progress.advance()
-        write_text(out / "delta_calibrated.urdf", cal.urdf_text)
-        write_text(out / "report.json", cal.report.to_json())
-        report_html = write_demo_report(cal, out)  # reads out/truth.json, written above
-        progress.advance()
+    write_text(out / "delta_calibrated.urdf", cal.urdf_text)
+    write_text(out / "report.json", cal.report.to_json())
+    report_html = write_demo_report(cal, out, quiet=False)  # reads out/truth.json, written above; its own bars
     print(summary_text(cal.report, cal.result.seconds, str(out / "report.json")))
     print()
     print(f"wrote {out}/: delta_calibrated.urdf (the calibrated robot), {report_html.name} (open it in a "

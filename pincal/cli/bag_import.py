@@ -34,7 +34,7 @@ def cmd_import(args: argparse.Namespace) -> int:
     else:
         source = MeasurementSource("tf", args.tf_topic, *args.tf)
     rule = StillRule(args.still_tolerance, args.still_time, args.drift)
-    done = bag_dataset(robot, args.bag, args.joints, source, args.frame, rule)
+    done = bag_dataset(robot, args.bag, args.joints, source, args.frame, rule, progress=not args.quiet)
     from pincal.calibration.summary import robot_named
 
     print(f"{args.bag}: joints from {args.joints} ({len(done.joints)} of '{robot_named(args.robot, robot.name)}'"
@@ -95,4 +95,6 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser.add_argument("--drift", type=positive_float, default=DRIFT,
                         help="largest change of the measurement between a posture's two halves [m; rad for an "
                              f"orientation] (default {DRIFT:g}); more: dropped as moving")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar (it is shown only on a terminal, one per "
+                                                             "topic read)")
     parser.set_defaults(func=cmd_import)

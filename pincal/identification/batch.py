@@ -67,13 +67,18 @@ class SpatialJacobian:
         return product
 
 
+#: Most scratch arrays a :class:`Workspace` keeps.
+WORKSPACE_ARRAYS = 256
+
+
 class Workspace:
     """Scratch arrays kept from one evaluation to the next.
 
     A fresh array of megabytes costs a page fault per 4 kB page each time it is first written (about as much as
     the arithmetic done on it, more on a virtual machine); the batched evaluation's intermediates (N × 6 × p and
     the like) are therefore kept, keyed by what they hold, and handed out again while their shape is unchanged. An
-    array from :meth:`array` is overwritten by the next evaluation: nothing returned to a caller may be one.
+    array from :meth:`array` is overwritten by the next evaluation: nothing returned to a caller may be one. At most
+    :data:`WORKSPACE_ARRAYS` are kept (a robot's workspace serves problems of many sizes): past that, all are dropped.
     """
 
     def __init__(self) -> None:
@@ -84,6 +89,8 @@ class Workspace:
         as the last user left them), else a new one filled with zeros."""
         held = self._arrays.get((key, shape))
         if held is None:
+            if len(self._arrays) >= WORKSPACE_ARRAYS:
+                self._arrays.clear()
             held = np.zeros(shape)
             self._arrays[(key, shape)] = held
         return held

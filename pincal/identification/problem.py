@@ -37,7 +37,7 @@ from pincal.identification.parameters import (
     kinds_where,
     offset_parameter,
 )
-from pincal.identification.tree_batch import TreeBatch
+from pincal.identification.tree_batch import tree_batch
 from pincal.model.kinematics import CONTINUATION_STEP
 from pincal.model.robot import SOLVE_TOLERANCE, Robot
 
@@ -189,7 +189,7 @@ class CalibrationProblem:
         self._start: tuple[Array, Prediction] | None = None  # the start and its evaluation (start_prediction)
         #: A tree's batched evaluation (every sample at once), when its joints allow it; False: sample by sample
         #: (the reference path, which the benchmarks and tests also run on trees to compare the two).
-        self._tree = TreeBatch(robot, self.frame_ids) if not robot.loops else None
+        self._tree = tree_batch(robot, self.frame_ids) if not robot.loops else None
         self._batched_trees = self._tree is not None and self._tree.unsupported is None
         #: A closed-loop robot's batched evaluation (loops closed and derivatives for every sample at once), when its
         #: joints allow it; False: sample by sample (the reference path, which the tests compare it with).

@@ -139,8 +139,10 @@ def _without_bad_readings(problem: Problem, fit: CalibrationResult, solver: Solv
     pred = fit.final if fit.final is not None else evaluated(problem, fit.x, jacobian=False)
     if pred is None:
         return fit
+    linearised = None if pred.jacobian is None else (pred.jacobian, fit.sample_weights, fit.identified)
     bad, refit = find_bad_readings(problem, fit.x, pred.residual, fit.identifiability.rank,
-                                   lambda left: _attempt(problem, fit.x0, solver, "cauchy", left_out=left, **options))
+                                   lambda left: _attempt(problem, fit.x0, solver, "cauchy", left_out=left, **options),
+                                   linearised)
     if not bad or refit is None:
         return fit
     refit = chained(fit, refit)

@@ -23,6 +23,7 @@ another kind above a measured frame (a free-flyer, a spherical joint) is evaluat
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -243,6 +244,22 @@ class TreeBatch:
             np.multiply(np.take(left, which, axis=2), regressors[:, None, :], out=left[:, :, first:])
             right[np.arange(first, width), [column for _, column, _ in scaled]] = 1.0
         return SpatialJacobian(left, right, self.scratch)
+
+
+#: Each robot's batched kinematics, by its measured frames: built once (its joints' motions read from Pinocchio), shared
+#: by every problem on the robot (a fit's refits, each fold of a cross-validation, the hold-outs, the searches).
+_BUILT: weakref.WeakKeyDictionary[Robot, dict[tuple[tuple[str, int], ...], TreeBatch]] = weakref.WeakKeyDictionary()
+
+
+def tree_batch(robot: Robot, frame_ids: dict[str, int]) -> TreeBatch:
+    """The :class:`TreeBatch` of ``robot`` (the nominal one, no loops) for the measured frames ``frame_ids`` (name ->
+    Pinocchio frame id), built on first use and shared afterwards: it keeps the robot's structure only, and its scratch
+    arrays are overwritten by each evaluation, whichever problem makes it (a Robot is one thread's)."""
+    built = _BUILT.setdefault(robot, {})
+    key = tuple(sorted(frame_ids.items()))
+    if key not in built:
+        built[key] = TreeBatch(robot, frame_ids)
+    return built[key]
 
 
 def _write_adjoint(out: Array, placement: Placements) -> None:

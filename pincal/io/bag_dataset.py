@@ -67,10 +67,11 @@ class BagImport:
 
 
 def bag_dataset(robot: Robot, path: str | Path, joints_topic: str, source: MeasurementSource,
-                frame: str | None = None, rule: StillRule = DEFAULT_RULE) -> BagImport:
+                frame: str | None = None, rule: StillRule = DEFAULT_RULE, progress: bool = False) -> BagImport:
     """The dataset of the bag at ``path`` for ``robot``: the joint states of ``joints_topic`` mapped by name onto its
     actuated joints, the measurement ``source`` read as the pose (``pose``, ``tf``) or the position (``point``) of
-    ``frame`` (default: the robot's measured frame), in the static postures ``rule`` finds.
+    ``frame`` (default: the robot's measured frame), in the static postures ``rule`` finds; with ``progress``, a bar
+    per topic read on stderr (when it is a terminal).
 
     Raises:
         TypeError: an argument of another type (None for the robot or the bag included).
@@ -87,7 +88,7 @@ def bag_dataset(robot: Robot, path: str | Path, joints_topic: str, source: Measu
         validation.instance("frame", frame, str, "a frame name (str) or None")
     frame = frame or robot.end_effector
     robot.frame_id(frame, "the measured frame: ")
-    states, stream = read_bag(path, joints_topic, source)
+    states, stream = read_bag(path, joints_topic, source, progress)
     joints = [j for j in robot.actuated_joints if j in states.names]
     if not joints:
         raise DataError(f"joint states: topic '{joints_topic}' carries none of the actuated joints of '{robot.name}' "

@@ -26,6 +26,7 @@ import numpy.typing as npt
 
 from pincal import validation
 from pincal.errors import ArgumentError, DataError, listing, not_found
+from pincal.progress import Progress
 
 if TYPE_CHECKING:
     from rosbags.highlevel import AnyReader
@@ -213,9 +214,10 @@ def _connections(reader: AnyReader, topic: str, msgtype: str, role: str) -> list
     return found
 
 
-def _messages(reader: AnyReader, bag: Path, connections: list[Any], role: str) -> Iterator[tuple[int, Any, int]]:
+def _messages(reader: AnyReader, bag: Path, connections: list[Any], role: str,
+              progress: bool = False) -> Iterator[tuple[int, Any, int]]:
     """Each message of ``connections``: its number on the topic (from 1, in the bag's order), the message
-    deserialised, its bag time [ns].
+    deserialised, its bag time [ns]; with ``progress``, a bar on stderr (on a terminal) counting the topic's messages.
 
     Raises:
         DataError: the bag's bytes do not hold a message (a damaged bag, its index intact): the bag, the topic and the
@@ -224,27 +226,32 @@ def _messages(reader: AnyReader, bag: Path, connections: list[Any], role: str) -
     errors = _read_errors()
     topic = connections[0].topic
     stream = reader.messages(connections=connections)
-    for number in itertools.count(1):
-        try:
-            item = next(stream, None)
-        except errors as exc:
-            raise DataError(f"{role}: '{bag}' is damaged: message {number} on '{topic}' cannot be read: "
-                            f"{one_line(exc)}") from None
-        if item is None:
-            return
-        connection, bag_time, raw = item
-        try:
-            message = reader.deserialize(raw, connection.msgtype)
-        except errors as exc:
-            raise DataError(f"{role}: '{bag}' is damaged: message {number} on '{topic}' (bag time "
-                            f"{1e-9 * bag_time:.3f} s) is not a {connection.msgtype}: {one_line(exc)}") from None
-        yield number, message, bag_time
+    total = sum(int(getattr(c, "msgcount", 0) or 0) for c in connections)
+    with Progress(f"reading {topic}", total, quiet=not progress) as bar:
+        for number in itertools.count(1):
+            try:
+                item = next(stream, None)
+            except errors as exc:
+                raise DataError(f"{role}: '{bag}' is damaged: message {number} on '{topic}' cannot be read: "
+                                f"{one_line(exc)}") from None
+            if item is None:
+                bar.finish()
+                return
+            connection, bag_time, raw = item
+            try:
+                message = reader.deserialize(raw, connection.msgtype)
+            except errors as exc:
+                raise DataError(f"{role}: '{bag}' is damaged: message {number} on '{topic}' (bag time "
+                                f"{1e-9 * bag_time:.3f} s) is not a {connection.msgtype}: {one_line(exc)}") from None
+            bar.advance()
+            yield number, message, bag_time
 
 
-def _joint_states(reader: AnyReader, bag: Path, topic: str) -> JointStates:
+def _joint_states(reader: AnyReader, bag: Path, topic: str, progress: bool = False) -> JointStates:
     rows: list[tuple[float, dict[str, float]]] = []
     role = "joint states"
-    for number, msg, bag_time in _messages(reader, bag, _connections(reader, topic, JOINT_STATE, role), role):
+    connections = _connections(reader, topic, JOINT_STATE, role)
+    for number, msg, bag_time in _messages(reader, bag, connections, role, progress):
         positions = np.asarray(msg.position, dtype=float)
         if len(msg.name) != positions.size:
             raise DataError(f"joint states: message {number} on '{topic}' names {len(msg.name)} joints but holds "
@@ -267,7 +274,8 @@ def _strip(frame: str) -> str:
 READING_FIELDS = ("x", "y", "z", "qx", "qy", "qz", "qw")
 
 
-def _readings(reader: AnyReader, bag: Path, source: MeasurementSource) -> list[tuple[float, list[float]]]:
+def _readings(reader: AnyReader, bag: Path, source: MeasurementSource,
+              progress: bool = False) -> list[tuple[float, list[float]]]:
     """(time [s], x, y, z [m] and, for a pose, qx, qy, qz, qw) of each reading.
 
     Raises:
@@ -277,7 +285,7 @@ def _readings(reader: AnyReader, bag: Path, source: MeasurementSource) -> list[t
     found = []
     pairs: set[str] = set()
     connections = _connections(reader, source.topic, MESSAGE_TYPES[source.kind], role)
-    for number, msg, bag_time in _messages(reader, bag, connections, role):
+    for number, msg, bag_time in _messages(reader, bag, connections, role, progress):
         if source.kind == "point":
             p = msg.point
             found.append((_stamp(msg.header, bag_time), [p.x, p.y, p.z]))
@@ -304,8 +312,8 @@ def _readings(reader: AnyReader, bag: Path, source: MeasurementSource) -> list[t
     return sorted(found, key=lambda reading: reading[0])
 
 
-def _stream(reader: AnyReader, bag: Path, source: MeasurementSource) -> MeasurementStream:
-    readings = _readings(reader, bag, source)
+def _stream(reader: AnyReader, bag: Path, source: MeasurementSource, progress: bool = False) -> MeasurementStream:
+    readings = _readings(reader, bag, source, progress)
     values = np.array([v for _, v in readings], dtype=float)
     quaternions = None
     if source.oriented:
@@ -320,8 +328,10 @@ def _stream(reader: AnyReader, bag: Path, source: MeasurementSource) -> Measurem
     return MeasurementStream(np.array([t for t, _ in readings]), values[:, :3], quaternions)
 
 
-def read_bag(path: str | Path, joints_topic: str, source: MeasurementSource) -> tuple[JointStates, MeasurementStream]:
-    """The joint states of ``joints_topic`` and the measurement ``source`` of the bag at ``path``.
+def read_bag(path: str | Path, joints_topic: str, source: MeasurementSource,
+             progress: bool = False) -> tuple[JointStates, MeasurementStream]:
+    """The joint states of ``joints_topic`` and the measurement ``source`` of the bag at ``path``; with ``progress``, a
+    bar per topic on stderr (when it is a terminal) counting the messages read.
 
     Raises:
         TypeError: an argument of another type (None for the bag included).
@@ -334,6 +344,6 @@ def read_bag(path: str | Path, joints_topic: str, source: MeasurementSource) -> 
     validation.instance("source", source, MeasurementSource, "a MeasurementSource")
     reader = _open(bag)
     try:
-        return _joint_states(reader, bag, topic), _stream(reader, bag, source)
+        return _joint_states(reader, bag, topic, progress), _stream(reader, bag, source, progress)
     finally:
         reader.close()

@@ -463,11 +463,12 @@ def write_report(content: ReportContent, out: str | Path, quiet: bool = True) ->
     return write_text(path, render_report(content, quiet))
 
 
-def write_demo_report(calibration: Calibration, out_dir: str | Path) -> Path:
-    """``out_dir/report.html`` for ``pincal demo`` (with the truth from ``out_dir/truth.json`` if present)."""
+def write_demo_report(calibration: Calibration, out_dir: str | Path, quiet: bool = True) -> Path:
+    """``out_dir/report.html`` for ``pincal demo`` (with the truth from ``out_dir/truth.json`` if present); unless
+    ``quiet``, the bars of its stages (figures, the scene) on stderr when it is a terminal."""
     out = Path(out_dir)
     view = CalibrationView.from_calibration(calibration)
     truth_path = out / "truth.json"
     truth = read_truth(truth_path) if truth_path.is_file() else None
     content = ReportContent(view, truth, ("pincal demo", str(out / "measurements.csv")))
-    return write_report(content, out / "report.html")
+    return write_report(content, out / "report.html", quiet)

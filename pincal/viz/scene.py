@@ -43,6 +43,7 @@ from pincal.viz.visuals import (
     POINT_COLOR,
     bound_colors,
     error_colors,
+    lean_meshcat,
     robot_visuals,
     segment_pose,
     translation_pose,
@@ -243,6 +244,7 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
     highlight), ``workspace`` (the report's workspace postures, a point cloud coloured by their predicted 95 %
     bound, when the report holds them). The animation has one frame per sample (time = sample index, in seconds).
     """
+    lean_meshcat()
     import meshcat.geometry as mg
     from meshcat.animation import Animation
 
@@ -350,6 +352,7 @@ def _bound_range(bounds: Array) -> tuple[int, float, float]:
 def _draw_workspace(node: Any, positions: Array, bounds: Array, size: float) -> None:
     """The workspace postures' predicted positions (N, 3) [m] as one point cloud at ``node``, each point of
     ``size`` [m] coloured by its bound (N,) [m] from the smallest to the largest."""
+    lean_meshcat()
     import meshcat.geometry as mg
 
     colors = bound_colors(bounds, float(bounds.min()), float(bounds.max()))

@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import PincalError
-from pincal.viz.visuals import CALIBRATED_COLOR, ERROR_COLORMAP, NOMINAL_COLOR, POINT_COLOR
+from pincal.viz.visuals import CALIBRATED_COLOR, ERROR_COLORMAP, NOMINAL_COLOR, POINT_COLOR, lean_meshcat
 
 Array = npt.NDArray[np.float64]
 
@@ -65,8 +65,8 @@ class SceneSummary:
 class StaticScene:
     """A meshcat window that records drawing commands instead of sending them to a server.
 
-    ``meshcat.Visualizer(window=StaticScene())`` draws as usual; :meth:`replay` sends the recording to
-    a live visualizer and :func:`scene_page` writes it as a self-contained page.
+    :meth:`visualizer` draws into it as ``meshcat.Visualizer(window=StaticScene())`` does; :meth:`replay` sends the
+    recording to a live visualizer and :func:`scene_page` writes it as a self-contained page.
     """
 
     def __init__(self) -> None:
@@ -76,11 +76,12 @@ class StaticScene:
         """Record one meshcat command instead of sending it to a server."""
         self.commands.append(command)
 
-    def visualizer(self) -> Any:
-        """A ``meshcat.Visualizer`` drawing into this recording."""
-        import meshcat
+    def visualizer(self) -> Recorder:
+        """A visualizer drawing into this recording (:class:`Recorder`)."""
+        lean_meshcat()
+        from meshcat.path import Path as NodePath
 
-        return meshcat.Visualizer(window=self)
+        return Recorder(self, NodePath(("meshcat",)))
 
     def packed(self) -> list[bytes]:
         """The commands as the msgpack buffers meshcat's JavaScript decodes.
@@ -100,6 +101,54 @@ class StaticScene:
         """Send every recorded command to ``vis`` (e.g. ``meshcat.Visualizer()``)."""
         for command in self.commands:
             vis.window.send(command)
+
+
+class Recorder:
+    """What ``meshcat.Visualizer`` does to draw, into a :class:`StaticScene`: the same commands (meshcat's own
+    ``commands`` module) at the same paths, without meshcat's visualizer module and the server stack it imports.
+
+    Args:
+        window: The recording.
+        path: The node drawn at (a ``meshcat.path.Path``).
+    """
+
+    __slots__ = ("path", "window")
+
+    def __init__(self, window: StaticScene, path: Any) -> None:
+        self.window, self.path = window, path
+
+    def __getitem__(self, path: str) -> Recorder:
+        return Recorder(self.window, self.path.append(path))
+
+    def set_object(self, geometry: Any, material: Any = None) -> None:
+        """Place ``geometry`` (with ``material``) at this node."""
+        from meshcat.commands import SetObject
+
+        self.window.send(SetObject(geometry, material, self.path))
+
+    def set_transform(self, matrix: Array | None = None) -> None:
+        """Place this node at the (4, 4) pose ``matrix`` [m] (default the identity)."""
+        from meshcat.commands import SetTransform
+
+        self.window.send(SetTransform(np.eye(4) if matrix is None else matrix, self.path))
+
+    def set_property(self, key: str, value: Any) -> None:
+        """Set a property of this node (``visible``, ``position``, ...)."""
+        from meshcat.commands import SetProperty
+
+        self.window.send(SetProperty(key, value, self.path))
+
+    def set_animation(self, animation: Any, play: bool = True, repetitions: int = 1) -> None:
+        """Record ``animation`` (a ``meshcat.animation.Animation``)."""
+        from meshcat.commands import SetAnimation
+
+        self.window.send(SetAnimation(animation, play=play, repetitions=repetitions))
+
+    def delete(self) -> None:
+        """Delete this node."""
+        from meshcat.commands import Delete
+
+        self.window.send(Delete(self.path))
 
 
 def _collect_ids(value: Any, names: dict[str, str]) -> None:
@@ -134,6 +183,7 @@ def _stable_ids(command: Any, names: dict[str, str]) -> Any:
 
 def meshcat_javascript() -> str:
     """The meshcat viewer bundle shipped in the meshcat package (three.js included; no network)."""
+    lean_meshcat()
     import meshcat
 
     path = Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"

@@ -10,7 +10,9 @@ drawable is drawn as a skeleton of its joints. Poses are (4, 4) homogeneous matr
 
 from __future__ import annotations
 
+import importlib.util
 import math
+import sys
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -130,7 +132,37 @@ def clustered_mesh(corners: Array, max_triangles: int = MAX_MESH_TRIANGLES) -> t
     return vertices * extent + low, faces
 
 
+#: What meshcat's ``__init__`` itself defines: asking the package for one runs it (:func:`lean_meshcat`).
+MESHCAT_OWN_NAMES = ("Visualizer", "viewer_assets_path", "visualizer", "servers")
+
+
+def lean_meshcat() -> None:
+    """Let ``import meshcat.geometry`` (and ``commands``, ``animation``, ``path``) load those modules alone: meshcat's
+    own ``__init__`` imports its visualizer and server (tornado, zmq, IPython: some 500 modules, about a third of
+    ``pincal report``'s start), which drawing into a page never uses. Unless meshcat is imported already, its package
+    is registered here without running its ``__init__``, which runs the first time a name only it defines
+    (``meshcat.Visualizer``) is asked of the package."""
+    if "meshcat" in sys.modules:
+        return
+    spec = importlib.util.find_spec("meshcat")
+    if spec is None or spec.loader is None:
+        return  # not installed: the import that follows says so
+    package = importlib.util.module_from_spec(spec)
+    loader = spec.loader
+
+    def complete(name: str) -> Any:  # PEP 562: a name the package's __init__ defines, else a submodule not loaded
+        if name not in MESHCAT_OWN_NAMES:
+            raise AttributeError(f"module 'meshcat' has no attribute '{name}'")
+        del package.__dict__["__getattr__"]
+        loader.exec_module(package)
+        return getattr(package, name)
+
+    setattr(package, "__getattr__", complete)  # noqa: B010 (a module's attribute, not a method)
+    sys.modules["meshcat"] = package
+
+
 def _mesh_geometry(path: Path) -> Any:
+    lean_meshcat()
     import meshcat.geometry as mg
 
     corners = binary_stl_corners(path) if path.suffix.lower() == ".stl" else None
@@ -185,6 +217,7 @@ def _numbers(shape: ET.Element, attribute: str, count: int, default: str | None 
 def _visual(link: ET.Element, visual: ET.Element, source: Path | None,
             budget: int) -> tuple[Any, Array] | str:
     """One URDF visual as a meshcat geometry and its (4, 4) pose in the link frame [m], or why it is not drawn."""
+    lean_meshcat()
     import meshcat.geometry as mg
 
     shape = visual.find("geometry/*")
@@ -256,6 +289,7 @@ def _skeleton(robot: Robot) -> list[Visual]:
     anchor on its link (so a loop's coupler and rocker meet where the loop closes, marked by a sphere) and to each
     link frame away from its joint (a measured frame, a tool); all fixed to the joints' frames, sizes [m] from the
     robot's reach."""
+    lean_meshcat()
     import meshcat.geometry as mg
 
     model = robot.model
@@ -285,6 +319,7 @@ def _joint_frame(model: pin.Model, joint: int) -> int:
 
 def _rod(model: pin.Model, joint: int, name: str, end: Array, radius: float) -> list[Visual]:
     """A rod of ``radius`` [m] from joint ``joint``'s origin to ``end`` (3,) [m] in its frame; none when they meet."""
+    lean_meshcat()
     import meshcat.geometry as mg
 
     length = float(np.linalg.norm(end))
