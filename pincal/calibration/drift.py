@@ -13,11 +13,13 @@ Per session, on MODEL (a calibrated URDF: its robot as calibrated, the parameter
    statistic ``T = |(I − P_S̃) ỹ|²`` is χ² with ``m − rank S̃`` degrees of freedom when the robot has not changed; the
    session is a change at level α when ``T`` exceeds that χ²'s upper α quantile.
 3. A changed session names the parameter groups that moved (a joint's offset; a joint's placement; a loop's anchors),
-   by forward selection: of the groups whose columns ``G̃`` added to the model leave ``T_g`` within its own threshold,
-   the one of fewest parameters (the simplest explanation the data allow); when none does, the one that lowers ``T``
-   the most for its size (``T_g + k_g ln m``). A group is kept while its drop ``T − T_g`` exceeds χ²'s upper
-   ``α / (groups left)`` quantile with ``k_g`` degrees of freedom and ``T`` still exceeds its own threshold; each
-   group's shift [m, rad] is the generalised least squares estimate with its σ.
+   by forward selection: of the groups whose columns ``G̃`` added to the model leave ``T_g`` within its own
+   threshold, the one of fewest parameters (the simplest explanation the data allow); when none does, the one that
+   lowers ``T`` the most for its size (``T_g + k_g ln m``); then, in its place, the smallest group it does not beat
+   significantly (``T_h − T_g`` within χ²'s upper ``α / (groups left)`` quantile with ``k_g − k_h`` degrees of
+   freedom). A group is kept while its drop ``T − T_g`` exceeds χ²'s upper ``α / (groups left)`` quantile with
+   ``k_g`` degrees of freedom and ``T`` still exceeds its own threshold; each group's shift [m, rad] is the
+   generalised least squares estimate with its σ.
 
 Setup parameters never count as a change. SI units throughout: m, rad.
 """
@@ -264,10 +266,14 @@ def _named_groups(names: Sequence[str], setup: Sequence[int], whitened: Array, y
                 tried.append((group, t, r - rank))
         if not tried:
             break
-        # the simplest group that leaves the session within the predicted spread, else the best for its size
+        # the simplest group that leaves the session within the predicted spread, else the best for its size; then a
+        # smaller group the chosen one does not beat significantly (a likelihood ratio at α / groups left)
         enough = [g for g in tried if g[1] <= float(chi2_upper(level, m - rank - g[2]))]
         group, t, k = (min(enough, key=lambda g: (g[2], g[1])) if enough
                        else min(tried, key=lambda g: g[1] + g[2] * math.log(m)))
+        simpler = [g for g in tried if g[2] < k and g[1] - t <= float(chi2_upper(level / len(groups), k - g[2]))]
+        if simpler:
+            group, t, k = min(simpler, key=lambda g: (g[2], g[1]))
         if statistic - t <= float(chi2_upper(level / len(groups), k)):
             break
         chosen.append((group, statistic - t, k))

@@ -83,6 +83,20 @@ def test_a_noisier_instrument_stating_its_sigma_is_no_change_and_one_not_stating
     assert verdicts == [False, True] and done.returncode == 1, done.stdout
 
 
+def test_a_job_file_session_is_judged_as_its_csv(calibrated: Path) -> None:
+    session = _session(calibrated, "job", 41)
+    (calibrated / "job" / "job.toml").write_text(
+        'robot = "delta"\n[data]\nfile = "measurements.csv"\nignore = ["set"]\nsample = "sample"\n[[measure]]\n'
+        'kind = "position"\nframe = "end_effector"\n'
+        'columns = ["position:end_effector:x", "position:end_effector:y", "position:end_effector:z"]\n',
+        encoding="utf-8")
+    done = run_pincal("drift", "cal.urdf", "job/job.toml", session, "--report", "job.json", cwd=calibrated)
+    assert done.returncode == 0, done.stdout + done.stderr
+    first, second = json.loads((calibrated / "job.json").read_text(encoding="utf-8"))["sessions"]
+    assert first["n_samples"] == second["n_samples"] == 30
+    assert first["statistic"] == pytest.approx(second["statistic"], rel=1e-9)
+
+
 @pytest.mark.parametrize(("arguments", "message"), [
     (["delta", "n1/measurements.csv"], "MODEL 'delta' is not a calibrated URDF file"),
     (["day1/truth.urdf", "n1/measurements.csv"], "carries no pincal calibration"),

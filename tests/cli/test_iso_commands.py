@@ -158,3 +158,19 @@ def test_plan_in_a_region_on_a_calibrated_model_commands_the_model(tmp_path: Pat
         misses.append(np.linalg.norm(nominal.placement(nominal.solve_fk(command), "end_effector").translation
                                      - commanded))
     assert min(misses) > 1e-5  # the nominal robot would miss: the commands are the model's
+
+
+def test_plan_holds_the_orientation_given_at_every_pose(tmp_path: Path) -> None:
+    """The UR10's tool pointing down (a half turn about x): every row commands that quaternion, and the commands'
+    forward kinematics turns tool0 so."""
+    done = run_pincal("iso9283", "plan", "ur10", "--orientation", "0,1,0,0", "--cycles", "2", "--out", "plan.csv",
+                      cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "orientation: (qw, qx, qy, qz) = (0, 1, 0, 0) as given" in done.stdout
+    _, rows = _plan_rows(tmp_path / "plan.csv")
+    robot = pincal.load_robot("ur10")
+    down = _quaternion_matrix(0.0, 1.0, 0.0, 0.0)
+    for row in rows[:5]:
+        assert [float(row[f"cmd_q{c}"]) for c in "wxyz"] == [0.0, 1.0, 0.0, 0.0]
+        placement = robot.placement(robot.solve_fk(np.array([float(row[j]) for j in robot.actuated_joints])), "tool0")
+        assert np.linalg.norm(pin.log3(placement.rotation @ down.T)) < 1e-7
