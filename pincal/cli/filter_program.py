@@ -121,7 +121,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                     "puts the calibrated robot (MODEL) on the pose the target intends: the nominal controller's answer "
                     "found from the move before, the calibrated commands from it on the same branch, the target "
                     "written as the nominal pose at those commands. Joint targets and every other byte are kept. Each "
-                    "target's move (mm, mrad) and the calibration's predicted 95 %% bound at it are listed; a target "
+                    "target's move (mm, mrad) and the calibration's predicted 95 % bound at it are listed; a target "
                     "not reached or a construct pincal does not read is named by line and left as written. Exit "
                     "status: 0 every target rewritten, 1 something left as written (the program is written), 2 an "
                     "error.",
