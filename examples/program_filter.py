@@ -34,6 +34,7 @@ from study_cli import ROOT, study_main
 
 import pincal
 from pincal.cli.app import main as pincal_main
+from pincal.io.corrections_file import corrected_readings, read_corrections
 from pincal.io.programs import euler_zyx_near, read_program, rotation_vector_near
 from pincal.study.simulation import random_actuated
 
@@ -56,10 +57,12 @@ class Case:
     robot: str
     language: str
     flange: str
+    extra: tuple[str, ...] = ()
 
 
 CASES = [Case("UR10", "ur10", "urscript", "tool0"), Case("KUKA-like six-axis arm", str(KR16), "krl", "flange"),
-         Case("KUKA-like six-axis arm", str(KR16), "rapid", "tool0")]
+         Case("KUKA-like six-axis arm", str(KR16), "rapid", "tool0"),
+         Case("UR10, encoder harmonics", "ur10", "urscript", "tool0", ("--parameters", "default", "*.sin1", "*.cos1"))]
 
 
 def run_pincal(*argv: str) -> tuple[int, str]:
@@ -136,10 +139,11 @@ WRITERS = {"urscript": urscript, "krl": krl, "rapid": rapid}
 
 
 def errors(truth: pincal.Robot, nominal: pincal.Robot, cal: pincal.Robot, targets: list[Any], intended: list[Any],
-           flange: str) -> tuple[np.ndarray, np.ndarray]:
+           flange: str, corrections: Any = None) -> tuple[np.ndarray, np.ndarray]:
     """The controller (the nominal robot's inverse kinematics of each pose ``targets`` write, from the joint move before
-    it) driving the truth: its tool's distance [m] and angle [rad] to the pose ``intended`` writes, placed in the
-    measurement frame by the calibrated base."""
+    it) driving the truth (its encoders' errors, ``corrections``, between the commands and its joints): its tool's
+    distance [m] and angle [rad] to the pose ``intended`` writes, placed in the measurement frame by the calibrated
+    base."""
     base_n, base_c = (r.placement(r.q_reference, "base") for r in (nominal, cal))
     distance, angle, start = [], [], None
     for sent, meant in zip(targets, intended, strict=True):
@@ -147,7 +151,8 @@ def errors(truth: pincal.Robot, nominal: pincal.Robot, cal: pincal.Robot, target
             start = sent.joints
             continue
         q = nominal.solve_ik(base_n * sent.frame * sent.pose * sent.tool.inverse(), flange, start)
-        landed = truth.placement(q, flange) * sent.tool
+        joints = corrected_readings(corrections, truth, q) if corrections is not None else q
+        landed = truth.placement(truth.solve_fk(joints), flange) * sent.tool
         goal = base_c * meant.frame * meant.pose
         distance.append(float(np.linalg.norm(landed.translation - goal.translation)))
         angle.append(float(np.linalg.norm(pin.log3(goal.rotation.T @ landed.rotation))))
@@ -162,9 +167,11 @@ def measure(case: Case, n_targets: int, folder: Path) -> dict[str, Any]:
     """Simulate, calibrate, write the program, filter it, drive the truth: one table row's figures."""
     folder.mkdir(parents=True, exist_ok=True)
     run_ok("simulate", case.robot, "--measure", "pose", "--frame", case.flange, "--samples", str(SAMPLES),
-           "--test-samples", str(TEST_SAMPLES), "--seed", str(SEED), "--quiet", "--out", str(folder))
-    run_ok("calibrate", case.robot, str(folder / "measurements.csv"), "--out", str(folder / "cal.urdf"), "--report",
-           str(folder / "report.json"))
+           "--test-samples", str(TEST_SAMPLES), "--seed", str(SEED), "--quiet", *case.extra, "--out", str(folder))
+    run_ok("calibrate", case.robot, str(folder / "measurements.csv"), *case.extra, "--out", str(folder / "cal.urdf"),
+           "--report", str(folder / "report.json"))
+    corrections = (read_corrections(folder / "truth.corrections.json")
+                   if (folder / "truth.corrections.json").is_file() else None)
     report = json.loads((folder / "report.json").read_text(encoding="utf-8"))
     nominal, cal = pincal.load_robot(case.robot), pincal.load_robot(folder / "cal.urdf")
     truth = pincal.load_robot(folder / "truth.urdf")
@@ -185,8 +192,8 @@ def measure(case: Case, n_targets: int, folder: Path) -> dict[str, Any]:
     extra = [folder / "config.dat"] if case.language == "krl" else []
     written = read_program(program, tcp, extra).targets
     filtered = read_program(out, tcp, extra).targets
-    before = errors(truth, nominal, cal, written, written, case.flange)
-    after = errors(truth, nominal, cal, filtered, written, case.flange)
+    before = errors(truth, nominal, cal, written, written, case.flange, corrections)
+    after = errors(truth, nominal, cal, filtered, written, case.flange, corrections)
     cartesian = [(a, b) for a, b in zip(written, filtered, strict=True) if a.pose is not None]
     done = np.array([not np.array_equal(a.pose.homogeneous, b.pose.homogeneous) for a, b in cartesian])
     left = [f"line {a.line}: {line.split(': ', 3)[-1].split(': the nearest posture')[0]}" for (a, _), line in zip(
@@ -229,7 +236,10 @@ def page(rows: list[dict[str, Any]], seconds: float, quick: bool) -> str:
         f"**The robots.** A `pincal simulate` truth of each (errors of σ 1 mm / 1 mrad on the default parameters, "
         f"noise σ 10 µm), its flange's pose measured at {SAMPLES} postures and {TEST_SAMPLES} held out (seed {SEED}), "
         "calibrated by `pincal calibrate ROBOT measurements.csv --out cal.urdf`. The UR10 is example-robot-data's; the "
-        "KUKA-like arm is `examples/data/robots/kr16_like.urdf`.",
+        "KUKA-like arm is `examples/data/robots/kr16_like.urdf`. The last UR10 has encoders with once-per-turn "
+        "errors, simulated and calibrated with `--parameters default '*.sin1' '*.cos1'`: its `cal.corrections.json` "
+        "is inverted by `pincal filter`, and the truth's encoders stand between the controller's commands and its "
+        "joints.",
         "",
         f"**The programs.** {rows[0]['targets']} targets each, in the robot's language (docs/filter.md): a joint move "
         f"to a random posture within the limits (seed {TARGET_SEED}), then a linear move to the pose of a tool centre "

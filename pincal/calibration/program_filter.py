@@ -124,7 +124,7 @@ def _angle(rotation: Array) -> float:
 
 
 def filter_program(program: Program, model: Model, nominal: Robot, base: str | None = None, flange: str | None = None,
-                   tolerance: float = TOLERANCE, seed: int = 0) -> ProgramFilter:
+                   tolerance: float = TOLERANCE, seed: int = 0, joint_targets: str = "keep") -> ProgramFilter:
     """``program``'s Cartesian targets rewritten for a controller that keeps ``nominal`` (module docstring).
 
     Args:
@@ -135,6 +135,9 @@ def filter_program(program: Program, model: Model, nominal: Robot, base: str | N
         flange: The flange frame its tools hang on (:func:`default_frames`).
         tolerance: Largest residual [m, rad] of the calibrated model at a rewritten target's commands.
         seed: Seed of the random starts of a target with no move before it.
+        joint_targets: ``keep`` (the commands themselves, as written); ``intended``: each is taken for the flange
+            pose the nominal model gives it (joints computed offline on the nominal model) and rewritten as the
+            calibrated commands for that pose, on the same branch.
 
     Raises:
         DataError: ``nominal`` is not the model's robot; a joint target of another count of joints.
@@ -154,15 +157,19 @@ def filter_program(program: Program, model: Model, nominal: Robot, base: str | N
     model_base = robot.placement(robot.q_reference, base_frame)
     previous: Array | None = None
     results: list[Filtered] = []
-    joint_targets = 0
+    joint_count = 0
     for target in program.targets:
         if target.joints is not None:
-            joint_targets += 1
+            joint_count += 1
             if len(target.joints) != robot.n_actuated:
                 raise DataError(f"{target.file} line {target.line}: joint target '{target.name}' has "
                                 f"{len(target.joints)} values; robot '{robot.name}' has {robot.n_actuated} actuated "
                                 f"joints ({listing(robot.actuated_joints)})")
             previous = np.asarray(target.joints, dtype=float)
+            if joint_targets == "intended":
+                outcome = _joints(target, solver, nominal, model_base, nominal_base, flange_frame)
+                results.append(outcome)
+                previous = outcome.commands if outcome.status == OK else previous
             continue
         outcome = _one(target, solver, nominal_solver, nominal, model_base, nominal_base, flange_frame, previous)
         if outcome.status == OK:
@@ -173,7 +180,9 @@ def filter_program(program: Program, model: Model, nominal: Robot, base: str | N
     for outcome in results:
         if outcome.pose is not None and outcome.target.render is not None:
             edits += outcome.target.render(outcome.pose)
-    return ProgramFilter(program, results, rewritten(program, edits), base_frame, flange_frame, joint_targets)
+        elif outcome.status == OK and outcome.target.render_joints is not None:
+            edits += outcome.target.render_joints(outcome.commands)
+    return ProgramFilter(program, results, rewritten(program, edits), base_frame, flange_frame, joint_count)
 
 
 def _goal(placement: pin.SE3) -> Goals:
@@ -223,6 +232,29 @@ def _one(target: Target, solver: CommandSolver, nominal_solver: CommandSolver, n
     gap = target.pose.inverse() * pose
     residual = (float(commands.residuals[0, 0]), float(commands.residuals[0, 1]))
     return Filtered(target, OK, pose, raw, (float(np.linalg.norm(gap.translation)), _angle(gap.rotation)), residual)
+
+
+def _joints(target: Target, solver: CommandSolver, nominal: Robot, model_base: pin.SE3, nominal_base: pin.SE3,
+            flange: str) -> Filtered:
+    """A joint target taken for the flange pose the nominal model gives it: the calibrated commands for that pose from
+    the written values, on their branch (``joint_targets="intended"``)."""
+    written = np.asarray(target.joints, dtype=float)
+    nan = np.full(len(written), np.nan)
+    missed = (math.nan, math.nan)
+    intended = nominal_base.inverse() * nominal.placement(nominal.solve_fk(written), flange)
+    start = solver.robot.solve_fk(solver.model.corrected(written))
+    commands = solver.solve_from(_goal(model_base * intended), start[None, :])
+    if commands.statuses[0] != OK:
+        return Filtered(target, f"the calibrated robot does not reach its nominal pose from it: "
+                                f"{commands.statuses[0].partition(': ')[2]}", None, nan, missed, missed)
+    raw = commands.raw[0]
+    jump = float(np.max(np.abs(raw - written)))
+    if jump > BRANCH:
+        return Filtered(target, f"the calibrated commands are on another branch ({jump:.3g} rad or m from the values "
+                                "written)", None, nan, missed, missed)
+    gap = intended.inverse() * (nominal_base.inverse() * nominal.placement(nominal.solve_fk(raw), flange))
+    residual = (float(commands.residuals[0, 0]), float(commands.residuals[0, 1]))
+    return Filtered(target, OK, None, raw, (float(np.linalg.norm(gap.translation)), _angle(gap.rotation)), residual)
 
 
 def _bounds(results: list[Filtered], model: Model, nominal: Robot) -> None:

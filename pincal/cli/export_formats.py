@@ -122,15 +122,22 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                     "robot. dh, mdh: the serial chain from --base to --frame as a classic or modified (Craig) "
                     "Denavit-Hartenberg table in YAML, with the base and tool transforms that make it exact and "
                     "its conversion residual against Pinocchio's forward kinematics; refused for closed loops, "
-                    "joints neither revolute nor prismatic, or a residual above --tolerance "
-                    "(docs/calibrated_urdf.md, 'Exports').",
+                    "joints neither revolute nor prismatic, or a residual above --tolerance. hayati: the dh table "
+                    "with Hayati's parallel-axis rows (beta about y, d = 0) where the classic d would exceed the "
+                    "chain's size. ur: a Universal Robots arm's kinematics as ur_description's kinematics file "
+                    "(shoulder ... wrist_3, hash), for the ROS driver's kinematics_params_file. Every export is read "
+                    "back (the URDF by Pinocchio and yourdfpy; the YAML composed into joint origins; the table as "
+                    "forward kinematics; the ur file as ur_description's chain) and compared with the model at the "
+                    "calibration data's postures and --postures random ones: the largest deviation printed and in "
+                    "the header, the export refused above --tolerance (docs/calibrated_urdf.md, 'Exports').",
         epilog="examples: pincal export cal.urdf --format yaml --out kinematics.yaml; "
-               "pincal export cal.urdf --format dh --out dh.yaml")
+               "pincal export cal.urdf --format hayati --out dh.yaml; "
+               "pincal export cal.urdf --format ur --out cal_kinematics.yaml")
     add_robot(parser, "e.g. a calibrated URDF")
     parser.add_argument("--format", choices=FORMATS, default=FORMATS[0], help="what to write (default yaml)")
     parser.add_argument("--out", required=True, help="the YAML file to write")
-    parser.add_argument("--frame", help="dh, mdh: the chain's end frame (default: the robot's measured frame)")
-    parser.add_argument("--base", help="dh, mdh: the chain's base frame (default: the URDF's root link; in a "
+    parser.add_argument("--frame", help="dh, mdh, hayati: the chain's end frame (default: the robot's measured frame)")
+    parser.add_argument("--base", help="dh, mdh, hayati: the chain's base frame (default: the URDF's root link; in a "
                                        "calibrated URDF the robot's own root below measurement_frame)")
     parser.add_argument("--tolerance", type=positive_float, default=DEFAULT_TOLERANCE,
                         help=f"largest deviation [m, rad] of the export read back (and of a DH table's conversion) "

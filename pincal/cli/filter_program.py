@@ -70,12 +70,13 @@ def cmd_filter(args: argparse.Namespace) -> int:
     if model.corrections_file is not None:
         check_outputs([("--out", path) for path in planned.values()], [*inputs, model.corrections_file])
     result = filter_program(program, model, nominal, args.base_frame, args.flange, args.tolerance or TOLERANCE,
-                            args.seed)
-    cartesian = len(result.results)
+                            args.seed, args.joint_targets)
+    cartesian = sum(r.target.pose is not None for r in result.results)
     print(f"filter: {args.program} ({language}), {cartesian} Cartesian and {result.joint_targets} joint targets; "
           f"model {args.model}, controller's nominal model {nominal_name}; base frame {result.base_frame}, flange "
-          f"{result.flange}")
-    if cartesian:
+          f"{result.flange}" + ("; joint targets rewritten for the nominal pose they give" if args.joint_targets ==
+                                "intended" else ""))
+    if result.results:
         print(f"  {'line':>6}  {'target':<24}{'move mm':>10}{'mrad':>9}{'95% bound mm':>14}  status")
     for outcome in result.results:
         target = outcome.target
@@ -94,7 +95,9 @@ def cmd_filter(args: argparse.Namespace) -> int:
     done = [r for r in result.results if r.status == OK]
     if done:
         largest = max(r.residual[0] for r in done)
-        print(f"rewrote {len(done)} of {cartesian} Cartesian targets (largest residual of the model at their commands "
+        what = f"{cartesian} Cartesian" + (f" and {result.joint_targets} joint" if args.joint_targets == "intended"
+                                            else "")
+        print(f"rewrote {len(done)} of {what} targets (largest residual of the model at their commands "
               f"{largest:.3g} m); moves up to {max(r.move[0] for r in done) * 1e3:.4f} mm, "
               f"{max(r.move[1] for r in done) * 1e3:.4f} mrad; every other byte as it was")
     for name, text in result.texts.items():
@@ -118,7 +121,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                     "puts the calibrated robot (MODEL) on the pose the target intends: the nominal controller's answer "
                     "found from the move before, the calibrated commands from it on the same branch, the target "
                     "written as the nominal pose at those commands. Joint targets and every other byte are kept. Each "
-                    "target's move (mm, mrad) and the calibration's predicted 95 %% bound at it are listed; a target "
+                    "target's move (mm, mrad) and the calibration's predicted 95 % bound at it are listed; a target "
                     "not reached or a construct pincal does not read is named by line and left as written. Exit "
                     "status: 0 every target rewritten, 1 something left as written (the program is written), 2 an "
                     "error.",
@@ -138,6 +141,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--flange", help="the flange frame tools hang on (default: KRL 'flange', else 'tool0')")
     p.add_argument("--config", action="append", default=[], metavar="FILE",
                    help="KRL: a file with the controller's TOOL_DATA and BASE_DATA ($config.dat); may be repeated")
+    p.add_argument("--joint-targets", choices=("keep", "intended"), default="keep",
+                   help="keep: joint targets as written (default); intended: each taken for the flange pose the "
+                        "nominal model gives it (joints computed offline) and rewritten as the calibrated commands "
+                        "for it")
     p.add_argument("--tolerance", type=positive_float, metavar="TOL",
                    help="largest residual [m, rad] of the model at a rewritten target's commands (default 1e-9)")
     p.add_argument("--seed", type=non_negative_int, default=0, help="seed of the random starts (default 0)")

@@ -28,6 +28,7 @@ from pincal.io.programs import (
     Target,
     closing,
     euler_zyx_near,
+    joint_render,
     line_of,
     number_text,
     split_top,
@@ -301,8 +302,14 @@ def _add(program: Program, file: str, line: int, name: str, kind: str, fields: d
         if joints is None:
             program.problems.append(Problem(file, line, f"'{name}': its axes A1, A2, … are not all numbers"))
             return
+        if len(joints) < 6:
+            program.problems.append(Problem(file, line, f"'{name}': a partial axis point (A1 … A{len(joints)}) moves "
+                                                        "the other axes from wherever they are: not read as a target"))
+            return
+        spans = [(fields[f"A{k + 1}"][1], fields[f"A{k + 1}"][2]) for k in range(len(joints))]
         program.targets.append(Target(file, line, name, joints, None, pin.SE3.Identity(), pin.SE3.Identity(),
-                                      "joints", None, uses))
+                                      "joints", None, uses,
+                                      render_joints=joint_render(file, spans, 180 / math.pi, DEGREE_DECIMALS)))
         return
     pose = frame_of(fields)
     if pose is None:

@@ -59,6 +59,7 @@ class Target:
         uses: The lines of the moves that read it.
         posture: For the joint values [rad] a controller reaches it at, why they are not the posture the target
             names (KRL's turn bits, RAPID's quadrants), or None when they are; None: the target names none.
+        render_joints: A joint target's edits that write other joint values [rad or m] in place of its own.
     """
 
     file: str
@@ -72,6 +73,7 @@ class Target:
     render: Callable[[pin.SE3], list[Edit]] | None = None
     uses: tuple[int, ...] = ()
     posture: Callable[[Array], str | None] | None = None
+    render_joints: Callable[[Array], list[Edit]] | None = None
 
     @property
     def cartesian(self) -> bool:
@@ -201,6 +203,15 @@ def numbers(text: str, start: int, end: int) -> list[tuple[float, int, int]] | N
             return None
         out.append((float(text[a:b]), a, b))
     return out
+
+
+def joint_render(file: str, spans: Sequence[tuple[int, int]], scale: float,
+                 decimals: int) -> Callable[[Array], list[Edit]]:
+    """The edits writing joint values [rad or m] times ``scale`` (180/π for degrees) over the numbers at ``spans``."""
+    def render(joints: Array) -> list[Edit]:
+        return [Edit(file, a, b, number_text(float(v) * scale, decimals))
+                for v, (a, b) in zip(joints, spans, strict=False)]
+    return render
 
 
 def number_text(value: float, decimals: int) -> str:

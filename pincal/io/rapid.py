@@ -27,6 +27,7 @@ from pincal.io.programs import (
     Program,
     Target,
     closing,
+    joint_render,
     line_of,
     number_text,
     numbers,
@@ -35,7 +36,7 @@ from pincal.io.programs import (
 )
 
 #: Decimals written: millimetres and quaternion components.
-MM_DECIMALS, QUATERNION_DECIMALS = 4, 9
+MM_DECIMALS, QUATERNION_DECIMALS, DEGREE_DECIMALS = 4, 9, 6
 #: An axis this close [rad] to a quadrant's edge counts as in either quadrant (round-off decides nothing).
 SLACK = 1e-6
 #: Moves and how many points they take first.
@@ -265,7 +266,9 @@ def _joint(program: Program, file: str, code: str, span: tuple[int, int], point:
         program.problems.append(Problem(file, line_at, f"MoveAbsJ: '{point[:30]}' is not a jointtarget of six axes"))
         return
     program.targets.append(Target(file, line_at, point, np.radians([v for v, _, _ in found]), None,
-                                  pin.SE3.Identity(), pin.SE3.Identity(), "joints", None, (line,)))
+                                  pin.SE3.Identity(), pin.SE3.Identity(), "joints", None, (line,),
+                                  render_joints=joint_render(file, [(a, b) for _, a, b in found], 180 / math.pi,
+                                                             DEGREE_DECIMALS)))
 
 
 def _add(program: Program, file: str, line: int, name: str, code: str, groups: list[tuple[int, int]],

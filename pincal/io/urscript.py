@@ -23,6 +23,7 @@ from pincal.io.programs import (
     Program,
     Target,
     closing,
+    joint_render,
     line_of,
     number_text,
     numbers,
@@ -175,7 +176,8 @@ def _add(program: Program, file: str, line: int, name: str, literal: _Literal, t
          uses: tuple[int, ...]) -> None:
     if not literal.pose:
         program.targets.append(Target(file, line, name, np.array(literal.values), None, pin.SE3.Identity(),
-                                      pin.SE3.Identity(), "joints", None, uses))
+                                      pin.SE3.Identity(), "joints", None, uses,
+                                      render_joints=joint_render(file, literal.spans, 1.0, DECIMALS)))
         return
     if tool is None:
         program.problems.append(Problem(file, line, f"'{name}': the TCP set at line {tool_line} is not a literal: "

@@ -177,3 +177,24 @@ def test_rapid_robtargets_declared_and_inline_rewritten(kr16_cal: Path, tmp_path
     assert _changed_lines(before, after) == [7, 8, 9, 10, 18]
     home = np.radians([0.0, -30.0, 30.0, 0.0, 60.0, 0.0])
     assert _check_targets(source, out, kr16_cal, str(KR16), "tool0", home) == 5
+
+
+def test_joint_targets_rewritten_for_the_pose_the_nominal_model_gives_them(ur10_cal: Path, tmp_path: Path) -> None:
+    source = PROGRAMS / "pick_place.script"
+    out = tmp_path / "joints.script"
+    done = run_pincal("filter", str(source), "--model", str(ur10_cal), "--joint-targets", "intended", "--out",
+                      str(out))
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "rewrote 8 of 6 Cartesian and 2 joint targets" in done.stdout
+    assert _changed_lines(source.read_text(encoding="utf-8"), out.read_text(encoding="utf-8")) == [5, 6, 7, 14, 15,
+                                                                                                  16, 18]
+    cal, nominal = pincal.load_robot(ur10_cal), pincal.load_robot("ur10")
+    old = [t for t in read_program(source, pin.SE3.Identity()).targets if t.joints is not None]
+    new = [t for t in read_program(out, pin.SE3.Identity()).targets if t.joints is not None]
+    assert len(old) == len(new) == 2
+    for was, now in zip(old, new, strict=True):
+        intended = nominal.placement(was.joints, "base").inverse() * nominal.placement(was.joints, "tool0")
+        reached = cal.placement(now.joints, "base").inverse() * cal.placement(now.joints, "tool0")
+        as_written = cal.placement(was.joints, "base").inverse() * cal.placement(was.joints, "tool0")
+        assert np.linalg.norm(reached.translation - intended.translation) < 1e-7  # 8 decimals of radians written
+        assert np.linalg.norm(as_written.translation - intended.translation) > 1e-3
