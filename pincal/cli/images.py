@@ -81,7 +81,7 @@ def cmd_detect(args: argparse.Namespace) -> int:
     held = read_camera_file(args.camera_file) if args.camera_file else None
     joints = read_dataset(args.joints)
     detections = detect_corners(args.images, board, args.min_corners, args.min_sharpness)
-    paired = pair(detections, joints, args.measure, board, held)
+    paired = pair(detections, joints, args.measure, board, held, args.tolerance if args.pair == "time" else None)
     for what, why in paired.left_out.items():
         print(f"left out {what}: {why}")
     write_texts([(args.out, dataset_text(paired.dataset))])
@@ -111,6 +111,11 @@ def register(sub: Any) -> None:
     det.add_argument("--measure", required=True, help="pixel:FRAME (the camera on FRAME, the board fixed in the "
                                                       "cell) or board_pixel:FRAME (the board on FRAME, the camera "
                                                       "fixed)")
+    det.add_argument("--pair", choices=("name", "time"), default="name",
+                     help="pair each image with the joint row of its name (default), or of its time: the image's name "
+                          "is its time [s], the joints file's 'time' column the rows' (nearest within --tolerance)")
+    det.add_argument("--tolerance", type=non_negative_float, default=0.05,
+                     help="with --pair time: the largest gap [s] between an image and its joint row (default 0.05)")
     det.add_argument("--camera-file", help="hold the intrinsics at an OpenCV calibration file's (YAML/XML) or a ROS "
                                            "camera_info YAML's (default: estimated with the robot)")
     det.add_argument("--min-corners", type=positive_int, default=6, help="fewest corners an image must show "

@@ -171,3 +171,29 @@ def test_check_refuses_pixels_in_one_line(images: Path) -> None:
     assert done.returncode == 2
     assert done.stderr.startswith("pincal: error: pincal check takes no pixel measurements yet")
     assert len(done.stderr.splitlines()) == 1
+
+
+def test_detect_pairs_images_by_time(images: Path, tmp_path: Path) -> None:
+    joints = read_dataset(images / "sim" / "joints.csv")
+    times = 1700000000.0 + 2.0 * np.arange(joints.n_samples)
+    header = "sample,set,time," + ",".join(joints.joint_names)
+    rows = [f"{s},{t},{float(w)!r}," + ",".join(repr(float(v)) for v in q)
+            for s, t, w, q in zip(joints.sample_ids, joints.sets, times, joints.joints, strict=True)]
+    (tmp_path / "joints.csv").write_text("\n".join([header, *rows]) + "\n")
+    offsets = {0: 0.01, 1: -0.02, 2: 0.004, 3: 0.3}  # image 3 is 0.3 s from its row: beyond the tolerance
+    files = []
+    for k, offset in offsets.items():
+        name = tmp_path / f"{times[k] + offset:.3f}.png"
+        shutil.copy(images / "imgs" / f"{k:04d}.png", name)
+        files.append(str(name))
+    out = _ok(run_pincal("detect", *files, "--board", BOARD, "--joints", "joints.csv", "--measure", "pixel:tool0",
+                         "--pair", "time", "--tolerance", "0.05", "--out", "det.csv", cwd=tmp_path))
+    assert f"image '{times[3] + 0.3:.3f}': the nearest joint row (0003) is 0.3 s away, beyond the tolerance 0.05 s" \
+        in out
+    detected = read_dataset(tmp_path / "det.csv")
+    assert detected.sample_ids == ["0000", "0001", "0002"] and "time" not in detected.joint_names
+    exact = read_dataset(images / "sim" / "measurements.csv")
+    assert np.array_equal(detected.joints, exact.joints[:3])
+    done = run_pincal("detect", *files, "--board", BOARD, "--joints", str(images / "sim" / "joints.csv"),
+                      "--measure", "pixel:tool0", "--pair", "time", "--out", "d2.csv", cwd=tmp_path)
+    assert done.returncode == 2 and "pairing by time needs a 'time' column" in done.stderr
