@@ -81,6 +81,10 @@ def test_a_fixed_camera_seeing_a_board_on_the_hand(tmp_path: Path) -> None:
     report = json.loads((tmp_path / "r.json").read_text())["parameters"]
     assert {"base.tx", "target.panda_hand@board.tx", "intrinsics.fx"} <= set(report)
     assert _within_3_sigma(tmp_path / "r.json", tmp_path / "sim" / "truth.json", "intrinsics") == []
+    pixels = json.loads((tmp_path / "r.json").read_text())["pixels"]
+    out = _ok(run_pincal("report", "panda", "sim/measurements.csv", "--out", "page.html", "--quiet", cwd=tmp_path))
+    assert f"RMS reprojection error {pixels['rms_before']:.3f} → {pixels['rms_after']:.3f} px" in out
+    assert (tmp_path / "page.html").stat().st_size > 0
 
 
 def test_detect_names_every_image_it_leaves_out(images: Path, tmp_path: Path) -> None:
