@@ -9,8 +9,9 @@ from typing import Any
 
 from pincal.errors import DataError
 
-BOARD_HELP = ("the ChArUco board: charuco:COLSxROWS:SQUARE:MARKER:DICT, lengths in metres (e.g. "
-              "charuco:8x6:0.03:0.022:DICT_4X4_50, the default of simulate)")
+BOARD_HELP = ("the board: charuco:COLSxROWS:SQUARE:MARKER:DICT (e.g. charuco:8x6:0.03:0.022:DICT_4X4_50, the default "
+              "of simulate) or a grid of ArUco or AprilTag markers aruco:COLSxROWS:MARKER:SEPARATION:DICT (e.g. "
+              "aruco:4x3:0.05:0.012:DICT_APRILTAG_36h11); lengths in metres")
 
 
 def is_camera(measure: list[str]) -> bool:
@@ -96,7 +97,7 @@ def register(sub: Any) -> None:
     """Add ``pincal detect`` to the subcommands."""
     from pincal.cli.arguments import non_negative_float, positive_int
 
-    det = sub.add_parser("detect", help="find a ChArUco board's corners in images; write a measurement CSV",
+    det = sub.add_parser("detect", help="find a calibration board's corners in images; write a measurement CSV",
                          description="Detect the board's corners (OpenCV's aruco module: pip install "
                                      "\"pincal[vision]\") in each image, pair each image with the row of the joints "
                                      "CSV whose sample is the image's file name without its extension, and write "

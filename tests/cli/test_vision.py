@@ -201,3 +201,18 @@ def test_detect_pairs_images_by_time(images: Path, tmp_path: Path) -> None:
     done = run_pincal("detect", *files, "--board", BOARD, "--joints", str(images / "sim" / "joints.csv"),
                       "--measure", "pixel:tool0", "--pair", "time", "--out", "d2.csv", cwd=tmp_path)
     assert done.returncode == 2 and "pairing by time needs a 'time' column" in done.stderr
+
+
+def test_an_apriltag_grid_detected_as_simulated(tmp_path: Path) -> None:
+    board = "aruco:4x3:0.05:0.012:DICT_APRILTAG_36h11"
+    _ok(run_pincal("simulate", "ur10", "--measure", "pixel:tool0", "--board", board, "--samples", "4", "--images",
+                   "imgs", "--seed", "2", "--out", "sim", cwd=tmp_path))
+    files = sorted(str(p) for p in (tmp_path / "imgs").glob("*.png"))
+    _ok(run_pincal("detect", *files, "--board", board, "--joints", "sim/joints.csv", "--measure", "pixel:tool0",
+                   "--out", "det.csv", cwd=tmp_path))
+    detected, exact = read_dataset(tmp_path / "det.csv"), read_dataset(tmp_path / "sim" / "measurements.csv")
+    assert detected.metadata["board"] == board
+    errors = np.concatenate([(detected.measurements[k] - exact.measurements[k]).ravel()
+                             for k in detected.measurements])
+    assert np.all(np.isfinite(errors)) and len(errors) == 2 * 48 * 4  # every marker's four corners in every image
+    assert np.sqrt(np.mean(errors ** 2)) < 0.4
