@@ -21,7 +21,8 @@ def is_camera(measure: list[str]) -> bool:
 
 def add_camera_arguments(parser: argparse.ArgumentParser) -> None:
     """``--board`` and ``--images`` of ``pincal simulate``."""
-    parser.add_argument("--board", help="with --measure pixel:FRAME or board_pixel:FRAME: " + BOARD_HELP)
+    parser.add_argument("--board", help="with --measure pixel:FRAME or board_pixel:FRAME (--noise is then the corners' "
+                                        "σ in px): " + BOARD_HELP)
     parser.add_argument("--images", help="with --measure pixel:FRAME or board_pixel:FRAME: render the images into "
                                          "this directory and write DIR/joints.csv (--out); measurements.csv then "
                                          "holds the exact corners")

@@ -60,7 +60,8 @@ def test_images_detected_and_calibrated_give_the_true_intrinsics(images: Path) -
     errors = errors[np.isfinite(errors)]
     assert len(errors) > 0.9 * sum(np.isfinite(v).sum() for v in exact.measurements.values())
     assert np.sqrt(np.mean(errors ** 2)) < 0.3  # px: the detector's sub-pixel corners on a blurred, noisy image
-    summary = _ok(run_pincal("calibrate", "ur10", "det.csv", "--report", "r.json", cwd=images))
+    summary = _ok(run_pincal("calibrate", "ur10", "det.csv", "--report", "r.json", "--out", "cal.urdf", cwd=images))
+    assert 'link name="tool0_camera"' in (images / "cal.urdf").read_text()  # the intrinsics stay in the report
     assert _within_3_sigma(images / "r.json", images / "sim" / "truth.json", "intrinsics.tool0") == []
     # the summary's reprojection errors: the nominal robot's pixels px off, the calibrated one's at the noise
     rows = {line.split("  ")[0]: line.split()[-4:] for line in summary.splitlines() if "reprojection" in line}
