@@ -57,7 +57,7 @@ if TYPE_CHECKING:
     from pincal.io import Dataset, read_dataset, write_dataset
     from pincal.model import Robot, known_robot_names, load_robot, robot_path
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 #: Public name -> the module that defines it (imported on first access).
 _LAZY: dict[str, str] = {

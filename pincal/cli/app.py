@@ -299,6 +299,21 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_ERROR, f"pincal: error: {where}{message} (see '{self.prog} --help')\n")
 
 
+class _Version(argparse.Action):
+    """``--version``: print ``pincal X.Y.Z``, the installed package's version (its metadata: pyproject's
+    ``version``), and exit 0; read only when asked, so that no other command pays for it."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str, help: str | None = None) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, help=help)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        from importlib import metadata
+
+        print(f"pincal {metadata.version('pincal')}")
+        parser.exit(0)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``pincal`` argument parser, with every subcommand."""
     parser = _Parser(
@@ -306,6 +321,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Geometric calibration of closed-loop and serial robots described in URDF.",
         epilog="Units are SI everywhere (m, rad). Robots: a URDF path, or a name such as delta, hexapod, "
                "five_bar, ucr3, ur10, panda.")
+    parser.add_argument("--version", action=_Version, help="print the installed pincal's version and exit")
     parser.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
     sub = parser.add_subparsers(dest="command", required=True)
     info = sub.add_parser("info", help="describe a robot: joints, loops, actuation, mobility",

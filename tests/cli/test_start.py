@@ -32,10 +32,11 @@ def _loaded(argv: list[str], heavy: tuple[str, ...] = HEAVY) -> tuple[str, str]:
     return code, modules
 
 
-@pytest.mark.parametrize("argv", [["--help"], *([c, "--help"] for c in ("info", "simulate", "calibrate", "demo",
-                                                                          "fleet", "view", "report", "design", "check",
-                                                                          "montecarlo", "compensate", "export",
-                                                                          "import"))])
+COMMANDS = ("info", "simulate", "calibrate", "demo", "fleet", "view", "report", "design", "check", "montecarlo",
+            "compensate", "export", "import")
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["--version"], *([c, "--help"] for c in COMMANDS)])
 def test_help_imports_no_numerical_library(argv: list[str]) -> None:
     assert _loaded(argv) == ("0", "[]")
 
