@@ -84,7 +84,7 @@ def _rotation(tilt_x: float, tilt_y: float, roll: float) -> Array:
 def _view(board: Board, rng: np.random.Generator) -> pin.SE3:
     """A random placement of the board in the camera (camera ← board): the camera looks at a point near the board's
     centre from a random distance, tilt and turn."""
-    centre = np.array([board.cols * board.square / 2, board.rows * board.square / 2, 0.0])
+    centre = np.array([board.extent[0] / 2, board.extent[1] / 2, 0.0])
     aim = centre + np.r_[rng.uniform(-0.25, 0.25, 2) * board.square * 2, 0.0]
     tilt = rng.uniform(-TILT, TILT, 2)
     rot = _rotation(tilt[0], tilt[1], rng.uniform(-ROLL, ROLL))  # board ← camera
@@ -148,7 +148,7 @@ def simulate_pixels(robot: Robot, frame: str, n_train: int, n_test: int = 0, eye
     x_true[[k for k, p in enumerate(pset) if p.kind in ("camera", "target", "base", "intrinsics")]] = 0.0
     q0 = robot.q_reference.copy()
     placed = robot.placement(q0, frame)
-    centre = np.array([plate.cols * plate.square / 2, plate.rows * plate.square / 2, 0.0])
+    centre = np.array([plate.extent[0] / 2, plate.extent[1] / 2, 0.0])
     if eye_to_hand:  # the board across the flange, facing out; the camera 0.55 m in front of it
         on_frame = pin.SE3(_rotation(np.pi, 0.0, 0.0), np.zeros(3))
         on_frame.translation = np.array([0.0, 0.0, 0.01]) - on_frame.rotation @ centre

@@ -274,7 +274,7 @@ def before_means(problem: CalibrationProblem) -> str:
 
 #: What each kind of the setup is called where "before" names what it registered.
 SETUP_WORDS = {"base": "measurement frame", "marker": "markers", "cluster": "markers", "camera": "cameras",
-               "target": "targets", "plane": "contact planes"}
+               "target": "targets", "plane": "contact planes", "intrinsics": "camera intrinsics"}
 
 
 def registered_means(parameters: ParameterSet, columns: list[int]) -> str:

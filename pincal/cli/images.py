@@ -9,8 +9,9 @@ from typing import Any
 
 from pincal.errors import DataError
 
-BOARD_HELP = ("the ChArUco board: charuco:COLSxROWS:SQUARE:MARKER:DICT, lengths in metres (e.g. "
-              "charuco:8x6:0.03:0.022:DICT_4X4_50, the default of simulate)")
+BOARD_HELP = ("the board: charuco:COLSxROWS:SQUARE:MARKER:DICT (e.g. charuco:8x6:0.03:0.022:DICT_4X4_50, the default "
+              "of simulate) or a grid of ArUco or AprilTag markers aruco:COLSxROWS:MARKER:SEPARATION:DICT (e.g. "
+              "aruco:4x3:0.05:0.012:DICT_APRILTAG_36h11); lengths in metres")
 
 
 def is_camera(measure: list[str]) -> bool:
@@ -20,7 +21,8 @@ def is_camera(measure: list[str]) -> bool:
 
 def add_camera_arguments(parser: argparse.ArgumentParser) -> None:
     """``--board`` and ``--images`` of ``pincal simulate``."""
-    parser.add_argument("--board", help="with --measure pixel:FRAME or board_pixel:FRAME: " + BOARD_HELP)
+    parser.add_argument("--board", help="with --measure pixel:FRAME or board_pixel:FRAME (--noise is then the corners' "
+                                        "σ in px): " + BOARD_HELP)
     parser.add_argument("--images", help="with --measure pixel:FRAME or board_pixel:FRAME: render the images into "
                                          "this directory and write DIR/joints.csv (--out); measurements.csv then "
                                          "holds the exact corners")
@@ -81,7 +83,7 @@ def cmd_detect(args: argparse.Namespace) -> int:
     held = read_camera_file(args.camera_file) if args.camera_file else None
     joints = read_dataset(args.joints)
     detections = detect_corners(args.images, board, args.min_corners, args.min_sharpness)
-    paired = pair(detections, joints, args.measure, board, held)
+    paired = pair(detections, joints, args.measure, board, held, args.tolerance if args.pair == "time" else None)
     for what, why in paired.left_out.items():
         print(f"left out {what}: {why}")
     write_texts([(args.out, dataset_text(paired.dataset))])
@@ -96,7 +98,7 @@ def register(sub: Any) -> None:
     """Add ``pincal detect`` to the subcommands."""
     from pincal.cli.arguments import non_negative_float, positive_int
 
-    det = sub.add_parser("detect", help="find a ChArUco board's corners in images; write a measurement CSV",
+    det = sub.add_parser("detect", help="find a calibration board's corners in images; write a measurement CSV",
                          description="Detect the board's corners (OpenCV's aruco module: pip install "
                                      "\"pincal[vision]\") in each image, pair each image with the row of the joints "
                                      "CSV whose sample is the image's file name without its extension, and write "
@@ -111,6 +113,11 @@ def register(sub: Any) -> None:
     det.add_argument("--measure", required=True, help="pixel:FRAME (the camera on FRAME, the board fixed in the "
                                                       "cell) or board_pixel:FRAME (the board on FRAME, the camera "
                                                       "fixed)")
+    det.add_argument("--pair", choices=("name", "time"), default="name",
+                     help="pair each image with the joint row of its name (default), or of its time: the image's name "
+                          "is its time [s], the joints file's 'time' column the rows' (nearest within --tolerance)")
+    det.add_argument("--tolerance", type=non_negative_float, default=0.05,
+                     help="with --pair time: the largest gap [s] between an image and its joint row (default 0.05)")
     det.add_argument("--camera-file", help="hold the intrinsics at an OpenCV calibration file's (YAML/XML) or a ROS "
                                            "camera_info YAML's (default: estimated with the robot)")
     det.add_argument("--min-corners", type=positive_int, default=6, help="fewest corners an image must show "

@@ -25,7 +25,13 @@ def cmd_report(args: argparse.Namespace) -> int:
     report = view.report
     held = f"; held out {mm_text(report.test_rms_before)} → {mm_text(report.test_rms_after)}" \
         if report.has_held_out else ""
-    print(f"RMS {report.error_words[0]} error {mm_text(report.rms_before)} → {mm_text(report.rms_after)}{held}")
+    if report.pixels:  # a camera's pixels: its reprojection error, in px
+        def px(figures: dict[str, float | None]) -> str:
+            return " → ".join("-" if v is None else f"{v:.3f}" for v in (figures["rms_before"], figures["rms_after"]))
+        held = f"; held out {px(report.test_pixels)} px" if report.test_pixels else ""
+        print(f"RMS reprojection error {px(report.pixels)} px{held}")
+    else:
+        print(f"RMS {report.error_words[0]} error {mm_text(report.rms_before)} → {mm_text(report.rms_after)}{held}")
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): open it in a browser, no network needed")
     return exit_status(view)
 

@@ -160,7 +160,8 @@ def calibrated_robot_text(robot: Robot, source_text: str, parameters: ParameterS
     x = np.asarray(x, dtype=float)
     if x.shape != (len(parameters),):
         raise DataError(f"parameter vector has shape {x.shape}, expected ({len(parameters)},) for the parameter set")
-    foreign = [p.name for p in parameters if not p.kind_class.urdf and not p.kind_class.in_corrections]
+    foreign = [p.name for p in parameters
+               if not (p.kind_class.urdf or p.kind_class.in_corrections or p.kind_class.in_report)]
     if foreign:  # a correction goes to the corrections file beside it (io.corrections_file): left out, not refused
         raise RobotFileError(f"parameters {listing(foreign)} are of a kind a calibrated URDF cannot hold; kinds it "
                              f"holds: {listing(kinds_where(in_urdf=True))}")

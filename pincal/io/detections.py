@@ -55,7 +55,7 @@ def pixel_kind(measure: str) -> tuple[str, str]:
 
 
 def pair(detections: Detections, joints: Dataset, measure: str, board: Board,
-         held: Sequence[float] | None = None) -> Paired:
+         held: Sequence[float] | None = None, tolerance: float | None = None) -> Paired:
     """The measurement dataset of ``detections`` paired by name with the rows of ``joints``.
 
     Args:
@@ -64,11 +64,15 @@ def pair(detections: Detections, joints: Dataset, measure: str, board: Board,
         measure: ``pixel:<frame>`` or ``board_pixel:<frame>``.
         board: The board the corners are of.
         held: Intrinsics to hold the camera at (from a camera file), or None: estimated.
+        tolerance: Pair by time instead of by name (:func:`by_time`): the largest gap [s] between an image's time
+            and its joint row's.
 
     Raises:
         DataError: no image pairs with a joint row, or ``measure`` is malformed.
     """
     kind, frame = pixel_kind(measure)
+    if tolerance is not None:
+        detections, joints = by_time(detections, joints, tolerance)
     left_out = dict(detections.left_out)
     rows = {sample: k for k, sample in enumerate(joints.sample_ids)}
     for stem in detections.corners:
@@ -77,7 +81,8 @@ def pair(detections: Detections, joints: Dataset, measure: str, board: Board,
     kept = [k for k, sample in enumerate(joints.sample_ids) if sample in detections.corners]
     for sample in joints.sample_ids:
         if sample not in detections.corners and not any(_stem(p) == sample for p in detections.left_out):
-            left_out[f"joints row {sample}"] = f"no image named '{sample}'"
+            left_out[f"joints row {sample}"] = (f"no image named '{sample}'" if tolerance is None
+                                                else "no image within the tolerance of its time")
     if not kept:
         raise DataError(f"no image pairs with a joint row by name (images: "
                         f"{listing(sorted(detections.corners)) or 'none kept'}; samples: "
@@ -102,3 +107,51 @@ def _stem(path: str) -> str:
     """A file path's stem (``images/0003.png`` -> ``0003``)."""
     name = path.replace("\\", "/").rsplit("/", 1)[-1]
     return name.rsplit(".", 1)[0] if "." in name else name
+
+
+#: The joints file's column of each row's time [s] when images are paired by time.
+TIME = "time"
+
+
+def by_time(detections: Detections, joints: Dataset, tolerance: float) -> tuple[Detections, Dataset]:
+    """The detections renamed after the joint rows they pair with by time, and the joints without their time column.
+
+    Each image's name (its file's stem) is its time [s] (``1701950000.125.png``); it pairs with the joint row whose
+    ``time`` column is nearest, if within ``tolerance`` [s]. An image whose name is not a time, with no row within
+    the tolerance, or whose row is nearer another image, is left out with the reason.
+
+    Raises:
+        DataError: the joints file has no ``time`` column.
+    """
+    if TIME not in joints.joint_names:
+        raise DataError(f"pairing by time needs a '{TIME}' column [s] in the joints file; its columns are "
+                        f"{listing(joints.joint_names)}")
+    column = joints.joint_names.index(TIME)
+    times = joints.joints[:, column]
+    left_out = dict(detections.left_out)
+    nearest: dict[int, tuple[float, str]] = {}
+    for stem in detections.corners:
+        try:
+            when = float(stem)
+        except ValueError:
+            left_out[stem] = f"image '{stem}': its name is not a time in seconds"
+            continue
+        row = int(np.argmin(np.abs(times - when)))
+        gap = abs(float(times[row]) - when)
+        if gap > tolerance:
+            left_out[stem] = (f"image '{stem}': the nearest joint row ({joints.sample_ids[row]}) is {gap:.3g} s away, "
+                              f"beyond the tolerance {tolerance:g} s")
+            continue
+        if row in nearest:
+            other_gap, other = nearest[row]
+            farther, nearer = (stem, other) if gap >= other_gap else (other, stem)
+            left_out[farther] = (f"image '{farther}': joint row {joints.sample_ids[row]} pairs with the nearer image "
+                                 f"'{nearer}'")
+            if farther == stem:
+                continue
+        nearest[row] = (gap, stem)
+    corners = {joints.sample_ids[row]: detections.corners[stem] for row, (_, stem) in nearest.items()}
+    keep = [c for c in range(len(joints.joint_names)) if c != column]
+    rest = Dataset([joints.joint_names[c] for c in keep], joints.joints[:, keep], {}, list(joints.sample_ids),
+                   list(joints.sets), dict(joints.metadata))
+    return Detections(corners, left_out, detections.size), rest

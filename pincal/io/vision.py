@@ -54,7 +54,7 @@ def opencv() -> Any:
 
 
 def charuco_board(board: Board) -> Any:
-    """OpenCV's ``CharucoBoard`` of ``board``.
+    """OpenCV's ``CharucoBoard`` (or ``GridBoard``, for a grid of markers) of ``board``.
 
     Raises:
         DataError: a dictionary OpenCV does not know (the message lists some).
@@ -65,9 +65,12 @@ def charuco_board(board: Board) -> Any:
         known = [n for n in dir(cv2.aruco) if n.startswith("DICT_")]
         raise DataError(f"board dictionary '{board.dictionary}' is not one of OpenCV's: {', '.join(known[:8])}, …")
     dictionary = cv2.aruco.getPredefinedDictionary(code)
-    if (board.cols * board.rows) // 2 > dictionary.bytesList.shape[0]:
-        raise DataError(f"board {board.spec} needs {(board.cols * board.rows) // 2} markers; dictionary "
-                        f"{board.dictionary} has {dictionary.bytesList.shape[0]}")
+    markers = board.cols * board.rows if board.kind == "aruco" else (board.cols * board.rows) // 2
+    if markers > dictionary.bytesList.shape[0]:
+        raise DataError(f"board {board.spec} needs {markers} markers; dictionary {board.dictionary} has "
+                        f"{dictionary.bytesList.shape[0]}")
+    if board.kind == "aruco":
+        return cv2.aruco.GridBoard((board.cols, board.rows), board.marker, board.separation, dictionary)
     return cv2.aruco.CharucoBoard((board.cols, board.rows), board.square, board.marker, dictionary)
 
 
@@ -107,15 +110,17 @@ def render(board: Board, view: pin.SE3, rays: Array, size: tuple[int, int], blur
     """
     cv2 = opencv()
     plate = charuco_board(board)
-    image = plate.generateImage((board.cols * PIXELS_PER_SQUARE, board.rows * PIXELS_PER_SQUARE), marginSize=0)
+    pixels = (round(board.extent[0] / board.square * PIXELS_PER_SQUARE),
+              round(board.extent[1] / board.square * PIXELS_PER_SQUARE))
+    image = plate.generateImage(pixels, marginSize=0)
     width, height = size
     plane = np.c_[view.rotation[:, 0], view.rotation[:, 1], view.translation]  # (x, y, 1) ~ plane (X, Y, 1)
     on_board = np.linalg.solve(plane, np.c_[rays, np.ones(len(rays))].T).T
     w = on_board[:, 2]
+    scale_x, scale_y = pixels[0] / board.extent[0], pixels[1] / board.extent[1]  # board image px per m
     with np.errstate(divide="ignore", invalid="ignore"):
-        scale = PIXELS_PER_SQUARE / board.square
-        xs = np.where(w > 0, on_board[:, 0] / w * scale - 0.5, -1e6).astype(np.float32).reshape(height, width)
-        ys = np.where(w > 0, on_board[:, 1] / w * scale - 0.5, -1e6).astype(np.float32).reshape(height, width)
+        xs = np.where(w > 0, on_board[:, 0] / w * scale_x - 0.5, -1e6).astype(np.float32).reshape(height, width)
+        ys = np.where(w > 0, on_board[:, 1] / w * scale_y - 0.5, -1e6).astype(np.float32).reshape(height, width)
     seen = cv2.remap(image, xs, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=235)
     out = seen.astype(float)
     if blur > 0:
@@ -170,7 +175,13 @@ def detect_corners(paths: Sequence[str | Path], board: Board, min_corners: int =
     if not paths:
         raise DataError("no image given")
     cv2 = opencv()
-    detector = cv2.aruco.CharucoDetector(charuco_board(board))
+    plate = charuco_board(board)
+    if board.kind == "aruco":
+        parameters = cv2.aruco.DetectorParameters()
+        parameters.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+        markers = cv2.aruco.ArucoDetector(plate.getDictionary(), parameters)
+    else:
+        detector = cv2.aruco.CharucoDetector(plate)
     out = Detections()
     stems: dict[str, list[Path]] = {}
     for path in map(Path, paths):
@@ -210,7 +221,10 @@ def detect_corners(paths: Sequence[str | Path], board: Board, min_corners: int =
             out.left_out[str(path)] = (f"blurred: the variance of its Laplacian is {sharp:.3g}, below "
                                        f"{min_sharpness:g}")
             continue
-        corners, ids, _, _ = detector.detectBoard(image)
+        if board.kind == "aruco":
+            corners, ids = _grid_corners(markers, image, board)
+        else:
+            corners, ids, _, _ = detector.detectBoard(image)
         found = 0 if ids is None else len(ids)
         if found < min_corners:
             out.left_out[str(path)] = f"{found} corners found, fewer than {min_corners}"
@@ -218,6 +232,22 @@ def detect_corners(paths: Sequence[str | Path], board: Board, min_corners: int =
         order = np.argsort(ids.ravel())
         out.corners[stem] = (ids.ravel()[order].astype(np.intp), corners.reshape(-1, 2)[order].astype(float))
     return out
+
+
+def _grid_corners(detector: Any, image: npt.NDArray[np.uint8], board: Board) -> tuple[Array, Any]:
+    """The corners (n, 1, 2) [px] of a grid's markers found in ``image``, and their corner numbers (n, 1): marker
+    ``i``'s corner ``j`` is ``4 i + j``; markers of other ids are ignored."""
+    found, ids, _ = detector.detectMarkers(image)
+    if ids is None:
+        return np.zeros((0, 1, 2)), None
+    points, numbers = [], []
+    for quad, marker in zip(found, ids.ravel().tolist(), strict=True):
+        if marker < board.cols * board.rows:
+            points += list(quad.reshape(4, 2))
+            numbers += [4 * marker + j for j in range(4)]
+    if not numbers:
+        return np.zeros((0, 1, 2)), None
+    return np.array(points).reshape(-1, 1, 2), np.array(numbers).reshape(-1, 1)
 
 
 def read_camera_file(path: str | Path) -> tuple[float, ...]:

@@ -60,7 +60,8 @@ def test_images_detected_and_calibrated_give_the_true_intrinsics(images: Path) -
     errors = errors[np.isfinite(errors)]
     assert len(errors) > 0.9 * sum(np.isfinite(v).sum() for v in exact.measurements.values())
     assert np.sqrt(np.mean(errors ** 2)) < 0.3  # px: the detector's sub-pixel corners on a blurred, noisy image
-    summary = _ok(run_pincal("calibrate", "ur10", "det.csv", "--report", "r.json", cwd=images))
+    summary = _ok(run_pincal("calibrate", "ur10", "det.csv", "--report", "r.json", "--out", "cal.urdf", cwd=images))
+    assert 'link name="tool0_camera"' in (images / "cal.urdf").read_text()  # the intrinsics stay in the report
     assert _within_3_sigma(images / "r.json", images / "sim" / "truth.json", "intrinsics.tool0") == []
     # the summary's reprojection errors: the nominal robot's pixels px off, the calibrated one's at the noise
     rows = {line.split("  ")[0]: line.split()[-4:] for line in summary.splitlines() if "reprojection" in line}
@@ -81,6 +82,10 @@ def test_a_fixed_camera_seeing_a_board_on_the_hand(tmp_path: Path) -> None:
     report = json.loads((tmp_path / "r.json").read_text())["parameters"]
     assert {"base.tx", "target.panda_hand@board.tx", "intrinsics.fx"} <= set(report)
     assert _within_3_sigma(tmp_path / "r.json", tmp_path / "sim" / "truth.json", "intrinsics") == []
+    pixels = json.loads((tmp_path / "r.json").read_text())["pixels"]
+    out = _ok(run_pincal("report", "panda", "sim/measurements.csv", "--out", "page.html", "--quiet", cwd=tmp_path))
+    assert f"RMS reprojection error {pixels['rms_before']:.3f} → {pixels['rms_after']:.3f} px" in out
+    assert (tmp_path / "page.html").stat().st_size > 0
 
 
 def test_detect_names_every_image_it_leaves_out(images: Path, tmp_path: Path) -> None:
@@ -171,3 +176,44 @@ def test_check_refuses_pixels_in_one_line(images: Path) -> None:
     assert done.returncode == 2
     assert done.stderr.startswith("pincal: error: pincal check takes no pixel measurements yet")
     assert len(done.stderr.splitlines()) == 1
+
+
+def test_detect_pairs_images_by_time(images: Path, tmp_path: Path) -> None:
+    joints = read_dataset(images / "sim" / "joints.csv")
+    times = 1700000000.0 + 2.0 * np.arange(joints.n_samples)
+    header = "sample,set,time," + ",".join(joints.joint_names)
+    rows = [f"{s},{t},{float(w)!r}," + ",".join(repr(float(v)) for v in q)
+            for s, t, w, q in zip(joints.sample_ids, joints.sets, times, joints.joints, strict=True)]
+    (tmp_path / "joints.csv").write_text("\n".join([header, *rows]) + "\n")
+    offsets = {0: 0.01, 1: -0.02, 2: 0.004, 3: 0.3}  # image 3 is 0.3 s from its row: beyond the tolerance
+    files = []
+    for k, offset in offsets.items():
+        name = tmp_path / f"{times[k] + offset:.3f}.png"
+        shutil.copy(images / "imgs" / f"{k:04d}.png", name)
+        files.append(str(name))
+    out = _ok(run_pincal("detect", *files, "--board", BOARD, "--joints", "joints.csv", "--measure", "pixel:tool0",
+                         "--pair", "time", "--tolerance", "0.05", "--out", "det.csv", cwd=tmp_path))
+    assert f"image '{times[3] + 0.3:.3f}': the nearest joint row (0003) is 0.3 s away, beyond the tolerance 0.05 s" \
+        in out
+    detected = read_dataset(tmp_path / "det.csv")
+    assert detected.sample_ids == ["0000", "0001", "0002"] and "time" not in detected.joint_names
+    exact = read_dataset(images / "sim" / "measurements.csv")
+    assert np.array_equal(detected.joints, exact.joints[:3])
+    done = run_pincal("detect", *files, "--board", BOARD, "--joints", str(images / "sim" / "joints.csv"),
+                      "--measure", "pixel:tool0", "--pair", "time", "--out", "d2.csv", cwd=tmp_path)
+    assert done.returncode == 2 and "pairing by time needs a 'time' column" in done.stderr
+
+
+def test_an_apriltag_grid_detected_as_simulated(tmp_path: Path) -> None:
+    board = "aruco:4x3:0.05:0.012:DICT_APRILTAG_36h11"
+    _ok(run_pincal("simulate", "ur10", "--measure", "pixel:tool0", "--board", board, "--samples", "4", "--images",
+                   "imgs", "--seed", "2", "--out", "sim", cwd=tmp_path))
+    files = sorted(str(p) for p in (tmp_path / "imgs").glob("*.png"))
+    _ok(run_pincal("detect", *files, "--board", board, "--joints", "sim/joints.csv", "--measure", "pixel:tool0",
+                   "--out", "det.csv", cwd=tmp_path))
+    detected, exact = read_dataset(tmp_path / "det.csv"), read_dataset(tmp_path / "sim" / "measurements.csv")
+    assert detected.metadata["board"] == board
+    errors = np.concatenate([(detected.measurements[k] - exact.measurements[k]).ravel()
+                             for k in detected.measurements])
+    assert np.all(np.isfinite(errors)) and len(errors) == 2 * 48 * 4  # every marker's four corners in every image
+    assert np.sqrt(np.mean(errors ** 2)) < 0.4

@@ -32,7 +32,7 @@ from pincal.identification.selection import group_of
 
 def test_the_registry_holds_every_kind_in_the_order_they_were_declared() -> None:
     assert list(PARAMETER_KINDS) == ["joint", "anchor", "offset", "base", "marker", "cluster", "camera", "target",
-                                     "plane", "harmonic", "compliance"]
+                                     "plane", "intrinsics", "harmonic", "compliance"]
     assert all(kind.name == name for name, kind in PARAMETER_KINDS.items())
 
 
@@ -44,6 +44,7 @@ def test_kinds_say_where_they_act_and_where_a_calibration_writes_them() -> None:
                                          "plane")
     assert {name for name, kind in PARAMETER_KINDS.items() if kind.acts_in == "reading"} == {
         "offset", "harmonic", "compliance"}
+    assert [name for name, kind in PARAMETER_KINDS.items() if kind.in_report] == ["intrinsics"]
 
 
 def test_a_kind_names_and_measures_its_parameters() -> None:

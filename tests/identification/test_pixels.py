@@ -139,3 +139,16 @@ def test_the_batched_prediction_is_the_per_sample_one(name: str, frame: str, eye
     assert a.jacobian is not None and b.jacobian is not None
     assert np.abs(a.residual - b.residual).max() <= 1e-9 * np.abs(b.residual).max()
     assert np.abs(a.jacobian - b.jacobian).max() <= 1e-9 * np.abs(b.jacobian).max()
+
+
+def test_a_grid_s_corners_are_opencv_s() -> None:
+    import cv2
+
+    board = ms.parse_board("aruco:3x2:0.04:0.01:DICT_APRILTAG_36h11")
+    assert board.spec == "aruco:3x2:0.04:0.01:DICT_APRILTAG_36h11" and board.n_corners == 24
+    grid = cv2.aruco.GridBoard((3, 2), 0.04, 0.01, cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_APRILTAG_36h11))
+    assert np.allclose(board.corners(), np.array(grid.getObjPoints()).reshape(-1, 3), atol=1e-7)
+    assert board.extent == pytest.approx((0.14, 0.09))
+    charuco = ms.parse_board("charuco:5x4:0.04:0.03:DICT_4X4_50")
+    plate = cv2.aruco.CharucoBoard((5, 4), 0.04, 0.03, cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50))
+    assert np.allclose(charuco.corners(), plate.getChessboardCorners(), atol=1e-7)

@@ -15,7 +15,8 @@ exchanged), ``u = fx x'' + cx``, ``v = fy y'' + cy``. The intrinsics ``fx, fy, c
 p2, k3`` [1] are the nominal values the data declare (``# intrinsics <frame>: fx fy cx cy k1 k2 p1 p2 k3``; zero
 where not declared: the start estimates them) plus their parameters. ``# intrinsics <frame> held: …`` holds them at
 the values given (no parameters). The board's corners come from ``# board: charuco:COLSxROWS:SQUARE:MARKER:DICT``
-(corner ``k`` at ``((k mod (COLS−1)) + 1, (k div (COLS−1)) + 1) · SQUARE`` [m] in the board's frame, OpenCV's).
+(corner ``k`` at ``((k mod (COLS−1)) + 1, (k div (COLS−1)) + 1) · SQUARE`` [m] in the board's frame, OpenCV's) or
+``# board: aruco:COLSxROWS:MARKER:SEPARATION:DICT`` (a grid of ArUco or AprilTag markers: four corners each).
 
 What the pixels cannot tell apart: a focal length against the camera's distance to the board (images from one
 distance and straight on confuse the two; tilted views and varied distances separate them) and the principal
@@ -49,32 +50,54 @@ INTRINSICS = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
 BOARD = "board"
 #: The board a simulation shows when none is given: 8 × 6 squares of 30 mm, markers of 22 mm (35 corners).
 BOARD_DEFAULT = "charuco:8x6:0.03:0.022:DICT_4X4_50"
-_CHARUCO = re.compile(r"charuco:(\d+)x(\d+):([0-9.eE+-]+):([0-9.eE+-]+):(\w+)")
+_BOARD = re.compile(r"(charuco|aruco):(\d+)x(\d+):([0-9.eE+-]+):([0-9.eE+-]+):(\w+)")
 
 
 @dataclass(frozen=True)
 class Board:
-    """A ChArUco board: ``cols`` × ``rows`` squares of side ``square`` [m] with ArUco markers of side ``marker`` [m]
-    from dictionary ``dictionary`` (OpenCV's name, ``DICT_4X4_50``)."""
+    """A calibration board, as OpenCV draws it: a ChArUco board (``kind`` ``charuco``: ``cols`` × ``rows`` squares of
+    side ``square`` [m] with ArUco markers of side ``marker`` [m]; its corners the inner chessboard corners) or a grid
+    of ArUco or AprilTag markers (``aruco``: ``cols`` × ``rows`` markers of side ``marker`` [m] every ``square`` [m];
+    its corners each marker's four), from dictionary ``dictionary`` (OpenCV's name, ``DICT_4X4_50``,
+    ``DICT_APRILTAG_36h11``)."""
 
     cols: int
     rows: int
     square: float
     marker: float
     dictionary: str
+    kind: str = "charuco"
+    #: A grid's gap between markers [m] (its ``square`` is the pitch, marker + gap).
+    separation: float = 0.0
 
     @property
     def spec(self) -> str:
-        """The board as ``charuco:COLSxROWS:SQUARE:MARKER:DICT``."""
+        """The board as ``charuco:COLSxROWS:SQUARE:MARKER:DICT`` or ``aruco:COLSxROWS:MARKER:SEPARATION:DICT``."""
+        if self.kind == "aruco":
+            return f"aruco:{self.cols}x{self.rows}:{self.marker!r}:{self.separation!r}:{self.dictionary}"
         return f"charuco:{self.cols}x{self.rows}:{self.square!r}:{self.marker!r}:{self.dictionary}"
 
     @property
     def n_corners(self) -> int:
-        """Its inner chessboard corners: ``(cols − 1)(rows − 1)``."""
-        return (self.cols - 1) * (self.rows - 1)
+        """Its corners: ``(cols − 1)(rows − 1)`` inner chessboard corners, or four per marker of a grid."""
+        return 4 * self.cols * self.rows if self.kind == "aruco" else (self.cols - 1) * (self.rows - 1)
+
+    @property
+    def extent(self) -> tuple[float, float]:
+        """Its printed width and height [m]."""
+        if self.kind == "aruco":
+            return (self.cols * self.square - self.separation, self.rows * self.square - self.separation)
+        return (self.cols * self.square, self.rows * self.square)
 
     def corner(self, k: int) -> Array:
-        """(3,) corner ``k`` [m] in the board's frame (z = 0, OpenCV's numbering: row by row)."""
+        """(3,) corner ``k`` [m] in the board's frame (z = 0, OpenCV's numbering: a ChArUco board's row by row; a
+        grid's marker ``k div 4``'s corner ``k mod 4``, clockwise from its top left)."""
+        if self.kind == "aruco":
+            cell, which = divmod(k, 4)
+            origin = np.array([cell % self.cols, cell // self.cols]) * self.square
+            offset = np.array([(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)][which]) * self.marker
+            point: Array = np.r_[origin + offset, 0.0]
+            return point
         per_row = self.cols - 1
         return np.array([(k % per_row + 1) * self.square, (k // per_row + 1) * self.square, 0.0])
 
@@ -84,19 +107,25 @@ class Board:
 
 
 def parse_board(spec: str) -> Board:
-    """The board of ``charuco:COLSxROWS:SQUARE:MARKER:DICT`` (SQUARE, MARKER [m]).
+    """The board of ``charuco:COLSxROWS:SQUARE:MARKER:DICT`` or ``aruco:COLSxROWS:MARKER:SEPARATION:DICT`` (lengths
+    [m]; an AprilTag grid is an ``aruco`` grid of a ``DICT_APRILTAG_…`` dictionary).
 
     Raises:
-        DataError: another form, fewer than 2 × 2 squares, or a marker not smaller than its square.
+        DataError: another form, fewer than 2 × 2 squares (1 × 1 markers), or a marker not smaller than its square.
     """
-    match = _CHARUCO.fullmatch(spec.strip())
+    match = _BOARD.fullmatch(spec.strip())
     if not match:
-        raise DataError(f"board '{spec}' is not charuco:COLSxROWS:SQUARE:MARKER:DICT (e.g. "
-                        "charuco:7x5:0.04:0.03:DICT_4X4_50, lengths in metres)")
-    cols, rows, square, marker = int(match[1]), int(match[2]), float(match[3]), float(match[4])
-    if cols < 2 or rows < 2 or not 0 < marker < square or square > 1.0:
+        raise DataError(f"board '{spec}' is not charuco:COLSxROWS:SQUARE:MARKER:DICT nor "
+                        "aruco:COLSxROWS:MARKER:SEPARATION:DICT (e.g. charuco:7x5:0.04:0.03:DICT_4X4_50, "
+                        "aruco:4x3:0.05:0.01:DICT_APRILTAG_36h11, lengths in metres)")
+    kind, cols, rows, first, second = match[1], int(match[2]), int(match[3]), float(match[4]), float(match[5])
+    if kind == "aruco":
+        if cols < 1 or rows < 1 or not 0 < first <= 1.0 or not 0 <= second <= 1.0:
+            raise DataError(f"board '{spec}': needs at least 1x1 markers, 0 < MARKER <= 1 m and 0 <= SEPARATION <= 1 m")
+        return Board(cols, rows, first + second, first, match[6], "aruco", second)
+    if cols < 2 or rows < 2 or not 0 < second < first or first > 1.0:
         raise DataError(f"board '{spec}': needs at least 2x2 squares and 0 < MARKER < SQUARE <= 1 m")
-    return Board(cols, rows, square, marker, match[5])
+    return Board(cols, rows, first, second, match[6])
 
 
 def project(points: Array, k: Array) -> tuple[Array, Array, Array]:

@@ -56,6 +56,8 @@ class ParameterKind:
     urdf: ClassVar[str] = ""
     #: Whether the corrections file beside a calibrated URDF holds them (what a URDF cannot express).
     in_corrections: ClassVar[bool] = False
+    #: Whether the report alone holds them (a camera's intrinsics): a calibrated URDF leaves them out.
+    in_report: ClassVar[bool] = False
     #: The largest plausible correction of one of its parameters, by unit (``m``: a length [m], ``rad``: an angle
     #: [rad]); a unit left out, or an empty mapping, has no bound (the setup's kinds, the compliances).
     plausible: ClassVar[dict[str, float]] = {}
@@ -294,7 +296,7 @@ class CameraIntrinsics(ParameterKind):
     model, :mod:`pincal.identification.measurements.pixels`)."""
 
     name = "intrinsics"
-    urdf = "none: the report and truth.json hold a camera's intrinsics"
+    in_report = True
 
     @classmethod
     def prefix(cls, owner: str, side: str = "") -> str:
