@@ -68,7 +68,7 @@ class SpatialJacobian:
 
 
 #: Most scratch arrays a :class:`Workspace` keeps.
-WORKSPACE_ARRAYS = 256
+WORKSPACE_ARRAYS = 512
 
 
 class Workspace:

@@ -6,7 +6,8 @@ joint ``i``, the reading change ``δ`` [rad or m] that best explains the sample'
 Gauss–Newton on ``r_k(q_k + δ e_i)``, with ``∂r_k/∂q_i`` the analytic column of that joint's reading offset
 (the same derivative the ``<joint>.offset`` parameters have), iterated on the full prediction: a five-bar crank read
 0.3 rad off moves the tool ~0.1 m, and one linear step leaves hundreds of times the noise (the second-order term).
-The sample is judged at a fit without it (:func:`find_bad_readings`), and its reading is taken for wrong when
+The sample is judged at a fit without it (:func:`find_bad_readings`; only when its prediction error, linearised at the
+robust fit, could reach the gross error below: :data:`SCREEN_MARGIN`), and its reading is taken for wrong when
 
 - the error it removes is gross: ``‖r‖² − ‖r(δ)‖² ≥ G² · s² · d`` (G = :data:`GROSS_FACTOR`, ``d`` the sample's
   rows): at least ten times the norm the noise gives a sample's readings;

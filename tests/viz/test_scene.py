@@ -8,6 +8,8 @@ import html
 import io
 import json
 import re
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -289,3 +291,24 @@ def test_a_result_read_back_predicts_with_the_payload_it_records(tmp_path: Path)
     report["payload"] = None  # the same numbers read as if no load had been carried: other predictions
     forgotten = CalibrationView.from_result(ur10, sim.dataset, CalibrationReport.from_json(report), options)
     assert np.abs(forgotten.errors_after[key] - cal.result.errors_after[key]).max() > 1e-4  # [m]
+
+
+#: In a fresh interpreter: meshcat's drawing modules loaded alone, then the whole package on first use of a name only
+#: its ``__init__`` defines.
+LEAN_PROBE = """
+import sys
+from pincal.viz.visuals import lean_meshcat
+lean_meshcat()
+import meshcat.geometry, meshcat.animation, meshcat.commands
+server = ("meshcat.visualizer", "tornado", "zmq", "IPython")
+print(sorted(m for m in server if m in sys.modules))
+import meshcat
+print(meshcat.Visualizer.__name__, sorted(m for m in server if m in sys.modules))
+"""
+
+
+def test_meshcat_s_drawing_modules_load_without_its_server() -> None:
+    done = subprocess.run([sys.executable, "-P", "-c", LEAN_PROBE], capture_output=True, text=True, timeout=120,
+                          check=False)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["[]", "Visualizer ['IPython', 'meshcat.visualizer', 'tornado', 'zmq']"]
