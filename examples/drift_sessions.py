@@ -33,6 +33,11 @@ SLIP = 0.002  # [rad]
 SAMPLES, SESSION_SAMPLES, LEVEL = 40, 30, 0.01
 
 
+
+def _alarms(count: int) -> str:
+    return f"{count} false alarm" + ("" if count == 1 else "s")
+
+
 def _pincal(*args: str, expect: tuple[int, ...] = (0,)) -> None:
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()) as err:
         status = pincal_main(list(args))
@@ -97,10 +102,10 @@ def page(counts: dict[str, Any], seconds: float, quick: bool) -> str:
         "",
         "| what | sessions | result |",
         "|---|---|---|",
-        f"| noise alone (sequence A) | {counts['noise_tests']} | {counts['false_alarms']} false alarms "
+        f"| noise alone (sequence A) | {counts['noise_tests']} | {_alarms(counts['false_alarms'])} "
         f"(level {LEVEL}: {expected:g} expected) |",
-        f"| sequence B, sessions 1–2 (before the slip) | {counts['before_tests']} | {counts['before_alarms']} false "
-        f"alarms, a parameter named in {counts['before_named']} |",
+        f"| sequence B, sessions 1–2 (before the slip) | {counts['before_tests']} | "
+        f"{_alarms(counts['before_alarms'])}, a parameter named in {counts['before_named']} |",
         f"| sequence B, sessions 3–4 (one arm's offset slipped by 2 mrad) | {counts['after_tests']} | the slipped "
         f"offset named in {counts['after_named']}, first in {counts['after_first']}, alone in "
         f"{counts['after_alone']} |",
