@@ -14,7 +14,8 @@ robust weights and parameters: one solve):
   bound with probability 0.95 whatever the errors' distribution; split-conformal prediction, Vovk, Gammerman and
   Shafer 2005, "Algorithmic learning in a random world"; from cross-validation, Barber, Candès, Ramdas and Tibshirani
   2021, "Predictive inference with the jackknife+"), and never below 1: the data may widen the covariance's bound,
-  not narrow it.
+  not narrow it. With :func:`~pincal.identification.selection.fold_prior` (the evidence's prior), each fold's refit
+  is held by the prior the evidence chooses on its own training samples, so that ``ρ₀`` sees how the choice varies.
 - *beyond*: for each actuated joint that moves what is measured, the samples whose reading lies in the lower half of
   the fitted readings are refitted from the upper half and predicted, then the other way round; each held-out sample
   lies at the extrapolation distance ``u_i = Σ_j d_j / w_j`` beyond its refit's range (:func:`extrapolation_distance`).
@@ -33,7 +34,7 @@ robot's own (:mod:`pincal.calibration.predicted`). The hold-outs show the growth
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -48,6 +49,7 @@ from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
 
 Array = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
 
 #: The probability the bounds hold.
 LEVEL = 0.95
@@ -151,10 +153,13 @@ def growth_slope(values: Array, distance: Array, start: float, level: float = LE
 
 
 def estimate_growth(problem: CalibrationProblem, result: CalibrationResult, prior: Array, columns: Sequence[int],
-                    x_before: Array) -> ErrorGrowth | None:
+                    x_before: Array, fold_prior: Callable[[IntArray], Array] | None = None) -> ErrorGrowth | None:
     """The :class:`ErrorGrowth` of the fit ``result`` of ``problem`` with the prior σ ``prior`` (p,) [parameter units;
     inf: none] and of the registered nominal robot ``x_before`` (in ``problem``'s order), over the actuated ``columns``
-    that move what is measured. None with fewer than :data:`MIN_SAMPLES` samples, without the fit's evaluation or
+    that move what is measured. ``fold_prior``: the prior σ the fit's selection chooses on the samples it is given
+    (:func:`~pincal.identification.selection.fold_prior`); each shuffled hold-out is then refitted with the prior
+    chosen on its own training samples, and ``ρ₀`` sees how the choice varies with the samples (default: every
+    hold-out with ``prior``). None with fewer than :data:`MIN_SAMPLES` samples, without the fit's evaluation or
     without a length reading."""
     final = result.final
     n = problem.observations.n_samples
@@ -167,7 +172,9 @@ def estimate_growth(problem: CalibrationProblem, result: CalibrationResult, prio
     calibrated = Linearised.of_fit(problem, result, final.residual, final.jacobian, prior)
     ratios: list[Array] = []
     for held in shuffled:
-        residual, inverse, out = calibrated.refit(held)
+        linear = calibrated if fold_prior is None else Linearised.of_fit(
+            problem, result, final.residual, final.jacobian, fold_prior(np.setdiff1d(np.arange(n), held)))
+        residual, inverse, out = linear.refit(held)
         scales = problem.parameters.scales
         covariance = result.sigma2 * inverse * np.outer(scales, scales)  # [parameter units²]: x = scale · z
         bound = sample_bounds(problem, final.jacobian, covariance, result.sigma2, held, layout)

@@ -58,7 +58,7 @@ from pincal.identification.prior import prior_sigma
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.readings import BadReading
 from pincal.identification.result import CalibrationResult
-from pincal.identification.selection import AUTO_PRIOR, SelectedFit, select_and_fit
+from pincal.identification.selection import AUTO_PRIOR, SelectedFit, fold_prior, select_and_fit
 from pincal.identification.solver import identify
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, source_text
 from pincal.io.corrections_file import Corrections, corrections_of
@@ -392,7 +392,7 @@ def error_growth(fit: Prepared, fitted: SelectedFit, options: CalibrationOptions
         else prior_sigma(problem.parameters, fitting_options(options, False)["prior"])
     moving = moving_joints(fit)
     columns = [k for k, j in enumerate(fit.robot.actuated_joints) if j in moving]
-    return estimate_growth(problem, fitted.result, prior, columns, x_before)
+    return estimate_growth(problem, fitted.result, prior, columns, x_before, fold_prior(fitted))
 
 
 def prediction_content(fit: Prepared, result: CalibrationResult, held: HeldOut | None, x_before: Array,

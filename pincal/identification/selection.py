@@ -303,3 +303,39 @@ def _fitted_criterion(problem: CalibrationProblem, result: CalibrationResult) ->
     residual = final.residual * weights
     m, p = residual.size, len(result.identified)
     return float(m * math.log(max(float(residual @ residual) / m, RSS_FLOOR)) + p * math.log(m))
+
+
+def fold_prior(fitted: SelectedFit) -> Callable[[npt.NDArray[np.intp]], Array] | None:
+    """For a fit whose prior the evidence chose: the prior σ [parameter units] the evidence chooses on a subset of its
+    samples (the sample indices it is given), linearised at the fit (:func:`_weighted_linear`; one fixed point over the
+    kept groups, no evaluation): the fit's own prior σ times the ratio of the evidence's choice on those samples to
+    its choice, so linearised, on all of them (the range guard's divisor kept): what a hold-out refit would be held by
+    had the selection seen only its samples. The predicted bound's hold-outs refit with it
+    (:func:`~pincal.calibration.growth.estimate_growth`), so that the bound sees how much the choice varies with the
+    samples. None when the prior was not the evidence's."""
+    if fitted.evidence is None or fitted.prior_sigma is None or not fitted.result.converged:
+        return None
+    problem = fitted.problem
+    jac, y0 = _weighted_linear(problem, fitted.result)
+    pset = problem.parameters
+    groups = [group_of(p) for p in pset]
+    present = [g for g in GROUPS if g in groups]
+    base = base_sigma(problem)
+    rows = problem.row_samples()
+    if jac.shape[0] != rows.size:  # an implicit fit's rows are not its samples'
+        return None
+    held = fitted.prior_sigma
+
+    def chosen(kept: npt.NDArray[np.bool_]) -> Array:
+        choice = choose_prior(jac[kept], y0[kept], groups, base, pset.scales, present)
+        sigma = np.where([g in choice.left_out for g in groups], base * FACTOR_RANGE[0], choice.sigma)
+        return np.asarray(sigma / math.sqrt(max(choice.noise, 1e-300)), dtype=float)
+
+    whole = chosen(np.ones(rows.size, dtype=bool))
+    usable = np.isfinite(whole) & (whole > 0.0) & np.isfinite(held)
+
+    def prior(samples: npt.NDArray[np.intp]) -> Array:
+        ratio = np.where(usable, chosen(np.isin(rows, samples)) / np.where(usable, whole, 1.0), 1.0)
+        return np.asarray(held * ratio, dtype=float)
+
+    return prior
