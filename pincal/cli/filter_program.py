@@ -46,8 +46,8 @@ def cmd_filter(args: argparse.Namespace) -> int:
     from pincal.calibration.compensate import load_model
     from pincal.calibration.program_filter import TOLERANCE, filter_program
     from pincal.calibration.provenance import read_provenance
-    from pincal.io.files import check_outputs, write_text
-    from pincal.io.programs import language_of, read_program
+    from pincal.io.files import check_outputs, write_texts
+    from pincal.io.programs import encoding_of, language_of, read_program
     from pincal.io.targets import OK
     from pincal.model.robot import load_robot
 
@@ -100,13 +100,15 @@ def cmd_filter(args: argparse.Namespace) -> int:
         print(f"rewrote {len(done)} of {what} targets (largest residual of the model at their commands "
               f"{largest:.3g} m); moves up to {max(r.move[0] for r in done) * 1e3:.4f} mm, "
               f"{max(r.move[1] for r in done) * 1e3:.4f} mrad; every other byte as it was")
+    written: list[tuple[str | Path, str | bytes]] = []
     for name, text in result.texts.items():
         destination = planned.get(name)
         if destination is None:
             if text != program.texts[name]:
                 raise DataError(f"{name} would change but has no output: pincal never writes over an input")
             continue
-        write_text(destination, text)
+        written.append((destination, text.encode(encoding_of(name))))  # the input's encoding: every byte kept
+    for destination in write_texts(written):
         print(f"wrote {destination}")
     return EXIT_LEFT if left or result.program.problems else 0
 

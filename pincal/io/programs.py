@@ -113,22 +113,47 @@ def language_of(path: str | Path) -> str:
     return LANGUAGES[suffix]
 
 
+#: Bytes no program text holds (C0 controls but tab, line feed, vertical tab, form feed, carriage return and DOS's
+#: end-of-file mark): a file holding one is not a program.
+_NOT_TEXT = re.compile(rb"[\x00-\x08\x0e-\x19\x1b-\x1f]")
+
+
+def decoded(data: bytes) -> tuple[str, str]:
+    """A program file's bytes as text and the encoding they were read in: UTF-8, else Latin-1 (which KUKA and ABB
+    files may use); the output is written in the same encoding, so that every byte not rewritten is kept."""
+    try:
+        return data.decode("utf-8"), "utf-8"
+    except UnicodeDecodeError:
+        return data.decode("latin-1"), "latin-1"
+
+
+def encoding_of(path: str | Path) -> str:
+    """The encoding :func:`read_text` read the file at ``path`` in (``utf-8`` or ``latin-1``)."""
+    return decoded(Path(path).read_bytes())[1]
+
+
 def read_text(path: str | Path, what: str = "PROGRAM") -> str:
-    """A program file's text, its line endings kept (UTF-8, else Latin-1, which KUKA and ABB files may use).
+    """A program file's text, its line endings kept (UTF-8, else Latin-1: :func:`decoded`).
 
     Raises:
-        DataError: missing, a directory, unreadable or too large.
+        DataError: missing, a directory, unreadable, too large, empty or not text (a control byte).
     """
     path = Path(path)
     if not path.is_file():
         raise DataError(f"{what} '{path}' is not a file")
-    data = path.read_bytes()
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise DataError(f"cannot read {what} '{path}': {exc.strerror or exc}") from None
     if len(data) > MAX_CHARACTERS:
         raise DataError(f"{what} '{path}' has {len(data)} bytes; a program of at most {MAX_CHARACTERS} is read")
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        return data.decode("latin-1")
+    if not data.strip():
+        raise DataError(f"{what} '{path}' is empty")
+    control = _NOT_TEXT.search(data)
+    if control is not None:
+        raise DataError(f"{what} '{path}' is not a text file (byte 0x{data[control.start()]:02x} at offset "
+                        f"{control.start()}): a program is text")
+    return decoded(data)[0]
 
 
 def line_of(text: str, position: int) -> int:

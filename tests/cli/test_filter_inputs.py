@@ -1,0 +1,51 @@
+"""``pincal filter`` on files a user may hand it by mistake or in a form the examples do not show: an empty or a
+binary file is one error line (exit 2, nothing written); a Latin-1 program (KUKA's and ABB's editors write one, with
+``ä``, ``ö`` in comments) is written back in Latin-1 with its Windows line endings, every line not rewritten
+byte-identical. The robot's own URDF as the model: nothing moves, so these tests need no calibration."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from conftest import ROOT, run_pincal
+
+PROGRAMS = ROOT / "examples" / "data" / "programs"
+KR16 = ROOT / "examples" / "data" / "robots" / "kr16_like.urdf"
+
+
+@pytest.mark.parametrize(("content", "says"), [(b"", "is empty"), (b" \r\n\t\r\n", "is empty"),
+                                                (b"def p():\x00\x01\x9e\xff", "is not a text file (byte 0x00")])
+def test_an_empty_or_binary_program_is_an_error(tmp_path: Path, content: bytes, says: str) -> None:
+    program = tmp_path / "cell.script"
+    program.write_bytes(content)
+    done = run_pincal("filter", str(program), "--model", "ur10", "--out", str(tmp_path / "out.script"))
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines() == [done.stderr.strip()]
+    assert done.stderr.startswith("pincal: error: PROGRAM") and str(program) in done.stderr and says in done.stderr
+    assert "Traceback" not in done.stderr and not (tmp_path / "out.script").exists()
+
+
+def test_a_latin1_program_is_written_back_in_latin1_byte_for_byte(tmp_path: Path) -> None:
+    source = tmp_path / "in"
+    source.mkdir()
+    for name in ("palletize.src", "palletize.dat"):
+        text = (PROGRAMS / name).read_text(encoding="utf-8").replace("\n", "\r\n")
+        if name.endswith(".src"):
+            text = "; Greifer öffnen, Maß in mm\r\n" + text
+        (source / name).write_bytes(text.encode("latin-1"))
+    out = tmp_path / "out" / "palletize.src"
+    done = run_pincal("filter", str(source / "palletize.src"), "--model", str(KR16), "--config",
+                      str(PROGRAMS / "config_excerpt.dat"), "--out", str(out))
+    assert done.returncode in (0, 1), done.stderr
+    for name in ("palletize.src", "palletize.dat"):
+        before = (source / name).read_bytes().split(b"\r\n")
+        after = (out.parent / name).read_bytes().split(b"\r\n")
+        assert len(after) == len(before)
+        assert b"\n" not in b"".join(after)  # every line ending kept as \r\n
+        if name.endswith(".src"):
+            assert after[0] == "; Greifer öffnen, Maß in mm".encode("latin-1")
+        targets = [k for k, line in enumerate(before) if b"{X " in line]
+        assert targets  # the lines with Cartesian targets; every other line is byte-identical
+        assert [a for k, a in enumerate(after) if k not in targets] == [
+            b for k, b in enumerate(before) if k not in targets]
