@@ -49,3 +49,21 @@ def test_a_latin1_program_is_written_back_in_latin1_byte_for_byte(tmp_path: Path
         assert targets  # the lines with Cartesian targets; every other line is byte-identical
         assert [a for k, a in enumerate(after) if k not in targets] == [
             b for k, b in enumerate(before) if k not in targets]
+
+
+def test_a_robtarget_of_five_parts_is_named_not_rewritten(tmp_path: Path) -> None:
+    text = (PROGRAMS / "glue.mod").read_text(encoding="utf-8")
+    declared = "CONST robtarget pApproach:=[[100,200,150],[0.086824,0.492404,0.852869,-0.150384],[0,0,-1,0],[9E9,9E9,"
+    assert declared in text
+    end = "9E9,9E9,9E9,9E9]];\n    CONST robtarget pStart"
+    bad = text.replace(end, end.replace("]];", "],[1,2]];"), 1)
+    assert bad != text
+    program = tmp_path / "glue.mod"
+    program.write_text(bad, encoding="utf-8")
+    out = tmp_path / "out.mod"
+    done = run_pincal("filter", str(program), "--model", str(KR16), "--out", str(out))
+    assert done.returncode == 1, done.stderr
+    line = 1 + bad[:bad.index(declared)].count("\n")
+    assert f"warning: {program} line {line}: 'pApproach': a robtarget has 4 parts" in done.stdout
+    before, after = bad.splitlines(), out.read_text(encoding="utf-8").splitlines()
+    assert after[line - 1] == before[line - 1]
