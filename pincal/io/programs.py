@@ -263,13 +263,31 @@ def rotation_vector_near(rotation: Array, near: Sequence[float]) -> Array:
     return min(candidates, key=lambda c: float(np.linalg.norm(c - target)))
 
 
+#: Largest orientation error [rad] of the angles :func:`euler_zyx_near` picks along a singular family (B = ±90°):
+#: far below what a program's 5 decimals of a degree write (1.7e-7 rad).
+SINGULAR_TOLERANCE = 1e-9
+
+
 def euler_zyx_near(rotation: Array, near: Sequence[float]) -> tuple[float, float, float]:
     """(A, B, C) [rad] with ``R = Rz(A) Ry(B) Rx(C)`` (KUKA's angles, URDF's yaw, pitch, roll), of the two families
-    that give ``rotation`` and their whole turns the nearest ``near``."""
+    that give ``rotation`` and their whole turns the nearest ``near``. At ``B = ±90°`` (within
+    :data:`SINGULAR_TOLERANCE`) only ``A − C`` (or ``A + C``) is defined: the split of it nearest ``near`` is taken,
+    so that a rotation written there and not moved keeps its angles."""
     roll, pitch, yaw = (float(v) for v in pin.rpy.matrixToRpy(rotation))
+    candidates = [(yaw, pitch, roll), (yaw + math.pi, math.pi - pitch, roll + math.pi)]
+    if abs(math.cos(pitch)) < 1e-6:
+        sign = 1.0 if pitch > 0 else -1.0  # B = +90°: R depends on A - C; B = -90°: on A + C
+        a_near, b_near, c_near = near
+        for b in (pitch, wrapped_near(pitch, b_near, 2 * math.pi)):
+            defined = wrapped_near(yaw - sign * roll, a_near - sign * c_near, 2 * math.pi)
+            a = (a_near + sign * c_near + defined) / 2
+            c = sign * (a_near + sign * c_near - defined) / 2
+            error = float(np.linalg.norm(pin.log3(zyx_rotation(a, b, c).T @ rotation)))
+            if error < SINGULAR_TOLERANCE:
+                candidates.append((a, b, c))
     best: tuple[float, float, float] | None = None
     distance = math.inf
-    for a, b, c in ((yaw, pitch, roll), (yaw + math.pi, math.pi - pitch, roll + math.pi)):
+    for a, b, c in candidates:
         triple = tuple(wrapped_near(v, n, 2 * math.pi) for v, n in zip((a, b, c), near, strict=True))
         gap = sum((v - n) ** 2 for v, n in zip(triple, near, strict=True))
         if gap < distance:

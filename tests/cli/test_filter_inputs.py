@@ -67,3 +67,31 @@ def test_a_robtarget_of_five_parts_is_named_not_rewritten(tmp_path: Path) -> Non
     assert f"warning: {program} line {line}: 'pApproach': a robtarget has 4 parts" in done.stdout
     before, after = bad.splitlines(), out.read_text(encoding="utf-8").splitlines()
     assert after[line - 1] == before[line - 1]
+
+
+def test_krl_points_at_b_90_keep_their_angles_when_nothing_moves(tmp_path: Path) -> None:
+    """The example's points are written at ``B 90`` (the tool pointing down), where only ``A − C`` is defined: the
+    robot's own URDF as the model moves nothing, and each point's numbers read back as written (before, ``A`` and ``C``
+    came back as ``-79.69772`` each)."""
+    import re
+
+    out = tmp_path / "out" / "palletize.src"
+    done = run_pincal("filter", str(PROGRAMS / "palletize.src"), "--model", str(KR16), "--config",
+                      str(PROGRAMS / "config_excerpt.dat"), "--out", str(out))
+    assert done.returncode in (0, 1), done.stderr
+    aggregate = re.compile(r"\{X [^}]*\}")
+    checked = 0
+    for name in ("palletize.src", "palletize.dat"):
+        before = (PROGRAMS / name).read_text(encoding="utf-8").splitlines()
+        after = (out.parent / name).read_text(encoding="utf-8").splitlines()
+        for was, now in zip(before, after, strict=True):
+            if was == now:
+                continue
+            old, new = aggregate.search(was), aggregate.search(now)
+            assert old is not None and new is not None
+            values = [re.findall(r"([A-Z]\w*) (-?[\d.]+)", m.group(0)) for m in (old, new)]
+            assert [k for k, _ in values[0]] == [k for k, _ in values[1]]
+            for (key, a), (_, b) in zip(*values, strict=True):
+                assert abs(float(a) - float(b)) < 1e-3, (now, key)
+            checked += 1
+    assert checked >= 6
