@@ -47,15 +47,15 @@ def cmd_filter(args: argparse.Namespace) -> int:
     from pincal.calibration.program_filter import TOLERANCE, filter_program
     from pincal.calibration.provenance import read_provenance
     from pincal.io.files import check_outputs, write_texts
-    from pincal.io.programs import encoding_of, language_of, read_program
+    from pincal.io.programs import dat_of, encoding_of, language_of, read_program
     from pincal.io.targets import OK
     from pincal.model.robot import load_robot
 
     language = language_of(args.program)
     program_path = Path(args.program)
     inputs = [p for p in (args.program, args.model, args.nominal, *args.config) if p and Path(p).is_file()]
-    dat = program_path.with_suffix(".dat")
-    if language == "krl" and dat.is_file():
+    dat = dat_of(program_path)
+    if language == "krl" and dat is not None:
         inputs.append(str(dat))
     if language == "krl" and Path(args.out).suffix.lower() != ".src":
         raise ArgumentError(f"--out '{args.out}': a KRL program is written as a .src (its .dat beside it)")

@@ -320,6 +320,16 @@ def rewritten(program: Program, edits: list[Edit]) -> dict[str, str]:
     return out
 
 
+def dat_of(path: str | Path) -> Path | None:
+    """A KRL program's ``.dat``: the file beside the ``.src`` with its stem and the suffix ``.dat`` or ``.DAT``
+    (KUKA's controllers write both cases); None when there is none."""
+    for suffix in (".dat", ".DAT", ".Dat"):
+        dat = Path(path).with_suffix(suffix)
+        if dat.is_file():
+            return dat
+    return None
+
+
 def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = ()) -> Program:
     """The program at ``path`` read by its language's reader (:func:`language_of`); ``tcp`` is the tool centre point
     [m, rad] in the flange frame where the program sets none; ``config``: further files holding a KUKA controller's
@@ -338,12 +348,10 @@ def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = 
     if language == "krl":
         from pincal.io.krl import read_krl
 
-        dat = Path(path).with_suffix(".dat")
-        if not dat.is_file() and Path(path).with_suffix(".DAT").is_file():
-            dat = Path(path).with_suffix(".DAT")
-        dat_text = read_text(dat, "the program's .dat") if dat.is_file() else None
+        dat = dat_of(path)
+        dat_text = read_text(dat, "the program's .dat") if dat is not None else None
         extra = {str(p): read_text(p, "--config") for p in config}
-        return read_krl(text, str(path), dat_text, str(dat), extra, tcp)
+        return read_krl(text, str(path), dat_text, str(dat or Path(path).with_suffix(".dat")), extra, tcp)
     from pincal.io.rapid import read_rapid
 
     return read_rapid(text, str(path), tcp)

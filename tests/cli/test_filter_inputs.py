@@ -95,3 +95,17 @@ def test_krl_points_at_b_90_keep_their_angles_when_nothing_moves(tmp_path: Path)
                 assert abs(float(a) - float(b)) < 1e-3, (now, key)
             checked += 1
     assert checked >= 6
+
+
+def test_krl_files_in_upper_case_are_written_as_a_pair(tmp_path: Path) -> None:
+    """``PALLETIZE.SRC`` with ``PALLETIZE.DAT`` (as a controller's backup may name them): both read and both written;
+    before, the ``.DAT`` was read but not planned as an output, and the run ended in an error after the work."""
+    for name in ("palletize.src", "palletize.dat"):
+        (tmp_path / name.upper()).write_bytes((PROGRAMS / name).read_bytes())
+    out = tmp_path / "out" / "PALLETIZE.SRC"
+    done = run_pincal("filter", str(tmp_path / "PALLETIZE.SRC"), "--model", str(KR16), "--config",
+                      str(PROGRAMS / "config_excerpt.dat"), "--out", str(out))
+    assert done.returncode in (0, 1), done.stderr
+    assert sorted(p.name for p in out.parent.iterdir()) == ["PALLETIZE.DAT", "PALLETIZE.SRC"]
+    assert f"wrote {out.parent / 'PALLETIZE.DAT'}" in done.stdout
+    assert "XP1" in done.stdout and "rewritten" in done.stdout
