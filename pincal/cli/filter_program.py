@@ -110,6 +110,10 @@ def cmd_filter(args: argparse.Namespace) -> int:
         written.append((destination, text.encode(encoding_of(name))))  # the input's encoding: every byte kept
     for destination in write_texts(written):
         print(f"wrote {destination}")
+    if language == "krl" and Path(args.out).stem.lower() != program_path.stem.lower():
+        print(f"note: KRL names a module by its files: {Path(args.out).name} still declares the module "
+              f"'{program_path.stem}' (DEF, DEFDAT); to load it on the controller, give it that name in another "
+              "folder")
     return EXIT_LEFT if left or result.program.problems else 0
 
 

@@ -109,3 +109,17 @@ def test_krl_files_in_upper_case_are_written_as_a_pair(tmp_path: Path) -> None:
     assert sorted(p.name for p in out.parent.iterdir()) == ["PALLETIZE.DAT", "PALLETIZE.SRC"]
     assert f"wrote {out.parent / 'PALLETIZE.DAT'}" in done.stdout
     assert "XP1" in done.stdout and "rewritten" in done.stdout
+
+
+def test_krl_written_under_another_name_is_told_it_keeps_its_module_name(tmp_path: Path) -> None:
+    out = tmp_path / "palletize_cal.src"
+    done = run_pincal("filter", str(PROGRAMS / "palletize.src"), "--model", str(KR16), "--config",
+                      str(PROGRAMS / "config_excerpt.dat"), "--out", str(out))
+    assert done.returncode in (0, 1), done.stderr
+    assert "note: KRL names a module by its files: palletize_cal.src still declares the module 'palletize'" in \
+        done.stdout
+    assert (tmp_path / "palletize_cal.dat").is_file()
+    same = run_pincal("filter", str(PROGRAMS / "palletize.src"), "--model", str(KR16), "--config",
+                      str(PROGRAMS / "config_excerpt.dat"), "--out", str(tmp_path / "kept" / "palletize.src"))
+    assert same.returncode in (0, 1), same.stderr
+    assert "note: KRL names" not in same.stdout
