@@ -123,3 +123,15 @@ def test_krl_written_under_another_name_is_told_it_keeps_its_module_name(tmp_pat
                       str(PROGRAMS / "config_excerpt.dat"), "--out", str(tmp_path / "kept" / "palletize.src"))
     assert same.returncode in (0, 1), same.stderr
     assert "note: KRL names" not in same.stdout
+
+
+def test_a_model_of_another_robot_is_refused(tmp_path: Path) -> None:
+    """The UR10 as MODEL for a controller that keeps a UR5 (``--nominal ur5``): one error line naming both, nothing
+    written; before, every target was 'left as written' for being 'on another branch', exit 0 or 1."""
+    out = tmp_path / "out.script"
+    done = run_pincal("filter", str(PROGRAMS / "pick_place.script"), "--model", "ur10", "--nominal", "ur5", "--out",
+                      str(out))
+    assert done.returncode == 2
+    assert done.stderr.startswith("pincal: error: MODEL (ur10) puts the flange ")
+    assert "the nominal robot 'ur5'" in done.stderr and "Traceback" not in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1 and not out.exists()
