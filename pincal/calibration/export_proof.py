@@ -121,6 +121,25 @@ def _joint_values(robot: Robot, q: Array) -> dict[str, float]:
     return out
 
 
+def _several_coordinates(robot: Robot) -> dict[str, tuple[int, int]]:
+    """The joints of more than one degree of freedom (floating, planar): name -> (first index in q, nq)."""
+    out = {}
+    for j in range(1, robot.model.njoints):
+        joint = robot.model.joints[j]
+        if joint.nv > 1:
+            out[str(robot.model.names[j])] = (int(joint.idx_q), int(joint.nq))
+    return out
+
+
+def _neutral_where(robot: Robot, q: Array, joints: dict[str, tuple[int, int]]) -> Array:
+    """``q`` with the coordinates of ``joints`` (as :func:`_several_coordinates`) at the model's neutral (origin)."""
+    out = np.array(q, dtype=float)
+    neutral = pin.neutral(robot.model)
+    for start, count in joints.values():
+        out[start:start + count] = neutral[start:start + count]
+    return out
+
+
 def urdf_deviations(urdf_text: str, robot: Robot, postures: Postures) -> list[Deviation]:
     """The URDF reloaded by plain Pinocchio and by yourdfpy against ``robot``: every link's placement in the root."""
     import yourdfpy
@@ -133,6 +152,7 @@ def urdf_deviations(urdf_text: str, robot: Robot, postures: Postures) -> list[De
     root = links[0]
     by_pinocchio: list[tuple[pin.SE3, pin.SE3]] = []
     by_yourdfpy: list[tuple[pin.SE3, pin.SE3]] = []
+    several = _several_coordinates(robot)
     for q in postures.q:
         expected = _placements(robot, q)
         values = _joint_values(robot, q)
@@ -143,11 +163,16 @@ def urdf_deviations(urdf_text: str, robot: Robot, postures: Postures) -> list[De
                 q_plain[joint.idx_q] = values[name]
             elif name in values and joint.nq == 2:
                 q_plain[joint.idx_q:joint.idx_q + 2] = [math.cos(values[name]), math.sin(values[name])]
+            elif name in several and several[name][1] == joint.nq:  # a floating or planar joint: its coordinates
+                start = several[name][0]
+                q_plain[joint.idx_q:joint.idx_q + joint.nq] = q[start:start + joint.nq]
         pin.framesForwardKinematics(plain, data, q_plain)
         base = data.oMf[plain.getFrameId(root)].inverse()
         by_pinocchio += [(expected[n], base * data.oMf[plain.getFrameId(n)]) for n in links if plain.existFrame(n)]
+        # yourdfpy poses revolute, prismatic and continuous joints only: a floating or planar one at its origin
+        at_origin = _placements(robot, _neutral_where(robot, q, several)) if several else expected
         loaded.update_cfg({n: values[n] for n in loaded.actuated_joint_names if n in values})
-        by_yourdfpy += [(expected[n], pin.SE3(np.asarray(loaded.get_transform(n, root), dtype=float)))
+        by_yourdfpy += [(at_origin[n], pin.SE3(np.asarray(loaded.get_transform(n, root), dtype=float)))
                         for n in links if n in loaded.link_map]
     return [_largest("Pinocchio", by_pinocchio), _largest("yourdfpy", by_yourdfpy)]
 

@@ -123,6 +123,11 @@ def _angle(rotation: Array) -> float:
     return float(np.linalg.norm(pin.log3(rotation)))
 
 
+#: Largest distance [m] of the calibrated flange from the nominal one (in the base frame, at the reference posture)
+#: of a model of the controller's robot: a calibration moves it by millimetres, another robot by decimetres.
+ANOTHER_ROBOT = 0.1
+
+
 def filter_program(program: Program, model: Model, nominal: Robot, base: str | None = None, flange: str | None = None,
                    tolerance: float = TOLERANCE, seed: int = 0, joint_targets: str = "keep") -> ProgramFilter:
     """``program``'s Cartesian targets rewritten for a controller that keeps ``nominal`` (module docstring).
@@ -155,6 +160,13 @@ def filter_program(program: Program, model: Model, nominal: Robot, base: str | N
     solver = CommandSolver(model, flange_frame, tolerance, seed)
     nominal_base = nominal.placement(nominal.q_reference, base_frame)
     model_base = robot.placement(robot.q_reference, base_frame)
+    flanges = [b.inverse() * r.placement(r.q_reference, flange_frame)
+               for r, b in ((nominal, nominal_base), (robot, model_base))]
+    gap = float(np.linalg.norm(flanges[0].translation - flanges[1].translation))
+    if gap > ANOTHER_ROBOT:
+        raise DataError(f"MODEL ({robot.name}) puts the flange {gap:.3g} m from where the nominal robot "
+                        f"'{nominal.name}' puts it at its reference posture (a calibration moves it by millimetres): "
+                        "it is not a calibration of that robot; give --nominal the robot MODEL was calibrated from")
     previous: Array | None = None
     results: list[Filtered] = []
     joint_count = 0

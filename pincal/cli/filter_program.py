@@ -46,16 +46,16 @@ def cmd_filter(args: argparse.Namespace) -> int:
     from pincal.calibration.compensate import load_model
     from pincal.calibration.program_filter import TOLERANCE, filter_program
     from pincal.calibration.provenance import read_provenance
-    from pincal.io.files import check_outputs, write_text
-    from pincal.io.programs import language_of, read_program
+    from pincal.io.files import check_outputs, write_texts
+    from pincal.io.programs import dat_of, encoding_of, language_of, read_program
     from pincal.io.targets import OK
     from pincal.model.robot import load_robot
 
     language = language_of(args.program)
     program_path = Path(args.program)
     inputs = [p for p in (args.program, args.model, args.nominal, *args.config) if p and Path(p).is_file()]
-    dat = program_path.with_suffix(".dat")
-    if language == "krl" and dat.is_file():
+    dat = dat_of(program_path)
+    if language == "krl" and dat is not None:
         inputs.append(str(dat))
     if language == "krl" and Path(args.out).suffix.lower() != ".src":
         raise ArgumentError(f"--out '{args.out}': a KRL program is written as a .src (its .dat beside it)")
@@ -100,14 +100,20 @@ def cmd_filter(args: argparse.Namespace) -> int:
         print(f"rewrote {len(done)} of {what} targets (largest residual of the model at their commands "
               f"{largest:.3g} m); moves up to {max(r.move[0] for r in done) * 1e3:.4f} mm, "
               f"{max(r.move[1] for r in done) * 1e3:.4f} mrad; every other byte as it was")
+    written: list[tuple[str | Path, str | bytes]] = []
     for name, text in result.texts.items():
         destination = planned.get(name)
         if destination is None:
             if text != program.texts[name]:
                 raise DataError(f"{name} would change but has no output: pincal never writes over an input")
             continue
-        write_text(destination, text)
+        written.append((destination, text.encode(encoding_of(name))))  # the input's encoding: every byte kept
+    for destination in write_texts(written):
         print(f"wrote {destination}")
+    if language == "krl" and Path(args.out).stem.lower() != program_path.stem.lower():
+        print(f"note: KRL names a module by its files: {Path(args.out).name} still declares the module "
+              f"'{program_path.stem}' (DEF, DEFDAT); to load it on the controller, give it that name in another "
+              "folder")
     return EXIT_LEFT if left or result.program.problems else 0
 
 

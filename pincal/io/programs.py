@@ -113,22 +113,47 @@ def language_of(path: str | Path) -> str:
     return LANGUAGES[suffix]
 
 
+#: Bytes no program text holds (C0 controls but tab, line feed, vertical tab, form feed, carriage return and DOS's
+#: end-of-file mark): a file holding one is not a program.
+_NOT_TEXT = re.compile(rb"[\x00-\x08\x0e-\x19\x1b-\x1f]")
+
+
+def decoded(data: bytes) -> tuple[str, str]:
+    """A program file's bytes as text and the encoding they were read in: UTF-8, else Latin-1 (which KUKA and ABB
+    files may use); the output is written in the same encoding, so that every byte not rewritten is kept."""
+    try:
+        return data.decode("utf-8"), "utf-8"
+    except UnicodeDecodeError:
+        return data.decode("latin-1"), "latin-1"
+
+
+def encoding_of(path: str | Path) -> str:
+    """The encoding :func:`read_text` read the file at ``path`` in (``utf-8`` or ``latin-1``)."""
+    return decoded(Path(path).read_bytes())[1]
+
+
 def read_text(path: str | Path, what: str = "PROGRAM") -> str:
-    """A program file's text, its line endings kept (UTF-8, else Latin-1, which KUKA and ABB files may use).
+    """A program file's text, its line endings kept (UTF-8, else Latin-1: :func:`decoded`).
 
     Raises:
-        DataError: missing, a directory, unreadable or too large.
+        DataError: missing, a directory, unreadable, too large, empty or not text (a control byte).
     """
     path = Path(path)
     if not path.is_file():
         raise DataError(f"{what} '{path}' is not a file")
-    data = path.read_bytes()
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise DataError(f"cannot read {what} '{path}': {exc.strerror or exc}") from None
     if len(data) > MAX_CHARACTERS:
         raise DataError(f"{what} '{path}' has {len(data)} bytes; a program of at most {MAX_CHARACTERS} is read")
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        return data.decode("latin-1")
+    if not data.strip():
+        raise DataError(f"{what} '{path}' is empty")
+    control = _NOT_TEXT.search(data)
+    if control is not None:
+        raise DataError(f"{what} '{path}' is not a text file (byte 0x{data[control.start()]:02x} at offset "
+                        f"{control.start()}): a program is text")
+    return decoded(data)[0]
 
 
 def line_of(text: str, position: int) -> int:
@@ -238,13 +263,31 @@ def rotation_vector_near(rotation: Array, near: Sequence[float]) -> Array:
     return min(candidates, key=lambda c: float(np.linalg.norm(c - target)))
 
 
+#: Largest orientation error [rad] of the angles :func:`euler_zyx_near` picks along a singular family (B = ±90°):
+#: far below what a program's 5 decimals of a degree write (1.7e-7 rad).
+SINGULAR_TOLERANCE = 1e-9
+
+
 def euler_zyx_near(rotation: Array, near: Sequence[float]) -> tuple[float, float, float]:
     """(A, B, C) [rad] with ``R = Rz(A) Ry(B) Rx(C)`` (KUKA's angles, URDF's yaw, pitch, roll), of the two families
-    that give ``rotation`` and their whole turns the nearest ``near``."""
+    that give ``rotation`` and their whole turns the nearest ``near``. At ``B = ±90°`` (within
+    :data:`SINGULAR_TOLERANCE`) only ``A − C`` (or ``A + C``) is defined: the split of it nearest ``near`` is taken,
+    so that a rotation written there and not moved keeps its angles."""
     roll, pitch, yaw = (float(v) for v in pin.rpy.matrixToRpy(rotation))
+    candidates = [(yaw, pitch, roll), (yaw + math.pi, math.pi - pitch, roll + math.pi)]
+    if abs(math.cos(pitch)) < 1e-6:
+        sign = 1.0 if pitch > 0 else -1.0  # B = +90°: R depends on A - C; B = -90°: on A + C
+        a_near, b_near, c_near = near
+        for b in (pitch, wrapped_near(pitch, b_near, 2 * math.pi)):
+            defined = wrapped_near(yaw - sign * roll, a_near - sign * c_near, 2 * math.pi)
+            a = (a_near + sign * c_near + defined) / 2
+            c = sign * (a_near + sign * c_near - defined) / 2
+            error = float(np.linalg.norm(pin.log3(zyx_rotation(a, b, c).T @ rotation)))
+            if error < SINGULAR_TOLERANCE:
+                candidates.append((a, b, c))
     best: tuple[float, float, float] | None = None
     distance = math.inf
-    for a, b, c in ((yaw, pitch, roll), (yaw + math.pi, math.pi - pitch, roll + math.pi)):
+    for a, b, c in candidates:
         triple = tuple(wrapped_near(v, n, 2 * math.pi) for v, n in zip((a, b, c), near, strict=True))
         gap = sum((v - n) ** 2 for v, n in zip(triple, near, strict=True))
         if gap < distance:
@@ -277,6 +320,16 @@ def rewritten(program: Program, edits: list[Edit]) -> dict[str, str]:
     return out
 
 
+def dat_of(path: str | Path) -> Path | None:
+    """A KRL program's ``.dat``: the file beside the ``.src`` with its stem and the suffix ``.dat`` or ``.DAT``
+    (KUKA's controllers write both cases); None when there is none."""
+    for suffix in (".dat", ".DAT", ".Dat"):
+        dat = Path(path).with_suffix(suffix)
+        if dat.is_file():
+            return dat
+    return None
+
+
 def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = ()) -> Program:
     """The program at ``path`` read by its language's reader (:func:`language_of`); ``tcp`` is the tool centre point
     [m, rad] in the flange frame where the program sets none; ``config``: further files holding a KUKA controller's
@@ -295,12 +348,10 @@ def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = 
     if language == "krl":
         from pincal.io.krl import read_krl
 
-        dat = Path(path).with_suffix(".dat")
-        if not dat.is_file() and Path(path).with_suffix(".DAT").is_file():
-            dat = Path(path).with_suffix(".DAT")
-        dat_text = read_text(dat, "the program's .dat") if dat.is_file() else None
+        dat = dat_of(path)
+        dat_text = read_text(dat, "the program's .dat") if dat is not None else None
         extra = {str(p): read_text(p, "--config") for p in config}
-        return read_krl(text, str(path), dat_text, str(dat), extra, tcp)
+        return read_krl(text, str(path), dat_text, str(dat or Path(path).with_suffix(".dat")), extra, tcp)
     from pincal.io.rapid import read_rapid
 
     return read_rapid(text, str(path), tcp)

@@ -273,6 +273,11 @@ def _joint(program: Program, file: str, code: str, span: tuple[int, int], point:
 
 def _add(program: Program, file: str, line: int, name: str, code: str, groups: list[tuple[int, int]],
          context: tuple[str, str], frames: dict[str, pin.SE3 | str], uses: tuple[int, ...]) -> None:
+    if len(groups) != 4:
+        program.problems.append(Problem(file, line, f"'{name}': a robtarget has 4 parts ([x, y, z], [q1, q2, q3, q4], "
+                                                    f"[cf1, cf4, cf6, cfx], [eax_a, …]), this one {len(groups)}: left "
+                                                    "as written"))
+        return
     found = _pose(code, groups)
     if found is None:
         program.problems.append(Problem(file, line, f"'{name}': its position or unit quaternion is not read"))

@@ -107,3 +107,12 @@ def test_angles_written_near_the_old_ones() -> None:
 def test_unknown_suffix_refused() -> None:
     with pytest.raises(DataError, match="URScript"):
         language_of("prog.txt")
+
+
+def test_angles_at_b_plus_minus_90_keep_the_written_split() -> None:
+    for written in ((0.0, 90.0, 0.0), (10.0, 90.0, -20.0), (170.0, -90.0, 30.0), (-45.0, -90.0, 45.0)):
+        near = np.radians(written)
+        rotation = zyx_rotation(*near)
+        assert np.allclose(np.degrees(euler_zyx_near(rotation, near)), written, atol=1e-9)
+        other = zyx_rotation(*np.radians(written)) @ pin.exp3(np.array([0.0, 0.0, 1e-3]))  # off the singularity
+        assert np.allclose(zyx_rotation(*euler_zyx_near(other, near)), other)
