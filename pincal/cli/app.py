@@ -113,6 +113,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     robot = load_robot(args.robot)
     check_sample_counts(args.samples, args.test_samples)
+    shifted = [name for name, _ in args.shift or []]
+    twice = next((name for name in shifted if shifted.count(name) > 1), None)
+    if twice is not None:  # a dict would keep the last one alone
+        raise DataError(f"--shift {twice}: given {shifted.count(twice)} times; give each parameter once, its whole "
+                        "shift [m, rad]")
     if images.is_camera(args.measure):  # a board's corners in pixels, and their images
         return images.simulate_camera(args, robot)
     created = not Path(args.out).exists()

@@ -40,6 +40,14 @@ def simulate_camera(args: argparse.Namespace, robot: Any) -> int:
         raise DataError(f"--measure {' '.join(args.measure)}: a camera simulation measures one pixel:FRAME or "
                         "board_pixel:FRAME alone")
     kind, frame = pixel_kind(args.measure[0])
+    ignored = [flag for flag, value in (("--frame", args.frame), ("--posture-seed", args.posture_seed),
+                                        ("--shift", args.shift), ("--spread", args.spread),
+                                        ("--parameters", args.parameters), ("--payload", args.payload))
+               if value is not None]
+    if ignored:
+        raise DataError(f"{', '.join(ignored)}: not taken by a camera simulation (--measure {args.measure[0]}), "
+                        "which draws its own robot errors, postures and camera; leave "
+                        f"{'them' if len(ignored) > 1 else 'it'} out")
     robot.frame_id(frame)
     out = Path(args.out)
     simulation_outputs(robot, out, args.meshes)

@@ -45,3 +45,17 @@ def test_detect_on_a_folder_says_to_give_its_images(tmp_path: Path) -> None:
     done = run_pincal("detect", "imgs", "--board", BOARD, "--joints", "joints.csv", "--measure", "pixel:tool0",
                       "--out", "det.csv", cwd=tmp_path)
     _one_line_error(done, "imgs: a directory, not an image", "imgs/*.png")
+
+
+def test_simulate_refuses_a_parameter_shifted_twice(tmp_path: Path) -> None:
+    done = run_pincal("simulate", "delta", "--samples", "4", "--seed", "1", "--shift", "arm_2_joint.offset=0.001",
+                      "--shift", "arm_2_joint.offset=0.002", "--out", "s", cwd=tmp_path)
+    _one_line_error(done, "--shift arm_2_joint.offset: given 2 times")
+    assert not (tmp_path / "s").exists()
+
+
+def test_a_camera_simulation_refuses_the_options_it_would_ignore(tmp_path: Path) -> None:
+    done = run_pincal("simulate", "ur10", "--measure", "pixel:tool0", "--samples", "4", "--seed", "1",
+                      "--posture-seed", "2", "--shift", "shoulder_lift_joint.offset=0.002", "--out", "s", cwd=tmp_path)
+    _one_line_error(done, "--posture-seed, --shift: not taken by a camera simulation")
+    assert not (tmp_path / "s").exists()
