@@ -218,8 +218,8 @@ def evaluate_runs(runs: Runs, instrument_uncertainty: float | None = None) -> Is
         instrument_uncertainty: The instrument's stated uncertainty [m]; an RP below it is warned of.
 
     Raises:
-        DataError: no row of the pose series, a pose of fewer than 2 cycles, a pose commanded differently in two
-            cycles.
+        DataError: no row of the pose series, a pose (or a pose's direction) of fewer than 2 cycles, a pose
+            commanded differently in two cycles.
     """
     deviations = (rotation_deviations(runs.commanded_quaternions, runs.attained_quaternions)
                   if runs.commanded_quaternions is not None and runs.attained_quaternions is not None else None)
@@ -236,10 +236,12 @@ def evaluate_runs(runs: Runs, instrument_uncertainty: float | None = None) -> Is
         poses.append(pose_figures(name, commanded[name], runs.attained[rows],
                                   None if deviations is None else deviations[rows]))
         by_cycle[name] = {int(runs.cycles[r]): runs.attained[r] for r in rows}
-    distances = []
+    distances, apart = [], []
     for first, second in itertools.combinations(names, 2):
         common = sorted(set(by_cycle[first]) & set(by_cycle[second]))
-        if len(common) >= 2:
+        if len(common) < 2:
+            apart.append(f"{first}-{second}")
+        else:
             distances.append(distance_figures((first, second), (commanded[first], commanded[second]),
                                               np.array([by_cycle[first][c] for c in common]),
                                               np.array([by_cycle[second][c] for c in common])))
@@ -251,11 +253,16 @@ def evaluate_runs(runs: Runs, instrument_uncertainty: float | None = None) -> Is
         if len(groups) < 2:
             raise DataError(f"pose {name} is measured from one direction only ({listing(groups)}); the multi-"
                             "directional variation compares two or more")
+        few = next((d for d, g in groups.items() if len(g) < 2), None)
+        if few is not None:
+            raise DataError(f"pose {name} from direction '{few}' has {len(groups[few])} cycle; its barycentre needs "
+                            "at least 2 (the standard: 30): a mistyped direction?")
         _commanded(runs, rows, name)
         variations.append(variation_figures(name, {d: runs.attained[g] for d, g in groups.items()},
                                             None if deviations is None else {d: deviations[g]
                                                                              for d, g in groups.items()}))
-    warnings = []
+    warnings = [] if not apart else [f"no distance between {listing(apart)}: measured in fewer than 2 common "
+                                     "cycles of the pose series"]
     if instrument_uncertainty is not None:
         below = [p.pose for p in poses if p.rp < instrument_uncertainty]
         if below:

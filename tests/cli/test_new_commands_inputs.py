@@ -59,3 +59,30 @@ def test_a_camera_simulation_refuses_the_options_it_would_ignore(tmp_path: Path)
                       "--posture-seed", "2", "--shift", "shoulder_lift_joint.offset=0.002", "--out", "s", cwd=tmp_path)
     _one_line_error(done, "--posture-seed, --shift: not taken by a camera simulation")
     assert not (tmp_path / "s").exists()
+
+
+def _runs(root: Path, rows: list[tuple[str, int, str]]) -> Path:
+    """A runs CSV of the UR10: each (pose, cycle, direction) attained 0.1 mm off its command, by cycle."""
+    commands = {"P1": (0.4, 0.3, 0.2), "P2": (0.2, 0.1, 0.0)}
+    lines = ["# robot: ur10", "pose,cycle,direction,cmd_x,cmd_y,cmd_z,x,y,z"]
+    for pose, cycle, direction in rows:
+        c = commands[pose]
+        lines.append(f"{pose},{cycle},{direction},{c[0]},{c[1]},{c[2]},{c[0] + 1e-4 * cycle},{c[1]},{c[2]}")
+    path = root / "runs.csv"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_iso9283_refuses_a_direction_measured_in_one_cycle(tmp_path: Path) -> None:
+    series = [(p, c, "") for c in (1, 2, 3) for p in ("P1", "P2")]
+    _runs(tmp_path, series + [("P1", c, "+x") for c in (1, 2, 3)] + [("P1", 1, "+q")])
+    _one_line_error(run_pincal("iso9283", "evaluate", "ur10", "runs.csv", cwd=tmp_path),
+                    "pose P1 from direction '+q' has 1 cycle")
+
+
+def test_iso9283_warns_of_poses_with_no_distance_for_want_of_common_cycles(tmp_path: Path) -> None:
+    _runs(tmp_path, [("P1", 1, ""), ("P1", 2, ""), ("P2", 3, ""), ("P2", 4, "")])
+    done = run_pincal("iso9283", "evaluate", "ur10", "runs.csv", cwd=tmp_path)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "warning: no distance between P1-P2: measured in fewer than 2 common cycles" in done.stdout
+    assert "distance P1-P2" not in done.stdout
