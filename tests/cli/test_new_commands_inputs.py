@@ -86,3 +86,19 @@ def test_iso9283_warns_of_poses_with_no_distance_for_want_of_common_cycles(tmp_p
     assert done.returncode == 0, done.stdout + done.stderr
     assert "warning: no distance between P1-P2: measured in fewer than 2 common cycles" in done.stdout
     assert "distance P1-P2" not in done.stdout
+
+
+def test_simulate_refuses_board_and_images_without_a_camera(tmp_path: Path) -> None:
+    done = run_pincal("simulate", "ur10", "--samples", "3", "--images", "imgs", "--board", BOARD, "--out", "s",
+                      cwd=tmp_path)
+    _one_line_error(done, "--board, --images: only with a camera's --measure pixel:FRAME")
+    assert not (tmp_path / "imgs").exists() and not (tmp_path / "s").exists()
+
+
+def test_simulated_images_over_an_earlier_run_s_are_noted_and_the_stale_ones_warned_of(tmp_path: Path) -> None:
+    for samples in ("4", "2"):
+        done = run_pincal("simulate", "ur10", "--measure", "pixel:tool0", "--samples", samples, "--seed", "1",
+                          "--images", "imgs", "--out", "s", cwd=tmp_path)
+        assert done.returncode == 0, done.stdout + done.stderr
+    assert "note: replaced 2 existing images in imgs/" in done.stdout
+    assert "warning: imgs/ holds 2 other images (0002.png, 0003.png) from before" in done.stdout
