@@ -102,3 +102,11 @@ def test_simulated_images_over_an_earlier_run_s_are_noted_and_the_stale_ones_war
         assert done.returncode == 0, done.stdout + done.stderr
     assert "note: replaced 2 existing images in imgs/" in done.stdout
     assert "warning: imgs/ holds 2 other images (0002.png, 0003.png) from before" in done.stdout
+
+
+def test_iso9283_refuses_a_column_it_reads_given_twice(tmp_path: Path) -> None:
+    path = _runs(tmp_path, [("P1", 1, ""), ("P1", 2, "")])
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join([lines[0], lines[1] + ",x", *(line + ",9.9" for line in lines[2:])]) + "\n")
+    _one_line_error(run_pincal("iso9283", "evaluate", "ur10", "runs.csv", cwd=tmp_path),
+                    "runs.csv: header (line 2): column 'x' appears twice (columns 7 and 10)")
