@@ -110,3 +110,9 @@ def test_iso9283_refuses_a_column_it_reads_given_twice(tmp_path: Path) -> None:
     path.write_text("\n".join([lines[0], lines[1] + ",x", *(line + ",9.9" for line in lines[2:])]) + "\n")
     _one_line_error(run_pincal("iso9283", "evaluate", "ur10", "runs.csv", cwd=tmp_path),
                     "runs.csv: header (line 2): column 'x' appears twice (columns 7 and 10)")
+
+
+def test_a_shift_too_large_to_assemble_is_named_in_the_error(tmp_path: Path) -> None:
+    done = run_pincal("simulate", "delta", "--samples", "3", "--seed", "1", "--shift", "arm_2_joint.offset=1e3",
+                      "--out", "s", cwd=tmp_path)
+    _one_line_error(done, "and arm_2_joint.offset shifted by 1000, cannot be assembled", "(--perturb, --shift)")
