@@ -118,6 +118,14 @@ def _quaternion(text: str) -> tuple[float, ...]:
     return values
 
 
+def _cycles(text: str) -> int:
+    """An argparse type: the cycles of a series, a whole number ≥ 2 (RP needs two)."""
+    value = positive_int(text)
+    if value < 2:
+        raise argparse.ArgumentTypeError(f"{value}: RP needs at least 2 cycles (the standard: 30)")
+    return value
+
+
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``iso9283`` command and its ``plan`` and ``evaluate``."""
     iso = sub.add_parser("iso9283", help="ISO 9283 pose accuracy and repeatability: plan the test, evaluate it",
@@ -144,7 +152,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     plan.add_argument("--frame", help="the frame tested (default: the robot's measured frame)")
     plan.add_argument("--model", metavar="CAL.urdf",
                       help="a calibrated URDF of the robot: the joint commands through 'pincal compensate' on it")
-    plan.add_argument("--cycles", type=positive_int, default=30, help="cycles of each series (default 30)")
+    plan.add_argument("--cycles", type=_cycles, default=30, help="cycles of each series, ≥ 2 (default 30)")
     plan.add_argument("--candidates", type=positive_int, default=400,
                       help="random postures sampling the workspace (default 400)")
     plan.add_argument("--seed", type=non_negative_int, default=0, help="seed of the sampled postures")

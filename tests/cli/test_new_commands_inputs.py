@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from conftest import run_pincal
 
 BOARD = "charuco:8x6:0.03:0.022:DICT_4X4_50"
@@ -116,3 +117,16 @@ def test_a_shift_too_large_to_assemble_is_named_in_the_error(tmp_path: Path) -> 
     done = run_pincal("simulate", "delta", "--samples", "3", "--seed", "1", "--shift", "arm_2_joint.offset=1e3",
                       "--out", "s", cwd=tmp_path)
     _one_line_error(done, "and arm_2_joint.offset shifted by 1000, cannot be assembled", "(--perturb, --shift)")
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["iso9283", "plan", "ur10", "--cycles", "1", "--out", "p.csv"], "argument --cycles: 1: RP needs at least 2"),
+    (["iso9283", "plan", "ur10", "--cycles", "x", "--out", "p.csv"], "argument --cycles: 'x' is not a whole number"),
+    (["simulate", "ur10", "--samples", "2.5", "--out", "s"], "argument --samples: '2.5' is not a whole number"),
+    (["drift", "cal.urdf", "s.csv", "--level", "x"], "argument --level: 'x' is not a number"),
+    (["iso9283", "evaluate", "ur10", "r.csv", "--instrument-uncertainty", "2mm"],
+     "argument --instrument-uncertainty: '2mm' is not a number"),
+])
+def test_a_bad_option_value_is_named_with_its_option(tmp_path: Path, args: list[str], message: str) -> None:
+    err = _one_line_error(run_pincal(*args, cwd=tmp_path), message)
+    assert "positive_int" not in err and "_level" not in err and "_cycles" not in err
