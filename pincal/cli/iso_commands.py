@@ -94,6 +94,11 @@ def cmd_plan(args: argparse.Namespace) -> int:
     return 0
 
 
+#: The largest |bound| of --region [m]: beyond, millimetres written as metres (pincal.io.dataset's
+#: MAX_PLAUSIBLE_LENGTH, spelled here so that parsing imports no NumPy).
+REGION_LIMIT = 20.0
+
+
 def _region(text: str) -> tuple[float, ...]:
     """An argparse type: six numbers xmin,ymin,zmin,xmax,ymax,zmax [m] with each min below its max."""
     try:
@@ -104,6 +109,9 @@ def _region(text: str) -> tuple[float, ...]:
             values[k] < values[k + 3] for k in range(3)):
         raise argparse.ArgumentTypeError(f"'{text}' is not XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX [m] with each min below "
                                          "its max")
+    if max(abs(v) for v in values) > REGION_LIMIT:
+        raise argparse.ArgumentTypeError(f"'{text}' has a bound beyond {REGION_LIMIT:g} m: the region is in metres "
+                                         "(millimetres divided by 1000)")
     return values
 
 

@@ -122,6 +122,8 @@ def test_a_shift_too_large_to_assemble_is_named_in_the_error(tmp_path: Path) -> 
 @pytest.mark.parametrize(("args", "message"), [
     (["iso9283", "plan", "ur10", "--cycles", "1", "--out", "p.csv"], "argument --cycles: 1: RP needs at least 2"),
     (["iso9283", "plan", "ur10", "--cycles", "x", "--out", "p.csv"], "argument --cycles: 'x' is not a whole number"),
+    (["iso9283", "plan", "ur10", "--region", "200,-300,0,700,300,500", "--out", "p.csv"],
+     "argument --region: '200,-300,0,700,300,500' has a bound beyond 20 m: the region is in metres"),
     (["simulate", "ur10", "--samples", "2.5", "--out", "s"], "argument --samples: '2.5' is not a whole number"),
     (["drift", "cal.urdf", "s.csv", "--level", "x"], "argument --level: 'x' is not a number"),
     (["iso9283", "evaluate", "ur10", "r.csv", "--instrument-uncertainty", "2mm"],
