@@ -38,7 +38,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     print(f"{'pose':<8}{'cycles':>7}{'AP':>10}{'APx':>10}{'APy':>10}{'APz':>10}{'RP':>10}"
           + (f"{'APa':>9}{'APb':>9}{'APc':>9}{'RPa±':>9}{'RPb±':>9}{'RPc±':>9}" if orientation else ""))
     for p in figures.poses:
-        angles = "".join(f"{v * 1e3:9.4f}" for v in (*(p.ap_abc or []), *(p.rp_abc or [])))
+        angles = "".join(f" {v * 1e3:8.4f}" for v in (*(p.ap_abc or []), *(p.rp_abc or [])))
         print(f"{p.pose:<8}{p.cycles:>7}{_mm(p.ap):>10}" + "".join(f"{_mm(v):>10}" for v in p.ap_xyz)
               + f"{_mm(p.rp):>10}{angles}")
     for d in figures.distances:

@@ -132,3 +132,15 @@ def test_a_shift_too_large_to_assemble_is_named_in_the_error(tmp_path: Path) -> 
 def test_a_bad_option_value_is_named_with_its_option(tmp_path: Path, args: list[str], message: str) -> None:
     err = _one_line_error(run_pincal(*args, cwd=tmp_path), message)
     assert "positive_int" not in err and "_level" not in err and "_cycles" not in err
+
+
+def test_iso9283_warns_of_an_orientation_no_robot_reaches_and_keeps_its_columns_apart(tmp_path: Path) -> None:
+    """Quaternions written x, y, z, w: the identity read as a half turn about z."""
+    header = "pose,cycle,cmd_x,cmd_y,cmd_z,x,y,z,cmd_qw,cmd_qx,cmd_qy,cmd_qz,qw,qx,qy,qz"
+    rows = [f"P1,{c},0.4,0.3,0.2,0.4,0.3,0.2{c},1,0,0,0,0,0,0,1" for c in (1, 2)]
+    (tmp_path / "runs.csv").write_text("\n".join(["# robot: ur10", header, *rows]) + "\n")
+    done = run_pincal("iso9283", "evaluate", "ur10", "runs.csv", cwd=tmp_path)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "warning: an attained orientation 3.14 rad from its command (line 3): no robot errs so much" in done.stdout
+    row = next(line for line in done.stdout.splitlines() if line.startswith("P1 "))
+    assert len(row.split()) == 13  # pose, cycles, AP, APx..z, RP, six angles: each figure its own column
