@@ -124,6 +124,7 @@ def test_a_shift_too_large_to_assemble_is_named_in_the_error(tmp_path: Path) -> 
     (["iso9283", "plan", "ur10", "--cycles", "x", "--out", "p.csv"], "argument --cycles: 'x' is not a whole number"),
     (["iso9283", "plan", "ur10", "--region", "200,-300,0,700,300,500", "--out", "p.csv"],
      "argument --region: '200,-300,0,700,300,500' has a bound beyond 20 m: the region is in metres"),
+    (["iso9283", "plan", "five_bar", "--out", "p.csv"], "'five_bar' has 2 degrees of freedom: its frame cannot reach"),
     (["simulate", "ur10", "--samples", "2.5", "--out", "s"], "argument --samples: '2.5' is not a whole number"),
     (["drift", "cal.urdf", "s.csv", "--level", "x"], "argument --level: 'x' is not a number"),
     (["iso9283", "evaluate", "ur10", "r.csv", "--instrument-uncertainty", "2mm"],
