@@ -337,7 +337,7 @@ def run_drift(model_path: str, sessions: Sequence[str], level: float = 0.01,
 
     Raises:
         DataError: a level outside (0, 0.5); MODEL not a calibrated URDF of pincal, or recording no nominal robot;
-            a session of other measurements than the calibration's.
+            a session of other measurements than the calibration's, or of pixels.
     """
     from pathlib import Path
 
@@ -363,6 +363,9 @@ def run_drift(model_path: str, sessions: Sequence[str], level: float = 0.01,
         job = read_job(path) if path.endswith(".toml") else None
         dataset = job_dataset(job, nominal) if job is not None else read_robot_dataset(path, nominal)
         keys = list(dataset.measurements)
+        if any(key.partition(":")[0] in ("pixel", "board_pixel") for key in keys):
+            raise DataError(f"session '{path}': pincal drift takes no pixel measurements yet (a calibrated URDF holds "
+                            "no camera intrinsics, which the session's pixels would need)")
         if sorted(keys) != sorted(calibration.measurements):
             raise DataError(f"session '{path}' measures {', '.join(keys)}; the calibration measured "
                             f"{', '.join(calibration.measurements)}: drift compares the same measurements")
