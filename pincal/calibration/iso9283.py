@@ -264,6 +264,9 @@ def evaluate_runs(runs: Runs, instrument_uncertainty: float | None = None) -> Is
                                                                              for d, g in groups.items()}))
     warnings = [] if not apart else [f"no distance between {listing(apart)}: measured in fewer than 2 common "
                                      "cycles of the pose series"]
+    if np.array_equal(runs.attained, runs.commanded):
+        warnings.append("every attained position x, y, z equals its command cmd_x, cmd_y, cmd_z: are they the "
+                        "instrument's readings? The figures are all zero")
     if deviations is not None and len(deviations):
         worst = int(np.argmax(np.linalg.norm(deviations, axis=1)))
         angle = float(np.linalg.norm(deviations[worst]))

@@ -157,3 +157,12 @@ def test_drift_refuses_pixel_sessions_in_one_line(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stdout + done.stderr
     _one_line_error(run_pincal("drift", "cal.urdf", "day2/measurements.csv", cwd=tmp_path),
                     "session 'day2/measurements.csv': pincal drift takes no pixel measurements yet")
+
+
+def test_iso9283_warns_when_the_attained_positions_are_the_commands(tmp_path: Path) -> None:
+    """x, y, z copied from cmd_x, cmd_y, cmd_z: every figure zero, which no robot measures."""
+    rows = [f"P1,{c},0.4,0.3,0.2,0.4,0.3,0.2" for c in (1, 2)]
+    (tmp_path / "runs.csv").write_text("\n".join(["pose,cycle,cmd_x,cmd_y,cmd_z,x,y,z", *rows]) + "\n")
+    done = run_pincal("iso9283", "evaluate", "ur10", "runs.csv", cwd=tmp_path)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "warning: every attained position x, y, z equals its command cmd_x, cmd_y, cmd_z" in done.stdout
