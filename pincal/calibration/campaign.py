@@ -146,18 +146,20 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
         if len(failed) in (0, len(qa)):  # every posture, drawn anywhere: the true robot is beyond assembling
             break
         qa[failed], _ = random_actuated(robot, len(failed), rng, spread=spread)  # drawn again, checked again
+    errors = f"true errors of σ {perturb:g} (m, rad)" + "".join(f" and {name} shifted by {value:g}"
+                                                                   for name, value in (shift or {}).items())
+    smaller = "smaller errors (--perturb" + (", --shift)" if shift else ")")
     if failed:
         tried = "" if len(failed) == len(qa) else f" after {REDRAWS} redraws"
-        raise ConvergenceError(f"the simulated robot, with true errors of σ {perturb:g} (m, rad), cannot be assembled "
-                               f"at {len(failed)} of {len(qa)} random postures of '{robot.name}' that the nominal "
-                               f"robot assembles{tried}: give smaller errors (--perturb) or a smaller spread about "
-                               "the reference (--spread)")
+        raise ConvergenceError(f"the simulated robot, with {errors}, cannot be assembled at {len(failed)} of "
+                               f"{len(qa)} random postures of '{robot.name}' that the nominal robot assembles{tried}: "
+                               f"give {smaller} or a smaller spread about the reference (--spread)")
     try:
         obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise, joint_noise=joint_noise,
                                     payload=payload)
     except ConvergenceError as exc:
-        raise ConvergenceError(f"the simulated robot, with true errors of σ {perturb:g} (m, rad), cannot be "
-                               f"assembled: {exc}; give smaller errors (perturb)") from None
+        raise ConvergenceError(f"the simulated robot, with {errors}, cannot be assembled: {exc}; give "
+                               f"{smaller}") from None
     joint_names = list(robot.actuated_joints)
     joints = [obs.actuated]
     measured: dict[str, Array] = {}

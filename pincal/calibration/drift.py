@@ -310,6 +310,26 @@ def check_level(level: float) -> None:
                         "(e.g. 0.01)")
 
 
+def _session_warnings(sessions: Sequence[str], calibrated_from: str | None) -> list[str]:
+    """Warnings of sessions whose verdict cannot be trusted: the calibration's own data (``calibrated_from``, its
+    SHA-256), whose residuals were fitted rather than predicted, and a file given twice."""
+    from pincal.calibration.provenance import file_digests
+
+    digests, seen, warnings = file_digests(*sessions), dict[str, str](), list[str]()
+    for path in sessions:
+        digest = digests.get(str(path))
+        if digest is None:
+            continue
+        if digest == calibrated_from:
+            warnings.append(f"session '{path}' is the data MODEL was calibrated from: its residuals were fitted, not "
+                            "predicted, and the test holds for new measurements only")
+        if digest in seen:
+            again = "given twice" if seen[digest] == path else f"the same file as '{seen[digest]}'"
+            warnings.append(f"session '{path}' is {again}: judged twice")
+        seen.setdefault(digest, path)
+    return warnings
+
+
 def run_drift(model_path: str, sessions: Sequence[str], level: float = 0.01,
               nominal_path: str | None = None) -> tuple[Drift, dict[str, Any]]:
     """``pincal drift`` from files: MODEL (a calibrated URDF that carries its calibration), the sessions (CSV or job
@@ -317,7 +337,7 @@ def run_drift(model_path: str, sessions: Sequence[str], level: float = 0.01,
 
     Raises:
         DataError: a level outside (0, 0.5); MODEL not a calibrated URDF of pincal, or recording no nominal robot;
-            a session of other measurements than the calibration's.
+            a session of other measurements than the calibration's, or of pixels.
     """
     from pathlib import Path
 
@@ -343,6 +363,9 @@ def run_drift(model_path: str, sessions: Sequence[str], level: float = 0.01,
         job = read_job(path) if path.endswith(".toml") else None
         dataset = job_dataset(job, nominal) if job is not None else read_robot_dataset(path, nominal)
         keys = list(dataset.measurements)
+        if any(key.partition(":")[0] in ("pixel", "board_pixel") for key in keys):
+            raise DataError(f"session '{path}': pincal drift takes no pixel measurements yet (a calibrated URDF holds "
+                            "no camera intrinsics, which the session's pixels would need)")
         if sorted(keys) != sorted(calibration.measurements):
             raise DataError(f"session '{path}' measures {', '.join(keys)}; the calibration measured "
                             f"{', '.join(calibration.measurements)}: drift compares the same measurements")
@@ -359,6 +382,7 @@ def run_drift(model_path: str, sessions: Sequence[str], level: float = 0.01,
         stem = model_path.rsplit(".", 1)[0]
         command = f"pincal calibrate {nominal_name} {sessions[-1]} --out {stem}_recalibrated.urdf"
     content = {"model": model_path, "nominal": nominal_name, **drift.as_dict(), "command": command,
+               "warnings": _session_warnings(sessions, read_provenance(model_path).data_sha256),
                "provenance": {"pincal_version": version(), "options": {"level": level},
                               "sha256": file_digests(model_path, *sessions)}}
     return drift, content

@@ -25,6 +25,11 @@ Array = npt.NDArray[np.float64]
 COMMAND_TOLERANCE = 1e-6
 
 
+#: The largest angle [rad] an attained orientation plausibly deviates from its command: beyond, a quaternion in
+#: another order (x, y, z, w) or frame, and the orientation figures are warned of.
+ORIENTATION_PLAUSIBLE = 0.1
+
+
 @dataclass(frozen=True)
 class PoseFigures:
     """Pose accuracy and repeatability of one pose (ISO 9283:1998, 7.2.1 and 7.2.2).
@@ -126,20 +131,16 @@ def rotation_deviations(commanded: Array, attained: Array) -> Array:
         commanded: (N, 4) the commanded orientations, unit quaternions (w, x, y, z).
         attained: (N, 4) the attained orientations, unit quaternions (w, x, y, z).
     """
-    def matrices(q: Array) -> Array:
-        w, x, y, z = (q / np.linalg.norm(q, axis=1)[:, None]).T
-        return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-                         np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-                         np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], 1)
-
-    relative = matrices(attained) @ np.transpose(matrices(commanded), (0, 2, 1))
-    cos = np.clip((np.trace(relative, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
-    angle = np.arccos(cos)
-    axis = np.stack([relative[:, 2, 1] - relative[:, 1, 2], relative[:, 0, 2] - relative[:, 2, 0],
-                     relative[:, 1, 0] - relative[:, 0, 1]], -1)
-    sin = np.sin(angle)
-    scale = np.where(sin > 1e-12, angle / (2.0 * np.where(sin > 1e-12, sin, 1.0)), 0.5)
-    return np.asarray(axis * scale[:, None], dtype=float)
+    qa = attained / np.linalg.norm(attained, axis=1)[:, None]
+    qc = commanded / np.linalg.norm(commanded, axis=1)[:, None]
+    wa, va, wc, vc = qa[:, 0], qa[:, 1:], qc[:, 0], -qc[:, 1:]  # q_attained ⊗ conj(q_commanded)
+    w = wa * wc - np.sum(va * vc, axis=1)
+    v = wa[:, None] * vc + wc[:, None] * va + np.cross(va, vc)
+    v = np.where((w < 0)[:, None], -v, v)  # q and -q are one rotation: the one of angle ≤ π
+    norm = np.linalg.norm(v, axis=1)
+    angle = 2.0 * np.arctan2(norm, np.abs(w))  # exact up to a half turn, where the matrix formula loses its axis
+    scale = np.where(norm > 1e-15, angle / np.where(norm > 1e-15, norm, 1.0), 2.0)
+    return np.asarray(v * scale[:, None], dtype=float)
 
 
 def pose_figures(name: str, commanded: Array, attained: Array, deviations: Array | None = None) -> PoseFigures:
@@ -218,8 +219,8 @@ def evaluate_runs(runs: Runs, instrument_uncertainty: float | None = None) -> Is
         instrument_uncertainty: The instrument's stated uncertainty [m]; an RP below it is warned of.
 
     Raises:
-        DataError: no row of the pose series, a pose of fewer than 2 cycles, a pose commanded differently in two
-            cycles.
+        DataError: no row of the pose series, a pose (or a pose's direction) of fewer than 2 cycles, a pose
+            commanded differently in two cycles.
     """
     deviations = (rotation_deviations(runs.commanded_quaternions, runs.attained_quaternions)
                   if runs.commanded_quaternions is not None and runs.attained_quaternions is not None else None)
@@ -236,10 +237,12 @@ def evaluate_runs(runs: Runs, instrument_uncertainty: float | None = None) -> Is
         poses.append(pose_figures(name, commanded[name], runs.attained[rows],
                                   None if deviations is None else deviations[rows]))
         by_cycle[name] = {int(runs.cycles[r]): runs.attained[r] for r in rows}
-    distances = []
+    distances, apart = [], []
     for first, second in itertools.combinations(names, 2):
         common = sorted(set(by_cycle[first]) & set(by_cycle[second]))
-        if len(common) >= 2:
+        if len(common) < 2:
+            apart.append(f"{first}-{second}")
+        else:
             distances.append(distance_figures((first, second), (commanded[first], commanded[second]),
                                               np.array([by_cycle[first][c] for c in common]),
                                               np.array([by_cycle[second][c] for c in common])))
@@ -251,11 +254,26 @@ def evaluate_runs(runs: Runs, instrument_uncertainty: float | None = None) -> Is
         if len(groups) < 2:
             raise DataError(f"pose {name} is measured from one direction only ({listing(groups)}); the multi-"
                             "directional variation compares two or more")
+        few = next((d for d, g in groups.items() if len(g) < 2), None)
+        if few is not None:
+            raise DataError(f"pose {name} from direction '{few}' has {len(groups[few])} cycle; its barycentre needs "
+                            "at least 2 (the standard: 30): a mistyped direction?")
         _commanded(runs, rows, name)
         variations.append(variation_figures(name, {d: runs.attained[g] for d, g in groups.items()},
                                             None if deviations is None else {d: deviations[g]
                                                                              for d, g in groups.items()}))
-    warnings = []
+    warnings = [] if not apart else [f"no distance between {listing(apart)}: measured in fewer than 2 common "
+                                     "cycles of the pose series"]
+    if np.array_equal(runs.attained, runs.commanded):
+        warnings.append("every attained position x, y, z equals its command cmd_x, cmd_y, cmd_z: are they the "
+                        "instrument's readings? The figures are all zero")
+    if deviations is not None and len(deviations):
+        worst = int(np.argmax(np.linalg.norm(deviations, axis=1)))
+        angle = float(np.linalg.norm(deviations[worst]))
+        if angle > ORIENTATION_PLAUSIBLE:
+            warnings.append(f"an attained orientation {angle:.3g} rad from its command (line {runs.lines[worst]}): "
+                            "no robot errs so much; are the quaternions in w, x, y, z order, commanded and attained "
+                            "in the same frame? The orientation figures cannot be trusted")
     if instrument_uncertainty is not None:
         below = [p.pose for p in poses if p.rp < instrument_uncertainty]
         if below:

@@ -253,9 +253,9 @@ def plan_test(robot: Robot, region: tuple[float, ...] | None = None, orientation
         min_side: Smallest side [m] of a test cube worth testing.
 
     Raises:
-        DataError: an orientation for a robot of fewer than 6 degrees of freedom; no cube of ``min_side`` fits inside
-            the reachable workspace (in ``region``); a planned point the model does not reach; a model of other
-            actuated joints.
+        DataError: a robot of fewer than 3 degrees of freedom, or an orientation for one of fewer than 6; no cube
+            of ``min_side`` fits inside the reachable workspace (in ``region``); a planned point the model does not
+            reach; a model of other actuated joints.
         NotFoundError: an unknown frame.
     """
     validation.whole("cycles", cycles, 2)
@@ -264,6 +264,9 @@ def plan_test(robot: Robot, region: tuple[float, ...] | None = None, orientation
     if name is None:
         raise DataError(f"'{robot.name}' has no frame its actuated joints move: give --frame")
     robot.frame_id(name, "--frame: ")
+    if robot.mobility() < 3:
+        raise DataError(f"'{robot.name}' has {robot.mobility()} degrees of freedom: its frame cannot reach the points "
+                        "of a cube, which the ISO 9283 test needs (three)")
     six = robot.mobility() >= 6
     if orientation is not None and not six:
         raise DataError(f"--orientation: '{robot.name}' has {robot.mobility()} degrees of freedom, so the orientation "

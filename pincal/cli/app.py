@@ -113,8 +113,17 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     robot = load_robot(args.robot)
     check_sample_counts(args.samples, args.test_samples)
+    shifted = [name for name, _ in args.shift or []]
+    twice = next((name for name in shifted if shifted.count(name) > 1), None)
+    if twice is not None:  # a dict would keep the last one alone
+        raise DataError(f"--shift {twice}: given {shifted.count(twice)} times; give each parameter once, its whole "
+                        "shift [m, rad]")
     if images.is_camera(args.measure):  # a board's corners in pixels, and their images
         return images.simulate_camera(args, robot)
+    unused = [flag for flag, value in (("--board", args.board), ("--images", args.images)) if value is not None]
+    if unused:
+        raise DataError(f"{', '.join(unused)}: only with a camera's --measure pixel:FRAME or board_pixel:FRAME "
+                        f"(here --measure {' '.join(args.measure)})")
     created = not Path(args.out).exists()
     simulation_outputs(robot, args.out, args.meshes)  # refused before any work: a file, an unwritable place, the
     # robot's URDF, a mesh to copy found nowhere

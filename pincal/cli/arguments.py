@@ -23,9 +23,25 @@ MESH_MODES = ("keep", "copy")
 MEASURE_HELP = "position, pose, or keys such as distance:A-B, distance_increment:A-B, joint:NAME"
 
 
+def _whole(text: str) -> int:
+    """``text`` as a whole number; else an argparse error naming it (not argparse's 'invalid positive_int value')."""
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
+
+
+def _number(text: str) -> float:
+    """``text`` as a number; else an argparse error naming it."""
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+
+
 def positive_int(text: str) -> int:
     """An argparse type: a whole number ≥ 1 (argparse turns the error into a one-line usage message)."""
-    value = int(text)
+    value = _whole(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"{value} is not a positive whole number")
     return value
@@ -33,7 +49,7 @@ def positive_int(text: str) -> int:
 
 def non_negative_int(text: str) -> int:
     """An argparse type: a whole number ≥ 0 (counts, random seeds)."""
-    value = int(text)
+    value = _whole(text)
     if value < 0:
         raise argparse.ArgumentTypeError(f"{value} is negative; a whole number ≥ 0 is needed")
     return value
@@ -41,7 +57,7 @@ def non_negative_int(text: str) -> int:
 
 def positive_float(text: str) -> float:
     """An argparse type: a finite number > 0 (a standard deviation used as a weight [m, rad])."""
-    value = float(text)
+    value = _number(text)
     if not 0.0 < value < float("inf"):
         raise argparse.ArgumentTypeError(f"{text} is not a finite number > 0")
     return value
@@ -49,7 +65,7 @@ def positive_float(text: str) -> float:
 
 def non_negative_float(text: str) -> float:
     """An argparse type: a finite number ≥ 0 (a noise or error size [m, rad]; 0 for none)."""
-    value = float(text)
+    value = _number(text)
     if not 0.0 <= value < float("inf"):
         raise argparse.ArgumentTypeError(f"{text} is not a finite number ≥ 0")
     return value

@@ -42,6 +42,8 @@ def cmd_drift(args: argparse.Namespace) -> int:
         verdict = f"CHANGED: {_moved(content['sessions'][drift.sessions.index(s)])}" if s.changed else "unchanged"
         print(f"{s.source:<{width}}  {s.n_samples:>7}  {s.rms * 1e3:.4f}  {s.expected_rms * 1e3:.4f}    "
               f"{s.statistic:>8.1f} / {s.dof:<5} {verdict}")
+    for warning in content["warnings"]:
+        print(f"warning: {warning}")
     if drift.parameters:
         print(f"advice: recalibrate {', '.join(drift.groups)} (from MODEL, the setup with them): {content['command']}")
     elif content["command"]:

@@ -28,6 +28,10 @@ def add_camera_arguments(parser: argparse.ArgumentParser) -> None:
                                          "holds the exact corners")
 
 
+#: The file names taken for images in an --images folder (lower case).
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+
+
 def simulate_camera(args: argparse.Namespace, robot: Any) -> int:
     """``pincal simulate ROBOT --measure pixel:FRAME``: a simulated camera campaign (its images with
     ``--images``)."""
@@ -40,6 +44,14 @@ def simulate_camera(args: argparse.Namespace, robot: Any) -> int:
         raise DataError(f"--measure {' '.join(args.measure)}: a camera simulation measures one pixel:FRAME or "
                         "board_pixel:FRAME alone")
     kind, frame = pixel_kind(args.measure[0])
+    ignored = [flag for flag, value in (("--frame", args.frame), ("--posture-seed", args.posture_seed),
+                                        ("--shift", args.shift), ("--spread", args.spread),
+                                        ("--parameters", args.parameters), ("--payload", args.payload))
+               if value is not None]
+    if ignored:
+        raise DataError(f"{', '.join(ignored)}: not taken by a camera simulation (--measure {args.measure[0]}), "
+                        "which draws its own robot errors, postures and camera; leave "
+                        f"{'them' if len(ignored) > 1 else 'it'} out")
     robot.frame_id(frame)
     out = Path(args.out)
     simulation_outputs(robot, out, args.meshes)
@@ -52,8 +64,18 @@ def simulate_camera(args: argparse.Namespace, robot: Any) -> int:
     sim = simulate_pixels(robot, frame, args.samples, args.test_samples, eye_to_hand=kind == "board_pixel",
                           board=args.board or BOARD_DEFAULT, perturb=args.perturb, noise=noise, seed=args.seed)
     paths = write_simulation(sim, out, args.meshes, given=args.robot)
+    notes = []
     if args.images is not None:
+        before = {p.name for p in Path(args.images).iterdir() if p.is_file()}
         paths += write_images(sim, out, Path(args.images), args.seed)
+        written = {p.name for p in paths if p.parent == Path(args.images)}
+        if before & written:
+            notes.append(f"note: replaced {len(before & written)} existing images in {args.images}/")
+        stale = sorted(name for name in before - written if name.lower().endswith(IMAGE_SUFFIXES))
+        if stale:
+            notes.append(f"warning: {args.images}/ holds {len(stale)} other images ({', '.join(stale[:3])}"
+                         f"{', …' if len(stale) > 3 else ''}) from before, not of this simulation: 'pincal detect "
+                         f"{args.images}/*' would read them too")
     seen = sum(int((v[:, 0] == v[:, 0]).sum()) for v in sim.dataset.measurements.values())
     print(f"simulated {args.samples} + {args.test_samples} images of board {sim.board.spec if sim.board else ''} "
           f"seen by a camera {'fixed in the cell, the board on' if kind == 'board_pixel' else 'on'} '{frame}' of "
@@ -63,6 +85,8 @@ def simulate_camera(args: argparse.Namespace, robot: Any) -> int:
         print(f"wrote {path}")
     if len(paths) > 4:
         print(f"wrote {len(paths) - 4} images into {args.images}/")
+    for note in notes:
+        print(note)
     return 0
 
 

@@ -38,7 +38,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     print(f"{'pose':<8}{'cycles':>7}{'AP':>10}{'APx':>10}{'APy':>10}{'APz':>10}{'RP':>10}"
           + (f"{'APa':>9}{'APb':>9}{'APc':>9}{'RPa±':>9}{'RPb±':>9}{'RPc±':>9}" if orientation else ""))
     for p in figures.poses:
-        angles = "".join(f"{v * 1e3:9.4f}" for v in (*(p.ap_abc or []), *(p.rp_abc or [])))
+        angles = "".join(f" {v * 1e3:8.4f}" for v in (*(p.ap_abc or []), *(p.rp_abc or [])))
         print(f"{p.pose:<8}{p.cycles:>7}{_mm(p.ap):>10}" + "".join(f"{_mm(v):>10}" for v in p.ap_xyz)
               + f"{_mm(p.rp):>10}{angles}")
     for d in figures.distances:
@@ -94,6 +94,11 @@ def cmd_plan(args: argparse.Namespace) -> int:
     return 0
 
 
+#: The largest |bound| of --region [m]: beyond, millimetres written as metres (pincal.io.dataset's
+#: MAX_PLAUSIBLE_LENGTH, spelled here so that parsing imports no NumPy).
+REGION_LIMIT = 20.0
+
+
 def _region(text: str) -> tuple[float, ...]:
     """An argparse type: six numbers xmin,ymin,zmin,xmax,ymax,zmax [m] with each min below its max."""
     try:
@@ -104,6 +109,9 @@ def _region(text: str) -> tuple[float, ...]:
             values[k] < values[k + 3] for k in range(3)):
         raise argparse.ArgumentTypeError(f"'{text}' is not XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX [m] with each min below "
                                          "its max")
+    if max(abs(v) for v in values) > REGION_LIMIT:
+        raise argparse.ArgumentTypeError(f"'{text}' has a bound beyond {REGION_LIMIT:g} m: the region is in metres "
+                                         "(millimetres divided by 1000)")
     return values
 
 
@@ -116,6 +124,14 @@ def _quaternion(text: str) -> tuple[float, ...]:
     if len(values) != 4 or abs(sum(v * v for v in values) - 1.0) > 1e-6:
         raise argparse.ArgumentTypeError(f"'{text}' is not a unit quaternion QW,QX,QY,QZ")
     return values
+
+
+def _cycles(text: str) -> int:
+    """An argparse type: the cycles of a series, a whole number ≥ 2 (RP needs two)."""
+    value = positive_int(text)
+    if value < 2:
+        raise argparse.ArgumentTypeError(f"{value}: RP needs at least 2 cycles (the standard: 30)")
+    return value
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -144,7 +160,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     plan.add_argument("--frame", help="the frame tested (default: the robot's measured frame)")
     plan.add_argument("--model", metavar="CAL.urdf",
                       help="a calibrated URDF of the robot: the joint commands through 'pincal compensate' on it")
-    plan.add_argument("--cycles", type=positive_int, default=30, help="cycles of each series (default 30)")
+    plan.add_argument("--cycles", type=_cycles, default=30, help="cycles of each series, ≥ 2 (default 30)")
     plan.add_argument("--candidates", type=positive_int, default=400,
                       help="random postures sampling the workspace (default 400)")
     plan.add_argument("--seed", type=non_negative_int, default=0, help="seed of the sampled postures")

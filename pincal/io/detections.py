@@ -84,9 +84,12 @@ def pair(detections: Detections, joints: Dataset, measure: str, board: Board,
             left_out[f"joints row {sample}"] = (f"no image named '{sample}'" if tolerance is None
                                                 else "no image within the tolerance of its time")
     if not kept:
+        why = "; ".join(f"{what}: {reason}" for what, reason in list(detections.left_out.items())[:3])
+        more = len(detections.left_out) - 3
         raise DataError(f"no image pairs with a joint row by name (images: "
                         f"{listing(sorted(detections.corners)) or 'none kept'}; samples: "
-                        f"{listing(joints.sample_ids[:8])})")
+                        f"{listing(joints.sample_ids[:8])})"
+                        + (f"; left out {why}" if why else "") + (f" and {more} more" if more > 0 else ""))
     ids = sorted({int(i) for k in kept for i in detections.corners[joints.sample_ids[k]][0]})
     values = {f"{kind}:{frame}@{i}": np.full((len(kept), 2), np.nan) for i in ids}
     for r, k in enumerate(kept):

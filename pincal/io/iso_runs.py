@@ -66,7 +66,8 @@ def read_runs(path: str | Path) -> Runs:
     Raises:
         DataError: naming the file and the column or line at fault: a required column missing, a cell that is no
             finite number or no whole cycle, a quaternion not of unit norm, a length that looks like millimetres, half
-            of the orientation columns, an empty pose name, a pose measured twice in one cycle and direction.
+            of the orientation columns, a column read appearing twice, an empty pose name, a pose measured twice in
+            one cycle and direction.
     """
     source = Path(path)
     try:
@@ -81,6 +82,11 @@ def _parse(source: Path) -> Runs:
     where = f"header (line {table.header_line})"
     column = {name: i for i, name in enumerate(table.header)}
     position = ["pose", "cycle", *(COMMANDED + c for c in POSITION), *POSITION]
+    read = {*position, "direction", *(COMMANDED + c for c in QUATERNION), *QUATERNION}
+    twice = next((name for name in table.header if name in read and table.header.count(name) > 1), None)
+    if twice is not None:  # the dict above keeps the last one alone
+        first = table.header.index(twice)
+        raise DataError(f"{where}: column '{twice}' appears twice (columns {first + 1} and {column[twice] + 1})")
     missing = [name for name in position if name not in column]
     if missing:
         raise DataError(f"{where}: no column {listing(missing)}; a runs file has pose, cycle, cmd_x, cmd_y, cmd_z, "

@@ -195,6 +195,9 @@ def detect_corners(paths: Sequence[str | Path], board: Board, min_corners: int =
                                            "ambiguous")
             continue
         path = same[0]
+        if path.is_dir():
+            out.left_out[str(path)] = f"a directory, not an image: give its images ({path}/*.png)"
+            continue
         try:
             content = path.read_bytes()
         except OSError as exc:
@@ -205,7 +208,7 @@ def detect_corners(paths: Sequence[str | Path], board: Board, min_corners: int =
             out.left_out[str(path)] = f"the same image as {hashes[digest]}"
             continue
         hashes[digest] = str(path)
-        image = cv2.imdecode(np.frombuffer(content, np.uint8), cv2.IMREAD_GRAYSCALE)
+        image = cv2.imdecode(np.frombuffer(content, np.uint8), cv2.IMREAD_GRAYSCALE) if content else None
         if image is None:
             out.left_out[str(path)] = "not an image OpenCV reads"
             continue

@@ -67,6 +67,7 @@ def drift_page(content: dict[str, Any]) -> str:
                   f"<code>{html.escape(content['command'])}</code></p>")
     else:
         advice = '<p class="verdict">No session shows a change beyond the calibration\'s predicted spread.</p>'
+    warnings = "".join(f'<p class="warn">Warning: {html.escape(w)}</p>' for w in content.get("warnings", []))
 
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>pincal drift</title><style>{STYLE}</style></head>
@@ -74,7 +75,7 @@ def drift_page(content: dict[str, Any]) -> str:
 <h1>pincal drift</h1>
 <p class="sub">{len(sessions)} sessions against <code>{html.escape(content['model'])}</code> (nominal robot
 <code>{html.escape(content['nominal'])}</code>), each tested at level {content['level']:g}: docs/drift.md.</p>
-{advice}
+{advice}{warnings}
 <h2>Error over time</h2>
 {_plot(sessions)}
 <h2>Sessions</h2>

@@ -99,3 +99,11 @@ def test_a_pose_of_one_cycle_and_a_pose_commanded_differently_are_refused() -> N
         evaluate_runs(_runs(["P1", "P1", "P2"], [0, 1, 0], [[0, 0, 0]] * 3, [[0, 0, 0]] * 3))
     with pytest.raises(DataError, match="pose P1: its commanded position on line 3 differs"):
         evaluate_runs(_runs(["P1", "P1"], [0, 1], [[0, 0, 0], [1e-3, 0, 0]], [[0, 0, 0]] * 2))
+
+
+def test_a_half_turn_is_a_deviation_of_pi_not_zero() -> None:
+    """Near a half turn the matrix's skew part vanishes: the deviation is taken from the quaternion instead."""
+    identity, half_turn_z = np.array([[1.0, 0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 0.0, 1.0]])
+    assert np.allclose(rotation_deviations(identity, half_turn_z), [[0.0, 0.0, np.pi]], atol=1e-12)
+    quarter_x = np.array([[math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0]])
+    assert np.allclose(rotation_deviations(identity, -quarter_x), [[math.pi / 2, 0.0, 0.0]], atol=1e-12)  # q, -q

@@ -110,3 +110,15 @@ def test_drift_refuses_bad_inputs_in_one_line(calibrated: Path, arguments: list[
     done = run_pincal("drift", *arguments, cwd=calibrated)
     assert done.returncode == 2 and done.stderr.count("\n") == 1 and message in done.stderr, done.stderr
     assert re.match(r"pincal: error: ", done.stderr) and (calibrated / "cal.urdf").read_bytes() == before
+
+
+def test_the_calibration_s_own_data_and_a_session_given_twice_are_warned_of(calibrated: Path) -> None:
+    s1 = _session(calibrated, "w1", 21)
+    done = run_pincal("drift", "cal.urdf", "day1/measurements.csv", s1, s1, "--report", "w.json", "--html", "w.html",
+                      cwd=calibrated)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert ("warning: session 'day1/measurements.csv' is the data MODEL was calibrated from: its residuals were "
+            "fitted, not predicted") in done.stdout
+    assert f"warning: session '{s1}' is given twice: judged twice" in done.stdout
+    assert len(json.loads((calibrated / "w.json").read_text())["warnings"]) == 2
+    assert (calibrated / "w.html").read_text().count('<p class="warn">Warning: session') == 2
