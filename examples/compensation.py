@@ -14,9 +14,7 @@ its error to each target measured.
 
 from __future__ import annotations
 
-import contextlib
 import csv
-import io
 import json
 import math
 import re
@@ -29,10 +27,9 @@ from typing import Any
 
 import numpy as np
 import pinocchio as pin
-from study_cli import study_main
+from study_cli import run_ok, study_main
 
 import pincal
-from pincal.cli.app import main as pincal_main
 from pincal.io.corrections_file import corrected_readings, read_corrections
 from pincal.study.simulation import random_actuated
 
@@ -60,21 +57,6 @@ CASES = [Case("Delta", "delta", "position", "end_effector"), Case("UR10", "ur10"
          Case("UR10", "ur10", "pose", "tool0"), Case("hexapod", "hexapod", "pose", "end_effector")]
 HARMONICS = Case("UR10, encoder harmonics", "ur10", "position", "tool0",
                  ("--parameters", "default", "*.sin1", "*.cos1"))
-
-
-def run_pincal(*argv: str) -> tuple[int, str]:
-    """``pincal ARGV`` in this process: its exit status and what it printed."""
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        code = pincal_main(list(argv))
-    return code, out.getvalue()
-
-
-def run_ok(*argv: str, codes: tuple[int, ...] = (0,)) -> str:
-    code, text = run_pincal(*argv)
-    if code not in codes:
-        raise SystemExit(f"pincal {' '.join(argv)} exited {code}:\n{text}")
-    return text
 
 
 def write_targets(path: Path, key: str, values: np.ndarray) -> None:

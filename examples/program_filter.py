@@ -17,8 +17,6 @@ calibration placed it in the measurement frame (the frame the calibration data w
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import math
 import sys
@@ -30,10 +28,9 @@ from typing import Any
 
 import numpy as np
 import pinocchio as pin
-from study_cli import ROOT, study_main
+from study_cli import ROOT, run_ok, study_main
 
 import pincal
-from pincal.cli.app import main as pincal_main
 from pincal.io.corrections_file import corrected_readings, read_corrections
 from pincal.io.programs import euler_zyx_near, read_program, rotation_vector_near
 from pincal.study.simulation import random_actuated
@@ -63,21 +60,6 @@ class Case:
 CASES = [Case("UR10", "ur10", "urscript", "tool0"), Case("KUKA-like six-axis arm", str(KR16), "krl", "flange"),
          Case("KUKA-like six-axis arm", str(KR16), "rapid", "tool0"),
          Case("UR10, encoder harmonics", "ur10", "urscript", "tool0", ("--parameters", "default", "*.sin1", "*.cos1"))]
-
-
-def run_pincal(*argv: str) -> tuple[int, str]:
-    """``pincal ARGV`` in this process: its exit status and what it printed."""
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        code = pincal_main(list(argv))
-    return code, out.getvalue()
-
-
-def run_ok(*argv: str, codes: tuple[int, ...] = (0,)) -> str:
-    code, text = run_pincal(*argv)
-    if code not in codes:
-        raise SystemExit(f"pincal {' '.join(argv)} exited {code}:\n{text}")
-    return text
 
 
 def _f(value: float, decimals: int) -> str:

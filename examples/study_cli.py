@@ -4,6 +4,8 @@ pages print an error at the level of round-off."""
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -11,10 +13,27 @@ from typing import Any
 
 import numpy as np
 
+from pincal.cli.app import main as pincal_main
+
 ROOT = Path(__file__).resolve().parents[1]
 #: Below this [mm or °], an error after a noise-free fit is the round-off of the solves, whose digits differ from one
 #: machine to another (BLAS): a page says so rather than print them.
 ROUND_OFF = 1e-8
+
+
+def run_pincal(*argv: str) -> tuple[int, str]:
+    """``pincal ARGV`` in this process: its exit status and what it printed."""
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        code = pincal_main(list(argv))
+    return code, out.getvalue()
+
+
+def run_ok(*argv: str, codes: tuple[int, ...] = (0,)) -> str:
+    code, text = run_pincal(*argv)
+    if code not in codes:
+        raise SystemExit(f"pincal {' '.join(argv)} exited {code}:\n{text}")
+    return text
 
 
 def round_off(value: float) -> str:

@@ -27,6 +27,7 @@ from pincal.io.programs import (
     Program,
     Target,
     closing,
+    comment_free,
     euler_zyx_near,
     joint_render,
     line_of,
@@ -52,26 +53,6 @@ _BAS = re.compile(r"^[ \t]*BAS[ \t]*\([ \t]*#(TOOL|BASE)[ \t]*,[ \t]*(\d+)[ \t]*
 _FDAT = re.compile(r"^[ \t]*FDAT_ACT[ \t]*=[ \t]*(\w+)", re.IGNORECASE | re.MULTILINE)
 _WORD = re.compile(r"[A-Za-z_$]\w*")
 _FIELD = re.compile(r"\s*([A-Za-z_]\w*(?:\[\])?)\s+(.*?)\s*$", re.DOTALL)
-
-
-def comment_free(text: str) -> str:
-    """``text`` with every ``;`` comment blanked (same length, line breaks kept); strings kept."""
-    out = list(text)
-    k, quoted = 0, False
-    while k < len(text):
-        c = text[k]
-        if c == '"':
-            quoted = not quoted
-        elif c == "\n":
-            quoted = False
-        elif c == ";" and not quoted:
-            end = text.find("\n", k)
-            end = len(text) if end < 0 else end
-            out[k:end] = " " * (end - k)
-            k = end
-            continue
-        k += 1
-    return "".join(out)
 
 
 def aggregate(text: str, opening: int) -> tuple[dict[str, tuple[str, int, int]], int] | None:
@@ -145,7 +126,7 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
     data: dict[tuple[str, int], tuple[pin.SE3 | None, str]] = {}
     declared: dict[str, list[tuple[str, int, str, dict[str, tuple[str, int, int]]]]] = {}
     for name, text in {**texts, **extra}.items():
-        code = comment_free(text)
+        code = comment_free(text, ";")
         for match in _DATA.finditer(code):
             found = aggregate(code, match.end())
             frame = frame_of(found[0]) if found else None
@@ -160,7 +141,7 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
                 continue
             declared.setdefault(match.group(2).upper(), []).append(
                 (name, line_of(text, match.start()), match.group(1).upper(), found[0]))
-    code = comment_free(src)
+    code = comment_free(src, ";")
     state = _State(tcp)
     events = sorted([(m.start(), "set", m) for m in _SET.finditer(code)] + [(m.start(), "bas", m) for m in
                     _BAS.finditer(code)] + [(m.start(), "fdat", m) for m in _FDAT.finditer(code)] +

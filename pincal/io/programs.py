@@ -161,6 +161,27 @@ def line_of(text: str, position: int) -> int:
     return text.count("\n", 0, position) + 1
 
 
+def comment_free(text: str, marker: str) -> str:
+    """``text`` with every comment from ``marker`` (KRL ``;``, RAPID ``!``) to the end of its line blanked: the same
+    length, line breaks and strings kept, so that positions in it are positions in ``text``."""
+    out = list(text)
+    k, quoted = 0, False
+    while k < len(text):
+        c = text[k]
+        if c == '"':
+            quoted = not quoted
+        elif c == "\n":
+            quoted = False
+        elif c == marker and not quoted:
+            end = text.find("\n", k)
+            end = len(text) if end < 0 else end
+            out[k:end] = " " * (end - k)
+            k = end
+            continue
+        k += 1
+    return "".join(out)
+
+
 def closing(text: str, start: int, pairs: str = "()[]{}") -> int:
     """The index of the bracket closing the one at ``start``, brackets nested and strings (double quotes) skipped;
     -1 when it is not closed."""

@@ -27,6 +27,7 @@ from pincal.io.programs import (
     Program,
     Target,
     closing,
+    comment_free,
     joint_render,
     line_of,
     number_text,
@@ -49,26 +50,6 @@ _WOBJ = re.compile(r"\\WObj\s*:=\s*(\w+)", re.IGNORECASE)
 _WORD = re.compile(r"[A-Za-z_]\w*")
 
 Spans = list[tuple[float, int, int]]
-
-
-def comment_free(text: str) -> str:
-    """``text`` with every ``!`` comment blanked (same length); strings kept."""
-    out = list(text)
-    k, quoted = 0, False
-    while k < len(text):
-        c = text[k]
-        if c == '"':
-            quoted = not quoted
-        elif c == "\n":
-            quoted = False
-        elif c == "!" and not quoted:
-            end = text.find("\n", k)
-            end = len(text) if end < 0 else end
-            out[k:end] = " " * (end - k)
-            k = end
-            continue
-        k += 1
-    return "".join(out)
 
 
 def _groups(text: str, start: int, end: int) -> list[tuple[int, int]] | None:
@@ -169,7 +150,7 @@ def read_rapid(text: str, file: str, tcp: pin.SE3) -> Program:
     the readers' common signature."""
     del tcp
     program = Program("rapid", {file: text})
-    code = comment_free(text)
+    code = comment_free(text, "!")
     kinds: dict[str, tuple[str, int, tuple[int, int], str]] = {}
     seen: dict[str, int] = {}
     for match in _DECL.finditer(code):
