@@ -327,3 +327,74 @@ def ur_deviations(yaml_text: str, tcp: pin.SE3, robot: Robot, base: str, tool: s
         without.append((expected, composed))
     return [_largest("ur_description's chain composed from the YAML, with the TCP", with_tcp),
             _largest("without the TCP (the calibrated tool frame's correction)", without)]
+
+
+#: Fitted and random postures the calibrated URDF ``pincal calibrate`` writes is checked at (each at most).
+CALIBRATED_POSTURES = 10
+#: The smallest bound a proof states [m, rad]: below it, round-off decides the figure.
+FLOOR = 1e-12
+
+
+def bound(value: float) -> str:
+    """``value`` [m or rad] as a bound that does not depend on round-off: ``1e-12`` below :data:`FLOOR`, else the
+    power of ten at or above it."""
+    if not value > FLOOR:
+        return f"{FLOOR:.0e}"
+    return f"{10.0 ** math.ceil(math.log10(value) - 1e-9):.0e}"
+
+
+def calibrated_proof(urdf_text: str, robot: Robot, joint_names: list[str], readings: Array, seed: int = 0) -> str:
+    """The calibrated URDF ``pincal calibrate`` writes, reloaded by plain Pinocchio and yourdfpy
+    (:func:`urdf_deviations`) and compared with ``robot``, the calibrated model it was written from (pincal's Robot of
+    that text: its geometric part, what a URDF holds; harmonics and compliance live in the corrections file) at up to
+    :data:`CALIBRATED_POSTURES` of the fitted postures (``readings`` [rad or m], columns ``joint_names``, evenly
+    spaced) and as many random ones within the joint limits (``seed``).
+
+    Returns:
+        One line: each deviation as a bound [m, rad] (:func:`bound`) and the number of postures.
+
+    Raises:
+        PincalError: a reader's deviation above :data:`TOLERANCE`.
+    """
+    from pincal.study.simulation import random_actuated
+
+    rows: list[Array] = []
+    if len(readings):  # an actuated joint with no column at its reference, as the fit read it
+        reference = robot.actuated_values(robot.q_reference)
+        picked = np.array([np.asarray(readings, dtype=float)[:, joint_names.index(name)] if name in joint_names
+                           else np.full(len(readings), reference[k])
+                           for k, name in enumerate(robot.actuated_joints)]).T
+        step = max(1, len(picked) // CALIBRATED_POSTURES)
+        try:
+            rows = list(robot.solve_fk_batch(picked[::step][:CALIBRATED_POSTURES]))
+        except (PincalError, ValueError):
+            rows = []
+    _, q = random_actuated(robot, CALIBRATED_POSTURES, np.random.default_rng(seed))
+    postures = Postures(np.array([*rows, *q]), len(rows), seed)
+    return proof_statement(urdf_deviations(urdf_text, robot, postures), len(postures.q))
+
+
+def proof_statement(deviations: list[Deviation], count: int) -> str:
+    """The line a calibrated URDF's proof prints and writes in its header; refused above :data:`TOLERANCE`.
+
+    Raises:
+        PincalError: a reader's deviation above :data:`TOLERANCE` (naming it).
+    """
+    worst = max(deviations, key=lambda d: max(d.position, d.orientation))
+    if max(worst.position, worst.orientation) > TOLERANCE:
+        raise PincalError(f"calibrate: {worst.reader} reads the calibrated URDF {worst.position:.1g} m, "
+                          f"{worst.orientation:.1g} rad away from the calibrated model (tolerance {TOLERANCE:g}): "
+                          "not written")
+    return (f"the calibrated URDF reloaded by Pinocchio and yourdfpy: within {bound(worst.position)} m, "
+            f"{bound(worst.orientation)} rad of the calibrated model at {count} postures")
+
+
+_LEADING = re.compile(r"(?:<\?xml[^>]*\?>[ \t]*\n?)?(?:<!--(?:(?!-->).)*-->[ \t]*\n)?", re.DOTALL)
+
+
+def with_comment(urdf_text: str, line: str) -> str:
+    """``urdf_text`` with ``line`` as an XML comment after its declaration and header note (a comment changes no
+    placement: the proof of the text holds for the text with it)."""
+    at = _LEADING.match(urdf_text)
+    end = at.end() if at else 0
+    return urdf_text[:end] + f"<!-- {line} -->\n" + urdf_text[end:]

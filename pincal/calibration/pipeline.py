@@ -27,6 +27,7 @@ from pincal import validation
 from pincal.calibration.carried import with_carried
 from pincal.calibration.columns import check_columns, column_mistake, mistake_named, refuse_column_mistake
 from pincal.calibration.crossval import Folds, check_cross_validation, cross_validate, parse_cv
+from pincal.calibration.export_proof import calibrated_proof, with_comment
 from pincal.calibration.growth import ErrorGrowth, estimate_growth
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, Registration, evaluate_held_out, register_setup
 from pincal.calibration.noise import provisional_noise, with_noise
@@ -63,7 +64,7 @@ from pincal.identification.solver import identify
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, source_text
 from pincal.io.corrections_file import Corrections, corrections_of
 from pincal.io.dataset import Dataset
-from pincal.model.robot import Robot
+from pincal.model.robot import Robot, robot_from_urdf_text
 from pincal.progress import Progress
 
 Array = npt.NDArray[np.float64]
@@ -86,6 +87,7 @@ class Calibration:
     urdf_text: str
     corrections: Corrections | None = None
     before: Registration | None = None
+    proof: str = ""
 
 
 def options_of(options: CalibrationOptions | None, keywords: dict[str, Any]) -> CalibrationOptions:
@@ -156,6 +158,8 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
                                              note=f"{status}calibrated by pincal from {fit.samples.n_samples} samples "
                                                   f"({', '.join(m.key for m in fit.models)})",
                                              read_joints=read_joints(fit.models), markers=declared_markers(fit.models))
+        proof = calibrated_proof(text, robot_from_urdf_text(text), list(fit.samples.joint_names), fit.samples.joints)
+        text = with_comment(text, proof)
         corrections = corrections_of(robot, kept.parameters, result.x, options.payload)
         before = register_setup(fitted.problem, result.x0, **fitting_options(options, False))
         growth = error_growth(kept, fitted, options, before.x)
@@ -171,7 +175,8 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
                                        select=options.selection, progress=progress, payload=options.payload,
                                        **fitting_options(options))
     report = CalibrationReport(**content)
-    return Calibration(kept, fitted.problem, result, held, report, with_carried(text, report), corrections, before)
+    return Calibration(kept, fitted.problem, result, held, report, with_carried(text, report), corrections, before,
+                       proof)
 
 
 @contextlib.contextmanager

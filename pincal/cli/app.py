@@ -187,6 +187,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     if out and not writes_urdf(cal.report, bool(options.get("force"))):
         print(f"not written: {out} (the fit explains nothing; --force writes it)")
         out = None
+    if out:
+        print(cal.proof)
     for path in (out, report_path):
         if path:
             print(f"wrote {path}")
@@ -231,6 +233,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     write_text(out / "report.json", cal.report.to_json())
     report_html = write_demo_report(cal, out, quiet=False)  # reads out/truth.json, written above; its own bars
     print(summary_text(cal.report, cal.result.seconds, str(out / "report.json")))
+    print(cal.proof)
     print()
     print(f"wrote {out}/: delta_calibrated.urdf (the calibrated robot), {report_html.name} (open it in a "
           "browser), report.json, measurements.csv, truth.urdf, truth.json")
