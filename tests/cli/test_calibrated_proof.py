@@ -20,16 +20,38 @@ LINE = ("the calibrated URDF reloaded by Pinocchio and yourdfpy: within 1e-12 m,
         "20 postures")
 
 
-def test_calibrate_prints_the_proof_and_writes_it_in_the_header(tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def data(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("ur10_calibrated_proof")
     assert run_pincal("simulate", "ur10", "--measure", "position", "--samples", "30", "--seed", "3", "--quiet",
-                      "--out", str(tmp_path)).returncode == 0
+                      "--out", str(folder)).returncode == 0
+    return folder / "measurements.csv"
+
+
+def test_calibrate_prints_the_proof_and_writes_it_in_the_header(data: Path, tmp_path: Path) -> None:
     out = tmp_path / "cal.urdf"
-    done = run_pincal("calibrate", "ur10", str(tmp_path / "measurements.csv"), "--out", str(out))
+    done = run_pincal("calibrate", "ur10", str(data), "--out", str(out))
     assert done.returncode == 0, done.stderr
     assert LINE in done.stdout.splitlines()
     lines = out.read_text(encoding="utf-8").splitlines()
     assert lines[0].startswith("<?xml") and lines[1].startswith("<!-- calibrated by pincal from 30 samples")
     assert lines[2] == f"<!-- {LINE} -->"
+
+
+def test_calibrate_refuses_a_urdf_a_reader_reads_off(data: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """A reader 2 µm off (as if the writer had slipped): one line naming it, exit 2, nothing written."""
+    from pincal.calibration import export_proof
+    from pincal.cli.app import main
+
+    off = [export_proof.Deviation("Pinocchio", 0.0, 0.0), export_proof.Deviation("yourdfpy", 2e-6, 0.0)]
+    monkeypatch.setattr(export_proof, "urdf_deviations", lambda *_: off)
+    out, report = tmp_path / "cal.urdf", tmp_path / "report.json"
+    assert main(["calibrate", "ur10", str(data), "--out", str(out), "--report", str(report)]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error == ("pincal: error: calibrate: yourdfpy reads the calibrated URDF 2e-06 m, 0 rad away from the "
+                     "calibrated model (tolerance 1e-09): not written")
+    assert not out.exists() and not report.exists()
 
 
 def _moved(text: str, joint: str, dz: float) -> str:
