@@ -29,6 +29,7 @@ import pinocchio as pin
 from pincal.errors import PincalError, RobotFileError
 from pincal.model.dh import Convention, DHRow, DHTable, chain_joints
 from pincal.model.robot import Robot, robot_from_urdf_text
+from pincal.model.urdf import read_extensions
 
 Array = npt.NDArray[np.float64]
 
@@ -141,10 +142,12 @@ def _neutral_where(robot: Robot, q: Array, joints: dict[str, tuple[int, int]]) -
 
 
 def urdf_deviations(urdf_text: str, robot: Robot, postures: Postures) -> list[Deviation]:
-    """The URDF reloaded by plain Pinocchio and by yourdfpy against ``robot``: every link's placement in the root."""
+    """The URDF reloaded by plain Pinocchio (a ``<mimic>`` follower, a joint of its own there, set as its ``<mimic>``
+    says from its leader [rad or m]) and by yourdfpy against ``robot``: every link's placement in the root."""
     import yourdfpy
 
     plain = pin.buildModelFromXML(urdf_text)
+    mimics = read_extensions(urdf_text).mimics  # follower -> (leader, multiplier, offset)
     data = plain.createData()
     loaded = yourdfpy.URDF.load(io.BytesIO(urdf_text.encode("utf-8")), build_scene_graph=True, load_meshes=False,
                                 build_collision_scene_graph=False, load_collision_meshes=False)
@@ -156,6 +159,8 @@ def urdf_deviations(urdf_text: str, robot: Robot, postures: Postures) -> list[De
     for q in postures.q:
         expected = _placements(robot, q)
         values = _joint_values(robot, q)
+        values.update({follower: multiplier * values[leader] + offset
+                       for follower, (leader, multiplier, offset) in mimics.items() if leader in values})
         q_plain = pin.neutral(plain)
         for j in range(1, plain.njoints):
             joint, name = plain.joints[j], str(plain.names[j])

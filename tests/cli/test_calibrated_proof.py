@@ -63,7 +63,8 @@ def _moved(text: str, joint: str, dz: float) -> str:
     return text[:found.start(1)] + f"{x!r} {y!r} {z + dz!r}" + text[found.end(1):]
 
 
-@pytest.mark.parametrize("name, joint", [("ur10", "elbow_joint"), ("delta", None), ("hexapod", None)])
+@pytest.mark.parametrize("name, joint", [("ur10", "elbow_joint"), ("delta", None), ("hexapod", None),
+                                        ("panda", None)])  # panda: its fingers <mimic> one another
 def test_a_urdf_moved_by_a_micrometre_is_refused(name: str, joint: str | None) -> None:
     text = Path(robot_path(name)).read_text(encoding="utf-8")
     robot = robot_from_urdf_text(text)
