@@ -32,6 +32,8 @@ from pincal.model.robot import Robot, robot_from_urdf_text
 from pincal.model.urdf import read_extensions
 
 Array = npt.NDArray[np.float64]
+#: Links are body frames: a joint may bear a link's name.
+BODY = pin.FrameType.BODY
 
 #: Largest deviation [m, rad] of a reloaded export from the model, for it to be written.
 TOLERANCE = 1e-9
@@ -101,8 +103,8 @@ def _placements(robot: Robot, q: Array) -> dict[str, pin.SE3]:
     model, data = robot.model, robot.model.createData()
     pin.framesForwardKinematics(model, data, q)
     links = _links(robot)
-    root = data.oMf[model.getFrameId(links[0])].inverse()
-    return {name: root * data.oMf[model.getFrameId(name)] for name in links}
+    root = data.oMf[model.getFrameId(links[0], BODY)].inverse()
+    return {name: root * data.oMf[model.getFrameId(name, BODY)] for name in links}
 
 
 def _largest(reader: str, pairs: list[tuple[pin.SE3, pin.SE3]]) -> Deviation:
@@ -141,6 +143,9 @@ def _neutral_where(robot: Robot, q: Array, joints: dict[str, tuple[int, int]]) -
     return out
 
 
+_GEOMETRY = re.compile(r"<(visual|collision)\b[^>]*?(?:/>|>.*?</\1\s*>)", re.DOTALL)
+
+
 def urdf_deviations(urdf_text: str, robot: Robot, postures: Postures) -> list[Deviation]:
     """The URDF reloaded by plain Pinocchio (a ``<mimic>`` follower, a joint of its own there, set as its ``<mimic>``
     says from its leader [rad or m]) and by yourdfpy against ``robot``: every link's placement in the root."""
@@ -149,7 +154,8 @@ def urdf_deviations(urdf_text: str, robot: Robot, postures: Postures) -> list[De
     plain = pin.buildModelFromXML(urdf_text)
     mimics = read_extensions(urdf_text).mimics  # follower -> (leader, multiplier, offset)
     data = plain.createData()
-    loaded = yourdfpy.URDF.load(io.BytesIO(urdf_text.encode("utf-8")), build_scene_graph=True, load_meshes=False,
+    kinematic = _GEOMETRY.sub("", urdf_text)  # yourdfpy parses visuals pincal leaves out (with a note) when bad
+    loaded = yourdfpy.URDF.load(io.BytesIO(kinematic.encode("utf-8")), build_scene_graph=True, load_meshes=False,
                                 build_collision_scene_graph=False, load_collision_meshes=False)
     links = _links(robot)
     root = links[0]
@@ -172,8 +178,9 @@ def urdf_deviations(urdf_text: str, robot: Robot, postures: Postures) -> list[De
                 start = several[name][0]
                 q_plain[joint.idx_q:joint.idx_q + joint.nq] = q[start:start + joint.nq]
         pin.framesForwardKinematics(plain, data, q_plain)
-        base = data.oMf[plain.getFrameId(root)].inverse()
-        by_pinocchio += [(expected[n], base * data.oMf[plain.getFrameId(n)]) for n in links if plain.existFrame(n)]
+        base = data.oMf[plain.getFrameId(root, BODY)].inverse()
+        by_pinocchio += [(expected[n], base * data.oMf[plain.getFrameId(n, BODY)]) for n in links
+                         if plain.existFrame(n, BODY)]
         # yourdfpy poses revolute, prismatic and continuous joints only: a floating or planar one at its origin
         at_origin = _placements(robot, _neutral_where(robot, q, several)) if several else expected
         loaded.update_cfg({n: values[n] for n in loaded.actuated_joint_names if n in values})
