@@ -146,17 +146,20 @@ def _neutral_where(robot: Robot, q: Array, joints: dict[str, tuple[int, int]]) -
 _GEOMETRY = re.compile(r"<(visual|collision)\b[^>]*?(?:/>|>.*?</\1\s*>)", re.DOTALL)
 
 
-def urdf_deviations(urdf_text: str, robot: Robot, postures: Postures) -> list[Deviation]:
+def urdf_deviations(urdf_text: str, robot: Robot, postures: Postures, with_yourdfpy: bool = True) -> list[Deviation]:
     """The URDF reloaded by plain Pinocchio (a ``<mimic>`` follower, a joint of its own there, set as its ``<mimic>``
-    says from its leader [rad or m]) and by yourdfpy against ``robot``: every link's placement in the root."""
-    import yourdfpy
-
+    says from its leader [rad or m]) and, unless not ``with_yourdfpy``, by yourdfpy against ``robot``: every link's
+    placement in the root."""
     plain = pin.buildModelFromXML(urdf_text)
     mimics = read_extensions(urdf_text).mimics  # follower -> (leader, multiplier, offset)
     data = plain.createData()
-    kinematic = _GEOMETRY.sub("", urdf_text)  # yourdfpy parses visuals pincal leaves out (with a note) when bad
-    loaded = yourdfpy.URDF.load(io.BytesIO(kinematic.encode("utf-8")), build_scene_graph=True, load_meshes=False,
-                                build_collision_scene_graph=False, load_collision_meshes=False)
+    loaded = None
+    if with_yourdfpy:  # its import alone (trimesh, networkx, scipy.special) costs a calibration about 0.4 s
+        import yourdfpy
+
+        kinematic = _GEOMETRY.sub("", urdf_text)  # yourdfpy parses visuals pincal leaves out (with a note) when bad
+        loaded = yourdfpy.URDF.load(io.BytesIO(kinematic.encode("utf-8")), build_scene_graph=True, load_meshes=False,
+                                    build_collision_scene_graph=False, load_collision_meshes=False)
     links = _links(robot)
     root = links[0]
     by_pinocchio: list[tuple[pin.SE3, pin.SE3]] = []
@@ -181,12 +184,15 @@ def urdf_deviations(urdf_text: str, robot: Robot, postures: Postures) -> list[De
         base = data.oMf[plain.getFrameId(root, BODY)].inverse()
         by_pinocchio += [(expected[n], base * data.oMf[plain.getFrameId(n, BODY)]) for n in links
                          if plain.existFrame(n, BODY)]
+        if loaded is None:
+            continue
         # yourdfpy poses revolute, prismatic and continuous joints only: a floating or planar one at its origin
         at_origin = _placements(robot, _neutral_where(robot, q, several)) if several else expected
         loaded.update_cfg({n: values[n] for n in loaded.actuated_joint_names if n in values})
         by_yourdfpy += [(at_origin[n], pin.SE3(np.asarray(loaded.get_transform(n, root), dtype=float)))
                         for n in links if n in loaded.link_map]
-    return [_largest("Pinocchio", by_pinocchio), _largest("yourdfpy", by_yourdfpy)]
+    pinocchio = _largest("Pinocchio", by_pinocchio)
+    return [pinocchio, _largest("yourdfpy", by_yourdfpy)] if loaded is not None else [pinocchio]
 
 
 _FLOW = re.compile(r'\s*([A-Za-z_]\w*):\s*("(?:[^"\\]|\\.)*"|[^,}]*?)\s*(?:,|}|$)')
@@ -356,11 +362,12 @@ def bound(value: float) -> str:
 
 
 def calibrated_proof(urdf_text: str, robot: Robot, joint_names: list[str], readings: Array, seed: int = 0) -> str:
-    """The calibrated URDF ``pincal calibrate`` writes, reloaded by plain Pinocchio and yourdfpy
-    (:func:`urdf_deviations`) and compared with ``robot``, the calibrated model it was written from (pincal's Robot of
-    that text: its geometric part, what a URDF holds; harmonics and compliance live in the corrections file) at up to
-    :data:`CALIBRATED_POSTURES` of the fitted postures (``readings`` [rad or m], columns ``joint_names``, evenly
-    spaced) and as many random ones within the joint limits (``seed``).
+    """The calibrated URDF ``pincal calibrate`` writes, reloaded by plain Pinocchio (:func:`urdf_deviations`; yourdfpy
+    too in ``pincal export``, whose import would cost every calibration about 0.4 s) and compared with ``robot``, the
+    calibrated model it was written from (pincal's Robot of that text: its geometric part, what a URDF holds; harmonics
+    and compliance live in the corrections file) at up to :data:`CALIBRATED_POSTURES` of the fitted postures
+    (``readings`` [rad or m], columns ``joint_names``, evenly spaced) and as many random ones within the joint limits
+    (``seed``).
 
     Returns:
         One line: each deviation as a bound [m, rad] (:func:`bound`) and the number of postures.
@@ -383,7 +390,7 @@ def calibrated_proof(urdf_text: str, robot: Robot, joint_names: list[str], readi
             rows = []
     _, q = random_actuated(robot, CALIBRATED_POSTURES, np.random.default_rng(seed))
     postures = Postures(np.array([*rows, *q]), len(rows), seed)
-    return proof_statement(urdf_deviations(urdf_text, robot, postures), len(postures.q))
+    return proof_statement(urdf_deviations(urdf_text, robot, postures, with_yourdfpy=False), len(postures.q))
 
 
 def proof_statement(deviations: list[Deviation], count: int) -> str:
@@ -397,7 +404,7 @@ def proof_statement(deviations: list[Deviation], count: int) -> str:
         raise PincalError(f"calibrate: {worst.reader} reads the calibrated URDF {worst.position:.1g} m, "
                           f"{worst.orientation:.1g} rad away from the calibrated model (tolerance {TOLERANCE:g}): "
                           "not written")
-    return (f"the calibrated URDF reloaded by Pinocchio and yourdfpy: within {bound(worst.position)} m, "
+    return (f"the calibrated URDF reloaded by plain Pinocchio: within {bound(worst.position)} m, "
             f"{bound(worst.orientation)} rad of the calibrated model at {count} postures")
 
 

@@ -1,6 +1,6 @@
-"""The calibrated URDF ``pincal calibrate`` writes, proved by reloading it: plain Pinocchio and yourdfpy read it
-back and are compared with the calibrated model at some fitted postures and some random ones; the bound is printed
-and in the file's header comment, a URDF off by a micrometre is caught."""
+"""The calibrated URDF ``pincal calibrate`` writes, proved by reloading it: plain Pinocchio reads it back (yourdfpy
+too in ``pincal export``) and is compared with the calibrated model at some fitted postures and some random ones;
+the bound is printed and in the file's header comment, a URDF off by a micrometre is caught."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from pincal.errors import PincalError
 from pincal.model.catalog import robot_path
 from pincal.model.robot import robot_from_urdf_text
 
-LINE = ("the calibrated URDF reloaded by Pinocchio and yourdfpy: within 1e-12 m, 1e-12 rad of the calibrated model at "
+LINE = ("the calibrated URDF reloaded by plain Pinocchio: within 1e-12 m, 1e-12 rad of the calibrated model at "
         "20 postures")
 
 
@@ -45,7 +45,7 @@ def test_calibrate_refuses_a_urdf_a_reader_reads_off(data: Path, tmp_path: Path,
     from pincal.cli.app import main
 
     off = [export_proof.Deviation("Pinocchio", 0.0, 0.0), export_proof.Deviation("yourdfpy", 2e-6, 0.0)]
-    monkeypatch.setattr(export_proof, "urdf_deviations", lambda *_: off)
+    monkeypatch.setattr(export_proof, "urdf_deviations", lambda *_, **__: off)
     out, report = tmp_path / "cal.urdf", tmp_path / "report.json"
     assert main(["calibrate", "ur10", str(data), "--out", str(out), "--report", str(report)]) == 2
     error = capsys.readouterr().err.strip()
