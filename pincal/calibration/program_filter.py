@@ -230,20 +230,31 @@ def _one(target: Target, solver: CommandSolver, nominal_solver: CommandSolver, n
     controller = answer.raw[0]
     start = solver.robot.solve_fk(solver.model.corrected(controller)) if solver.model.corrections is not None \
         else answer.configurations[0]
-    commands = solver.solve_from(_goal(model_base * intended), start[None, :])
-    if commands.statuses[0] != OK:
-        return Filtered(target, f"the calibrated robot does not reach it from the controller's posture: "
-                                f"{commands.statuses[0].partition(': ')[2]}", None, nan, missed, missed)
-    raw = commands.raw[0]
-    jump = float(np.max(np.abs(raw - controller)))
-    if jump > BRANCH:
-        return Filtered(target, f"the calibrated commands are on another branch ({jump:.3g} rad or m from the "
-                                "controller's answer)", None, nan, missed, missed)
+    status, raw, residual = _commands_near(solver, model_base * intended, start, controller,
+                                           "the calibrated robot does not reach it from the controller's posture",
+                                           "the controller's answer")
+    if raw is None:
+        return Filtered(target, status, None, nan, missed, missed)
     reached = nominal_base.inverse() * nominal.placement(nominal.solve_fk(raw), flange)
     pose = target.frame.inverse() * reached * target.tool
     gap = target.pose.inverse() * pose
-    residual = (float(commands.residuals[0, 0]), float(commands.residuals[0, 1]))
     return Filtered(target, OK, pose, raw, (float(np.linalg.norm(gap.translation)), _angle(gap.rotation)), residual)
+
+
+def _commands_near(solver: CommandSolver, goal: pin.SE3, start: Array, near: Array, unreached: str,
+                   near_what: str) -> tuple[str, Array | None, tuple[float, float]]:
+    """The calibrated commands [rad or m] that put the flange on ``goal`` (in the model's base), solved from ``start``
+    and kept only on the branch of ``near`` (``near_what`` in words): the status (``OK``, else why not, opening with
+    ``unreached`` when the robot does not reach it), the commands or None, and the solve's residual [m, rad]."""
+    missed = (math.nan, math.nan)
+    commands = solver.solve_from(_goal(goal), start[None, :])
+    if commands.statuses[0] != OK:
+        return f"{unreached}: {commands.statuses[0].partition(': ')[2]}", None, missed
+    raw = commands.raw[0]
+    jump = float(np.max(np.abs(raw - near)))
+    if jump > BRANCH:
+        return f"the calibrated commands are on another branch ({jump:.3g} rad or m from {near_what})", None, missed
+    return OK, raw, (float(commands.residuals[0, 0]), float(commands.residuals[0, 1]))
 
 
 def _joints(target: Target, solver: CommandSolver, nominal: Robot, model_base: pin.SE3, nominal_base: pin.SE3,
@@ -255,17 +266,12 @@ def _joints(target: Target, solver: CommandSolver, nominal: Robot, model_base: p
     missed = (math.nan, math.nan)
     intended = nominal_base.inverse() * nominal.placement(nominal.solve_fk(written), flange)
     start = solver.robot.solve_fk(solver.model.corrected(written))
-    commands = solver.solve_from(_goal(model_base * intended), start[None, :])
-    if commands.statuses[0] != OK:
-        return Filtered(target, f"the calibrated robot does not reach its nominal pose from it: "
-                                f"{commands.statuses[0].partition(': ')[2]}", None, nan, missed, missed)
-    raw = commands.raw[0]
-    jump = float(np.max(np.abs(raw - written)))
-    if jump > BRANCH:
-        return Filtered(target, f"the calibrated commands are on another branch ({jump:.3g} rad or m from the values "
-                                "written)", None, nan, missed, missed)
+    status, raw, residual = _commands_near(solver, model_base * intended, start, written,
+                                           "the calibrated robot does not reach its nominal pose from it",
+                                           "the values written")
+    if raw is None:
+        return Filtered(target, status, None, nan, missed, missed)
     gap = intended.inverse() * (nominal_base.inverse() * nominal.placement(nominal.solve_fk(raw), flange))
-    residual = (float(commands.residuals[0, 0]), float(commands.residuals[0, 1]))
     return Filtered(target, OK, None, raw, (float(np.linalg.norm(gap.translation)), _angle(gap.rotation)), residual)
 
 
