@@ -17,9 +17,10 @@ Per session, on MODEL (a calibrated URDF: its robot as calibrated, the parameter
    threshold, the one of fewest parameters (the simplest explanation the data allow); when none does, the one that
    lowers ``T`` the most for its size (``T_g + k_g ln m``); then, in its place, the smallest group it does not beat
    significantly (``T_h − T_g`` within χ²'s upper ``α / (groups left)`` quantile with ``k_g − k_h`` degrees of
-   freedom). A group is kept while its drop ``T − T_g`` exceeds χ²'s upper ``α / (groups left)`` quantile with
-   ``k_g`` degrees of freedom and ``T`` still exceeds its own threshold; each group's shift [m, rad] is the
-   generalised least squares estimate with its σ.
+   freedom). A group is kept while ``T`` still exceeds its own threshold and its drop is significant against
+   what it leaves: ``((T − T_g) / k_g) / (T_g / (m − rank − k_g))`` beyond F's upper ``α / (groups left)`` quantile
+   with (k_g, m − rank − k_g) degrees of freedom, so a session merely noisier than the calibration's σ names no group;
+   each group's shift [m, rad] is the generalised least squares estimate with its σ.
 
 Setup parameters never count as a change. SI units throughout: m, rad.
 """
@@ -274,7 +275,7 @@ def _named_groups(names: Sequence[str], setup: Sequence[int], whitened: Array, y
         simpler = [g for g in tried if g[2] < k and g[1] - t <= float(chi2_upper(level / len(groups), k - g[2]))]
         if simpler:
             group, t, k = min(simpler, key=lambda g: (g[2], g[1]))
-        if statistic - t <= float(chi2_upper(level / len(groups), k)):
+        if not _significant(statistic - t, k, t, m - rank - k, level / len(groups)):
             break
         chosen.append((group, statistic - t, k))
         held += groups.pop(group)
@@ -288,6 +289,18 @@ def _named_groups(names: Sequence[str], setup: Sequence[int], whitened: Array, y
         out.append(GroupShift(group, [names[c] for c in cols], [-float(estimate[position[c]]) for c in cols],
                               [float(std[position[c]]) for c in cols], float(drop), int(k)))
     return out
+
+
+def _significant(drop: float, k: int, remaining: float, dof: int, tail: float) -> bool:
+    """Whether a group's drop ``T − T_g`` (k parameters) is beyond the noise at ``tail``, the residual's scale
+    estimated from what the group leaves (``T_g`` over its ``dof``): F's upper ``tail`` quantile with (k, dof) degrees
+    of freedom. A session noisier than the calibration's σ inflates every drop by the same factor as ``T_g``, so noise
+    alone names no group (a χ² test of the drop at the assumed σ would)."""
+    if dof <= 0 or remaining <= 0.0:  # the group leaves nothing to scale by: it explains every row
+        return drop > 0.0
+    from scipy.special import fdtri  # the F quantile; only a changed session with a candidate group comes here
+
+    return bool((drop / k) / (remaining / dof) > float(fdtri(k, dof, 1.0 - tail)))
 
 
 def recalibration_command(model: str, session: str, parameters: Sequence[str], setup: Sequence[str]) -> str:

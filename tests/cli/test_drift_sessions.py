@@ -79,8 +79,15 @@ def test_a_noisier_instrument_stating_its_sigma_is_no_change_and_one_not_stating
     (calibrated / "unstated.csv").write_text("\n".join(line for line in lines if not line.startswith("# sigma")) + "\n",
                                              encoding="utf-8")
     done = run_pincal("drift", "cal.urdf", stated, "unstated.csv", "--report", "noisy.json", cwd=calibrated)
-    verdicts = [s["changed"] for s in json.loads((calibrated / "noisy.json").read_text(encoding="utf-8"))["sessions"]]
+    report = json.loads((calibrated / "noisy.json").read_text(encoding="utf-8"))
+    verdicts = [s["changed"] for s in report["sessions"]]
     assert verdicts == [False, True] and done.returncode == 1, done.stdout
+    # noise is no parameter's shift: no group named, the advice is to measure again or calibrate anew
+    assert [g for s in report["sessions"] for g in s["moved"]] == []
+    command = "pincal calibrate delta unstated.csv --out cal_recalibrated.urdf"
+    assert report["command"] == command
+    assert ("advice: unstated.csv changed beyond the calibration's predicted spread, but no parameter group explains "
+            f"it alone: measure again, or calibrate anew: {command}") in done.stdout
 
 
 def test_a_job_file_session_is_judged_as_its_csv(calibrated: Path) -> None:
