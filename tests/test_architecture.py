@@ -202,7 +202,6 @@ def test_the_import_graph_reads_imports_inside_functions() -> None:
 LEFT_CIRCLES = [
     ["pincal.calibration.growth", "pincal.calibration.heldout", "pincal.calibration.predicted",
      "pincal.calibration.report"],
-    ["pincal.calibration.job", "pincal.calibration.job_bag"],
     ["pincal.identification.batch", "pincal.identification.measurements", "pincal.identification.measurements.base",
      "pincal.identification.measurements.camera", "pincal.identification.measurements.distances",
      "pincal.identification.measurements.joint", "pincal.identification.measurements.pixels",

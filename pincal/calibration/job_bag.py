@@ -20,7 +20,7 @@ from collections import Counter
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pincal.calibration.job import Job
+from pincal.calibration.job_reader import Job, JobReader
 from pincal.calibration.options import JOB_OPTIONS
 from pincal.errors import DataError, NotFoundError
 from pincal.io.bag_dataset import BagSource
@@ -29,7 +29,6 @@ from pincal.io.dataset import Dataset
 from pincal.io.postures import DRIFT, STILL_TIME, STILL_TOLERANCE, StillRule
 
 if TYPE_CHECKING:
-    from pincal.calibration.job import _Reader
     from pincal.model.robot import Robot
 
 #: Keys of the top level of a job with a ``[bag]``, and of its ``[bag]`` table.
@@ -39,7 +38,7 @@ BAG_KEYS = ("file", "joints", "pose", "tf", "tf_topic", "point", "frame", "still
 SOURCE_KEYS = ("pose", "tf", "point")
 
 
-def _positive(reader: _Reader, table: dict[str, Any], key: str, default: float) -> float:
+def _positive(reader: JobReader, table: dict[str, Any], key: str, default: float) -> float:
     """``table[key]``, a finite number > 0 [SI], or ``default``."""
     value = table.get(key, default)
     if isinstance(value, bool) or not isinstance(value, int | float) or not 0.0 < value < math.inf:
@@ -47,7 +46,7 @@ def _positive(reader: _Reader, table: dict[str, Any], key: str, default: float) 
     return float(value)
 
 
-def _source(reader: _Reader, table: dict[str, Any]) -> MeasurementSource:
+def _source(reader: JobReader, table: dict[str, Any]) -> MeasurementSource:
     given = [key for key in SOURCE_KEYS if key in table]
     if len(given) != 1:
         raise reader.error("[bag]", "name the measurement by one of pose = \"TOPIC\", tf = [\"PARENT\", \"CHILD\"] "
@@ -63,7 +62,7 @@ def _source(reader: _Reader, table: dict[str, Any]) -> MeasurementSource:
     return MeasurementSource("tf", reader.text(table.get("tf_topic", TF_TOPIC), "[bag] tf_topic"), *frames)
 
 
-def _bag(reader: _Reader, table: dict[str, Any]) -> BagSource:
+def _bag(reader: JobReader, table: dict[str, Any]) -> BagSource:
     reader.keys(table, BAG_KEYS, "in [bag]")
     for key in ("file", "joints"):
         if key not in table:
@@ -79,7 +78,7 @@ def _bag(reader: _Reader, table: dict[str, Any]) -> BagSource:
     return BagSource(path, reader.text(table["joints"], "[bag] joints"), _source(reader, table), frame, rule)
 
 
-def read_bag_job(reader: _Reader, doc: dict[str, Any]) -> Job:
+def read_bag_job(reader: JobReader, doc: dict[str, Any]) -> Job:
     """The job of ``doc``, a job file with a ``[bag]`` table, read and checked by ``reader`` (its file, its place):
     the robot, the bag, the outputs and the calibration options.
 
