@@ -207,7 +207,6 @@ LEFT_CIRCLES = [
      "pincal.identification.measurements.joint", "pincal.identification.measurements.pixels",
      "pincal.identification.measurements.planes", "pincal.identification.measurements.poses",
      "pincal.identification.measurements.positions"],
-    ["pincal.identification.parameters.kinds", "pincal.identification.parameters.parameter"],
     ["pincal.identification.pixel_starts", "pincal.identification.predictions", "pincal.identification.problem",
      "pincal.identification.starts"],
     ["pincal.io.krl", "pincal.io.programs", "pincal.io.rapid", "pincal.io.urscript"],
