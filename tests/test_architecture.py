@@ -210,7 +210,6 @@ LEFT_CIRCLES = [
     ["pincal.identification.pixel_starts", "pincal.identification.predictions", "pincal.identification.problem",
      "pincal.identification.starts"],
     ["pincal.io.krl", "pincal.io.programs", "pincal.io.rapid", "pincal.io.urscript"],
-    ["pincal.model.batch_kinematics", "pincal.model.batch_loops", "pincal.model.kinematics"],
     ["pincal.model.catalog", "pincal.model.measured_frame", "pincal.model.parts", "pincal.model.robot"],
 ]
 
