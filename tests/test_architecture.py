@@ -210,7 +210,7 @@ LEFT_CIRCLES = [
     ["pincal.identification.pixel_starts", "pincal.identification.predictions", "pincal.identification.problem",
      "pincal.identification.starts"],
     ["pincal.io.krl", "pincal.io.programs", "pincal.io.rapid", "pincal.io.urscript"],
-    ["pincal.model.catalog", "pincal.model.measured_frame", "pincal.model.parts", "pincal.model.robot"],
+    ["pincal.model.measured_frame", "pincal.model.parts", "pincal.model.robot"],
 ]
 
 
