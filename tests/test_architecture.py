@@ -202,11 +202,6 @@ def test_the_import_graph_reads_imports_inside_functions() -> None:
 LEFT_CIRCLES = [
     ["pincal.calibration.growth", "pincal.calibration.heldout", "pincal.calibration.predicted",
      "pincal.calibration.report"],
-    ["pincal.identification.batch", "pincal.identification.measurements", "pincal.identification.measurements.base",
-     "pincal.identification.measurements.camera", "pincal.identification.measurements.distances",
-     "pincal.identification.measurements.joint", "pincal.identification.measurements.pixels",
-     "pincal.identification.measurements.planes", "pincal.identification.measurements.poses",
-     "pincal.identification.measurements.positions"],
     ["pincal.identification.pixel_starts", "pincal.identification.predictions", "pincal.identification.problem",
      "pincal.identification.starts"],
     ["pincal.io.krl", "pincal.io.programs", "pincal.io.rapid", "pincal.io.urscript"],
