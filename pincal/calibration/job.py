@@ -55,19 +55,21 @@ def read_job(path: str | Path) -> Job:
     try:
         raw = source.read_bytes()
     except OSError as exc:
-        raise DataError(f"cannot read job file '{source}': {exc.strerror or exc}") from None
+        raise DataError(f"cannot read job file '{source}': {exc.strerror or exc}", file=str(source)) from None
     try:
         text = raw.decode("utf-8-sig")  # a byte-order mark, as some editors write, is no content
     except UnicodeDecodeError as exc:
         raise DataError(f"{source}: not UTF-8 text (byte {exc.start}): a TOML job file's encoding is UTF-8; save "
-                        "it as UTF-8") from None
+                        "it as UTF-8", file=str(source)) from None
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise DataError(f"{source}: not a valid TOML file: {exc}") from None
+        line = re.search(r"\(at line (\d+)", str(exc))  # tomllib writes where: "(at line 3, column 7)"
+        raise DataError(f"{source}: not a valid TOML file: {exc}", file=str(source),
+                        line=int(line.group(1)) if line else None) from None
     except RecursionError:
         raise DataError(f"{source}: arrays or tables nested too deeply to read; a job file nests a few "
-                        "levels") from None
+                        "levels", file=str(source)) from None
     if "bag" in doc:  # the data is a ROS bag (docs/bags.md)
         from pincal.calibration.job_bag import read_bag_job
 
@@ -92,8 +94,8 @@ class _DataReader(JobReader):
         self.keys(doc, JOB_KEYS, "at the top level")
         for key in ("robot", "data"):
             if key not in doc:
-                raise DataError(f"{self.path}: '{key}' is missing: a job names its robot, and its data in a [data] "
-                                "table (see docs/job_file.md)")
+                raise self.error(f"'{key}' is missing", "a job names its robot, and its data in a [data] table "
+                                                        "(see docs/job_file.md)")
         robot = self.text(doc["robot"], "robot")
         if input_problem(self.base / robot) is None or Path(robot).suffix or "/" in robot:  # a path, else a name
             robot = str(self.file(robot, "robot")[0])
@@ -249,4 +251,4 @@ def load_job_robot(job: Job) -> Robot:
     try:
         return load_robot(job.robot)
     except NotFoundError as exc:
-        raise NotFoundError(f"{job.path}: robot: {exc}", exc.kind, exc.name, exc.choices) from None
+        raise NotFoundError(f"{job.path}: robot: {exc}", exc.kind, exc.name, exc.choices, file=str(job.path)) from None

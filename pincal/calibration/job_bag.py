@@ -87,7 +87,7 @@ def read_bag_job(reader: JobReader, doc: dict[str, Any]) -> Job:
     """
     reader.keys(doc, BAG_JOB_KEYS, "at the top level of a job with a [bag] (it has no [data] nor [[measure]])")
     if "robot" not in doc:
-        raise DataError(f"{reader.path}: 'robot' is missing: a job names its robot")
+        raise reader.error("'robot' is missing", "a job names its robot")
     robot = reader.text(doc["robot"], "robot")
     if (reader.base / robot).is_file() or Path(robot).suffix or "/" in robot:  # a path, else a robot's name
         robot = str(reader.file(robot, "robot")[0])
@@ -110,12 +110,12 @@ def bag_job_dataset(job: Job, bag: BagSource, robot: Robot) -> Dataset:
     try:
         done = bag.read(robot)
     except NotFoundError as exc:
-        raise NotFoundError(f"{where}{exc}", exc.kind, exc.name, exc.choices) from None
+        raise NotFoundError(f"{where}{exc}", exc.kind, exc.name, exc.choices, file=str(job.path)) from None
     except DataError as exc:
-        raise DataError(f"{where}{exc}") from None
+        raise DataError(f"{where}{exc}", file=str(job.path)) from None
     if not done.dataset.n_samples:
         reasons = Counter(p.reason.partition(" (")[0] for p in done.postures)
         raise DataError(f"{where}no posture of {len(done.postures)} kept: "
                         + ", ".join(f"{n} {reason}" for reason, n in reasons.items())
-                        + f" (pincal import {job.robot} {bag.path} ... prints each)")
+                        + f" (pincal import {job.robot} {bag.path} ... prints each)", file=str(job.path))
     return done.dataset

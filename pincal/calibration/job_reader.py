@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from pincal.calibration.options import JOB_OPTIONS, OPTIONS
-from pincal.errors import DataError, NotFoundError, listing, not_found
+from pincal.errors import DataError, NotFoundError, PincalError, listing, not_found
 from pincal.identification.corrections import Payload, payload_from_dict
 from pincal.io.bag_dataset import BagSource
 from pincal.io.files import input_problem
@@ -140,8 +140,8 @@ class JobReader:
         self.base = path.parent
 
     def error(self, where: str, message: str) -> DataError:
-        """The error at ``where`` in this file: ``FILE: WHERE: MESSAGE``."""
-        return DataError(f"{self.path}: {where}: {message}")
+        """The error at ``where`` in this file: ``FILE: WHERE: MESSAGE``, the file its ``file`` field."""
+        return DataError(f"{self.path}: {where}: {message}", file=str(self.path))
 
     def keys(self, table: dict[str, Any], valid: Sequence[str], level: str) -> None:
         """Refuse a key of ``table`` not in ``valid``, listing the valid keys at ``level``."""
@@ -150,7 +150,8 @@ class JobReader:
                 error = not_found("key", key, valid, f" {level}", f"{self.path}: ")
                 if valid is not JOB_KEYS and key in JOB_KEYS:  # TOML puts keys after a [table] header inside it
                     raise NotFoundError(f"{error} ('{key}' is a top-level key: write it above the first [table])",
-                                        error.kind, error.name, error.choices)
+                                        error.kind, error.name, error.choices, file=str(self.path))
+                error.file = str(self.path)
                 raise error
 
     def table(self, value: Any, where: str) -> dict[str, Any]:
@@ -229,16 +230,20 @@ class JobReader:
 
     def options(self, doc: dict[str, Any]) -> dict[str, Any]:
         """The calibration options the job gives, each read as its :class:`~pincal.calibration.options.Option`
-        says (its key, kind and choices), by keyword."""
+        says (its key, kind and choices), by keyword; an error names the option (its ``option`` field)."""
         options: dict[str, Any] = {}
         for name, option in OPTIONS.items():
             if option.key is None or option.key not in doc:
                 continue
             key, value = option.key, doc[option.key]
-            if option.choices is not None:
-                options[name] = self.choice(value, option.choices, key)
-            else:
-                options[name] = getattr(self, f"option_{option.kind}")(value, key)
+            try:
+                if option.choices is not None:
+                    options[name] = self.choice(value, option.choices, key)
+                else:
+                    options[name] = getattr(self, f"option_{option.kind}")(value, key)
+            except PincalError as exc:
+                exc.option = name
+                raise
         return options
 
     def option_texts(self, value: Any, key: str) -> list[str]:
@@ -288,7 +293,7 @@ class JobReader:
         try:
             return payload_from_dict(payload)
         except DataError as exc:
-            raise DataError(f"{self.path}: {exc}") from None
+            raise DataError(f"{self.path}: {exc}", file=str(self.path)) from None
 
 
 
