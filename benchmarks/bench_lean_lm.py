@@ -47,6 +47,7 @@ from pincal import linalg  # noqa: E402
 from pincal.calibration.campaign import simulate  # noqa: E402
 from pincal.errors import IdentifiabilityError  # noqa: E402
 from pincal.identification import fitting, lm  # noqa: E402
+from pincal.identification.evaluation import SolveState  # noqa: E402
 from pincal.identification.identifiability import analyse, correlations, covariance  # noqa: E402
 from pincal.identification.parameters import choose_parameters  # noqa: E402
 from pincal.identification.problem import CalibrationProblem, Prediction  # noqa: E402
@@ -241,14 +242,14 @@ def delta(n: int) -> Callable[[], CalibrationProblem]:
                                       observations_from(robot, ds.joint_names, ds.joints, ds.measurements, models))
 
 
-# --- the neighbour search before issue 14 (reference copy of CalibrationProblem._nearest_solution at b8a351c) ----
-def old_nearest_solution(self: CalibrationProblem, robot: Any, qa: Array) -> Array | None:
+# --- the neighbour search before issue 14 (reference copy of the problem's _nearest_solution at b8a351c) ----
+def old_nearest_solution(self: SolveState, robot: Any, qa: Array) -> Array | None:
     if not robot.loops:
         return None
-    diff = robot.kinematics.actuated_delta(qa, self._qa_solved.values)  # continuous joints: the short way round
+    diff = robot.kinematics.actuated_delta(qa, self.solved_inputs.values)  # continuous joints: the short way round
     gaps = np.max(np.abs(diff), axis=1)  # NaN rows (unsolved) compare False
     k = int(np.nanargmin(gaps)) if np.any(gaps <= CONTINUATION_STEP) else -1
-    return None if k < 0 else self._q_cache[k]
+    return None if k < 0 else self.configurations[k]
 
 
 # --- measurement ------------------------------------------------------------------------------------------------
@@ -313,7 +314,7 @@ def delta_case(n: int, repeats: int) -> None:
             problem = make()
             problem._batched_loops = False  # the batched path closes its first solves with no neighbour search
             if label == "old":
-                problem._nearest_solution = types.MethodType(old_nearest_solution, problem)  # type: ignore[method-assign]
+                problem.solves.nearest = types.MethodType(old_nearest_solution, problem.solves)  # type: ignore[method-assign]
             x0 = np.zeros(len(problem.parameters))
             seconds, pred = cpu(lambda problem=problem, x0=x0: problem.evaluate(x0))  # type: ignore[misc]
             times[label].append(seconds)

@@ -11,7 +11,29 @@ if TYPE_CHECKING:
 
 
 class PincalError(Exception):
-    """Root of all pincal errors."""
+    """Root of all pincal errors: the message says what is wrong; the fields name the culprit for a program.
+
+    Args:
+        message: The one-line message.
+        option: The option at fault by its keyword name (``cv_seed``, whether given as a keyword, in a job file or as
+            a flag), or None.
+        column: The data column at fault (its header name, or its position from 1), or None.
+        sample: The sample at fault (its id, or its row from 0), or None.
+        file: The file at fault, as given, or None.
+        line: The line of ``file`` at fault (from 1), or None.
+
+    Attributes:
+        option: As given, or None.
+        column: As given, or None.
+        sample: As given, or None.
+        file: As given, or None.
+        line: As given, or None.
+    """
+
+    def __init__(self, message: str = "", *, option: str | None = None, column: str | int | None = None,
+                 sample: str | int | None = None, file: str | None = None, line: int | None = None) -> None:
+        super().__init__(message)
+        self.option, self.column, self.sample, self.file, self.line = option, column, sample, file, line
 
 
 class RobotFileError(PincalError):
@@ -63,8 +85,10 @@ class NotFoundError(PincalError, KeyError):
         choices: The names that exist.
     """
 
-    def __init__(self, message: str, kind: str = "", name: str = "", choices: Iterable[str] = ()) -> None:
-        super().__init__(message)
+    def __init__(self, message: str, kind: str = "", name: str = "", choices: Iterable[str] = (), *,
+                 option: str | None = None, column: str | int | None = None, sample: str | int | None = None,
+                 file: str | None = None, line: int | None = None) -> None:
+        super().__init__(message, option=option, column=column, sample=sample, file=file, line=line)
         self.kind, self.name, self.choices = kind, name, list(choices)
 
     def __str__(self) -> str:  # KeyError would otherwise quote the message

@@ -350,7 +350,7 @@ def nominal_targets(compensation: Compensation, nominal: Robot) -> tuple[Array, 
         raise DataError(f"--nominal '{nominal.name}' actuates {listing(nominal.actuated_joints)}, the model "
                         f"{listing(robot.actuated_joints)}: they are not the same robot")
     frame = compensation.frame if nominal.model.existFrame(compensation.frame) else compensation.targets.frame
-    kinematics = frame_kinematics(nominal.kinematics, nominal.frame_id(frame, "--nominal: "), SOLVE_TOLERANCE)
+    kinematics = frame_kinematics(nominal.batch, nominal.frame_id(frame, "--nominal: "), SOLVE_TOLERANCE)
     width = 7 if compensation.targets.kind == "pose" else 3
     out = np.full((len(compensation.statuses), width), np.nan)
     statuses = list(compensation.statuses)

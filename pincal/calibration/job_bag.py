@@ -20,7 +20,7 @@ from collections import Counter
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pincal.calibration.job import Job
+from pincal.calibration.job_reader import Job, JobReader
 from pincal.calibration.options import JOB_OPTIONS
 from pincal.errors import DataError, NotFoundError
 from pincal.io.bag_dataset import BagSource
@@ -29,7 +29,6 @@ from pincal.io.dataset import Dataset
 from pincal.io.postures import DRIFT, STILL_TIME, STILL_TOLERANCE, StillRule
 
 if TYPE_CHECKING:
-    from pincal.calibration.job import _Reader
     from pincal.model.robot import Robot
 
 #: Keys of the top level of a job with a ``[bag]``, and of its ``[bag]`` table.
@@ -39,7 +38,7 @@ BAG_KEYS = ("file", "joints", "pose", "tf", "tf_topic", "point", "frame", "still
 SOURCE_KEYS = ("pose", "tf", "point")
 
 
-def _positive(reader: _Reader, table: dict[str, Any], key: str, default: float) -> float:
+def _positive(reader: JobReader, table: dict[str, Any], key: str, default: float) -> float:
     """``table[key]``, a finite number > 0 [SI], or ``default``."""
     value = table.get(key, default)
     if isinstance(value, bool) or not isinstance(value, int | float) or not 0.0 < value < math.inf:
@@ -47,7 +46,7 @@ def _positive(reader: _Reader, table: dict[str, Any], key: str, default: float) 
     return float(value)
 
 
-def _source(reader: _Reader, table: dict[str, Any]) -> MeasurementSource:
+def _source(reader: JobReader, table: dict[str, Any]) -> MeasurementSource:
     given = [key for key in SOURCE_KEYS if key in table]
     if len(given) != 1:
         raise reader.error("[bag]", "name the measurement by one of pose = \"TOPIC\", tf = [\"PARENT\", \"CHILD\"] "
@@ -63,7 +62,7 @@ def _source(reader: _Reader, table: dict[str, Any]) -> MeasurementSource:
     return MeasurementSource("tf", reader.text(table.get("tf_topic", TF_TOPIC), "[bag] tf_topic"), *frames)
 
 
-def _bag(reader: _Reader, table: dict[str, Any]) -> BagSource:
+def _bag(reader: JobReader, table: dict[str, Any]) -> BagSource:
     reader.keys(table, BAG_KEYS, "in [bag]")
     for key in ("file", "joints"):
         if key not in table:
@@ -79,7 +78,7 @@ def _bag(reader: _Reader, table: dict[str, Any]) -> BagSource:
     return BagSource(path, reader.text(table["joints"], "[bag] joints"), _source(reader, table), frame, rule)
 
 
-def read_bag_job(reader: _Reader, doc: dict[str, Any]) -> Job:
+def read_bag_job(reader: JobReader, doc: dict[str, Any]) -> Job:
     """The job of ``doc``, a job file with a ``[bag]`` table, read and checked by ``reader`` (its file, its place):
     the robot, the bag, the outputs and the calibration options.
 
@@ -88,7 +87,7 @@ def read_bag_job(reader: _Reader, doc: dict[str, Any]) -> Job:
     """
     reader.keys(doc, BAG_JOB_KEYS, "at the top level of a job with a [bag] (it has no [data] nor [[measure]])")
     if "robot" not in doc:
-        raise DataError(f"{reader.path}: 'robot' is missing: a job names its robot")
+        raise reader.error("'robot' is missing", "a job names its robot")
     robot = reader.text(doc["robot"], "robot")
     if (reader.base / robot).is_file() or Path(robot).suffix or "/" in robot:  # a path, else a robot's name
         robot = str(reader.file(robot, "robot")[0])
@@ -111,12 +110,12 @@ def bag_job_dataset(job: Job, bag: BagSource, robot: Robot) -> Dataset:
     try:
         done = bag.read(robot)
     except NotFoundError as exc:
-        raise NotFoundError(f"{where}{exc}", exc.kind, exc.name, exc.choices) from None
+        raise NotFoundError(f"{where}{exc}", exc.kind, exc.name, exc.choices, file=str(job.path)) from None
     except DataError as exc:
-        raise DataError(f"{where}{exc}") from None
+        raise DataError(f"{where}{exc}", file=str(job.path)) from None
     if not done.dataset.n_samples:
         reasons = Counter(p.reason.partition(" (")[0] for p in done.postures)
         raise DataError(f"{where}no posture of {len(done.postures)} kept: "
                         + ", ".join(f"{n} {reason}" for reason, n in reasons.items())
-                        + f" (pincal import {job.robot} {bag.path} ... prints each)")
+                        + f" (pincal import {job.robot} {bag.path} ... prints each)", file=str(job.path))
     return done.dataset

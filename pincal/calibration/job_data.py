@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration.job import Column, HeldOut, Job
 from pincal.calibration.job_bag import bag_job_dataset
+from pincal.calibration.job_reader import Column, HeldOut, Job
 from pincal.calibration.samples import ANGLE_UNIT_SIZES, LENGTH_UNIT_SIZES
 from pincal.errors import DataError, listing, not_found
 from pincal.identification.measurements import KIND_CLASSES, parse_key

@@ -112,7 +112,7 @@ class CommandSolver:
     def __init__(self, model: Model, frame: str, tolerance: float, seed: int) -> None:
         robot = model.robot
         self.model, self.robot, self.tolerance, self.seed = model, robot, tolerance, seed
-        self.frame = frame_kinematics(robot.kinematics, robot.frame_id(frame), SOLVE_TOLERANCE)
+        self.frame = frame_kinematics(robot.batch, robot.frame_id(frame), SOLVE_TOLERANCE)
         actuated = robot.kinematics.actuated
         self.lower = np.array([robot.model.lowerPositionLimit[a.idx_q] if a.nq == 1 else -np.inf for a in actuated])
         self.upper = np.array([robot.model.upperPositionLimit[a.idx_q] if a.nq == 1 else np.inf for a in actuated])

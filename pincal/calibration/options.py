@@ -177,7 +177,8 @@ class CalibrationOptions:
         for name, option in OPTIONS.items():
             value = getattr(self, name)
             if option.choices is not None and value not in option.choices:
-                raise DataError(f"unknown {name} '{value}'; {_plural(name)} are: {listing(option.choices)}")
+                raise DataError(f"unknown {name} '{value}'; {_plural(name)} are: {listing(option.choices)}",
+                                option=name)
         if isinstance(self.sigma, list | tuple):
             object.__setattr__(self, "sigma", tuple(self.sigma))
         for name in ("sigma", "pose_sigma_angle"):
@@ -186,17 +187,18 @@ class CalibrationOptions:
             if value is not None and not all(isinstance(v, int | float) and not isinstance(v, bool)
                                              and 0.0 < v < math.inf for v in values):
                 raise DataError(f"{name}={value!r}: a σ is a finite number > 0 [m, rad], or for sigma one per residual "
-                                "row (or None for the data's)")
+                                "row (or None for the data's)", option=name)
         if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int) or self.max_iter < 1:
-            raise DataError(f"max_iter is {self.max_iter}: at least one iteration is needed")
+            raise DataError(f"max_iter is {self.max_iter}: at least one iteration is needed", option="max_iter")
         if plausible_factor(self.plausible) is None and self.plausible != "off":
-            raise DataError(f"plausible={self.plausible!r}: give a factor > 0 on the plausible corrections, or 'off'")
+            raise DataError(f"plausible={self.plausible!r}: give a factor > 0 on the plausible corrections, or 'off'",
+                            option="plausible")
         if plausible_factor(self.prior) is None and self.prior not in ("off", "auto"):
-            raise DataError(f"prior={self.prior!r}: give a factor > 0 on the prior σ, 'auto' or 'off'")
+            raise DataError(f"prior={self.prior!r}: give a factor > 0 on the prior σ, 'auto' or 'off'", option="prior")
         if isinstance(self.cv_seed, bool) or not isinstance(self.cv_seed, int) or self.cv_seed < 0:
-            raise DataError(f"cv_seed={self.cv_seed!r}: give a whole number ≥ 0")
+            raise DataError(f"cv_seed={self.cv_seed!r}: give a whole number ≥ 0", option="cv_seed")
         if not isinstance(self.force, bool):
-            raise DataError(f"force={validation.shown(self.force)}: give True or False")
+            raise DataError(f"force={validation.shown(self.force)}: give True or False", option="force")
         self._check_objects()
 
     def _check_objects(self) -> None:
@@ -204,7 +206,7 @@ class CalibrationOptions:
         if self.cv is not None and (not isinstance(self.cv, str)
                                     or re.fullmatch(r"\s*(loo|[0-9]+(x[0-9]+)?)\s*", self.cv.lower()) is None):
             raise DataError(f"cv={validation.shown(self.cv)}: give K (folds), KxR (K folds, R shuffles, e.g. '5x4') "
-                            "or 'loo' as a string, or None")
+                            "or 'loo' as a string, or None", option="cv")
         if self.payload is not None:
             from pincal.identification.corrections import Payload
 
@@ -289,20 +291,23 @@ def check_cv_seed(cv: str | None, cv_seed: int, cv_source: OptionSource = "keywo
     job = seed_source if isinstance(seed_source, Path) else None
     culprit = f"{job}: cv_seed: {cv_seed}" if job is not None else written("cv_seed", cv_seed, seed_source)
     seed_option = "--cv-seed" if seed_source == "command line" else "cv_seed"
+    file = str(job) if job is not None else None
     if cv_seed < 0:
-        raise DataError(f"{culprit}: give a whole number ≥ 0")
+        raise DataError(f"{culprit}: give a whole number ≥ 0", option="cv_seed", file=file)
     if not cv_seed:
         return
     if cv is None:
         if seed_source == "command line":
-            raise DataError(f"{culprit} seeds the shuffles of --cv; give --cv too (e.g. --cv 5x4)")
+            raise DataError(f"{culprit} seeds the shuffles of --cv; give --cv too (e.g. --cv 5x4)", option="cv_seed",
+                            file=file)
         raise DataError(f"{culprit} seeds the shuffles of a K-fold cross-validation, and no cv is given; give cv too "
-                        f"(e.g. {written('cv', '5x4', seed_source, in_file=False)})")
+                        f"(e.g. {written('cv', '5x4', seed_source, in_file=False)})", option="cv_seed", file=file)
     if cv.strip().lower() == "loo":
         loo = written("cv", cv, cv_source, in_file=cv_source != job)
         folds = written("cv", "5x4", cv_source, in_file=False)
         raise DataError(f"{culprit} seeds the shuffles of K-fold plans; {loo} has none (it leaves each sample out in "
-                        f"turn): drop {seed_option}, or cross-validate by K folds (e.g. {folds})")
+                        f"turn): drop {seed_option}, or cross-validate by K folds (e.g. {folds})", option="cv_seed",
+                        file=file)
 
 
 #: The most folds a cross-validation of ``select="cv"`` may have (``--cv 5x4``): each repeats the whole selection,
@@ -338,4 +343,5 @@ def check_select_cv(select: str, cv: str | None, select_source: OptionSource = "
     error = ArgumentError if (select_source, cv_source) == ("keyword", "keyword") else DataError
     raise error(f"{given} would repeat the cv selection (its own 5-fold cross-validation of every combination of "
                 f"parameter groups) in {folds}: minutes to hours of fitting; cross-validate by fewer folds "
-                f"({fewer}), or leave {default} at its default")
+                f"({fewer}), or leave {default} at its default", option="cv",
+                file=str(cv_source) if isinstance(cv_source, Path) else None)

@@ -7,7 +7,8 @@ import argparse
 
 def cmd_robots(args: argparse.Namespace) -> int:
     """``pincal robots``: one line per known robot: name, movable and actuated joints, loops, origin and file."""
-    from pincal.model.catalog import example_robot_data_dir, known_robots
+    from pincal.model.catalog import example_robot_data_dir
+    from pincal.model.robot_table import known_robots
 
     robots = known_robots()
     print(f"known robots ({len(robots)}): give the name where a robot file is asked for (pincal info NAME)")

@@ -19,7 +19,7 @@ import pinocchio as pin
 from pincal.model.rotations import skew
 
 if TYPE_CHECKING:
-    from pincal.identification.measurements import SampleContext
+    from pincal.identification.measurements.context import SampleContext
 
 Array = npt.NDArray[np.float64]
 

@@ -87,7 +87,7 @@ class ImplicitProblem(CalibrationProblem):
     def _close(self, k: int, robot: Robot, qa: Array, over_v: SampleContext, tol: float = 1e-12,
                max_iter: int = 50) -> Array:
         kin, model, data = robot.kinematics, robot.model, robot.kinematics.data
-        cached = self._q_cache[k]
+        cached = self.solves.configurations[k]
         q = (robot.q_reference if cached is None else cached).copy()
         if cached is None:
             q = robot.solve_fk(qa)  # a closed start near the right assembly
@@ -111,7 +111,7 @@ class ImplicitProblem(CalibrationProblem):
             # (a Delta cannot turn its platform: a measured orientation's rows lie outside T_p's range)
             reachable = tp @ (tp_pinv @ t)
             if float(np.max(np.abs(reachable))) <= tol and float(np.max(np.abs(step))) <= 1e-12:
-                self._q_cache[k] = q
+                self.solves.configurations[k] = q
                 return q
             size = float(np.linalg.norm(step))
             if size > 0.5:

@@ -64,7 +64,7 @@ class LoopBatch:
     """
 
     def __init__(self, robot: Robot, frame_ids: dict[str, int]) -> None:
-        self.kinematics: BatchKinematics = robot.kinematics.batch
+        self.kinematics: BatchKinematics = robot.batch
         self.unsupported = self.kinematics.unsupported
         self.frame_ids = dict(frame_ids)
         self.scratch = Workspace()

@@ -27,7 +27,7 @@ from pincal.identification.measurements import BoardPixel, Pixel, intrinsics_nam
 from pincal.identification.measurements.pixels import BOARD
 
 if TYPE_CHECKING:
-    from pincal.identification.problem import CalibrationProblem
+    from pincal.identification.evaluation import Evaluated
 
 Array = npt.NDArray[np.float64]
 
@@ -113,7 +113,14 @@ def board_pose(h: Array, pinhole: Array) -> pin.SE3:
     return pin.SE3(rot, m[:, 2])
 
 
-def pixel_starts(problem: CalibrationProblem, x: Array) -> bool:
+def set_placement(problem: Evaluated, x: Array, indices: list[int], placement: pin.SE3) -> None:
+    """Set a placement group's parameters in ``x`` to ``log6(placement)`` (its components that are parameters)."""
+    delta = pin.log6(placement).vector
+    for k in indices:
+        x[k] = delta[problem.parameters.parameters[k].component]
+
+
+def pixel_starts(problem: Evaluated, x: Array) -> bool:
     """Write into ``x`` the start of every camera that pixel measurements read: its intrinsics (those the data do
     not declare), then its placement and its board's; True if one placed the measurement frame (a fixed camera).
     A camera the data do not determine keeps its start (the summary says why)."""
@@ -132,7 +139,7 @@ def pixel_starts(problem: CalibrationProblem, x: Array) -> bool:
     return located
 
 
-def _camera_start(problem: CalibrationProblem, x: Array, fixed: bool, frame: str, models: list[Pixel]) -> bool:
+def _camera_start(problem: Evaluated, x: Array, fixed: bool, frame: str, models: list[Pixel]) -> bool:
     """:func:`pixel_starts` for one camera; True if it placed the measurement frame."""
     samples = np.flatnonzero(np.any([problem.seen(m.key) for m in models], axis=0))
     images = []
@@ -160,14 +167,12 @@ def _camera_start(problem: CalibrationProblem, x: Array, fixed: bool, frame: str
     frame_id = problem.frame_ids[frame]
     a, b = [], []
     for sample, h in images:
-        q = problem._solve(problem.robot, sample, problem.observations.actuated[sample])
+        q = problem.solves.solve(problem.robot, sample, problem.observations.actuated[sample])
         pin.framesForwardKinematics(problem.robot.model, nominal_data, q)
         a.append(nominal_data.oMf[frame_id].copy())
         seen = board_pose(h, pinhole)
         b.append(seen if fixed else seen.inverse())
     own, world = handeye.solve_ax_yb(a, b)
-    from pincal.identification.starts import set_placement  # (starts calls this module)
-
     places = problem.parameters.groups("camera", "target")
     if fixed:
         idx = places.get(("target", f"{frame}@{BOARD}", ""), [])

@@ -7,8 +7,6 @@ sample by sample :meth:`~pincal.identification.measurements.Measurement.predict`
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
@@ -16,13 +14,11 @@ import pinocchio as pin
 from pincal.errors import ConvergenceError, DataError
 from pincal.identification.batch import BatchContext, SpatialJacobian
 from pincal.identification.derivatives import KinematicSensitivity, Probe, frame_probe
+from pincal.identification.evaluation import Evaluated
 from pincal.identification.measurements import Measurement, SampleContext
 from pincal.model.jacobians import frame_jacobian
 from pincal.model.kinematics import damped_pseudo_inverse
 from pincal.model.robot import SOLVE_TOLERANCE, Robot
-
-if TYPE_CHECKING:
-    from pincal.identification.problem import CalibrationProblem
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -42,14 +38,14 @@ SMALL_BATCH = 16
 PREDICTED_MOVE = 0.05
 
 
-def predict_loops(problem: CalibrationProblem, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext,
+def predict_loops(problem: Evaluated, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext,
                   qa_all: Array, preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
     """Every sample of a closed-loop robot at once (:mod:`pincal.identification.loop_batch`), by blocks of at
     most :data:`BATCH_SAMPLES`: configurations (:func:`solve_all`), the measured frames' placements and spatial
     twists through the loops, each model's :meth:`Measurement.predict_batch`; a model without one is predicted
     sample by sample from the same configurations and twists."""
-    assert problem._loops is not None
-    loops, model, n = problem._loops, robot.model, problem.observations.n_samples
+    assert problem.loop_batch is not None
+    loops, model, n = problem.loop_batch, robot.model, problem.observations.n_samples
     q_all = solve_all(problem, robot, qa_all, ctx.x)
     probes: dict[str, Probe] = {f: frame_probe(robot, fid) for f, fid in problem.frame_ids.items()}
     batched = [m for m in problem.measurements if m.batched]
@@ -69,9 +65,10 @@ def predict_loops(problem: CalibrationProblem, robot: Robot, sens: KinematicSens
                                                          SINGULAR_GAIN)
             velocities = response.velocities
             passive = loops.kinematics.passive_v
-            if problem._response is None or problem._response.shape != (n, passive.size, velocities.shape[2]):
-                problem._response = np.empty((n, passive.size, velocities.shape[2]))
-            problem._response[rows] = velocities[:, passive]
+            shape = (n, passive.size, velocities.shape[2])
+            if problem.solves.response is None or problem.solves.response.shape != shape:
+                problem.solves.response = np.empty(shape)
+            problem.solves.response[rows] = velocities[:, passive]
         joint_terms: dict[str, list[tuple[int, Array]]] = {}
         for joint, col, regressor in terms:
             joint_terms.setdefault(robot.actuated_joints[joint], []).append((col, regressor))
@@ -84,17 +81,17 @@ def predict_loops(problem: CalibrationProblem, robot: Robot, sens: KinematicSens
             predict_one_by_one(problem, robot, one_by_one, ctx, batch, preds, dpreds)
 
 
-def predict_samples(problem: CalibrationProblem, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext,
+def predict_samples(problem: Evaluated, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext,
                     qa_all: Array, preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
     """Each sample in turn: its configuration (the loops closed), its frames' local twists per parameter (through
     the loops by the implicit-function theorem), each model's :meth:`Measurement.predict`."""
     model, data, kin = robot.model, robot.kinematics.data, robot.kinematics
-    n, p = problem.observations.n_samples, len(problem._all)
+    n, p = problem.observations.n_samples, len(problem.all_parameters)
     jacobian = sens is not None
     probes = {f: frame_probe(robot, fid) for f, fid in problem.frame_ids.items()}
     passive, act_v = kin.passive_v, kin.actuated_v
     for k in range(n):
-        q = problem._solve(robot, k, qa_all[k])
+        q = problem.solves.solve(robot, k, qa_all[k])
         dv = None
         if jacobian:
             assert sens is not None
@@ -128,14 +125,14 @@ def predict_samples(problem: CalibrationProblem, robot: Robot, sens: KinematicSe
             m.predict(ctx, preds[m.key][k], dpreds[m.key][k] if jacobian else None)
 
 
-def predict_tree(problem: CalibrationProblem, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext,
+def predict_tree(problem: Evaluated, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext,
                  qa_all: Array, preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
     """Every sample at once (a tree, :mod:`pincal.identification.tree_batch`), by blocks of at most
     :data:`BATCH_SAMPLES`: configurations, the measured frames' placements and spatial twists, each model's
     :meth:`Measurement.predict_batch`; a model without one is predicted sample by sample from the same
     configurations and twists."""
-    assert problem._tree is not None
-    tree, model, n = problem._tree, robot.model, problem.observations.n_samples
+    assert problem.tree_batch is not None
+    tree, model, n = problem.tree_batch, robot.model, problem.observations.n_samples
     probes = {f: frame_probe(robot, fid) for f, fid in problem.frame_ids.items()}
     batched = [m for m in problem.measurements if m.batched]
     one_by_one = [m for m in problem.measurements if not m.batched]
@@ -160,7 +157,7 @@ def predict_tree(problem: CalibrationProblem, robot: Robot, sens: KinematicSensi
             predict_one_by_one(problem, robot, one_by_one, ctx, batch, preds, dpreds)
 
 
-def predict_one_by_one(problem: CalibrationProblem, robot: Robot, models: list[Measurement], ctx: SampleContext,
+def predict_one_by_one(problem: Evaluated, robot: Robot, models: list[Measurement], ctx: SampleContext,
                        batch: BatchContext, preds: dict[str, Array], dpreds: dict[str, Array]) -> None:
     """The models without a batched prediction, sample by sample over the block of ``batch``: Pinocchio's frame
     placements at each configuration, the local twists from the batch's spatial ones."""
@@ -172,7 +169,7 @@ def predict_one_by_one(problem: CalibrationProblem, robot: Robot, models: list[M
         if spatial and batch.velocities is not None:  # closed loops: the passive joints move too
             dv = batch.velocities[row]
         elif spatial:
-            dv = np.zeros((model.nv, len(problem._all)))
+            dv = np.zeros((model.nv, len(problem.all_parameters)))
             for joint, col, regressor in problem.actuated_terms:
                 dv[act_v[joint], col] = regressor[k]
         ctx.sample, ctx.q, ctx.dv = k, batch.q[row], dv
@@ -183,26 +180,27 @@ def predict_one_by_one(problem: CalibrationProblem, robot: Robot, models: list[M
 
 
 
-def solve_all(problem: CalibrationProblem, robot: Robot, qa_all: Array, x: Array) -> Array:
-    """Every sample's configuration on the reference assembly: :meth:`CalibrationProblem._solve` for all samples at
-    once, by stacked Newton solves (:class:`~pincal.model.batch_kinematics.BatchKinematics`).
+def solve_all(problem: Evaluated, robot: Robot, qa_all: Array, x: Array) -> Array:
+    """Every sample's configuration on the reference assembly:
+    :meth:`SolveState.solve <pincal.identification.evaluation.SolveState.solve>` for all samples at once, by stacked
+    Newton solves (:class:`~pincal.model.batch_kinematics.BatchKinematics`).
 
     A sample solved before starts from its own last configuration (moved by :func:`predicted_change`, Newton's
     refusals measured from the configuration itself). A first solve, and a refused warm start, is answered by
     continuation from the reference, all such samples stepping together: what the per-sample path's first solves
     come to (a warm start from the nearest solved sample is refused unless it lands on the same assembly), with no
     neighbour search and no chain of solves waiting for each other. A sample the stacked solves do not close is
-    solved alone (:meth:`CalibrationProblem._solve_from`: finer continuation, or the error naming it); so are the
-    samples of a set of fewer than :data:`SMALL_BATCH`, where a stacked solve's fixed cost exceeds a few solves
-    alone.
+    solved alone (:meth:`SolveState.solve_from <pincal.identification.evaluation.SolveState.solve_from>`: finer
+    continuation, or the error naming it); so are the samples of a set of fewer than :data:`SMALL_BATCH`, where a
+    stacked solve's fixed cost exceeds a few solves alone.
     """
-    assert problem._loops is not None
-    kin = problem._loops.kinematics
+    assert problem.loop_batch is not None
+    kin = problem.loop_batch.kinematics
     n, model, closure = len(qa_all), robot.model, robot.closure
-    known = np.array([guess is not None for guess in problem._q_cache], dtype=bool)
+    known = np.array([guess is not None for guess in problem.solves.configurations], dtype=bool)
     previous = np.full((n, model.nq), np.nan)
     if np.any(known):
-        previous[known] = np.array([guess for guess in problem._q_cache if guess is not None])
+        previous[known] = np.array([guess for guess in problem.solves.configurations if guess is not None])
     q = np.full((n, model.nq), np.nan)
     ok = np.zeros(n, dtype=bool)
     warm = np.flatnonzero(known)
@@ -213,17 +211,17 @@ def solve_all(problem: CalibrationProblem, robot: Robot, qa_all: Array, x: Array
     if cold.size >= SMALL_BATCH:
         q[cold], ok[cold] = kin.continuation(model, closure, qa_all[cold], SOLVE_TOLERANCE)
     for row in np.flatnonzero(~ok).tolist():  # alone: finer steps, or the error naming the sample
-        q[row] = problem._solve_from(robot, row, qa_all[row], previous[row] if known[row] else None)
+        q[row] = problem.solves.solve_from(robot, row, qa_all[row], previous[row] if known[row] else None)
         known[row] = False  # its travel is counted
     travel = np.abs(q - previous).max(axis=1, initial=0.0)
-    problem._travel[known] += travel[known]
+    problem.solves.travel[known] += travel[known]
     for k in range(n):
-        problem._q_cache[k] = q[k]
-    problem._solved_at = x.copy()
+        problem.solves.configurations[k] = q[k]
+    problem.solves.solved_at = x.copy()
     return q
 
 
-def remember(problem: CalibrationProblem, q: Array | None) -> None:
+def remember(problem: Evaluated, q: Array | None) -> None:
     """Take ``q`` (N, nq), every sample's closed configuration on the reference assembly of ``problem``'s robot at or
     near the parameters its next evaluation asks for (a usability check's, another problem's on the same samples),
     as the warm starts of its next solves: Newton from them, refused where it jumps, as from a configuration solved
@@ -234,28 +232,28 @@ def remember(problem: CalibrationProblem, q: Array | None) -> None:
     if q.shape != (problem.observations.n_samples, problem.robot.model.nq):
         raise ValueError(f"configurations of shape {q.shape}, expected "
                          f"({problem.observations.n_samples}, {problem.robot.model.nq})")
-    problem._q_cache = list(q.copy())
-    problem._start = None  # the start's evaluation, if made, was solved from other configurations
+    problem.solves.configurations = list(q.copy())
+    problem.drop_start()  # the start's evaluation, if made, was solved from other configurations
 
 
-def carry_over(source: CalibrationProblem, target: CalibrationProblem) -> None:
+def carry_over(source: Evaluated, target: Evaluated) -> None:
     """``target`` (a problem on ``source``'s samples, over other parameters) starts its solves from ``source``'s last
     configurations, with the travel ``source`` counted since it last knew them on the reference assembly: the
     assembly check at the end of a fit (:meth:`CalibrationProblem.settle_assembly`) sees what both problems moved.
     Nothing while a sample of ``source`` has no configuration, or for a robot without loops."""
-    if not source.robot.loops or any(q is None for q in source._q_cache):
+    if not source.robot.loops or any(q is None for q in source.solves.configurations):
         return
-    remember(target, np.array(source._q_cache))
-    target._travel += source._travel
+    remember(target, np.array(source.solves.configurations))
+    target.solves.travel += source.solves.travel
 
 
-def predicted_change(problem: CalibrationProblem, x: Array, rows: IntArray) -> Array | None:
+def predicted_change(problem: Evaluated, x: Array, rows: IntArray) -> Array | None:
     """(len(rows), n_passive) the passive joints' first-order change [rad or m] from the remembered
     configurations of samples ``rows`` to ``x``: the last Jacobian evaluation's dv/dθ times the parameters'
     change; None without one, and zero for a sample it would move by more than :data:`PREDICTED_MOVE`."""
-    if problem._response is None or problem._solved_at is None or problem._solved_at.shape != x.shape:
+    if problem.solves.response is None or problem.solves.solved_at is None or problem.solves.solved_at.shape != x.shape:
         return None
-    change = problem._response[rows] @ (x - problem._solved_at)
+    change = problem.solves.response[rows] @ (x - problem.solves.solved_at)
     change[~(np.abs(change).max(axis=1, initial=0.0) <= PREDICTED_MOVE)] = 0.0
     return np.asarray(change, dtype=float)
 

@@ -15,20 +15,21 @@ per-sample path is the reference they are tested against.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.errors import ConvergenceError, DataError, listing, not_found
+from pincal.errors import DataError, listing, not_found
 from pincal.identification import predictions, starts
 from pincal.identification.corrections import Payload, correction_regressors
 from pincal.identification.derivatives import KinematicSensitivity, attached_terms, marker_points, right_jacobian
+from pincal.identification.evaluation import Observations as Observations
+from pincal.identification.evaluation import Prediction as Prediction
+from pincal.identification.evaluation import SolveState
 from pincal.identification.loop_batch import LoopBatch
 from pincal.identification.measurements import Measurement, SampleContext
-from pincal.identification.neighbours import SolvedInputs
 from pincal.identification.parameters import (
     ParameterSet,
     ReadingOffset,
@@ -37,54 +38,11 @@ from pincal.identification.parameters import (
     kinds_where,
     offset_parameter,
 )
-from pincal.identification.tree_batch import tree_batch
-from pincal.model.kinematics import CONTINUATION_STEP
+from pincal.identification.tree_batch import TreeBatch, tree_batch
 from pincal.model.robot import SOLVE_TOLERANCE, Robot
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
-
-
-@dataclass
-class Observations:
-    """What was read and measured, one row per sample.
-
-    Attributes:
-        actuated: (N, na) actuated joint readings [rad or m], in ``robot.actuated_joints`` order.
-        values: measurement key -> (N, k): position (N, 3) [m]; pose (N, 7) as x, y, z [m] and a unit
-            quaternion qx, qy, qz, qw; distance (N, 1) [m]; joint reading (N, 1) [rad or m]. For
-            ``distance_increment`` the first row is ignored. A row of NaN is a reading not taken (an occluded
-            marker), allowed for the measurements that may miss one (``occludable``: positions).
-    """
-
-    actuated: Array
-    values: dict[str, Array]
-
-    @property
-    def n_samples(self) -> int:
-        """The number of samples N."""
-        return int(self.actuated.shape[0])
-
-    def subset(self, rows: Sequence[int] | npt.NDArray[np.integer] | Array) -> Observations:
-        """The samples at ``rows``, in that order."""
-        return Observations(self.actuated[rows], {k: v[rows] for k, v in self.values.items()})
-
-    @classmethod
-    def neutral(cls, measurements: Sequence[Measurement], actuated: Array) -> Observations:
-        """Observations at ``actuated`` (N, na) [rad or m] with every measured value the model's neutral reading
-        (zeros, an identity quaternion for poses): the problem then predicts absolute values, and its Jacobian,
-        which does not depend on the readings, can be taken there."""
-        return cls(actuated, {m.key: m.neutral(actuated.shape[0]) for m in measurements})
-
-
-@dataclass
-class Prediction:
-    """Residuals (weighted), their Jacobian, and unweighted errors per sample and measurement."""
-
-    residual: Array
-    jacobian: Array | None
-    errors: dict[str, Array]  # key -> (N, rows) predicted - measured [m, rad]; NaN rows: readings not taken
-    predicted: dict[str, Array]  # key -> (N, rows) absolute predictions (pose: p, log3(R_measᵀ R))
 
 
 class Problem(Protocol):
@@ -143,7 +101,7 @@ class CalibrationProblem:
             present = {p.owner for p in parameters if p.is_a(ReadingOffset)}
             extra = [offset_parameter(j, joint_unit(robot, j)) for j in robot.actuated_joints if j not in present]
             parameters = ParameterSet(list(parameters.parameters) + extra)
-        self._all = parameters
+        self.all_parameters = parameters
         self.kinematic = parameters.of_kind(*kinds_where(kinematic=True))
         self.kinematic_set = parameters.subset(self.kinematic)
         actuated = {name: k for k, name in enumerate(robot.actuated_joints)}
@@ -169,18 +127,8 @@ class CalibrationProblem:
                                 for m in self.measurements for target, nominal in m.markers.items()}
         self.frames = sorted({f for m in self.measurements for f in m.frames})
         self.frame_ids = {f: robot.frame_id(f) for f in self.frames}
-        # each sample's configuration at its last solve and the actuated values it was solved for: the
-        # warm start of its next solve (of a first solve, a solved sample's: see _nearest_solution)
-        self._q_cache: list[Array | None] = [None] * observations.n_samples
-        self._qa_solved = SolvedInputs(observations.n_samples, robot.kinematics.continuous, CONTINUATION_STEP)
-        # how far each sample's configuration has travelled (sum of max coordinate changes) since it was last
-        # known to be on the reference assembly: only a sample that moved can have left it
-        self._travel = np.zeros(observations.n_samples)
-        #: The parameters [m, rad] the remembered configurations were solved at, and every sample's passive joints'
-        #: response to the parameters there, dv_p/dθ (N, n_passive, p), from the last evaluation with the Jacobian
-        #: (closed loops batched): the next warm starts move along it (a first-order prediction, Newton then closes)
-        self._solved_at: Array | None = None
-        self._response: Array | None = None
+        #: Each sample's configuration remembered from one evaluation to the next (the warm starts of its solves)
+        self.solves = SolveState(observations.n_samples, robot.kinematics.continuous)
         self.rows_per_sample = sum(m.size for m in self.measurements)
         #: The cameras and targets (attached placement names) the last :meth:`initial_guess` placed in closed form.
         self.placed_in_closed_form: list[str] = []
@@ -189,12 +137,12 @@ class CalibrationProblem:
         self._start: tuple[Array, Prediction] | None = None  # the start and its evaluation (start_prediction)
         #: A tree's batched evaluation (every sample at once), when its joints allow it; False: sample by sample
         #: (the reference path, which the benchmarks and tests also run on trees to compare the two).
-        self._tree = tree_batch(robot, self.frame_ids) if not robot.loops else None
-        self._batched_trees = self._tree is not None and self._tree.unsupported is None
+        self.tree_batch: TreeBatch | None = tree_batch(robot, self.frame_ids) if not robot.loops else None
+        self._batched_trees = self.tree_batch is not None and self.tree_batch.unsupported is None
         #: A closed-loop robot's batched evaluation (loops closed and derivatives for every sample at once), when its
         #: joints allow it; False: sample by sample (the reference path, which the tests compare it with).
-        self._loops = LoopBatch(robot, self.frame_ids) if robot.loops else None
-        self._batched_loops = self._loops is not None and self._loops.unsupported is None
+        self.loop_batch = LoopBatch(robot, self.frame_ids) if robot.loops else None
+        self._batched_loops = self.loop_batch is not None and self.loop_batch.unsupported is None
         self._seen: dict[str, npt.NDArray[np.bool_]] = {}
         for m in self.measurements:
             taken = np.all(np.isfinite(observations.values[m.key]), axis=1)
@@ -222,8 +170,8 @@ class CalibrationProblem:
 
     def _augment(self, x: Array) -> Array:
         """Pad a parameter vector with the nuisance offset columns (zero)."""
-        extra = len(self._all) - len(self.parameters)
-        return x if extra == 0 or x.size == len(self._all) else np.concatenate([x, np.zeros(extra)])
+        extra = len(self.all_parameters) - len(self.parameters)
+        return x if extra == 0 or x.size == len(self.all_parameters) else np.concatenate([x, np.zeros(extra)])
 
     def row_samples(self) -> IntArray:
         """The sample index of each residual row (the row order of :meth:`evaluate`)."""
@@ -273,34 +221,7 @@ class CalibrationProblem:
         qa = self.actuated_values(x)
         if self._batched_loops and robot.loops:
             return predictions.solve_all(self, robot, qa, self._augment(np.asarray(x, dtype=float))).copy()
-        return np.array([self._solve(robot, k, qa[k]) for k in range(qa.shape[0])])
-
-    def _solve(self, robot: Robot, k: int, qa: Array) -> Array:
-        """Sample ``k``'s configuration on the reference assembly for actuated values ``qa`` [rad or m].
-
-        Warm-started from the sample's own last configuration (at the previous parameters), or for a
-        first solve from the nearest solved sample's; the kinematics layer refuses a warm start that
-        jumps and then answers by continuation from the reference, so the configuration found does
-        not depend on the order of the samples.
-        """
-        guess = self._q_cache[k]
-        if guess is None:
-            guess = self._nearest_solution(robot, qa)
-        return self._solve_from(robot, k, qa, guess)
-
-    def _solve_from(self, robot: Robot, k: int, qa: Array, guess: Array | None) -> Array:
-        """:meth:`_solve` from the warm start ``guess`` (None: cold), remembering the answer."""
-        report = robot.kinematics.solve_fk(qa, guess, SOLVE_TOLERANCE)
-        if not report.converged:
-            raise ConvergenceError(f"sample {k}: forward kinematics did not converge for actuated readings "
-                                   f"{np.array2string(qa, precision=6)} (closure residual {report.residual:.3g}); "
-                                   "the sample may be outside the workspace or the parameters far off")
-        previous = self._q_cache[k]
-        if previous is not None:
-            self._travel[k] += float(np.max(np.abs(report.q - previous)))
-        self._q_cache[k] = report.q
-        self._qa_solved.record(k, qa)
-        return report.q
+        return np.array([self.solves.solve(robot, k, qa[k]) for k in range(qa.shape[0])])
 
     def initial_guess(self, start: Array | None = None) -> Array:
         """A starting point: zero (or ``start``, [m, rad]), except the placements closed forms give from the nominal
@@ -345,40 +266,35 @@ class CalibrationProblem:
         """
         if not self.robot.loops:
             return []
-        travelled = np.flatnonzero(self._travel > SETTLED_TRAVEL)
-        self._travel[:] = 0.0
+        travelled = np.flatnonzero(self.solves.travel > SETTLED_TRAVEL)
+        self.solves.travel[:] = 0.0
         if travelled.size == 0:
             return []
         robot = self.robot_at(x)
         qa = self.actuated_values(x)
         moved = []
         for k in travelled:
-            remembered = self._q_cache[k]
+            remembered = self.solves.configurations[k]
             if remembered is None:
                 continue
             report = robot.kinematics.solve_fk(qa[k], None, SOLVE_TOLERANCE)
             gap = np.abs(pin.difference(robot.model, remembered, report.q)) if report.converged else None
             if gap is not None and float(gap.max()) > SAME_CONFIGURATION:
-                self._q_cache[k] = report.q
+                self.solves.configurations[k] = report.q
                 moved.append(int(k))
         if moved:
             self._start = None  # solved on the configurations replaced here
         return moved
 
-    def _nearest_solution(self, robot: Robot, qa: Array) -> Array | None:
-        """The configuration of the solved sample nearest in actuated values, if within one continuation
-        step, to warm-start a first solve (None otherwise: a cold start).
+    def forward(self, x: Array) -> Prediction:
+        """The forward (FKM) predictions at ``x`` [m, rad], without the Jacobian, whatever the formulation (an IKM
+        problem's too: the starting point registers the measurement frame on them)."""
+        return CalibrationProblem.evaluate(self, x, jacobian=False)
 
-        Only a shortcut: a neighbour's configuration is on the reference assembly, and a Newton solve
-        from it that jumps (moves a passive joint by more than one continuation step) is refused by
-        :meth:`pincal.model.kinematics.ClosedLoopKinematics.solve_fk`, which then continues from the reference.
-        """
-        if not robot.loops:
-            return None
-        # continuous joints the short way round; ties to the lowest index; a search of the solved inputs' trees
-        # (O(log² N)), not a scan of every solved sample (O(N) per cold start, O(N²) over a first evaluation)
-        k = self._qa_solved.nearest(qa, robot.kinematics.actuated_delta)
-        return None if k < 0 else self._q_cache[k]
+    def drop_start(self) -> None:
+        """Forget the kept evaluation of the start (:meth:`start_prediction`): the configurations it was solved from
+        are replaced."""
+        self._start = None
 
     def evaluate(self, x: Array, jacobian: bool = True, spare_rows: int = 0) -> Prediction:
         """Weighted residual and its Jacobian w.r.t. ``x``; the Jacobian with ``spare_rows`` rows of zeros after the
@@ -404,21 +320,21 @@ class CalibrationProblem:
         output_jacobian = jacobian
         jacobian = jacobian or self.joint_sigma is not None
         robot = self.robot_at(x)
-        n, p = self.observations.n_samples, len(self._all)
-        sens = KinematicSensitivity(robot, self._all, x) if jacobian else None
-        base_delta = self._all.placement_delta(x, self.base) if self.base else np.zeros(6)
+        n, p = self.observations.n_samples, len(self.all_parameters)
+        sens = KinematicSensitivity(robot, self.all_parameters, x) if jacobian else None
+        base_delta = self.all_parameters.placement_delta(x, self.base) if self.base else np.zeros(6)
         ctx = self._context(robot.model, robot.kinematics.data, x, base_delta)
         qa_all = self.actuated_values(x)
         preds: dict[str, Array] = {m.key: np.empty((n, m.size)) for m in self.measurements}
         dpreds: dict[str, Array] = {}
         full: Array | None = None
         if self._batched_trees and not robot.loops:
-            assert self._tree is not None
+            assert self.tree_batch is not None
             if jacobian and self._in_place(output_jacobian):  # the models write the Jacobian's own rows
                 full = np.zeros((sum(n * m.size for m in self.measurements) + spare_rows, p))
                 dpreds = self._row_blocks(full)
             elif jacobian:  # kept from one evaluation to the next: _assemble copies them out
-                dpreds = {m.key: self._tree.scratch.array(("jacobian", m.key), (n, m.size, p))
+                dpreds = {m.key: self.tree_batch.scratch.array(("jacobian", m.key), (n, m.size, p))
                           for m in self.measurements}
                 for block in dpreds.values():
                     block.fill(0.0)
@@ -439,7 +355,7 @@ class CalibrationProblem:
         """Whether the Jacobian's rows can be the models' derivative blocks themselves, scaled in place (one m × p
         array per evaluation, no copy): every sample took every reading, none is a change since the previous
         sample, no joint noise whitens the rows, and no column is added to the parameters'."""
-        return (output_jacobian and self.joint_sigma is None and len(self._all) == len(self.parameters)
+        return (output_jacobian and self.joint_sigma is None and len(self.all_parameters) == len(self.parameters)
                 and all(not m.incremental and bool(np.all(self.seen(m.key))) for m in self.measurements))
 
     def _row_blocks(self, full: Array) -> dict[str, Array]:
@@ -453,10 +369,10 @@ class CalibrationProblem:
 
     def _context(self, model: pin.Model, data: pin.Data, x: Array, base_delta: Array) -> SampleContext:
         """The measurement models' context for one evaluation at ``x`` (per-sample fields unset)."""
-        base_jacobian = right_jacobian(base_delta, [self._all.parameters[k].component for k in self.base])
+        base_jacobian = right_jacobian(base_delta, [self.all_parameters.parameters[k].component for k in self.base])
         return SampleContext(model, data, x, pin.exp6(base_delta), base_jacobian, self.base,
-                             marker_points(self._all, x, self.marker_nominals), self.reading_offsets,
-                             self.frame_ids, self.observations.values, **attached_terms(self._all, x))
+                             marker_points(self.all_parameters, x, self.marker_nominals), self.reading_offsets,
+                             self.frame_ids, self.observations.values, **attached_terms(self.all_parameters, x))
 
     def _assemble(self, preds: dict[str, Array], dpreds: dict[str, Array], jacobian: bool,
                   full: Array | None = None, spare_rows: int = 0) -> Prediction:

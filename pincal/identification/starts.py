@@ -16,14 +16,15 @@ from pincal.errors import DataError
 from pincal.identification.measurements import PLANE, Measurement, Pixel, plane_name
 from pincal.identification.parameters import attached_name
 from pincal.identification.pixel_starts import pixel_starts
+from pincal.identification.pixel_starts import set_placement as set_placement
 
 if TYPE_CHECKING:
-    from pincal.identification.problem import CalibrationProblem
+    from pincal.identification.evaluation import Evaluated
 
 Array = npt.NDArray[np.float64]
 
 
-def initial_guess(problem: CalibrationProblem, start: Array | None = None) -> Array:
+def initial_guess(problem: Evaluated, start: Array | None = None) -> Array:
     """A starting point: zero (or ``start``, the values [m, rad] to start the other parameters from), except the
     placements closed forms give from the nominal robot.
 
@@ -43,9 +44,7 @@ def initial_guess(problem: CalibrationProblem, start: Array | None = None) -> Ar
     plane_starts(problem, x)
     if located or len(problem.base) != 6 or any(k >= len(problem.parameters) for k in problem.base):
         return x
-    from pincal.identification.problem import CalibrationProblem  # (a cycle at import time: problem uses this module)
-
-    pred = CalibrationProblem.evaluate(problem, x, jacobian=False)  # forward predictions, for IKM too
+    pred = problem.forward(x)  # forward predictions, for IKM too
     model, measured = [], []
     for m in problem.measurements:
         if m.locates_point:
@@ -63,7 +62,7 @@ def initial_guess(problem: CalibrationProblem, start: Array | None = None) -> Ar
     return x
 
 
-def camera_starts(problem: CalibrationProblem, x: Array) -> bool:
+def camera_starts(problem: Evaluated, x: Array) -> bool:
     """Write the closed-form starts of the cameras and targets into ``x``; True if one placed the measurement
     frame (``base``, the fixed camera of a pose target)."""
     groups = {attached_name(kind, owner): idx for (kind, owner, _), idx
@@ -80,7 +79,7 @@ def camera_starts(problem: CalibrationProblem, x: Array) -> bool:
         frame = problem.frame_ids[m.frames[0]]  # the frame carrying the camera or the target
         a = []
         for k in taken:
-            q = problem._solve(problem.robot, int(k), problem.observations.actuated[k])
+            q = problem.solves.solve(problem.robot, int(k), problem.observations.actuated[k])
             pin.framesForwardKinematics(problem.robot.model, nominal, q)
             a.append(nominal.oMf[frame].copy())
         values = problem.observations.values[m.key][taken]
@@ -103,15 +102,8 @@ def camera_starts(problem: CalibrationProblem, x: Array) -> bool:
     return located
 
 
-def set_placement(problem: CalibrationProblem, x: Array, indices: list[int], placement: pin.SE3) -> None:
-    """Set a placement group's parameters in ``x`` to ``log6(placement)`` (its components that are parameters)."""
-    delta = pin.log6(placement).vector
-    for k in indices:
-        x[k] = delta[problem.parameters.parameters[k].component]
 
-
-
-def plane_starts(problem: CalibrationProblem, x: Array) -> None:
+def plane_starts(problem: Evaluated, x: Array) -> None:
     """Write into ``x`` the start of each plane a frame touches: the plane through the contact frames' nominal
     origins (in the support's frame; the readings' distances taken off along the normal), fitted by SVD, its normal
     the direction of least spread turned toward the support's +z (the mean of the frames' z axes when the points are
@@ -131,7 +123,7 @@ def plane_starts(problem: CalibrationProblem, x: Array) -> None:
         problem.placed_in_closed_form.append(plane_name(support))
 
 
-def _contact_points(problem: CalibrationProblem, models: list[Measurement]) -> tuple[Array, Array, Array]:
+def _contact_points(problem: Evaluated, models: list[Measurement]) -> tuple[Array, Array, Array]:
     """The contact frames' origins [m] and z axes in their support's frame at the nominal robot, (n, 3) each, and
     the distances [m] read there (n,)."""
     nominal = problem.robot.model.createData()
@@ -140,7 +132,7 @@ def _contact_points(problem: CalibrationProblem, models: list[Measurement]) -> t
         frames = [problem.frame_ids[f] for f in m.frames]
         values = problem.observations.values[m.key]
         for k in np.flatnonzero(problem.seen(m.key)):
-            q = problem._solve(problem.robot, int(k), problem.observations.actuated[k])
+            q = problem.solves.solve(problem.robot, int(k), problem.observations.actuated[k])
             pin.framesForwardKinematics(problem.robot.model, nominal, q)
             held = nominal.oMf[frames[1]] if len(frames) > 1 else pin.SE3.Identity()
             contact = held.actInv(nominal.oMf[frames[0]])

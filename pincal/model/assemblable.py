@@ -54,7 +54,7 @@ def assemble(robot: Robot, actuated: Array, max_condition: float = MAX_CONDITION
         return Assembled(_tree_configurations(robot, actuated, guesses), {})
     q = np.zeros((n, robot.model.nq))
     ok = np.zeros(n, dtype=bool)
-    batch = robot.kinematics.batch if robot.loops and n else None
+    batch = robot.batch if robot.loops and n else None
     stacked = stacked and batch is not None and batch.unsupported is None and bool(np.all(np.isfinite(actuated)))
     if stacked:
         assert batch is not None

@@ -10,7 +10,6 @@ from __future__ import annotations
 import importlib.metadata
 import importlib.resources
 import os
-from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
@@ -135,47 +134,6 @@ def robot_path(name: str) -> Path:
         return path
     raise NotFoundError(f"no robot file or known robot named '{name}'; known robots are: "
                         f"{listing(known_robot_names())}; 'pincal robots' lists them with their files")
-
-
-@dataclass(frozen=True)
-class KnownRobot:
-    """A robot reachable by name, as ``pincal robots`` lists it.
-
-    Attributes:
-        name: The name :func:`robot_path` takes.
-        origin: ``pincal`` (``robots_urdf/``) or ``example-robot-data``.
-        file: The URDF's path within its origin (``delta.urdf``, ``talos_data/robots/talos_full_v2.urdf``).
-        joints: Its movable joints, ``<mimic>`` followers included; None when it does not load.
-        actuated: Its actuated joints; None when it does not load.
-        loops: Its loop closures; None when it does not load.
-        problem: Why it does not load (example-robot-data not installed, ...); empty when it does.
-    """
-
-    name: str
-    origin: str
-    file: str
-    joints: int | None
-    actuated: int | None
-    loops: int | None
-    problem: str = ""
-
-
-def known_robots() -> list[KnownRobot]:
-    """Every name :func:`robot_path` accepts with the file it comes from, each loaded for its joint counts."""
-    from pincal.errors import PincalError
-    from pincal.model.robot import load_robot  # the robot module imports this one
-
-    out: list[KnownRobot] = []
-    for name in known_robot_names():
-        origin = "pincal" if name in shipped_robots() else "example-robot-data"
-        file = f"{name}.urdf" if origin == "pincal" else EXAMPLE_ROBOT_DATA[name]
-        try:
-            robot = load_robot(robot_path(name))
-        except PincalError as exc:
-            out.append(KnownRobot(name, origin, file, None, None, None, str(exc)))
-            continue
-        out.append(KnownRobot(name, origin, file, robot.model.njoints - 1, robot.n_actuated, len(robot.loops)))
-    return out
 
 
 def package_directories(package: str, near: Path | None = None) -> list[Path]:

@@ -13,12 +13,16 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
 from pincal.model.batch_frames import Array, BoolArray, cross, passive_gains
 from pincal.model.kinematics import ClosedLoopKinematics
+
+if TYPE_CHECKING:
+    from pincal.model.batch_kinematics import BatchKinematics
 
 #: Fewest rows evaluated as one stack; fewer go row by row, where a stacked evaluation's fixed cost (about a
 #: millisecond) exceeds that of their Pinocchio calls (measured crossing: 16–32 rows on the Delta, UR10 and hexapod).
@@ -92,10 +96,11 @@ class BatchFrame(FrameKinematics):
     """Every row at once, on the arrays of :class:`~pincal.model.batch_loops.BatchLoops` (a robot whose joints it
     takes: :func:`frame_kinematics` checks); fewer than :data:`SMALL_BATCH` rows row by row (:class:`SampleFrame`)."""
 
-    def __init__(self, kinematics: ClosedLoopKinematics, frame_id: int, tol: float) -> None:
+    def __init__(self, batch: BatchKinematics, frame_id: int, tol: float) -> None:
+        kinematics = batch.kinematics
         super().__init__(kinematics, frame_id, tol)
         self.rows = SampleFrame(kinematics, frame_id, tol)
-        self.batch = kinematics.batch
+        self.batch = batch
         frame = kinematics.model.frames[frame_id]
         self.joint = int(frame.parentJoint)
         local = self.batch.unturn[self.joint] * frame.placement  # on the joint's turned frame
@@ -206,9 +211,9 @@ class SampleFrame(FrameKinematics):
         return np.array(values).reshape(len(q), len(self.kinematics.actuated))
 
 
-def frame_kinematics(kinematics: ClosedLoopKinematics, frame_id: int, tol: float) -> FrameKinematics:
-    """The frame at many configurations: every row at once where :mod:`pincal.model.batch_loops` takes the robot,
-    else row by row."""
-    if kinematics.batch.unsupported is None:
-        return BatchFrame(kinematics, frame_id, tol)
-    return SampleFrame(kinematics, frame_id, tol)
+def frame_kinematics(batch: BatchKinematics, frame_id: int, tol: float) -> FrameKinematics:
+    """The frame at many configurations of a robot whose batched kinematics is ``batch`` (``Robot.batch``): every
+    row at once where :mod:`pincal.model.batch_loops` takes the robot, else row by row."""
+    if batch.unsupported is None:
+        return BatchFrame(batch, frame_id, tol)
+    return SampleFrame(batch.kinematics, frame_id, tol)

@@ -20,7 +20,6 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -30,9 +29,6 @@ from scipy.linalg import lapack
 from pincal import linalg
 from pincal.model.closure import LoopClosure
 from pincal.model.jacobians import frame_jacobian as pin_frame_jacobian
-
-if TYPE_CHECKING:
-    from pincal.model.batch_kinematics import BatchKinematics
 
 Array = npt.NDArray[np.float64]
 
@@ -150,13 +146,6 @@ class ClosedLoopKinematics:
         250 MB for 198 velocities), which a robot described or checked part by part (:mod:`pincal.model.parts`) never
         needs. ``pinocchio.Data(model)``, not ``model.createData()``, which holds a second copy while it returns."""
         return pin.Data(self.model)
-
-    @functools.cached_property
-    def batch(self) -> BatchKinematics:
-        """The batched counterpart of these solvers (every sample at once), built on first use."""
-        from pincal.model.batch_kinematics import BatchKinematics
-
-        return BatchKinematics(self)
 
     # --- actuated coordinates -------------------------------------------------------------------
     @property

@@ -22,6 +22,7 @@ import pinocchio as pin
 
 from pincal import validation
 from pincal.errors import ArgumentError, ConvergenceError, DataError, LoopError, RobotFileError, listing, not_found
+from pincal.model.batch_kinematics import BatchKinematics
 from pincal.model.catalog import known_robot_names, robot_path
 from pincal.model.closure import LoopClosure
 from pincal.model.kinematics import ActuatedJoint, ClosedLoopKinematics, SolveReport
@@ -100,6 +101,12 @@ class Robot:
             raise not_found("joint", joint, [str(n) for n in self.model.names[1:]], f" in robot '{self.name}'",
                             context)
         return int(self.model.getJointId(joint))
+
+    @functools.cached_property
+    def batch(self) -> BatchKinematics:
+        """The batched twin of :attr:`kinematics` (every sample at once: :mod:`pincal.model.batch_kinematics`), built
+        on first use."""
+        return BatchKinematics(self.kinematics)
 
     @functools.cached_property
     def measured_frame_choice(self) -> FrameChoice:
@@ -236,7 +243,7 @@ class Robot:
         guesses = None if q_guess is None else np.asarray(q_guess, dtype=float)
         out = np.empty((qa.shape[0], self.model.nq))
         alone = np.ones(len(qa), dtype=bool)
-        batch = self.kinematics.batch if self.loops else None
+        batch = self.batch if self.loops else None
         if batch is not None and batch.unsupported is None and qa.shape[1:] == (self.n_actuated,) \
                 and np.all(np.isfinite(qa)) and (guesses is None or guesses.shape in ((self.model.nq,), out.shape)):
             # every sample at once (pincal.model.batch_kinematics); the samples it does not close, alone below

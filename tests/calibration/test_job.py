@@ -226,6 +226,32 @@ def test_an_unknown_key_lists_the_valid_ones_as_a_lookup_does(tmp_path: Path) ->
     assert caught.value.name == "max_iters" and "max_iter" in caught.value.choices
 
 
+@pytest.mark.parametrize(("top", "option"), [("max_iter = 0", "max_iter"), ('loss = "lorentz"', "loss"),
+                                           ('cv = "fivefold"', "cv"), ("sigma = -1.0", "sigma"),
+                                           ('prior = "strong"', "prior"), ("payload = { mass = -1.0 }", "payload")])
+def test_a_bad_option_names_the_job_file_and_the_option_as_fields(tmp_path: Path, top: str, option: str) -> None:
+    job = write_job(tmp_path, top=top)
+    with pytest.raises(DataError) as caught:
+        read_job(job)
+    assert (caught.value.file, caught.value.option, caught.value.line) == (str(job), option, None)
+
+
+def test_a_fault_of_the_job_names_its_file_and_a_toml_fault_its_line(tmp_path: Path) -> None:
+    text = JOB.format(top="", data="", measure="", file=RAW)
+    with pytest.raises(DataError) as caught:
+        read_job(write_job(tmp_path, text=text.replace('kind = "position"', 'kind = "temperature"')))
+    assert (caught.value.file, caught.value.option) == (str(tmp_path / "job.toml"), None)
+    with pytest.raises(NotFoundError) as missing:
+        read_job(write_job(tmp_path, top="max_iters = 50"))
+    assert (missing.value.file, missing.value.name) == (str(tmp_path / "job.toml"), "max_iters")
+    lines = text.splitlines()
+    broken = lines.index('kind = "position"')
+    lines[broken] = 'kind = "position'
+    with pytest.raises(DataError) as toml:
+        read_job(write_job(tmp_path, text="\n".join(lines)))
+    assert (toml.value.file, toml.value.line) == (str(tmp_path / "job.toml"), broken + 1)
+
+
 @pytest.mark.parametrize(("old", "new", "message"), [
     ('columns = ["x1", "y1", "z1"]', 'columns = ["x1", "y1"]', "[measure 1] columns: 2 columns; a position needs 3, "
                                                                "one per component in this order: x, y, z"),

@@ -101,6 +101,30 @@ def test_a_bad_keyword_is_refused_by_name() -> None:
         CalibrationOptions(force="yes")  # type: ignore[arg-type]
 
 
+@pytest.mark.parametrize(("keywords", "option"), [({"solver": "gn"}, "solver"), ({"max_iter": 0}, "max_iter"),
+                                                 ({"sigma": -1e-5}, "sigma"), ({"prior": -2.0}, "prior"),
+                                                 ({"plausible": 0}, "plausible"), ({"cv_seed": -1}, "cv_seed"),
+                                                 ({"force": "yes"}, "force"), ({"cv": "fivefold"}, "cv")])
+def test_a_bad_value_names_its_option_as_a_field(keywords: dict[str, object], option: str) -> None:
+    with pytest.raises(DataError) as raised:
+        CalibrationOptions(**keywords)  # type: ignore[arg-type]
+    assert (raised.value.option, raised.value.file, raised.value.column) == (option, None, None)
+
+
+def test_a_seed_that_seeds_nothing_names_the_seed_and_the_job_file() -> None:
+    from pincal.calibration.options import check_cv_seed, check_select_cv
+
+    with pytest.raises(DataError) as raised:
+        check_cv_seed(None, 5, Path("job.toml"), Path("job.toml"))
+    assert (raised.value.option, raised.value.file) == ("cv_seed", "job.toml")
+    with pytest.raises(DataError) as raised:
+        check_cv_seed("loo", 5, "command line", "command line")
+    assert (raised.value.option, raised.value.file) == ("cv_seed", None)
+    with pytest.raises(DataError) as raised:
+        check_select_cv("cv", "loo", Path("job.toml"), Path("job.toml"))
+    assert (raised.value.option, raised.value.file) == ("cv", "job.toml")
+
+
 def test_view_and_report_fit_with_every_option_the_command_line_gives(tmp_path: Path) -> None:
     """report without --result calibrates with the options given (the formulation and the iteration limit included,
     which view and report once dropped): the same fit as calibrate's, figure for figure."""

@@ -12,8 +12,8 @@ from test_measurements import Height
 
 import pincal
 from pincal.errors import ConvergenceError
+from pincal.identification import evaluation, predictions
 from pincal.identification import measurements as ms
-from pincal.identification import predictions
 from pincal.identification import problem as problem_module
 from pincal.identification.parameters import ParameterSet, cluster_parameters, marker_parameters, parameter_pool
 from pincal.identification.problem import CalibrationProblem, Observations
@@ -88,8 +88,10 @@ def test_batched_evaluation_equals_the_per_sample_one(name: str, joint_sigma: fl
     """First evaluation (cold and neighbour starts), then warm ones at moved parameters, with and without Jacobian."""
     monkeypatch.setattr(problem_module, "SOLVE_TOLERANCE", TIGHT)
     monkeypatch.setattr(predictions, "SOLVE_TOLERANCE", TIGHT)
+    monkeypatch.setattr(evaluation, "SOLVE_TOLERANCE", TIGHT)
     batched, per_sample, x = _problems(name, joint_sigma)
-    assert batched._batched_loops == (name in BATCHED), batched._loops.unsupported if batched._loops else "no loops"
+    assert batched._batched_loops == (name in BATCHED), \
+        batched.loop_batch.unsupported if batched.loop_batch else "no loops"
     kinds = {p.kind for p in batched.parameters}
     assert {"joint", "anchor", "offset", "harmonic", "marker", "cluster", "base"} <= kinds
     rng = np.random.default_rng(5)
@@ -114,6 +116,7 @@ def test_blocks_of_samples_give_the_same_numbers(monkeypatch: pytest.MonkeyPatch
     """Blocks of 5 samples (12 in all: two full blocks and a partial one), the incremental distance across them."""
     monkeypatch.setattr(problem_module, "SOLVE_TOLERANCE", TIGHT)
     monkeypatch.setattr(predictions, "SOLVE_TOLERANCE", TIGHT)
+    monkeypatch.setattr(evaluation, "SOLVE_TOLERANCE", TIGHT)
     batched, per_sample, x = _problems("delta", JOINT_SIGMA)
     whole = batched.evaluate(x)
     monkeypatch.setattr(predictions, "BATCH_SAMPLES", 5)
@@ -126,12 +129,13 @@ def test_small_sets_are_solved_together_with_the_same_answers(monkeypatch: pytes
     still give the per-sample configurations, and every sample's warm start is remembered."""
     monkeypatch.setattr(problem_module, "SOLVE_TOLERANCE", TIGHT)
     monkeypatch.setattr(predictions, "SOLVE_TOLERANCE", TIGHT)
+    monkeypatch.setattr(evaluation, "SOLVE_TOLERANCE", TIGHT)
     monkeypatch.setattr(predictions, "SMALL_BATCH", 1)
     batched, per_sample, x = _problems("five_bar", None, n=40)
     for _ in range(2):
         np.testing.assert_allclose(batched.configurations(x), per_sample.configurations(x), rtol=0, atol=1e-10)
         _compare(batched.evaluate(x), per_sample.evaluate(x), batched.parameters.names, AGREEMENT)
-        assert all(q is not None for q in batched._q_cache)
+        assert all(q is not None for q in batched.solves.configurations)
         x = x + 1e-3
 
 
@@ -140,6 +144,7 @@ def test_samples_are_not_reordered_by_their_warm_starts(monkeypatch: pytest.Monk
     the reference, whatever the order)."""
     monkeypatch.setattr(problem_module, "SOLVE_TOLERANCE", TIGHT)
     monkeypatch.setattr(predictions, "SOLVE_TOLERANCE", TIGHT)
+    monkeypatch.setattr(evaluation, "SOLVE_TOLERANCE", TIGHT)
     monkeypatch.setattr(predictions, "SMALL_BATCH", 1)
     robot = pincal.load_robot("delta")
     models = [ms.position(robot.end_effector)]
@@ -172,8 +177,9 @@ def test_settling_and_configurations_see_the_batched_solves() -> None:
     for problem in (batched, per_sample):
         problem.evaluate(x)
         problem.evaluate(x + 2e-3)
-    np.testing.assert_allclose(batched._travel, per_sample._travel, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(np.array(batched._q_cache), np.array(per_sample._q_cache), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(batched.solves.travel, per_sample.solves.travel, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(np.array(batched.solves.configurations), np.array(per_sample.solves.configurations),
+                               rtol=0, atol=1e-9)
     assert batched.settle_assembly(x) == per_sample.settle_assembly(x) == []
 
 
@@ -183,11 +189,12 @@ def test_warm_starts_moved_along_the_response_stay_on_the_assembly(name: str, mo
     predicted move, where the prediction is dropped) the configurations are still the per-sample ones."""
     monkeypatch.setattr(problem_module, "SOLVE_TOLERANCE", TIGHT)
     monkeypatch.setattr(predictions, "SOLVE_TOLERANCE", TIGHT)
+    monkeypatch.setattr(evaluation, "SOLVE_TOLERANCE", TIGHT)
     batched, per_sample, x = _problems(name, None, n=20)
     for size in (1e-5, 1e-3, 1e-2):
         for problem in (batched, per_sample):
             problem.evaluate(x)
-        assert batched._response is not None
+        assert batched.solves.response is not None
         moved = x + size * np.random.default_rng(int(1 / size)).normal(size=x.size)
         try:
             reference = per_sample.evaluate(moved)

@@ -103,14 +103,15 @@ def test_the_problems_first_solves_start_from_the_scans_neighbour() -> None:
     problem = CalibrationProblem(robot, choose_parameters(robot, models, ["model24"]), models,
                                  observations_from(robot, ds.joint_names, ds.joints, ds.measurements, models))
     asked: list[tuple[int, int]] = []
-    nearest = problem._qa_solved.nearest
+    nearest = problem.solves.solved_inputs.nearest
 
     def spy(query: np.ndarray, delta) -> int:
         found = nearest(query, delta)
-        asked.append((found, scan(problem._qa_solved.values, query, robot.kinematics.continuous, CONTINUATION_STEP)))
+        asked.append((found, scan(problem.solves.solved_inputs.values, query, robot.kinematics.continuous,
+                                  CONTINUATION_STEP)))
         return found
 
-    problem._qa_solved.nearest = spy  # type: ignore[method-assign]
+    problem.solves.solved_inputs.nearest = spy  # type: ignore[method-assign]
     problem._batched_loops = False
     problem.evaluate(np.zeros(len(problem.parameters)), jacobian=False)
     assert len(asked) == 300

@@ -114,7 +114,7 @@ def _problems(name: str, joint_sigma: float | None) -> tuple[CalibrationProblem,
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_batched_evaluation_equals_the_per_sample_one(name: str, joint_sigma: float | None) -> None:
     batched, per_sample, x = _problems(name, joint_sigma)
-    assert batched._batched_trees, batched._tree.unsupported if batched._tree else "no tree"
+    assert batched._batched_trees, batched.tree_batch.unsupported if batched.tree_batch else "no tree"
     kinds = {p.kind for p in batched.parameters}
     assert {"harmonic", "compliance", "offset", "joint"} <= kinds
     for jacobian in (True, False):
@@ -217,7 +217,7 @@ def test_closed_loops_and_other_joints_are_evaluated_sample_by_sample() -> None:
     qa, _ = random_actuated(delta, 2, np.random.default_rng(1))
     problem = CalibrationProblem(delta, pset, [ms.position("end_effector")],
                                  Observations(qa, {"position:end_effector": np.zeros((2, 3))}))
-    assert problem._tree is None and not problem._batched_trees
+    assert problem.tree_batch is None and not problem._batched_trees
     model = pin.Model()
     ball = model.addJoint(0, pin.JointModelSpherical(), pin.SE3.Identity(), "ball")
     hinge = model.addJoint(ball, pin.JointModelRevoluteUnaligned(np.array([0.0, 0.6, 0.8])), pin.SE3.Random(),

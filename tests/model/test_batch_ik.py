@@ -37,7 +37,7 @@ def test_the_frame_at_many_configurations_is_pinocchios(name: str, frame: str, k
     robot = pincal.load_robot(name)
     kin, fid = robot.kinematics, robot.frame_id(frame)
     _, q = random_actuated(robot, N, np.random.default_rng(1))
-    for frames in (BatchFrame(kin, fid, SOLVE_TOLERANCE), SampleFrame(kin, fid, SOLVE_TOLERANCE)):
+    for frames in (BatchFrame(robot.batch, fid, SOLVE_TOLERANCE), SampleFrame(kin, fid, SOLVE_TOLERANCE)):
         state = frames.state(q)
         actuated = state.actuated_jacobian(kin)
         for k, config in enumerate(q):
@@ -61,7 +61,7 @@ def test_many_targets_are_solved_as_each_alone(name: str, frame: str, kind: str)
     converged = np.array([report.converged for report in alone])
     assert converged.sum() >= N // 2
     start = np.tile(robot.q_reference, (N, 1))
-    for frames in (BatchFrame(kin, fid, SOLVE_TOLERANCE), SampleFrame(kin, fid, SOLVE_TOLERANCE)):
+    for frames in (BatchFrame(robot.batch, fid, SOLVE_TOLERANCE), SampleFrame(kin, fid, SOLVE_TOLERANCE)):
         solved = solve_ik(frames, goals, start, SOLVE_TOLERANCE)
         np.testing.assert_array_equal(solved.converged, converged)
         for k in np.flatnonzero(converged):
@@ -86,7 +86,7 @@ def test_gauss_newton_over_the_actuated_joints_stays_within_their_limits() -> No
     lower, upper = np.full(3, -0.3), np.full(3, 0.9)
     start = np.zeros((N, 3))
     results = [_actuated_answer(frames, goals, start, lower, upper)
-               for frames in (BatchFrame(kin, fid, SOLVE_TOLERANCE), SampleFrame(kin, fid, SOLVE_TOLERANCE))]
+               for frames in (BatchFrame(robot.batch, fid, SOLVE_TOLERANCE), SampleFrame(kin, fid, SOLVE_TOLERANCE))]
     (q, ok), (q_rows, ok_rows) = results
     np.testing.assert_array_equal(ok, ok_rows)
     assert 0 < ok.sum() < N

@@ -26,7 +26,7 @@ def _samples(name: str, n: int = 15, seed: int = 0) -> tuple[pincal.Robot, np.nd
 @pytest.mark.parametrize("name", BATCHED)
 def test_forward_kinematics_is_pinocchio_s(name: str) -> None:
     robot = pincal.load_robot(name)
-    batch = robot.kinematics.batch
+    batch = robot.batch
     moves = np.random.default_rng(1).normal(scale=0.4, size=(6, robot.model.nv))
     q = np.array([pin.integrate(robot.model, pin.neutral(robot.model), move) for move in moves])
     placements = batch.forward(batch.geometry(robot.model, robot.closure), q)
@@ -42,7 +42,7 @@ def test_forward_kinematics_is_pinocchio_s(name: str) -> None:
 @pytest.mark.parametrize("name", BATCHED)
 def test_residual_and_jacobian_are_the_closure_s(name: str) -> None:
     robot, _, q = _samples(name)
-    state = robot.kinematics.batch.state(robot.model, robot.closure, q)
+    state = robot.batch.state(robot.model, robot.closure, q)
     assert state.jacobian is not None
     for k in range(len(q)):
         residual, jacobian = robot.kinematics.closure_jacobian(q[k])
@@ -53,7 +53,7 @@ def test_residual_and_jacobian_are_the_closure_s(name: str) -> None:
 @pytest.mark.parametrize("name", BATCHED)
 def test_the_jacobian_is_exact_off_the_closure(name: str) -> None:
     robot, _, q = _samples(name, n=3)
-    batch, model = robot.kinematics.batch, robot.model
+    batch, model = robot.batch, robot.model
     moves = np.random.default_rng(2).normal(scale=0.05, size=(len(q), model.nv))
     q = np.array([pin.integrate(model, row, move) for row, move in zip(q, moves, strict=True)])
     jacobian = batch.state(model, robot.closure, q).jacobian
@@ -72,7 +72,7 @@ def test_the_jacobian_is_exact_off_the_closure(name: str) -> None:
 @pytest.mark.parametrize("name", BATCHED)
 def test_cold_and_warm_solves_are_the_per_sample_ones(name: str) -> None:
     robot, qa, q = _samples(name, n=25)
-    batch, kin = robot.kinematics.batch, robot.kinematics
+    batch, kin = robot.batch, robot.kinematics
     cold, ok = batch.solve(robot.model, robot.closure, qa, None, TOL)
     assert ok.all()
     np.testing.assert_allclose(cold, q, rtol=0, atol=1e-9)
@@ -91,7 +91,7 @@ def test_warm_starts_are_refused_where_the_per_sample_solver_refuses_them(name: 
     solver keeps, and on the same configurations."""
     robot, qa, q = _samples(name, n=25)
     moved = qa + np.random.default_rng(4).normal(scale=0.02, size=qa.shape)
-    warm, ok = robot.kinematics.batch.warm_solve(robot.model, robot.closure, moved, q, TOL)
+    warm, ok = robot.batch.warm_solve(robot.model, robot.closure, moved, q, TOL)
     reports = [robot.kinematics.warm_solve(a, g, TOL) for a, g in zip(moved, q, strict=True)]
     np.testing.assert_array_equal(ok, [report is not None for report in reports])
     for k in np.flatnonzero(ok):
@@ -102,7 +102,7 @@ def test_a_far_guess_is_refused_and_solved_by_continuation() -> None:
     """A guess more than one continuation step away in actuated values is not a warm start (the per-sample rule):
     the sample comes back from continuation, on the reference assembly."""
     robot, qa, q = _samples("delta", n=6)
-    batch = robot.kinematics.batch
+    batch = robot.batch
     far = qa.copy()
     far[0] += 2 * CONTINUATION_STEP
     _, warm = batch.warm_solve(robot.model, robot.closure, far, q, TOL)
@@ -115,7 +115,7 @@ def test_a_far_guess_is_refused_and_solved_by_continuation() -> None:
 def test_a_jump_is_refused() -> None:
     """Newton that would move a passive joint by more than one continuation step stops, unconverged."""
     robot, _, q = _samples("delta", n=4)
-    batch = robot.kinematics.batch
+    batch = robot.batch
     guesses = batch.retract(q, np.array([0.0, 1.2, 0.0, 0.0])[:, None] * np.ones(len(batch.passive_v)))  # sample 1
     solved, _, converged = batch.close_loops(robot.model, robot.closure, guesses, TOL, max_move=CONTINUATION_STEP)
     assert converged[[0, 2, 3]].all() and not converged[1]
@@ -140,5 +140,4 @@ def test_another_joint_kind_is_left_to_the_per_sample_solvers() -> None:
     hinge = model.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), "hinge")
     model.addJoint(hinge, pin.JointModelSpherical(), pin.SE3.Identity(), "ball")
     kinematics = ClosedLoopKinematics(model, LoopClosure(model, []), [ActuatedJoint("hinge", hinge, 0, 0, 1)])
-    assert kinematics.batch.unsupported == "joint 'ball' (JointModelSpherical)"
-    assert isinstance(kinematics.batch, BatchKinematics)
+    assert BatchKinematics(kinematics).unsupported == "joint 'ball' (JointModelSpherical)"

@@ -16,7 +16,7 @@ The setup (the measurement frame, markers, cameras, targets) has no bound: a tra
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, Protocol
 
 from pincal.errors import not_found
 from pincal.identification.measurements import (
@@ -30,9 +30,6 @@ from pincal.identification.measurements import (
 )
 from pincal.model.robot import Unit
 
-if TYPE_CHECKING:
-    from pincal.identification.parameters.parameter import Parameter
-
 #: A parameter's unit: a length or an angle, or a compliance (angle per torque, length per force).
 ParameterUnit = Literal["m", "rad", "rad/(N m)", "m/N", "px", "1"]
 #: Where a kind's parameters act: the robot ``model`` (a placement in the kinematic tree or a loop: its derivative from
@@ -40,6 +37,18 @@ ParameterUnit = Literal["m", "rad", "rad/(N m)", "m/N", "px", "1"]
 #: regressor of the reading), or the ``measurement`` models (the measurement frame, markers, cameras, targets: the
 #: models' own derivatives, through their :class:`~pincal.identification.measurements.SampleContext`).
 ActsIn = Literal["model", "reading", "measurement"]
+
+
+
+class Termed(Protocol):
+    """What a kind reads of one of its parameters (a :class:`~pincal.identification.parameters.Parameter`): its
+    ``term`` (``tx`` … ``rz``, ``offset``, …). A parameter has a kind; a kind needs no more of a parameter than this."""
+
+    @property
+    def term(self) -> str:
+        """The parameter's term: what it is of its owner."""
+        ...
+
 
 #: Kind name -> its class, in the order the kinds were declared.
 PARAMETER_KINDS: dict[str, type[ParameterKind]] = {}
@@ -92,7 +101,7 @@ class ParameterKind:
         return "rad" if term.startswith("r") else "m"
 
     @classmethod
-    def selection_group(cls, parameter: Parameter) -> str | None:
+    def selection_group(cls, parameter: Termed) -> str | None:
         """The group model selection may leave out that ``parameter`` belongs to; None: it always stays."""
         return None
 
@@ -146,7 +155,7 @@ class _Placement(ParameterKind):
     prior = PLACEMENT_PRIOR
 
     @classmethod
-    def selection_group(cls, parameter: Parameter) -> str | None:
+    def selection_group(cls, parameter: Termed) -> str | None:
         """``translations`` or ``rotations``."""
         return "translations" if parameter.term.startswith("t") else "rotations"
 
@@ -187,7 +196,7 @@ class ReadingOffset(ParameterKind):
         return joint_unit
 
     @classmethod
-    def selection_group(cls, parameter: Parameter) -> str | None:
+    def selection_group(cls, parameter: Termed) -> str | None:
         """``offsets``."""
         return "offsets"
 
@@ -324,7 +333,7 @@ class Harmonic(ParameterKind):
         return joint_unit
 
     @classmethod
-    def selection_group(cls, parameter: Parameter) -> str | None:
+    def selection_group(cls, parameter: Termed) -> str | None:
         """``harmonics``."""
         return "harmonics"
 
@@ -342,6 +351,6 @@ class Compliance(ParameterKind):
         return "rad/(N m)" if joint_unit == "rad" else "m/N"
 
     @classmethod
-    def selection_group(cls, parameter: Parameter) -> str | None:
+    def selection_group(cls, parameter: Termed) -> str | None:
         """``compliance``."""
         return "compliance"
