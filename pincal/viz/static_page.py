@@ -303,7 +303,7 @@ def workspace_text(summary: SceneSummary) -> str:
 
 def _workspace_legend(summary: SceneSummary) -> str:
     """The legend of the workspace points: what they are and their colour scale [mm] (empty without them)."""
-    from pincal.viz.plots import BOUND_COLORMAP
+    from pincal.viz.svg_figures import BOUND_COLORMAP
 
     if not summary.workspace_postures:
         return ""

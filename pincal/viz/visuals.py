@@ -58,7 +58,7 @@ def bound_colors(values: Array, low: float, high: float) -> Array:
     uncertainty figure (:data:`pincal.viz.plots.BOUND_COLORMAP`), from ``low`` to ``high`` [m]."""
     import matplotlib
 
-    from pincal.viz.plots import BOUND_COLORMAP
+    from pincal.viz.svg_figures import BOUND_COLORMAP
 
     cmap = matplotlib.colormaps[BOUND_COLORMAP]
     span = high - low if high > low else 1.0
