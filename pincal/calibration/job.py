@@ -17,17 +17,19 @@ import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pincal.calibration.options import JOB_OPTIONS, OPTIONS
 from pincal.calibration.samples import ANGLE_UNIT_SIZES, LENGTH_UNIT_SIZES
 from pincal.errors import DataError, NotFoundError, listing, not_found
 from pincal.identification.corrections import Payload, payload_from_dict
 from pincal.identification.measurements import KIND_CLASSES
-from pincal.io.bag_dataset import BagSource
 from pincal.io.dataset import MEASUREMENT_COMPONENTS, parse_measurement_key
 from pincal.io.files import input_problem
 from pincal.model.robot import Robot, load_robot
+
+if TYPE_CHECKING:
+    from pincal.io.bag_dataset import BagSource
 
 #: Keys of each level of a job file.
 JOB_KEYS = ("robot", "data", "joints", "measure", "out", "report", *JOB_OPTIONS)
