@@ -55,7 +55,7 @@ def error_colors(values: Array, scale: float) -> list[int]:
 
 def bound_colors(values: Array, low: float, high: float) -> Array:
     """RGB colours (N, 3) in [0, 1] of predicted bounds ``values`` (N,) [m] on the colour map of the report's
-    uncertainty figure (:data:`pincal.viz.plots.BOUND_COLORMAP`), from ``low`` to ``high`` [m]."""
+    uncertainty figure (:data:`pincal.viz.svg_figures.BOUND_COLORMAP`), from ``low`` to ``high`` [m]."""
     import matplotlib
 
     from pincal.viz.svg_figures import BOUND_COLORMAP
