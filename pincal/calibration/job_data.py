@@ -11,7 +11,6 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration.job_bag import bag_job_dataset
 from pincal.calibration.job_reader import Column, HeldOut, Job
 from pincal.calibration.samples import ANGLE_UNIT_SIZES, LENGTH_UNIT_SIZES
 from pincal.errors import DataError, listing, not_found
@@ -51,6 +50,8 @@ def job_dataset(job: Job, robot: Robot) -> Dataset:
         NotFoundError: a joint or frame the robot does not have.
     """
     if job.bag is not None:  # a ROS bag's static postures (docs/bags.md)
+        from pincal.calibration.job_bag import bag_job_dataset  # ROS bag reading, only for a [bag] job
+
         return bag_job_dataset(job, job.bag, robot)
     for joint in {**job.joints, **job.joint_units}:
         robot.joint_id(joint, f"{job.path}: [joints] {joint}: ")

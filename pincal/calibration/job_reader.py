@@ -13,13 +13,15 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pincal.calibration.options import JOB_OPTIONS, OPTIONS
 from pincal.errors import DataError, NotFoundError, PincalError, listing, not_found
 from pincal.identification.corrections import Payload, payload_from_dict
-from pincal.io.bag_dataset import BagSource
 from pincal.io.files import input_problem
+
+if TYPE_CHECKING:
+    from pincal.io.bag_dataset import BagSource
 
 #: Keys of the top level of a job file with a ``[data]`` table.
 JOB_KEYS = ("robot", "data", "joints", "measure", "out", "report", *JOB_OPTIONS)

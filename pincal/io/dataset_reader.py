@@ -36,6 +36,9 @@ from pincal.io.dataset import (
 )
 from pincal.io.files import input_problem
 
+#: The csv module's longest cell [characters]: a line shorter cannot hold a cell it refuses.
+FIELD_LIMIT = csv.field_size_limit()
+
 Array = npt.NDArray[np.float64]
 
 
@@ -154,7 +157,9 @@ def _split(text: str) -> tuple[dict[str, str], int, list[str], list[tuple[int, l
                 metadata[key], metadata_lines[key] = value.strip(), number
             continue
         try:
-            cells = [c.strip() for c in next(csv.reader([raw]))]
+            # without quotes or NUL the csv module's cells are the text between commas: split at once
+            simple = '"' not in raw and "\x00" not in raw and len(raw) < FIELD_LIMIT
+            cells = [c.strip() for c in (raw.split(",") if simple else next(csv.reader([raw])))]
         except csv.Error as exc:  # e.g. a cell over the csv module's 131072-character field limit
             raise DataError(f"line {number}: {exc} (a cell of {max(map(len, raw.split(',')))} characters)") from None
         if header is None:
@@ -264,26 +269,44 @@ def _parse(text: str, required: Sequence[str], min_samples: int, kinds: dict[str
     sets: list[str] = []
     lines = [line for line, _ in rows]
     incremental = {key for key in layout.groups if is_increment(key)}
-    for r, (line, cells) in enumerate(rows):
+    sizes = [len(layout.joints), *(len(MEASUREMENT_COMPONENTS[key.partition(":")[0]]) for key in layout.groups)]
+    columns = [*layout.joints.values(), *(cols[component] for key, cols in layout.groups.items()
+                                          for component in MEASUREMENT_COMPONENTS[key.partition(":")[0]])]
+    numbers = np.empty((n, len(columns)))
+    plain = np.zeros(n, dtype=bool)  # rows read at once: every cell a finite number, written plainly
+    for r, (_, cells) in enumerate(rows):
+        if r and len(cells) == len(header):  # the first row: where a distance increment is empty
+            try:
+                read = [float(cells[i]) for i in columns]
+            except ValueError:
+                continue
+            if all(math.isfinite(v) for v in read) and not any("_" in cells[i] for i in columns):
+                numbers[r], plain[r] = read, True
+    blocks = np.split(numbers, np.cumsum(sizes)[:-1], axis=1)
+    joints[plain] = blocks[0][plain]
+    for key, block in zip(layout.groups, blocks[1:], strict=True):
+        measurements[key][plain] = block[plain]
+    for r, (line, cells) in enumerate(rows):  # the other rows cell by cell, each error where it is
         if len(cells) != len(header):
             raise DataError(f"line {line} has {len(cells)} cells; the header (line {header_line}) has {len(header)}")
-        for c, (name, i) in enumerate(layout.joints.items()):
-            joints[r, c] = _number(cells[i], name, line)
-        for key, cols in layout.groups.items():
-            kind = key.partition(":")[0]
-            components = MEASUREMENT_COMPONENTS[kind]
-            for c, component in enumerate(components):
-                measurements[key][r, c] = _number(cells[cols[component]], f"{key}:{component}", line,
-                                                  first_increment=r == 0 and key in incremental,
-                                                  may_be_empty=kind in OCCLUDABLE_KINDS)
-            empty = np.isnan(measurements[key][r])
-            if empty.any() and not empty.all():  # an occluded marker leaves every cell empty, not some
-                first = components[int(np.argmax(empty))]
-                what = "is empty" if not cells[cols[first]] else f"is '{cells[cols[first]]}'"
-                full = listing(f"{key}:{c}" for c, e in zip(components, empty, strict=True) if not e)
-                raise DataError(f"column '{key}:{first}', line {line}: the cell {what} but {full} hold numbers; a "
-                                f"{KIND_CLASSES[kind].sighted} that was not seen leaves all the "
-                                f"cells of '{key}' empty, one seen fills them all")
+        if not plain[r]:
+            for c, (name, i) in enumerate(layout.joints.items()):
+                joints[r, c] = _number(cells[i], name, line)
+            for key, cols in layout.groups.items():
+                kind = key.partition(":")[0]
+                components = MEASUREMENT_COMPONENTS[kind]
+                for c, component in enumerate(components):
+                    measurements[key][r, c] = _number(cells[cols[component]], f"{key}:{component}", line,
+                                                      first_increment=r == 0 and key in incremental,
+                                                      may_be_empty=kind in OCCLUDABLE_KINDS)
+                empty = np.isnan(measurements[key][r])
+                if empty.any() and not empty.all():  # an occluded marker leaves every cell empty, not some
+                    first = components[int(np.argmax(empty))]
+                    what = "is empty" if not cells[cols[first]] else f"is '{cells[cols[first]]}'"
+                    full = listing(f"{key}:{c}" for c, e in zip(components, empty, strict=True) if not e)
+                    raise DataError(f"column '{key}:{first}', line {line}: the cell {what} but {full} hold "
+                                    f"numbers; a {KIND_CLASSES[kind].sighted} that was not seen leaves all the "
+                                    f"cells of '{key}' empty, one seen fills them all")
         ids.append(cells[layout.sample] if layout.sample is not None else str(r))
         if layout.sample is not None and not ids[-1]:
             raise DataError(f"column '{SAMPLE_COLUMN}', line {line}: the sample id is empty")

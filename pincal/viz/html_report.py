@@ -2,13 +2,12 @@
 
 The page holds the headline before/after errors, a summary (samples, parameters, identifiable count,
 condition number, RMS and max errors, held-out errors), the 3D scene of :mod:`pincal.viz.scene`, the
-figures of :mod:`pincal.viz.plots` as embedded PNGs, the parameter table with standard deviations, and
+figures of :mod:`pincal.viz.svg_figures` as inline SVG, the parameter table with standard deviations, and
 the combinations the data cannot separate, in words. Nothing is fetched: it opens from a file.
 """
 
 from __future__ import annotations
 
-import base64
 import html
 import json
 import math
@@ -105,13 +104,6 @@ def _ratio(before: float | None, after: float | None) -> str:
     if not before or not after or not math.isfinite(before) or not math.isfinite(after) or after <= 0:
         return ""
     return f"{before / after:.3g}× smaller" if before >= after else f"{after / before:.3g}× larger"
-
-
-def _png(figure: Any, alt: str, palette: bool = False) -> str:
-    from pincal.viz.plots import png_bytes
-
-    data = base64.b64encode(png_bytes(figure, palette=palette)).decode("ascii")
-    return f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}"></figure>'
 
 
 def _cards(report: CalibrationReport) -> str:
@@ -297,7 +289,7 @@ def predicted_uncertainty(report: CalibrationReport) -> str:
     """The figure of the predicted position uncertainty over the workspace (the report's ``predicted_workspace``)
     and, with held-out samples, their bound against their actual error (``predicted_held_out``, ``sample_errors``),
     with its caption; empty when the report holds no workspace prediction (a report of an older pincal)."""
-    from pincal.viz.plots import predicted_uncertainty as figure
+    from pincal.viz.svg_figures import predicted_uncertainty as figure
 
     workspace = workspace_points(report)
     if workspace is None:
@@ -315,7 +307,7 @@ def predicted_uncertainty(report: CalibrationReport) -> str:
             f"{len(bounds)} postures drawn within the joint limits: median "
             f"{mm_text(space.get('median_bound'), 3)}, largest {mm_text(space.get('max_bound'), 3)}, "
             f"{_text(space.get('outside_fitted_range', 0))} beyond the fitted joint range (bound widened){coverage}")
-    drawn = _png(figure(positions, bounds, held_bounds, held_errors), text, palette=True)
+    drawn = figure(positions, bounds, held_bounds, held_errors, text)
     return (f'<div id="predicted-uncertainty">{drawn}'
             f'<p class="caption">{text[0].upper() + text[1:]}. Positions in the measurement frame; the 3D scene '
             "shows the same postures as dots coloured by their bound.</p></div>")
@@ -362,7 +354,7 @@ def _difference_text(difference: float) -> str:
 def render_report(content: ReportContent, quiet: bool = True) -> str:
     """The report as one self-contained HTML page."""
     from pincal import __version__
-    from pincal.viz import plots
+    from pincal.viz import svg_figures as plots
 
     view, report = content.view, content.view.report
     problem = view.problem
@@ -381,22 +373,22 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
     length = report.error_words[0]
     with Progress("figures", 4, quiet) as progress:
         if has_lengths:
-            figures.append(_png(plots.error_histograms(before, after, test_before, test_after, rms, length),
-                                f"histograms of the {length} errors before and after calibration: "
-                                + figures_text(report)))
+            figures.append(plots.error_histograms(before, after, test_before, test_after, rms, length,
+                                                  f"histograms of the {length} errors before and after calibration: "
+                                                  + figures_text(report)))
             progress.advance()
-            figures.append(_png(plots.errors_per_sample(before, after, test_before, test_after, length),
-                                f"{length} error of each sample before and after calibration: "
-                                f"{_per_sample_text(before, after, test_before, test_after)}"))
+            figures.append(plots.errors_per_sample(before, after, test_before, test_after, length,
+                                                   f"{length} error of each sample before and after calibration: "
+                                                   f"{_per_sample_text(before, after, test_before, test_after)}"))
             progress.advance()
-        figures.append(_png(plots.parameter_estimates(names, units, values, std, identified, truth),
-                            f"estimated parameter deviations with error bars: {len(names)} parameters, "
-                            f"{sum(identified)} identifiable"))
+        figures.append(plots.parameter_estimates(names, units, values, std, identified, truth,
+                                                 f"estimated parameter deviations with error bars: {len(names)} "
+                                                 f"parameters, {sum(identified)} identifiable"))
         progress.advance()
         if report.cost_history:
             history = report.cost_history
-            figures.append(_png(plots.convergence(history), f"cost per iteration: {len(history)} values, from "
-                                                            f"{history[0]:.4g} to {history[-1]:.4g}"))
+            figures.append(plots.convergence(history, f"cost per iteration: {len(history)} values, from "
+                                                      f"{history[0]:.4g} to {history[-1]:.4g}"))
         progress.advance()
     scene, summary = static_scene(view, quiet=quiet)
     srcdoc = html.escape(scene, quote=True)

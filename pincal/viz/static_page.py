@@ -91,11 +91,15 @@ class StaticScene:
         packed in single precision, as three.js holds them anyway: half the bytes of the placements and the
         animation, and a placement still to well under a micrometre [m].
         """
-        import umsgpack
+        from pincal.viz.msgpack_pack import packb_renamed
 
         names: dict[str, str] = {}
-        return [umsgpack.packb(_stable_ids(command.lower(), names), force_float_precision="single")
-                for command in self.commands]
+        packed = []
+        for command in self.commands:
+            lowered = command.lower()
+            _collect_ids(lowered, names)
+            packed.append(packb_renamed(lowered, names))
+        return packed
 
     def replay(self, vis: Any) -> None:
         """Send every recorded command to ``vis`` (e.g. ``meshcat.Visualizer()``)."""
@@ -164,21 +168,6 @@ def _collect_ids(value: Any, names: dict[str, str]) -> None:
         return
     for item in items:
         _collect_ids(item, names)
-
-
-def _renamed(value: Any, names: dict[str, str]) -> Any:
-    """``value`` with every string that is a named uuid (a definition or a reference) replaced by its name."""
-    if isinstance(value, dict):
-        return {key: _renamed(item, names) for key, item in value.items()}
-    if isinstance(value, list | tuple):
-        return type(value)(_renamed(item, names) for item in value)
-    return names.get(value, value) if isinstance(value, str) else value
-
-
-def _stable_ids(command: Any, names: dict[str, str]) -> Any:
-    """``command`` with meshcat's uuids replaced by ``pincal-N`` names, numbered in order of appearance."""
-    _collect_ids(command, names)
-    return _renamed(command, names)
 
 
 def meshcat_javascript() -> str:
@@ -303,7 +292,7 @@ def workspace_text(summary: SceneSummary) -> str:
 
 def _workspace_legend(summary: SceneSummary) -> str:
     """The legend of the workspace points: what they are and their colour scale [mm] (empty without them)."""
-    from pincal.viz.plots import BOUND_COLORMAP
+    from pincal.viz.svg_figures import BOUND_COLORMAP
 
     if not summary.workspace_postures:
         return ""

@@ -55,10 +55,10 @@ def error_colors(values: Array, scale: float) -> list[int]:
 
 def bound_colors(values: Array, low: float, high: float) -> Array:
     """RGB colours (N, 3) in [0, 1] of predicted bounds ``values`` (N,) [m] on the colour map of the report's
-    uncertainty figure (:data:`pincal.viz.plots.BOUND_COLORMAP`), from ``low`` to ``high`` [m]."""
+    uncertainty figure (:data:`pincal.viz.svg_figures.BOUND_COLORMAP`), from ``low`` to ``high`` [m]."""
     import matplotlib
 
-    from pincal.viz.plots import BOUND_COLORMAP
+    from pincal.viz.svg_figures import BOUND_COLORMAP
 
     cmap = matplotlib.colormaps[BOUND_COLORMAP]
     span = high - low if high > low else 1.0

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import base64
 import html
-import io
 import json
 import re
 from pathlib import Path
@@ -13,7 +11,6 @@ import numpy as np
 import pytest
 from browser import orange_pixels, pixel_variance, render, served
 from conftest import LIGHT_ARM_OPTIONS, ROBOTS, run_pincal
-from PIL import Image
 
 import pincal
 from pincal.calibration.campaign import simulate, write_simulation
@@ -77,16 +74,19 @@ def test_report_parameter_table_and_combinations(case: dict[str, Path]) -> None:
         assert f"<li>{html.escape(combination)}</li>" in page
 
 
-def test_report_figures_are_embedded_pngs_with_content(case: dict[str, Path]) -> None:
+def test_report_figures_are_inline_svg_with_content(case: dict[str, Path]) -> None:
     page = case["report"].read_text(encoding="utf-8")
-    images = re.findall(r'<img alt="([^"]+)" src="data:image/png;base64,([^"]+)"', page)
-    assert len(images) == 5  # histograms, per sample, predicted uncertainty, parameters, convergence
-    for alt, data in images:
-        image = np.asarray(Image.open(io.BytesIO(base64.b64decode(data))).convert("RGB"))
-        assert image.shape[0] > 200 and image.shape[1] > 300, alt
-        assert pixel_variance(image) > 100, f"figure '{alt}' is blank"
-        colours = image[..., 0].astype(np.int64) << 16 | image[..., 1].astype(np.int64) << 8 | image[..., 2]
-        assert len(np.unique(colours)) > 20, f"figure '{alt}' has almost no content"
+    figures = re.findall(r'<figure><svg [^>]*aria-label="([^"]+)"[^>]*>(.*?)</svg></figure>', page, re.S)
+    assert len(figures) == 5  # histograms, per sample, predicted uncertainty, parameters, convergence
+    assert "data:image/png" not in page
+    result = json.loads(case["result"].read_text())
+    marks = {alt.split(":")[0]: len(re.findall(r"<(?:circle|rect|path) ", body)) for alt, body in figures}
+    for alt, body in figures:
+        assert f"<title>{alt}</title>" in body  # the text alternative, read by a screen reader
+        assert len(re.findall(r"<text ", body)) > 8, f"figure '{alt}' has no axes"
+    # every fitted sample has a point before and after in the per-sample figure, every parameter a marker
+    assert marks["position error of each sample before and after calibration"] > 2 * result["n_samples"]
+    assert marks["estimated parameter deviations with error bars"] > len(result["parameters"])
 
 
 def test_report_embeds_the_scene_and_needs_no_network(case: dict[str, Path]) -> None:
