@@ -92,6 +92,11 @@ def cmd_filter(args: argparse.Namespace) -> int:
               f"{outcome.status}")
     for problem in result.program.problems:
         print(f"warning: {problem.file} line {problem.line}: {problem.what}")
+    for outcome in result.results:
+        if outcome.posture[1] is not None:
+            print(f"note: {outcome.target.file} line {outcome.target.line}: '{outcome.target.name}': the calibrated "
+                  f"commands have another posture than the one written ({outcome.posture[1]}): the new one is written, "
+                  "so that the controller picks them")
     done = [r for r in result.results if r.status == OK]
     if done:
         largest = max(r.residual[0] for r in done)

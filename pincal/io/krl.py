@@ -9,7 +9,8 @@ active ``$TOOL`` in the active ``$BASE``: ``$TOOL = TOOL_DATA[n]``, ``$BASE = BA
 the ``.src`` sets them; ``TOOL_DATA[n]`` and ``BASE_DATA[n]`` are read from the program's files and the further files
 given (the controller's ``$config.dat``). Base 0 and tool 0 are ``$NULLFRAME``; before any is set, the tool given and
 the robot's base. A relative move, a point that lacks a coordinate, an unknown tool or base, an expression in a point's
-place are problems, left as written. The status and turn (``S``, ``T``) and external axes are kept.
+place are problems, left as written. The status and turn (``S``, ``T``: numbers or bit strings) are read for the
+filter to check and rewrite (:mod:`pincal.calibration.arm_posture`); external axes are kept.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import pinocchio as pin
 
 from pincal.io.programs import (
     Edit,
+    NamedPosture,
     Problem,
     Program,
     Target,
@@ -39,8 +41,6 @@ from pincal.io.programs import (
 
 #: Decimals written: millimetres and degrees (1e-4 mm, 1e-5°).
 MM_DECIMALS, DEGREE_DECIMALS = 4, 5
-#: An axis this close [rad] to zero counts as of either sign (round-off decides nothing).
-SLACK = 1e-6
 CARTESIAN = ("E6POS", "POS", "FRAME")
 JOINTS = ("E6AXIS", "AXIS")
 
@@ -304,21 +304,21 @@ def _add(program: Program, file: str, line: int, name: str, kind: str, fields: d
                                                     "written"))
         return
     program.targets.append(Target(file, line, name, None, pose, tool[0], base[0], f"tool {tool[1]}, base {base[1]}",
-                                  _render(file, fields), uses, _turn(fields)))
+                                  _render(file, fields), uses, _posture(file, fields)))
 
 
-def _turn(fields: dict[str, tuple[str, int, int]]) -> Callable[[np.ndarray], str | None] | None:
-    """The check of a point's turn ``T``: bit k set when axis A(k+1) is negative (joint values [rad] as KRL counts
-    them); None when the point has no ``T``."""
-    written = fields.get("T", ("", 0, 0))[0].strip()
-    if not written.isdigit():
-        return None
-    turn = int(written)
-
-    def check(joints: np.ndarray) -> str | None:
-        bits = sum(1 << k for k, value in enumerate(joints[:6]) if value < 0)
-        free = sum(1 << k for k, value in enumerate(joints[:6]) if abs(value) <= SLACK)  # either sign at zero
-        if (bits ^ turn) & ~free == 0:
-            return None
-        return f"T {turn} asks other signs of the axes than the posture found (T {bits})"
-    return check
+def _posture(file: str, fields: dict[str, tuple[str, int, int]]) -> NamedPosture | None:
+    """The status and turn a point writes (``S 6``, ``T 'B100011'``); None when it writes neither as a number."""
+    found: dict[str, tuple[int, int, int]] = {}
+    binary = set()
+    for name in ("S", "T"):
+        if name not in fields:
+            continue
+        text, start, end = fields[name]
+        bits = re.fullmatch(r"'[Bb]([01]+)'", text.strip())
+        if bits:
+            found[name] = (int(bits.group(1), 2), start, end)
+            binary.add(name)
+        elif text.strip().isdigit():
+            found[name] = (int(text), start, end)
+    return NamedPosture("krl", file, found, frozenset(binary)) if found else None

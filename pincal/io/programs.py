@@ -43,6 +43,24 @@ class Edit:
 
 
 @dataclass(frozen=True)
+class NamedPosture:
+    """The posture a Cartesian target names, as written (docs/filter.md, "Posture"): KRL's status and turn, RAPID's
+    configuration.
+
+    Attributes:
+        language: ``krl`` (fields ``S``, ``T``) or ``rapid`` (``cf1``, ``cf4``, ``cf6``, ``cfx``).
+        file: The file it is written in.
+        fields: Each field's value as written and the span of its text.
+        binary: The fields written as KRL's bit strings (``'B110'``), written back so.
+    """
+
+    language: str
+    file: str
+    fields: dict[str, tuple[int, int, int]]
+    binary: frozenset[str] = frozenset()
+
+
+@dataclass(frozen=True)
 class Target:
     """One target of a program.
 
@@ -57,8 +75,7 @@ class Target:
         context: The tool and frame in words (``tool 'tool1', work object 'wobj1'``).
         render: The edits that write another pose [m, rad] (in the same frame, for the same tool) in place of it.
         uses: The lines of the moves that read it.
-        posture: For the joint values [rad] a controller reaches it at, why they are not the posture the target
-            names (KRL's turn bits, RAPID's quadrants), or None when they are; None: the target names none.
+        posture: The posture the target names (KRL's status and turn, RAPID's configuration); None: none.
         render_joints: A joint target's edits that write other joint values [rad or m] in place of its own.
     """
 
@@ -72,7 +89,7 @@ class Target:
     context: str
     render: Callable[[pin.SE3], list[Edit]] | None = None
     uses: tuple[int, ...] = ()
-    posture: Callable[[Array], str | None] | None = None
+    posture: NamedPosture | None = None
     render_joints: Callable[[Array], list[Edit]] | None = None
 
     @property

@@ -8,8 +8,8 @@ the move's ``tooldata`` (``tool0``: the flange; ``[robhold, [[x, y, z], [q1…q4
 (``\\WObj:=``, default ``wobj0``: the robot's base; ``[robhold, ufprog, ufmec, uframe, oframe]``, the point in
 ``uframe · oframe``). A tool the robot does not hold, a moving work object, an array, ``*`` or an expression
 (``Offs(…)``, ``RelTool(…)``) in a point's place, a search are problems, left as written. The configuration
-``cf1, cf4, cf6`` (quadrants of axes 1, 4, 6) is checked against the posture found; ``cfx`` and the external axes are
-kept.
+``cf1, cf4, cf6, cfx`` is read for the filter to check and rewrite (:mod:`pincal.calibration.arm_posture`); the external
+axes are kept.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import pinocchio as pin
 
 from pincal.io.programs import (
     Edit,
+    NamedPosture,
     Problem,
     Program,
     Target,
@@ -38,8 +39,6 @@ from pincal.io.programs import (
 
 #: Decimals written: millimetres and quaternion components.
 MM_DECIMALS, QUATERNION_DECIMALS, DEGREE_DECIMALS = 4, 9, 6
-#: An axis this close [rad] to a quadrant's edge counts as in either quadrant (round-off decides nothing).
-SLACK = 1e-6
 #: Moves and how many points they take first.
 MOVES = {**{f"{m}{s}": 2 if m.endswith("C") else 1 for m in ("MoveL", "MoveJ", "MoveC")
             for s in ("", "DO", "AO", "GO", "Sync")}, "TriggL": 1, "TriggJ": 1, "TriggC": 2, "MoveAbsJ": 1}
@@ -100,23 +99,13 @@ def _render(file: str, position: Spans, quaternion: Spans) -> Callable[[pin.SE3]
     return render
 
 
-def _quadrants(text: str, groups: list[tuple[int, int]]) -> Callable[[np.ndarray], str | None] | None:
-    """The check of a robtarget's ``cf1, cf4, cf6``: the quadrant ``floor(angle / 90°)`` of axes 1, 4, 6 (joint values
-    [rad] as RAPID counts them); None when they are not numbers."""
+def _posture(file: str, text: str, groups: list[tuple[int, int]]) -> NamedPosture | None:
+    """The configuration ``[cf1, cf4, cf6, cfx]`` a robtarget writes; None when it is not four whole numbers."""
     found = _numbers_of(text, groups[2], 4) if len(groups) > 2 else None
-    if found is None:
+    if found is None or any(v != int(v) for v, _, _ in found):
         return None
-    written = [int(v) for v, _, _ in found[:3]]
-
-    def check(joints: np.ndarray) -> str | None:
-        if len(joints) < 6:
-            return None
-        got = [math.floor(joints[k] / (math.pi / 2)) for k in (0, 3, 5)]
-        near = all(any(math.floor((joints[k] + d) / (math.pi / 2)) == w for d in (0.0, -SLACK, SLACK))
-                   for k, w in zip((0, 3, 5), written, strict=True))
-        return None if near else (f"cf1, cf4, cf6 = {written} ask other quadrants of axes 1, 4, 6 than the "
-                                            f"posture found ({got})")
-    return check
+    return NamedPosture("rapid", file, {name: (int(v), a, b) for name, (v, a, b) in
+                                        zip(("cf1", "cf4", "cf6", "cfx"), found, strict=True)})
 
 
 def _frames(code: str, kinds: dict[str, tuple[str, int, tuple[int, int], str]]) -> dict[str, pin.SE3 | str]:
@@ -272,4 +261,4 @@ def _add(program: Program, file: str, line: int, name: str, code: str, groups: l
     pose, position, quaternion = found
     program.targets.append(Target(file, line, name, None, pose, tool, wobj, f"tool {context[0]}, work object "
                                   f"{context[1]}", _render(file, position, quaternion), uses,
-                                  _quadrants(code, groups)))
+                                  _posture(file, code, groups)))

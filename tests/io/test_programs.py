@@ -61,8 +61,8 @@ def test_krl_points_in_their_base_with_their_tool() -> None:
     assert [(p.file, p.line) for p in program.problems] == [("t.dat", 3)]  # XP2 lacks Z, A, B, C
     assert "partial point" in program.problems[0].what
     assert point.posture is not None
-    assert point.posture(np.radians([-10, -80, 90, 0, 30, -5])) is None  # T 35: A1, A2, A6 negative
-    assert "T 35" in point.posture(np.radians([10, -80, 90, 0, 30, -5]))
+    assert point.posture.language == "krl" and {k: v[0] for k, v in point.posture.fields.items()} == {"S": 2, "T": 35}
+    assert [dat[a:b] for _, a, b in point.posture.fields.values()] == ["2", "35"]  # where each is rewritten
     new, back = _round_trip(program, 0, lambda texts: read_krl(texts["t.src"], "t.src", texts["t.dat"], "t.dat",
                                                                config, pin.SE3.Identity()))
     assert np.allclose(back.homogeneous, new.homogeneous, atol=1e-6)
@@ -85,8 +85,9 @@ def test_rapid_targets_tools_and_work_objects() -> None:
     assert np.allclose(point.frame.translation, [0.1, 0.05, 0]) and np.allclose(point.frame.rotation[:, 0], [0, 1, 0])
     assert np.allclose(joints.joints, np.radians([0, 10, 20, 30, 40, 50]))
     assert [(p.line, "stationary tool" in p.what) for p in program.problems] == [(8, True)]
-    assert point.posture(np.radians([10, 0, 0, 5, 0, -5])) is None
-    assert "cf1, cf4, cf6" in point.posture(np.radians([100, 0, 0, 5, 0, -5]))
+    assert point.posture is not None and point.posture.language == "rapid"
+    assert {k: v[0] for k, v in point.posture.fields.items()} == {"cf1": 0, "cf4": 0, "cf6": -1, "cfx": 0}
+    assert [text[a:b] for _, a, b in point.posture.fields.values()] == ["0", "0", "-1", "0"]
     new, back = _round_trip(program, 0, lambda texts: read_rapid(texts["m.mod"], "m.mod", pin.SE3.Identity()))
     assert np.allclose(back.homogeneous, new.homogeneous, atol=1e-7)
 
