@@ -121,7 +121,7 @@ def _bits(flags: list[tuple[int, bool, bool]]) -> list[int]:
 
 def _quadrants(angle: float) -> list[int]:
     exact = math.floor(angle / (math.pi / 2))
-    return [exact] + sorted({math.floor((angle + d) / (math.pi / 2)) for d in (-SLACK, SLACK)} - {exact})
+    return [exact, *sorted({math.floor((angle + d) / (math.pi / 2)) for d in (-SLACK, SLACK)} - {exact})]
 
 
 def posture_values(named: NamedPosture, signs: ArmSigns) -> dict[str, list[int]]:
@@ -160,15 +160,17 @@ def mismatch(named: NamedPosture, signs: ArmSigns) -> str | None:
 
 
 def posture_edits(named: NamedPosture, signs: ArmSigns) -> tuple[list[Edit], str | None]:
-    """The edits writing the posture ``signs`` in place of the fields of ``named`` it changes, and what changed in
-    words (None: nothing)."""
+    """The edits writing the posture ``signs`` in place of the fields of ``named`` it changes (each the value of the
+    posture nearest the one written), and what changed in words (None: nothing)."""
     edits: list[Edit] = []
     words = []
     for name, values in posture_values(named, signs).items():
         written, start, end = named.fields[name]
         if written in values:
             continue
-        new = values[0]
+        # the value nearest the one written: its bits (or quarter turn) kept where the posture leaves them free
+        new = min(values, key=lambda v: (abs(v - written) if name.startswith("cf") and name != "cfx" else
+                                         bin(v ^ written).count("1"), values.index(v)))
         text = f"'B{new:b}'" if name in named.binary else str(new)
         edits.append(Edit(named.file, start, end, text))
         words.append(f"{name} {written} → {new}")

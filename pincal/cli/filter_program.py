@@ -63,7 +63,9 @@ def cmd_filter(args: argparse.Namespace) -> int:
     check_outputs([("--out", path) for path in planned.values()], inputs)
     values = args.tcp or (0.0,) * 6
     tcp = pin.SE3(pin.exp3(np.array(values[3:])), np.array(values[:3]))
-    program = read_program(args.program, tcp, args.config)
+    base = None if args.robot_base is None else pin.SE3(pin.exp3(np.array(args.robot_base[3:])),
+                                                        np.array(args.robot_base[:3]))
+    program = read_program(args.program, tcp, args.config, base)
     nominal_name = args.nominal or read_provenance(args.model).robot or args.model
     nominal = load_robot(nominal_name)
     model = load_model(args.model, nominal)
@@ -74,7 +76,8 @@ def cmd_filter(args: argparse.Namespace) -> int:
     cartesian = sum(r.target.pose is not None for r in result.results)
     print(f"filter: {args.program} ({language}), {cartesian} Cartesian and {result.joint_targets} joint targets; "
           f"model {args.model}, controller's nominal model {nominal_name}; base frame {result.base_frame}, flange "
-          f"{result.flange}" + ("; joint targets rewritten for the nominal pose they give" if args.joint_targets ==
+          f"{result.flange}" + (f"; {program.robot_base}" if program.robot_base else "")
+          + ("; joint targets rewritten for the nominal pose they give" if args.joint_targets ==
                                 "intended" else ""))
     if result.results:
         print(f"  {'line':>6}  {'target':<24}{'move mm':>10}{'mrad':>9}{'95% bound mm':>14}  status")
@@ -151,7 +154,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                                         "root link)")
     p.add_argument("--flange", help="the flange frame tools hang on (default: KRL 'flange', else 'tool0')")
     p.add_argument("--config", action="append", default=[], metavar="FILE",
-                   help="KRL: a file with the controller's TOOL_DATA and BASE_DATA ($config.dat); may be repeated")
+                   help="a file of the controller: KRL its TOOL_DATA and BASE_DATA ($config.dat) or $ROBROOT "
+                        "($machine.dat), RAPID the robot's base frame (MOC.cfg); may be repeated")
+    p.add_argument("--robot-base", type=_tcp, metavar="X,Y,Z,RX,RY,RZ",
+                   help="KRL, RAPID: the robot's base frame in the program's world frame (m, rotation vector rad) "
+                        "where no --config file gives it (default: the world frame is the robot's base)")
     p.add_argument("--joint-targets", choices=("keep", "intended"), default="keep",
                    help="keep: joint targets as written (default); intended: each taken for the flange pose the "
                         "nominal model gives it (joints computed offline) and rewritten as the calibrated commands "

@@ -22,6 +22,7 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
+from pincal.errors import DataError
 from pincal.io.programs import (
     Edit,
     NamedPosture,
@@ -112,15 +113,44 @@ def _render(file: str, fields: dict[str, tuple[str, int, int]]) -> Callable[[pin
 class _State:
     """The active tool and base as the ``.src`` sets them, by line."""
 
-    def __init__(self, tcp: pin.SE3) -> None:
+    def __init__(self, tcp: pin.SE3, world: pin.SE3) -> None:
         self.tool: tuple[pin.SE3 | None, str] = (tcp, "the TCP given (--tcp), no $TOOL set above")
-        self.base: tuple[pin.SE3 | None, str] = (pin.SE3.Identity(), "the robot's base, no $BASE set above")
+        self.base: tuple[pin.SE3 | None, str] = (world, "the robot's base, no $BASE set above")
+
+
+_ROBROOT = re.compile(r"^[ \t]*(?:DECL[ \t]+)?(?:GLOBAL[ \t]+)?(?:FRAME[ \t]+)?\$ROBROOT[ \t]*=[ \t]*(?=\{)",
+                      re.IGNORECASE | re.MULTILINE)
+
+
+def robroot(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
+    """The robot's base in ``$WORLD``: the ``$ROBROOT`` a further file declares (the controller's ``$machine.dat``),
+    with where, in words; None when none does.
+
+    Raises:
+        DataError: declared more than once, or not a frame of X, Y, Z [mm], A, B, C [°].
+    """
+    found = []
+    for name, text in extra.items():
+        code = comment_free(text, ";")
+        for match in _ROBROOT.finditer(code):
+            fields = aggregate(code, match.end())
+            frame = frame_of(fields[0]) if fields else None
+            where = f"{name} line {line_of(text, match.start())}"
+            if frame is None:
+                raise DataError(f"$ROBROOT at {where}: not a frame of X, Y, Z, A, B, C")
+            found.append((frame, f"$ROBROOT of {where}"))
+    if len(found) > 1:
+        raise DataError(f"$ROBROOT is declared {len(found)} times ({', '.join(w[12:] for _, w in found)}): give one "
+                        "$machine.dat")
+    return found[0] if found else None
 
 
 def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dict[str, str],
-             tcp: pin.SE3) -> Program:
+             tcp: pin.SE3, world: pin.SE3 | None = None) -> Program:
     """The targets of a KRL program (module docstring): its ``.src`` text, its ``.dat`` text (None when it has none),
-    the further files' texts by name; ``tcp`` the tool until the program sets one."""
+    the further files' texts by name; ``tcp`` the tool until the program sets one; ``world`` the robot's base in
+    ``$WORLD`` (``$ROBROOT``), the base of points before the program sets one (default: the identity). The targets'
+    frames are in ``$WORLD``: :func:`~pincal.io.programs.read_program` puts them in the robot's base."""
     texts = {src_file: src, **({dat_file: dat} if dat is not None else {})}
     program = Program("krl", texts)
     data: dict[tuple[str, int], tuple[pin.SE3 | None, str]] = {}
@@ -142,7 +172,7 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
             declared.setdefault(match.group(2).upper(), []).append(
                 (name, line_of(text, match.start()), match.group(1).upper(), found[0]))
     code = comment_free(src, ";")
-    state = _State(tcp)
+    state = _State(tcp, pin.SE3.Identity() if world is None else world)
     events = sorted([(m.start(), "set", m) for m in _SET.finditer(code)] + [(m.start(), "bas", m) for m in
                     _BAS.finditer(code)] + [(m.start(), "fdat", m) for m in _FDAT.finditer(code)] +
                     [(m.start(), "move", m) for m in _MOVE.finditer(code)], key=lambda e: e[0])

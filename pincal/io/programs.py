@@ -15,7 +15,7 @@ import itertools
 import math
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -115,6 +115,8 @@ class Program:
     texts: dict[str, str]
     targets: list[Target] = field(default_factory=list)
     problems: list[Problem] = field(default_factory=list)
+    #: Where the robot's base was taken to be in the program's world frame, in words (KRL, RAPID; "" for URScript).
+    robot_base: str = ""
 
 
 def language_of(path: str | Path) -> str:
@@ -368,28 +370,55 @@ def dat_of(path: str | Path) -> Path | None:
     return None
 
 
-def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = ()) -> Program:
+def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = (),
+                 robot_base: pin.SE3 | None = None) -> Program:
     """The program at ``path`` read by its language's reader (:func:`language_of`); ``tcp`` is the tool centre point
-    [m, rad] in the flange frame where the program sets none; ``config``: further files holding a KUKA controller's
-    ``TOOL_DATA`` and ``BASE_DATA`` (``$config.dat``).
+    [m, rad] in the flange frame where the program sets none; ``config``: further files of the controller (KRL: the
+    ``TOOL_DATA``, ``BASE_DATA`` of ``$config.dat`` and the ``$ROBROOT`` of ``$machine.dat``; RAPID: the robot's base
+    frame in ``MOC.cfg``); ``robot_base``: the robot's base frame in the program's world frame [m, rad], where no file
+    gives it. The targets' frames are then in the robot's base frame; :attr:`Program.robot_base` says what was taken.
 
     Raises:
         DataError: an unknown suffix; a file missing or unreadable (a KRL ``.src`` without its ``.dat`` is read
-            alone, its problems saying what it lacks).
+            alone, its problems saying what it lacks); the robot's base given twice, or to a URScript program (whose
+            poses are in the robot's base frame).
     """
     language = language_of(path)
     text = read_text(path)
+    extra = {str(p): read_text(p, "--config") for p in config}
     if language == "urscript":
         from pincal.io.urscript import read_urscript
 
+        if robot_base is not None or extra:
+            raise DataError(f"PROGRAM '{path}' is URScript, whose poses are in the robot's base frame: --config and "
+                            "--robot-base are for KRL and RAPID")
         return read_urscript(text, str(path), tcp)
     if language == "krl":
-        from pincal.io.krl import read_krl
+        from pincal.io.krl import read_krl, robroot
 
+        world, words = _robot_base(robroot(extra), robot_base, "$WORLD", "--config $machine.dat")
         dat = dat_of(path)
         dat_text = read_text(dat, "the program's .dat") if dat is not None else None
-        extra = {str(p): read_text(p, "--config") for p in config}
-        return read_krl(text, str(path), dat_text, str(dat or Path(path).with_suffix(".dat")), extra, tcp)
-    from pincal.io.rapid import read_rapid
+        program = read_krl(text, str(path), dat_text, str(dat or Path(path).with_suffix(".dat")), extra, tcp, world)
+    else:
+        from pincal.io.rapid import moc_base, read_rapid
 
-    return read_rapid(text, str(path), tcp)
+        world, words = _robot_base(moc_base(extra), robot_base, "the world frame", "--config MOC.cfg")
+        program = read_rapid(text, str(path), tcp)
+    program.robot_base = words
+    if world is not None:
+        inverse = world.inverse()
+        program.targets = [t if t.pose is None else replace(t, frame=inverse * t.frame) for t in program.targets]
+    return program
+
+
+def _robot_base(found: tuple[pin.SE3, str] | None, given: pin.SE3 | None, world: str,
+                option: str) -> tuple[pin.SE3 | None, str]:
+    """The robot's base in the program's world frame, from a controller's file or ``--robot-base``, and in words."""
+    if found is not None and given is not None:
+        raise DataError(f"the robot's base is given twice: {found[1]} and --robot-base; give one")
+    if found is not None:
+        return found[0], f"robot base in {world}: {found[1]}"
+    if given is not None:
+        return given, f"robot base in {world}: --robot-base"
+    return None, f"{world} taken as the robot's base (none given: {option} or --robot-base)"

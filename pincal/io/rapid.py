@@ -5,11 +5,11 @@ Targets are the points of ``MoveL``, ``MoveJ``, ``MoveC`` (two), their ``DO``/``
 in the move, ``[[x, y, z], [q1, q2, q3, q4], [cf1, cf4, cf6, cfx], [eax_a, …]]`` (millimetres; a unit quaternion
 ``q1`` = w); ``MoveAbsJ``'s ``jointtarget`` ``[[j1, …, j6], [eax…]]`` (degrees) are joint targets. A point is the TCP of
 the move's ``tooldata`` (``tool0``: the flange; ``[robhold, [[x, y, z], [q1…q4]], load]``) in its work object
-(``\\WObj:=``, default ``wobj0``: the robot's base; ``[robhold, ufprog, ufmec, uframe, oframe]``, the point in
-``uframe · oframe``). A tool the robot does not hold, a moving work object, an array, ``*`` or an expression
-(``Offs(…)``, ``RelTool(…)``) in a point's place, a search are problems, left as written. The configuration
-``cf1, cf4, cf6, cfx`` is read for the filter to check and rewrite (:mod:`pincal.calibration.arm_posture`); the external
-axes are kept.
+(``\\WObj:=``, default ``wobj0``: the world frame, :func:`moc_base` placing the robot in it; ``[robhold, ufprog,
+ufmec, uframe, oframe]``, the point in ``uframe · oframe``). A tool the robot does not hold, a moving work object, an
+array, ``*`` or an expression (``Offs(…)``, ``RelTool(…)``) in a point's place, a search are problems, left as
+written. The configuration ``cf1, cf4, cf6, cfx`` is read for the filter to check and rewrite
+(:mod:`pincal.calibration.arm_posture`); the external axes are kept.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
+from pincal.errors import DataError
 from pincal.io.programs import (
     Edit,
     NamedPosture,
@@ -132,6 +133,39 @@ def _frames(code: str, kinds: dict[str, tuple[str, int, tuple[int, int], str]]) 
                 frames[name] = (user[0] * obj[0] if user and obj else
                                 f"wobjdata '{name}' (line {line}): its uframe or oframe is not read")
     return frames
+
+
+_MOC = re.compile(r"-base_frame_(pos_[xyz]|orient_u[0-3])[ \t]+([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)")
+
+
+def moc_base(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
+    """The robot's base frame in the world frame: the ``-base_frame_pos_x … _z`` [m] and ``-base_frame_orient_u0 …
+    u3`` (a unit quaternion, ``u0`` = w) of the controller's ``MOC.cfg`` among the further files (an attribute not
+    written takes ABB's default: 0, ``u0`` 1), with where, in words; None when no file writes one.
+
+    Raises:
+        DataError: an attribute written twice (several robots' base frames), or not a unit quaternion.
+    """
+    values: dict[str, tuple[float, str]] = {}
+    for name, text in extra.items():
+        for match in _MOC.finditer(text):
+            where = f"{name} line {line_of(text, match.start())}"
+            key = match.group(1)
+            if key in values:
+                raise DataError(f"-base_frame_{key} is written twice ({values[key][1]}, {where}): several robots' "
+                                "base frames; give a MOC.cfg of this robot, or --robot-base")
+            values[key] = (float(match.group(2)), where)
+    if not values:
+        return None
+    value = {k: v for k, (v, _) in values.items()}
+    position = np.array([value.get(f"pos_{c}", 0.0) for c in "xyz"])
+    w, x, y, z = (value.get(f"orient_u{k}", 1.0 if k == 0 else 0.0) for k in range(4))
+    norm = math.sqrt(w * w + x * x + y * y + z * z)
+    first = min(values.values(), key=lambda v: v[1])[1]
+    if not 0.99 < norm < 1.01:
+        raise DataError(f"the base frame of {first}: -base_frame_orient_u0 … u3 is not a unit quaternion")
+    rotation = pin.Quaternion(w / norm, x / norm, y / norm, z / norm).matrix()
+    return pin.SE3(rotation, position), f"the base frame of {first}"
 
 
 def read_rapid(text: str, file: str, tcp: pin.SE3) -> Program:
