@@ -199,7 +199,7 @@ def measure(case: Case, n_targets: int, folder: Path) -> dict[str, Any]:
     done = np.array([not np.array_equal(a.pose.homogeneous, b.pose.homogeneous) for a, b in cartesian])
     left = [f"line {a.line}: {line.split(': ', 3)[-1].split(': the nearest posture')[0]}" for (a, _), line in zip(
         [c for c, d in zip(cartesian, done, strict=True) if not d],
-        [w for w in printed.splitlines() if w.startswith("warning:")], strict=True)]
+        [w for w in printed.splitlines() if w.startswith("warning:") and "' left as written: " in w], strict=True)]
     after = (after[0][done], after[1][done])  # the targets left as written are listed apart
     changed = sum(a != b for name in files if name != "config.dat" for a, b in zip(
         (folder / name).read_text(encoding="utf-8").splitlines(),

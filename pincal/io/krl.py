@@ -193,6 +193,8 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
         kinds = {k for _, _, k, _ in entries}
         if len(entries) != 1 or not kinds & {*CARTESIAN, *JOINTS}:
             why = "never declared with an aggregate" if not entries else f"declared {len(entries)} times"
+            if not entries and dat is None:
+                why += f" (the .src has no .dat beside it: {dat_file} is missing)"
             program.problems.append(Problem(src_file, lines[0], f"point '{variable}': {why}: left as written"))
             continue
         file, line, kind, fields = entries[0]

@@ -119,6 +119,26 @@ class Program:
     robot_base: str = ""
 
 
+#: Each language's controller maker, and a pattern of the names the maker's robots go by in URDFs (``ur10e``,
+#: ``kr16_2``, ``abb_irb2400``).
+VENDORS = {"urscript": ("Universal Robots", r"(?<![a-z])ur(?:3|5|10|12|15|16|20|30)e?(?![0-9])|universal"),
+           "krl": ("KUKA", r"kuka|(?<![a-z])kr[ _-]?\d"), "rapid": ("ABB", r"(?<![a-z])abb(?![a-z])|irb[ _-]?\d")}
+
+
+def vendor_mismatch(language: str, names: Sequence[str]) -> str | None:
+    """Why robots named ``names`` (their URDF names) may not run a program of ``language``: a name of another
+    maker's robots (:data:`VENDORS`), in words; None when no name says so (a name of no known maker says nothing)."""
+    maker = VENDORS[language][0]
+    for name in dict.fromkeys(names):
+        for other, (vendor, pattern) in VENDORS.items():
+            if other != language and re.search(pattern, name.lower()):
+                article = "an" if vendor[0] in "AEIOU" else "a"
+                shown = "URScript" if language == "urscript" else language.upper()
+                return (f"the program is {shown} (the language of {maker}) but robot '{name}' is named like "
+                        f"{article} {vendor} arm: check that MODEL and the nominal robot are the robot that runs it")
+    return None
+
+
 def language_of(path: str | Path) -> str:
     """The language of a program file by its suffix (:data:`LANGUAGES`).
 
@@ -173,6 +193,13 @@ def read_text(path: str | Path, what: str = "PROGRAM") -> str:
         raise DataError(f"{what} '{path}' is not a text file (byte 0x{data[control.start()]:02x} at offset "
                         f"{control.start()}): a program is text")
     return decoded(data)[0]
+
+
+def lines_of(text: str) -> str:
+    """``text`` with each carriage return that ends a line alone (old Mac line ends) made a line feed: the same
+    length, so that positions in it are positions in ``text``, and its lines are the readers' lines. The texts written
+    are the ones read, their line ends kept."""
+    return re.sub(r"\r(?!\n)", "\n", text)
 
 
 def line_of(text: str, position: int) -> int:
@@ -384,21 +411,26 @@ def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = 
             poses are in the robot's base frame).
     """
     language = language_of(path)
-    text = read_text(path)
-    extra = {str(p): read_text(p, "--config") for p in config}
+    originals: dict[str, str] = {str(path): read_text(path)}
+    text = lines_of(originals[str(path)])
+    extra = {str(p): lines_of(read_text(p, "--config")) for p in config}
     if language == "urscript":
         from pincal.io.urscript import read_urscript
 
         if robot_base is not None or extra:
             raise DataError(f"PROGRAM '{path}' is URScript, whose poses are in the robot's base frame: --config and "
                             "--robot-base are for KRL and RAPID")
-        return read_urscript(text, str(path), tcp)
+        program = read_urscript(text, str(path), tcp)
+        program.texts = originals  # every byte as read: line ends kept
+        return program
     if language == "krl":
         from pincal.io.krl import read_krl, robroot
 
         world, words = _robot_base(robroot(extra), robot_base, "$WORLD", "--config $machine.dat")
         dat = dat_of(path)
-        dat_text = read_text(dat, "the program's .dat") if dat is not None else None
+        if dat is not None:
+            originals[str(dat)] = read_text(dat, "the program's .dat")
+        dat_text = lines_of(originals[str(dat)]) if dat is not None else None
         program = read_krl(text, str(path), dat_text, str(dat or Path(path).with_suffix(".dat")), extra, tcp, world)
     else:
         from pincal.io.rapid import moc_base, read_rapid
@@ -406,6 +438,7 @@ def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = 
         world, words = _robot_base(moc_base(extra), robot_base, "the world frame", "--config MOC.cfg")
         program = read_rapid(text, str(path), tcp)
     program.robot_base = words
+    program.texts = {name: originals[name] for name in program.texts}  # every byte as read: line ends kept
     if world is not None:
         inverse = world.inverse()
         program.targets = [t if t.pose is None else replace(t, frame=inverse * t.frame) for t in program.targets]

@@ -11,7 +11,14 @@ import pytest
 
 from pincal.errors import DataError
 from pincal.io.krl import read_krl
-from pincal.io.programs import euler_zyx_near, language_of, rewritten, rotation_vector_near, zyx_rotation
+from pincal.io.programs import (
+    euler_zyx_near,
+    language_of,
+    rewritten,
+    rotation_vector_near,
+    vendor_mismatch,
+    zyx_rotation,
+)
 from pincal.io.rapid import read_rapid
 from pincal.io.urscript import read_urscript
 
@@ -117,3 +124,20 @@ def test_angles_at_b_plus_minus_90_keep_the_written_split() -> None:
         assert np.allclose(np.degrees(euler_zyx_near(rotation, near)), written, atol=1e-9)
         other = zyx_rotation(*np.radians(written)) @ pin.exp3(np.array([0.0, 0.0, 1e-3]))  # off the singularity
         assert np.allclose(zyx_rotation(*euler_zyx_near(other, near)), other)
+
+
+def test_a_robot_named_for_another_maker_than_the_languages() -> None:
+    assert vendor_mismatch("urscript", ["ur10e", "UR5"]) is None and vendor_mismatch("krl", ["kr16_like"]) is None
+    assert vendor_mismatch("rapid", ["abb_irb2400", "my_arm", "panda"]) is None  # a name of no maker says nothing
+    assert vendor_mismatch("krl", ["pur10", "tur5x"]) is None  # 'ur' inside a word is not a UR arm
+    assert "named like a KUKA arm" in (vendor_mismatch("urscript", ["kr16_2"]) or "")
+    assert "robot 'irb_120' is named like an ABB arm" in (vendor_mismatch("krl", ["irb_120"]) or "")
+    assert "Universal Robots arm" in (vendor_mismatch("rapid", ["ur10"]) or "")
+
+
+def test_a_pose_literal_with_a_space_before_its_bracket() -> None:
+    text = ("def p():\n  global A_p = p [0.5, 0.1, 0.4, 0, 3.1, 0]\n  movel(A_p)\n  movej(p\t[0.4, 0, 0.5, 0, 3, 0])\n"
+            "end\n")
+    program = read_urscript(text, "p.script", pin.SE3.Identity())
+    assert program.problems == [] and [(t.name, t.line) for t in program.targets] == [("A_p", 2), ("movej", 4)]
+    assert np.allclose(program.targets[0].pose.translation, [0.5, 0.1, 0.4])
