@@ -10,7 +10,7 @@ import pinocchio as pin
 import pytest
 
 from pincal.errors import DataError
-from pincal.io.krl import read_krl
+from pincal.io.krl import read_krl, robroot
 from pincal.io.programs import (
     euler_zyx_near,
     language_of,
@@ -19,7 +19,7 @@ from pincal.io.programs import (
     vendor_mismatch,
     zyx_rotation,
 )
-from pincal.io.rapid import read_rapid
+from pincal.io.rapid import moc_base, read_rapid
 from pincal.io.urscript import read_urscript
 
 
@@ -141,3 +141,26 @@ def test_a_pose_literal_with_a_space_before_its_bracket() -> None:
     program = read_urscript(text, "p.script", pin.SE3.Identity())
     assert program.problems == [] and [(t.name, t.line) for t in program.targets] == [("A_p", 2), ("movej", 4)]
     assert np.allclose(program.targets[0].pose.translation, [0.5, 0.1, 0.4])
+
+
+def test_the_robots_base_from_machine_dat_and_moc_cfg() -> None:
+    """$ROBROOT's X, Y, Z [mm], A, B, C [°]; MOC.cfg's base frame in m and a quaternion, ABB's defaults where not
+    written; several of either refused, naming them."""
+    machine = {"m.dat": "; $ROBROOT={X 9}\nFRAME $ROBROOT={X 1000.0,Y -500.0,Z 20.0,A 90.0,B 0.0,C 0.0}\n"}
+    frame, words = robroot(machine) or (None, "")
+    assert words == "$ROBROOT of m.dat line 2"  # the commented line is not read
+    assert frame is not None and np.allclose(frame.translation, [1.0, -0.5, 0.02])
+    assert np.allclose(frame.rotation, [[0, -1, 0], [1, 0, 0], [0, 0, 1]])
+    with pytest.raises(DataError, match=r"declared 2 times \(m.dat line 2, n.dat line 1\)"):
+        robroot({**machine, "n.dat": "DECL FRAME $ROBROOT={X 0,Y 0,Z 0,A 0,B 0,C 0}\n"})
+    with pytest.raises(DataError, match="m.dat line 1: not a frame"):
+        robroot({"m.dat": "$ROBROOT={X 0,Y 0}\n"})
+    assert robroot({"c.dat": "TOOL_DATA[1]={X 0,Y 0,Z 0,A 0,B 0,C 0}\n"}) is None
+    moc = {"MOC.cfg": "ROBOT:\n  -name \"ROB_1\" -base_frame_pos_z 0.25 \\\n  -base_frame_orient_u0 0.7071068 "
+                      "-base_frame_orient_u3 0.7071068\n"}
+    found = moc_base(moc)
+    assert found is not None and found[1] == "the base frame of MOC.cfg line 2"
+    assert np.allclose(found[0].translation, [0, 0, 0.25])
+    assert np.allclose(found[0].rotation, [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-7)  # 90° about z
+    with pytest.raises(DataError, match="several robots' base frames"):
+        moc_base({"MOC.cfg": moc["MOC.cfg"] + "  -name \"ROB_2\" -base_frame_pos_z 1\n"})
