@@ -151,9 +151,9 @@ def test_the_robots_base_from_machine_dat_and_moc_cfg() -> None:
     assert words == "$ROBROOT of m.dat line 2"  # the commented line is not read
     assert frame is not None and np.allclose(frame.translation, [1.0, -0.5, 0.02])
     assert np.allclose(frame.rotation, [[0, -1, 0], [1, 0, 0], [0, 0, 1]])
-    with pytest.raises(DataError, match=r"declared 2 times \(m.dat line 2, n.dat line 1\)"):
+    with pytest.raises(DataError, match=r"declared 2 times \(m\.dat line 2, n\.dat line 1\)"):
         robroot({**machine, "n.dat": "DECL FRAME $ROBROOT={X 0,Y 0,Z 0,A 0,B 0,C 0}\n"})
-    with pytest.raises(DataError, match="m.dat line 1: not a frame"):
+    with pytest.raises(DataError, match=r"m\.dat line 1: not a frame"):
         robroot({"m.dat": "$ROBROOT={X 0,Y 0}\n"})
     assert robroot({"c.dat": "TOOL_DATA[1]={X 0,Y 0,Z 0,A 0,B 0,C 0}\n"}) is None
     moc = {"MOC.cfg": "ROBOT:\n  -name \"ROB_1\" -base_frame_pos_z 0.25 \\\n  -base_frame_orient_u0 0.7071068 "
