@@ -164,3 +164,12 @@ def test_the_robots_base_from_machine_dat_and_moc_cfg() -> None:
     assert np.allclose(found[0].rotation, [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-7)  # 90° about z
     with pytest.raises(DataError, match="several robots' base frames"):
         moc_base({"MOC.cfg": moc["MOC.cfg"] + "  -name \"ROB_2\" -base_frame_pos_z 1\n"})
+
+
+def test_status_and_turn_written_as_bit_strings() -> None:
+    dat = "DEFDAT t\nDECL E6POS XP1={X 1000.0,Y 0.0,Z 500.0,A 0.0,B 90.0,C 0.0,S 'B110',T 'B100011'}\nENDDAT\n"
+    program = read_krl("DEF t( )\nPTP XP1\nEND\n", "t.src", dat, "t.dat", {}, pin.SE3.Identity())
+    posture = program.targets[0].posture
+    assert posture is not None and posture.binary == frozenset({"S", "T"})
+    assert {k: v[0] for k, v in posture.fields.items()} == {"S": 6, "T": 35}
+    assert [dat[a:b] for _, a, b in posture.fields.values()] == ["'B110'", "'B100011'"]
