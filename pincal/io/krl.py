@@ -162,6 +162,9 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
             frame = frame_of(found[0]) if found else None
             data[(match.group(1).upper(), int(match.group(2)))] = (frame, f"{name} line {line_of(text, match.start())}")
         if name in extra:
+            if _DATA.search(code) is None and _ROBROOT.search(code) is None:
+                program.problems.append(Problem(name, 1, "--config file: no TOOL_DATA, BASE_DATA nor $ROBROOT "
+                                                         "declared in it: nothing read"))
             continue
         for match in _DECL.finditer(code):
             found = aggregate(code, match.end())

@@ -21,7 +21,7 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
-from pincal.errors import DataError
+from pincal.errors import DataError, listing
 from pincal.io.programs import (
     Edit,
     NamedPosture,
@@ -141,13 +141,18 @@ _MOC = re.compile(r"-base_frame_(pos_[xyz]|orient_u[0-3])[ \t]+([+-]?(?:\d+\.?\d
 def moc_base(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
     """The robot's base frame in the world frame: the ``-base_frame_pos_x … _z`` [m] and ``-base_frame_orient_u0 …
     u3`` (a unit quaternion, ``u0`` = w) of the controller's ``MOC.cfg`` among the further files (an attribute not
-    written takes ABB's default: 0, ``u0`` 1), with where, in words; None when no file writes one.
+    written takes ABB's default: 0, ``u0`` 1; none written, the world frame), with where, in words; None when no file
+    is given.
 
     Raises:
-        DataError: an attribute written twice (several robots' base frames), or not a unit quaternion.
+        DataError: a file not a MOC.cfg; an attribute written twice (several robots' base frames), or not a unit
+            quaternion.
     """
     values: dict[str, tuple[float, str]] = {}
     for name, text in extra.items():
+        if not text.lstrip().startswith("MOC:"):
+            raise DataError(f"--config '{name}' is not a MOC.cfg (its first line 'MOC:CFG_…'): for a RAPID program "
+                            "pincal reads the robot's base frame from the controller's MOC.cfg")
         for match in _MOC.finditer(text):
             where = f"{name} line {line_of(text, match.start())}"
             key = match.group(1)
@@ -155,8 +160,9 @@ def moc_base(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
                 raise DataError(f"-base_frame_{key} is written twice ({values[key][1]}, {where}): several robots' "
                                 "base frames; give a MOC.cfg of this robot, or --robot-base")
             values[key] = (float(match.group(2)), where)
-    if not values:
-        return None
+    if not values:  # ABB's files leave out attributes at their default: the base frame is the world frame
+        return (pin.SE3.Identity(), f"ABB's default, the world frame ({listing(list(extra))} writes no "
+                                    "-base_frame_ attribute)") if extra else None
     value = {k: v for k, (v, _) in values.items()}
     position = np.array([value.get(f"pos_{c}", 0.0) for c in "xyz"])
     w, x, y, z = (value.get(f"orient_u{k}", 1.0 if k == 0 else 0.0) for k in range(4))

@@ -158,3 +158,19 @@ def test_the_robot_base_given_twice_or_to_urscript_is_an_error(tmp_path: Path) -
     assert ur.returncode == 2 and "is URScript, whose poses are in the robot's base frame" in ur.stderr
     assert not (tmp_path / "o" / "cell.src").exists() and not (tmp_path / "o.script").exists()  # nothing written
     assert all("Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1 for r in (twice, two, ur))
+
+
+def test_a_config_file_nothing_is_read_from_is_said(tmp_path: Path) -> None:
+    program = _krl_world(tmp_path)
+    (tmp_path / "notes.dat").write_text("DEFDAT notes\nDECL INT COUNT=3\nENDDAT\n", encoding="utf-8")
+    krl = run_pincal("filter", str(program), "--model", str(KR16), "--out", str(tmp_path / "k" / "cell.src"),
+                     "--config", str(tmp_path / "notes.dat"))
+    assert krl.returncode == 1
+    assert (f"warning: {tmp_path / 'notes.dat'} line 1: --config file: no TOOL_DATA, BASE_DATA nor $ROBROOT declared "
+            "in it: nothing read") in krl.stdout
+    module = tmp_path / "cell.mod"
+    module.write_text("MODULE cell\n  PROC main()\n    MoveAbsJ [[0,-90,90,0,10,0],[9E9,9E9,9E9,9E9,9E9,9E9]], v100, "
+                      "fine, tool0;\n  ENDPROC\nENDMODULE\n", encoding="utf-8")
+    rapid = run_pincal("filter", str(module), "--model", str(KR16), "--out", str(tmp_path / "r.mod"), "--config",
+                       str(tmp_path / "notes.dat"))
+    assert rapid.returncode == 2 and "is not a MOC.cfg" in rapid.stderr and not (tmp_path / "r.mod").exists()

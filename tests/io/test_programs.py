@@ -156,14 +156,18 @@ def test_the_robots_base_from_machine_dat_and_moc_cfg() -> None:
     with pytest.raises(DataError, match=r"m\.dat line 1: not a frame"):
         robroot({"m.dat": "$ROBROOT={X 0,Y 0}\n"})
     assert robroot({"c.dat": "TOOL_DATA[1]={X 0,Y 0,Z 0,A 0,B 0,C 0}\n"}) is None
-    moc = {"MOC.cfg": "ROBOT:\n  -name \"ROB_1\" -base_frame_pos_z 0.25 \\\n  -base_frame_orient_u0 0.7071068 "
-                      "-base_frame_orient_u3 0.7071068\n"}
+    moc = {"MOC.cfg": "MOC:CFG_1.0:6:0::\nROBOT:\n  -name \"ROB_1\" -base_frame_pos_z 0.25 \\\n"
+                      "  -base_frame_orient_u0 0.7071068 -base_frame_orient_u3 0.7071068\n"}
     found = moc_base(moc)
-    assert found is not None and found[1] == "the base frame of MOC.cfg line 2"
+    assert found is not None and found[1] == "the base frame of MOC.cfg line 3"
     assert np.allclose(found[0].translation, [0, 0, 0.25])
     assert np.allclose(found[0].rotation, [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-7)  # 90° about z
     with pytest.raises(DataError, match="several robots' base frames"):
         moc_base({"MOC.cfg": moc["MOC.cfg"] + "  -name \"ROB_2\" -base_frame_pos_z 1\n"})
+    default = moc_base({"MOC.cfg": "MOC:CFG_1.0:6:0::\nROBOT:\n  -name \"ROB_1\" -use_robot_type \"ROB1\"\n"})
+    assert default is not None and default[0] == pin.SE3.Identity() and "ABB's default" in default[1]
+    with pytest.raises(DataError, match=r"is not a MOC\.cfg"):
+        moc_base({"$config.dat": "DEFDAT $CONFIG\nENDDAT\n"})
 
 
 def test_status_and_turn_written_as_bit_strings() -> None:
