@@ -1,4 +1,4 @@
-"""KUKA KRL programs read for ``pincal filter`` (docs/filter.md, "KRL"): a ``.src`` and its ``.dat``.
+"""KUKA KRL programs read for ``pincal filter`` (docs/filter_krl.md): a ``.src`` and its ``.dat``.
 
 Targets are the points of ``PTP``, ``LIN``, ``CIRC`` (two) and their spline forms ``SPTP``, ``SLIN``, ``SCIRC``: a
 variable declared once with an aggregate (``DECL E6POS XP1={X …,Y …,Z …,A …,B …,C …,S …,T …}``, ``POS``, ``FRAME``;

@@ -1,4 +1,4 @@
-"""ABB RAPID modules read for ``pincal filter`` (docs/filter.md, "RAPID").
+"""ABB RAPID modules read for ``pincal filter`` (docs/filter_rapid.md).
 
 Targets are the points of ``MoveL``, ``MoveJ``, ``MoveC`` (two), their ``DO``/``AO``/``GO``/``Sync`` forms and
 ``TriggL``/``TriggJ``/``TriggC``: a ``robtarget`` declared once with a value (``CONST``, ``PERS`` or ``VAR``) or written

@@ -1,4 +1,4 @@
-"""Universal Robots URScript programs read for ``pincal filter`` (docs/filter.md, "URScript").
+"""Universal Robots URScript programs read for ``pincal filter`` (docs/filter_urscript.md).
 
 Targets are the first argument of ``movej``, ``movel``, ``movep`` and ``servoj`` and the two of ``movec``: a pose
 literal ``p[x, y, z, rx, ry, rz]`` (metres; a rotation vector [rad]) in the robot's base frame, a joint list
