@@ -17,6 +17,7 @@ calibration placed it in the measurement frame (the frame the calibration data w
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import sys
@@ -31,6 +32,7 @@ import pinocchio as pin
 from study_cli import ROOT, run_ok, study_main
 
 import pincal
+from pincal.calibration.arm_posture import arm_signs
 from pincal.io.corrections_file import corrected_readings, read_corrections
 from pincal.io.programs import euler_zyx_near, read_program, rotation_vector_near
 from pincal.study.simulation import random_actuated
@@ -83,6 +85,19 @@ def _krl_frame(m: pin.SE3) -> str:
     return f"X {x:.4f},Y {y:.4f},Z {z:.4f},A {a:.5f},B {b:.5f},C {c:.5f}"
 
 
+@functools.cache
+def _kr16() -> pincal.Robot:
+    return pincal.load_robot(KR16)
+
+
+def _signs(q: np.ndarray) -> tuple[bool, bool, bool]:
+    """Whether the KUKA-like arm's wrist centre is behind axis 1, in front of the lower arm, and axis 5 negative at
+    joint values ``q`` [rad]: what its controller records as a taught point's posture (docs/filter.md, "Posture")."""
+    robot = _kr16()
+    signs = arm_signs(robot, robot.solve_fk(q), q, "base")
+    return signs.ahead < 0, signs.front >= 0, bool(q[4] < 0)
+
+
 def krl(joints: np.ndarray, poses: list[pin.SE3]) -> dict[str, str]:
     src = ["DEF measured( )", "$TOOL = TOOL_DATA[1]", "$BASE = BASE_DATA[1]"]
     dat = ["DEFDAT measured"]
@@ -90,7 +105,9 @@ def krl(joints: np.ndarray, poses: list[pin.SE3]) -> dict[str, str]:
         degrees = np.degrees(q)
         src += ["PTP {" + ", ".join(f"A{i + 1} {v:.5f}" for i, v in enumerate(degrees)) + "}", f"LIN XP{k}"]
         turn = sum(1 << i for i, v in enumerate(q) if v < 0)
-        dat.append(f"DECL E6POS XP{k}={{{_krl_frame(FRAME.inverse() * pose)},S 2,T {turn},E1 0.0,E2 0.0}}")
+        behind, front, wrist = _signs(q)
+        status = int(behind) + 2 * int(front) + 4 * int(wrist)
+        dat.append(f"DECL E6POS XP{k}={{{_krl_frame(FRAME.inverse() * pose)},S {status},T {turn},E1 0.0,E2 0.0}}")
     config = ["DEFDAT $CONFIG", f"TOOL_DATA[1]={{{_krl_frame(TCP['krl'])}}}", f"BASE_DATA[1]={{{_krl_frame(FRAME)}}}",
               "ENDDAT"]
     return {"measured.src": "\n".join([*src, "END", ""]), "measured.dat": "\n".join([*dat, "ENDDAT", ""]),
@@ -111,8 +128,10 @@ def rapid(joints: np.ndarray, poses: list[pin.SE3]) -> dict[str, str]:
         degrees = ", ".join(_f(v, 5) for v in np.degrees(q))
         lines.append(f"    MoveAbsJ [[{degrees}], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]], v1000, z50, tool0;")
         cf = ", ".join(str(math.floor(q[k] / (math.pi / 2))) for k in (0, 3, 5))
+        behind, front, wrist = _signs(q)
+        cf += f", {4 * int(behind) + 2 * int(not front) + int(wrist)}"
         placed = _rapid_pose(FRAME.inverse() * pose)[:-1]
-        lines.append(f"    MoveL {placed}, [{cf}, 0], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]], v100, fine, "
+        lines.append(f"    MoveL {placed}, [{cf}], [9E9, 9E9, 9E9, 9E9, 9E9, 9E9]], v100, fine, "
                      "tTcp\\WObj:=wCell;")
     return {"measured.mod": "\n".join([*lines, "  ENDPROC", "ENDMODULE", ""])}
 
@@ -180,7 +199,7 @@ def measure(case: Case, n_targets: int, folder: Path) -> dict[str, Any]:
     done = np.array([not np.array_equal(a.pose.homogeneous, b.pose.homogeneous) for a, b in cartesian])
     left = [f"line {a.line}: {line.split(': ', 3)[-1].split(': the nearest posture')[0]}" for (a, _), line in zip(
         [c for c, d in zip(cartesian, done, strict=True) if not d],
-        [w for w in printed.splitlines() if w.startswith("warning:")], strict=True)]
+        [w for w in printed.splitlines() if w.startswith("warning:") and "' left as written: " in w], strict=True)]
     after = (after[0][done], after[1][done])  # the targets left as written are listed apart
     changed = sum(a != b for name in files if name != "config.dat" for a, b in zip(
         (folder / name).read_text(encoding="utf-8").splitlines(),

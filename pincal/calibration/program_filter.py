@@ -30,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal.calibration.arm_posture import arm_signs, mismatch, posture_edits
 from pincal.calibration.joint_commands import CommandSolver, Model
 from pincal.errors import DataError, NotFoundError, listing
 from pincal.io.programs import Edit, Program, Target, rewritten
@@ -65,6 +66,8 @@ class Filtered:
         move: (distance [m], angle [rad]) between the pose as written and as rewritten, NaN when left as written.
         residual: (m, rad) of the calibrated model at the commands, NaN when left as written.
         bound: The calibration's predicted 95 % bound [m] at the commands (NaN: not known).
+        posture: The edits writing the posture of the commands where it differs from the one the target names
+            (KRL's status and turn, RAPID's configuration), and what changed in words (None: nothing).
     """
 
     target: Target
@@ -74,6 +77,7 @@ class Filtered:
     move: tuple[float, float]
     residual: tuple[float, float]
     bound: float = math.nan
+    posture: tuple[list[Edit], str | None] = ([], None)
 
 
 @dataclass
@@ -183,7 +187,8 @@ def filter_program(program: Program, model: Model, nominal: Robot, base: str | N
                 results.append(outcome)
                 previous = outcome.commands if outcome.status == OK else previous
             continue
-        outcome = _one(target, solver, nominal_solver, nominal, model_base, nominal_base, flange_frame, previous)
+        outcome = _one(target, solver, nominal_solver, nominal, (model_base, nominal_base, base_frame), flange_frame,
+                       previous)
         if outcome.status == OK:
             previous = outcome.commands
         results.append(outcome)
@@ -191,7 +196,7 @@ def filter_program(program: Program, model: Model, nominal: Robot, base: str | N
     edits: list[Edit] = []
     for outcome in results:
         if outcome.pose is not None and outcome.target.render is not None:
-            edits += outcome.target.render(outcome.pose)
+            edits += outcome.target.render(outcome.pose) + outcome.posture[0]
         elif outcome.status == OK and outcome.target.render_joints is not None:
             edits += outcome.target.render_joints(outcome.commands)
     return ProgramFilter(program, results, rewritten(program, edits), base_frame, flange_frame, joint_count)
@@ -201,10 +206,12 @@ def _goal(placement: pin.SE3) -> Goals:
     return Goals(placement.translation[None, :].copy(), placement.rotation[None, :, :].copy())
 
 
-def _one(target: Target, solver: CommandSolver, nominal_solver: CommandSolver, nominal: Robot, model_base: pin.SE3,
-         nominal_base: pin.SE3, flange: str, previous: Array | None) -> Filtered:
-    """One Cartesian target (module docstring)."""
+def _one(target: Target, solver: CommandSolver, nominal_solver: CommandSolver, nominal: Robot,
+         bases: tuple[pin.SE3, pin.SE3, str], flange: str, previous: Array | None) -> Filtered:
+    """One Cartesian target (module docstring); ``bases``: the base frame's placement in the model and in the nominal
+    robot, and its name."""
     assert target.pose is not None
+    model_base, nominal_base, base_frame = bases
     nan = np.full(solver.robot.n_actuated, np.nan)
     missed = (math.nan, math.nan)
     intended = target.frame * target.pose * target.tool.inverse()  # the flange in the base frame
@@ -212,7 +219,11 @@ def _one(target: Target, solver: CommandSolver, nominal_solver: CommandSolver, n
     if previous is not None:
         start = nominal.solve_fk(previous)
         answer = nominal_solver.solve_from(_goal(nominal_base * intended), start[None, :])
-    check = target.posture or (lambda _: None)
+    named = target.posture
+
+    def check(raw: Array) -> str | None:
+        return None if named is None else mismatch(named, arm_signs(nominal, nominal.solve_fk(raw), raw, base_frame))
+
     if answer is None or answer.statuses[0] != OK or check(answer.raw[0]) is not None:
         for start in nominal_solver.starts():  # the rule of compensate, each start's answer checked for the posture
             tried = nominal_solver.solve_from(_goal(nominal_base * intended), start[None, :])
@@ -238,7 +249,10 @@ def _one(target: Target, solver: CommandSolver, nominal_solver: CommandSolver, n
     reached = nominal_base.inverse() * nominal.placement(nominal.solve_fk(raw), flange)
     pose = target.frame.inverse() * reached * target.tool
     gap = target.pose.inverse() * pose
-    return Filtered(target, OK, pose, raw, (float(np.linalg.norm(gap.translation)), _angle(gap.rotation)), residual)
+    posture = ([], None) if named is None else posture_edits(named, arm_signs(nominal, nominal.solve_fk(raw), raw,
+                                                                               base_frame))
+    return Filtered(target, OK, pose, raw, (float(np.linalg.norm(gap.translation)), _angle(gap.rotation)), residual,
+                    posture=posture)
 
 
 def _commands_near(solver: CommandSolver, goal: pin.SE3, start: Array, near: Array, unreached: str,
@@ -292,4 +306,5 @@ def _bounds(results: list[Filtered], model: Model, nominal: Robot) -> None:
         return
     for k, bound in zip(rows, found[0].tolist(), strict=True):
         old = results[k]
-        results[k] = Filtered(old.target, old.status, old.pose, old.commands, old.move, old.residual, float(bound))
+        results[k] = Filtered(old.target, old.status, old.pose, old.commands, old.move, old.residual, float(bound),
+                              old.posture)

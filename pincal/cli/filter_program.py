@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from pincal.cli.arguments import non_negative_int, positive_float
@@ -35,6 +36,11 @@ def outputs_of(program: str, out: str, files: list[str]) -> dict[str, Path]:
     return targets
 
 
+def shown(path: str) -> str:
+    """A file's path as printed: normalised (``./a//b/../c`` → ``a/c``), relative if it was given so."""
+    return os.path.normpath(path)
+
+
 def cmd_filter(args: argparse.Namespace) -> int:
     """``pincal filter``: rewrite the program's Cartesian targets, list each one's move and bound, warn of what is left
     as written; exit 1 when something is."""
@@ -47,7 +53,7 @@ def cmd_filter(args: argparse.Namespace) -> int:
     from pincal.calibration.program_filter import TOLERANCE, filter_program
     from pincal.calibration.provenance import read_provenance
     from pincal.io.files import check_outputs, write_texts
-    from pincal.io.programs import dat_of, encoding_of, language_of, read_program
+    from pincal.io.programs import dat_of, encoding_of, language_of, read_program, vendor_mismatch
     from pincal.io.targets import OK
     from pincal.model.robot import load_robot
 
@@ -63,7 +69,9 @@ def cmd_filter(args: argparse.Namespace) -> int:
     check_outputs([("--out", path) for path in planned.values()], inputs)
     values = args.tcp or (0.0,) * 6
     tcp = pin.SE3(pin.exp3(np.array(values[3:])), np.array(values[:3]))
-    program = read_program(args.program, tcp, args.config)
+    base = None if args.robot_base is None else pin.SE3(pin.exp3(np.array(args.robot_base[3:])),
+                                                        np.array(args.robot_base[:3]))
+    program = read_program(args.program, tcp, args.config, base)
     nominal_name = args.nominal or read_provenance(args.model).robot or args.model
     nominal = load_robot(nominal_name)
     model = load_model(args.model, nominal)
@@ -72,9 +80,11 @@ def cmd_filter(args: argparse.Namespace) -> int:
     result = filter_program(program, model, nominal, args.base_frame, args.flange, args.tolerance or TOLERANCE,
                             args.seed, args.joint_targets)
     cartesian = sum(r.target.pose is not None for r in result.results)
-    print(f"filter: {args.program} ({language}), {cartesian} Cartesian and {result.joint_targets} joint targets; "
-          f"model {args.model}, controller's nominal model {nominal_name}; base frame {result.base_frame}, flange "
-          f"{result.flange}" + ("; joint targets rewritten for the nominal pose they give" if args.joint_targets ==
+    print(f"filter: {shown(args.program)} ({language}), {cartesian} Cartesian and {result.joint_targets} joint "
+          f"targets; model {shown(args.model)}, controller's nominal model {shown(nominal_name)}; base frame "
+          f"{result.base_frame}, flange "
+          f"{result.flange}" + (f"; {program.robot_base}" if program.robot_base else "")
+          + ("; joint targets rewritten for the nominal pose they give" if args.joint_targets ==
                                 "intended" else ""))
     if result.results:
         print(f"  {'line':>6}  {'target':<24}{'move mm':>10}{'mrad':>9}{'95% bound mm':>14}  status")
@@ -88,10 +98,20 @@ def cmd_filter(args: argparse.Namespace) -> int:
               f"{'rewritten' if outcome.status == OK else 'left as written'}")
     left = [r for r in result.results if r.status != OK]
     for outcome in left:
-        print(f"warning: {outcome.target.file} line {outcome.target.line}: '{outcome.target.name}' left as written: "
+        target = outcome.target
+        print(f"warning: {shown(target.file)} line {target.line}: '{target.name}' left as written: "
               f"{outcome.status}")
     for problem in result.program.problems:
-        print(f"warning: {problem.file} line {problem.line}: {problem.what}")
+        print(f"warning: {shown(problem.file)} line {problem.line}: {problem.what}")
+    maker = vendor_mismatch(language, [nominal.name, model.robot.name])
+    if maker is not None:
+        print(f"warning: {maker}")
+    for outcome in result.results:
+        if outcome.posture[1] is not None:
+            target = outcome.target
+            print(f"note: {shown(target.file)} line {target.line}: '{target.name}': the calibrated "
+                  f"commands have another posture than the one written ({outcome.posture[1]}): the new one is written, "
+                  "so that the controller picks them")
     done = [r for r in result.results if r.status == OK]
     if done:
         largest = max(r.residual[0] for r in done)
@@ -146,7 +166,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                                         "root link)")
     p.add_argument("--flange", help="the flange frame tools hang on (default: KRL 'flange', else 'tool0')")
     p.add_argument("--config", action="append", default=[], metavar="FILE",
-                   help="KRL: a file with the controller's TOOL_DATA and BASE_DATA ($config.dat); may be repeated")
+                   help="a file of the controller: KRL its TOOL_DATA and BASE_DATA ($config.dat) or $ROBROOT "
+                        "($machine.dat), RAPID the robot's base frame (MOC.cfg); may be repeated")
+    p.add_argument("--robot-base", type=_tcp, metavar="X,Y,Z,RX,RY,RZ",
+                   help="KRL, RAPID: the robot's base frame in the program's world frame (m, rotation vector rad) "
+                        "where no --config file gives it (default: the world frame is the robot's base)")
     p.add_argument("--joint-targets", choices=("keep", "intended"), default="keep",
                    help="keep: joint targets as written (default); intended: each taken for the flange pose the "
                         "nominal model gives it (joints computed offline) and rewritten as the calibrated commands "

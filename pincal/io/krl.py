@@ -1,4 +1,4 @@
-"""KUKA KRL programs read for ``pincal filter`` (docs/filter.md, "KRL"): a ``.src`` and its ``.dat``.
+"""KUKA KRL programs read for ``pincal filter`` (docs/filter_krl.md): a ``.src`` and its ``.dat``.
 
 Targets are the points of ``PTP``, ``LIN``, ``CIRC`` (two) and their spline forms ``SPTP``, ``SLIN``, ``SCIRC``: a
 variable declared once with an aggregate (``DECL E6POS XP1={X …,Y …,Z …,A …,B …,C …,S …,T …}``, ``POS``, ``FRAME``;
@@ -9,7 +9,8 @@ active ``$TOOL`` in the active ``$BASE``: ``$TOOL = TOOL_DATA[n]``, ``$BASE = BA
 the ``.src`` sets them; ``TOOL_DATA[n]`` and ``BASE_DATA[n]`` are read from the program's files and the further files
 given (the controller's ``$config.dat``). Base 0 and tool 0 are ``$NULLFRAME``; before any is set, the tool given and
 the robot's base. A relative move, a point that lacks a coordinate, an unknown tool or base, an expression in a point's
-place are problems, left as written. The status and turn (``S``, ``T``) and external axes are kept.
+place are problems, left as written. The status and turn (``S``, ``T``: numbers or bit strings) are read for the
+filter to check and rewrite (:mod:`pincal.calibration.arm_posture`); external axes are kept.
 """
 
 from __future__ import annotations
@@ -21,8 +22,10 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
+from pincal.errors import DataError
 from pincal.io.programs import (
     Edit,
+    NamedPosture,
     Problem,
     Program,
     Target,
@@ -39,8 +42,6 @@ from pincal.io.programs import (
 
 #: Decimals written: millimetres and degrees (1e-4 mm, 1e-5°).
 MM_DECIMALS, DEGREE_DECIMALS = 4, 5
-#: An axis this close [rad] to zero counts as of either sign (round-off decides nothing).
-SLACK = 1e-6
 CARTESIAN = ("E6POS", "POS", "FRAME")
 JOINTS = ("E6AXIS", "AXIS")
 
@@ -112,15 +113,44 @@ def _render(file: str, fields: dict[str, tuple[str, int, int]]) -> Callable[[pin
 class _State:
     """The active tool and base as the ``.src`` sets them, by line."""
 
-    def __init__(self, tcp: pin.SE3) -> None:
+    def __init__(self, tcp: pin.SE3, world: pin.SE3) -> None:
         self.tool: tuple[pin.SE3 | None, str] = (tcp, "the TCP given (--tcp), no $TOOL set above")
-        self.base: tuple[pin.SE3 | None, str] = (pin.SE3.Identity(), "the robot's base, no $BASE set above")
+        self.base: tuple[pin.SE3 | None, str] = (world, "the robot's base, no $BASE set above")
+
+
+_ROBROOT = re.compile(r"^[ \t]*(?:DECL[ \t]+)?(?:GLOBAL[ \t]+)?(?:FRAME[ \t]+)?\$ROBROOT[ \t]*=[ \t]*(?=\{)",
+                      re.IGNORECASE | re.MULTILINE)
+
+
+def robroot(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
+    """The robot's base in ``$WORLD``: the ``$ROBROOT`` a further file declares (the controller's ``$machine.dat``),
+    with where, in words; None when none does.
+
+    Raises:
+        DataError: declared more than once, or not a frame of X, Y, Z [mm], A, B, C [°].
+    """
+    found = []
+    for name, text in extra.items():
+        code = comment_free(text, ";")
+        for match in _ROBROOT.finditer(code):
+            fields = aggregate(code, match.end())
+            frame = frame_of(fields[0]) if fields else None
+            where = f"{name} line {line_of(text, match.start())}"
+            if frame is None:
+                raise DataError(f"$ROBROOT at {where}: not a frame of X, Y, Z, A, B, C")
+            found.append((frame, f"$ROBROOT of {where}"))
+    if len(found) > 1:
+        raise DataError(f"$ROBROOT is declared {len(found)} times ({', '.join(w[12:] for _, w in found)}): give one "
+                        "$machine.dat")
+    return found[0] if found else None
 
 
 def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dict[str, str],
-             tcp: pin.SE3) -> Program:
+             tcp: pin.SE3, world: pin.SE3 | None = None) -> Program:
     """The targets of a KRL program (module docstring): its ``.src`` text, its ``.dat`` text (None when it has none),
-    the further files' texts by name; ``tcp`` the tool until the program sets one."""
+    the further files' texts by name; ``tcp`` the tool until the program sets one; ``world`` the robot's base in
+    ``$WORLD`` (``$ROBROOT``), the base of points before the program sets one (default: the identity). The targets'
+    frames are in ``$WORLD``: :func:`~pincal.io.programs.read_program` puts them in the robot's base."""
     texts = {src_file: src, **({dat_file: dat} if dat is not None else {})}
     program = Program("krl", texts)
     data: dict[tuple[str, int], tuple[pin.SE3 | None, str]] = {}
@@ -132,6 +162,9 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
             frame = frame_of(found[0]) if found else None
             data[(match.group(1).upper(), int(match.group(2)))] = (frame, f"{name} line {line_of(text, match.start())}")
         if name in extra:
+            if _DATA.search(code) is None and _ROBROOT.search(code) is None:
+                program.problems.append(Problem(name, 1, "--config file: no TOOL_DATA, BASE_DATA nor $ROBROOT "
+                                                         "declared in it: nothing read"))
             continue
         for match in _DECL.finditer(code):
             found = aggregate(code, match.end())
@@ -142,7 +175,7 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
             declared.setdefault(match.group(2).upper(), []).append(
                 (name, line_of(text, match.start()), match.group(1).upper(), found[0]))
     code = comment_free(src, ";")
-    state = _State(tcp)
+    state = _State(tcp, pin.SE3.Identity() if world is None else world)
     events = sorted([(m.start(), "set", m) for m in _SET.finditer(code)] + [(m.start(), "bas", m) for m in
                     _BAS.finditer(code)] + [(m.start(), "fdat", m) for m in _FDAT.finditer(code)] +
                     [(m.start(), "move", m) for m in _MOVE.finditer(code)], key=lambda e: e[0])
@@ -163,6 +196,8 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
         kinds = {k for _, _, k, _ in entries}
         if len(entries) != 1 or not kinds & {*CARTESIAN, *JOINTS}:
             why = "never declared with an aggregate" if not entries else f"declared {len(entries)} times"
+            if not entries and dat is None:
+                why += f" (the .src has no .dat beside it: {dat_file} is missing)"
             program.problems.append(Problem(src_file, lines[0], f"point '{variable}': {why}: left as written"))
             continue
         file, line, kind, fields = entries[0]
@@ -304,21 +339,21 @@ def _add(program: Program, file: str, line: int, name: str, kind: str, fields: d
                                                     "written"))
         return
     program.targets.append(Target(file, line, name, None, pose, tool[0], base[0], f"tool {tool[1]}, base {base[1]}",
-                                  _render(file, fields), uses, _turn(fields)))
+                                  _render(file, fields), uses, _posture(file, fields)))
 
 
-def _turn(fields: dict[str, tuple[str, int, int]]) -> Callable[[np.ndarray], str | None] | None:
-    """The check of a point's turn ``T``: bit k set when axis A(k+1) is negative (joint values [rad] as KRL counts
-    them); None when the point has no ``T``."""
-    written = fields.get("T", ("", 0, 0))[0].strip()
-    if not written.isdigit():
-        return None
-    turn = int(written)
-
-    def check(joints: np.ndarray) -> str | None:
-        bits = sum(1 << k for k, value in enumerate(joints[:6]) if value < 0)
-        free = sum(1 << k for k, value in enumerate(joints[:6]) if abs(value) <= SLACK)  # either sign at zero
-        if (bits ^ turn) & ~free == 0:
-            return None
-        return f"T {turn} asks other signs of the axes than the posture found (T {bits})"
-    return check
+def _posture(file: str, fields: dict[str, tuple[str, int, int]]) -> NamedPosture | None:
+    """The status and turn a point writes (``S 6``, ``T 'B100011'``); None when it writes neither as a number."""
+    found: dict[str, tuple[int, int, int]] = {}
+    binary = set()
+    for name in ("S", "T"):
+        if name not in fields:
+            continue
+        text, start, end = fields[name]
+        bits = re.fullmatch(r"'[Bb]([01]+)'", text.strip())
+        if bits:
+            found[name] = (int(bits.group(1), 2), start, end)
+            binary.add(name)
+        elif text.strip().isdigit():
+            found[name] = (int(text), start, end)
+    return NamedPosture("krl", file, found, frozenset(binary)) if found else None

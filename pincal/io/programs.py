@@ -15,7 +15,7 @@ import itertools
 import math
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +43,24 @@ class Edit:
 
 
 @dataclass(frozen=True)
+class NamedPosture:
+    """The posture a Cartesian target names, as written (docs/filter.md, "Posture"): KRL's status and turn, RAPID's
+    configuration.
+
+    Attributes:
+        language: ``krl`` (fields ``S``, ``T``) or ``rapid`` (``cf1``, ``cf4``, ``cf6``, ``cfx``).
+        file: The file it is written in.
+        fields: Each field's value as written and the span of its text.
+        binary: The fields written as KRL's bit strings (``'B110'``), written back so.
+    """
+
+    language: str
+    file: str
+    fields: dict[str, tuple[int, int, int]]
+    binary: frozenset[str] = frozenset()
+
+
+@dataclass(frozen=True)
 class Target:
     """One target of a program.
 
@@ -57,8 +75,7 @@ class Target:
         context: The tool and frame in words (``tool 'tool1', work object 'wobj1'``).
         render: The edits that write another pose [m, rad] (in the same frame, for the same tool) in place of it.
         uses: The lines of the moves that read it.
-        posture: For the joint values [rad] a controller reaches it at, why they are not the posture the target
-            names (KRL's turn bits, RAPID's quadrants), or None when they are; None: the target names none.
+        posture: The posture the target names (KRL's status and turn, RAPID's configuration); None: none.
         render_joints: A joint target's edits that write other joint values [rad or m] in place of its own.
     """
 
@@ -72,7 +89,7 @@ class Target:
     context: str
     render: Callable[[pin.SE3], list[Edit]] | None = None
     uses: tuple[int, ...] = ()
-    posture: Callable[[Array], str | None] | None = None
+    posture: NamedPosture | None = None
     render_joints: Callable[[Array], list[Edit]] | None = None
 
     @property
@@ -98,6 +115,28 @@ class Program:
     texts: dict[str, str]
     targets: list[Target] = field(default_factory=list)
     problems: list[Problem] = field(default_factory=list)
+    #: Where the robot's base was taken to be in the program's world frame, in words (KRL, RAPID; "" for URScript).
+    robot_base: str = ""
+
+
+#: Each language's controller maker, and a pattern of the names the maker's robots go by in URDFs (``ur10e``,
+#: ``kr16_2``, ``abb_irb2400``).
+VENDORS = {"urscript": ("Universal Robots", r"(?<![a-z])ur(?:3|5|10|12|15|16|20|30)e?(?![0-9])|universal"),
+           "krl": ("KUKA", r"kuka|(?<![a-z])kr[ _-]?\d"), "rapid": ("ABB", r"(?<![a-z])abb(?![a-z])|irb[ _-]?\d")}
+
+
+def vendor_mismatch(language: str, names: Sequence[str]) -> str | None:
+    """Why robots named ``names`` (their URDF names) may not run a program of ``language``: a name of another
+    maker's robots (:data:`VENDORS`), in words; None when no name says so (a name of no known maker says nothing)."""
+    maker = VENDORS[language][0]
+    for name in dict.fromkeys(names):
+        for other, (vendor, pattern) in VENDORS.items():
+            if other != language and re.search(pattern, name.lower()):
+                article = "an" if vendor[0] in "AEIOU" else "a"
+                shown = "URScript" if language == "urscript" else language.upper()
+                return (f"the program is {shown} (the language of {maker}) but robot '{name}' is named like "
+                        f"{article} {vendor} arm: check that MODEL and the nominal robot are the robot that runs it")
+    return None
 
 
 def language_of(path: str | Path) -> str:
@@ -154,6 +193,13 @@ def read_text(path: str | Path, what: str = "PROGRAM") -> str:
         raise DataError(f"{what} '{path}' is not a text file (byte 0x{data[control.start()]:02x} at offset "
                         f"{control.start()}): a program is text")
     return decoded(data)[0]
+
+
+def lines_of(text: str) -> str:
+    """``text`` with each carriage return that ends a line alone (old Mac line ends) made a line feed: the same
+    length, so that positions in it are positions in ``text``, and its lines are the readers' lines. The texts written
+    are the ones read, their line ends kept."""
+    return re.sub(r"\r(?!\n)", "\n", text)
 
 
 def line_of(text: str, position: int) -> int:
@@ -351,28 +397,61 @@ def dat_of(path: str | Path) -> Path | None:
     return None
 
 
-def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = ()) -> Program:
+def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = (),
+                 robot_base: pin.SE3 | None = None) -> Program:
     """The program at ``path`` read by its language's reader (:func:`language_of`); ``tcp`` is the tool centre point
-    [m, rad] in the flange frame where the program sets none; ``config``: further files holding a KUKA controller's
-    ``TOOL_DATA`` and ``BASE_DATA`` (``$config.dat``).
+    [m, rad] in the flange frame where the program sets none; ``config``: further files of the controller (KRL: the
+    ``TOOL_DATA``, ``BASE_DATA`` of ``$config.dat`` and the ``$ROBROOT`` of ``$machine.dat``; RAPID: the robot's base
+    frame in ``MOC.cfg``); ``robot_base``: the robot's base frame in the program's world frame [m, rad], where no file
+    gives it. The targets' frames are then in the robot's base frame; :attr:`Program.robot_base` says what was taken.
 
     Raises:
         DataError: an unknown suffix; a file missing or unreadable (a KRL ``.src`` without its ``.dat`` is read
-            alone, its problems saying what it lacks).
+            alone, its problems saying what it lacks); the robot's base given twice, or to a URScript program (whose
+            poses are in the robot's base frame).
     """
     language = language_of(path)
-    text = read_text(path)
+    originals: dict[str, str] = {str(path): read_text(path)}
+    text = lines_of(originals[str(path)])
+    extra = {str(p): lines_of(read_text(p, "--config")) for p in config}
     if language == "urscript":
         from pincal.io.urscript import read_urscript
 
-        return read_urscript(text, str(path), tcp)
+        if robot_base is not None or extra:
+            raise DataError(f"PROGRAM '{path}' is URScript, whose poses are in the robot's base frame: --config and "
+                            "--robot-base are for KRL and RAPID")
+        program = read_urscript(text, str(path), tcp)
+        program.texts = originals  # every byte as read: line ends kept
+        return program
     if language == "krl":
-        from pincal.io.krl import read_krl
+        from pincal.io.krl import read_krl, robroot
 
+        world, words = _robot_base(robroot(extra), robot_base, "$WORLD", "--config $machine.dat")
         dat = dat_of(path)
-        dat_text = read_text(dat, "the program's .dat") if dat is not None else None
-        extra = {str(p): read_text(p, "--config") for p in config}
-        return read_krl(text, str(path), dat_text, str(dat or Path(path).with_suffix(".dat")), extra, tcp)
-    from pincal.io.rapid import read_rapid
+        if dat is not None:
+            originals[str(dat)] = read_text(dat, "the program's .dat")
+        dat_text = lines_of(originals[str(dat)]) if dat is not None else None
+        program = read_krl(text, str(path), dat_text, str(dat or Path(path).with_suffix(".dat")), extra, tcp, world)
+    else:
+        from pincal.io.rapid import moc_base, read_rapid
 
-    return read_rapid(text, str(path), tcp)
+        world, words = _robot_base(moc_base(extra), robot_base, "the world frame", "--config MOC.cfg")
+        program = read_rapid(text, str(path), tcp)
+    program.robot_base = words
+    program.texts = {name: originals[name] for name in program.texts}  # every byte as read: line ends kept
+    if world is not None:
+        inverse = world.inverse()
+        program.targets = [t if t.pose is None else replace(t, frame=inverse * t.frame) for t in program.targets]
+    return program
+
+
+def _robot_base(found: tuple[pin.SE3, str] | None, given: pin.SE3 | None, world: str,
+                option: str) -> tuple[pin.SE3 | None, str]:
+    """The robot's base in the program's world frame, from a controller's file or ``--robot-base``, and in words."""
+    if found is not None and given is not None:
+        raise DataError(f"the robot's base is given twice: {found[1]} and --robot-base; give one")
+    if found is not None:
+        return found[0], f"robot base in {world}: {found[1]}"
+    if given is not None:
+        return given, f"robot base in {world}: --robot-base"
+    return None, f"{world} taken as the robot's base (none given: {option} or --robot-base)"

@@ -1,15 +1,15 @@
-"""ABB RAPID modules read for ``pincal filter`` (docs/filter.md, "RAPID").
+"""ABB RAPID modules read for ``pincal filter`` (docs/filter_rapid.md).
 
 Targets are the points of ``MoveL``, ``MoveJ``, ``MoveC`` (two), their ``DO``/``AO``/``GO``/``Sync`` forms and
 ``TriggL``/``TriggJ``/``TriggC``: a ``robtarget`` declared once with a value (``CONST``, ``PERS`` or ``VAR``) or written
 in the move, ``[[x, y, z], [q1, q2, q3, q4], [cf1, cf4, cf6, cfx], [eax_a, …]]`` (millimetres; a unit quaternion
 ``q1`` = w); ``MoveAbsJ``'s ``jointtarget`` ``[[j1, …, j6], [eax…]]`` (degrees) are joint targets. A point is the TCP of
 the move's ``tooldata`` (``tool0``: the flange; ``[robhold, [[x, y, z], [q1…q4]], load]``) in its work object
-(``\\WObj:=``, default ``wobj0``: the robot's base; ``[robhold, ufprog, ufmec, uframe, oframe]``, the point in
-``uframe · oframe``). A tool the robot does not hold, a moving work object, an array, ``*`` or an expression
-(``Offs(…)``, ``RelTool(…)``) in a point's place, a search are problems, left as written. The configuration
-``cf1, cf4, cf6`` (quadrants of axes 1, 4, 6) is checked against the posture found; ``cfx`` and the external axes are
-kept.
+(``\\WObj:=``, default ``wobj0``: the world frame, :func:`moc_base` placing the robot in it; ``[robhold, ufprog,
+ufmec, uframe, oframe]``, the point in ``uframe · oframe``). A tool the robot does not hold, a moving work object, an
+array, ``*`` or an expression (``Offs(…)``, ``RelTool(…)``) in a point's place, a search are problems, left as
+written. The configuration ``cf1, cf4, cf6, cfx`` is read for the filter to check and rewrite
+(:mod:`pincal.calibration.arm_posture`); the external axes are kept.
 """
 
 from __future__ import annotations
@@ -21,8 +21,10 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
+from pincal.errors import DataError, listing
 from pincal.io.programs import (
     Edit,
+    NamedPosture,
     Problem,
     Program,
     Target,
@@ -38,8 +40,6 @@ from pincal.io.programs import (
 
 #: Decimals written: millimetres and quaternion components.
 MM_DECIMALS, QUATERNION_DECIMALS, DEGREE_DECIMALS = 4, 9, 6
-#: An axis this close [rad] to a quadrant's edge counts as in either quadrant (round-off decides nothing).
-SLACK = 1e-6
 #: Moves and how many points they take first.
 MOVES = {**{f"{m}{s}": 2 if m.endswith("C") else 1 for m in ("MoveL", "MoveJ", "MoveC")
             for s in ("", "DO", "AO", "GO", "Sync")}, "TriggL": 1, "TriggJ": 1, "TriggC": 2, "MoveAbsJ": 1}
@@ -100,23 +100,13 @@ def _render(file: str, position: Spans, quaternion: Spans) -> Callable[[pin.SE3]
     return render
 
 
-def _quadrants(text: str, groups: list[tuple[int, int]]) -> Callable[[np.ndarray], str | None] | None:
-    """The check of a robtarget's ``cf1, cf4, cf6``: the quadrant ``floor(angle / 90°)`` of axes 1, 4, 6 (joint values
-    [rad] as RAPID counts them); None when they are not numbers."""
+def _posture(file: str, text: str, groups: list[tuple[int, int]]) -> NamedPosture | None:
+    """The configuration ``[cf1, cf4, cf6, cfx]`` a robtarget writes; None when it is not four whole numbers."""
     found = _numbers_of(text, groups[2], 4) if len(groups) > 2 else None
-    if found is None:
+    if found is None or any(v != int(v) for v, _, _ in found):
         return None
-    written = [int(v) for v, _, _ in found[:3]]
-
-    def check(joints: np.ndarray) -> str | None:
-        if len(joints) < 6:
-            return None
-        got = [math.floor(joints[k] / (math.pi / 2)) for k in (0, 3, 5)]
-        near = all(any(math.floor((joints[k] + d) / (math.pi / 2)) == w for d in (0.0, -SLACK, SLACK))
-                   for k, w in zip((0, 3, 5), written, strict=True))
-        return None if near else (f"cf1, cf4, cf6 = {written} ask other quadrants of axes 1, 4, 6 than the "
-                                            f"posture found ({got})")
-    return check
+    return NamedPosture("rapid", file, {name: (int(v), a, b) for name, (v, a, b) in
+                                        zip(("cf1", "cf4", "cf6", "cfx"), found, strict=True)})
 
 
 def _frames(code: str, kinds: dict[str, tuple[str, int, tuple[int, int], str]]) -> dict[str, pin.SE3 | str]:
@@ -143,6 +133,45 @@ def _frames(code: str, kinds: dict[str, tuple[str, int, tuple[int, int], str]]) 
                 frames[name] = (user[0] * obj[0] if user and obj else
                                 f"wobjdata '{name}' (line {line}): its uframe or oframe is not read")
     return frames
+
+
+_MOC = re.compile(r"-base_frame_(pos_[xyz]|orient_u[0-3])[ \t]+([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)")
+
+
+def moc_base(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
+    """The robot's base frame in the world frame: the ``-base_frame_pos_x … _z`` [m] and ``-base_frame_orient_u0 …
+    u3`` (a unit quaternion, ``u0`` = w) of the controller's ``MOC.cfg`` among the further files (an attribute not
+    written takes ABB's default: 0, ``u0`` 1; none written, the world frame), with where, in words; None when no file
+    is given.
+
+    Raises:
+        DataError: a file not a MOC.cfg; an attribute written twice (several robots' base frames), or not a unit
+            quaternion.
+    """
+    values: dict[str, tuple[float, str]] = {}
+    for name, text in extra.items():
+        if not text.lstrip().startswith("MOC:"):
+            raise DataError(f"--config '{name}' is not a MOC.cfg (its first line 'MOC:CFG_…'): for a RAPID program "
+                            "pincal reads the robot's base frame from the controller's MOC.cfg")
+        for match in _MOC.finditer(text):
+            where = f"{name} line {line_of(text, match.start())}"
+            key = match.group(1)
+            if key in values:
+                raise DataError(f"-base_frame_{key} is written twice ({values[key][1]}, {where}): several robots' "
+                                "base frames; give a MOC.cfg of this robot, or --robot-base")
+            values[key] = (float(match.group(2)), where)
+    if not values:  # ABB's files leave out attributes at their default: the base frame is the world frame
+        return (pin.SE3.Identity(), f"ABB's default, the world frame ({listing(list(extra))} writes no "
+                                    "-base_frame_ attribute)") if extra else None
+    value = {k: v for k, (v, _) in values.items()}
+    position = np.array([value.get(f"pos_{c}", 0.0) for c in "xyz"])
+    w, x, y, z = (value.get(f"orient_u{k}", 1.0 if k == 0 else 0.0) for k in range(4))
+    norm = math.sqrt(w * w + x * x + y * y + z * z)
+    first = min(values.values(), key=lambda v: v[1])[1]
+    if not 0.99 < norm < 1.01:
+        raise DataError(f"the base frame of {first}: -base_frame_orient_u0 … u3 is not a unit quaternion")
+    rotation = pin.Quaternion(w / norm, x / norm, y / norm, z / norm).matrix()
+    return pin.SE3(rotation, position), f"the base frame of {first}"
 
 
 def read_rapid(text: str, file: str, tcp: pin.SE3) -> Program:
@@ -272,4 +301,4 @@ def _add(program: Program, file: str, line: int, name: str, code: str, groups: l
     pose, position, quaternion = found
     program.targets.append(Target(file, line, name, None, pose, tool, wobj, f"tool {context[0]}, work object "
                                   f"{context[1]}", _render(file, position, quaternion), uses,
-                                  _quadrants(code, groups)))
+                                  _posture(file, code, groups)))

@@ -1,4 +1,4 @@
-"""Universal Robots URScript programs read for ``pincal filter`` (docs/filter.md, "URScript").
+"""Universal Robots URScript programs read for ``pincal filter`` (docs/filter_urscript.md).
 
 Targets are the first argument of ``movej``, ``movel``, ``movep`` and ``servoj`` and the two of ``movec``: a pose
 literal ``p[x, y, z, rx, ry, rz]`` (metres; a rotation vector [rad]) in the robot's base frame, a joint list
@@ -38,7 +38,9 @@ MOVES = {"movej": 1, "movel": 1, "movep": 1, "servoj": 1, "movec": 2}
 DECIMALS = 8
 
 _CALL = re.compile(r"\b(movej|movel|movep|servoj|movec|set_tcp)\s*\(")
-_ASSIGN = re.compile(r"^[ \t]*(?:global[ \t]+|local[ \t]+)?([A-Za-z_]\w*)[ \t]*=[ \t]*(?=p?\[)", re.MULTILINE)
+_ASSIGN = re.compile(r"^[ \t]*(?:global[ \t]+|local[ \t]+)?([A-Za-z_]\w*)[ \t]*=[ \t]*(?=(?:p[ \t]*)?\[)", re.MULTILINE)
+#: A pose literal's opening: ``p[``, white space allowed between (URScript reads ``p [`` as ``p[``).
+_POSE = re.compile(r"p[ \t]*(?=\[)")
 _NAME = re.compile(r"[A-Za-z_]\w*")
 
 
@@ -75,8 +77,9 @@ class _Literal:
 def _literal(text: str, start: int, end: int) -> _Literal | None:
     """The literal ``p[…]`` or ``[…]`` that is exactly ``text[start:end]``, or None."""
     a, b = stripped(text, (start, end))
-    pose = text.startswith("p[", a)
-    opening = a + 1 if pose else a
+    prefix = _POSE.match(text, a, b)
+    pose = prefix is not None
+    opening = prefix.end() if prefix else a
     if opening >= b or text[opening] != "[" or closing(text, opening) != b - 1:
         return None
     found = numbers(text, opening + 1, b - 1)
@@ -107,7 +110,8 @@ def read_urscript(text: str, file: str, tcp: pin.SE3) -> Program:
         if not mask[match.start(1)]:
             continue
         start = match.end()
-        opening = start + 1 if text.startswith("p[", start) else start
+        prefix = _POSE.match(text, start)
+        opening = prefix.end() if prefix else start
         close = closing(text, opening)
         literal = _literal(text, start, close + 1) if close > 0 else None
         assigned.setdefault(match.group(1), []).append((start, literal))

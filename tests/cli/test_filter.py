@@ -172,7 +172,9 @@ def test_rapid_robtargets_declared_and_inline_rewritten(kr16_cal: Path, tmp_path
     source = PROGRAMS / "glue.mod"
     done = run_pincal("filter", str(source), "--model", str(kr16_cal), "--flange", "tool0", "--out", str(out))
     assert done.returncode == 1, done.stdout + done.stderr  # Offs(pEnd, …) is left as written
-    assert "line 17: MoveL: point 'Offs(pEnd,0,0,100)'" in done.stdout and done.stdout.count("warning:") == 1
+    assert "line 17: MoveL: point 'Offs(pEnd,0,0,100)'" in done.stdout and done.stdout.count("warning:") == 2
+    assert "warning: the program is RAPID (the language of ABB) but robot 'kr16_like' is named like a KUKA arm" in (
+        done.stdout)  # the KUKA-like arm runs the ABB module here: said, not refused
     before, after = source.read_text(encoding="utf-8"), out.read_text(encoding="utf-8")
     assert _changed_lines(before, after) == [7, 8, 9, 10, 18]
     home = np.radians([0.0, -30.0, 30.0, 0.0, 60.0, 0.0])

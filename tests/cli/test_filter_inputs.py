@@ -135,3 +135,49 @@ def test_a_model_of_another_robot_is_refused(tmp_path: Path) -> None:
     assert done.stderr.startswith("pincal: error: MODEL (ur10) puts the flange ")
     assert "the nominal robot 'ur5'" in done.stderr and "Traceback" not in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1 and not out.exists()
+
+
+def test_old_mac_line_ends_are_read_as_lines_and_kept(tmp_path: Path) -> None:
+    """Carriage returns alone end the lines: the targets are found on their lines, every byte but their numbers kept;
+    ``p [`` with a space is a pose literal, as URScript reads it."""
+    text = (PROGRAMS / "pick_place.script").read_text(encoding="utf-8")
+    assert text.count("p[") >= 6 and "\r" not in text
+    spaced = text.replace("p[", "p [")
+    program = tmp_path / "cell.script"
+    program.write_bytes(spaced.replace("\n", "\r").encode("utf-8"))
+    out = tmp_path / "out.script"
+    (tmp_path / "sub").mkdir()
+    done = run_pincal("filter", "./sub/../cell.script", "--model", "ur10", "--out", "out.script", cwd=tmp_path)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert done.stdout.startswith("filter: cell.script (urscript), 6 Cartesian and 2 joint targets")  # normalised
+    assert "warning" not in done.stdout
+    listed = [line.split()[0] for line in done.stdout.splitlines()[2:8]]
+    lines = spaced.split("\n")
+    assert listed == ["6", "7", "14", "15", "15", "16"]
+    assert all("p [" in lines[int(k) - 1] for k in listed)  # the lines (1-based) holding the targets
+    before, after = program.read_bytes().split(b"\r"), out.read_bytes().split(b"\r")
+    assert len(after) == len(before) and b"\n" not in out.read_bytes()
+    changed = {k for k, (a, b) in enumerate(zip(before, after, strict=True)) if a != b}
+    assert changed <= {int(k) - 1 for k in listed} | {k for k, line in enumerate(lines) if "=p [" in line
+                                                      or "= p [" in line}
+    assert all(b"p [" in after[k] for k in changed)
+
+
+def test_a_lone_src_names_its_missing_dat(tmp_path: Path) -> None:
+    program = tmp_path / "palletize.src"
+    program.write_bytes((PROGRAMS / "palletize.src").read_bytes())
+    done = run_pincal("filter", str(program), "--model", str(KR16), "--config", str(PROGRAMS / "config_excerpt.dat"),
+                      "--out", str(tmp_path / "out" / "palletize.src"))
+    assert done.returncode == 1
+    missing = [line for line in done.stdout.splitlines() if "is missing" in line]
+    assert missing and all(f"the .src has no .dat beside it: {tmp_path / 'palletize.dat'} is missing" in line
+                           for line in missing)
+    assert any("point 'XP1': never declared" in line for line in missing)
+
+
+def test_a_program_of_one_maker_on_a_robot_named_for_another_is_warned(tmp_path: Path) -> None:
+    done = run_pincal("filter", str(PROGRAMS / "pick_place.script"), "--model", str(KR16), "--out",
+                      str(tmp_path / "out.script"))
+    assert done.returncode == 0  # the KUKA-like arm reaches the UR program's poses: nothing else tells
+    assert ("warning: the program is URScript (the language of Universal Robots) but robot 'kr16_like' is named like "
+            "a KUKA arm") in done.stdout

@@ -10,9 +10,16 @@ import pinocchio as pin
 import pytest
 
 from pincal.errors import DataError
-from pincal.io.krl import read_krl
-from pincal.io.programs import euler_zyx_near, language_of, rewritten, rotation_vector_near, zyx_rotation
-from pincal.io.rapid import read_rapid
+from pincal.io.krl import read_krl, robroot
+from pincal.io.programs import (
+    euler_zyx_near,
+    language_of,
+    rewritten,
+    rotation_vector_near,
+    vendor_mismatch,
+    zyx_rotation,
+)
+from pincal.io.rapid import moc_base, read_rapid
 from pincal.io.urscript import read_urscript
 
 
@@ -61,8 +68,8 @@ def test_krl_points_in_their_base_with_their_tool() -> None:
     assert [(p.file, p.line) for p in program.problems] == [("t.dat", 3)]  # XP2 lacks Z, A, B, C
     assert "partial point" in program.problems[0].what
     assert point.posture is not None
-    assert point.posture(np.radians([-10, -80, 90, 0, 30, -5])) is None  # T 35: A1, A2, A6 negative
-    assert "T 35" in point.posture(np.radians([10, -80, 90, 0, 30, -5]))
+    assert point.posture.language == "krl" and {k: v[0] for k, v in point.posture.fields.items()} == {"S": 2, "T": 35}
+    assert [dat[a:b] for _, a, b in point.posture.fields.values()] == ["2", "35"]  # where each is rewritten
     new, back = _round_trip(program, 0, lambda texts: read_krl(texts["t.src"], "t.src", texts["t.dat"], "t.dat",
                                                                config, pin.SE3.Identity()))
     assert np.allclose(back.homogeneous, new.homogeneous, atol=1e-6)
@@ -85,8 +92,9 @@ def test_rapid_targets_tools_and_work_objects() -> None:
     assert np.allclose(point.frame.translation, [0.1, 0.05, 0]) and np.allclose(point.frame.rotation[:, 0], [0, 1, 0])
     assert np.allclose(joints.joints, np.radians([0, 10, 20, 30, 40, 50]))
     assert [(p.line, "stationary tool" in p.what) for p in program.problems] == [(8, True)]
-    assert point.posture(np.radians([10, 0, 0, 5, 0, -5])) is None
-    assert "cf1, cf4, cf6" in point.posture(np.radians([100, 0, 0, 5, 0, -5]))
+    assert point.posture is not None and point.posture.language == "rapid"
+    assert {k: v[0] for k, v in point.posture.fields.items()} == {"cf1": 0, "cf4": 0, "cf6": -1, "cfx": 0}
+    assert [text[a:b] for _, a, b in point.posture.fields.values()] == ["0", "0", "-1", "0"]
     new, back = _round_trip(program, 0, lambda texts: read_rapid(texts["m.mod"], "m.mod", pin.SE3.Identity()))
     assert np.allclose(back.homogeneous, new.homogeneous, atol=1e-7)
 
@@ -116,3 +124,56 @@ def test_angles_at_b_plus_minus_90_keep_the_written_split() -> None:
         assert np.allclose(np.degrees(euler_zyx_near(rotation, near)), written, atol=1e-9)
         other = zyx_rotation(*np.radians(written)) @ pin.exp3(np.array([0.0, 0.0, 1e-3]))  # off the singularity
         assert np.allclose(zyx_rotation(*euler_zyx_near(other, near)), other)
+
+
+def test_a_robot_named_for_another_maker_than_the_languages() -> None:
+    assert vendor_mismatch("urscript", ["ur10e", "UR5"]) is None and vendor_mismatch("krl", ["kr16_like"]) is None
+    assert vendor_mismatch("rapid", ["abb_irb2400", "my_arm", "panda"]) is None  # a name of no maker says nothing
+    assert vendor_mismatch("krl", ["pur10", "tur5x"]) is None  # 'ur' inside a word is not a UR arm
+    assert "named like a KUKA arm" in (vendor_mismatch("urscript", ["kr16_2"]) or "")
+    assert "robot 'irb_120' is named like an ABB arm" in (vendor_mismatch("krl", ["irb_120"]) or "")
+    assert "Universal Robots arm" in (vendor_mismatch("rapid", ["ur10"]) or "")
+
+
+def test_a_pose_literal_with_a_space_before_its_bracket() -> None:
+    text = ("def p():\n  global A_p = p [0.5, 0.1, 0.4, 0, 3.1, 0]\n  movel(A_p)\n  movej(p\t[0.4, 0, 0.5, 0, 3, 0])\n"
+            "end\n")
+    program = read_urscript(text, "p.script", pin.SE3.Identity())
+    assert program.problems == [] and [(t.name, t.line) for t in program.targets] == [("A_p", 2), ("movej", 4)]
+    assert np.allclose(program.targets[0].pose.translation, [0.5, 0.1, 0.4])
+
+
+def test_the_robots_base_from_machine_dat_and_moc_cfg() -> None:
+    """$ROBROOT's X, Y, Z [mm], A, B, C [°]; MOC.cfg's base frame in m and a quaternion, ABB's defaults where not
+    written; several of either refused, naming them."""
+    machine = {"m.dat": "; $ROBROOT={X 9}\nFRAME $ROBROOT={X 1000.0,Y -500.0,Z 20.0,A 90.0,B 0.0,C 0.0}\n"}
+    frame, words = robroot(machine) or (None, "")
+    assert words == "$ROBROOT of m.dat line 2"  # the commented line is not read
+    assert frame is not None and np.allclose(frame.translation, [1.0, -0.5, 0.02])
+    assert np.allclose(frame.rotation, [[0, -1, 0], [1, 0, 0], [0, 0, 1]])
+    with pytest.raises(DataError, match=r"declared 2 times \(m\.dat line 2, n\.dat line 1\)"):
+        robroot({**machine, "n.dat": "DECL FRAME $ROBROOT={X 0,Y 0,Z 0,A 0,B 0,C 0}\n"})
+    with pytest.raises(DataError, match=r"m\.dat line 1: not a frame"):
+        robroot({"m.dat": "$ROBROOT={X 0,Y 0}\n"})
+    assert robroot({"c.dat": "TOOL_DATA[1]={X 0,Y 0,Z 0,A 0,B 0,C 0}\n"}) is None
+    moc = {"MOC.cfg": "MOC:CFG_1.0:6:0::\nROBOT:\n  -name \"ROB_1\" -base_frame_pos_z 0.25 \\\n"
+                      "  -base_frame_orient_u0 0.7071068 -base_frame_orient_u3 0.7071068\n"}
+    found = moc_base(moc)
+    assert found is not None and found[1] == "the base frame of MOC.cfg line 3"
+    assert np.allclose(found[0].translation, [0, 0, 0.25])
+    assert np.allclose(found[0].rotation, [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-7)  # 90° about z
+    with pytest.raises(DataError, match="several robots' base frames"):
+        moc_base({"MOC.cfg": moc["MOC.cfg"] + "  -name \"ROB_2\" -base_frame_pos_z 1\n"})
+    default = moc_base({"MOC.cfg": "MOC:CFG_1.0:6:0::\nROBOT:\n  -name \"ROB_1\" -use_robot_type \"ROB1\"\n"})
+    assert default is not None and default[0] == pin.SE3.Identity() and "ABB's default" in default[1]
+    with pytest.raises(DataError, match=r"is not a MOC\.cfg"):
+        moc_base({"$config.dat": "DEFDAT $CONFIG\nENDDAT\n"})
+
+
+def test_status_and_turn_written_as_bit_strings() -> None:
+    dat = "DEFDAT t\nDECL E6POS XP1={X 1000.0,Y 0.0,Z 500.0,A 0.0,B 90.0,C 0.0,S 'B110',T 'B100011'}\nENDDAT\n"
+    program = read_krl("DEF t( )\nPTP XP1\nEND\n", "t.src", dat, "t.dat", {}, pin.SE3.Identity())
+    posture = program.targets[0].posture
+    assert posture is not None and posture.binary == frozenset({"S", "T"})
+    assert {k: v[0] for k, v in posture.fields.items()} == {"S": 6, "T": 35}
+    assert [dat[a:b] for _, a, b in posture.fields.values()] == ["'B110'", "'B100011'"]
