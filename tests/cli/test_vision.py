@@ -171,12 +171,6 @@ def test_a_camera_file_without_a_camera_matrix_is_named(tmp_path: Path) -> None:
         vision.read_camera_file(bad)
 
 
-def test_check_refuses_pixels_in_one_line(images: Path) -> None:
-    done = run_pincal("check", "ur10", "sim/measurements.csv", "--nominal", "ur10", cwd=images)
-    assert done.returncode == 2
-    assert done.stderr.startswith("pincal: error: pincal check takes no pixel measurements yet")
-    assert len(done.stderr.splitlines()) == 1
-
 
 def test_detect_pairs_images_by_time(images: Path, tmp_path: Path) -> None:
     joints = read_dataset(images / "sim" / "joints.csv")

@@ -1,0 +1,117 @@
+"""``pincal check`` on pixels, as a user runs it: a camera calibrated with its robot (eye-in-hand UR10, eye-to-hand
+Panda) predicts held-out images with the intrinsics and placement its calibrated URDF carries, beside the nominal
+robot with its camera registered (calibrate's "before"); each image's reprojection error in px.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import run_pincal
+
+from pincal.calibration.check_pixels import image_errors, pixel_figures
+from pincal.calibration.check_setup import model_intrinsics
+from pincal.errors import DataError
+from pincal.identification.measurements.pixels import INTRINSICS, declared_intrinsics
+from pincal.io.dataset_reader import read_dataset
+
+
+def _ok(done: object) -> str:
+    assert done.returncode == 0, done.stdout + done.stderr  # type: ignore[attr-defined]
+    return str(done.stdout)  # type: ignore[attr-defined]
+
+
+@pytest.fixture(scope="module")
+def ur10(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An eye-in-hand UR10 campaign (14 images fitted, 5 held out, 0.3 px noise) calibrated into cal.urdf, r.json."""
+    root = tmp_path_factory.mktemp("vision_check")
+    _ok(run_pincal("simulate", "ur10", "--measure", "pixel:tool0", "--samples", "14", "--test-samples", "5",
+                   "--noise", "0.3", "--seed", "3", "--out", "sim", cwd=root))
+    _ok(run_pincal("calibrate", "ur10", "sim/measurements.csv", "--out", "cal.urdf", "--report", "r.json", cwd=root))
+    return root
+
+
+def _corners_seen(csv: Path, rows: list[str]) -> list[int]:
+    """Each sample's corners with a reading (u written), from the CSV."""
+    data = read_dataset(csv)
+    seen = [sum(int(np.isfinite(v[k, 0])) for v in data.measurements.values()) for k in range(data.n_samples)]
+    return [seen[data.sample_ids.index(s)] for s in rows]
+
+
+def test_check_predicts_held_out_pixels_as_the_calibration_did(ur10: Path) -> None:
+    out = _ok(run_pincal("check", "cal.urdf", "sim/measurements.csv", "--set", "test", "--report", "c.json",
+                         cwd=ur10))
+    report, content = json.loads((ur10 / "r.json").read_text()), json.loads((ur10 / "c.json").read_text())
+    # the URDF alone (intrinsics carried, camera and board links) predicts what the calibration reported held out
+    held_out = report["test_pixels"]
+    assert content["pixels"]["rms"] == pytest.approx(held_out["rms_after"], rel=1e-9)
+    assert content["pixels"]["nominal_rms"] == pytest.approx(held_out["rms_before"], rel=1e-9)
+    assert content["pixels"]["rms"] < 0.6 < 1.5 < content["pixels"]["nominal_rms"]  # the noise is 0.3 px per axis
+    # each image's error is the RMS of its corners': together they make the total
+    samples = content["samples"]
+    counts = _corners_seen(ur10 / "sim" / "measurements.csv", [s["sample"] for s in samples])
+    assert len(samples) == 5 and sum(counts) == content["pixels"]["n_corners"]
+    for key, total in (("pixel_error", "rms"), ("nominal_pixel_error", "nominal_rms")):
+        pooled = math.sqrt(sum(n * s[key] ** 2 for n, s in zip(counts, samples, strict=True)) / sum(counts))
+        assert pooled == pytest.approx(content["pixels"][total], rel=1e-9)
+    assert f"reprojection: MODEL {content['pixels']['rms']:.4f} px RMS" in out
+    assert f"  {samples[0]['sample']}: {samples[0]['pixel_error']:.4f} px, " in out
+    assert "verdict: MODEL predicts DATA no worse than the nominal robot" in out
+
+
+def test_the_calibrated_urdf_carries_the_intrinsics_with_their_sigma(ur10: Path) -> None:
+    report = json.loads((ur10 / "r.json").read_text())
+    camera = report["cameras"]["intrinsics.tool0"]
+    assert camera["frame"] == "tool0" and not camera["held"] and camera["board"].startswith("charuco:8x6")
+    for name in INTRINSICS:  # the data declare no nominal intrinsics: the estimates are the intrinsics
+        estimate = report["parameters"][f"intrinsics.tool0.{name}"]
+        assert (camera["intrinsics"][name], camera["std"][name]) == (estimate["value"], estimate["std"])
+    assert '"cameras":{"intrinsics.tool0"' in (ur10 / "cal.urdf").read_text()
+
+
+def test_a_model_without_intrinsics_is_refused_unless_registered(ur10: Path) -> None:
+    done = run_pincal("check", "ur10", "sim/measurements.csv", "--nominal", "ur10", cwd=ur10)
+    assert done.returncode == 2 and len(done.stderr.splitlines()) == 1
+    assert done.stderr.startswith("pincal: error: MODEL carries no intrinsics of the camera on 'tool0'")
+    out = _ok(run_pincal("check", "ur10", "sim/measurements.csv", "--nominal", "ur10", "--register", "--set", "test",
+                         cwd=ur10))
+    assert "reprojection: MODEL" in out  # the nominal robot against itself, both registered: not worse
+
+
+def test_a_fixed_camera_checked_on_a_board_on_the_hand(tmp_path: Path) -> None:
+    _ok(run_pincal("simulate", "panda", "--measure", "board_pixel:panda_hand", "--samples", "14", "--test-samples",
+                   "4", "--noise", "0.3", "--seed", "1", "--out", "sim", cwd=tmp_path))
+    _ok(run_pincal("calibrate", "panda", "sim/measurements.csv", "--out", "cal.urdf", "--report", "r.json",
+                   cwd=tmp_path))
+    _ok(run_pincal("check", "cal.urdf", "sim/measurements.csv", "--set", "test", "--report", "c.json", cwd=tmp_path))
+    held_out = json.loads((tmp_path / "r.json").read_text())["test_pixels"]
+    figures = json.loads((tmp_path / "c.json").read_text())["pixels"]
+    assert figures["rms"] == pytest.approx(held_out["rms_after"], rel=1e-9)
+    assert figures["rms"] < figures["nominal_rms"]
+
+
+def test_image_errors_pool_each_images_corners() -> None:
+    errors = {"pixel:tool0@0": np.array([[3.0, 4.0], [np.nan, np.nan], [1.0, 0.0]]),
+              "pixel:tool0@1": np.array([[0.0, 0.0], [np.nan, np.nan], [np.nan, np.nan]]),
+              "position:tool0": np.ones((3, 3))}
+    per_image = image_errors(errors, 3)
+    assert per_image is not None
+    assert per_image[0] == pytest.approx(math.sqrt(25.0 / 2)) and np.isnan(per_image[1]) and per_image[2] == 1.0
+    assert image_errors({"position:tool0": np.ones((3, 3))}, 3) is None
+    figures = pixel_figures(errors, {k: 2.0 * v for k, v in errors.items()})
+    assert figures is not None and figures["n_corners"] == 3 and figures["max"] == 5.0
+    assert figures["nominal_rms"] == pytest.approx(2.0 * figures["rms"])
+
+
+def test_model_intrinsics_hold_the_carried_values(ur10: Path) -> None:
+    data = read_dataset(ur10 / "sim" / "measurements.csv")
+    carried = {"intrinsics.tool0": {"intrinsics": {c: float(k + 1) for k, c in enumerate(INTRINSICS)}}}
+    held = model_intrinsics(carried, data, register=False)
+    assert declared_intrinsics(held.metadata, "tool0") == (tuple(float(k + 1) for k in range(9)), True)
+    with pytest.raises(DataError, match="MODEL carries no intrinsics of the camera on 'tool0'"):
+        model_intrinsics(None, data, register=False)
+    assert declared_intrinsics(model_intrinsics(None, data, register=True).metadata, "tool0") == (None, False)
