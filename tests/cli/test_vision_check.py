@@ -16,7 +16,7 @@ from conftest import run_pincal
 from pincal.calibration.check_pixels import image_errors, pixel_figures
 from pincal.calibration.check_setup import model_intrinsics
 from pincal.errors import DataError
-from pincal.identification.measurements.pixels import INTRINSICS, declared_intrinsics
+from pincal.identification.measurements.pixels import INTRINSICS, declared_intrinsics, parse_board, project
 from pincal.io.dataset_reader import read_dataset
 
 
@@ -115,3 +115,46 @@ def test_model_intrinsics_hold_the_carried_values(ur10: Path) -> None:
     with pytest.raises(DataError, match="MODEL carries no intrinsics of the camera on 'tool0'"):
         model_intrinsics(None, data, register=False)
     assert declared_intrinsics(model_intrinsics(None, data, register=True).metadata, "tool0") == (None, False)
+
+
+def test_compensate_brings_the_camera_to_poses_relative_to_the_board(ur10: Path) -> None:
+    """The pixels fix the camera's pose relative to the board (not to the robot's base, which the board's placement
+    trades with): targets of the camera in the board's frame, the truth's, reached by the true robot at the
+    calibrated model's commands to the calibration's accuracy."""
+    import pinocchio as pin
+
+    import pincal
+
+    truth = pincal.load_robot(str(ur10 / "sim" / "truth.urdf"))
+    board = truth.placement(truth.q_reference, "camera_target")
+    held_out = read_dataset(ur10 / "sim" / "measurements.csv").of_set("test")
+    columns = ",".join(f"pose:tool0_camera:{c}" for c in ("x", "y", "z", "qx", "qy", "qz", "qw"))
+    rows = [f"{s}," + ",".join(repr(float(v)) for v in pin.SE3ToXYZQUAT(board.actInv(truth.placement(q,
+                                                                                                    "tool0_camera"))))
+            for s, q in zip(held_out.sample_ids, held_out.joints, strict=True)]
+    (ur10 / "camera_targets.csv").write_text("\n".join([f"sample,{columns}", *rows]) + "\n")
+    out = _ok(run_pincal("compensate", "cal.urdf", "camera_targets.csv", "--targets-in", "board", "--out",
+                         "camera_commands.csv", cwd=ur10))
+    assert "in the board's frame, link 'camera_target'" in out and "reached 5 of 5" in out
+    lines = [line for line in (ur10 / "camera_commands.csv").read_text().splitlines() if not line.startswith("#")]
+    header = lines[0].split(",")
+    joints = [header.index(j) for j in held_out.joint_names]
+    commands = [np.array([float(line.split(",")[k]) for k in joints]) for line in lines[1:]]
+    assert [line.split(",")[header.index("status")] for line in lines[1:]] == ["ok"] * 5
+    true = json.loads((ur10 / "sim" / "truth.json").read_text())["parameters"]
+    k = np.array([true.get(f"intrinsics.tool0.{c}", 0.0) for c in INTRINSICS])
+    corners = parse_board(read_dataset(ur10 / "sim" / "measurements.csv").metadata["board"]).corners()
+
+    def seen(q: np.ndarray) -> np.ndarray:  # the board's corners the true camera sees at q [px]
+        in_camera = truth.placement(q, "tool0_camera").inverse() * board
+        return project(corners @ in_camera.rotation.T + in_camera.translation, k)[0]
+
+    off = [float(np.sqrt(np.mean(np.sum((seen(q) - seen(wanted)) ** 2, axis=1))))
+           for q, wanted in zip(commands, held_out.joints, strict=True)]
+    # the true camera at the commands sees the board within a few px of the target's view (the calibrated intrinsics'
+    # σ in cx, cy trades with the camera's rotation: a pose target is that much off)
+    assert max(off) < 4.0
+    done = run_pincal("compensate", "ur10", "camera_targets.csv", "--targets-in", "board", "--frame", "tool0",
+                      "--out", "c2.csv", cwd=ur10)
+    assert done.returncode == 2 and len(done.stderr.splitlines()) == 1
+    assert done.stderr.startswith("pincal: error: --targets-in board: MODEL has no link 'camera_target'")
