@@ -64,7 +64,8 @@ def test_images_detected_and_calibrated_give_the_true_intrinsics(images: Path) -
     assert 'link name="tool0_camera"' in (images / "cal.urdf").read_text()  # the intrinsics stay in the report
     assert _within_3_sigma(images / "r.json", images / "sim" / "truth.json", "intrinsics.tool0") == []
     # the summary's reprojection errors: the nominal robot's pixels px off, the calibrated one's at the noise
-    rows = {line.split("  ")[0]: line.split()[-4:] for line in summary.splitlines() if "reprojection" in line}
+    rows = {line.split("  ")[0]: line.split()[-4:] for line in summary.splitlines()
+            if line.startswith("RMS reprojection")}
     assert set(rows) == {"RMS reprojection error (fit)", "RMS reprojection error (held out)"}
     report = json.loads((images / "r.json").read_text())
     for part, key in (("fit", "pixels"), ("held out", "test_pixels")):
