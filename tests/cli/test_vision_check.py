@@ -201,3 +201,19 @@ def test_the_focal_length_against_the_distance_in_words() -> None:
     assert lines[1].startswith("  the focal length fx against the camera's distance to the board: σ 2 px, 7.09× what "
                                "a known placement would leave (ρ -0.99 with camera.tool0.tz)")
     assert separation_lines(_report(-0.9)) == []  # 2.29×: the views separate them well enough
+
+
+def test_the_report_page_shows_the_camera(ur10: Path) -> None:
+    out = _ok(run_pincal("report", "ur10", "sim/measurements.csv", "--out", "page.html", "--quiet", cwd=ur10))
+    assert "wrote page.html" in out
+    page = (ur10 / "page.html").read_text()
+    camera = page[page.index("<h2>Camera</h2>"):page.index("<h2>Parameters</h2>")]
+    assert 'alt="reprojection error of each image before and after calibration: 14 fitted images, 5 held out"' \
+        in camera
+    assert 'alt="residuals of the 490 fitted corners over the image plane, before (×' in camera
+    assert camera.count("<img ") == 2
+    cameras = json.loads((ur10 / "r.json").read_text())["cameras"]["intrinsics.tool0"]
+    for name in INTRINSICS:  # the page's table is the calibration's
+        value, std = cameras["intrinsics"][name], cameras["std"][name]
+        assert f"<td>intrinsics.tool0.{name}</td><td>{'px' if name[0] in 'fc' else '1'}</td><td>{value:.6g}</td>" \
+               f"<td>{std:.3g}</td>" in camera
