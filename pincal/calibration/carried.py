@@ -6,7 +6,8 @@ The element ``<pincal_calibration>`` inside ``<robot>`` holds, as JSON text, the
 bound reads (:data:`CARRIED`: the parameters' estimates [m, rad], the covariance of the identified ones, the variance
 factor, the measurements and markers it was fitted with and the σ of their rows, the payload, the fitted joint ranges
 [rad or m], the growth
-of the bound and the nominal robot's own bound [m], and the registered setup of "before"). URDF readers ignore
+of the bound and the nominal robot's own bound [m], the registered setup of "before", and each pixel camera's
+intrinsics [px, 1], so that ``check`` predicts pixels from the URDF alone). URDF readers ignore
 elements they do not know (Pinocchio and yourdfpy both load the file unchanged). docs/calibrated_urdf.md describes it.
 """
 
@@ -25,7 +26,8 @@ from pincal.errors import DataError
 ELEMENT = "pincal_calibration"
 #: The report's fields the element carries.
 CARRIED = ("schema_version", "robot", "units", "measurements", "parameters", "covariance", "sigma2", "markers",
-           "declared_markers", "payload", "fitted_range", "error_growth", "before_parameters", "selection", "row_sigma")
+           "declared_markers", "payload", "fitted_range", "error_growth", "before_parameters", "selection", "row_sigma",
+           "cameras")
 
 
 def carried_text(report: CalibrationReport) -> str:

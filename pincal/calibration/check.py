@@ -40,6 +40,9 @@ from pincal.calibration.check_groups import (
     recorded_before,
 )
 from pincal.calibration.check_model import CheckedModel
+from pincal.calibration.check_pixels import image_errors, is_pixel_key, pixel_figures, pixel_quantities, pixels_worse
+from pincal.calibration.check_pixels import largest as _largest
+from pincal.calibration.check_pixels import number as _number
 from pincal.calibration.check_plausibility import Beyond, Implausible, beyond_plausible, implausible_data
 from pincal.calibration.check_setup import (
     MODEL_AS_IS,
@@ -47,6 +50,7 @@ from pincal.calibration.check_setup import (
     NOMINAL_AS_CALIBRATED,
     NOMINAL_REGISTERED,
     file_setup,
+    model_intrinsics,
     prepare_setup,
 )
 from pincal.calibration.options import CalibrationOptions
@@ -153,17 +157,19 @@ class Check:
     def worse_than_nominal(self) -> bool:
         """Whether the model predicts the data worse than the nominal robot (by more than
         :data:`~pincal.calibration.check_groups.SAME_ERROR`): by the RMS of the length readings (positions,
-        distances), or with none, by the RMS of the σ-weighted errors."""
+        distances), else of the pixels' reprojection errors, else by the RMS of the σ-weighted errors."""
         n = len(self.sample_ids)
         model, nominal = sample_length_errors(self.model.errors, n), sample_length_errors(self.nominal.errors, n)
         if model is not None and nominal is not None:
             keep = np.isfinite(model) & np.isfinite(nominal)
             return bool(rms(model[keep]) > (1.0 + SAME_ERROR) * rms(nominal[keep]))
-        return bool(weighted_rms(self.model) > weighted_rms(self.nominal) * (1.0 + SAME_ERROR))
+        pixels = pixels_worse(self.model.errors, self.nominal.errors, SAME_ERROR)
+        return pixels if pixels is not None \
+            else bool(weighted_rms(self.model) > weighted_rms(self.nominal) * (1.0 + SAME_ERROR))
 
     def figures(self, rows: Sequence[int] | None = None) -> dict[str, Any]:
-        """RMS and max of the length errors [m] (and of the orientation errors [rad], with poses) of the model and
-        of the nominal robot, over the samples ``rows`` (None: all)."""
+        """RMS and max of the length errors [m] (and of the orientation errors [rad], with poses; of the reprojection
+        errors [px], with pixels) of the model and of the nominal robot, over the samples ``rows`` (None: all)."""
         model, nominal = _rows(self.model.errors, rows), _rows(self.nominal.errors, rows)
         out: dict[str, Any] = {"n_samples": len(self.sample_ids) if rows is None else len(rows)}
         for suffix, pick in (("", _length_norms), ("_angle", _angle_norms)):
@@ -172,13 +178,14 @@ class Check:
                 continue
             out.update({f"rms{suffix}": _number(rms(a)), f"max{suffix}": _largest(a),
                         f"nominal_rms{suffix}": _number(rms(b)), f"nominal_max{suffix}": _largest(b)})
-        return out
+        pixels = pixel_figures(model, nominal)  # the reprojection errors [px]
+        return {**out, "pixels": pixels} if pixels else out
 
     def quantities(self) -> list[dict[str, Any]]:
         """Per measurement and quantity (``length`` [m], ``angle`` [rad], ``reading`` [its unit]): the readings'
         count, RMS and max error of the model and of the nominal robot."""
         out = []
-        for m in self.model.prepared.models:
+        for m in (m for m in self.model.prepared.models if not is_pixel_key(m.key)):
             a, b = self.model.errors[m.key], self.nominal.errors[m.key]
             parts = []
             if length_columns(m.key):
@@ -192,7 +199,7 @@ class Check:
                 out.append({"measurement": m.key, "quantity": quantity, "unit": unit, "n": int(na.size),
                             "rms": _number(rms(na)), "max": _largest(na), "nominal_rms": _number(rms(nb)),
                             "nominal_max": _largest(nb)})
-        return out
+        return out + pixel_quantities(self.model.prepared.models, self.model.errors, self.nominal.errors)
 
     def samples(self) -> list[dict[str, Any]]:
         """Per checked sample: its id, its length error [m] and orientation error [rad] (None without such a
@@ -202,6 +209,7 @@ class Check:
         outside = set(self.outside_samples)
         length_a, length_b = (sample_length_errors(s.errors, n) for s in (self.model, self.nominal))
         angle_a, angle_b = (sample_angle_errors(s.errors, n) for s in (self.model, self.nominal))
+        pixel_a, pixel_b = (image_errors(s.errors, n) for s in (self.model, self.nominal))
         out = []
         for k, sample in enumerate(self.sample_ids):
             entry: dict[str, Any] = {"sample": sample}
@@ -209,6 +217,8 @@ class Check:
                 entry.update({"error": _number(length_a[k]), "nominal_error": _number(length_b[k])})
             if angle_a is not None and angle_b is not None:
                 entry.update({"angle_error": _number(angle_a[k]), "nominal_angle_error": _number(angle_b[k])})
+            if pixel_a is not None and pixel_b is not None:  # the image's reprojection error [px]
+                entry.update({"pixel_error": _number(pixel_a[k]), "nominal_pixel_error": _number(pixel_b[k])})
             entry["outside_range"] = sample in outside
             if self.predicted is not None:
                 entry.update({"bound": _number(self.predicted.bound[k]), "distance": float(self.predicted.distance[k]),
@@ -251,15 +261,6 @@ def _angle_norms(errors: dict[str, Array]) -> Array:
     parts = [_norms(err[:, angle_columns(key)]) for key, err in errors.items()
              if angle_columns(key).stop > angle_columns(key).start]
     return np.concatenate(parts) if parts else np.zeros(0)
-
-
-def _number(value: float) -> float | None:
-    """A figure for JSON: None when not finite (no reading)."""
-    return float(value) if np.isfinite(value) else None
-
-
-def _largest(values: Array) -> float | None:
-    return float(values.max()) if values.size else None
 
 
 def sample_angle_errors(errors: dict[str, Array], n: int) -> Array | None:
@@ -332,15 +333,13 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
     Raises:
         DataError: the data measure a frame a robot lacks, no sample usable by both, lengths or joint readings in the
             wrong unit (:func:`~pincal.calibration.pipeline.check_units`, as ``calibrate`` refuses them, before any
-            work), a camera the model holds no link for (without ``register``).
+            work), a camera the model holds no link or intrinsics for (without ``register``).
     """
-    if any(key.partition(":")[0] in ("pixel", "board_pixel") for key in dataset.measurements):
-        raise DataError("pincal check takes no pixel measurements yet (a calibrated URDF holds no camera intrinsics): "
-                        "give the images to check as held-out rows (set=test) of pincal calibrate")
     setup = options.replace(parameter_spec=None, markers="each", payload=None)
     nominal_prepared = prepare_setup(nominal, dataset, setup)
     check_units(nominal_prepared, dataset, options.plausible)
-    model_data = model.readings(dataset, nominal)
+    model_data = model_intrinsics(model.calibration.cameras if model.calibration is not None else None,
+                                  model.readings(dataset, nominal), register)
     model_prepared = prepare_setup(model.robot, model_data, setup)
     model_prepared, nominal_prepared, dropped = _common(model_prepared, nominal_prepared, model_data, dataset)
     x_model = file_setup(model_prepared.problem, register)

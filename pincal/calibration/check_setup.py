@@ -1,8 +1,10 @@
 """The measurement setup of ``pincal check``: what a day's measurements may have moved without touching the robot.
 
-The setup is the measurement frame (``base.*``), the markers, the cameras and their targets, and the planes a frame
-touches. A check prepares each robot with these as its only parameters (:func:`prepare_setup`); the model's values are
-those its calibrated URDF holds (:func:`file_setup`, docs/calibrated_urdf.md), [m, rad].
+The setup is the measurement frame (``base.*``), the markers, the cameras and their targets, the planes a frame
+touches, and the intrinsics of the cameras that read pixels (the nominal robot's registered on the data as calibrate's
+"before" fits them; MODEL's held at the values its calibration carries, :func:`model_intrinsics`). A check prepares
+each robot with these as its only parameters (:func:`prepare_setup`); the model's values are those its calibrated URDF
+holds (:func:`file_setup`, docs/calibrated_urdf.md), [m, rad].
 """
 
 from __future__ import annotations
@@ -14,7 +16,8 @@ import pinocchio as pin
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.setup import Prepared, dataset_models, parameters_for, prepare
 from pincal.errors import DataError
-from pincal.identification.measurements import PLANE, split_target
+from pincal.identification.measurements import PLANE, parse_key, split_target
+from pincal.identification.measurements.pixels import INTRINSICS, Pixel, declared_intrinsics, intrinsics_name
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.starts import set_placement
 from pincal.io.calibrated_urdf import attached_link, marker_link
@@ -24,14 +27,15 @@ from pincal.model.robot import Robot
 Array = npt.NDArray[np.float64]
 
 #: The parameter kinds of the measurement setup: what a day's measurements may have moved, not the robot.
-SETUP_KINDS = ("base", "marker", "cluster", "camera", "target", PLANE)
+SETUP_KINDS = ("base", "marker", "cluster", "camera", "target", PLANE, "intrinsics")
 
-MODEL_AS_IS = ("MODEL as it stands: the measurement frame, markers, cameras, targets and contact planes the file "
-               "holds; nothing estimated")
+MODEL_AS_IS = ("MODEL as it stands: the measurement frame, markers, cameras (their intrinsics too), targets and "
+               "contact planes the file holds; nothing estimated")
 MODEL_REGISTERED = ("MODEL's robot with its measurement setup (measurement frame, markers, cameras, targets, contact "
-                    "planes) re-estimated on DATA by least squares, its geometry held")
-NOMINAL_REGISTERED = ("the nominal robot with its measurement setup (measurement frame, markers, cameras, targets, "
-                      "contact planes) registered on DATA by least squares from its placement in closed form")
+                    "planes) re-estimated on DATA by least squares, its geometry and camera intrinsics held")
+NOMINAL_REGISTERED = ("the nominal robot with its measurement setup (measurement frame, markers, cameras and their "
+                      "intrinsics, targets, contact planes) registered on DATA by least squares from its placement in "
+                      "closed form")
 NOMINAL_AS_CALIBRATED = ("the nominal robot with the measurement setup the calibration registered for it on its own "
                          "data (calibrate's 'before', recorded in MODEL), as it stands, as MODEL is")
 
@@ -82,3 +86,39 @@ def file_setup(problem: CalibrationProblem, register: bool) -> Array:
                             f"model cannot predict the {readings} readings as it stands; check with --register, which "
                             f"places the {'planes' if kind == PLANE else 'cameras and targets'} on DATA")
     return x
+
+
+def pixel_cameras(dataset: Dataset) -> list[str]:
+    """The cameras whose pixels ``dataset`` holds, by owner (a frame; empty: the fixed camera), in column order."""
+    owners: list[str] = []
+    for key in dataset.measurements:
+        model = parse_key(key)
+        if isinstance(model, Pixel) and model.camera not in owners:
+            owners.append(model.camera)
+    return owners
+
+
+def model_intrinsics(cameras: dict[str, dict[str, object]] | None, dataset: Dataset, register: bool) -> Dataset:
+    """``dataset`` with each pixel camera's intrinsics held at the values MODEL's calibration carries (``cameras``,
+    the report's ``cameras``: fx, fy, cx, cy [px], k1, k2, p1, p2, k3 [1]), the way MODEL predicts pixels. A camera
+    MODEL carries none of keeps the intrinsics DATA hold (``# intrinsics <frame> held: …``), or, with ``register``,
+    is estimated on DATA with the rest of MODEL's setup.
+
+    Raises:
+        DataError: a camera whose intrinsics neither MODEL nor DATA hold, without ``register``.
+    """
+    metadata = dict(dataset.metadata)
+    for owner in pixel_cameras(dataset):
+        carried = (cameras or {}).get(intrinsics_name(owner))
+        values = carried.get("intrinsics") if isinstance(carried, dict) else None
+        if isinstance(values, dict) and all(isinstance(values.get(c), int | float) for c in INTRINSICS):
+            name = f"intrinsics {owner}".strip()
+            metadata.pop(name, None)
+            metadata[f"{name} held"] = " ".join(repr(float(values[c])) for c in INTRINSICS)
+        elif not declared_intrinsics(metadata, owner)[1] and not register:
+            camera = f"the camera on '{owner}'" if owner else "the fixed camera"
+            raise DataError(f"MODEL carries no intrinsics of {camera} (a calibrated URDF or report of pincal "
+                            "calibrate on pixels does): give DATA the camera's intrinsics held (detect "
+                            "--camera-file), or check with --register, which estimates them on DATA")
+    return Dataset(dataset.joint_names, dataset.joints, dataset.measurements, dataset.sample_ids, dataset.sets,
+                   metadata)

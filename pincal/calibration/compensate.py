@@ -38,7 +38,9 @@ Array = npt.NDArray[np.float64]
 #: Largest residual [m, rad] of the calibrated model at the commands for a target to count as reached.
 TOLERANCE = 1e-9
 #: The choices of ``targets_in``.
-TARGET_FRAMES = ("measurement", "base")
+TARGET_FRAMES = ("measurement", "base", "board")
+#: The link of the board an eye-in-hand camera sees, fixed in the robot's world (``--targets-in board``).
+BOARD_LINK = "camera_target"
 #: Targets solved together: enough that the stacked solves' fixed cost is spread thin (2000 UR10 poses took 40 % longer
 #: in blocks of 500, 90 % in blocks of 250).
 BLOCK = 1000
@@ -235,6 +237,8 @@ class Compensation:
 def targets_frame(compensation: Compensation) -> str:
     """In words, the frame the targets are in."""
     root = str(compensation.model.robot.model.frames[1].name)
+    if compensation.targets_in == "board":
+        return f"the board's frame, link '{BOARD_LINK}' (the calibrated board an eye-in-hand camera sees)"
     if compensation.targets_in == "base" or root != MEASUREMENT_FRAME:
         return f"the robot's base frame, link '{compensation.base}'" + (
             " (the model's root: it has no measurement frame)" if root != MEASUREMENT_FRAME else "")
@@ -253,14 +257,17 @@ def compensate(model: Model, targets: Targets, frame: str | None = None, targets
             :data:`~pincal.io.targets.MAX_TARGETS`.
         frame: The frame that goes to the targets (:func:`reached_frame` by default).
         targets_in: ``measurement``: the targets are in the model's root frame (the measurement frame of a calibrated
-            URDF that estimated it); ``base``: in the robot's own root link (:func:`base_link`).
+            URDF that estimated it); ``base``: in the robot's own root link (:func:`base_link`); ``board``: in the
+            frame of the board an eye-in-hand camera sees (:data:`BOARD_LINK`, where the calibration placed it: the
+            pixels fix the camera's pose relative to the board, not to the robot's base).
         tolerance: Largest residual [m, rad] of a reached target, > 0.
         seed: Seed of the random starts, a whole number ≥ 0.
         progress: Show a progress bar on stderr when it is a terminal.
 
     Raises:
         TypeError, ArgumentError: an argument of the wrong type or value (named, with the value).
-        DataError: pose targets for a robot of fewer than 6 degrees of freedom; a frame no actuated joint moves.
+        DataError: pose targets for a robot of fewer than 6 degrees of freedom; a frame no actuated joint moves;
+            ``board`` for a model without the board's link.
         NotFoundError: an unknown frame.
     """
     _check_arguments(model, targets, frame, targets_in, tolerance, seed)
@@ -272,6 +279,11 @@ def compensate(model: Model, targets: Targets, frame: str | None = None, targets
     name = reached_frame(robot, targets, frame)
     base = base_link(robot)
     world_from_targets = robot.placement(robot.q_reference, base) if targets_in == "base" else pin.SE3.Identity()
+    if targets_in == "board":
+        if not robot.model.existFrame(BOARD_LINK):
+            raise DataError(f"--targets-in board: MODEL has no link '{BOARD_LINK}' (a URDF calibrated on an "
+                            "eye-in-hand camera's pixels or poses holds the board it saw there)")
+        world_from_targets = robot.placement(robot.q_reference, BOARD_LINK)
     solver = CommandSolver(model, name, tolerance, seed)
     every = goals(targets, world_from_targets)
     n, na = len(targets.ids), robot.n_actuated
@@ -298,7 +310,8 @@ def _check_arguments(model: Any, targets: Any, frame: Any, targets_in: Any, tole
         validation.instance("frame", frame, str, "a frame name (str) or None")
     validation.instance("targets_in", targets_in, str, f"one of {', '.join(TARGET_FRAMES)}")
     if targets_in not in TARGET_FRAMES:
-        raise ArgumentError(f"targets_in={targets_in!r}: choose {' or '.join(repr(c) for c in TARGET_FRAMES)}")
+        raise ArgumentError(f"targets_in={targets_in!r}: choose "
+                            f"{', '.join(repr(c) for c in TARGET_FRAMES[:-1])} or {TARGET_FRAMES[-1]!r}")
     validation.real("tolerance", tolerance, "m, rad", strict=True)
     validation.whole("seed", seed, 0)
     kind = targets.kind

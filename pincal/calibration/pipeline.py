@@ -25,6 +25,7 @@ import numpy.typing as npt
 
 from pincal import validation
 from pincal.calibration.carried import with_carried
+from pincal.calibration.check_pixels import image_errors
 from pincal.calibration.columns import check_columns, column_mistake, mistake_named, refuse_column_mistake
 from pincal.calibration.crossval import Folds, check_cross_validation, cross_validate, parse_cv
 from pincal.calibration.export_proof import calibrated_proof, with_comment
@@ -424,11 +425,17 @@ def bad_readings_of(result: CalibrationResult) -> list[BadReading]:
 
 def sample_errors(ids: list[str], before: dict[str, Array], after: dict[str, Array], part: str) -> list[dict[str, Any]]:
     """Per sample of ``part`` (``train`` or ``test``): its id and its length-type error [m] before (the nominal robot
-    with its setup registered) and after (None for a sample with no length reading)."""
+    with its setup registered) and after (None for a sample with no length reading); with pixels, its image's
+    reprojection error [px] before and after (``pixel_before``, ``pixel_after``: the RMS of its corners)."""
     n = len(ids)
-    per_before, per_after = sample_length_errors(before, n), sample_length_errors(after, n)
-    if per_before is None or per_after is None:
-        return [{"sample": s, "set": part, "before": None, "after": None} for s in ids]
-    return [{"sample": s, "set": part, "before": b if math.isfinite(b) else None,
-             "after": a if math.isfinite(a) else None}
-            for s, b, a in zip(ids, per_before.tolist(), per_after.tolist(), strict=True)]
+
+    def finite(values: Array | None) -> list[float | None]:
+        return [v if math.isfinite(v) else None for v in values.tolist()] if values is not None else [None] * n
+
+    out: list[dict[str, Any]] = [{"sample": s, "set": part, "before": b, "after": a} for s, b, a in zip(
+        ids, finite(sample_length_errors(before, n)), finite(sample_length_errors(after, n)), strict=True)]
+    images = image_errors(before, n), image_errors(after, n)
+    if images[0] is not None:
+        for entry, b, a in zip(out, finite(images[0]), finite(images[1]), strict=True):
+            entry.update({"pixel_before": b, "pixel_after": a})
+    return out

@@ -113,6 +113,8 @@ class CalibrationReport:
     #: Reprojection RMS [px] of the pixel readings, fitted and held out, before and after.
     pixels: dict[str, float | None] | None = field(default=None, metadata=OPTIONAL)
     test_pixels: dict[str, float | None] | None = field(default=None, metadata=OPTIONAL)
+    #: Each pixel camera's calibrated intrinsics and their σ (:func:`camera_figures`).
+    cameras: dict[str, dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
     max_angle_before: float | None = field(default=None, metadata=OPTIONAL)
     max_angle_after: float | None = field(default=None, metadata=OPTIONAL)
     calibration_gain: float | None = field(default=None, metadata=OPTIONAL)
@@ -375,6 +377,9 @@ def fit_figures(result: CalibrationResult, problem: CalibrationProblem, x_true: 
     if pixels_before.size:
         out["pixels"] = {"rms_before": _clean(rms(pixels_before)),
                          "rms_after": _clean(rms(pixel_error_norms(result.errors_after)))}
+    cameras = camera_figures(problem, result)
+    if cameras:
+        out["cameras"] = cameras
     if x_true is not None:
         out["calibration_gain"] = _clean(calibration_gain(x_true, result.x0, result.x))
         out["parameter_errors_before"] = float(np.linalg.norm(x_true - result.x0))
@@ -396,3 +401,29 @@ def covariance_of(result: CalibrationResult) -> dict[str, Any]:
     matrix = parameter_covariance(result)
     return {"parameters": [result.names[k] for k in result.identified],
             "matrix": [[_clean(float(v)) for v in row] for row in matrix]}
+
+
+def camera_figures(problem: CalibrationProblem, result: CalibrationResult) -> dict[str, dict[str, Any]]:
+    """Each camera that pixel readings see, by its intrinsics' prefix (``intrinsics.<frame>``, ``intrinsics`` for the
+    fixed camera): its ``frame`` (empty: fixed in the cell), the ``board`` it sees, whether its intrinsics were
+    ``held`` at the data's values, and the ``intrinsics`` the calibrated model has (the data's nominal plus the
+    estimate; ``fx, fy, cx, cy`` [px], ``k1, k2, p1, p2, k3`` [1]) with their ``std`` (None: held, or not known)."""
+    from pincal.identification.measurements.pixels import INTRINSICS, Pixel, intrinsics_name
+
+    index = {name: k for k, name in enumerate(result.names)}
+    out: dict[str, dict[str, Any]] = {}
+    for m in problem.measurements:
+        if not isinstance(m, Pixel) or intrinsics_name(m.camera) in out:
+            continue
+        prefix = intrinsics_name(m.camera)
+        values: list[float] = list(m.intrinsics)
+        stds: list[float | None] = [None for _ in INTRINSICS]
+        for c, component in enumerate(INTRINSICS):
+            k = index.get(f"{prefix}.{component}")
+            if k is not None:
+                values[c] += float(result.x[k])
+                stds[c] = _clean(float(result.std[k]))
+        out[prefix] = {"frame": m.camera, "board": m.board.spec if m.board is not None else None, "held": m.held,
+                       "intrinsics": dict(zip(INTRINSICS, values, strict=True)),
+                       "std": dict(zip(INTRINSICS, stds, strict=True))}
+    return out

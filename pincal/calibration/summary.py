@@ -14,6 +14,7 @@ from typing import Any
 from pincal import validation
 from pincal.calibration.heldout import NOISE_CONTRADICTED
 from pincal.calibration.report import CalibrationReport
+from pincal.calibration.summary_camera import camera_lines
 from pincal.calibration.summary_model import mm, mrad, predicted_lines, selection_lines
 from pincal.identification.corrections import payload_from_dict
 from pincal.identification.parameters import DEFAULT_SET, NAMED_SETS
@@ -341,6 +342,8 @@ def _readings(report: CalibrationReport) -> list[str]:
     """How many position readings the figures are made of, per marker, when a file measures several markers or
     some were not seen (nothing otherwise: then every sample holds every reading)."""
     fitted, unseen = report.readings or {}, report.readings_not_seen or {}
+    if report.cameras:  # corners, not positions: the camera lines count them
+        return camera_lines(report)
     if len(unseen) < 2 and not any(unseen.values()):
         return []
     per_frame: dict[str, list[str]] = {}

@@ -119,7 +119,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise DataError(f"--shift {twice}: given {shifted.count(twice)} times; give each parameter once, its whole "
                         "shift [m, rad]")
     if images.is_camera(args.measure):  # a board's corners in pixels, and their images
+        args.noise = images.PIXEL_NOISE if args.noise is None else args.noise
         return images.simulate_camera(args, robot)
+    args.noise = 1e-5 if args.noise is None else args.noise
     unused = [flag for flag, value in (("--board", args.board), ("--images", args.images)) if value is not None]
     if unused:
         raise DataError(f"{', '.join(unused)}: only with a camera's --measure pixel:FRAME or board_pixel:FRAME "
@@ -143,6 +145,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
           f"{len(sim.parameters)} parameters; measurement noise σ {args.noise:g}")
     for path in paths:
         print(f"wrote {path}")
+    for line in images.shift_warnings(sim.parameters, dict(args.shift or [])):
+        print(line)
     if args.meshes == "copy":
         print(f"wrote {mesh_folder(paths[1])}/ (the meshes truth.urdf names)")
     return 0
@@ -358,8 +362,9 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--test-samples", type=non_negative_int, default=0, help="extra postures held out for validation")
     add_measurement(sim)
     add_perturb(sim)
-    sim.add_argument("--noise", type=non_negative_float, default=1e-5,
-                     help="σ of the measurement noise [m, rad] (default 1e-5)")
+    sim.add_argument("--noise", type=non_negative_float, default=None,
+                     help="σ of the measurement noise [m, rad] (default 1e-5); with --measure pixel:FRAME or "
+                          "board_pixel:FRAME, of the corners [px] (default 0.3)")
     sim.add_argument("--seed", type=non_negative_int, default=0,
                      help="random seed (the robot's errors; and the postures and noise without --posture-seed)")
     sim.add_argument("--posture-seed", type=non_negative_int,

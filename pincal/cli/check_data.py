@@ -52,6 +52,7 @@ def summary_text(content: dict[str, Any]) -> str:
         lines.append(f"lengths:      {_pair(content, '', 'm')}")
     if "rms_angle" in content:
         lines.append(f"orientations: {_pair(content, '_angle', 'rad')}")
+    lines += _pixel_lines(content)
     dropped = content["dropped_samples"]
     if dropped:
         lines.append(f"samples left out ({len(dropped)}):")
@@ -64,8 +65,9 @@ def summary_text(content: dict[str, Any]) -> str:
     elif outside["samples"]:
         lines.append(f"outside the joint ranges the calibration fitted: {len(outside['samples'])} samples "
                      f"({', '.join(outside['samples'][:12])}{' …' if len(outside['samples']) > 12 else ''})")
-        lines.append(f"  outside: {_pair(outside, '', 'm')}")
-        lines.append(f"  inside:  {_pair(content['inside_range'], '', 'm')}")
+        for name, part in (("outside", outside), ("inside", content["inside_range"])):
+            lines.append(f"  {name + ':':<8} " + (f"reprojection {_pair(part['pixels'], '', 'px')}" if "pixels" in part
+                                                  and part.get("rms") is None else _pair(part, '', 'm')))
     else:
         lines.append("every posture lies within the joint ranges the calibration fitted")
     lines += _predicted_lines(content)
@@ -93,6 +95,20 @@ def summary_text(content: dict[str, Any]) -> str:
             "RMS), whatever the total: do not use MODEL there (calibrate over postures that cover them)", 120,
             subsequent_indent="  ")
     return "\n".join(lines)
+
+
+def _pixel_lines(content: dict[str, Any]) -> list[str]:
+    """The reprojection errors' lines [px]: over every corner seen, then each image's (the RMS of its corners)."""
+    if not content.get("pixels"):
+        return []
+    lines = [f"reprojection: {_pair(content['pixels'], '', 'px')} (over {content['pixels']['n_corners']} corners)",
+             "  per image (RMS of its corners): MODEL, nominal"]
+    images = [s for s in content["samples"] if "pixel_error" in s]
+    lines += [f"  {s['sample']}: {_shown(s['pixel_error'], 'px')}, {_shown(s['nominal_pixel_error'], 'px')}"
+              for s in images[:SAMPLE_LINES]]
+    if len(images) > SAMPLE_LINES:
+        lines.append(f"  … and {len(images) - SAMPLE_LINES} more (the report's 'samples')")
+    return lines
 
 
 def _register_hint(content: dict[str, Any]) -> str | None:

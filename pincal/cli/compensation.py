@@ -161,9 +161,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("targets", metavar="TARGETS", help="targets CSV [m, unit quaternions] (docs/compensate.md)")
     p.add_argument("--out", required=True,
                    help="the commands CSV to write (the nominal targets with --nominal-targets)")
-    p.add_argument("--targets-in", choices=("measurement", "base"), default="measurement",
+    p.add_argument("--targets-in", choices=("measurement", "base", "board"), default="measurement",
                    help="frame of the targets: 'measurement' (default), the model's root (a calibrated URDF's "
-                        "measurement_frame, the frame of the calibration data); 'base', the robot's own root link")
+                        "measurement_frame, the frame of the calibration data); 'base', the robot's own root link; "
+                        "'board', the calibrated board an eye-in-hand camera sees (link camera_target), for targets "
+                        "of the camera (pose:<frame>_camera) relative to the board")
     p.add_argument("--frame", help="frame of MODEL that goes to the targets (default: what the targets' columns read, "
                                    "see above)")
     p.add_argument("--nominal", metavar="ROBOT",

@@ -28,6 +28,23 @@ def add_camera_arguments(parser: argparse.ArgumentParser) -> None:
                                          "holds the exact corners")
 
 
+#: The corners' noise σ [px] of a simulated camera campaign without --noise: sub-pixel corners of sharp images.
+PIXEL_NOISE = 0.3
+
+
+def shift_warnings(parameters: Any, shift: dict[str, float]) -> list[str]:
+    """A warning for each ``--shift`` beyond the largest correction a robot of the model plausibly needs (its kind's
+    ``plausible`` limit [m, rad]), which calibrate's checks of plausibility hold to."""
+    out = []
+    for p in parameters:
+        limit = p.kind_class.plausible_limit(p.unit) if p.name in shift else None
+        if limit is not None and abs(shift[p.name]) > limit:
+            out.append(f"warning: --shift {p.name}={shift[p.name]:g} [{p.unit}] is beyond the {limit:.3g} {p.unit} a "
+                       "robot of this model is plausibly off by (calibrate's limit, docs/calibrated_urdf.md): its data "
+                       "are of a robot a calibration will not take as one of this model")
+    return out
+
+
 #: The file names taken for images in an --images folder (lower case).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 
@@ -100,12 +117,19 @@ def cmd_detect(args: argparse.Namespace) -> int:
     from pincal.io.vision import detect_corners, opencv, read_camera_file
 
     board = parse_board(args.board)
-    pixel_kind(args.measure)
+    frame = pixel_kind(args.measure)[1]
     inputs = [*args.images, args.joints, *([args.camera_file] if args.camera_file else [])]
     check_outputs([("--out", args.out)], inputs)
+    joints = read_dataset(args.joints)
+    robot = args.robot or joints.metadata.get("robot")
+    if robot:  # the frame named, before any work
+        from pincal.model.robot import load_robot
+
+        load_robot(robot).frame_id(frame, "--measure: ")
+    else:
+        print(f"note: frame '{frame}' not checked: the joints file names no robot ('# robot: …'); give --robot ROBOT")
     opencv()
     held = read_camera_file(args.camera_file) if args.camera_file else None
-    joints = read_dataset(args.joints)
     detections = detect_corners(args.images, board, args.min_corners, args.min_sharpness)
     paired = pair(detections, joints, args.measure, board, held, args.tolerance if args.pair == "time" else None)
     for what, why in paired.left_out.items():
@@ -137,6 +161,8 @@ def register(sub: Any) -> None:
     det.add_argument("--measure", required=True, help="pixel:FRAME (the camera on FRAME, the board fixed in the "
                                                       "cell) or board_pixel:FRAME (the board on FRAME, the camera "
                                                       "fixed)")
+    det.add_argument("--robot", help="the robot (URDF or known name) whose frame --measure names, checked before any "
+                                     "work (default: the joints file's '# robot:' line)")
     det.add_argument("--pair", choices=("name", "time"), default="name",
                      help="pair each image with the joint row of its name (default), or of its time: the image's name "
                           "is its time [s], the joints file's 'time' column the rows' (nearest within --tolerance)")

@@ -26,6 +26,7 @@ from pincal.io.files import make_directory, write_text
 from pincal.progress import Progress
 from pincal.viz.page_style import SCENE_LISTENER
 from pincal.viz.page_style import STYLE as STYLE  # check_page reads it here
+from pincal.viz.pixel_views import camera_section
 from pincal.viz.scene import CalibrationView, static_scene, workspace_points
 from pincal.viz.static_page import provenance_html, workspace_text
 
@@ -405,6 +406,7 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
     tied = (", and the parameters tied to them (see below) may then differ from the truth while predicting the "
             "measurements just as well") if report.unidentifiable and content.truth else ""
     n_test = None if test_before is None else len(test_before)
+    elsewhere = "camera below" if report.cameras else "parameter estimates"
     named, note = report_robot(report) if report.robot else (problem.robot.name, "")
     title = f"Calibration of {named}"
     sources = " · ".join(html.escape(s) for s in content.sources)
@@ -431,8 +433,9 @@ the samples; drag to orbit, scroll to zoom.{' ' + html.escape(dots[:1].upper() +
 <h2>Summary</h2>
 {_summary_table(report, n_test)}
 <h2>Errors</h2>
-{''.join(figures[:2]) if has_lengths else '<p>No length-type measurement: see the parameter estimates.</p>'}
+{''.join(figures[:2]) if has_lengths else f'<p>No length-type measurement: see the {elsewhere}.</p>'}
 {predicted_uncertainty(report)}
+{camera_section(content)}
 <h2>Parameters</h2>
 {''.join(figures[2:] if has_lengths else figures)}
 <p>Deviations from the nominal robot (lengths in mm, angles in degrees); σ is the standard deviation of the

@@ -31,7 +31,7 @@ VALUES: list[tuple[dict[str, Any], str]] = [
     ({"tolerance": -1}, "tolerance=-1: must be a finite number > 0 [m, rad]"),
     ({"tolerance": 0.0}, "tolerance=0.0: must be a finite number > 0 [m, rad]"),
     ({"seed": -1}, "seed=-1: must be a whole number ≥ 0"),
-    ({"targets_in": "world"}, "targets_in='world': choose 'measurement' or 'base'"),
+    ({"targets_in": "world"}, "targets_in='world': choose 'measurement', 'base' or 'board'"),
 ]
 
 
