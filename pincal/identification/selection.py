@@ -307,10 +307,10 @@ def _fitted_criterion(problem: CalibrationProblem, result: CalibrationResult) ->
 
 def fold_prior(fitted: SelectedFit) -> Callable[[npt.NDArray[np.intp]], Array] | None:
     """For a fit whose prior the evidence chose: the prior σ [parameter units] the evidence chooses on a subset of its
-    samples (the sample indices it is given), linearised at the fit (:func:`_weighted_linear`; one fixed point over the
-    kept groups, no evaluation): the fit's own prior σ times the ratio of the evidence's choice on those samples to
-    its choice, so linearised, on all of them (the range guard's divisor kept): what a hold-out refit would be held by
-    had the selection seen only its samples. The predicted bound's hold-outs refit with it
+    samples (the sample indices it is given), linearised at the fit (:func:`_weighted_linear`; one accelerated fixed
+    point over the kept groups, no evaluation): the fit's own prior σ times the ratio of the evidence's choice on
+    those samples to its choice, so linearised, on all of them (the range guard's divisor kept): what a hold-out refit
+    would be held by had the selection seen only its samples. The predicted bound's hold-outs refit with it
     (:func:`~pincal.calibration.growth.estimate_growth`), so that the bound sees how much the choice varies with the
     samples. None when the prior was not the evidence's."""
     if fitted.evidence is None or fitted.prior_sigma is None or not fitted.result.converged:
@@ -327,7 +327,7 @@ def fold_prior(fitted: SelectedFit) -> Callable[[npt.NDArray[np.intp]], Array] |
     held = fitted.prior_sigma
 
     def chosen(kept: npt.NDArray[np.bool_]) -> Array:
-        choice = choose_prior(jac[kept], y0[kept], groups, base, pset.scales, present)
+        choice = choose_prior(jac[kept], y0[kept], groups, base, pset.scales, present, accelerated=True)
         sigma = np.where([g in choice.left_out for g in groups], base * FACTOR_RANGE[0], choice.sigma)
         return np.asarray(sigma / math.sqrt(max(choice.noise, 1e-300)), dtype=float)
 
