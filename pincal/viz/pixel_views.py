@@ -18,7 +18,8 @@ from matplotlib.figure import Figure
 
 from pincal.calibration.check_pixels import image_errors, is_pixel_key
 from pincal.identification.measurements.pixels import INTRINSICS
-from pincal.viz.plots import AFTER, BEFORE, margins, png_bytes
+from pincal.viz.plots import png_bytes
+from pincal.viz.svg_figures import AFTER, BEFORE
 
 if TYPE_CHECKING:
     from pincal.viz.html_report import ReportContent
@@ -35,7 +36,7 @@ def images_figure(fit: tuple[Array, Array], held: tuple[Array, Array] | None) ->
     """Each image's reprojection error [px] before and after, fitted images then held-out ones (log scale)."""
     figure = Figure(figsize=(7.5, 3.4))
     ax = figure.subplots()
-    margins(figure)
+    figure.set_layout_engine("tight")
     parts = [(fit, 0, "o", "")] + ([(held, len(fit[0]), "s", " (held out)")] if held is not None else [])
     for (before, after), first, marker, label in parts:
         index = np.arange(first, first + len(before))
