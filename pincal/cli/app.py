@@ -469,11 +469,22 @@ def main(argv: Sequence[str] | None = None) -> int:
               file=sys.stderr)
         return EXIT_ERROR
     except Exception as exc:  # a bug: one line for the user, the traceback with --debug
+        if _interrupt_pending():  # a Ctrl-C inside a C extension's import surfaces as its ImportError (NumPy's)
+            print("pincal: interrupted", file=sys.stderr)
+            return 130
         if args.debug:
             raise
         print(f"pincal: internal error: {type(exc).__name__}: {exc} (a bug in pincal: run again with --debug and "
               "report the traceback)", file=sys.stderr)
         return EXIT_BUG
+
+
+
+def _interrupt_pending() -> bool:
+    """Whether the command's SIGINT handler (:mod:`pincal.__main__`, the console script's module, or ``__main__``
+    under ``python -m pincal``) has seen a Ctrl-C: an exception raised after it is the interrupt's doing."""
+    entry = sys.modules.get("pincal.__main__") or sys.modules.get("__main__")
+    return bool(getattr(entry, "_interrupted", False))
 
 
 if __name__ == "__main__":

@@ -435,7 +435,7 @@ the samples; drag to orbit, scroll to zoom.{' ' + html.escape(dots[:1].upper() +
 <h2>Errors</h2>
 {''.join(figures[:2]) if has_lengths else f'<p>No length-type measurement: see the {elsewhere}.</p>'}
 {predicted_uncertainty(report)}
-{camera_section(content)}
+{camera_section(content.view, content.truth)}
 <h2>Parameters</h2>
 {''.join(figures[2:] if has_lengths else figures)}
 <p>Deviations from the nominal robot (lengths in mm, angles in degrees); σ is the standard deviation of the

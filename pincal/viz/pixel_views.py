@@ -22,7 +22,7 @@ from pincal.viz.plots import png_bytes
 from pincal.viz.svg_figures import AFTER, BEFORE
 
 if TYPE_CHECKING:
-    from pincal.viz.html_report import ReportContent
+    from pincal.viz.scene import CalibrationView
 
 Array = npt.NDArray[np.float64]
 
@@ -81,9 +81,8 @@ def plane_figure(corners: Array, before: Array, after: Array) -> tuple[Figure, f
     return figure, scales[0], scales[1]
 
 
-def _plane_data(content: ReportContent) -> tuple[Array, Array, Array]:
+def _plane_data(view: CalibrationView) -> tuple[Array, Array, Array]:
     """The fitted corners seen: measured (u, v) [px] and the residuals before and after [px]."""
-    view = content.view
     points, before, after = [], [], []
     for key, values in view.problem.observations.values.items():
         if not is_pixel_key(key):
@@ -114,12 +113,12 @@ def intrinsics_table(cameras: dict[str, dict[str, Any]], truth: dict[str, float]
     return f"<table>{head}{''.join(rows)}</table>"
 
 
-def camera_section(content: ReportContent) -> str:
-    """The page's camera section (empty without pixels): the images' errors, the image plane, the intrinsics."""
-    report = content.view.report
+def camera_section(view: CalibrationView, truth: dict[str, float] | None) -> str:
+    """The page's camera section of the calibration ``view`` (empty without pixels): the images' errors, the image
+    plane, the intrinsics (with the ``truth`` [px, 1] when known)."""
+    report = view.report
     if not report.cameras:
         return ""
-    view = content.view
     n = view.problem.observations.n_samples
     fit = image_errors(view.errors_before, n), image_errors(view.errors_after, n)
     if fit[0] is None or fit[1] is None:
@@ -132,7 +131,7 @@ def camera_section(content: ReportContent) -> str:
     parts = [_png(images_figure((fit[0], fit[1]), held),
                   f"reprojection error of each image before and after calibration: {n} fitted images"
                   + (f", {len(held[0])} held out" if held is not None else ""))]
-    corners, before, after = _plane_data(content)
+    corners, before, after = _plane_data(view)
     if len(corners):
         figure, magnified_before, magnified_after = plane_figure(corners, before, after)
         parts.append(_png(figure, f"residuals of the {len(corners)} fitted corners over the image plane, before "
@@ -142,5 +141,5 @@ def camera_section(content: ReportContent) -> str:
                  "misses; a pattern that turns about the centre, to a principal point or a rotation left "
                  "unseparated. Before: the fit's start, the nominal robot with its camera and intrinsics placed in "
                  "closed form (Zhang, then hand-eye).</p>")
-    parts.append(intrinsics_table(report.cameras, content.truth))
+    parts.append(intrinsics_table(report.cameras, truth))
     return "<h2>Camera</h2>\n" + "\n".join(parts)

@@ -166,5 +166,5 @@ def test_the_summary_and_the_page_name_the_errors_of_a_plane_contact(campaign: P
         lines[1].startswith("RMS plane distance error "), done.stdout
     text = page.read_text(encoding="utf-8")
     for label in ("RMS plane distance error (held out)", "RMS tilt error (fit)",
-                  'alt="histograms of the plane distance errors before and after calibration'):
+                  'aria-label="histograms of the plane distance errors before and after calibration'):
         assert label in text
