@@ -69,6 +69,8 @@ def _pack(value: Any, names: Mapping[str, str], out: list[bytes]) -> None:
     elif kind is bytes:
         _length(out, len(value), 0, 0, (b"\xc4", b"\xc5", b"\xc6"))
         out.append(value)
+    elif isinstance(value, float):  # NumPy's float64, a float as umsgpack tests it
+        out.append(b"\xca" + _FLOAT(value))
     else:
         import umsgpack
 

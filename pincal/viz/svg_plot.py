@@ -51,8 +51,7 @@ def _nice_step(span: float, count: int = 5) -> float:
 def linear_ticks(low: float, high: float) -> list[tuple[float, str]]:
     """Ticks of a linear axis from ``low`` to ``high``: (value, label)."""
     step = _nice_step(high - low)
-    decimals = max(0, -math.floor(math.log10(step) + 1e-9)) + (1 if round(step / 10.0 ** math.floor(
-        math.log10(step) + 1e-9), 6) == 2.5 else 0)
+    decimals = next(d for d in range(12) if abs(round(step * 10**d) - step * 10**d) < 1e-6 * step * 10**d or d == 11)
     first = math.ceil(low / step - 1e-9)
     ticks = []
     for k in range(first, math.floor(high / step + 1e-9) + 1):

@@ -13,6 +13,7 @@ def test_linear_ticks_are_round_steps_within_the_limits() -> None:
     assert linear_ticks(-0.3, 1.05) == [(0.0, "0"), (0.5, "0.5"), (1.0, "1.0")]
     assert linear_ticks(-0.1, 1.05) == [(0.0, "0"), (0.25, "0.25"), (0.5, "0.50"), (0.75, "0.75"), (1.0, "1.00")]
     assert [t for _, t in linear_ticks(-330.0, 230.0)] == ["-200", "0", "200"]
+    assert [t for _, t in linear_ticks(-5.0, 105.0)] == ["0", "25", "50", "75", "100"]  # no decimal a step lacks
 
 
 def test_log_ticks_are_decades_and_their_halves_when_few() -> None:
