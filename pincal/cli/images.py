@@ -112,7 +112,7 @@ def cmd_detect(args: argparse.Namespace) -> int:
     from pincal.identification.measurements import parse_board
     from pincal.io.dataset import dataset_text
     from pincal.io.dataset_reader import read_dataset
-    from pincal.io.detections import pair, pixel_kind
+    from pincal.io.detections import bag_joints, is_bag, pair, pixel_kind
     from pincal.io.files import check_outputs, write_texts
     from pincal.io.vision import detect_corners, opencv, read_camera_file
 
@@ -120,11 +120,18 @@ def cmd_detect(args: argparse.Namespace) -> int:
     frame = pixel_kind(args.measure)[1]
     inputs = [*args.images, args.joints, *([args.camera_file] if args.camera_file else [])]
     check_outputs([("--out", args.out)], inputs)
-    joints = read_dataset(args.joints)
+    from pincal.model.robot import load_robot
+
+    if is_bag(args.joints):  # joint states streamed while the images were taken: paired by time
+        if args.pair != "time" or not args.robot:
+            raise DataError(f"--joints '{args.joints}' is a ROS bag: its joint states pair with the images by time "
+                            "and are read by the robot's joint names: give --pair time and --robot ROBOT")
+        joints = bag_joints(args.joints, args.joints_topic, load_robot(args.robot).actuated_joints)
+        joints.metadata["robot"] = args.robot
+    else:
+        joints = read_dataset(args.joints)
     robot = args.robot or joints.metadata.get("robot")
     if robot:  # the frame named, before any work
-        from pincal.model.robot import load_robot
-
         load_robot(robot).frame_id(frame, "--measure: ")
     else:
         print(f"note: frame '{frame}' not checked: the joints file names no robot ('# robot: …'); give --robot ROBOT")
@@ -132,13 +139,18 @@ def cmd_detect(args: argparse.Namespace) -> int:
     held = read_camera_file(args.camera_file) if args.camera_file else None
     detections = detect_corners(args.images, board, args.min_corners, args.min_sharpness)
     paired = pair(detections, joints, args.measure, board, held, args.tolerance if args.pair == "time" else None)
-    for what, why in paired.left_out.items():
+    left_out = paired.left_out
+    if is_bag(args.joints):  # a stream: most joint states were taken between images, none is missing
+        left_out = {what: why for what, why in left_out.items() if not what.startswith("joints row ")}
+        print(f"paired {paired.dataset.n_samples} of the bag's {joints.n_samples} joint states on "
+              f"'{args.joints_topic}' with images (within {args.tolerance:g} s)")
+    for what, why in left_out.items():
         print(f"left out {what}: {why}")
     write_texts([(args.out, dataset_text(paired.dataset))])
     data = paired.dataset
     corners = sum(int((v[:, 0] == v[:, 0]).sum()) for v in data.measurements.values())
     print(f"detected {corners} corners in {data.n_samples} of {len(args.images)} images "
-          f"({len(paired.left_out)} left out); wrote {args.out}")
+          f"({len(left_out)} left out); wrote {args.out}")
     return 0
 
 
@@ -157,7 +169,11 @@ def register(sub: Any) -> None:
     det.add_argument("images", nargs="+", help="image files (PNG, JPEG, …)")
     det.add_argument("--board", required=True, help=BOARD_HELP)
     det.add_argument("--joints", required=True, help="CSV of joint readings: sample (the image's name), optional "
-                                                     "set, one column per joint [rad or m]")
+                                                     "set, one column per joint [rad or m]; or a ROS bag (.bag, "
+                                                     ".mcap, a ROS 2 bag directory) whose joint states pair with the "
+                                                     "images by time (--pair time, --robot)")
+    det.add_argument("--joints-topic", default="/joint_states",
+                     help="with a bag: the sensor_msgs/JointState topic (default /joint_states)")
     det.add_argument("--measure", required=True, help="pixel:FRAME (the camera on FRAME, the board fixed in the "
                                                       "cell) or board_pixel:FRAME (the board on FRAME, the camera "
                                                       "fixed)")

@@ -347,3 +347,18 @@ def read_bag(path: str | Path, joints_topic: str, source: MeasurementSource,
         return _joint_states(reader, bag, topic, progress), _stream(reader, bag, source, progress)
     finally:
         reader.close()
+
+
+def read_joint_states(path: str | Path, topic: str, progress: bool = False) -> JointStates:
+    """The joint states of ``topic`` in the bag at ``path``, in time order (times [s]: header stamps, else bag time).
+
+    Raises:
+        DataError: not a bag, or a damaged one; the topic carries another message type, or nothing.
+        NotFoundError: a topic the bag does not have, listing those it has.
+    """
+    bag = Path(validation.path("path", path))
+    reader = _open(bag)
+    try:
+        return _joint_states(reader, bag, validation.instance("topic", topic, str, "a topic name (str)"), progress)
+    finally:
+        reader.close()

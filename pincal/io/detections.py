@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
@@ -114,6 +115,40 @@ def _stem(path: str) -> str:
 
 #: The joints file's column of each row's time [s] when images are paired by time.
 TIME = "time"
+
+
+def is_bag(path: str) -> bool:
+    """Whether ``path`` names a ROS bag (a ROS 1 ``.bag``, an ``.mcap`` file or a ROS 2 bag directory), not a CSV."""
+    return Path(path).is_dir() or Path(path).suffix.lower() in (".bag", ".mcap", ".db3")
+
+
+def bag_joints(path: str, topic: str, joints: Sequence[str]) -> Dataset:
+    """The joint rows of a bag's joint-state messages on ``topic``, to pair images with by time: one row per message,
+    a ``time`` column [s] (its header stamp, else its bag time) and the ``joints`` named (the robot's actuated
+    joints) [rad or m]; each row named by its time.
+
+    Raises:
+        DataError: a joint no message carries, a message without one of them, or what reading the bag raises
+            (:func:`~pincal.io.bags.read_joint_states`).
+    """
+    from pincal.io.bags import read_joint_states
+
+    states = read_joint_states(path, topic)
+    missing = [j for j in joints if j not in states.names]
+    if missing:
+        raise DataError(f"bag '{path}': the joint states on '{topic}' carry no {listing(missing)} (they carry "
+                        f"{listing(states.names)})")
+    columns = [states.names.index(j) for j in joints]
+    values = states.positions[:, columns]
+    states.check_finite(list(joints), topic)
+    lacking = np.flatnonzero(np.isnan(values).any(axis=1))
+    if lacking.size:
+        raise DataError(f"bag '{path}': the joint state on '{topic}' at {states.times[lacking[0]]:.3f} s lacks "
+                        f"{listing([j for j, v in zip(joints, values[lacking[0]], strict=True) if np.isnan(v)])}"
+                        f" ({lacking.size} messages lack a joint)")
+    ids = [f"{t:.6f}" for t in states.times]
+    ids = [s if ids.count(s) == 1 else f"{s}#{k}" for k, s in enumerate(ids)]
+    return Dataset([TIME, *joints], np.column_stack([states.times, values]), {}, ids, ["train"] * len(ids), {})
 
 
 def by_time(detections: Detections, joints: Dataset, tolerance: float) -> tuple[Detections, Dataset]:

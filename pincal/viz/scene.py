@@ -33,6 +33,7 @@ from pincal.identification.problem import CalibrationProblem
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
 from pincal.progress import Progress
+from pincal.viz.camera_scene import camera_placements, draw_cameras
 from pincal.viz.static_page import SceneSummary, StaticScene, scene_page
 from pincal.viz.visuals import (
     CALIBRATED_COLOR,
@@ -306,6 +307,7 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
                                                        mg.MeshLambertMaterial(color=color))
                 root["samples"][group][tag].set_transform(segment_pose(points[k], end))
             progress.advance()
+    cameras = draw_cameras(root["cameras"], camera_placements(view, calibrated, q_calibrated, base))
     workspace = workspace_points(view.report)
     if workspace is not None:
         _draw_workspace(root["workspace"], *workspace, size=0.02 * radius)
@@ -324,6 +326,8 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
                     for fid in fids:
                         frame[group][names[fid]].set_transform(poses[group][fid][k])
                 frame["samples/current"].set_transform(translation_pose(points[k]))
+                for name, placements in cameras.items():
+                    frame["cameras"][name].set_transform(placements[k])
     vis.set_animation(animation, play=False, repetitions=1)
 
     _set_camera(vis, cloud)

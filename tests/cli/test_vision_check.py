@@ -217,3 +217,29 @@ def test_the_report_page_shows_the_camera(ur10: Path) -> None:
         value, std = cameras["intrinsics"][name], cameras["std"][name]
         assert f"<td>intrinsics.tool0.{name}</td><td>{'px' if name[0] in 'fc' else '1'}</td><td>{value:.6g}</td>" \
                f"<td>{std:.3g}</td>" in camera
+
+
+def test_the_scene_draws_the_camera_looking_at_its_board(ur10: Path) -> None:
+    """In the 3D scene, the calibrated camera's frustum rides on tool0 and the board lies in front of it at every
+    image, where the simulation drew the views (0.3 to 1 m from the board's centre), its centre inside the image."""
+    import pincal
+    from pincal.calibration.options import CalibrationOptions
+    from pincal.viz.camera_scene import camera_placements
+    from pincal.viz.scene import CalibrationView, configurations
+
+    report = CalibrationReport.read(ur10 / "r.json")
+    view = CalibrationView.from_result(pincal.load_robot("ur10"), read_dataset(ur10 / "sim" / "measurements.csv"),
+                                       report, CalibrationOptions())
+    _, _, calibrated, q = configurations(view)
+    drawn = {name: (segments, placements) for name, segments, placements, _ in
+             camera_placements(view, calibrated, q, view.base_placement().homogeneous)}
+    assert set(drawn) == {"tool0_frustum", "tool0_board"}
+    (frustum, cameras), (outline, boards) = drawn["tool0_frustum"], drawn["tool0_board"]
+    assert len(cameras) == 14 and len(boards) == 1 and frustum.shape == (16, 3) and outline.shape == (8, 3)
+    centre = np.r_[outline.max(axis=0) / 2, 1.0]  # the board's centre, in its frame
+    k = report.cameras["intrinsics.tool0"]["intrinsics"] if report.cameras else {}
+    for camera in cameras:
+        seen = np.linalg.solve(camera, boards[0] @ centre)[:3]
+        assert 0.25 < seen[2] < 1.1
+        u, v = k["fx"] * seen[0] / seen[2] + k["cx"], k["fy"] * seen[1] / seen[2] + k["cy"]
+        assert 0 < u < 2 * k["cx"] and 0 < v < 2 * k["cy"]
