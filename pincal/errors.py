@@ -15,8 +15,8 @@ class PincalError(Exception):
 
     Args:
         message: The one-line message.
-        option: The option at fault by its keyword name (``cv_seed``, whether given as a keyword, in a job file or as
-            a flag), or None.
+        option: The option or argument at fault by its keyword name (``cv_seed``, whether given as a keyword, in a
+            job file or as a flag), or None.
         column: The data column at fault (its header name, or its position from 1), or None.
         sample: The sample at fault (its id, or its row from 0), or None.
         file: The file at fault, as given, or None.

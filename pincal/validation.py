@@ -45,7 +45,8 @@ def real(name: str, value: Any, unit: str = "", *, minimum: float = 0.0, strict:
     number = float(value)
     if not math.isfinite(number) or number < minimum or (strict and number == minimum):
         bound = f"{'>' if strict else '≥'} {minimum:g}"
-        raise ArgumentError(f"{name}={shown(value)}: must be a finite number {bound}{f' [{unit}]' if unit else ''}")
+        raise ArgumentError(f"{name}={shown(value)}: must be a finite number {bound}{f' [{unit}]' if unit else ''}",
+                            option=name)
     return number
 
 
@@ -64,7 +65,7 @@ def whole(name: str, value: Any, minimum: int = 0) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise _type_error(name, value, "a whole number (int)")
     if value < minimum:
-        raise ArgumentError(f"{name}={value}: must be a whole number ≥ {minimum}")
+        raise ArgumentError(f"{name}={value}: must be a whole number ≥ {minimum}", option=name)
     return int(value)
 
 
@@ -86,9 +87,10 @@ def finite_vector(name: str, value: Any, size: int, unit: str = "") -> npt.NDArr
     units = f" [{unit}]" if unit else ""
     if array.shape != (size,):
         raise ArgumentError(f"{name}={shown(value)}: must be {size} numbers{units}, not an array of shape "
-                            f"{array.shape}")
+                            f"{array.shape}", option=name)
     if not np.all(np.isfinite(array)):
-        raise ArgumentError(f"{name}={shown(value)}: must be {size} finite numbers{units} (NaN or infinity given)")
+        raise ArgumentError(f"{name}={shown(value)}: must be {size} finite numbers{units} (NaN or infinity given)",
+                            option=name)
     return array
 
 

@@ -46,6 +46,7 @@ def test_simulate_refuses_values_the_cli_refuses(five_bar: pincal.Robot, change:
     with pytest.raises(pincal.ArgumentError) as caught:
         pincal.simulate(five_bar, ["position"], **arguments)
     assert str(caught.value) == message
+    assert caught.value.option == next(iter(change))  # the argument at fault, as a field
 
 
 SIMULATE_TYPES: list[tuple[dict[str, Any], str]] = [
@@ -138,6 +139,7 @@ def test_identify_refuses_values_it_would_silently_misuse(five_bar: pincal.Robot
         with pytest.raises(pincal.ArgumentError) as caught:
             pincal.identify(problem, **keywords)
         assert str(caught.value) == message
+        assert caught.value.option == next(iter(keywords))
 
 
 def test_the_validators_take_what_they_should() -> None:

@@ -50,7 +50,8 @@ def _check_arguments(problem: Any, x0: Any, max_iter: Any, tol: Any, prior: Any)
         start = np.asarray(x0, dtype=float)
         if start.shape != (len(problem.parameters),) or not np.all(np.isfinite(start)):
             raise ArgumentError(f"x0 has shape {start.shape}{'' if np.all(np.isfinite(start)) else ' and NaN/inf'}: "
-                                f"give {len(problem.parameters)} finite values [m, rad], one per parameter")
+                                f"give {len(problem.parameters)} finite values [m, rad], one per parameter",
+                                option="x0")
     validation.whole("max_iter", max_iter, 1)
     validation.real("tol", tol)  # 0: iterate until no step decreases the cost
     if prior is not None and np.ndim(prior):
