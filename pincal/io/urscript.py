@@ -39,6 +39,10 @@ DECIMALS = 8
 
 _CALL = re.compile(r"\b(movej|movel|movep|servoj|movec|set_tcp)\s*\(")
 _ASSIGN = re.compile(r"^[ \t]*(?:global[ \t]+|local[ \t]+)?([A-Za-z_]\w*)[ \t]*=[ \t]*(?=(?:p[ \t]*)?\[)", re.MULTILINE)
+#: Any assignment to a variable or an element of it (``x = …``, ``x[2] = …``; not ``==``): a target variable assigned
+#: anything besides its literal goes where the program puts it, not where the literal says.
+_ANY_ASSIGN = re.compile(r"^[ \t]*(?:global[ \t]+|local[ \t]+)?([A-Za-z_]\w*)[ \t]*(?:\[[^\]\n]*\][ \t]*)?=(?!=)",
+                         re.MULTILINE)
 #: A pose literal's opening: ``p[``, white space allowed between (URScript reads ``p [`` as ``p[``).
 _POSE = re.compile(r"p[ \t]*(?=\[)")
 _NAME = re.compile(r"[A-Za-z_]\w*")
@@ -115,6 +119,13 @@ def read_urscript(text: str, file: str, tcp: pin.SE3) -> Program:
         close = closing(text, opening)
         literal = _literal(text, start, close + 1) if close > 0 else None
         assigned.setdefault(match.group(1), []).append((start, literal))
+    literal_at = {start for where in assigned.values() for start, _ in where}
+    for match in _ANY_ASSIGN.finditer(text):
+        start = match.end()
+        while start < len(text) and text[start] in " \t":
+            start += 1
+        if mask[match.start(1)] and start not in literal_at:
+            assigned.setdefault(match.group(1), []).append((start, None))
     tool: pin.SE3 | None = tcp
     tool_line = 0
     used: dict[str, list[tuple[int, pin.SE3 | None, int]]] = {}
