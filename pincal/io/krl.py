@@ -189,7 +189,11 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
         elif kind == "fdat":
             _fdat(state, match.group(1).upper(), declared, data, program, src_file, line)
         else:
-            _move(program, src_file, src, code, match, line, state, uses)
+            moved = _with(state, code, match.end(), declared, data, program, src_file, line)
+            _move(program, src_file, src, code, match, line, moved or state, uses)
+            if moved is not None:  # the WITH's tool and base are the move's: set again before the next point
+                state.tool = (None, f"the tool after the WITH of line {line} (valid for that move; set it again)")
+                state.base = (None, f"the base after the WITH of line {line} (valid for that move; set it again)")
     for variable, where in uses.items():
         lines = tuple(line for line, _, _ in where)
         entries = declared.get(variable, [])
@@ -214,6 +218,62 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
                                                         "written"))
     program.targets.sort(key=lambda t: t.uses[0] if t.uses else t.line)
     return program
+
+
+_WITH = re.compile(r"[ \t]WITH\b", re.IGNORECASE)
+_WITH_SET = re.compile(r"\$(TOOL|BASE|IPO_MODE)[ \t]*=[ \t]*(.+)", re.IGNORECASE | re.DOTALL)
+_FROM_FDAT = re.compile(r"(?:STOOL2|SBASE|SIPO_MODE)[ \t]*\([ \t]*(\w+)(?:[ \t]*\.[ \t]*(\w+))?[ \t]*\)", re.IGNORECASE)
+
+
+def _with(state: _State, code: str, start: int, declared: dict[str, list[tuple[str, int, str, dict[str, tuple[str,
+          int, int]]]]], data: dict[tuple[str, int], tuple[pin.SE3 | None, str]], program: Program, file: str,
+          line: int) -> _State | None:
+    """The tool and base of the move whose keyword ends at ``start`` when its ``WITH`` clause sets them (KSS 8's spline
+    inline forms: ``$TOOL = STOOL2(FP1), $BASE = SBASE(FP1.BASE_NO), $IPO_MODE = SIPO_MODE(FP1.IPO_FRAME)``; or
+    ``TOOL_DATA[n]``, ``BASE_DATA[n]``, ``$NULLFRAME``); None when it sets neither. A value not read makes the tool
+    or base unknown (the move's points left as written, with a problem)."""
+    end = code.find("\n", start)
+    end = len(code) if end < 0 else end
+    found = _WITH.search(code, start, end)
+    if found is None:
+        return None
+    values = {}
+    for span in split_top(code, found.end(), end):
+        assignment = _WITH_SET.fullmatch(code, *stripped(code, span))
+        if assignment:
+            values[assignment.group(1).upper()] = assignment.group(2).strip()
+    if "TOOL" not in values and "BASE" not in values:
+        return None
+    moved = _State(pin.SE3.Identity(), pin.SE3.Identity())
+    moved.tool, moved.base = state.tool, state.base
+    for which, value in values.items():
+        fdat = _FROM_FDAT.fullmatch(value)
+        if which == "IPO_MODE":
+            entries = [f for f in declared.get(fdat.group(1).upper(), []) if f[2] == "FDAT"] if fdat else []
+            mode = entries[0][3].get("IPO_FRAME", ("#BASE", 0, 0))[0] if len(entries) == 1 else value
+            if mode.strip().upper() != "#BASE":
+                program.problems.append(Problem(file, line, f"WITH $IPO_MODE = {value[:30]}: not read as #BASE (a "
+                                                             "stationary tool?): its points are left as written"))
+                moved.tool = (None, f"the tool of an $IPO_MODE {value[:30]}, which pincal does not read")
+            continue
+        number: int | None = None
+        if fdat is not None and (fdat.group(2) or f"{which}_NO").upper() == f"{which}_NO":
+            entries = [f for f in declared.get(fdat.group(1).upper(), []) if f[2] == "FDAT"]
+            field_ = entries[0][3].get(f"{which}_NO") if len(entries) == 1 else None
+            number = int(field_[0]) if field_ is not None and field_[0].strip().isdigit() else None
+        indexed = re.fullmatch(rf"{which}_DATA[ \t]*\[[ \t]*(\d+)[ \t]*\]", value, re.IGNORECASE)
+        number = int(indexed.group(1)) if indexed else 0 if value.upper() == "$NULLFRAME" else number
+        if number is not None:
+            _select(moved, which, number, data)
+            continue
+        program.problems.append(Problem(file, line, f"WITH ${which} = {value[:30]}: not read; the move's points are "
+                                                     "left as written"))
+        unknown = (None, f"${which} = {value[:30]} of the WITH at line {line}, which pincal does not read")
+        if which == "TOOL":
+            moved.tool = unknown
+        else:
+            moved.base = unknown
+    return moved
 
 
 def _select(state: _State, which: str, number: int, data: dict[tuple[str, int], tuple[pin.SE3 | None, str]]) -> None:

@@ -7,7 +7,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pinocchio as pin
 from conftest import ROOT, run_pincal
+
+from pincal.io.programs import read_program
 
 KR16 = ROOT / "examples" / "data" / "robots" / "kr16_like.urdf"
 UR_POSE = "p[-0.45, -0.55, 0.20, 2.2214, -2.2214, 0.0]"
@@ -29,3 +32,37 @@ def test_urscript_pose_variable_changed_by_an_expression_is_named_and_left(tmp_p
     assert code == 1, said
     assert "cell.script line 3: target 'Pick_p': assigned 2 times" in said
     assert "0 Cartesian" in said and written == text
+
+
+POINT = "{X 1100.0,Y -200.0,Z 900.0,A 180.0,B 45.0,C 180.0,S 2,T 2}"
+CONFIG = ("DEFDAT $CONFIG\nTOOL_DATA[1]={X 0.0,Y 0.0,Z 180.0,A 0.0,B 0.0,C 0.0}\n"
+          "TOOL_DATA[2]={X 0.0,Y 100.0,Z 250.0,A 0.0,B 0.0,C 0.0}\n"
+          "BASE_DATA[1]={X 0.0,Y 0.0,Z -100.0,A 0.0,B 0.0,C 0.0}\nENDDAT\n")
+
+
+def _krl(tmp_path: Path, src: str, dat: str) -> Path:
+    (tmp_path / "config.dat").write_text(CONFIG, encoding="utf-8")
+    (tmp_path / "cell.src").write_text(f"DEF cell( )\n{src}END\n", encoding="utf-8")
+    (tmp_path / "cell.dat").write_text(f"DEFDAT cell\n{dat}ENDDAT\n", encoding="utf-8")
+    return tmp_path / "cell.src"
+
+
+def test_krl_spline_inline_form_takes_the_tool_and_base_of_its_with_clause(tmp_path: Path) -> None:
+    """KSS 8's inline form writes the tool and base of each spline move in its WITH clause, from the point's FDAT."""
+    src = ("$TOOL = TOOL_DATA[2]\n"
+           "SPTP XP1 WITH $VEL_AXIS[1] = SVEL_JOINT(100.0), $TOOL = STOOL2(FP1), $BASE = SBASE(FP1.BASE_NO), "
+           "$IPO_MODE = SIPO_MODE(FP1.IPO_FRAME), $LOAD = SLOAD(FP1.TOOL_NO)\n"
+           "SLIN XP2 WITH $TOOL = TOOL_DATA[1], $BASE = BASE_DATA[1]\nLIN XP3\n")
+    dat = (f"DECL E6POS XP1={POINT}\nDECL FDAT FP1={{TOOL_NO 1,BASE_NO 1,IPO_FRAME #BASE}}\n"
+           f"DECL E6POS XP2={POINT}\nDECL E6POS XP3={POINT}\n")
+    code, said, _ = _filter(_krl(tmp_path, src, dat), "--model", str(KR16), "--config", str(tmp_path / "config.dat"))
+    assert code == 1, said
+    for name in ("XP1", "XP2"):
+        assert f"'{name}' left as written" not in said and f"line 4: '{name}'" not in said
+    assert "2 Cartesian" in said
+    assert "cell.dat line 5: 'XP3': its tool or base is not known" in said  # after a WITH: set again, or not known
+    targets = read_program(tmp_path / "cell.src", pin.SE3.Identity(), [tmp_path / "config.dat"]).targets
+    assert [t.name for t in targets] == ["XP1", "XP2"]
+    for target in targets:  # TOOL_DATA[1] and BASE_DATA[1], not the TOOL_DATA[2] set before
+        assert target.tool.translation.tolist() == [0.0, 0.0, 0.18]
+        assert target.frame.translation.tolist() == [0.0, 0.0, -0.1]
