@@ -52,6 +52,9 @@ _DATA = re.compile(r"\b(TOOL_DATA|BASE_DATA)[ \t]*\[[ \t]*(\d+)[ \t]*\][ \t]*=[ 
 _SET = re.compile(r"^[ \t]*(\$TOOL|\$BASE)[ \t]*=[ \t]*(.*)$", re.IGNORECASE | re.MULTILINE)
 _BAS = re.compile(r"^[ \t]*BAS[ \t]*\([ \t]*#(TOOL|BASE)[ \t]*,[ \t]*(\d+)[ \t]*\)", re.IGNORECASE | re.MULTILINE)
 _FDAT = re.compile(r"^[ \t]*FDAT_ACT[ \t]*=[ \t]*(\w+)", re.IGNORECASE | re.MULTILINE)
+#: An assignment in the ``.src`` to a variable or a part of it (``XP1 = XP2``, ``XP1.Z = XP1.Z + 50``): a point
+#: changed so goes where the program puts it, not where its declaration says.
+_CHANGE = re.compile(r"^[ \t]*([A-Za-z_]\w*)[ \t]*(?:\.[ \t]*\w+[ \t]*|\[[^\]\n]*\][ \t]*)*=(?!=)", re.MULTILINE)
 _WORD = re.compile(r"[A-Za-z_$]\w*")
 _FIELD = re.compile(r"\s*([A-Za-z_]\w*(?:\[\])?)\s+(.*?)\s*$", re.DOTALL)
 
@@ -194,8 +197,17 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
             if moved is not None:  # the WITH's tool and base are the move's: set again before the next point
                 state.tool = (None, f"the tool after the WITH of line {line} (valid for that move; set it again)")
                 state.base = (None, f"the base after the WITH of line {line} (valid for that move; set it again)")
+    changed: dict[str, int] = {}
+    for match in _CHANGE.finditer(code):
+        changed.setdefault(match.group(1).upper(), line_of(src, match.start(1)))
     for variable, where in uses.items():
         lines = tuple(line for line, _, _ in where)
+        if variable in changed:
+            shown = f"line{'s' if len(lines) > 1 else ''} {', '.join(map(str, lines))}"
+            program.problems.append(Problem(src_file, changed[variable], f"point '{variable}' is changed by the "
+                                                                         f"program here (its moves: {shown}): left "
+                                                                         "as written"))
+            continue
         entries = declared.get(variable, [])
         kinds = {k for _, _, k, _ in entries}
         if len(entries) != 1 or not kinds & {*CARTESIAN, *JOINTS}:

@@ -66,3 +66,13 @@ def test_krl_spline_inline_form_takes_the_tool_and_base_of_its_with_clause(tmp_p
     for target in targets:  # TOOL_DATA[1] and BASE_DATA[1], not the TOOL_DATA[2] set before
         assert target.tool.translation.tolist() == [0.0, 0.0, 0.18]
         assert target.frame.translation.tolist() == [0.0, 0.0, -0.1]
+
+
+def test_krl_point_changed_by_the_program_is_named_and_left(tmp_path: Path) -> None:
+    src = "PTP XP1\nXP1.Z = XP1.Z + 50.0\nLIN XP1\nxp2 = XP1\nLIN XP2\nPTP XP3\n"
+    dat = f"DECL E6POS XP1={POINT}\nDECL E6POS XP2={POINT}\nDECL E6POS XP3={POINT}\n"
+    code, said, _ = _filter(_krl(tmp_path, src, dat), "--model", str(KR16))
+    assert code == 1, said
+    for line, name, moves in ((3, "XP1", "lines 2, 4"), (5, "XP2", "line 6")):
+        assert f"cell.src line {line}: point '{name}' is changed by the program here (its moves: {moves})" in said
+    assert "1 Cartesian" in said  # XP3 alone
