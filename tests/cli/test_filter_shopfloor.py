@@ -76,3 +76,29 @@ def test_krl_point_changed_by_the_program_is_named_and_left(tmp_path: Path) -> N
     for line, name, moves in ((3, "XP1", "lines 2, 4"), (5, "XP2", "line 6")):
         assert f"cell.src line {line}: point '{name}' is changed by the program here (its moves: {moves})" in said
     assert "1 Cartesian" in said  # XP3 alone
+
+
+RAPID = """MODULE Cell
+    PERS tooldata tGlue:=[TRUE,[[0,0,150],[1,0,0,0]],[1.5,[0,0,60],[1,0,0,0],0,0,0]];
+    PERS tooldata tPen:=[TRUE,[[0,0,100],[1,0,0,0]],[1.5,[0,0,60],[1,0,0,0],0,0,0]];
+    PERS robtarget pA:=[[930,0,1100],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+    VAR robtarget pB:=[[930,0,1100],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+    CONST robtarget pC:=[[930,0,1000],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+    PROC main()
+        MoveL \\Conc, pA, v500, z20, tPen;
+        pB.trans.z := pB.trans.z + 50; MoveL pB, v100, fine, tPen;
+        tGlue.tframe.trans.z := 160;
+        moveL pC, v100\\T:=5, fine, tGlue;
+    ENDPROC
+ENDMODULE
+"""
+
+
+def test_rapid_robtarget_or_tool_changed_by_the_program_is_named_and_left(tmp_path: Path) -> None:
+    program = tmp_path / "cell.mod"
+    program.write_text(RAPID, encoding="utf-8")
+    code, said, _ = _filter(program, "--model", str(KR16))
+    assert code == 1, said
+    assert "cell.mod line 9: point 'pB' is changed by the program here (its moves: line 9)" in said
+    assert "cell.mod line 6: 'pC': 'tGlue' is changed by the program at line 10: left as written" in said
+    assert "1 Cartesian" in said  # pA alone
