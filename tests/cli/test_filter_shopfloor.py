@@ -7,9 +7,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pinocchio as pin
 from conftest import ROOT, run_pincal
 
+import pincal
+from pincal.calibration.joint_commands import Model
+from pincal.calibration.program_filter import filter_program
 from pincal.io.programs import read_program
 
 KR16 = ROOT / "examples" / "data" / "robots" / "kr16_like.urdf"
@@ -102,3 +106,29 @@ def test_rapid_robtarget_or_tool_changed_by_the_program_is_named_and_left(tmp_pa
     assert "cell.mod line 9: point 'pB' is changed by the program here (its moves: line 9)" in said
     assert "cell.mod line 6: 'pC': 'tGlue' is changed by the program at line 10: left as written" in said
     assert "1 Cartesian" in said  # pA alone
+
+
+#: A UR10 posture off the branch the reference posture's inverse kinematics finds, and its tool0 pose in base [m, rad].
+BRANCH_Q = [0.4, -1.2, -1.6, -1.9, 1.5, 0.3]
+BRANCH_POSE = "p[0.46639948, 0.01211814, 0.79889303, 2.31402357, -2.09438857, 0.10836935]"
+
+
+def test_urscript_polyscope_movej_through_get_inverse_kin_is_filtered_from_its_qnear(tmp_path: Path) -> None:
+    """Polyscope writes a MoveJ waypoint as ``movej(get_inverse_kin(Waypoint_1_p, qnear=Waypoint_1_q), …)``: the
+    pose is the target, the controller's inverse kinematics starts from qnear (as pincal's must)."""
+    program = tmp_path / "cell.script"
+    q = ", ".join(map(str, BRANCH_Q))
+    program.write_text(f"def cell():\n  global Waypoint_1_p={BRANCH_POSE}\n  global Waypoint_1_q=[{q}]\n"
+                       "  movej(get_inverse_kin(Waypoint_1_p, qnear=Waypoint_1_q), a=1.39, v=1.04)\n"
+                       f"  movel(get_inverse_kin({BRANCH_POSE}, [{q}], tcp=p[0,0,0.1,0,0,0]), a=1.2)\nend\n",
+                       encoding="utf-8")
+    code, said, _ = _filter(program, "--model", "ur10")
+    assert code == 1, said
+    assert "1 Cartesian" in said and "Waypoint_1_p" in said and "Waypoint_1_q" not in said
+    assert "line 5: movel: get_inverse_kin: its argument 'tcp=p[0,0,0.1,0,0,0]' is not read" in said
+    program_read = read_program(program, pin.SE3.Identity())
+    [target] = program_read.targets
+    assert target.name == "Waypoint_1_p" and target.near is not None and target.near.tolist() == BRANCH_Q
+    robot = pincal.load_robot("ur10")
+    [result] = filter_program(program_read, Model(robot), robot).results
+    assert np.abs(result.commands - np.array(BRANCH_Q)).max() < 1e-6  # the branch of qnear, not of the reference
