@@ -198,7 +198,8 @@ def read_rapid(text: str, file: str, tcp: pin.SE3) -> Program:
     changed = _changes(text, code, kinds, frames)
     uses: dict[str, list[tuple[int, str, str]]] = {}
     joints: set[str] = set()
-    for match in _MOVE.finditer(code):
+    unquoted = re.sub(r'"[^"\n]*"', lambda m: '"' + " " * (len(m.group(0)) - 2) + '"', code)
+    for match in _MOVE.finditer(unquoted):  # a string's text (TPWrite "MoveL …") is no move
         line, keyword = line_of(text, match.start()), match.group(1)
         end = code.find(";", match.end())
         if keyword.lower().startswith("search"):

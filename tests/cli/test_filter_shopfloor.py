@@ -132,3 +132,13 @@ def test_urscript_polyscope_movej_through_get_inverse_kin_is_filtered_from_its_q
     robot = pincal.load_robot("ur10")
     [result] = filter_program(program_read, Model(robot), robot).results
     assert np.abs(result.commands - np.array(BRANCH_Q)).max() < 1e-6  # the branch of qnear, not of the reference
+
+
+def test_rapid_a_string_that_reads_like_a_move_is_not_a_move(tmp_path: Path) -> None:
+    program = tmp_path / "cell.mod"
+    text = RAPID.replace("        tGlue.tframe.trans.z := 160;\n", '        TPWrite "MoveL pA, v100, fine, tool0;";\n')
+    program.write_text(text.replace("pB.trans.z := pB.trans.z + 50; ", ""), encoding="utf-8")
+    code, said, _ = _filter(program, "--model", str(KR16))
+    assert code == 0, said
+    assert "3 Cartesian" in said
+    assert [k for k in said.splitlines() if k.startswith("warning") and "KUKA arm" not in k] == []
