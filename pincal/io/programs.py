@@ -135,7 +135,7 @@ def vendor_mismatch(language: str, names: Sequence[str]) -> str | None:
     for name in dict.fromkeys(names):
         for other, (vendor, pattern) in VENDORS.items():
             if other != language and re.search(pattern, name.lower()):
-                article = "an" if vendor[0] in "AEIOU" else "a"
+                article = "an" if vendor == "ABB" else "a"  # "an ABB arm", "a Universal Robots arm"
                 shown = "URScript" if language == "urscript" else language.upper()
                 return (f"the program is {shown} (the language of {maker}) but robot '{name}' is named like "
                         f"{article} {vendor} arm: check that MODEL and the nominal robot are the robot that runs it")

@@ -142,3 +142,11 @@ def test_rapid_a_string_that_reads_like_a_move_is_not_a_move(tmp_path: Path) -> 
     assert code == 0, said
     assert "3 Cartesian" in said
     assert [k for k in said.splitlines() if k.startswith("warning") and "KUKA arm" not in k] == []
+
+
+def test_a_rapid_program_on_a_ur_is_warned_in_plain_english(tmp_path: Path) -> None:
+    program = tmp_path / "cell.mod"
+    program.write_text(RAPID, encoding="utf-8")
+    _, said, _ = _filter(program, "--model", "ur10")
+    assert ("warning: the program is RAPID (the language of ABB) but robot 'ur10' is named like a Universal Robots "
+            "arm") in said
