@@ -148,6 +148,20 @@ def robroot(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
     return found[0] if found else None
 
 
+def _data_entries(name: str, text: str, code: str, data: dict[tuple[str, int], tuple[pin.SE3 | None, str]]) -> None:
+    """The ``TOOL_DATA[n]``, ``BASE_DATA[n]`` file ``name`` declares (``code``: its text without comments) put in
+    ``data``: each frame [m, rad] and where; one declared differently in two places is None, with both places."""
+    for match in _DATA.finditer(code):
+        found = aggregate(code, match.end())
+        frame = frame_of(found[0]) if found else None
+        key, at = (match.group(1).upper(), int(match.group(2))), f"{name} line {line_of(text, match.start())}"
+        before = data.get(key)
+        if before is None:
+            data[key] = (frame, at)
+        elif before[0] is None or frame is None or not before[0].isApprox(frame, 1e-12):
+            data[key] = (None, f"{key[0]}[{key[1]}] is declared differently in {before[1]} and {at}")
+
+
 def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dict[str, str],
              tcp: pin.SE3, world: pin.SE3 | None = None) -> Program:
     """The targets of a KRL program (module docstring): its ``.src`` text, its ``.dat`` text (None when it has none),
@@ -160,10 +174,7 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
     declared: dict[str, list[tuple[str, int, str, dict[str, tuple[str, int, int]]]]] = {}
     for name, text in {**texts, **extra}.items():
         code = comment_free(text, ";")
-        for match in _DATA.finditer(code):
-            found = aggregate(code, match.end())
-            frame = frame_of(found[0]) if found else None
-            data[(match.group(1).upper(), int(match.group(2)))] = (frame, f"{name} line {line_of(text, match.start())}")
+        _data_entries(name, text, code, data)
         if name in extra:
             if _DATA.search(code) is None and _ROBROOT.search(code) is None:
                 program.problems.append(Problem(name, 1, "--config file: no TOOL_DATA, BASE_DATA nor $ROBROOT "
@@ -294,7 +305,7 @@ def _select(state: _State, which: str, number: int, data: dict[tuple[str, int], 
         value: tuple[pin.SE3 | None, str] = (pin.SE3.Identity(), f"{name}[0] ($NULLFRAME)")
     elif (name, number) in data:
         frame, where = data[(name, number)]
-        value = (frame, f"{name}[{number}] ({where})")
+        value = (None, where) if where.startswith(f"{name}[") else (frame, f"{name}[{number}] ({where})")
     else:
         value = (None, f"{name}[{number}], which no file given holds (give the controller's $config.dat with --config)")
     if which == "TOOL":

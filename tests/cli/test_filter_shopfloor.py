@@ -150,3 +150,17 @@ def test_a_rapid_program_on_a_ur_is_warned_in_plain_english(tmp_path: Path) -> N
     _, said, _ = _filter(program, "--model", "ur10")
     assert ("warning: the program is RAPID (the language of ABB) but robot 'ur10' is named like a Universal Robots "
             "arm") in said
+
+
+def test_krl_tool_data_declared_differently_in_two_files_is_not_guessed(tmp_path: Path) -> None:
+    program = _krl(tmp_path, "$TOOL = TOOL_DATA[1]\nPTP XP1\n$TOOL = TOOL_DATA[2]\nPTP XP2\n",
+                   f"DECL E6POS XP1={POINT}\nDECL E6POS XP2={POINT}\n")
+    other = tmp_path / "backup.dat"
+    other.write_text("DEFDAT $CONFIG\nTOOL_DATA[1]={X 0.0,Y 0.0,Z 100.0,A 0.0,B 0.0,C 0.0}\n"
+                     "TOOL_DATA[2]={X 0.0,Y 100.0,Z 250.0,A 0.0,B 0.0,C 0.0}\nENDDAT\n", encoding="utf-8")
+    code, said, _ = _filter(program, "--model", str(KR16), "--config", str(tmp_path / "config.dat"), "--config",
+                            str(other))
+    assert code == 1, said
+    assert "'XP1': its tool or base is not known: TOOL_DATA[1] is declared differently in" in said
+    assert "config.dat line 2 and" in said and "backup.dat line 2" in said
+    assert "1 Cartesian" in said  # XP2: TOOL_DATA[2] is the same in both
