@@ -2,9 +2,10 @@
 
 Targets are the first argument of ``movej``, ``movel``, ``movep`` and ``servoj`` and the two of ``movec``: a pose
 literal ``p[x, y, z, rx, ry, rz]`` (metres; a rotation vector [rad]) in the robot's base frame, a joint list
-``[q1, …, q6]`` [rad], or a variable assigned one of them once (``global Waypoint_1_p=p[…]``, Polyscope's layout). The
-tool centre point is the last ``set_tcp(p[…])`` above the move, else the one the caller gives. Anything else in a
-target's place (``pose_trans(…)``, a variable assigned twice or never, ``get_inverse_kin(…)``) and a ``set_tcp`` of
+``[q1, …, q6]`` [rad], or a variable assigned one of them once (``global Waypoint_1_p=p[…]``, Polyscope's layout);
+and the pose of ``get_inverse_kin(pose, qnear=q)`` (Polyscope's MoveJ), its ``qnear`` [rad] where the controller's
+inverse kinematics starts. The tool centre point is the last ``set_tcp(p[…])`` above the move, else the one the caller
+gives. Anything else in a target's place (``pose_trans(…)``, a variable assigned twice or never) and a ``set_tcp`` of
 anything but a literal are problems, left as written; a pose or joint variable no move reads too.
 """
 

@@ -164,3 +164,16 @@ def test_krl_tool_data_declared_differently_in_two_files_is_not_guessed(tmp_path
     assert "'XP1': its tool or base is not known: TOOL_DATA[1] is declared differently in" in said
     assert "config.dat line 2 and" in said and "backup.dat line 2" in said
     assert "1 Cartesian" in said  # XP2: TOOL_DATA[2] is the same in both
+
+
+def test_a_tcp_in_millimetres_or_degrees_is_refused_by_name(tmp_path: Path) -> None:
+    program = tmp_path / "cell.script"
+    program.write_text(f"def cell():\n  movel({UR_POSE}, a=1.2, v=0.25)\nend\n", encoding="utf-8")
+    for tcp, says in (("0,0,150,0,0,0", "a tool centre point 150 m from the flange: --tcp is in metres"),
+                      ("0,0,0.15,0,180,0", "a rotation vector of 180 rad: --tcp turns in radians")):
+        done = run_pincal("filter", str(program), "--model", "ur10", "--tcp", tcp, "--out", str(tmp_path / "o.script"))
+        assert done.returncode == 2 and says in done.stderr, done.stdout + done.stderr
+        assert done.stderr.count("\n") == 1 and not (tmp_path / "o.script").exists()
+    done = run_pincal("filter", str(program), "--model", "ur10", "--robot-base", "0,0,0,0,0,90", "--out",
+                      str(tmp_path / "o.script"))
+    assert done.returncode == 2 and "a rotation vector of 90 rad: --robot-base turns in radians" in done.stderr
