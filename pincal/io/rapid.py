@@ -247,10 +247,10 @@ def read_rapid(text: str, file: str, tcp: pin.SE3) -> Program:
             continue
         if kind[0] != "robtarget" or seen.get(name, 0) != 1:
             why = ("declared more than once" if seen.get(name, 0) > 1 else "not a robtarget declared with a value")
-            program.problems.append(Problem(file, lines[0], f"point '{name}': {why}: left as written"))
+            program.problems.append(Problem(file, lines[0], f"point '{kind[3]}': {why}: left as written"))
             continue
         if len({(t, w) for _, t, w in where}) > 1:
-            program.problems.append(Problem(file, kind[1], f"'{name}' is reached with several tools or work objects "
+            program.problems.append(Problem(file, kind[1], f"'{kind[3]}' is reached with several tools or work objects "
                                                            f"(lines {', '.join(map(str, lines))}): left as written"))
             continue
         groups = _groups(code, *kind[2])

@@ -177,3 +177,11 @@ def test_a_tcp_in_millimetres_or_degrees_is_refused_by_name(tmp_path: Path) -> N
     done = run_pincal("filter", str(program), "--model", "ur10", "--robot-base", "0,0,0,0,0,90", "--out",
                       str(tmp_path / "o.script"))
     assert done.returncode == 2 and "a rotation vector of 90 rad: --robot-base turns in radians" in done.stderr
+
+
+def test_rapid_points_are_named_as_the_module_spells_them(tmp_path: Path) -> None:
+    program = tmp_path / "cell.mod"
+    program.write_text(RAPID.replace("        tGlue.tframe.trans.z := 160;\n", "        MoveL pA, v100, fine, tGlue;\n")
+                       .replace("pB.trans.z := pB.trans.z + 50; ", ""), encoding="utf-8")
+    _, said, _ = _filter(program, "--model", str(KR16))
+    assert "cell.mod line 4: 'pA' is reached with several tools or work objects (lines 8, 10)" in said
