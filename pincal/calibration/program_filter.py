@@ -188,7 +188,7 @@ def filter_program(program: Program, model: Model, nominal: Robot, base: str | N
                 previous = outcome.commands if outcome.status == OK else previous
             continue
         outcome = _one(target, solver, nominal_solver, nominal, (model_base, nominal_base, base_frame), flange_frame,
-                       previous)
+                       previous if target.near is None else target.near)
         if outcome.status == OK:
             previous = outcome.commands
         results.append(outcome)

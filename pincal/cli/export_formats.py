@@ -20,7 +20,7 @@ TCP_NOTE = 1e-6
 def cmd_export(args: argparse.Namespace) -> int:
     """``pincal export``: write the export and say what it holds; a DH table's conversion residual is printed."""
     from pincal.calibration.export_proof import dh_deviation, proof_postures, yaml_deviation
-    from pincal.calibration.provenance import file_digests, version
+    from pincal.calibration.provenance import file_digests, read_provenance, version
     from pincal.io.calibrated_urdf import source_text
     from pincal.io.corrections_file import corrections_path, robot_files
     from pincal.io.export import dh_export, joint_origins_yaml, shown_name
@@ -32,7 +32,8 @@ def cmd_export(args: argparse.Namespace) -> int:
                           "joint")
     robot = load_robot(args.robot)
     text = source_text(robot)
-    check_outputs([("--out", args.out)], robot_files(robot))
+    data = read_provenance(robot.source).data if robot.source is not None else None  # read for the proof's postures
+    check_outputs([("--out", args.out)], [*robot_files(robot), *([data] if data is not None else [])])
     digest = file_digests(robot.source).get(str(robot.source))
     source = f"{args.robot} ({f'SHA-256 {digest}, ' if digest else ''}by pincal {version()})"
     beside = corrections_path(robot.source) if robot.source is not None else None

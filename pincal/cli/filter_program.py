@@ -5,7 +5,9 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 from pincal.cli.arguments import non_negative_int, positive_float
@@ -15,15 +17,32 @@ from pincal.errors import ArgumentError, DataError
 EXIT_LEFT = 1
 
 
-def _tcp(text: str) -> tuple[float, ...]:
-    """``--tcp x,y,z,rx,ry,rz``: metres and a rotation vector [rad]."""
-    try:
-        values = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) != 6 or not all(abs(v) < float("inf") for v in values):
-        raise argparse.ArgumentTypeError(f"'{text}': give six finite numbers x,y,z,rx,ry,rz (m, rotation vector rad)")
-    return values
+#: Longest tool centre point offset [m] --tcp takes: a longer one is millimetres (150 for 0.15 m).
+LONGEST_TOOL = 5.0
+
+
+def _pose_option(what: str) -> Callable[[str], tuple[float, ...]]:
+    """The parser of ``what`` (``--tcp``, ``--robot-base``): ``x,y,z,rx,ry,rz``, metres and a rotation vector [rad];
+    a rotation vector longer than a turn (degrees), or a tool farther than :data:`LONGEST_TOOL` (millimetres), is
+    refused by name."""
+    def parse(text: str) -> tuple[float, ...]:
+        try:
+            values = tuple(float(v) for v in text.split(","))
+        except ValueError:
+            values = ()
+        if len(values) != 6 or not all(abs(v) < float("inf") for v in values):
+            raise argparse.ArgumentTypeError(f"'{text}': give six finite numbers x,y,z,rx,ry,rz (m, rotation vector "
+                                             "rad)")
+        turn = math.hypot(*values[3:])
+        if turn > 2 * math.pi + 1e-9:
+            raise argparse.ArgumentTypeError(f"'{text}': a rotation vector of {turn:g} rad: {what} turns in radians "
+                                             "(a whole turn is 6.28), not degrees")
+        reach = math.hypot(*values[:3])
+        if what == "--tcp" and reach > LONGEST_TOOL:
+            raise argparse.ArgumentTypeError(f"'{text}': a tool centre point {reach:g} m from the flange: --tcp is in "
+                                             f"metres (150 mm is 0.15)")
+        return values
+    return parse
 
 
 def outputs_of(program: str, out: str, files: list[str]) -> dict[str, Path]:
@@ -159,7 +178,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--out", required=True, help="the program to write (a KRL .src: its .dat is written beside it)")
     p.add_argument("--nominal", metavar="ROBOT", help="the controller's nominal robot (URDF or name; default the one "
                                                       "MODEL records)")
-    p.add_argument("--tcp", type=_tcp, metavar="X,Y,Z,RX,RY,RZ",
+    p.add_argument("--tcp", type=_pose_option("--tcp"), metavar="X,Y,Z,RX,RY,RZ",
                    help="the tool centre point in the flange frame (m, rotation vector rad) where the program sets "
                         "none (default: the flange)")
     p.add_argument("--base-frame", help="the frame the program's coordinates are in (default 'base', else the robot's "
@@ -168,7 +187,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--config", action="append", default=[], metavar="FILE",
                    help="a file of the controller: KRL its TOOL_DATA and BASE_DATA ($config.dat) or $ROBROOT "
                         "($machine.dat), RAPID the robot's base frame (MOC.cfg); may be repeated")
-    p.add_argument("--robot-base", type=_tcp, metavar="X,Y,Z,RX,RY,RZ",
+    p.add_argument("--robot-base", type=_pose_option("--robot-base"), metavar="X,Y,Z,RX,RY,RZ",
                    help="KRL, RAPID: the robot's base frame in the program's world frame (m, rotation vector rad) "
                         "where no --config file gives it (default: the world frame is the robot's base)")
     p.add_argument("--joint-targets", choices=("keep", "intended"), default="keep",

@@ -52,6 +52,9 @@ _DATA = re.compile(r"\b(TOOL_DATA|BASE_DATA)[ \t]*\[[ \t]*(\d+)[ \t]*\][ \t]*=[ 
 _SET = re.compile(r"^[ \t]*(\$TOOL|\$BASE)[ \t]*=[ \t]*(.*)$", re.IGNORECASE | re.MULTILINE)
 _BAS = re.compile(r"^[ \t]*BAS[ \t]*\([ \t]*#(TOOL|BASE)[ \t]*,[ \t]*(\d+)[ \t]*\)", re.IGNORECASE | re.MULTILINE)
 _FDAT = re.compile(r"^[ \t]*FDAT_ACT[ \t]*=[ \t]*(\w+)", re.IGNORECASE | re.MULTILINE)
+#: An assignment in the ``.src`` to a variable or a part of it (``XP1 = XP2``, ``XP1.Z = XP1.Z + 50``): a point
+#: changed so goes where the program puts it, not where its declaration says.
+_CHANGE = re.compile(r"^[ \t]*([A-Za-z_]\w*)[ \t]*(?:\.[ \t]*\w+[ \t]*|\[[^\]\n]*\][ \t]*)*=(?!=)", re.MULTILINE)
 _WORD = re.compile(r"[A-Za-z_$]\w*")
 _FIELD = re.compile(r"\s*([A-Za-z_]\w*(?:\[\])?)\s+(.*?)\s*$", re.DOTALL)
 
@@ -145,6 +148,20 @@ def robroot(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
     return found[0] if found else None
 
 
+def _data_entries(name: str, text: str, code: str, data: dict[tuple[str, int], tuple[pin.SE3 | None, str]]) -> None:
+    """The ``TOOL_DATA[n]``, ``BASE_DATA[n]`` file ``name`` declares (``code``: its text without comments) put in
+    ``data``: each frame [m, rad] and where; one declared differently in two places is None, with both places."""
+    for match in _DATA.finditer(code):
+        found = aggregate(code, match.end())
+        frame = frame_of(found[0]) if found else None
+        key, at = (match.group(1).upper(), int(match.group(2))), f"{name} line {line_of(text, match.start())}"
+        before = data.get(key)
+        if before is None:
+            data[key] = (frame, at)
+        elif before[0] is None or frame is None or not before[0].isApprox(frame, 1e-12):
+            data[key] = (None, f"{key[0]}[{key[1]}] is declared differently in {before[1]} and {at}")
+
+
 def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dict[str, str],
              tcp: pin.SE3, world: pin.SE3 | None = None) -> Program:
     """The targets of a KRL program (module docstring): its ``.src`` text, its ``.dat`` text (None when it has none),
@@ -157,10 +174,7 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
     declared: dict[str, list[tuple[str, int, str, dict[str, tuple[str, int, int]]]]] = {}
     for name, text in {**texts, **extra}.items():
         code = comment_free(text, ";")
-        for match in _DATA.finditer(code):
-            found = aggregate(code, match.end())
-            frame = frame_of(found[0]) if found else None
-            data[(match.group(1).upper(), int(match.group(2)))] = (frame, f"{name} line {line_of(text, match.start())}")
+        _data_entries(name, text, code, data)
         if name in extra:
             if _DATA.search(code) is None and _ROBROOT.search(code) is None:
                 program.problems.append(Problem(name, 1, "--config file: no TOOL_DATA, BASE_DATA nor $ROBROOT "
@@ -189,9 +203,22 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
         elif kind == "fdat":
             _fdat(state, match.group(1).upper(), declared, data, program, src_file, line)
         else:
-            _move(program, src_file, src, code, match, line, state, uses)
+            moved = _with(state, code, match.end(), declared, data, program, src_file, line)
+            _move(program, src_file, src, code, match, line, moved or state, uses)
+            if moved is not None:  # the WITH's tool and base are the move's: set again before the next point
+                state.tool = (None, f"the tool after the WITH of line {line} (valid for that move; set it again)")
+                state.base = (None, f"the base after the WITH of line {line} (valid for that move; set it again)")
+    changed: dict[str, int] = {}
+    for match in _CHANGE.finditer(code):
+        changed.setdefault(match.group(1).upper(), line_of(src, match.start(1)))
     for variable, where in uses.items():
         lines = tuple(line for line, _, _ in where)
+        if variable in changed:
+            shown = f"line{'s' if len(lines) > 1 else ''} {', '.join(map(str, lines))}"
+            program.problems.append(Problem(src_file, changed[variable], f"point '{variable}' is changed by the "
+                                                                         f"program here (its moves: {shown}): left "
+                                                                         "as written"))
+            continue
         entries = declared.get(variable, [])
         kinds = {k for _, _, k, _ in entries}
         if len(entries) != 1 or not kinds & {*CARTESIAN, *JOINTS}:
@@ -216,13 +243,69 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
     return program
 
 
+_WITH = re.compile(r"[ \t]WITH\b", re.IGNORECASE)
+_WITH_SET = re.compile(r"\$(TOOL|BASE|IPO_MODE)[ \t]*=[ \t]*(.+)", re.IGNORECASE | re.DOTALL)
+_FROM_FDAT = re.compile(r"(?:STOOL2|SBASE|SIPO_MODE)[ \t]*\([ \t]*(\w+)(?:[ \t]*\.[ \t]*(\w+))?[ \t]*\)", re.IGNORECASE)
+
+
+def _with(state: _State, code: str, start: int, declared: dict[str, list[tuple[str, int, str, dict[str, tuple[str,
+          int, int]]]]], data: dict[tuple[str, int], tuple[pin.SE3 | None, str]], program: Program, file: str,
+          line: int) -> _State | None:
+    """The tool and base of the move whose keyword ends at ``start`` when its ``WITH`` clause sets them (KSS 8's spline
+    inline forms: ``$TOOL = STOOL2(FP1), $BASE = SBASE(FP1.BASE_NO), $IPO_MODE = SIPO_MODE(FP1.IPO_FRAME)``; or
+    ``TOOL_DATA[n]``, ``BASE_DATA[n]``, ``$NULLFRAME``); None when it sets neither. A value not read makes the tool
+    or base unknown (the move's points left as written, with a problem)."""
+    end = code.find("\n", start)
+    end = len(code) if end < 0 else end
+    found = _WITH.search(code, start, end)
+    if found is None:
+        return None
+    values = {}
+    for span in split_top(code, found.end(), end):
+        assignment = _WITH_SET.fullmatch(code, *stripped(code, span))
+        if assignment:
+            values[assignment.group(1).upper()] = assignment.group(2).strip()
+    if "TOOL" not in values and "BASE" not in values:
+        return None
+    moved = _State(pin.SE3.Identity(), pin.SE3.Identity())
+    moved.tool, moved.base = state.tool, state.base
+    for which, value in values.items():
+        fdat = _FROM_FDAT.fullmatch(value)
+        if which == "IPO_MODE":
+            entries = [f for f in declared.get(fdat.group(1).upper(), []) if f[2] == "FDAT"] if fdat else []
+            mode = entries[0][3].get("IPO_FRAME", ("#BASE", 0, 0))[0] if len(entries) == 1 else value
+            if mode.strip().upper() != "#BASE":
+                program.problems.append(Problem(file, line, f"WITH $IPO_MODE = {value[:30]}: not read as #BASE (a "
+                                                             "stationary tool?): its points are left as written"))
+                moved.tool = (None, f"the tool of an $IPO_MODE {value[:30]}, which pincal does not read")
+            continue
+        number: int | None = None
+        if fdat is not None and (fdat.group(2) or f"{which}_NO").upper() == f"{which}_NO":
+            entries = [f for f in declared.get(fdat.group(1).upper(), []) if f[2] == "FDAT"]
+            field_ = entries[0][3].get(f"{which}_NO") if len(entries) == 1 else None
+            number = int(field_[0]) if field_ is not None and field_[0].strip().isdigit() else None
+        indexed = re.fullmatch(rf"{which}_DATA[ \t]*\[[ \t]*(\d+)[ \t]*\]", value, re.IGNORECASE)
+        number = int(indexed.group(1)) if indexed else 0 if value.upper() == "$NULLFRAME" else number
+        if number is not None:
+            _select(moved, which, number, data)
+            continue
+        program.problems.append(Problem(file, line, f"WITH ${which} = {value[:30]}: not read; the move's points are "
+                                                     "left as written"))
+        unknown = (None, f"${which} = {value[:30]} of the WITH at line {line}, which pincal does not read")
+        if which == "TOOL":
+            moved.tool = unknown
+        else:
+            moved.base = unknown
+    return moved
+
+
 def _select(state: _State, which: str, number: int, data: dict[tuple[str, int], tuple[pin.SE3 | None, str]]) -> None:
     name = f"{which}_DATA"
     if number == 0:
         value: tuple[pin.SE3 | None, str] = (pin.SE3.Identity(), f"{name}[0] ($NULLFRAME)")
     elif (name, number) in data:
         frame, where = data[(name, number)]
-        value = (frame, f"{name}[{number}] ({where})")
+        value = (None, where) if where.startswith(f"{name}[") else (frame, f"{name}[{number}] ({where})")
     else:
         value = (None, f"{name}[{number}], which no file given holds (give the controller's $config.dat with --config)")
     if which == "TOOL":

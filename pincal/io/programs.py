@@ -77,6 +77,8 @@ class Target:
         uses: The lines of the moves that read it.
         posture: The posture the target names (KRL's status and turn, RAPID's configuration); None: none.
         render_joints: A joint target's edits that write other joint values [rad or m] in place of its own.
+        near: Joint values [rad or m] the controller's inverse kinematics of a Cartesian target starts from, when the
+            program names them (URScript's ``get_inverse_kin(p, qnear=q)``); None: the move before.
     """
 
     file: str
@@ -91,6 +93,7 @@ class Target:
     uses: tuple[int, ...] = ()
     posture: NamedPosture | None = None
     render_joints: Callable[[Array], list[Edit]] | None = None
+    near: Array | None = None
 
     @property
     def cartesian(self) -> bool:
@@ -132,7 +135,7 @@ def vendor_mismatch(language: str, names: Sequence[str]) -> str | None:
     for name in dict.fromkeys(names):
         for other, (vendor, pattern) in VENDORS.items():
             if other != language and re.search(pattern, name.lower()):
-                article = "an" if vendor[0] in "AEIOU" else "a"
+                article = "an" if vendor == "ABB" else "a"  # "an ABB arm", "a Universal Robots arm"
                 shown = "URScript" if language == "urscript" else language.upper()
                 return (f"the program is {shown} (the language of {maker}) but robot '{name}' is named like "
                         f"{article} {vendor} arm: check that MODEL and the nominal robot are the robot that runs it")

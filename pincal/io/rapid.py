@@ -47,6 +47,9 @@ _MOVE = re.compile(r"\b(" + "|".join(sorted(MOVES, key=len, reverse=True)) + r"|
 _DECL = re.compile(r"\b(CONST|PERS|VAR)\s+(robtarget|jointtarget|tooldata|wobjdata)\s+(\w+)\s*(\{[^}]*\})?\s*:=\s*",
                    re.IGNORECASE)
 _WOBJ = re.compile(r"\\WObj\s*:=\s*(\w+)", re.IGNORECASE)
+#: An assignment to a data object or a part of it (``pB.trans.z := …``, ``tGlue := …``), at a statement's start: a
+#: point, tool or work object changed so is not what its declaration says where the moves read it.
+_CHANGE = re.compile(r"(?:^|;)[ \t]*([A-Za-z_]\w*)[ \t]*(?:\.[ \t]*\w+[ \t]*|\{[^}\n]*\}[ \t]*)*:=", re.MULTILINE)
 _WORD = re.compile(r"[A-Za-z_]\w*")
 
 Spans = list[tuple[float, int, int]]
@@ -192,9 +195,11 @@ def read_rapid(text: str, file: str, tcp: pin.SE3) -> Program:
             continue
         kinds[name] = (match.group(2).lower(), line, (match.end(), end + 1), match.group(3))
     frames = _frames(code, kinds)
+    changed = _changes(text, code, kinds, frames)
     uses: dict[str, list[tuple[int, str, str]]] = {}
     joints: set[str] = set()
-    for match in _MOVE.finditer(code):
+    unquoted = re.sub(r'"[^"\n]*"', lambda m: '"' + " " * (len(m.group(0)) - 2) + '"', code)
+    for match in _MOVE.finditer(unquoted):  # a string's text (TPWrite "MoveL …") is no move
         line, keyword = line_of(text, match.start()), match.group(1)
         end = code.find(";", match.end())
         if keyword.lower().startswith("search"):
@@ -235,12 +240,17 @@ def read_rapid(text: str, file: str, tcp: pin.SE3) -> Program:
     for name, where in uses.items():
         lines = tuple(line for line, _, _ in where)
         kind = kinds.get(name, ("", 0, (0, 0), name))
+        if name in changed:
+            shown = f"line{'s' if len(lines) > 1 else ''} {', '.join(map(str, lines))}"
+            program.problems.append(Problem(file, changed[name], f"point '{kind[3]}' is changed by the program here "
+                                                                 f"(its moves: {shown}): left as written"))
+            continue
         if kind[0] != "robtarget" or seen.get(name, 0) != 1:
             why = ("declared more than once" if seen.get(name, 0) > 1 else "not a robtarget declared with a value")
-            program.problems.append(Problem(file, lines[0], f"point '{name}': {why}: left as written"))
+            program.problems.append(Problem(file, lines[0], f"point '{kind[3]}': {why}: left as written"))
             continue
         if len({(t, w) for _, t, w in where}) > 1:
-            program.problems.append(Problem(file, kind[1], f"'{name}' is reached with several tools or work objects "
+            program.problems.append(Problem(file, kind[1], f"'{kind[3]}' is reached with several tools or work objects "
                                                            f"(lines {', '.join(map(str, lines))}): left as written"))
             continue
         groups = _groups(code, *kind[2])
@@ -254,6 +264,19 @@ def read_rapid(text: str, file: str, tcp: pin.SE3) -> Program:
                                                         "as written"))
     program.targets.sort(key=lambda t: t.uses[0] if t.uses else t.line)
     return program
+
+
+def _changes(text: str, code: str, kinds: dict[str, tuple[str, int, tuple[int, int], str]],
+             frames: dict[str, pin.SE3 | str]) -> dict[str, int]:
+    """The data objects the program assigns (:data:`_CHANGE`), by name (lower case), with the line of the first; each
+    tool and work object among them made, in ``frames``, the reason its points are left as written."""
+    changed: dict[str, int] = {}
+    for match in _CHANGE.finditer(code):
+        changed.setdefault(match.group(1).lower(), line_of(text, match.start(1)))
+    for name, at in changed.items():
+        if kinds.get(name, ("",))[0] in ("tooldata", "wobjdata"):
+            frames[name] = f"'{kinds[name][3]}' is changed by the program at line {at}"
+    return changed
 
 
 def _joint(program: Program, file: str, code: str, span: tuple[int, int], point: str, line: int,

@@ -2,9 +2,10 @@
 
 Targets are the first argument of ``movej``, ``movel``, ``movep`` and ``servoj`` and the two of ``movec``: a pose
 literal ``p[x, y, z, rx, ry, rz]`` (metres; a rotation vector [rad]) in the robot's base frame, a joint list
-``[q1, …, q6]`` [rad], or a variable assigned one of them once (``global Waypoint_1_p=p[…]``, Polyscope's layout). The
-tool centre point is the last ``set_tcp(p[…])`` above the move, else the one the caller gives. Anything else in a
-target's place (``pose_trans(…)``, a variable assigned twice or never, ``get_inverse_kin(…)``) and a ``set_tcp`` of
+``[q1, …, q6]`` [rad], or a variable assigned one of them once (``global Waypoint_1_p=p[…]``, Polyscope's layout);
+and the pose of ``get_inverse_kin(pose, qnear=q)`` (Polyscope's MoveJ), its ``qnear`` [rad] where the controller's
+inverse kinematics starts. The tool centre point is the last ``set_tcp(p[…])`` above the move, else the one the caller
+gives. Anything else in a target's place (``pose_trans(…)``, a variable assigned twice or never) and a ``set_tcp`` of
 anything but a literal are problems, left as written; a pose or joint variable no move reads too.
 """
 
@@ -39,9 +40,15 @@ DECIMALS = 8
 
 _CALL = re.compile(r"\b(movej|movel|movep|servoj|movec|set_tcp)\s*\(")
 _ASSIGN = re.compile(r"^[ \t]*(?:global[ \t]+|local[ \t]+)?([A-Za-z_]\w*)[ \t]*=[ \t]*(?=(?:p[ \t]*)?\[)", re.MULTILINE)
+#: Any assignment to a variable or an element of it (``x = …``, ``x[2] = …``; not ``==``): a target variable assigned
+#: anything besides its literal goes where the program puts it, not where the literal says.
+_ANY_ASSIGN = re.compile(r"^[ \t]*(?:global[ \t]+|local[ \t]+)?([A-Za-z_]\w*)[ \t]*(?:\[[^\]\n]*\][ \t]*)?=(?!=)",
+                         re.MULTILINE)
 #: A pose literal's opening: ``p[``, white space allowed between (URScript reads ``p [`` as ``p[``).
 _POSE = re.compile(r"p[ \t]*(?=\[)")
 _NAME = re.compile(r"[A-Za-z_]\w*")
+#: Polyscope's MoveJ waypoint: ``movej(get_inverse_kin(Waypoint_1_p, qnear=Waypoint_1_q), …)``.
+_INVERSE = re.compile(r"get_inverse_kin[ \t]*\(")
 
 
 def code_mask(text: str) -> np.ndarray:
@@ -100,11 +107,9 @@ def _render(file: str, literal: _Literal) -> Callable[[pin.SE3], list[Edit]]:
     return render
 
 
-def read_urscript(text: str, file: str, tcp: pin.SE3) -> Program:
-    """The targets of a URScript program (module docstring); ``tcp`` is the tool centre point in the flange frame
-    until a ``set_tcp`` sets one."""
-    program = Program("urscript", {file: text})
-    mask = code_mask(text)
+def _assignments(text: str, mask: np.ndarray) -> dict[str, list[tuple[int, _Literal | None]]]:
+    """Each variable's assignments in code (``mask``): where its value starts, and the literal assigned (None: anything
+    else)."""
     assigned: dict[str, list[tuple[int, _Literal | None]]] = {}
     for match in _ASSIGN.finditer(text):
         if not mask[match.start(1)]:
@@ -115,9 +120,27 @@ def read_urscript(text: str, file: str, tcp: pin.SE3) -> Program:
         close = closing(text, opening)
         literal = _literal(text, start, close + 1) if close > 0 else None
         assigned.setdefault(match.group(1), []).append((start, literal))
+    literal_at = {start for where in assigned.values() for start, _ in where}
+    for match in _ANY_ASSIGN.finditer(text):
+        start = match.end()
+        while start < len(text) and text[start] in " \t":
+            start += 1
+        if mask[match.start(1)] and start not in literal_at:
+            assigned.setdefault(match.group(1), []).append((start, None))
+    return assigned
+
+
+def read_urscript(text: str, file: str, tcp: pin.SE3) -> Program:
+    """The targets of a URScript program (module docstring); ``tcp`` is the tool centre point in the flange frame
+    until a ``set_tcp`` sets one."""
+    program = Program("urscript", {file: text})
+    mask = code_mask(text)
+    assigned = _assignments(text, mask)
     tool: pin.SE3 | None = tcp
     tool_line = 0
     used: dict[str, list[tuple[int, pin.SE3 | None, int]]] = {}
+    nears: dict[str, np.ndarray] = {}  # a variable target's qnear, from its first move
+    hints: set[str] = set()  # the variables read as qnear
     for match in _CALL.finditer(text):
         if not mask[match.start()]:
             continue
@@ -139,17 +162,28 @@ def read_urscript(text: str, file: str, tcp: pin.SE3) -> Program:
             continue
         for span in arguments[:MOVES[name]]:
             a, b = stripped(text, span)
+            near = None
+            inverse = _INVERSE.match(text, a, b)
+            if inverse is not None and closing(text, inverse.end() - 1) == b - 1:
+                inner = split_top(text, inverse.end(), b - 1)
+                near, why = _qnear(text, inner[1:], assigned, hints)
+                if why is not None:
+                    program.problems.append(Problem(file, line, f"{name}: get_inverse_kin: {why}: left as written"))
+                    continue
+                a, b = stripped(text, inner[0])
             word = text[a:b]
             literal = _literal(text, a, b)
             if _NAME.fullmatch(word) and word not in ("p",):
                 used.setdefault(word, []).append((line, tool, tool_line))
+                if near is not None:
+                    nears.setdefault(word, near)
                 continue
             if literal is None:
                 shown = word if len(word) <= 40 else word[:37] + "..."
                 program.problems.append(Problem(file, line, f"{name}: target '{shown}' is neither a literal p[…] or "
                                                             "[…] of six numbers nor a variable assigned one"))
                 continue
-            _add(program, file, line, name, literal, tool, tool_line, (line,))
+            _add(program, file, line, name, literal, tool, tool_line, (line,), near)
     for variable, uses in used.items():
         lines = tuple(line for line, _, _ in uses)
         where = assigned.get(variable, [])
@@ -166,9 +200,9 @@ def read_urscript(text: str, file: str, tcp: pin.SE3) -> Program:
             program.problems.append(Problem(file, line_at, f"'{variable}' is read with {len(tools)} different TCPs "
                                                            f"(lines {', '.join(map(str, lines))}): left as written"))
             continue
-        _add(program, file, line_at, variable, literal, uses[0][1], uses[0][2], lines)
+        _add(program, file, line_at, variable, literal, uses[0][1], uses[0][2], lines, nears.get(variable))
     for variable, where in assigned.items():
-        if variable not in used and any(lit is not None for _, lit in where):
+        if variable not in used and variable not in hints and any(lit is not None for _, lit in where):
             program.problems.append(Problem(file, line_of(text, where[0][0]), f"'{variable}' is assigned a pose or "
                                                                               "joint literal no move reads: left as "
                                                                               "written"))
@@ -176,8 +210,36 @@ def read_urscript(text: str, file: str, tcp: pin.SE3) -> Program:
     return program
 
 
+def _qnear(text: str, spans: list[tuple[int, int]], assigned: dict[str, list[tuple[int, _Literal | None]]],
+           hints: set[str]) -> tuple[np.ndarray | None, str | None]:
+    """The joint values [rad] of ``get_inverse_kin``'s ``qnear`` (its second argument, or ``qnear=``: a joint literal
+    or a variable assigned one once), None when not given; and why the call is not read (None: it is). A variable read
+    is added to ``hints``."""
+    near_text = None
+    for k, span in enumerate(spans):
+        a, b = stripped(text, span)
+        keyword = re.match(r"([A-Za-z_]\w*)[ \t]*=(?!=)[ \t]*", text[a:b])
+        key = keyword.group(1) if keyword else "qnear" if k == 0 else "?"
+        if key == "qnear":
+            near_text = (a + keyword.end() if keyword else a, b)
+        elif key not in ("maxPositionError", "maxOrientationError"):
+            return None, f"its argument '{text[a:b][:30]}' is not read (the TCP given to the call?)"
+    if near_text is None:
+        return None, None
+    word = text[near_text[0]:near_text[1]]
+    if _NAME.fullmatch(word):
+        hints.add(word)
+        where = assigned.get(word, [])
+        literal = where[0][1] if len(where) == 1 else None
+    else:
+        literal = _literal(text, *near_text)
+    if literal is None or literal.pose:
+        return None, f"qnear '{word[:30]}' is not a joint literal […] nor a variable assigned one once"
+    return np.array(literal.values), None
+
+
 def _add(program: Program, file: str, line: int, name: str, literal: _Literal, tool: pin.SE3 | None, tool_line: int,
-         uses: tuple[int, ...]) -> None:
+         uses: tuple[int, ...], near: np.ndarray | None = None) -> None:
     if not literal.pose:
         program.targets.append(Target(file, line, name, np.array(literal.values), None, pin.SE3.Identity(),
                                       pin.SE3.Identity(), "joints", None, uses,
@@ -189,4 +251,4 @@ def _add(program: Program, file: str, line: int, name: str, literal: _Literal, t
         return
     context = f"TCP of set_tcp at line {tool_line}" if tool_line else "the TCP given (--tcp), no set_tcp above"
     program.targets.append(Target(file, line, name, None, _pose(literal.values), tool, pin.SE3.Identity(), context,
-                                  _render(file, literal), uses))
+                                  _render(file, literal), uses, near=near))
