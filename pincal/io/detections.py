@@ -59,6 +59,9 @@ def pixel_kind(measure: str) -> tuple[str, str]:
                         "board_pixel:<frame> (a board on the frame, seen by a fixed camera) nor "
                         "cross_pixel:<camera frame>-<board frame> (a camera on one frame sees a board on another; "
                         "frame names without '-')")
+    if kind == "cross_pixel" and pair[0] == pair[1]:
+        raise DataError(f"--measure '{measure}': the camera and the board are on the same frame (nothing moves "
+                        "between them): give two frames on different chains")
     return kind, frame
 
 
