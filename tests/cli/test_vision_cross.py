@@ -74,3 +74,37 @@ def test_a_bad_measure_is_refused_before_any_output(tmp_path: Path, measure: str
     assert done.returncode == 2
     assert done.stderr.startswith("pincal: error: ") and message in done.stderr and "Traceback" not in done.stderr
     assert not (tmp_path / "sim").exists()
+
+
+def test_drift_refuses_and_the_scene_draws_the_board_on_its_frame(campaign: Path) -> None:
+    """drift names the pixels it does not take; the report's 3D scene draws the camera on the head and, at every
+    image, the board on the gripper in front of it (0.3 to 1 m, its centre inside the image)."""
+    import numpy as np
+
+    import pincal
+    from pincal.calibration.options import CalibrationOptions
+    from pincal.calibration.report import CalibrationReport
+    from pincal.viz.camera_scene import camera_placements
+    from pincal.viz.scene import CalibrationView, configurations
+
+    if not (campaign / "rep.json").exists():
+        _ok(run_pincal("calibrate", "tiago_no_hand", "det.csv", "--out", "cal.urdf", "--report", "rep.json",
+                       cwd=campaign))
+    done = run_pincal("drift", "cal.urdf", "det.csv", cwd=campaign)
+    assert done.returncode == 2 and "takes no pixel measurements" in done.stderr
+    report = CalibrationReport.read(campaign / "rep.json")
+    view = CalibrationView.from_result(pincal.load_robot("tiago_no_hand"), read_dataset(campaign / "det.csv"),
+                                       report, CalibrationOptions())
+    _, _, calibrated, q = configurations(view)
+    drawn = {name: placements for name, _, placements, _ in
+             camera_placements(view, calibrated, q, view.base_placement().homogeneous)}
+    assert set(drawn) == {"head_2_link_frustum", "head_2_link_board"}
+    cameras, boards = drawn["head_2_link_frustum"], drawn["head_2_link_board"]
+    assert len(cameras) == len(boards) == 12  # the fitted images
+    centre = np.array([0.12, 0.09, 0.0, 1.0])  # the 8 × 6 board of 30 mm squares: its centre in its frame
+    k = report.cameras["intrinsics.head_2_link"]["intrinsics"] if report.cameras else {}
+    for camera, board in zip(cameras, boards, strict=True):
+        seen = np.linalg.solve(camera, board @ centre)[:3]
+        assert 0.25 < seen[2] < 1.1
+        u, v = k["fx"] * seen[0] / seen[2] + k["cx"], k["fy"] * seen[1] / seen[2] + k["cy"]
+        assert 0 < u < 2 * k["cx"] and 0 < v < 2 * k["cy"]
