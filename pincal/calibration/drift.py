@@ -376,7 +376,7 @@ def run_drift(model_path: str, sessions: Sequence[str], level: float = 0.01,
         job = read_job(path) if path.endswith(".toml") else None
         dataset = job_dataset(job, nominal) if job is not None else read_robot_dataset(path, nominal)
         keys = list(dataset.measurements)
-        if any(key.partition(":")[0] in ("pixel", "board_pixel") for key in keys):
+        if any(key.partition(":")[0] in ("pixel", "board_pixel", "cross_pixel") for key in keys):
             raise DataError(f"session '{path}': pincal drift takes no pixel measurements yet (its spread is of "
                             "lengths and angles): judge a camera's images with pincal check MODEL DATA")
         if sorted(keys) != sorted(calibration.measurements):

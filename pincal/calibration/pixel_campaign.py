@@ -179,11 +179,25 @@ def simulate_pixels(robot: Robot, frame: str, n_train: int, n_test: int = 0, eye
         qs.append(q)
     actuated = np.array([robot.actuated_values(q) for q in qs])
     problem = CalibrationProblem(robot, pset, models, Observations.neutral(models, actuated))
-    predicted = problem.evaluate(x_true, jacobian=False).predicted
     seen_by = parse_key(f"pose:{frame}@{BOARD}" if eye_to_hand else f"camera:{frame}")
     poses = CalibrationProblem(robot, pset, [seen_by], Observations.neutral([seen_by], actuated))
     true_views = tuple(pin.SE3(pin.exp3(row[3:]), row[:3])
                        for row in poses.evaluate(x_true, jacobian=False).predicted[seen_by.key])
+    kind = "board_pixel" if eye_to_hand else "pixel"
+    return pixel_campaign(problem, x_true, f"{kind}:{frame}", frame, true_views, plate, n_train, n_test, perturb,
+                          noise, seed, rng, intrinsics, image_size)
+
+
+def pixel_campaign(problem: CalibrationProblem, x_true: Array, measure: str, frame: str, views: tuple[pin.SE3, ...],
+                   plate: Board, n_train: int, n_test: int, perturb: float, noise: float, seed: int,
+                   rng: np.random.Generator, intrinsics: tuple[float, ...],
+                   image_size: tuple[int, int]) -> PixelSimulation:
+    """The campaign of a camera ``problem`` (its models at the drawn readings) at the truth ``x_true``: the corners'
+    pixels with noise of σ ``noise`` [px], those outside the image or behind the camera left out; ``measure`` the
+    simulated ``--measure`` (``<kind>:<frame>``), ``views`` each sample's true camera ← board."""
+    robot, models = problem.robot, problem.measurements
+    actuated = problem.observations.actuated
+    predicted = problem.evaluate(x_true, jacobian=False).predicted
     values = {}
     width, height = image_size
     for m in models:
@@ -193,9 +207,8 @@ def simulate_pixels(robot: Robot, frame: str, n_train: int, n_test: int = 0, eye
         uv[outside] = np.nan
         values[m.key] = uv
     n = n_train + n_test
-    options = simulation_options([f"{'board_pixel' if eye_to_hand else 'pixel'}:{frame}"], n_train, n_test,
-                                 frame, perturb, noise, seed, None, None, None, 0.0)
-    kind = "board_pixel" if eye_to_hand else "pixel"
+    options = simulation_options([measure], n_train, n_test, frame, perturb, noise, seed, None, None, None, 0.0)
+    kind = measure.partition(":")[0]
     metadata = {"robot": robot.name, "pincal": version(), "units": "SI (m, rad), pixels (px)",
                 "perturb": repr(perturb), "seed": str(seed),
                 **({"robot sha256": sha256(robot.source)} if robot.source is not None else {}),
@@ -203,8 +216,8 @@ def simulate_pixels(robot: Robot, frame: str, n_train: int, n_test: int = 0, eye
                 "image size": f"{width} {height}", f"sigma {kind}": repr(max(noise, 1e-3))}
     dataset = Dataset(list(robot.actuated_joints), actuated, values, [f"{k:04d}" for k in range(n)],
                       ["train"] * n_train + ["test"] * n_test, metadata)
-    return PixelSimulation(robot, pset, x_true, dataset, list(models), None, plate, image_size, tuple(intrinsics),
-                           true_views)
+    return PixelSimulation(robot, problem.parameters, x_true, dataset, list(models), None, plate, image_size,
+                           tuple(intrinsics), views)
 
 
 #: The rendered images' blur [px] and noise [grey levels]: a focused camera's softness and sensor noise.

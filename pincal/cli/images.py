@@ -15,8 +15,8 @@ BOARD_HELP = ("the board: charuco:COLSxROWS:SQUARE:MARKER:DICT (e.g. charuco:8x6
 
 
 def is_camera(measure: list[str]) -> bool:
-    """Whether ``--measure`` asks for pixels (``pixel:FRAME``, ``board_pixel:FRAME``)."""
-    return any(m.partition(":")[0] in ("pixel", "board_pixel") for m in measure)
+    """Whether ``--measure`` asks for pixels (``pixel:FRAME``, ``board_pixel:FRAME``, ``cross_pixel:CAM-BOARD``)."""
+    return any(m.partition(":")[0] in ("pixel", "board_pixel", "cross_pixel") for m in measure)
 
 
 def add_camera_arguments(parser: argparse.ArgumentParser) -> None:
@@ -55,12 +55,13 @@ def simulate_camera(args: argparse.Namespace, robot: Any) -> int:
     from pincal.calibration.campaign import simulation_outputs, write_simulation
     from pincal.calibration.pixel_campaign import camera_outputs, simulate_pixels, write_images
     from pincal.identification.measurements import BOARD_DEFAULT
-    from pincal.io.detections import pixel_kind
+    from pincal.io.detections import pixel_frames, pixel_kind
 
     if len(args.measure) != 1:
         raise DataError(f"--measure {' '.join(args.measure)}: a camera simulation measures one pixel:FRAME or "
                         "board_pixel:FRAME alone")
     kind, frame = pixel_kind(args.measure[0])
+    frames = pixel_frames(kind, frame)
     ignored = [flag for flag, value in (("--frame", args.frame), ("--posture-seed", args.posture_seed),
                                         ("--shift", args.shift), ("--spread", args.spread),
                                         ("--parameters", args.parameters), ("--payload", args.payload))
@@ -69,7 +70,8 @@ def simulate_camera(args: argparse.Namespace, robot: Any) -> int:
         raise DataError(f"{', '.join(ignored)}: not taken by a camera simulation (--measure {args.measure[0]}), "
                         "which draws its own robot errors, postures and camera; leave "
                         f"{'them' if len(ignored) > 1 else 'it'} out")
-    robot.frame_id(frame)
+    for name in frames:
+        robot.frame_id(name, "--measure: ")
     out = Path(args.out)
     simulation_outputs(robot, out, args.meshes)
     if args.images is not None:
@@ -78,8 +80,15 @@ def simulate_camera(args: argparse.Namespace, robot: Any) -> int:
         opencv()  # before any work: images need OpenCV
         camera_outputs(out, Path(args.images))
     noise = 0.0 if args.images is not None else args.noise
-    sim = simulate_pixels(robot, frame, args.samples, args.test_samples, eye_to_hand=kind == "board_pixel",
-                          board=args.board or BOARD_DEFAULT, perturb=args.perturb, noise=noise, seed=args.seed)
+    if kind == "cross_pixel":
+        from pincal.calibration.cross_campaign import simulate_cross_pixels
+
+        sim = simulate_cross_pixels(robot, frames[0], frames[1], args.samples, args.test_samples,
+                                    board=args.board or BOARD_DEFAULT, perturb=args.perturb, noise=noise,
+                                    seed=args.seed)
+    else:
+        sim = simulate_pixels(robot, frame, args.samples, args.test_samples, eye_to_hand=kind == "board_pixel",
+                              board=args.board or BOARD_DEFAULT, perturb=args.perturb, noise=noise, seed=args.seed)
     paths = write_simulation(sim, out, args.meshes, given=args.robot)
     notes = []
     if args.images is not None:
@@ -94,8 +103,10 @@ def simulate_camera(args: argparse.Namespace, robot: Any) -> int:
                          f"{', …' if len(stale) > 3 else ''}) from before, not of this simulation: 'pincal detect "
                          f"{args.images}/*' would read them too")
     seen = sum(int((v[:, 0] == v[:, 0]).sum()) for v in sim.dataset.measurements.values())
+    where = {"board_pixel": f"fixed in the cell, the board on '{frame}'",
+             "cross_pixel": f"on '{frames[0]}', the board on '{frames[-1]}'"}.get(kind, f"on '{frame}'")
     print(f"simulated {args.samples} + {args.test_samples} images of board {sim.board.spec if sim.board else ''} "
-          f"seen by a camera {'fixed in the cell, the board on' if kind == 'board_pixel' else 'on'} '{frame}' of "
+          f"seen by a camera {where} of "
           f"'{robot.name}', with robot errors of σ {args.perturb:g} (m, rad); {seen} corners seen, pixel noise σ "
           f"{noise:g} px")
     for path in paths[:4]:
@@ -112,12 +123,12 @@ def cmd_detect(args: argparse.Namespace) -> int:
     from pincal.identification.measurements import parse_board
     from pincal.io.dataset import dataset_text
     from pincal.io.dataset_reader import read_dataset
-    from pincal.io.detections import bag_joints, is_bag, pair, pixel_kind
+    from pincal.io.detections import bag_joints, is_bag, pair, pixel_frames, pixel_kind
     from pincal.io.files import check_outputs, write_texts
     from pincal.io.vision import detect_corners, opencv, read_camera_file
 
     board = parse_board(args.board)
-    frame = pixel_kind(args.measure)[1]
+    frames = pixel_frames(*pixel_kind(args.measure))
     inputs = [*args.images, args.joints, *([args.camera_file] if args.camera_file else [])]
     check_outputs([("--out", args.out)], inputs)
     from pincal.model.robot import load_robot
@@ -131,10 +142,12 @@ def cmd_detect(args: argparse.Namespace) -> int:
     else:
         joints = read_dataset(args.joints)
     robot = args.robot or joints.metadata.get("robot")
-    if robot:  # the frame named, before any work
-        load_robot(robot).frame_id(frame, "--measure: ")
+    if robot:  # the frames named, before any work
+        for frame in frames:
+            load_robot(robot).frame_id(frame, "--measure: ")
     else:
-        print(f"note: frame '{frame}' not checked: the joints file names no robot ('# robot: …'); give --robot ROBOT")
+        print(f"note: frame '{'-'.join(frames)}' not checked: the joints file names no robot ('# robot: …'); "
+              "give --robot ROBOT")
     opencv()
     held = read_camera_file(args.camera_file) if args.camera_file else None
     detections = detect_corners(args.images, board, args.min_corners, args.min_sharpness)

@@ -8,7 +8,9 @@ images' corners and the nominal robot.
 4. The placements in closed form on the nominal robot, ``A_i X = Y B_i`` (Shah 2013,
    :func:`~pincal.identification.handeye.solve_ax_yb`): eye-in-hand, X the camera on its frame and Y the board in
    the world (``B_i`` the camera in the board's frame); eye-to-hand, X the board on its frame and Y the camera in the
-   world (``B_i`` the board in the camera's frame), the measurement frame ``base`` its inverse.
+   world (``B_i`` the board in the camera's frame), the measurement frame ``base`` its inverse; a camera on frame A
+   seeing a board on frame B (``cross_pixel``), X the board on B and Y the camera on A (``A_i = A⁻¹ B`` the two
+   frames' relative placement, ``B_i`` the board in the camera's frame).
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import pinocchio as pin
 from pincal import linalg
 from pincal.errors import DataError
 from pincal.identification import handeye
-from pincal.identification.measurements import BoardPixel, Pixel, intrinsics_name
+from pincal.identification.measurements import BoardPixel, CrossPixel, Pixel, intrinsics_name
 from pincal.identification.measurements.pixels import BOARD
 
 if TYPE_CHECKING:
@@ -124,23 +126,26 @@ def pixel_starts(problem: Evaluated, x: Array) -> bool:
     """Write into ``x`` the start of every camera that pixel measurements read: its intrinsics (those the data do
     not declare), then its placement and its board's; True if one placed the measurement frame (a fixed camera).
     A camera the data do not determine keeps its start (the summary says why)."""
-    cameras: dict[tuple[bool, str], list[Pixel]] = defaultdict(list)
+    cameras: dict[tuple[bool, str, str], list[Pixel]] = defaultdict(list)
     for m in problem.measurements:
         if isinstance(m, Pixel):
-            cameras[(isinstance(m, BoardPixel), m.frame)].append(m)
+            cameras[(isinstance(m, BoardPixel), m.frame, m.board_frame if isinstance(m, CrossPixel) else "")
+                    ].append(m)
     located = False
-    for (fixed, frame), models in cameras.items():
+    for (fixed, frame, board_frame), models in cameras.items():
         name = intrinsics_name(models[0].camera)
         try:
-            located |= _camera_start(problem, x, fixed, frame, models)
+            located |= _camera_start(problem, x, fixed, frame, models, board_frame)
             problem.placed_in_closed_form.append(name)
         except DataError as why:
             problem.not_in_closed_form.append(f"{name}: {why}")
     return located
 
 
-def _camera_start(problem: Evaluated, x: Array, fixed: bool, frame: str, models: list[Pixel]) -> bool:
-    """:func:`pixel_starts` for one camera; True if it placed the measurement frame."""
+def _camera_start(problem: Evaluated, x: Array, fixed: bool, frame: str, models: list[Pixel],
+                  board_frame: str = "") -> bool:
+    """:func:`pixel_starts` for one camera (``board_frame``: the frame of the board a camera on ``frame`` sees);
+    True if it placed the measurement frame."""
     samples = np.flatnonzero(np.any([problem.seen(m.key) for m in models], axis=0))
     images = []
     for k in samples:
@@ -169,11 +174,20 @@ def _camera_start(problem: Evaluated, x: Array, fixed: bool, frame: str, models:
     for sample, h in images:
         q = problem.solves.solve(problem.robot, sample, problem.observations.actuated[sample])
         pin.framesForwardKinematics(problem.robot.model, nominal_data, q)
-        a.append(nominal_data.oMf[frame_id].copy())
         seen = board_pose(h, pinhole)
-        b.append(seen if fixed else seen.inverse())
+        if board_frame:
+            a.append(nominal_data.oMf[frame_id].actInv(nominal_data.oMf[problem.frame_ids[board_frame]]))
+        else:
+            a.append(nominal_data.oMf[frame_id].copy())
+        b.append(seen if fixed or board_frame else seen.inverse())
     own, world = handeye.solve_ax_yb(a, b)
     places = problem.parameters.groups("camera", "target")
+    if board_frame:  # own: the board on its frame; world: the camera on its frame
+        for (kind, who), placement in ((("target", f"{board_frame}@{BOARD}"), own), (("camera", frame), world)):
+            idx = places.get((kind, who, ""), [])
+            if len(idx) == 6:
+                set_placement(problem, x, idx, placement)
+        return False
     if fixed:
         idx = places.get(("target", f"{frame}@{BOARD}", ""), [])
         if len(idx) == 6:

@@ -4,7 +4,8 @@ An image pairs with the row of the joints CSV whose ``sample`` is the image file
 ``0003``). Images without a row, rows without an image, and the images :func:`~pincal.io.vision.detect_corners`
 leaves out are named with the reason, never dropped silently. The result is a measurement CSV
 (docs/dataset.md): the joint columns, then ``pixel:<frame>@<corner>:u|v`` (eye-in-hand) or
-``board_pixel:<frame>@<corner>:u|v`` (eye-to-hand) for every corner seen at least once, empty where an image did
+``board_pixel:<frame>@<corner>:u|v`` (eye-to-hand) or ``cross_pixel:<camera frame>-<board frame>@<corner>:u|v`` (a
+camera on one chain, the board on another) for every corner seen at least once, empty where an image did
 not show it; its metadata name the board (``# board: …``), the image size, and, from a camera file, the intrinsics
 held (``# intrinsics <frame> held: …``).
 """
@@ -25,8 +26,9 @@ from pincal.io.vision import Detections, intrinsics_text
 
 Array = npt.NDArray[np.float64]
 
-#: The measurement kinds a detections file holds: a camera on the frame, or a board on the frame.
-PIXEL_KINDS = ("pixel", "board_pixel")
+#: The measurement kinds a detections file holds: a camera on the frame, a board on the frame, or a camera on one
+#: frame and the board on another.
+PIXEL_KINDS = ("pixel", "board_pixel", "cross_pixel")
 
 
 @dataclass
@@ -43,16 +45,29 @@ class Paired:
 
 
 def pixel_kind(measure: str) -> tuple[str, str]:
-    """``(kind, frame)`` of ``pixel:<frame>`` or ``board_pixel:<frame>``.
+    """``(kind, frame)`` of ``pixel:<frame>``, ``board_pixel:<frame>`` or ``cross_pixel:<camera frame>-<board
+    frame>`` (its frame the two joined by ``-``).
 
     Raises:
         DataError: another form.
     """
     kind, _, frame = measure.partition(":")
-    if kind not in PIXEL_KINDS or not frame or "@" in frame:
-        raise DataError(f"--measure '{measure}' is not pixel:<frame> (a camera on the frame) nor "
-                        "board_pixel:<frame> (a board on the frame, seen by a fixed camera)")
+    pair = frame.split("-")
+    if (kind not in PIXEL_KINDS or not frame or "@" in frame
+            or (kind == "cross_pixel") != (len(pair) == 2) or not all(pair)):
+        raise DataError(f"--measure '{measure}' is not pixel:<frame> (a camera on the frame), "
+                        "board_pixel:<frame> (a board on the frame, seen by a fixed camera) nor "
+                        "cross_pixel:<camera frame>-<board frame> (a camera on one frame sees a board on another; "
+                        "frame names without '-')")
+    if kind == "cross_pixel" and pair[0] == pair[1]:
+        raise DataError(f"--measure '{measure}': the camera and the board are on the same frame (nothing moves "
+                        "between them): give two frames on different chains")
     return kind, frame
+
+
+def pixel_frames(kind: str, frame: str) -> list[str]:
+    """The robot frames of :func:`pixel_kind`'s answer: its frame, or a ``cross_pixel``'s two."""
+    return frame.split("-") if kind == "cross_pixel" else [frame]
 
 
 def pair(detections: Detections, joints: Dataset, measure: str, board: Board,
@@ -62,7 +77,7 @@ def pair(detections: Detections, joints: Dataset, measure: str, board: Board,
     Args:
         detections: The corners found.
         joints: The joint readings, one row per image (``sample`` the image's stem; a ``set`` column is kept).
-        measure: ``pixel:<frame>`` or ``board_pixel:<frame>``.
+        measure: ``pixel:<frame>``, ``board_pixel:<frame>`` or ``cross_pixel:<camera frame>-<board frame>``.
         board: The board the corners are of.
         held: Intrinsics to hold the camera at (from a camera file), or None: estimated.
         tolerance: Pair by time instead of by name (:func:`by_time`): the largest gap [s] between an image's time
@@ -100,7 +115,7 @@ def pair(detections: Detections, joints: Dataset, measure: str, board: Board,
     metadata = {**{key: value for key, value in joints.metadata.items() if key == "robot"}, "board": board.spec,
                 "image size": f"{detections.size[0]} {detections.size[1]}"}
     if held is not None:
-        camera = frame if kind == "pixel" else ""
+        camera = {"pixel": frame, "cross_pixel": frame.partition("-")[0]}.get(kind, "")
         metadata[f"intrinsics {camera}".strip() + " held"] = intrinsics_text(held)
     dataset = Dataset(list(joints.joint_names), joints.joints[kept], values,
                       [joints.sample_ids[k] for k in kept], [joints.sets[k] for k in kept], metadata)

@@ -11,6 +11,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal.identification.measurements.cross_pixels import CrossPixel
 from pincal.identification.measurements.pixels import BoardPixel, Pixel, parse_board
 
 Array = npt.NDArray[np.float64]
@@ -71,9 +72,13 @@ def camera_placements(view: Any, calibrated: Any, q: Array, base: Array) -> list
         if isinstance(m, BoardPixel):  # the camera is the measurement frame; the board rides on the frame
             camera = np.eye(4)[None]  # the scene's own frame
             boards = _frame_poses(calibrated, q, m.frame, base) @ _attached(view, "target", f"{m.frame}@board")
-        else:  # the camera rides on the frame; the board is fixed in the robot's world
+        else:  # the camera rides on the frame; the board is fixed in the robot's world, or on another frame
             camera = _frame_poses(calibrated, q, m.frame, base) @ _attached(view, "camera", m.frame)
-            boards = (base @ _attached(view, "target", ""))[None]
+            if isinstance(m, CrossPixel):
+                boards = (_frame_poses(calibrated, q, m.board_frame, base)
+                          @ _attached(view, "target", f"{m.board_frame}@board"))
+            else:
+                boards = (base @ _attached(view, "target", ""))[None]
         name = m.frame.replace("/", "_")
         if intrinsics:
             out.append((f"{name}_frustum", frustum(intrinsics, 0.1), camera, CAMERA_COLOR))

@@ -53,6 +53,7 @@ from pincal.identification.measurements.pixels import (
     pixel,
     project,
 )
+from pincal.identification.measurements.cross_pixels import CrossPixel, cross_pixel
 # isort: on
 
 __all__ = [
@@ -72,6 +73,7 @@ __all__ = [
     "BoardPixel",
     "CameraPoint",
     "CameraPose",
+    "CrossPixel",
     "Distance",
     "IntrinsicTerms",
     "JointReading",
@@ -87,6 +89,7 @@ __all__ = [
     "camera_name",
     "camera_point",
     "camera_pose",
+    "cross_pixel",
     "distance",
     "intrinsics_name",
     "joint_reading",

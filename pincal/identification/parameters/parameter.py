@@ -50,9 +50,12 @@ COMPONENTS = ("tx", "ty", "tz", "rx", "ry", "rz")
 AXES = ("x", "y", "z")
 #: Default parameter scales: the typical size of a geometric error [m] and [rad].
 LENGTH_SCALE = 1e-3
-#: A camera's focal length or principal point [px], and a distortion coefficient [1]: their typical corrections.
-PIXEL_SCALE = 1.0
-DISTORTION_SCALE = 1e-3
+#: A camera's focal length or principal point [px], and a distortion coefficient [1]: their typical corrections,
+#: 10 px and 0.1 (a lens's k1 is −0.5 to 0.5). Smaller ones leave what images fix (the principal point to ±3 px, k1
+#: to ±0.015) "practically unidentified" to LM's stop at the noise level, which then ignores what remains to gain
+#: along them: at 1 px and 1e-3, a 30-image UR10 campaign ended k1 2.9σ and cy 4.7σ from the truth.
+PIXEL_SCALE = 10.0
+DISTORTION_SCALE = 0.1
 ANGLE_SCALE = 1e-3
 #: Typical gravity torque [N m] and force [N] on a joint, for the scale of a compliance.
 TORQUE_SCALE = 10.0
