@@ -15,7 +15,6 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal.calibration.campaign import check_sample_counts
 from pincal.calibration.pixel_campaign import (
     DEFAULT_IMAGE_SIZE,
     DEFAULT_INTRINSICS,
@@ -23,11 +22,12 @@ from pincal.calibration.pixel_campaign import (
     PixelSimulation,
     _set,
     _view,
+    check_campaign,
     pixel_campaign,
 )
 from pincal.calibration.setup import parameters_for
 from pincal.errors import ConvergenceError, DataError
-from pincal.identification.measurements import BOARD_DEFAULT, INTRINSICS, Board, cross_pixel, parse_board
+from pincal.identification.measurements import BOARD_DEFAULT, Board, cross_pixel, parse_board
 from pincal.identification.measurements.pixels import BOARD
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.model.robot import Robot
@@ -94,11 +94,7 @@ def simulate_cross_pixels(robot: Robot, camera_frame: str, board_frame: str, n_t
         DataError: a bad board, counts, intrinsics, frames (the same, or a robot with loops).
         ConvergenceError: views the robot cannot reach.
     """
-    check_sample_counts(n_train, n_test)
-    if len(intrinsics) != len(INTRINSICS) or not np.all(np.isfinite(intrinsics)):
-        raise DataError(f"intrinsics {intrinsics}: need nine finite numbers {' '.join(INTRINSICS)}")
-    if noise < 0 or perturb < 0:
-        raise DataError(f"noise {noise} px and perturb {perturb} must be non-negative")
+    check_campaign(n_train, n_test, intrinsics, noise, perturb)
     if camera_frame == board_frame:
         raise DataError(f"cross_pixel:{camera_frame}-{board_frame}: the camera and the board are on the same frame "
                         "(nothing moves between them): give two frames on different chains")

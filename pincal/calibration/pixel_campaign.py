@@ -11,6 +11,7 @@ camera, are not seen (empty cells). SI units: m, rad; pixels [px].
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -111,6 +112,16 @@ def _set(pset: ParameterSet, x: Array, kind: str, owner: str, placement: pin.SE3
         x[k] = delta[pset.parameters[k].component]
 
 
+
+def check_campaign(n_train: int, n_test: int, intrinsics: Sequence[float], noise: float, perturb: float) -> None:
+    """A camera campaign's counts, true intrinsics (nine finite numbers: fx, fy, cx, cy [px], k1, k2, p1, p2, k3),
+    pixel noise [px] and robot errors [m, rad] checked; :class:`~pincal.errors.DataError` naming the culprit."""
+    check_sample_counts(n_train, n_test)
+    if len(intrinsics) != len(INTRINSICS) or not np.all(np.isfinite(intrinsics)):
+        raise DataError(f"intrinsics {intrinsics}: need nine finite numbers {' '.join(INTRINSICS)}")
+    if noise < 0 or perturb < 0:
+        raise DataError(f"noise {noise} px and perturb {perturb} must be non-negative")
+
 def simulate_pixels(robot: Robot, frame: str, n_train: int, n_test: int = 0, eye_to_hand: bool = False,
                     board: str | Board = BOARD_DEFAULT, perturb: float = 1e-3, noise: float = 0.2, seed: int = 0,
                     intrinsics: tuple[float, ...] = DEFAULT_INTRINSICS,
@@ -135,11 +146,7 @@ def simulate_pixels(robot: Robot, frame: str, n_train: int, n_test: int = 0, eye
         DataError: a bad board, counts, or intrinsics.
         ConvergenceError: views the robot cannot reach.
     """
-    check_sample_counts(n_train, n_test)
-    if len(intrinsics) != len(INTRINSICS) or not np.all(np.isfinite(intrinsics)):
-        raise DataError(f"intrinsics {intrinsics}: need nine finite numbers {' '.join(INTRINSICS)}")
-    if noise < 0 or perturb < 0:
-        raise DataError(f"noise {noise} px and perturb {perturb} must be non-negative")
+    check_campaign(n_train, n_test, intrinsics, noise, perturb)
     plate = parse_board(board) if isinstance(board, str) else board
     rng = np.random.default_rng(seed)
     models = pixel_models(plate, frame, eye_to_hand, max(noise, 1e-3))
