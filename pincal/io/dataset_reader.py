@@ -118,11 +118,11 @@ def _number(cell: str, column: str, line: int, first_increment: bool = False, ma
             raise ValueError(cell)
         value = float(cell) if cell else math.nan
     except ValueError:
-        raise DataError(f"column '{column}', line {line}: '{cell}' is not a number") from None
+        raise DataError(f"column '{column}', line {line}: '{cell}' is not a number", column=column, line=line) from None
     if first_increment:
         if not math.isnan(value):
             raise DataError(f"column '{column}', line {line}: {cell} on the first row; a distance increment "
-                            "has no previous sample there, so the cell must be empty or NaN")
+                            "has no previous sample there, so the cell must be empty or NaN", column=column, line=line)
         return value
     if math.isnan(value) and may_be_empty:
         return value
@@ -130,9 +130,9 @@ def _number(cell: str, column: str, line: int, first_increment: bool = False, ma
         what = "is empty" if not cell else f"is '{cell}'"
         raise DataError(f"column '{column}', line {line}: the cell {what}; every reading and measurement "
                         "needs a number (only the first row of a distance_increment column may be empty, and all "
-                        "three cells of a position whose marker was not seen)")
+                        "three cells of a position whose marker was not seen)", column=column, line=line)
     if not math.isfinite(value):
-        raise DataError(f"column '{column}', line {line}: '{cell}' is not finite")
+        raise DataError(f"column '{column}', line {line}: '{cell}' is not finite", column=column, line=line)
     return value
 
 
@@ -238,7 +238,8 @@ def read_dataset(path: str | Path, joint_names_required: Sequence[str] | None = 
     try:
         return _parse(text, joint_names_required or [], min_samples, joint_kinds or {}, known_joints, joint_like)
     except DataError as exc:
-        raise DataError(f"{source.name}: {exc}") from None
+        raise DataError(f"{source.name}: {exc}", column=exc.column, sample=exc.sample, file=str(path),
+                        line=exc.line) from None
 
 
 def check_si_units(metadata: Mapping[str, str]) -> None:
@@ -288,7 +289,8 @@ def _parse(text: str, required: Sequence[str], min_samples: int, kinds: dict[str
         measurements[key][plain] = block[plain]
     for r, (line, cells) in enumerate(rows):  # the other rows cell by cell, each error where it is
         if len(cells) != len(header):
-            raise DataError(f"line {line} has {len(cells)} cells; the header (line {header_line}) has {len(header)}")
+            raise DataError(f"line {line} has {len(cells)} cells; the header (line {header_line}) has {len(header)}",
+                            line=line)
         if not plain[r]:
             for c, (name, i) in enumerate(layout.joints.items()):
                 joints[r, c] = _number(cells[i], name, line)
@@ -306,14 +308,16 @@ def _parse(text: str, required: Sequence[str], min_samples: int, kinds: dict[str
                     full = listing(f"{key}:{c}" for c, e in zip(components, empty, strict=True) if not e)
                     raise DataError(f"column '{key}:{first}', line {line}: the cell {what} but {full} hold "
                                     f"numbers; a {KIND_CLASSES[kind].sighted} that was not seen leaves all the "
-                                    f"cells of '{key}' empty, one seen fills them all")
+                                    f"cells of '{key}' empty, one seen fills them all", column=f"{key}:{first}",
+                                    line=line)
         ids.append(cells[layout.sample] if layout.sample is not None else str(r))
         if layout.sample is not None and not ids[-1]:
-            raise DataError(f"column '{SAMPLE_COLUMN}', line {line}: the sample id is empty")
+            raise DataError(f"column '{SAMPLE_COLUMN}', line {line}: the sample id is empty", column=SAMPLE_COLUMN,
+                            line=line)
         sets.append(cells[layout.set] if layout.set is not None else "train")
         if sets[-1] not in SET_NAMES:
             raise DataError(f"column '{SET_COLUMN}', line {line}: '{sets[-1]}' is not a set; sets are: "
-                            f"{listing(SET_NAMES)}")
+                            f"{listing(SET_NAMES)}", column=SET_COLUMN, line=line, sample=ids[-1])
     dataset = Dataset(list(layout.joints), joints, measurements, ids, sets, metadata)
     _check_rows(dataset, lines)
     _check_units(dataset, lines, kinds)
@@ -325,7 +329,8 @@ def _check_rows(data: Dataset, lines: list[int]) -> None:
     for r, sample in enumerate(data.sample_ids):
         if sample in first_line:
             raise DataError(f"column '{SAMPLE_COLUMN}': sample id '{sample}' is used twice (lines "
-                            f"{first_line[sample]} and {lines[r]})")
+                            f"{first_line[sample]} and {lines[r]})", column=SAMPLE_COLUMN, sample=sample,
+                            line=lines[r])
         first_line[sample] = lines[r]
     table = np.hstack([data.joints, *data.measurements.values()]) if data.measurements else data.joints
     table = np.where(np.isnan(table), 0.0, table) + 0.0  # NaN and -0.0 compare as equal rows
@@ -419,7 +424,8 @@ def read_table(path: str | Path, max_rows: int = MAX_SAMPLES, too_many: str = ""
     metadata, header_line, header, rows = _split(_file_text(Path(path), max_rows, too_many))
     for line, cells in rows:
         if len(cells) != len(header):
-            raise DataError(f"line {line} has {len(cells)} cells; the header (line {header_line}) has {len(header)}")
+            raise DataError(f"line {line} has {len(cells)} cells; the header (line {header_line}) has {len(header)}",
+                            line=line)
     return Table(metadata, header, header_line, rows)
 
 
