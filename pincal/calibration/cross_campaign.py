@@ -20,10 +20,10 @@ from pincal.calibration.pixel_campaign import (
     DEFAULT_INTRINSICS,
     TRIES,
     PixelSimulation,
-    _set,
-    _view,
     check_campaign,
     pixel_campaign,
+    random_view,
+    set_placement_values,
 )
 from pincal.calibration.setup import parameters_for
 from pincal.errors import ConvergenceError, DataError
@@ -121,15 +121,15 @@ def simulate_cross_pixels(robot: Robot, camera_frame: str, board_frame: str, n_t
     centre = np.array([plate.extent[0] / 2, plate.extent[1] / 2, 0.0])
     seen_at_reference = pin.SE3(np.eye(3), np.array([0.0, 0.0, float(np.linalg.norm(gap))]) - centre)
     on_frame = frame_b.actInv(frame_a * camera * seen_at_reference)  # B ← board
-    _set(pset, x_true, "camera", camera_frame, camera)
-    _set(pset, x_true, "target", f"{board_frame}@{BOARD}", on_frame)
+    set_placement_values(pset, x_true, "camera", camera_frame, camera)
+    set_placement_values(pset, x_true, "target", f"{board_frame}@{BOARD}", on_frame)
     for k, p in enumerate(pset):
         if p.kind == "intrinsics":
             x_true[k] = intrinsics[p.component]
     qs = []
     for _ in range(n_train + n_test):
         for _ in range(TRIES):
-            goal = camera * _view(plate, rng) * on_frame.inverse()  # A ← B
+            goal = camera * random_view(plate, rng) * on_frame.inverse()  # A ← B
             start = pin.integrate(robot.model, q0, rng.normal(scale=IK_START, size=robot.model.nv))
             q = relative_ik(robot, camera_frame, board_frame, goal, start)
             if q is not None:

@@ -82,7 +82,7 @@ def _rotation(tilt_x: float, tilt_y: float, roll: float) -> Array:
     return np.asarray(pin.rpy.rpyToMatrix(tilt_x, tilt_y, roll), dtype=float)
 
 
-def _view(board: Board, rng: np.random.Generator) -> pin.SE3:
+def random_view(board: Board, rng: np.random.Generator) -> pin.SE3:
     """A random placement of the board in the camera (camera ← board): the camera looks at a point near the board's
     centre from a random distance, tilt and turn."""
     centre = np.array([board.extent[0] / 2, board.extent[1] / 2, 0.0])
@@ -105,7 +105,7 @@ def _reach(robot: Robot, frame: str, goal: pin.SE3, start: Array) -> Array | Non
     return q if inside else None
 
 
-def _set(pset: ParameterSet, x: Array, kind: str, owner: str, placement: pin.SE3) -> None:
+def set_placement_values(pset: ParameterSet, x: Array, kind: str, owner: str, placement: pin.SE3) -> None:
     """Write ``log6(placement)`` into the parameters of placement group (kind, owner) (those present)."""
     delta = pin.log6(placement).vector
     for k in pset.groups(kind).get((kind, owner, ""), []):
@@ -160,21 +160,21 @@ def simulate_pixels(robot: Robot, frame: str, n_train: int, n_test: int = 0, eye
         on_frame = pin.SE3(_rotation(np.pi, 0.0, 0.0), np.zeros(3))
         on_frame.translation = np.array([0.0, 0.0, 0.01]) - on_frame.rotation @ centre
         camera = placed * on_frame * pin.SE3(np.eye(3), centre - np.array([0.0, 0.0, 0.55]))
-        _set(pset, x_true, "target", f"{frame}@{BOARD}", on_frame)
-        _set(pset, x_true, "base", "base", camera.inverse())
+        set_placement_values(pset, x_true, "target", f"{frame}@{BOARD}", on_frame)
+        set_placement_values(pset, x_true, "base", "base", camera.inverse())
     else:  # the camera on the flange looking along it; the board 0.55 m in front of it at the reference
         on_frame = pin.SE3(_rotation(0.0, 0.0, np.pi / 2), np.array([0.06, 0.0, 0.04]))
         camera = placed * on_frame
         world_board = camera * pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.55]) - centre)
-        _set(pset, x_true, "camera", frame, on_frame)
-        _set(pset, x_true, "target", "", world_board)
+        set_placement_values(pset, x_true, "camera", frame, on_frame)
+        set_placement_values(pset, x_true, "target", "", world_board)
     for k, p in enumerate(pset):
         if p.kind == "intrinsics":
             x_true[k] = intrinsics[p.component]
     qs = []
     for _ in range(n_train + n_test):
         for _ in range(TRIES):
-            view = _view(plate, rng)  # camera ← board
+            view = random_view(plate, rng)  # camera ← board
             goal = (camera * view * on_frame.inverse() if eye_to_hand
                     else world_board * view.inverse() * on_frame.inverse())
             q = _reach(robot, frame, goal, q0)
