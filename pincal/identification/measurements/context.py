@@ -55,6 +55,12 @@ class AttachedPlacement:
     columns: list[int] = field(default_factory=list)
     jacobian: Array = field(default_factory=lambda: np.zeros((6, 0)))
 
+    def point_columns(self, point: Array) -> Array:
+        """(3, len(columns)) how a point fixed on the placement (``point`` [m] in its own frame) moves per unit
+        parameter, in the frame the placement is expressed in: ``R (J_v − p̂ J_ω)``."""
+        return np.asarray(self.placement.rotation @ (self.jacobian[:3] - pin.skew(point) @ self.jacobian[3:]),
+                          dtype=np.float64)
+
 
 @dataclass
 class IntrinsicTerms:

@@ -85,8 +85,7 @@ class CrossPixel(Pixel):
         dseen = rot_c.T @ (-twist_a[:3] + pin.skew(local) @ twist_a[3:])
         dseen += rot_cb @ (twist_b[:3] - pin.skew(on_b) @ twist_b[3:])
         dseen[:, camera.columns] += -camera.jacobian[:3] + pin.skew(seen) @ camera.jacobian[3:]
-        dseen[:, board.columns] += (rot_cb @ board.placement.rotation
-                                    @ (board.jacobian[:3] - pin.skew(b) @ board.jacobian[3:]))
+        dseen[:, board.columns] += rot_cb @ board.point_columns(b)
         jac[:2] = dp[0] @ dseen
         jac[:2, columns] += dk[0][:, components]
 
@@ -113,7 +112,7 @@ class CrossPixel(Pixel):
             jc = np.broadcast_to(camera.jacobian, (len(seen), 6, len(camera.columns)))
             jac[:, :, camera.columns] += np.matmul(dp, -jc[:, :3] + cross_columns(seen, jc[:, 3:]))
         if board.columns:
-            moved = board.placement.rotation @ (board.jacobian[:3] - pin.skew(b) @ board.jacobian[3:])
+            moved = board.point_columns(b)
             jac[:, :, board.columns] += np.matmul(np.matmul(dback, batch.rotations[self.board_frame]), moved)
         if columns:
             jac[:, :, columns] += dk[:, :, components]

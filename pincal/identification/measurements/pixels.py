@@ -288,8 +288,7 @@ class Pixel(Measurement):
         rot_c = camera.placement.rotation
         dseen = rot_c.T @ (-twist[:3] + pin.skew(local) @ twist[3:])
         dseen[:, camera.columns] += -camera.jacobian[:3] + pin.skew(seen) @ camera.jacobian[3:]
-        dseen[:, board.columns] += (rot_c.T @ frame.rotation.T @ board.placement.rotation
-                                    @ (board.jacobian[:3] - pin.skew(b) @ board.jacobian[3:]))
+        dseen[:, board.columns] += rot_c.T @ frame.rotation.T @ board.point_columns(b)
         jac[:2] = dp[0] @ dseen
         jac[:2, columns] += dk[0][:, components]
 
@@ -320,7 +319,7 @@ class Pixel(Measurement):
             jc = np.broadcast_to(camera.jacobian, (len(seen), 6, len(camera.columns)))
             jac[:, :, camera.columns] += np.matmul(dp, -jc[:, :3] + cross_columns(seen, jc[:, 3:]))
         if board.columns:
-            moved = board.placement.rotation @ (board.jacobian[:3] - pin.skew(b) @ board.jacobian[3:])
+            moved = board.point_columns(b)
             jac[:, :, board.columns] += np.matmul(dback, moved)
         if columns:
             jac[:, :, columns] += dk[:, :, components]
@@ -373,8 +372,7 @@ class BoardPixel(Pixel):
         twist = ctx.twists[self.frame]
         rot_bf = ctx.base.rotation @ frame.rotation
         dseen = rot_bf @ (twist[:3] - pin.skew(on_frame) @ twist[3:])
-        dseen[:, board.columns] += (rot_bf @ board.placement.rotation
-                                    @ (board.jacobian[:3] - pin.skew(b) @ board.jacobian[3:]))
+        dseen[:, board.columns] += rot_bf @ board.point_columns(b)
         if ctx.base_columns:
             dseen[:, ctx.base_columns] = (ctx.base.rotation @ np.hstack([np.eye(3), -pin.skew(world)])
                                           @ ctx.base_jacobian)
@@ -397,7 +395,7 @@ class BoardPixel(Pixel):
             return
         batch.derivative(self.frame, np.matmul(dp, point_rows(world, base.rotation)), out=jac)
         if board.columns:
-            moved = board.placement.rotation @ (board.jacobian[:3] - pin.skew(b) @ board.jacobian[3:])
+            moved = board.point_columns(b)
             rot = rotate(base.rotation, batch.rotations[self.frame])  # R_B R_F
             jac[:, :, board.columns] += np.matmul(np.matmul(dp, rot), moved)
         if batch.shared.base_columns:
