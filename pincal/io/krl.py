@@ -167,7 +167,7 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
     """The targets of a KRL program (module docstring): its ``.src`` text, its ``.dat`` text (None when it has none),
     the further files' texts by name; ``tcp`` the tool until the program sets one; ``world`` the robot's base in
     ``$WORLD`` (``$ROBROOT``), the base of points before the program sets one (default: the identity). The targets'
-    frames are in ``$WORLD``: :func:`~pincal.io.programs.read_program` puts them in the robot's base."""
+    frames are in ``$WORLD``: :func:`~pincal.io.program_reader.read_program` puts them in the robot's base."""
     texts = {src_file: src, **({dat_file: dat} if dat is not None else {})}
     program = Program("krl", texts)
     data: dict[tuple[str, int], tuple[pin.SE3 | None, str]] = {}

@@ -13,7 +13,8 @@ from pincal.calibration.compensate import load_model
 from pincal.calibration.program_filter import default_frames, filter_program
 from pincal.errors import DataError
 from pincal.io.krl import read_krl
-from pincal.io.programs import Program, Target, read_program
+from pincal.io.program_reader import read_program
+from pincal.io.programs import Program, Target
 from pincal.io.targets import OK
 from pincal.io.urscript import read_urscript
 
