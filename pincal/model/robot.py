@@ -129,9 +129,14 @@ class Robot:
         return choice.frame
 
     @functools.cached_property
-    def parts(self) -> RobotParts:
+    def parts(self) -> RobotParts[Robot]:
         """Its independent loop blocks, and the part that moves given frames (:mod:`pincal.model.parts`)."""
         return RobotParts(self)
+
+    def reduced(self, model: pin.Model, loops: list[LoopSpec], actuated_joints: list[str]) -> Robot:
+        """A robot of this one's name, source and notes on ``model`` (a reduced model of its joints), with ``loops``
+        and ``actuated_joints`` of its own (a part of it: :mod:`pincal.model.parts`)."""
+        return Robot(model, loops, actuated_joints, name=self.name, source=self.source, notes=self.notes)
 
     def mobility(self, q: Array | None = None, tol: float = 1e-8) -> int:
         """Degrees of freedom ``nv - rank(dc/dv)`` at ``q`` (default: the reference configuration); the rank is the
