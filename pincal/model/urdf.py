@@ -161,13 +161,13 @@ def parse_urdf(text: str, source: str = "URDF") -> ET.Element:
     """The ``<robot>`` element of URDF text, its size checked first (:func:`check_urdf_size`).
 
     Raises:
-        RobotFileError: too large, not well-formed XML, or not a ``<robot>`` document.
+        RobotFileError: too large, not well-formed XML (its ``line`` the parser's), or not a ``<robot>`` document.
     """
     check_urdf_size(len(text), source)
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:
-        raise RobotFileError(f"{source} is not well-formed XML: {exc}") from None
+        raise RobotFileError(f"{source} is not well-formed XML: {exc}", line=exc.position[0]) from None
     if root.tag != "robot":
         raise RobotFileError(f"{source}: root element is <{root.tag}>, expected <robot>")
     return root
