@@ -138,14 +138,15 @@ def robroot(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
         for match in _ROBROOT.finditer(code):
             fields = aggregate(code, match.end())
             frame = frame_of(fields[0]) if fields else None
-            where = f"{name} line {line_of(text, match.start())}"
+            line = line_of(text, match.start())
+            where = f"{name} line {line}"
             if frame is None:
-                raise DataError(f"$ROBROOT at {where}: not a frame of X, Y, Z, A, B, C")
-            found.append((frame, f"$ROBROOT of {where}"))
-    if len(found) > 1:
-        raise DataError(f"$ROBROOT is declared {len(found)} times ({', '.join(w[12:] for _, w in found)}): give one "
-                        "$machine.dat")
-    return found[0] if found else None
+                raise DataError(f"$ROBROOT at {where}: not a frame of X, Y, Z, A, B, C", file=name, line=line)
+            found.append((frame, f"$ROBROOT of {where}", name, line))
+    if len(found) > 1:  # the fields name the second declaration
+        raise DataError(f"$ROBROOT is declared {len(found)} times ({', '.join(w[12:] for _, w, _, _ in found)}): give "
+                        "one $machine.dat", file=found[1][2], line=found[1][3])
+    return found[0][:2] if found else None
 
 
 def _data_entries(name: str, text: str, code: str, data: dict[tuple[str, int], tuple[pin.SE3 | None, str]]) -> None:

@@ -48,7 +48,8 @@ def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = 
     if language == "urscript":
         if robot_base is not None or extra:
             raise DataError(f"PROGRAM '{path}' is URScript, whose poses are in the robot's base frame: --config and "
-                            "--robot-base are for KRL and RAPID")
+                            "--robot-base are for KRL and RAPID", file=str(path),
+                            option="robot_base" if robot_base is not None else "config")
         program = read_urscript(text, str(path), tcp)
         program.texts = originals  # every byte as read: line ends kept
         return program
@@ -74,7 +75,7 @@ def _robot_base(found: tuple[pin.SE3, str] | None, given: pin.SE3 | None, world:
                 option: str) -> tuple[pin.SE3 | None, str]:
     """The robot's base in the program's world frame, from a controller's file or ``--robot-base``, and in words."""
     if found is not None and given is not None:
-        raise DataError(f"the robot's base is given twice: {found[1]} and --robot-base; give one")
+        raise DataError(f"the robot's base is given twice: {found[1]} and --robot-base; give one", option="robot_base")
     if found is not None:
         return found[0], f"robot base in {world}: {found[1]}"
     if given is not None:

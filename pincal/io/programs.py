@@ -152,7 +152,7 @@ def language_of(path: str | Path) -> str:
     suffix = Path(path).suffix.lower()
     if suffix not in LANGUAGES:
         raise DataError(f"PROGRAM '{path}': pincal filter reads URScript (.script), KUKA KRL (.src with its .dat) and "
-                        f"ABB RAPID (.mod) programs, not '{suffix or 'a file without suffix'}'")
+                        f"ABB RAPID (.mod) programs, not '{suffix or 'a file without suffix'}'", file=str(path))
     return LANGUAGES[suffix]
 
 
@@ -179,23 +179,26 @@ def read_text(path: str | Path, what: str = "PROGRAM") -> str:
     """A program file's text, its line endings kept (UTF-8, else Latin-1: :func:`decoded`).
 
     Raises:
-        DataError: missing, a directory, unreadable, too large, empty or not text (a control byte).
+        DataError: missing, a directory, unreadable, too large, empty or not text (a control byte); its ``file``
+            ``path``, and the ``line`` of a control byte.
     """
     path = Path(path)
     if not path.is_file():
-        raise DataError(f"{what} '{path}' is not a file")
+        raise DataError(f"{what} '{path}' is not a file", file=str(path))
     try:
         data = path.read_bytes()
     except OSError as exc:
-        raise DataError(f"cannot read {what} '{path}': {exc.strerror or exc}") from None
+        raise DataError(f"cannot read {what} '{path}': {exc.strerror or exc}", file=str(path)) from None
     if len(data) > MAX_CHARACTERS:
-        raise DataError(f"{what} '{path}' has {len(data)} bytes; a program of at most {MAX_CHARACTERS} is read")
+        raise DataError(f"{what} '{path}' has {len(data)} bytes; a program of at most {MAX_CHARACTERS} is read",
+                        file=str(path))
     if not data.strip():
-        raise DataError(f"{what} '{path}' is empty")
+        raise DataError(f"{what} '{path}' is empty", file=str(path))
     control = _NOT_TEXT.search(data)
     if control is not None:
         raise DataError(f"{what} '{path}' is not a text file (byte 0x{data[control.start()]:02x} at offset "
-                        f"{control.start()}): a program is text")
+                        f"{control.start()}): a program is text", file=str(path),
+                        line=line_of(lines_of(data[:control.start()].decode("latin-1")), control.start()))
     return decoded(data)[0]
 
 
@@ -383,7 +386,8 @@ def rewritten(program: Program, edits: list[Edit]) -> dict[str, str]:
         mine = sorted((e for e in edits if e.file == name), key=lambda e: e.start)
         for before, after in itertools.pairwise(mine):
             if after.start < before.end:
-                raise DataError(f"{name}: two rewrites overlap at characters {after.start}..{before.end}")
+                raise DataError(f"{name}: two rewrites overlap at characters {after.start}..{before.end}", file=name,
+                                line=line_of(lines_of(out[name]), after.start))
         text = out[name]
         for edit in reversed(mine):
             text = text[:edit.start] + edit.text + text[edit.end:]
