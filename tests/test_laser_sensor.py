@@ -171,6 +171,34 @@ def test_the_recipe_s_commands_simulate_calibrate_check_and_report(tmp_path: Pat
     row = re.search(r"laser:tool0\s+length\s+\d+\s+([\d.]+) mm\s+[\d.]+ mm\s+([\d.]+) mm", done["check"])
     assert row is not None and float(row.group(1)) < 0.01 * float(row.group(2)), done["check"]
     assert (tmp_path / "report.html").stat().st_size > 10_000 and "held out" in done["report"]
+    _the_same_data_through_a_job_file(tmp_path, env, report)
+
+
+def _the_same_data_through_a_job_file(folder: Path, env: dict[str, str], report: dict[str, float]) -> None:
+    """The simulated file's distances written in mm under a name of their own, read by a job file that declares the
+    laser as any one-frame kind: the same calibration; a plane's ``support`` given to it is refused, naming it."""
+    lines = [line for line in (folder / "sim" / "measurements.csv").read_text().splitlines()
+             if not line.startswith("#")]
+    rows = [line.split(",") for line in lines]
+    assert rows[0][-1] == "laser:tool0:distance"
+    rows[0][-1] = "distance_mm"
+    for row in rows[1:]:
+        row[-1] = repr(float(row[-1]) * 1e3) if row[-1] else ""
+    (folder / "laser_mm.csv").write_text("\n".join(",".join(row) for row in rows) + "\n", encoding="utf-8")
+    job = ('robot = "ur10"\n[data]\nfile = "laser_mm.csv"\nheld_out = "set"\nsample = "sample"\n[[measure]]\n'
+           'kind = "laser"\nframe = "tool0"\ncolumns = ["distance_mm"]\nunits = "mm"\nsigma = 1e-5\n')
+    (folder / "job.toml").write_text(job, encoding="utf-8")
+    run = subprocess.run([str(PINCAL), "calibrate", "job.toml", "--report", "job.json"], capture_output=True,
+                         text=True, timeout=300, env=env, cwd=folder, check=False)
+    assert run.returncode == 0, run.stderr
+    from_job = json.loads((folder / "job.json").read_text())
+    assert from_job["test_rms_after"] == pytest.approx(report["test_rms_after"], rel=1e-6)
+    (folder / "job.toml").write_text(job + 'support = "base_link"\n', encoding="utf-8")
+    refused = subprocess.run([str(PINCAL), "calibrate", "job.toml"], capture_output=True, text=True, timeout=300,
+                             env=env, cwd=folder, check=False)
+    assert refused.returncode == 2 and refused.stderr.strip() == (
+        "pincal: error: job.toml: [measure 1] support: only a contact with a plane is held by a support; a laser is "
+        "not")
 
 
 def test_without_the_plugin_the_kind_is_unknown_and_with_a_bad_key_it_is_named(tmp_path: Path) -> None:
