@@ -16,8 +16,9 @@ import pinocchio as pin
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.setup import Prepared, dataset_models, parameters_for, prepare
 from pincal.errors import DataError
-from pincal.identification.measurements import PLANE, parse_key, split_target
+from pincal.identification.measurements import parse_key, split_target
 from pincal.identification.measurements.pixels import INTRINSICS, Pixel, declared_intrinsics, intrinsics_name
+from pincal.identification.parameters import kinds_where, parameter_kind
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.starts import set_placement
 from pincal.io.calibrated_urdf import attached_link, marker_link
@@ -26,8 +27,14 @@ from pincal.model.robot import Robot
 
 Array = npt.NDArray[np.float64]
 
-#: The parameter kinds of the measurement setup: what a day's measurements may have moved, not the robot.
-SETUP_KINDS = ("base", "marker", "cluster", "camera", "target", PLANE, "intrinsics")
+
+
+def setup_kinds() -> tuple[str, ...]:
+    """The parameter kinds of the measurement setup, what a day's measurements may have moved, not the robot: those
+    acting in the measurement models (``base``, ``marker``, ``cluster``, ``camera``, ``target``, ``plane``,
+    ``intrinsics``, and a plugin's)."""
+    return kinds_where(setup=True)
+
 
 MODEL_AS_IS = ("MODEL as it stands: the measurement frame, markers, cameras (their intrinsics too), targets and "
                "contact planes the file holds; nothing estimated")
@@ -45,7 +52,7 @@ def prepare_setup(robot: Robot, dataset: Dataset, options: CalibrationOptions) -
     default set's ``base``, ``marker``, ``camera``, ``target`` and ``plane`` parameters, each declared marker on its
     own)."""
     models = dataset_models(robot, dataset, options)
-    others = [p.name for p in parameters_for(robot, models, None, "each") if p.kind not in SETUP_KINDS]
+    others = [p.name for p in parameters_for(robot, models, None, "each") if p.kind not in setup_kinds()]
     return prepare(robot, dataset, options, part=None, leave_out=others)
 
 
@@ -75,16 +82,16 @@ def file_setup(problem: CalibrationProblem, register: bool) -> Array:
             point = found.translation - np.asarray(declared.get(owner) or (0.0, 0.0, 0.0))
             for k in idx:
                 x[k] = point[parameters.parameters[k].component]
-    for (kind, owner, _), idx in parameters.groups("camera", "target", PLANE).items():
+    for (kind, owner, _), idx in parameters.groups(*kinds_where(attached=True)).items():
         link = attached_link(kind, owner)
-        found = relative(owner if kind == "camera" else split_target(owner)[0] if owner else "", link)
+        found = relative(split_target(owner)[0] if owner else "", link)
         if found is not None:
             set_placement(problem, x, idx, found)
         elif not register:
-            readings = "contact" if kind == PLANE else "camera"
+            readings, placed = parameter_kind(kind).check_words
             raise DataError(f"MODEL has no link '{link}' (where a calibrated URDF holds its {kind}): without it the "
                             f"model cannot predict the {readings} readings as it stands; check with --register, which "
-                            f"places the {'planes' if kind == PLANE else 'cameras and targets'} on DATA")
+                            f"places the {placed} on DATA")
     return x
 
 

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration.check_setup import SETUP_KINDS, file_setup
+from pincal.calibration.check_setup import file_setup, setup_kinds
 from pincal.calibration.heldout import setup_columns
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.pipeline import fitting_options
@@ -167,7 +167,7 @@ def _covariance_columns(names: Sequence[str], carried: Mapping[str, Any] | None)
         return [], np.zeros((0, 0))
     index = {n: k for k, n in enumerate(names)}
     kept = [(i, index[n]) for i, n in enumerate(carried["parameters"])
-            if n in index and n.split(".", 1)[0] not in SETUP_KINDS]
+            if n in index and n.split(".", 1)[0] not in setup_kinds()]
     matrix = np.array([[np.nan if v is None else v for v in row] for row in carried["matrix"]], dtype=float)
     rows = [i for i, _ in kept]
     sub = matrix[np.ix_(rows, rows)] if rows else np.zeros((0, 0))

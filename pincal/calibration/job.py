@@ -27,12 +27,13 @@ from pincal.model.robot import Robot, load_robot
 #: The names of a job file; its record (``Job``, ``MeasureColumns``, ``HeldOut``) is defined in
 #: :mod:`pincal.calibration.job_reader`, which the ``[bag]`` grammar (:mod:`pincal.calibration.job_bag`) reads too.
 __all__ = ["DATA_KEYS", "EVERY", "HEADERS", "JOB_KEYS", "JOINT_KEYS", "MEASURE_KEYS", "UNIT_KEYS", "Column", "HeldOut",
-           "Job", "MeasureColumns", "load_job_robot", "read_job"]
+           "Job", "MeasureColumns", "load_job_robot", "measure_keys", "read_job"]
 
 #: Keys of each level of a job file under the top one (:data:`~pincal.calibration.job_reader.JOB_KEYS`).
 DATA_KEYS = ("file", "files", "units", "held_out", "sample", "ignore", "header")
 UNIT_KEYS = ("length", "angle")
-MEASURE_KEYS = ("kind", "frame", "frames", "columns", "units", "sigma", "sigma_angle", "support")
+#: The keys every ``[[measure]]`` may have; a kind reads its own besides (:func:`measure_keys`).
+MEASURE_KEYS = ("kind", "frame", "frames", "columns", "units", "sigma", "sigma_angle")
 #: Keys of a joint given as a table under ``[joints]``: ``torso_lift_joint = { column = "T", units = "m" }``.
 JOINT_KEYS = ("column", "units")
 #: What the first line of a data file is: the column ``names`` (the default), a header to ``skip`` (names defective or
@@ -40,6 +41,12 @@ JOINT_KEYS = ("column", "units")
 HEADERS = ("names", "skip", "none")
 #: ``held_out = "every 5th from 4"``: every K-th row of the data, counted from 0 over the files in order.
 EVERY = re.compile(r"every\s+(\d+)(?:st|nd|rd|th)?(?:\s+from\s+(\d+))?", re.IGNORECASE)
+
+
+def measure_keys() -> tuple[str, ...]:
+    """The keys a ``[[measure]]`` may have: :data:`MEASURE_KEYS`, then each registered kind's own
+    (:attr:`~pincal.identification.measurements.Measurement.job_keys`: a plane's ``support``)."""
+    return MEASURE_KEYS + tuple(dict.fromkeys(key for kind in KIND_CLASSES.values() for key in kind.job_keys))
 
 
 def read_job(path: str | Path) -> Job:
@@ -179,26 +186,28 @@ class _DataReader(JobReader):
 
     def measure(self, entry: dict[str, Any], number: int) -> MeasureColumns:
         where = f"[measure {number}]"
-        self.keys(entry, MEASURE_KEYS, f"in {where}")
+        keys = measure_keys()
+        self.keys(entry, keys, f"in {where}")
         if "kind" not in entry:
-            raise self.error(where, f"'kind' is missing (keys are: {listing(MEASURE_KEYS)})")
+            raise self.error(where, f"'kind' is missing (keys are: {listing(keys)})")
         kind = self.choice(entry["kind"], list(MEASUREMENT_COMPONENTS), f"{where} kind")
-        unwritten = KIND_CLASSES[kind].zero_when_unwritten
-        if "columns" not in entry and not unwritten:
-            raise self.error(where, f"'columns' is missing (keys are: {listing(MEASURE_KEYS)})")
-        if "support" in entry and not unwritten:
-            raise self.error(f"{where} support", f"only a contact with a plane is held by a support; a {kind} is not")
-        two = kind.startswith("distance")
+        model = KIND_CLASSES[kind]
+        if "columns" not in entry and not model.zero_when_unwritten:
+            raise self.error(where, f"'columns' is missing (keys are: {listing(keys)})")
+        for own in keys[len(MEASURE_KEYS):]:
+            if own in entry and own not in model.job_keys:
+                only = next(k.job_keys[own] for k in KIND_CLASSES.values() if own in k.job_keys)
+                raise self.error(f"{where} {own}", f"only {only}; a {kind} is not")
+        two = model.job_frames == 2
         name, other = ("frames", "frame") if two else ("frame", "frames")
         if name not in entry or other in entry:
             shape = 'frames = ["A", "B"]' if two else 'frame = "NAME"'
             raise self.error(where, f"a {kind} measurement names its frame{'s' if two else ''} as {shape}")
         frames = self.texts(entry[name], f"{where} {name}")
-        if len(frames) != (2 if two else 1):
+        if len(frames) != model.job_frames:
             raise self.error(f"{where} {name}", f"{len(frames)} frames; a {kind} measurement joins two")
-        key = f"{kind}:{'-'.join(frames)}"
-        if "support" in entry:
-            key += f"@{self.text(entry['support'], f'{where} support')}"
+        key = model.job_key(kind, frames, {own: self.text(entry[own], f"{where} {own}") for own in model.job_keys
+                                           if own in entry})
         try:
             parse_measurement_key(key)
         except DataError as exc:

@@ -20,7 +20,7 @@ import numpy.typing as npt
 from pincal.errors import DataError
 from pincal.identification.measurements import KIND_CLASSES
 from pincal.identification.metrics import angle_error_norms, calibration_gain, error_norms, pixel_error_norms, rms
-from pincal.identification.parameters import ParameterSet
+from pincal.identification.parameters import ParameterSet, kinds_where, parameter_kind
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
 from pincal.io.files import json_text
@@ -33,12 +33,7 @@ SCHEMA_VERSION = 1
 BEFORE_MEANS_REGISTERED = ("the nominal robot, with the measurement frame registered to the training data in "
                            "closed form (Kabsch), for fit and held-out samples alike")
 BEFORE_MEANS_NOMINAL = "the nominal robot in the nominal measurement frame, for fit and held-out samples alike"
-BEFORE_MEANS_PLACED = ("the nominal robot, with its cameras and targets placed to the training data in closed form "
-                       "(hand-eye), for fit and held-out samples alike")
-BEFORE_MEANS_UNPLACED = ("the nominal robot, with its cameras and targets at the identity (the training data did not "
-                         "determine them in closed form), for fit and held-out samples alike")
-BEFORE_MEANS_PLANES = ("the nominal robot, with each contact plane fitted to its training contact points in closed "
-                       "form (least squares), for fit and held-out samples alike")
+
 
 
 #: The metadata of a field left out of the JSON while it holds None.
@@ -265,26 +260,23 @@ def registered_base(parameters: ParameterSet) -> bool:
 
 
 def before_means(problem: CalibrationProblem) -> str:
-    """What the "before" errors are of: the starting point :meth:`CalibrationProblem.initial_guess` gave."""
-    if problem.parameters.of_kind("plane") and not problem.parameters.of_kind("camera", "target"):
-        return "; ".join([BEFORE_MEANS_PLANES, *problem.not_in_closed_form])
-    if problem.parameters.of_kind("camera", "target"):
-        means = BEFORE_MEANS_PLACED if problem.placed_in_closed_form else BEFORE_MEANS_UNPLACED
-        return "; ".join([means, *problem.not_in_closed_form])
+    """What the "before" errors are of: the starting point :meth:`CalibrationProblem.initial_guess` gave (the first
+    attached kind of the parameters that says it, :meth:`~pincal.identification.parameters.ParameterKind.before_means`:
+    cameras and targets placed by hand-eye, contact planes fitted to their points)."""
+    for name in kinds_where(attached=True):
+        means = parameter_kind(name).before_means(bool(problem.placed_in_closed_form))
+        if means and problem.parameters.of_kind(name):
+            return "; ".join([means, *problem.not_in_closed_form])
     return BEFORE_MEANS_REGISTERED if registered_base(problem.parameters) else BEFORE_MEANS_NOMINAL
-
-
-#: What each kind of the setup is called where "before" names what it registered.
-SETUP_WORDS = {"base": "measurement frame", "marker": "markers", "cluster": "markers", "camera": "cameras",
-               "target": "targets", "plane": "contact planes", "intrinsics": "camera intrinsics"}
 
 
 def registered_means(parameters: ParameterSet, columns: list[int]) -> str:
     """What "before" is when the setup's parameters (``columns`` of ``parameters``) were fitted: the nominal robot with
-    its measurement frame, markers, … registered to the training data."""
+    its measurement frame, markers, … registered to the training data (each kind's
+    :attr:`~pincal.identification.parameters.ParameterKind.setup_words`)."""
     words: list[str] = []
     for k in columns:
-        word = SETUP_WORDS.get(list(parameters)[k].kind_class.name, "device constants")
+        word = list(parameters)[k].kind_class.setup_words
         if word not in words:
             words.append(word)
     setup = ", ".join(words[:-1]) + f" and {words[-1]}" if len(words) > 1 else words[0]

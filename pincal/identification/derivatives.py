@@ -26,7 +26,7 @@ from pincal.identification.measurements import (
     intrinsics_name,
     split_target,
 )
-from pincal.identification.parameters import AnchorPlacement, MarkerOffset, ParameterSet, attached_name
+from pincal.identification.parameters import AnchorPlacement, MarkerOffset, ParameterSet, attached_name, kinds_where
 from pincal.identification.parameters.candidates import _descends
 from pincal.identification.parameters.kinds import CameraIntrinsics
 from pincal.model.robot import Robot
@@ -97,7 +97,8 @@ def marker_points(pset: ParameterSet, x: Array, nominal: dict[str, Array]) -> di
 
 
 def attached_placements(pset: ParameterSet, x: Array) -> dict[str, AttachedPlacement]:
-    """Each camera, target and plane with parameters at ``x``: its placement ``exp6(δ)`` and right Jacobian.
+    """Each attached placement with parameters at ``x`` (a camera, a target, a plane: a kind that says it is
+    :attr:`~pincal.identification.parameters.ParameterKind.attached`): its placement ``exp6(δ)`` and right Jacobian.
 
     Args:
         pset: The parameter set ``x`` refers to.
@@ -108,7 +109,7 @@ def attached_placements(pset: ParameterSet, x: Array) -> dict[str, AttachedPlace
         ``target``, ``target.<frame>@<target>``) -> its :class:`AttachedPlacement`.
     """
     out: dict[str, AttachedPlacement] = {}
-    for (kind, owner, _), idx in pset.groups("camera", "target", "plane").items():
+    for (kind, owner, _), idx in pset.groups(*kinds_where(attached=True)).items():
         delta = pset.placement_delta(x, idx)
         jacobian = right_jacobian(delta, [pset.parameters[k].component for k in idx])
         out[attached_name(kind, owner)] = AttachedPlacement(pin.exp6(delta), list(idx), jacobian)

@@ -22,7 +22,7 @@ import pinocchio as pin
 
 from pincal.errors import ConvergenceError, DataError, RobotFileError, listing, not_found
 from pincal.identification.derivatives import marker_points
-from pincal.identification.measurements import PLANE, Measurement, split_target
+from pincal.identification.measurements import Measurement, split_target
 from pincal.identification.parameters import (
     JointPlacement,
     MarkerOffset,
@@ -329,7 +329,7 @@ def _attached_links(tree: ET.Element, parameters: ParameterSet, x: Array, joint_
         child = next(j.find("child") for j in tree.findall("joint") if j.get("name") == frame_joint)  # tracker frame
         if child is not None and child.get("link"):
             robot_root, robot_root_placement = child.get("link", ""), root[frame_joint]
-    for (kind, owner, _), idx in parameters.groups("camera", "target", PLANE).items():
+    for (kind, owner, _), idx in parameters.groups(*kinds_where(attached=True)).items():
         link = attached_link(kind, owner)
         joint = f"{link}_joint"
         world_target = not owner  # the world target and a plane in the world; a camera is always on a frame

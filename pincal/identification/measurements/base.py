@@ -75,6 +75,21 @@ class Attachment:
 
 
 @dataclass(frozen=True)
+class NominalReadings:
+    """What a kind's closed-form start reads of one of its models (:meth:`Measurement.start_placements`): the nominal
+    robot's placement [m, rad] of each of the model's frames in the world at each sample the model reads, and its
+    readings there (n, width), in the data's units."""
+
+    placements: dict[str, list[pin.SE3]]
+    values: Array
+
+
+#: Attached placement name (``plane``, ``camera.<frame>``, …) -> its closed-form start, or why the data do not
+#: determine it (one line, for the summary).
+StartPlacements = dict[str, "pin.SE3 | str"]
+
+
+@dataclass(frozen=True)
 class Measurement(ABC):
     """Base class: ``key`` names the data columns, ``size`` the values per sample, ``sigma`` the
     standard deviation of each value (same units) used to weight the residual.
@@ -110,6 +125,13 @@ class Measurement(ABC):
     #: Whether a reading states a contact whose values are all 0 when none is written (a frame on a plane): a job
     #: file may then give the measurement no columns.
     zero_when_unwritten: ClassVar[bool] = False
+    #: How many robot frames a job file's ``[[measure]]`` of the kind names: 1 (``frame = "NAME"``) or 2 (``frames =
+    #: ["A", "B"]``: a distance joins two).
+    job_frames: ClassVar[int] = 1
+    #: The keys of a job file's ``[[measure]]`` the kind reads besides the common ones, each a string, -> what only the
+    #: kinds that read it are (a plane's ``support``: "a contact with a plane is held by a support"); :meth:`job_key`
+    #: builds the key from them.
+    job_keys: ClassVar[dict[str, str]] = {}
 
     key: str
     size: int
@@ -126,6 +148,13 @@ class Measurement(ABC):
         for kind in kinds:
             KINDS[kind] = cls.__dict__["from_key"].__get__(None, cls)
             KIND_CLASSES[kind] = cls
+
+    @classmethod
+    def job_key(cls, kind: str, frames: Sequence[str], keys: Mapping[str, str]) -> str:
+        """The measurement key a job file's ``[[measure]]`` declares: its ``kind``, the ``frames`` it names
+        (:attr:`job_frames` of them) and the values of the kind's own :attr:`job_keys` that it gives (``keys``);
+        ``<kind>:<frame>``, ``<kind>:<a>-<b>`` for two frames."""
+        return f"{kind}:{'-'.join(frames)}"
 
     @property
     def frames(self) -> tuple[str, ...]:
@@ -228,6 +257,15 @@ class Measurement(ABC):
         of the measurement frame's placement ``base``) and their names. Raises DataError when the data do not
         determine them (``translating``: the variants for a frame that only translates)."""
         raise DataError(f"measurement '{self.key}' has no closed-form start")
+
+    @classmethod
+    def start_placements(cls, models: Sequence[Measurement],
+                         nominal: Callable[[Measurement], NominalReadings]) -> StartPlacements:
+        """The closed-form starts of the placements ``models`` carry (their :attr:`attachments`), read from the
+        nominal robot and the data (``nominal(model)``); ``models`` are every model of the problem that shares this
+        hook (a plane's contacts of both kinds). Default: none, each placement starts at nominal (a camera's start is
+        :meth:`closed_form`, one model at a time)."""
+        return {}
 
     def absolute(self) -> Measurement:
         """The model of the absolute reading of an incremental one (itself when it is not incremental)."""

@@ -25,6 +25,7 @@ class Distance(Measurement):
     kinds: ClassVar[tuple[str, ...]] = ("distance", "distance_increment")
     components: ClassVar[tuple[str, ...]] = ("d",)
     error_words: ClassVar[tuple[str, str]] = ("distance", "orientation")
+    job_frames: ClassVar[int] = 2
     length_rows: ClassVar[int] = 1
     reads_markers: ClassVar[bool] = True
 

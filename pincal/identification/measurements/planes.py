@@ -17,6 +17,7 @@ Two kinds, both with the contact frame ``F`` expressed in the support's frame, `
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import ClassVar
 
@@ -24,9 +25,10 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal import linalg
 from pincal.errors import DataError
 from pincal.identification.batch import BatchContext
-from pincal.identification.measurements.base import Attachment, Measurement
+from pincal.identification.measurements.base import Attachment, Measurement, NominalReadings, StartPlacements
 from pincal.identification.measurements.context import AttachedPlacement, SampleContext, split_target
 from pincal.model.rotations import rotate, skew
 
@@ -57,9 +59,16 @@ class PlanePoint(Measurement):
     error_words: ClassVar[tuple[str, str]] = ("plane distance", "tilt")
     length_rows: ClassVar[int] = 1
     zero_when_unwritten: ClassVar[bool] = True
+    job_keys: ClassVar[dict[str, str]] = {"support": "a contact with a plane is held by a support"}
 
     frame: str = ""
     support: str = ""
+
+    @classmethod
+    def job_key(cls, kind: str, frames: Sequence[str], keys: Mapping[str, str]) -> str:
+        """``<kind>:<frame>``, or ``<kind>:<frame>@<support>`` when the job gives the plane's ``support``."""
+        key = super().job_key(kind, frames, keys)
+        return f"{key}@{keys['support']}" if "support" in keys else key
 
     @classmethod
     def from_key(cls, kind: str, rest: str, sigma: float | None) -> Measurement:
@@ -76,6 +85,23 @@ class PlanePoint(Measurement):
     def attachments(self) -> tuple[Attachment, ...]:
         """The plane (``plane[.<support>].tz|rx|ry``)."""
         return (Attachment(PLANE, self.support, PLANE_COMPONENTS),)
+
+    @classmethod
+    def start_placements(cls, models: Sequence[Measurement],
+                         nominal: Callable[[Measurement], NominalReadings]) -> StartPlacements:
+        """Each plane a frame touches (its support's, in sorted order): the plane through the contact frames' nominal
+        origins (in the support's frame; the readings' distances taken off along the normal), fitted by SVD, its
+        normal the direction of least spread turned toward the support's +z (the mean of the frames' z axes when the
+        points are nearly on a line and the frames' axes are read); why not, when the points do not determine it."""
+        contacts = [m for m in models if isinstance(m, PlanePoint)]
+        out: StartPlacements = {}
+        for support in sorted({m.support for m in contacts}):
+            points, axes, distances = _contact_points([m for m in contacts if m.support == support], nominal)
+            try:
+                out[plane_name(support)] = fit_plane(points, distances, axes)
+            except DataError as why:
+                out[plane_name(support)] = str(why)
+        return out
 
     def predict(self, ctx: SampleContext, out: Array, jac: Array | None) -> None:
         """``d = e_zᵀ G⁻¹ S⁻¹ p_F``. With ``ΔW = W_F − W_S`` (the spatial twists ``Ad(F) ξ_F``, ``Ad(S) ξ_S``), the
@@ -205,6 +231,98 @@ def _predict_batch(model: PlanePoint, batch: BatchContext, out: Array, jac: Arra
         jac[:, 0, plane.columns] += -jp[2] + np.matmul(skew(point), jp[3:])[:, 2]
         if model.size == 3:
             jac[:, 1:, plane.columns] += np.matmul(skew(axis), jp[3:])[:, :2]
+
+
+def _contact_points(models: list[PlanePoint], nominal: Callable[[Measurement], NominalReadings]
+                    ) -> tuple[Array, Array, Array]:
+    """The contact frames' origins [m] and z axes in their support's frame at the nominal robot, (n, 3) each, and
+    the distances [m] read there (n,)."""
+    points, axes, distances = [], [], []
+    for m in models:
+        seen = nominal(m)
+        held = seen.placements[m.support] if m.support else [pin.SE3.Identity()] * len(seen.values)
+        for frame, support, value in zip(seen.placements[m.frame], held, seen.values, strict=True):
+            contact = support.actInv(frame)
+            points.append(contact.translation)
+            axes.append(contact.rotation[:, 2] if m.angle_rows else np.full(3, np.nan))
+            distances.append(value[0])
+    return np.array(points).reshape(-1, 3), np.array(axes).reshape(-1, 3), np.array(distances)
+
+
+#: Smallest ratio of the second to the first spread of contact points that still fixes a plane's tilt about
+#: their line.
+PLANE_SPREAD = 1e-3
+
+
+def fit_plane(points: Array, distances: Array, axes: Array | None = None) -> pin.SE3:
+    """The plane ``G`` (its normal along its z axis) through ``points`` (n, 3) [m] at the signed ``distances`` (n,)
+    [m] they read (the normal by SVD when they are all 0, else by least squares under a unit norm), as a placement
+    whose ``log6`` is ``(0, 0, tz, rx, ry, 0)``: the offset along the normal and two tilts, the plane's parameters.
+    Points at equal heights (contacts) turn the normal toward +z; ``axes`` (n, 3) (rows NaN where not read) give it
+    when the points are nearly on a line.
+
+    Raises:
+        DataError: fewer than three points, or points on a line without axes to give the normal.
+    """
+    if len(points) < 3:
+        raise DataError(f"{len(points)} contact points do not fix a plane (three or more do)")
+    centre = points.mean(axis=0)
+    _, spread, vt = linalg.svd(points - centre, "the contact points about their centre")
+    if spread[1] <= PLANE_SPREAD * spread[0]:
+        read = axes[np.all(np.isfinite(axes), axis=1)] if axes is not None else np.zeros((0, 3))
+        if not len(read):
+            raise DataError("the contact points lie on a line: their plane's tilt about it is not determined")
+        normal = (read * np.sign(read @ read[0])[:, None]).mean(axis=0)
+        normal = _upward(normal / np.linalg.norm(normal))
+    else:
+        normal = _unit_normal(points - centre, distances - distances.mean(), spread, vt)
+    offset = float(np.mean(points @ normal - distances))
+    return plane_placement(normal, offset)
+
+
+def _upward(normal: Array) -> Array:
+    """The unit ``normal`` (3,) turned toward +z (where the data do not tell its sign)."""
+    return normal if normal[2] >= 0 else -normal
+
+
+def _unit_normal(centred: Array, heights: Array, spread: Array, vt: Array) -> Array:
+    """The unit ``n`` minimising ``Σ (n·p_i − h_i)²`` over the centred points ``p_i`` (n, 3) [m] and centred heights
+    ``h_i`` (n,) [m] (least squares under a unit-norm constraint, Gander 1980): ``n = (AᵀA − λI)⁻¹ Aᵀh`` with the
+    λ below the smallest ``σ²`` that makes it a unit vector, found by bisection; the direction of least spread when
+    every height is 0 (``spread``, ``vt``: the SVD of the points)."""
+    g = vt @ (centred.T @ heights)
+    squares = spread ** 2
+    if not np.any(heights) or abs(g[2]) <= 1e-12 * max(np.abs(g).max(), 1e-300):
+        return _upward(vt[2])  # equal heights do not tell up from down
+
+    def length(lam: float) -> float:
+        return float(np.sum((g / (squares - lam)) ** 2))
+
+    high, low = squares[2], squares[2] - max(np.abs(g).sum(), 1.0)
+    while length(low) > 1.0:
+        low = squares[2] - 2.0 * (squares[2] - low)
+    for _ in range(200):  # length is increasing in λ on (−∞, σ²_min)
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if length(mid) < 1.0 else (low, mid)
+    normal: Array = vt.T @ (g / (squares - low))
+    normal /= np.linalg.norm(normal)
+    level = _upward(vt[2])  # the heights' sign, unless it fits them no better than the plane of least spread does
+
+    def misfit(n: Array) -> float:
+        return float(np.sum((centred @ n - heights) ** 2))
+
+    return normal if misfit(normal) < 0.5 * misfit(level) else level
+
+
+def plane_placement(normal: Array, offset: float) -> pin.SE3:
+    """The placement ``exp6((0, 0, tz, rx, ry, 0))`` of the plane ``{p : n·p = offset}`` (``normal`` (3,) a unit
+    vector with ``n_z > −1``, ``offset`` [m]): the rotation about an axis in the xy plane that takes z to the normal,
+    and ``tz`` such that its origin lies on the plane."""
+    axis = np.cross([0.0, 0.0, 1.0], normal)
+    angle = float(np.arctan2(np.linalg.norm(axis), normal[2]))
+    rotation = axis / np.linalg.norm(axis) * angle if angle > 1e-12 else np.zeros(3)
+    along = pin.exp6(pin.Motion(np.array([0.0, 0.0, 1.0]), rotation)).translation @ normal  # per unit tz
+    return pin.exp6(pin.Motion(np.array([0.0, 0.0, offset / along]), rotation))
 
 
 def _frames(kind: str, rest: str) -> tuple[str, str]:

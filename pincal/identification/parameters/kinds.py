@@ -73,6 +73,19 @@ class ParameterKind:
     #: The standard deviation of its parameters about nominal that the calibration assumes before the data
     #: (:mod:`pincal.identification.prior`), by unit; a unit left out, or an empty mapping, has no prior.
     prior: ClassVar[dict[str, float]] = {}
+    #: Whether it is a placement a measurement model carries (:class:`~pincal.identification.measurements.Attachment`:
+    #: a camera, a target, a plane): estimated as ``exp6(δ)`` of its components, its derivative the right Jacobian
+    #: of ``exp6``, held by a calibrated URDF as a link of its own (:meth:`urdf_link`).
+    attached: ClassVar[bool] = False
+    #: What the reports call the kind among the measurement setup ("before" names what it registered).
+    setup_words: ClassVar[str] = "device constants"
+    #: What "before" is when the fit starts from its closed-form placement, and when the data did not give one
+    #: (an attached kind; empty: its start does not change what "before" is).
+    before_placed: ClassVar[str] = ""
+    before_unplaced: ClassVar[str] = ""
+    #: The readings it predicts and what ``pincal check --register`` places on the data (an attached kind), for the
+    #: message on a model without its link.
+    check_words: ClassVar[tuple[str, str]] = ("camera", "cameras and targets")
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -112,6 +125,12 @@ class ParameterKind:
         raise TypeError(f"a calibrated URDF holds {cls.name} parameters as {cls.urdf or 'no link'}, not as a link "
                         "of their own")
 
+    @classmethod
+    def before_means(cls, placed: bool) -> str:
+        """What "before" is when the fit starts from this kind's closed-form placement (``placed``) or from where it
+        starts (the data did not give one); empty: its start does not change what "before" is."""
+        return cls.before_placed if placed else cls.before_unplaced
+
 
 def parameter_kind(name: str) -> type[ParameterKind]:
     """The kind named ``name``; NotFoundError lists the kinds otherwise."""
@@ -122,10 +141,14 @@ def parameter_kind(name: str) -> type[ParameterKind]:
 
 
 def kinds_where(*, kinematic: bool | None = None, in_urdf: bool | None = None,
-                in_corrections: bool | None = None) -> tuple[str, ...]:
-    """The names of the registered kinds with the given properties, in declaration order."""
+                in_corrections: bool | None = None, attached: bool | None = None,
+                setup: bool | None = None) -> tuple[str, ...]:
+    """The names of the registered kinds with the given properties, in declaration order (``setup``: acting in the
+    measurement models, the measurement setup a day's measurements may have moved, not the robot)."""
     return tuple(name for name, kind in PARAMETER_KINDS.items()
                  if (kinematic is None or kind.kinematic() == kinematic)
+                 and (attached is None or kind.attached == attached)
+                 and (setup is None or (kind.acts_in == "measurement") == setup)
                  and (in_urdf is None or bool(kind.urdf) == in_urdf)
                  and (in_corrections is None or kind.in_corrections == in_corrections))
 
@@ -146,6 +169,15 @@ PLACEMENT_PRIOR = {"m": 0.005, "rad": math.radians(0.5)}
 OFFSET_PRIOR = {"m": 0.005, "rad": math.radians(1.0)}
 #: The prior of a harmonic: 0.2° (1 mm).
 HARMONIC_PRIOR = {"m": 0.001, "rad": math.radians(0.2)}
+
+#: What "before" is when the cameras and targets start where the hand-eye closed form puts them, and when it did not.
+BEFORE_MEANS_PLACED = ("the nominal robot, with its cameras and targets placed to the training data in closed form "
+                       "(hand-eye), for fit and held-out samples alike")
+BEFORE_MEANS_UNPLACED = ("the nominal robot, with its cameras and targets at the identity (the training data did not "
+                         "determine them in closed form), for fit and held-out samples alike")
+#: What "before" is when each contact plane starts fitted to its contact points.
+BEFORE_MEANS_PLANES = ("the nominal robot, with each contact plane fitted to its training contact points in closed "
+                       "form (least squares), for fit and held-out samples alike")
 
 
 class _Placement(ParameterKind):
@@ -205,6 +237,7 @@ class BasePlacement(ParameterKind):
     """``base.<c>``: the robot's base in the measurement frame, ``world = base · exp6(δ) · robot``."""
 
     name = "base"
+    setup_words = "measurement frame"
     urdf = "the measurement frame's link, the file's new root"
 
     @classmethod
@@ -218,6 +251,7 @@ class MarkerOffset(ParameterKind):
 
     name = "marker"
     urdf = "a marker link on the frame"
+    setup_words = "markers"
 
     @classmethod
     def prefix(cls, owner: str, side: str = "") -> str:
@@ -235,6 +269,7 @@ class ClusterPlacement(ParameterKind):
 
     name = "cluster"
     urdf = "the cluster's marker links on the frame"
+    setup_words = "markers"
 
     @classmethod
     def prefix(cls, owner: str, side: str = "") -> str:
@@ -247,6 +282,10 @@ class CameraPlacement(ParameterKind):
 
     name = "camera"
     urdf = "a camera link on the frame"
+    attached = True
+    setup_words = "cameras"
+    before_placed = BEFORE_MEANS_PLACED
+    before_unplaced = BEFORE_MEANS_UNPLACED
 
     @classmethod
     def prefix(cls, owner: str, side: str = "") -> str:
@@ -265,6 +304,10 @@ class TargetPlacement(ParameterKind):
 
     name = "target"
     urdf = "a target link (on the robot's root link, or on the frame)"
+    attached = True
+    setup_words = "targets"
+    before_placed = BEFORE_MEANS_PLACED
+    before_unplaced = BEFORE_MEANS_UNPLACED
 
     @classmethod
     def prefix(cls, owner: str, side: str = "") -> str:
@@ -287,6 +330,10 @@ class PlanePlacement(ParameterKind):
 
     name = PLANE
     urdf = "a plane link (its z axis the normal) on the support's link, or on the robot's root link"
+    attached = True
+    setup_words = "contact planes"
+    before_placed = before_unplaced = BEFORE_MEANS_PLANES
+    check_words = ("contact", "planes")
 
     @classmethod
     def prefix(cls, owner: str, side: str = "") -> str:
@@ -306,6 +353,7 @@ class CameraIntrinsics(ParameterKind):
 
     name = "intrinsics"
     in_report = True
+    setup_words = "camera intrinsics"
 
     @classmethod
     def prefix(cls, owner: str, side: str = "") -> str:
