@@ -75,7 +75,7 @@ def predicted_check(model: CheckedModel, nominal: Prepared) -> tuple[PredictedEr
                                        else "each")
     except (DataError, KeyError):
         return None, "MODEL's parameters are not those of these measurements: no predicted errors"
-    x = np.array([float(report.parameters[name]["value"]) for name in parameters.names])
+    x = np.array([float(report.parameters[name].value) for name in parameters.names])
     on = replace(nominal, models=weighed_as_fitted(nominal.models, report)).on(nominal.samples, parameters)
     growth = ErrorGrowth.from_dict(report.error_growth)
     fit = FitCovariance.of_report(report.covariance, report.sigma2, parameters.names, growth)

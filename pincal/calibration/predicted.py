@@ -266,7 +266,7 @@ def bounds_at(nominal: Robot, calibration: Any, actuated: Array) -> tuple[Array,
         parameters = choose_parameters(nominal, models, names, fitted)
     except (PincalError, KeyError):
         return None
-    x = np.array([float(calibration.parameters[name]["value"]) for name in parameters.names])
+    x = np.array([float(calibration.parameters[name].value) for name in parameters.names])
     growth = ErrorGrowth.from_dict(calibration.error_growth)
     fit = FitCovariance.of_report(calibration.covariance, calibration.sigma2, parameters.names, growth)
     template = CalibrationProblem(nominal, parameters, models, Observations.neutral(models, actuated[:1]))

@@ -204,15 +204,15 @@ def _summary_table(report: CalibrationReport, n_test: int | None) -> str:
             table.append(f"<tr><td>{label}</td><td class='before'>{mrad_text(getattr(report, b))}</td>"
                          f"<td class='after'>{mrad_text(getattr(report, a))}</td></tr>")
     cv = report.cv
-    if cv:
-        table.append(f"<tr><td>RMS {length} error (cross-validated, {_text(cv['plan'])}, {_text(cv['n_samples'])} "
-                     f"samples)</td><td></td><td class='after'>{mm_text(cv['rms'])}</td></tr>")
-        for key, value in (cv.get("rms_by_reading") or {}).items():
+    if cv is not None:
+        table.append(f"<tr><td>RMS {length} error (cross-validated, {_text(cv.plan)}, {_text(cv.n_samples)} "
+                     f"samples)</td><td></td><td class='after'>{mm_text(cv.rms)}</td></tr>")
+        for key, value in (cv.rms_by_reading or {}).items():
             table.append(f"<tr><td>&nbsp;&nbsp;{html.escape(key)}</td><td></td>"
                          f"<td class='after'>{mm_text(value)}</td></tr>")
-        if "rms_angle" in cv:
+        if cv.rms_angle is not None:
             table.append(f"<tr><td>RMS {angle} error (cross-validated)</td><td></td>"
-                         f"<td class='after'>{mrad_text(cv['rms_angle'])}</td></tr>")
+                         f"<td class='after'>{mrad_text(cv.rms_angle)}</td></tr>")
     if report.calibration_gain is not None:
         table.append(f"<tr><td>calibration gain G (study 000, vs the truth)</td><td></td>"
                      f"<td>{report.calibration_gain:.1f} %</td></tr>")
@@ -255,9 +255,9 @@ def _parameter_table(content: ReportContent) -> str:
     head += "<th>truth</th><th>error</th></tr>" if truth else "</tr>"
     rows = [head]
     for p in view.problem.parameters:
-        entry = report.get(p.name, {})
-        value, std = entry.get("value"), entry.get("std")
-        ident = bool(entry.get("identified"))
+        entry = report.get(p.name)
+        value, std = (entry.value, entry.std) if entry is not None else (None, None)
+        ident = entry is not None and bool(entry.identified)
         cells = [html.escape(p.name), _display_unit(p.unit), _in_unit(value, p.unit),
                  _spread(std, p.unit) if ident else "–", "yes" if ident else "no"]
         if truth:
@@ -365,10 +365,10 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
     figures: list[str] = []
     names = problem.parameters.names
     units = [p.unit for p in problem.parameters]
-    values = np.array([report.parameters[n]["value"] for n in names], dtype=float)
-    std = np.array([np.nan if report.parameters[n]["std"] is None else report.parameters[n]["std"]
+    values = np.array([report.parameters[n].value for n in names], dtype=float)
+    std = np.array([np.nan if report.parameters[n].std is None else report.parameters[n].std
                     for n in names], dtype=float)
-    identified = [bool(report.parameters[n]["identified"]) for n in names]
+    identified = [bool(report.parameters[n].identified) for n in names]
     truth = None if content.truth is None else np.array([content.truth.get(n, np.nan) for n in names])
     rms = error_figures(report)
     length = report.error_words[0]

@@ -109,7 +109,7 @@ class CalibrationView:
             raise DataError(f"the result's parameters differ from those chosen here (in the result only: "
                             f"{listing(missing) or '-'}; here only: {listing(extra) or '-'}): pass the same "
                             "--parameters and --markers as for the calibration")
-        x = np.array([float(report.parameters[name]["value"]) for name in pset.names])
+        x = np.array([float(report.parameters[name].value) for name in pset.names])
         x0 = fit.problem.initial_guess()
         before = fit.problem.evaluate(x0, jacobian=False).errors
         after = fit.problem.evaluate(x, jacobian=False).errors

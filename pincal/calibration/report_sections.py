@@ -1,0 +1,138 @@
+"""The typed sections of the report: one frozen record per nested part of :class:`CalibrationReport`'s JSON.
+
+Each record's fields are the keys of its JSON object, in the JSON's order; a field marked optional is left out of the
+JSON while it holds None (a key the calibration writes only when it applies, e.g. a cross-validation's angle RMS
+without pose readings). :meth:`Section.as_dict` gives the JSON object, :meth:`Section.from_json` reads one back: keys
+this version does not know are left out, keys an older report lacks take their default, values are kept as the file
+holds them. Units: SI (m, rad), as each record's docstring says.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, fields
+from typing import Any, TypeVar
+
+from pincal.errors import DataError
+
+S = TypeVar("S", bound="Section")
+
+#: The metadata of a field left out of the JSON while it holds None.
+OPTIONAL = {"optional": True}
+
+
+def _expect_mapping(value: Any, where: str) -> Mapping[str, Any]:
+    if not isinstance(value, dict):
+        raise DataError(f"{where} is not a JSON object: expected a report written by 'pincal calibrate --report'")
+    return value
+
+
+def nested(reader: Callable[[Any, str], Any], **metadata: Any) -> dict[str, Any]:
+    """The metadata of a field whose JSON value ``reader(value, where)`` reads (a section, or sections by name)."""
+    return {"read": reader, **metadata}
+
+
+@dataclass(frozen=True)
+class Section:
+    """A nested part of the report JSON as a record: its fields are the JSON object's keys, in order."""
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON object: every field in order, the optional ones that hold None left out; nested sections as
+        their own objects."""
+        return {f.name: _plain(getattr(self, f.name)) for f in fields(self)
+                if not (f.metadata.get("optional") and getattr(self, f.name) is None)}
+
+    @classmethod
+    def from_json(cls: type[S], value: Any, where: str) -> S:
+        """The section of a parsed JSON object ``value`` (``where`` names it in errors, e.g. ``the result JSON's
+        'cv'``): its known keys, each read by its field's reader; keys it lacks take their default.
+
+        Raises:
+            DataError: ``value`` is not an object, lacks a key without default, or a nested part is not one.
+        """
+        content = _expect_mapping(value, where)
+        given: dict[str, Any] = {}
+        for f in fields(cls):
+            if f.name not in content:
+                if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+                    raise DataError(f"{where} has no '{f.name}': expected a report written by 'pincal calibrate "
+                                    "--report'")
+                continue
+            reader = f.metadata.get("read")
+            item = content[f.name]
+            given[f.name] = reader(item, f"{where}['{f.name}']") if reader is not None and item is not None else item
+        return cls(**given)
+
+
+def _plain(value: Any) -> Any:
+    """``value`` with every section made its JSON object, through lists, tuples and dicts."""
+    if isinstance(value, Section):
+        return value.as_dict()
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def by_name(section: type[S]) -> Callable[[Any, str], dict[str, S]]:
+    """The reader of a JSON object of ``section``s by name."""
+
+    def read(value: Any, where: str) -> dict[str, S]:
+        return {name: section.from_json(item, f"{where}['{name}']")
+                for name, item in _expect_mapping(value, where).items()}
+
+    return read
+
+
+def listed(section: type[S]) -> Callable[[Any, str], list[S]]:
+    """The reader of a JSON list of ``section``s."""
+
+    def read(value: Any, where: str) -> list[S]:
+        if not isinstance(value, list):
+            raise DataError(f"{where} is not a JSON list: expected a report written by 'pincal calibrate --report'")
+        return [section.from_json(item, f"{where}[{k}]") for k, item in enumerate(value)]
+
+    return read
+
+
+@dataclass(frozen=True)
+class ParameterEstimate(Section):
+    """One parameter's estimate.
+
+    Attributes:
+        value: The estimate [m, rad, or the parameter's unit: px for intrinsics, rad/(N·m) for compliances], as a
+            correction of the nominal robot.
+        std: Its standard deviation [same unit]; None where the fit could not give it.
+        identified: Whether the data identify it (False: left at minimum norm).
+    """
+
+    value: float
+    std: float | None = None
+    identified: bool = False
+
+
+@dataclass(frozen=True)
+class CrossValidation(Section):
+    """The cross-validation's account (``--cv``): each fold fitted without its samples predicts them.
+
+    Attributes:
+        plan: The folds, e.g. ``"5-fold × 4"`` (with the seed when it is not 0).
+        n_samples: Samples cross-validated.
+        n_predictions: Length errors predicted (pooled over folds and repeats).
+        rms: RMS of the predicted length errors [m]; None when no fold could be fitted.
+        failed_folds: Each failed fold's account (``"repeat R, fold F: reason"``), left out.
+        unconverged_folds: Fold fits that stopped before converging (their predictions count).
+        rms_by_reading: The RMS [m] per length-type reading (None: none predicted), when there are several.
+        rms_angle: RMS of the predicted orientation errors [rad], with pose readings.
+    """
+
+    plan: str
+    n_samples: int = 0
+    n_predictions: int = 0
+    rms: float | None = None
+    failed_folds: list[str] = field(default_factory=list)
+    unconverged_folds: int = 0
+    rms_by_reading: dict[str, float | None] | None = field(default=None, metadata=OPTIONAL)
+    rms_angle: float | None = field(default=None, metadata=OPTIONAL)

@@ -1,0 +1,96 @@
+"""The report JSON's schema: a report written by an earlier pincal (``data/report_v1/report.json``, written by
+``pincal calibrate panda measurements.csv --cv 3 --report report.json`` at main 2282474) read back into the typed
+report, its sections typed, written again byte for byte; older reports lacking keys read with their defaults; newer
+ones and malformed sections refused with the culprit named."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+from conftest import run_pincal
+
+from pincal.calibration.report import SCHEMA_VERSION, CalibrationReport
+from pincal.calibration.report_sections import CrossValidation, ParameterEstimate
+from pincal.errors import DataError
+
+FIXTURE = Path(__file__).parent / "data" / "report_v1"
+TEXT = (FIXTURE / "report.json").read_text(encoding="utf-8")
+RAW: dict[str, Any] = json.loads(TEXT)
+
+
+def test_fixture_is_of_this_schema() -> None:
+    """The fixture was written by a pincal of this schema version (a new version commits a fixture of its own)."""
+    assert RAW["schema_version"] == SCHEMA_VERSION == 1
+
+
+def test_older_report_round_trips_byte_for_byte() -> None:
+    """Read into the typed report and written again, the earlier pincal's report is the same text."""
+    report = CalibrationReport.read(FIXTURE / "report.json")
+    assert report.to_json() == TEXT
+
+
+def test_sections_are_typed() -> None:
+    """Each nested part read is its record, holding the file's values under its fields."""
+    report = CalibrationReport.read(FIXTURE / "report.json")
+    assert list(report.parameters) == list(RAW["parameters"])
+    for name, entry in RAW["parameters"].items():
+        estimate = report.parameters[name]
+        assert isinstance(estimate, ParameterEstimate)
+        assert (estimate.value, estimate.std, estimate.identified) == (entry["value"], entry["std"],
+                                                                       entry["identified"])
+    cv = report.cv
+    assert isinstance(cv, CrossValidation)
+    assert (cv.plan, cv.n_samples, cv.n_predictions, cv.rms, cv.failed_folds, cv.unconverged_folds, cv.rms_angle) \
+        == tuple(RAW["cv"][key] for key in ("plan", "n_samples", "n_predictions", "rms", "failed_folds",
+                                            "unconverged_folds", "rms_angle"))
+    assert cv.rms_by_reading is None and "rms_by_reading" not in RAW["cv"]
+
+
+def test_missing_keys_take_defaults() -> None:
+    """A report older still, without the keys later versions added (here a section's optional and defaulted keys and
+    whole top-level parts), is read with their defaults and written without the optional ones."""
+    older = copy.deepcopy(RAW)
+    for key in ("provenance", "predicted_held_out", "error_growth", "selection", "sample_errors"):
+        del older[key]
+    del older["cv"]["rms_angle"], older["cv"]["unconverged_folds"]
+    for entry in older["parameters"].values():
+        del entry["identified"]
+    report = CalibrationReport.from_json(older)
+    assert report.provenance is None and report.sample_errors == []
+    assert report.cv is not None and report.cv.rms_angle is None and report.cv.unconverged_folds == 0
+    assert not any(estimate.identified for estimate in report.parameters.values())
+    written = json.loads(report.to_json())
+    assert "provenance" not in written and "rms_angle" not in written["cv"]
+    assert "provenance" not in report.present and "cv" in report.present
+
+
+def test_newer_schema_refused() -> None:
+    newer = {**RAW, "schema_version": SCHEMA_VERSION + 1}
+    with pytest.raises(DataError, match=f"schema_version {SCHEMA_VERSION + 1}, newer than this pincal reads"):
+        CalibrationReport.from_json(newer)
+
+
+@pytest.mark.parametrize(("part", "value", "culprit"), [
+    ("cv", [1, 2], r"the result JSON's 'cv' is not a JSON object"),
+    ("cv", {"rms": 0.1}, r"the result JSON's 'cv' has no 'plan'"),
+])
+def test_malformed_section_named(part: str, value: Any, culprit: str) -> None:
+    """A nested part that is not of its record's form: a DataError naming the part and what is wrong."""
+    with pytest.raises(DataError, match=culprit):
+        CalibrationReport.from_json({**RAW, part: value})
+
+
+def test_older_report_drawn_by_the_command(tmp_path: Path) -> None:
+    """``pincal report --result`` reads the earlier pincal's report as a user runs it: its page shows the
+    cross-validation the report holds and every parameter."""
+    page = tmp_path / "page.html"
+    done = run_pincal("report", "panda", str(FIXTURE / "measurements.csv"), "--result", str(FIXTURE / "report.json"),
+                      "--out", str(page), "--quiet")
+    assert done.returncode == 0, done.stderr
+    text = page.read_text(encoding="utf-8")
+    assert f"cross-validated, {RAW['cv']['plan']}, {RAW['cv']['n_samples']} samples" in text
+    assert all(f"<td>{name}</td>" in text for name in RAW["parameters"])
