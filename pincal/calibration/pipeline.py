@@ -42,6 +42,7 @@ from pincal.calibration.plausibility import (
 )
 from pincal.calibration.predicted import FitCovariance, fitted_ranges, held_out_predictions, workspace_prediction
 from pincal.calibration.report import CalibrationReport, before_figures, fit_figures
+from pincal.calibration.report_sections import ModelSelection, RangeGuard
 from pincal.calibration.samples import (
     LENGTH_SCALE_RATIO,
     check_joint_scale,
@@ -53,6 +54,7 @@ from pincal.calibration.setup import Prepared, check_movable, dataset_models, pr
 from pincal.errors import ArgumentError, DataError
 from pincal.identification.combinations import describe_unidentifiable, digest
 from pincal.identification.corrections import moving_mass
+from pincal.identification.guard import Guard
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.metrics import angle_error_norms, error_norms, rms, sample_length_errors
 from pincal.identification.parameters import influencing_joints, read_joints
@@ -337,12 +339,10 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
         "markers": options.markers,
         "declared_markers": {target: list(offset) for target, offset in declared_markers(fit.models).items()},
         "formulation": options.formulation,
-        "selection": {"policy": options.selection if options.formulation == "fkm" else "none", "removed": removed,
-                      "removed_groups": list(fitted.removed_groups) if removed else [],
-                      "n_candidates": len(fit.parameters),
-                      "prior_factors": _held_factors(fitted),
-                      "guard": fitted.guard.as_dict() if fitted.guard is not None else None,
-                      "prior": options.prior},
+        "selection": ModelSelection(policy=options.selection if options.formulation == "fkm" else "none",
+                                    removed=removed, removed_groups=list(fitted.removed_groups) if removed else [],
+                                    n_candidates=len(fit.parameters), prior_factors=_held_factors(fitted),
+                                    guard=range_guard(fitted.guard), prior=options.prior),
         "unidentifiable_listing": describe_unidentifiable(first.identifiability.unidentifiable, UNIDENTIFIABLE_LINES),
         "unidentifiable_digest": digest(first.identifiability.unidentifiable, len(fit.parameters)),
         "n_estimated": len(result.identified),
@@ -372,6 +372,14 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
                         "test_readings": held.prepared.problem.n_readings(), **held.figures(),
                         "worse_than_nominal": held.worse_than_nominal})
     return content
+
+
+def range_guard(guard: Guard | None) -> RangeGuard | None:
+    """The report's account of the range guard ``guard`` (None: it did not run)."""
+    if guard is None:
+        return None
+    return RangeGuard(firmer=guard.firmer, beyond=guard.beyond, inside=guard.inside,
+                      nominal_beyond=guard.nominal_beyond, scores=[list(s) for s in guard.scores])
 
 
 def _held_factors(fitted: SelectedFit) -> dict[str, float] | None:

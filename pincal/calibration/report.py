@@ -21,7 +21,15 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration.report_sections import OPTIONAL, CrossValidation, ParameterEstimate, Section, by_name, nested
+from pincal.calibration.report_sections import (
+    OPTIONAL,
+    CrossValidation,
+    ModelSelection,
+    ParameterEstimate,
+    Section,
+    by_name,
+    nested,
+)
 from pincal.errors import DataError
 from pincal.identification.measurements import KIND_CLASSES
 from pincal.identification.metrics import angle_error_norms, calibration_gain, error_norms, pixel_error_norms, rms
@@ -129,7 +137,7 @@ class CalibrationReport:
     markers: str = "each"
     declared_markers: dict[str, list[float]] = field(default_factory=dict)
     formulation: str = "fkm"
-    selection: dict[str, Any] = field(default_factory=dict)
+    selection: ModelSelection | None = field(default=None, metadata=nested(ModelSelection.from_json, **OPTIONAL))
     unidentifiable_listing: list[str] = field(default_factory=list)
     unidentifiable_digest: str = ""
     n_estimated: int = 0

@@ -136,3 +136,47 @@ class CrossValidation(Section):
     unconverged_folds: int = 0
     rms_by_reading: dict[str, float | None] | None = field(default=None, metadata=OPTIONAL)
     rms_angle: float | None = field(default=None, metadata=OPTIONAL)
+
+
+@dataclass(frozen=True)
+class RangeGuard(Section):
+    """What the range guard found (:mod:`pincal.identification.guard`): the automatic prior held firmer when it
+    predicts each joint's range halves worse than the nominal robot.
+
+    Attributes:
+        firmer: The divisor applied to the robot parameters' prior σ [1] (1: the chosen prior kept).
+        beyond: The chosen prior's beyond score [σ²]: the mean square of the held-out rows' weighted residuals.
+        inside: Its inside score [σ²].
+        nominal_beyond: The nominal robot's beyond score [σ²].
+        scores: Each divisor tried: ``[divisor, inside, beyond]`` [1, σ², σ²].
+    """
+
+    firmer: float = 1.0
+    beyond: float | None = None
+    inside: float | None = None
+    nominal_beyond: float | None = None
+    scores: list[list[float]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class ModelSelection(Section):
+    """What model selection did (``--select``) and the prior it holds (``--prior``).
+
+    Attributes:
+        policy: The policy applied: ``evidence``, ``bic``, ``cv`` or ``none``.
+        removed: The parameters left out (held at nominal).
+        removed_groups: Their groups (``translations``, ``rotations``, ``offsets``, …).
+        n_candidates: The candidate parameters selection chose among.
+        prior_factors: The factor [1] on its kinds' prior σ each group is held by (0: left out); None when the prior
+            is not automatic.
+        guard: The range guard's account, when it ran.
+        prior: The ``--prior`` asked for: a factor [1], ``auto``, or ``off``.
+    """
+
+    policy: str = "none"
+    removed: list[str] = field(default_factory=list)
+    removed_groups: list[str] = field(default_factory=list)
+    n_candidates: int = 0
+    prior_factors: dict[str, float] | None = None
+    guard: RangeGuard | None = field(default=None, metadata=nested(RangeGuard.from_json))
+    prior: float | str | None = None

@@ -8,6 +8,7 @@ from __future__ import annotations
 import textwrap
 
 from pincal.calibration.report import CalibrationReport
+from pincal.calibration.report_sections import ModelSelection
 
 
 def mm(value: float | None) -> str:
@@ -53,22 +54,22 @@ def predicted_lines(report: CalibrationReport) -> list[str]:
 def selection_lines(report: CalibrationReport) -> list[str]:
     """What model selection left out, and how firmly the evidence holds each group kept (nothing when neither
     applies)."""
-    selection = report.selection or {}
-    removed = selection.get("removed") or []
-    factors = selection.get("prior_factors") or {}
+    selection = report.selection or ModelSelection()
+    removed = selection.removed
+    factors = selection.prior_factors or {}
     held = ", ".join(f"{group} {factor:.2g}×" for group, factor in factors.items() if factor > 0.0)
-    guard = selection.get("guard") or {}
-    firmer = guard.get("firmer", 1.0)
+    guard = selection.guard
+    firmer = guard.firmer if guard is not None else 1.0
     guarded = (f"; the range guard holds them {firmer:g}× firmer than the evidence says (each joint's range halves "
-               f"predicted each other {guard['beyond']:.3g} σ² mean square, the nominal robot "
-               f"{guard['nominal_beyond']:.3g})" if firmer != 1.0 else "")
-    if selection.get("policy") == "evidence":
-        words = f"left out the {', '.join(selection['removed_groups'])} ({len(removed)} parameters at nominal); " \
+               f"predicted each other {guard.beyond:.3g} σ² mean square, the nominal robot "
+               f"{guard.nominal_beyond:.3g})" if guard is not None and firmer != 1.0 else "")
+    if selection.policy == "evidence":
+        words = f"left out the {', '.join(selection.removed_groups)} ({len(removed)} parameters at nominal); " \
             if removed else ""
         prior = f"the prior holds the {held} of their kinds' σ{guarded}" if held else "no group estimated"
         return textwrap.wrap(f"model selection (evidence): {words}{prior} (docs/calibrated_urdf.md, 'The prior')", 120,
                              subsequent_indent="  ")
-    lines = [f"model selection ({selection['policy']}): left out the {', '.join(selection['removed_groups'])} "
+    lines = [f"model selection ({selection.policy}): left out the {', '.join(selection.removed_groups)} "
              f"({len(removed)} parameters at nominal); --select none keeps them"] if removed else []
     if held:
         lines += textwrap.wrap(f"prior (auto): the evidence holds the {held} of their kinds' σ{guarded}", 120,

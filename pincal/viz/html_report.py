@@ -242,8 +242,7 @@ def _reading_rows(report: CalibrationReport) -> list[tuple[str, str, str]]:
 
 def _estimated(report: CalibrationReport) -> str:
     """How many parameters were estimated, and what model selection left out."""
-    selection = report.selection or {}
-    left_out = selection.get("removed_groups") or []
+    left_out = report.selection.removed_groups if report.selection is not None else []
     count = str(report.n_estimated)
     return count + (f" (left out: {', '.join(left_out)})" if left_out else "")
 

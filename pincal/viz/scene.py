@@ -98,7 +98,7 @@ class CalibrationView:
             DataError: the report's parameters are not those chosen by ``options`` (pass the same ``--parameters``
                 and ``--markers`` as for the calibration).
         """
-        removed = (report.selection or {}).get("removed") or [] if isinstance(report.selection, dict) else []
+        removed = report.selection.removed if report.selection is not None else []
         options = options.replace(payload=payload_from_dict(report.payload))
         part = "train" if "train" in dataset.sets else None
         fit = prepare(robot, dataset, options, part, leave_out=set(removed))

@@ -14,7 +14,7 @@ import pytest
 from conftest import run_pincal
 
 from pincal.calibration.report import SCHEMA_VERSION, CalibrationReport
-from pincal.calibration.report_sections import CrossValidation, ParameterEstimate
+from pincal.calibration.report_sections import CrossValidation, ModelSelection, ParameterEstimate, RangeGuard
 from pincal.errors import DataError
 
 FIXTURE = Path(__file__).parent / "data" / "report_v1"
@@ -48,6 +48,13 @@ def test_sections_are_typed() -> None:
         == tuple(RAW["cv"][key] for key in ("plan", "n_samples", "n_predictions", "rms", "failed_folds",
                                             "unconverged_folds", "rms_angle"))
     assert cv.rms_by_reading is None and "rms_by_reading" not in RAW["cv"]
+    selection, raw = report.selection, RAW["selection"]
+    assert isinstance(selection, ModelSelection) and isinstance(selection.guard, RangeGuard)
+    assert (selection.policy, selection.removed, selection.removed_groups, selection.n_candidates,
+            selection.prior_factors, selection.prior) \
+        == tuple(raw[key] for key in ("policy", "removed", "removed_groups", "n_candidates", "prior_factors", "prior"))
+    assert (selection.guard.firmer, selection.guard.nominal_beyond, selection.guard.scores) \
+        == (raw["guard"]["firmer"], raw["guard"]["nominal_beyond"], raw["guard"]["scores"])
 
 
 def test_missing_keys_take_defaults() -> None:
@@ -77,6 +84,8 @@ def test_newer_schema_refused() -> None:
 @pytest.mark.parametrize(("part", "value", "culprit"), [
     ("cv", [1, 2], r"the result JSON's 'cv' is not a JSON object"),
     ("cv", {"rms": 0.1}, r"the result JSON's 'cv' has no 'plan'"),
+    ("selection", {**RAW["selection"], "guard": 3}, r"the result JSON's 'selection'\['guard'\] is not a JSON object"),
+    ("parameters", {"base.x": {"value": 0.0}, "base.y": 2}, r"'parameters'"),
 ])
 def test_malformed_section_named(part: str, value: Any, culprit: str) -> None:
     """A nested part that is not of its record's form: a DataError naming the part and what is wrong."""
