@@ -24,10 +24,13 @@ import numpy.typing as npt
 from pincal.calibration.report_sections import (
     OPTIONAL,
     CrossValidation,
+    ImplausibleCorrection,
+    ImplausibleScale,
     ModelSelection,
     ParameterEstimate,
     Section,
     by_name,
+    listed,
     nested,
 )
 from pincal.errors import DataError
@@ -167,8 +170,9 @@ class CalibrationReport:
     worse_than_nominal: bool | None = field(default=None, metadata=OPTIONAL)
     length_scale: dict[str, float] = field(default_factory=dict)
     plausible: float | str = 1.0
-    implausible: list[dict[str, Any]] = field(default_factory=list)
-    implausible_scale: list[dict[str, Any]] = field(default_factory=list)
+    implausible: list[ImplausibleCorrection] = field(default_factory=list,
+                                                     metadata=nested(listed(ImplausibleCorrection)))
+    implausible_scale: list[ImplausibleScale] = field(default_factory=list, metadata=nested(listed(ImplausibleScale)))
     implausible_cause: str = ""
     explains_nothing: bool = False
     cv: CrossValidation | None = field(default=None, metadata=nested(CrossValidation.from_json, **OPTIONAL))

@@ -180,3 +180,39 @@ class ModelSelection(Section):
     prior_factors: dict[str, float] | None = None
     guard: RangeGuard | None = field(default=None, metadata=nested(RangeGuard.from_json))
     prior: float | str | None = None
+
+
+@dataclass(frozen=True)
+class ImplausibleCorrection(Section):
+    """A correction beyond what a robot of this model plausibly needs (:mod:`pincal.calibration.plausibility`).
+
+    Attributes:
+        parameter: The parameter's name.
+        kind: Its kind (``offset``, ``tx``, …).
+        value: The smallest equivalent correction, what the data demand [its unit].
+        fitted: The estimate the calibrated URDF holds [its unit].
+        limit: The plausible limit times ``--plausible`` [its unit].
+        unit: Its unit (``m``, ``rad``, …).
+    """
+
+    parameter: str
+    kind: str
+    value: float
+    fitted: float
+    limit: float
+    unit: str
+
+
+@dataclass(frozen=True)
+class ImplausibleScale(Section):
+    """A measured position whose spread differs from the nominal robot's beyond the plausible band.
+
+    Attributes:
+        measurement: The measurement's key.
+        scale: Its spread over the nominal robot's at the same joint readings [1].
+        limit: The largest plausible ratio, either way [1].
+    """
+
+    measurement: str
+    scale: float
+    limit: float

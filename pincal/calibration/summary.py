@@ -283,12 +283,12 @@ def _implausible(report: CalibrationReport) -> list[str]:
                           "docs/calibrated_urdf.md, 'Plausible corrections'); the result is refused", 120,
                           subsequent_indent="  ", break_on_hyphens=False)
     for s in report.implausible_scale:
-        lines += textwrap.wrap(f"  - the measured positions '{s['measurement']}' spread {s['scale']:.3g} times as far "
+        lines += textwrap.wrap(f"  - the measured positions '{s.measurement}' spread {s.scale:.3g} times as far "
                                "as the nominal robot's at the same joint readings (plausible within "
-                               f"{s['limit']:.3g} times either way)", 120, subsequent_indent="    ",
+                               f"{s.limit:.3g} times either way)", 120, subsequent_indent="    ",
                                break_on_hyphens=False)
-    lines += [f"  - {c['parameter']} corrected by {correction(c['value'], c['unit'])} (limit "
-              f"{correction(c['limit'], c['unit']).lstrip('+')})" for c in report.implausible[:IMPLAUSIBLE_LINES]]
+    lines += [f"  - {c.parameter} corrected by {correction(c.value, c.unit)} (limit "
+              f"{correction(c.limit, c.unit).lstrip('+')})" for c in report.implausible[:IMPLAUSIBLE_LINES]]
     if len(report.implausible) > IMPLAUSIBLE_LINES:
         lines.append(f"  … and {len(report.implausible) - IMPLAUSIBLE_LINES} more (the report's 'implausible')")
     if report.implausible_cause:
@@ -465,8 +465,8 @@ def verdict(report: CalibrationReport) -> str:
     if report.worse_than_nominal:
         return "WORSE THAN NOMINAL"
     if report.is_implausible:
-        return "IMPLAUSIBLE (" + ", ".join([s["measurement"] + " scaled" for s in report.implausible_scale]
-                                           + [c["parameter"] for c in report.implausible][:3]) + \
+        return "IMPLAUSIBLE (" + ", ".join([s.measurement + " scaled" for s in report.implausible_scale]
+                                           + [c.parameter for c in report.implausible][:3]) + \
             (" …)" if len(report.implausible) > 3 else ")")
     if (report.sigma2 or 0.0) > NOISE_CONTRADICTED:
         return f"converged; residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ"

@@ -129,10 +129,10 @@ def _implausible(report: CalibrationReport) -> str:
     """The refusal of an implausible result: what is beyond its limit, and the likely cause (empty otherwise)."""
     if not report.is_implausible:
         return ""
-    items = [f"the measured positions {html.escape(s['measurement'])} spread {s['scale']:.3g} times as far as the "
+    items = [f"the measured positions {html.escape(s.measurement)} spread {s.scale:.3g} times as far as the "
              f"nominal robot's" for s in report.implausible_scale]
-    items += [f"{html.escape(c['parameter'])} corrected by {html.escape(correction(c['value'], c['unit']))} (limit "
-              f"{html.escape(correction(c['limit'], c['unit']).lstrip('+'))})" for c in report.implausible]
+    items += [f"{html.escape(c.parameter)} corrected by {html.escape(correction(c.value, c.unit))} (limit "
+              f"{html.escape(correction(c.limit, c.unit).lstrip('+'))})" for c in report.implausible]
     return (f'<p class="warn">Implausible result, refused: {"; ".join(items)}. Likely cause: '
             f"{html.escape(report.implausible_cause)}.</p>")
 

@@ -14,7 +14,14 @@ import pytest
 from conftest import run_pincal
 
 from pincal.calibration.report import SCHEMA_VERSION, CalibrationReport
-from pincal.calibration.report_sections import CrossValidation, ModelSelection, ParameterEstimate, RangeGuard
+from pincal.calibration.report_sections import (
+    CrossValidation,
+    ImplausibleCorrection,
+    ImplausibleScale,
+    ModelSelection,
+    ParameterEstimate,
+    RangeGuard,
+)
 from pincal.errors import DataError
 
 FIXTURE = Path(__file__).parent / "data" / "report_v1"
@@ -75,6 +82,18 @@ def test_missing_keys_take_defaults() -> None:
     assert "provenance" not in report.present and "cv" in report.present
 
 
+def test_implausible_entries_typed() -> None:
+    """An implausible correction and scale (none in the fixture) are read into their records and written back."""
+    entry = {"parameter": "panda_joint5.tx", "kind": "joint", "value": -0.0335, "fitted": -0.0443, "limit": 0.02,
+             "unit": "m"}
+    scale = {"measurement": "position:panda_hand", "scale": 3.28, "limit": 1.2}
+    report = CalibrationReport.from_json({**RAW, "implausible": [entry], "implausible_scale": [scale]})
+    assert report.implausible == [ImplausibleCorrection(**entry)] and report.is_implausible
+    assert report.implausible_scale == [ImplausibleScale(**scale)]
+    written = json.loads(report.to_json())
+    assert (written["implausible"], written["implausible_scale"]) == ([entry], [scale])
+
+
 def test_newer_schema_refused() -> None:
     newer = {**RAW, "schema_version": SCHEMA_VERSION + 1}
     with pytest.raises(DataError, match=f"schema_version {SCHEMA_VERSION + 1}, newer than this pincal reads"):
@@ -86,6 +105,8 @@ def test_newer_schema_refused() -> None:
     ("cv", {"rms": 0.1}, r"the result JSON's 'cv' has no 'plan'"),
     ("selection", {**RAW["selection"], "guard": 3}, r"the result JSON's 'selection'\['guard'\] is not a JSON object"),
     ("parameters", {"base.x": {"value": 0.0}, "base.y": 2}, r"'parameters'"),
+    ("implausible", [{"parameter": "base.x", "kind": "base"}], r"the result JSON's 'implausible'\[0\] has no 'value'"),
+    ("implausible_scale", {"position": 3.3}, r"the result JSON's 'implausible_scale' is not a JSON list"),
 ])
 def test_malformed_section_named(part: str, value: Any, culprit: str) -> None:
     """A nested part that is not of its record's form: a DataError naming the part and what is wrong."""
