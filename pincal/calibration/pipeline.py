@@ -42,7 +42,7 @@ from pincal.calibration.plausibility import (
 )
 from pincal.calibration.predicted import FitCovariance, fitted_ranges, held_out_predictions, workspace_prediction
 from pincal.calibration.report import CalibrationReport, before_figures, fit_figures
-from pincal.calibration.report_sections import ModelSelection, RangeGuard
+from pincal.calibration.report_sections import ModelSelection, RangeGuard, SampleError
 from pincal.calibration.samples import (
     LENGTH_SCALE_RATIO,
     check_joint_scale,
@@ -417,7 +417,7 @@ def prediction_content(fit: Prepared, result: CalibrationResult, held: HeldOut |
     ranges = fitted_ranges(fit.robot, fit.problem.observations.actuated, moving_joints(fit))
     covariance = FitCovariance.of_result(result, growth)
     out: dict[str, Any] = {"fitted_range": ranges,
-                           "error_growth": growth.as_dict() if growth is not None else None,
+                           "error_growth": growth,
                            "predicted_workspace": workspace_prediction(fit.problem, covariance, result.x, ranges)}
     if held is not None and held.predicted is not None:
         out["predicted_held_out"] = held_out_predictions(held.prepared.samples.sample_ids, held.predicted,
@@ -431,7 +431,7 @@ def bad_readings_of(result: CalibrationResult) -> list[BadReading]:
     return [b for b in found if isinstance(b, BadReading)] if isinstance(found, list) else []
 
 
-def sample_errors(ids: list[str], before: dict[str, Array], after: dict[str, Array], part: str) -> list[dict[str, Any]]:
+def sample_errors(ids: list[str], before: dict[str, Array], after: dict[str, Array], part: str) -> list[SampleError]:
     """Per sample of ``part`` (``train`` or ``test``): its id and its length-type error [m] before (the nominal robot
     with its setup registered) and after (None for a sample with no length reading); with pixels, its image's
     reprojection error [px] before and after (``pixel_before``, ``pixel_after``: the RMS of its corners)."""
@@ -440,10 +440,9 @@ def sample_errors(ids: list[str], before: dict[str, Array], after: dict[str, Arr
     def finite(values: Array | None) -> list[float | None]:
         return [v if math.isfinite(v) else None for v in values.tolist()] if values is not None else [None] * n
 
-    out: list[dict[str, Any]] = [{"sample": s, "set": part, "before": b, "after": a} for s, b, a in zip(
-        ids, finite(sample_length_errors(before, n)), finite(sample_length_errors(after, n)), strict=True)]
+    lengths = zip(ids, finite(sample_length_errors(before, n)), finite(sample_length_errors(after, n)), strict=True)
     images = image_errors(before, n), image_errors(after, n)
-    if images[0] is not None:
-        for entry, b, a in zip(out, finite(images[0]), finite(images[1]), strict=True):
-            entry.update({"pixel_before": b, "pixel_after": a})
-    return out
+    if images[0] is None:
+        return [SampleError(sample=s, set=part, before=b, after=a) for s, b, a in lengths]
+    return [SampleError(sample=s, set=part, before=b, after=a, pixel_before=pb, pixel_after=pa, imaged=True)
+            for (s, b, a), pb, pa in zip(lengths, finite(images[0]), finite(images[1]), strict=True)]

@@ -21,14 +21,18 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.report_sections import (
     OPTIONAL,
     CrossValidation,
+    HeldOutPredictions,
     ImplausibleCorrection,
     ImplausibleScale,
     ModelSelection,
     ParameterEstimate,
+    SampleError,
     Section,
+    WorkspacePrediction,
     by_name,
     listed,
     nested,
@@ -55,6 +59,19 @@ BEFORE_MEANS_UNPLACED = ("the nominal robot, with its cameras and targets at the
                          "determine them in closed form), for fit and held-out samples alike")
 BEFORE_MEANS_PLANES = ("the nominal robot, with each contact plane fitted to its training contact points in closed "
                        "form (least squares), for fit and held-out samples alike")
+
+
+def _read_growth(value: Any, where: str) -> ErrorGrowth:
+    """The bound's growth of a JSON object (:meth:`ErrorGrowth.as_dict`'s).
+
+    Raises:
+        DataError: not an object of its keys and numbers.
+    """
+    growth = ErrorGrowth.from_dict(value) if isinstance(value, dict) else None
+    if growth is None:
+        raise DataError(f"{where} is not an object of numbers 'rho0', 'nominal0', 'nominal1', 'reach', 'inside', "
+                        "'beyond': expected a report written by 'pincal calibrate --report'")
+    return growth
 
 
 @dataclass(frozen=True)
@@ -177,13 +194,15 @@ class CalibrationReport:
     explains_nothing: bool = False
     cv: CrossValidation | None = field(default=None, metadata=nested(CrossValidation.from_json, **OPTIONAL))
     estimated_sigma: dict[str, dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
-    sample_errors: list[dict[str, Any]] = field(default_factory=list)
+    sample_errors: list[SampleError] = field(default_factory=list, metadata=nested(listed(SampleError)))
     covariance: dict[str, Any] = field(default_factory=dict)
     fitted_range: dict[str, list[float]] = field(default_factory=dict)
-    error_growth: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    error_growth: ErrorGrowth | None = field(default=None, metadata=nested(_read_growth, **OPTIONAL))
     row_sigma: dict[str, list[float]] = field(default_factory=dict)
-    predicted_workspace: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
-    predicted_held_out: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    predicted_workspace: WorkspacePrediction | None = field(default=None,
+                                                            metadata=nested(WorkspacePrediction.from_json, **OPTIONAL))
+    predicted_held_out: HeldOutPredictions | None = field(default=None,
+                                                          metadata=nested(HeldOutPredictions.from_json, **OPTIONAL))
     provenance: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
     #: The JSON keys a report read by :meth:`from_json` held (every field for a report built by a calibration).
     present: frozenset[str] = field(default=frozenset(), compare=False, repr=False, metadata={"internal": True})
@@ -338,7 +357,7 @@ def before_figures(problem: CalibrationProblem, before: Any) -> dict[str, Any]:
 
 def _json_value(value: Any) -> Any:
     """``value`` with every float that is not finite made None, through sections, lists and dicts."""
-    if isinstance(value, Section):
+    if isinstance(value, Section | ErrorGrowth):
         return _json_value(value.as_dict())
     if isinstance(value, float):
         return value if math.isfinite(value) else None

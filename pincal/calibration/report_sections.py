@@ -40,8 +40,8 @@ class Section:
     def as_dict(self) -> dict[str, Any]:
         """The JSON object: every field in order, the optional ones that hold None left out; nested sections as
         their own objects."""
-        return {f.name: _plain(getattr(self, f.name)) for f in fields(self)
-                if not (f.metadata.get("optional") and getattr(self, f.name) is None)}
+        return {f.name: _plain(getattr(self, f.name)) for f in fields(self) if not f.metadata.get("internal")
+                and not (f.metadata.get("optional") and getattr(self, f.name) is None)}
 
     @classmethod
     def from_json(cls: type[S], value: Any, where: str) -> S:
@@ -54,6 +54,8 @@ class Section:
         content = _expect_mapping(value, where)
         given: dict[str, Any] = {}
         for f in fields(cls):
+            if f.metadata.get("internal"):
+                continue
             if f.name not in content:
                 if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
                     raise DataError(f"{where} has no '{f.name}': expected a report written by 'pincal calibrate "
@@ -216,3 +218,130 @@ class ImplausibleScale(Section):
     measurement: str
     scale: float
     limit: float
+
+
+@dataclass(frozen=True)
+class SampleError(Section):
+    """One sample's error before and after calibration.
+
+    Attributes:
+        sample: The sample's id.
+        set: ``train`` (fitted) or ``test`` (held out).
+        before: Its length-type error [m] with the nominal robot, its setup registered; None: no length reading.
+        after: Its length-type error [m] after calibration; None: no length reading.
+        pixel_before: With pixel readings, its image's reprojection error [px] before (the RMS of its corners; None:
+            no corner seen).
+        pixel_after: The same after calibration [px].
+        imaged: Whether the calibration read pixels (the two ``pixel_*`` keys are then written, None or not).
+    """
+
+    sample: str
+    set: str = "train"
+    before: float | None = None
+    after: float | None = None
+    pixel_before: float | None = None
+    pixel_after: float | None = None
+    imaged: bool = field(default=False, metadata={"internal": True})
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON object: the ``pixel_*`` keys only with pixel readings."""
+        out = super().as_dict()
+        if not self.imaged:
+            del out["pixel_before"], out["pixel_after"]
+        return out
+
+    @classmethod
+    def from_json(cls, value: Any, where: str) -> SampleError:
+        """The sample's errors of a JSON object (see :meth:`Section.from_json`)."""
+        read = super().from_json(value, where)
+        return dataclasses.replace(read, imaged="pixel_before" in value or "pixel_after" in value)
+
+
+@dataclass(frozen=True)
+class Coverage(Section):
+    """How many errors lie within their predicted 95 % bound.
+
+    Attributes:
+        inside: Errors within their bound.
+        samples: Errors with a bound.
+        fraction: ``inside / samples`` [1]; None without samples.
+    """
+
+    inside: int = 0
+    samples: int = 0
+    fraction: float | None = None
+
+
+@dataclass(frozen=True)
+class PredictedSample(Section):
+    """A held-out sample's predicted error (:mod:`pincal.calibration.predicted`).
+
+    Attributes:
+        sample: The sample's id.
+        sigma: The predicted σ of each length row [m] (None: not known).
+        bound: Its predicted 95 % bound [m], grown beyond the fitted range and capped (None: not known).
+        linear_bound: The bound with no growth [m].
+        distance: Its extrapolation distance beyond the fitted joint range [1] (0: inside).
+        capped: Whether the nominal robot's own bound set it.
+    """
+
+    sample: str
+    sigma: list[float | None] = field(default_factory=list)
+    bound: float | None = None
+    linear_bound: float | None = None
+    distance: float = 0.0
+    capped: bool = False
+
+
+@dataclass(frozen=True)
+class HeldOutPredictions(Section):
+    """The held-out samples' predicted errors and how many of their errors the bounds hold.
+
+    Attributes:
+        level: The probability the bounds hold [1] (0.95).
+        inside: Errors within their bound, of ``samples``; ``fraction`` the share [1].
+        samples: Errors with a bound.
+        fraction: ``inside / samples`` [1]; None without samples.
+        in_range: The same of the samples within the fitted joint range.
+        beyond_range: The same of the samples beyond it.
+        median_bound: The bounds' median [m]; None: none known.
+        beyond: The samples beyond the fitted range, by id.
+        samples_predicted: Each sample's prediction.
+    """
+
+    level: float = 0.95
+    inside: int = 0
+    samples: int = 0
+    fraction: float | None = None
+    in_range: Coverage | None = field(default=None, metadata=nested(Coverage.from_json))
+    beyond_range: Coverage | None = field(default=None, metadata=nested(Coverage.from_json))
+    median_bound: float | None = None
+    beyond: list[str] = field(default_factory=list)
+    samples_predicted: list[PredictedSample] = field(default_factory=list, metadata=nested(listed(PredictedSample)))
+
+
+@dataclass(frozen=True)
+class WorkspacePrediction(Section):
+    """The predicted error over the workspace: postures drawn within the joint limits.
+
+    Attributes:
+        postures: Postures drawn (those the calibrated robot closes).
+        measurement: The measurement whose first point is predicted.
+        positions: Each posture's predicted position of that point [m], in the measurement frame.
+        bounds: Each posture's predicted 95 % bound [m] (None or inf: not known).
+        distance: Each posture's extrapolation distance beyond the fitted joint range [1].
+        outside_fitted_range: Postures beyond the fitted range.
+        capped: Postures whose bound the nominal robot's own bound set.
+        median_bound: The bounds' median [m]; None: none known.
+        max_bound: Their maximum [m]; None: none known.
+    """
+
+    postures: int = 0
+    measurement: str = ""
+    positions: list[list[float]] = field(default_factory=list)
+    bounds: list[float | None] = field(default_factory=list)
+    distance: list[float] = field(default_factory=list)
+    outside_fitted_range: int = 0
+    capped: int = 0
+    median_bound: float | None = None
+    max_bound: float | None = None

@@ -20,6 +20,7 @@ import numpy.typing as npt
 
 from pincal.calibration.pipeline import Calibration
 from pincal.calibration.report import CalibrationReport
+from pincal.calibration.report_sections import HeldOutPredictions, WorkspacePrediction
 from pincal.calibration.summary import bad_reading_text, correction, report_robot
 from pincal.errors import DataError
 from pincal.io.files import make_directory, write_text
@@ -295,18 +296,18 @@ def predicted_uncertainty(report: CalibrationReport) -> str:
     if workspace is None:
         return ""
     positions, bounds = workspace
-    space = report.predicted_workspace or {}
-    held = report.predicted_held_out or {}
-    after = {e["sample"]: e["after"] for e in report.sample_errors if e.get("set") == "test"}
-    entries = held.get("samples_predicted") or []
-    held_bounds = _numbers([e.get("bound") for e in entries]) if entries else None
-    held_errors = _numbers([after.get(e.get("sample")) for e in entries]) if entries else None
-    coverage = (f"; held out: {_text(held['inside'])} of {_text(held['samples'])} errors within their bound"
-                if held.get("samples") else "")
-    text = (f"predicted 95 % bound of the position of {_text(space.get('measurement'))} at "
+    space = report.predicted_workspace or WorkspacePrediction()
+    held = report.predicted_held_out or HeldOutPredictions()
+    after = {e.sample: e.after for e in report.sample_errors if e.set == "test"}
+    entries = held.samples_predicted
+    held_bounds = _numbers([e.bound for e in entries]) if entries else None
+    held_errors = _numbers([after.get(e.sample) for e in entries]) if entries else None
+    coverage = (f"; held out: {_text(held.inside)} of {_text(held.samples)} errors within their bound"
+                if held.samples else "")
+    text = (f"predicted 95 % bound of the position of {_text(space.measurement)} at "
             f"{len(bounds)} postures drawn within the joint limits: median "
-            f"{mm_text(space.get('median_bound'), 3)}, largest {mm_text(space.get('max_bound'), 3)}, "
-            f"{_text(space.get('outside_fitted_range', 0))} beyond the fitted joint range (bound widened){coverage}")
+            f"{mm_text(space.median_bound, 3)}, largest {mm_text(space.max_bound, 3)}, "
+            f"{_text(space.outside_fitted_range)} beyond the fitted joint range (bound widened){coverage}")
     drawn = figure(positions, bounds, held_bounds, held_errors, text)
     return (f'<div id="predicted-uncertainty">{drawn}'
             f'<p class="caption">{text[0].upper() + text[1:]}. Positions in the measurement frame; the 3D scene '

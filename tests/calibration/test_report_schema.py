@@ -13,14 +13,19 @@ from typing import Any
 import pytest
 from conftest import run_pincal
 
+from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.report import SCHEMA_VERSION, CalibrationReport
 from pincal.calibration.report_sections import (
     CrossValidation,
+    HeldOutPredictions,
     ImplausibleCorrection,
     ImplausibleScale,
     ModelSelection,
     ParameterEstimate,
+    PredictedSample,
     RangeGuard,
+    SampleError,
+    WorkspacePrediction,
 )
 from pincal.errors import DataError
 
@@ -62,6 +67,32 @@ def test_sections_are_typed() -> None:
         == tuple(raw[key] for key in ("policy", "removed", "removed_groups", "n_candidates", "prior_factors", "prior"))
     assert (selection.guard.firmer, selection.guard.nominal_beyond, selection.guard.scores) \
         == (raw["guard"]["firmer"], raw["guard"]["nominal_beyond"], raw["guard"]["scores"])
+
+
+def test_predictions_are_typed() -> None:
+    """The per-sample errors, the held-out and workspace predictions and the bound's growth are their records."""
+    report = CalibrationReport.read(FIXTURE / "report.json")
+    assert all(isinstance(e, SampleError) and not e.imaged for e in report.sample_errors)
+    assert [(e.sample, e.set, e.before, e.after) for e in report.sample_errors] \
+        == [(e["sample"], e["set"], e["before"], e["after"]) for e in RAW["sample_errors"]]
+    held, raw = report.predicted_held_out, RAW["predicted_held_out"]
+    assert isinstance(held, HeldOutPredictions) and held.in_range is not None and held.beyond_range is not None
+    assert (held.inside, held.samples, held.beyond, held.in_range.samples, held.beyond_range.inside) \
+        == (raw["inside"], raw["samples"], raw["beyond"], raw["in_range"]["samples"], raw["beyond_range"]["inside"])
+    assert [PredictedSample(**p) for p in raw["samples_predicted"]] == held.samples_predicted
+    space = report.predicted_workspace
+    assert isinstance(space, WorkspacePrediction)
+    assert (space.postures, space.positions, space.max_bound) == tuple(RAW["predicted_workspace"][key] for key in (
+        "postures", "positions", "max_bound"))
+    assert report.error_growth == ErrorGrowth(**RAW["error_growth"])
+
+
+def test_pixel_errors_written_when_imaged() -> None:
+    """A sample's pixel errors are written, None or not, when the calibration read pixels, and not otherwise."""
+    seen = {"sample": "3", "set": "test", "before": None, "after": None, "pixel_before": 1.5, "pixel_after": None}
+    report = CalibrationReport.from_json({**RAW, "sample_errors": [seen, {**RAW["sample_errors"][0]}]})
+    assert report.sample_errors[0].imaged and not report.sample_errors[1].imaged
+    assert json.loads(report.to_json())["sample_errors"] == [seen, RAW["sample_errors"][0]]
 
 
 def test_missing_keys_take_defaults() -> None:
@@ -107,6 +138,9 @@ def test_newer_schema_refused() -> None:
     ("parameters", {"base.x": {"value": 0.0}, "base.y": 2}, r"'parameters'"),
     ("implausible", [{"parameter": "base.x", "kind": "base"}], r"the result JSON's 'implausible'\[0\] has no 'value'"),
     ("implausible_scale", {"position": 3.3}, r"the result JSON's 'implausible_scale' is not a JSON list"),
+    ("error_growth", {"rho0": 1.0}, r"the result JSON's 'error_growth' is not an object of numbers"),
+    ("predicted_held_out", {**RAW["predicted_held_out"], "samples_predicted": [{"bound": 0.1}]},
+     r"'predicted_held_out'\['samples_predicted'\]\[0\] has no 'sample'"),
 ])
 def test_malformed_section_named(part: str, value: Any, culprit: str) -> None:
     """A nested part that is not of its record's form: a DataError naming the part and what is wrong."""
