@@ -81,7 +81,8 @@ def main(argv: list[str] | None = None) -> None:
         errors, times = {}, {}
         for model, keywords in MODELS.items():
             options = inputs.options.replace(**keywords)
-            errors[model] = calibrate(inputs.robot, inputs.dataset, options.replace(cv=plan)).report.cv["rms"]
+            cv = calibrate(inputs.robot, inputs.dataset, options.replace(cv=plan)).report.cv
+            errors[model] = cv.rms if cv is not None else None
             times[model] = cpu(inputs.robot, inputs.dataset, options, 1 if args.quick else 3)
         rows.append((f"{name} (--cv {plan})", errors, times))
     seeds = (0,) if args.quick else (0, 1, 2)

@@ -78,8 +78,9 @@ def pincal_cv(markers: int, cv: str, seed: int) -> Figures:
     """The default command's cross-validated RMS: ``--cv cv --cv-seed seed``."""
     robot = pincal.load_robot("tiago_no_hand")
     report = calibrate(robot, read_robot_dataset(FILES[markers], robot), cv=cv, cv_seed=seed).report.cv
-    first = report.get("rms_by_reading", {}).get(f"position:{TOOL}@m1", report["rms"])
-    return Figures(report["rms"], first)
+    assert report is not None and report.rms is not None, "no fold could be fitted"
+    first = (report.rms_by_reading or {}).get(f"position:{TOOL}@m1", report.rms)
+    return Figures(report.rms, first)
 
 
 # --- FIGAROH ----------------------------------------------------------------------------------------------

@@ -25,6 +25,7 @@ from study_cli import ROOT, study_main
 import pincal
 from pincal.calibration.campaign import simulate
 from pincal.calibration.pipeline import calibrate
+from pincal.calibration.report_sections import Coverage
 from pincal.calibration.samples import read_robot_dataset
 from pincal.errors import ConvergenceError
 
@@ -53,11 +54,13 @@ def robot_coverage(robot: str, quick: bool) -> dict[str, Any]:
             skipped.append(seed)
             seed += 1
             continue
-        held = calibrate(nominal, sim.dataset).report.predicted_held_out or {}
-        inside, total = inside + held["inside"], total + held["samples"]
+        held = calibrate(nominal, sim.dataset).report.predicted_held_out
+        assert held is not None, "a campaign with held-out samples has their predictions"
+        inside, total = inside + held.inside, total + held.samples
         for part, counts in parts.items():
-            counts[0], counts[1] = counts[0] + held[part]["inside"], counts[1] + held[part]["samples"]
-        bounds += [s["bound"] for s in held["samples_predicted"] if s["bound"] is not None]
+            share = getattr(held, part) or Coverage()
+            counts[0], counts[1] = counts[0] + share.inside, counts[1] + share.samples
+        bounds += [s.bound for s in held.samples_predicted if s.bound is not None]
         trials, seed = trials - 1, seed + 1
     bounds.sort()
     return {"robot": robot, "inside": inside, "samples": total, "fraction": inside / total,
@@ -69,13 +72,14 @@ def tiago_coverage() -> dict[str, Any]:
     """The real TIAGo data, default calibration: held-out errors within their bound."""
     robot = pincal.load_robot("tiago_no_hand")
     report = calibrate(robot, read_robot_dataset(TIAGO, robot)).report
-    held = report.predicted_held_out or {}
-    rows = [{"sample": s["sample"], "bound": s["bound"], "linear_bound": s["linear_bound"], "distance": s["distance"],
-             "capped": s["capped"]} for s in held["samples_predicted"]]
-    errors = {e["sample"]: e["after"] for e in report.sample_errors if e["set"] == "test"}
+    held = report.predicted_held_out
+    assert held is not None, "the TIAGo data hold held-out samples"
+    rows: list[dict[str, Any]] = [{"sample": s.sample, "bound": s.bound, "linear_bound": s.linear_bound,
+                                   "distance": s.distance, "capped": s.capped} for s in held.samples_predicted]
+    errors = {e.sample: e.after for e in report.sample_errors if e.set == "test"}
     for row in rows:
         row["error"] = errors[row["sample"]]
-    return {"inside": held["inside"], "samples": held["samples"], "fraction": held["fraction"], "rows": rows,
+    return {"inside": held.inside, "samples": held.samples, "fraction": held.fraction, "rows": rows,
             "sigma2": report.sigma2}
 
 

@@ -106,8 +106,8 @@ def old_bound(cal: Calibration, test: Dataset) -> np.ndarray:
     report's ``linear_bound``) times ``1 + Σ_j d_j / max(w_j, 0.05)``, ``d_j`` beyond the fitted range and its margin
     of 10 % of the width ``w_j`` on each side."""
     report = cal.report
-    linear = np.array([np.nan if p["linear_bound"] is None else p["linear_bound"]
-                       for p in (report.predicted_held_out or {}).get("samples_predicted", [])])
+    predicted = report.predicted_held_out.samples_predicted if report.predicted_held_out is not None else []
+    linear = np.array([np.nan if p.linear_bound is None else p.linear_bound for p in predicted])
     factor = np.ones(test.n_samples)
     for joint, (low, high) in report.fitted_range.items():
         values = test.joints[:, test.joint_names.index(joint)]
@@ -120,12 +120,13 @@ def old_bound(cal: Calibration, test: Dataset) -> np.ndarray:
 def held_out(cal: Calibration) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """A calibration's held-out postures: errors after [m], "before" (the registered nominal robot's) [m], the
     report's 95 % bounds [m] and extrapolation distances."""
-    test = [e for e in cal.report.sample_errors if e["set"] == "test"]
-    predicted = (cal.report.predicted_held_out or {}).get("samples_predicted", [])
-    after = np.array([np.nan if e["after"] is None else e["after"] for e in test])
-    before = np.array([np.nan if e["before"] is None else e["before"] for e in test])
-    bounds = np.array([np.nan if p["bound"] is None else p["bound"] for p in predicted])
-    distance = np.array([p["distance"] for p in predicted])
+    test = [e for e in cal.report.sample_errors if e.set == "test"]
+    held = cal.report.predicted_held_out
+    predicted = held.samples_predicted if held is not None else []
+    after = np.array([np.nan if e.after is None else e.after for e in test])
+    before = np.array([np.nan if e.before is None else e.before for e in test])
+    bounds = np.array([np.nan if p.bound is None else p.bound for p in predicted])
+    distance = np.array([p.distance for p in predicted])
     return after, before, bounds, distance
 
 

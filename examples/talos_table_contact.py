@@ -49,13 +49,14 @@ class Line:
 
     def figures(self) -> dict[str, Any]:
         """The line's figures [m, rad]: held-out before and after, cross-validated, counts."""
-        r, cv = self.report, self.report.cv or {}
+        r, cv = self.report, self.report.cv
         return {"side": self.side, "model": self.model, "command": self.command, "n_fitted": r.n_samples,
                 "n_held_out": r.n_test_samples, "n_parameters": r.n_parameters, "n_identifiable": r.n_identifiable,
                 "held_distance": (r.test_rms_before, r.test_rms_after),
                 "held_tilt": (r.test_rms_angle_before, r.test_rms_angle_after),
-                "cv_distance": cv.get("rms"), "cv_tilt": cv.get("rms_angle"), "cv_plan": cv.get("plan"),
-                "cv_failed": len(cv.get("failed_folds", [])), "cv_predictions": cv.get("n_predictions")}
+                "cv_distance": cv.rms if cv else None, "cv_tilt": cv.rms_angle if cv else None,
+                "cv_plan": cv.plan if cv else None, "cv_failed": len(cv.failed_folds) if cv else 0,
+                "cv_predictions": cv.n_predictions if cv else None}
 
 
 def job_path(side: str) -> Path:

@@ -84,6 +84,11 @@ def cases(quick: bool) -> list[Case]:
     return out[:1] if quick else out
 
 
+def _cv_rms(report: pincal.CalibrationReport) -> float | None:
+    """The cross-validated RMS length error [m] of ``report`` (None: no cross-validation, or no fold fitted)."""
+    return report.cv.rms if report.cv is not None else None
+
+
 def measure(case: Case, quick: bool) -> dict[str, Any]:
     """Fit, held-out, leave-one-out and 5-fold × 4 figures of one case [m]."""
     robot = pincal.load_robot("tiago_no_hand")
@@ -92,7 +97,7 @@ def measure(case: Case, quick: bool) -> dict[str, Any]:
                                "select": case.select}
     start = time.perf_counter()
     folds = calibrate(robot, dataset, cv="5" if quick else "5x4", **options)
-    loo = None if quick else calibrate(robot, dataset, cv="loo", **options).report.cv["rms"]
+    loo = None if quick else _cv_rms(calibrate(robot, dataset, cv="loo", **options).report)
     report = folds.report.as_dict()
     return {"markers": case.markers, "model": case.model, "command": case.command,
             "candidates": report["n_parameters"], "identifiable": report["n_identifiable"],
@@ -254,7 +259,7 @@ def noise_floor(path: Path, draws: int = 3) -> dict[str, Any]:
         order = np.random.default_rng(100 + draw).permutation(dataset.n_samples)
         readings = {key: dataset.measurements[key] + errors[key] - scale * errors[key][order]
                     for key in dataset.measurements}
-        figures.append(calibrate(robot, replace(dataset, measurements=readings), cv="5x4").report.cv["rms"])
+        figures.append(_cv_rms(calibrate(robot, replace(dataset, measurements=readings), cv="5x4").report))
     return {"draws": figures, "fit": report["rms_after"], "scale": float(scale)}
 
 

@@ -66,8 +66,8 @@ def test_cross_validate_takes_the_seed_from_its_plan(five_bar: tuple[pincal.Robo
     figures = {}
     for seed in (0, 2):
         cv = cross_validate(*common, parse_cv("3", n, seed), select="none")
-        assert cv["plan"] == ("3-fold" if seed == 0 else "3-fold, shuffle seed 2") and not cv["failed_folds"]
-        figures[seed] = cv["rms"]
+        assert cv.plan == ("3-fold" if seed == 0 else "3-fold, shuffle seed 2") and not cv.failed_folds
+        figures[seed] = cv.rms
     assert figures[0] != figures[2]
     with pytest.raises(TypeError, match="seed"):
         cross_validate(*common, parse_cv("3", n), select="none", seed=2)

@@ -123,7 +123,8 @@ def test_the_readme_s_python_runs_as_written(tmp_path: Path, monkeypatch: pytest
     exec(compile("\n".join(blocks[:2]), "README.md", "exec"), namespace)
     assert (tmp_path / "delta_calibrated.urdf").is_file()
     report = namespace["cal"].report  # type: ignore[attr-defined]
-    assert report.cv["plan"] == "5-fold × 4" and report.test_rms_after < 0.1 * report.test_rms_before
+    assert report.cv is not None and report.cv.plan == "5-fold × 4"
+    assert report.test_rms_after < 0.1 * report.test_rms_before
 
 
 def test_the_readme_lifecycle_runs_as_written(tmp_path: Path) -> None:

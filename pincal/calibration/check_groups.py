@@ -19,7 +19,6 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.check_model import CheckedModel
-from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.predicted import FitCovariance, PredictedErrors, distance, predicted_errors, weighed_as_fitted
 from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
@@ -75,9 +74,9 @@ def predicted_check(model: CheckedModel, nominal: Prepared) -> tuple[PredictedEr
                                        else "each")
     except (DataError, KeyError):
         return None, "MODEL's parameters are not those of these measurements: no predicted errors"
-    x = np.array([float(report.parameters[name]["value"]) for name in parameters.names])
+    x = np.array([float(report.parameters[name].value) for name in parameters.names])
     on = replace(nominal, models=weighed_as_fitted(nominal.models, report)).on(nominal.samples, parameters)
-    growth = ErrorGrowth.from_dict(report.error_growth)
+    growth = report.error_growth
     fit = FitCovariance.of_report(report.covariance, report.sigma2, parameters.names, growth)
     ranges = report.fitted_range or model.provenance.fitted_range or {}
     predicted = predicted_errors(on.problem, fit, x, distance(nominal.robot, on.problem.observations.actuated, ranges))
@@ -89,7 +88,7 @@ def predicted_check(model: CheckedModel, nominal: Prepared) -> tuple[PredictedEr
 def nominal_bounds(model: CheckedModel, predicted: PredictedErrors) -> npt.NDArray[np.float64]:
     """The nominal robot's own 95 % bound [m] at each checked posture (:meth:`~pincal.calibration.growth.ErrorGrowth.
     nominal`, at the posture's distance), NaN where the calibration holds none."""
-    growth = ErrorGrowth.from_dict(model.calibration.error_growth) if model.calibration is not None else None
+    growth = model.calibration.error_growth if model.calibration is not None else None
     if growth is None:
         return np.full(predicted.bound.size, np.nan)
     return growth.nominal(predicted.distance)

@@ -218,7 +218,7 @@ def _rebuilt(path: str, nominal: Robot, dataset: Dataset) -> CheckedModel:
     if len(parameters) != len(names):
         raise DataError(f"MODEL '{path}': {len(names)} parameters, of which robot '{nominal.name}' has "
                         f"{len(parameters)}: is --nominal the robot it was calibrated from?")
-    x = np.array([float(report.parameters[name]["value"]) for name in parameters.names])
+    x = np.array([float(report.parameters[name].value) for name in parameters.names])
     text, _ = calibrated_robot_text(nominal, source_text(nominal), parameters, x, read_joints=read_joints(models),
                                     markers=declared_markers(models))
     try:

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from pincal.calibration.options import CalibrationOptions, plausible_factor
+from pincal.calibration.report_sections import ImplausibleCorrection, ImplausibleScale
 from pincal.errors import PincalError
 from pincal.identification.measurements import Measurement
 from pincal.identification.parameters.kinds import PLACEMENT_PLAUSIBLE
@@ -68,15 +69,16 @@ class Implausible:
 
     beyond: Beyond
     plausible: float | str
-    corrections: list[dict[str, Any]] = field(default_factory=list)
-    scales: list[dict[str, Any]] = field(default_factory=list)
+    corrections: list[ImplausibleCorrection] = field(default_factory=list)
+    scales: list[ImplausibleScale] = field(default_factory=list)
     cause: str = UNKNOWN_CAUSE
     note: str | None = None
 
     def content(self) -> dict[str, Any]:
         """The check report's ``implausible`` entry (docs/check.md), SI units."""
         return {"quantity": self.beyond.quantity, "nominal_rms": self.beyond.rms, "limit": self.beyond.limit,
-                "plausible": self.plausible, "corrections": self.corrections, "scales": self.scales,
+                "plausible": self.plausible, "corrections": [c.as_dict() for c in self.corrections],
+                "scales": [s.as_dict() for s in self.scales],
                 "cause": self.cause, "note": self.note}
 
 

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.report_sections import CrossValidation
 from pincal.errors import DataError, PincalError, listing
 from pincal.identification.corrections import Payload
 from pincal.identification.measurements import Measurement
@@ -85,7 +86,7 @@ def check_cross_validation(models: Sequence[Measurement], formulation: str) -> N
 
 def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measurement], obs: Observations, folds: Folds,
                    select: str = "bic", *, progress: bool = False, payload: Payload | None = None,
-                   **options: Any) -> dict[str, Any]:
+                   **options: Any) -> CrossValidation:
     """K-fold cross-validation of the whole fit (selection and robust starts included): each fold is fitted
     without its samples and predicts them (with the ``payload`` of the compliance terms, if any). ``options`` go to
     :func:`~pincal.identification.selection.select_and_fit`.
@@ -124,13 +125,12 @@ def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measuremen
                 for key, parts in by_reading.items():
                     parts.append(error_norms(errors, [key]))
     pooled = np.concatenate(lengths) if lengths else np.zeros(0)
-    out: dict[str, Any] = {"plan": folds.label, "n_samples": n, "n_predictions": int(pooled.size),
-                           "rms": rms(pooled) if pooled.size else None, "failed_folds": failed,
-                           "unconverged_folds": int(unconverged)}
+    by_key = None
     if len(by_reading) > 1 and pooled.size:
         joined = {key: np.concatenate(parts) for key, parts in by_reading.items()}
-        out["rms_by_reading"] = {key: rms(v) if v.size else None for key, v in joined.items()}
+        by_key = {key: rms(v) if v.size else None for key, v in joined.items()}
     turned = np.concatenate(angles) if angles else np.zeros(0)
-    if turned.size:
-        out["rms_angle"] = rms(turned)
-    return out
+    return CrossValidation(plan=folds.label, n_samples=n, n_predictions=int(pooled.size),
+                           rms=rms(pooled) if pooled.size else None, failed_folds=failed,
+                           unconverged_folds=int(unconverged), rms_by_reading=by_key,
+                           rms_angle=rms(turned) if turned.size else None)

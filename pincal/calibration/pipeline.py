@@ -42,6 +42,7 @@ from pincal.calibration.plausibility import (
 )
 from pincal.calibration.predicted import FitCovariance, fitted_ranges, held_out_predictions, workspace_prediction
 from pincal.calibration.report import CalibrationReport, before_figures, fit_figures
+from pincal.calibration.report_sections import ModelSelection, RangeGuard, SampleError
 from pincal.calibration.samples import (
     LENGTH_SCALE_RATIO,
     check_joint_scale,
@@ -53,6 +54,7 @@ from pincal.calibration.setup import Prepared, check_movable, dataset_models, pr
 from pincal.errors import ArgumentError, DataError
 from pincal.identification.combinations import describe_unidentifiable, digest
 from pincal.identification.corrections import moving_mass
+from pincal.identification.guard import Guard
 from pincal.identification.ikm import ImplicitProblem
 from pincal.identification.metrics import angle_error_norms, error_norms, rms, sample_length_errors
 from pincal.identification.parameters import influencing_joints, read_joints
@@ -337,12 +339,10 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
         "markers": options.markers,
         "declared_markers": {target: list(offset) for target, offset in declared_markers(fit.models).items()},
         "formulation": options.formulation,
-        "selection": {"policy": options.selection if options.formulation == "fkm" else "none", "removed": removed,
-                      "removed_groups": list(fitted.removed_groups) if removed else [],
-                      "n_candidates": len(fit.parameters),
-                      "prior_factors": _held_factors(fitted),
-                      "guard": fitted.guard.as_dict() if fitted.guard is not None else None,
-                      "prior": options.prior},
+        "selection": ModelSelection(policy=options.selection if options.formulation == "fkm" else "none",
+                                    removed=removed, removed_groups=list(fitted.removed_groups) if removed else [],
+                                    n_candidates=len(fit.parameters), prior_factors=_held_factors(fitted),
+                                    guard=range_guard(fitted.guard), prior=options.prior),
         "unidentifiable_listing": describe_unidentifiable(first.identifiability.unidentifiable, UNIDENTIFIABLE_LINES),
         "unidentifiable_digest": digest(first.identifiability.unidentifiable, len(fit.parameters)),
         "n_estimated": len(result.identified),
@@ -372,6 +372,14 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
                         "test_readings": held.prepared.problem.n_readings(), **held.figures(),
                         "worse_than_nominal": held.worse_than_nominal})
     return content
+
+
+def range_guard(guard: Guard | None) -> RangeGuard | None:
+    """The report's account of the range guard ``guard`` (None: it did not run)."""
+    if guard is None:
+        return None
+    return RangeGuard(firmer=guard.firmer, beyond=guard.beyond, inside=guard.inside,
+                      nominal_beyond=guard.nominal_beyond, scores=[list(s) for s in guard.scores])
 
 
 def _held_factors(fitted: SelectedFit) -> dict[str, float] | None:
@@ -409,7 +417,7 @@ def prediction_content(fit: Prepared, result: CalibrationResult, held: HeldOut |
     ranges = fitted_ranges(fit.robot, fit.problem.observations.actuated, moving_joints(fit))
     covariance = FitCovariance.of_result(result, growth)
     out: dict[str, Any] = {"fitted_range": ranges,
-                           "error_growth": growth.as_dict() if growth is not None else None,
+                           "error_growth": growth,
                            "predicted_workspace": workspace_prediction(fit.problem, covariance, result.x, ranges)}
     if held is not None and held.predicted is not None:
         out["predicted_held_out"] = held_out_predictions(held.prepared.samples.sample_ids, held.predicted,
@@ -423,7 +431,7 @@ def bad_readings_of(result: CalibrationResult) -> list[BadReading]:
     return [b for b in found if isinstance(b, BadReading)] if isinstance(found, list) else []
 
 
-def sample_errors(ids: list[str], before: dict[str, Array], after: dict[str, Array], part: str) -> list[dict[str, Any]]:
+def sample_errors(ids: list[str], before: dict[str, Array], after: dict[str, Array], part: str) -> list[SampleError]:
     """Per sample of ``part`` (``train`` or ``test``): its id and its length-type error [m] before (the nominal robot
     with its setup registered) and after (None for a sample with no length reading); with pixels, its image's
     reprojection error [px] before and after (``pixel_before``, ``pixel_after``: the RMS of its corners)."""
@@ -432,10 +440,9 @@ def sample_errors(ids: list[str], before: dict[str, Array], after: dict[str, Arr
     def finite(values: Array | None) -> list[float | None]:
         return [v if math.isfinite(v) else None for v in values.tolist()] if values is not None else [None] * n
 
-    out: list[dict[str, Any]] = [{"sample": s, "set": part, "before": b, "after": a} for s, b, a in zip(
-        ids, finite(sample_length_errors(before, n)), finite(sample_length_errors(after, n)), strict=True)]
+    lengths = zip(ids, finite(sample_length_errors(before, n)), finite(sample_length_errors(after, n)), strict=True)
     images = image_errors(before, n), image_errors(after, n)
-    if images[0] is not None:
-        for entry, b, a in zip(out, finite(images[0]), finite(images[1]), strict=True):
-            entry.update({"pixel_before": b, "pixel_after": a})
-    return out
+    if images[0] is None:
+        return [SampleError(sample=s, set=part, before=b, after=a) for s, b, a in lengths]
+    return [SampleError(sample=s, set=part, before=b, after=a, pixel_before=pb, pixel_after=pa, imaged=True)
+            for (s, b, a), pb, pa in zip(lengths, finite(images[0]), finite(images[1]), strict=True)]

@@ -20,13 +20,13 @@ millimetres. Two checks find them:
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.columns import ColumnMistake
 from pincal.calibration.options import plausible_factor
+from pincal.calibration.report_sections import ImplausibleCorrection, ImplausibleScale
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.result import CalibrationResult
 
@@ -81,7 +81,7 @@ def smallest_equivalent(result: CalibrationResult, limits: Array) -> Array:
 
 
 def implausible_corrections(parameters: ParameterSet, result: CalibrationResult,
-                            plausible: float | str) -> list[dict[str, Any]]:
+                            plausible: float | str) -> list[ImplausibleCorrection]:
     """The corrections beyond their kind's plausible size times ``plausible`` (none when it is ``"off"``), largest
     share of its limit first: ``parameter``, ``kind``, ``value`` (the smallest equivalent correction, what the data
     demand [unit]), ``fitted`` (the estimate the calibrated URDF holds [unit]), ``limit`` [unit], ``unit``."""
@@ -98,8 +98,9 @@ def implausible_corrections(parameters: ParameterSet, result: CalibrationResult,
     demanded = smallest_equivalent(result, limits)
     found = [(abs(demanded[k]) / limits[k], k) for k in np.flatnonzero(np.isfinite(limits))
              if abs(demanded[k]) > limits[k]]
-    return [{"parameter": result.names[k], "kind": by_name[result.names[k]].kind, "value": float(demanded[k]),
-             "fitted": float(result.x[k]), "limit": float(limits[k]), "unit": by_name[result.names[k]].unit}
+    return [ImplausibleCorrection(parameter=result.names[k], kind=by_name[result.names[k]].kind,
+                                  value=float(demanded[k]), fitted=float(result.x[k]), limit=float(limits[k]),
+                                  unit=by_name[result.names[k]].unit)
             for _, k in sorted(found, key=lambda item: -item[0])]
 
 
@@ -110,18 +111,18 @@ def scale_limit(plausible: float | str) -> float | None:
     return None if factor is None else 1.0 + SCALE_TOLERANCE * factor
 
 
-def implausible_scales(length_scale: dict[str, float], plausible: float | str) -> list[dict[str, Any]]:
+def implausible_scales(length_scale: dict[str, float], plausible: float | str) -> list[ImplausibleScale]:
     """The measured positions whose spread differs from the nominal robot's beyond :func:`scale_limit` either way:
     ``measurement`` (its key), ``scale`` (measured spread / nominal spread), ``limit``."""
     limit = scale_limit(plausible)
     if limit is None:
         return []
-    return [{"measurement": key, "scale": scale, "limit": limit} for key, scale in length_scale.items()
+    return [ImplausibleScale(measurement=key, scale=scale, limit=limit) for key, scale in length_scale.items()
             if not 1.0 / limit <= scale <= limit]
 
 
-def likely_cause(corrections: list[dict[str, Any]], scales: list[dict[str, Any]], length_scale: dict[str, float],
-                 sigma2: float | None, mistake: ColumnMistake | None = None) -> str:
+def likely_cause(corrections: list[ImplausibleCorrection], scales: list[ImplausibleScale],
+                 length_scale: dict[str, float], sigma2: float | None, mistake: ColumnMistake | None = None) -> str:
     """What the implausible ``corrections`` and ``scales`` most likely come from, in a sentence (empty when there are
     none): lengths in another unit when the data's spread is scaled; the joint column read with the other sign, or the
     two exchanged, that the nominal robot's start says explain the data (``mistake``,
@@ -130,9 +131,9 @@ def likely_cause(corrections: list[dict[str, Any]], scales: list[dict[str, Any]]
     mislabelled joint columns (or a wrong model) when it does not; a joint's zero or sign when only reading offsets are
     off."""
     if scales:
-        worst = max(scales, key=lambda s: abs(math.log(s["scale"])))
-        return (f"lengths in another unit: the measured positions '{worst['measurement']}' spread "
-                f"{worst['scale']:.3g} times as far as the nominal robot's at the same joint readings (feet read as "
+        worst = max(scales, key=lambda s: abs(math.log(s.scale)))
+        return (f"lengths in another unit: the measured positions '{worst.measurement}' spread "
+                f"{worst.scale:.3g} times as far as the nominal robot's at the same joint readings (feet read as "
                 "metres give 3.28, inches 39.4; a CSV is in metres, a job file says its [data] units), or a robot of "
                 "another size (a wrong robot model)")
     if not corrections:
@@ -141,7 +142,7 @@ def likely_cause(corrections: list[dict[str, Any]], scales: list[dict[str, Any]]
         return f"{mistake.what}: {mistake.evidence}; {mistake.fix}"
     noted = [(key, scale) for key, scale in length_scale.items() if abs(scale - 1.0) > SCALE_NOTED]
     size = (f"; the data's positions spread {noted[0][1]:.3g} times as far as this robot's would" if noted else "")
-    kinds = {c["kind"] for c in corrections}
+    kinds = {c.kind for c in corrections}
     if kinds == {"offset"}:
         return ("a joint's zero or sign: the readings of the joints named are off by more than a zeroing error "
                 "(a joint read with the other sign, in another zero convention, or the columns of two joints "

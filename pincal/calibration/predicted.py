@@ -25,6 +25,7 @@ import numpy.typing as npt
 from pincal.calibration.growth import MIN_WIDTH, ErrorGrowth, extrapolation_distance
 from pincal.calibration.propagation import LEVEL, length_covariances, length_layout, norm_quantile, norm_quantiles
 from pincal.calibration.report import parameter_covariance
+from pincal.calibration.report_sections import Coverage, HeldOutPredictions, PredictedSample, WorkspacePrediction
 from pincal.errors import ConvergenceError, PincalError
 from pincal.identification.choices import MarkerFit
 from pincal.identification.metrics import length_columns
@@ -186,24 +187,30 @@ def workspace_postures(problem: CalibrationProblem, actuated: Array) -> Calibrat
 
 
 def coverage(predicted: PredictedErrors, errors: Array) -> dict[str, Any]:
+    """How many of the samples' error norms ``errors`` (N,) [m] lie within their predicted 95 % bound, as the check
+    report holds it: all of them (``inside``/``samples``/``fraction``), and those within and beyond the fitted range
+    apart (``in_range``, ``beyond_range``: the same each)."""
+    every, in_range, beyond_range = coverages(predicted, errors)
+    return {**every.as_dict(), "in_range": in_range.as_dict(), "beyond_range": beyond_range.as_dict()}
+
+
+def coverages(predicted: PredictedErrors, errors: Array) -> tuple[Coverage, Coverage, Coverage]:
     """How many of the samples' error norms ``errors`` (N,) [m] lie within their predicted 95 % bound: all of them,
-    and those within and beyond the fitted range apart (``inside``/``samples``/``fraction`` each)."""
+    and those within and beyond the fitted range apart."""
     known = np.isfinite(errors) & np.isfinite(predicted.bound)
     within = predicted.inside(errors)
-    out: dict[str, Any] = _share(within, known)
-    for part, where in (("in_range", predicted.distance <= 0.0), ("beyond_range", predicted.distance > 0.0)):
-        out[part] = _share(within & where, known & where)
-    return out
+    inside, beyond = predicted.distance <= 0.0, predicted.distance > 0.0
+    return (_share(within, known), _share(within & inside, known & inside), _share(within & beyond, known & beyond))
 
 
-def _share(within: npt.NDArray[np.bool_], known: npt.NDArray[np.bool_]) -> dict[str, Any]:
+def _share(within: npt.NDArray[np.bool_], known: npt.NDArray[np.bool_]) -> Coverage:
     inside, total = int(np.count_nonzero(within)), int(np.count_nonzero(known))
-    return {"inside": inside, "samples": total, "fraction": inside / total if total else None}
+    return Coverage(inside=inside, samples=total, fraction=inside / total if total else None)
 
 
 def workspace_prediction(problem: CalibrationProblem, fit: FitCovariance, x: Array,
                          ranges: dict[str, list[float]], n: int = WORKSPACE_POSTURES,
-                         seed: int = 0) -> dict[str, Any] | None:
+                         seed: int = 0) -> WorkspacePrediction | None:
     """The predicted error over the workspace: ``n`` postures drawn within the joint limits (as ``pincal simulate``
     draws them, seeded; those the calibrated robot cannot close left out), each with the predicted position of the
     first measured point [m] and its 95 % bound [m] (grown beyond the fitted ``ranges``, capped by the nominal robot's
@@ -221,11 +228,12 @@ def workspace_prediction(problem: CalibrationProblem, fit: FitCovariance, x: Arr
         return None
     bounds = predicted.bound
     finite = bounds[np.isfinite(bounds)]
-    return {"postures": len(actuated), "measurement": key, "positions": positions.tolist(), "bounds": bounds.tolist(),
-            "distance": distances.tolist(), "outside_fitted_range": int(np.count_nonzero(distances > 0.0)),
-            "capped": int(np.count_nonzero(predicted.capped)),
-            "median_bound": float(np.median(finite)) if finite.size else None,
-            "max_bound": float(np.max(finite)) if finite.size else None}
+    return WorkspacePrediction(postures=len(actuated), measurement=key, positions=positions.tolist(),
+                               bounds=bounds.tolist(), distance=distances.tolist(),
+                               outside_fitted_range=int(np.count_nonzero(distances > 0.0)),
+                               capped=int(np.count_nonzero(predicted.capped)),
+                               median_bound=float(np.median(finite)) if finite.size else None,
+                               max_bound=float(np.max(finite)) if finite.size else None)
 
 
 def predicted_at(problem: CalibrationProblem, fit: FitCovariance, x: Array, actuated: Array,
@@ -266,8 +274,8 @@ def bounds_at(nominal: Robot, calibration: Any, actuated: Array) -> tuple[Array,
         parameters = choose_parameters(nominal, models, names, fitted)
     except (PincalError, KeyError):
         return None
-    x = np.array([float(calibration.parameters[name]["value"]) for name in parameters.names])
-    growth = ErrorGrowth.from_dict(calibration.error_growth)
+    x = np.array([float(calibration.parameters[name].value) for name in parameters.names])
+    growth = calibration.error_growth
     fit = FitCovariance.of_report(calibration.covariance, calibration.sigma2, parameters.names, growth)
     template = CalibrationProblem(nominal, parameters, models, Observations.neutral(models, actuated[:1]))
     bound, own = np.full(len(actuated), np.nan), np.full(len(actuated), np.nan)
@@ -288,19 +296,19 @@ def weighed_as_fitted(models: list[Any], calibration: Any) -> list[Any]:
     return [m.with_component_sigma(fitted[m.key]) if len(fitted.get(m.key, [])) == m.size else m for m in models]
 
 
-def held_out_predictions(ids: list[str], predicted: PredictedErrors, errors: Array) -> dict[str, Any]:
+def held_out_predictions(ids: list[str], predicted: PredictedErrors, errors: Array) -> HeldOutPredictions:
     """The report's account of the held-out predictions: per sample (``ids``) its predicted σ per length row, its 95 %
     bound [m], the bound with no growth [m], its extrapolation distance and whether the cap set it; the coverage of the
     error norms ``errors`` (N,) [m], all and within and beyond the fitted range apart."""
     finite = predicted.bound[np.isfinite(predicted.bound)]
     beyond = [ids[k] for k in np.flatnonzero(predicted.distance > 0.0)]
-    return {"level": LEVEL, **coverage(predicted, errors),
-            "median_bound": float(np.median(finite)) if finite.size else None,
-            "beyond": beyond,
-            "samples_predicted": [{"sample": s, "sigma": [None if not np.isfinite(v) else float(v) for v in sig],
-                                   "bound": float(b) if np.isfinite(b) else None,
-                                   "linear_bound": float(lb) if np.isfinite(lb) else None,
-                                   "distance": float(u), "capped": bool(c)}
-                                  for s, sig, b, lb, u, c in zip(ids, predicted.sigma, predicted.bound,
-                                                                 predicted.linear, predicted.distance,
-                                                                 predicted.capped, strict=True)]}
+    every, in_range, beyond_range = coverages(predicted, errors)
+    return HeldOutPredictions(
+        level=LEVEL, inside=every.inside, samples=every.samples, fraction=every.fraction, in_range=in_range,
+        beyond_range=beyond_range, median_bound=float(np.median(finite)) if finite.size else None, beyond=beyond,
+        samples_predicted=[PredictedSample(sample=s, sigma=[None if not np.isfinite(v) else float(v) for v in sig],
+                                           bound=float(b) if np.isfinite(b) else None,
+                                           linear_bound=float(lb) if np.isfinite(lb) else None,
+                                           distance=float(u), capped=bool(c))
+                           for s, sig, b, lb, u, c in zip(ids, predicted.sigma, predicted.bound, predicted.linear,
+                                                          predicted.distance, predicted.capped, strict=True)])

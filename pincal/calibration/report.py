@@ -1,9 +1,13 @@
-"""The typed report of a calibration: :class:`CalibrationReport`, built once by :func:`build_report`.
+"""The typed report of a calibration: :class:`CalibrationReport`, built once by
+:func:`~pincal.calibration.pipeline.calibrate` from the parts :func:`fit_figures`, :func:`before_figures` and the
+pipeline give, its nested parts typed sections (:mod:`pincal.calibration.report_sections`).
 
 Its fields are the keys of the report JSON (``pincal calibrate --report``, docs/report.md), in the JSON's order; a
 field that holds None and is marked optional is left out of the JSON (e.g. held-out figures without held-out
-samples). The terminal summary, the JSON, the HTML page, the 3D scene and ``fleet`` read it by attribute; none of them
-recomputes a figure. Units: SI (m, rad). Wall-clock time is left out: the same inputs give a byte-identical file.
+samples). The JSON records its layout's :data:`SCHEMA_VERSION`; :meth:`CalibrationReport.from_json` reads the reports
+of this version and older ones, and refuses newer ones. The terminal summary, the JSON, the HTML page, the 3D scene
+and ``fleet`` read it by attribute; none of them recomputes a figure. Units: SI (m, rad). Wall-clock time is left
+out: the same inputs give a byte-identical file.
 """
 
 from __future__ import annotations
@@ -17,6 +21,22 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.growth import ErrorGrowth
+from pincal.calibration.report_sections import (
+    OPTIONAL,
+    CrossValidation,
+    HeldOutPredictions,
+    ImplausibleCorrection,
+    ImplausibleScale,
+    ModelSelection,
+    ParameterEstimate,
+    SampleError,
+    Section,
+    WorkspacePrediction,
+    by_name,
+    listed,
+    nested,
+)
 from pincal.errors import DataError
 from pincal.identification.measurements import KIND_CLASSES
 from pincal.identification.metrics import angle_error_norms, calibration_gain, error_norms, pixel_error_norms, rms
@@ -36,8 +56,17 @@ BEFORE_MEANS_NOMINAL = "the nominal robot in the nominal measurement frame, for 
 
 
 
-#: The metadata of a field left out of the JSON while it holds None.
-OPTIONAL = {"optional": True}
+def _read_growth(value: Any, where: str) -> ErrorGrowth:
+    """The bound's growth of a JSON object (:meth:`ErrorGrowth.as_dict`'s).
+
+    Raises:
+        DataError: not an object of its keys and numbers.
+    """
+    growth = ErrorGrowth.from_dict(value) if isinstance(value, dict) else None
+    if growth is None:
+        raise DataError(f"{where} is not an object of numbers 'rho0', 'nominal0', 'nominal1', 'reach', 'inside', "
+                        "'beyond': expected a report written by 'pincal calibrate --report'")
+    return growth
 
 
 @dataclass(frozen=True)
@@ -47,10 +76,11 @@ class CalibrationReport:
     The fit's figures (``rms_before`` … ``max_after``) are over the fitted samples' readings; the held-out ones
     (``test_*``) over the held-out samples', "before" being the nominal robot with its setup registered in both
     (``before_means`` says what that is; the fit's start is ``rms_start``, ``test_rms_start``, ``start_means``).
-    ``parameters`` maps each parameter to ``{"value", "std", "identified"}``; ``dropped_samples`` and ``down_weighted``
-    list samples by id with the reason or weight; ``bad_readings`` the fitted samples left out (weight 0) because one
-    wrong joint reading explains their error: ``{"sample", "joint", "off" [rad or m], "unit", "explained" (0–1)}``;
-    ``cv`` is the cross-validation's account.
+    ``parameters`` maps each parameter to its estimate (:class:`~pincal.calibration.report_sections.ParameterEstimate`);
+    ``dropped_samples`` and ``down_weighted`` list samples by id with the reason or weight; ``bad_readings`` the fitted
+    samples left out (weight 0) because one wrong joint reading explains their error: ``{"sample", "joint", "off"
+    [rad or m], "unit", "explained" (0–1)}``;
+    ``cv`` is the cross-validation's account (:class:`~pincal.calibration.report_sections.CrossValidation`).
     ``length_scale`` is each measured position's spread over the nominal robot's at the same readings; ``implausible``
     and ``implausible_scale`` list the corrections and the scales beyond what a robot of this model plausibly needs
     (the factor ``plausible`` on the documented limits, :mod:`pincal.calibration.plausibility`), and
@@ -99,7 +129,8 @@ class CalibrationReport:
     loss: str = ""
     sigma2: float | None = None
     cost_history: list[float] = field(default_factory=list)
-    parameters: dict[str, dict[str, Any]] = field(default_factory=dict)
+    parameters: dict[str, ParameterEstimate] = field(default_factory=dict,
+                                                     metadata=nested(by_name(ParameterEstimate)))
     unidentifiable: list[str] = field(default_factory=list)
     down_weighted_samples: list[str] = field(default_factory=list)
     reference_shifts: dict[str, float] = field(default_factory=dict)
@@ -121,7 +152,7 @@ class CalibrationReport:
     markers: str = "each"
     declared_markers: dict[str, list[float]] = field(default_factory=dict)
     formulation: str = "fkm"
-    selection: dict[str, Any] = field(default_factory=dict)
+    selection: ModelSelection | None = field(default=None, metadata=nested(ModelSelection.from_json, **OPTIONAL))
     unidentifiable_listing: list[str] = field(default_factory=list)
     unidentifiable_digest: str = ""
     n_estimated: int = 0
@@ -151,19 +182,22 @@ class CalibrationReport:
     worse_than_nominal: bool | None = field(default=None, metadata=OPTIONAL)
     length_scale: dict[str, float] = field(default_factory=dict)
     plausible: float | str = 1.0
-    implausible: list[dict[str, Any]] = field(default_factory=list)
-    implausible_scale: list[dict[str, Any]] = field(default_factory=list)
+    implausible: list[ImplausibleCorrection] = field(default_factory=list,
+                                                     metadata=nested(listed(ImplausibleCorrection)))
+    implausible_scale: list[ImplausibleScale] = field(default_factory=list, metadata=nested(listed(ImplausibleScale)))
     implausible_cause: str = ""
     explains_nothing: bool = False
-    cv: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    cv: CrossValidation | None = field(default=None, metadata=nested(CrossValidation.from_json, **OPTIONAL))
     estimated_sigma: dict[str, dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
-    sample_errors: list[dict[str, Any]] = field(default_factory=list)
+    sample_errors: list[SampleError] = field(default_factory=list, metadata=nested(listed(SampleError)))
     covariance: dict[str, Any] = field(default_factory=dict)
     fitted_range: dict[str, list[float]] = field(default_factory=dict)
-    error_growth: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    error_growth: ErrorGrowth | None = field(default=None, metadata=nested(_read_growth, **OPTIONAL))
     row_sigma: dict[str, list[float]] = field(default_factory=dict)
-    predicted_workspace: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
-    predicted_held_out: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    predicted_workspace: WorkspacePrediction | None = field(default=None,
+                                                            metadata=nested(WorkspacePrediction.from_json, **OPTIONAL))
+    predicted_held_out: HeldOutPredictions | None = field(default=None,
+                                                          metadata=nested(HeldOutPredictions.from_json, **OPTIONAL))
     provenance: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
     #: The JSON keys a report read by :meth:`from_json` held (every field for a report built by a calibration).
     present: frozenset[str] = field(default=frozenset(), compare=False, repr=False, metadata={"internal": True})
@@ -237,7 +271,12 @@ class CalibrationReport:
                             f"({SCHEMA_VERSION}): upgrade pincal")
         known = {f.name for f in fields(cls) if not f.metadata.get("internal")}
         given = {key: value for key, value in content.items() if key in known}
-        return cls(**given, present=frozenset(given) | {"parameters"})
+        present = frozenset(given) | {"parameters"}
+        for f in fields(cls):
+            reader = f.metadata.get("read")
+            if reader is not None and given.get(f.name) is not None:
+                given[f.name] = reader(given[f.name], f"{source}'s '{f.name}'")
+        return cls(**given, present=present)
 
     @classmethod
     def read(cls, path: str | Path) -> CalibrationReport:
@@ -309,7 +348,9 @@ def before_figures(problem: CalibrationProblem, before: Any) -> dict[str, Any]:
 
 
 def _json_value(value: Any) -> Any:
-    """``value`` with every float that is not finite made None, through lists and dicts."""
+    """``value`` with every float that is not finite made None, through sections, lists and dicts."""
+    if isinstance(value, Section | ErrorGrowth):
+        return _json_value(value.as_dict())
     if isinstance(value, float):
         return value if math.isfinite(value) else None
     if isinstance(value, dict):
@@ -354,8 +395,8 @@ def fit_figures(result: CalibrationResult, problem: CalibrationProblem, x_true: 
         "loss": result.loss,
         "sigma2": _clean(result.sigma2),
         "cost_history": [float(c) for c in result.cost_history],
-        "parameters": {name: {"value": float(result.x[k]), "std": _clean(float(result.std[k])),
-                              "identified": k in set(result.identified)}
+        "parameters": {name: ParameterEstimate(float(result.x[k]), _clean(float(result.std[k])),
+                                               k in set(result.identified))
                        for k, name in enumerate(result.names)},
         "unidentifiable": [c.description for c in ident.unidentifiable],
         "covariance": covariance_of(result),

@@ -62,7 +62,7 @@ def _label_width(report: CalibrationReport) -> int:
     """The width of the before/after table's labels [characters]: 32, or the longest label it prints."""
     length, angle = report.error_words
     words = [length] + ([angle] if report.rms_angle_before is not None else [])
-    parts = ["fit"] + (["held out"] if report.has_held_out else []) + (["cross-val."] if report.cv else [])
+    parts = ["fit"] + (["held out"] if report.has_held_out else []) + (["cross-val."] if report.cv is not None else [])
     return max(32, *(len(f"RMS {word} error ({part})") for word in words for part in parts))
 
 
@@ -283,12 +283,12 @@ def _implausible(report: CalibrationReport) -> list[str]:
                           "docs/calibrated_urdf.md, 'Plausible corrections'); the result is refused", 120,
                           subsequent_indent="  ", break_on_hyphens=False)
     for s in report.implausible_scale:
-        lines += textwrap.wrap(f"  - the measured positions '{s['measurement']}' spread {s['scale']:.3g} times as far "
+        lines += textwrap.wrap(f"  - the measured positions '{s.measurement}' spread {s.scale:.3g} times as far "
                                "as the nominal robot's at the same joint readings (plausible within "
-                               f"{s['limit']:.3g} times either way)", 120, subsequent_indent="    ",
+                               f"{s.limit:.3g} times either way)", 120, subsequent_indent="    ",
                                break_on_hyphens=False)
-    lines += [f"  - {c['parameter']} corrected by {correction(c['value'], c['unit'])} (limit "
-              f"{correction(c['limit'], c['unit']).lstrip('+')})" for c in report.implausible[:IMPLAUSIBLE_LINES]]
+    lines += [f"  - {c.parameter} corrected by {correction(c.value, c.unit)} (limit "
+              f"{correction(c.limit, c.unit).lstrip('+')})" for c in report.implausible[:IMPLAUSIBLE_LINES]]
     if len(report.implausible) > IMPLAUSIBLE_LINES:
         lines.append(f"  … and {len(report.implausible) - IMPLAUSIBLE_LINES} more (the report's 'implausible')")
     if report.implausible_cause:
@@ -310,28 +310,29 @@ def _generalization(report: CalibrationReport) -> list[str]:
     """The cross-validated error beside the fit's, and the warnings about generalization."""
     lines = []
     cv = report.cv
-    if cv and cv["rms"] is None:
-        lines.append(f"cross-validation ({cv['plan']}): no fold could be fitted; first: {cv['failed_folds'][0]}")
-    elif cv:
+    cv_rms = cv.rms if cv is not None else None
+    if cv is not None and cv_rms is None:
+        lines.append(f"cross-validation ({cv.plan}): no fold could be fitted; first: {cv.failed_folds[0]}")
+    elif cv is not None and cv_rms is not None:
         (length, angle), width = report.error_words, _label_width(report)
-        row = f"{f'RMS {length} error (cross-val.)':{width}}{'':>14}{mm(cv['rms']):>14}"
-        plan = f"({cv['plan']}, {cv['n_samples']} samples, {cv['n_predictions']} predictions)"
+        row = f"{f'RMS {length} error (cross-val.)':{width}}{'':>14}{mm(cv_rms):>14}"
+        plan = f"({cv.plan}, {cv.n_samples} samples, {cv.n_predictions} predictions)"
         lines += [f"{row}  {plan}"] if len(row) + 2 + len(plan) <= WIDTH else [row, f"  {plan}"]
-        for key, value in (cv.get("rms_by_reading") or {}).items():
+        for key, value in (cv.rms_by_reading or {}).items():
             lines.append(f"{'  ' + key:{width}}{'':>14}{mm(value):>14}")
-        if "rms_angle" in cv:
-            lines.append(f"{f'RMS {angle} error (cross-val.)':{width}}{'':>14}{mrad(cv['rms_angle']):>14}")
-        if cv.get("failed_folds"):
-            lines.append(f"  ({len(cv['failed_folds'])} fold fits failed and are left out; the report lists them)")
-        if cv.get("unconverged_folds"):
-            lines.append(f"  ({cv['unconverged_folds']} fold fits stopped before converging; their predictions count)")
+        if cv.rms_angle is not None:
+            lines.append(f"{f'RMS {angle} error (cross-val.)':{width}}{'':>14}{mrad(cv.rms_angle):>14}")
+        if cv.failed_folds:
+            lines.append(f"  ({len(cv.failed_folds)} fold fits failed and are left out; the report lists them)")
+        if cv.unconverged_folds:
+            lines.append(f"  ({cv.unconverged_folds} fold fits stopped before converging; their predictions count)")
         fit = report.rms_after
-        if fit and cv["rms"] > OVERFIT_RATIO * fit:
-            lines.append(f"warning: the cross-validated error is {cv['rms'] / fit:.2g} × the fit error: the model "
+        if fit and cv_rms > OVERFIT_RATIO * fit:
+            lines.append(f"warning: the cross-validated error is {cv_rms / fit:.2g} × the fit error: the model "
                          "follows these samples more closely than it predicts new ones (overfitting)")
     rows = report.n_residuals
     estimated = report.n_estimated
-    measured = report.has_held_out or bool(cv)  # generalization is measured: the figures above say it, not a count
+    measured = report.has_held_out or cv is not None  # generalization measured: the figures above say it, not a count
     if rows and estimated and rows < VALUES_PER_PARAMETER * estimated and not measured:
         lines.append(f"warning: {rows / estimated:.2g} measured values per estimated parameter "
                      f"(< {VALUES_PER_PARAMETER}): check generalization with --cv 5, or add postures")
@@ -464,8 +465,8 @@ def verdict(report: CalibrationReport) -> str:
     if report.worse_than_nominal:
         return "WORSE THAN NOMINAL"
     if report.is_implausible:
-        return "IMPLAUSIBLE (" + ", ".join([s["measurement"] + " scaled" for s in report.implausible_scale]
-                                           + [c["parameter"] for c in report.implausible][:3]) + \
+        return "IMPLAUSIBLE (" + ", ".join([s.measurement + " scaled" for s in report.implausible_scale]
+                                           + [c.parameter for c in report.implausible][:3]) + \
             (" …)" if len(report.implausible) > 3 else ")")
     if (report.sigma2 or 0.0) > NOISE_CONTRADICTED:
         return f"converged; residuals {(report.sigma2 or 0.0) ** 0.5:.3g} × σ"

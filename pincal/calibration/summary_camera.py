@@ -98,16 +98,16 @@ def image_lines(report: CalibrationReport) -> list[str]:
     held = report.test_readings or {}
     pixels = [key for key in readings if is_pixel_key(key)]
     seen = sum(readings[key] for key in pixels)
-    taken = [e for e in report.sample_errors if e.get("pixel_after") is not None and e.get("pixel_before") is not None]
+    taken = [e for e in report.sample_errors if e.pixel_after is not None and e.pixel_before is not None]
     if not taken:
         return []
     lines = [f"corners seen: fitted {seen} of {seen + sum(unseen.get(key, 0) for key in pixels)} in "
              f"{report.n_samples} images" + (f"; held out {sum(held.get(key, 0) for key in pixels)} in "
                                               f"{report.n_test_samples} images" if held else "")
              + " (each RMS reprojection error is over the corners seen)"]
-    worst = sorted(taken, key=lambda e: -e["pixel_after"])[:3]
+    worst = sorted(taken, key=lambda e: -(e.pixel_after or 0.0))[:3]
     lines.append("largest reprojection errors after the fit (image: before → after): " + ", ".join(
-        f"{e['sample']} ({e['set']}) {e['pixel_before']:.3f} → {e['pixel_after']:.3f} px" for e in worst))
+        f"{e.sample} ({e.set}) {e.pixel_before:.3f} → {e.pixel_after:.3f} px" for e in worst))
     return lines
 
 

@@ -85,8 +85,8 @@ def check_result_options(args: argparse.Namespace, report: CalibrationReport) ->
     recorded = {
         "solver": report.solver,
         "loss": report.loss,
-        "select": selection.get("policy") if isinstance(selection, dict) else None,
-        "cv": cv.get("plan") if isinstance(cv, dict) else None,
+        "select": selection.policy if selection is not None else None,
+        "cv": cv.plan if cv is not None else None,
         "payload": report.payload,
         "formulation": report.formulation,
         "markers": report.markers,

@@ -20,6 +20,7 @@ import numpy.typing as npt
 
 from pincal.calibration.pipeline import Calibration
 from pincal.calibration.report import CalibrationReport
+from pincal.calibration.report_sections import HeldOutPredictions, WorkspacePrediction
 from pincal.calibration.summary import bad_reading_text, correction, report_robot
 from pincal.errors import DataError
 from pincal.io.files import make_directory, write_text
@@ -129,10 +130,10 @@ def _implausible(report: CalibrationReport) -> str:
     """The refusal of an implausible result: what is beyond its limit, and the likely cause (empty otherwise)."""
     if not report.is_implausible:
         return ""
-    items = [f"the measured positions {html.escape(s['measurement'])} spread {s['scale']:.3g} times as far as the "
+    items = [f"the measured positions {html.escape(s.measurement)} spread {s.scale:.3g} times as far as the "
              f"nominal robot's" for s in report.implausible_scale]
-    items += [f"{html.escape(c['parameter'])} corrected by {html.escape(correction(c['value'], c['unit']))} (limit "
-              f"{html.escape(correction(c['limit'], c['unit']).lstrip('+'))})" for c in report.implausible]
+    items += [f"{html.escape(c.parameter)} corrected by {html.escape(correction(c.value, c.unit))} (limit "
+              f"{html.escape(correction(c.limit, c.unit).lstrip('+'))})" for c in report.implausible]
     return (f'<p class="warn">Implausible result, refused: {"; ".join(items)}. Likely cause: '
             f"{html.escape(report.implausible_cause)}.</p>")
 
@@ -204,15 +205,15 @@ def _summary_table(report: CalibrationReport, n_test: int | None) -> str:
             table.append(f"<tr><td>{label}</td><td class='before'>{mrad_text(getattr(report, b))}</td>"
                          f"<td class='after'>{mrad_text(getattr(report, a))}</td></tr>")
     cv = report.cv
-    if cv:
-        table.append(f"<tr><td>RMS {length} error (cross-validated, {_text(cv['plan'])}, {_text(cv['n_samples'])} "
-                     f"samples)</td><td></td><td class='after'>{mm_text(cv['rms'])}</td></tr>")
-        for key, value in (cv.get("rms_by_reading") or {}).items():
+    if cv is not None:
+        table.append(f"<tr><td>RMS {length} error (cross-validated, {_text(cv.plan)}, {_text(cv.n_samples)} "
+                     f"samples)</td><td></td><td class='after'>{mm_text(cv.rms)}</td></tr>")
+        for key, value in (cv.rms_by_reading or {}).items():
             table.append(f"<tr><td>&nbsp;&nbsp;{html.escape(key)}</td><td></td>"
                          f"<td class='after'>{mm_text(value)}</td></tr>")
-        if "rms_angle" in cv:
+        if cv.rms_angle is not None:
             table.append(f"<tr><td>RMS {angle} error (cross-validated)</td><td></td>"
-                         f"<td class='after'>{mrad_text(cv['rms_angle'])}</td></tr>")
+                         f"<td class='after'>{mrad_text(cv.rms_angle)}</td></tr>")
     if report.calibration_gain is not None:
         table.append(f"<tr><td>calibration gain G (study 000, vs the truth)</td><td></td>"
                      f"<td>{report.calibration_gain:.1f} %</td></tr>")
@@ -242,8 +243,7 @@ def _reading_rows(report: CalibrationReport) -> list[tuple[str, str, str]]:
 
 def _estimated(report: CalibrationReport) -> str:
     """How many parameters were estimated, and what model selection left out."""
-    selection = report.selection or {}
-    left_out = selection.get("removed_groups") or []
+    left_out = report.selection.removed_groups if report.selection is not None else []
     count = str(report.n_estimated)
     return count + (f" (left out: {', '.join(left_out)})" if left_out else "")
 
@@ -255,9 +255,9 @@ def _parameter_table(content: ReportContent) -> str:
     head += "<th>truth</th><th>error</th></tr>" if truth else "</tr>"
     rows = [head]
     for p in view.problem.parameters:
-        entry = report.get(p.name, {})
-        value, std = entry.get("value"), entry.get("std")
-        ident = bool(entry.get("identified"))
+        entry = report.get(p.name)
+        value, std = (entry.value, entry.std) if entry is not None else (None, None)
+        ident = entry is not None and bool(entry.identified)
         cells = [html.escape(p.name), _display_unit(p.unit), _in_unit(value, p.unit),
                  _spread(std, p.unit) if ident else "–", "yes" if ident else "no"]
         if truth:
@@ -296,18 +296,18 @@ def predicted_uncertainty(report: CalibrationReport) -> str:
     if workspace is None:
         return ""
     positions, bounds = workspace
-    space = report.predicted_workspace or {}
-    held = report.predicted_held_out or {}
-    after = {e["sample"]: e["after"] for e in report.sample_errors if e.get("set") == "test"}
-    entries = held.get("samples_predicted") or []
-    held_bounds = _numbers([e.get("bound") for e in entries]) if entries else None
-    held_errors = _numbers([after.get(e.get("sample")) for e in entries]) if entries else None
-    coverage = (f"; held out: {_text(held['inside'])} of {_text(held['samples'])} errors within their bound"
-                if held.get("samples") else "")
-    text = (f"predicted 95 % bound of the position of {_text(space.get('measurement'))} at "
+    space = report.predicted_workspace or WorkspacePrediction()
+    held = report.predicted_held_out or HeldOutPredictions()
+    after = {e.sample: e.after for e in report.sample_errors if e.set == "test"}
+    entries = held.samples_predicted
+    held_bounds = _numbers([e.bound for e in entries]) if entries else None
+    held_errors = _numbers([after.get(e.sample) for e in entries]) if entries else None
+    coverage = (f"; held out: {_text(held.inside)} of {_text(held.samples)} errors within their bound"
+                if held.samples else "")
+    text = (f"predicted 95 % bound of the position of {_text(space.measurement)} at "
             f"{len(bounds)} postures drawn within the joint limits: median "
-            f"{mm_text(space.get('median_bound'), 3)}, largest {mm_text(space.get('max_bound'), 3)}, "
-            f"{_text(space.get('outside_fitted_range', 0))} beyond the fitted joint range (bound widened){coverage}")
+            f"{mm_text(space.median_bound, 3)}, largest {mm_text(space.max_bound, 3)}, "
+            f"{_text(space.outside_fitted_range)} beyond the fitted joint range (bound widened){coverage}")
     drawn = figure(positions, bounds, held_bounds, held_errors, text)
     return (f'<div id="predicted-uncertainty">{drawn}'
             f'<p class="caption">{text[0].upper() + text[1:]}. Positions in the measurement frame; the 3D scene '
@@ -365,10 +365,10 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
     figures: list[str] = []
     names = problem.parameters.names
     units = [p.unit for p in problem.parameters]
-    values = np.array([report.parameters[n]["value"] for n in names], dtype=float)
-    std = np.array([np.nan if report.parameters[n]["std"] is None else report.parameters[n]["std"]
+    values = np.array([report.parameters[n].value for n in names], dtype=float)
+    std = np.array([np.nan if report.parameters[n].std is None else report.parameters[n].std
                     for n in names], dtype=float)
-    identified = [bool(report.parameters[n]["identified"]) for n in names]
+    identified = [bool(report.parameters[n].identified) for n in names]
     truth = None if content.truth is None else np.array([content.truth.get(n, np.nan) for n in names])
     rms = error_figures(report)
     length = report.error_words[0]

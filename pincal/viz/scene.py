@@ -25,6 +25,7 @@ from pincal.calibration.heldout import HeldOut, evaluate_held_out
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.pipeline import Calibration
 from pincal.calibration.report import CalibrationReport
+from pincal.calibration.report_sections import WorkspacePrediction
 from pincal.calibration.setup import prepare
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
 from pincal.identification.corrections import payload_from_dict
@@ -98,7 +99,7 @@ class CalibrationView:
             DataError: the report's parameters are not those chosen by ``options`` (pass the same ``--parameters``
                 and ``--markers`` as for the calibration).
         """
-        removed = (report.selection or {}).get("removed") or [] if isinstance(report.selection, dict) else []
+        removed = report.selection.removed if report.selection is not None else []
         options = options.replace(payload=payload_from_dict(report.payload))
         part = "train" if "train" in dataset.sets else None
         fit = prepare(robot, dataset, options, part, leave_out=set(removed))
@@ -109,7 +110,7 @@ class CalibrationView:
             raise DataError(f"the result's parameters differ from those chosen here (in the result only: "
                             f"{listing(missing) or '-'}; here only: {listing(extra) or '-'}): pass the same "
                             "--parameters and --markers as for the calibration")
-        x = np.array([float(report.parameters[name]["value"]) for name in pset.names])
+        x = np.array([float(report.parameters[name].value) for name in pset.names])
         x0 = fit.problem.initial_guess()
         before = fit.problem.evaluate(x0, jacobian=False).errors
         after = fit.problem.evaluate(x, jacobian=False).errors
@@ -339,9 +340,9 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
 def workspace_points(report: CalibrationReport) -> tuple[Array, Array] | None:
     """The report's workspace postures (``predicted_workspace``): their predicted positions (N, 3) [m] in the
     measurement frame and predicted 95 % bounds (N,) [m], those with a bound; None when the report holds none."""
-    space = report.predicted_workspace or {}
-    positions = np.array(space.get("positions") or [], dtype=float).reshape(-1, 3)
-    bounds = np.array([np.nan if b is None else float(b) for b in space.get("bounds") or []], dtype=float)
+    space = report.predicted_workspace or WorkspacePrediction()
+    positions = np.array(space.positions, dtype=float).reshape(-1, 3)
+    bounds = np.array([np.nan if b is None else float(b) for b in space.bounds], dtype=float)
     if len(positions) != len(bounds):
         return None
     known = np.isfinite(bounds) & np.all(np.isfinite(positions), axis=1)

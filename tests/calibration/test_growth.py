@@ -57,13 +57,14 @@ def test_the_bound_holds_inside_and_beyond_a_narrow_band() -> None:
     for seed in (0, 1):
         band = narrow_band(robot, Effects(compliance=2e-5, harmonics=5e-4, thermal=3e-4), seed, noise=1e-4)
         report = calibrate(robot, band.dataset).report
-        test = [e for e in report.sample_errors if e["set"] == "test"]
-        predicted = report.predicted_held_out["samples_predicted"]
-        within = np.array([e["after"] <= p["bound"] for e, p in zip(test, predicted, strict=True)])
+        test = [e for e in report.sample_errors if e.set == "test"]
+        assert report.predicted_held_out is not None and report.error_growth is not None
+        predicted = report.predicted_held_out.samples_predicted
+        within = np.array([e.after <= p.bound for e, p in zip(test, predicted, strict=True)])
         inside += within[band.inside].tolist()
         beyond += within[~band.inside].tolist()
-        assert report.error_growth["rho0"] >= 1.0 and report.error_growth["nominal1"] > 0.0
-        assert all(p["bound"] <= p["linear_bound"] * 1e3 for p in predicted)  # finite and not vacuous
+        assert report.error_growth.rho0 >= 1.0 and report.error_growth.nominal1 > 0.0
+        assert all(p.bound <= p.linear_bound * 1e3 for p in predicted)  # finite and not vacuous
     assert np.mean(inside) >= 0.9 and np.mean(beyond) >= 0.9
 
 
@@ -75,8 +76,8 @@ def test_a_campaign_beyond_its_band_is_predicted_no_worse_than_the_nominal_robot
     after, nominal = [], []
     for seed in (0, 1):
         band = narrow_band(robot, effects, seed, n_train=28)
-        test = [e for e in calibrate(robot, band.dataset).report.sample_errors if e["set"] == "test"]
-        after += [e["after"] for k, e in enumerate(test) if not band.inside[k]]
-        nominal += [e["before"] for k, e in enumerate(test) if not band.inside[k]]
+        test = [e for e in calibrate(robot, band.dataset).report.sample_errors if e.set == "test"]
+        after += [e.after for k, e in enumerate(test) if not band.inside[k]]
+        nominal += [e.before for k, e in enumerate(test) if not band.inside[k]]
     assert np.sqrt(np.mean(np.square(after))) <= np.sqrt(np.mean(np.square(nominal)))
     assert CalibrationOptions().selection == "evidence"

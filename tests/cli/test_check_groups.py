@@ -86,7 +86,8 @@ def test_a_calibrated_urdf_carries_what_each_bound_needs(split: Path, tmp_path: 
                       str(report)).returncode == 0
     carried = read_carried(cal)
     written = json.loads(report.read_text())
-    assert carried is not None and carried.error_growth == written["error_growth"]
+    assert carried is not None and carried.error_growth is not None
+    assert carried.error_growth.as_dict() == written["error_growth"]
     assert carried.covariance == written["covariance"] and carried.sigma2 == written["sigma2"]
     from_urdf, from_json = tmp_path / "u.json", tmp_path / "j.json"
     for model, out in ((cal, from_urdf), (report, from_json)):

@@ -62,8 +62,10 @@ def test_a_robot_whose_geometry_is_close_to_nominal_is_held_firmly_near_it() -> 
     robot = pincal.load_robot("ur10")
     sim = simulate(robot, ["position"], 40, 60, perturb=5e-4, noise=5e-5, seed=4)
     cal = calibrate(robot, sim.dataset)
-    factors = cal.report.selection["prior_factors"]
-    assert cal.report.selection["policy"] == "evidence"
+    selection = cal.report.selection
+    assert selection is not None and selection.prior_factors is not None
+    factors = selection.prior_factors
+    assert selection.policy == "evidence"
     assert 0.02 < factors["translations"] < 0.5 and 0.02 < factors["rotations"] < 0.5
     plain = calibrate(robot, sim.dataset, select="none", prior="off")
     assert cal.report.test_rms_after <= 1.05 * plain.report.test_rms_after

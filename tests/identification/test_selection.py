@@ -9,7 +9,8 @@ import pytest
 
 import pincal
 from pincal.calibration.campaign import simulate
-from pincal.calibration.pipeline import calibrate
+from pincal.calibration.pipeline import Calibration, calibrate
+from pincal.calibration.report_sections import ModelSelection
 from pincal.errors import DataError
 from pincal.identification.criterion import group_of, information_criterion, select_groups
 from pincal.identification.problem import CalibrationProblem
@@ -80,19 +81,25 @@ def test_selection_drops_what_the_truth_lacks_and_predicts_no_worse() -> None:
     selected = calibrate(robot, sim.dataset, select="bic", prior=1.0)
     everything = calibrate(robot, sim.dataset, select="none", prior=1.0)
     evidence = calibrate(robot, sim.dataset)
-    factors = evidence.report.selection["prior_factors"]
-    assert evidence.report.selection["policy"] == "evidence"
-    assert factors["rotations"] == 0.0 and "rotations" in evidence.report.selection["removed_groups"]
+    factors = _selection(evidence).prior_factors
+    assert _selection(evidence).policy == "evidence"
+    assert factors["rotations"] == 0.0 and "rotations" in _selection(evidence).removed_groups
     assert evidence.report.test_rms_after <= 1.05 * selected.report.test_rms_after
-    assert selected.report.selection["removed_groups"] == ["rotations", "offsets"]
+    assert _selection(selected).removed_groups == ["rotations", "offsets"]
     assert selected.report.n_estimated < everything.report.n_estimated
     assert selected.report.test_rms_after <= everything.report.test_rms_after
     assert selected.report.test_rms_after < 0.1 * selected.report.test_rms_before
     # a named parameter set is fitted as named unless selection is asked for
     named = calibrate(robot, sim.dataset, parameter_spec=["default", "!base.rz"])
-    assert named.report.selection["policy"] == "none" and not named.report.selection["removed"]
+    assert _selection(named).policy == "none" and not _selection(named).removed
     default = calibrate(robot, sim.dataset, parameter_spec=["default"])  # the default set by its name: selected
-    assert default.report.selection["policy"] == "evidence"
+    assert _selection(default).policy == "evidence"
+
+
+def _selection(cal: Calibration) -> ModelSelection:
+    """The model selection account of ``cal``'s report."""
+    assert cal.report.selection is not None
+    return cal.report.selection
 
 
 def test_select_and_fit_refits_the_kept_groups_and_keeps_the_base() -> None:

@@ -1,0 +1,160 @@
+"""The report JSON's schema: a report written by an earlier pincal (``data/report_v1/report.json``, written by
+``pincal calibrate panda measurements.csv --cv 3 --report report.json`` at main 2282474) read back into the typed
+report, its sections typed, written again byte for byte; older reports lacking keys read with their defaults; newer
+ones and malformed sections refused with the culprit named."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+from conftest import run_pincal
+
+from pincal.calibration.growth import ErrorGrowth
+from pincal.calibration.report import SCHEMA_VERSION, CalibrationReport
+from pincal.calibration.report_sections import (
+    CrossValidation,
+    HeldOutPredictions,
+    ImplausibleCorrection,
+    ImplausibleScale,
+    ModelSelection,
+    ParameterEstimate,
+    PredictedSample,
+    RangeGuard,
+    SampleError,
+    WorkspacePrediction,
+)
+from pincal.errors import DataError
+
+FIXTURE = Path(__file__).parent / "data" / "report_v1"
+TEXT = (FIXTURE / "report.json").read_text(encoding="utf-8")
+RAW: dict[str, Any] = json.loads(TEXT)
+
+
+def test_fixture_is_of_this_schema() -> None:
+    """The fixture was written by a pincal of this schema version (a new version commits a fixture of its own)."""
+    assert RAW["schema_version"] == SCHEMA_VERSION == 1
+
+
+def test_older_report_round_trips_byte_for_byte() -> None:
+    """Read into the typed report and written again, the earlier pincal's report is the same text."""
+    report = CalibrationReport.read(FIXTURE / "report.json")
+    assert report.to_json() == TEXT
+
+
+def test_sections_are_typed() -> None:
+    """Each nested part read is its record, holding the file's values under its fields."""
+    report = CalibrationReport.read(FIXTURE / "report.json")
+    assert list(report.parameters) == list(RAW["parameters"])
+    for name, entry in RAW["parameters"].items():
+        estimate = report.parameters[name]
+        assert isinstance(estimate, ParameterEstimate)
+        assert (estimate.value, estimate.std, estimate.identified) == (entry["value"], entry["std"],
+                                                                       entry["identified"])
+    cv = report.cv
+    assert isinstance(cv, CrossValidation)
+    assert (cv.plan, cv.n_samples, cv.n_predictions, cv.rms, cv.failed_folds, cv.unconverged_folds, cv.rms_angle) \
+        == tuple(RAW["cv"][key] for key in ("plan", "n_samples", "n_predictions", "rms", "failed_folds",
+                                            "unconverged_folds", "rms_angle"))
+    assert cv.rms_by_reading is None and "rms_by_reading" not in RAW["cv"]
+    selection, raw = report.selection, RAW["selection"]
+    assert isinstance(selection, ModelSelection) and isinstance(selection.guard, RangeGuard)
+    assert (selection.policy, selection.removed, selection.removed_groups, selection.n_candidates,
+            selection.prior_factors, selection.prior) \
+        == tuple(raw[key] for key in ("policy", "removed", "removed_groups", "n_candidates", "prior_factors", "prior"))
+    assert (selection.guard.firmer, selection.guard.nominal_beyond, selection.guard.scores) \
+        == (raw["guard"]["firmer"], raw["guard"]["nominal_beyond"], raw["guard"]["scores"])
+
+
+def test_predictions_are_typed() -> None:
+    """The per-sample errors, the held-out and workspace predictions and the bound's growth are their records."""
+    report = CalibrationReport.read(FIXTURE / "report.json")
+    assert all(isinstance(e, SampleError) and not e.imaged for e in report.sample_errors)
+    assert [(e.sample, e.set, e.before, e.after) for e in report.sample_errors] \
+        == [(e["sample"], e["set"], e["before"], e["after"]) for e in RAW["sample_errors"]]
+    held, raw = report.predicted_held_out, RAW["predicted_held_out"]
+    assert isinstance(held, HeldOutPredictions) and held.in_range is not None and held.beyond_range is not None
+    assert (held.inside, held.samples, held.beyond, held.in_range.samples, held.beyond_range.inside) \
+        == (raw["inside"], raw["samples"], raw["beyond"], raw["in_range"]["samples"], raw["beyond_range"]["inside"])
+    assert [PredictedSample(**p) for p in raw["samples_predicted"]] == held.samples_predicted
+    space = report.predicted_workspace
+    assert isinstance(space, WorkspacePrediction)
+    assert (space.postures, space.positions, space.max_bound) == tuple(RAW["predicted_workspace"][key] for key in (
+        "postures", "positions", "max_bound"))
+    assert report.error_growth == ErrorGrowth(**RAW["error_growth"])
+
+
+def test_pixel_errors_written_when_imaged() -> None:
+    """A sample's pixel errors are written, None or not, when the calibration read pixels, and not otherwise."""
+    seen = {"sample": "3", "set": "test", "before": None, "after": None, "pixel_before": 1.5, "pixel_after": None}
+    report = CalibrationReport.from_json({**RAW, "sample_errors": [seen, {**RAW["sample_errors"][0]}]})
+    assert report.sample_errors[0].imaged and not report.sample_errors[1].imaged
+    assert json.loads(report.to_json())["sample_errors"] == [seen, RAW["sample_errors"][0]]
+
+
+def test_missing_keys_take_defaults() -> None:
+    """A report older still, without the keys later versions added (here a section's optional and defaulted keys and
+    whole top-level parts), is read with their defaults and written without the optional ones."""
+    older = copy.deepcopy(RAW)
+    for key in ("provenance", "predicted_held_out", "error_growth", "selection", "sample_errors"):
+        del older[key]
+    del older["cv"]["rms_angle"], older["cv"]["unconverged_folds"]
+    for entry in older["parameters"].values():
+        del entry["identified"]
+    report = CalibrationReport.from_json(older)
+    assert report.provenance is None and report.sample_errors == []
+    assert report.cv is not None and report.cv.rms_angle is None and report.cv.unconverged_folds == 0
+    assert not any(estimate.identified for estimate in report.parameters.values())
+    written = json.loads(report.to_json())
+    assert "provenance" not in written and "rms_angle" not in written["cv"]
+    assert "provenance" not in report.present and "cv" in report.present
+
+
+def test_implausible_entries_typed() -> None:
+    """An implausible correction and scale (none in the fixture) are read into their records and written back."""
+    entry = {"parameter": "panda_joint5.tx", "kind": "joint", "value": -0.0335, "fitted": -0.0443, "limit": 0.02,
+             "unit": "m"}
+    scale = {"measurement": "position:panda_hand", "scale": 3.28, "limit": 1.2}
+    report = CalibrationReport.from_json({**RAW, "implausible": [entry], "implausible_scale": [scale]})
+    assert report.implausible == [ImplausibleCorrection(**entry)] and report.is_implausible
+    assert report.implausible_scale == [ImplausibleScale(**scale)]
+    written = json.loads(report.to_json())
+    assert (written["implausible"], written["implausible_scale"]) == ([entry], [scale])
+
+
+def test_newer_schema_refused() -> None:
+    newer = {**RAW, "schema_version": SCHEMA_VERSION + 1}
+    with pytest.raises(DataError, match=f"schema_version {SCHEMA_VERSION + 1}, newer than this pincal reads"):
+        CalibrationReport.from_json(newer)
+
+
+@pytest.mark.parametrize(("part", "value", "culprit"), [
+    ("cv", [1, 2], r"the result JSON's 'cv' is not a JSON object"),
+    ("cv", {"rms": 0.1}, r"the result JSON's 'cv' has no 'plan'"),
+    ("selection", {**RAW["selection"], "guard": 3}, r"the result JSON's 'selection'\['guard'\] is not a JSON object"),
+    ("parameters", {"base.x": {"value": 0.0}, "base.y": 2}, r"'parameters'"),
+    ("implausible", [{"parameter": "base.x", "kind": "base"}], r"the result JSON's 'implausible'\[0\] has no 'value'"),
+    ("implausible_scale", {"position": 3.3}, r"the result JSON's 'implausible_scale' is not a JSON list"),
+    ("error_growth", {"rho0": 1.0}, r"the result JSON's 'error_growth' is not an object of numbers"),
+    ("predicted_held_out", {**RAW["predicted_held_out"], "samples_predicted": [{"bound": 0.1}]},
+     r"'predicted_held_out'\['samples_predicted'\]\[0\] has no 'sample'"),
+])
+def test_malformed_section_named(part: str, value: Any, culprit: str) -> None:
+    """A nested part that is not of its record's form: a DataError naming the part and what is wrong."""
+    with pytest.raises(DataError, match=culprit):
+        CalibrationReport.from_json({**RAW, part: value})
+
+
+def test_older_report_drawn_by_the_command(tmp_path: Path) -> None:
+    """``pincal report --result`` reads the earlier pincal's report as a user runs it: its page shows the
+    cross-validation the report holds and every parameter."""
+    page = tmp_path / "page.html"
+    done = run_pincal("report", "panda", str(FIXTURE / "measurements.csv"), "--result", str(FIXTURE / "report.json"),
+                      "--out", str(page), "--quiet")
+    assert done.returncode == 0, done.stderr
+    text = page.read_text(encoding="utf-8")
+    assert f"cross-validated, {RAW['cv']['plan']}, {RAW['cv']['n_samples']} samples" in text
+    assert all(f"<td>{name}</td>" in text for name in RAW["parameters"])
