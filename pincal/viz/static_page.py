@@ -168,7 +168,8 @@ def _collect_ids(value: Any, names: dict[str, str]) -> None:
     else:
         return
     for item in items:
-        _collect_ids(item, names)
+        if isinstance(item, dict | list | tuple):  # not the numbers: nine tenths of a scene's values
+            _collect_ids(item, names)
 
 
 def meshcat_javascript() -> str:
