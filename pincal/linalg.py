@@ -7,20 +7,91 @@ QR-iteration driver (``gesvd``, through SciPy) handles such matrices. Every SVD,
 symmetric eigen-decomposition pincal runs on an identification matrix goes through this module: the fast
 driver first, the robust one when it fails, and a :class:`~pincal.errors.PincalError` naming the matrix
 (``what``) when nothing can be done (non-finite entries, or both drivers failing).
+
+The LAPACK routines numpy does not offer (pivoted and compact-WY QR, ``gesv`` with its pivots, ``potrf``) are SciPy's
+compiled bindings, :func:`lapack`, loaded without ``scipy.linalg``'s Python layer: importing that layer pulls in
+SciPy's array-API support, ``numpy.testing`` and ``numpy.f2py`` (about 0.17 s, as long as NumPy and Pinocchio's own
+imports together), where the bindings alone take a few milliseconds. ``scipy.linalg`` itself is imported only by the
+fallbacks that need its drivers (``gesvd``, ``syev``), after numpy's have failed.
 """
 
 from __future__ import annotations
 
+import functools
+import importlib
+import importlib.machinery
+import importlib.util
 import math
+import sys
+from pathlib import Path
+from types import ModuleType
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-import scipy.linalg
-import scipy.linalg.lapack
 
 from pincal.errors import ConvergenceError, DataError, IdentifiabilityError
 
 Array = npt.NDArray[np.float64]
+
+
+#: SciPy's compiled LAPACK bindings: the module ``scipy.linalg.lapack`` re-exports every routine of.
+_BINDINGS = "scipy.linalg._flapack"
+
+
+@functools.cache
+def lapack() -> ModuleType:
+    """SciPy's compiled LAPACK bindings (the routines of ``scipy.linalg.lapack``: the same functions, ``dgesv``,
+    ``dgeqp3``, ``dgeqrt``, …), loaded once from their file without importing ``scipy.linalg`` (see the module's
+    docstring); the module ``scipy.linalg`` already loaded when it is, and ``scipy.linalg.lapack`` itself where the
+    file is not where SciPy's layout puts it."""
+    if _BINDINGS in sys.modules:
+        return sys.modules[_BINDINGS]
+    spec = importlib.util.find_spec("scipy")
+    folders = [] if spec is None or spec.submodule_search_locations is None else spec.submodule_search_locations
+    for folder in folders:
+        for suffix in importlib.machinery.EXTENSION_SUFFIXES:
+            path = Path(folder) / "linalg" / f"_flapack{suffix}"
+            if path.is_file():
+                found = importlib.util.spec_from_file_location(_BINDINGS, path)
+                if found is not None and found.loader is not None:
+                    module = importlib.util.module_from_spec(found)
+                    found.loader.exec_module(module)
+                    return module
+    return importlib.import_module("scipy.linalg.lapack")  # a SciPy laid out otherwise: its public module
+
+
+def _queried(routine: Any, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+    """``routine``'s outputs but its last two (the workspace and ``info``), called as ``scipy.linalg``'s wrappers call
+    it: first asking LAPACK the optimal workspace (``lwork=-1``), then with it, so the blocked algorithm runs and the
+    results are theirs bit for bit. Raises ValueError on an illegal argument, as they do."""
+    size = routine(*args, **kwargs, lwork=-1)[-2][0].real.astype(np.int_)
+    out = routine(*args, **kwargs, lwork=size)
+    if out[-1] < 0:
+        raise ValueError(f"illegal value in {-out[-1]}th argument of internal {routine.__name__}")
+    return tuple(out[:-2])
+
+
+def pivoted_qr(matrix: Array) -> tuple[Array, npt.NDArray[np.int32]]:
+    """``R`` and the pivots ``P`` (from 0) of the column-pivoted QR ``matrix[:, P] = Q R`` (m × n; ``R`` min(m, n) ×
+    n), ``Q`` not formed: LAPACK's ``geqp3`` with its optimal workspace, the ``R`` and ``P`` of
+    ``scipy.linalg.qr(matrix, mode="economic", pivoting=True)`` exactly. Units: those of ``matrix``."""
+    m, n = matrix.shape
+    if not matrix.size:
+        return np.zeros((min(m, n), n)), np.arange(n, dtype=np.int32)
+    factored, pivots, _ = _queried(lapack().dgeqp3, matrix)
+    return np.triu(factored if m < n else factored[:n]), pivots - 1
+
+
+def orthonormal_basis(matrix: Array) -> Array:
+    """``Q`` (m × min(m, n)) of the QR factorization ``matrix = Q R`` (m × n): LAPACK's ``geqrf`` and ``orgqr`` with
+    their optimal workspaces, the ``Q`` of ``scipy.linalg.qr(matrix, mode="economic")`` exactly. Dimensionless."""
+    m, n = matrix.shape
+    if not matrix.size:
+        return np.eye(m, min(m, n))
+    factored, tau = _queried(lapack().dgeqrf, matrix)
+    return np.asarray(_queried(lapack().dorgqr, factored[:, :m] if m < n else factored, tau, overwrite_a=1)[0],
+                      dtype=np.float64)
 
 
 def _finite(matrix: Array, what: str) -> None:
@@ -52,6 +123,8 @@ def svd(matrix: npt.ArrayLike, what: str, full_matrices: bool = False) -> tuple[
         u, s, vt = np.linalg.svd(a, full_matrices=full_matrices)
     except np.linalg.LinAlgError:
         _finite(a, what)
+        import scipy.linalg  # only this rare fallback needs its wrapper (the docstring)
+
         try:
             u, s, vt = scipy.linalg.svd(a, full_matrices=full_matrices, lapack_driver="gesvd", check_finite=False)
         except np.linalg.LinAlgError as exc:
@@ -83,7 +156,7 @@ def householder(matrix: Array, what: str) -> tuple[Array, Array]:
     if not m or not n:  # nothing to reduce (LAPACK refuses a block of 0)
         return matrix, np.zeros((0, 0))
     block = min(min(m, n), HOUSEHOLDER_BLOCK if n < 64 else 2 * HOUSEHOLDER_BLOCK)
-    factored, factors, info = scipy.linalg.lapack.dgeqrt(block, matrix, overwrite_a=1)
+    factored, factors, info = lapack().dgeqrt(block, matrix, overwrite_a=1)
     if info != 0:
         raise ConvergenceError(f"the QR factorization of {what} ({m} × {n}) failed (LAPACK dgeqrt info {info})")
     return factored, factors
@@ -96,8 +169,8 @@ def apply_householder(factored: Array, factors: Array, vectors: Array, what: str
     Raises:
         ConvergenceError: LAPACK reports an illegal argument.
     """
-    out, info = scipy.linalg.lapack.dgemqrt(factored, factors, np.asfortranarray(vectors, dtype=np.float64),
-                                            side="L", trans="T")
+    out, info = lapack().dgemqrt(factored, factors, np.asfortranarray(vectors, dtype=np.float64),
+                                 side="L", trans="T")
     if info != 0:
         raise ConvergenceError(f"applying the QR reflectors of {what} failed (LAPACK dgemqrt info {info})")
     return np.asarray(out, dtype=np.float64)
@@ -197,6 +270,8 @@ def singular_values(matrix: npt.ArrayLike, what: str) -> Array:
         if a.ndim == 3:
             return np.array([singular_values(one, f"{what} (matrix {k} of the stack)") for k, one in enumerate(a)])
         _finite(a, what)
+        import scipy.linalg  # only this rare fallback needs its wrapper (the docstring)
+
         try:
             return np.asarray(scipy.linalg.svd(a, compute_uv=False, lapack_driver="gesvd", check_finite=False),
                               np.float64)
@@ -226,6 +301,8 @@ def eigvalsh(matrices: npt.ArrayLike, what: str) -> Array:
     except np.linalg.LinAlgError:
         _finite(a, what)
         flat = a.reshape(-1, *a.shape[-2:])
+        import scipy.linalg  # only this rare fallback needs its wrapper (the docstring)
+
         try:
             values = [scipy.linalg.eigh(m, eigvals_only=True, driver="ev", check_finite=False) for m in flat]
         except np.linalg.LinAlgError as exc:

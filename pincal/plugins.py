@@ -9,7 +9,6 @@ path (``mylab.sensors``). docs/extending.md has the recipe of a new sensor.
 
 from __future__ import annotations
 
-import hashlib
 import importlib
 import importlib.util
 import os
@@ -65,6 +64,8 @@ def _load_file(entry: str) -> ModuleType:
     if path.suffix != ".py" or not path.is_file():
         raise PluginError(f"{ENVIRONMENT}: plugin '{entry}' is not {FORMS}", entry)
     resolved = path.resolve()
+    import hashlib  # here, where a plugin file is named: not in every command's start
+
     name = f"pincal_plugin_{resolved.stem}_{hashlib.sha1(str(resolved).encode()).hexdigest()[:8]}"
     if name in sys.modules:
         return sys.modules[name]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from collections.abc import Iterator
 
 import numpy as np
@@ -236,3 +238,30 @@ def test_the_largest_singular_value_of_a_non_finite_matrix_is_a_data_error(bad: 
         linalg.largest_singular_value(a, what="the test Jacobian")
     with pytest.raises(DataError, match="the column scales of the test Jacobian has 1 NaN/inf entries"):
         linalg.largest_singular_value(a[:200], [1.0, bad, 1.0, 1.0], what="the test Jacobian")
+
+
+@pytest.mark.parametrize("shape", [(40, 7), (7, 7), (5, 9), (0, 3), (3, 0)])
+def test_the_qr_factors_are_scipy_s_bit_for_bit(shape: tuple[int, int]) -> None:
+    """Called as ``scipy.linalg.qr`` calls LAPACK (the optimal workspace asked first), the pivoted triangle, its pivots
+    and the orthonormal basis are SciPy's to the last bit, of a matrix with two equal columns (a rank to reveal)."""
+    a = np.random.default_rng(4).normal(size=shape)
+    if shape[1] > 3:
+        a[:, 3] = a[:, 1]
+    _, r_ref, pivots_ref = scipy.linalg.qr(a, mode="economic", pivoting=True)
+    r, pivots = linalg.pivoted_qr(a)
+    np.testing.assert_array_equal(r, r_ref)
+    np.testing.assert_array_equal(pivots, pivots_ref)
+    np.testing.assert_array_equal(linalg.orthonormal_basis(a), scipy.linalg.qr(a, mode="economic")[0])
+
+
+def test_the_lapack_bindings_load_without_scipy_linalg() -> None:
+    """:func:`linalg.lapack` is SciPy's own module of LAPACK routines, loaded without ``scipy.linalg``'s Python layer
+    (checked in a fresh interpreter); imported later, ``scipy.linalg`` takes the same module."""
+    probe = ("import sys; from pincal import linalg; bindings = linalg.lapack(); "
+             "loaded = 'scipy.linalg' in sys.modules; import scipy.linalg.lapack; "
+             " print(loaded, bindings.dgeqp3 is scipy.linalg.lapack.dgeqp3)")
+    done = subprocess.run([sys.executable, "-P", "-c", probe], capture_output=True, text=True, timeout=120,
+                          check=False)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["False", "True"]
+    assert linalg.lapack().dgesv is scipy.linalg.lapack.dgesv

@@ -12,7 +12,6 @@ that lists the valid keys at its level: a misspelt option is never ignored.
 from __future__ import annotations
 
 import re
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -68,6 +67,8 @@ def read_job(path: str | Path) -> Job:
     except UnicodeDecodeError as exc:
         raise DataError(f"{source}: not UTF-8 text (byte {exc.start}): a TOML job file's encoding is UTF-8; save "
                         "it as UTF-8", file=str(source)) from None
+    import tomllib  # here: a calibration of a CSV file reads no TOML
+
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -31,7 +31,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-import scipy.linalg
 
 from pincal import linalg
 from pincal.identification.identifiability import RANK_TOLERANCE
@@ -89,7 +88,7 @@ def _criterion(columns: Array, rhs: Array, m: int) -> float:
     columns of ``R``, ``rhs`` (k,) its last column, ``m`` the rows of the Jacobian they reduce."""
     p = columns.shape[1]
     if p:
-        Q, _ = scipy.linalg.qr(columns, mode="economic", check_finite=False)
+        Q = linalg.orthonormal_basis(columns)
         residual = rhs - Q @ (Q.T @ rhs)
     else:
         residual = rhs
@@ -103,7 +102,7 @@ def _independent(triangle: Array, columns: list[int], scale: float) -> list[int]
     columns reduced by :func:`_reduced_rows` (the same pivots as the Jacobian's own)."""
     if not columns or scale == 0.0:
         return []
-    _, R, pivots = scipy.linalg.qr(triangle[:, columns], mode="economic", pivoting=True, check_finite=False)
+    R, pivots = linalg.pivoted_qr(triangle[:, columns])
     rank = int(np.count_nonzero(np.abs(np.diag(R)) > RANK_TOLERANCE * scale))
     return sorted(columns[k] for k in pivots[:rank])
 

@@ -36,12 +36,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-import scipy.linalg.lapack
 
 from pincal.errors import DataError
 from pincal.identification.corrections import gravity_torques
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem
+from pincal.linalg import lapack
 
 Array = npt.NDArray[np.float64]
 
@@ -155,8 +155,7 @@ def _cholesky(matrix: Array) -> tuple[Array, bool]:
         return np.zeros(matrix.shape), False
     top = float(np.max(np.diag(matrix), initial=0.0))
     for jitter in (0.0, *JITTER):
-        factor, info = scipy.linalg.lapack.dpotrf(matrix + jitter * top * np.eye(len(matrix)), lower=0, clean=0,
-                                                  overwrite_a=1)
+        factor, info = lapack().dpotrf(matrix + jitter * top * np.eye(len(matrix)), lower=0, clean=0, overwrite_a=1)
         if info == 0:
             return np.asarray(factor, dtype=float), False
     raise DataError("the evidence's matrix is not positive definite: the data and the prior leave a direction free")
@@ -167,7 +166,7 @@ def _cho_solve(factor: tuple[Array, bool], rhs: Array) -> Array:
     it)."""
     if not factor[0].size:
         return np.zeros(rhs.shape)
-    out, info = scipy.linalg.lapack.dpotrs(factor[0], rhs, lower=int(factor[1]))
+    out, info = lapack().dpotrs(factor[0], rhs, lower=int(factor[1]))
     if info != 0:
         raise DataError(f"the evidence's solve failed (LAPACK potrs info {info})")
     return np.asarray(out, dtype=float)

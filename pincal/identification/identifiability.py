@@ -26,8 +26,6 @@ from functools import cached_property
 
 import numpy as np
 import numpy.typing as npt
-import scipy.linalg
-import scipy.linalg.lapack
 
 from pincal import linalg, validation
 from pincal.errors import ConvergenceError, DataError, IdentifiabilityError, listing
@@ -176,7 +174,7 @@ def _pivoted_triangle(J_scaled: Array) -> tuple[Array, npt.NDArray[np.intp]]:
     """``R`` (min(m, p) × p) and the pivots ``P`` of a column-pivoted QR ``J_scaled[:, P] = Q R``, computed in place
     of ``J_scaled`` (Fortran order: no copy), ``Q`` never formed."""
     m, p = J_scaled.shape
-    factored, jpvt, _, _, info = scipy.linalg.lapack.dgeqp3(J_scaled, overwrite_a=True)
+    factored, jpvt, _, _, info = linalg.lapack().dgeqp3(J_scaled, overwrite_a=True)
     if info != 0:
         raise ConvergenceError(f"the pivoted QR of the scaled identification Jacobian failed (LAPACK dgeqp3 info "
                                f"{info})")

@@ -7,7 +7,6 @@ same lookup resolves its ``package://example-robot-data/...`` mesh references to
 
 from __future__ import annotations
 
-import importlib.metadata
 import importlib.resources
 import os
 from functools import cache
@@ -96,6 +95,8 @@ def shipped_robots() -> dict[str, Path]:
 @cache
 def example_robot_data_dir() -> Path | None:
     """The ``robots/`` directory of the installed example-robot-data distribution, if any."""
+    import importlib.metadata  # here: with its e-mail parser, a tenth of a calibration's start, for a shipped robot
+
     try:
         files = importlib.metadata.files("example-robot-data") or []
     except importlib.metadata.PackageNotFoundError:

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
-from scipy.linalg import lapack
 
 from pincal import linalg
 from pincal.model.closure import LoopClosure
@@ -50,14 +49,14 @@ def damped_pseudo_inverse(jac: Array, damping: float = 1e-12) -> Array | None:
     rows, cols = jac.shape
     if rows == cols:
         inverse: Array
-        _, _, inverse, info = lapack.dgesv(jac, _identity(rows))
+        _, _, inverse, info = linalg.lapack().dgesv(jac, _identity(rows))
         if info == 0 and float(abs(inverse).max()) < 1e8:
             return inverse
     h = jac.T @ jac
     n = h.shape[0]
     h.flat[:: n + 1] += damping * (1.0 + float(np.trace(h)) / n)
     gain: Array
-    _, _, gain, info = lapack.dgesv(h, jac.T, overwrite_a=1)
+    _, _, gain, info = linalg.lapack().dgesv(h, jac.T, overwrite_a=1)
     return None if info != 0 else gain
 
 
@@ -83,11 +82,11 @@ def damped_gauss_newton_step(jac: Array, residual: Array, damping: float = 1e-12
     if rows < cols:
         g = jac @ jac.T
         g.flat[:: rows + 1] += damping * (1.0 + float(np.trace(g)) / cols)  # μ as below: tr(JJᵀ) = tr(JᵀJ)
-        _, _, dual, info = lapack.dgesv(g, np.array(residual, dtype=float), overwrite_a=1, overwrite_b=1)
+        _, _, dual, info = linalg.lapack().dgesv(g, np.array(residual, dtype=float), overwrite_a=1, overwrite_b=1)
         return None if info != 0 else -(jac.T @ dual)
     h = jac.T @ jac
     h.flat[:: cols + 1] += damping * (1.0 + float(np.trace(h)) / cols)
-    _, _, step, info = lapack.dgesv(h, jac.T @ residual, overwrite_a=1, overwrite_b=1)
+    _, _, step, info = linalg.lapack().dgesv(h, jac.T @ residual, overwrite_a=1, overwrite_b=1)
     if info != 0:
         return None
     return -step

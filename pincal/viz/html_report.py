@@ -27,7 +27,6 @@ from pincal.io.files import make_directory, write_text
 from pincal.progress import Progress
 from pincal.viz.page_style import SCENE_LISTENER
 from pincal.viz.page_style import STYLE as STYLE  # check_page reads it here
-from pincal.viz.pixel_views import camera_section
 from pincal.viz.scene import CalibrationView, static_scene, workspace_points
 from pincal.viz.static_page import provenance_html, workspace_text
 
@@ -352,6 +351,16 @@ def _difference_text(difference: float) -> str:
     return f"their frames lie at most {mm_text(difference, 3)} apart over the samples"
 
 
+def _camera_section(view: CalibrationView, truth: dict[str, float] | None) -> str:
+    """The page's camera section (:func:`pincal.viz.pixel_views.camera_section`), empty without cameras: its module
+    draws with matplotlib, imported here only for a calibration that has cameras (a third of a report's time)."""
+    if not view.report.cameras:
+        return ""
+    from pincal.viz.pixel_views import camera_section
+
+    return camera_section(view, truth)
+
+
 def render_report(content: ReportContent, quiet: bool = True) -> str:
     """The report as one self-contained HTML page."""
     from pincal import __version__
@@ -435,7 +444,7 @@ the samples; drag to orbit, scroll to zoom.{' ' + html.escape(dots[:1].upper() +
 <h2>Errors</h2>
 {''.join(figures[:2]) if has_lengths else f'<p>No length-type measurement: see the {elsewhere}.</p>'}
 {predicted_uncertainty(report)}
-{camera_section(content.view, content.truth)}
+{_camera_section(content.view, content.truth)}
 <h2>Parameters</h2>
 {''.join(figures[2:] if has_lengths else figures)}
 <p>Deviations from the nominal robot (lengths in mm, angles in degrees); σ is the standard deviation of the

@@ -9,7 +9,8 @@ its time. A value of another type is packed by umsgpack itself.
 from __future__ import annotations
 
 import struct
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from functools import cache
 from typing import Any
 
 _FLOAT = struct.Struct(">f").pack
@@ -43,6 +44,20 @@ def _integer(value: int) -> bytes:
 _FIXED_EXT = {1: b"\xd4", 2: b"\xd5", 4: b"\xd6", 8: b"\xd7", 16: b"\xd8"}
 
 
+@cache
+def _floats(count: int) -> Callable[..., bytes]:
+    """Packs ``count`` floats, each as ``0xca`` and its single-precision bytes, from ``0xca, x₀, 0xca, x₁, …``: a
+    scene's points, quaternions and placements (nine tenths of its values) in one call each."""
+    return struct.Struct(">" + "Bf" * count).pack
+
+
+def _float_items(items: list[Any] | tuple[Any, ...]) -> list[Any]:
+    """The arguments of :func:`_floats` for ``items``, all floats (of Python or NumPy)."""
+    arguments: list[Any] = [0xCA, 0.0] * len(items)
+    arguments[1::2] = items
+    return arguments
+
+
 def _pack(value: Any, names: Mapping[str, str], out: list[bytes]) -> None:
     kind = type(value)
     if kind is str:
@@ -58,6 +73,9 @@ def _pack(value: Any, names: Mapping[str, str], out: list[bytes]) -> None:
             _pack(item, names, out)
     elif kind is list or kind is tuple:
         _length(out, len(value), 16, 0x90, (b"", b"\xdc", b"\xdd"))
+        if value and all(isinstance(item, float) for item in value):
+            out.append(_floats(len(value))(*_float_items(value)))
+            return
         for item in value:
             _pack(item, names, out)
     elif value is None:

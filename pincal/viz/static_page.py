@@ -20,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import PincalError
+from pincal.viz import colormaps
 from pincal.viz.visuals import CALIBRATED_COLOR, ERROR_COLORMAP, NOMINAL_COLOR, POINT_COLOR, lean_meshcat
 
 Array = npt.NDArray[np.float64]
@@ -167,7 +168,8 @@ def _collect_ids(value: Any, names: dict[str, str]) -> None:
     else:
         return
     for item in items:
-        _collect_ids(item, names)
+        if isinstance(item, dict | list | tuple):  # not the numbers: nine tenths of a scene's values
+            _collect_ids(item, names)
 
 
 def meshcat_javascript() -> str:
@@ -272,10 +274,8 @@ function pincalScene() {
 
 def _colour_bar(colormap: str, low_mm: float, high_mm: float) -> str:
     """A colour bar of ``colormap`` with five ticks from ``low_mm`` to ``high_mm`` [mm]."""
-    from matplotlib import colormaps
-
-    cmap = colormaps[colormap]
-    stops = ", ".join("#{:02x}{:02x}{:02x}".format(*(int(255 * c) for c in cmap(t)[:3])) for t in np.linspace(0, 1, 6))
+    stops = ", ".join("#{:02x}{:02x}{:02x}".format(*(int(255 * c) for c in rgba[:3]))
+                      for rgba in colormaps.colormap(colormap, np.linspace(0, 1, 6)))
     ticks = "".join(f"<span>{v:.3g}</span>" for v in np.linspace(low_mm, high_mm, 5))
     return (f"<div class='bar' style='background: linear-gradient(to right, {stops})'></div>"
             f"<div class='ticks'>{ticks}</div>")

@@ -11,6 +11,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from pincal.viz import colormaps
 from pincal.viz.svg_plot import Array, LegendEntry, Panel, colour_bar, figure, legend
 
 BEFORE = "#c0392b"
@@ -32,10 +33,9 @@ def _rms(values: Array) -> float:
 
 
 def hex_colors(colormap: str, values: Array) -> list[str]:
-    """``values`` in [0, 1] as ``#rrggbb`` colours of matplotlib's colour map ``colormap``."""
-    from matplotlib import colormaps
-
-    rgba = np.atleast_2d(colormaps[colormap](np.clip(values, 0.0, 1.0)))
+    """``values`` in [0, 1] as ``#rrggbb`` colours of matplotlib's colour map ``colormap`` (:mod:`pincal.viz.colormaps`:
+    its colours, without its import)."""
+    rgba = np.atleast_2d(colormaps.colormap(colormap, np.clip(values, 0.0, 1.0)))
     return ["#{:02x}{:02x}{:02x}".format(*(round(255 * c) for c in row[:3])) for row in rgba]
 
 

@@ -26,6 +26,7 @@ from pincal.errors import RobotFileError
 from pincal.model.catalog import resolve_mesh_file
 from pincal.model.robot import Robot
 from pincal.model.urdf import origin_to_se3
+from pincal.viz.colormaps import colormap
 
 Array = npt.NDArray[np.float64]
 
@@ -46,23 +47,17 @@ STL_TRIANGLE = np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("att
 
 def error_colors(values: Array, scale: float) -> list[int]:
     """Colours (0xRRGGBB) of errors ``values`` [m] on :data:`ERROR_COLORMAP` from 0 to ``scale``."""
-    import matplotlib
-
-    cmap = matplotlib.colormaps[ERROR_COLORMAP]
-    rgba = cmap(np.clip(np.asarray(values) / (scale or 1.0), 0.0, 1.0))
+    rgba = colormap(ERROR_COLORMAP, np.clip(np.asarray(values) / (scale or 1.0), 0.0, 1.0))
     return [int(r * 255) << 16 | int(g * 255) << 8 | int(b * 255) for r, g, b, _ in np.atleast_2d(rgba)]
 
 
 def bound_colors(values: Array, low: float, high: float) -> Array:
     """RGB colours (N, 3) in [0, 1] of predicted bounds ``values`` (N,) [m] on the colour map of the report's
     uncertainty figure (:data:`pincal.viz.svg_figures.BOUND_COLORMAP`), from ``low`` to ``high`` [m]."""
-    import matplotlib
-
     from pincal.viz.svg_figures import BOUND_COLORMAP
 
-    cmap = matplotlib.colormaps[BOUND_COLORMAP]
     span = high - low if high > low else 1.0
-    return np.asarray(cmap(np.clip((np.asarray(values) - low) / span, 0.0, 1.0)), dtype=float)[:, :3]
+    return colormap(BOUND_COLORMAP, np.clip((np.asarray(values) - low) / span, 0.0, 1.0))[:, :3]
 
 
 @dataclass(frozen=True)

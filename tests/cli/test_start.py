@@ -56,19 +56,22 @@ def test_a_command_that_works_loads_them() -> None:
 
 def test_a_calibration_loads_no_statistics_nor_special_functions_nor_plots(tmp_path: Path) -> None:
     """The calibrate path takes its χ² quantiles without ``scipy.stats`` or ``scipy.special`` (each a tenth of a second
-    or more of every start) and draws nothing; the report command does load matplotlib (the probe can fail), and not
-    meshcat's server stack (500 modules)."""
+    or more of every start), its LAPACK routines without ``scipy.linalg``'s Python layer (as long to import as NumPy
+    and Pinocchio) and draws nothing; the report command loads neither matplotlib (its colour maps are tables, a
+    camera section alone draws with it) nor meshcat's server stack (500 modules), but does load meshcat's geometry
+    (the probe can fail)."""
     data = tmp_path / "d"
     done = subprocess.run([str(PINCAL), "simulate", "delta", "--samples", "30", "--test-samples", "10", "--quiet",
                            "--out", str(data)], capture_output=True, text=True, timeout=300, check=False)
     assert done.returncode == 0, done.stderr
-    light = ("scipy.stats", "scipy.special", "matplotlib")
+    light = ("scipy.stats", "scipy.special", "scipy.linalg", "matplotlib")
     csv = str(data / "measurements.csv")
     assert _loaded(["calibrate", "delta", csv, "--out", str(tmp_path / "cal.urdf")], light) == ("0", "[]")
     # the page's 3D scene is meshcat's drawing commands, recorded without its server (tornado, zmq, IPython)
     server = ("meshcat.visualizer", "tornado", "zmq", "IPython")
-    code, modules = _loaded(["report", "delta", csv, "--quiet", "--out", str(tmp_path / "r.html")], light + server)
-    assert (code, modules) == ("0", "['matplotlib']")
+    code, modules = _loaded(["report", "delta", csv, "--quiet", "--out", str(tmp_path / "r.html")],
+                            light + server + ("meshcat.geometry",))
+    assert (code, modules) == ("0", "['meshcat.geometry']")
 
 
 #: A plugin (loaded before the command runs) that reports the thread count of every BLAS library loaded.

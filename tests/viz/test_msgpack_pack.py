@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import umsgpack
 
 from pincal.viz.msgpack_pack import packb_renamed
@@ -34,3 +35,18 @@ def test_uuids_are_renamed_wherever_they_appear() -> None:
                                                 "object": {"geometry": "pincal-1",
                                                            "pincal-1": ("pincal-1", "other")}}}
     assert packb_renamed(command, names) == _umsgpack(renamed)
+
+
+def test_lists_of_floats_pack_as_umsgpack_does() -> None:
+    """A list of numbers only (a point, a quaternion, a placement: most of a scene) is packed in one call, to
+    umsgpack's bytes, whatever its length and whichever floats it mixes; a list with a number of another type packs
+    as before, and a float beyond single precision's range is refused as umsgpack refuses it."""
+    rng = np.random.default_rng(3)
+    mixed = [np.float64(x) if k % 2 else float(x) for k, x in enumerate(rng.normal(scale=1e3, size=70000))]
+    special = [1.0, np.float64(-2.25), 1e-45, 3.4e38, float("-inf"), float("nan")]
+    for value in ([0.5], special, list(rng.normal(size=16)), tuple(rng.normal(size=4)), mixed[:15], mixed[:16], mixed,
+                  [1.5, 2, 3.5], [1.5, True], [[0.5, 1.5]]):
+        assert packb_renamed(value, {}) == _umsgpack(value), repr(value)[:40]
+    for packer in (_umsgpack, lambda value: packb_renamed(value, {})):
+        with pytest.raises(OverflowError, match="float too large to pack with f format"):
+            packer([1.0, 1e300])
