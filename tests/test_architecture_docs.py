@@ -62,14 +62,14 @@ def test_a_light_import_loads_no_numerical_library(module: str) -> None:
 
 @pytest.mark.parametrize("module", ["pincal.model", "pincal.model.dh", "pincal.viz", "pincal.fleet",
                                     "pincal.identification.measurements", "pincal.identification.parameters"])
-def test_an_eager_package_loads_numpy_scipy_and_pinocchio(module: str) -> None:
+def test_an_eager_package_loads_numpy_and_pinocchio(module: str) -> None:
     """``import pincal.model`` (or any module under it) loads Pinocchio, as the other eager ``__init__`` files do:
-    the page says so rather than calling every package lazy."""
-    assert _loaded_by(module) >= set(HEAVY)
+    the page says so rather than calling every package lazy (SciPy's LAPACK bindings load on first use)."""
+    assert _loaded_by(module) >= {"numpy", "pinocchio"}
 
 
 def test_of_the_shared_modules_only_linalg_loads_numpy() -> None:
-    assert _loaded_by("pincal.linalg") & set(HEAVY) == {"numpy", "scipy"}
+    assert _loaded_by("pincal.linalg") & set(HEAVY) == {"numpy"}
 
 
 def test_chi2_needs_neither_scipy_statistics_nor_special_functions() -> None:

@@ -18,7 +18,6 @@ import re
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +31,8 @@ ELEMENT = "pincal_provenance"
 
 def version() -> str:
     """The installed pincal's version (its package metadata: pyproject's ``version``)."""
+    from importlib import metadata  # here: it loads the e-mail parser (a tenth of a start) for what writes a file
+
     return metadata.version("pincal")
 
 

@@ -73,9 +73,8 @@ def marker_points(pset: ParameterSet, x: Array, nominal: dict[str, Array]) -> di
         Every target of ``nominal`` and every target with offset parameters -> its point and derivative.
     """
     offsets: dict[str, list[int]] = {}
-    for k, p in enumerate(pset):
-        if p.is_a(MarkerOffset):
-            offsets.setdefault(p.owner, []).append(k)
+    for k in pset.indices_of(MarkerOffset):
+        offsets.setdefault(pset.parameters[k].owner, []).append(k)
     clusters = {target: idx for (_, target, _), idx in pset.groups("cluster").items()}
     out: dict[str, MarkerPoint] = {}
     for target in dict.fromkeys([*nominal, *offsets]):

@@ -72,6 +72,51 @@ class Prediction:
     predicted: dict[str, Array]  # key -> (N, rows) absolute predictions (pose: p, log3(R_measᵀ R))
 
 
+#: Evaluations a tree's problem keeps (:class:`Recalled`): a fit's refits start where earlier fits started or ended, and
+#: a third of a cross-validation's evaluations were at a vector the same problem had evaluated already.
+RECALLED = 4
+
+
+def _copied(arrays: dict[str, Array]) -> dict[str, Array]:
+    return {key: value.copy() for key, value in arrays.items()}
+
+
+class Recalled:
+    """A tree's last :data:`RECALLED` evaluations, by their parameter vector (its bytes: the same numbers exactly).
+
+    A tree's evaluation is a function of the vector alone (a closed-loop robot's follows its samples' warm starts,
+    and is never recalled), so an evaluation recalled is the one computed anew, to the last bit. What is kept and
+    what is handed out are copies: a caller may write into the arrays it gets (a prior its rows).
+    """
+
+    def __init__(self) -> None:
+        self._kept: dict[bytes, Prediction] = {}
+
+    def recall(self, x: Array, jacobian: bool, spare_rows: int) -> Prediction | None:
+        """The kept evaluation at ``x`` as :meth:`CalibrationProblem.evaluate` gives it (the Jacobian, if asked,
+        with ``spare_rows`` rows of zeros after its own), else None (not kept, or kept without a Jacobian asked)."""
+        kept = self._kept.get(x.tobytes())
+        if kept is None or (jacobian and kept.jacobian is None):
+            return None
+        full = None
+        if jacobian and kept.jacobian is not None:
+            full = np.zeros((kept.jacobian.shape[0] + spare_rows, kept.jacobian.shape[1]))
+            full[:kept.jacobian.shape[0]] = kept.jacobian
+        return Prediction(kept.residual.copy(), full, _copied(kept.errors), _copied(kept.predicted))
+
+    def keep(self, x: Array, prediction: Prediction, spare_rows: int) -> None:
+        """Keep a copy of ``prediction``, the evaluation at ``x`` (its Jacobian without the ``spare_rows`` last rows),
+        forgetting the oldest beyond :data:`RECALLED`."""
+        jacobian = prediction.jacobian
+        rows = None if jacobian is None else jacobian[:jacobian.shape[0] - spare_rows].copy()
+        key = x.tobytes()
+        self._kept.pop(key, None)
+        self._kept[key] = Prediction(prediction.residual.copy(), rows, _copied(prediction.errors),
+                                     _copied(prediction.predicted))
+        while len(self._kept) > RECALLED:
+            del self._kept[next(iter(self._kept))]
+
+
 class SolveState:
     """Every sample's configuration on the reference assembly, remembered from one evaluation to the next.
 

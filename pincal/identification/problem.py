@@ -27,7 +27,7 @@ from pincal.identification.corrections import Payload, correction_regressors
 from pincal.identification.derivatives import KinematicSensitivity, attached_terms, marker_points, right_jacobian
 from pincal.identification.evaluation import Observations as Observations
 from pincal.identification.evaluation import Prediction as Prediction
-from pincal.identification.evaluation import SolveState
+from pincal.identification.evaluation import Recalled, SolveState
 from pincal.identification.loop_batch import LoopBatch
 from pincal.identification.measurements import Measurement, SampleContext
 from pincal.identification.parameters import (
@@ -135,6 +135,7 @@ class CalibrationProblem:
         self.not_in_closed_form: list[str] = []  # why the data did not determine a camera's start: one per reading
         self._initial: Array | None = None  # the default start, found once (the preparation and the fit ask it)
         self._start: tuple[Array, Prediction] | None = None  # the start and its evaluation (start_prediction)
+        self._recalled = Recalled() if not robot.loops else None  # a tree's last evaluations
         #: A tree's batched evaluation (every sample at once), when its joints allow it; False: sample by sample
         #: (the reference path, which the benchmarks and tests also run on trees to compare the two).
         self.tree_batch: TreeBatch | None = tree_batch(robot, self.frame_ids) if not robot.loops else None
@@ -313,10 +314,21 @@ class CalibrationProblem:
         or :mod:`~pincal.model.batch_kinematics` does not take, sample by sample. They give the same numbers (to
         1e-10, tests/identification/test_tree_batch.py and test_loop_batch.py).
         """
-        started = self._started(np.asarray(x, dtype=float), jacobian, spare_rows)
+        given = np.ascontiguousarray(x, dtype=float)
+        started = self._started(given, jacobian, spare_rows)
         if started is not None:
             return started
-        x = self._augment(np.asarray(x, dtype=float))
+        recalled = None if self._recalled is None else self._recalled.recall(given, jacobian, spare_rows)
+        if recalled is not None:
+            return recalled
+        prediction = self._evaluated(given, jacobian, spare_rows)
+        if self._recalled is not None:
+            self._recalled.keep(given, prediction, spare_rows)
+        return prediction
+
+    def _evaluated(self, x: Array, jacobian: bool, spare_rows: int) -> Prediction:
+        """:meth:`evaluate` computed (neither the kept start's nor a tree's recalled evaluation)."""
+        x = self._augment(x)
         output_jacobian = jacobian
         jacobian = jacobian or self.joint_sigma is not None
         robot = self.robot_at(x)

@@ -11,13 +11,14 @@ weighed against the noise the data show. The names alone are in :mod:`pincal.ide
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
-from typing import Any
+import os
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
-from threadpoolctl import ThreadpoolController
 
 from pincal import validation
 from pincal.errors import ArgumentError, ConvergenceError
@@ -34,11 +35,30 @@ from pincal.identification.steps import EXACT_FIT_AMPLIFICATION, at_floor, evalu
 Array = npt.NDArray[np.float64]
 
 
+if TYPE_CHECKING:
+    from threadpoolctl import ThreadpoolController
+
+#: The variables that, all "1" from the process's start (as the ``pincal`` command sets them), give every BLAS
+#: library one thread: identification then has no thread count to limit.
+ONE_THREAD = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
+
+
 @functools.cache
 def _threadpools() -> ThreadpoolController:
     """The BLAS and OpenMP libraries loaded, found once per process: finding them reads every loaded library's
     description (~3 ms with Pinocchio and SciPy loaded, a tenth of a 60-sample Delta calibration)."""
+    from threadpoolctl import ThreadpoolController  # here: not imported by a process started on one thread
+
     return ThreadpoolController()
+
+
+def _one_blas_thread() -> contextlib.AbstractContextManager[Any]:
+    """BLAS on one thread while identifying: nothing to do where the environment gave it one from the start
+    (:data:`ONE_THREAD`, as the command line does), else threadpoolctl's limit."""
+    if all(os.environ.get(name) == "1" for name in ONE_THREAD):
+        return contextlib.nullcontext()
+    limited: contextlib.AbstractContextManager[Any] = _threadpools().limit(limits=1, user_api="blas")
+    return limited
 
 
 def _check_arguments(problem: Any, x0: Any, max_iter: Any, tol: Any, prior: Any) -> None:
@@ -80,7 +100,7 @@ def identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", l
     _check_arguments(problem, x0, max_iter, tol, prior)
     # the dense algebra here is small (hundreds × tens): multi-threaded BLAS only adds overhead, and
     # on a loaded 2-core machine it made identification ten times slower
-    with _threadpools().limit(limits=1, user_api="blas"):
+    with _one_blas_thread():
         options = {"identifiable_only": identifiable_only, "max_iter": max_iter, "tol": tol, "rank_tol": rank_tol,
                    "min_information": min_information, "tsvd_rcond": tsvd_rcond, "ridge": ridge, "strict": strict,
                    "prior": prior}

@@ -72,6 +72,14 @@ def test_a_calibration_loads_no_statistics_nor_special_functions_nor_plots(tmp_p
     code, modules = _loaded(["report", "delta", csv, "--quiet", "--out", str(tmp_path / "r.html")],
                             light + server + ("meshcat.geometry",))
     assert (code, modules) == ("0", "['meshcat.geometry']")
+    # the console script's start: one BLAS thread from the start, so no threadpoolctl; a shipped robot, so no
+    # distribution metadata (its e-mail parser)
+    probe = ("import sys; from pincal.__main__ import main; sys.argv[0] = 'pincal'; code = main(); "
+             "print(code, [m for m in ('threadpoolctl', 'importlib.metadata') if m in sys.modules])")
+    env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+    done = subprocess.run([sys.executable, "-P", "-c", probe, "calibrate", "delta", csv], capture_output=True,
+                          text=True, timeout=120, check=False, env=env)
+    assert done.stdout.strip().splitlines()[-1] == "0 []", done.stderr
 
 
 #: A plugin (loaded before the command runs) that reports the thread count of every BLAS library loaded.

@@ -194,3 +194,23 @@ def test_sets_can_be_removed_and_a_leading_exclusion_starts_from_the_default() -
     assert kept.names == [n for n in default.names if not n.startswith("base.")] + ["base.tz"]
     with pytest.raises(NotFoundError, match=r"\(\+\d+ more;"):  # hundreds of names are not all listed
         choose_parameters(robot, models, ["nothing*"])
+
+
+def test_groups_and_kinds_are_found_once_and_handed_out_as_copies() -> None:
+    """A set's placements per kind and its parameters of a kind (asked at every evaluation of a fit) are those of the
+    parameters themselves, the same at every call whatever a caller did to an earlier answer."""
+    from pincal.identification.parameters.kinds import MarkerOffset, parameter_kind
+
+    robot = pincal.load_robot("ur10")
+    pset = choose_parameters(robot, measurements_for(robot, ["position:tool0"], {}))
+    expected: dict[tuple[str, str, str], list[int]] = {}
+    for k, p in enumerate(pset):
+        if p.kind in ("joint", "anchor"):
+            expected.setdefault(p.group, []).append(k)
+    markers = [k for k, p in enumerate(pset) if issubclass(parameter_kind(p.kind), MarkerOffset)]
+    assert expected and markers
+    for _ in range(2):
+        groups, found = pset.groups("joint", "anchor"), pset.indices_of(MarkerOffset)
+        assert groups == expected and found == markers
+        next(iter(groups.values())).append(-1)
+        found.clear()

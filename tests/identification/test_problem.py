@@ -181,6 +181,8 @@ def test_the_unit_check_and_the_fit_share_the_start_s_evaluation(name: str, solv
     assert np.array_equal(shared.x, fresh.x) and shared.iterations == fresh.iterations
     assert fresh.extra["outlier_test"]  # the robust plan ran, and its restarts from the start evaluated afresh
     configurations = problem.configurations(x0)
+    # a tree's evaluation is recalled besides (test_a_tree_s_evaluations_are_recalled): none here, to see the start's
+    problem._recalled = None
     for drop, drops in ((lambda: problem.evaluate(x0 + 1e-6), True),
                         (lambda: predictions.remember(problem, configurations), bool(robot.loops))):
         problem.start_prediction()
@@ -188,3 +190,48 @@ def test_the_unit_check_and_the_fit_share_the_start_s_evaluation(name: str, solv
         before = made["count"]
         problem.evaluate(x0, jacobian=False)
         assert made["count"] == before + drops
+
+
+@pytest.mark.parametrize("name", ["ur10", "delta"])
+def test_a_tree_s_evaluations_are_recalled(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A tree's problem evaluates again at one of its last vectors without computing (a closed-loop robot's always
+    computes: its solves follow their warm starts), giving what a problem nothing evaluated before computes there, to
+    the last bit, Jacobian (with spare rows of zeros) or not; what it hands out is a copy the caller may change."""
+    from pincal.identification import predictions
+
+    robot = pincal.load_robot(name)
+    models = [ms.position(robot.end_effector)]
+    pset = candidate_parameters(robot).subset(list(range(14)))
+    rng = np.random.default_rng(5)
+    qa, _ = random_actuated(robot, 12, rng)
+    observations = simulate_observations(robot, pset, rng.normal(scale=1e-3, size=len(pset)), models, qa, rng,
+                                         noise=1e-5)
+    made = {"count": 0}
+    for path in ("predict_tree", "predict_loops"):
+        inner = getattr(predictions, path)
+
+        def counted(*args: object, _inner: object = inner) -> object:
+            made["count"] += 1
+            return _inner(*args)  # type: ignore[operator]
+
+        monkeypatch.setattr(predictions, path, counted)
+    xs = [rng.normal(scale=1e-3, size=len(pset)) for _ in range(3)]
+    problem = CalibrationProblem(robot, pset, models, observations)
+    for x in xs:
+        first = problem.evaluate(x, spare_rows=2)
+        first.jacobian[:] = first.residual[:] = np.nan  # the caller's to change
+    for x in reversed(xs):
+        before = made["count"]
+        again = problem.evaluate(x, spare_rows=3)
+        alone = CalibrationProblem(robot, pset, models, observations).evaluate(x, spare_rows=3)
+        assert made["count"] == before + 1 + bool(robot.loops)  # the fresh problem's, and a loop's own
+        if robot.loops:  # solved from other warm starts: the same to the solver's tolerance, not to the bit
+            np.testing.assert_allclose(again.residual, alone.residual, rtol=0, atol=1e-6)
+            continue
+        np.testing.assert_array_equal(again.residual, alone.residual)
+        np.testing.assert_array_equal(again.jacobian, alone.jacobian)
+        assert again.errors.keys() == alone.errors.keys()
+        for key in alone.errors:
+            np.testing.assert_array_equal(again.errors[key], alone.errors[key])
+            np.testing.assert_array_equal(again.predicted[key], alone.predicted[key])
+        assert problem.evaluate(x, jacobian=False).jacobian is None

@@ -274,3 +274,21 @@ def test_three_markers_on_one_body_come_back_with_occluded_readings(fit: str) ->
     for a, b in (("m1", "m2"), ("m1", "m3"), ("m2", "m3")):
         apart = np.linalg.norm(found[f"tool0@{a}"] - found[f"tool0@{b}"])
         assert apart == pytest.approx(np.linalg.norm(truth[f"tool0@{a}"] - truth[f"tool0@{b}"]), abs=1e-9)
+
+
+def test_blas_runs_on_one_thread_while_identifying(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Started with one thread in every BLAS variable (as the command line starts), identification has nothing to
+    limit; otherwise threadpoolctl holds every BLAS library loaded at one thread while it runs."""
+    import contextlib
+
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from pincal.identification import solver
+
+    for name in solver.ONE_THREAD:
+        monkeypatch.setenv(name, "1")
+    assert isinstance(solver._one_blas_thread(), contextlib.nullcontext)
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS")
+    solver._threadpools.cache_clear()  # the libraries loaded now (found once per process: a test may load more)
+    with threadpool_limits(limits=2, user_api="blas"), solver._one_blas_thread():
+        assert {pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"} == {1}

@@ -179,6 +179,9 @@ class ParameterSet:
             dup = sorted({n for n in names if names.count(n) > 1})
             raise DataError(f"duplicate parameters: {listing(dup)}")
         self._index = {p.name: k for k, p in enumerate(self.parameters)}
+        # what :meth:`groups` and :meth:`indices_of` found, per argument: a fit asks the same of every evaluation
+        self._groups: dict[tuple[str, ...], dict[tuple[str, str, str], list[int]]] = {}
+        self._of_kind: dict[type[ParameterKind], list[int]] = {}
 
     def __len__(self) -> int:
         return len(self.parameters)
@@ -211,12 +214,23 @@ class ParameterSet:
         return [k for k, p in enumerate(self.parameters) if p.kind in kinds]
 
     def groups(self, *kinds: str) -> dict[tuple[str, str, str], list[int]]:
-        """Indices per placement (kind, owner, side), for the given kinds."""
-        out: dict[tuple[str, str, str], list[int]] = {}
-        for k, p in enumerate(self.parameters):
-            if p.kind in kinds:
-                out.setdefault(p.group, []).append(k)
-        return out
+        """Indices per placement (kind, owner, side), for the given kinds (found once per set and kinds; the caller
+        may change what it gets)."""
+        found = self._groups.get(kinds)
+        if found is None:
+            found = {}
+            for k, p in enumerate(self.parameters):
+                if p.kind in kinds:
+                    found.setdefault(p.group, []).append(k)
+            self._groups[kinds] = found
+        return {group: list(indices) for group, indices in found.items()}
+
+    def indices_of(self, kind: type[ParameterKind]) -> list[int]:
+        """Indices of the parameters of ``kind`` or of a kind derived from it (:meth:`Parameter.is_a`), found once
+        per set and kind."""
+        if kind not in self._of_kind:
+            self._of_kind[kind] = [k for k, p in enumerate(self.parameters) if p.is_a(kind)]
+        return list(self._of_kind[kind])
 
     def subset(self, indices: Iterable[int]) -> ParameterSet:
         """The parameters at ``indices``, in that order."""
