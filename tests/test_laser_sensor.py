@@ -171,6 +171,12 @@ def test_the_recipe_s_commands_simulate_calibrate_check_and_report(tmp_path: Pat
     row = re.search(r"laser:tool0\s+length\s+\d+\s+([\d.]+) mm\s+[\d.]+ mm\s+([\d.]+) mm", done["check"])
     assert row is not None and float(row.group(1)) < 0.01 * float(row.group(2)), done["check"]
     assert (tmp_path / "report.html").stat().st_size > 10_000 and "held out" in done["report"]
+    nominal = subprocess.run([str(PINCAL), "check", "ur10", "today/measurements.csv", "--nominal", "ur10"],
+                             capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path, check=False)
+    assert nominal.returncode == 2 and nominal.stderr.strip() == (  # a model without the sensor's links
+        "pincal: error: MODEL has no link 'laser_plane' (where a calibrated URDF holds its laser_plane): without it "
+        "the model cannot predict the laser readings as it stands; check with --register, which places the laser "
+        "sensors and their plane on DATA")
     _the_same_data_through_a_job_file(tmp_path, env, report)
 
 

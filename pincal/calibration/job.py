@@ -18,7 +18,7 @@ from typing import Any
 from pincal.calibration.job_reader import JOB_KEYS, Column, HeldOut, Job, JobReader, MeasureColumns
 from pincal.calibration.samples import ANGLE_UNIT_SIZES, LENGTH_UNIT_SIZES
 from pincal.errors import DataError, NotFoundError, listing
-from pincal.identification.measurements import KIND_CLASSES
+from pincal.identification.measurements import KIND_CLASSES, parse_key
 from pincal.io.dataset import MEASUREMENT_COMPONENTS, parse_measurement_key
 from pincal.io.files import input_problem
 from pincal.model.robot import Robot, load_robot
@@ -131,8 +131,9 @@ class _DataReader(JobReader):
                   header=self.choice(data.get("header", "names"), HEADERS, "[data] header"), joint_units=joint_units)
         self.claims(job)
         self.positions(job)
-        if len(job.files) > 1 and any(m.key.startswith("distance_increment:") for m in measures):
-            raise self.error(f"[data] {key}", "a distance_increment measurement needs a single data file (each "
+        chained = [m.key.partition(":")[0] for m in measures if parse_key(m.key).incremental]
+        if len(job.files) > 1 and chained:
+            raise self.error(f"[data] {key}", f"a {chained[0]} measurement needs a single data file (each "
                                               "increment is the change since the previous row of its file)")
         return job
 
