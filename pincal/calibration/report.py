@@ -24,11 +24,15 @@ import numpy.typing as npt
 from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.report_sections import (
     OPTIONAL,
+    BadJointReading,
     CrossValidation,
+    DownWeighted,
+    DroppedSample,
     HeldOutPredictions,
     ImplausibleCorrection,
     ImplausibleScale,
     ModelSelection,
+    OutsideRange,
     ParameterEstimate,
     SampleError,
     Section,
@@ -164,14 +168,16 @@ class CalibrationReport:
     n_residuals: int = 0
     joints_at_reference: list[str] = field(default_factory=list)
     no_effect: list[str] = field(default_factory=list)
-    dropped_samples: list[dict[str, str]] = field(default_factory=list)
-    down_weighted: list[dict[str, Any]] = field(default_factory=list)
-    bad_readings: list[dict[str, Any]] = field(default_factory=list)
+    dropped_samples: list[DroppedSample] = field(default_factory=list, metadata=nested(listed(DroppedSample)))
+    down_weighted: list[DownWeighted] = field(default_factory=list, metadata=nested(listed(DownWeighted)))
+    bad_readings: list[BadJointReading] = field(default_factory=list, metadata=nested(listed(BadJointReading)))
     n_samples_in_file: int = 0
     outlier_test: list[str] = field(default_factory=list)
-    dropped_test_samples: list[dict[str, str]] | None = field(default=None, metadata=OPTIONAL)
+    dropped_test_samples: list[DroppedSample] | None = field(default=None,
+                                                             metadata=nested(listed(DroppedSample), **OPTIONAL))
     held_out_outliers: list[str] | None = field(default=None, metadata=OPTIONAL)
-    held_out_outside_range: list[dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
+    held_out_outside_range: list[OutsideRange] | None = field(default=None,
+                                                              metadata=nested(listed(OutsideRange), **OPTIONAL))
     test_readings: dict[str, int] | None = field(default=None, metadata=OPTIONAL)
     n_test_samples: int | None = field(default=None, metadata=OPTIONAL)
     test_rms_before: float | None = field(default=None, metadata=OPTIONAL)

@@ -345,3 +345,69 @@ class WorkspacePrediction(Section):
     capped: int = 0
     median_bound: float | None = None
     max_bound: float | None = None
+
+
+@dataclass(frozen=True)
+class DroppedSample(Section):
+    """A sample of the file left out before the fit, and why.
+
+    Attributes:
+        sample: The sample's id.
+        reason: Why, in words (e.g. outside the joint limits, forward kinematics did not converge).
+    """
+
+    sample: str
+    reason: str = ""
+
+
+@dataclass(frozen=True)
+class DownWeighted(Section):
+    """A fitted sample the robust loss down-weighted.
+
+    Attributes:
+        sample: The sample's id.
+        weight: Its weight in the fit [1] (0: left out).
+        error_after: Its length-type error after calibration [m]; None: no length reading.
+    """
+
+    sample: str
+    weight: float = 1.0
+    error_after: float | None = None
+
+
+@dataclass(frozen=True)
+class BadJointReading(Section):
+    """A fitted sample left out (weight 0) because one wrong joint reading explains its error
+    (:mod:`pincal.identification.readings`).
+
+    Attributes:
+        sample: The sample's id.
+        joint: The actuated joint whose reading looks off.
+        off: How far it looks off [rad, or m for a prismatic joint].
+        unit: ``rad`` or ``m``.
+        explained: The share of the sample's error that explains [1, 0–1].
+    """
+
+    sample: str
+    joint: str
+    off: float
+    unit: str = "rad"
+    explained: float = 0.0
+
+
+@dataclass(frozen=True)
+class OutsideRange(Section):
+    """A held-out sample's actuated-joint reading outside the range the calibration fitted (its error measures
+    extrapolation).
+
+    Attributes:
+        sample: The sample's id.
+        joint: The actuated joint.
+        value: Its reading [rad or m].
+        range: The fitted range [min, max] [rad or m].
+    """
+
+    sample: str
+    joint: str
+    value: float
+    range: list[float] = field(default_factory=list)

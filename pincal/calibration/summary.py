@@ -9,11 +9,11 @@ import math
 import textwrap
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
 
 from pincal import validation
 from pincal.calibration.heldout import NOISE_CONTRADICTED
 from pincal.calibration.report import CalibrationReport
+from pincal.calibration.report_sections import BadJointReading
 from pincal.calibration.summary_camera import camera_lines
 from pincal.calibration.summary_model import mm, mrad, predicted_lines, selection_lines
 from pincal.identification.corrections import payload_from_dict
@@ -364,13 +364,13 @@ LISTED = 10
 ROBUST_WARNING_FRACTION = 0.25
 
 
-def bad_reading_text(entry: dict[str, Any]) -> str:
+def bad_reading_text(entry: BadJointReading) -> str:
     """One bad joint reading of the report (``bad_readings``) in words: the sample, the joint, how far its reading looks
     off (rad, or mm for a prismatic joint) and the share of the sample's error that explains."""
-    off = float(entry["off"])
-    size = f"{off * 1e3:+.1f} mm" if entry.get("unit") == "m" else f"{off:+.3f} rad"
-    return (f"sample {entry['sample']}: {entry['joint']} reading looks {size} off (explains "
-            f"{math.floor(1000.0 * float(entry['explained'])) / 10.0:.1f} % of its error); left out")
+    off = float(entry.off)
+    size = f"{off * 1e3:+.1f} mm" if entry.unit == "m" else f"{off:+.3f} rad"
+    return (f"sample {entry.sample}: {entry.joint} reading looks {size} off (explains "
+            f"{math.floor(1000.0 * float(entry.explained)) / 10.0:.1f} % of its error); left out")
 
 
 def _accounting(report: CalibrationReport) -> list[str]:
@@ -384,17 +384,17 @@ def _accounting(report: CalibrationReport) -> list[str]:
     lines += _readings(report)
     if dropped:
         lines.append(f"dropped ({len(dropped)}):")
-        lines += [f"  - sample {d['sample']}: {d['reason']}" for d in dropped[:LISTED]]
+        lines += [f"  - sample {d.sample}: {d.reason}" for d in dropped[:LISTED]]
     bad = report.bad_readings or []
     if bad:
         lines.append(f"bad joint readings, left out of the fit ({len(bad)}):")
         lines += [f"  - {bad_reading_text(entry)}" for entry in bad[:LISTED]]
-    named = {str(entry["sample"]) for entry in bad}
-    weighted_only = [w for w in weighted if str(w["sample"]) not in named]
+    named = {str(entry.sample) for entry in bad}
+    weighted_only = [w for w in weighted if str(w.sample) not in named]
     if weighted_only:
         lines.append(f"down-weighted by the robust loss ({len(weighted_only)}):")
-        lines += [f"  - sample {w['sample']}: weight {w['weight']:.3g}"
-                  + (f", error {mm(w['error_after'])} after calibration" if w["error_after"] is not None else "")
+        lines += [f"  - sample {w.sample}: weight {w.weight:.3g}"
+                  + (f", error {mm(w.error_after)} after calibration" if w.error_after is not None else "")
                   for w in weighted_only[:LISTED]]
     strange = report.held_out_outliers or []
     if strange:
@@ -403,7 +403,7 @@ def _accounting(report: CalibrationReport) -> list[str]:
                   "  (they weigh on the held-out figures, not on the comparison with the nominal model)"]
     outside = report.held_out_outside_range or []
     if outside:  # one line of at most 120 characters: a few samples, else their count
-        ids, joints = (list(dict.fromkeys(str(o[key]) for o in outside)) for key in ("sample", "joint"))
+        ids, joints = list(dict.fromkeys(str(o.sample) for o in outside)), list(dict.fromkeys(o.joint for o in outside))
         where = joints[0] if len(joints) == 1 else f"{len(joints)} actuated joints"
         shown = ", ".join(ids[:3]) + (f" (+{len(ids) - 3})" if len(ids) > 3 else "")
         lines.append(next(line for line in (f"warning: held-out sample {shown} lies outside the fitted range of "

@@ -16,11 +16,15 @@ from conftest import run_pincal
 from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.report import SCHEMA_VERSION, CalibrationReport
 from pincal.calibration.report_sections import (
+    BadJointReading,
     CrossValidation,
+    DownWeighted,
+    DroppedSample,
     HeldOutPredictions,
     ImplausibleCorrection,
     ImplausibleScale,
     ModelSelection,
+    OutsideRange,
     ParameterEstimate,
     PredictedSample,
     RangeGuard,
@@ -93,6 +97,27 @@ def test_pixel_errors_written_when_imaged() -> None:
     report = CalibrationReport.from_json({**RAW, "sample_errors": [seen, {**RAW["sample_errors"][0]}]})
     assert report.sample_errors[0].imaged and not report.sample_errors[1].imaged
     assert json.loads(report.to_json())["sample_errors"] == [seen, RAW["sample_errors"][0]]
+
+
+def test_sample_accounts_are_typed() -> None:
+    """The samples dropped, down-weighted, left out as bad joint readings and held out beyond the fitted range (the
+    account of a file with such samples, as 'pincal calibrate' writes it) are read into their records and written
+    back as they were."""
+    accounts = {
+        "dropped_samples": [{"sample": "3", "reason": "joint 'panda_joint1' reads 5 rad, outside its URDF limits"}],
+        "down_weighted": [{"sample": "7", "weight": 0.0, "error_after": 0.1527},
+                          {"sample": "12", "weight": 1.52e-05, "error_after": None}],
+        "bad_readings": [{"sample": "7", "joint": "panda_joint3", "off": 0.3, "unit": "rad", "explained": 0.9999}],
+        "dropped_test_samples": [{"sample": "31", "reason": "outside its URDF limits"}],
+        "held_out_outside_range": [{"sample": "15", "joint": "panda_joint5", "value": -2.54, "range": [-1.7, 2.6]}]}
+    report = CalibrationReport.from_json({**RAW, **accounts})
+    assert report.dropped_samples == [DroppedSample(**accounts["dropped_samples"][0])]
+    assert report.down_weighted[1] == DownWeighted("12", 1.52e-05, None)
+    assert report.bad_readings == [BadJointReading("7", "panda_joint3", 0.3, "rad", 0.9999)]
+    assert report.dropped_test_samples == [DroppedSample("31", "outside its URDF limits")]
+    assert report.held_out_outside_range == [OutsideRange("15", "panda_joint5", -2.54, [-1.7, 2.6])]
+    written = json.loads(report.to_json())
+    assert {key: written[key] for key in accounts} == accounts
 
 
 def test_missing_keys_take_defaults() -> None:
