@@ -25,6 +25,7 @@ from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.report_sections import (
     OPTIONAL,
     BadJointReading,
+    Covariance,
     CrossValidation,
     DownWeighted,
     DroppedSample,
@@ -201,7 +202,7 @@ class CalibrationReport:
     cv: CrossValidation | None = field(default=None, metadata=nested(CrossValidation.from_json, **OPTIONAL))
     estimated_sigma: dict[str, dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
     sample_errors: list[SampleError] = field(default_factory=list, metadata=nested(listed(SampleError)))
-    covariance: dict[str, Any] = field(default_factory=dict)
+    covariance: Covariance | None = field(default=None, metadata=nested(Covariance.from_json, **OPTIONAL))
     fitted_range: dict[str, list[float]] = field(default_factory=dict)
     error_growth: ErrorGrowth | None = field(default=None, metadata=nested(_read_growth, **OPTIONAL))
     row_sigma: dict[str, list[float]] = field(default_factory=dict)
@@ -442,12 +443,12 @@ def parameter_covariance(result: CalibrationResult) -> Array:
     return np.asarray(result.correlation * np.outer(std, std), dtype=float)
 
 
-def covariance_of(result: CalibrationResult) -> dict[str, Any]:
+def covariance_of(result: CalibrationResult) -> Covariance:
     """The estimates' covariance over the identified parameters (:func:`parameter_covariance`) [m², m·rad, rad²]:
     their names and the matrix (None where the fit could not give it)."""
     matrix = parameter_covariance(result)
-    return {"parameters": [result.names[k] for k in result.identified],
-            "matrix": [[_clean(float(v)) for v in row] for row in matrix]}
+    return Covariance(parameters=[result.names[k] for k in result.identified],
+                      matrix=[[_clean(float(v)) for v in row] for row in matrix])
 
 
 def camera_figures(problem: CalibrationProblem, result: CalibrationResult) -> dict[str, dict[str, Any]]:

@@ -411,3 +411,17 @@ class OutsideRange(Section):
     joint: str
     value: float
     range: list[float] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Covariance(Section):
+    """The estimates' covariance over the identified parameters, as the fit gives it.
+
+    Attributes:
+        parameters: The identified parameters, in the matrix's order.
+        matrix: ``C_ij = ρ_ij σ_i σ_j`` [products of the parameters' units: m², m·rad, rad²]; None where the fit
+            could not give it.
+    """
+
+    parameters: list[str] = field(default_factory=list)
+    matrix: list[list[float | None]] = field(default_factory=list)
