@@ -342,7 +342,7 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
     content.update({
         "reference_shifts": shifts,
         "corrections": corrections.joints if corrections is not None else {},
-        "payload": options.payload.as_dict() if options.payload is not None else None,
+        "payload": options.payload,
         "links_mass": moving_mass(fit.robot) if options.payload is not None else None,  # what it is weighed against
         "markers": options.markers,
         "declared_markers": {target: list(offset) for target, offset in declared_markers(fit.models).items()},

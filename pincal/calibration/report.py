@@ -43,6 +43,7 @@ from pincal.calibration.report_sections import (
     nested,
 )
 from pincal.errors import DataError
+from pincal.identification.corrections import Payload, payload_from_dict
 from pincal.identification.measurements import KIND_CLASSES
 from pincal.identification.metrics import angle_error_norms, calibration_gain, error_norms, pixel_error_norms, rms
 from pincal.identification.parameters import ParameterSet
@@ -77,6 +78,15 @@ def _read_growth(value: Any, where: str) -> ErrorGrowth:
         raise DataError(f"{where} is not an object of numbers 'rho0', 'nominal0', 'nominal1', 'reach', 'inside', "
                         "'beyond': expected a report written by 'pincal calibrate --report'")
     return growth
+
+
+def _read_payload(value: Any, where: str) -> Payload | None:
+    """The payload of a JSON object (:meth:`Payload.as_dict`'s).
+
+    Raises:
+        DataError: not such an object, or a bad value.
+    """
+    return payload_from_dict(value, f"{where}: ")
 
 
 @dataclass(frozen=True)
@@ -157,7 +167,7 @@ class CalibrationReport:
     parameter_errors_before: float | None = field(default=None, metadata=OPTIONAL)
     parameter_errors_after: float | None = field(default=None, metadata=OPTIONAL)
     corrections: dict[str, Any] = field(default_factory=dict)
-    payload: dict[str, Any] | None = None
+    payload: Payload | None = field(default=None, metadata=nested(_read_payload))
     links_mass: float | None = field(default=None, metadata=OPTIONAL)
     markers: str = "each"
     declared_markers: dict[str, list[float]] = field(default_factory=dict)
@@ -301,7 +311,7 @@ class CalibrationReport:
             content = json.loads(Path(path).read_text(encoding="utf-8"))
         except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise DataError(f"cannot read the result JSON '{path}': {exc}") from None
-        return cls.from_json(content)
+        return cls.from_json(content, f"the result JSON '{path}'")
 
 
 def registered_base(parameters: ParameterSet) -> bool:
@@ -364,7 +374,7 @@ def before_figures(problem: CalibrationProblem, before: Any) -> dict[str, Any]:
 
 def _json_value(value: Any) -> Any:
     """``value`` with every float that is not finite made None, through sections, lists and dicts."""
-    if isinstance(value, Section | ErrorGrowth):
+    if isinstance(value, Section | ErrorGrowth | Payload):
         return _json_value(value.as_dict())
     if isinstance(value, float):
         return value if math.isfinite(value) else None

@@ -16,7 +16,6 @@ from pincal.calibration.report import CalibrationReport
 from pincal.calibration.report_sections import BadJointReading
 from pincal.calibration.summary_camera import camera_lines
 from pincal.calibration.summary_model import mm, mrad, predicted_lines, selection_lines
-from pincal.identification.corrections import payload_from_dict
 from pincal.identification.parameters import DEFAULT_SET, NAMED_SETS
 
 
@@ -76,16 +75,16 @@ def _heavy_payload(report: CalibrationReport) -> str | None:
     a load meant for another robot). When the URDF gives the links no mass there is nothing to weigh it against: a
     note says so, and that the compliances then rest on the payload's gravity torque alone."""
     payload, links = report.payload, report.links_mass
-    if not payload or links is None:
+    if payload is None or links is None:
         return None
     if links <= 0.0:
         return (f"note: the URDF gives the robot's moving links no mass (no <inertial>), so the payload's "
-                f"{payload['mass']:g} kg cannot be checked against theirs, and the compliances rest on its gravity "
+                f"{payload.mass:g} kg cannot be checked against theirs, and the compliances rest on its gravity "
                 "torque alone: right for a light arm under a heavy tool, wrong if the URDF merely leaves the masses "
                 "out")
-    if payload["mass"] <= links:
+    if payload.mass <= links:
         return None
-    return (f"warning: the payload ({payload['mass']:g} kg) outweighs all the robot's moving links together "
+    return (f"warning: the payload ({payload.mass:g} kg) outweighs all the robot's moving links together "
             f"({links:.3g} kg, from the URDF): check its mass [kg] and its frame")
 
 
@@ -114,8 +113,8 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
              f"identifiable {report.n_identifiable}, estimated {report.n_estimated}"
              f", condition number {report.condition_number:.3g}" if report.condition_number else "",
              *selection_lines(report),
-             f"payload {payload_from_dict(report.payload)}, in the gravity torque of the compliances"
-             if report.payload else None,
+             f"payload {report.payload}, in the gravity torque of the compliances"
+             if report.payload is not None else None,
              _heavy_payload(report),
              f"solver {report.solver}, loss {report.loss}: {report.message} after {report.iterations} "
              f"iterations, {seconds:.3f} s",

@@ -87,7 +87,7 @@ def check_result_options(args: argparse.Namespace, report: CalibrationReport) ->
         "loss": report.loss,
         "select": selection.policy if selection is not None else None,
         "cv": cv.plan if cv is not None else None,
-        "payload": report.payload,
+        "payload": report.payload.as_dict() if report.payload is not None else None,
         "formulation": report.formulation,
         "markers": report.markers,
     }

@@ -32,6 +32,7 @@ from pincal.calibration.report_sections import (
     WorkspacePrediction,
 )
 from pincal.errors import DataError
+from pincal.identification.corrections import Payload
 
 FIXTURE = Path(__file__).parent / "data" / "report_v1"
 TEXT = (FIXTURE / "report.json").read_text(encoding="utf-8")
@@ -120,6 +121,15 @@ def test_sample_accounts_are_typed() -> None:
     assert {key: written[key] for key in accounts} == accounts
 
 
+def test_payload_is_the_payload() -> None:
+    """The payload a calibration with compliances records is read as the :class:`Payload` it was given as, and
+    written back as it was."""
+    recorded = {"mass": 2.0, "frame": "panda_link7", "offset": [0.0, 0.0, 0.05]}
+    report = CalibrationReport.from_json({**RAW, "payload": recorded})
+    assert report.payload == Payload(2.0, "panda_link7", (0.0, 0.0, 0.05))
+    assert json.loads(report.to_json())["payload"] == recorded
+
+
 def test_missing_keys_take_defaults() -> None:
     """A report older still, without the keys later versions added (here a section's optional and defaulted keys and
     whole top-level parts), is read with their defaults and written without the optional ones."""
@@ -163,6 +173,7 @@ def test_newer_schema_refused() -> None:
     ("parameters", {"base.x": {"value": 0.0}, "base.y": 2}, r"'parameters'"),
     ("implausible", [{"parameter": "base.x", "kind": "base"}], r"the result JSON's 'implausible'\[0\] has no 'value'"),
     ("implausible_scale", {"position": 3.3}, r"the result JSON's 'implausible_scale' is not a JSON list"),
+    ("payload", {"mass": 2.0}, r"the result JSON's 'payload': payload \{'mass': 2.0\} is not"),
     ("error_growth", {"rho0": 1.0}, r"the result JSON's 'error_growth' is not an object of numbers"),
     ("predicted_held_out", {**RAW["predicted_held_out"], "samples_predicted": [{"bound": 0.1}]},
      r"'predicted_held_out'\['samples_predicted'\]\[0\] has no 'sample'"),
@@ -183,3 +194,17 @@ def test_older_report_drawn_by_the_command(tmp_path: Path) -> None:
     text = page.read_text(encoding="utf-8")
     assert f"cross-validated, {RAW['cv']['plan']}, {RAW['cv']['n_samples']} samples" in text
     assert all(f"<td>{name}</td>" in text for name in RAW["parameters"])
+
+
+def test_malformed_report_refused_by_the_command(tmp_path: Path) -> None:
+    """A report JSON whose part is malformed: 'pincal report --result' stops with one line naming the file and the
+    part, exit 2, no traceback."""
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({**RAW, "cv": {"rms": 0.1}}), encoding="utf-8")
+    done = run_pincal("report", "panda", str(FIXTURE / "measurements.csv"), "--result", str(bad),
+                      "--out", str(tmp_path / "page.html"), "--quiet")
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert done.stderr.strip().splitlines() == [
+        f"pincal: error: the result JSON '{bad}''s 'cv' has no 'plan': expected a report written by 'pincal "
+        "calibrate --report'"]
+    assert not (tmp_path / "page.html").exists()
