@@ -29,6 +29,7 @@ from pincal.calibration.report_sections import (
     CrossValidation,
     DownWeighted,
     DroppedSample,
+    EstimatedSigma,
     HeldOutPredictions,
     ImplausibleCorrection,
     ImplausibleScale,
@@ -210,7 +211,8 @@ class CalibrationReport:
     implausible_cause: str = ""
     explains_nothing: bool = False
     cv: CrossValidation | None = field(default=None, metadata=nested(CrossValidation.from_json, **OPTIONAL))
-    estimated_sigma: dict[str, dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
+    estimated_sigma: dict[str, EstimatedSigma] | None = field(default=None,
+                                                              metadata=nested(by_name(EstimatedSigma), **OPTIONAL))
     sample_errors: list[SampleError] = field(default_factory=list, metadata=nested(listed(SampleError)))
     covariance: Covariance | None = field(default=None, metadata=nested(Covariance.from_json, **OPTIONAL))
     fitted_range: dict[str, list[float]] = field(default_factory=dict)

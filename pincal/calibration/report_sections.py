@@ -425,3 +425,21 @@ class Covariance(Section):
 
     parameters: list[str] = field(default_factory=list)
     matrix: list[list[float | None]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class EstimatedSigma(Section):
+    """The σ of one measurement's readings estimated from the data, where no ``# sigma`` line states it
+    (:mod:`pincal.calibration.noise`).
+
+    Attributes:
+        rows: Each estimated residual row's σ, by row name [its unit].
+        units: Each row's unit (``m``, ``rad``, ``px``, …).
+        length: The RMS of its estimated length rows [m], when asked of this kind.
+        angle: The RMS of its estimated angle rows [rad], when asked of this kind.
+    """
+
+    rows: dict[str, float] = field(default_factory=dict)
+    units: dict[str, str] = field(default_factory=dict)
+    length: float | None = field(default=None, metadata=OPTIONAL)
+    angle: float | None = field(default=None, metadata=OPTIONAL)

@@ -446,7 +446,7 @@ def _estimated_sigma(report: CalibrationReport) -> list[str]:
         return []
     parts = []
     for key, kinds in report.estimated_sigma.items():
-        rows, units = kinds.get("rows") or {}, kinds.get("units") or {}
+        rows, units = kinds.rows, kinds.units
         shown = [f"{name} {value * 1e3:.3g} {'mm' if units.get(name) == 'm' else 'mrad'}"
                  if units.get(name) in ("m", "rad") else f"{name} {value:.3g} {units.get(name, '')}".rstrip()
                  for name, value in rows.items()]

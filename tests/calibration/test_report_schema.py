@@ -20,6 +20,7 @@ from pincal.calibration.report_sections import (
     CrossValidation,
     DownWeighted,
     DroppedSample,
+    EstimatedSigma,
     HeldOutPredictions,
     ImplausibleCorrection,
     ImplausibleScale,
@@ -128,6 +129,17 @@ def test_payload_is_the_payload() -> None:
     report = CalibrationReport.from_json({**RAW, "payload": recorded})
     assert report.payload == Payload(2.0, "panda_link7", (0.0, 0.0, 0.05))
     assert json.loads(report.to_json())["payload"] == recorded
+
+
+def test_estimated_sigma_is_typed() -> None:
+    """The σ estimated from data without '# sigma' lines (none in the fixture) is read per measurement into its record;
+    the kinds not estimated stay out of the JSON written back."""
+    estimated = {"position:panda_hand": {"rows": {"x": 3.4e-4, "y": 5.0e-4, "z": 5.2e-4},
+                                         "units": {"x": "m", "y": "m", "z": "m"}, "length": 4.6e-4}}
+    report = CalibrationReport.from_json({**RAW, "estimated_sigma": estimated})
+    assert report.estimated_sigma == {"position:panda_hand": EstimatedSigma(
+        {"x": 3.4e-4, "y": 5.0e-4, "z": 5.2e-4}, {"x": "m", "y": "m", "z": "m"}, 4.6e-4, None)}
+    assert json.loads(report.to_json())["estimated_sigma"] == estimated
 
 
 def test_missing_keys_take_defaults() -> None:
