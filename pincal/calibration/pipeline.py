@@ -17,7 +17,7 @@ from __future__ import annotations
 import contextlib
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -335,7 +335,7 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
     content = fit_figures(result, problem, x_true)
     content.update(before_figures(problem, before))
     if "pixels_before" in content:  # "before" is the registered nominal robot, as for the lengths
-        content["pixels"]["rms_before"] = content.pop("pixels_before")
+        content["pixels"] = replace(content["pixels"], rms_before=content.pop("pixels_before"))
     ids = fit.samples.sample_ids
     lengths = sample_length_errors(result.errors_after, problem.observations.n_samples)
     suspects = result.extra.get("outlier_test", [])

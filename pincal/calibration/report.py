@@ -36,6 +36,7 @@ from pincal.calibration.report_sections import (
     ModelSelection,
     OutsideRange,
     ParameterEstimate,
+    PixelErrors,
     SampleError,
     Section,
     WorkspacePrediction,
@@ -158,8 +159,8 @@ class CalibrationReport:
     rms_angle_before: float | None = field(default=None, metadata=OPTIONAL)
     rms_angle_after: float | None = field(default=None, metadata=OPTIONAL)
     #: Reprojection RMS [px] of the pixel readings, fitted and held out, before and after.
-    pixels: dict[str, float | None] | None = field(default=None, metadata=OPTIONAL)
-    test_pixels: dict[str, float | None] | None = field(default=None, metadata=OPTIONAL)
+    pixels: PixelErrors | None = field(default=None, metadata=nested(PixelErrors.from_json, **OPTIONAL))
+    test_pixels: PixelErrors | None = field(default=None, metadata=nested(PixelErrors.from_json, **OPTIONAL))
     #: Each pixel camera's calibrated intrinsics and their σ (:func:`camera_figures`).
     cameras: dict[str, dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
     max_angle_before: float | None = field(default=None, metadata=OPTIONAL)
@@ -435,8 +436,8 @@ def fit_figures(result: CalibrationResult, problem: CalibrationProblem, x_true: 
                     "max_angle_after": _clean(float(angles_after.max()))})
     pixels_before = pixel_error_norms(result.errors_before)
     if pixels_before.size:
-        out["pixels"] = {"rms_before": _clean(rms(pixels_before)),
-                         "rms_after": _clean(rms(pixel_error_norms(result.errors_after)))}
+        out["pixels"] = PixelErrors(rms_before=_clean(rms(pixels_before)),
+                                    rms_after=_clean(rms(pixel_error_norms(result.errors_after))))
     cameras = camera_figures(problem, result)
     if cameras:
         out["cameras"] = cameras

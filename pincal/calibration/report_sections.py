@@ -443,3 +443,16 @@ class EstimatedSigma(Section):
     units: dict[str, str] = field(default_factory=dict)
     length: float | None = field(default=None, metadata=OPTIONAL)
     angle: float | None = field(default=None, metadata=OPTIONAL)
+
+
+@dataclass(frozen=True)
+class PixelErrors(Section):
+    """The RMS reprojection error of the pixel readings, before and after calibration.
+
+    Attributes:
+        rms_before: Before [px]: the nominal robot, its setup registered; None: not a number.
+        rms_after: After calibration [px]; None: not a number.
+    """
+
+    rms_before: float | None = None
+    rms_after: float | None = None

@@ -121,11 +121,11 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
              "",
              f"{'':{width}}{'before':>14}{'after':>14}",
              *(_figure_rows(length, "fit", mm, report.rms_before, report.rms_after, report.max_before,
-                            report.max_after, width) if not report.pixels or _finite(report.rms_before) else [])]
+                            report.max_after, width) if report.pixels is None or _finite(report.rms_before) else [])]
     if report.rms_angle_before is not None:
         lines += _figure_rows(angle, "fit", mrad, report.rms_angle_before, report.rms_angle_after,
                               report.max_angle_before, report.max_angle_after, width)
-    if report.has_held_out and (not report.test_pixels or _finite(report.test_rms_before)):
+    if report.has_held_out and (report.test_pixels is None or _finite(report.test_rms_before)):
         lines += _figure_rows(length, "held out", mm, report.test_rms_before, report.test_rms_after,
                               report.test_max_before, report.test_max_after, width)
     if report.test_rms_angle_before is not None:
@@ -133,9 +133,9 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
                               report.test_rms_angle_after, report.test_max_angle_before, report.test_max_angle_after,
                               width)
     for part, figures in (("fit", report.pixels), ("held out", report.test_pixels)):
-        if figures:
-            lines.append(f"{f'RMS reprojection error ({part})':{width}}{_column(px(figures['rms_before']))}"
-                         f"{_column(px(figures['rms_after']))}")
+        if figures is not None:
+            lines.append(f"{f'RMS reprojection error ({part})':{width}}{_column(px(figures.rms_before))}"
+                         f"{_column(px(figures.rms_after))}")
     if report.before_means:
         lines += textwrap.wrap(f"(before: {report.before_means})", 120, subsequent_indent=" ")
     if report.rms_start is not None:

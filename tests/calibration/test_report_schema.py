@@ -27,6 +27,7 @@ from pincal.calibration.report_sections import (
     ModelSelection,
     OutsideRange,
     ParameterEstimate,
+    PixelErrors,
     PredictedSample,
     RangeGuard,
     SampleError,
@@ -140,6 +141,16 @@ def test_estimated_sigma_is_typed() -> None:
     assert report.estimated_sigma == {"position:panda_hand": EstimatedSigma(
         {"x": 3.4e-4, "y": 5.0e-4, "z": 5.2e-4}, {"x": "m", "y": "m", "z": "m"}, 4.6e-4, None)}
     assert json.loads(report.to_json())["estimated_sigma"] == estimated
+
+
+def test_pixel_figures_are_typed() -> None:
+    """A camera calibration's reprojection RMS, fitted and held out (none in the fixture), is read into its record."""
+    report = CalibrationReport.from_json({**RAW, "pixels": {"rms_before": 2.075, "rms_after": 0.431},
+                                          "test_pixels": {"rms_before": None, "rms_after": 0.434}})
+    assert report.pixels == PixelErrors(2.075, 0.431) and report.test_pixels == PixelErrors(None, 0.434)
+    written = json.loads(report.to_json())
+    assert (written["pixels"], written["test_pixels"]) == ({"rms_before": 2.075, "rms_after": 0.431},
+                                                           {"rms_before": None, "rms_after": 0.434})
 
 
 def test_missing_keys_take_defaults() -> None:
