@@ -37,6 +37,7 @@ from pincal.calibration.report_sections import (
     OutsideRange,
     ParameterEstimate,
     PixelErrors,
+    ProvenanceRecord,
     SampleError,
     Section,
     WorkspacePrediction,
@@ -223,7 +224,7 @@ class CalibrationReport:
                                                             metadata=nested(WorkspacePrediction.from_json, **OPTIONAL))
     predicted_held_out: HeldOutPredictions | None = field(default=None,
                                                           metadata=nested(HeldOutPredictions.from_json, **OPTIONAL))
-    provenance: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    provenance: ProvenanceRecord | None = field(default=None, metadata=nested(ProvenanceRecord.from_json, **OPTIONAL))
     #: The JSON keys a report read by :meth:`from_json` held (every field for a report built by a calibration).
     present: frozenset[str] = field(default=frozenset(), compare=False, repr=False, metadata={"internal": True})
 

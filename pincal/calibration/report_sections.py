@@ -456,3 +456,33 @@ class PixelErrors(Section):
 
     rms_before: float | None = None
     rms_after: float | None = None
+
+
+@dataclass(frozen=True)
+class FileDigest(Section):
+    """An input file as an output records it.
+
+    Attributes:
+        file: Its name: a path relative to the output's folder, or a catalog robot's name.
+        sha256: Its SHA-256 (None: not a file).
+    """
+
+    file: str
+    sha256: str | None = None
+
+
+@dataclass(frozen=True)
+class ProvenanceRecord(Section):
+    """What made the report (:mod:`pincal.calibration.provenance`).
+
+    Attributes:
+        pincal_version: The pincal version that wrote it.
+        robot: The robot file (or name) with its SHA-256.
+        data: The data files read (a job file and its data files) with their SHA-256.
+        options: Every calibration option, by its job-file key (values in SI units, as the job file writes them).
+    """
+
+    pincal_version: str = ""
+    robot: FileDigest | None = field(default=None, metadata=nested(FileDigest.from_json))
+    data: list[FileDigest] = field(default_factory=list, metadata=nested(listed(FileDigest)))
+    options: dict[str, Any] = field(default_factory=dict)

@@ -33,7 +33,7 @@ def urdf_name_note(given: str, urdf_name: str) -> str:
 def report_robot(report: CalibrationReport) -> tuple[str, str]:
     """The robot of ``report`` as the user named it and the note on its URDF's name (:func:`robot_named`,
     :func:`urdf_name_note`, from the report's provenance)."""
-    given = ((report.provenance or {}).get("robot") or {}).get("file")
+    given = report.provenance.robot.file if report.provenance is not None and report.provenance.robot else None
     given = given if isinstance(given, str) else ""
     return robot_named(given, report.robot), urdf_name_note(given, report.robot)
 
@@ -227,7 +227,7 @@ def _named_parameters(report: CalibrationReport, spec: Sequence[str] | None) -> 
     """Whether the user named parameters one by one (``--parameters`` patterns), not only sets of candidates (the
     default set, the named sets)."""
     if spec is None:
-        spec = ((report.provenance or {}).get("options") or {}).get("parameter_spec")
+        spec = report.provenance.options.get("parameter_spec") if report.provenance is not None else None
     return any(token not in (DEFAULT_SET, *NAMED_SETS) for token in spec or [])
 
 

@@ -444,7 +444,7 @@ estimate (±2σ bars in the figure). Parameters that are not identifiable keep m
 {shift_text}
 <h2>What the data cannot separate</h2>
 {_combinations(report)}
-{provenance_html(report.provenance)}
+{provenance_html(report.provenance.as_dict() if report.provenance is not None else None)}
 </main>
 <script>{SCENE_LISTENER}</script>
 </body></html>

@@ -390,7 +390,8 @@ def static_scene(view: CalibrationView, title: str | None = None, quiet: bool = 
     scene = StaticScene()
     summary = draw_calibration(scene.visualizer(), view, quiet)
     name = title or f"pincal · {view.problem.robot.name}: nominal vs calibrated, {summary.n_samples} samples"
-    return scene_page(scene, summary, name, view.report.provenance), summary
+    provenance = view.report.provenance
+    return scene_page(scene, summary, name, provenance.as_dict() if provenance is not None else None), summary
 
 
 #: Longest wait for a reply of the meshcat server [ms].

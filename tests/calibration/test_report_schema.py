@@ -21,6 +21,7 @@ from pincal.calibration.report_sections import (
     DownWeighted,
     DroppedSample,
     EstimatedSigma,
+    FileDigest,
     HeldOutPredictions,
     ImplausibleCorrection,
     ImplausibleScale,
@@ -29,6 +30,7 @@ from pincal.calibration.report_sections import (
     ParameterEstimate,
     PixelErrors,
     PredictedSample,
+    ProvenanceRecord,
     RangeGuard,
     SampleError,
     WorkspacePrediction,
@@ -151,6 +153,17 @@ def test_pixel_figures_are_typed() -> None:
     written = json.loads(report.to_json())
     assert (written["pixels"], written["test_pixels"]) == ({"rms_before": 2.075, "rms_after": 0.431},
                                                            {"rms_before": None, "rms_after": 0.434})
+
+
+def test_provenance_is_typed() -> None:
+    """The provenance: the pincal version, the robot and data files with their SHA-256, the options."""
+    report = CalibrationReport.read(FIXTURE / "report.json")
+    provenance, raw = report.provenance, RAW["provenance"]
+    assert isinstance(provenance, ProvenanceRecord) and provenance.robot is not None
+    assert (provenance.pincal_version, provenance.robot.file, provenance.robot.sha256) \
+        == (raw["pincal_version"], raw["robot"]["file"], raw["robot"]["sha256"])
+    assert provenance.data == [FileDigest(d["file"], d["sha256"]) for d in raw["data"]]
+    assert provenance.options == raw["options"] and provenance.as_dict() == raw
 
 
 def test_missing_keys_take_defaults() -> None:
