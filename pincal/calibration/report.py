@@ -101,8 +101,8 @@ class CalibrationReport:
     (``before_means`` says what that is; the fit's start is ``rms_start``, ``test_rms_start``, ``start_means``).
     ``parameters`` maps each parameter to its estimate (:class:`~pincal.calibration.report_sections.ParameterEstimate`);
     ``dropped_samples`` and ``down_weighted`` list samples by id with the reason or weight; ``bad_readings`` the fitted
-    samples left out (weight 0) because one wrong joint reading explains their error: ``{"sample", "joint", "off"
-    [rad or m], "unit", "explained" (0–1)}``;
+    samples left out (weight 0) because one wrong joint reading explains their error; each nested part is a record
+    of :mod:`~pincal.calibration.report_sections`, with its units;
     ``cv`` is the cross-validation's account (:class:`~pincal.calibration.report_sections.CrossValidation`).
     ``length_scale`` is each measured position's spread over the nominal robot's at the same readings; ``implausible``
     and ``implausible_scale`` list the corrections and the scales beyond what a robot of this model plausibly needs
@@ -169,7 +169,9 @@ class CalibrationReport:
     calibration_gain: float | None = field(default=None, metadata=OPTIONAL)
     parameter_errors_before: float | None = field(default=None, metadata=OPTIONAL)
     parameter_errors_after: float | None = field(default=None, metadata=OPTIONAL)
-    corrections: dict[str, Any] = field(default_factory=dict)
+    #: Each joint's corrections by term (``compliance`` [rad/(N·m) or m/N], ``sin1``, ``cos1`` … [rad or m]), as the
+    #: corrections file beside the calibrated URDF holds them (:mod:`pincal.io.corrections_file`).
+    corrections: dict[str, dict[str, float]] = field(default_factory=dict)
     payload: Payload | None = field(default=None, metadata=nested(_read_payload))
     links_mass: float | None = field(default=None, metadata=OPTIONAL)
     markers: str = "each"
