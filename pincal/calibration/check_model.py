@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -20,7 +19,6 @@ from pincal.calibration.provenance import Recorded, read_provenance, sha256
 from pincal.calibration.report import CalibrationReport
 from pincal.errors import DataError, RobotFileError
 from pincal.identification.choices import MarkerFit
-from pincal.identification.corrections import Payload, payload_from_dict
 from pincal.identification.measurements import Measurement, parse_key
 from pincal.identification.parameters import choose_parameters, read_joints
 from pincal.io.adapters import declared_marker_offsets
@@ -225,7 +223,7 @@ def _rebuilt(path: str, nominal: Robot, dataset: Dataset) -> CheckedModel:
         robot = robot_from_urdf_text(text)
     except RobotFileError as exc:
         raise DataError(f"MODEL '{path}': its calibrated robot cannot be built: {exc}") from None
-    payload = _payload(report.payload, path)
+    payload = report.payload
     return CheckedModel(robot, path, corrections_of(nominal, parameters, x, payload), joint_sensor_zeros(text),
                         read_provenance(path), report)
 
@@ -242,7 +240,3 @@ def _marker_fit(report: CalibrationReport) -> MarkerFit:
     """How the report's calibration fitted declared markers."""
     return "cluster" if report.markers == "cluster" else "each"
 
-
-def _payload(recorded: Any, path: str) -> Payload | None:
-    """The payload a report records (None: none)."""
-    return payload_from_dict(recorded, f"MODEL '{path}': payload: ")

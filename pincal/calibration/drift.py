@@ -28,7 +28,7 @@ Setup parameters never count as a change. SI units throughout: m, rad.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -39,6 +39,7 @@ from pincal.calibration.check_setup import file_setup, setup_kinds
 from pincal.calibration.heldout import setup_columns
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.pipeline import fitting_options
+from pincal.calibration.report_sections import Covariance
 from pincal.calibration.setup import prepare
 from pincal.errors import DataError
 from pincal.identification.chi2 import chi2_upper
@@ -160,15 +161,15 @@ def _fit(design: Array, y: Array) -> tuple[float, int, Array, Array]:
     return float(residual @ residual), int(keep.sum()), estimate, std
 
 
-def _covariance_columns(names: Sequence[str], carried: Mapping[str, Any] | None) -> tuple[list[int], Array]:
+def _covariance_columns(names: Sequence[str], carried: Covariance | None) -> tuple[list[int], Array]:
     """The problem's columns of the calibration's identified robot parameters and their covariance (m², m·rad,
     rad²); none without a carried covariance."""
-    if not carried or not carried.get("parameters"):
+    if carried is None or not carried.parameters:
         return [], np.zeros((0, 0))
     index = {n: k for k, n in enumerate(names)}
-    kept = [(i, index[n]) for i, n in enumerate(carried["parameters"])
+    kept = [(i, index[n]) for i, n in enumerate(carried.parameters)
             if n in index and n.split(".", 1)[0] not in setup_kinds()]
-    matrix = np.array([[np.nan if v is None else v for v in row] for row in carried["matrix"]], dtype=float)
+    matrix = np.array([[np.nan if v is None else v for v in row] for row in carried.matrix], dtype=float)
     rows = [i for i, _ in kept]
     sub = matrix[np.ix_(rows, rows)] if rows else np.zeros((0, 0))
     if not np.all(np.isfinite(sub)):
@@ -177,7 +178,7 @@ def _covariance_columns(names: Sequence[str], carried: Mapping[str, Any] | None)
 
 
 def judge_session(robot: Robot, dataset: Dataset, source: str, options: CalibrationOptions,
-                  covariance: Mapping[str, Any] | None, level: float) -> SessionDrift:
+                  covariance: Covariance | None, level: float) -> SessionDrift:
     """One session against the calibrated ``robot`` (this module's docstring).
 
     Args:
@@ -185,8 +186,7 @@ def judge_session(robot: Robot, dataset: Dataset, source: str, options: Calibrat
         dataset: The session's measurements.
         source: The session's file, as shown.
         options: The calibration's options (its σ per row, loss, solver).
-        covariance: The calibration's covariance (``{"parameters": names, "matrix": rows}``, [m², m·rad, rad²]), or
-            None: the noise alone.
+        covariance: The calibration's covariance ([m², m·rad, rad²]), or None: the noise alone.
         level: The test's level α, 0 < α < 1.
     """
     prepared = prepare(robot, dataset, options, part=None)

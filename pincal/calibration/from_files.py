@@ -72,7 +72,7 @@ def _written(cal: Calibration, robot: Robot, provenance: Provenance, out: str | 
         cal.urdf_text = with_provenance(cal.urdf_text, provenance, Path(out).parent, named)
         texts += [(out, plan.text(cal.urdf_text)), *plan.files()]
     if report:
-        cal.report = replace(cal.report, provenance=provenance.as_dict(Path(report).parent))
+        cal.report = replace(cal.report, provenance=provenance.record(Path(report).parent))
         texts.append((report, cal.report.to_json()))
     write_texts(texts)
     return cal

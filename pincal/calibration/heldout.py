@@ -27,6 +27,7 @@ from pincal.calibration.predicted import (
     fitted_ranges,
     predicted_errors,
 )
+from pincal.calibration.report_sections import PixelErrors
 from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
 from pincal.errors import PincalError
@@ -176,7 +177,8 @@ class HeldOut:
                         "test_max_angle_after": float(angles_after.max())})
         pixels = pixel_error_norms(self.errors_before)
         if pixels.size:
-            out["test_pixels"] = {"rms_before": rms(pixels), "rms_after": rms(pixel_error_norms(self.errors_after))}
+            out["test_pixels"] = PixelErrors(rms_before=rms(pixels),
+                                             rms_after=rms(pixel_error_norms(self.errors_after)))
         if self.errors_start is not None:
             out["test_rms_start"] = rms(error_norms(self.errors_start))
             angles = angle_error_norms(self.errors_start)

@@ -27,6 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.options import CalibrationOptions
+from pincal.calibration.report_sections import EstimatedSigma
 from pincal.errors import PincalError
 from pincal.identification.measurements import Measurement
 from pincal.identification.prior import prior_sigma
@@ -69,7 +70,7 @@ ITERATIONS = 8
 
 
 def estimate_noise(problem: CalibrationProblem, result: CalibrationResult, wanted: dict[str, list[str]],
-                   prior: Array | None = None) -> dict[str, dict[str, Any]]:
+                   prior: Array | None = None) -> dict[str, EstimatedSigma]:
     """Per measurement key whose row kinds ``wanted`` lists: the σ [m or rad] of each of its rows of those kinds, by
     variance components on the residuals of ``result`` (a fit of every identifiable parameter of ``problem``, with the
     prior σ ``prior`` [parameter units; inf or None: none]), robust-weighted, each at least the model's default. Each
@@ -81,22 +82,24 @@ def estimate_noise(problem: CalibrationProblem, result: CalibrationResult, wante
     factors = _variance_components(problem, result, groups, prior)
     stated = np.concatenate([np.tile(m.row_sigmas(), int(np.count_nonzero(problem.seen(m.key))))
                              for m in problem.measurements])
-    out: dict[str, dict[str, Any]] = {}
+    rows: dict[str, dict[str, float]] = {}
+    units: dict[str, dict[str, str]] = {}
     for (key, row), members in groups.items():
         model = next(m for m in problem.measurements if m.key == key)
         floor = float(model.uniform_row_sigmas()[row])
         sigma = max(float(np.sqrt(factors[(key, row)])) * float(stated[members[0]]), floor)
-        entry = out.setdefault(key, {"rows": {}, "units": {}})
-        entry["rows"][model.row_names()[row]] = sigma
-        entry["units"][model.row_names()[row]] = model.row_units()[row]
-    for m in problem.measurements:
-        if m.key in out:
-            rows = out[m.key]["rows"]
-            for kind in wanted[m.key]:
-                part = m.row_names()[_rows(m, kind)]
-                values = [rows[name] for name in part if name in rows]
-                if values:
-                    out[m.key][kind] = float(np.sqrt(np.mean(np.square(values))))
+        rows.setdefault(key, {})[model.row_names()[row]] = sigma
+        units.setdefault(key, {})[model.row_names()[row]] = model.row_units()[row]
+    out: dict[str, EstimatedSigma] = {}
+    for key, estimated in rows.items():  # in the groups' order
+        m = next(m for m in problem.measurements if m.key == key)
+        kinds: dict[str, float] = {}
+        for kind in wanted[key]:
+            values = [estimated[name] for name in m.row_names()[_rows(m, kind)] if name in estimated]
+            if values:
+                kinds[kind] = float(np.sqrt(np.mean(np.square(values))))
+        out[key] = EstimatedSigma(rows=estimated, units=units[key], length=kinds.get("length"),
+                                  angle=kinds.get("angle"))
     return out
 
 
@@ -148,14 +151,14 @@ def _variance_components(problem: CalibrationProblem, result: CalibrationResult,
     return estimates
 
 
-def with_noise(dataset: Dataset, estimates: dict[str, dict[str, Any]], models: list[Measurement]) -> Dataset:
+def with_noise(dataset: Dataset, estimates: dict[str, EstimatedSigma], models: list[Measurement]) -> Dataset:
     """``dataset`` with ``# sigma`` lines stating ``estimates`` (:func:`estimate_noise`): one σ per residual row of
     each key estimated, its rows not estimated at the σ ``models`` (the measurement models as prepared) give them."""
     metadata = dict(dataset.metadata)
     for m in models:
         if m.key not in estimates:
             continue
-        rows = estimates[m.key]["rows"]
+        rows = estimates[m.key].rows
         values = [rows.get(name, float(current)) for name, current in zip(m.row_names(), m.row_sigmas(), strict=True)]
         kind, _, name = m.key.partition(":")
         metadata[f"sigma {kind} {name}"] = "[" + ", ".join(repr(float(v)) for v in values) + "]"
@@ -163,7 +166,7 @@ def with_noise(dataset: Dataset, estimates: dict[str, dict[str, Any]], models: l
 
 
 def provisional_noise(problem: CalibrationProblem, metadata: dict[str, str], options: CalibrationOptions,
-                      **fitting: Any) -> dict[str, dict[str, float]]:
+                      **fitting: Any) -> dict[str, EstimatedSigma]:
     """The noise of the readings whose σ is stated nowhere (:func:`unstated`), from a provisional fit of every
     identifiable parameter (``fitting``: :func:`~pincal.identification.solver.identify`'s options); empty when every
     σ is stated or the provisional fit fails (the defaults then stay)."""

@@ -17,7 +17,7 @@ from __future__ import annotations
 import contextlib
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -42,7 +42,15 @@ from pincal.calibration.plausibility import (
 )
 from pincal.calibration.predicted import FitCovariance, fitted_ranges, held_out_predictions, workspace_prediction
 from pincal.calibration.report import CalibrationReport, before_figures, fit_figures
-from pincal.calibration.report_sections import ModelSelection, RangeGuard, SampleError
+from pincal.calibration.report_sections import (
+    BadJointReading,
+    DownWeighted,
+    DroppedSample,
+    ModelSelection,
+    OutsideRange,
+    RangeGuard,
+    SampleError,
+)
 from pincal.calibration.samples import (
     LENGTH_SCALE_RATIO,
     check_joint_scale,
@@ -327,14 +335,14 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
     content = fit_figures(result, problem, x_true)
     content.update(before_figures(problem, before))
     if "pixels_before" in content:  # "before" is the registered nominal robot, as for the lengths
-        content["pixels"]["rms_before"] = content.pop("pixels_before")
+        content["pixels"] = replace(content["pixels"], rms_before=content.pop("pixels_before"))
     ids = fit.samples.sample_ids
     lengths = sample_length_errors(result.errors_after, problem.observations.n_samples)
     suspects = result.extra.get("outlier_test", [])
     content.update({
         "reference_shifts": shifts,
         "corrections": corrections.joints if corrections is not None else {},
-        "payload": options.payload.as_dict() if options.payload is not None else None,
+        "payload": options.payload,
         "links_mass": moving_mass(fit.robot) if options.payload is not None else None,  # what it is weighed against
         "markers": options.markers,
         "declared_markers": {target: list(offset) for target, offset in declared_markers(fit.models).items()},
@@ -349,13 +357,13 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
         "n_residuals": int(problem.row_samples().size),
         "joints_at_reference": fit.joints_at_reference,
         "no_effect": fit.no_effect,
-        "dropped_samples": fit.dropped,
+        "dropped_samples": dropped_samples(fit.dropped),
         "down_weighted_samples": [ids[k] for k in result.down_weighted()],
-        "down_weighted": [{"sample": ids[k], "weight": float(result.sample_weights[k]),
-                           "error_after": float(lengths[k]) if lengths is not None and np.isfinite(lengths[k])
-                           else None} for k in result.down_weighted()],
-        "bad_readings": [{"sample": ids[b.sample], "joint": b.joint, "off": b.off, "unit": b.unit,
-                          "explained": b.explained} for b in bad_readings_of(result)],
+        "down_weighted": [DownWeighted(sample=ids[k], weight=float(result.sample_weights[k]),
+                                       error_after=float(lengths[k]) if lengths is not None and np.isfinite(lengths[k])
+                                       else None) for k in result.down_weighted()],
+        "bad_readings": [BadJointReading(sample=ids[b.sample], joint=b.joint, off=b.off, unit=b.unit,
+                                         explained=b.explained) for b in bad_readings_of(result)],
         "n_samples_in_file": dataset.n_samples,
         "outlier_test": [ids[k] for k in suspects] if isinstance(suspects, list) else [],
         # what the data cannot see among all the candidates, not only among the kept ones
@@ -367,11 +375,19 @@ def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dat
     if held is not None:
         content["sample_errors"] += sample_errors(held.prepared.samples.sample_ids, held.errors_before,
                                                   held.errors_after, "test")
-        content.update({"dropped_test_samples": held.prepared.dropped or None,  # listed, never silently
-                        "held_out_outliers": held.outliers, "held_out_outside_range": held.outside_range,
+        content.update({"dropped_test_samples": dropped_samples(held.prepared.dropped) or None,  # never silently
+                        "held_out_outliers": held.outliers,
+                        "held_out_outside_range": [OutsideRange(sample=o["sample"], joint=o["joint"], value=o["value"],
+                                                                range=o["range"]) for o in held.outside_range],
                         "test_readings": held.prepared.problem.n_readings(), **held.figures(),
                         "worse_than_nominal": held.worse_than_nominal})
     return content
+
+
+def dropped_samples(dropped: list[dict[str, str]]) -> list[DroppedSample]:
+    """The report's account of the samples ``dropped`` before a fit (``{"sample", "reason"}`` each, as
+    :func:`~pincal.calibration.setup.prepare` lists them)."""
+    return [DroppedSample(sample=d["sample"], reason=d["reason"]) for d in dropped]
 
 
 def range_guard(guard: Guard | None) -> RangeGuard | None:

@@ -25,7 +25,13 @@ import numpy.typing as npt
 from pincal.calibration.growth import MIN_WIDTH, ErrorGrowth, extrapolation_distance
 from pincal.calibration.propagation import LEVEL, length_covariances, length_layout, norm_quantile, norm_quantiles
 from pincal.calibration.report import parameter_covariance
-from pincal.calibration.report_sections import Coverage, HeldOutPredictions, PredictedSample, WorkspacePrediction
+from pincal.calibration.report_sections import (
+    Covariance,
+    Coverage,
+    HeldOutPredictions,
+    PredictedSample,
+    WorkspacePrediction,
+)
 from pincal.errors import ConvergenceError, PincalError
 from pincal.identification.choices import MarkerFit
 from pincal.identification.metrics import length_columns
@@ -101,12 +107,13 @@ class FitCovariance:
         return cls(parameter_covariance(result), list(result.identified), float(result.sigma2), growth)
 
     @classmethod
-    def of_report(cls, covariance: dict[str, Any], sigma2: float | None, names: Sequence[str],
+    def of_report(cls, covariance: Covariance | None, sigma2: float | None, names: Sequence[str],
                   growth: ErrorGrowth | None = None) -> FitCovariance:
-        """As a report JSON holds it (its ``covariance``: ``parameters`` and ``matrix``, its ``sigma2`` and
-        ``error_growth``), over the parameters ``names`` in a problem's order; NaN when the report holds none."""
-        held = list(covariance.get("parameters") or [])
-        matrix = np.array([[np.nan if v is None else float(v) for v in row] for row in covariance.get("matrix") or []])
+        """As a report holds it (its ``covariance``, its ``sigma2`` and ``error_growth``), over the parameters
+        ``names`` in a problem's order; NaN when the report holds none."""
+        held = list(covariance.parameters) if covariance is not None else []
+        matrix = np.array([[np.nan if v is None else float(v) for v in row]
+                           for row in (covariance.matrix if covariance is not None else [])])
         columns = [list(names).index(n) for n in held if n in names]
         if len(columns) != len(held) or matrix.shape != (len(held), len(held)) or sigma2 is None:
             return cls(np.full((1, 1), np.nan), [0], float("nan"), growth)

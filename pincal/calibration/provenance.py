@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from pincal.calibration.options import CalibrationOptions
+from pincal.calibration.report_sections import FileDigest, ProvenanceRecord
 from pincal.errors import DataError
 from pincal.model.robot import Robot
 
@@ -105,12 +106,16 @@ class Provenance:
     pincal_version: str = ""
     fitted_range: dict[str, list[float]] | None = None
 
-    def as_dict(self, folder: Path) -> dict[str, Any]:
+    def record(self, folder: Path) -> ProvenanceRecord:
         """The report's ``provenance`` for an output in ``folder``."""
-        return {"pincal_version": self.pincal_version or version(),
-                "robot": {"file": self.robot.named_from(folder), "sha256": self.robot.sha256},
-                "data": [{"file": d.named_from(folder), "sha256": d.sha256} for d in self.data],
-                "options": self.options}
+        return ProvenanceRecord(pincal_version=self.pincal_version or version(),
+                                robot=FileDigest(self.robot.named_from(folder), self.robot.sha256),
+                                data=[FileDigest(d.named_from(folder), d.sha256) for d in self.data],
+                                options=self.options)
+
+    def as_dict(self, folder: Path) -> dict[str, Any]:
+        """The report's ``provenance`` for an output in ``folder``, as its JSON holds it (the other outputs' too)."""
+        return self.record(folder).as_dict()
 
     def urdf_element(self, folder: Path, corrections: tuple[str, str] | None = None) -> str:
         """The ``<pincal_provenance …/>`` element of a calibrated URDF in ``folder``; ``corrections``: the name and

@@ -24,12 +24,20 @@ import numpy.typing as npt
 from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.report_sections import (
     OPTIONAL,
+    BadJointReading,
+    Covariance,
     CrossValidation,
+    DownWeighted,
+    DroppedSample,
+    EstimatedSigma,
     HeldOutPredictions,
     ImplausibleCorrection,
     ImplausibleScale,
     ModelSelection,
+    OutsideRange,
     ParameterEstimate,
+    PixelErrors,
+    ProvenanceRecord,
     SampleError,
     Section,
     WorkspacePrediction,
@@ -38,6 +46,7 @@ from pincal.calibration.report_sections import (
     nested,
 )
 from pincal.errors import DataError
+from pincal.identification.corrections import Payload, payload_from_dict
 from pincal.identification.measurements import KIND_CLASSES
 from pincal.identification.metrics import angle_error_norms, calibration_gain, error_norms, pixel_error_norms, rms
 from pincal.identification.parameters import ParameterSet, kinds_where, parameter_kind
@@ -69,6 +78,15 @@ def _read_growth(value: Any, where: str) -> ErrorGrowth:
     return growth
 
 
+def _read_payload(value: Any, where: str) -> Payload | None:
+    """The payload of a JSON object (:meth:`Payload.as_dict`'s).
+
+    Raises:
+        DataError: not such an object, or a bad value.
+    """
+    return payload_from_dict(value, f"{where}: ")
+
+
 @dataclass(frozen=True)
 class CalibrationReport:
     """A calibration's figures and account; every length in m, every angle in rad.
@@ -78,8 +96,8 @@ class CalibrationReport:
     (``before_means`` says what that is; the fit's start is ``rms_start``, ``test_rms_start``, ``start_means``).
     ``parameters`` maps each parameter to its estimate (:class:`~pincal.calibration.report_sections.ParameterEstimate`);
     ``dropped_samples`` and ``down_weighted`` list samples by id with the reason or weight; ``bad_readings`` the fitted
-    samples left out (weight 0) because one wrong joint reading explains their error: ``{"sample", "joint", "off"
-    [rad or m], "unit", "explained" (0–1)}``;
+    samples left out (weight 0) because one wrong joint reading explains their error; each nested part is a record
+    of :mod:`~pincal.calibration.report_sections`, with its units;
     ``cv`` is the cross-validation's account (:class:`~pincal.calibration.report_sections.CrossValidation`).
     ``length_scale`` is each measured position's spread over the nominal robot's at the same readings; ``implausible``
     and ``implausible_scale`` list the corrections and the scales beyond what a robot of this model plausibly needs
@@ -137,8 +155,8 @@ class CalibrationReport:
     rms_angle_before: float | None = field(default=None, metadata=OPTIONAL)
     rms_angle_after: float | None = field(default=None, metadata=OPTIONAL)
     #: Reprojection RMS [px] of the pixel readings, fitted and held out, before and after.
-    pixels: dict[str, float | None] | None = field(default=None, metadata=OPTIONAL)
-    test_pixels: dict[str, float | None] | None = field(default=None, metadata=OPTIONAL)
+    pixels: PixelErrors | None = field(default=None, metadata=nested(PixelErrors.from_json, **OPTIONAL))
+    test_pixels: PixelErrors | None = field(default=None, metadata=nested(PixelErrors.from_json, **OPTIONAL))
     #: Each pixel camera's calibrated intrinsics and their σ (:func:`camera_figures`).
     cameras: dict[str, dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
     max_angle_before: float | None = field(default=None, metadata=OPTIONAL)
@@ -146,8 +164,10 @@ class CalibrationReport:
     calibration_gain: float | None = field(default=None, metadata=OPTIONAL)
     parameter_errors_before: float | None = field(default=None, metadata=OPTIONAL)
     parameter_errors_after: float | None = field(default=None, metadata=OPTIONAL)
-    corrections: dict[str, Any] = field(default_factory=dict)
-    payload: dict[str, Any] | None = None
+    #: Each joint's corrections by term (``compliance`` [rad/(N·m) or m/N], ``sin1``, ``cos1`` … [rad or m]), as the
+    #: corrections file beside the calibrated URDF holds them (:mod:`pincal.io.corrections_file`).
+    corrections: dict[str, dict[str, float]] = field(default_factory=dict)
+    payload: Payload | None = field(default=None, metadata=nested(_read_payload))
     links_mass: float | None = field(default=None, metadata=OPTIONAL)
     markers: str = "each"
     declared_markers: dict[str, list[float]] = field(default_factory=dict)
@@ -159,14 +179,16 @@ class CalibrationReport:
     n_residuals: int = 0
     joints_at_reference: list[str] = field(default_factory=list)
     no_effect: list[str] = field(default_factory=list)
-    dropped_samples: list[dict[str, str]] = field(default_factory=list)
-    down_weighted: list[dict[str, Any]] = field(default_factory=list)
-    bad_readings: list[dict[str, Any]] = field(default_factory=list)
+    dropped_samples: list[DroppedSample] = field(default_factory=list, metadata=nested(listed(DroppedSample)))
+    down_weighted: list[DownWeighted] = field(default_factory=list, metadata=nested(listed(DownWeighted)))
+    bad_readings: list[BadJointReading] = field(default_factory=list, metadata=nested(listed(BadJointReading)))
     n_samples_in_file: int = 0
     outlier_test: list[str] = field(default_factory=list)
-    dropped_test_samples: list[dict[str, str]] | None = field(default=None, metadata=OPTIONAL)
+    dropped_test_samples: list[DroppedSample] | None = field(default=None,
+                                                             metadata=nested(listed(DroppedSample), **OPTIONAL))
     held_out_outliers: list[str] | None = field(default=None, metadata=OPTIONAL)
-    held_out_outside_range: list[dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
+    held_out_outside_range: list[OutsideRange] | None = field(default=None,
+                                                              metadata=nested(listed(OutsideRange), **OPTIONAL))
     test_readings: dict[str, int] | None = field(default=None, metadata=OPTIONAL)
     n_test_samples: int | None = field(default=None, metadata=OPTIONAL)
     test_rms_before: float | None = field(default=None, metadata=OPTIONAL)
@@ -188,9 +210,10 @@ class CalibrationReport:
     implausible_cause: str = ""
     explains_nothing: bool = False
     cv: CrossValidation | None = field(default=None, metadata=nested(CrossValidation.from_json, **OPTIONAL))
-    estimated_sigma: dict[str, dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
+    estimated_sigma: dict[str, EstimatedSigma] | None = field(default=None,
+                                                              metadata=nested(by_name(EstimatedSigma), **OPTIONAL))
     sample_errors: list[SampleError] = field(default_factory=list, metadata=nested(listed(SampleError)))
-    covariance: dict[str, Any] = field(default_factory=dict)
+    covariance: Covariance | None = field(default=None, metadata=nested(Covariance.from_json, **OPTIONAL))
     fitted_range: dict[str, list[float]] = field(default_factory=dict)
     error_growth: ErrorGrowth | None = field(default=None, metadata=nested(_read_growth, **OPTIONAL))
     row_sigma: dict[str, list[float]] = field(default_factory=dict)
@@ -198,7 +221,7 @@ class CalibrationReport:
                                                             metadata=nested(WorkspacePrediction.from_json, **OPTIONAL))
     predicted_held_out: HeldOutPredictions | None = field(default=None,
                                                           metadata=nested(HeldOutPredictions.from_json, **OPTIONAL))
-    provenance: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    provenance: ProvenanceRecord | None = field(default=None, metadata=nested(ProvenanceRecord.from_json, **OPTIONAL))
     #: The JSON keys a report read by :meth:`from_json` held (every field for a report built by a calibration).
     present: frozenset[str] = field(default=frozenset(), compare=False, repr=False, metadata={"internal": True})
 
@@ -289,7 +312,7 @@ class CalibrationReport:
             content = json.loads(Path(path).read_text(encoding="utf-8"))
         except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise DataError(f"cannot read the result JSON '{path}': {exc}") from None
-        return cls.from_json(content)
+        return cls.from_json(content, f"the result JSON '{path}'")
 
 
 def registered_base(parameters: ParameterSet) -> bool:
@@ -349,7 +372,7 @@ def before_figures(problem: CalibrationProblem, before: Any) -> dict[str, Any]:
 
 def _json_value(value: Any) -> Any:
     """``value`` with every float that is not finite made None, through sections, lists and dicts."""
-    if isinstance(value, Section | ErrorGrowth):
+    if isinstance(value, Section | ErrorGrowth | Payload):
         return _json_value(value.as_dict())
     if isinstance(value, float):
         return value if math.isfinite(value) else None
@@ -408,8 +431,8 @@ def fit_figures(result: CalibrationResult, problem: CalibrationProblem, x_true: 
                     "max_angle_after": _clean(float(angles_after.max()))})
     pixels_before = pixel_error_norms(result.errors_before)
     if pixels_before.size:
-        out["pixels"] = {"rms_before": _clean(rms(pixels_before)),
-                         "rms_after": _clean(rms(pixel_error_norms(result.errors_after)))}
+        out["pixels"] = PixelErrors(rms_before=_clean(rms(pixels_before)),
+                                    rms_after=_clean(rms(pixel_error_norms(result.errors_after))))
     cameras = camera_figures(problem, result)
     if cameras:
         out["cameras"] = cameras
@@ -428,12 +451,12 @@ def parameter_covariance(result: CalibrationResult) -> Array:
     return np.asarray(result.correlation * np.outer(std, std), dtype=float)
 
 
-def covariance_of(result: CalibrationResult) -> dict[str, Any]:
+def covariance_of(result: CalibrationResult) -> Covariance:
     """The estimates' covariance over the identified parameters (:func:`parameter_covariance`) [m², m·rad, rad²]:
     their names and the matrix (None where the fit could not give it)."""
     matrix = parameter_covariance(result)
-    return {"parameters": [result.names[k] for k in result.identified],
-            "matrix": [[_clean(float(v)) for v in row] for row in matrix]}
+    return Covariance(parameters=[result.names[k] for k in result.identified],
+                      matrix=[[_clean(float(v)) for v in row] for row in matrix])
 
 
 def camera_figures(problem: CalibrationProblem, result: CalibrationResult) -> dict[str, dict[str, Any]]:

@@ -345,3 +345,144 @@ class WorkspacePrediction(Section):
     capped: int = 0
     median_bound: float | None = None
     max_bound: float | None = None
+
+
+@dataclass(frozen=True)
+class DroppedSample(Section):
+    """A sample of the file left out before the fit, and why.
+
+    Attributes:
+        sample: The sample's id.
+        reason: Why, in words (e.g. outside the joint limits, forward kinematics did not converge).
+    """
+
+    sample: str
+    reason: str = ""
+
+
+@dataclass(frozen=True)
+class DownWeighted(Section):
+    """A fitted sample the robust loss down-weighted.
+
+    Attributes:
+        sample: The sample's id.
+        weight: Its weight in the fit [1] (0: left out).
+        error_after: Its length-type error after calibration [m]; None: no length reading.
+    """
+
+    sample: str
+    weight: float = 1.0
+    error_after: float | None = None
+
+
+@dataclass(frozen=True)
+class BadJointReading(Section):
+    """A fitted sample left out (weight 0) because one wrong joint reading explains its error
+    (:mod:`pincal.identification.readings`).
+
+    Attributes:
+        sample: The sample's id.
+        joint: The actuated joint whose reading looks off.
+        off: How far it looks off [rad, or m for a prismatic joint].
+        unit: ``rad`` or ``m``.
+        explained: The share of the sample's error that explains [1, 0–1].
+    """
+
+    sample: str
+    joint: str
+    off: float
+    unit: str = "rad"
+    explained: float = 0.0
+
+
+@dataclass(frozen=True)
+class OutsideRange(Section):
+    """A held-out sample's actuated-joint reading outside the range the calibration fitted (its error measures
+    extrapolation).
+
+    Attributes:
+        sample: The sample's id.
+        joint: The actuated joint.
+        value: Its reading [rad or m].
+        range: The fitted range [min, max] [rad or m].
+    """
+
+    sample: str
+    joint: str
+    value: float
+    range: list[float] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Covariance(Section):
+    """The estimates' covariance over the identified parameters, as the fit gives it.
+
+    Attributes:
+        parameters: The identified parameters, in the matrix's order.
+        matrix: ``C_ij = ρ_ij σ_i σ_j`` [products of the parameters' units: m², m·rad, rad²]; None where the fit
+            could not give it.
+    """
+
+    parameters: list[str] = field(default_factory=list)
+    matrix: list[list[float | None]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class EstimatedSigma(Section):
+    """The σ of one measurement's readings estimated from the data, where no ``# sigma`` line states it
+    (:mod:`pincal.calibration.noise`).
+
+    Attributes:
+        rows: Each estimated residual row's σ, by row name [its unit].
+        units: Each row's unit (``m``, ``rad``, ``px``, …).
+        length: The RMS of its estimated length rows [m], when asked of this kind.
+        angle: The RMS of its estimated angle rows [rad], when asked of this kind.
+    """
+
+    rows: dict[str, float] = field(default_factory=dict)
+    units: dict[str, str] = field(default_factory=dict)
+    length: float | None = field(default=None, metadata=OPTIONAL)
+    angle: float | None = field(default=None, metadata=OPTIONAL)
+
+
+@dataclass(frozen=True)
+class PixelErrors(Section):
+    """The RMS reprojection error of the pixel readings, before and after calibration.
+
+    Attributes:
+        rms_before: Before [px]: the nominal robot, its setup registered; None: not a number.
+        rms_after: After calibration [px]; None: not a number.
+    """
+
+    rms_before: float | None = None
+    rms_after: float | None = None
+
+
+@dataclass(frozen=True)
+class FileDigest(Section):
+    """An input file as an output records it.
+
+    Attributes:
+        file: Its name: a path relative to the output's folder, or a catalog robot's name.
+        sha256: Its SHA-256 (None: not a file).
+    """
+
+    file: str
+    sha256: str | None = None
+
+
+@dataclass(frozen=True)
+class ProvenanceRecord(Section):
+    """What made the report (:mod:`pincal.calibration.provenance`).
+
+    Attributes:
+        pincal_version: The pincal version that wrote it.
+        robot: The robot file (or name) with its SHA-256.
+        data: The data files read (a job file and its data files) with their SHA-256.
+        options: Every calibration option, by its job-file key (values in SI units, as the job file writes them).
+    """
+
+    pincal_version: str = ""
+    robot: FileDigest | None = field(default=None, metadata=nested(FileDigest.from_json))
+    data: list[FileDigest] = field(default_factory=list, metadata=nested(listed(FileDigest)))
+    options: dict[str, Any] = field(default_factory=dict)

@@ -9,14 +9,13 @@ import math
 import textwrap
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
 
 from pincal import validation
 from pincal.calibration.heldout import NOISE_CONTRADICTED
 from pincal.calibration.report import CalibrationReport
+from pincal.calibration.report_sections import BadJointReading
 from pincal.calibration.summary_camera import camera_lines
 from pincal.calibration.summary_model import mm, mrad, predicted_lines, selection_lines
-from pincal.identification.corrections import payload_from_dict
 from pincal.identification.parameters import DEFAULT_SET, NAMED_SETS
 
 
@@ -34,7 +33,7 @@ def urdf_name_note(given: str, urdf_name: str) -> str:
 def report_robot(report: CalibrationReport) -> tuple[str, str]:
     """The robot of ``report`` as the user named it and the note on its URDF's name (:func:`robot_named`,
     :func:`urdf_name_note`, from the report's provenance)."""
-    given = ((report.provenance or {}).get("robot") or {}).get("file")
+    given = report.provenance.robot.file if report.provenance is not None and report.provenance.robot else None
     given = given if isinstance(given, str) else ""
     return robot_named(given, report.robot), urdf_name_note(given, report.robot)
 
@@ -76,16 +75,16 @@ def _heavy_payload(report: CalibrationReport) -> str | None:
     a load meant for another robot). When the URDF gives the links no mass there is nothing to weigh it against: a
     note says so, and that the compliances then rest on the payload's gravity torque alone."""
     payload, links = report.payload, report.links_mass
-    if not payload or links is None:
+    if payload is None or links is None:
         return None
     if links <= 0.0:
         return (f"note: the URDF gives the robot's moving links no mass (no <inertial>), so the payload's "
-                f"{payload['mass']:g} kg cannot be checked against theirs, and the compliances rest on its gravity "
+                f"{payload.mass:g} kg cannot be checked against theirs, and the compliances rest on its gravity "
                 "torque alone: right for a light arm under a heavy tool, wrong if the URDF merely leaves the masses "
                 "out")
-    if payload["mass"] <= links:
+    if payload.mass <= links:
         return None
-    return (f"warning: the payload ({payload['mass']:g} kg) outweighs all the robot's moving links together "
+    return (f"warning: the payload ({payload.mass:g} kg) outweighs all the robot's moving links together "
             f"({links:.3g} kg, from the URDF): check its mass [kg] and its frame")
 
 
@@ -114,19 +113,19 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
              f"identifiable {report.n_identifiable}, estimated {report.n_estimated}"
              f", condition number {report.condition_number:.3g}" if report.condition_number else "",
              *selection_lines(report),
-             f"payload {payload_from_dict(report.payload)}, in the gravity torque of the compliances"
-             if report.payload else None,
+             f"payload {report.payload}, in the gravity torque of the compliances"
+             if report.payload is not None else None,
              _heavy_payload(report),
              f"solver {report.solver}, loss {report.loss}: {report.message} after {report.iterations} "
              f"iterations, {seconds:.3f} s",
              "",
              f"{'':{width}}{'before':>14}{'after':>14}",
              *(_figure_rows(length, "fit", mm, report.rms_before, report.rms_after, report.max_before,
-                            report.max_after, width) if not report.pixels or _finite(report.rms_before) else [])]
+                            report.max_after, width) if report.pixels is None or _finite(report.rms_before) else [])]
     if report.rms_angle_before is not None:
         lines += _figure_rows(angle, "fit", mrad, report.rms_angle_before, report.rms_angle_after,
                               report.max_angle_before, report.max_angle_after, width)
-    if report.has_held_out and (not report.test_pixels or _finite(report.test_rms_before)):
+    if report.has_held_out and (report.test_pixels is None or _finite(report.test_rms_before)):
         lines += _figure_rows(length, "held out", mm, report.test_rms_before, report.test_rms_after,
                               report.test_max_before, report.test_max_after, width)
     if report.test_rms_angle_before is not None:
@@ -134,9 +133,9 @@ def summary_text(report: CalibrationReport, seconds: float, report_path: str | N
                               report.test_rms_angle_after, report.test_max_angle_before, report.test_max_angle_after,
                               width)
     for part, figures in (("fit", report.pixels), ("held out", report.test_pixels)):
-        if figures:
-            lines.append(f"{f'RMS reprojection error ({part})':{width}}{_column(px(figures['rms_before']))}"
-                         f"{_column(px(figures['rms_after']))}")
+        if figures is not None:
+            lines.append(f"{f'RMS reprojection error ({part})':{width}}{_column(px(figures.rms_before))}"
+                         f"{_column(px(figures.rms_after))}")
     if report.before_means:
         lines += textwrap.wrap(f"(before: {report.before_means})", 120, subsequent_indent=" ")
     if report.rms_start is not None:
@@ -228,7 +227,7 @@ def _named_parameters(report: CalibrationReport, spec: Sequence[str] | None) -> 
     """Whether the user named parameters one by one (``--parameters`` patterns), not only sets of candidates (the
     default set, the named sets)."""
     if spec is None:
-        spec = ((report.provenance or {}).get("options") or {}).get("parameter_spec")
+        spec = report.provenance.options.get("parameter_spec") if report.provenance is not None else None
     return any(token not in (DEFAULT_SET, *NAMED_SETS) for token in spec or [])
 
 
@@ -364,13 +363,13 @@ LISTED = 10
 ROBUST_WARNING_FRACTION = 0.25
 
 
-def bad_reading_text(entry: dict[str, Any]) -> str:
+def bad_reading_text(entry: BadJointReading) -> str:
     """One bad joint reading of the report (``bad_readings``) in words: the sample, the joint, how far its reading looks
     off (rad, or mm for a prismatic joint) and the share of the sample's error that explains."""
-    off = float(entry["off"])
-    size = f"{off * 1e3:+.1f} mm" if entry.get("unit") == "m" else f"{off:+.3f} rad"
-    return (f"sample {entry['sample']}: {entry['joint']} reading looks {size} off (explains "
-            f"{math.floor(1000.0 * float(entry['explained'])) / 10.0:.1f} % of its error); left out")
+    off = float(entry.off)
+    size = f"{off * 1e3:+.1f} mm" if entry.unit == "m" else f"{off:+.3f} rad"
+    return (f"sample {entry.sample}: {entry.joint} reading looks {size} off (explains "
+            f"{math.floor(1000.0 * float(entry.explained)) / 10.0:.1f} % of its error); left out")
 
 
 def _accounting(report: CalibrationReport) -> list[str]:
@@ -384,17 +383,17 @@ def _accounting(report: CalibrationReport) -> list[str]:
     lines += _readings(report)
     if dropped:
         lines.append(f"dropped ({len(dropped)}):")
-        lines += [f"  - sample {d['sample']}: {d['reason']}" for d in dropped[:LISTED]]
+        lines += [f"  - sample {d.sample}: {d.reason}" for d in dropped[:LISTED]]
     bad = report.bad_readings or []
     if bad:
         lines.append(f"bad joint readings, left out of the fit ({len(bad)}):")
         lines += [f"  - {bad_reading_text(entry)}" for entry in bad[:LISTED]]
-    named = {str(entry["sample"]) for entry in bad}
-    weighted_only = [w for w in weighted if str(w["sample"]) not in named]
+    named = {str(entry.sample) for entry in bad}
+    weighted_only = [w for w in weighted if str(w.sample) not in named]
     if weighted_only:
         lines.append(f"down-weighted by the robust loss ({len(weighted_only)}):")
-        lines += [f"  - sample {w['sample']}: weight {w['weight']:.3g}"
-                  + (f", error {mm(w['error_after'])} after calibration" if w["error_after"] is not None else "")
+        lines += [f"  - sample {w.sample}: weight {w.weight:.3g}"
+                  + (f", error {mm(w.error_after)} after calibration" if w.error_after is not None else "")
                   for w in weighted_only[:LISTED]]
     strange = report.held_out_outliers or []
     if strange:
@@ -403,7 +402,7 @@ def _accounting(report: CalibrationReport) -> list[str]:
                   "  (they weigh on the held-out figures, not on the comparison with the nominal model)"]
     outside = report.held_out_outside_range or []
     if outside:  # one line of at most 120 characters: a few samples, else their count
-        ids, joints = (list(dict.fromkeys(str(o[key]) for o in outside)) for key in ("sample", "joint"))
+        ids, joints = list(dict.fromkeys(str(o.sample) for o in outside)), list(dict.fromkeys(o.joint for o in outside))
         where = joints[0] if len(joints) == 1 else f"{len(joints)} actuated joints"
         shown = ", ".join(ids[:3]) + (f" (+{len(ids) - 3})" if len(ids) > 3 else "")
         lines.append(next(line for line in (f"warning: held-out sample {shown} lies outside the fitted range of "
@@ -447,7 +446,7 @@ def _estimated_sigma(report: CalibrationReport) -> list[str]:
         return []
     parts = []
     for key, kinds in report.estimated_sigma.items():
-        rows, units = kinds.get("rows") or {}, kinds.get("units") or {}
+        rows, units = kinds.rows, kinds.units
         shown = [f"{name} {value * 1e3:.3g} {'mm' if units.get(name) == 'm' else 'mrad'}"
                  if units.get(name) in ("m", "rad") else f"{name} {value:.3g} {units.get(name, '')}".rstrip()
                  for name, value in rows.items()]

@@ -8,7 +8,6 @@ Intrinsics: ``fx, fy, cx, cy`` [px], ``k1, k2, p1, p2, k3`` [1]; reprojection er
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -69,11 +68,11 @@ def separation_lines(report: CalibrationReport) -> list[str]:
     """In words, the intrinsics the views did not separate from the camera's placement: their σ more than
     :data:`INFLATION` times what a known placement would leave, with the placement parameter each correlates with
     most (from the report's covariance)."""
-    covariance: dict[str, Any] = report.covariance or {}
-    names: list[str] = list(covariance.get("parameters") or [])
-    if not report.cameras or not names:
+    covariance = report.covariance
+    names = list(covariance.parameters) if covariance is not None else []
+    if covariance is None or not report.cameras or not names:
         return []
-    matrix = np.array([[math.nan if v is None else v for v in row] for row in covariance["matrix"]], dtype=float)
+    matrix = np.array([[math.nan if v is None else v for v in row] for row in covariance.matrix], dtype=float)
     lines = []
     for prefix in report.cameras:
         others = [k for k, n in enumerate(names) if n.split(".")[0] in PLACEMENTS]

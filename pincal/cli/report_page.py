@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 from pincal.cli.view import add_view_options, exit_status, load_view
 from pincal.errors import DataError, listing
+
+if TYPE_CHECKING:
+    from pincal.calibration.report_sections import PixelErrors
 
 
 def cmd_report(args: argparse.Namespace) -> int:
@@ -25,10 +29,10 @@ def cmd_report(args: argparse.Namespace) -> int:
     report = view.report
     held = f"; held out {mm_text(report.test_rms_before)} → {mm_text(report.test_rms_after)}" \
         if report.has_held_out else ""
-    if report.pixels:  # a camera's pixels: its reprojection error, in px
-        def px(figures: dict[str, float | None]) -> str:
-            return " → ".join("-" if v is None else f"{v:.3f}" for v in (figures["rms_before"], figures["rms_after"]))
-        held = f"; held out {px(report.test_pixels)} px" if report.test_pixels else ""
+    if report.pixels is not None:  # a camera's pixels: its reprojection error, in px
+        def px(figures: PixelErrors) -> str:
+            return " → ".join("-" if v is None else f"{v:.3f}" for v in (figures.rms_before, figures.rms_after))
+        held = f"; held out {px(report.test_pixels)} px" if report.test_pixels is not None else ""
         print(f"RMS reprojection error {px(report.pixels)} px{held}")
     else:
         print(f"RMS {report.error_words[0]} error {mm_text(report.rms_before)} → {mm_text(report.rms_after)}{held}")

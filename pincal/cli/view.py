@@ -16,6 +16,7 @@ if TYPE_CHECKING:  # the work's modules load when a command runs, not to parse i
     from pincal.calibration.from_files import Inputs
     from pincal.calibration.pipeline import Calibration
     from pincal.calibration.report import CalibrationReport
+    from pincal.calibration.report_sections import ProvenanceRecord
     from pincal.viz.scene import CalibrationView
 
 
@@ -60,14 +61,14 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
     return view, calibration
 
 
-def page_provenance(read: Inputs, args: argparse.Namespace) -> dict[str, Any]:
+def page_provenance(read: Inputs, args: argparse.Namespace) -> ProvenanceRecord:
     """What a page records of its inputs: the pincal version, the robot and data files (``--result`` among them) with
     their SHA-256, the options; paths relative to the page's folder."""
     from pincal.calibration.provenance import Provenance, file_source, options_dict, robot_source
 
     data = [file_source(p) for p in (*read.files, *([args.result] if args.result else []))]
     return Provenance(robot_source(read.robot_given, read.robot), data,
-                      options_dict(read.options)).as_dict(Path(args.out).parent)
+                      options_dict(read.options)).record(Path(args.out).parent)
 
 
 #: The options a ``--result`` JSON records, and where: a fit's option given with ``--result`` must be the recorded one.
@@ -87,7 +88,7 @@ def check_result_options(args: argparse.Namespace, report: CalibrationReport) ->
         "loss": report.loss,
         "select": selection.policy if selection is not None else None,
         "cv": cv.plan if cv is not None else None,
-        "payload": report.payload,
+        "payload": report.payload.as_dict() if report.payload is not None else None,
         "formulation": report.formulation,
         "markers": report.markers,
     }

@@ -183,10 +183,10 @@ def _summary_table(report: CalibrationReport, n_test: int | None) -> str:
         ("a-posteriori variance factor σ²", f"{report.sigma2:.3g}" if report.sigma2 else "–", ""),
     ]
     payload = report.payload
-    if payload:
-        x, y, z = payload["offset"]
+    if payload is not None:
+        x, y, z = payload.offset
         rows.append(("payload (in the gravity torque of the compliances)",
-                     f"{payload['mass']:g} kg on {payload['frame']} at ({x:g}, {y:g}, {z:g}) m", ""))
+                     f"{payload.mass:g} kg on {payload.frame} at ({x:g}, {y:g}, {z:g}) m", ""))
     table = ['<table><tr><th></th><th>before</th><th>after</th></tr>']
     length, angle = report.error_words
     numbers = [(f"RMS {length} error (fit)", "rms_before", "rms_after"),
@@ -453,7 +453,7 @@ estimate (±2σ bars in the figure). Parameters that are not identifiable keep m
 {shift_text}
 <h2>What the data cannot separate</h2>
 {_combinations(report)}
-{provenance_html(report.provenance)}
+{provenance_html(report.provenance.as_dict() if report.provenance is not None else None)}
 </main>
 <script>{SCENE_LISTENER}</script>
 </body></html>

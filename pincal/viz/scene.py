@@ -28,7 +28,6 @@ from pincal.calibration.report import CalibrationReport
 from pincal.calibration.report_sections import WorkspacePrediction
 from pincal.calibration.setup import prepare
 from pincal.errors import ConvergenceError, DataError, PincalError, listing
-from pincal.identification.corrections import payload_from_dict
 from pincal.identification.metrics import error_norms, length_columns, rms, sample_length_errors
 from pincal.identification.problem import CalibrationProblem
 from pincal.io.dataset import Dataset
@@ -100,7 +99,7 @@ class CalibrationView:
                 and ``--markers`` as for the calibration).
         """
         removed = report.selection.removed if report.selection is not None else []
-        options = options.replace(payload=payload_from_dict(report.payload))
+        options = options.replace(payload=report.payload)
         part = "train" if "train" in dataset.sets else None
         fit = prepare(robot, dataset, options, part, leave_out=set(removed))
         pset = fit.parameters
@@ -391,7 +390,8 @@ def static_scene(view: CalibrationView, title: str | None = None, quiet: bool = 
     scene = StaticScene()
     summary = draw_calibration(scene.visualizer(), view, quiet)
     name = title or f"pincal · {view.problem.robot.name}: nominal vs calibrated, {summary.n_samples} samples"
-    return scene_page(scene, summary, name, view.report.provenance), summary
+    provenance = view.report.provenance
+    return scene_page(scene, summary, name, provenance.as_dict() if provenance is not None else None), summary
 
 
 #: Longest wait for a reply of the meshcat server [ms].

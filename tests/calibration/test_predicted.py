@@ -41,7 +41,7 @@ def test_the_propagation_matches_finite_differences_of_the_predictions() -> None
         down = problem.evaluate(x - step, jacobian=False).predicted[key][:, :3]
         jacobian[:, :, j] = (up - down) / 2e-6
     report = covariance_of(result)
-    covariance = np.array(report["matrix"])
+    covariance = np.array(report.matrix)
     noise = result.sigma2 * problem.measurements[0].sigma ** 2
     for k in range(problem.observations.n_samples):
         s = jacobian[k] @ covariance @ jacobian[k].T + noise * np.eye(3)

@@ -16,18 +16,27 @@ from conftest import run_pincal
 from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.report import SCHEMA_VERSION, CalibrationReport
 from pincal.calibration.report_sections import (
+    BadJointReading,
     CrossValidation,
+    DownWeighted,
+    DroppedSample,
+    EstimatedSigma,
+    FileDigest,
     HeldOutPredictions,
     ImplausibleCorrection,
     ImplausibleScale,
     ModelSelection,
+    OutsideRange,
     ParameterEstimate,
+    PixelErrors,
     PredictedSample,
+    ProvenanceRecord,
     RangeGuard,
     SampleError,
     WorkspacePrediction,
 )
 from pincal.errors import DataError
+from pincal.identification.corrections import Payload
 
 FIXTURE = Path(__file__).parent / "data" / "report_v1"
 TEXT = (FIXTURE / "report.json").read_text(encoding="utf-8")
@@ -95,6 +104,68 @@ def test_pixel_errors_written_when_imaged() -> None:
     assert json.loads(report.to_json())["sample_errors"] == [seen, RAW["sample_errors"][0]]
 
 
+def test_sample_accounts_are_typed() -> None:
+    """The samples dropped, down-weighted, left out as bad joint readings and held out beyond the fitted range (the
+    account of a file with such samples, as 'pincal calibrate' writes it) are read into their records and written
+    back as they were."""
+    accounts = {
+        "dropped_samples": [{"sample": "3", "reason": "joint 'panda_joint1' reads 5 rad, outside its URDF limits"}],
+        "down_weighted": [{"sample": "7", "weight": 0.0, "error_after": 0.1527},
+                          {"sample": "12", "weight": 1.52e-05, "error_after": None}],
+        "bad_readings": [{"sample": "7", "joint": "panda_joint3", "off": 0.3, "unit": "rad", "explained": 0.9999}],
+        "dropped_test_samples": [{"sample": "31", "reason": "outside its URDF limits"}],
+        "held_out_outside_range": [{"sample": "15", "joint": "panda_joint5", "value": -2.54, "range": [-1.7, 2.6]}]}
+    report = CalibrationReport.from_json({**RAW, **accounts})
+    assert report.dropped_samples == [DroppedSample(**accounts["dropped_samples"][0])]
+    assert report.down_weighted[1] == DownWeighted("12", 1.52e-05, None)
+    assert report.bad_readings == [BadJointReading("7", "panda_joint3", 0.3, "rad", 0.9999)]
+    assert report.dropped_test_samples == [DroppedSample("31", "outside its URDF limits")]
+    assert report.held_out_outside_range == [OutsideRange("15", "panda_joint5", -2.54, [-1.7, 2.6])]
+    written = json.loads(report.to_json())
+    assert {key: written[key] for key in accounts} == accounts
+
+
+def test_payload_is_the_payload() -> None:
+    """The payload a calibration with compliances records is read as the :class:`Payload` it was given as, and
+    written back as it was."""
+    recorded = {"mass": 2.0, "frame": "panda_link7", "offset": [0.0, 0.0, 0.05]}
+    report = CalibrationReport.from_json({**RAW, "payload": recorded})
+    assert report.payload == Payload(2.0, "panda_link7", (0.0, 0.0, 0.05))
+    assert json.loads(report.to_json())["payload"] == recorded
+
+
+def test_estimated_sigma_is_typed() -> None:
+    """The σ estimated from data without '# sigma' lines (none in the fixture) is read per measurement into its record;
+    the kinds not estimated stay out of the JSON written back."""
+    estimated = {"position:panda_hand": {"rows": {"x": 3.4e-4, "y": 5.0e-4, "z": 5.2e-4},
+                                         "units": {"x": "m", "y": "m", "z": "m"}, "length": 4.6e-4}}
+    report = CalibrationReport.from_json({**RAW, "estimated_sigma": estimated})
+    assert report.estimated_sigma == {"position:panda_hand": EstimatedSigma(
+        {"x": 3.4e-4, "y": 5.0e-4, "z": 5.2e-4}, {"x": "m", "y": "m", "z": "m"}, 4.6e-4, None)}
+    assert json.loads(report.to_json())["estimated_sigma"] == estimated
+
+
+def test_pixel_figures_are_typed() -> None:
+    """A camera calibration's reprojection RMS, fitted and held out (none in the fixture), is read into its record."""
+    report = CalibrationReport.from_json({**RAW, "pixels": {"rms_before": 2.075, "rms_after": 0.431},
+                                          "test_pixels": {"rms_before": None, "rms_after": 0.434}})
+    assert report.pixels == PixelErrors(2.075, 0.431) and report.test_pixels == PixelErrors(None, 0.434)
+    written = json.loads(report.to_json())
+    assert (written["pixels"], written["test_pixels"]) == ({"rms_before": 2.075, "rms_after": 0.431},
+                                                           {"rms_before": None, "rms_after": 0.434})
+
+
+def test_provenance_is_typed() -> None:
+    """The provenance: the pincal version, the robot and data files with their SHA-256, the options."""
+    report = CalibrationReport.read(FIXTURE / "report.json")
+    provenance, raw = report.provenance, RAW["provenance"]
+    assert isinstance(provenance, ProvenanceRecord) and provenance.robot is not None
+    assert (provenance.pincal_version, provenance.robot.file, provenance.robot.sha256) \
+        == (raw["pincal_version"], raw["robot"]["file"], raw["robot"]["sha256"])
+    assert provenance.data == [FileDigest(d["file"], d["sha256"]) for d in raw["data"]]
+    assert provenance.options == raw["options"] and provenance.as_dict() == raw
+
+
 def test_missing_keys_take_defaults() -> None:
     """A report older still, without the keys later versions added (here a section's optional and defaulted keys and
     whole top-level parts), is read with their defaults and written without the optional ones."""
@@ -138,6 +209,7 @@ def test_newer_schema_refused() -> None:
     ("parameters", {"base.x": {"value": 0.0}, "base.y": 2}, r"'parameters'"),
     ("implausible", [{"parameter": "base.x", "kind": "base"}], r"the result JSON's 'implausible'\[0\] has no 'value'"),
     ("implausible_scale", {"position": 3.3}, r"the result JSON's 'implausible_scale' is not a JSON list"),
+    ("payload", {"mass": 2.0}, r"the result JSON's 'payload': payload \{'mass': 2.0\} is not"),
     ("error_growth", {"rho0": 1.0}, r"the result JSON's 'error_growth' is not an object of numbers"),
     ("predicted_held_out", {**RAW["predicted_held_out"], "samples_predicted": [{"bound": 0.1}]},
      r"'predicted_held_out'\['samples_predicted'\]\[0\] has no 'sample'"),
@@ -158,3 +230,17 @@ def test_older_report_drawn_by_the_command(tmp_path: Path) -> None:
     text = page.read_text(encoding="utf-8")
     assert f"cross-validated, {RAW['cv']['plan']}, {RAW['cv']['n_samples']} samples" in text
     assert all(f"<td>{name}</td>" in text for name in RAW["parameters"])
+
+
+def test_malformed_report_refused_by_the_command(tmp_path: Path) -> None:
+    """A report JSON whose part is malformed: 'pincal report --result' stops with one line naming the file and the
+    part, exit 2, no traceback."""
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({**RAW, "cv": {"rms": 0.1}}), encoding="utf-8")
+    done = run_pincal("report", "panda", str(FIXTURE / "measurements.csv"), "--result", str(bad),
+                      "--out", str(tmp_path / "page.html"), "--quiet")
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert done.stderr.strip().splitlines() == [
+        f"pincal: error: the result JSON '{bad}''s 'cv' has no 'plan': expected a report written by 'pincal "
+        "calibrate --report'"]
+    assert not (tmp_path / "page.html").exists()

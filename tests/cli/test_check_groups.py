@@ -88,7 +88,8 @@ def test_a_calibrated_urdf_carries_what_each_bound_needs(split: Path, tmp_path: 
     written = json.loads(report.read_text())
     assert carried is not None and carried.error_growth is not None
     assert carried.error_growth.as_dict() == written["error_growth"]
-    assert carried.covariance == written["covariance"] and carried.sigma2 == written["sigma2"]
+    assert carried.covariance is not None and carried.covariance.as_dict() == written["covariance"]
+    assert carried.sigma2 == written["sigma2"]
     from_urdf, from_json = tmp_path / "u.json", tmp_path / "j.json"
     for model, out in ((cal, from_urdf), (report, from_json)):
         done = run_pincal("check", str(model), str(split / "all.csv"), "--register", "--report", str(out))

@@ -190,7 +190,7 @@ def test_a_result_json_that_is_not_a_report_is_named(five_bar_data: Path, tmp_pa
     result.write_text(content)
     line = one_line_error(run_pincal("view", "five_bar", str(five_bar_data), "--result", str(result), "--out",
                                      str(tmp_path / "v.html")))
-    assert "the result JSON has no 'parameters' of the form" in line
+    assert f"the result JSON '{result}' has no 'parameters' of the form" in line
 
 
 @pytest.mark.parametrize("command", ["view", "report"])

@@ -16,6 +16,7 @@ from conftest import run_pincal
 from pincal.calibration.check_pixels import image_errors, pixel_figures
 from pincal.calibration.check_setup import model_intrinsics
 from pincal.calibration.report import CalibrationReport
+from pincal.calibration.report_sections import Covariance
 from pincal.calibration.summary_camera import separation_lines
 from pincal.errors import DataError
 from pincal.identification.measurements.pixels import INTRINSICS, declared_intrinsics, parse_board, project
@@ -191,8 +192,8 @@ def _report(correlation: float) -> CalibrationReport:
     names = ["intrinsics.tool0.fx", "camera.tool0.tz", "camera.tool0.ry"]
     std = np.array([2.0, 1e-3, 1e-3])
     rho = np.array([[1.0, correlation, 0.0], [correlation, 1.0, 0.0], [0.0, 0.0, 1.0]])
-    return CalibrationReport(cameras={"intrinsics.tool0": {}}, covariance={
-        "parameters": names, "matrix": (rho * np.outer(std, std)).tolist()})
+    return CalibrationReport(cameras={"intrinsics.tool0": {}},
+                             covariance=Covariance(names, (rho * np.outer(std, std)).tolist()))
 
 
 def test_the_focal_length_against_the_distance_in_words() -> None:

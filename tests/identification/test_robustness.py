@@ -7,6 +7,7 @@ import numpy as np
 import pincal
 from pincal.calibration.campaign import simulate
 from pincal.calibration.pipeline import calibrate
+from pincal.calibration.report_sections import DroppedSample
 from pincal.identification import measurements as ms
 from pincal.identification.metrics import error_norms, rms
 from pincal.identification.parameters import choose_parameters
@@ -51,8 +52,8 @@ def test_unreachable_samples_are_dropped_and_listed() -> None:
     joints[4, :6] = [0.79, 0.0, 0.0, 0.0, 0.0, 0.0]  # one leg 0.79 m longer, within its limits: no pose fits
     bad = Dataset(ds.joint_names, joints, ds.measurements, ds.sample_ids, ds.sets, ds.metadata)
     cal = calibrate(robot, bad, parameter_spec=["*.offset"])
-    assert [d["sample"] for d in cal.report.dropped_samples] == ["4"]
-    assert "forward kinematics did not converge" in cal.report.dropped_samples[0]["reason"]
+    assert [d.sample for d in cal.report.dropped_samples] == ["4"]
+    assert "forward kinematics did not converge" in cal.report.dropped_samples[0].reason
     assert cal.report.n_samples == 29 and cal.result.converged
 
 
@@ -83,7 +84,8 @@ def test_unreachable_held_out_samples_are_listed_not_fatal() -> None:
     joints[22, :6] = [2.0, 0.0, 0.0, 0.0, 0.0, 0.0]  # a held-out sample no platform pose fits
     cal = calibrate(robot, Dataset(ds.joint_names, joints, ds.measurements, ds.sample_ids, ds.sets, ds.metadata),
                     parameter_spec=["*.offset"])
-    assert [d["sample"] for d in cal.report.dropped_test_samples] == ["22"]
+    assert cal.report.dropped_test_samples is not None
+    assert [d.sample for d in cal.report.dropped_test_samples] == ["22"]
     assert cal.report.n_test_samples == 4 and cal.result.converged
 
 
@@ -115,7 +117,7 @@ def test_readings_beyond_the_joint_limits_are_dropped_with_that_reason() -> None
     bad = Dataset(ds.joint_names, joints, ds.measurements, ds.sample_ids, ds.sets, ds.metadata)
     cal = calibrate(robot, bad, parameter_spec=["*.offset"])
     assert cal.report.dropped_samples == [
-        {"sample": "4", "reason": "joint 'leg_1_prismatic' reads 2 m, outside its URDF limits [-0.55, 0.8] m"}]
+        DroppedSample("4", "joint 'leg_1_prismatic' reads 2 m, outside its URDF limits [-0.55, 0.8] m")]
     assert cal.report.n_samples == 29 and cal.result.converged
 
 
