@@ -356,9 +356,8 @@ def diagnosis(runs: dict[str, list[dict[str, object]]]) -> list[str]:
                 continue
             text += f" Seed {seed} ({ratio:.2f}×): "
             if at_minimum <= 2:
-                held = (f"pincal holds {', '.join(r['held'])} as unidentified, at the closed-form start (a "
-                        "placement has no nominal to hold it at), where a robot parameter it trades with would be "
-                        "held at its nominal; " if r["held"] else "")
+                held = (f"pincal leaves {', '.join(r['held'])} (what the data do not identify) near the "
+                        "closed-form start (a placement has no nominal to return to); " if r["held"] else "")
                 text += (f"{held}its estimate lies χ² {r['left']:.1f} above the least-squares minimum over every "
                          f"parameter, where the ratio is {at_minimum:.2f}; perfect "
                          f"kinematics' own error is {r['perfect'] / r['expected_perfect']:.2f}× what its "
