@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal.calibration.check_setup import file_setup, setup_kinds
+from pincal.calibration.check_setup import file_setup, model_intrinsics, setup_kinds
 from pincal.calibration.heldout import setup_columns
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.pipeline import fitting_options
@@ -43,7 +43,7 @@ from pincal.calibration.report_sections import Covariance
 from pincal.calibration.setup import prepare
 from pincal.errors import DataError
 from pincal.identification.chi2 import chi2_upper
-from pincal.identification.metrics import error_norms, rms
+from pincal.identification.metrics import error_norms, pixel_error_norms, rms
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.solver import identify
 from pincal.io.dataset import Dataset
@@ -84,9 +84,10 @@ class SessionDrift:
     Attributes:
         source: The session's file.
         n_samples: Its samples used.
-        rms: RMS [m] of the samples' length errors, the setup re-registered.
-        expected_rms: The RMS [m] the calibration predicts for these samples (noise and covariance), had nothing
-            changed.
+        rms: RMS [m] of the samples' length errors, the setup re-registered; of a session of pixels only (``unit``
+            ``px``), the RMS reprojection error [px] of its corners.
+        expected_rms: The RMS [m or px, as ``rms``] the calibration predicts for these samples (noise and
+            covariance), had nothing changed.
         statistic: T (this module's docstring).
         dof: Its degrees of freedom.
         threshold: χ²'s upper ``level`` quantile at ``dof``.
@@ -94,6 +95,7 @@ class SessionDrift:
         moved: The groups named, in the order chosen (empty when nothing changed).
         dropped: The samples left out, with the reason.
         setup: The setup's parameters, re-registered on the session.
+        unit: ``m``, or ``px`` for a session of pixels only (a camera's board corners).
     """
 
     source: str
@@ -107,6 +109,7 @@ class SessionDrift:
     moved: list[GroupShift]
     dropped: list[dict[str, str]] = field(default_factory=list)
     setup: list[str] = field(default_factory=list)
+    unit: str = "m"
 
 
 @dataclass(frozen=True)
@@ -222,22 +225,35 @@ def judge_session(robot: Robot, dataset: Dataset, source: str, options: Calibrat
     moved: list[GroupShift] = []
     if changed:
         moved = _named_groups(names, setup, whitened, y, statistic, rank, level)
-    length = error_norms(prediction.errors)
-    expected = _expected_rms(problem, spread, jacobian[:, setup], prepared.samples.n_samples)
-    return SessionDrift(source, prepared.samples.n_samples, float(rms(length)), expected, statistic, dof, threshold,
-                        bool(changed), moved, list(prepared.dropped), [names[k] for k in setup])
+    pixels = not any(m.length_rows for m in problem.measurements)
+    if pixels:  # a camera's corners: their reprojection errors [px]
+        observed, count = pixel_error_norms(prediction.errors), None
+    else:
+        observed, count = error_norms(prediction.errors), prepared.samples.n_samples
+    expected = _expected_rms(problem, spread, jacobian[:, setup], count)
+    return SessionDrift(source, prepared.samples.n_samples, float(rms(observed)), expected, statistic, dof, threshold,
+                        bool(changed), moved, list(prepared.dropped), [names[k] for k in setup],
+                        "px" if pixels else "m")
 
 
-def _expected_rms(problem: CalibrationProblem, spread: Array, setup_jacobian: Array, n_samples: int) -> float:
+def _expected_rms(problem: CalibrationProblem, spread: Array, setup_jacobian: Array, n_samples: int | None) -> float:
     """The RMS [m] of the samples' length errors the calibration predicts, the setup registered by least squares:
     √(Σ σ_i² K_ii / N) over the length rows i, ``K = (I − H) V (I − H)ᵀ`` with ``H`` the projection on the setup's
-    σ-weighted columns (the joint readings' own noise left out)."""
+    σ-weighted columns (the joint readings' own noise left out); with ``n_samples`` None, of a session of pixels,
+    the RMS [px] of its corners' reprojection errors: over the pixel rows, N the corners seen."""
     sigmas, lengths = [], []
+    corners = 0
     for m in problem.measurements:
         seen = int(np.sum(problem.seen(m.key)))
         sigmas.append(np.tile(m.row_sigmas(), seen))
-        lengths.append(np.tile(np.arange(m.size) < m.length_rows, seen))
+        if n_samples is None:
+            pixel = m.row_units()[:2] == ["px", "px"]
+            corners += seen if pixel else 0
+            lengths.append(np.full(m.size * seen, pixel))
+        else:
+            lengths.append(np.tile(np.arange(m.size) < m.length_rows, seen))
     sigma, length = np.concatenate(sigmas), np.concatenate(lengths)
+    n_samples = corners if n_samples is None else n_samples
     if len(sigma) != len(spread) or not n_samples or not length.any():
         return math.nan
     u = np.zeros((len(spread), 0))
@@ -376,15 +392,16 @@ def run_drift(model_path: str, sessions: Sequence[str], level: float = 0.01,
         job = read_job(path) if path.endswith(".toml") else None
         dataset = job_dataset(job, nominal) if job is not None else read_robot_dataset(path, nominal)
         keys = list(dataset.measurements)
-        if any(key.partition(":")[0] in ("pixel", "board_pixel", "cross_pixel") for key in keys):
-            raise DataError(f"session '{path}': pincal drift takes no pixel measurements yet (its spread is of "
-                            "lengths and angles): judge a camera's images with pincal check MODEL DATA")
+        dataset = model_intrinsics(calibration.cameras, dataset, register=False)  # the camera as calibrated
         if sorted(keys) != sorted(calibration.measurements):
             raise DataError(f"session '{path}' measures {', '.join(keys)}; the calibration measured "
                             f"{', '.join(calibration.measurements)}: drift compares the same measurements")
         # the session's own σ where it states one (another instrument), else the calibration's
         stated = any(key.startswith("sigma ") for key in dataset.metadata)
-        sigma = None if stated else tuple(v for key in keys for v in calibration.row_sigma.get(key, []))
+        rows = {tuple(calibration.row_sigma.get(key, [])) for key in keys}
+        # one σ per row of every model alike (a camera's corners, each u, v): the option's form, given once
+        sigma = None if stated else (next(iter(rows)) if len(rows) == 1 else
+                                     tuple(v for key in keys for v in calibration.row_sigma.get(key, [])))
         options = CalibrationOptions(sigma=sigma or None, markers=calibration.markers)  # type: ignore[arg-type]
         judged.append(judge_session(model, dataset, path, options, calibration.covariance, level))
     drift = Drift(level, judged)

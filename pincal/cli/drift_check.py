@@ -35,12 +35,13 @@ def cmd_drift(args: argparse.Namespace) -> int:
     drift, content = run_drift(args.model, args.sessions, args.level, args.nominal)
     print(f"drift: {len(drift.sessions)} sessions against {args.model} (nominal robot {content['nominal']}); each "
           f"tested at level {args.level:g} against the calibration's predicted spread, its setup re-registered "
-          "[mm; shifts in mm or mrad]")
+          f"[{'px' if all(s.unit == 'px' for s in drift.sessions) else 'mm'}; shifts in mm or mrad]")
     width = max(len(s.source) for s in drift.sessions)
     print(f"{'session':<{width}}  samples  RMS     expected  T / dof          verdict")
     for s in drift.sessions:
         verdict = f"CHANGED: {_moved(content['sessions'][drift.sessions.index(s)])}" if s.changed else "unchanged"
-        print(f"{s.source:<{width}}  {s.n_samples:>7}  {s.rms * 1e3:.4f}  {s.expected_rms * 1e3:.4f}    "
+        scale = 1.0 if s.unit == "px" else 1e3  # a camera's reprojection errors in px, lengths in mm
+        print(f"{s.source:<{width}}  {s.n_samples:>7}  {s.rms * scale:.4f}  {s.expected_rms * scale:.4f}    "
               f"{s.statistic:>8.1f} / {s.dof:<5} {verdict}")
     for warning in content["warnings"]:
         print(f"warning: {warning}")

@@ -17,10 +17,12 @@ from pincal.viz.static_page import provenance_html
 
 
 def _plot(sessions: list[dict[str, Any]]) -> str:
-    """RMS error [mm] per session with the calibration's predicted RMS; changed sessions marked."""
+    """RMS error [mm; px for a camera's pixels] per session with the calibration's predicted RMS; changed sessions
+    marked."""
     index = np.arange(1, len(sessions) + 1)
-    observed = np.array([s["rms"] for s in sessions]) * 1e3
-    expected = np.array([s["expected_rms"] for s in sessions]) * 1e3
+    scale, unit = _unit(sessions)
+    observed = np.array([s["rms"] for s in sessions]) * scale
+    expected = np.array([s["expected_rms"] for s in sessions]) * scale
     changed = np.array([s["changed"] for s in sessions], dtype=bool)
     figure = Figure(figsize=(7.5, 3.4), layout="constrained")
     ax = figure.subplots()
@@ -31,14 +33,20 @@ def _plot(sessions: list[dict[str, Any]]) -> str:
         ax.plot(index[changed], observed[changed], "s", color="#c0392b", label="changed")
     ax.set_xticks(index)
     ax.set_xlabel("session (time order)")
-    ax.set_ylabel("RMS length error [mm]")
+    ax.set_ylabel("RMS reprojection error [px]" if unit == "px" else "RMS length error [mm]")
     ax.set_ylim(bottom=0)
     ax.legend(fontsize=8, loc="best")
     ax.grid(True, alpha=0.3)
-    alt = ("RMS error per session: " + ", ".join(f"{k}: {o:.4f} mm" + (" (changed)" if c else "")
+    alt = ("RMS error per session: " + ", ".join(f"{k}: {o:.4f} {unit}" + (" (changed)" if c else "")
                                                   for k, o, c in zip(index, observed, changed, strict=True)))
     data = base64.b64encode(png_bytes(figure)).decode("ascii")
     return f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}"></figure>'
+
+
+def _unit(sessions: list[dict[str, Any]]) -> tuple[float, str]:
+    """The factor from the sessions' RMS to what the page shows, and its unit: px for sessions of pixels (their
+    ``unit``), else mm."""
+    return (1.0, "px") if sessions and all(s.get("unit") == "px" for s in sessions) else (1e3, "mm")
 
 
 def _moved(session: dict[str, Any]) -> str:
@@ -54,9 +62,10 @@ def _moved(session: dict[str, Any]) -> str:
 def drift_page(content: dict[str, Any]) -> str:
     """The HTML page of a drift report's content."""
     sessions = content["sessions"]
+    scale, unit = _unit(sessions)
     rows = "".join(
-        f"<tr><td><code>{html.escape(s['source'])}</code></td><td>{s['n_samples']}</td><td>{s['rms'] * 1e3:.4f}</td>"
-        f"<td>{s['expected_rms'] * 1e3:.4f}</td><td>{s['statistic']:.1f} / {s['dof']}</td><td>{_moved(s)}</td></tr>"
+        f"<tr><td><code>{html.escape(s['source'])}</code></td><td>{s['n_samples']}</td><td>{s['rms'] * scale:.4f}</td>"
+        f"<td>{s['expected_rms'] * scale:.4f}</td><td>{s['statistic']:.1f} / {s['dof']}</td><td>{_moved(s)}</td></tr>"
         for s in sessions)
     if content["groups"]:
         advice = (f"<p class=\"warn\">Recalibrate {html.escape(', '.join(content['groups']))}: "
@@ -79,7 +88,8 @@ def drift_page(content: dict[str, Any]) -> str:
 <h2>Error over time</h2>
 {_plot(sessions)}
 <h2>Sessions</h2>
-<table><tr><th>session</th><th>samples</th><th>RMS [mm]</th><th>predicted [mm]</th><th>T / dof</th><th>verdict</th></tr>
+<table><tr><th>session</th><th>samples</th><th>RMS [{unit}]</th><th>predicted [{unit}]</th><th>T / dof</th>
+<th>verdict</th></tr>
 {rows}</table>
 {provenance_html(content.get("provenance"))}
 </main></body></html>

@@ -7,78 +7,79 @@ intrinsics ``fx, fy, cx, cy`` [px], ``k1, k2, p1, p2, k3`` [1].
 
 from __future__ import annotations
 
-import base64
 import html
 import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
-from matplotlib.figure import Figure
 
 from pincal.calibration.check_pixels import image_errors, is_pixel_key
 from pincal.identification.measurements.pixels import INTRINSICS
-from pincal.viz.plots import png_bytes
 from pincal.viz.svg_figures import AFTER, BEFORE
+from pincal.viz.svg_plot import LegendEntry, Panel, figure, linear_ticks
 
 if TYPE_CHECKING:
     from pincal.viz.scene import CalibrationView
 
 Array = npt.NDArray[np.float64]
+#: The connector between an image's error before and after.
+SPAN = "#bbbbbb"
 
 
-def _png(figure: Figure, alt: str) -> str:
-    data = base64.b64encode(png_bytes(figure)).decode("ascii")
-    return f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{data}"></figure>'
-
-
-def images_figure(fit: tuple[Array, Array], held: tuple[Array, Array] | None) -> Figure:
-    """Each image's reprojection error [px] before and after, fitted images then held-out ones (log scale)."""
-    figure = Figure(figsize=(7.5, 3.4))
-    ax = figure.subplots()
-    figure.set_layout_engine("tight")
-    parts = [(fit, 0, "o", "")] + ([(held, len(fit[0]), "s", " (held out)")] if held is not None else [])
-    for (before, after), first, marker, label in parts:
-        index = np.arange(first, first + len(before))
-        ax.vlines(index, after, before, color="#bbbbbb", linewidth=0.8)
-        ax.plot(index, before, marker, color=BEFORE, mfc="none" if label else BEFORE, markersize=3.5,
-                label=f"before calibration{label}")
-        ax.plot(index, after, marker, color=AFTER, mfc="none" if label else AFTER, markersize=3.5,
-                label=f"after calibration{label}")
+def images_figure(fit: tuple[Array, Array], held: tuple[Array, Array] | None, alt: str) -> str:
+    """Each image's reprojection error [px] before and after, fitted images (filled) then held-out ones (hollow),
+    on a log scale: an SVG figure with the text alternative ``alt``."""
+    panel = Panel("pixel-images", 80, 36, 640, 250, yscale="log")
+    parts = [(fit, 0, False)] + ([(held, len(fit[0]), True)] if held is not None else [])
+    for (before, after), first, hollow in parts:
+        index = np.arange(first, first + len(before), dtype=float)
+        drawn = np.isfinite(before) & np.isfinite(after) & (before > 0) & (after > 0)
+        panel.segments(index[drawn], after[drawn], index[drawn], before[drawn], SPAN, width=0.8)
+        panel.points(index, before, BEFORE, "o", 3.0, hollow)
+        panel.points(index, after, AFTER, "o", 3.0, hollow)
+        suffix = " (held out)" if hollow else ""
+        panel.legend += [LegendEntry("o", BEFORE, f"before calibration{suffix}", hollow),
+                         LegendEntry("o", AFTER, f"after calibration{suffix}", hollow)]
     if held is not None:
-        ax.axvline(len(fit[0]) - 0.5, color="#555555", linestyle=":", linewidth=1)
-    ax.set_yscale("log")
-    ax.set_xlabel("image")
-    ax.set_ylabel("reprojection error [px] (log scale)")
-    ax.set_title("Reprojection error of each image (RMS of its corners)")
-    ax.legend(fontsize=8, ncol=2, loc="best")
-    ax.grid(True, which="major", alpha=0.3)
-    return figure
+        panel.vline(len(fit[0]) - 0.5, "#555555", dashed=True)
+    panel.legend_at = "center right"  # between the errors before and after, where no image lies
+    panel.title = "Reprojection error of each image (RMS of its corners)"
+    panel.xlabel = "image"
+    panel.ylabel = "reprojection error [px] (log scale)"
+    return figure(760, 330, panel.svg(), alt)
 
 
-def plane_figure(corners: Array, before: Array, after: Array) -> tuple[Figure, float, float]:
-    """The fitted corners' residuals over the image plane, before and after (two panels): arrows from each measured
-    corner (u, v) [px], magnified so that the largest is a tenth of the image's extent. Returns the figure and the
-    two magnifications."""
-    figure = Figure(figsize=(9.0, 3.6))
-    axes = figure.subplots(1, 2, sharex=True, sharey=True)
-    figure.subplots_adjust(left=0.07, right=0.98, bottom=0.14, top=0.88, wspace=0.08)
-    extent = float(np.ptp(corners[:, 0])) if len(corners) else 1.0
-    scales = []
-    for ax, errors, when, colour in ((axes[0], before, "before", BEFORE), (axes[1], after, "after", AFTER)):
+def plane_figure(corners: Array, before: Array, after: Array) -> tuple[str, float, float]:
+    """The fitted corners' residuals over the image plane, before and after (two panels, image rows downwards):
+    segments from each measured corner (u, v) [px], magnified so that the largest is a tenth of the image's
+    extent. Returns the SVG figure and the two magnifications."""
+    u_low, u_high = (float(corners[:, 0].min()), float(corners[:, 0].max())) if len(corners) else (0.0, 1.0)
+    v_low, v_high = (float(corners[:, 1].min()), float(corners[:, 1].max())) if len(corners) else (0.0, 1.0)
+    extent = max(u_high - u_low, 1.0)
+    pad = 0.12 * max(extent, v_high - v_low, 1.0)
+    u_lim, v_lim = (u_low - pad, u_high + pad), (v_low - pad, v_high + pad)
+    width = 400.0
+    height = float(np.clip(width * (v_lim[1] - v_lim[0]) / (u_lim[1] - u_lim[0]), 150.0, 400.0))
+    scales, panels = [], []
+    for k, (errors, when, colour) in enumerate(((before, "before", BEFORE), (after, "after", AFTER))):
         largest = float(np.max(np.linalg.norm(errors, axis=1))) if len(errors) else 0.0
         scale = 0.1 * extent / largest if largest > 0 else 1.0
         scales.append(scale)
-        ax.quiver(corners[:, 0], corners[:, 1], errors[:, 0] * scale, errors[:, 1] * scale, angles="xy",
-                  scale_units="xy", scale=1.0, color=colour, width=0.003)
-        ax.set_title(f"{when} calibration (arrows ×{scale:.3g})", fontsize=9)
-        ax.set_xlabel("u [px]")
-        ax.grid(True, alpha=0.3)
-    axes[0].set_ylabel("v [px]")
-    axes[0].invert_yaxis()  # image rows grow downwards
-    for ax in axes:
-        ax.set_aspect("equal", adjustable="box")
-    return figure, scales[0], scales[1]
+        panel = Panel(f"pixel-plane-{when}", 70 + k * (width + 40), 36, width, height)
+        panel.x.limits, panel.y.limits = u_lim, (-v_lim[1], -v_lim[0])  # v grows downwards: drawn as −v
+        panel.yticks = [(-value, label) for value, label in linear_ticks(*v_lim)]
+        panel.segments(corners[:, 0], -corners[:, 1], corners[:, 0] + errors[:, 0] * scale,
+                       -(corners[:, 1] + errors[:, 1] * scale), colour, width=1.0, scale=False)
+        panel.points(corners[:, 0], -corners[:, 1], colour, "o", 1.0)
+        panel.title = f"{when} calibration (×{scale:.3g})"
+        panel.xlabel = "u [px]"
+        if k == 0:
+            panel.ylabel = "v [px]"
+        panels.append(panel)
+    return (figure(70 + 2 * width + 40 + 20, height + 86, "".join(p.svg() for p in panels),
+                   f"residuals of the {len(corners)} fitted corners over the image plane, before (×{scales[0]:.3g}) "
+                   f"and after (×{scales[1]:.3g}) calibration", ""), scales[0], scales[1])
 
 
 def _plane_data(view: CalibrationView) -> tuple[Array, Array, Array]:
@@ -128,14 +129,12 @@ def camera_section(view: CalibrationView, truth: dict[str, float] | None) -> str
         m = view.held_out.prepared.samples.n_samples
         pair = image_errors(view.held_out.errors_before, m), image_errors(view.held_out.errors_after, m)
         held = (pair[0], pair[1]) if pair[0] is not None and pair[1] is not None else None
-    parts = [_png(images_figure((fit[0], fit[1]), held),
-                  f"reprojection error of each image before and after calibration: {n} fitted images"
-                  + (f", {len(held[0])} held out" if held is not None else ""))]
+    parts = [images_figure((fit[0], fit[1]), held,
+                           f"reprojection error of each image before and after calibration: {n} fitted images"
+                           + (f", {len(held[0])} held out" if held is not None else ""))]
     corners, before, after = _plane_data(view)
     if len(corners):
-        figure, magnified_before, magnified_after = plane_figure(corners, before, after)
-        parts.append(_png(figure, f"residuals of the {len(corners)} fitted corners over the image plane, before "
-                                  f"(×{magnified_before:.3g}) and after (×{magnified_after:.3g}) calibration"))
+        parts.append(plane_figure(corners, before, after)[0])
     parts.append("<p>Each fitted corner's residual (predicted − measured) drawn from where it was seen: after "
                  "calibration, arrows of one direction over a region of the image point to a distortion the model "
                  "misses; a pattern that turns about the centre, to a principal point or a rotation left "

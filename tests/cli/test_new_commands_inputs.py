@@ -147,18 +147,6 @@ def test_iso9283_warns_of_an_orientation_no_robot_reaches_and_keeps_its_columns_
     assert len(row.split()) == 13  # pose, cycles, AP, APx..z, RP, six angles: each figure its own column
 
 
-def test_drift_refuses_pixel_sessions_in_one_line(tmp_path: Path) -> None:
-    """A calibrated URDF holds no intrinsics: judging pixels against it gave RMS 'nan' and shifts of metres."""
-    for seed, out in (("1", "day1"), ("2", "day2")):
-        done = run_pincal("simulate", "ur10", "--measure", "pixel:tool0", "--samples", "8", "--seed", seed,
-                          "--noise", "0.3", "--out", out, cwd=tmp_path)
-        assert done.returncode == 0, done.stdout + done.stderr
-    done = run_pincal("calibrate", "ur10", "day1/measurements.csv", "--out", "cal.urdf", cwd=tmp_path)
-    assert done.returncode == 0, done.stdout + done.stderr
-    _one_line_error(run_pincal("drift", "cal.urdf", "day2/measurements.csv", cwd=tmp_path),
-                    "session 'day2/measurements.csv': pincal drift takes no pixel measurements yet")
-
-
 def test_iso9283_warns_when_the_attained_positions_are_the_commands(tmp_path: Path) -> None:
     """x, y, z copied from cmd_x, cmd_y, cmd_z: every figure zero, which no robot measures."""
     rows = [f"P1,{c},0.4,0.3,0.2,0.4,0.3,0.2" for c in (1, 2)]
