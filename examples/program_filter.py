@@ -34,7 +34,8 @@ from study_cli import ROOT, run_ok, study_main
 import pincal
 from pincal.calibration.arm_posture import arm_signs
 from pincal.io.corrections_file import corrected_readings, read_corrections
-from pincal.io.programs import euler_zyx_near, read_program, rotation_vector_near
+from pincal.io.program_reader import read_program
+from pincal.io.programs import euler_zyx_near, rotation_vector_near
 from pincal.study.simulation import random_actuated
 
 SAMPLES, TEST_SAMPLES, SEED, TARGET_SEED = 30, 10, 1, 7

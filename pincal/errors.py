@@ -8,6 +8,7 @@ from __future__ import annotations
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing: the ``pincal`` command's start imports this
 if TYPE_CHECKING:
     from collections.abc import Iterable
+    from types import TracebackType
 
 
 class PincalError(Exception):
@@ -34,6 +35,34 @@ class PincalError(Exception):
                  sample: str | int | None = None, file: str | None = None, line: int | None = None) -> None:
         super().__init__(message)
         self.option, self.column, self.sample, self.file, self.line = option, column, sample, file, line
+
+
+class Culprit:
+    """A ``with`` block whose :class:`PincalError` gets the culprit fields it does not name: a reader states once the
+    file it reads (and, where known, the line, sample, column or option) for the checks below it; the message and
+    the traceback are left as they are.
+
+    Args:
+        option: The option at fault, or None.
+        column: The data column at fault, or None.
+        sample: The sample at fault, or None.
+        file: The file read, as given, or None.
+        line: The line of ``file`` (from 1), or None.
+    """
+
+    def __init__(self, *, option: str | None = None, column: str | int | None = None,
+                 sample: str | int | None = None, file: str | None = None, line: int | None = None) -> None:
+        self.fields = {"option": option, "column": column, "sample": sample, "file": file, "line": line}
+
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
+                 traceback: TracebackType | None) -> None:
+        if isinstance(error, PincalError):
+            for name, value in self.fields.items():
+                if value is not None and getattr(error, name) is None:
+                    setattr(error, name, value)
 
 
 class RobotFileError(PincalError):

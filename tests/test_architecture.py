@@ -202,8 +202,6 @@ def test_the_import_graph_reads_imports_inside_functions() -> None:
 LEFT_CIRCLES = [
     ["pincal.calibration.growth", "pincal.calibration.heldout", "pincal.calibration.predicted",
      "pincal.calibration.report"],
-    ["pincal.io.krl", "pincal.io.programs", "pincal.io.rapid", "pincal.io.urscript"],
-    ["pincal.model.measured_frame", "pincal.model.parts", "pincal.model.robot"],
 ]
 
 

@@ -6,7 +6,7 @@ import pickle
 
 import pytest
 
-from pincal.errors import ArgumentError, DataError, NotFoundError, PincalError, PluginError, not_found
+from pincal.errors import ArgumentError, Culprit, DataError, NotFoundError, PincalError, PluginError, not_found
 
 FIELDS = ("option", "column", "sample", "file", "line")
 
@@ -41,3 +41,17 @@ def test_the_fields_survive_a_process_pool() -> None:
         ("bad", "a.csv", 3, 2, "s1", "sigma")
     found = pickle.loads(pickle.dumps(NotFoundError("gone", "robot", "ur11", ["ur10"], file="job.toml")))
     assert (found.kind, found.name, found.choices, found.file) == ("robot", "ur11", ["ur10"], "job.toml")
+
+
+def test_a_culprit_block_fills_the_fields_an_error_leaves_empty() -> None:
+    with pytest.raises(DataError) as caught, Culprit(file="run.csv", line=7):
+        raise DataError("line 3: no number", line=3)
+    assert (str(caught.value), caught.value.file, caught.value.line) == ("line 3: no number", "run.csv", 3)
+
+
+def test_a_culprit_block_leaves_other_errors_alone() -> None:
+    with pytest.raises(ValueError, match=r"^plain$") as caught, Culprit(file="run.csv"):
+        raise ValueError("plain")
+    assert not hasattr(caught.value, "file")
+    with Culprit(file="run.csv"):
+        pass  # nothing raised, nothing to fill

@@ -207,7 +207,7 @@ def _commanded(runs: Runs, rows: npt.NDArray[np.intp], pose: str) -> Array:
         far = rows[int(np.argmax(np.abs(values - values[0]).max(axis=1)))]
         raise DataError(f"pose {pose}: its commanded position on line {runs.lines[far]} differs from line "
                         f"{runs.lines[rows[0]]}'s by {spread:.3g} m; the standard commands a pose the same in every "
-                        "cycle")
+                        "cycle", line=int(runs.lines[far]))
     return np.asarray(values[0], dtype=float)
 
 

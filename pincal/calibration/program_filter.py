@@ -180,7 +180,7 @@ def filter_program(program: Program, model: Model, nominal: Robot, base: str | N
             if len(target.joints) != robot.n_actuated:
                 raise DataError(f"{target.file} line {target.line}: joint target '{target.name}' has "
                                 f"{len(target.joints)} values; robot '{robot.name}' has {robot.n_actuated} actuated "
-                                f"joints ({listing(robot.actuated_joints)})")
+                                f"joints ({listing(robot.actuated_joints)})", file=target.file, line=target.line)
             previous = np.asarray(target.joints, dtype=float)
             if joint_targets == "intended":
                 outcome = _joints(target, solver, nominal, model_base, nominal_base, flange_frame)

@@ -72,7 +72,8 @@ def cmd_filter(args: argparse.Namespace) -> int:
     from pincal.calibration.program_filter import TOLERANCE, filter_program
     from pincal.calibration.provenance import read_provenance
     from pincal.io.files import check_outputs, write_texts
-    from pincal.io.programs import dat_of, encoding_of, language_of, read_program, vendor_mismatch
+    from pincal.io.program_reader import dat_of, read_program
+    from pincal.io.programs import encoding_of, language_of, vendor_mismatch
     from pincal.io.targets import OK
     from pincal.model.robot import load_robot
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pincal import validation
-from pincal.errors import DataError, listing
+from pincal.errors import Culprit, DataError, listing
 from pincal.identification.parameters import influencing_joints
 from pincal.io.bags import MeasurementSource, read_bag
 from pincal.io.dataset import Dataset
@@ -92,18 +92,22 @@ def bag_dataset(robot: Robot, path: str | Path, joints_topic: str, source: Measu
     joints = [j for j in robot.actuated_joints if j in states.names]
     if not joints:
         raise DataError(f"joint states: topic '{joints_topic}' carries none of the actuated joints of '{robot.name}' "
-                        f"({listing(robot.actuated_joints)}); it carries: {listing(states.names)}")
+                        f"({listing(robot.actuated_joints)}); it carries: {listing(states.names)}",
+                        option="joints_topic", file=str(path))
     moving = set(influencing_joints(robot, [frame]))
     needed = [j for j in robot.actuated_joints if j not in states.names and j in moving]
     if needed:
         which = "which moves" if len(needed) == 1 else "which move"
         raise DataError(f"joint states: topic '{joints_topic}' never carries {listing(needed)}, {which} the measured "
-                        f"frame '{frame}' (a calibration needs its readings); it carries: {listing(states.names)}")
-    states.check_finite(joints, joints_topic)
+                        f"frame '{frame}' (a calibration needs its readings); it carries: {listing(states.names)}",
+                        option="joints_topic", column=needed[0], file=str(path))
+    with Culprit(file=str(path)):
+        states.check_finite(joints, joints_topic)
     postures = find_postures(states, joints, stream, rule)
     if not postures:
         raise DataError(f"no static posture in '{path}': the joints of '{joints_topic}' never stay within "
-                        f"{rule.tolerance:g} rad or m for {rule.time:g} s (the still tolerance and time)")
+                        f"{rule.tolerance:g} rad or m for {rule.time:g} s (the still tolerance and time)",
+                        file=str(path))
     key = f"{'pose' if source.oriented else 'position'}:{frame}"
     metadata = {"robot": robot.name, "units": "SI (m, rad)", "bag": Path(path).name,
                 "joint states": joints_topic, "measurement": source.describe(),

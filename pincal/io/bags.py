@@ -25,7 +25,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal import validation
-from pincal.errors import ArgumentError, DataError, listing, not_found
+from pincal.errors import ArgumentError, Culprit, DataError, listing, not_found
 from pincal.progress import Progress
 
 if TYPE_CHECKING:
@@ -106,8 +106,8 @@ class JointStates:
         """Refuse a NaN or infinite reading of one of the joints ``names`` (those a calibration reads).
 
         Raises:
-            DataError: the first such message, by its time from the recording's first [s], the joint and the value,
-                and how many messages hold one.
+            DataError: the first such message, by its time from the recording's first [s], the joint (its
+                ``column``) and the value, and how many messages hold one.
         """
         columns = [self.names.index(name) for name in names]
         values = self.positions[:, columns]
@@ -120,7 +120,8 @@ class JointStates:
             more = f" (and {rows.size - 1} more messages)" if rows.size > 1 else ""
             at = float(self.times[row] - self.times[0])
             raise DataError(f"joint states: the message on '{topic}' at t {at:.2f} s (from the recording's first) "
-                            f"holds {shown}{more}: a joint reading must be a finite number [rad or m]")
+                            f"holds {shown}{more}: a joint reading must be a finite number [rad or m]",
+                            column=names[int(np.flatnonzero(bad[row])[0])])
 
 
 @dataclass(frozen=True)
@@ -182,7 +183,8 @@ def _open(path: Path) -> AnyReader:
     """An open reader of the bag at ``path``.
 
     Raises:
-        DataError: the path does not exist or is not a bag rosbags can read.
+        DataError: the path does not exist or is not a bag rosbags can read (a ROS 2 bag's metadata file that does
+            not parse: that file and its line as the fields).
     """
     from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
@@ -193,9 +195,11 @@ def _open(path: Path) -> AnyReader:
         reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
     except _read_errors() as exc:
-        where = f"{path / 'metadata.yaml'}, " if path.is_dir() and _parser_error(exc) is not None else ""
+        parser = _parser_error(exc) if path.is_dir() else None  # the metadata file, by its line
+        where = f"{path / 'metadata.yaml'}, " if parser is not None else ""
         raise DataError(f"'{path}' is not a ROS bag pincal can read (a ROS 1 .bag, a ROS 2 bag directory or an "
-                        f".mcap file): {where}{one_line(exc)}") from None
+                        f".mcap file): {where}{one_line(exc)}", file=str(path / "metadata.yaml") if parser else None,
+                        line=parser.problem_mark.line + 1 if parser else None) from None  # type: ignore[attr-defined]
     except TypeError:  # rosbags' MCAP reader on a file cut short after its magic: ord() of an empty read
         raise DataError(f"'{path}' is not a ROS bag pincal can read (a ROS 1 .bag, a ROS 2 bag directory or an "
                         ".mcap file): the file ends early (truncated or damaged)") from None
@@ -221,7 +225,7 @@ def _messages(reader: AnyReader, bag: Path, connections: list[Any], role: str,
 
     Raises:
         DataError: the bag's bytes do not hold a message (a damaged bag, its index intact): the bag, the topic and the
-            message named.
+            message named (its number the error's ``sample``).
     """
     errors = _read_errors()
     topic = connections[0].topic
@@ -233,7 +237,7 @@ def _messages(reader: AnyReader, bag: Path, connections: list[Any], role: str,
                 item = next(stream, None)
             except errors as exc:
                 raise DataError(f"{role}: '{bag}' is damaged: message {number} on '{topic}' cannot be read: "
-                                f"{one_line(exc)}") from None
+                                f"{one_line(exc)}", sample=number) from None
             if item is None:
                 bar.finish()
                 return
@@ -242,7 +246,8 @@ def _messages(reader: AnyReader, bag: Path, connections: list[Any], role: str,
                 message = reader.deserialize(raw, connection.msgtype)
             except errors as exc:
                 raise DataError(f"{role}: '{bag}' is damaged: message {number} on '{topic}' (bag time "
-                                f"{1e-9 * bag_time:.3f} s) is not a {connection.msgtype}: {one_line(exc)}") from None
+                                f"{1e-9 * bag_time:.3f} s) is not a {connection.msgtype}: {one_line(exc)}",
+                                sample=number) from None
             bar.advance()
             yield number, message, bag_time
 
@@ -255,7 +260,7 @@ def _joint_states(reader: AnyReader, bag: Path, topic: str, progress: bool = Fal
         positions = np.asarray(msg.position, dtype=float)
         if len(msg.name) != positions.size:
             raise DataError(f"joint states: message {number} on '{topic}' names {len(msg.name)} joints but holds "
-                            f"{positions.size} positions")
+                            f"{positions.size} positions", sample=number)
         rows.append((_stamp(msg.header, bag_time), dict(zip(msg.name, positions.tolist(), strict=True))))
     if not rows:
         raise DataError(f"joint states: topic '{topic}' holds no message")
@@ -303,7 +308,8 @@ def _readings(reader: AnyReader, bag: Path, source: MeasurementSource,
         if bad:
             shown = ", ".join(f"{READING_FIELDS[k]} = {v}" for k, v in bad)
             raise DataError(f"{role}: message {number} on '{source.topic}' (at {found[-1][0]:.3f} s) holds {shown}: "
-                            "every value of a reading must be a finite number")
+                            "every value of a reading must be a finite number", sample=number,
+                            column=READING_FIELDS[bad[0][0]])
     if not found and source.kind == "tf":
         raise not_found("transform", f"{source.parent} -> {source.child}", sorted(pairs), f" on {source.topic}",
                         f"{role}: ")
@@ -336,29 +342,33 @@ def read_bag(path: str | Path, joints_topic: str, source: MeasurementSource,
     Raises:
         TypeError: an argument of another type (None for the bag included).
         DataError: not a bag, or a damaged one; a topic carrying another message type, or empty; a measurement reading
-            that is not finite; a non-unit quaternion.
+            that is not finite; a non-unit quaternion. Its ``file`` is ``path``; a message at fault is its ``sample``
+            (its number on the topic, from 1), a value at fault its ``column`` (``x`` … ``qw``).
         NotFoundError: a topic (or a TF transform) the bag does not have, listing those it has.
     """
     bag = Path(validation.path("path", path))
     topic = validation.instance("joints_topic", joints_topic, str, "a topic name (str)")
     validation.instance("source", source, MeasurementSource, "a MeasurementSource")
-    reader = _open(bag)
-    try:
-        return _joint_states(reader, bag, topic, progress), _stream(reader, bag, source, progress)
-    finally:
-        reader.close()
+    with Culprit(file=str(path)):
+        reader = _open(bag)
+        try:
+            return _joint_states(reader, bag, topic, progress), _stream(reader, bag, source, progress)
+        finally:
+            reader.close()
 
 
 def read_joint_states(path: str | Path, topic: str, progress: bool = False) -> JointStates:
     """The joint states of ``topic`` in the bag at ``path``, in time order (times [s]: header stamps, else bag time).
 
     Raises:
-        DataError: not a bag, or a damaged one; the topic carries another message type, or nothing.
+        DataError: not a bag, or a damaged one; the topic carries another message type, or nothing (its ``file``
+            ``path``, a message at fault its ``sample``: :func:`read_bag`).
         NotFoundError: a topic the bag does not have, listing those it has.
     """
     bag = Path(validation.path("path", path))
-    reader = _open(bag)
-    try:
-        return _joint_states(reader, bag, validation.instance("topic", topic, str, "a topic name (str)"), progress)
-    finally:
-        reader.close()
+    with Culprit(file=str(path)):
+        reader = _open(bag)
+        try:
+            return _joint_states(reader, bag, validation.instance("topic", topic, str, "a topic name (str)"), progress)
+        finally:
+            reader.close()

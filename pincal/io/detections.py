@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from pincal.errors import DataError, listing
+from pincal.errors import Culprit, DataError, listing
 from pincal.identification.measurements import Board
 from pincal.io.dataset import Dataset
 from pincal.io.vision import Detections, intrinsics_text
@@ -58,10 +58,10 @@ def pixel_kind(measure: str) -> tuple[str, str]:
         raise DataError(f"--measure '{measure}' is not pixel:<frame> (a camera on the frame), "
                         "board_pixel:<frame> (a board on the frame, seen by a fixed camera) nor "
                         "cross_pixel:<camera frame>-<board frame> (a camera on one frame sees a board on another; "
-                        "frame names without '-')")
+                        "frame names without '-')", option="measure")
     if kind == "cross_pixel" and pair[0] == pair[1]:
         raise DataError(f"--measure '{measure}': the camera and the board are on the same frame (nothing moves "
-                        "between them): give two frames on different chains")
+                        "between them): give two frames on different chains", option="measure")
     return kind, frame
 
 
@@ -152,15 +152,17 @@ def bag_joints(path: str, topic: str, joints: Sequence[str]) -> Dataset:
     missing = [j for j in joints if j not in states.names]
     if missing:
         raise DataError(f"bag '{path}': the joint states on '{topic}' carry no {listing(missing)} (they carry "
-                        f"{listing(states.names)})")
+                        f"{listing(states.names)})", column=missing[0], file=path)
     columns = [states.names.index(j) for j in joints]
     values = states.positions[:, columns]
-    states.check_finite(list(joints), topic)
+    with Culprit(file=path):
+        states.check_finite(list(joints), topic)
     lacking = np.flatnonzero(np.isnan(values).any(axis=1))
     if lacking.size:
         raise DataError(f"bag '{path}': the joint state on '{topic}' at {states.times[lacking[0]]:.3f} s lacks "
                         f"{listing([j for j, v in zip(joints, values[lacking[0]], strict=True) if np.isnan(v)])}"
-                        f" ({lacking.size} messages lack a joint)")
+                        f" ({lacking.size} messages lack a joint)", file=path, sample=f"{states.times[lacking[0]]:.6f}",
+                        column=next(j for j, v in zip(joints, values[lacking[0]], strict=True) if np.isnan(v)))
     ids = [f"{t:.6f}" for t in states.times]
     ids = [s if ids.count(s) == 1 else f"{s}#{k}" for k, s in enumerate(ids)]
     return Dataset([TIME, *joints], np.column_stack([states.times, values]), {}, ids, ["train"] * len(ids), {})
@@ -178,7 +180,7 @@ def by_time(detections: Detections, joints: Dataset, tolerance: float) -> tuple[
     """
     if TIME not in joints.joint_names:
         raise DataError(f"pairing by time needs a '{TIME}' column [s] in the joints file; its columns are "
-                        f"{listing(joints.joint_names)}")
+                        f"{listing(joints.joint_names)}", column=TIME)
     column = joints.joint_names.index(TIME)
     times = joints.joints[:, column]
     left_out = dict(detections.left_out)

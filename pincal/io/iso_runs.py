@@ -67,35 +67,40 @@ def read_runs(path: str | Path) -> Runs:
         DataError: naming the file and the column or line at fault: a required column missing, a cell that is no
             finite number or no whole cycle, a quaternion not of unit norm, a length that looks like millimetres, half
             of the orientation columns, a column read appearing twice, an empty pose name, a pose measured twice in
-            one cycle and direction.
+            one cycle and direction. Its fields say the same: ``file`` (``path``), and where known ``line`` and
+            ``column``.
     """
     source = Path(path)
     try:
         return _parse(source)
     except DataError as exc:
-        raise DataError(f"{source.name}: {exc}") from None
+        raise DataError(f"{source.name}: {exc}", column=exc.column, sample=exc.sample, file=str(path),
+                        line=exc.line) from None
 
 
 def _parse(source: Path) -> Runs:
     table = read_table(source, MAX_RUNS, f"rows: pincal iso9283 evaluate takes at most {MAX_RUNS}")
     check_si_units(table.metadata)
-    where = f"header (line {table.header_line})"
+    where, header = f"header (line {table.header_line})", table.header_line
     column = {name: i for i, name in enumerate(table.header)}
     position = ["pose", "cycle", *(COMMANDED + c for c in POSITION), *POSITION]
     read = {*position, "direction", *(COMMANDED + c for c in QUATERNION), *QUATERNION}
     twice = next((name for name in table.header if name in read and table.header.count(name) > 1), None)
     if twice is not None:  # the dict above keeps the last one alone
         first = table.header.index(twice)
-        raise DataError(f"{where}: column '{twice}' appears twice (columns {first + 1} and {column[twice] + 1})")
+        raise DataError(f"{where}: column '{twice}' appears twice (columns {first + 1} and {column[twice] + 1})",
+                        column=twice, line=header)
     missing = [name for name in position if name not in column]
     if missing:
         raise DataError(f"{where}: no column {listing(missing)}; a runs file has pose, cycle, cmd_x, cmd_y, cmd_z, "
-                        "x, y, z [m] (and optionally cmd_qw…cmd_qz, qw…qz, direction: docs/iso9283.md)")
+                        "x, y, z [m] (and optionally cmd_qw…cmd_qz, qw…qz, direction: docs/iso9283.md)",
+                        column=missing[0], line=header)
     orientation = [COMMANDED + c for c in QUATERNION] + list(QUATERNION)
     present = [name for name in orientation if name in column]
     if present and len(present) != len(orientation):
         raise DataError(f"{where}: orientation columns {listing(present)} without "
-                        f"{listing([n for n in orientation if n not in column])}: give all eight or none")
+                        f"{listing([n for n in orientation if n not in column])}: give all eight or none",
+                        column=next(n for n in orientation if n not in column), line=header)
     if not table.rows:
         raise DataError("no rows")
     poses, directions, cycles, lines = [], [], [], []
@@ -104,16 +109,16 @@ def _parse(source: Path) -> Runs:
     for k, (line, cells) in enumerate(table.rows):
         pose = cells[column["pose"]]
         if not pose:
-            raise DataError(f"line {line}: empty pose name")
+            raise DataError(f"line {line}: empty pose name", column="pose", line=line)
         cycle_cell = cells[column["cycle"]]
         if not cycle_cell.isdigit():
-            raise DataError(f"line {line}: cycle '{cycle_cell}' is not a whole number ≥ 0")
+            raise DataError(f"line {line}: cycle '{cycle_cell}' is not a whole number ≥ 0", column="cycle", line=line)
         direction = cells[column["direction"]] if "direction" in column else ""
         key = (pose, direction, int(cycle_cell))
         if key in seen:
             raise DataError(f"line {line}: pose {pose} in cycle {key[2]}"
                             + (f" from direction {direction}" if direction else "")
-                            + f" was measured already on line {seen[key]}")
+                            + f" was measured already on line {seen[key]}", line=line)
         seen[key] = line
         poses.append(pose)
         directions.append(direction)
@@ -126,7 +131,7 @@ def _parse(source: Path) -> Runs:
     worst = int(np.argmax(np.abs(np.vstack([commanded, attained])).max(axis=1)))
     if np.abs(np.vstack([commanded, attained])).max() > MAX_PLAUSIBLE_LENGTH:
         raise DataError(f"line {lines[worst % len(lines)]}: a position beyond {MAX_PLAUSIBLE_LENGTH:g} m; the "
-                        "columns are in metres (millimetres divided by 1000)")
+                        "columns are in metres (millimetres divided by 1000)", line=lines[worst % len(lines)])
     quaternions = None
     if present:
         quaternions = [np.column_stack([numbers[prefix + c] for c in QUATERNION]) for prefix in (COMMANDED, "")]
@@ -134,7 +139,7 @@ def _parse(source: Path) -> Runs:
             off = np.flatnonzero(np.abs(np.linalg.norm(values, axis=1) - 1.0) > QUATERNION_NORM_TOLERANCE)
             if off.size:
                 raise DataError(f"line {lines[off[0]]}: quaternion {prefix}qw…{prefix}qz of norm "
-                                f"{np.linalg.norm(values[off[0]]):.6g}, not 1")
+                                f"{np.linalg.norm(values[off[0]]):.6g}, not 1", line=lines[off[0]])
     return Runs(poses, np.array(cycles, dtype=np.int64), directions, commanded, attained,
                 quaternions[0] if quaternions else None, quaternions[1] if quaternions else None,
                 np.array(lines, dtype=np.int64), table.metadata)

@@ -138,14 +138,15 @@ def robroot(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
         for match in _ROBROOT.finditer(code):
             fields = aggregate(code, match.end())
             frame = frame_of(fields[0]) if fields else None
-            where = f"{name} line {line_of(text, match.start())}"
+            line = line_of(text, match.start())
+            where = f"{name} line {line}"
             if frame is None:
-                raise DataError(f"$ROBROOT at {where}: not a frame of X, Y, Z, A, B, C")
-            found.append((frame, f"$ROBROOT of {where}"))
-    if len(found) > 1:
-        raise DataError(f"$ROBROOT is declared {len(found)} times ({', '.join(w[12:] for _, w in found)}): give one "
-                        "$machine.dat")
-    return found[0] if found else None
+                raise DataError(f"$ROBROOT at {where}: not a frame of X, Y, Z, A, B, C", file=name, line=line)
+            found.append((frame, f"$ROBROOT of {where}", name, line))
+    if len(found) > 1:  # the fields name the second declaration
+        raise DataError(f"$ROBROOT is declared {len(found)} times ({', '.join(w[12:] for _, w, _, _ in found)}): give "
+                        "one $machine.dat", file=found[1][2], line=found[1][3])
+    return found[0][:2] if found else None
 
 
 def _data_entries(name: str, text: str, code: str, data: dict[tuple[str, int], tuple[pin.SE3 | None, str]]) -> None:
@@ -167,7 +168,7 @@ def read_krl(src: str, src_file: str, dat: str | None, dat_file: str, extra: dic
     """The targets of a KRL program (module docstring): its ``.src`` text, its ``.dat`` text (None when it has none),
     the further files' texts by name; ``tcp`` the tool until the program sets one; ``world`` the robot's base in
     ``$WORLD`` (``$ROBROOT``), the base of points before the program sets one (default: the identity). The targets'
-    frames are in ``$WORLD``: :func:`~pincal.io.programs.read_program` puts them in the robot's base."""
+    frames are in ``$WORLD``: :func:`~pincal.io.program_reader.read_program` puts them in the robot's base."""
     texts = {src_file: src, **({dat_file: dat} if dat is not None else {})}
     program = Program("krl", texts)
     data: dict[tuple[str, int], tuple[pin.SE3 | None, str]] = {}

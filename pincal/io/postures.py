@@ -129,15 +129,17 @@ def average_quaternion(quaternions: Array) -> Array:
     """
     values = np.asarray(quaternions, dtype=float)
     if values.ndim != 2 or values.shape[0] == 0 or values.shape[1] != 4:
-        raise ArgumentError(f"quaternions: shape {values.shape}; give (K, 4) quaternions (x, y, z, w), K ≥ 1")
+        raise ArgumentError(f"quaternions: shape {values.shape}; give (K, 4) quaternions (x, y, z, w), K ≥ 1",
+                            option="quaternions")
     if not np.all(np.isfinite(values)):
         row = int(np.flatnonzero(~np.all(np.isfinite(values), axis=1))[0])
-        raise ArgumentError(f"quaternions[{row}] = {values[row].tolist()}: not finite")
+        raise ArgumentError(f"quaternions[{row}] = {values[row].tolist()}: not finite", option="quaternions")
     with np.errstate(over="ignore", under="ignore"):
         norms = np.linalg.norm(values, axis=1)
     if not np.all((norms > 0.0) & np.isfinite(norms)):
         row = int(np.flatnonzero(~((norms > 0.0) & np.isfinite(norms)))[0])
-        raise ArgumentError(f"quaternions[{row}] = {values[row].tolist()}: not a rotation (norm {norms[row]:g})")
+        raise ArgumentError(f"quaternions[{row}] = {values[row].tolist()}: not a rotation (norm {norms[row]:g})",
+                            option="quaternions")
     _, vectors = np.linalg.eigh(values.T @ values)
     mean = vectors[:, -1]
     return np.asarray(-mean if mean[3] < 0 else mean, dtype=float)

@@ -1,12 +1,13 @@
 """Robot programs read for ``pincal filter`` (docs/filter.md): their targets, in SI units, and where in the text each
 is written, so that a target can be rewritten and every other byte kept.
 
-One reader per language (:mod:`pincal.io.urscript`, :mod:`pincal.io.krl`, :mod:`pincal.io.rapid`) returns a
-:class:`Program`: its files' texts, its :class:`Target` s in program order and the :class:`Problem` s (constructs the
-reader does not read: a target it cannot place, a tool or frame it is not given), each named by file and line.
-A Cartesian target is the pose [m, rad] of the tool centre point in its frame (a UR program's base, a KUKA ``BASE``, an
-ABB work object), with that frame in the robot's base frame and the tool in the flange frame; a joint target its joint
-values [rad] (or [m]). :func:`rewritten` puts new poses into the texts.
+One reader per language (:mod:`pincal.io.urscript`, :mod:`pincal.io.krl`, :mod:`pincal.io.rapid`, chosen by
+:func:`pincal.io.program_reader.read_program`) returns a :class:`Program`: its files' texts, its :class:`Target` s in
+program order and the :class:`Problem` s (constructs the reader does not read: a target it cannot place, a tool or
+frame it is not given), each named by file and line. A Cartesian target is the pose [m, rad] of the tool centre point
+in its frame (a UR program's base, a KUKA ``BASE``, an ABB work object), with that frame in the robot's base frame and
+the tool in the flange frame; a joint target its joint values [rad] (or [m]). :func:`rewritten` puts new poses into
+the texts. This module holds what the readers share; it imports none of them.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import itertools
 import math
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -151,7 +152,7 @@ def language_of(path: str | Path) -> str:
     suffix = Path(path).suffix.lower()
     if suffix not in LANGUAGES:
         raise DataError(f"PROGRAM '{path}': pincal filter reads URScript (.script), KUKA KRL (.src with its .dat) and "
-                        f"ABB RAPID (.mod) programs, not '{suffix or 'a file without suffix'}'")
+                        f"ABB RAPID (.mod) programs, not '{suffix or 'a file without suffix'}'", file=str(path))
     return LANGUAGES[suffix]
 
 
@@ -178,23 +179,26 @@ def read_text(path: str | Path, what: str = "PROGRAM") -> str:
     """A program file's text, its line endings kept (UTF-8, else Latin-1: :func:`decoded`).
 
     Raises:
-        DataError: missing, a directory, unreadable, too large, empty or not text (a control byte).
+        DataError: missing, a directory, unreadable, too large, empty or not text (a control byte); its ``file``
+            ``path``, and the ``line`` of a control byte.
     """
     path = Path(path)
     if not path.is_file():
-        raise DataError(f"{what} '{path}' is not a file")
+        raise DataError(f"{what} '{path}' is not a file", file=str(path))
     try:
         data = path.read_bytes()
     except OSError as exc:
-        raise DataError(f"cannot read {what} '{path}': {exc.strerror or exc}") from None
+        raise DataError(f"cannot read {what} '{path}': {exc.strerror or exc}", file=str(path)) from None
     if len(data) > MAX_CHARACTERS:
-        raise DataError(f"{what} '{path}' has {len(data)} bytes; a program of at most {MAX_CHARACTERS} is read")
+        raise DataError(f"{what} '{path}' has {len(data)} bytes; a program of at most {MAX_CHARACTERS} is read",
+                        file=str(path))
     if not data.strip():
-        raise DataError(f"{what} '{path}' is empty")
+        raise DataError(f"{what} '{path}' is empty", file=str(path))
     control = _NOT_TEXT.search(data)
     if control is not None:
         raise DataError(f"{what} '{path}' is not a text file (byte 0x{data[control.start()]:02x} at offset "
-                        f"{control.start()}): a program is text")
+                        f"{control.start()}): a program is text", file=str(path),
+                        line=line_of(lines_of(data[:control.start()].decode("latin-1")), control.start()))
     return decoded(data)[0]
 
 
@@ -382,79 +386,10 @@ def rewritten(program: Program, edits: list[Edit]) -> dict[str, str]:
         mine = sorted((e for e in edits if e.file == name), key=lambda e: e.start)
         for before, after in itertools.pairwise(mine):
             if after.start < before.end:
-                raise DataError(f"{name}: two rewrites overlap at characters {after.start}..{before.end}")
+                raise DataError(f"{name}: two rewrites overlap at characters {after.start}..{before.end}", file=name,
+                                line=line_of(lines_of(out[name]), after.start))
         text = out[name]
         for edit in reversed(mine):
             text = text[:edit.start] + edit.text + text[edit.end:]
         out[name] = text
     return out
-
-
-def dat_of(path: str | Path) -> Path | None:
-    """A KRL program's ``.dat``: the file beside the ``.src`` with its stem and the suffix ``.dat`` or ``.DAT``
-    (KUKA's controllers write both cases); None when there is none."""
-    for suffix in (".dat", ".DAT", ".Dat"):
-        dat = Path(path).with_suffix(suffix)
-        if dat.is_file():
-            return dat
-    return None
-
-
-def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = (),
-                 robot_base: pin.SE3 | None = None) -> Program:
-    """The program at ``path`` read by its language's reader (:func:`language_of`); ``tcp`` is the tool centre point
-    [m, rad] in the flange frame where the program sets none; ``config``: further files of the controller (KRL: the
-    ``TOOL_DATA``, ``BASE_DATA`` of ``$config.dat`` and the ``$ROBROOT`` of ``$machine.dat``; RAPID: the robot's base
-    frame in ``MOC.cfg``); ``robot_base``: the robot's base frame in the program's world frame [m, rad], where no file
-    gives it. The targets' frames are then in the robot's base frame; :attr:`Program.robot_base` says what was taken.
-
-    Raises:
-        DataError: an unknown suffix; a file missing or unreadable (a KRL ``.src`` without its ``.dat`` is read
-            alone, its problems saying what it lacks); the robot's base given twice, or to a URScript program (whose
-            poses are in the robot's base frame).
-    """
-    language = language_of(path)
-    originals: dict[str, str] = {str(path): read_text(path)}
-    text = lines_of(originals[str(path)])
-    extra = {str(p): lines_of(read_text(p, "--config")) for p in config}
-    if language == "urscript":
-        from pincal.io.urscript import read_urscript
-
-        if robot_base is not None or extra:
-            raise DataError(f"PROGRAM '{path}' is URScript, whose poses are in the robot's base frame: --config and "
-                            "--robot-base are for KRL and RAPID")
-        program = read_urscript(text, str(path), tcp)
-        program.texts = originals  # every byte as read: line ends kept
-        return program
-    if language == "krl":
-        from pincal.io.krl import read_krl, robroot
-
-        world, words = _robot_base(robroot(extra), robot_base, "$WORLD", "--config $machine.dat")
-        dat = dat_of(path)
-        if dat is not None:
-            originals[str(dat)] = read_text(dat, "the program's .dat")
-        dat_text = lines_of(originals[str(dat)]) if dat is not None else None
-        program = read_krl(text, str(path), dat_text, str(dat or Path(path).with_suffix(".dat")), extra, tcp, world)
-    else:
-        from pincal.io.rapid import moc_base, read_rapid
-
-        world, words = _robot_base(moc_base(extra), robot_base, "the world frame", "--config MOC.cfg")
-        program = read_rapid(text, str(path), tcp)
-    program.robot_base = words
-    program.texts = {name: originals[name] for name in program.texts}  # every byte as read: line ends kept
-    if world is not None:
-        inverse = world.inverse()
-        program.targets = [t if t.pose is None else replace(t, frame=inverse * t.frame) for t in program.targets]
-    return program
-
-
-def _robot_base(found: tuple[pin.SE3, str] | None, given: pin.SE3 | None, world: str,
-                option: str) -> tuple[pin.SE3 | None, str]:
-    """The robot's base in the program's world frame, from a controller's file or ``--robot-base``, and in words."""
-    if found is not None and given is not None:
-        raise DataError(f"the robot's base is given twice: {found[1]} and --robot-base; give one")
-    if found is not None:
-        return found[0], f"robot base in {world}: {found[1]}"
-    if given is not None:
-        return given, f"robot base in {world}: --robot-base"
-    return None, f"{world} taken as the robot's base (none given: {option} or --robot-base)"

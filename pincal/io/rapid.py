@@ -152,16 +152,20 @@ def moc_base(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
             quaternion.
     """
     values: dict[str, tuple[float, str]] = {}
+    places: dict[str, tuple[str, int]] = {}  # where -> (file, line), for the errors' fields
     for name, text in extra.items():
         if not text.lstrip().startswith("MOC:"):
             raise DataError(f"--config '{name}' is not a MOC.cfg (its first line 'MOC:CFG_…'): for a RAPID program "
-                            "pincal reads the robot's base frame from the controller's MOC.cfg")
+                            "pincal reads the robot's base frame from the controller's MOC.cfg", file=name,
+                            option="config")
         for match in _MOC.finditer(text):
-            where = f"{name} line {line_of(text, match.start())}"
+            line = line_of(text, match.start())
+            where = f"{name} line {line}"
+            places[where] = (name, line)
             key = match.group(1)
             if key in values:
                 raise DataError(f"-base_frame_{key} is written twice ({values[key][1]}, {where}): several robots' "
-                                "base frames; give a MOC.cfg of this robot, or --robot-base")
+                                "base frames; give a MOC.cfg of this robot, or --robot-base", file=name, line=line)
             values[key] = (float(match.group(2)), where)
     if not values:  # ABB's files leave out attributes at their default: the base frame is the world frame
         return (pin.SE3.Identity(), f"ABB's default, the world frame ({listing(list(extra))} writes no "
@@ -172,7 +176,8 @@ def moc_base(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
     norm = math.sqrt(w * w + x * x + y * y + z * z)
     first = min(values.values(), key=lambda v: v[1])[1]
     if not 0.99 < norm < 1.01:
-        raise DataError(f"the base frame of {first}: -base_frame_orient_u0 … u3 is not a unit quaternion")
+        raise DataError(f"the base frame of {first}: -base_frame_orient_u0 … u3 is not a unit quaternion",
+                        file=places[first][0], line=places[first][1])
     rotation = pin.Quaternion(w / norm, x / norm, y / norm, z / norm).matrix()
     return pin.SE3(rotation, position), f"the base frame of {first}"
 

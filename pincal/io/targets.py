@@ -88,20 +88,22 @@ def read_targets(path: str | Path) -> Targets:
     Raises:
         DataError: naming the file, and the column and line at fault: no target columns or two groups of them, a
             group with a component missing, another column, a cell that is no finite number, a quaternion not of
-            unit norm, a length that looks like millimetres, a duplicated or empty sample id, no rows.
+            unit norm, a length that looks like millimetres, a duplicated or empty sample id, no rows. Its fields
+            say the same: ``file`` (``path``), and where known ``line``, ``column`` and ``sample``.
     """
     source = Path(path)
     try:
         return _parse(source)
     except DataError as exc:
-        raise DataError(f"{source.name}: {exc}") from None
+        raise DataError(f"{source.name}: {exc}", column=exc.column, sample=exc.sample, file=str(path),
+                        line=exc.line) from None
 
 
 def _parse(source: Path) -> Targets:
     too_many = f"targets: pincal compensate takes at most {MAX_TARGETS} in one run; split the file"
     table = read_table(source, MAX_TARGETS, too_many)  # refused by its rows' count, before any row is parsed
     check_si_units(table.metadata)
-    where = f"header (line {table.header_line})"
+    where, header = f"header (line {table.header_line})", table.header_line
     groups: dict[str, dict[str, int]] = {}
     sample = status = None
     for i, name in enumerate(table.header):
@@ -118,21 +120,23 @@ def _parse(source: Path) -> Targets:
         if kind not in TARGET_COMPONENTS or not key.partition(":")[2]:
             raise DataError(f"{where}: column '{name}' is not a target; a targets file has '{SAMPLE_COLUMN}' and the "
                             "columns of one position:<frame>:x,y,z or pose:<frame>:x,y,z,qx,qy,qz,qw "
-                            "(docs/compensate.md)")
+                            "(docs/compensate.md)", column=name, line=header)
         if component not in TARGET_COMPONENTS[kind]:
             raise DataError(f"{where}: column '{name}' has component '{component}'; a {kind} has components: "
-                            f"{listing(TARGET_COMPONENTS[kind])}")
+                            f"{listing(TARGET_COMPONENTS[kind])}", column=name, line=header)
         if component in groups.get(key, {}):
-            raise DataError(f"{where}: column '{name}' appears twice")
+            raise DataError(f"{where}: column '{name}' appears twice", column=name, line=header)
         groups.setdefault(key, {})[component] = i
     if len(groups) != 1:
         what = "none" if not groups else listing(groups)
-        raise DataError(f"{where}: a targets file holds the columns of exactly one position or pose; found {what}")
+        raise DataError(f"{where}: a targets file holds the columns of exactly one position or pose; found {what}",
+                        line=header)
     ((key, columns),) = groups.items()
     components = TARGET_COMPONENTS[key.partition(":")[0]]
     missing = [c for c in components if c not in columns]
     if missing:
-        raise DataError(f"{where}: target '{key}' lacks the columns {listing(f'{key}:{c}' for c in missing)}")
+        raise DataError(f"{where}: target '{key}' lacks the columns {listing(f'{key}:{c}' for c in missing)}",
+                        column=f"{key}:{missing[0]}", line=header)
     if not table.rows:
         raise DataError("no targets: the file has a header and no rows")
     if len(table.rows) > MAX_TARGETS:  # before any cell is read, and before the model is loaded
@@ -140,7 +144,8 @@ def _parse(source: Path) -> Targets:
     if status is not None:
         for line, cells in table.rows:
             if cells[status] != OK:
-                raise DataError(f"line {line}: status '{cells[status]}': this row holds no target; remove it")
+                raise DataError(f"line {line}: status '{cells[status]}': this row holds no target; remove it",
+                                column=STATUS, sample=cells[sample] if sample is not None else None, line=line)
     values = np.array([[_target_number(cells[columns[c]], key, c, line) for c in components]
                        for line, cells in table.rows])
     ids = _sample_ids(table.rows, sample)
@@ -149,14 +154,14 @@ def _parse(source: Path) -> Targets:
     if far.size:
         r = int(far[0])
         raise DataError(f"line {lines[r]}: the target {values[r, :3].tolist()} lies beyond {MAX_PLAUSIBLE_LENGTH:g} m: "
-                        "it looks like millimetres; pincal expects metres")
+                        "it looks like millimetres; pincal expects metres", sample=ids[r], line=lines[r])
     if values.shape[1] == 7:
         norms = np.linalg.norm(values[:, 3:], axis=1)
         bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_NORM_TOLERANCE)
         if bad.size:
             r = int(bad[0])
             raise DataError(f"line {lines[r]}: quaternion (qx, qy, qz, qw) of norm {norms[r]:.6g}; a unit quaternion "
-                            f"is needed (|‖q‖ − 1| ≤ {QUATERNION_NORM_TOLERANCE:g})")
+                            f"is needed (|‖q‖ − 1| ≤ {QUATERNION_NORM_TOLERANCE:g})", sample=ids[r], line=lines[r])
         values[:, 3:] /= norms[:, None]
     return Targets(key, ids, values, dict(table.metadata))
 
@@ -174,7 +179,8 @@ def _target_number(cell: str, key: str, component: str, line: int) -> float:
         what = "is empty" if not cell else f"is '{cell}'"
         numbers = TARGET_COMPONENTS[kind]
         raise DataError(f"column '{column}', line {line}: the cell {what}; a {kind} target needs all "
-                        f"{NUMBERS[len(numbers)]} numbers ({', '.join(numbers)}): every row is a place to reach")
+                        f"{NUMBERS[len(numbers)]} numbers ({', '.join(numbers)}): every row is a place to reach",
+                        column=column, line=line)
     return cell_number(cell, column, line)
 
 
@@ -184,9 +190,11 @@ def _sample_ids(rows: Sequence[tuple[int, list[str]]], sample: int | None) -> li
     seen: dict[str, int] = {}
     for sid, (line, _) in zip(ids, rows, strict=True):
         if not sid:
-            raise DataError(f"column '{SAMPLE_COLUMN}', line {line}: the sample id is empty")
+            raise DataError(f"column '{SAMPLE_COLUMN}', line {line}: the sample id is empty", column=SAMPLE_COLUMN,
+                            line=line)
         if sid in seen:
-            raise DataError(f"column '{SAMPLE_COLUMN}': sample id '{sid}' is used twice (lines {seen[sid]} and {line})")
+            raise DataError(f"column '{SAMPLE_COLUMN}': sample id '{sid}' is used twice (lines {seen[sid]} and {line})",
+                            column=SAMPLE_COLUMN, sample=sid, line=line)
         seen[sid] = line
     return ids
 

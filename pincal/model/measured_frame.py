@@ -20,7 +20,7 @@ from __future__ import annotations
 import itertools
 import re
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol, Self
 
 import numpy as np
 import numpy.typing as npt
@@ -28,11 +28,60 @@ import pinocchio as pin
 
 from pincal.errors import NotFoundError, listing
 from pincal.model.jacobians import frame_jacobian
-
-if TYPE_CHECKING:
-    from pincal.model.robot import Robot
+from pincal.model.kinematics import ClosedLoopKinematics, SolveReport
+from pincal.model.parts import RobotParts
+from pincal.model.urdf import LoopSpec
 
 Array = npt.NDArray[np.float64]
+
+
+class Robot(Protocol):
+    """What the rules of this module read of a robot. A :class:`pincal.model.robot.Robot` is one, and holds its
+    choice (:attr:`~pincal.model.robot.Robot.measured_frame_choice`); this module builds on no robot type."""
+
+    @property
+    def name(self) -> str:
+        """The robot's name."""
+
+    @property
+    def model(self) -> pin.Model:
+        """The Pinocchio model of the cut tree."""
+
+    @property
+    def loops(self) -> list[LoopSpec]:
+        """The loop declarations."""
+
+    @property
+    def actuated_joints(self) -> list[str]:
+        """The names of the actuated joints."""
+
+    @property
+    def n_actuated(self) -> int:
+        """The number of actuated joints."""
+
+    @property
+    def q_reference(self) -> Array:
+        """The reference configuration."""
+
+    @property
+    def kinematics(self) -> ClosedLoopKinematics:
+        """The closed-loop kinematics."""
+
+    @property
+    def parts(self) -> RobotParts[Self]:
+        """The independent loop blocks."""
+
+    def reduced(self, model: pin.Model, loops: list[LoopSpec], actuated_joints: list[str]) -> Self:
+        """A robot of the same kind on a reduced model (:class:`pincal.model.parts.Whole`)."""
+
+    def frame_id(self, frame: str) -> int:
+        """The Pinocchio id of a frame."""
+
+    def actuated_values(self, q: Array) -> Array:
+        """The actuated joint values in ``q`` [rad or m]."""
+
+    def solve_fk_report(self, q_actuated: Array) -> SolveReport:
+        """The closed-loop FK at the actuated values ``q_actuated`` [rad or m], reported rather than raised."""
 
 #: Names tried, in order, for the default measured frame before any motion test.
 END_EFFECTOR_NAMES = ("end_effector", "tool0", "panda_hand", "arm_tool_link", "ee_link")

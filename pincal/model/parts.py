@@ -21,7 +21,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Generic, Protocol, Self, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -29,10 +29,31 @@ import pinocchio as pin
 
 from pincal.model.urdf import LoopSpec
 
-if TYPE_CHECKING:
-    from pincal.model.robot import Robot
-
 IntArray = npt.NDArray[np.intp]
+
+
+class Whole(Protocol):
+    """What :class:`RobotParts` reads of a robot, and how it makes a robot of some of its joints. A
+    :class:`~pincal.model.robot.Robot` is one; this module builds on no robot type, so that a robot can hold its parts.
+    """
+
+    @property
+    def model(self) -> pin.Model:
+        """The Pinocchio model of the cut tree."""
+
+    @property
+    def loops(self) -> list[LoopSpec]:
+        """The loop declarations, anchors in link frames [m, rad]."""
+
+    @property
+    def actuated_joints(self) -> list[str]:
+        """The names of the actuated joints."""
+
+    def reduced(self, model: pin.Model, loops: list[LoopSpec], actuated_joints: list[str]) -> Self:
+        """A robot of the same kind on a reduced model of its joints, with those of its loops and actuated joints."""
+
+
+W = TypeVar("W", bound=Whole)
 
 
 def joint_support(model: pin.Model, joint: int) -> frozenset[int]:
@@ -151,51 +172,51 @@ def reduced_model(model: pin.Model, joints: frozenset[int],
 
 
 @dataclass(frozen=True)
-class Part:
+class Part(Generic[W]):
     """Some of a robot's joints with the loops they close, as a robot of its own.
 
     Attributes:
-        robot: The part as a :class:`~pincal.model.robot.Robot` (its reduced model, its loops, the actuated joints
-            it holds); the robot itself when the part is all of it.
+        robot: The part as a robot of the whole's kind (a :class:`~pincal.model.robot.Robot`: its reduced model, its
+            loops, the actuated joints it holds); the robot itself when the part is all of it.
         loops: The part's loops as indices into the robot's ``loops``, in the part robot's order.
         q_index: Where each coordinate of the part's configuration sits in the robot's.
         v_index: The same for the velocities.
         whole: Whether the part is the whole robot.
     """
 
-    robot: Robot
+    robot: W
     loops: tuple[int, ...]
     q_index: IntArray
     v_index: IntArray
     whole: bool
 
 
-class RobotParts:
+class RobotParts(Generic[W]):
     """A robot's independent loop blocks and the part that moves given frames (module docstring).
 
     Args:
         robot: The robot.
     """
 
-    def __init__(self, robot: Robot) -> None:
+    def __init__(self, robot: W) -> None:
         self.robot = robot
         model = robot.model
         self._supports = {k: loop_support(model, loop) for k, loop in enumerate(robot.loops)}
         groups = independent_blocks(model, robot.loops) if robot.loops else []
         self.split = len(groups) > 1 and not has_mimic_joints(model)
         self._groups = groups if self.split else [tuple(range(len(robot.loops)))]
-        self._cache: dict[frozenset[int], Part] = {}
+        self._cache: dict[frozenset[int], Part[W]] = {}
         self._frames = frames_by_joint(model)
 
     @functools.cached_property
-    def blocks(self) -> list[Part]:
+    def blocks(self) -> list[Part[W]]:
         """One part per block of loops, in the order of their first loop; the robot itself when its loops are one
         block (or it has none, or has mimic joints)."""
         if not self.split:
             return [self._part(frozenset(range(1, self.robot.model.njoints)))]
         return [self._part(frozenset().union(*(self._supports[k] for k in group))) for group in self._groups]
 
-    def moving(self, frames: Sequence[int]) -> Part:
+    def moving(self, frames: Sequence[int]) -> Part[W]:
         """The part that moves the frames ``frames`` (ids): their supports and the blocks they touch."""
         model = self.robot.model
         if not self.split:
@@ -209,7 +230,7 @@ class RobotParts:
                 joints |= support
         return self._part(frozenset(joints))
 
-    def by_part(self, frames: Sequence[int]) -> list[tuple[Part, list[int]]]:
+    def by_part(self, frames: Sequence[int]) -> list[tuple[Part[W], list[int]]]:
         """The frames (ids) grouped by the blocks that move them: each group's part and its frames' positions in
         ``frames``, the groups in the order of their first frame."""
         if not self.split:
@@ -223,7 +244,7 @@ class RobotParts:
             touched.setdefault(key, []).append(position)  # () for the frames no loop moves: one part
         return [(self.moving([frames[p] for p in positions]), positions) for positions in touched.values()]
 
-    def _part(self, joints: frozenset[int]) -> Part:
+    def _part(self, joints: frozenset[int]) -> Part[W]:
         """The part of the joints ``joints`` (closed towards the root and under the blocks), made once."""
         if joints not in self._cache:
             robot = self.robot
@@ -233,7 +254,6 @@ class RobotParts:
                 part_robot = robot
             else:
                 actuated = [name for name in robot.actuated_joints if robot.model.getJointId(name) in joints]
-                part_robot = type(robot)(reduced.model, [robot.loops[k] for k in loops], actuated, name=robot.name,
-                                         source=robot.source, notes=robot.notes)
+                part_robot = robot.reduced(reduced.model, [robot.loops[k] for k in loops], actuated)
             self._cache[joints] = Part(part_robot, loops, reduced.q_index, reduced.v_index, reduced.whole)
         return self._cache[joints]

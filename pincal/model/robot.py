@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal import validation
+from pincal import errors, validation
 from pincal.errors import ArgumentError, ConvergenceError, DataError, LoopError, RobotFileError, listing, not_found
 from pincal.model.batch_kinematics import BatchKinematics
 from pincal.model.catalog import known_robot_names, robot_path
@@ -129,9 +129,14 @@ class Robot:
         return choice.frame
 
     @functools.cached_property
-    def parts(self) -> RobotParts:
+    def parts(self) -> RobotParts[Robot]:
         """Its independent loop blocks, and the part that moves given frames (:mod:`pincal.model.parts`)."""
         return RobotParts(self)
+
+    def reduced(self, model: pin.Model, loops: list[LoopSpec], actuated_joints: list[str]) -> Robot:
+        """A robot of this one's name, source and notes on ``model`` (a reduced model of its joints), with ``loops``
+        and ``actuated_joints`` of its own (a part of it: :mod:`pincal.model.parts`)."""
+        return Robot(model, loops, actuated_joints, name=self.name, source=self.source, notes=self.notes)
 
     def mobility(self, q: Array | None = None, tol: float = 1e-8) -> int:
         """Degrees of freedom ``nv - rank(dc/dv)`` at ``q`` (default: the reference configuration); the rank is the
@@ -394,45 +399,45 @@ def load_robot(path: str | Path) -> Robot:
     if not is_file:
         if is_dir and bare and str(path) in known_robot_names():
             return load_robot(robot_path(str(path)))  # a directory is no robot file: the known robot of that name
-        if is_dir:
-            raise RobotFileError(f"robot file '{path}' is a directory; give a URDF file or a known robot name")
-        if exists:
-            raise RobotFileError(f"robot file '{path}' is not a regular file (a device, a pipe or a socket)")
-        if not bare:
-            raise RobotFileError(f"robot file '{path}' does not exist")
+        if is_dir or exists or not bare:
+            what = ("is a directory; give a URDF file or a known robot name" if is_dir else "is not a regular file "
+                    "(a device, a pipe or a socket)" if exists else "does not exist")
+            raise RobotFileError(f"robot file '{path}' {what}", file=str(path))
         p = robot_path(str(path))
     suffix = p.suffix.lower()
     if suffix in (".toml", ".csv"):  # the arguments swapped, or a job file where a robot is asked for
         what = ("a job file (TOML): only 'pincal calibrate JOB.toml' reads one (docs/job_file.md)" if suffix == ".toml"
                 else "a data file (CSV): the robot comes first, then the data (pincal calibrate ROBOT DATA.csv)")
-        raise RobotFileError(f"robot file '{path}' is {what}; give a URDF file or a known robot name")
+        raise RobotFileError(f"robot file '{path}' is {what}; give a URDF file or a known robot name", file=str(path))
     try:
-        check_urdf_size(p.stat().st_size, f"robot file '{path}'")  # before it is read
+        with errors.Culprit(file=str(p)):
+            check_urdf_size(p.stat().st_size, f"robot file '{path}'")  # before it is read
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise RobotFileError(f"cannot read '{p}': {exc}") from None
+        raise RobotFileError(f"cannot read '{p}': {exc}", file=str(p)) from None
     return robot_from_urdf_text(text, source=p)
 
 
 def robot_from_urdf_text(text: str, source: Path | None = None) -> Robot:
-    """Build and check a :class:`Robot` from URDF text (see :func:`load_robot`)."""
+    """Build and check a :class:`Robot` from URDF text (see :func:`load_robot`); its errors' ``file`` is ``source``."""
     where = str(source) if source else "URDF"
-    root = parse_urdf(text, where)  # once, for the checks below
-    ext = read_extensions(text, where, root)
-    check_finite_origins(text, where, root)
-    _check_joint_count(root, where)
-    model = _build_model(text, where, ext.mimics)
-    if ext.loops:
-        actuated = ext.transmitted_joints
-    else:
-        multi = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv > 1]
-        if multi:
-            raise RobotFileError(f"{where}: serial robot with multi-DOF joints {listing(multi)}; a serial "
-                                 "robot's joints must be revolute, continuous or prismatic")
-        actuated = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv == 1]  # not mimics
-    robot = Robot(model, ext.loops, actuated, name=ext.robot_name, source=source, notes=ext.notes)
-    check_reference_assembly(robot, where)
-    return robot
+    with errors.Culprit(file=str(source) if source else None):
+        root = parse_urdf(text, where)  # once, for the checks below
+        ext = read_extensions(text, where, root)
+        check_finite_origins(text, where, root)
+        _check_joint_count(root, where)
+        model = _build_model(text, where, ext.mimics)
+        if ext.loops:
+            actuated = ext.transmitted_joints
+        else:
+            multi = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv > 1]
+            if multi:
+                raise RobotFileError(f"{where}: serial robot with multi-DOF joints {listing(multi)}; a serial "
+                                     "robot's joints must be revolute, continuous or prismatic")
+            actuated = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv == 1]  # not mimics
+        robot = Robot(model, ext.loops, actuated, name=ext.robot_name, source=source, notes=ext.notes)
+        check_reference_assembly(robot, where)
+        return robot
 
 
 def check_reference_assembly(robot: Robot, where: str = "URDF") -> None:

@@ -14,14 +14,17 @@ still loads as a tree elsewhere.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import xml.etree.ElementTree as ET
+from collections.abc import Iterator
 from dataclasses import dataclass
+from xml.parsers import expat
 
 import numpy as np
 import pinocchio as pin
 
-from pincal.errors import LoopError, RobotFileError, listing
+from pincal.errors import LoopError, PincalError, RobotFileError, listing
 
 #: Loop types and the number of closure rows each contributes.
 LOOP_ROWS: dict[str, int] = {"spherical": 3, "revolute": 5, "prismatic": 5, "fixed": 6}
@@ -74,6 +77,36 @@ class UrdfExtensions:
     joints: dict[str, str]  # joint name -> URDF type
     mimics: dict[str, tuple[str, float, float]]  # follower -> (leader, multiplier, offset [rad or m]), from <mimic>
     notes: tuple[str, ...] = ()  # what the file says that pincal ignores, and why
+
+
+class ElementLines:
+    """The line (from 1) on which each element of a parsed URDF starts, read from its text only when an error asks:
+    ElementTree keeps no lines, so the text is read again by expat, element for element in the same order."""
+
+    def __init__(self, text: str, root: ET.Element) -> None:
+        self.text, self.root = text, root
+
+    def of(self, node: ET.Element) -> int | None:
+        """The line ``node`` starts on, or None when the text does not hold it."""
+        starts: list[int] = []
+        parser = expat.ParserCreate()
+        parser.StartElementHandler = lambda name, attributes: starts.append(parser.CurrentLineNumber)
+        try:
+            parser.Parse(self.text, True)
+        except expat.ExpatError:  # not the text ``root`` was parsed from
+            return None
+        index = next((k for k, element in enumerate(self.root.iter()) if element is node), len(starts))
+        return starts[index] if index < len(starts) else None
+
+    @contextlib.contextmanager
+    def at(self, node: ET.Element) -> Iterator[None]:
+        """A block whose :class:`PincalError` names ``node``'s line when it names none."""
+        try:
+            yield
+        except PincalError as error:
+            if error.line is None:
+                error.line = self.of(node)
+            raise
 
 
 def _floats(text: str | None, count: int, what: str) -> np.ndarray:
@@ -161,13 +194,13 @@ def parse_urdf(text: str, source: str = "URDF") -> ET.Element:
     """The ``<robot>`` element of URDF text, its size checked first (:func:`check_urdf_size`).
 
     Raises:
-        RobotFileError: too large, not well-formed XML, or not a ``<robot>`` document.
+        RobotFileError: too large, not well-formed XML (its ``line`` the parser's), or not a ``<robot>`` document.
     """
     check_urdf_size(len(text), source)
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:
-        raise RobotFileError(f"{source} is not well-formed XML: {exc}") from None
+        raise RobotFileError(f"{source} is not well-formed XML: {exc}", line=exc.position[0]) from None
     if root.tag != "robot":
         raise RobotFileError(f"{source}: root element is <{root.tag}>, expected <robot>")
     return root
@@ -182,21 +215,24 @@ def read_extensions(text: str, source: str = "URDF", root: ET.Element | None = N
         root: ``text`` parsed already (:func:`parse_urdf`), to read it once.
 
     Raises:
-        RobotFileError: the text is not a URDF document, or larger than :data:`MAX_URDF_BYTES`.
-        LoopError: a loop or transmission is malformed or names a missing link or joint.
+        RobotFileError: the text is not a URDF document, or larger than :data:`MAX_URDF_BYTES`; a link or joint
+            without a name or of a name used twice, a mimic that cannot be, a nested loop (its ``line`` the one the
+            element at fault starts on).
+        LoopError: a loop or transmission is malformed or names a missing link or joint (a loop's ``line`` the one it
+            starts on).
     """
     root = parse_urdf(text, source) if root is None else root
     if root.tag != "robot":
         raise RobotFileError(f"{source}: root element is <{root.tag}>, expected <robot>")
     link_list = [n.get("name", "") for n in root.findall("link")]
-    joint_list = [n.get("name", "") for n in root.findall("joint")]
     joints = {n.get("name", ""): n.get("type", "") for n in root.findall("joint")}
-    _check_names(link_list, joint_list, source)
-    _check_tree(root, source)
-    loops = _loops(root, set(link_list), link_list)
-    transmission_problems = _check_top_level(root, source)
+    lines = ElementLines(text, root)
+    _check_names(root, source, lines)
+    _check_tree(root, source, lines)
+    loops = _loops(root, set(link_list), link_list, lines)
+    transmission_problems = _check_top_level(root, source, lines)
     transmitted, unusable = _transmitted_joints(root, joints)
-    mimics, notes = _mimics(root, joints, source)
+    mimics, notes = _mimics(root, joints, source, lines)
     transmission_problems += unusable + [
         (f"joint '{j}' has both a <transmission> and a <mimic> element",
          "a mimic joint follows its leader and cannot be actuated on its own") for j in transmitted if j in mimics]
@@ -212,32 +248,36 @@ def read_extensions(text: str, source: str = "URDF", root: ET.Element | None = N
     return UrdfExtensions(root.get("name", "robot"), loops, transmitted, link_list, joints, mimics, tuple(notes))
 
 
-def _check_names(link_list: list[str], joint_list: list[str], source: str) -> None:
-    """Refuse a ``<link>`` or ``<joint>`` without a name, or a name used twice within its kind."""
-    for kind, names in (("link", link_list), ("joint", joint_list)):
+def _check_names(root: ET.Element, source: str, lines: ElementLines) -> None:
+    """Refuse a ``<link>`` or ``<joint>`` without a name, or a name used twice within its kind (the second's line)."""
+    for kind in ("link", "joint"):
         seen: set[str] = set()
-        for n in names:
+        for node in root.findall(kind):
+            n = node.get("name", "")
             if not n:
-                raise RobotFileError(f"{source}: a <{kind}> element has no name")
+                raise RobotFileError(f"{source}: a <{kind}> element has no name", line=lines.of(node))
             if n in seen:
-                raise RobotFileError(f"{source}: duplicate {kind} name '{n}'")
+                raise RobotFileError(f"{source}: duplicate {kind} name '{n}'", line=lines.of(node))
             seen.add(n)
 
 
-def _check_tree(root: ET.Element, source: str) -> None:
-    """Refuse a link that is the child of several joints: a closed chain written as a graph, not a tree."""
-    parents: dict[str, list[str]] = {}
+def _check_tree(root: ET.Element, source: str, lines: ElementLines) -> None:
+    """Refuse a link that is the child of several joints: a closed chain written as a graph, not a tree (the second
+    joint's line)."""
+    parents: dict[str, list[ET.Element]] = {}
     for joint in root.findall("joint"):
         child = joint.find("child")
         if child is not None:
-            parents.setdefault(child.get("link", ""), []).append(joint.get("name", ""))
-    for link, named in parents.items():
-        if len(named) > 1:
+            parents.setdefault(child.get("link", ""), []).append(joint)
+    for link, nodes in parents.items():
+        if len(nodes) > 1:
+            named = [node.get("name", "") for node in nodes]
             raise RobotFileError(f"{source}: link '{link}' is the child of {len(named)} joints ({listing(named)}); a "
-                                 "URDF is a tree: cut a closed chain with a <loop> element (README, Loops in URDF)")
+                                 "URDF is a tree: cut a closed chain with a <loop> element (README, Loops in URDF)",
+                                 line=lines.of(nodes[1]))
 
 
-def _check_top_level(root: ET.Element, source: str) -> list[tuple[str, str]]:
+def _check_top_level(root: ET.Element, source: str, lines: ElementLines) -> list[tuple[str, str]]:
     """Refuse a ``<loop>`` nested in another element instead of a child of ``<robot>``; return the same problem of
     each ``<transmission>`` (a ``<ros2_control>`` block holds some) as (what, what would be valid): only a
     closed-loop robot refuses it."""
@@ -250,18 +290,20 @@ def _check_top_level(root: ET.Element, source: str) -> list[tuple[str, str]]:
                     what = (f"<{tag} name='{child.get('name', '')}'> is inside <{parent.tag} "
                             f"name='{parent.get('name', '')}'>")
                     if tag == "loop":
-                        raise RobotFileError(f"{source}: {what}; <loop> elements must be children of <robot>")
+                        raise RobotFileError(f"{source}: {what}; <loop> elements must be children of <robot>",
+                                             line=lines.of(child))
                     problems.append((what, "<transmission> elements must be children of <robot>"))
     return problems
 
 
-def _loops(root: ET.Element, links: set[str], link_list: list[str]) -> list[LoopSpec]:
-    """The top-level ``<loop>`` closures, in file order; LoopError on a malformed or duplicate one."""
+def _loops(root: ET.Element, links: set[str], link_list: list[str], lines: ElementLines) -> list[LoopSpec]:
+    """The top-level ``<loop>`` closures, in file order; LoopError on a malformed or duplicate one (its line)."""
     loops: list[LoopSpec] = []
     for node in root.findall("loop"):
-        loop = _loop(node, links, link_list)
-        if any(existing.name == loop.name for existing in loops):
-            raise LoopError(f"duplicate loop name '{loop.name}'")
+        with lines.at(node):
+            loop = _loop(node, links, link_list)
+            if any(existing.name == loop.name for existing in loops):
+                raise LoopError(f"duplicate loop name '{loop.name}'")
         loops.append(loop)
     return loops
 
@@ -293,7 +335,7 @@ def _transmitted_joints(root: ET.Element, joints: dict[str, str]) -> tuple[list[
     return transmitted, problems
 
 
-def _mimics(root: ET.Element, joints: dict[str, str], source: str
+def _mimics(root: ET.Element, joints: dict[str, str], source: str, lines: ElementLines
             ) -> tuple[dict[str, tuple[str, float, float]], list[str]]:
     """``<mimic joint= multiplier= offset=>`` elements: a follower joint at ``multiplier · leader + offset``
     [rad or m], as follower -> (leader, multiplier, offset); and the notes on those ignored (a fixed joint cannot
@@ -304,22 +346,23 @@ def _mimics(root: ET.Element, joints: dict[str, str], source: str
         node = joint.find("mimic")
         if node is None:
             continue
-        name, leader = joint.get("name", ""), node.get("joint", "")
-        what = f"{source}: joint '{name}' <mimic>"
-        if leader not in joints or joints[leader] not in SCALAR_JOINT_TYPES:
-            raise RobotFileError(f"{what} follows '{leader}', which is not a revolute, continuous or prismatic joint "
-                                 "of the file")
-        multiplier = float(_floats(node.get("multiplier", "1"), 1, f"{what} multiplier")[0])
-        offset = float(_floats(node.get("offset", "0"), 1, f"{what} offset")[0])
-        if joints[name] == "fixed":
-            notes.append(f"the <mimic> of fixed joint '{name}' is ignored: a fixed joint does not move")
-            continue
-        if joints[name] not in SCALAR_JOINT_TYPES:
-            raise RobotFileError(f"{what}: only revolute, continuous and prismatic joints can mimic")
-        if (joints[name] == "continuous") != (joints[leader] == "continuous"):  # cos/sin pair against one value
-            raise RobotFileError(f"{what}: a {joints[name]} joint cannot follow '{leader}', a {joints[leader]} joint; "
-                                 "a continuous joint mimics a continuous one only")
-        mimics[name] = (leader, multiplier, offset)
+        with lines.at(node):  # the <mimic> element
+            name, leader = joint.get("name", ""), node.get("joint", "")
+            what = f"{source}: joint '{name}' <mimic>"
+            if leader not in joints or joints[leader] not in SCALAR_JOINT_TYPES:
+                raise RobotFileError(f"{what} follows '{leader}', which is not a revolute, continuous or prismatic "
+                                     "joint of the file")
+            multiplier = float(_floats(node.get("multiplier", "1"), 1, f"{what} multiplier")[0])
+            offset = float(_floats(node.get("offset", "0"), 1, f"{what} offset")[0])
+            if joints[name] == "fixed":
+                notes.append(f"the <mimic> of fixed joint '{name}' is ignored: a fixed joint does not move")
+                continue
+            if joints[name] not in SCALAR_JOINT_TYPES:
+                raise RobotFileError(f"{what}: only revolute, continuous and prismatic joints can mimic")
+            if (joints[name] == "continuous") != (joints[leader] == "continuous"):  # cos/sin pair against one value
+                raise RobotFileError(f"{what}: a {joints[name]} joint cannot follow '{leader}', a {joints[leader]} "
+                                     "joint; a continuous joint mimics a continuous one only")
+            mimics[name] = (leader, multiplier, offset)
     for name, (leader, _, _) in mimics.items():
         if leader in mimics:
             raise RobotFileError(f"{source}: joint '{name}' mimics '{leader}', which mimics another joint; a leader "
@@ -333,25 +376,31 @@ MAX_ORIGIN = 1e4
 
 def check_finite_origins(text: str, source: str = "URDF", root: ET.Element | None = None) -> None:
     """Refuse joint origins with NaN/inf, non-numeric or implausibly large values (Pinocchio would
-    read them silently); ``root``: ``text`` parsed already (:func:`parse_urdf`)."""
+    read them silently); ``root``: ``text`` parsed already (:func:`parse_urdf`).
+
+    Raises:
+        RobotFileError: naming the joint, its ``line`` the one the joint starts on.
+    """
     root = parse_urdf(text, source) if root is None else root
+    lines = ElementLines(text, root)
     for joint in root.findall("joint"):
-        placement = origin_to_se3(joint.find("origin"), f"{source}: joint '{joint.get('name')}'")
-        if float(np.max(np.abs(placement.translation))) > MAX_ORIGIN:
-            raise RobotFileError(f"{source}: joint '{joint.get('name')}' origin xyz "
-                                 f"{np.array2string(placement.translation, precision=4)} m is beyond {MAX_ORIGIN:g} m: "
-                                 "a typo or a unit error (URDF lengths are in metres)")
-        limit = joint.find("limit")
-        if limit is not None and joint.get("type") in ("revolute", "prismatic"):
-            bounds = [limit.get(k) for k in ("lower", "upper")]
-            if None not in bounds:
-                what = f"{source}: joint '{joint.get('name')}' limit"
-                lower, upper = (float(_floats(text, 1, what)[0]) for text in bounds)
-                if lower > upper:
-                    raise RobotFileError(f"{source}: joint '{joint.get('name')}' has limit lower {lower:g} > upper "
-                                         f"{upper:g}")
-        axis = joint.find("axis")
-        if axis is not None:
-            values = _floats(axis.get("xyz"), 3, f"{source}: joint '{joint.get('name')}' axis")
-            if joint.get("type") in SCALAR_JOINT_TYPES and math.isclose(float(np.linalg.norm(values)), 0):
-                raise RobotFileError(f"{source}: joint '{joint.get('name')}' has a zero axis")
+        with lines.at(joint):
+            placement = origin_to_se3(joint.find("origin"), f"{source}: joint '{joint.get('name')}'")
+            if float(np.max(np.abs(placement.translation))) > MAX_ORIGIN:
+                raise RobotFileError(f"{source}: joint '{joint.get('name')}' origin xyz "
+                                     f"{np.array2string(placement.translation, precision=4)} m is beyond "
+                                     f"{MAX_ORIGIN:g} m: a typo or a unit error (URDF lengths are in metres)")
+            limit = joint.find("limit")
+            if limit is not None and joint.get("type") in ("revolute", "prismatic"):
+                bounds = [limit.get(k) for k in ("lower", "upper")]
+                if None not in bounds:
+                    what = f"{source}: joint '{joint.get('name')}' limit"
+                    lower, upper = (float(_floats(text, 1, what)[0]) for text in bounds)
+                    if lower > upper:
+                        raise RobotFileError(f"{source}: joint '{joint.get('name')}' has limit lower {lower:g} > "
+                                             f"upper {upper:g}")
+            axis = joint.find("axis")
+            if axis is not None:
+                values = _floats(axis.get("xyz"), 3, f"{source}: joint '{joint.get('name')}' axis")
+                if joint.get("type") in SCALAR_JOINT_TYPES and math.isclose(float(np.linalg.norm(values)), 0):
+                    raise RobotFileError(f"{source}: joint '{joint.get('name')}' has a zero axis")

@@ -13,7 +13,8 @@ from pincal.calibration.compensate import load_model
 from pincal.calibration.program_filter import default_frames, filter_program
 from pincal.errors import DataError
 from pincal.io.krl import read_krl
-from pincal.io.programs import Program, Target, read_program
+from pincal.io.program_reader import read_program
+from pincal.io.programs import Program, Target
 from pincal.io.targets import OK
 from pincal.io.urscript import read_urscript
 
@@ -42,5 +43,6 @@ def test_another_robot_and_another_joint_count_are_refused() -> None:
     assert partial.targets == [] and "partial axis point" in partial.problems[0].what
     five = Program("urscript", {"p.script": ""}, [Target("p.script", 2, "movej", np.zeros(5), None,
                                                          pin.SE3.Identity(), pin.SE3.Identity(), "joints")])
-    with pytest.raises(DataError, match="has 5 values"):
+    with pytest.raises(DataError, match="has 5 values") as caught:
         filter_program(five, load_model("ur10"), pincal.load_robot("ur10"))
+    assert (caught.value.file, caught.value.line) == ("p.script", 2)

@@ -14,7 +14,7 @@ import pytest
 from conftest import ROOT, run_pincal
 
 import pincal
-from pincal.io.programs import read_program
+from pincal.io.program_reader import read_program
 
 PROGRAMS = ROOT / "examples" / "data" / "programs"
 KR16 = ROOT / "examples" / "data" / "robots" / "kr16_like.urdf"

@@ -14,7 +14,7 @@ from conftest import ROOT, run_pincal
 import pincal
 from pincal.calibration.joint_commands import Model
 from pincal.calibration.program_filter import filter_program
-from pincal.io.programs import read_program
+from pincal.io.program_reader import read_program
 
 KR16 = ROOT / "examples" / "data" / "robots" / "kr16_like.urdf"
 UR_POSE = "p[-0.45, -0.55, 0.20, 2.2214, -2.2214, 0.0]"

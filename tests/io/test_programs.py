@@ -113,8 +113,9 @@ def test_angles_written_near_the_old_ones() -> None:
 
 
 def test_unknown_suffix_refused() -> None:
-    with pytest.raises(DataError, match="URScript"):
+    with pytest.raises(DataError, match="URScript") as caught:
         language_of("prog.txt")
+    assert caught.value.file == "prog.txt"
 
 
 def test_angles_at_b_plus_minus_90_keep_the_written_split() -> None:
@@ -151,10 +152,12 @@ def test_the_robots_base_from_machine_dat_and_moc_cfg() -> None:
     assert words == "$ROBROOT of m.dat line 2"  # the commented line is not read
     assert frame is not None and np.allclose(frame.translation, [1.0, -0.5, 0.02])
     assert np.allclose(frame.rotation, [[0, -1, 0], [1, 0, 0], [0, 0, 1]])
-    with pytest.raises(DataError, match=r"declared 2 times \(m\.dat line 2, n\.dat line 1\)"):
+    with pytest.raises(DataError, match=r"declared 2 times \(m\.dat line 2, n\.dat line 1\)") as caught:
         robroot({**machine, "n.dat": "DECL FRAME $ROBROOT={X 0,Y 0,Z 0,A 0,B 0,C 0}\n"})
-    with pytest.raises(DataError, match=r"m\.dat line 1: not a frame"):
-        robroot({"m.dat": "$ROBROOT={X 0,Y 0}\n"})
+    assert (caught.value.file, caught.value.line) == ("n.dat", 1)  # the second declaration
+    with pytest.raises(DataError, match="not a frame") as caught:
+        robroot({"m.dat": "\n$ROBROOT={X 0,Y 0}\n"})
+    assert (caught.value.file, caught.value.line) == ("m.dat", 2)
     assert robroot({"c.dat": "TOOL_DATA[1]={X 0,Y 0,Z 0,A 0,B 0,C 0}\n"}) is None
     moc = {"MOC.cfg": "MOC:CFG_1.0:6:0::\nROBOT:\n  -name \"ROB_1\" -base_frame_pos_z 0.25 \\\n"
                       "  -base_frame_orient_u0 0.7071068 -base_frame_orient_u3 0.7071068\n"}
@@ -162,12 +165,14 @@ def test_the_robots_base_from_machine_dat_and_moc_cfg() -> None:
     assert found is not None and found[1] == "the base frame of MOC.cfg line 3"
     assert np.allclose(found[0].translation, [0, 0, 0.25])
     assert np.allclose(found[0].rotation, [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-7)  # 90° about z
-    with pytest.raises(DataError, match="several robots' base frames"):
+    with pytest.raises(DataError, match="several robots' base frames") as caught:
         moc_base({"MOC.cfg": moc["MOC.cfg"] + "  -name \"ROB_2\" -base_frame_pos_z 1\n"})
+    assert (caught.value.file, caught.value.line) == ("MOC.cfg", 5)
     default = moc_base({"MOC.cfg": "MOC:CFG_1.0:6:0::\nROBOT:\n  -name \"ROB_1\" -use_robot_type \"ROB1\"\n"})
     assert default is not None and default[0] == pin.SE3.Identity() and "ABB's default" in default[1]
-    with pytest.raises(DataError, match=r"is not a MOC\.cfg"):
+    with pytest.raises(DataError) as caught:
         moc_base({"$config.dat": "DEFDAT $CONFIG\nENDDAT\n"})
+    assert (caught.value.file, caught.value.option, caught.value.line) == ("$config.dat", "config", None)
 
 
 def test_status_and_turn_written_as_bit_strings() -> None:

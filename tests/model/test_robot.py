@@ -68,8 +68,9 @@ def test_malformed_files_name_the_culprit(tmp_path: Path, delta_text: str, edit:
     old, new = edit
     assert old in delta_text
     path = _write(tmp_path, delta_text.replace(old, new, 1))
-    with pytest.raises(error, match=message):
+    with pytest.raises(error, match=message) as caught:
         pincal.load_robot(path)
+    assert caught.value.file == str(path)
 
 
 def test_missing_transmission_reports_the_mobility(tmp_path: Path, delta_text: str) -> None:
@@ -95,12 +96,17 @@ def test_joint_origin_with_nan_is_refused(tmp_path: Path, delta_text: str) -> No
 
 
 def test_not_a_urdf(tmp_path: Path) -> None:
-    with pytest.raises(pincal.RobotFileError, match="not well-formed XML"):
-        pincal.load_robot(_write(tmp_path, "<robot><link name='a'></robot>"))
-    with pytest.raises(pincal.RobotFileError, match="root element is <sdf>"):
-        pincal.load_robot(_write(tmp_path, "<sdf/>"))
-    with pytest.raises(pincal.RobotFileError, match="does not exist"):
+    broken = _write(tmp_path, "<robot>\n<link name='a'>\n</robot>")
+    with pytest.raises(pincal.RobotFileError, match="not well-formed XML") as caught:
+        pincal.load_robot(broken)
+    assert (caught.value.file, caught.value.line) == (str(broken), 3)  # the line the parser stopped at
+    sdf = _write(tmp_path, "<sdf/>", "model.urdf")
+    with pytest.raises(pincal.RobotFileError, match="root element is <sdf>") as caught:
+        pincal.load_robot(sdf)
+    assert (caught.value.file, caught.value.line) == (str(sdf), None)
+    with pytest.raises(pincal.RobotFileError, match="does not exist") as caught:
         pincal.load_robot(tmp_path / "missing.urdf")
+    assert caught.value.file == str(tmp_path / "missing.urdf")
     with pytest.raises(pincal.NotFoundError, match=r"known robots are: .*delta.*'pincal robots' lists them"):
         pincal.load_robot("no_such_robot")
 

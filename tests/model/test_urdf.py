@@ -33,8 +33,9 @@ def test_a_transmission_nested_in_a_joint_is_refused(tmp_path: Path) -> None:
     moved = text.replace(transmission.group(0), "").replace("</joint>", transmission.group(0) + "</joint>", 1)
     bad = tmp_path / "nested.urdf"
     bad.write_text(moved)
-    with pytest.raises(RobotFileError, match=r"<transmission name='[^']+'> is inside <joint"):
+    with pytest.raises(RobotFileError, match=r"<transmission name='[^']+'> is inside <joint") as caught:
         pincal.load_robot(bad)
+    assert caught.value.file == str(bad)
 
 
 def test_limits_with_lower_above_upper_are_refused_at_load(tmp_path: Path) -> None:
@@ -46,8 +47,9 @@ def test_limits_with_lower_above_upper_are_refused_at_load(tmp_path: Path) -> No
                                                                   f'lower="{upper}" upper="{lower}"'), 1)
     bad = tmp_path / "limits.urdf"
     bad.write_text(swapped)
-    with pytest.raises(RobotFileError, match=f"joint '{name}' has limit lower .* > upper"):
+    with pytest.raises(RobotFileError, match=f"joint '{name}' has limit lower .* > upper") as caught:
         pincal.load_robot(bad)
+    assert caught.value.file == str(bad)
     done = run_pincal("simulate", str(bad), "--samples", "5", "--out", str(tmp_path / "sim"))
     assert done.returncode == 2 and f"joint '{name}' has limit lower" in done.stderr
     assert not (tmp_path / "sim").exists()
