@@ -168,6 +168,7 @@ def test_the_recipe_s_commands_simulate_calibrate_check_and_report(tmp_path: Pat
     assert '<link name="tool0_laser"/>' in urdf and '<link name="laser_plane"/>' in urdf
     assert "no reading: the cells of 'laser:tool0' are all empty (not seen)" in done["calibrate"]
     assert "verdict: MODEL predicts DATA no worse than the nominal robot" in done["check"]
+    assert "MODEL as it stands: the laser sensors and laser plane the file holds; nothing estimated" in done["check"]
     row = re.search(r"laser:tool0\s+length\s+\d+\s+([\d.]+) mm\s+[\d.]+ mm\s+([\d.]+) mm", done["check"])
     assert row is not None and float(row.group(1)) < 0.01 * float(row.group(2)), done["check"]
     assert (tmp_path / "report.html").stat().st_size > 10_000 and "held out" in done["report"]

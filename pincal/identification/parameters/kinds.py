@@ -16,6 +16,7 @@ The setup (the measurement frame, markers, cameras, targets) has no bound: a tra
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from typing import Any, ClassVar, Literal, Protocol
 
 from pincal.errors import not_found
@@ -152,6 +153,18 @@ def kinds_where(*, kinematic: bool | None = None, in_urdf: bool | None = None,
                  and (in_urdf is None or bool(kind.urdf) == in_urdf)
                  and (in_corrections is None or kind.in_corrections == in_corrections))
 
+
+
+def setup_phrase(kinds: Iterable[str]) -> str:
+    """The :attr:`ParameterKind.setup_words` of the kinds named (``kinds``, e.g. of a problem's parameters), each
+    once, in the kinds' order of declaration, listed as a sentence lists them: ``measurement frame, markers and laser
+    sensors``; ``nothing`` for none."""
+    order = list(PARAMETER_KINDS)
+    named = sorted(set(kinds), key=lambda name: order.index(name) if name in order else len(order))
+    words = list(dict.fromkeys(parameter_kind(name).setup_words for name in named))
+    if len(words) < 2:
+        return words[0] if words else "nothing"
+    return ", ".join(words[:-1]) + f" and {words[-1]}"
 
 #: A placement of the robot's geometry: 20 mm and 2°. Calibrations of industrial arms correct their joint placements by
 #: well under 5 mm and 1° (the TIAGo arm of docs/results/tiago_mocap.md by a few mm once its setup is set apart); a
