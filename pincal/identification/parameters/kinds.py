@@ -84,6 +84,10 @@ class ParameterKind:
     #: (an attached kind; empty: its start does not change what "before" is).
     before_placed: ClassVar[str] = ""
     before_unplaced: ClassVar[str] = ""
+    #: Whether a placement of the kind fixed in the world (owned by no frame) is all the data see of the world frame
+    #: (a world target, a plane a sensor reads): the first joint's placement then moves every reading as it does, and
+    #: the default set leaves it out, as it does for an estimated measurement frame (``base``).
+    world_anchor: ClassVar[bool] = False
     #: The readings it predicts and what ``pincal check --register`` places on the data (an attached kind), for the
     #: message on a model without its link.
     check_words: ClassVar[tuple[str, str]] = ("camera", "cameras and targets")
@@ -318,6 +322,7 @@ class TargetPlacement(ParameterKind):
     name = "target"
     urdf = "a target link (on the robot's root link, or on the frame)"
     attached = True
+    world_anchor = True
     setup_words = "targets"
     before_placed = BEFORE_MEANS_PLACED
     before_unplaced = BEFORE_MEANS_UNPLACED
