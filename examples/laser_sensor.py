@@ -85,6 +85,7 @@ class LaserPlane(ParameterKind):
     name = PLANE
     urdf = "a plane link (its z axis the normal) on the robot's root link"
     attached = True
+    world_anchor = True  # the world is seen only through it: the robot's first placement is left out, as for base.*
     setup_words = "laser plane"
     check_words = ("laser", "laser sensors and their plane")
 

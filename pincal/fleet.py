@@ -23,7 +23,7 @@ from typing import Any
 
 from pincal.calibration.report import CalibrationReport
 from pincal.errors import PincalError
-from pincal.io.files import make_directory
+from pincal.io.files import check_directory
 from pincal.progress import Progress
 
 #: A file named so is a job file (docs/job_file.md).
@@ -115,7 +115,7 @@ def jobs_from_directory(robot: str, directory: str | Path, out: str | Path, **op
     """One job per ``*.csv`` in ``directory`` on the nominal ``robot``, and one per job file ``*.toml`` (its own robot
     and data), sorted by name; outputs named after each file in ``out``; ``options`` (keywords of
     :class:`~pincal.calibration.options.CalibrationOptions`) for every job."""
-    out_dir = make_directory(out, "--out")
+    out_dir = check_directory(out, "--out")
     files = sorted([*Path(directory).glob("*.csv"), *Path(directory).glob(f"*{JOB_SUFFIX}")])
     return [FleetJob(p.stem, robot, str(p), str(out_dir / f"{p.stem}.urdf"), str(out_dir / f"{p.stem}.json"), options)
             for p in files]

@@ -70,6 +70,35 @@ def test_the_jacobian_of_the_robot_the_sensor_and_the_plane_matches_finite_diffe
     np.testing.assert_allclose(evaluated.jacobian, numeric, rtol=1e-6, atol=1e-7)
 
 
+
+def test_the_plane_is_the_world_the_robot_s_first_placement_is_left_out(laser: ModuleType) -> None:
+    """The plane fixed in the world is all the readings see of the world (``world_anchor``): the first joint's
+    placement moves every reading as the plane does, so the default set leaves it out, as it does for ``base.*``.
+    With it in, the plane's tilts lay wholly in a null direction of the analytic Jacobian beside the base joint's
+    (the fit marked them identified, their σ that of a combination); without it, they are seen alone: their weight
+    in the null space (the norm of their entries in its orthonormal basis) is nil, the plane's offset along the
+    normal still trades with the shoulder's height and the sensor's offset along the beam with the flange's."""
+    robot = pincal.load_robot("ur10")
+    model = parse_key("laser:tool0", 1e-5)
+    parameters = choose_parameters(robot, [model])
+    names = [p.name for p in parameters]
+    assert not [name for name in names if name.startswith("shoulder_pan_joint.") and not name.endswith(".offset")]
+    rng = np.random.default_rng(5)
+    drawn = rng.uniform(-2.0, 2.0, (400, robot.n_actuated))
+    nominal = CalibrationProblem(robot, parameters, [model], Observations(drawn, {model.key: model.neutral(400)}))
+    distances = nominal.forward(np.zeros(len(parameters))).predicted[model.key][:, 0]
+    actuated = drawn[(distances > 0.0) & (distances < 2.0)][:60]  # readings the sensor takes
+    assert len(actuated) == 60
+    problem = CalibrationProblem(robot, parameters, [model], Observations(actuated, {model.key: model.neutral(60)}))
+    jacobian = problem.evaluate(np.zeros(len(parameters))).jacobian
+    assert jacobian is not None
+    scaled = jacobian * parameters.scales
+    values, vt = np.linalg.svd(scaled, full_matrices=False)[1:]
+    null = vt[int(np.sum(values > 1e-9 * values[0])):]
+    weight = {name: float(np.linalg.norm(null[:, names.index(name)])) for name in names}
+    assert weight["laser_plane.rx"] < 1e-6 and weight["laser_plane.ry"] < 1e-6
+    assert weight["laser_plane.tz"] > 0.5 and weight["laser.tool0.tz"] > 0.5
+
 def test_the_reading_is_the_distance_along_the_beam_to_the_plane(laser: ModuleType) -> None:
     """The sensor at nominal on the flange of the UR10 at zero, a plane offset and tilted: the reading is where the
     flange's z axis meets the plane, ``n·(g − o) / n·b`` (``g`` a point of the plane, ``n`` its normal, ``o`` the
@@ -168,6 +197,7 @@ def test_the_recipe_s_commands_simulate_calibrate_check_and_report(tmp_path: Pat
     assert '<link name="tool0_laser"/>' in urdf and '<link name="laser_plane"/>' in urdf
     assert "no reading: the cells of 'laser:tool0' are all empty (not seen)" in done["calibrate"]
     assert "verdict: MODEL predicts DATA no worse than the nominal robot" in done["check"]
+    assert "MODEL as it stands: the laser sensors and laser plane the file holds; nothing estimated" in done["check"]
     row = re.search(r"laser:tool0\s+length\s+\d+\s+([\d.]+) mm\s+[\d.]+ mm\s+([\d.]+) mm", done["check"])
     assert row is not None and float(row.group(1)) < 0.01 * float(row.group(2)), done["check"]
     assert (tmp_path / "report.html").stat().st_size > 10_000 and "held out" in done["report"]

@@ -27,7 +27,7 @@ from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, joint_sensor_zeros, source_text
 from pincal.io.corrections_file import corrections_dict, corrections_of, corrections_path
 from pincal.io.dataset import MAX_SAMPLES, Dataset, dataset_text
-from pincal.io.files import check_outputs, json_text, make_directory, write_texts
+from pincal.io.files import check_directory, check_outputs, json_text, write_texts
 from pincal.io.mesh_files import MeshMode, MeshPlan, plan_meshes
 from pincal.model.assemblable import unusable_samples
 from pincal.model.robot import Robot
@@ -235,7 +235,7 @@ def simulation_outputs(robot: Robot, out: str | Path, meshes: MeshMode = "keep")
         NotFoundError: ``meshes`` is ``copy`` and a mesh of the robot is found nowhere here.
     """
     copies = _mesh_plan(robot, Path(out) / SIMULATION_FILES[1], meshes).copies  # a mesh found nowhere: no folder made
-    folder = make_directory(out, "--out")
+    folder = check_directory(out, "--out")
     paths = [folder / name for name in SIMULATION_FILES]
     check_outputs([("--out", p) for p in paths] + [("--meshes copy", dest) for _, dest in copies],
                   [p for p in (robot.source, *(found for found, _ in copies)) if p is not None])

@@ -45,12 +45,11 @@ from pincal.calibration.check_pixels import largest as _largest
 from pincal.calibration.check_pixels import number as _number
 from pincal.calibration.check_plausibility import Beyond, Implausible, beyond_plausible, implausible_data
 from pincal.calibration.check_setup import (
-    MODEL_AS_IS,
-    MODEL_REGISTERED,
     NOMINAL_AS_CALIBRATED,
-    NOMINAL_REGISTERED,
     file_setup,
     model_intrinsics,
+    model_means,
+    nominal_means,
     prepare_setup,
 )
 from pincal.calibration.options import CalibrationOptions
@@ -392,9 +391,9 @@ def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
         "units": "SI: m, rad",
         **dict(sources),
         "registered": check.registered,
-        "model_means": MODEL_REGISTERED if check.registered else MODEL_AS_IS,
+        "model_means": model_means(check.model.prepared.parameters, check.registered),
         "nominal_means": NOMINAL_AS_CALIBRATED if check.nominal.converged is None and not check.registered
-        else NOMINAL_REGISTERED,
+        else nominal_means(check.nominal.prepared.parameters),
         "registration_notes": {side: s.note for side, s in (("model", check.model), ("nominal", check.nominal))
                                if s.note},
         "n_samples_in_file": check.n_samples_in_file,

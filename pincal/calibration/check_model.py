@@ -17,7 +17,7 @@ import numpy.typing as npt
 from pincal.calibration.carried import read_carried
 from pincal.calibration.provenance import Recorded, read_provenance, sha256
 from pincal.calibration.report import CalibrationReport
-from pincal.errors import DataError, RobotFileError
+from pincal.errors import Culprit, DataError, RobotFileError
 from pincal.identification.choices import MarkerFit
 from pincal.identification.measurements import Measurement, parse_key
 from pincal.identification.parameters import choose_parameters, read_joints
@@ -182,24 +182,26 @@ def load_model(path: str, nominal: Robot, dataset: Dataset) -> CheckedModel:
     Raises:
         RobotFileError, NotFoundError: the URDF cannot be read, or the name is not known.
         DataError: a report that is not one, or whose parameters ``nominal`` does not have; a model whose actuated
-            joints are not ``nominal``'s; a calibrated URDF whose corrections file is missing or changed.
+            joints are not ``nominal``'s; a calibrated URDF whose corrections file is missing or changed. Its
+            ``file`` is ``path`` (a file) unless another file read for it (the corrections file) is at fault.
     """
-    if is_report(path):
-        model = _rebuilt(path, nominal, dataset)
-    else:
-        robot = load_robot(path)
-        if Path(path).is_file():
-            read_provenance(path).check_corrections(path)
-        beside = corrections_path(path)
-        corrections = read_corrections(beside) if robot.source is not None and beside.is_file() else None
-        zeros = joint_sensor_zeros(source_text(robot)) if robot.source is not None else {}
-        carried = read_carried(path) if Path(path).is_file() else None  # the calibration a calibrated URDF carries
-        model = CheckedModel(robot, path, corrections, zeros, read_provenance(path), carried)
-    if list(model.robot.actuated_joints) != list(nominal.actuated_joints):
-        raise DataError(f"MODEL '{path}' actuates {', '.join(model.robot.actuated_joints)}, the nominal robot "
-                        f"'{nominal.name}' {', '.join(nominal.actuated_joints)}: give the nominal robot MODEL was "
-                        "calibrated from (--nominal)")
-    return model
+    with Culprit(file=path if Path(path).is_file() else None):  # a report rebuilt, MODEL's joints: MODEL's fault
+        if is_report(path):
+            model = _rebuilt(path, nominal, dataset)
+        else:
+            robot = load_robot(path)
+            if Path(path).is_file():
+                read_provenance(path).check_corrections(path)
+            beside = corrections_path(path)
+            corrections = read_corrections(beside) if robot.source is not None and beside.is_file() else None
+            zeros = joint_sensor_zeros(source_text(robot)) if robot.source is not None else {}
+            carried = read_carried(path) if Path(path).is_file() else None  # the calibration a calibrated URDF has
+            model = CheckedModel(robot, path, corrections, zeros, read_provenance(path), carried)
+        if list(model.robot.actuated_joints) != list(nominal.actuated_joints):
+            raise DataError(f"MODEL '{path}' actuates {', '.join(model.robot.actuated_joints)}, the nominal robot "
+                            f"'{nominal.name}' {', '.join(nominal.actuated_joints)}: give the nominal robot MODEL was "
+                            "calibrated from (--nominal)")
+        return model
 
 
 def _rebuilt(path: str, nominal: Robot, dataset: Dataset) -> CheckedModel:

@@ -18,7 +18,7 @@ from pincal.calibration.setup import Prepared, dataset_models, parameters_for, p
 from pincal.errors import DataError
 from pincal.identification.measurements import parse_key, split_target
 from pincal.identification.measurements.pixels import INTRINSICS, Pixel, declared_intrinsics, intrinsics_name
-from pincal.identification.parameters import kinds_where, parameter_kind
+from pincal.identification.parameters import ParameterSet, kinds_where, parameter_kind, setup_phrase
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.starts import set_placement
 from pincal.io.calibrated_urdf import attached_link, marker_link
@@ -36,13 +36,23 @@ def setup_kinds() -> tuple[str, ...]:
     return kinds_where(setup=True)
 
 
-MODEL_AS_IS = ("MODEL as it stands: the measurement frame, markers, cameras (their intrinsics too), targets and "
-               "contact planes the file holds; nothing estimated")
-MODEL_REGISTERED = ("MODEL's robot with its measurement setup (measurement frame, markers, cameras, targets, contact "
-                    "planes) re-estimated on DATA by least squares, its geometry and camera intrinsics held")
-NOMINAL_REGISTERED = ("the nominal robot with its measurement setup (measurement frame, markers, cameras and their "
-                      "intrinsics, targets, contact planes) registered on DATA by least squares from its placement in "
-                      "closed form")
+def model_means(parameters: ParameterSet, registered: bool) -> str:
+    """What MODEL's side of a check is, in words: its setup (``parameters``, named by their kinds'
+    :attr:`~pincal.identification.parameters.ParameterKind.setup_words`) as the file holds it, or re-estimated
+    on DATA (``registered``)."""
+    setup = setup_phrase(p.kind for p in parameters)
+    if registered:
+        return (f"MODEL's robot with its measurement setup ({setup}) re-estimated on DATA by least squares, its "
+                "geometry held")
+    return f"MODEL as it stands: the {setup} the file holds; nothing estimated"
+
+
+def nominal_means(parameters: ParameterSet) -> str:
+    """What the nominal side of a check is when its setup (``parameters``) is registered on DATA, in words."""
+    return (f"the nominal robot with its measurement setup ({setup_phrase(p.kind for p in parameters)}) registered "
+            "on DATA by least squares from its placement in closed form")
+
+
 NOMINAL_AS_CALIBRATED = ("the nominal robot with the measurement setup the calibration registered for it on its own "
                          "data (calibrate's 'before', recorded in MODEL), as it stands, as MODEL is")
 

@@ -71,11 +71,12 @@ def parse_cv(text: str, n_samples: int, seed: int = 0) -> Folds:
 
 def check_cross_validation(models: Sequence[Measurement], formulation: str) -> None:
     """Refuse a cross-validation that would not mean what it says (DataError naming why): of the ``ikm``
-    formulation (the folds fit by forward kinematics), of ``distance_increment`` data (a fold breaks the chain of
-    readings), or of data with no position, pose or distance (the figure is a position error)."""
+    formulation (the folds fit by forward kinematics), of incremental data (each reading the change since the
+    previous sample, ``distance_increment``: a fold breaks the chain of readings), or of data with no position, pose
+    or distance (the figure is a position error)."""
     if formulation != "fkm":
         raise DataError("--cv cross-validates the fkm formulation; run it without --formulation ikm")
-    chained = [m.key for m in models if m.key.startswith("distance_increment:")]
+    chained = [m.key for m in models if m.incremental]
     if chained:
         raise DataError(f"--cv cannot split {listing(chained)}: each reading is the change since the previous sample, "
                         "so a fold would break the chain")

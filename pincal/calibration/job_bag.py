@@ -103,16 +103,18 @@ def bag_job_dataset(job: Job, bag: BagSource, robot: Robot) -> Dataset:
     """The dataset of ``job``'s ``bag`` for ``robot``: its kept postures (as ``pincal import`` writes them).
 
     Raises:
-        DataError: the bag cannot be read, or no posture is kept (the reasons counted); naming the job file.
-        NotFoundError: a topic, transform or frame that does not exist.
+        DataError: the bag cannot be read, or no posture is kept (the reasons counted); its ``file`` the job file,
+            its ``sample`` and ``column`` the bag's (the message by its number on its topic, the joint or value).
+        NotFoundError: a topic, transform or frame that does not exist; fields as DataError's.
     """
     where = f"{job.path}: [bag]: "
     try:
         done = bag.read(robot)
-    except NotFoundError as exc:
-        raise NotFoundError(f"{where}{exc}", exc.kind, exc.name, exc.choices, file=str(job.path)) from None
+    except NotFoundError as exc:  # the job file as the file; the bag's message and joint kept (the text names the bag)
+        raise NotFoundError(f"{where}{exc}", exc.kind, exc.name, exc.choices, file=str(job.path), sample=exc.sample,
+                            column=exc.column) from None
     except DataError as exc:
-        raise DataError(f"{where}{exc}", file=str(job.path)) from None
+        raise DataError(f"{where}{exc}", file=str(job.path), sample=exc.sample, column=exc.column) from None
     if not done.dataset.n_samples:
         reasons = Counter(p.reason.partition(" (")[0] for p in done.postures)
         raise DataError(f"{where}no posture of {len(done.postures)} kept: "

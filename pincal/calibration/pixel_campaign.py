@@ -36,7 +36,7 @@ from pincal.identification.measurements.pixels import BOARD
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.io.dataset import Dataset, dataset_text
-from pincal.io.files import check_outputs, make_directory, write_texts
+from pincal.io.files import check_directory, check_outputs, make_directory, write_texts
 from pincal.model.robot import Robot
 from pincal.study.simulation import perturbation
 
@@ -237,7 +237,7 @@ def camera_outputs(out: Path, images: Path) -> list[Path]:
     per image in ``images``; refused before any work (:func:`~pincal.io.files.check_outputs`)."""
     joints = out / "joints.csv"
     check_outputs([("--out", joints)])
-    make_directory(images, "--images")
+    check_directory(images, "--images")
     return [joints]
 
 
@@ -252,6 +252,7 @@ def write_images(sim: PixelSimulation, out: Path, images: Path, seed: int = 0) -
         raise DataError("the simulation has no board")
     rng = np.random.default_rng(seed + 1)
     rays = pixel_rays(sim.intrinsics, sim.image_size)
+    make_directory(images, "--images")
     paths = []
     for sample, view in zip(sim.dataset.sample_ids, sim.views, strict=True):
         path = images / f"{sample}.png"

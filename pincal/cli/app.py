@@ -217,13 +217,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from pincal.calibration.campaign import simulate, write_simulation
     from pincal.calibration.pipeline import calibrate
     from pincal.calibration.summary import summary_text
-    from pincal.io.files import make_directory, write_text
+    from pincal.io.files import check_directory, write_text
     from pincal.model.catalog import robot_path
     from pincal.model.robot import load_robot
     from pincal.progress import Progress
     from pincal.viz.html_report import write_demo_report
 
-    out = make_directory(args.out, "--out")  # before any work
+    out = check_directory(args.out, "--out")  # before any work
     print(DEMO_TEXT.format(n_train=args.samples, n_test=args.test_samples, noise_um=args.noise * 1e6), flush=True)
     with Progress("simulate, calibrate", 2) as progress:
         robot = load_robot(robot_path("delta"))

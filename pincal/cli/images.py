@@ -92,7 +92,8 @@ def simulate_camera(args: argparse.Namespace, robot: Any) -> int:
     paths = write_simulation(sim, out, args.meshes, given=args.robot)
     notes = []
     if args.images is not None:
-        before = {p.name for p in Path(args.images).iterdir() if p.is_file()}
+        images = Path(args.images)  # made when the images are written (a refused command makes none)
+        before = {p.name for p in images.iterdir() if p.is_file()} if images.is_dir() else set()
         paths += write_images(sim, out, Path(args.images), args.seed)
         written = {p.name for p in paths if p.parent == Path(args.images)}
         if before & written:

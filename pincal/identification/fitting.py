@@ -89,8 +89,7 @@ def _check_start(jacobian: Array, parameters: ParameterSet, tol: float, strict: 
     values = linalg.singular_values(scaled, "the scaled identification Jacobian")
     rank = int(np.count_nonzero(values > tol * values[0])) if values.size and values[0] > 0.0 else 0
     if (strict and rank < n) or rank == 0 or (rows < n and rank >= rows):
-        ident = analyse(jacobian, parameters.names, parameters.scales,
-                        units=[p.unit if p.unit in ("m", "rad") else "" for p in parameters], tol=tol)
+        ident = analyse(jacobian, parameters.names, parameters.scales, units=parameters.lengths_and_angles, tol=tol)
         _check_identifiable(ident, n, rows, strict)
 
 
@@ -273,10 +272,10 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
     steps = None  # its m × n reflectors are not needed any more
     data = model.data(pred)
     assert pred.jacobian is not None and data.jacobian is not None
-    ident = analyse(data.jacobian, pset.names, scales, units=[p.unit if p.unit in ("m", "rad") else "" for p in pset],
+    ident = analyse(data.jacobian, pset.names, scales, units=pset.lengths_and_angles,
                     tol=_practical_tol(data.jacobian, scales, rank_tol, min_information))
     active = ident.base_indices
-    sigma2, std, apriori, corr = _uncertainty(pred, rw, list(active), pset.names, model.rows, reduced)
+    sigma2, std, apriori, corr = _uncertainty(pred, rw, list(active), pset, model.rows, reduced)
     result = CalibrationResult(pset.names, start_x, x, std, list(active), ident, corr, iterations, converged, message,
                                history, errors_before, pred.errors,
                                weights, sigma2, time.perf_counter() - start, solver, loss, std_apriori=apriori,
@@ -287,7 +286,7 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
     return result
 
 
-def _uncertainty(pred: Prediction, rw: Array, active: list[int], names: list[str], rows: int,
+def _uncertainty(pred: Prediction, rw: Array, active: list[int], pset: ParameterSet, rows: int,
                  reduced: Array | None = None) -> tuple[float, Array, Array, Array]:
     """The a-posteriori variance factor σ² of the fit (weighted residual ``rw · r`` of its first ``rows`` rows, the
     data's, ``active`` parameters), the estimates' standard deviations (a posteriori and a priori, NaN outside
@@ -298,10 +297,11 @@ def _uncertainty(pred: Prediction, rw: Array, active: list[int], names: list[str
     assert pred.jacobian is not None
     dof = max(int(np.count_nonzero(rw[:rows])) - len(active), 1)  # a sample left out (weight 0): no degree of freedom
     sigma2 = float(np.sum((rw[:rows] * pred.residual[:rows]) ** 2)) / dof
-    std, apriori = np.full(len(names), np.nan), np.full(len(names), np.nan)
+    std, apriori = np.full(len(pset), np.nan), np.full(len(pset), np.nan)
     try:
         jacobian, weights = (pred.jacobian, rw) if reduced is None else (reduced, None)
-        shape = covariance(jacobian, 1.0, active, names, row_weights=weights)  # (JᵀJ)⁻¹: σ² scales it
+        shape = covariance(jacobian, 1.0, active, pset.names, row_weights=weights,  # (JᵀJ)⁻¹: σ² scales it
+                           units=pset.lengths_and_angles)
     except IdentifiabilityError:
         return sigma2, std, apriori, np.full((len(active), len(active)), np.nan)
     std[active] = np.sqrt(sigma2 * np.diag(shape))

@@ -312,6 +312,7 @@ def covariance(
     names: Sequence[str] | None = None,
     tol: float | None = None,
     row_weights: npt.ArrayLike | None = None,
+    units: Sequence[str] | None = None,
 ) -> Array:
     """Covariance of the least-squares estimate, ``σ² (JᵀJ)⁻¹``, on the chosen columns (of ``diag(row_weights) J``
     when given). The rows are reduced a few thousand at a time (:func:`pincal.linalg.triangle`): a tall Jacobian is
@@ -326,6 +327,9 @@ def covariance(
         tol: relative rank tolerance (default :data:`RANK_TOLERANCE`) on the column-equilibrated
             sub-Jacobian, whose conditioning does not depend on units.
         row_weights: (m,) weights of the rows (robust-loss weights' square roots), 1 if None.
+        units: p units, each ``m``, ``rad`` or ``""`` (unknown), for the culprit's description (the parameters'
+            kinds give them: :attr:`~pincal.identification.parameters.ParameterSet.lengths_and_angles`); inferred
+            from ``names`` when None.
 
     Returns:
         (k, k) covariance in the parameters' units squared ([m²], [rad²], [m·rad]), k = len(indices).
@@ -339,6 +343,7 @@ def covariance(
     p = J.shape[1]
     if names is not None and len(names) != p:
         raise DataError(f"{len(names)} parameter names for a Jacobian with {p} columns")
+    column_units = _checked_units(units, names if names is not None else [f"column {j}" for j in range(p)])
     labels = [f"{names[j]} (column {j})" if names is not None else f"column {j}" for j in range(p)]
     if not (np.isfinite(sigma2) and sigma2 >= 0.0):
         raise DataError(f"sigma2 must be a finite variance factor >= 0; got {sigma2}")
@@ -364,8 +369,8 @@ def covariance(
     sv, Vt = linalg.right_svd(equilibrated, "the identification Jacobian on the chosen columns")
     if sv.size < len(columns) or sv[-1] <= tol * sv[0]:
         rank = _rank(sv, tol)
-        units = [unit_from_name(names[j]) if names is not None else "" for j in columns]
-        culprits = sparse_combinations(_svd(equilibrated)[1][rank:], [labels[j] for j in columns], 1.0 / norms, units)
+        culprits = sparse_combinations(_svd(equilibrated)[1][rank:], [labels[j] for j in columns], 1.0 / norms,
+                                       [column_units[j] for j in columns])
         raise IdentifiabilityError(
             f"JᵀJ is singular on the chosen columns (rank {rank} of {len(columns)}); keep only the "
             f"identifiable ones (see analyse()): " + "; ".join(c.description for c in culprits)

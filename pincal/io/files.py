@@ -3,8 +3,9 @@
 Every file pincal writes goes through :func:`write_text`: the text is written to a temporary file in
 the target's directory and renamed over the target, so an interrupted run or a full disk leaves the
 previous file intact. :func:`check_outputs` runs before any work: it refuses an output that resolves to
-an input or to another output, or that is a directory, and creates missing parent directories (or
-says why it cannot), so that no error surfaces after a long fit.
+an input or to another output, or that is a directory, and checks that missing parent directories can be
+created (or says why not), so that no error surfaces after a long fit; the directories are made only when the
+files are written, so a refused command leaves nothing behind.
 
 A process killed at the instant of a write (SIGKILL, a power cut) leaves its temporary, ``.NAME.XXXXXXXX.part``, in
 the folder. The next write to that folder removes such leftovers (:func:`remove_stale_temporaries`): a writer holds
@@ -55,7 +56,8 @@ def resolved(path: str | Path) -> Path:
 
 
 def check_outputs(outputs: Iterable[tuple[str, str | Path]], inputs: Iterable[str | Path] = ()) -> None:
-    """Refuse unusable outputs before any work, and create their missing parent directories.
+    """Refuse unusable outputs before any work, and check that their missing parent directories can be created
+    (:func:`check_directory`: nothing is created here, so a command refused later leaves no empty directory).
 
     Args:
         outputs: (what, path) pairs, e.g. ``("--out", "cal.urdf")``: the files to be written.
@@ -76,7 +78,7 @@ def check_outputs(outputs: Iterable[tuple[str, str | Path]], inputs: Iterable[st
             raise OutputError(f"{what} '{path}' is the same file as {seen[target]}; give each output its own name")
         seen[target] = f"{what} '{path}'"
         _refuse_non_file(target, f"{what} '{path}'")
-        make_directory(target.parent, f"{what} '{path}'")
+        check_directory(target.parent, f"{what} '{path}'")
 
 
 def input_problem(path: Path) -> str | None:
@@ -112,27 +114,69 @@ def _refuse_non_file(target: Path, what: str) -> None:
                           "only: give a file name")
 
 
-def make_directory(directory: str | Path, what: str) -> Path:
-    """``directory``, created with its parents if missing, and checked to be writable.
+def check_directory(directory: str | Path, what: str) -> Path:
+    """``directory``, checked to be a writable directory or to be creatable as one, without creating anything:
+    the nearest part of it that exists must be a directory in which a file can be written and removed.
 
     Raises:
-        OutputError: it is a file, cannot be created, or cannot be written.
+        OutputError: it or a part of it is a file, or it cannot be created, or cannot be written.
     """
     folder = Path(directory)
     if folder.exists() and not folder.is_dir():
         raise OutputError(f"{what}: '{folder}' is a file, not a directory")
+    existing = next((place for place in (folder, *folder.parents) if place.exists()), Path("."))
+    missing = existing != folder
+    if missing and (not existing.is_dir() or folder.is_symlink()):
+        culprit = "a dangling symbolic link" if folder.is_symlink() else f"'{existing}' is a file"
+        raise OutputError(f"{what}: cannot create directory '{folder}': {culprit}")
+    try:  # a file written and removed: permissions, read-only mounts and pseudo file systems (/proc) all tell
+        handle, probe = tempfile.mkstemp(dir=existing, prefix=PROBE_PREFIX)
+        os.close(handle)
+        with contextlib.suppress(FileNotFoundError):  # removed meanwhile as stale: it was written all the same
+            os.unlink(probe)
+    except OSError as exc:
+        if missing:
+            raise OutputError(f"{what}: cannot create directory '{folder}': {exc.strerror or exc}") from None
+        raise OutputError(f"{what}: directory '{folder}' is not writable") from None
+    return folder
+
+
+def make_directory(directory: str | Path, what: str) -> Path:
+    """``directory``, created with its parents if missing, and checked to be writable (:func:`check_directory`).
+    Called when the files are written: before any work, commands call :func:`check_directory`.
+
+    Raises:
+        OutputError: it is a file, cannot be created, or cannot be written.
+    """
+    folder = check_directory(directory, what)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise OutputError(f"{what}: cannot create directory '{folder}': {exc.strerror or exc}") from None
-    try:  # a file written and removed: permissions, read-only mounts and pseudo file systems (/proc) all tell
-        handle, probe = tempfile.mkstemp(dir=folder, prefix=PROBE_PREFIX)
-        os.close(handle)
-        with contextlib.suppress(FileNotFoundError):  # removed meanwhile as stale: it was written all the same
-            os.unlink(probe)
-    except OSError:
-        raise OutputError(f"{what}: directory '{folder}' is not writable") from None
     return folder
+
+
+def _made_directories(folders: Iterable[Path], what: str) -> list[Path]:
+    """Create the missing ``folders`` (:func:`make_directory`); the directories created, deepest first, for
+    :func:`_remove_directories` to take back if the write fails."""
+    made: list[Path] = []
+    try:
+        for folder in folders:
+            missing = [place for place in (folder, *folder.parents) if not place.exists()]
+            if missing:
+                make_directory(folder, what)
+                made.extend(missing)
+    except OutputError:
+        _remove_directories(made)
+        raise
+    return made
+
+
+def _remove_directories(made: Sequence[Path]) -> None:
+    """Remove the directories a failed write created (deepest first), those that are still empty."""
+    for folder in sorted(made, key=lambda p: len(p.parts), reverse=True):
+        with contextlib.suppress(OSError):
+            folder.rmdir()
 
 
 #: The existing files that writes replaced, oldest first, until :func:`take_replaced` takes them.
@@ -160,13 +204,16 @@ def write_text(path: str | Path, text: str) -> Path:
 def write_texts(files: Sequence[tuple[str | Path, str | bytes]]) -> list[Path]:
     """Write several files as one: every text (UTF-8) or bytes (as they are: a mesh) goes to a temporary file
     first, and only when all are on disk are they renamed over their targets, so a failure (a full disk) leaves
-    every old file in place. The files that existed are recorded for :func:`take_replaced`. The stale temporaries
-    of an earlier write killed in each target's folder are removed first (:func:`remove_stale_temporaries`).
+    every old file in place. Missing directories are created first, and removed again if the write fails. The
+    files that existed are recorded for :func:`take_replaced`. The stale temporaries of an earlier write killed in
+    each target's folder are removed first (:func:`remove_stale_temporaries`).
 
     Raises:
         OutputError: as :func:`write_text`; no target has been touched.
     """
-    for folder in dict.fromkeys(Path(path).parent for path, _ in files):
+    folders = list(dict.fromkeys(Path(path).parent for path, _ in files))
+    made = _made_directories(folders, "output directory")
+    for folder in folders:
         remove_stale_temporaries(folder)
     staged: list[tuple[str, int, Path]] = []
     try:
@@ -179,6 +226,7 @@ def write_texts(files: Sequence[tuple[str | Path, str | bytes]]) -> list[Path]:
     except OutputError:
         for temporary, _, _ in staged:
             Path(temporary).unlink(missing_ok=True)
+        _remove_directories(made)
         raise
     finally:
         for _, handle, _ in staged:  # the locks go with the handles: the temporaries are renamed or removed

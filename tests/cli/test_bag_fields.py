@@ -89,3 +89,26 @@ def test_the_command_names_the_damaged_message(tmp_path: Path) -> None:
     assert len(lines) == 1 and lines[0].startswith(f"pincal: error: joint states: '{bag}' is damaged: message 3 on "
                                                    "'/joint_states'"), done.stderr
     assert not (tmp_path / "out.csv").exists()
+
+
+@pytest.mark.parametrize(("spoiled", "message", "fields"), [
+    ({"nan_quaternion": 11}, "holds qx = nan", (11, "qx")),
+    ({"damaged": 8}, "is damaged: message 8", (8, None)),
+    ({"infinite_from": 161}, "shoulder_lift_joint = inf", (None, "shoulder_lift_joint")),
+])
+def test_a_job_files_bag_keeps_the_bags_message_and_column(tmp_path: Path, spoiled: dict[str, int], message: str,
+                                                          fields: tuple[int | None, str | None]) -> None:
+    """A job file's ``[bag]`` names the job file as ``file`` (the bag's culprit in the text), and keeps the bag's
+    message number as ``sample`` and its joint or value as ``column``."""
+    from pincal.calibration.job import load_job_robot, read_job
+    from pincal.calibration.job_data import job_dataset
+
+    write_bag(tmp_path / "run.bag", **spoiled)  # type: ignore[arg-type]
+    path = tmp_path / "job.toml"
+    path.write_text('robot = "ur10"\n\n[bag]\nfile = "run.bag"\njoints = "/joint_states"\npose = "/mocap/tool"\n',
+                    encoding="utf-8")
+    job = read_job(path)
+    with pytest.raises(DataError, match=message) as caught:
+        job_dataset(job, load_job_robot(job))
+    assert str(caught.value).startswith(f"{path}: [bag]: ")
+    assert (caught.value.file, caught.value.sample, caught.value.column) == (str(path), *fields)

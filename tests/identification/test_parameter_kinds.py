@@ -113,3 +113,13 @@ def test_attached_kinds_name_their_calibrated_urdf_links() -> None:
     assert PlanePlacement.urdf_link("") == "contact_plane" and PlanePlacement.urdf_link("sole") == "sole_plane"
     with pytest.raises(TypeError, match="offset parameters"):
         ReadingOffset.urdf_link("joint1")
+
+
+def test_the_setup_is_named_by_its_kinds_words_in_their_order() -> None:
+    """``check`` and the report name the setup by the words of the kinds it holds: each once, in the order the kinds
+    are declared (the measurement frame first), whatever the parameters' order."""
+    from pincal.identification.parameters import setup_phrase
+
+    assert setup_phrase(["plane", "marker", "base", "cluster", "marker"]) == (
+        "measurement frame, markers and contact planes")
+    assert setup_phrase(["camera"]) == "cameras" and setup_phrase([]) == "nothing"

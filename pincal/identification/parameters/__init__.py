@@ -44,6 +44,7 @@ from pincal.identification.parameters.kinds import (
     TargetPlacement,
     kinds_where,
     parameter_kind,
+    setup_phrase,
 )
 from pincal.identification.parameters.parameter import (
     ANGLE_SCALE,
@@ -120,4 +121,5 @@ __all__ = [
     "planar_normal",
     "read_joints",
     "sees_world_target",
+    "setup_phrase",
 ]

@@ -20,7 +20,7 @@ from pincal.identification.parameters.candidates import (
     candidate_parameters,
     planar_normal,
 )
-from pincal.identification.parameters.kinds import CameraIntrinsics, CameraPlacement, TargetPlacement
+from pincal.identification.parameters.kinds import CameraIntrinsics, CameraPlacement, parameter_kind
 from pincal.identification.parameters.parameter import (
     AXES,
     COMPONENTS,
@@ -59,9 +59,10 @@ def camera_parameters(models: Sequence[Measurement]) -> list[Parameter]:
 
 
 def sees_world_target(models: Sequence[Measurement]) -> bool:
-    """Whether a camera on the robot sees a target fixed in the world (eye-in-hand): the world frame is then
-    seen only through that target, as an external measurement frame is through ``base.*``."""
-    return any(a.kind == TargetPlacement.name and not a.owner for m in models for a in m.attachments)
+    """Whether the measurements see the world frame only through a placement fixed in it, of a kind that says so
+    (:attr:`~pincal.identification.parameters.ParameterKind.world_anchor`: a target an eye-in-hand camera sees, a
+    plugin's plane a sensor reads), as an external measurement frame is seen through ``base.*``."""
+    return any(not a.owner and parameter_kind(a.kind).world_anchor for m in models for a in m.attachments)
 
 
 def marker_keys(models: Sequence[Measurement]) -> list[str]:

@@ -16,6 +16,7 @@ The setup (the measurement frame, markers, cameras, targets) has no bound: a tra
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from typing import Any, ClassVar, Literal, Protocol
 
 from pincal.errors import not_found
@@ -83,6 +84,10 @@ class ParameterKind:
     #: (an attached kind; empty: its start does not change what "before" is).
     before_placed: ClassVar[str] = ""
     before_unplaced: ClassVar[str] = ""
+    #: Whether a placement of the kind fixed in the world (owned by no frame) is all the data see of the world frame
+    #: (a world target, a plane a sensor reads): the first joint's placement then moves every reading as it does, and
+    #: the default set leaves it out, as it does for an estimated measurement frame (``base``).
+    world_anchor: ClassVar[bool] = False
     #: The readings it predicts and what ``pincal check --register`` places on the data (an attached kind), for the
     #: message on a model without its link.
     check_words: ClassVar[tuple[str, str]] = ("camera", "cameras and targets")
@@ -152,6 +157,18 @@ def kinds_where(*, kinematic: bool | None = None, in_urdf: bool | None = None,
                  and (in_urdf is None or bool(kind.urdf) == in_urdf)
                  and (in_corrections is None or kind.in_corrections == in_corrections))
 
+
+
+def setup_phrase(kinds: Iterable[str]) -> str:
+    """The :attr:`ParameterKind.setup_words` of the kinds named (``kinds``, e.g. of a problem's parameters), each
+    once, in the kinds' order of declaration, listed as a sentence lists them: ``measurement frame, markers and laser
+    sensors``; ``nothing`` for none."""
+    order = list(PARAMETER_KINDS)
+    named = sorted(set(kinds), key=lambda name: order.index(name) if name in order else len(order))
+    words = list(dict.fromkeys(parameter_kind(name).setup_words for name in named))
+    if len(words) < 2:
+        return words[0] if words else "nothing"
+    return ", ".join(words[:-1]) + f" and {words[-1]}"
 
 #: A placement of the robot's geometry: 20 mm and 2°. Calibrations of industrial arms correct their joint placements by
 #: well under 5 mm and 1° (the TIAGo arm of docs/results/tiago_mocap.md by a few mm once its setup is set apart); a
@@ -305,6 +322,7 @@ class TargetPlacement(ParameterKind):
     name = "target"
     urdf = "a target link (on the robot's root link, or on the frame)"
     attached = True
+    world_anchor = True
     setup_words = "targets"
     before_placed = BEFORE_MEANS_PLACED
     before_unplaced = BEFORE_MEANS_UNPLACED

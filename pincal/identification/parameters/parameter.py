@@ -202,6 +202,12 @@ class ParameterSet:
         """Typical sizes [m or rad], one per parameter."""
         return np.array([p.scale for p in self.parameters])
 
+    @property
+    def lengths_and_angles(self) -> list[str]:
+        """Each parameter's unit as its kind gives it (:attr:`Parameter.unit`) where it is ``m`` or ``rad``, else
+        ``""``: the units the identifiability analysis words its combinations in."""
+        return [p.unit if p.unit in ("m", "rad") else "" for p in self.parameters]
+
     def index(self, name: str) -> int:
         """The position of parameter ``name`` in the vector; NotFoundError lists the names otherwise."""
         try:
