@@ -245,3 +245,48 @@ def test_the_scene_draws_the_camera_looking_at_its_board(ur10: Path) -> None:
         assert 0.25 < seen[2] < 1.1
         u, v = k["fx"] * seen[0] / seen[2] + k["cx"], k["fy"] * seen[1] / seen[2] + k["cy"]
         assert 0 < u < 2 * k["cx"] and 0 < v < 2 * k["cy"]
+
+
+def test_check_gives_each_image_a_predicted_bound_in_px_and_at_the_board(ur10: Path) -> None:
+    """``pincal check`` on held-out images gives each its predicted 95 % bound of the reprojection error [px], the
+    model's part below it, and in mm at the board: the bound times the board's metres per pixel, which lies between
+    the true camera's nearest and farthest corner depth over its focal length."""
+    import pincal
+
+    out = _ok(run_pincal("check", "cal.urdf", "sim/measurements.csv", "--set", "test", "--report", "chk.json",
+                         cwd=ur10))
+    assert "predicted 95 % bound of an image's reprojection error: median " in out
+    assert "predicted errors: not known" not in out
+    rows = [line for line in out.splitlines() if line.startswith("  00") and "mm at the board)" in line]
+    assert len(rows) == 5
+    content = json.loads((ur10 / "chk.json").read_text())
+    account = content["pixel_predicted"]
+    assert account["unit"] == "px" and account["level"] == 0.95 and account["images"] == 5
+    assert account["inside"] >= 4  # the noise is 0.3 px, the model fitted on 14 images
+    truth = pincal.load_robot(str(ur10 / "sim" / "truth.urdf"))
+    fx = json.loads((ur10 / "sim" / "truth.json").read_text())["parameters"]["intrinsics.tool0.fx"]
+    corners = parse_board(read_dataset(ur10 / "sim" / "measurements.csv").metadata["board"]).corners()
+    held_out = read_dataset(ur10 / "sim" / "measurements.csv").of_set("test")
+    board = truth.placement(truth.q_reference, "camera_target")
+    for sample, q in zip(held_out.sample_ids, held_out.joints, strict=True):
+        entry = next(s for s in content["samples"] if s["sample"] == sample)
+        assert 0.0 < entry["pixel_model_bound"] < entry["pixel_bound"] < 3.0
+        in_camera = truth.placement(q, "tool0_camera").inverse() * board
+        depth = (corners @ in_camera.rotation.T + in_camera.translation)[:, 2]
+        per_pixel = entry["pixel_bound_at_board"] / entry["pixel_bound"]  # m/px at the board
+        assert 0.9 * depth.min() / fx < per_pixel < 1.5 * depth.max() / fx
+
+
+def test_the_board_scale_is_depth_over_focal_length_for_a_board_facing_the_camera() -> None:
+    """A board square to the optical axis at depth z [m] seen with focal length f [px]: z / f metres per pixel."""
+    from pincal.calibration.check_pixels import metres_per_pixel
+    from pincal.identification.measurements.pixels import pixel
+
+    board_spec = "charuco:5x4:0.04:0.03:DICT_4X4_50"
+    models = [pixel("tool0", k).with_metadata({"board": board_spec}) for k in range(12)]
+    z, f = 0.8, 640.0
+    uv = {m.key: np.array([[f * m.point()[0] / z + 320.0, f * m.point()[1] / z + 240.0]]) for m in models}
+    assert math.isclose(metres_per_pixel(models, uv, 0), z / f, rel_tol=1e-12)
+    uv[models[0].key][0, 0] = np.nan
+    assert math.isclose(metres_per_pixel(models, uv, 0), z / f, rel_tol=1e-12)  # a corner not seen is left out
+    assert math.isnan(metres_per_pixel(models[:1], uv, 0))
