@@ -208,3 +208,17 @@ def metres_per_pixel(pixels: list[Pixel], predicted: dict[str, Array], k: int) -
     apart = np.linalg.norm(p[i] - p[j], axis=1)
     keep = apart > 0.0
     return float(np.median(np.linalg.norm(b[i] - b[j], axis=1)[keep] / apart[keep])) if keep.any() else float("nan")
+
+
+def held_out_pixels(problem: CalibrationProblem, covariance: Array, columns: list[int], sigma2: float, x: Array,
+                    errors: dict[str, Array], ids: list[str]) -> dict[str, Any] | None:
+    """The report's predictions of the held-out images (``problem``'s samples ``ids``, their errors after the fit
+    ``errors`` per measurement key [px]): :meth:`PixelBounds.account` and, per image, :meth:`PixelBounds.entry`
+    (bounds [px] and at the board [m]) beside its reprojection error [px]; None without pixels or covariance."""
+    bounds = pixel_bounds(problem, covariance, columns, sigma2, x)
+    found = image_errors(errors, len(ids))
+    if bounds is None or found is None:
+        return None
+    return {**bounds.account(found),
+            "images_predicted": [{"sample": s, "pixel_error": number(found[k]), **bounds.entry(k)}
+                                 for k, s in enumerate(ids)]}

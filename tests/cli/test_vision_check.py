@@ -290,3 +290,20 @@ def test_the_board_scale_is_depth_over_focal_length_for_a_board_facing_the_camer
     uv[models[0].key][0, 0] = np.nan
     assert math.isclose(metres_per_pixel(models, uv, 0), z / f, rel_tol=1e-12)  # a corner not seen is left out
     assert math.isnan(metres_per_pixel(models[:1], uv, 0))
+
+
+def test_calibrate_reports_the_held_out_images_bounds_that_check_gives_again(ur10: Path) -> None:
+    """calibrate's report predicts each held-out image's reprojection error (px, and mm at the board); check on the
+    same images with the calibrated URDF (its carried covariance) gives the same bounds."""
+    summary = (ur10 / "calibrate.txt").read_text()
+    assert "predicted 95 % bound of a held-out image's reprojection error: median " in summary
+    held = json.loads((ur10 / "r.json").read_text())["predicted_held_out"]["pixels"]
+    assert held["images"] == 5 and held["unit"] == "px"
+    if not (ur10 / "chk.json").exists():
+        _ok(run_pincal("check", "cal.urdf", "sim/measurements.csv", "--set", "test", "--report", "chk.json", cwd=ur10))
+    checked = {s["sample"]: s for s in json.loads((ur10 / "chk.json").read_text())["samples"]}
+    for image in held["images_predicted"]:
+        again = checked[image["sample"]]
+        assert math.isclose(image["pixel_error"], again["pixel_error"], rel_tol=1e-6)
+        for name in ("pixel_bound", "pixel_model_bound", "pixel_bound_at_board"):
+            assert math.isclose(image[name], again[name], rel_tol=1e-6), name
