@@ -96,6 +96,13 @@ def test_a_fixed_camera_checked_on_a_board_on_the_hand(tmp_path: Path) -> None:
     figures = json.loads((tmp_path / "c.json").read_text())["pixels"]
     assert figures["rms"] == pytest.approx(held_out["rms_after"], rel=1e-9)
     assert figures["rms"] < figures["nominal_rms"]
+    # the board on the hand: each held-out image has its predicted bound, the same in calibrate's report and check's
+    predicted = json.loads((tmp_path / "c.json").read_text())["pixel_predicted"]
+    reported = json.loads((tmp_path / "r.json").read_text())["predicted_held_out"]["pixels"]
+    assert predicted["images"] == reported["images"] == 4
+    for name in ("median_bound", "median_model_bound", "median_bound_at_board"):
+        assert 0.0 < predicted[name] == pytest.approx(reported[name], rel=1e-6)
+    assert predicted["median_model_bound"] < predicted["median_bound"]
 
 
 def test_image_errors_pool_each_images_corners() -> None:
