@@ -314,3 +314,25 @@ def test_calibrate_reports_the_held_out_images_bounds_that_check_gives_again(ur1
         assert math.isclose(image["pixel_error"], again["pixel_error"], rel_tol=1e-6)
         for name in ("pixel_bound", "pixel_model_bound", "pixel_bound_at_board"):
             assert math.isclose(image[name], again[name], rel_tol=1e-6), name
+
+
+def test_with_no_parameter_uncertainty_an_images_bound_is_the_noises_chi_quantile(ur10: Path) -> None:
+    """With a zero covariance of the estimates, an image's bound is the corners' noise alone: its n corners' 2n errors
+    of σ each, ‖e‖'s 95 % quantile σ √χ²₀.₉₅(2n) over √n; the model's part is 0."""
+    from scipy.stats import chi2
+
+    import pincal
+    from pincal.calibration.check_pixels import pixel_bounds
+    from pincal.calibration.options import CalibrationOptions
+    from pincal.calibration.setup import prepare
+
+    problem = prepare(pincal.load_robot("ur10"), read_dataset(ur10 / "sim" / "measurements.csv"),
+                      CalibrationOptions(), part="test").problem
+    x = problem.initial_guess()
+    q = len(x)
+    bounds = pixel_bounds(problem, np.zeros((q, q)), list(range(q)), 4.0, x)
+    assert bounds is not None
+    n = 35  # the 8 x 6 board's inner corners, every one seen in the simulated images
+    sigma = 2.0 * 0.3  # √σ̂² times the σ [px] the file declares ('# sigma pixel: 0.3', simulate's --noise)
+    assert np.all(bounds.model_bound == 0.0)
+    assert np.allclose(bounds.bound, sigma * math.sqrt(chi2.ppf(0.95, 2 * n)) / math.sqrt(n), rtol=1e-9)
