@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration import check_pixels as pixel_check
 from pincal.calibration.check_groups import (
     SAME_ERROR,
     fitted_data,
@@ -40,7 +41,6 @@ from pincal.calibration.check_groups import (
     recorded_before,
 )
 from pincal.calibration.check_model import CheckedModel
-from pincal.calibration.check_pixels import image_errors, is_pixel_key, pixel_figures, pixel_quantities, pixels_worse
 from pincal.calibration.check_pixels import largest as _largest
 from pincal.calibration.check_pixels import number as _number
 from pincal.calibration.check_plausibility import Beyond, Implausible, beyond_plausible, implausible_data
@@ -110,6 +110,7 @@ class Check:
             ``calibrate`` judges them (:mod:`pincal.calibration.check_plausibility`); None when plausible.
         nominal_bound: (N,) the nominal robot's own 95 % bound [m] at each sample, from the calibration MODEL holds
             (NaN: not known); None without a prediction.
+        pixel_bounds: Each image's predicted reprojection error [px] under MODEL; None without pixels or covariance.
     """
 
     model: Side
@@ -123,6 +124,7 @@ class Check:
     predicted_note: str | None = None
     implausible: Implausible | None = None
     nominal_bound: Array | None = None
+    pixel_bounds: pixel_check.PixelBounds | None = None
 
     @property
     def sample_ids(self) -> list[str]:
@@ -162,14 +164,15 @@ class Check:
         if model is not None and nominal is not None:
             keep = np.isfinite(model) & np.isfinite(nominal)
             return bool(rms(model[keep]) > (1.0 + SAME_ERROR) * rms(nominal[keep]))
-        pixels = pixels_worse(self.model.errors, self.nominal.errors, SAME_ERROR)
+        pixels = pixel_check.pixels_worse(self.model.errors, self.nominal.errors, SAME_ERROR)
         return pixels if pixels is not None \
             else bool(weighted_rms(self.model) > weighted_rms(self.nominal) * (1.0 + SAME_ERROR))
 
     def figures(self, rows: Sequence[int] | None = None) -> dict[str, Any]:
         """RMS and max of the length errors [m] (and of the orientation errors [rad], with poses; of the reprojection
         errors [px], with pixels) of the model and of the nominal robot, over the samples ``rows`` (None: all)."""
-        model, nominal = _rows(self.model.errors, rows), _rows(self.nominal.errors, rows)
+        model, nominal = ({k: e if rows is None else e[list(rows)] for k, e in s.errors.items()}
+                          for s in (self.model, self.nominal))
         out: dict[str, Any] = {"n_samples": len(self.sample_ids) if rows is None else len(rows)}
         for suffix, pick in (("", _length_norms), ("_angle", _angle_norms)):
             a, b = pick(model), pick(nominal)
@@ -177,14 +180,14 @@ class Check:
                 continue
             out.update({f"rms{suffix}": _number(rms(a)), f"max{suffix}": _largest(a),
                         f"nominal_rms{suffix}": _number(rms(b)), f"nominal_max{suffix}": _largest(b)})
-        pixels = pixel_figures(model, nominal)  # the reprojection errors [px]
+        pixels = pixel_check.pixel_figures(model, nominal)  # the reprojection errors [px]
         return {**out, "pixels": pixels} if pixels else out
 
     def quantities(self) -> list[dict[str, Any]]:
         """Per measurement and quantity (``length`` [m], ``angle`` [rad], ``reading`` [its unit]): the readings'
         count, RMS and max error of the model and of the nominal robot."""
         out = []
-        for m in (m for m in self.model.prepared.models if not is_pixel_key(m.key)):
+        for m in (m for m in self.model.prepared.models if not pixel_check.is_pixel_key(m.key)):
             a, b = self.model.errors[m.key], self.nominal.errors[m.key]
             parts = []
             if length_columns(m.key):
@@ -198,7 +201,7 @@ class Check:
                 out.append({"measurement": m.key, "quantity": quantity, "unit": unit, "n": int(na.size),
                             "rms": _number(rms(na)), "max": _largest(na), "nominal_rms": _number(rms(nb)),
                             "nominal_max": _largest(nb)})
-        return out + pixel_quantities(self.model.prepared.models, self.model.errors, self.nominal.errors)
+        return out + pixel_check.pixel_quantities(self.model.prepared.models, self.model.errors, self.nominal.errors)
 
     def samples(self) -> list[dict[str, Any]]:
         """Per checked sample: its id, its length error [m] and orientation error [rad] (None without such a
@@ -208,7 +211,7 @@ class Check:
         outside = set(self.outside_samples)
         length_a, length_b = (sample_length_errors(s.errors, n) for s in (self.model, self.nominal))
         angle_a, angle_b = (sample_angle_errors(s.errors, n) for s in (self.model, self.nominal))
-        pixel_a, pixel_b = (image_errors(s.errors, n) for s in (self.model, self.nominal))
+        pixel_a, pixel_b = (pixel_check.image_errors(s.errors, n) for s in (self.model, self.nominal))
         out = []
         for k, sample in enumerate(self.sample_ids):
             entry: dict[str, Any] = {"sample": sample}
@@ -217,7 +220,8 @@ class Check:
             if angle_a is not None and angle_b is not None:
                 entry.update({"angle_error": _number(angle_a[k]), "nominal_angle_error": _number(angle_b[k])})
             if pixel_a is not None and pixel_b is not None:  # the image's reprojection error [px]
-                entry.update({"pixel_error": _number(pixel_a[k]), "nominal_pixel_error": _number(pixel_b[k])})
+                entry.update({"pixel_error": _number(pixel_a[k]), "nominal_pixel_error": _number(pixel_b[k]),
+                              **(self.pixel_bounds.entry(k) if self.pixel_bounds is not None else {})})
             entry["outside_range"] = sample in outside
             if self.predicted is not None:
                 entry.update({"bound": _number(self.predicted.bound[k]), "distance": float(self.predicted.distance[k]),
@@ -239,10 +243,6 @@ class Check:
                 **coverage(self.predicted, errors if errors is not None else np.full(len(self.sample_ids), np.nan)),
                 "median_bound": _number(float(np.median(finite))) if finite.size else None,
                 "beyond": [s for s, u in zip(self.sample_ids, self.predicted.distance, strict=True) if u > 0.0]}
-
-
-def _rows(errors: dict[str, Array], rows: Sequence[int] | None) -> dict[str, Array]:
-    return errors if rows is None else {key: err[list(rows)] for key, err in errors.items()}
 
 
 def _norms(errors: Array) -> Array:
@@ -359,10 +359,10 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
     elif ranges:  # the ranges MODEL records, where its data are not at hand
         outside = outside_recorded(nominal, ranges, nominal_prepared.samples, moving)
         range_note = None
-    predicted, note = predicted_check(model, nominal_prepared)
+    predicted, note, pixels = predicted_check(model, nominal_prepared)
     return Check(model_side, nominal_side, register, dropped, outside, range_note, dataset.n_samples, predicted, note,
                  _plausibility(nominal_side, recorded is None, options),
-                 nominal_bounds(model, predicted) if predicted is not None else None)
+                 nominal_bounds(model, predicted) if predicted is not None else None, pixels)
 
 
 def _plausibility(nominal: Side, register: bool, options: CalibrationOptions) -> Implausible | None:
@@ -411,6 +411,8 @@ def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
                           **(check.figures(outside) if outside else {})},
         "inside_range": check.figures(inside) if outside else None,
         "predicted": check.predicted_account(),
+        "pixel_predicted": pixel_check.pixel_account(check.pixel_bounds,
+                                                     pixel_check.image_errors(check.model.errors, len(ids))),
         "setup": {"parameters": list(check.model.prepared.parameters.names),
                   "model": check.model.setup(), "nominal": check.nominal.setup(),
                   "model_converged": check.model.converged, "nominal_converged": check.nominal.converged},

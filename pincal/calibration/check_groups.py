@@ -19,11 +19,12 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.check_model import CheckedModel
+from pincal.calibration.check_pixels import PixelBounds, pixel_bounds
 from pincal.calibration.predicted import FitCovariance, PredictedErrors, distance, predicted_errors, weighed_as_fitted
 from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
 from pincal.errors import DataError
-from pincal.identification.metrics import rms, sample_length_errors
+from pincal.identification.metrics import length_columns, rms, sample_length_errors
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
 
@@ -37,6 +38,8 @@ SAME_ERROR = 0.01
 #: Why a check has no predicted bounds.
 NO_CALIBRATION = ("MODEL carries no calibration (a URDF written before pincal recorded one, or a robot name): give a "
                   "calibrated URDF or the report JSON of its calibration as MODEL for each posture's predicted error")
+NO_COVARIANCE = "MODEL's calibration holds no covariance of its estimates for these measurements"
+PIXELS_ONLY = "DATA measure pixels only: each image's bound is in px (the report's 'pixel_predicted')"
 
 
 def group_verdicts(model_errors: dict[str, Array], nominal_errors: dict[str, Array], beyond: Sequence[bool]
@@ -59,13 +62,15 @@ def group_verdicts(model_errors: dict[str, Array], nominal_errors: dict[str, Arr
     return out
 
 
-def predicted_check(model: CheckedModel, nominal: Prepared) -> tuple[PredictedErrors | None, str | None]:
+def predicted_check(model: CheckedModel, nominal: Prepared
+                    ) -> tuple[PredictedErrors | None, str | None, PixelBounds | None]:
     """Each checked sample's predicted error under MODEL (:mod:`pincal.calibration.predicted`): the calibration's
     estimates, covariance and growth, as its report or its calibrated URDF holds them, on ``nominal``'s samples, at
-    their distance beyond the fitted range it records. None and why when MODEL holds none."""
+    their distance beyond the fitted range it records. None and why when MODEL holds none. Then each image's predicted
+    reprojection error [px] (:class:`~pincal.calibration.check_pixels.PixelBounds`), None without pixels."""
     report = model.calibration
     if report is None:
-        return None, NO_CALIBRATION
+        return None, NO_CALIBRATION, None
     from pincal.identification.parameters import choose_parameters
 
     names = list(report.parameters)
@@ -73,16 +78,19 @@ def predicted_check(model: CheckedModel, nominal: Prepared) -> tuple[PredictedEr
         parameters = choose_parameters(nominal.robot, nominal.models, names, "cluster" if report.markers == "cluster"
                                        else "each")
     except (DataError, KeyError):
-        return None, "MODEL's parameters are not those of these measurements: no predicted errors"
+        return None, "MODEL's parameters are not those of these measurements: no predicted errors", None
     x = np.array([float(report.parameters[name].value) for name in parameters.names])
     on = replace(nominal, models=weighed_as_fitted(nominal.models, report)).on(nominal.samples, parameters)
     growth = report.error_growth
     fit = FitCovariance.of_report(report.covariance, report.sigma2, parameters.names, growth)
+    pixels = pixel_bounds(on.problem, fit.matrix, fit.columns, fit.sigma2, x)
+    if not any(length_columns(m.key) for m in on.problem.measurements):
+        return None, PIXELS_ONLY if pixels is not None else NO_COVARIANCE, pixels
     ranges = report.fitted_range or model.provenance.fitted_range or {}
     predicted = predicted_errors(on.problem, fit, x, distance(nominal.robot, on.problem.observations.actuated, ranges))
     if not np.any(np.isfinite(predicted.bound)):
-        return None, "MODEL's calibration holds no covariance of its estimates for these measurements"
-    return predicted, None
+        return None, NO_COVARIANCE, pixels
+    return predicted, None, pixels
 
 
 def nominal_bounds(model: CheckedModel, predicted: PredictedErrors) -> npt.NDArray[np.float64]:

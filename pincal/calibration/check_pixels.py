@@ -10,14 +10,17 @@ holds them); the nominal robot with its camera registered on the data (placement
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.propagation import LEVEL, norm_quantiles, row_sigmas
 from pincal.identification.measurements import KIND_CLASSES, Measurement
 from pincal.identification.measurements.pixels import Pixel
 from pincal.identification.metrics import pixel_error_norms, rms
+from pincal.identification.problem import CalibrationProblem
 
 Array = npt.NDArray[np.float64]
 
@@ -90,3 +93,132 @@ def pixels_worse(model: dict[str, Array], nominal: dict[str, Array], same: float
     if figures is None or figures["rms"] is None or figures["nominal_rms"] is None:
         return None
     return bool(figures["rms"] > (1.0 + same) * figures["nominal_rms"])
+
+
+@dataclass(frozen=True)
+class PixelBounds:
+    """Each image's predicted 95 % bound of its reprojection error under MODEL, from the calibration's covariance.
+
+    An image's corners' errors ``e`` (2 per corner, u and v [px]) are predicted to have the covariance
+    ``S = J C Jᵀ + σ̂² diag(σ_row²)`` [px²] (``C`` the fit's covariance of its estimates, robot, camera, board and
+    intrinsics, and the corners' stated σ scaled by the fit's variance factor): the bound of the image's RMS
+    reprojection error is the 95 % quantile of ``‖e‖`` under ``S`` over ``√n`` (n the corners seen,
+    :func:`~pincal.calibration.propagation.norm_quantiles`). No growth beyond the fitted range is known for pixels.
+
+    Attributes:
+        bound: (N,) the bound [px] (NaN for an image that saw no corner).
+        model_bound: (N,) the same with no noise (``J C Jᵀ`` alone) [px]: how far MODEL's prediction of a corner may be
+            off.
+        scale: (N,) metres at the board per pixel there [m/px]: the median over pairs of corners seen of their distance
+            on the board over their distance in MODEL's image (NaN with fewer than two corners): ``bound · scale`` is
+            the bound in m at the board.
+    """
+
+    bound: Array
+    model_bound: Array
+    scale: Array
+
+    def entry(self, k: int) -> dict[str, Any]:
+        """Sample ``k``'s figures for the check's report: the bounds [px] and [m] at the board."""
+        return {"pixel_bound": number(self.bound[k]), "pixel_model_bound": number(self.model_bound[k]),
+                "pixel_bound_at_board": number(self.bound[k] * self.scale[k])}
+
+    def account(self, errors: Array | None) -> dict[str, Any]:
+        """How many images' reprojection errors ``errors`` (N,) [px] lie within their bound, and the median bound [px]
+        and at the board [m]."""
+        known = np.isfinite(self.bound) & (np.isfinite(errors) if errors is not None else False)
+        within = known & (np.nan_to_num(errors, nan=np.inf) <= self.bound) if errors is not None else known & False
+        inside = int(np.count_nonzero(within))
+        at_board = self.bound * self.scale
+        return {"level": LEVEL, "unit": "px", "inside": inside, "images": int(np.count_nonzero(known)),
+                "median_bound": _median(self.bound), "median_model_bound": _median(self.model_bound),
+                "median_bound_at_board": _median(at_board)}
+
+
+def pixel_account(bounds: PixelBounds | None, errors: Array | None) -> dict[str, Any] | None:
+    """:meth:`PixelBounds.account` of the images' reprojection errors ``errors`` (N,) [px]; None without bounds."""
+    return bounds.account(errors) if bounds is not None else None
+
+
+def _median(values: Array) -> float | None:
+    finite = values[np.isfinite(values)]
+    return float(np.median(finite)) if finite.size else None
+
+
+def pixel_bounds(problem: CalibrationProblem, covariance: Array, columns: list[int], sigma2: float,
+                 x: Array) -> PixelBounds | None:
+    """:class:`PixelBounds` of ``problem``'s images for the model at ``x`` [m, rad], with the fit's ``covariance`` of
+    the parameters ``columns`` (in ``problem``'s order) [their units squared] and variance factor ``sigma2``; None when
+    the problem measures no pixel or the covariance is not known."""
+    pixels = [m for m in problem.measurements if isinstance(m, Pixel)]
+    if not pixels or not np.all(np.isfinite(covariance)) or not np.isfinite(sigma2):
+        return None
+    prediction = problem.evaluate(x, jacobian=True)
+    assert prediction.jacobian is not None
+    n = problem.observations.n_samples
+    rows = _pixel_rows(problem, n)
+    width = 2 * max((len(r) for r in rows), default=0)
+    sigma = row_sigmas(problem)
+    jac = prediction.jacobian[:, columns] * sigma[:, None]  # unweighted [px per parameter unit]
+    bound, model_bound, scale = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+    full, model = np.zeros((n, width, width)), np.zeros((n, width, width))
+    for k, starts in enumerate(rows):
+        if not starts:
+            continue
+        index = np.concatenate([[r, r + 1] for r in starts])
+        block = jac[index]
+        w = index.size
+        model[k, :w, :w] = block @ covariance @ block.T
+        full[k, :w, :w] = model[k, :w, :w] + sigma2 * np.diag(sigma[index] ** 2)
+    seen = np.array([len(r) for r in rows], dtype=float)
+    some = seen > 0
+    bound[some] = norm_quantiles(full[some]) / np.sqrt(seen[some])
+    model_bound[some] = norm_quantiles(model[some]) / np.sqrt(seen[some])
+    for k in range(n):
+        scale[k] = metres_per_pixel(pixels, prediction.predicted, k)
+    return PixelBounds(bound, model_bound, scale)
+
+
+def _pixel_rows(problem: CalibrationProblem, n: int) -> list[list[int]]:
+    """Per sample, the first residual row (u; v follows) of each pixel reading it holds, in :meth:`evaluate`'s order."""
+    out: list[list[int]] = [[] for _ in range(n)]
+    start = 0
+    for m in problem.measurements:
+        taken = np.flatnonzero(problem.seen(m.key))
+        if isinstance(m, Pixel):
+            for j, k in enumerate(taken.tolist()):
+                out[k].append(start + m.size * j)
+        start += m.size * taken.size
+    return out
+
+
+def metres_per_pixel(pixels: list[Pixel], predicted: dict[str, Array], k: int) -> float:
+    """Image ``k``'s metres at the board per pixel [m/px]: the median over pairs of its corners of their distance on
+    the board over their distance in the predicted image; NaN with fewer than two corners."""
+    points, uv = [], []
+    for m in pixels:
+        row = predicted[m.key][k, :2]
+        if np.all(np.isfinite(row)) and m.board is not None:
+            points.append(m.point())
+            uv.append(row)
+    if len(points) < 2:
+        return float("nan")
+    b, p = np.array(points), np.array(uv)
+    i, j = np.triu_indices(len(b), 1)
+    apart = np.linalg.norm(p[i] - p[j], axis=1)
+    keep = apart > 0.0
+    return float(np.median(np.linalg.norm(b[i] - b[j], axis=1)[keep] / apart[keep])) if keep.any() else float("nan")
+
+
+def held_out_pixels(problem: CalibrationProblem, covariance: Array, columns: list[int], sigma2: float, x: Array,
+                    errors: dict[str, Array], ids: list[str]) -> dict[str, Any] | None:
+    """The report's predictions of the held-out images (``problem``'s samples ``ids``, their errors after the fit
+    ``errors`` per measurement key [px]): :meth:`PixelBounds.account` and, per image, :meth:`PixelBounds.entry`
+    (bounds [px] and at the board [m]) beside its reprojection error [px]; None without pixels or covariance."""
+    bounds = pixel_bounds(problem, covariance, columns, sigma2, x)
+    found = image_errors(errors, len(ids))
+    if bounds is None or found is None:
+        return None
+    return {**bounds.account(found),
+            "images_predicted": [{"sample": s, "pixel_error": number(found[k]), **bounds.entry(k)}
+                                 for k, s in enumerate(ids)]}

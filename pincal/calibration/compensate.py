@@ -267,7 +267,7 @@ def compensate(model: Model, targets: Targets, frame: str | None = None, targets
     Raises:
         TypeError, ArgumentError: an argument of the wrong type or value (named, with the value).
         DataError: pose targets for a robot of fewer than 6 degrees of freedom; a frame no actuated joint moves;
-            ``board`` for a model without the board's link.
+            ``board`` for a model without a fixed board's link (the reason named: its board moves).
         NotFoundError: an unknown frame.
     """
     _check_arguments(model, targets, frame, targets_in, tolerance, seed)
@@ -280,10 +280,7 @@ def compensate(model: Model, targets: Targets, frame: str | None = None, targets
     base = base_link(robot)
     world_from_targets = robot.placement(robot.q_reference, base) if targets_in == "base" else pin.SE3.Identity()
     if targets_in == "board":
-        if not robot.model.existFrame(BOARD_LINK):
-            raise DataError(f"--targets-in board: MODEL has no link '{BOARD_LINK}' (a URDF calibrated on an "
-                            "eye-in-hand camera's pixels or poses holds the board it saw there)")
-        world_from_targets = robot.placement(robot.q_reference, BOARD_LINK)
+        world_from_targets = _board_placement(robot)
     solver = CommandSolver(model, name, tolerance, seed)
     every = goals(targets, world_from_targets)
     n, na = len(targets.ids), robot.n_actuated
@@ -299,6 +296,35 @@ def compensate(model: Model, targets: Targets, frame: str | None = None, targets
             statuses += block.statuses
     return Compensation(model, targets, name, targets_in, base, commands, residuals, statuses, configurations,
                         inversion, tolerance, time.perf_counter() - start)
+
+
+def _board_placement(robot: Robot) -> pin.SE3:
+    """The fixed board's placement in ``robot``'s world [m] (link :data:`BOARD_LINK`), for ``--targets-in board``.
+
+    Raises:
+        DataError: no such link, naming why: the model's board (``<frame>_target_board``) moves with the robot, seen
+            by a camera on another chain (``cross_pixel``: a target relative to the board fixes one chain relative to
+            the other, not a place the robot goes) or by a fixed camera (eye-to-hand: its frame is ``measurement``);
+            or the model has no board at all.
+    """
+    from pincal.model.measured_frame import frame_moves
+
+    if robot.model.existFrame(BOARD_LINK):
+        return robot.placement(robot.q_reference, BOARD_LINK)
+    names = [str(f.name) for f in robot.model.frames if f.type == pin.FrameType.BODY]
+    boards = [n for n in names if n.endswith("_target_board") and frame_moves(robot, n)]
+    cameras = [n for n in names if n.endswith("_camera") and frame_moves(robot, n)]
+    if boards and cameras:
+        raise DataError(f"--targets-in board: MODEL's board (link '{boards[0]}') moves with the robot, as does its "
+                        f"camera (link '{cameras[0]}'): a target relative to the board fixes where one chain stands "
+                        "relative to the other, not a place the robot goes, which compensate does not solve; give the "
+                        f"targets in 'base' (pose:{cameras[0]} or pose:{boards[0]}, docs/compensate.md)")
+    if boards:
+        raise DataError(f"--targets-in board: MODEL's board (link '{boards[0]}') is on the robot, seen by a fixed "
+                        f"camera whose frame is the measurement frame: give targets of pose:{boards[0]} in "
+                        "'measurement'")
+    raise DataError(f"--targets-in board: MODEL has no link '{BOARD_LINK}' (a URDF calibrated on an eye-in-hand "
+                    "camera's pixels or poses holds the fixed board it saw there)")
 
 
 def _check_arguments(model: Any, targets: Any, frame: Any, targets_in: Any, tolerance: Any, seed: Any) -> None:

@@ -25,7 +25,7 @@ import numpy.typing as npt
 
 from pincal import validation
 from pincal.calibration.carried import with_carried
-from pincal.calibration.check_pixels import image_errors
+from pincal.calibration.check_pixels import held_out_pixels, image_errors
 from pincal.calibration.columns import check_columns, column_mistake, mistake_named, refuse_column_mistake
 from pincal.calibration.crossval import Folds, check_cross_validation, cross_validate, parse_cv
 from pincal.calibration.export_proof import calibrated_proof, with_comment
@@ -46,6 +46,7 @@ from pincal.calibration.report_sections import (
     BadJointReading,
     DownWeighted,
     DroppedSample,
+    HeldOutPredictions,
     ModelSelection,
     OutsideRange,
     RangeGuard,
@@ -438,6 +439,10 @@ def prediction_content(fit: Prepared, result: CalibrationResult, held: HeldOut |
     if held is not None and held.predicted is not None:
         out["predicted_held_out"] = held_out_predictions(held.prepared.samples.sample_ids, held.predicted,
                                                          held.sample_errors()[1])
+    pixels = held_out_pixels(held.prepared.problem, covariance.matrix, covariance.columns, covariance.sigma2,
+                             result.x, held.errors_after, held.prepared.samples.sample_ids) if held else None
+    if pixels is not None:  # each held-out image's predicted reprojection error [px]
+        out["predicted_held_out"] = replace(out.get("predicted_held_out") or HeldOutPredictions(), pixels=pixels)
     return out
 
 

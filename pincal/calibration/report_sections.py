@@ -307,6 +307,9 @@ class HeldOutPredictions(Section):
         median_bound: The bounds' median [m]; None: none known.
         beyond: The samples beyond the fitted range, by id.
         samples_predicted: Each sample's prediction.
+        pixels: With pixel readings and the covariance, each held-out image's predicted reprojection bound
+            (:func:`pincal.calibration.check_pixels.held_out_pixels`: ``median_bound`` [px], ``median_bound_at_board``
+            [m], ``inside`` of ``images``, ``images_predicted``); left out of the JSON otherwise.
     """
 
     level: float = 0.95
@@ -318,6 +321,7 @@ class HeldOutPredictions(Section):
     median_bound: float | None = None
     beyond: list[str] = field(default_factory=list)
     samples_predicted: list[PredictedSample] = field(default_factory=list, metadata=nested(listed(PredictedSample)))
+    pixels: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
 
 
 @dataclass(frozen=True)

@@ -107,6 +107,12 @@ def image_lines(report: CalibrationReport) -> list[str]:
     worst = sorted(taken, key=lambda e: -(e.pixel_after or 0.0))[:3]
     lines.append("largest reprojection errors after the fit (image: before → after): " + ", ".join(
         f"{e.sample} ({e.set}) {e.pixel_before:.3f} → {e.pixel_after:.3f} px" for e in worst))
+    predicted = report.predicted_held_out.pixels if report.predicted_held_out is not None else None
+    if predicted and predicted.get("median_bound") is not None:
+        board = predicted.get("median_bound_at_board")
+        lines.append(f"predicted 95 % bound of a held-out image's reprojection error: median "
+                     f"{predicted['median_bound']:.3f} px" + (f" ({board * 1e3:.3f} mm at the board)" if board else "")
+                     + f"; {predicted['inside']} of {predicted['images']} images within their bound")
     return lines
 
 

@@ -101,14 +101,27 @@ def _pixel_lines(content: dict[str, Any]) -> list[str]:
     """The reprojection errors' lines [px]: over every corner seen, then each image's (the RMS of its corners)."""
     if not content.get("pixels"):
         return []
-    lines = [f"reprojection: {_pair(content['pixels'], '', 'px')} (over {content['pixels']['n_corners']} corners)",
-             "  per image (RMS of its corners): MODEL, nominal"]
+    lines = [f"reprojection: {_pair(content['pixels'], '', 'px')} (over {content['pixels']['n_corners']} corners)"]
+    predicted = content.get("pixel_predicted")
+    if predicted and predicted["median_bound"] is not None:
+        lines.append(f"predicted 95 % bound of an image's reprojection error: median {predicted['median_bound']:.3f} px"
+                     f"{_at_board(predicted['median_bound_at_board'])} (MODEL's prediction alone "
+                     f"{predicted['median_model_bound']:.3f} px, the rest the corners' noise); "
+                     f"{predicted['inside']} of {predicted['images']} images of MODEL within their bound")
+    lines.append("  per image (RMS of its corners): MODEL, nominal" + (", predicted bound" if predicted else ""))
     images = [s for s in content["samples"] if "pixel_error" in s]
     lines += [f"  {s['sample']}: {_shown(s['pixel_error'], 'px')}, {_shown(s['nominal_pixel_error'], 'px')}"
+              + (f", {s['pixel_bound']:.3f} px{_at_board(s['pixel_bound_at_board'])}"
+                 if s.get("pixel_bound") is not None else "")
               for s in images[:SAMPLE_LINES]]
     if len(images) > SAMPLE_LINES:
         lines.append(f"  … and {len(images) - SAMPLE_LINES} more (the report's 'samples')")
     return lines
+
+
+def _at_board(metres: float | None) -> str:
+    """`` (x mm at the board)`` for a length [m] at the board, or nothing when not known."""
+    return f" ({metres * 1e3:.3f} mm at the board)" if metres is not None else ""
 
 
 def _register_hint(content: dict[str, Any]) -> str | None:
@@ -158,7 +171,8 @@ def _predicted_lines(content: dict[str, Any]) -> list[str]:
     fitted joint range."""
     predicted = content["predicted"]
     if not predicted["known"]:
-        return [f"predicted errors: not known: {predicted['note']}"]
+        return [] if content.get("pixel_predicted") and not content.get("rms") else \
+            [f"predicted errors: not known: {predicted['note']}"]
     lines = [f"predicted 95 % bound: median {predicted['median_bound'] * 1e3:.4f} mm; {predicted['inside']} of "
              f"{predicted['samples']} errors of MODEL within their bound ({predicted['fraction']:.0%})"]
     lines += [f"  {s['sample']}: error {s['error'] * 1e3:.4f} mm, bound {s['bound'] * 1e3:.4f} mm"

@@ -97,6 +97,13 @@ def test_a_fixed_camera_checked_on_a_board_on_the_hand(tmp_path: Path) -> None:
     figures = json.loads((tmp_path / "c.json").read_text())["pixels"]
     assert figures["rms"] == pytest.approx(held_out["rms_after"], rel=1e-9)
     assert figures["rms"] < figures["nominal_rms"]
+    # the board on the hand: each held-out image has its predicted bound, the same in calibrate's report and check's
+    predicted = json.loads((tmp_path / "c.json").read_text())["pixel_predicted"]
+    reported = json.loads((tmp_path / "r.json").read_text())["predicted_held_out"]["pixels"]
+    assert predicted["images"] == reported["images"] == 4
+    for name in ("median_bound", "median_model_bound", "median_bound_at_board"):
+        assert 0.0 < predicted[name] == pytest.approx(reported[name], rel=1e-6)
+    assert predicted["median_model_bound"] < predicted["median_bound"]
 
 
 def test_image_errors_pool_each_images_corners() -> None:
@@ -246,3 +253,87 @@ def test_the_scene_draws_the_camera_looking_at_its_board(ur10: Path) -> None:
         assert 0.25 < seen[2] < 1.1
         u, v = k["fx"] * seen[0] / seen[2] + k["cx"], k["fy"] * seen[1] / seen[2] + k["cy"]
         assert 0 < u < 2 * k["cx"] and 0 < v < 2 * k["cy"]
+
+
+def test_check_gives_each_image_a_predicted_bound_in_px_and_at_the_board(ur10: Path) -> None:
+    """``pincal check`` on held-out images gives each its predicted 95 % bound of the reprojection error [px], the
+    model's part below it, and in mm at the board: the bound times the board's metres per pixel, which lies between
+    the true camera's nearest and farthest corner depth over its focal length."""
+    import pincal
+
+    out = _ok(run_pincal("check", "cal.urdf", "sim/measurements.csv", "--set", "test", "--report", "chk.json",
+                         cwd=ur10))
+    assert "predicted 95 % bound of an image's reprojection error: median " in out
+    assert "predicted errors: not known" not in out
+    rows = [line for line in out.splitlines() if line.startswith("  00") and "mm at the board)" in line]
+    assert len(rows) == 5
+    content = json.loads((ur10 / "chk.json").read_text())
+    account = content["pixel_predicted"]
+    assert account["unit"] == "px" and account["level"] == 0.95 and account["images"] == 5
+    assert account["inside"] >= 4  # the noise is 0.3 px, the model fitted on 14 images
+    truth = pincal.load_robot(str(ur10 / "sim" / "truth.urdf"))
+    fx = json.loads((ur10 / "sim" / "truth.json").read_text())["parameters"]["intrinsics.tool0.fx"]
+    corners = parse_board(read_dataset(ur10 / "sim" / "measurements.csv").metadata["board"]).corners()
+    held_out = read_dataset(ur10 / "sim" / "measurements.csv").of_set("test")
+    board = truth.placement(truth.q_reference, "camera_target")
+    for sample, q in zip(held_out.sample_ids, held_out.joints, strict=True):
+        entry = next(s for s in content["samples"] if s["sample"] == sample)
+        assert 0.0 < entry["pixel_model_bound"] < entry["pixel_bound"] < 3.0
+        in_camera = truth.placement(q, "tool0_camera").inverse() * board
+        depth = (corners @ in_camera.rotation.T + in_camera.translation)[:, 2]
+        per_pixel = entry["pixel_bound_at_board"] / entry["pixel_bound"]  # m/px at the board
+        assert 0.9 * depth.min() / fx < per_pixel < 1.5 * depth.max() / fx
+
+
+def test_the_board_scale_is_depth_over_focal_length_for_a_board_facing_the_camera() -> None:
+    """A board square to the optical axis at depth z [m] seen with focal length f [px]: z / f metres per pixel."""
+    from pincal.calibration.check_pixels import metres_per_pixel
+    from pincal.identification.measurements.pixels import pixel
+
+    board_spec = "charuco:5x4:0.04:0.03:DICT_4X4_50"
+    models = [pixel("tool0", k).with_metadata({"board": board_spec}) for k in range(12)]
+    z, f = 0.8, 640.0
+    uv = {m.key: np.array([[f * m.point()[0] / z + 320.0, f * m.point()[1] / z + 240.0]]) for m in models}
+    assert math.isclose(metres_per_pixel(models, uv, 0), z / f, rel_tol=1e-12)
+    uv[models[0].key][0, 0] = np.nan
+    assert math.isclose(metres_per_pixel(models, uv, 0), z / f, rel_tol=1e-12)  # a corner not seen is left out
+    assert math.isnan(metres_per_pixel(models[:1], uv, 0))
+
+
+def test_calibrate_reports_the_held_out_images_bounds_that_check_gives_again(ur10: Path) -> None:
+    """calibrate's report predicts each held-out image's reprojection error (px, and mm at the board); check on the
+    same images with the calibrated URDF (its carried covariance) gives the same bounds."""
+    summary = (ur10 / "calibrate.txt").read_text()
+    assert "predicted 95 % bound of a held-out image's reprojection error: median " in summary
+    held = json.loads((ur10 / "r.json").read_text())["predicted_held_out"]["pixels"]
+    assert held["images"] == 5 and held["unit"] == "px"
+    if not (ur10 / "chk.json").exists():
+        _ok(run_pincal("check", "cal.urdf", "sim/measurements.csv", "--set", "test", "--report", "chk.json", cwd=ur10))
+    checked = {s["sample"]: s for s in json.loads((ur10 / "chk.json").read_text())["samples"]}
+    for image in held["images_predicted"]:
+        again = checked[image["sample"]]
+        assert math.isclose(image["pixel_error"], again["pixel_error"], rel_tol=1e-6)
+        for name in ("pixel_bound", "pixel_model_bound", "pixel_bound_at_board"):
+            assert math.isclose(image[name], again[name], rel_tol=1e-6), name
+
+
+def test_with_no_parameter_uncertainty_an_images_bound_is_the_noises_chi_quantile(ur10: Path) -> None:
+    """With a zero covariance of the estimates, an image's bound is the corners' noise alone: its n corners' 2n errors
+    of σ each, ‖e‖'s 95 % quantile σ √χ²₀.₉₅(2n) over √n; the model's part is 0."""
+    from scipy.stats import chi2
+
+    import pincal
+    from pincal.calibration.check_pixels import pixel_bounds
+    from pincal.calibration.options import CalibrationOptions
+    from pincal.calibration.setup import prepare
+
+    problem = prepare(pincal.load_robot("ur10"), read_dataset(ur10 / "sim" / "measurements.csv"),
+                      CalibrationOptions(), part="test").problem
+    x = problem.initial_guess()
+    q = len(x)
+    bounds = pixel_bounds(problem, np.zeros((q, q)), list(range(q)), 4.0, x)
+    assert bounds is not None
+    n = 35  # the 8 x 6 board's inner corners, every one seen in the simulated images
+    sigma = 2.0 * 0.3  # √σ̂² times the σ [px] the file declares ('# sigma pixel: 0.3', simulate's --noise)
+    assert np.all(bounds.model_bound == 0.0)
+    assert np.allclose(bounds.bound, sigma * math.sqrt(chi2.ppf(0.95, 2 * n)) / math.sqrt(n), rtol=1e-9)

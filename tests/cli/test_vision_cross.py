@@ -110,3 +110,32 @@ def test_drift_judges_the_pixels_and_the_scene_draws_the_board_on_its_frame(camp
         assert 0.25 < seen[2] < 1.1
         u, v = k["fx"] * seen[0] / seen[2] + k["cx"], k["fy"] * seen[1] / seen[2] + k["cy"]
         assert 0 < u < 2 * k["cx"] and 0 < v < 2 * k["cy"]
+
+
+def test_compensate_refuses_targets_on_a_moving_board_and_reaches_them_in_the_base(campaign: Path) -> None:
+    """The board of a camera on another chain moves with the robot: targets relative to it fix one chain relative to
+    the other, which compensate refuses in one line saying so; the same board's poses in the robot's base frame (the
+    calibrated model's own, at held-out images) are reached."""
+    import pinocchio as pin
+
+    import pincal
+
+    if not (campaign / "cal.urdf").exists():
+        _ok(run_pincal("calibrate", "tiago_no_hand", "det.csv", "--out", "cal.urdf", "--report", "rep.json",
+                       cwd=campaign))
+    model = pincal.load_robot(str(campaign / "cal.urdf"))
+    held_out = read_dataset(campaign / "det.csv").of_set("test")
+    link = "arm_tool_link_target_board"
+    columns = ",".join(f"pose:{link}:{c}" for c in ("x", "y", "z", "qx", "qy", "qz", "qw"))
+    rows = [f"{s}," + ",".join(repr(float(v)) for v in pin.SE3ToXYZQUAT(model.placement(model.solve_fk(q), link)))
+            for s, q in zip(held_out.sample_ids[:2], held_out.joints[:2], strict=True)]
+    (campaign / "board_targets.csv").write_text("\n".join([f"sample,{columns}", *rows]) + "\n")
+    done = run_pincal("compensate", "cal.urdf", "board_targets.csv", "--targets-in", "board", "--out", "c.csv",
+                      cwd=campaign)
+    assert done.returncode == 2 and len(done.stderr.splitlines()) == 1 and not (campaign / "c.csv").exists()
+    assert done.stderr.startswith(f"pincal: error: --targets-in board: MODEL's board (link '{link}') moves with the "
+                                  "robot, as does its camera (link 'head_2_link_camera')")
+    assert "give the targets in 'base'" in done.stderr and "eye-in-hand" not in done.stderr
+    out = _ok(run_pincal("compensate", "cal.urdf", "board_targets.csv", "--targets-in", "base", "--out", "c.csv",
+                         cwd=campaign))
+    assert "reached 2 of 2" in out
