@@ -130,7 +130,7 @@ class ImplicitProblem(CalibrationProblem):
         """Weighted IKM residual (each sample's loop closure [m, rad] at the measured pose, over the target's σ)
         and its Jacobian w.r.t. ``x``, the passive joints' response projected out (with ``spare_rows`` rows of zeros
         after the residual's, as :meth:`CalibrationProblem.evaluate` gives them)."""
-        robot = self.robot_at(x)
+        robot = self.placed_robot(x)
         model, data, kin = robot.model, robot.kinematics.data, robot.kinematics
         n, p, rows = self.observations.n_samples, len(self.parameters), robot.closure.rows
         sens = KinematicSensitivity(robot, self.parameters, x) if jacobian else None

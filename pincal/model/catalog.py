@@ -1,14 +1,16 @@
 """Robots reachable by name: the reference robots shipped with pincal and example-robot-data's URDFs.
 
 example-robot-data 6 ships URDF files but no Python loader; its data directory is found through the
-installed distribution's file list (``importlib.metadata``), never through a hard-coded path. The
-same lookup resolves its ``package://example-robot-data/...`` mesh references to local files.
+installed distribution's file list (its ``RECORD``, as ``importlib.metadata`` reads it), never through a hard-coded
+path. The same lookup resolves its ``package://example-robot-data/...`` mesh references to local files.
 """
 
 from __future__ import annotations
 
+import csv
 import importlib.resources
 import os
+import sys
 from functools import cache
 from pathlib import Path
 
@@ -95,19 +97,39 @@ def shipped_robots() -> dict[str, Path]:
 @cache
 def example_robot_data_dir() -> Path | None:
     """The ``robots/`` directory of the installed example-robot-data distribution, if any."""
-    import importlib.metadata  # here: with its e-mail parser, a tenth of a calibration's start, for a shipped robot
+    for f in _installed_files("example-robot-data"):
+        parts = f.parts
+        if "example-robot-data" in parts and "robots" in parts and str(f).endswith(".urdf"):
+            idx = f.parts.index("robots")
+            return Path(*f.parts[: idx + 1])
+    return None
+
+
+def _installed_files(distribution: str) -> list[Path]:
+    """Each file an installed distribution lists, located ([] if it is not installed): the ``RECORD`` of the first
+    ``.dist-info`` folder of ``sys.path`` that holds one, as ``importlib.metadata.files`` reads it (without its e-mail
+    parser: a tenth of a calibration's start, for an example-robot-data robot); else ``importlib.metadata``'s own
+    answer (an egg or another layout)."""
+    prefix = distribution.replace("-", "_").replace(".", "_").lower() + "-"
+    for entry in sys.path:
+        folder = Path(entry or ".")
+        try:
+            names = sorted(e.name for e in os.scandir(folder) if e.name.lower().startswith(prefix)
+                           and e.name.endswith(".dist-info"))
+        except OSError:  # not a folder (a zip file, a missing entry)
+            continue
+        for name in names:
+            record = folder / name / "RECORD"
+            if record.is_file():
+                with open(record, encoding="utf-8", newline="") as stream:
+                    return [folder / row[0] for row in csv.reader(stream) if row]
+    import importlib.metadata  # here: with its e-mail parser, for a distribution installed otherwise
 
     try:
-        files = importlib.metadata.files("example-robot-data") or []
+        files = importlib.metadata.files(distribution) or []
     except importlib.metadata.PackageNotFoundError:
-        return None
-    for f in files:
-        parts = Path(str(f)).parts
-        if "example-robot-data" in parts and "robots" in parts and str(f).endswith(".urdf"):
-            located = Path(str(f.locate()))
-            idx = located.parts.index("robots")
-            return Path(*located.parts[: idx + 1])
-    return None
+        return []
+    return [Path(str(f.locate())) for f in files]
 
 
 def known_robot_names() -> list[str]:

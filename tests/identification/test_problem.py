@@ -235,3 +235,32 @@ def test_a_tree_s_evaluations_are_recalled(name: str, monkeypatch: pytest.Monkey
             np.testing.assert_array_equal(again.errors[key], alone.errors[key])
             np.testing.assert_array_equal(again.predicted[key], alone.predicted[key])
         assert problem.evaluate(x, jacobian=False).jacobian is None
+
+
+def test_the_problem_s_robot_is_rebuilt_only_when_the_kinematic_deviations_move() -> None:
+    robot = pincal.load_robot("delta")
+    models = [ms.position("end_effector")]
+    pset = candidate_parameters(robot, frames=["end_effector"], offsets=list(robot.actuated_joints), base=True)
+    rng = np.random.default_rng(5)
+    qa, _ = random_actuated(robot, 4, rng)
+    problem = CalibrationProblem(robot, pset, models, Observations(qa, _blank(models, 4)))
+    x = rng.normal(scale=1e-3, size=len(pset))
+    placed = problem.placed_robot(x)
+    kinematic = np.zeros(len(pset), dtype=bool)
+    kinematic[problem.kinematic] = True
+    moved = x.copy()
+    moved[~kinematic] += 1e-3  # offsets and base only: the same placements
+    assert problem.placed_robot(moved) is placed
+    fresh = problem.robot_at(x)
+    assert fresh is not placed
+    for built, own in zip(fresh.model.jointPlacements, placed.model.jointPlacements, strict=True):
+        assert np.array_equal(built.homogeneous, own.homogeneous)
+    other = x.copy()
+    other[problem.kinematic[0]] += 1e-3
+    assert problem.placed_robot(other) is not placed
+    # the evaluation on the kept robot is the one a new problem gives, number for number
+    again = CalibrationProblem(robot, pset, models, Observations(qa, _blank(models, 4)))
+    for step in (x, moved, other, x):
+        ours, theirs = problem.evaluate(step), again.evaluate(step)
+        assert ours.jacobian is not None and theirs.jacobian is not None
+        assert np.array_equal(ours.residual, theirs.residual) and np.array_equal(ours.jacobian, theirs.jacobian)

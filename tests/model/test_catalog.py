@@ -3,6 +3,9 @@ ignores is said (``pincal info``)."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -43,6 +46,22 @@ def test_every_example_robot_data_file_named_is_there() -> None:
     assert root is not None
     assert all((root / file).is_file() for file in EXAMPLE_ROBOT_DATA.values())
     assert "iiwa" not in known_robot_names()  # example-robot-data ships no iiwa.urdf
+
+
+def test_example_robot_data_s_files_are_the_distribution_s_record_without_its_metadata_parser() -> None:
+    import importlib.metadata
+    from pathlib import Path
+
+    from pincal.model.catalog import _installed_files
+
+    listed = importlib.metadata.files("example-robot-data") or []
+    assert _installed_files("example-robot-data") == [Path(str(f.locate())) for f in listed]
+    assert _installed_files("no-such-distribution-here") == []
+    done = subprocess.run([sys.executable, "-c", "import sys, pincal; pincal.load_robot('ur10'); "
+                           "print(sorted({'importlib.metadata', 'email'} & set(sys.modules)))"],
+                          capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
 
 
 def test_a_transmission_on_a_fixed_or_missing_joint_is_ignored_with_a_note() -> None:
