@@ -29,31 +29,19 @@ import pinocchio as pin
 from pincal.errors import NotFoundError, listing
 from pincal.model.jacobians import frame_jacobian
 from pincal.model.kinematics import ClosedLoopKinematics, SolveReport
-from pincal.model.parts import RobotParts
-from pincal.model.urdf import LoopSpec
+from pincal.model.parts import RobotParts, Whole
 
 Array = npt.NDArray[np.float64]
 
 
-class Robot(Protocol):
-    """What the rules of this module read of a robot. A :class:`pincal.model.robot.Robot` is one, and holds its
-    choice (:attr:`~pincal.model.robot.Robot.measured_frame_choice`); this module builds on no robot type."""
+class Robot(Whole, Protocol):
+    """What the rules of this module read of a robot, besides what its parts read (:class:`Whole`). A
+    :class:`pincal.model.robot.Robot` is one, and holds its choice
+    (:attr:`~pincal.model.robot.Robot.measured_frame_choice`); this module builds on no robot type."""
 
     @property
     def name(self) -> str:
         """The robot's name."""
-
-    @property
-    def model(self) -> pin.Model:
-        """The Pinocchio model of the cut tree."""
-
-    @property
-    def loops(self) -> list[LoopSpec]:
-        """The loop declarations."""
-
-    @property
-    def actuated_joints(self) -> list[str]:
-        """The names of the actuated joints."""
 
     @property
     def n_actuated(self) -> int:
@@ -70,9 +58,6 @@ class Robot(Protocol):
     @property
     def parts(self) -> RobotParts[Self]:
         """The independent loop blocks."""
-
-    def reduced(self, model: pin.Model, loops: list[LoopSpec], actuated_joints: list[str]) -> Self:
-        """A robot of the same kind on a reduced model (:class:`pincal.model.parts.Whole`)."""
 
     def frame_id(self, frame: str) -> int:
         """The Pinocchio id of a frame."""
