@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -48,9 +49,8 @@ def test_every_example_robot_data_file_named_is_there() -> None:
     assert "iiwa" not in known_robot_names()  # example-robot-data ships no iiwa.urdf
 
 
-def test_example_robot_data_s_files_are_the_distribution_s_record_without_its_metadata_parser() -> None:
+def test_example_robot_data_s_files_are_the_distribution_s_record_without_its_metadata_parser(tmp_path: Path) -> None:
     import importlib.metadata
-    from pathlib import Path
 
     from pincal.model.catalog import _installed_files
 
@@ -59,7 +59,7 @@ def test_example_robot_data_s_files_are_the_distribution_s_record_without_its_me
     assert _installed_files("no-such-distribution-here") == []
     done = subprocess.run([sys.executable, "-c", "import sys, pincal; pincal.load_robot('ur10'); "
                            "print(sorted({'importlib.metadata', 'email'} & set(sys.modules)))"],
-                          capture_output=True, text=True, check=False)
+                          capture_output=True, text=True, check=False, cwd=tmp_path)  # the installed pincal
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"
 
