@@ -156,15 +156,7 @@ def test_the_unit_check_and_the_fit_share_the_start_s_evaluation(name: str, solv
     observations = simulate_observations(robot, pset, rng.normal(scale=1e-3, size=len(pset)), models, qa, rng,
                                          noise=1e-5)
     observations.values[models[0].key][7] += 5e-3
-    made = {"count": 0}
-    for path in ("predict_tree", "predict_loops"):
-        inner = getattr(predictions, path)
-
-        def counted(*args: object, _inner: object = inner) -> object:
-            made["count"] += 1
-            return _inner(*args)  # type: ignore[operator]
-
-        monkeypatch.setattr(predictions, path, counted)
+    made = _counted_predictions(monkeypatch)
     fresh_problem = CalibrationProblem(robot, pset, models, observations)
     fresh_problem.initial_guess()
     made["count"] = 0
@@ -192,20 +184,11 @@ def test_the_unit_check_and_the_fit_share_the_start_s_evaluation(name: str, solv
         assert made["count"] == before + drops
 
 
-@pytest.mark.parametrize("name", ["ur10", "delta"])
-def test_a_tree_s_evaluations_are_recalled(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    """A tree's problem evaluates again at one of its last vectors without computing (a closed-loop robot's always
-    computes: its solves follow their warm starts), giving what a problem nothing evaluated before computes there, to
-    the last bit, Jacobian (with spare rows of zeros) or not; what it hands out is a copy the caller may change."""
+def _counted_predictions(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
+    """The number of times a problem computes its predictions (a tree's or a loop robot's), counted from now on in
+    the returned dict's ``count``."""
     from pincal.identification import predictions
 
-    robot = pincal.load_robot(name)
-    models = [ms.position(robot.end_effector)]
-    pset = candidate_parameters(robot).subset(list(range(14)))
-    rng = np.random.default_rng(5)
-    qa, _ = random_actuated(robot, 12, rng)
-    observations = simulate_observations(robot, pset, rng.normal(scale=1e-3, size=len(pset)), models, qa, rng,
-                                         noise=1e-5)
     made = {"count": 0}
     for path in ("predict_tree", "predict_loops"):
         inner = getattr(predictions, path)
@@ -215,6 +198,23 @@ def test_a_tree_s_evaluations_are_recalled(name: str, monkeypatch: pytest.Monkey
             return _inner(*args)  # type: ignore[operator]
 
         monkeypatch.setattr(predictions, path, counted)
+    return made
+
+
+@pytest.mark.parametrize("name", ["ur10", "delta"])
+def test_a_tree_s_evaluations_are_recalled(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A tree's problem evaluates again at one of its last vectors without computing (a closed-loop robot's always
+    computes: its solves follow their warm starts), giving what a problem nothing evaluated before computes there, to
+    the last bit, Jacobian (with spare rows of zeros) or not; what it hands out is a copy the caller may change."""
+
+    robot = pincal.load_robot(name)
+    models = [ms.position(robot.end_effector)]
+    pset = candidate_parameters(robot).subset(list(range(14)))
+    rng = np.random.default_rng(5)
+    qa, _ = random_actuated(robot, 12, rng)
+    observations = simulate_observations(robot, pset, rng.normal(scale=1e-3, size=len(pset)), models, qa, rng,
+                                         noise=1e-5)
+    made = _counted_predictions(monkeypatch)
     xs = [rng.normal(scale=1e-3, size=len(pset)) for _ in range(3)]
     problem = CalibrationProblem(robot, pset, models, observations)
     for x in xs:
