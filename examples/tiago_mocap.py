@@ -25,7 +25,7 @@ from study_cli import ROOT, study_main
 
 import pincal
 from pincal.calibration.options import CalibrationOptions
-from pincal.calibration.pipeline import calibrate, fitting_options
+from pincal.calibration.pipeline import calibrate
 from pincal.calibration.samples import read_robot_dataset
 from pincal.identification.parameters import choose_parameters
 from pincal.identification.problem import CalibrationProblem
@@ -225,7 +225,7 @@ def anatomy(repeats: int = 4) -> dict[str, Any]:
             test = np.sort(order[fold::5])
             fitted = select_and_fit(CalibrationProblem(robot, pset, models, obs.subset(np.setdiff1d(np.arange(n),
                                                                                                       test))),
-                                    **fitting_options(CalibrationOptions()))
+                                    options=CalibrationOptions().fitting)
             held = CalibrationProblem(robot, fitted.problem.parameters, models, obs.subset(test))
             predicted = held.evaluate(fitted.result.x, jacobian=False).errors
             for k, m in enumerate(models):

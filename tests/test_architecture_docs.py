@@ -81,8 +81,8 @@ def test_chi2_needs_neither_scipy_statistics_nor_special_functions() -> None:
 def test_the_command_line_loads_at_its_top_only_the_modules_the_page_names() -> None:
     """``cli/app.py`` imports the command modules and the light modules their parsers read; the work's modules load
     when a command runs."""
-    named = {"calibration.options", "identification.choices", "study.criteria", "plugins", "validation", "errors",
-             "lazy"}
+    named = {"calibration.options", "identification.choices", "identification.fit_options", "study.criteria", "plugins",
+             "validation", "errors", "lazy"}
     for name in named:
         assert f"`{name}`" in ARCHITECTURE
     loaded = {m.removeprefix("pincal.") for m in _loaded_by("pincal.cli.app") if m.startswith("pincal.")}

@@ -53,7 +53,7 @@ from pincal.calibration.check_setup import (
     prepare_setup,
 )
 from pincal.calibration.options import CalibrationOptions
-from pincal.calibration.pipeline import check_units, fitting_options
+from pincal.calibration.pipeline import check_units
 from pincal.calibration.predicted import PredictedErrors, coverage
 from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
@@ -61,7 +61,7 @@ from pincal.errors import DataError
 from pincal.identification.measurements import Measurement
 from pincal.identification.metrics import angle_columns, length_columns, rms, sample_length_errors
 from pincal.identification.parameters import influencing_joints, read_joints
-from pincal.identification.solver import identify
+from pincal.identification.solver import identify_with
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
 
@@ -295,7 +295,7 @@ def _side(prepared: Prepared, x: Array, register: bool, options: CalibrationOpti
     start = Side(prepared, x, problem.evaluate(x, jacobian=False).errors)
     if not register or not len(prepared.parameters):
         return start
-    result = identify(problem, x, **{**fitting_options(options, False), "loss": "linear"})  # least squares
+    result = identify_with(problem, replace(options.fitting, loss="linear"), x)  # least squares
     side = Side(prepared, result.x, problem.evaluate(result.x, jacobian=False).errors, bool(result.converged))
     if weighted_rms(side) > weighted_rms(start):
         return replace(start, converged=side.converged,

@@ -6,7 +6,6 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -14,6 +13,7 @@ import numpy.typing as npt
 from pincal.calibration.report_sections import CrossValidation
 from pincal.errors import DataError, PincalError, listing
 from pincal.identification.corrections import Payload
+from pincal.identification.fit_options import FitOptions
 from pincal.identification.measurements import Measurement
 from pincal.identification.metrics import angle_error_norms, error_norms, length_columns, rms
 from pincal.identification.parameters import (
@@ -86,11 +86,11 @@ def check_cross_validation(models: Sequence[Measurement], formulation: str) -> N
 
 
 def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measurement], obs: Observations, folds: Folds,
-                   select: str = "bic", *, progress: bool = False, payload: Payload | None = None,
-                   **options: Any) -> CrossValidation:
+                   select: str = "bic", *, options: FitOptions | None = None, progress: bool = False,
+                   payload: Payload | None = None) -> CrossValidation:
     """K-fold cross-validation of the whole fit (selection and robust starts included): each fold is fitted
-    without its samples and predicts them (with the ``payload`` of the compliance terms, if any). ``options`` go to
-    :func:`~pincal.identification.selection.select_and_fit`.
+    without its samples and predicts them (with the ``payload`` of the compliance terms, if any). ``options`` (default:
+    every default) go to :func:`~pincal.identification.selection.select_and_fit`.
 
     The ``r``-th shuffle is a permutation seeded ``folds.seed + r``: the plan holds the seed (``parse_cv(text,
     n_samples, seed)``; its label in the report names it). The arguments after ``select`` are keyword-only. A fold
@@ -113,7 +113,7 @@ def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measuremen
                 train = np.setdiff1d(np.arange(n), test)
                 try:
                     fitted = select_and_fit(CalibrationProblem(robot, pset, models, obs.subset(train),
-                                                               payload=payload), select, **options)
+                                                               payload=payload), select, options)
                     held = CalibrationProblem(robot, fitted.problem.parameters, models, obs.subset(test),
                                               payload=payload)
                     errors = held.evaluate(fitted.result.x, jacobian=False).errors

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -38,14 +38,13 @@ import numpy.typing as npt
 from pincal.calibration.check_setup import file_setup, model_intrinsics, setup_kinds
 from pincal.calibration.heldout import setup_columns
 from pincal.calibration.options import CalibrationOptions
-from pincal.calibration.pipeline import fitting_options
 from pincal.calibration.report_sections import Covariance
 from pincal.calibration.setup import prepare
 from pincal.errors import DataError
 from pincal.identification.chi2 import chi2_upper
 from pincal.identification.metrics import error_norms, pixel_error_norms, rms
 from pincal.identification.problem import CalibrationProblem
-from pincal.identification.solver import identify
+from pincal.identification.solver import identify_with
 from pincal.io.dataset import Dataset
 from pincal.linalg import svd
 from pincal.model.robot import Robot
@@ -202,8 +201,7 @@ def judge_session(robot: Robot, dataset: Dataset, source: str, options: Calibrat
         joint_sigma = None if problem.joint_sigma is None else list(problem.joint_sigma)
         reduced = CalibrationProblem(robot, parameters.subset(setup), problem.measurements, problem.observations,
                                      joint_sigma, problem.payload)
-        fitted = identify(reduced, x[setup], **{**fitting_options(options, False), "loss": "linear",
-                                                 "prior": None})
+        fitted = identify_with(reduced, replace(options.fitting, loss="linear", prior=None), x[setup])
         x[setup] = fitted.x
     prediction = problem.evaluate(x, jacobian=True)
     assert prediction.jacobian is not None

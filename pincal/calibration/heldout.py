@@ -31,13 +31,14 @@ from pincal.calibration.report_sections import PixelErrors
 from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
 from pincal.errors import PincalError
+from pincal.identification.fit_options import FitOptions
 from pincal.identification.losses import outlier_samples
 from pincal.identification.metrics import angle_error_norms, error_norms, pixel_error_norms, rms, sample_length_errors
 from pincal.identification.parameters import ParameterSet, influencing_joints, read_joints
 from pincal.identification.predictions import carry_over
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
-from pincal.identification.solver import identify
+from pincal.identification.solver import identify_with
 from pincal.io.dataset import Dataset
 from pincal.model.assemblable import assemble
 
@@ -91,11 +92,11 @@ def setup_columns(parameters: ParameterSet) -> list[int]:
     return [k for k, p in enumerate(parameters) if p.kind_class.selection_group(p) is None]
 
 
-def register_setup(problem: CalibrationProblem, x0: Array, **options: Any) -> Registration:
-    """The nominal robot with the setup of ``problem`` fitted to its samples from the start ``x0`` (in its parameter
-    order) by :func:`~pincal.identification.solver.identify` with ``options`` (the calibration's loss, solver and
-    iterations; the setup has no prior). The start is kept, and said so, when the fit does not lower the RMS error
-    (a robust fit may end above it) or fails."""
+def register_setup(problem: CalibrationProblem, x0: Array, options: FitOptions) -> Registration:
+    """The nominal robot with the setup of ``problem`` fitted to its samples from the start ``x0`` [m, rad] (in its
+    parameter order) by :func:`~pincal.identification.solver.identify_with` with ``options`` (the calibration's loss,
+    solver and iterations; the setup has no prior). The start is kept, and said so, when the fit does not lower the
+    RMS error (a robust fit may end above it) or fails."""
     start = problem.evaluate(x0, jacobian=False).errors
     columns = setup_columns(problem.parameters)
     if not columns:
@@ -105,7 +106,7 @@ def register_setup(problem: CalibrationProblem, x0: Array, **options: Any) -> Re
                                  problem.observations, joint_sigma, problem.payload)
     carry_over(problem, reduced)
     try:
-        fitted = identify(reduced, x0[columns], **{**options, "prior": None})
+        fitted = identify_with(reduced, replace(options, prior=None), x0[columns])
     except PincalError as exc:
         return Registration(x0.copy(), start, start, False, f"the setup's fit failed ({exc}); the start stands")
     x = np.zeros_like(x0)

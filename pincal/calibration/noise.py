@@ -21,7 +21,6 @@ estimates then weight the calibration as ``# sigma`` lines of one σ per row wou
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -33,7 +32,7 @@ from pincal.identification.measurements import Measurement
 from pincal.identification.prior import prior_sigma
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
-from pincal.identification.solver import identify
+from pincal.identification.solver import identify_with
 from pincal.io.adapters import channel_sigma
 from pincal.io.dataset import Dataset
 
@@ -165,16 +164,16 @@ def with_noise(dataset: Dataset, estimates: dict[str, EstimatedSigma], models: l
     return replace(dataset, metadata=metadata)
 
 
-def provisional_noise(problem: CalibrationProblem, metadata: dict[str, str], options: CalibrationOptions,
-                      **fitting: Any) -> dict[str, EstimatedSigma]:
+def provisional_noise(problem: CalibrationProblem, metadata: dict[str, str],
+                      options: CalibrationOptions) -> dict[str, EstimatedSigma]:
     """The noise of the readings whose σ is stated nowhere (:func:`unstated`), from a provisional fit of every
-    identifiable parameter (``fitting``: :func:`~pincal.identification.solver.identify`'s options); empty when every
-    σ is stated or the provisional fit fails (the defaults then stay)."""
+    identifiable parameter (by ``options``' solver, loss, iterations and prior, the automatic prior as the kinds' σ);
+    empty when every σ is stated or the provisional fit fails (the defaults then stay)."""
     wanted = unstated(list(problem.measurements), metadata, options)
     if not wanted:
         return {}
     try:
-        result = identify(problem, **fitting)
+        result = identify_with(problem, options.fitting)
     except PincalError:
         return {}
-    return estimate_noise(problem, result, wanted, prior_sigma(problem.parameters, fitting.get("prior")))
+    return estimate_noise(problem, result, wanted, prior_sigma(problem.parameters, options.fitting.fixed_prior()))

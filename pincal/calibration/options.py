@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, Literal, get_args
 from pincal import validation
 from pincal.errors import ArgumentError, DataError, listing, not_found
 from pincal.identification.choices import LOSSES, MARKER_FITS, SOLVERS, Loss, MarkerFit, Solver
+from pincal.identification.fit_options import AUTO_PRIOR, FitOptions
 
 if TYPE_CHECKING:
     from pincal.identification.corrections import Payload
@@ -124,16 +125,16 @@ class CalibrationOptions:
              "cross-validation, one seeded shuffle; a fit per combination and fold); none fits every identifiable "
              "parameter; auto (default): evidence for the default parameters (bic with a --prior factor of your "
              "own), none for --parameters you name"))
-    loss: Loss = field(default="auto", metadata=_how(
+    loss: Loss = field(default=FitOptions.loss, metadata=_how(
         flag="--loss", key="loss", choices=LOSSES,
         help="auto (default): least squares, then a robust (Cauchy) refit if the data hold samples their own noise "
              "level makes implausible, which are listed; linear: least squares only; cauchy: robust from the start"))
-    solver: Solver = field(default="lm", metadata=_how(
+    solver: Solver = field(default=FitOptions.solver, metadata=_how(
         flag="--solver", key="solver", choices=SOLVERS,
         help="lm: Levenberg-Marquardt on the identifiable directions (default); tsvd; ridge"))
     sigma: float | tuple[float, ...] | None = field(default=None, metadata=_how(
         flag="--sigma", key="sigma", kind="sigmas", metavar="SIGMA[,SIGMA...]", help=SIGMA_HELP))
-    max_iter: int = field(default=100, metadata=_how(
+    max_iter: int = field(default=FitOptions.max_iter, metadata=_how(
         flag="--max-iter", key="max_iter", kind="int",
         help="iteration limit of the solver (default 100); a run that reaches it exits 1"))
     formulation: Formulation = field(default="fkm", metadata=_how(
@@ -222,6 +223,14 @@ class CalibrationOptions:
             if name not in OPTIONS:
                 raise not_found("option", name, OPTIONS, " of calibrate()")
         return CalibrationOptions(**{**{name: getattr(self, name) for name in OPTIONS}, **changes})
+
+    @property
+    def fitting(self) -> FitOptions:
+        """The identification layer's options these make (:class:`~pincal.identification.fit_options.FitOptions`):
+        the solver, loss, iteration limit and prior (a factor, :data:`~pincal.identification.fit_options.AUTO_PRIOR`
+        or, ``off``, None); every other at its default."""
+        prior = AUTO_PRIOR if self.prior == AUTO_PRIOR else plausible_factor(self.prior)
+        return FitOptions(solver=self.solver, loss=self.loss, max_iter=self.max_iter, prior=prior)
 
     @property
     def named_parameters(self) -> bool:

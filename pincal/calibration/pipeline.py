@@ -32,7 +32,7 @@ from pincal.calibration.export_proof import calibrated_proof, with_comment
 from pincal.calibration.growth import ErrorGrowth, estimate_growth
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, Registration, evaluate_held_out, register_setup
 from pincal.calibration.noise import provisional_noise, with_noise
-from pincal.calibration.options import CalibrationOptions, check_cv_seed, check_select_cv, plausible_factor
+from pincal.calibration.options import CalibrationOptions, check_cv_seed, check_select_cv
 from pincal.calibration.plausibility import (
     explains_nothing,
     implausible_corrections,
@@ -71,8 +71,8 @@ from pincal.identification.prior import prior_sigma
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.readings import BadReading
 from pincal.identification.result import CalibrationResult
-from pincal.identification.selection import AUTO_PRIOR, SelectedFit, fold_prior, select_and_fit
-from pincal.identification.solver import identify
+from pincal.identification.selection import SelectedFit, fold_prior, select_and_fit
+from pincal.identification.solver import identify_with
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, source_text
 from pincal.io.corrections_file import Corrections, corrections_of
 from pincal.io.dataset import Dataset
@@ -149,7 +149,7 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         length_scale = check_units(fit, dataset, options.plausible)  # before any fit, the provisional one included
         check_columns(fit, dataset.of_set("train"), options.plausible)
         with dropped_named(fit):
-            estimated = provisional_noise(fit.problem, dataset.metadata, options, **fitting_options(options, False))
+            estimated = provisional_noise(fit.problem, dataset.metadata, options)
         if estimated:  # weighted by the noise the data show, as '# sigma' lines would: before selection
             dataset = with_noise(dataset, estimated, fit.models)
             fit = prepare(robot, dataset, options)
@@ -173,7 +173,7 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         proof = calibrated_proof(text, robot_from_urdf_text(text), list(fit.samples.joint_names), fit.samples.joints)
         text = with_comment(text, proof)
         corrections = corrections_of(robot, kept.parameters, result.x, options.payload)
-        before = register_setup(fitted.problem, result.x0, **fitting_options(options, False))
+        before = register_setup(fitted.problem, result.x0, options.fitting)
         growth = error_growth(kept, fitted, options, before.x)
         held = evaluate_held_out(kept, dataset, kept.parameters, before.x, result.x,
                                  trusted=result.sigma2 <= NOISE_CONTRADICTED, result=result,
@@ -184,8 +184,8 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         stages.advance()
     if folds is not None and every is not None:
         content["cv"] = cross_validate(robot, fit.parameters, fit.models, every.problem.observations, folds,
-                                       select=options.selection, progress=progress, payload=options.payload,
-                                       **fitting_options(options))
+                                       select=options.selection, options=options.fitting, progress=progress,
+                                       payload=options.payload)
     report = CalibrationReport(**content)
     return Calibration(kept, fitted.problem, result, held, report, with_carried(text, report), corrections, before,
                        proof)
@@ -251,31 +251,20 @@ def cross_validation_folds(fit: Prepared, dataset: Dataset,
     return every, parse_cv(options.cv, every.samples.n_samples, options.cv_seed)
 
 
-def fitting_options(options: CalibrationOptions, automatic: bool = True) -> dict[str, Any]:
-    """The keywords of :func:`~pincal.identification.selection.select_and_fit` (with ``automatic``: the prior may be
-    :data:`~pincal.identification.selection.AUTO_PRIOR`, the evidence's) or of
-    :func:`~pincal.identification.solver.identify` (without: the automatic prior is the kinds' σ, factor 1) that
-    ``options`` set."""
-    prior: float | str | None = plausible_factor(options.prior)
-    if options.prior == "auto":
-        prior = AUTO_PRIOR if automatic else 1.0
-    return {"solver": options.solver, "loss": options.loss, "max_iter": options.max_iter, "prior": prior}
-
-
 def fit_prepared(fit: Prepared, options: CalibrationOptions) -> SelectedFit:
     """Fit ``fit``'s problem as ``options`` say: by forward kinematics with model selection (``fkm``), or on the
     loops' implicit residuals (``ikm``: no selection; the result's errors are then recomputed by forward kinematics,
     the closure residuals kept in ``extra``)."""
     problem = fit.problem
     if options.formulation == "ikm":
-        result = identify(ImplicitProblem(fit.robot, fit.parameters, fit.models, problem.observations),
-                          **fitting_options(options, False))
+        result = identify_with(ImplicitProblem(fit.robot, fit.parameters, fit.models, problem.observations),
+                               options.fitting)
         result.extra["closure_before"] = result.errors_before
         result.extra["closure_after"] = result.errors_after
         result.errors_before = problem.evaluate(result.x0, jacobian=False).errors
         result.errors_after = problem.evaluate(result.x, jacobian=False).errors
         return SelectedFit(problem, result, result, [], {})
-    return select_and_fit(problem, options.selection, **fitting_options(options))
+    return select_and_fit(problem, options.selection, options.fitting)
 
 
 def plausibility(fitted: SelectedFit, length_scale: dict[str, float], plausible: float | str, fit: Prepared,
@@ -420,7 +409,7 @@ def error_growth(fit: Prepared, fitted: SelectedFit, options: CalibrationOptions
     fit was made with)."""
     problem = fitted.problem
     prior = fitted.prior_sigma if fitted.prior_sigma is not None \
-        else prior_sigma(problem.parameters, fitting_options(options, False)["prior"])
+        else prior_sigma(problem.parameters, options.fitting.fixed_prior())
     moving = moving_joints(fit)
     columns = [k for k, j in enumerate(fit.robot.actuated_joints) if j in moving]
     return estimate_growth(problem, fitted.result, prior, columns, x_before, fold_prior(fitted))

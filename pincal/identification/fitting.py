@@ -30,12 +30,13 @@ import numpy.typing as npt
 
 from pincal import linalg
 from pincal.errors import DataError, IdentifiabilityError
-from pincal.identification.choices import LOSSES, Solver
+from pincal.identification.choices import LOSSES
+from pincal.identification.fit_options import FitOptions
 from pincal.identification.identifiability import Identifiability, analyse, correlations, covariance
 from pincal.identification.lm import LevenbergMarquardt
 from pincal.identification.losses import IMPLEMENTED_LOSSES, Weighting, row_weights, sample_weights
 from pincal.identification.parameters import ParameterSet
-from pincal.identification.prior import Prior, WithPrior, prior_sigma
+from pincal.identification.prior import WithPrior, prior_sigma
 from pincal.identification.problem import Prediction, Problem
 from pincal.identification.result import CalibrationResult
 from pincal.identification.ridge import Ridge
@@ -43,7 +44,6 @@ from pincal.identification.steps import (
     EXACT_FIT_AMPLIFICATION,
     FLOOR_SIGMA_FRACTION,
     Method,
-    StepOptions,
     Steps,
     at_floor,
     evaluated,
@@ -53,6 +53,8 @@ from pincal.identification.tsvd import TruncatedSVD
 
 Array = npt.NDArray[np.float64]
 
+#: Every option at its default (:func:`fit`'s).
+_DEFAULT = FitOptions()
 #: The identification methods, by the name :func:`~pincal.identification.solver.identify` takes (``solver=``);
 #: ``choices.SOLVERS`` lists the same names (:mod:`pincal.identification.choices`).
 METHODS: dict[str, type[Method]] = {method.name: method for method in (LevenbergMarquardt, TruncatedSVD, Ridge)}
@@ -112,40 +114,22 @@ def _check_identifiable(ident: Identifiability, n_parameters: int, n_residuals: 
                         "number of measured values must be at least the number of parameters); add samples")
 
 
-def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: str = "linear",
-        identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
-             min_information: float = 0.0,
-             tsvd_rcond: float = 1e-6, ridge: float = 1e-6, strict: bool = False,
-             prior: Prior = None, left_out: Sequence[int] = ()) -> CalibrationResult:
+def fit(problem: Problem, x0: Array | None = None, options: FitOptions = _DEFAULT, loss: str = "linear",
+        left_out: Sequence[int] = ()) -> CalibrationResult:
     """Estimate the parameters from the data.
 
     Args:
         problem: Robot, parameters, measurements and data.
         x0: Starting deviations [m, rad]; by default the problem's initial guess (the nominal robot,
             with an unknown measurement frame registered in closed form).
-        solver: ``lm``, ``tsvd`` or ``ridge`` (:data:`METHODS`).
-        loss: ``linear`` (least squares) or ``cauchy`` (robust to gross outliers); :func:`identify`
-            also takes ``auto``.
-        identifiable_only: Move only along directions identifiable at the current estimate
-            (recommended); otherwise LM damping alone keeps the unidentifiable directions in check.
-        max_iter: Iteration limit (steps taken); reaching it is reported as not converged.
-        tol: Stop when the relative cost decrease or the scaled step falls below ``tol``, or when the
-            Gauss–Newton model predicts a relative decrease below ``tol`` before a trial. When no step
-            decreases the cost, the fit counts as converged at a first-order optimum or when every error
-            is within ``max(FLOOR_SIGMA_FRACTION · σ, FK_AMPLIFICATION · SOLVE_TOLERANCE)`` [m, rad]
+        options: The fit's options (:class:`~pincal.identification.fit_options.FitOptions`): its solver (``lm``,
+            ``tsvd`` or ``ridge``: :data:`METHODS`), its steps, iteration limit and tolerance, ``strict`` and prior;
+            its ``loss`` is :func:`~pincal.identification.solver.identify`'s plan, not this fit's. When no step
+            decreases the cost, the fit counts as converged at a first-order optimum or when every error is within
+            ``max(FLOOR_SIGMA_FRACTION · σ, FK_AMPLIFICATION · SOLVE_TOLERANCE)`` [m, rad]
             (:mod:`pincal.identification.steps`), σ the measurement's stated standard deviation.
-        rank_tol: Relative singular-value threshold for identifiability (see
-            :mod:`pincal.identification.identifiability`).
-        min_information: Absolute floor on the singular values of the weighted, scaled Jacobian: a
-            direction below it has an a-priori standard deviation over 1/min_information times the
-            parameters' typical size (e.g. 1e-2: 100 × 1 mm or 1 mrad), so these data do not identify it
-            in practice, whatever its numerical rank. Off (0) by default.
-        tsvd_rcond: TSVD truncation, relative to the largest singular value.
-        ridge: Ridge parameter in scaled units.
-        strict: Refuse (IdentifiabilityError) when not every parameter is identifiable.
-        prior: A factor on each parameter kind's prior σ about nominal, or each parameter's prior σ [its unit] (inf:
-            none) (:mod:`pincal.identification.prior`): the maximum a posteriori estimate, its posterior covariance;
-            None: least squares, no prior.
+        loss: This fit's loss: ``linear`` (least squares) or ``cauchy`` (robust to gross outliers)
+            (:data:`~pincal.identification.losses.IMPLEMENTED_LOSSES`).
         left_out: Samples (indices) that weigh 0 whatever the loss (bad joint readings).
 
     Raises:
@@ -153,11 +137,13 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
         ConvergenceError: the model cannot be evaluated at the starting point, or an SVD fails with both
             LAPACK drivers (:mod:`pincal.linalg`).
     """
-    chosen, weighting = _chosen(solver, loss)
+    chosen, weighting = _chosen(options.solver, loss)
+    rank_tol, min_information, max_iter, tol = options.rank_tol, options.min_information, options.max_iter, options.tol
     start = time.perf_counter()
     pset = problem.parameters
     scales = pset.scales
-    model = WithPrior(problem, prior_sigma(pset, prior))  # its residual: the data's rows, then the prior's
+    # its residual: the data's rows, then the prior's
+    model = WithPrior(problem, prior_sigma(pset, options.fixed_prior()))
     x = problem.initial_guess() if x0 is None else np.array(x0, dtype=float)
     start_x = x.copy()
     pred = model.evaluate(x)
@@ -167,7 +153,8 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
         raise DataError("the residuals or their Jacobian are not finite at the starting point: check the data "
                         "for values out of range")
     errors_before = pred.errors
-    _check_start(data.jacobian, pset, _practical_tol(data.jacobian, scales, rank_tol, min_information), strict)
+    _check_start(data.jacobian, pset, _practical_tol(data.jacobian, scales, rank_tol, min_information),
+                 options.strict)
     d = scales
     weights = sample_weights(problem, data, weighting, left_out)
     rw = np.sqrt(model.row_weights(row_weights(problem, weights)))
@@ -175,7 +162,7 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
     history = [cost]
     floors = exact_fit_floors(problem, FLOOR_SIGMA_FRACTION)
     numerical = exact_fit_floors(problem, 0.0, EXACT_FIT_AMPLIFICATION)
-    method = chosen.configured(StepOptions(identifiable_only, rank_tol, min_information, tsvd_rcond, ridge))
+    method = chosen.configured(options)
     least_squares = weighting is None  # never re-weighted
     lam, converged, message, iterations, slow = 1e-3, False, "iteration limit reached", 0, 0
     accelerate = False  # geodesic acceleration: on once the method turns it on after a rejected step (LM)
@@ -278,7 +265,7 @@ def fit(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: 
     sigma2, std, apriori, corr = _uncertainty(pred, rw, list(active), pset, model.rows, reduced)
     result = CalibrationResult(pset.names, start_x, x, std, list(active), ident, corr, iterations, converged, message,
                                history, errors_before, pred.errors,
-                               weights, sigma2, time.perf_counter() - start, solver, loss, std_apriori=apriori,
+                               weights, sigma2, time.perf_counter() - start, options.solver, loss, std_apriori=apriori,
                                extra={"rejected_steps": counts["rejected"], "evaluations": counts["evaluations"],
                                       "accelerated_steps": counts["accelerated"],
                                       "rank_changes": int(np.count_nonzero(np.diff(kept)))})

@@ -20,7 +20,6 @@ import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -34,11 +33,12 @@ from pincal.identification.criterion import (
     select_groups,
 )
 from pincal.identification.evidence import FACTOR_RANGE, EvidenceChoice, base_sigma, choose_prior
+from pincal.identification.fit_options import FitOptions
 from pincal.identification.guard import Guard, range_guard
 from pincal.identification.predictions import carry_over
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.result import CalibrationResult
-from pincal.identification.solver import identify
+from pincal.identification.solver import identify_with
 
 Array = npt.NDArray[np.float64]
 
@@ -47,8 +47,6 @@ Array = npt.NDArray[np.float64]
 #: information criterion), ``cv`` (the groups with the smallest cross-validated error, :func:`select_by_cv`) or ``none``
 #: (fit every identifiable parameter).
 SELECTIONS = ("evidence", "bic", "cv", "none")
-#: The prior that asks the evidence for each group's factor (:func:`select_and_fit`).
-AUTO_PRIOR = "auto"
 #: ``cv`` selection's plan: K folds of one shuffle of the samples, seeded (the same choice on every run).
 CV_FOLDS = 5
 CV_SEED = 0
@@ -82,45 +80,47 @@ class SelectedFit:
     guard: Guard | None = None
 
 
-def select_and_fit(problem: CalibrationProblem, policy: str = "bic", **options: Any) -> SelectedFit:
+def select_and_fit(problem: CalibrationProblem, policy: str = "bic", options: FitOptions | None = None) -> SelectedFit:
     """Fit every parameter of ``problem``, then leave out the groups of identifiable parameters the data do not
     support and refit the rest from the nominal start: by their evidence (``policy="evidence"``, which also chooses
     how firmly the prior holds each group kept), by :func:`select_groups` on the fit's weighted Jacobian (``bic``), by
-    cross-validation (``cv``), or none. ``options`` go to :func:`~pincal.identification.solver.identify` for every
-    fit; their ``prior`` may be :data:`AUTO_PRIOR`: the first fit then has the kinds' prior σ (factor 1), and the
-    groups kept get the factors the evidence chooses for them (:func:`~pincal.identification.evidence.choose_prior`).
+    cross-validation (``cv``), or none. ``options`` (default: every default) go to
+    :func:`~pincal.identification.solver.identify_with` for every fit; their ``prior`` may be
+    :data:`~pincal.identification.fit_options.AUTO_PRIOR`: the
+    first fit then has the kinds' prior σ (factor 1), and the groups kept get the factors the evidence chooses for them
+    (:func:`~pincal.identification.evidence.choose_prior`).
 
     Raises:
         DataError: an unknown ``policy``, or ``evidence`` without the automatic prior.
     """
     if policy not in SELECTIONS:
         raise DataError(f"unknown selection '{policy}'; selections are: {listing(SELECTIONS)}")
-    automatic = isinstance(options.get("prior"), str) and options["prior"] == AUTO_PRIOR
+    options = FitOptions() if options is None else options
+    automatic = options.automatic_prior
     if policy == "evidence" and not automatic:
         raise DataError("selection by the evidence chooses the prior itself: give the automatic prior ('auto'), or "
-                        "another selection (bic, cv, none) for a prior of your own")
-    if automatic:
-        options = {**options, "prior": 1.0}
-    first = identify(problem, **options)
+                        "another selection (bic, cv, none) for a prior of your own", option="prior")
+    options = options.single()
+    first = identify_with(problem, options)
     if len(first.identified) < 2 or not first.converged:  # no choice made on a failed fit
         return SelectedFit(problem, first, first, [], {})
     if policy == "evidence":
         jac, y0 = _weighted_linear(problem, first)
-        return _guarded(_refit_with_evidence(problem, first, jac, y0, **options), **options)
+        return _guarded(_refit_with_evidence(problem, first, jac, y0, options), options)
     if policy == "none":
         chosen = SelectedFit(problem, first, first, [], {})
     elif policy == "cv":
-        chosen = select_by_cv(problem, first, **options)
+        chosen = select_by_cv(problem, first, options)
     else:
         jac, y0 = _weighted_linear(problem, first)
         pset = problem.parameters
         choice = select_groups(jac * pset.scales, y0, [group_of(p) for p in pset])
         chosen = SelectedFit(problem, first, first, [], choice.scores) if not choice.removed_groups \
-            else _refit_without(problem, first, choice.removed_groups, choice.scores, _fitted_criterion, **options)
-    return _guarded(_with_evidence(chosen, automatic, **options), **options) if automatic else chosen
+            else _refit_without(problem, first, choice.removed_groups, choice.scores, _fitted_criterion, options)
+    return _guarded(_with_evidence(chosen, automatic, options), options) if automatic else chosen
 
 
-def _guarded(chosen: SelectedFit, **options: Any) -> SelectedFit:
+def _guarded(chosen: SelectedFit, options: FitOptions) -> SelectedFit:
     """``chosen`` (a fit with the evidence's prior) with its :func:`~pincal.identification.guard.range_guard`: refitted
     with the robot parameters' prior σ divided by the guard's divisor when that is not 1 (``chosen`` kept, the guard
     noted, when the refit fails)."""
@@ -131,7 +131,7 @@ def _guarded(chosen: SelectedFit, **options: Any) -> SelectedFit:
         return replace(chosen, guard=guard)
     robot = np.array([group_of(p) is not None for p in chosen.problem.parameters])
     firmer = np.where(robot, chosen.prior_sigma / guard.firmer, chosen.prior_sigma)
-    refit = identify(chosen.problem, **{**options, "prior": firmer})
+    refit = identify_with(chosen.problem, replace(options, prior=firmer))
     if not refit.converged:
         return replace(chosen, guard=replace(guard, firmer=1.0))
     return replace(chosen, result=refit, prior_sigma=firmer, guard=guard)
@@ -147,13 +147,13 @@ def _weighted_linear(problem: CalibrationProblem, fit: CalibrationResult) -> tup
     return jac, pred.residual * rows - jac @ fit.x
 
 
-def _with_evidence(chosen: SelectedFit, automatic: bool, **options: Any) -> SelectedFit:
+def _with_evidence(chosen: SelectedFit, automatic: bool, options: FitOptions) -> SelectedFit:
     """``chosen`` refitted with the prior factors the evidence chooses for the groups it kept, when the prior is
     automatic; ``chosen`` itself otherwise."""
     if not automatic or not chosen.result.converged:
         return chosen
     jac, y0 = _weighted_linear(chosen.problem, chosen.result)
-    fitted = _refit_with_evidence(chosen.problem, chosen.result, jac, y0, drop=False, **options)
+    fitted = _refit_with_evidence(chosen.problem, chosen.result, jac, y0, options, drop=False)
     removed = chosen.removed + [n for n in fitted.removed if n not in chosen.removed]
     groups = chosen.removed_groups + tuple(g for g in fitted.removed_groups if g not in chosen.removed_groups)
     return SelectedFit(fitted.problem, fitted.result, chosen.first, removed, chosen.scores, groups, fitted.evidence,
@@ -161,7 +161,7 @@ def _with_evidence(chosen: SelectedFit, automatic: bool, **options: Any) -> Sele
 
 
 def _refit_with_evidence(problem: CalibrationProblem, first: CalibrationResult, jac: Array, y0: Array,
-                         drop: bool = True, **options: Any) -> SelectedFit:
+                         options: FitOptions, drop: bool = True) -> SelectedFit:
     """The groups of ``problem``'s parameters weighed by their evidence on the linear model ``jac``, ``y0``
     (:func:`_weighted_linear` at ``first``'s estimate): each held by the prior σ it chooses, left out where that is
     none (with ``drop``; else held by the smallest factor, as a named set's parameters stay); the refit from the nominal
@@ -183,11 +183,11 @@ def _refit_with_evidence(problem: CalibrationProblem, first: CalibrationResult, 
     # the fit weighs the rows by their stated σ, the evidence by the noise they show (s²): its prior, in the fit's
     # units, is σ / s (the same maximum a posteriori estimate), whatever σ was stated
     weighed = choice.sigma[kept] / math.sqrt(max(choice.noise, 1e-300))
-    refit = identify(reduced, **{**options, "prior": weighed})
+    refit = identify_with(reduced, replace(options, prior=weighed))
     if not refit.converged:
         return SelectedFit(problem, first, first, [], {}, evidence=choice)
     if removed and _worse_without(problem, first, refit, choice.noise):
-        return _refit_with_evidence(problem, first, jac, y0, drop=False, **options)
+        return _refit_with_evidence(problem, first, jac, y0, options, drop=False)
     return SelectedFit(reduced, refit, first, removed, {}, choice.left_out, choice, weighed)
 
 
@@ -229,7 +229,7 @@ def _reduced(problem: CalibrationProblem, kept: list[int], observations: Observa
 def _refit_without(problem: CalibrationProblem, first: CalibrationResult, removed_groups: tuple[str, ...],
                    scores: dict[tuple[str, ...], float],
                    criterion: Callable[[CalibrationProblem, CalibrationResult], float] | None,
-                   **options: Any) -> SelectedFit:
+                   options: FitOptions) -> SelectedFit:
     """The fit without ``removed_groups``, refitted from the nominal start; ``first`` kept instead when the refit
     fails or scores worse on ``criterion`` (None: no such check)."""
     pset = problem.parameters
@@ -240,7 +240,7 @@ def _refit_without(problem: CalibrationProblem, first: CalibrationResult, remove
     if not kept:
         return SelectedFit(problem, first, first, [], scores)
     reduced = _reduced(problem, kept)
-    refit = identify(reduced, **options)
+    refit = identify_with(reduced, options)
     # the choice was made on the fit linearized at its estimate; the refit starts from the nominal robot, where fewer
     # directions may be identifiable (a planar four-bar's anchor rotations): kept only if it scores better for real
     if not refit.converged or (criterion is not None and criterion(reduced, refit) > criterion(problem, first)):
@@ -248,13 +248,13 @@ def _refit_without(problem: CalibrationProblem, first: CalibrationResult, remove
     return SelectedFit(reduced, refit, first, removed, scores, removed_groups)
 
 
-def select_by_cv(problem: CalibrationProblem, first: CalibrationResult, **options: Any) -> SelectedFit:
+def select_by_cv(problem: CalibrationProblem, first: CalibrationResult, options: FitOptions) -> SelectedFit:
     """Leave out the groups of parameters whose combination predicts unseen samples best: every combination of the
     groups present (:data:`GROUPS`) is fitted on :data:`CV_FOLDS` − 1 folds of the samples (one shuffle seeded
     :data:`CV_SEED`) and scored by the mean square of the weighted residuals [σ²] it leaves on the fold left out,
     over every fold; the smallest wins (on equal scores, the one with fewer parameters), and is refitted on every
     sample. A combination whose fit fails on some fold scores infinity. ``first`` is the fit of every parameter.
-    ``options`` go to :func:`~pincal.identification.solver.identify`."""
+    ``options`` go to :func:`~pincal.identification.solver.identify_with`."""
     pset = problem.parameters
     groups = [group_of(p) for p in pset]
     present = [g for g in GROUPS if g in groups]
@@ -269,16 +269,16 @@ def select_by_cv(problem: CalibrationProblem, first: CalibrationResult, **option
             kept = [j for j, g in enumerate(groups) if g not in drop]
             if not kept:
                 continue
-            scores[drop] = _cross_validated(problem, kept, folds, **options)
+            scores[drop] = _cross_validated(problem, kept, folds, options)
             if best is None or (scores[drop], len(kept)) < best[:2]:
                 best = (scores[drop], len(kept), drop)
     if best is None or not best[2] or not math.isfinite(best[0]):
         return SelectedFit(problem, first, first, [], scores)
-    return _refit_without(problem, first, best[2], scores, None, **options)
+    return _refit_without(problem, first, best[2], scores, None, options)
 
 
 def _cross_validated(problem: CalibrationProblem, kept: list[int], folds: list[npt.NDArray[np.int64]],
-                     **options: Any) -> float:
+                     options: FitOptions) -> float:
     """The mean square of the weighted residuals [σ²] that fits of the parameters ``kept`` on all folds but one leave
     on the one left out, over every fold (infinity when a fold's fit fails)."""
     n = problem.observations.n_samples
@@ -286,7 +286,7 @@ def _cross_validated(problem: CalibrationProblem, kept: list[int], folds: list[n
     for test in folds:
         train = np.setdiff1d(np.arange(n), test)
         try:
-            fit = identify(_reduced(problem, kept, problem.observations.subset(train)), **options)
+            fit = identify_with(_reduced(problem, kept, problem.observations.subset(train)), options)
             residual = _reduced(problem, kept, problem.observations.subset(test)).evaluate(fit.x, jacobian=False)
         except PincalError:
             return math.inf

@@ -15,6 +15,8 @@ import contextlib
 import functools
 import math
 import os
+from collections.abc import Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -24,9 +26,9 @@ from pincal import validation
 from pincal.errors import ArgumentError, ConvergenceError
 from pincal.identification import fitting
 from pincal.identification.choices import Loss, Solver
+from pincal.identification.fit_options import FitOptions
 from pincal.identification.ikm import ChainProblem, ImplicitProblem, chain_blocks
 from pincal.identification.losses import TRIM_KEEP, TRIMMED, outlier_samples, sample_squares
-from pincal.identification.prior import Prior
 from pincal.identification.problem import Problem
 from pincal.identification.readings import find_bad_readings
 from pincal.identification.result import CalibrationResult, chained
@@ -37,6 +39,8 @@ Array = npt.NDArray[np.float64]
 
 if TYPE_CHECKING:
     from threadpoolctl import ThreadpoolController
+
+    from pincal.identification.fit_options import FitPrior
 
 #: The variables that, all "1" from the process's start (as the ``pincal`` command sets them), give every BLAS
 #: library one thread: identification then has no thread count to limit.
@@ -61,7 +65,7 @@ def _one_blas_thread() -> contextlib.AbstractContextManager[Any]:
     return limited
 
 
-def _check_arguments(problem: Any, x0: Any, max_iter: Any, tol: Any, prior: Any) -> None:
+def _check_arguments(problem: Any, x0: Any, options: FitOptions) -> None:
     """Refuse arguments of :func:`identify` of the wrong type or value, naming each (TypeError, ArgumentError)."""
     if not hasattr(problem, "parameters") or not hasattr(problem, "observations"):
         raise TypeError(f"problem={validation.shown(problem)}: expected a calibration problem (CalibrationProblem, "
@@ -72,23 +76,30 @@ def _check_arguments(problem: Any, x0: Any, max_iter: Any, tol: Any, prior: Any)
             raise ArgumentError(f"x0 has shape {start.shape}{'' if np.all(np.isfinite(start)) else ' and NaN/inf'}: "
                                 f"give {len(problem.parameters)} finite values [m, rad], one per parameter",
                                 option="x0")
-    validation.whole("max_iter", max_iter, 1)
-    validation.real("tol", tol)  # 0: iterate until no step decreases the cost
+    validation.whole("max_iter", options.max_iter, 1)
+    validation.real("tol", options.tol)  # 0: iterate until no step decreases the cost
+    prior = options.fixed_prior()
     if prior is not None and np.ndim(prior):
         sigma = np.asarray(prior, dtype=float)
         if sigma.shape != (len(problem.parameters),) or np.any(np.isnan(sigma)) or np.any(sigma <= 0.0):
             raise ArgumentError(f"prior has shape {sigma.shape}: give {len(problem.parameters)} prior σ > 0 [parameter "
-                                "units] (inf: none), one per parameter, or one factor")
+                                "units] (inf: none), one per parameter, or one factor", option="prior")
     else:
         validation.optional_real("prior", prior, strict=True)
 
 
-def identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", loss: Loss = "auto", *,
-             identifiable_only: bool = True, max_iter: int = 100, tol: float = 1e-9, rank_tol: float = 1e-8,
-             min_information: float = 0.0, tsvd_rcond: float = 1e-6, ridge: float = 1e-6,
-             strict: bool = False, prior: Prior = None) -> CalibrationResult:
-    """Estimate the parameters from the data (the arguments are described at
-    :func:`~pincal.identification.fitting.fit`).
+#: Every option at its default: the keywords of :func:`identify` default to its fields.
+_DEFAULT = FitOptions()
+
+
+def identify(problem: Problem, x0: Array | None = None, solver: Solver = _DEFAULT.solver, loss: Loss = _DEFAULT.loss,
+             *, identifiable_only: bool = _DEFAULT.identifiable_only, max_iter: int = _DEFAULT.max_iter,
+             tol: float = _DEFAULT.tol, rank_tol: float = _DEFAULT.rank_tol,
+             min_information: float = _DEFAULT.min_information, tsvd_rcond: float = _DEFAULT.tsvd_rcond,
+             ridge: float = _DEFAULT.ridge, strict: bool = _DEFAULT.strict, prior: FitPrior = _DEFAULT.prior
+             ) -> CalibrationResult:
+    """Estimate the parameters from the data: :func:`identify_with` of the :class:`FitOptions` these keywords make
+    (each described there and at :func:`~pincal.identification.fitting.fit`).
 
     ``loss="auto"`` (the default) fits by least squares, tests every sample against the noise level the
     fit shows (:func:`outlier_samples`) and, if any sample is implausible, refits with the Cauchy loss
@@ -97,20 +108,33 @@ def identify(problem: Problem, x0: Array | None = None, solver: Solver = "lm", l
     whose error one wrong joint reading explains is left out (weight 0) and the Cauchy fit redone
     (:func:`_without_bad_readings`); the result lists the samples it down-weighted.
     """
-    _check_arguments(problem, x0, max_iter, tol, prior)
+    return identify_with(problem, FitOptions(solver=solver, loss=loss, identifiable_only=identifiable_only,
+                                             max_iter=max_iter, tol=tol, rank_tol=rank_tol,
+                                             min_information=min_information, tsvd_rcond=tsvd_rcond, ridge=ridge,
+                                             strict=strict, prior=prior), x0)
+
+
+def identify_with(problem: Problem, options: FitOptions, x0: Array | None = None) -> CalibrationResult:
+    """:func:`identify` with its options as one :class:`FitOptions` (the automatic prior as factor 1), from ``x0``
+    [m, rad] (default: the problem's initial guess).
+
+    Raises:
+        TypeError: ``problem`` or ``options`` of the wrong type.
+        ArgumentError: an option or ``x0`` out of range, naming it.
+    """
+    validation.instance("options", options, FitOptions, "FitOptions")
+    options = options.single()
+    _check_arguments(problem, x0, options)
     # the dense algebra here is small (hundreds × tens): multi-threaded BLAS only adds overhead, and
     # on a loaded 2-core machine it made identification ten times slower
     with _one_blas_thread():
-        options = {"identifiable_only": identifiable_only, "max_iter": max_iter, "tol": tol, "rank_tol": rank_tol,
-                   "min_information": min_information, "tsvd_rcond": tsvd_rcond, "ridge": ridge, "strict": strict,
-                   "prior": prior}
-        return _identify_auto(problem, x0, solver, loss, **options)
+        return _identify_auto(problem, x0, options)
 
 
-def _identify_auto(problem: Problem, x0: Array | None, solver: Solver, loss: Loss, **options: Any) -> CalibrationResult:
-    if loss != "auto":
-        return _identify(problem, x0, solver, loss, **options)
-    first = _identify(problem, x0, solver, "linear", **options)
+def _identify_auto(problem: Problem, x0: Array | None, options: FitOptions) -> CalibrationResult:
+    if options.loss != "auto":
+        return _identify(problem, x0, options, options.loss)
+    first = _identify(problem, x0, options, "linear")
     first.loss = "auto (linear)"  # what was asked, and what it came to: least squares, no sample implausible
     # an exact fit has nothing to reject; judged on the numerical floor alone, not on the stated σ: a σ stated ten
     # times too large would put every real error under a tenth of it and skip the outlier test
@@ -131,9 +155,9 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: Solver, loss: Los
     # (a start from which the model cannot be evaluated, far from any assembly, is left out)
     # (the trimmed start needs twice as many rows in the kept half as parameters: fewer fit noise, not geometry)
     enough = TRIM_KEEP * problem.row_samples().size >= 2 * first.identifiability.rank
-    trimmed = _attempt(problem, first.x0, solver, TRIMMED, **options) if enough else None
+    trimmed = _attempt(problem, first.x0, options, TRIMMED) if enough else None
     starts = [first.x, first.x0] + ([trimmed.x] if trimmed is not None else [])
-    fits = [fit for fit in (_attempt(problem, start, solver, "cauchy", **options) for start in starts)
+    fits = [fit for fit in (_attempt(problem, start, options, "cauchy") for start in starts)
             if fit is not None]
     scored = [(median, k) for k, median in enumerate(_median_sample_residual(problem, fit.x) for fit in fits)
               if math.isfinite(median)]
@@ -146,14 +170,13 @@ def _identify_auto(problem: Problem, x0: Array | None, solver: Solver, loss: Los
     second.seconds += sum(c.seconds for c in others)
     second = chained(first, second)
     second.extra["first_pass_iterations"] = first.iterations
-    second = _without_bad_readings(problem, second, solver, **options)
+    second = _without_bad_readings(problem, second, options)
     second.loss = "auto (cauchy)"
     second.extra["outlier_test"] = suspects
     return second
 
 
-def _without_bad_readings(problem: Problem, fit: CalibrationResult, solver: Solver,
-                          **options: Any) -> CalibrationResult:
+def _without_bad_readings(problem: Problem, fit: CalibrationResult, options: FitOptions) -> CalibrationResult:
     """``fit`` (a Cauchy fit) redone from its start with weight 0 for the samples whose residual one wrong joint
     reading explains (:func:`~pincal.identification.readings.find_bad_readings`), listed in
     ``extra["bad_readings"]``; ``fit`` itself when there is none or the refit fails."""
@@ -162,7 +185,7 @@ def _without_bad_readings(problem: Problem, fit: CalibrationResult, solver: Solv
         return fit
     linearised = None if pred.jacobian is None else (pred.jacobian, fit.sample_weights, fit.identified)
     bad, refit = find_bad_readings(problem, fit.x, pred.residual, fit.identifiability.rank,
-                                   lambda left: _attempt(problem, fit.x0, solver, "cauchy", left_out=left, **options),
+                                   lambda left: _attempt(problem, fit.x0, options, "cauchy", left),
                                    linearised)
     if not bad or refit is None:
         return fit
@@ -172,11 +195,12 @@ def _without_bad_readings(problem: Problem, fit: CalibrationResult, solver: Solv
     return refit
 
 
-def _attempt(problem: Problem, x0: Array, solver: Solver, loss: str, **options: Any) -> CalibrationResult | None:
+def _attempt(problem: Problem, x0: Array, options: FitOptions, loss: str,
+             left_out: Sequence[int] = ()) -> CalibrationResult | None:
     """:func:`_identify`, or None when the model cannot be evaluated along the way (one of ``auto``'s robust
     starts may lead where the loops do not close)."""
     try:
-        return _identify(problem, x0, solver, loss, **options)
+        return _identify(problem, x0, options, loss, left_out)
     except ConvergenceError:
         return None
 
@@ -195,13 +219,15 @@ def _median_sample_residual(problem: Problem, x: Array) -> float:
 MAX_RESETTLES = 3
 
 
-def _identify(problem: Problem, x0: Array | None, solver: Solver, loss: str, **options: Any) -> CalibrationResult:
+def _identify(problem: Problem, x0: Array | None, options: FitOptions, loss: str,
+              left_out: Sequence[int] = ()) -> CalibrationResult:
     """:func:`~pincal.identification.fitting.fit`, then refit while some sample's remembered configuration proves
     to be off the reference assembly at the estimate
     (:meth:`~pincal.identification.problem.CalibrationProblem.settle_assembly`): its residual was measured on the
-    wrong robot posture, so the fit and its robust weights are redone."""
-    result = _with_prior_weighed(problem, fitting.fit(problem, x0, solver, loss, **options), solver, loss, options)
-    result = _polished(problem, result, solver, loss, options)
+    wrong robot posture, so the fit and its robust weights are redone. ``loss`` is this pass's (an implemented loss
+    of :data:`~pincal.identification.losses.IMPLEMENTED_LOSSES`); ``left_out`` the samples that weigh 0."""
+    result = _with_prior_weighed(problem, fitting.fit(problem, x0, options, loss, left_out), options, loss, left_out)
+    result = _polished(problem, result, options, loss, left_out)
     moved_all: list[int] = []
     for _ in range(MAX_RESETTLES):
         moved = problem.settle_assembly(result.x)
@@ -209,7 +235,7 @@ def _identify(problem: Problem, x0: Array | None, solver: Solver, loss: str, **o
             break
         moved_all += moved
         try:
-            result = chained(result, fitting.fit(problem, result.x, solver, loss, **options))
+            result = chained(result, fitting.fit(problem, result.x, options, loss, left_out))
         except ConvergenceError:  # some sample does not assemble at all there: the caller decides
             result.final = None  # its configurations were reset after it: its residuals are not the problem's
             break
@@ -223,21 +249,21 @@ def _identify(problem: Problem, x0: Array | None, solver: Solver, loss: str, **o
 QUIETER_THAN_STATED = 0.5
 
 
-def _with_prior_weighed(problem: Problem, result: CalibrationResult, solver: Solver, loss: str,
-                        options: dict[str, Any]) -> CalibrationResult:
+def _with_prior_weighed(problem: Problem, result: CalibrationResult, options: FitOptions, loss: str,
+                        left_out: Sequence[int] = ()) -> CalibrationResult:
     """``result``, refit once from its estimate with the prior weighed against the noise the data show when they
     show much less than stated (a-posteriori factor ``s²`` below :data:`QUIETER_THAN_STATED`): each prior σ divided
     by ``s``, as if the data rows were whitened by the noise they show. A σ stated ten times too large would
     otherwise make the data look a hundred times less informative, and the prior pull what they see well. A fit
     short of the stated noise (``s² > 1``: a model error, or a σ stated too small) never makes the prior stronger."""
-    factor = options.get("prior")
+    factor = options.fixed_prior()
     if factor is None or np.ndim(factor) or not math.isfinite(result.sigma2) or result.sigma2 >= QUIETER_THAN_STATED:
         return result  # a prior of its own σ per parameter (the evidence's) was chosen against the noise already
     if at_floor(result.errors_after, exact_fit_floors(problem, 0.0, EXACT_FIT_AMPLIFICATION)):  # exact: no noise
         return result
-    weighed = {**options, "prior": factor / math.sqrt(max(result.sigma2, 1e-300))}
+    weighed = replace(options, prior=factor / math.sqrt(max(result.sigma2, 1e-300)))
     try:
-        return chained(result, fitting.fit(problem, result.x0, solver, loss, **weighed))
+        return chained(result, fitting.fit(problem, result.x0, weighed, loss, left_out))
     except ConvergenceError:  # the refit could not be evaluated: the first fit stands
         return result
 
@@ -251,19 +277,19 @@ NOISE_LEVEL_STOP = "converged (what remains to gain is below the noise)"
 SIGNIFICANT_GAIN = 10.83
 
 
-def _polished(problem: Problem, result: CalibrationResult, solver: Solver, loss: str,
-              options: dict[str, Any]) -> CalibrationResult:
+def _polished(problem: Problem, result: CalibrationResult, options: FitOptions, loss: str,
+              left_out: Sequence[int] = ()) -> CalibrationResult:
     """``result`` taken on to the least-squares minimum when the problem has a camera's intrinsics and LM stopped at
     the noise level: a board's rotation on the hand is weakly seen and trades with the wrist's parameters, and the
     χ² LM leaves along it (about 15 on a Panda eye-to-hand campaign of 40 images) moves the held-out camera
     positions by far more than the noise (twice the error of a converged fit). Truncated-SVD steps from the estimate
     (no noise-level stop: they go on while ½χ² drops by 0.01) take it there; kept only when they lower χ² by more
     than :data:`SIGNIFICANT_GAIN`. Problems without intrinsics are left as they are."""
-    if solver != "lm" or loss != "linear" or result.message != NOISE_LEVEL_STOP \
+    if options.solver != "lm" or loss != "linear" or result.message != NOISE_LEVEL_STOP \
             or not any(p.kind == "intrinsics" for p in problem.parameters):
         return result
     try:
-        polished = fitting.fit(problem, result.x, "tsvd", loss, **options)
+        polished = fitting.fit(problem, result.x, replace(options, solver="tsvd"), loss, left_out)
     except ConvergenceError:  # the steps led where the model cannot be evaluated: the LM fit stands
         return result
     if not polished.cost_history or not result.cost_history \
@@ -276,9 +302,9 @@ def _polished(problem: Problem, result: CalibrationResult, solver: Solver, loss:
 
 
 def identify_chains(problem: ImplicitProblem, x0: Array | None = None,
-                    **options: Any) -> list[tuple[list[str], CalibrationResult]]:
+                    options: FitOptions = _DEFAULT) -> list[tuple[list[str], CalibrationResult]]:
     """Identify each independent chain on its own (study 000's segment-by-segment IKM calibration),
-    with :func:`identify`'s options.
+    with ``options`` (:func:`identify_with`'s).
 
     Returns:
         Per chain: the loop names and its :class:`~pincal.identification.result.CalibrationResult`.
@@ -290,7 +316,7 @@ def identify_chains(problem: ImplicitProblem, x0: Array | None = None,
     out = []
     for columns, loops in chain_blocks(problem, jac):
         chain = ChainProblem(problem, columns, loops, x)
-        result = identify(chain, x0=x[columns], **options)
+        result = identify_with(chain, options, x[columns])
         x[columns] = result.x
         out.append(([names[i] for i in loops], result))
     return out

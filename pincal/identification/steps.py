@@ -11,7 +11,6 @@ how it damps them; :func:`pincal.identification.solver.identify` picks it by nam
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
 from typing import ClassVar, Self
 
 import numpy as np
@@ -19,6 +18,7 @@ import numpy.typing as npt
 
 from pincal import linalg
 from pincal.errors import ConvergenceError, DataError
+from pincal.identification.fit_options import StepOptions as StepOptions  # the methods read it here
 from pincal.identification.problem import Prediction, Problem
 from pincal.model.robot import SOLVE_TOLERANCE
 
@@ -34,17 +34,6 @@ FK_AMPLIFICATION = 1e3
 #: A fit LM is still crawling on stops once every error is within this multiple of the FK tolerance (1e-9 m,
 #: rad): tighter than the floor above, so that what a user takes home reproduces the data to ~1 nm.
 EXACT_FIT_AMPLIFICATION = 1e2
-
-
-@dataclass(frozen=True)
-class StepOptions:
-    """The options of :func:`~pincal.identification.solver.identify` that shape a method's steps (described there)."""
-
-    identifiable_only: bool = True
-    rank_tol: float = 1e-8
-    min_information: float = 0.0
-    tsvd_rcond: float = 1e-6
-    ridge: float = 1e-6
 
 
 class Method(ABC):

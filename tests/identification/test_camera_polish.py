@@ -14,6 +14,7 @@ from scipy.optimize import least_squares
 import pincal
 from pincal.calibration.pixel_campaign import PixelSimulation, simulate_pixels
 from pincal.identification import solver as solver_module
+from pincal.identification.fit_options import FitOptions
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.result import CalibrationResult
@@ -71,5 +72,5 @@ def test_a_problem_without_intrinsics_is_not_polished(
     class WithoutIntrinsics:  # the same fit, seen by a problem whose parameters have no intrinsics
         parameters = ParameterSet([p for p in sim.parameters if p.kind != "intrinsics"])
 
-    assert solver_module._polished(WithoutIntrinsics(), result, "lm", "linear", {}) is result  # type: ignore[arg-type]
-    assert solver_module._polished(problem, result, "lm", "linear", {}) is not result
+    assert solver_module._polished(WithoutIntrinsics(), result, FitOptions(), "linear") is result  # type: ignore[arg-type]
+    assert solver_module._polished(problem, result, FitOptions(), "linear") is not result
