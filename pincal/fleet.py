@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -70,12 +70,13 @@ def run_job(job: FleetJob) -> FleetResult:
     """Calibrate one robot (runs in a worker process; a top-level function so it pickles)."""
     from pincal.calibration.from_files import calibrate_files, calibrate_job
     from pincal.calibration.job import read_job
+    from pincal.calibration.options import options_given
 
     try:
         if job.data.endswith(JOB_SUFFIX):
-            cal = calibrate_job(read_job(job.data).overridden(job.out_urdf, job.report, **job.options))
+            cal = calibrate_job(read_job(job.data).overridden(job.out_urdf, job.report, job.options))
         else:
-            cal = calibrate_files(job.robot, job.data, job.out_urdf, job.report, **job.options)
+            cal = calibrate_files(job.robot, job.data, job.out_urdf, job.report, options=options_given(job.options))
     except PincalError as exc:
         return FleetResult(job.name, None, f"{type(exc).__name__}: {exc}")
     return FleetResult(job.name, cal.report, None)
@@ -111,10 +112,12 @@ def _gathered(results: Iterable[FleetResult], bar: Progress) -> list[FleetResult
     return out
 
 
-def jobs_from_directory(robot: str, directory: str | Path, out: str | Path, **options: Any) -> list[FleetJob]:
+def jobs_from_directory(robot: str, directory: str | Path, out: str | Path,
+                        options: Mapping[str, Any] | None = None) -> list[FleetJob]:
     """One job per ``*.csv`` in ``directory`` on the nominal ``robot``, and one per job file ``*.toml`` (its own robot
     and data), sorted by name; outputs named after each file in ``out``; ``options`` (keywords of
-    :class:`~pincal.calibration.options.CalibrationOptions`) for every job."""
+    :class:`~pincal.calibration.options.CalibrationOptions`, those given) for every job."""
+    options = {} if options is None else dict(options)
     out_dir = check_directory(out, "--out")
     files = sorted([*Path(directory).glob("*.csv"), *Path(directory).glob(f"*{JOB_SUFFIX}")])
     return [FleetJob(p.stem, robot, str(p), str(out_dir / f"{p.stem}.urdf"), str(out_dir / f"{p.stem}.json"), options)

@@ -5,6 +5,7 @@ at all, each recording its provenance (:mod:`pincal.calibration.provenance`) —
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -12,8 +13,8 @@ from typing import Any
 from pincal import validation
 from pincal.calibration.job import Job, load_job_robot, read_job
 from pincal.calibration.job_data import job_dataset
-from pincal.calibration.options import OPTIONS, CalibrationOptions, OptionSource, check_cv_seed, check_select_cv
-from pincal.calibration.pipeline import Calibration, calibrate, options_of
+from pincal.calibration.options import CalibrationOptions, OptionSource, options_given
+from pincal.calibration.pipeline import Calibration, calibrate
 from pincal.calibration.provenance import Provenance, file_source, options_dict, robot_source, with_provenance
 from pincal.calibration.report import CalibrationReport
 from pincal.calibration.samples import read_robot_dataset
@@ -78,21 +79,19 @@ def _written(cal: Calibration, robot: Robot, provenance: Provenance, out: str | 
     return cal
 
 
-def _options(keywords: dict[str, Any]) -> dict[str, Any]:
-    """Every calibration option as the provenance records it: ``keywords`` over the defaults."""
-    return options_dict(options_of(None, {k: v for k, v in keywords.items() if k in OPTIONS}))
-
-
 def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, report_path: str | None,
-                    meshes: MeshMode = "keep", **options: Any) -> Calibration:
-    """:func:`calibrate` from files: the outputs are checked before the fit (never over an input, parents
-    created) and each is written whole or not at all; ``meshes`` says what the calibrated URDF's meshes become
-    (:mod:`pincal.io.mesh_files`)."""
+                    meshes: MeshMode = "keep", options: CalibrationOptions | None = None,
+                    progress: bool = False) -> Calibration:
+    """:func:`calibrate` from files with ``options`` (default: every default): the outputs are checked before the fit
+    (never over an input, parents created) and each is written whole or not at all; ``meshes`` says what the
+    calibrated URDF's meshes become (:mod:`pincal.io.mesh_files`); ``progress`` as for :func:`calibrate`."""
+    options = CalibrationOptions() if options is None else options
+    validation.instance("options", options, CalibrationOptions, "CalibrationOptions or None")
     robot = load_robot(robot_path)
     plan, beside = _checked_outputs(robot, out_urdf, report_path, meshes, [data_path], ("--out", "--report"))
-    cal = calibrate(robot, read_robot_dataset(data_path, robot), **options)
-    provenance = Provenance(robot_source(robot_path, robot), [file_source(data_path)], _options(options))
-    return _written(cal, robot, provenance, out_urdf, report_path, beside, plan, bool(options.get("force")))
+    cal = calibrate(robot, read_robot_dataset(data_path, robot), options, progress=progress)
+    provenance = Provenance(robot_source(robot_path, robot), [file_source(data_path)], options_dict(options))
+    return _written(cal, robot, provenance, out_urdf, report_path, beside, plan, options.force)
 
 
 def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -> Calibration:
@@ -104,8 +103,7 @@ def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -
     def source(option: str) -> OptionSource:  # the command line's value in place of the job's, or the job's own
         return "command line" if option in job.overrides else job.path
 
-    check_cv_seed(job.options.get("cv"), job.options.get("cv_seed", 0), source("cv"), source("cv_seed"))
-    check_select_cv(job.options.get("select", "auto"), job.options.get("cv"), source("select"), source("cv"))
+    options = options_given(job.options, source)
     robot = load_job_robot(job)
     payload = job.options.get("payload")
     if payload is not None and "payload" not in job.overrides:  # the job's own: name the file
@@ -114,10 +112,10 @@ def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -
         except NotFoundError as exc:  # the same culprit, the job file named
             raise NotFoundError(f"{job.path}: {exc}", exc.kind, exc.name, exc.choices) from None
     plan, beside = _checked_outputs(robot, job.out, job.report, meshes, [job.path, *job.files], ("out", "report"))
-    cal = calibrate(robot, job_dataset(job, robot), progress=progress, **job.options)
+    cal = calibrate(robot, job_dataset(job, robot), options, progress=progress)
     provenance = Provenance(robot_source(str(job.robot), robot), [file_source(p) for p in (job.path, *job.files)],
-                            _options(job.options))
-    return _written(cal, robot, provenance, job.out, job.report, beside, plan, bool(job.options.get("force")))
+                            options_dict(options))
+    return _written(cal, robot, provenance, job.out, job.report, beside, plan, options.force)
 
 
 #: A file named so is a job file (docs/job_file.md): ``pincal calibrate JOB.toml``.
@@ -136,7 +134,7 @@ class Inputs:
     robot_given: str = ""
 
 
-def read_inputs(command: str, robot_or_job: str, data: str | None, options: dict[str, Any]) -> Inputs:
+def read_inputs(command: str, robot_or_job: str, data: str | None, options: Mapping[str, Any]) -> Inputs:
     """The robot and dataset of ``pincal COMMAND ROBOT DATA`` or ``pincal COMMAND JOB.toml`` (its robot, its data
     read into SI units, its options with ``options`` over them), the options checked.
 
@@ -151,16 +149,13 @@ def read_inputs(command: str, robot_or_job: str, data: str | None, options: dict
         if options.get("markers", "each") != "each":
             raise PincalError(f"{command}: --markers cluster applies to a dataset named on the command line, not yet "
                               "to a job file")
-        job = read_job(robot_or_job).overridden(**{k: v for k, v in options.items() if k != "markers"})
-        check_cv_seed(job.options.get("cv"), job.options.get("cv_seed", 0), job.path, job.path)
-        check_select_cv(job.options.get("select", "auto"), job.options.get("cv"), job.path, job.path)
+        job = read_job(robot_or_job).overridden(options={k: v for k, v in options.items() if k != "markers"})
+        given = options_given(job.options, job.path)
         robot = load_job_robot(job)
-        return Inputs(robot, job_dataset(job, robot), options_of(None, job.options), [job.path, *job.files],
-                      str(job.robot))
+        return Inputs(robot, job_dataset(job, robot), given, [job.path, *job.files], str(job.robot))
     if data is None:
         raise PincalError(f"{command}: DATA is missing: give pincal {command} ROBOT DATA.csv, or a job file "
                           f"JOB{JOB_SUFFIX} (docs/job_file.md); got only '{robot_or_job}'")
-    check_cv_seed(options.get("cv"), options.get("cv_seed", 0), "command line", "command line")
-    check_select_cv(options.get("select", "auto"), options.get("cv"), "command line", "command line")
+    given = options_given(options, "command line")
     robot = load_robot(robot_or_job)
-    return Inputs(robot, read_robot_dataset(data, robot), options_of(None, options), [Path(data)], robot_or_job)
+    return Inputs(robot, read_robot_dataset(data, robot), given, [Path(data)], robot_or_job)

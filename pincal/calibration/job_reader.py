@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -113,13 +113,15 @@ class Job:
     joint_units: dict[str, str] = field(default_factory=dict)
 
     def overridden(self, out: str | Path | None = None, report: str | Path | None = None,
-                   **options: Any) -> Job:
-        """This job with outputs and :func:`~pincal.calibration.calibrate` options given elsewhere (the command line) in
-        place of its own; None keeps the job's.
+                   options: Mapping[str, Any] | None = None) -> Job:
+        """This job with outputs and :func:`~pincal.calibration.calibrate` options (keywords of
+        :class:`~pincal.calibration.options.CalibrationOptions`) given elsewhere (the command line) in place of its
+        own; None keeps the job's.
 
         Raises:
             NotFoundError: an option that :func:`~pincal.calibration.calibrate` does not have.
         """
+        options = {} if options is None else options
         for name in options:
             if name not in OPTIONS:
                 raise not_found("option", name, OPTIONS, " of calibrate()")

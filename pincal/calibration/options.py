@@ -11,12 +11,13 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable, Mapping
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, get_args
 
 from pincal import validation
-from pincal.errors import ArgumentError, DataError, listing, not_found
+from pincal.errors import ArgumentError, DataError, NotFoundError, PincalError, listing, not_found
 from pincal.identification.choices import LOSSES, MARKER_FITS, SOLVERS, Loss, MarkerFit, Solver
 from pincal.identification.fit_options import AUTO_PRIOR, FitOptions
 
@@ -201,6 +202,10 @@ class CalibrationOptions:
         if not isinstance(self.force, bool):
             raise DataError(f"force={validation.shown(self.force)}: give True or False", option="force")
         self._check_objects()
+        # the options that only make sense together, checked here once for every caller (options_given words the
+        # error as the user wrote each option)
+        check_cv_seed(self.cv, self.cv_seed)
+        check_select_cv(self.select, self.cv)
 
     def _check_objects(self) -> None:
         """Check the options that are objects: the cross-validation plan's form and the payload's type."""
@@ -284,6 +289,31 @@ def written(key: str, value: str | int, source: OptionSource, in_file: bool = Tr
         return f"{key}={value!r}"
     shown = f'"{value}"' if isinstance(value, str) else str(value)  # TOML's quotes
     return f"{OPTIONS[key].key} = {shown}" + (f" in {source}" if in_file else "")
+
+
+#: Where each option was given, by its keyword: one place for all, or a function of the option's keyword.
+OptionSources = OptionSource | Callable[[str], OptionSource]
+
+
+def options_given(values: Mapping[str, Any], sources: OptionSources = "keyword") -> CalibrationOptions:
+    """The :class:`CalibrationOptions` that ``values`` give (keywords of its fields) over the defaults, each checked
+    once as the options are made; a cross-validation seed or plan that does not go with the other options is named as
+    the user wrote each at its source (``--cv-seed 5`` on the command line, ``cv_seed = 5`` in a job file).
+
+    Raises:
+        NotFoundError: a name that is not an option.
+        DataError: a value out of range, naming the option.
+    """
+    where: Callable[[str], OptionSource] = sources if callable(sources) else (lambda _name: sources)
+    try:
+        return CalibrationOptions().replace(**values)
+    except PincalError as exc:
+        if exc.option in ("cv", "cv_seed") and not isinstance(exc, NotFoundError):  # worded where it was written
+            cv, seed, select = values.get("cv"), values.get("cv_seed", 0), values.get("select", "auto")
+            if isinstance(seed, int) and not isinstance(seed, bool) and (cv is None or isinstance(cv, str)):
+                check_cv_seed(cv, seed, where("cv"), where("cv_seed"))
+                check_select_cv(select, cv, where("select"), where("cv"))
+        raise
 
 
 def check_cv_seed(cv: str | None, cv_seed: int, cv_source: OptionSource = "keyword",

@@ -32,7 +32,7 @@ from pincal.calibration.export_proof import calibrated_proof, with_comment
 from pincal.calibration.growth import ErrorGrowth, estimate_growth
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, Registration, evaluate_held_out, register_setup
 from pincal.calibration.noise import provisional_noise, with_noise
-from pincal.calibration.options import CalibrationOptions, check_cv_seed, check_select_cv
+from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.plausibility import (
     explains_nothing,
     implausible_corrections,
@@ -131,8 +131,6 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         validation.instance("options", options, CalibrationOptions, "CalibrationOptions or None")
     options = options_of(options, keywords)
     check_movable(robot)
-    check_cv_seed(options.cv, options.cv_seed)
-    check_select_cv(options.select, options.cv)
     check_trainable(dataset)
     # the stages on stderr when it is a terminal; the cross-validation after them has its own bar
     models = dataset_models(robot, dataset, options)

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
-from pincal.calibration.options import check_cv_seed, check_select_cv
+from pincal.calibration.options import options_given
 from pincal.cli import (
     assemble,
     bag_import,
@@ -178,14 +178,13 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         if options.pop("markers", "each") != "each":
             raise PincalError("calibrate: --markers cluster applies to a dataset named on the command line, not yet to "
                               "a job file")
-        job = read_job(args.robot).overridden(args.out, args.report, **options)
+        job = read_job(args.robot).overridden(args.out, args.report, options)
         cal = calibrate_job(job, args.meshes, progress=True)
         out, report_path, spec = job.out, job.report, job.options.get("parameter_spec")
     else:
-        check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
-        check_select_cv(options.get("select", "auto"), args.cv, "command line", "command line")
+        given = options_given(options, "command line")  # checked before any work, errors in the flags' words
         spec = options.get("parameter_spec")
-        cal = calibrate_files(args.robot, args.data, args.out, args.report, args.meshes, progress=True, **options)
+        cal = calibrate_files(args.robot, args.data, args.out, args.report, args.meshes, given, progress=True)
         out, report_path = args.out, args.report
     print(summary_text(cal.report, cal.result.seconds, str(report_path) if report_path else None, spec))
     if out and not writes_urdf(cal.report, bool(options.get("force"))):
@@ -268,11 +267,10 @@ def cmd_fleet(args: argparse.Namespace) -> int:
     if not where.is_dir():
         what = "is a file, not a directory of CSV files (one per robot)" if where.exists() else "does not exist"
         raise DataError(f"fleet: DATA_DIR '{args.data_dir}' {what}")
-    check_cv_seed(args.cv, args.cv_seed or 0, "command line", "command line")  # in the flags' words
-    check_select_cv(given_options(args).get("select", "auto"), args.cv, "command line", "command line")
+    options_given(given_options(args), "command line")  # checked before any job, errors in the flags' words
     if args.scheduler:
         check_scheduler(args.scheduler)
-    jobs = jobs_from_directory(args.robot, args.data_dir, args.out, **given_options(args))
+    jobs = jobs_from_directory(args.robot, args.data_dir, args.out, given_options(args))
     if not jobs:
         raise DataError(f"no *.csv or *{JOB_SUFFIX} files in '{args.data_dir}'")
     if args.scheduler:

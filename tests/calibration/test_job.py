@@ -158,11 +158,11 @@ def test_joint_columns_named_otherwise_are_mapped(tmp_path: Path, tiago: pincal.
 def test_options_given_elsewhere_override_the_job(tmp_path: Path) -> None:
     job = read_job(write_job(tmp_path, top='cv = "5x4"\nselect = "bic"\nout = "cal.urdf"'))
     assert job.options == {"cv": "5x4", "select": "bic"} and job.out == tmp_path / "cal.urdf"
-    again = job.overridden("other.urdf", None, cv="loo", select=None, solver="tsvd")
+    again = job.overridden("other.urdf", None, {"cv": "loo", "select": None, "solver": "tsvd"})
     assert again.options == {"cv": "loo", "select": "bic", "solver": "tsvd"}
     assert again.out == Path("other.urdf") and again.report is None
     with pytest.raises(NotFoundError, match=r"option 'colour' does not exist of calibrate\(\); options are: param"):
-        job.overridden(colour="red")
+        job.overridden(options={"colour": "red"})
 
 
 def test_a_payload_is_read_and_overridden(tmp_path: Path) -> None:
@@ -170,8 +170,9 @@ def test_a_payload_is_read_and_overridden(tmp_path: Path) -> None:
     assert job.options == {"payload": Payload(1.5, "arm_7_link", (0.0, 0.0, 0.1))}
     assert read_job(write_job(tmp_path, top='payload = { mass = 2, frame = "arm_7_link" }')).options == {
         "payload": Payload(2.0, "arm_7_link")}
-    assert job.overridden(payload=Payload(3.0, "arm_6_link")).options == {"payload": Payload(3.0, "arm_6_link")}
-    assert job.overridden(payload=None).options == job.options
+    heavier = {"payload": Payload(3.0, "arm_6_link")}
+    assert job.overridden(options=heavier).options == heavier
+    assert job.overridden(options={"payload": None}).options == job.options
 
 
 # --- what the job refuses: its own keys and values -----------------------------------------------------------------

@@ -14,7 +14,7 @@ from test_job import write_job
 
 import pincal
 from pincal.calibration.job import JOB_KEYS, read_job
-from pincal.calibration.options import DEFAULTS, OPTIONS, CalibrationOptions
+from pincal.calibration.options import DEFAULTS, OPTIONS, CalibrationOptions, options_given
 from pincal.cli.app import build_parser
 from pincal.errors import DataError, NotFoundError
 
@@ -65,9 +65,10 @@ def test_a_value_given_on_the_command_line_becomes_the_keyword(command: str) -> 
         argv += [OPTIONS[name].flag, *words]
     given = given_options(build_parser().parse_args(argv))
     assert set(given) == set(OTHER)
+    made = options_given(given, "command line")  # together: a seed goes with its plan
     for name, (_, value) in OTHER.items():
         if value is not None:
-            assert CalibrationOptions(**{name: given[name]}).__getattribute__(name) == value, name
+            assert getattr(made, name) == value, name
     assert given["payload"].as_dict() == {"mass": 1.5, "frame": "tool0", "offset": [0.0, 0.0, 0.1]}
 
 
@@ -82,10 +83,11 @@ def test_the_job_file_reads_every_option_it_has_a_key_for(tmp_path: Path) -> Non
     job = write_job(tmp_path, top="\n".join(f"{k} = {v}" for k, v in values.items()))
     options = read_job(job).options
     assert set(options) == set(keyed)
+    made = options_given(options, job)
     for name in keyed:
         expected = OTHER[name][1]
         if expected is not None:
-            assert CalibrationOptions(**{name: options[name]}).__getattribute__(name) == expected, name
+            assert getattr(made, name) == expected, name
 
 
 def test_a_bad_keyword_is_refused_by_name() -> None:
@@ -153,3 +155,30 @@ def test_the_choices_are_the_registries() -> None:
     assert SELECT_CHOICES == ("auto", *SELECTIONS)
     assert OPTIONS["solver"].choices == SOLVERS and OPTIONS["loss"].choices == LOSSES
     assert OPTIONS["markers"].choices == MARKER_FITS == ("each", "cluster")
+
+
+def test_a_seed_without_its_plan_is_refused_as_the_options_are_made_in_the_words_of_its_source() -> None:
+    """The cross-validation checks run once, when the options are made: the library's words for keywords, the flags'
+    for the command line, the file and its key for a job file."""
+    with pytest.raises(DataError) as raised:
+        CalibrationOptions(cv_seed=3)
+    assert raised.value.option == "cv_seed" and str(raised.value).startswith("cv_seed=3 seeds")
+    assert "--" not in str(raised.value)
+    with pytest.raises(DataError, match=r"^--cv-seed 3 seeds the shuffles of --cv; give --cv too"):
+        options_given({"cv_seed": 3}, "command line")
+    with pytest.raises(DataError) as raised:
+        options_given({"cv": "loo", "cv_seed": 2}, Path("job.toml"))
+    assert str(raised.value).startswith("job.toml: cv_seed: 2 seeds the shuffles of K-fold plans; cv = \"loo\" has")
+    assert (raised.value.option, raised.value.file) == ("cv_seed", "job.toml")
+    with pytest.raises(DataError, match=r"^--select cv with --cv loo would repeat"):
+        options_given({"select": "cv", "cv": "loo"}, "command line")
+    assert options_given({"cv": "5x2", "cv_seed": 3}, "command line") == CalibrationOptions(cv="5x2", cv_seed=3)
+
+
+def test_no_module_but_the_options_runs_the_cross_validation_checks() -> None:
+    """The seed's and the selection's checks are called from one place, the options' own check."""
+    root = Path(__file__).resolve().parents[2] / "pincal"
+    checks = ("check_cv_seed(", "check_select_cv(")
+    callers = sorted(str(p.relative_to(root)) for p in root.rglob("*.py")
+                     if any(check in p.read_text(encoding="utf-8") for check in checks))
+    assert callers == ["calibration/options.py"]
