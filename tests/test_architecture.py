@@ -199,22 +199,11 @@ def test_the_import_graph_reads_imports_inside_functions() -> None:
 
 
 #: The import circles still to be split by concept; a new one fails the test, this list only shrinks.
-LEFT_CIRCLES = [
-    ["pincal.calibration.growth", "pincal.calibration.heldout", "pincal.calibration.predicted",
-     "pincal.calibration.report"],
-]
-
-
 def test_no_import_circle() -> None:
-    """No modules of pincal import each other in a loop (:func:`_import_graph` says which imports count), save those
-    :data:`LEFT_CIRCLES` lists: a package is split by concept, so that one module builds on the others. A listed
-    circle that is gone is named in the run's warnings, to be taken off the list."""
+    """No modules of pincal import each other in a loop (:func:`_import_graph` says which imports count): a package
+    is split by concept, so that one module builds on the others."""
     circles = _circles(_import_graph())
-    new = [circle for circle in circles if circle not in LEFT_CIRCLES]
-    assert not new, f"modules that import each other in a loop: {new}"
-    gone = [circle for circle in LEFT_CIRCLES if circle not in circles]
-    if gone:
-        warnings.warn(f"review: import circles gone, to take off LEFT_CIRCLES: {gone}", stacklevel=1)
+    assert not circles, f"modules that import each other in a loop: {circles}"
 
 
 def test_no_two_modules_share_a_name() -> None:

@@ -36,10 +36,10 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.check_setup import file_setup, model_intrinsics, setup_kinds
-from pincal.calibration.heldout import setup_columns
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.report_sections import Covariance
 from pincal.calibration.setup import prepare
+from pincal.calibration.setup_parameters import setup_columns
 from pincal.errors import DataError
 from pincal.identification.chi2 import chi2_upper
 from pincal.identification.metrics import error_norms, pixel_error_norms, rms

@@ -193,7 +193,7 @@ def _nominal_bound(problem: CalibrationProblem, result: CalibrationResult, x_bef
                    layout: LengthLayout) -> tuple[float, float, float, int]:
     """The nominal robot's ``E₀``, ``E₁`` [m], the hold-outs' reach and how many samples they held out beyond: each
     hold-out refitted with the robot at nominal (its setup alone, from the registered ``x_before``)."""
-    from pincal.calibration.heldout import setup_columns  # the setup as "before" registers it
+    from pincal.calibration.setup_parameters import setup_columns  # the setup as "before" registers it
 
     at = problem.evaluate(x_before, jacobian=True)
     assert at.jacobian is not None

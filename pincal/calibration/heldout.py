@@ -30,6 +30,7 @@ from pincal.calibration.predicted import (
 from pincal.calibration.report_sections import PixelErrors
 from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
+from pincal.calibration.setup_parameters import setup_columns
 from pincal.errors import PincalError
 from pincal.identification.fit_options import FitOptions
 from pincal.identification.losses import outlier_samples
@@ -84,12 +85,6 @@ class Registration:
     start_errors: dict[str, Array]
     registered: bool
     note: str = ""
-
-
-def setup_columns(parameters: ParameterSet) -> list[int]:
-    """The setup's parameters: those of no selection group (measurement frame, markers, cameras, targets, planes,
-    device constants), which "before" fits with the robot at nominal."""
-    return [k for k, p in enumerate(parameters) if p.kind_class.selection_group(p) is None]
 
 
 def register_setup(problem: CalibrationProblem, x0: Array, options: FitOptions) -> Registration:

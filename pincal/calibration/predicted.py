@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.covariance import parameter_covariance
 from pincal.calibration.growth import MIN_WIDTH, ErrorGrowth, extrapolation_distance
 from pincal.calibration.propagation import LEVEL, length_covariances, length_layout, norm_quantile, norm_quantiles
-from pincal.calibration.report import parameter_covariance
 from pincal.calibration.report_sections import (
     Covariance,
     Coverage,

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration.covariance import parameter_covariance
 from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.report_sections import (
     OPTIONAL,
@@ -45,6 +46,7 @@ from pincal.calibration.report_sections import (
     listed,
     nested,
 )
+from pincal.calibration.setup_parameters import setup_columns
 from pincal.errors import DataError
 from pincal.identification.corrections import Payload, payload_from_dict
 from pincal.identification.measurements import KIND_CLASSES
@@ -350,8 +352,6 @@ def before_figures(problem: CalibrationProblem, before: Any) -> dict[str, Any]:
     """The report's "before" (``before``, a :class:`~pincal.calibration.heldout.Registration` of ``problem``): its
     errors on the fitted samples [m, rad], what it is, its setup's values, and the fit's start beside it when the
     registration moved off it."""
-    from pincal.calibration.heldout import setup_columns
-
     norms, angles = error_norms(before.errors), angle_error_norms(before.errors)
     columns = setup_columns(problem.parameters)
     out: dict[str, Any] = {
@@ -441,14 +441,6 @@ def fit_figures(result: CalibrationResult, problem: CalibrationProblem, x_true: 
         out["parameter_errors_before"] = float(np.linalg.norm(x_true - result.x0))
         out["parameter_errors_after"] = float(np.linalg.norm(x_true - result.x))
     return out
-
-
-def parameter_covariance(result: CalibrationResult) -> Array:
-    """The estimates' covariance over the identified parameters (``result.identified``'s order) as the fit gives it,
-    ``C_ij = ρ_ij σ_i σ_j`` [products of the parameters' units: m², m·rad, rad²]; NaN where it could not. Every use
-    of the covariance (the report's, the predicted errors') reads it here."""
-    std = result.std[result.identified]
-    return np.asarray(result.correlation * np.outer(std, std), dtype=float)
 
 
 def covariance_of(result: CalibrationResult) -> Covariance:
