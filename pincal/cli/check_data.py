@@ -13,6 +13,10 @@ from pincal.cli.arguments import add_calibration_options, given_options
 #: The calibration options ``check`` takes: the weights, the registration's solver and iteration limit, and the
 #: plausibility factor of calibrate's checks of the data.
 CHECK_OPTIONS = ("sigma", "solver", "max_iter", "plausible")
+#: The measurement setup a calibrated URDF holds, as the parameter kinds word it:
+#: ``setup_phrase(kinds_where(setup=True, in_urdf=True))`` of :mod:`pincal.identification.parameters.kinds`, which the
+#: parser cannot import (``--help`` loads no NumPy); ``tests/cli/test_check_setups.py`` holds the two together.
+SETUP_HELD = "measurement frame, markers, cameras, targets and contact planes"
 
 #: How a quantity's unit is shown: SI in the files, mm and mrad on the terminal.
 SHOWN = {"m": ("mm", 1e3), "rad": ("mrad", 1e3)}
@@ -226,9 +230,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         description="Predict every measurement of DATA (every row, set=train and set=test alike; --set: one set) "
                     "with MODEL and "
                     "with the nominal robot; print the RMS and max error of each quantity side by side. MODEL is "
-                    "used as it stands (its measurement frame, markers, cameras, targets and contact planes as the "
-                    "file holds them); the nominal robot has the measurement setup the calibration registered for "
-                    "it on its own data (calibrate's 'before', which MODEL records; registered on DATA when MODEL "
+                    f"used as it stands (its {SETUP_HELD} as the file holds them); the nominal robot has the "
+                    "measurement setup the calibration registered for it on its own data (calibrate's 'before', "
+                    "which MODEL records; registered on DATA when MODEL "
                     "records none). --register re-estimates both setups on DATA (least squares), the robots held. "
                     "Exit status 1 when MODEL predicts DATA worse than the nominal robot, or a registration "
                     "did not converge, or DATA are implausible for a robot of this model, as calibrate judges them "
@@ -242,9 +246,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     check.add_argument("--nominal", metavar="ROBOT",
                        help="the nominal robot (URDF or known name; default: the one MODEL records)")
     check.add_argument("--register", action="store_true",
-                       help="re-estimate the measurement setup (measurement frame, markers, cameras, targets, "
-                            "contact planes) of "
-                            "both robots on DATA, their geometry held")
+                       help=f"re-estimate the measurement setup ({SETUP_HELD}) of both robots on DATA, their "
+                            "geometry held")
     check.add_argument("--set", choices=("train", "test"),
                        help="check only the rows of this set (a CSV's 'set' column; a job file's held_out rows are "
                             "'test'): calibrate on train, check on test (default: every row)")

@@ -167,3 +167,17 @@ def test_tiago_three_markers_checked_on_its_held_out_rows(tmp_path: Path) -> Non
     registered = _check(str(tmp_path / "r.json"), str(data), "--set", "test", "--register")
     assert registered["setup"]["model_converged"] is True
     assert registered["rms"] <= as_is["rms"] and registered["rms"] < registered["nominal_rms"]
+
+
+def test_the_help_names_the_setup_the_parameter_kinds_declare() -> None:
+    """``pincal check --help`` names the setup a calibrated URDF holds in the words the parameter kinds declare
+    (``setup_words`` of the setup kinds a URDF holds): a kind added there shows in the help, or this fails."""
+    from pincal.cli.check_data import SETUP_HELD
+    from pincal.identification.parameters.kinds import kinds_where, setup_phrase
+
+    assert setup_phrase(kinds_where(setup=True, in_urdf=True)) == SETUP_HELD
+    done = run_pincal("check", "--help")
+    assert done.returncode == 0, done.stderr
+    shown = " ".join(done.stdout.split())
+    assert f"its {SETUP_HELD} as the file holds them" in shown
+    assert f"re-estimate the measurement setup ({SETUP_HELD}) of both robots" in shown
