@@ -17,6 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.propagation import LEVEL, norm_quantiles, row_sigmas
+from pincal.calibration.report_sections import PixelPredictions, PredictedImage
 from pincal.identification.measurements import KIND_CLASSES, Measurement
 from pincal.identification.measurements.pixels import Pixel
 from pincal.identification.metrics import pixel_error_norms, rms
@@ -211,7 +212,7 @@ def metres_per_pixel(pixels: list[Pixel], predicted: dict[str, Array], k: int) -
 
 
 def held_out_pixels(problem: CalibrationProblem, covariance: Array, columns: list[int], sigma2: float, x: Array,
-                    errors: dict[str, Array], ids: list[str]) -> dict[str, Any] | None:
+                    errors: dict[str, Array], ids: list[str]) -> PixelPredictions | None:
     """The report's predictions of the held-out images (``problem``'s samples ``ids``, their errors after the fit
     ``errors`` per measurement key [px]): :meth:`PixelBounds.account` and, per image, :meth:`PixelBounds.entry`
     (bounds [px] and at the board [m]) beside its reprojection error [px]; None without pixels or covariance."""
@@ -219,6 +220,6 @@ def held_out_pixels(problem: CalibrationProblem, covariance: Array, columns: lis
     found = image_errors(errors, len(ids))
     if bounds is None or found is None:
         return None
-    return {**bounds.account(found),
-            "images_predicted": [{"sample": s, "pixel_error": number(found[k]), **bounds.entry(k)}
-                                 for k, s in enumerate(ids)]}
+    return PixelPredictions(**bounds.account(found),
+                            images_predicted=[PredictedImage(sample=s, pixel_error=number(found[k]), **bounds.entry(k))
+                                              for k, s in enumerate(ids)])

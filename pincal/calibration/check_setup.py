@@ -14,6 +14,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.calibration.options import CalibrationOptions
+from pincal.calibration.report_sections import CameraRecord
 from pincal.calibration.setup import Prepared, dataset_models, parameters_for, prepare
 from pincal.errors import DataError
 from pincal.identification.measurements import parse_key, split_target
@@ -115,7 +116,7 @@ def pixel_cameras(dataset: Dataset) -> list[str]:
     return owners
 
 
-def model_intrinsics(cameras: dict[str, dict[str, object]] | None, dataset: Dataset, register: bool) -> Dataset:
+def model_intrinsics(cameras: dict[str, CameraRecord] | None, dataset: Dataset, register: bool) -> Dataset:
     """``dataset`` with each pixel camera's intrinsics held at the values MODEL's calibration carries (``cameras``,
     the report's ``cameras``: fx, fy, cx, cy [px], k1, k2, p1, p2, k3 [1]), the way MODEL predicts pixels. A camera
     MODEL carries none of keeps the intrinsics DATA hold (``# intrinsics <frame> held: …``), or, with ``register``,
@@ -127,7 +128,7 @@ def model_intrinsics(cameras: dict[str, dict[str, object]] | None, dataset: Data
     metadata = dict(dataset.metadata)
     for owner in pixel_cameras(dataset):
         carried = (cameras or {}).get(intrinsics_name(owner))
-        values = carried.get("intrinsics") if isinstance(carried, dict) else None
+        values = carried.intrinsics if carried is not None else None
         if isinstance(values, dict) and all(isinstance(values.get(c), int | float) for c in INTRINSICS):
             name = f"intrinsics {owner}".strip()
             metadata.pop(name, None)

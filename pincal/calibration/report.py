@@ -24,8 +24,8 @@ import numpy.typing as npt
 from pincal.calibration.covariance import parameter_covariance
 from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.report_sections import (
-    OPTIONAL,
     BadJointReading,
+    CameraRecord,
     Covariance,
     CrossValidation,
     DownWeighted,
@@ -40,12 +40,9 @@ from pincal.calibration.report_sections import (
     PixelErrors,
     ProvenanceRecord,
     SampleError,
-    Section,
     WorkspacePrediction,
-    by_name,
-    listed,
-    nested,
 )
+from pincal.calibration.section import OPTIONAL, Section, by_name, listed, nested
 from pincal.calibration.setup_parameters import setup_columns
 from pincal.errors import DataError
 from pincal.identification.corrections import Payload, payload_from_dict
@@ -160,7 +157,7 @@ class CalibrationReport:
     pixels: PixelErrors | None = field(default=None, metadata=nested(PixelErrors.from_json, **OPTIONAL))
     test_pixels: PixelErrors | None = field(default=None, metadata=nested(PixelErrors.from_json, **OPTIONAL))
     #: Each pixel camera's calibrated intrinsics and their σ (:func:`camera_figures`).
-    cameras: dict[str, dict[str, Any]] | None = field(default=None, metadata=OPTIONAL)
+    cameras: dict[str, CameraRecord] | None = field(default=None, metadata=nested(by_name(CameraRecord), **OPTIONAL))
     max_angle_before: float | None = field(default=None, metadata=OPTIONAL)
     max_angle_after: float | None = field(default=None, metadata=OPTIONAL)
     calibration_gain: float | None = field(default=None, metadata=OPTIONAL)
@@ -451,7 +448,7 @@ def covariance_of(result: CalibrationResult) -> Covariance:
                       matrix=[[_clean(float(v)) for v in row] for row in matrix])
 
 
-def camera_figures(problem: CalibrationProblem, result: CalibrationResult) -> dict[str, dict[str, Any]]:
+def camera_figures(problem: CalibrationProblem, result: CalibrationResult) -> dict[str, CameraRecord]:
     """Each camera that pixel readings see, by its intrinsics' prefix (``intrinsics.<frame>``, ``intrinsics`` for the
     fixed camera): its ``frame`` (empty: fixed in the cell), the ``board`` it sees, whether its intrinsics were
     ``held`` at the data's values, and the ``intrinsics`` the calibrated model has (the data's nominal plus the
@@ -459,7 +456,7 @@ def camera_figures(problem: CalibrationProblem, result: CalibrationResult) -> di
     from pincal.identification.measurements.pixels import INTRINSICS, Pixel, intrinsics_name
 
     index = {name: k for k, name in enumerate(result.names)}
-    out: dict[str, dict[str, Any]] = {}
+    out: dict[str, CameraRecord] = {}
     for m in problem.measurements:
         if not isinstance(m, Pixel) or intrinsics_name(m.camera) in out:
             continue
@@ -471,7 +468,7 @@ def camera_figures(problem: CalibrationProblem, result: CalibrationResult) -> di
             if k is not None:
                 values[c] += float(result.x[k])
                 stds[c] = _clean(float(result.std[k]))
-        out[prefix] = {"frame": m.camera, "board": m.board.spec if m.board is not None else None, "held": m.held,
-                       "intrinsics": dict(zip(INTRINSICS, values, strict=True)),
-                       "std": dict(zip(INTRINSICS, stds, strict=True))}
+        out[prefix] = CameraRecord(frame=m.camera, board=m.board.spec if m.board is not None else None, held=m.held,
+                                   intrinsics=dict(zip(INTRINSICS, values, strict=True)),
+                                   std=dict(zip(INTRINSICS, stds, strict=True)))
     return out

@@ -10,93 +10,10 @@ holds them. Units: SI (m, rad), as each record's docstring says.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, fields
-from typing import Any, TypeVar
+from dataclasses import dataclass, field
+from typing import Any
 
-from pincal.errors import DataError
-
-S = TypeVar("S", bound="Section")
-
-#: The metadata of a field left out of the JSON while it holds None.
-OPTIONAL = {"optional": True}
-
-
-def _expect_mapping(value: Any, where: str) -> Mapping[str, Any]:
-    if not isinstance(value, dict):
-        raise DataError(f"{where} is not a JSON object: expected a report written by 'pincal calibrate --report'")
-    return value
-
-
-def nested(reader: Callable[[Any, str], Any], **metadata: Any) -> dict[str, Any]:
-    """The metadata of a field whose JSON value ``reader(value, where)`` reads (a section, or sections by name)."""
-    return {"read": reader, **metadata}
-
-
-@dataclass(frozen=True)
-class Section:
-    """A nested part of the report JSON as a record: its fields are the JSON object's keys, in order."""
-
-    def as_dict(self) -> dict[str, Any]:
-        """The JSON object: every field in order, the optional ones that hold None left out; nested sections as
-        their own objects."""
-        return {f.name: _plain(getattr(self, f.name)) for f in fields(self) if not f.metadata.get("internal")
-                and not (f.metadata.get("optional") and getattr(self, f.name) is None)}
-
-    @classmethod
-    def from_json(cls: type[S], value: Any, where: str) -> S:
-        """The section of a parsed JSON object ``value`` (``where`` names it in errors, e.g. ``the result JSON's
-        'cv'``): its known keys, each read by its field's reader; keys it lacks take their default.
-
-        Raises:
-            DataError: ``value`` is not an object, lacks a key without default, or a nested part is not one.
-        """
-        content = _expect_mapping(value, where)
-        given: dict[str, Any] = {}
-        for f in fields(cls):
-            if f.metadata.get("internal"):
-                continue
-            if f.name not in content:
-                if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
-                    raise DataError(f"{where} has no '{f.name}': expected a report written by 'pincal calibrate "
-                                    "--report'")
-                continue
-            reader = f.metadata.get("read")
-            item = content[f.name]
-            given[f.name] = reader(item, f"{where}['{f.name}']") if reader is not None and item is not None else item
-        return cls(**given)
-
-
-def _plain(value: Any) -> Any:
-    """``value`` with every section made its JSON object, through lists, tuples and dicts."""
-    if isinstance(value, Section):
-        return value.as_dict()
-    if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    return value
-
-
-def by_name(section: type[S]) -> Callable[[Any, str], dict[str, S]]:
-    """The reader of a JSON object of ``section``s by name."""
-
-    def read(value: Any, where: str) -> dict[str, S]:
-        return {name: section.from_json(item, f"{where}['{name}']")
-                for name, item in _expect_mapping(value, where).items()}
-
-    return read
-
-
-def listed(section: type[S]) -> Callable[[Any, str], list[S]]:
-    """The reader of a JSON list of ``section``s."""
-
-    def read(value: Any, where: str) -> list[S]:
-        if not isinstance(value, list):
-            raise DataError(f"{where} is not a JSON list: expected a report written by 'pincal calibrate --report'")
-        return [section.from_json(item, f"{where}[{k}]") for k, item in enumerate(value)]
-
-    return read
+from pincal.calibration.section import OPTIONAL, Section, listed, nested
 
 
 @dataclass(frozen=True)
@@ -294,6 +211,48 @@ class PredictedSample(Section):
 
 
 @dataclass(frozen=True)
+class PredictedImage(Section):
+    """A held-out image's reprojection error beside its predicted bound.
+
+    Attributes:
+        sample: The image's sample id.
+        pixel_error: Its RMS reprojection error after the fit [px]; None: not a number.
+        pixel_bound: Its predicted 95 % bound [px], the noise included; ``pixel_model_bound`` the model's part alone.
+        pixel_bound_at_board: The bound at the board [m].
+    """
+
+    sample: str
+    pixel_error: float | None = None
+    pixel_bound: float | None = None
+    pixel_model_bound: float | None = None
+    pixel_bound_at_board: float | None = None
+
+
+@dataclass(frozen=True)
+class PixelPredictions(Section):
+    """The held-out images' predicted reprojection bounds and how many of their errors the bounds hold
+    (:func:`pincal.calibration.check_pixels.held_out_pixels`).
+
+    Attributes:
+        level: The probability the bounds hold [1] (0.95).
+        unit: The bounds' unit (``px``).
+        inside: Images whose error is within their bound, of ``images`` (those with a bound and an error).
+        median_bound: The bounds' median [px]; ``median_model_bound`` the model's part alone; None: none known.
+        median_bound_at_board: The bounds' median at the board [m].
+        images_predicted: Each image's error and bounds.
+    """
+
+    level: float = 0.95
+    unit: str = "px"
+    inside: int = 0
+    images: int = 0
+    median_bound: float | None = None
+    median_model_bound: float | None = None
+    median_bound_at_board: float | None = None
+    images_predicted: list[PredictedImage] = field(default_factory=list, metadata=nested(listed(PredictedImage)))
+
+
+@dataclass(frozen=True)
 class HeldOutPredictions(Section):
     """The held-out samples' predicted errors and how many of their errors the bounds hold.
 
@@ -307,9 +266,8 @@ class HeldOutPredictions(Section):
         median_bound: The bounds' median [m]; None: none known.
         beyond: The samples beyond the fitted range, by id.
         samples_predicted: Each sample's prediction.
-        pixels: With pixel readings and the covariance, each held-out image's predicted reprojection bound
-            (:func:`pincal.calibration.check_pixels.held_out_pixels`: ``median_bound`` [px], ``median_bound_at_board``
-            [m], ``inside`` of ``images``, ``images_predicted``); left out of the JSON otherwise.
+        pixels: With pixel readings and the covariance, the held-out images' predicted reprojection bounds; left out
+            of the JSON otherwise.
     """
 
     level: float = 0.95
@@ -321,7 +279,7 @@ class HeldOutPredictions(Section):
     median_bound: float | None = None
     beyond: list[str] = field(default_factory=list)
     samples_predicted: list[PredictedSample] = field(default_factory=list, metadata=nested(listed(PredictedSample)))
-    pixels: dict[str, Any] | None = field(default=None, metadata=OPTIONAL)
+    pixels: PixelPredictions | None = field(default=None, metadata=nested(PixelPredictions.from_json, **OPTIONAL))
 
 
 @dataclass(frozen=True)
@@ -460,6 +418,26 @@ class PixelErrors(Section):
 
     rms_before: float | None = None
     rms_after: float | None = None
+
+
+@dataclass(frozen=True)
+class CameraRecord(Section):
+    """A camera that pixel readings see, as the calibration left it.
+
+    Attributes:
+        frame: The frame it is on (empty: fixed in the cell).
+        board: The board it sees (its spec, ``charuco:…``), or None.
+        held: Whether its intrinsics were held at the data's values.
+        intrinsics: The calibrated model's intrinsics, the data's nominal plus the estimate: ``fx, fy, cx, cy`` [px],
+            ``k1, k2, p1, p2, k3`` [1].
+        std: Their standard deviations [px, 1] (None: held, or not known).
+    """
+
+    frame: str
+    board: str | None = None
+    held: bool = False
+    intrinsics: dict[str, float] = field(default_factory=dict)
+    std: dict[str, float | None] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

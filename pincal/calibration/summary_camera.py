@@ -39,9 +39,9 @@ def intrinsics_lines(report: CalibrationReport) -> list[str]:
     """Each camera's intrinsics with their σ (or held at the data's values)."""
     lines = []
     for prefix, camera in (report.cameras or {}).items():
-        values, stds = camera["intrinsics"], camera["std"]
-        where = f"on '{camera['frame']}'" if camera["frame"] else "fixed in the cell"
-        held = " (held at the data's values)" if camera["held"] else ""
+        values, stds = camera.intrinsics, camera.std
+        where = f"on '{camera.frame}'" if camera.frame else "fixed in the cell"
+        held = " (held at the data's values)" if camera.held else ""
         pinhole = ", ".join(f"{c} {_value(values[c], stds[c], 2)}" for c in ("fx", "fy", "cx", "cy"))
         distortion = ", ".join(f"{c} {_value(values[c], stds[c], 4)}" for c in ("k1", "k2", "p1", "p2", "k3"))
         lines.append(f"camera {where} ({prefix}){held}: {pinhole} px; distortion {distortion}")
@@ -108,11 +108,11 @@ def image_lines(report: CalibrationReport) -> list[str]:
     lines.append("largest reprojection errors after the fit (image: before → after): " + ", ".join(
         f"{e.sample} ({e.set}) {e.pixel_before:.3f} → {e.pixel_after:.3f} px" for e in worst))
     predicted = report.predicted_held_out.pixels if report.predicted_held_out is not None else None
-    if predicted and predicted.get("median_bound") is not None:
-        board = predicted.get("median_bound_at_board")
+    if predicted is not None and predicted.median_bound is not None:
+        board = predicted.median_bound_at_board
         lines.append(f"predicted 95 % bound of a held-out image's reprojection error: median "
-                     f"{predicted['median_bound']:.3f} px" + (f" ({board * 1e3:.3f} mm at the board)" if board else "")
-                     + f"; {predicted['inside']} of {predicted['images']} images within their bound")
+                     f"{predicted.median_bound:.3f} px" + (f" ({board * 1e3:.3f} mm at the board)" if board else "")
+                     + f"; {predicted.inside} of {predicted.images} images within their bound")
     return lines
 
 

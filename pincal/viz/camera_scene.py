@@ -66,8 +66,8 @@ def camera_placements(view: Any, calibrated: Any, q: Array, base: Array) -> list
         if not isinstance(m, Pixel) or m.board is None or m.frame in done:
             continue
         done.add(m.frame)
-        intrinsics = (cameras.get(f"intrinsics.{m.frame}" if not isinstance(m, BoardPixel) else "intrinsics")
-                      or {}).get("intrinsics")
+        record = cameras.get(f"intrinsics.{m.frame}" if not isinstance(m, BoardPixel) else "intrinsics")
+        intrinsics = record.intrinsics if record is not None else None
         board = outline(m.board.spec)
         if isinstance(m, BoardPixel):  # the camera is the measurement frame; the board rides on the frame
             camera = np.eye(4)[None]  # the scene's own frame

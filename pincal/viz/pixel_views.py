@@ -9,12 +9,13 @@ from __future__ import annotations
 
 import html
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.check_pixels import image_errors, is_pixel_key
+from pincal.calibration.report_sections import CameraRecord
 from pincal.identification.measurements.pixels import INTRINSICS
 from pincal.viz.svg_figures import AFTER, BEFORE
 from pincal.viz.svg_plot import LegendEntry, Panel, figure, linear_ticks
@@ -97,15 +98,15 @@ def _plane_data(view: CalibrationView) -> tuple[Array, Array, Array]:
     return corners, errors_before, errors_after
 
 
-def intrinsics_table(cameras: dict[str, dict[str, Any]], truth: dict[str, float] | None) -> str:
+def intrinsics_table(cameras: dict[str, CameraRecord], truth: dict[str, float] | None) -> str:
     """Each camera's intrinsics with their σ (and the truth, when known)."""
     rows = []
     for prefix, camera in cameras.items():
         for c in INTRINSICS:
-            value, std = camera["intrinsics"][c], camera["std"][c]
+            value, std = camera.intrinsics[c], camera.std[c]
             true = truth.get(f"{prefix}.{c}") if truth else None
             cells = [html.escape(f"{prefix}.{c}"), "px" if c in INTRINSICS[:4] else "1", f"{value:.6g}",
-                     "held" if camera["held"] else ("–" if std is None or not math.isfinite(std) else f"{std:.3g}")]
+                     "held" if camera.held else ("–" if std is None or not math.isfinite(std) else f"{std:.3g}")]
             if truth is not None:
                 cells.append("–" if true is None else f"{true:.6g}")
             rows.append("<tr>" + "".join(f"<td>{cell}</td>" for cell in cells) + "</tr>")

@@ -17,6 +17,7 @@ from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.report import SCHEMA_VERSION, CalibrationReport
 from pincal.calibration.report_sections import (
     BadJointReading,
+    CameraRecord,
     CrossValidation,
     DownWeighted,
     DroppedSample,
@@ -29,6 +30,8 @@ from pincal.calibration.report_sections import (
     OutsideRange,
     ParameterEstimate,
     PixelErrors,
+    PixelPredictions,
+    PredictedImage,
     PredictedSample,
     ProvenanceRecord,
     RangeGuard,
@@ -153,6 +156,35 @@ def test_pixel_figures_are_typed() -> None:
     written = json.loads(report.to_json())
     assert (written["pixels"], written["test_pixels"]) == ({"rms_before": 2.075, "rms_after": 0.431},
                                                            {"rms_before": None, "rms_after": 0.434})
+
+
+def test_cameras_and_predicted_images_are_typed() -> None:
+    """A camera calibration's intrinsics per camera and its held-out images' predicted bounds are records, written back
+    as the JSON held them, key for key and in order."""
+    cameras = {"intrinsics.tool0": {"frame": "tool0", "board": "charuco:8x6:0.03:0.022:DICT_4X4_50", "held": False,
+                                    "intrinsics": {"fx": 998.97, "fy": 1001.4, "cx": 649.99, "cy": 476.4, "k1": -0.12,
+                                                   "k2": 0.19, "p1": -2e-05, "p2": 0.0008, "k3": 0.0031},
+                                    "std": {"fx": 1.02, "fy": 1.01, "cx": 0.8, "cy": 0.7, "k1": 0.002, "k2": 0.01,
+                                            "p1": None, "p2": None, "k3": 0.02}}}
+    pixels = {"level": 0.95, "unit": "px", "inside": 1, "images": 2, "median_bound": 0.81, "median_model_bound": 0.68,
+              "median_bound_at_board": 0.00063,
+              "images_predicted": [{"sample": "0012", "pixel_error": 0.54, "pixel_bound": 0.89,
+                                    "pixel_model_bound": 0.78, "pixel_bound_at_board": 0.00047},
+                                   {"sample": "0013", "pixel_error": None, "pixel_bound": None,
+                                    "pixel_model_bound": None, "pixel_bound_at_board": None}]}
+    held = {**RAW["predicted_held_out"], "pixels": pixels} if RAW.get("predicted_held_out") else {"pixels": pixels}
+    report = CalibrationReport.from_json({**RAW, "cameras": cameras, "predicted_held_out": held})
+    assert report.cameras is not None and report.predicted_held_out is not None
+    camera = report.cameras["intrinsics.tool0"]
+    assert isinstance(camera, CameraRecord) and camera.frame == "tool0" and camera.intrinsics["fx"] == 998.97
+    assert camera.std["p1"] is None and not camera.held
+    predicted = report.predicted_held_out.pixels
+    assert isinstance(predicted, PixelPredictions) and (predicted.inside, predicted.images) == (1, 2)
+    assert predicted.images_predicted[0] == PredictedImage("0012", 0.54, 0.89, 0.78, 0.00047)
+    written = report.to_json()
+    assert json.dumps(json.loads(written)["cameras"]) == json.dumps(cameras)
+    assert json.dumps(json.loads(written)["predicted_held_out"]["pixels"]) == json.dumps(pixels)
+    assert CalibrationReport.from_json(json.loads(written)).to_json() == written
 
 
 def test_provenance_is_typed() -> None:

@@ -16,7 +16,7 @@ from conftest import run_pincal
 from pincal.calibration.check_pixels import image_errors, pixel_figures
 from pincal.calibration.check_setup import model_intrinsics
 from pincal.calibration.report import CalibrationReport
-from pincal.calibration.report_sections import Covariance
+from pincal.calibration.report_sections import CameraRecord, Covariance
 from pincal.calibration.summary_camera import separation_lines
 from pincal.errors import DataError
 from pincal.identification.measurements.pixels import INTRINSICS, declared_intrinsics, parse_board, project
@@ -121,7 +121,8 @@ def test_image_errors_pool_each_images_corners() -> None:
 
 def test_model_intrinsics_hold_the_carried_values(ur10: Path) -> None:
     data = read_dataset(ur10 / "sim" / "measurements.csv")
-    carried = {"intrinsics.tool0": {"intrinsics": {c: float(k + 1) for k, c in enumerate(INTRINSICS)}}}
+    values = {c: float(k + 1) for k, c in enumerate(INTRINSICS)}
+    carried = {"intrinsics.tool0": CameraRecord("tool0", intrinsics=values)}
     held = model_intrinsics(carried, data, register=False)
     assert declared_intrinsics(held.metadata, "tool0") == (tuple(float(k + 1) for k in range(9)), True)
     with pytest.raises(DataError, match="MODEL carries no intrinsics of the camera on 'tool0'"):
@@ -199,7 +200,7 @@ def _report(correlation: float) -> CalibrationReport:
     names = ["intrinsics.tool0.fx", "camera.tool0.tz", "camera.tool0.ry"]
     std = np.array([2.0, 1e-3, 1e-3])
     rho = np.array([[1.0, correlation, 0.0], [correlation, 1.0, 0.0], [0.0, 0.0, 1.0]])
-    return CalibrationReport(cameras={"intrinsics.tool0": {}},
+    return CalibrationReport(cameras={"intrinsics.tool0": CameraRecord("tool0")},
                              covariance=Covariance(names, (rho * np.outer(std, std)).tolist()))
 
 
@@ -247,7 +248,7 @@ def test_the_scene_draws_the_camera_looking_at_its_board(ur10: Path) -> None:
     (frustum, cameras), (outline, boards) = drawn["tool0_frustum"], drawn["tool0_board"]
     assert len(cameras) == 14 and len(boards) == 1 and frustum.shape == (16, 3) and outline.shape == (8, 3)
     centre = np.r_[outline.max(axis=0) / 2, 1.0]  # the board's centre, in its frame
-    k = report.cameras["intrinsics.tool0"]["intrinsics"] if report.cameras else {}
+    k = report.cameras["intrinsics.tool0"].intrinsics if report.cameras else {}
     for camera in cameras:
         seen = np.linalg.solve(camera, boards[0] @ centre)[:3]
         assert 0.25 < seen[2] < 1.1

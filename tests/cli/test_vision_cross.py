@@ -104,7 +104,7 @@ def test_drift_judges_the_pixels_and_the_scene_draws_the_board_on_its_frame(camp
     cameras, boards = drawn["head_2_link_frustum"], drawn["head_2_link_board"]
     assert len(cameras) == len(boards) == 12  # the fitted images
     centre = np.array([0.12, 0.09, 0.0, 1.0])  # the 8 × 6 board of 30 mm squares: its centre in its frame
-    k = report.cameras["intrinsics.head_2_link"]["intrinsics"] if report.cameras else {}
+    k = report.cameras["intrinsics.head_2_link"].intrinsics if report.cameras else {}
     for camera, board in zip(cameras, boards, strict=True):
         seen = np.linalg.solve(camera, board @ centre)[:3]
         assert 0.25 < seen[2] < 1.1
