@@ -53,36 +53,39 @@ def parse_cv(text: str, n_samples: int, seed: int = 0) -> Folds:
     ``n_samples`` usable samples.
 
     Raises:
-        DataError: another text, K < 2, K above the sample count, R outside 1..100, or a negative seed.
+        DataError: another text, K < 2, K above the sample count, R outside 1..100, or a negative seed, naming the
+            option (``cv``, ``cv_seed``).
     """
     if seed < 0:
-        raise DataError(f"--cv-seed {seed}: give a whole number ≥ 0")
+        raise DataError(f"cv_seed={seed}: give a whole number ≥ 0", option="cv_seed")
     word = text.strip().lower()
     if word == "loo":
         return Folds(n_samples, 1, leave_one_out=True)
     match = re.fullmatch(r"([0-9]+)(?:x([0-9]+))?", word)
     if match is None:
-        raise DataError(f"--cv '{text}': give K (folds), KxR (K folds, R shuffles, e.g. 5x4) or loo")
+        raise DataError(f"cv={text!r}: give K (folds), KxR (K folds, R shuffles, e.g. '5x4') or 'loo'", option="cv")
     k, repeats = int(match.group(1)), int(match.group(2) or 1)
     if not 2 <= k <= n_samples or not 1 <= repeats <= 100:
-        raise DataError(f"--cv '{text}': K must lie between 2 and the {n_samples} usable samples, R between 1 and 100")
+        raise DataError(f"cv={text!r}: K must lie between 2 and the {n_samples} usable samples, R between 1 and 100",
+                        option="cv")
     return Folds(k, repeats, seed=seed)
 
 
-def check_cross_validation(models: Sequence[Measurement], formulation: str) -> None:
-    """Refuse a cross-validation that would not mean what it says (DataError naming why): of the ``ikm``
-    formulation (the folds fit by forward kinematics), of incremental data (each reading the change since the
-    previous sample, ``distance_increment``: a fold breaks the chain of readings), or of data with no position, pose
-    or distance (the figure is a position error)."""
+def check_cross_validation(models: Sequence[Measurement], formulation: str, cv: str) -> None:
+    """Refuse a cross-validation ``cv`` (its plan) that would not mean what it says (DataError naming why and the
+    option ``cv``): of the ``ikm`` formulation (the folds fit by forward kinematics), of incremental data (each
+    reading the change since the previous sample, ``distance_increment``: a fold breaks the chain of readings), or of
+    data with no position, pose or distance (the figure is a position error)."""
     if formulation != "fkm":
-        raise DataError("--cv cross-validates the fkm formulation; run it without --formulation ikm")
+        raise DataError(f"cv={cv!r} cross-validates the fkm formulation; give it without formulation={formulation!r}",
+                        option="cv")
     chained = [m.key for m in models if m.incremental]
     if chained:
-        raise DataError(f"--cv cannot split {listing(chained)}: each reading is the change since the previous sample, "
-                        "so a fold would break the chain")
+        raise DataError(f"cv={cv!r} cannot split {listing(chained)}: each reading is the change since the previous "
+                        "sample, so a fold would break the chain", option="cv")
     if not any(length_columns(m.key) for m in models):
-        raise DataError("--cv reports the position error of unseen samples, and these data measure no position, pose "
-                        "or distance")
+        raise DataError(f"cv={cv!r} reports the position error of unseen samples, and these data measure no position, "
+                        "pose or distance", option="cv")
 
 
 def cross_validate(robot: Robot, pset: ParameterSet, models: Sequence[Measurement], obs: Observations, folds: Folds,

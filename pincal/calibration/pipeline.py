@@ -236,15 +236,15 @@ def cross_validation_folds(fit: Prepared, dataset: Dataset,
     cross-validation); checked before any fit.
 
     Raises:
-        DataError: ``--select bic`` with ``--formulation ikm``; cross-validation the models cannot do, or folds the
-            samples cannot make.
+        DataError: ``select`` ``bic`` or ``cv`` with the ``ikm`` formulation; cross-validation the models cannot do,
+            or folds the samples cannot make (naming the option).
     """
     if options.select in ("bic", "cv") and options.formulation != "fkm":
-        raise DataError(f"--select {options.select} chooses among fkm fits; with --formulation ikm use --select none "
-                        "(or auto)")
+        raise DataError(f"select={options.select!r} chooses among fkm fits; with formulation={options.formulation!r} "
+                        "use select='none' or select='auto'", option="select")
     if options.cv is None:
         return None, None
-    check_cross_validation(fit.models, options.formulation)
+    check_cross_validation(fit.models, options.formulation, options.cv)
     every = fit.on(dataset)
     return every, parse_cv(options.cv, every.samples.n_samples, options.cv_seed)
 

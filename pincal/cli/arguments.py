@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from collections.abc import Collection
 from typing import TYPE_CHECKING, Any
 
@@ -206,6 +207,26 @@ def add_calibration_options(parser: argparse.ArgumentParser, skip: Collection[st
         if option.metavar is not None:
             how["metavar"] = option.metavar
         parser.add_argument(option.flag, **how)
+
+
+#: A calibration option as the library writes it in a message: its keyword and value (``cv_seed=5``, ``cv='loo'``).
+_KEYWORD = re.compile(r"\b(" + "|".join(sorted(OPTIONS, key=len, reverse=True)) + r")=('[^']*'|\"[^\"]*\"|[^\s,;:)]+)")
+
+
+QUOTES = ("'", '"')
+
+
+def in_flags(message: str) -> str:
+    """A library message in the command line's words: each calibration option it writes as a keyword and value
+    (``select='bic'``, ``cv_seed=5``) written as its flag and value (``--select bic``, ``--cv-seed 5``)."""
+
+    def flag(match: re.Match[str]) -> str:
+        value = match.group(2)
+        if value[:1] in QUOTES:
+            value = value[1:-1]
+        return f"{OPTIONS[match.group(1)].flag} {value}"
+
+    return _KEYWORD.sub(flag, message)
 
 
 def given_options(args: argparse.Namespace) -> dict[str, Any]:

@@ -376,11 +376,29 @@ def test_the_html_report_shows_the_payload_and_each_markers_cross_validated_erro
 def test_cross_validation_and_selection_refuse_what_they_cannot_mean(five_bar_csv: Path) -> None:
     from conftest import run_pincal
 
-    for extra, words in ((["--formulation", "ikm", "--cv", "3"], "--cv cross-validates the fkm formulation"),
-                         (["--formulation", "ikm", "--select", "bic"], "--select bic chooses among fkm fits"),
-                         (["--cv", "5x"], "give K (folds), KxR")):
+    for extra, words in ((["--formulation", "ikm", "--cv", "3"],
+                          "--cv 3 cross-validates the fkm formulation; give it without --formulation ikm"),
+                         (["--formulation", "ikm", "--select", "bic"],
+                          "--select bic chooses among fkm fits; with --formulation ikm use --select none or --select "
+                          "auto"),
+                         (["--cv", "5x"], "--cv 5x: give K (folds), KxR")):
         done = run_pincal("calibrate", "five_bar", str(five_bar_csv), *extra)
         assert done.returncode == 2 and done.stderr.count("\n") == 1 and words in done.stderr, done.stderr
+
+
+def test_the_library_names_options_by_keyword_and_the_command_line_by_flag(five_bar_csv: Path) -> None:
+    """A library error names the option as a library caller gives it; the command line shows its flag instead."""
+    import pincal
+    from pincal.cli.arguments import in_flags
+
+    robot = pincal.load_robot("five_bar")
+    with pytest.raises(pincal.DataError) as caught:
+        pincal.calibrate(robot, pincal.read_dataset(five_bar_csv), formulation="ikm", select="bic")
+    assert str(caught.value).startswith("select='bic' chooses among fkm fits; with formulation='ikm' use "
+                                        "select='none'") and caught.value.option == "select"
+    assert in_flags(str(caught.value)).startswith("--select bic chooses among fkm fits; with --formulation ikm")
+    assert in_flags("cv_seed=3 and cv='loo'; max_iter=7, sigma=1e-05") == \
+        "--cv-seed 3 and --cv loo; --max-iter 7, --sigma 1e-05"
 
 
 def test_a_figure_of_the_before_after_table_never_runs_into_the_one_before_it() -> None:
