@@ -137,7 +137,7 @@ class CalibrationOptions:
         flag="--sigma", key="sigma", kind="sigmas", metavar="SIGMA[,SIGMA...]", help=SIGMA_HELP))
     max_iter: int = field(default=FitOptions.max_iter, metadata=_how(
         flag="--max-iter", key="max_iter", kind="int",
-        help="iteration limit of the solver (default 100); a run that reaches it exits 1"))
+        help=f"iteration limit of the solver (default {FitOptions.max_iter}); a run that reaches it exits 1"))
     formulation: Formulation = field(default="fkm", metadata=_how(
         flag="--formulation", key="formulation", choices=FORMULATIONS,
         help="fkm: measured - predicted by forward kinematics; ikm: implicit loop residuals with the measured pose "

@@ -14,6 +14,7 @@ from pincal.lazy import lazy_names
 if TYPE_CHECKING:
     from pincal.identification.choices import Loss, Solver
     from pincal.identification.combinations import Combination
+    from pincal.identification.fit_options import FitOptions
     from pincal.identification.identifiability import Identifiability, analyse
     from pincal.identification.ikm import ImplicitProblem
     from pincal.identification.measurements import (
@@ -38,13 +39,14 @@ if TYPE_CHECKING:
     )
     from pincal.identification.problem import CalibrationProblem, Observations, Prediction, Problem
     from pincal.identification.result import CalibrationResult
-    from pincal.identification.solver import identify, identify_chains
+    from pincal.identification.solver import identify, identify_chains, identify_with
 
 #: Public name -> the module that defines it (imported on first access).
 _LAZY: dict[str, str] = {
     "Loss": "pincal.identification.choices",
     "Solver": "pincal.identification.choices",
     "Combination": "pincal.identification.combinations",
+    "FitOptions": "pincal.identification.fit_options",
     "Identifiability": "pincal.identification.identifiability",
     "analyse": "pincal.identification.identifiability",
     "ImplicitProblem": "pincal.identification.ikm",
@@ -71,6 +73,7 @@ _LAZY: dict[str, str] = {
     "CalibrationResult": "pincal.identification.result",
     "identify": "pincal.identification.solver",
     "identify_chains": "pincal.identification.solver",
+    "identify_with": "pincal.identification.solver",
 }
 
 __all__ = [
@@ -79,6 +82,7 @@ __all__ = [
     "CalibrationResult",
     "Combination",
     "Distance",
+    "FitOptions",
     "Identifiability",
     "ImplicitProblem",
     "JointReading",
@@ -99,6 +103,7 @@ __all__ = [
     "distance",
     "identify",
     "identify_chains",
+    "identify_with",
     "joint_reading",
     "parse_key",
     "pose",
