@@ -599,7 +599,7 @@ def test_a_cluster_of_markers_is_fitted_as_one_rigid_placement(ur10_markers: tup
     assert 1e-4 < cal.report.rms_after < 3e-3
     bare = Dataset(dataset.joint_names, dataset.joints, dataset.measurements, dataset.sample_ids, dataset.sets,
                    {"robot": "ur10", "marker m1 on tool0": "0 0 0"})
-    with pytest.raises(DataError, match=r"--markers cluster needs each marker's nominal offset on its frame; "
+    with pytest.raises(DataError, match=r"^markers='cluster' needs each marker's nominal offset on its frame; "
                                         r"tool0@m2, tool0@m3 have none: add '# marker <marker> on <frame>: x y z'"):
         calibrate(robot, bare, markers="cluster")
 

@@ -224,14 +224,14 @@ def check_marker_fit(markers: str, models: Sequence[Measurement]) -> None:
         return
     declared = {t: nominal for m in models for t, nominal in m.markers.items() if split_target(t)[1]}
     if not declared:
-        raise DataError("--markers cluster fits the placement of the markers declared on a frame "
-                        "(position:<frame>@<marker> columns), and the data declare none")
+        raise DataError("markers='cluster' fits the placement of the markers declared on a frame "
+                        "(position:<frame>@<marker> columns), and the data declare none", option="markers")
     missing = [t for t, nominal in declared.items() if nominal is None]
     if missing:
         frame, marker = split_target(missing[0])
-        raise DataError(f"--markers cluster needs each marker's nominal offset on its frame; "
+        raise DataError(f"markers='cluster' needs each marker's nominal offset on its frame; "
                         f"{listing(missing)} have none: add '# marker <marker> on <frame>: x y z' "
-                        f"lines [m] (e.g. '# marker {marker} on {frame}: 0 0 0.05')")
+                        f"lines [m] (e.g. '# marker {marker} on {frame}: 0 0 0.05')", option="markers")
 
 
 def _tool_joint(robot: Robot, frame: str) -> str | None:
