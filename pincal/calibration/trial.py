@@ -21,6 +21,7 @@ from pincal.calibration.pipeline import calibrate
 from pincal.calibration.setup import measurement_models, parameters_for
 from pincal.errors import ConvergenceError
 from pincal.identification.choices import Solver
+from pincal.identification.fit_options import FitOptions
 from pincal.identification.metrics import calibration_gain
 from pincal.model.robot import Robot, load_robot
 
@@ -65,7 +66,7 @@ class SimulatedCalibration:
     n_test: int = 20
     perturb: float = 1e-3
     joint_noise: float = 0.0
-    solver: Solver = "lm"
+    solver: Solver = FitOptions.solver
     spread: float | None = None
 
     def __call__(self, seed: int, level: Any) -> dict[str, float]:
