@@ -12,7 +12,6 @@ import pincal
 from pincal.calibration import CalibrationOptions
 from pincal.calibration.campaign import simulate
 from pincal.calibration.growth import estimate_growth
-from pincal.calibration.pipeline import fitting_options
 from pincal.calibration.setup import prepare
 from pincal.identification.criterion import group_of
 from pincal.identification.guard import moving_columns
@@ -26,7 +25,7 @@ def _fitted(options: CalibrationOptions) -> SelectedFit:
     robot = pincal.load_robot("ur10")
     dataset = simulate(robot, ["position"], 30, 0, perturb=5e-4, noise=5e-5, seed=4).dataset
     problem = prepare(robot, replace(dataset, sets=["train"] * dataset.n_samples), options).problem
-    return select_and_fit(problem, options.selection, **fitting_options(options))
+    return select_and_fit(problem, options.selection, options.fitting)
 
 
 def test_on_every_sample_the_choice_is_the_fits_own_and_on_part_of_them_it_moves() -> None:
