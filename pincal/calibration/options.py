@@ -9,6 +9,7 @@ them.
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 from collections.abc import Callable, Mapping
@@ -229,11 +230,11 @@ class CalibrationOptions:
                 raise not_found("option", name, OPTIONS, " of calibrate()")
         return CalibrationOptions(**{**{name: getattr(self, name) for name in OPTIONS}, **changes})
 
-    @property
+    @functools.cached_property
     def fitting(self) -> FitOptions:
-        """The identification layer's options these make (:class:`~pincal.identification.fit_options.FitOptions`):
-        the solver, loss, iteration limit and prior (a factor, :data:`~pincal.identification.fit_options.AUTO_PRIOR`
-        or, ``off``, None); every other at its default."""
+        """The identification layer's options these make (:class:`~pincal.identification.fit_options.FitOptions`),
+        once: the solver, loss, iteration limit and prior (a factor,
+        :data:`~pincal.identification.fit_options.AUTO_PRIOR` or, ``off``, None); every other at its default."""
         prior = AUTO_PRIOR if self.prior == AUTO_PRIOR else plausible_factor(self.prior)
         return FitOptions(solver=self.solver, loss=self.loss, max_iter=self.max_iter, prior=prior)
 
