@@ -100,3 +100,32 @@ def test_robots_of_example_robot_data_calibrate_through_the_cli(tmp_path: pytest
     before, after = (float(v) for v in held_out.split()[-4::2])
     assert after < 0.1 * before  # [mm]
     assert np.isfinite(before)
+
+
+def test_an_installed_version_is_importlib_metadata_s_without_its_metadata_parser(tmp_path: Path) -> None:
+    """The version a report and a calibrated URDF record is the distribution's, read without the e-mail parser."""
+    import importlib.metadata
+
+    from pincal.model.catalog import installed_version
+
+    for distribution in ("pincal", "numpy", "pin", "example-robot-data"):
+        assert installed_version(distribution) == importlib.metadata.version(distribution)
+    with pytest.raises(importlib.metadata.PackageNotFoundError):
+        installed_version("no-such-distribution-here")
+    done = subprocess.run([sys.executable, "-c", "import sys; from pincal.calibration.provenance import version; "
+                           "print(version(), sorted({'importlib.metadata', 'email'} & set(sys.modules)))"],
+                          capture_output=True, text=True, check=False, cwd=tmp_path)  # the installed pincal
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == f"{importlib.metadata.version('pincal')} []"
+
+
+def test_the_shipped_robots_are_the_urdf_files_of_the_package_s_robots_folder() -> None:
+    import importlib.resources
+
+    from pincal.model.catalog import shipped_robots
+
+    files = importlib.resources.files("pincal.robots_urdf")
+    listed = sorted(Path(str(p)).name for p in files.iterdir() if str(p).endswith(".urdf"))
+    assert sorted(p.name for p in shipped_robots().values()) == listed
+    assert {"delta", "hexapod", "five_bar"} <= set(shipped_robots())
+    assert all(p.is_file() for p in shipped_robots().values())
