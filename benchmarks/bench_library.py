@@ -82,7 +82,7 @@ def timed_method(module, cls, name, label):
 PIPELINE, SELECTION = "pincal.calibration.pipeline", "pincal.identification.selection"
 timed_method("pincal.identification.prior", "WithPrior", "evaluate", "the fit/of which its model evaluations")
 timed_method("pincal.identification.steps", "Steps", "__init__", "the fit/of which its QR reductions and their SVDs")
-timed("pincal.calibration.predicted", "chi2_upper", "predicted accuracy/of which its χ² quantiles")
+timed("pincal.calibration.propagation", "chi2_upper", "χ² quantiles (every bound: held out, workspace, growth)")
 timed(PIPELINE, "prepare", "preparation (usable samples, parameters, idle candidates, problem)")
 timed(PIPELINE, "check_units", "unit check (positions' spread at the start)")
 timed(SELECTION, "identify", "the fit (Levenberg-Marquardt, outlier test, identifiability, covariance)")
