@@ -89,6 +89,11 @@ timed(SELECTION, "identify", "the fit (Levenberg-Marquardt, outlier test, identi
 timed(SELECTION, "select_groups", "model selection's group scores")
 timed(PIPELINE, "calibrated_robot_text", "calibrated URDF text")
 timed(PIPELINE, "workspace_prediction", "predicted accuracy over the workspace (100 postures)")
+timed(PIPELINE, "estimate_growth", "the bound's growth beyond the fitted range (hold-out refits)")
+timed(PIPELINE, "register_setup", "the nominal robot's setup fitted (\"before\")")
+timed(PIPELINE, "evaluate_held_out", "the held-out set's errors and bounds")
+timed(PIPELINE, "calibrated_proof", "the calibrated URDF reloaded by plain Pinocchio (20 postures)")
+timed(PIPELINE, "with_carried", "the calibration the URDF carries (<pincal_calibration>)")
 robot, dataset = pincal.load_robot("ur10"), pincal.read_dataset(path)
 for _ in range(3):
     calibrate(robot, dataset)
