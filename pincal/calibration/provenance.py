@@ -33,7 +33,7 @@ ELEMENT = "pincal_provenance"
 
 def version() -> str:
     """The installed pincal's version (its package metadata: pyproject's ``version``), read without
-    ``importlib.metadata``'s e-mail parser (a twentieth of a calibration's start)."""
+    ``importlib.metadata`` (its e-mail parser, its look through every installed distribution)."""
     return installed_version("pincal")
 
 

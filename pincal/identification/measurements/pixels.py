@@ -303,8 +303,9 @@ class Pixel(Measurement):
         return self.camera_intrinsics(batch.shared)
 
     def view_batch(self, batch: BatchContext, world: Array, out: Array) -> CameraView:
-        """The corner at ``world`` (N, 3) [m] (in the robot's world, one row per sample) seen by the camera on
-        :attr:`frame`: its pixels written to ``out[:, :2]`` [px], and what its Jacobian is built from."""
+        """The corner at ``world`` [m] (in the robot's world: (N, 3), one row per sample, or (1, 3), fixed there)
+        seen by the camera on :attr:`frame`: its pixels written to ``out[:, :2]`` [px], and what its Jacobian is built
+        from."""
         rot_f, pos_f = batch.rotations[self.frame], batch.translations[self.frame]
         camera = batch.shared.attached_placement(camera_name(self.frame))
         local = np.matmul(rot_f.transpose(0, 2, 1), (world - pos_f)[:, :, None])[:, :, 0]
