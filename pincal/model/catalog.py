@@ -11,6 +11,7 @@ import csv
 import importlib.util
 import os
 import sys
+from collections.abc import Iterator
 from functools import cache
 from pathlib import Path
 
@@ -99,7 +100,7 @@ def shipped_robots() -> dict[str, Path]:
 @cache
 def example_robot_data_dir() -> Path | None:
     """The ``robots/`` directory of the installed example-robot-data distribution, if any."""
-    for f in _installed_files("example-robot-data"):
+    for f in _installed_files_in_order("example-robot-data"):  # the first robot file is near the top: read no more
         parts = f.parts
         if "example-robot-data" in parts and "robots" in parts and str(f).endswith(".urdf"):
             idx = f.parts.index("robots")
@@ -128,17 +129,23 @@ def _dist_info_file(distribution: str, name: str) -> Path | None:
 def _installed_files(distribution: str) -> list[Path]:
     """Each file an installed distribution lists, located ([] if it is not installed): its ``RECORD``, as
     ``importlib.metadata.files`` reads it; else ``importlib.metadata``'s own answer (an egg or another layout)."""
+    return list(_installed_files_in_order(distribution))
+
+
+def _installed_files_in_order(distribution: str) -> Iterator[Path]:
+    """:func:`_installed_files` one at a time, in the ``RECORD``'s order, read only as far as the caller asks."""
     record = _dist_info_file(distribution, "RECORD")
     if record is not None:
         with open(record, encoding="utf-8", newline="") as stream:
-            return [record.parent.parent / row[0] for row in csv.reader(stream) if row]
+            yield from (record.parent.parent / row[0] for row in csv.reader(stream) if row)
+        return
     import importlib.metadata  # here: with its e-mail parser, for a distribution installed otherwise
 
     try:
         files = importlib.metadata.files(distribution) or []
     except importlib.metadata.PackageNotFoundError:
-        return []
-    return [Path(str(f.locate())) for f in files]
+        return
+    yield from (Path(str(f.locate())) for f in files)
 
 
 def installed_version(distribution: str) -> str:

@@ -129,3 +129,13 @@ def test_the_shipped_robots_are_the_urdf_files_of_the_package_s_robots_folder() 
     assert sorted(p.name for p in shipped_robots().values()) == listed
     assert {"delta", "hexapod", "five_bar"} <= set(shipped_robots())
     assert all(p.is_file() for p in shipped_robots().values())
+
+
+def test_example_robot_data_s_folder_is_found_from_the_first_robot_file_its_record_lists() -> None:
+    """The ``robots/`` folder is the one above the first URDF of the distribution's file list, read only that far."""
+    from pincal.model.catalog import _installed_files
+
+    first = next(f for f in _installed_files("example-robot-data")
+                 if "example-robot-data" in f.parts and "robots" in f.parts and f.suffix == ".urdf")
+    assert example_robot_data_dir() == Path(*first.parts[: first.parts.index("robots") + 1])
+    assert (example_robot_data_dir() / EXAMPLE_ROBOT_DATA["ur10"]).is_file()
