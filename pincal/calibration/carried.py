@@ -32,7 +32,7 @@ CARRIED = ("schema_version", "robot", "units", "measurements", "parameters", "co
 
 def carried_text(report: CalibrationReport) -> str:
     """The ``<pincal_calibration>`` element of ``report``'s calibrated URDF (its JSON text escaped for XML)."""
-    content = report.as_dict()
+    content = report.as_dict(CARRIED)
     shown = json.dumps({key: content[key] for key in CARRIED if key in content}, separators=(",", ":"))
     escaped = shown.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
     return f"<{ELEMENT}>{escaped}</{ELEMENT}>"

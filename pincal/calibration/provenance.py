@@ -24,6 +24,7 @@ from typing import Any
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.report_sections import FileDigest, ProvenanceRecord
 from pincal.errors import DataError
+from pincal.model.catalog import installed_version
 from pincal.model.robot import Robot
 
 #: The element of a calibrated URDF that holds its provenance.
@@ -31,10 +32,9 @@ ELEMENT = "pincal_provenance"
 
 
 def version() -> str:
-    """The installed pincal's version (its package metadata: pyproject's ``version``)."""
-    from importlib import metadata  # here: it loads the e-mail parser (a tenth of a start) for what writes a file
-
-    return metadata.version("pincal")
+    """The installed pincal's version (its package metadata: pyproject's ``version``), read without
+    ``importlib.metadata`` (its e-mail parser, its look through every installed distribution)."""
+    return installed_version("pincal")
 
 
 def sha256(path: str | Path) -> str:

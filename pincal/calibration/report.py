@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Collection
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -263,10 +264,12 @@ class CalibrationReport:
         """The report JSON: indented, in field order, optional fields that hold None left out."""
         return json_text(self.as_dict())
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self, keys: Collection[str] | None = None) -> dict[str, Any]:
         """The JSON's content as a dict (the optional fields that hold None left out; a figure that is not a number,
-        e.g. the RMS length error of samples with no length reading, as None: JSON has no NaN)."""
+        e.g. the RMS length error of samples with no length reading, as None: JSON has no NaN); only the fields named
+        in ``keys`` if given (a calibrated URDF's: not every sample's records)."""
         return {f.name: _json_value(getattr(self, f.name)) for f in fields(self) if not f.metadata.get("internal")
+                and (keys is None or f.name in keys)
                 and not (f.metadata.get("optional") and getattr(self, f.name) is None)}
 
     @classmethod

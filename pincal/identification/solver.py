@@ -159,7 +159,7 @@ def _identify_auto(problem: Problem, x0: Array | None, options: FitOptions) -> C
     starts = [first.x, first.x0] + ([trimmed.x] if trimmed is not None else [])
     fits = [fit for fit in (_attempt(problem, start, options, "cauchy") for start in starts)
             if fit is not None]
-    scored = [(median, k) for k, median in enumerate(_median_sample_residual(problem, fit.x) for fit in fits)
+    scored = [(median, k) for k, median in enumerate(_median_sample_residual(problem, fit) for fit in fits)
               if math.isfinite(median)]
     if not scored:
         first.extra["outlier_test"] = suspects
@@ -205,10 +205,11 @@ def _attempt(problem: Problem, x0: Array, options: FitOptions, loss: str,
         return None
 
 
-def _median_sample_residual(problem: Problem, x: Array) -> float:
-    """Median over samples of the squared weighted residual norm at ``x`` (the least-median-of-squares
-    criterion: blind to up to half the samples being off); infinite where the model cannot be evaluated."""
-    pred = evaluated(problem, x, jacobian=False)
+def _median_sample_residual(problem: Problem, fit: CalibrationResult) -> float:
+    """Median over samples of the squared weighted residual norm at ``fit``'s estimate (the least-median-of-squares
+    criterion: blind to up to half the samples being off), from its last evaluation where it kept one; infinite
+    where the model cannot be evaluated."""
+    pred = fit.final if fit.final is not None else evaluated(problem, fit.x, jacobian=False)
     if pred is None:
         return math.inf
     squares, dims = sample_squares(problem, pred.residual)

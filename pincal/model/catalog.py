@@ -8,9 +8,10 @@ path. The same lookup resolves its ``package://example-robot-data/...`` mesh ref
 from __future__ import annotations
 
 import csv
-import importlib.resources
+import importlib.util
 import os
 import sys
+from collections.abc import Iterator
 from functools import cache
 from pathlib import Path
 
@@ -90,14 +91,16 @@ EXAMPLE_ROBOT_DATA: dict[str, str] = {
 
 def shipped_robots() -> dict[str, Path]:
     """The URDF files shipped in ``robots_urdf/``, by stem (``delta``, ``hexapod``, ...)."""
-    root = importlib.resources.files("pincal.robots_urdf")
-    return {Path(str(p)).stem: Path(str(p)) for p in root.iterdir() if str(p).endswith(".urdf")}
+    spec = importlib.util.find_spec("pincal.robots_urdf")  # not importlib.resources: its zipfile, tempfile, ...
+    if spec is None or spec.origin is None:
+        return {}
+    return {p.stem: p for p in Path(spec.origin).parent.iterdir() if p.name.endswith(".urdf")}
 
 
 @cache
 def example_robot_data_dir() -> Path | None:
     """The ``robots/`` directory of the installed example-robot-data distribution, if any."""
-    for f in _installed_files("example-robot-data"):
+    for f in _installed_files_in_order("example-robot-data"):  # the first robot file is near the top: read no more
         parts = f.parts
         if "example-robot-data" in parts and "robots" in parts and str(f).endswith(".urdf"):
             idx = f.parts.index("robots")
@@ -105,11 +108,10 @@ def example_robot_data_dir() -> Path | None:
     return None
 
 
-def _installed_files(distribution: str) -> list[Path]:
-    """Each file an installed distribution lists, located ([] if it is not installed): the ``RECORD`` of the first
-    ``.dist-info`` folder of ``sys.path`` that holds one, as ``importlib.metadata.files`` reads it (without its e-mail
-    parser: a tenth of a calibration's start, for an example-robot-data robot); else ``importlib.metadata``'s own
-    answer (an egg or another layout)."""
+def _dist_info_file(distribution: str, name: str) -> Path | None:
+    """The file ``name`` (``RECORD``, ``METADATA``) of the first ``.dist-info`` folder of ``distribution`` on
+    ``sys.path`` that holds one, found as ``importlib.metadata`` finds it, without its e-mail parser (a tenth of a
+    calibration's start); None if there is none."""
     prefix = distribution.replace("-", "_").replace(".", "_").lower() + "-"
     for entry in sys.path:
         folder = Path(entry or ".")
@@ -118,18 +120,52 @@ def _installed_files(distribution: str) -> list[Path]:
                            and e.name.endswith(".dist-info"))
         except OSError:  # not a folder (a zip file, a missing entry)
             continue
-        for name in names:
-            record = folder / name / "RECORD"
-            if record.is_file():
-                with open(record, encoding="utf-8", newline="") as stream:
-                    return [folder / row[0] for row in csv.reader(stream) if row]
+        for found in names:
+            if (folder / found / name).is_file():
+                return folder / found / name
+    return None
+
+
+def _installed_files(distribution: str) -> list[Path]:
+    """Each file an installed distribution lists, located ([] if it is not installed): its ``RECORD``, as
+    ``importlib.metadata.files`` reads it; else ``importlib.metadata``'s own answer (an egg or another layout)."""
+    return list(_installed_files_in_order(distribution))
+
+
+def _installed_files_in_order(distribution: str) -> Iterator[Path]:
+    """:func:`_installed_files` one at a time, in the ``RECORD``'s order, read only as far as the caller asks."""
+    record = _dist_info_file(distribution, "RECORD")
+    if record is not None:
+        with open(record, encoding="utf-8", newline="") as stream:
+            yield from (record.parent.parent / row[0] for row in csv.reader(stream) if row)
+        return
     import importlib.metadata  # here: with its e-mail parser, for a distribution installed otherwise
 
     try:
         files = importlib.metadata.files(distribution) or []
     except importlib.metadata.PackageNotFoundError:
-        return []
-    return [Path(str(f.locate())) for f in files]
+        return
+    yield from (Path(str(f.locate())) for f in files)
+
+
+def installed_version(distribution: str) -> str:
+    """An installed distribution's version: the ``Version:`` line of its ``METADATA``, as
+    ``importlib.metadata.version`` reads it; else ``importlib.metadata``'s own answer (an egg or another layout).
+
+    Raises:
+        importlib.metadata.PackageNotFoundError: ``distribution`` is not installed.
+    """
+    metadata = _dist_info_file(distribution, "METADATA")
+    if metadata is not None:
+        with open(metadata, encoding="utf-8") as stream:
+            for line in stream:
+                if line.startswith("Version:"):
+                    return line.removeprefix("Version:").strip()
+                if not line.strip():  # the headers end at the first blank line
+                    break
+    import importlib.metadata  # here: with its e-mail parser, for a distribution installed otherwise
+
+    return importlib.metadata.version(distribution)
 
 
 def known_robot_names() -> list[str]:

@@ -15,6 +15,7 @@ import math
 import sys
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -156,13 +157,28 @@ def lean_meshcat() -> None:
     sys.modules["meshcat"] = package
 
 
+@lru_cache(maxsize=64)
+def _stl_mesh(path: str, mtime_ns: int, size: int) -> tuple[Array, npt.NDArray[np.int64]] | None:
+    """:func:`clustered_mesh` of a binary STL file, None for another (an ASCII STL, an empty one); kept by the file's
+    path, time and size: a robot draws one mesh on several links (TIAGo's four casters, its two wheels), decimated
+    once. Each caller gets the arrays read-only (a geometry made of them only reads them)."""
+    corners = binary_stl_corners(Path(path))
+    if corners is None or not len(corners):
+        return None
+    vertices, faces = clustered_mesh(corners)
+    vertices.flags.writeable = faces.flags.writeable = False
+    return vertices, faces
+
+
 def _mesh_geometry(path: Path) -> Any:
     lean_meshcat()
     import meshcat.geometry as mg
 
-    corners = binary_stl_corners(path) if path.suffix.lower() == ".stl" else None
-    if corners is not None and len(corners):
-        return mg.TriangularMeshGeometry(*clustered_mesh(corners))
+    if path.suffix.lower() == ".stl":
+        stat = path.stat()
+        mesh = _stl_mesh(str(path), stat.st_mtime_ns, stat.st_size)
+        if mesh is not None:
+            return mg.TriangularMeshGeometry(*mesh)
     loaders = {".stl": mg.StlMeshGeometry, ".obj": mg.ObjMeshGeometry, ".dae": mg.DaeMeshGeometry}
     return loaders[path.suffix.lower()].from_file(str(path))
 

@@ -57,6 +57,19 @@ def test_older_report_round_trips_byte_for_byte() -> None:
     assert report.to_json() == TEXT
 
 
+def test_the_fields_a_calibrated_urdf_carries_are_the_whole_json_s() -> None:
+    """``as_dict(keys)`` (what ``<pincal_calibration>`` holds) is the whole JSON's content under those keys, in field
+    order; a key the report leaves out (an optional field at None) stays out."""
+    from pincal.calibration.carried import CARRIED
+
+    report = CalibrationReport.read(FIXTURE / "report.json")
+    whole = report.as_dict()
+    carried = report.as_dict(CARRIED)
+    assert carried == {key: value for key, value in whole.items() if key in CARRIED}
+    assert set(carried) < set(CARRIED) and "parameters" in carried and "n_samples" not in carried
+    assert report.as_dict(["no_such_field"]) == {}
+
+
 def test_sections_are_typed() -> None:
     """Each nested part read is its record, holding the file's values under its fields."""
     report = CalibrationReport.read(FIXTURE / "report.json")

@@ -100,3 +100,42 @@ def test_robots_of_example_robot_data_calibrate_through_the_cli(tmp_path: pytest
     before, after = (float(v) for v in held_out.split()[-4::2])
     assert after < 0.1 * before  # [mm]
     assert np.isfinite(before)
+
+
+def test_an_installed_version_is_importlib_metadata_s_without_its_metadata_parser(tmp_path: Path) -> None:
+    """The version a report and a calibrated URDF record is the distribution's, read without the e-mail parser."""
+    import importlib.metadata
+
+    from pincal.model.catalog import installed_version
+
+    for distribution in ("pincal", "numpy", "pin", "example-robot-data"):
+        assert installed_version(distribution) == importlib.metadata.version(distribution)
+    with pytest.raises(importlib.metadata.PackageNotFoundError):
+        installed_version("no-such-distribution-here")
+    done = subprocess.run([sys.executable, "-c", "import sys; from pincal.calibration.provenance import version; "
+                           "print(version(), sorted({'importlib.metadata', 'email'} & set(sys.modules)))"],
+                          capture_output=True, text=True, check=False, cwd=tmp_path)  # the installed pincal
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == f"{importlib.metadata.version('pincal')} []"
+
+
+def test_the_shipped_robots_are_the_urdf_files_of_the_package_s_robots_folder() -> None:
+    import importlib.resources
+
+    from pincal.model.catalog import shipped_robots
+
+    files = importlib.resources.files("pincal.robots_urdf")
+    listed = sorted(Path(str(p)).name for p in files.iterdir() if str(p).endswith(".urdf"))
+    assert sorted(p.name for p in shipped_robots().values()) == listed
+    assert {"delta", "hexapod", "five_bar"} <= set(shipped_robots())
+    assert all(p.is_file() for p in shipped_robots().values())
+
+
+def test_example_robot_data_s_folder_is_found_from_the_first_robot_file_its_record_lists() -> None:
+    """The ``robots/`` folder is the one above the first URDF of the distribution's file list, read only that far."""
+    from pincal.model.catalog import _installed_files
+
+    first = next(f for f in _installed_files("example-robot-data")
+                 if "example-robot-data" in f.parts and "robots" in f.parts and f.suffix == ".urdf")
+    assert example_robot_data_dir() == Path(*first.parts[: first.parts.index("robots") + 1])
+    assert (example_robot_data_dir() / EXAMPLE_ROBOT_DATA["ur10"]).is_file()

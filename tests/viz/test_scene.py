@@ -117,6 +117,30 @@ def test_a_binary_stl_file_reads_as_its_triangles(tmp_path: Path) -> None:
     assert binary_stl_corners(path) is None
 
 
+def test_a_mesh_drawn_on_several_links_is_decimated_once_and_anew_when_its_file_changes(tmp_path: Path) -> None:
+    from pincal.viz.visuals import _mesh_geometry, _stl_mesh
+
+    def write(soup: np.ndarray) -> None:
+        records = np.zeros(len(soup) // 3, dtype=STL_TRIANGLE)
+        records["corners"] = soup.reshape(-1, 3, 3)
+        path.write_bytes(b"\0" * 80 + len(records).to_bytes(4, "little") + records.tobytes())
+
+    path = tmp_path / "caster.stl"
+    write(_box_soup(2))
+    first, second = _mesh_geometry(path), _mesh_geometry(path)
+    assert first is not second and first.uuid != second.uuid  # two geometries of the page, one decimation
+    decimated = clustered_mesh(binary_stl_corners(path))
+    for geometry in (first, second):
+        np.testing.assert_array_equal(geometry.vertices, decimated[0])
+        np.testing.assert_array_equal(geometry.faces, decimated[1])
+    before = _stl_mesh.cache_info()
+    _mesh_geometry(path)
+    assert _stl_mesh.cache_info().hits == before.hits + 1
+    write(_box_soup(3) * 2.0)  # another size: decimated anew
+    np.testing.assert_array_equal(_mesh_geometry(path).vertices, clustered_mesh(binary_stl_corners(path))[0])
+    assert _stl_mesh.cache_info().misses == before.misses + 1
+
+
 def test_package_uris_resolve_beside_the_urdf(tmp_path: Path) -> None:
     mesh = tmp_path / "share" / "my_robot" / "meshes" / "link.stl"
     mesh.parent.mkdir(parents=True)

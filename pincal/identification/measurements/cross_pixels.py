@@ -23,7 +23,6 @@ from pincal.identification.batch import BatchContext, point_rows
 from pincal.identification.measurements.base import Attachment, Measurement
 from pincal.identification.measurements.context import SampleContext, camera_name, target_name
 from pincal.identification.measurements.pixels import BOARD, INTRINSICS, Pixel, project
-from pincal.model.rotations import cross_columns, rotate
 
 Array = npt.NDArray[np.float64]
 
@@ -92,30 +91,21 @@ class CrossPixel(Pixel):
     def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
         """:meth:`predict` for every sample: the robot's columns are ``∂uv/∂p · R_Cᵀ R_Aᵀ [I, −ŵ] (W_B − W_A)``, W a
         frame's spatial twist, w the corner in the world."""
-        rot_a, pos_a = batch.rotations[self.frame], batch.translations[self.frame]
-        camera = batch.shared.attached_placement(camera_name(self.frame))
         board = batch.shared.attached_placement(target_name(self.board_frame, BOARD))
         b = self.point()
         on_b = board.placement.act(b)
         world = batch.point(self.board_frame, on_b)
-        local = np.matmul(rot_a.transpose(0, 2, 1), (world - pos_a)[:, :, None])[:, :, 0]
-        seen = (local - camera.placement.translation) @ camera.placement.rotation
-        k, columns, components = self.batch_intrinsics(batch)
-        uv, dp, dk = project(seen, k)
-        out[:, :2] = uv
+        view = self.view_batch(batch, world, out)
         if jac is None:
             return
-        dback = np.matmul(dp, rotate(camera.placement.rotation.T, rot_a.transpose(0, 2, 1)))  # ∂uv/∂p R_Cᵀ R_Aᵀ
+        dback = view.back()  # ∂uv/∂p R_Cᵀ R_Aᵀ
         rows = np.matmul(dback, point_rows(world))
         jac[:] = batch.derivative(self.board_frame, rows) - batch.derivative(self.frame, rows)
-        if camera.columns:
-            jc = np.broadcast_to(camera.jacobian, (len(seen), 6, len(camera.columns)))
-            jac[:, :, camera.columns] += np.matmul(dp, -jc[:, :3] + cross_columns(seen, jc[:, 3:]))
+        view.add_camera_columns(jac)
         if board.columns:
             moved = board.point_columns(b)
             jac[:, :, board.columns] += np.matmul(np.matmul(dback, batch.rotations[self.board_frame]), moved)
-        if columns:
-            jac[:, :, columns] += dk[:, :, components]
+        view.add_intrinsics_columns(jac)
 
 
 def cross_pixel(frame: str, board_frame: str, corner: int, sigma: float = 0.5) -> CrossPixel:

@@ -29,7 +29,7 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -38,7 +38,13 @@ import pinocchio as pin
 from pincal.errors import DataError
 from pincal.identification.batch import BatchContext, point_rows
 from pincal.identification.measurements.base import Attachment, Measurement
-from pincal.identification.measurements.context import WORLD_TARGET, SampleContext, camera_name, target_name
+from pincal.identification.measurements.context import (
+    WORLD_TARGET,
+    AttachedPlacement,
+    SampleContext,
+    camera_name,
+    target_name,
+)
 from pincal.model.rotations import cross_columns, rotate
 
 Array = npt.NDArray[np.float64]
@@ -296,33 +302,76 @@ class Pixel(Measurement):
         """:meth:`camera_intrinsics` of a batch's evaluation."""
         return self.camera_intrinsics(batch.shared)
 
-    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
-        """:meth:`predict` for every sample: the robot's columns are ``∂uv/∂p · (−R_Cᵀ R_Fᵀ (W_v − ĝ W_ω))``, W the
-        frame's spatial twist, g the corner in the world."""
+    def view_batch(self, batch: BatchContext, world: Array, out: Array) -> CameraView:
+        """The corner at ``world`` [m] (in the robot's world: (N, 3), one row per sample, or (1, 3), fixed there)
+        seen by the camera on :attr:`frame`: its pixels written to ``out[:, :2]`` [px], and what its Jacobian is built
+        from."""
         rot_f, pos_f = batch.rotations[self.frame], batch.translations[self.frame]
         camera = batch.shared.attached_placement(camera_name(self.frame))
-        board = batch.shared.attached_placement(WORLD_TARGET)
-        b = self.point()
-        world = board.placement.act(b)
         local = np.matmul(rot_f.transpose(0, 2, 1), (world - pos_f)[:, :, None])[:, :, 0]
         seen = (local - camera.placement.translation) @ camera.placement.rotation
         k, columns, components = self.batch_intrinsics(batch)
         uv, dp, dk = project(seen, k)
         out[:, :2] = uv
+        return CameraView(seen, dp, dk, camera, rot_f, columns, components)
+
+    def predict_batch(self, batch: BatchContext, out: Array, jac: Array | None) -> None:
+        """:meth:`predict` for every sample: the robot's columns are ``∂uv/∂p · (−R_Cᵀ R_Fᵀ (W_v − ĝ W_ω))``, W the
+        frame's spatial twist, g the corner in the world."""
+        board = batch.shared.attached_placement(WORLD_TARGET)
+        b = self.point()
+        world = board.placement.act(b)
+        view = self.view_batch(batch, world[None], out)
         if jac is None:
             return
-        back = rotate(camera.placement.rotation.T, rot_f.transpose(0, 2, 1))  # R_Cᵀ R_Fᵀ
-        dback = np.matmul(dp, back)
+        dback = view.back()
         at_point = np.hstack([-np.eye(3), pin.skew(world)])
         batch.derivative(self.frame, np.matmul(dback, at_point), out=jac)
-        if camera.columns:
-            jc = np.broadcast_to(camera.jacobian, (len(seen), 6, len(camera.columns)))
-            jac[:, :, camera.columns] += np.matmul(dp, -jc[:, :3] + cross_columns(seen, jc[:, 3:]))
+        view.add_camera_columns(jac)
         if board.columns:
             moved = board.point_columns(b)
             jac[:, :, board.columns] += np.matmul(dback, moved)
-        if columns:
-            jac[:, :, columns] += dk[:, :, components]
+        view.add_intrinsics_columns(jac)
+
+
+class CameraView(NamedTuple):
+    """A corner seen by a camera on a robot frame, every sample of a batch (:meth:`Pixel.view_batch`; a tuple: one
+    is made per model and evaluation).
+
+    Attributes:
+        seen: (N, 3) the corner [m] in the camera's frame.
+        dp: (N, 2, 3) ``∂uv/∂p`` [px/m], the projection's derivative by ``seen``.
+        dk: (N, 2, 9) ``∂uv/∂k`` [px per unit], by the intrinsics.
+        camera: The camera's placement on its frame, with its parameter columns.
+        rot_f: (N, 3, 3) the camera frame's rotation in the world.
+        columns: The intrinsics' parameter columns.
+        components: The intrinsic (index in :data:`INTRINSICS`) each of ``columns`` is.
+    """
+
+    seen: Array
+    dp: Array
+    dk: Array
+    camera: AttachedPlacement
+    rot_f: Array
+    columns: list[int]
+    components: list[int]
+
+    def back(self) -> Array:
+        """(N, 2, 3) ``∂uv/∂p · R_Cᵀ R_Fᵀ`` [px/m]: the pixels' derivative by the corner in the world."""
+        back: Array = np.matmul(self.dp, rotate(self.camera.placement.rotation.T, self.rot_f.transpose(0, 2, 1)))
+        return back
+
+    def add_camera_columns(self, jac: Array) -> None:
+        """Adds to ``jac`` (N, 2, n) [px per unit] the columns of the camera's placement on its frame."""
+        camera = self.camera
+        if camera.columns:
+            jc = np.broadcast_to(camera.jacobian, (len(self.seen), 6, len(camera.columns)))
+            jac[:, :, camera.columns] += np.matmul(self.dp, -jc[:, :3] + cross_columns(self.seen, jc[:, 3:]))
+
+    def add_intrinsics_columns(self, jac: Array) -> None:
+        """Adds to ``jac`` (N, 2, n) [px per unit] the columns of the camera's intrinsics."""
+        if self.columns:
+            jac[:, :, self.columns] += self.dk[:, :, self.components]
 
 
 @dataclass(frozen=True)
