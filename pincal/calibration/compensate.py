@@ -22,7 +22,7 @@ import pinocchio as pin
 from pincal import validation
 from pincal.calibration.joint_commands import CommandSolver, Model
 from pincal.calibration.provenance import read_provenance
-from pincal.errors import ArgumentError, DataError, listing
+from pincal.errors import ArgumentError, Culprit, DataError, listing
 from pincal.io.calibrated_urdf import MEASUREMENT_FRAME, attached_link, marker_link
 from pincal.io.corrections_file import corrections_path, read_corrections
 from pincal.io.dataset import QUATERNION_NORM_TOLERANCE
@@ -79,7 +79,7 @@ def load_model(model: str | Path, nominal: Robot | None = None) -> Model:
     if torque_robot is None and needs_masses:
         if not corrections.nominal_urdf:
             raise DataError(f"{path} has compliance terms but names no nominal URDF for their gravity torques; give "
-                            "--nominal ROBOT")
+                            "nominal=ROBOT", option="nominal")
         torque_robot = load_robot(corrections.nominal_urdf)
     if torque_robot is not None and torque_robot.actuated_joints != robot.actuated_joints:
         raise DataError(f"the nominal robot '{torque_robot.name}' actuates {listing(torque_robot.actuated_joints)}, "
@@ -155,8 +155,9 @@ def reached_frame(robot: Robot, targets: Targets, frame: str | None = None) -> s
             moves (no command can bring it anywhere; the frames that would do are named).
     """
     if frame:
-        robot.frame_id(frame, "--frame: ")
-        return _moving(robot, frame, f"--frame {frame}")
+        with Culprit(option="frame"):
+            robot.frame_id(frame)
+            return _moving(robot, frame, f"frame={frame}")
     robot.frame_id(targets.frame, f"targets '{targets.key}': ")
     named = targets.key.partition(":")[2]
     if targets.kind == "position":
@@ -165,7 +166,7 @@ def reached_frame(robot: Robot, targets: Targets, frame: str | None = None) -> s
         link = attached_link("target", named) if targets.attachment else targets.frame
     if targets.attachment or robot.model.existFrame(link):
         robot.frame_id(link, f"targets '{targets.key}' (a calibrated URDF of data with that "
-                             f"{'marker' if targets.kind == 'position' else 'target'} has it; or give --frame): ")
+                             f"{'marker' if targets.kind == 'position' else 'target'} has it; or give frame=NAME): ")
         return _moving(robot, link, f"targets '{targets.key}'")
     return _moving(robot, targets.frame, f"targets '{targets.key}'")
 
@@ -315,16 +316,17 @@ def _board_placement(robot: Robot) -> pin.SE3:
     boards = [n for n in names if n.endswith("_target_board") and frame_moves(robot, n)]
     cameras = [n for n in names if n.endswith("_camera") and frame_moves(robot, n)]
     if boards and cameras:
-        raise DataError(f"--targets-in board: MODEL's board (link '{boards[0]}') moves with the robot, as does its "
+        raise DataError(f"targets_in='board': MODEL's board (link '{boards[0]}') moves with the robot, as does its "
                         f"camera (link '{cameras[0]}'): a target relative to the board fixes where one chain stands "
                         "relative to the other, not a place the robot goes, which compensate does not solve; give the "
-                        f"targets in 'base' (pose:{cameras[0]} or pose:{boards[0]}, docs/compensate.md)")
+                        f"targets in 'base' (pose:{cameras[0]} or pose:{boards[0]}, docs/compensate.md)",
+                        option="targets_in")
     if boards:
-        raise DataError(f"--targets-in board: MODEL's board (link '{boards[0]}') is on the robot, seen by a fixed "
+        raise DataError(f"targets_in='board': MODEL's board (link '{boards[0]}') is on the robot, seen by a fixed "
                         f"camera whose frame is the measurement frame: give targets of pose:{boards[0]} in "
-                        "'measurement'")
-    raise DataError(f"--targets-in board: MODEL has no link '{BOARD_LINK}' (a URDF calibrated on an eye-in-hand "
-                    "camera's pixels or poses holds the fixed board it saw there)")
+                        "'measurement'", option="targets_in")
+    raise DataError(f"targets_in='board': MODEL has no link '{BOARD_LINK}' (a URDF calibrated on an eye-in-hand "
+                    "camera's pixels or poses holds the fixed board it saw there)", option="targets_in")
 
 
 def _check_arguments(model: Any, targets: Any, frame: Any, targets_in: Any, tolerance: Any, seed: Any) -> None:
@@ -386,10 +388,11 @@ def nominal_targets(compensation: Compensation, nominal: Robot) -> tuple[Array, 
     validation.instance("nominal", nominal, Robot, "a Robot (pincal.load_robot)")
     robot = compensation.model.robot
     if nominal.actuated_joints != robot.actuated_joints:
-        raise DataError(f"--nominal '{nominal.name}' actuates {listing(nominal.actuated_joints)}, the model "
-                        f"{listing(robot.actuated_joints)}: they are not the same robot")
+        raise DataError(f"nominal='{nominal.name}' actuates {listing(nominal.actuated_joints)}, the model "
+                        f"{listing(robot.actuated_joints)}: they are not the same robot", option="nominal")
     frame = compensation.frame if nominal.model.existFrame(compensation.frame) else compensation.targets.frame
-    kinematics = frame_kinematics(nominal.batch, nominal.frame_id(frame, "--nominal: "), SOLVE_TOLERANCE)
+    frame_id = nominal.frame_id(frame, f"nominal='{nominal.name}': ")
+    kinematics = frame_kinematics(nominal.batch, frame_id, SOLVE_TOLERANCE)
     width = 7 if compensation.targets.kind == "pose" else 3
     out = np.full((len(compensation.statuses), width), np.nan)
     statuses = list(compensation.statuses)

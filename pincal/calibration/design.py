@@ -186,11 +186,11 @@ def design_poses(robot: Robot, measure: Sequence[str], frame: str | None, parame
             identify (naming the least that can work); a measured frame no actuated joint moves.
     """
     if candidates > MAX_SAMPLES:  # before any work: each candidate costs a posture and a Jacobian block
-        raise DataError(f"--candidates {candidates}: pincal draws at most {MAX_SAMPLES} candidate postures, as many "
-                        "as it calibrates samples in one run")
+        raise DataError(f"candidates={candidates}: pincal draws at most {MAX_SAMPLES} candidate postures, as many "
+                        "as it calibrates samples in one run", option="candidates")
     if candidates < 1 or not 1 <= poses <= candidates:
-        raise DataError(f"cannot choose {poses} of {candidates} candidate postures: need "
-                        "1 <= --poses <= --candidates")
+        raise DataError(f"cannot choose poses={poses} of candidates={candidates} candidate postures: need "
+                        "1 <= poses <= candidates", option="poses")
     models, difference = absolute_measurements(measurement_models(robot, measure, frame, 1e-5, refuse_still=True))
     pset = parameters_for(robot, models, parameter_spec)
     rng = np.random.default_rng(seed)
@@ -204,9 +204,9 @@ def design_poses(robot: Robot, measure: Sequence[str], frame: str | None, parame
     values = rows * (poses - int(difference))  # distance_increment: one fewer)
     if values < len(selection.columns):  # κ infinite for any such set: nothing to design
         needed = -(-len(selection.columns) // rows) + int(difference)
-        raise DataError(f"--poses {poses}: {poses} postures give {values} measured values, fewer than the "
+        raise DataError(f"poses={poses}: {poses} postures give {values} measured values, fewer than the "
                         f"{len(selection.columns)} parameters the candidates can identify; choose at least {needed} "
-                        "postures (or fewer --parameters)")
+                        "postures (or fewer parameters)", option="poses")
     kappa_random, logdet_random = random_set_baseline(blocks, poses, selection, scales, difference, rng)
     keys = ", ".join(m.key.replace("distance:", "distance_increment:", 1) if difference else m.key for m in models)
     off = off_nominal(problem, difference, len(selection.columns), seed)

@@ -333,8 +333,8 @@ def check_level(level: float) -> None:
         DataError: naming it.
     """
     if not 0.0 < level < 0.5:
-        raise DataError(f"--level {level:g}: the chance of a false alarm per session must lie between 0 and 0.5 "
-                        "(e.g. 0.01)")
+        raise DataError(f"level={level:g}: the chance of a false alarm per session must lie between 0 and 0.5 "
+                        "(e.g. 0.01)", option="level")
 
 
 def _session_warnings(sessions: Sequence[str], calibrated_from: str | None) -> list[str]:

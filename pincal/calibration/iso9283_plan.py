@@ -33,7 +33,7 @@ from pincal import validation
 from pincal.calibration.compensate import Compensation, compensate, load_model
 from pincal.calibration.joint_commands import CommandSolver, Model
 from pincal.calibration.provenance import version
-from pincal.errors import DataError
+from pincal.errors import Culprit, DataError
 from pincal.io.targets import Targets
 from pincal.model.batch_ik import Goals, actuated_newton
 from pincal.model.robot import Robot
@@ -262,15 +262,18 @@ def plan_test(robot: Robot, region: tuple[float, ...] | None = None, orientation
     validation.whole("candidates", candidates, 1)
     name = frame or robot.measured_frame_choice.frame
     if name is None:
-        raise DataError(f"'{robot.name}' has no frame its actuated joints move: give --frame")
-    robot.frame_id(name, "--frame: ")
+        raise DataError(f"'{robot.name}' has no frame its actuated joints move: give frame=NAME", option="frame")
+    with Culprit(option="frame"):
+        robot.frame_id(name)
     if robot.mobility() < 3:
         raise DataError(f"'{robot.name}' has {robot.mobility()} degrees of freedom: its frame cannot reach the points "
                         "of a cube, which the ISO 9283 test needs (three)")
     six = robot.mobility() >= 6
     if orientation is not None and not six:
-        raise DataError(f"--orientation: '{robot.name}' has {robot.mobility()} degrees of freedom, so the orientation "
-                        "of its frame is not commanded; plan without it")
+        given = ",".join(f"{v:g}" for v in orientation)
+        raise DataError(f"orientation={given}: '{robot.name}' has {robot.mobility()} degrees of freedom, so the "
+                        "orientation of its frame is not commanded; plan without it",
+                        option="orientation")
     rotation = None
     if six:
         if orientation is None:
@@ -289,14 +292,15 @@ def plan_test(robot: Robot, region: tuple[float, ...] | None = None, orientation
     if cube is None or cube.side < min_side:
         found = "none is reached" if cube is None else f"the largest found has a side of {cube.side * 1e3:.3g} mm"
         raise DataError(f"no test cube of side ≥ {min_side * 1e3:g} mm fits inside {where} of frame '{name}' with the "
-                        f"orientation asked: {found}; give another region (--region) or orientation")
+                        f"orientation asked: {found}; give another region=XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX or orientation",
+                        option="region")
     positions = cube.poses()
     approach = APPROACH * cube.side
     points = np.vstack([positions, [p for _, _, p in approach_points(positions, approach)]])
     controlled = load_model(model, robot) if model else Model(robot)
     if controlled.robot.actuated_joints != robot.actuated_joints:
-        raise DataError(f"--model {model} actuates {', '.join(controlled.robot.actuated_joints)}, not the joints of "
-                        f"'{robot.name}': it is not a calibration of this robot")
+        raise DataError(f"model={model} actuates {', '.join(controlled.robot.actuated_joints)}, not the joints of "
+                        f"'{robot.name}': it is not a calibration of this robot", option="model")
     result = compensate(controlled, _targets(name, points, rotation), targets_in="base" if model else "measurement",
                         seed=seed)
     missed = [k for k, status in enumerate(result.statuses) if status != "ok"]
@@ -304,7 +308,8 @@ def plan_test(robot: Robot, region: tuple[float, ...] | None = None, orientation
         labels = ["P1", "P2", "P3", "P4", "P5"] + [f"the approach of {p} from {d}"
                                                    for p, d, _ in approach_points(positions, approach)]
         raise DataError(f"{labels[missed[0]]} of the test cube is not reached"
-                        + (f" on --model {model}" if model else "") + f": {result.statuses[missed[0]]}")
+                        + (f" on model={model}" if model else "") + f": {result.statuses[missed[0]]}",
+                        option="model" if model else None)
     commands_note = (f"through compensate on the calibrated model {model}" if model
                      else f"on the nominal robot '{robot.name}' (give --model CAL.urdf for a calibrated one)")
     return Plan(robot, result.frame, cube, ["P1", "P2", "P3", "P4", "P5"], positions, rotation, _sequence(cycles),

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
-from pincal.calibration.options import OPTIONS, options_given
+from pincal.calibration.options import options_given
 from pincal.cli import (
     assemble,
     bag_import,
@@ -40,6 +40,7 @@ from pincal.cli.arguments import (
     add_perturb,
     add_robot,
     add_spread,
+    command_flags,
     given_options,
     in_flags,
     non_negative_float,
@@ -455,8 +456,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.debug:
             raise
         say_replaced()
-        # a library error names an option by its keyword; the command line's user gave its flag
-        shown = in_flags(str(exc)) if exc.option in OPTIONS and exc.file is None else str(exc)
+        # a library error names an option by its keyword (not a job file's: those name their file); the user gave
+        # its flag
+        shown = in_flags(str(exc), command_flags(parser, args.func)) if exc.file is None else str(exc)
         print(f"pincal: error: {shown}", file=sys.stderr)
         return EXIT_ERROR
     except KeyboardInterrupt:

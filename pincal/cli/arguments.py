@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 import re
-from collections.abc import Collection
+from collections.abc import Collection, Mapping
 from typing import TYPE_CHECKING, Any
 
 from pincal.calibration.options import OPTIONS, PARAMETERS_HELP
@@ -209,24 +209,52 @@ def add_calibration_options(parser: argparse.ArgumentParser, skip: Collection[st
         parser.add_argument(option.flag, **how)
 
 
-#: A calibration option as the library writes it in a message: its keyword and value (``cv_seed=5``, ``cv='loo'``).
-_KEYWORD = re.compile(r"\b(" + "|".join(sorted(OPTIONS, key=len, reverse=True)) + r")=('[^']*'|\"[^\"]*\"|[^\s,;:)]+)")
+#: An option as the library writes it in a message: its keyword and value (``cv_seed=5``, ``cv='loo'``,
+#: ``frame=NAME``); the keyword is a word, the value a quoted text or a run of characters up to a space or , ; : )
+_KEYWORD = re.compile(r"\b([a-z][a-z0-9_]*)=('[^']*'|\"[^\"]*\"|[^\s,;:)]+)")
 
 
 QUOTES = ("'", '"')
 
 
-def in_flags(message: str) -> str:
-    """A library message in the command line's words: each calibration option it writes as a keyword and value
-    (``select='bic'``, ``cv_seed=5``) written as its flag and value (``--select bic``, ``--cv-seed 5``)."""
+def in_flags(message: str, flags: Mapping[str, str] | None = None) -> str:
+    """A library message in the command line's words: each option it writes as a keyword and value
+    (``select='bic'``, ``cv_seed=5``, ``frame=NAME``) written as its flag and value (``--select bic``,
+    ``--cv-seed 5``, ``--frame NAME``).
+
+    Args:
+        message: The library's message.
+        flags: The command's own options, keyword to flag (:func:`command_flags`), beside the calibration options.
+
+    Returns:
+        The message with each keyword the command or the calibration options know written as its flag.
+    """
+    known = {name: option.flag for name, option in OPTIONS.items()} | dict(flags or {})
 
     def flag(match: re.Match[str]) -> str:
-        value = match.group(2)
+        name, value = match.group(1), match.group(2)
+        if name not in known:
+            return match.group(0)
         if value[:1] in QUOTES:
             value = value[1:-1]
-        return f"{OPTIONS[match.group(1)].flag} {value}"
+        return f"{known[name]} {value}"
 
     return _KEYWORD.sub(flag, message)
+
+
+def command_flags(parser: argparse.ArgumentParser, func: Any) -> dict[str, str]:
+    """The options of the (sub)command whose ``func`` default is ``func``, keyword (argparse dest) to its long flag:
+    how the command line spells an option a library error names by keyword. Empty when no subcommand has it."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                if sub.get_default("func") is func:
+                    return {a.dest: max(a.option_strings, key=len) for a in sub._actions
+                            if a.option_strings and a.dest != "help"}
+                found = command_flags(sub, func)
+                if found:
+                    return found
+    return {}
 
 
 def given_options(args: argparse.Namespace) -> dict[str, Any]:

@@ -55,12 +55,12 @@ def pixel_kind(measure: str) -> tuple[str, str]:
     pair = frame.split("-")
     if (kind not in PIXEL_KINDS or not frame or "@" in frame
             or (kind == "cross_pixel") != (len(pair) == 2) or not all(pair)):
-        raise DataError(f"--measure '{measure}' is not pixel:<frame> (a camera on the frame), "
+        raise DataError(f"measure='{measure}' is not pixel:<frame> (a camera on the frame), "
                         "board_pixel:<frame> (a board on the frame, seen by a fixed camera) nor "
                         "cross_pixel:<camera frame>-<board frame> (a camera on one frame sees a board on another; "
                         "frame names without '-')", option="measure")
     if kind == "cross_pixel" and pair[0] == pair[1]:
-        raise DataError(f"--measure '{measure}': the camera and the board are on the same frame (nothing moves "
+        raise DataError(f"measure='{measure}': the camera and the board are on the same frame (nothing moves "
                         "between them): give two frames on different chains", option="measure")
     return kind, frame
 

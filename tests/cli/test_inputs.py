@@ -287,7 +287,7 @@ def test_a_design_of_too_few_postures_to_identify_its_parameters_is_refused(tmp_
     line = one_line_error(run_pincal("design", "delta", "--candidates", "30", "--poses", "8", "--quiet", "--out",
                                      str(out)))
     assert line == ("pincal: error: --poses 8: 8 postures give 24 measured values, fewer than the 27 parameters the "
-                    "candidates can identify; choose at least 9 postures (or fewer --parameters)")
+                    "candidates can identify; choose at least 9 postures (or fewer parameters)")
     assert not out.exists()
     done = run_pincal("design", "delta", "--candidates", "30", "--poses", "9", "--quiet", "--out", str(out))
     assert done.returncode == 0 and out.exists(), done.stderr

@@ -19,7 +19,7 @@ BOARD = "charuco:8x6:0.03:0.022:DICT_4X4_50"
 
 @pytest.mark.parametrize("measure", ["pose:tool0", "pixel:", "cross_pixel:tool0", "cross_pixel:tool0-tool0"])
 def test_a_measure_of_another_form_names_the_option(measure: str) -> None:
-    with pytest.raises(DataError, match=f"^--measure '{measure}'") as caught:
+    with pytest.raises(DataError, match=f"^measure='{measure}'") as caught:
         pixel_kind(measure)
     assert (caught.value.option, caught.value.file) == ("measure", None)
 
@@ -35,7 +35,7 @@ def test_the_command_names_a_camera_and_board_on_one_frame(tmp_path: Path) -> No
     done = run_pincal("detect", "0000.png", "--joints", "joints.csv", "--board", BOARD, "--measure",
                       "cross_pixel:tool0-tool0", "--out", "d.csv", cwd=tmp_path)
     assert done.returncode == 2 and done.stdout == "", done.stdout + done.stderr
-    assert done.stderr.splitlines() == ["pincal: error: --measure 'cross_pixel:tool0-tool0': the camera and the board "
+    assert done.stderr.splitlines() == ["pincal: error: --measure cross_pixel:tool0-tool0: the camera and the board "
                                         "are on the same frame (nothing moves between them): give two frames on "
                                         "different chains"]
     assert not (tmp_path / "d.csv").exists()

@@ -1,0 +1,66 @@
+"""A command's own options in library errors: the library names each by its keyword (``poses=8``, with the error's
+``option`` field), the command line shows the flag the user typed (``--poses 8``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from conftest import run_pincal
+
+import pincal
+from pincal.calibration.design import design_poses
+from pincal.calibration.drift import check_level
+from pincal.calibration.iso9283_plan import plan_test
+from pincal.cli.app import build_parser
+from pincal.cli.planning import cmd_design
+from pincal.cli.arguments import command_flags, in_flags
+from pincal.errors import DataError, NotFoundError
+
+
+def test_a_command_s_flags_are_read_from_its_parser() -> None:
+    from pincal.cli.iso_commands import cmd_plan
+
+    design = command_flags(build_parser(), cmd_design)
+    assert (design["candidates"], design["poses"], design["out"]) == ("--candidates", "--poses", "--out")
+    assert command_flags(build_parser(), cmd_plan)["min_side"] == "--min-side"  # a subcommand's subcommand
+    assert command_flags(build_parser(), print) == {}
+
+
+def test_a_keyword_becomes_the_flag_only_for_options_the_command_has() -> None:
+    flags = {"poses": "--poses", "targets_in": "--targets-in"}
+    assert in_flags("poses=8: too few; targets_in='board': no board; frame=NAME", flags) == \
+        "--poses 8: too few; --targets-in board: no board; frame=NAME"
+    assert in_flags("select='bic', poses=8") == "--select bic, poses=8"  # calibration options are always known
+
+
+def test_design_names_candidates_and_poses_by_keyword() -> None:
+    robot = pincal.load_robot("five_bar")
+    with pytest.raises(DataError, match=r"^candidates=100000000: pincal draws at most ") as caught:
+        design_poses(robot, ["position"], None, None, 100_000_000, 3)
+    assert caught.value.option == "candidates"
+    with pytest.raises(DataError, match=r"^cannot choose poses=5 of candidates=3 candidate postures: need "
+                                        r"1 <= poses <= candidates$") as caught:
+        design_poses(robot, ["position"], None, None, 3, 5)
+    assert caught.value.option == "poses"
+
+
+def test_drift_level_and_iso9283_orientation_and_frame_by_keyword() -> None:
+    with pytest.raises(DataError, match=r"^level=0\.7: the chance of a false alarm") as caught:
+        check_level(0.7)
+    assert caught.value.option == "level"
+    delta = pincal.load_robot("delta")
+    with pytest.raises(DataError, match=r"^orientation=1,0,0,0: 'delta' has 3 degrees of freedom") as caught:
+        plan_test(delta, orientation=(1.0, 0.0, 0.0, 0.0))
+    assert caught.value.option == "orientation"
+    with pytest.raises(NotFoundError, match=r"^frame 'nowhere' does not exist in robot 'delta'") as caught:
+        plan_test(delta, frame="nowhere")
+    assert caught.value.option == "frame"
+
+
+def test_the_command_line_shows_the_flags(tmp_path: Path) -> None:
+    done = run_pincal("iso9283", "plan", "delta", "--orientation", "1,0,0,0", "--out", str(tmp_path / "p.csv"))
+    assert done.returncode == 2 and done.stderr.splitlines() == [
+        "pincal: error: --orientation 1,0,0,0: 'delta' has 3 degrees of freedom, so the orientation of its frame is "
+        "not commanded; plan without it"], done.stderr
+    assert not (tmp_path / "p.csv").exists()
