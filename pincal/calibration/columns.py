@@ -226,7 +226,7 @@ def refuse_column_mistake(robot: Robot, part: Dataset, models: list[Measurement]
     except PincalError:  # data the probe cannot read say nothing of their columns: the caller's error stands
         return
     if mistake is not None:
-        raise DataError(f"{mistake.what}: {mistake.evidence}; {mistake.fix}, or give --plausible off to fit the "
+        raise DataError(f"{mistake.what}: {mistake.evidence}; {mistake.fix}, or give plausible='off' to fit the "
                         "readings as they are")
 
 

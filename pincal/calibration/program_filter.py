@@ -32,7 +32,7 @@ import pinocchio as pin
 
 from pincal.calibration.arm_posture import arm_signs, mismatch, posture_edits
 from pincal.calibration.joint_commands import CommandSolver, Model
-from pincal.errors import DataError, NotFoundError, listing
+from pincal.errors import Culprit, DataError, NotFoundError, listing
 from pincal.io.programs import Edit, Program, Target, rewritten
 from pincal.io.targets import OK
 from pincal.model.batch_ik import Goals
@@ -99,14 +99,18 @@ class ProgramFilter:
 
 
 def _frame_choice(robot: Robot, wanted: str | None, candidates: tuple[str, ...], what: str) -> str:
+    """``wanted`` (the keyword ``what``'s value) if ``robot`` has it, else the first of ``candidates`` it has."""
     if wanted:
-        robot.frame_id(wanted, f"{what}: ")
+        with Culprit(option=what):
+            robot.frame_id(wanted, f"{what}={wanted}: ")
         return wanted
     for name in candidates:
         if robot.model.existFrame(name):
             return name
-    raise NotFoundError(f"{what}: robot '{robot.name}' has none of the frames {listing(list(candidates))}; give it",
-                        "frame", candidates[0], [str(f.name) for f in robot.model.frames])
+    error = NotFoundError(f"robot '{robot.name}' has none of the frames {listing(list(candidates))}; give "
+                          f"{what}=NAME", "frame", candidates[0], [str(f.name) for f in robot.model.frames])
+    error.option = what
+    raise error
 
 
 def default_frames(robot: Robot, language: str, base: str | None = None, flange: str | None = None) -> tuple[str, str]:
@@ -118,9 +122,9 @@ def default_frames(robot: Robot, language: str, base: str | None = None, flange:
     """
     from pincal.calibration.compensate import base_link
 
-    base_frame = _frame_choice(robot, base, BASES, "--base-frame") if base or any(
+    base_frame = _frame_choice(robot, base, BASES, "base") if base or any(
         robot.model.existFrame(b) for b in BASES) else base_link(robot)
-    return base_frame, _frame_choice(robot, flange, FLANGES[language] + (robot.end_effector,), "--flange")
+    return base_frame, _frame_choice(robot, flange, FLANGES[language] + (robot.end_effector,), "flange")
 
 
 def _angle(rotation: Array) -> float:
@@ -158,8 +162,10 @@ def filter_program(program: Program, model: Model, nominal: Robot, base: str | N
                         f"{listing(robot.actuated_joints)}: they are not the same robot")
     base_frame, flange_frame = default_frames(nominal, program.language, base, flange)
     for robot_, what in ((robot, "MODEL"), (nominal, "the nominal robot")):
-        robot_.frame_id(base_frame, f"{what}, --base-frame: ")
-        robot_.frame_id(flange_frame, f"{what}, --flange: ")
+        with Culprit(option="base"):
+            robot_.frame_id(base_frame, f"{what}, base={base_frame}: ")
+        with Culprit(option="flange"):
+            robot_.frame_id(flange_frame, f"{what}, flange={flange_frame}: ")
     nominal_solver = CommandSolver(Model(nominal), flange_frame, tolerance, seed)
     solver = CommandSolver(model, flange_frame, tolerance, seed)
     nominal_base = nominal.placement(nominal.q_reference, base_frame)
@@ -170,7 +176,9 @@ def filter_program(program: Program, model: Model, nominal: Robot, base: str | N
     if gap > ANOTHER_ROBOT:
         raise DataError(f"MODEL ({robot.name}) puts the flange {gap:.3g} m from where the nominal robot "
                         f"'{nominal.name}' puts it at its reference posture (a calibration moves it by millimetres): "
-                        "it is not a calibration of that robot; give --nominal the robot MODEL was calibrated from")
+                        "it is not a calibration of that robot; give nominal=ROBOT, the robot MODEL was calibrated "
+                        "from",
+                        option="nominal")
     previous: Array | None = None
     results: list[Filtered] = []
     joint_count = 0

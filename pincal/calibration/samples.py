@@ -306,7 +306,7 @@ def _scale_message(key: str, measured: float, nominal: float, metadata: Mapping[
              "in a job file with its units (docs/job_file.md)")
     cause = (f"the columns are likely in {unit}, not {stated}: {state}" if unit is not None else
              f"no length unit explains a factor of {factor:.3g} (a wrong unit, or a robot of another size; "
-             f"--plausible F widens the {limit:.3g}× band, --plausible off keeps only {LENGTH_SCALE_RATIO:.0f}×)")
+             f"plausible=F widens the {limit:.3g}× band, plausible='off' keeps only {LENGTH_SCALE_RATIO:.0f}×)")
     return (f"the measured positions '{key}' (columns {columns}, read in {stated}) spread {measured * 1e3:.4g} mm "
             f"about their median, the nominal robot's at the same joint readings {nominal * 1e3:.4g} mm ({shown}, "
             f"beyond {limit:.3g}× either way): {cause}")
@@ -352,7 +352,7 @@ def check_joint_scale(robot: Robot, dataset: Dataset) -> None:
             raise DataError(f"joint '{name}' (column '{column}', read in {stated}) reads {values.min():.4g} to "
                             f"{values.max():.4g} {si}, {span / width:.2%} of its URDF range [{lower:.4g}, "
                             f"{upper:.4g}] {si}: the column is likely in {unit}, not {stated} (in a job file: "
-                            f"[joints] {name} = {{ units = \"{unit}\" }}; --plausible off skips this check)")
+                            f"[joints] {name} = {{ units = \"{unit}\" }}; plausible='off' skips this check)")
 
 
 def _fits(values: Array, lower: float, upper: float) -> bool:

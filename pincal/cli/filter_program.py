@@ -97,7 +97,7 @@ def cmd_filter(args: argparse.Namespace) -> int:
     model = load_model(args.model, nominal)
     if model.corrections_file is not None:
         check_outputs([("--out", path) for path in planned.values()], [*inputs, model.corrections_file])
-    result = filter_program(program, model, nominal, args.base_frame, args.flange, args.tolerance or TOLERANCE,
+    result = filter_program(program, model, nominal, args.base, args.flange, args.tolerance or TOLERANCE,
                             args.seed, args.joint_targets)
     cartesian = sum(r.target.pose is not None for r in result.results)
     print(f"filter: {shown(args.program)} ({language}), {cartesian} Cartesian and {result.joint_targets} joint "
@@ -182,8 +182,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--tcp", type=_pose_option("--tcp"), metavar="X,Y,Z,RX,RY,RZ",
                    help="the tool centre point in the flange frame (m, rotation vector rad) where the program sets "
                         "none (default: the flange)")
-    p.add_argument("--base-frame", help="the frame the program's coordinates are in (default 'base', else the robot's "
-                                        "root link)")
+    p.add_argument("--base-frame", dest="base",
+                   help="the frame the program's coordinates are in (default 'base', else the robot's root link)")
     p.add_argument("--flange", help="the flange frame tools hang on (default: KRL 'flange', else 'tool0')")
     p.add_argument("--config", action="append", default=[], metavar="FILE",
                    help="a file of the controller: KRL its TOOL_DATA and BASE_DATA ($config.dat) or $ROBROOT "

@@ -44,11 +44,11 @@ def read_program(path: str | Path, tcp: pin.SE3, config: Sequence[str | Path] = 
     language = language_of(path)
     originals: dict[str, str] = {str(path): read_text(path)}
     text = lines_of(originals[str(path)])
-    extra = {str(p): lines_of(read_text(p, "--config")) for p in config}
+    extra = {str(p): lines_of(read_text(p, "config file")) for p in config}
     if language == "urscript":
         if robot_base is not None or extra:
-            raise DataError(f"PROGRAM '{path}' is URScript, whose poses are in the robot's base frame: --config and "
-                            "--robot-base are for KRL and RAPID", file=str(path),
+            raise DataError(f"PROGRAM '{path}' is URScript, whose poses are in the robot's base frame: a config file "
+                            "and a robot base are for KRL and RAPID", file=str(path),
                             option="robot_base" if robot_base is not None else "config")
         program = read_urscript(text, str(path), tcp)
         program.texts = originals  # every byte as read: line ends kept
@@ -75,7 +75,8 @@ def _robot_base(found: tuple[pin.SE3, str] | None, given: pin.SE3 | None, world:
                 option: str) -> tuple[pin.SE3 | None, str]:
     """The robot's base in the program's world frame, from a controller's file or ``--robot-base``, and in words."""
     if found is not None and given is not None:
-        raise DataError(f"the robot's base is given twice: {found[1]} and --robot-base; give one", option="robot_base")
+        raise DataError(f"the robot's base is given twice: {found[1]} and robot_base=X,Y,Z,RX,RY,RZ; give one",
+                        option="robot_base")
     if found is not None:
         return found[0], f"robot base in {world}: {found[1]}"
     if given is not None:

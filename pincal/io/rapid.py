@@ -155,7 +155,7 @@ def moc_base(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
     places: dict[str, tuple[str, int]] = {}  # where -> (file, line), for the errors' fields
     for name, text in extra.items():
         if not text.lstrip().startswith("MOC:"):
-            raise DataError(f"--config '{name}' is not a MOC.cfg (its first line 'MOC:CFG_…'): for a RAPID program "
+            raise DataError(f"config file '{name}' is not a MOC.cfg (its first line 'MOC:CFG_…'): for a RAPID program "
                             "pincal reads the robot's base frame from the controller's MOC.cfg", file=name,
                             option="config")
         for match in _MOC.finditer(text):
@@ -165,7 +165,7 @@ def moc_base(extra: dict[str, str]) -> tuple[pin.SE3, str] | None:
             key = match.group(1)
             if key in values:
                 raise DataError(f"-base_frame_{key} is written twice ({values[key][1]}, {where}): several robots' "
-                                "base frames; give a MOC.cfg of this robot, or --robot-base", file=name, line=line)
+                                "base frames; give a MOC.cfg of this robot, or the robot's base", file=name, line=line)
             values[key] = (float(match.group(2)), where)
     if not values:  # ABB's files leave out attributes at their default: the base frame is the world frame
         return (pin.SE3.Identity(), f"ABB's default, the world frame ({listing(list(extra))} writes no "

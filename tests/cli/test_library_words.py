@@ -6,15 +6,15 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from conftest import run_pincal
+from conftest import ROOT, run_pincal
 
 import pincal
 from pincal.calibration.design import design_poses
 from pincal.calibration.drift import check_level
 from pincal.calibration.iso9283_plan import plan_test
 from pincal.cli.app import build_parser
-from pincal.cli.planning import cmd_design
 from pincal.cli.arguments import command_flags, in_flags
+from pincal.cli.planning import cmd_design
 from pincal.errors import DataError, NotFoundError
 
 
@@ -64,3 +64,32 @@ def test_the_command_line_shows_the_flags(tmp_path: Path) -> None:
         "pincal: error: --orientation 1,0,0,0: 'delta' has 3 degrees of freedom, so the orientation of its frame is "
         "not commanded; plan without it"], done.stderr
     assert not (tmp_path / "p.csv").exists()
+
+
+def test_filter_names_its_frames_by_keyword_and_the_command_line_by_flag(tmp_path: Path) -> None:
+    from pincal.calibration.program_filter import default_frames
+
+    ur10 = pincal.load_robot("ur10")
+    with pytest.raises(NotFoundError, match=r"^base=nowhere: frame 'nowhere' does not exist in robot 'ur10'") as caught:
+        default_frames(ur10, "urscript", base="nowhere")
+    assert caught.value.option == "base"
+    with pytest.raises(NotFoundError, match=r"^flange=nowhere: frame 'nowhere' does not exist") as caught:
+        default_frames(ur10, "urscript", flange="nowhere")
+    assert caught.value.option == "flange"
+    program = ROOT / "examples" / "data" / "programs" / "pick_place.script"
+    out = tmp_path / "out.script"
+    for flag in ("--base-frame", "--flange"):
+        done = run_pincal("filter", str(program), "--model", "ur10", flag, "nowhere", "--out", str(out))
+        assert done.returncode == 2 and done.stderr.startswith(
+            f"pincal: error: {flag} nowhere: frame 'nowhere' does not exist in robot 'ur10'; frames are: ") and \
+            done.stderr.count("\n") == 1, done.stderr
+    assert not out.exists()
+
+
+def test_plausible_off_is_a_keyword_to_the_library() -> None:
+    from pincal.calibration.samples import _scale_message
+
+    message = _scale_message("position:tool0", 1.0, 0.1, {}, 3.0)
+    assert message.endswith("(a wrong unit, or a robot of another size; plausible=F widens the 3× band, "
+                            "plausible='off' keeps only 30×)")
+    assert in_flags(message).endswith("; --plausible F widens the 3× band, --plausible off keeps only 30×)")
