@@ -99,15 +99,16 @@ def _read_checked(found: Path, identity: tuple[int, int, int], culprit: str) -> 
     except OSError as exc:
         why = "was replaced by a symbolic link since it was checked" if exc.errno == errno.ELOOP else \
             f"cannot be read now: {exc.strerror or exc}"
-        raise RobotFileError(f"--meshes copy: {culprit}: '{found}' {why}; nothing written") from None
+        raise RobotFileError(f"meshes='copy': {culprit}: '{found}' {why}; nothing written", option="meshes") from None
     with os.fdopen(handle, "rb") as stream:
         info = os.fstat(stream.fileno())
         if _identity(info) != identity or not stat.S_ISREG(info.st_mode):
-            raise RobotFileError(f"--meshes copy: {culprit}: '{found}' was replaced or changed since it was checked; "
-                                 "nothing written")
+            raise RobotFileError(f"meshes='copy': {culprit}: '{found}' was replaced or changed since it was checked; "
+                                 "nothing written", option="meshes")
         data = stream.read()
     if not _looks_like(found, data[:_HEAD], len(data)):
-        raise RobotFileError(f"--meshes copy: {culprit}: '{found}' is no longer a mesh file; nothing written")
+        raise RobotFileError(f"meshes='copy': {culprit}: '{found}' is no longer a mesh file; nothing written",
+                             option="meshes")
     return data
 
 
@@ -261,13 +262,15 @@ def plan_meshes(source_text: str, source_dir: Path | None, out: str | Path, mode
     missing = [name for name, place in found.items() if place is None]
     if missing:
         more = f" (and {len(missing) - 1} more: {listing(missing[1:])})" if len(missing) > 1 else ""
-        raise NotFoundError(f"--meshes copy: mesh '{missing[0]}' is not found on this machine{more}; give "
-                            "ROS_PACKAGE_PATH, or use --meshes keep", "mesh", missing[0])
+        error = NotFoundError(f"meshes='copy': mesh '{missing[0]}' is not found on this machine{more}; give "
+                              "ROS_PACKAGE_PATH, or use meshes='keep'", "mesh", missing[0])
+        error.option = "meshes"
+        raise error
     for name, place in found.items():
         refused = _refusal(name, links[name], *place) if place is not None else None
         if refused:
-            raise RobotFileError(f"--meshes copy: {refused}: refused, nothing written (--meshes keep leaves the "
-                                 "names as they are)")
+            raise RobotFileError(f"meshes='copy': {refused}: refused, nothing written (meshes='keep' leaves the "
+                                 "names as they are)", option="meshes")
     paths = {name: resolved(place[0]) for name, place in found.items() if place is not None}
     checked = {path: (_identity(path.stat()), f"link '{links[name]}' mesh '{name}'") for name, path in paths.items()}
     common = Path(os.path.commonpath([p.parent for p in paths.values()])) if paths else Path()

@@ -93,3 +93,14 @@ def test_plausible_off_is_a_keyword_to_the_library() -> None:
     assert message.endswith("(a wrong unit, or a robot of another size; plausible=F widens the 3× band, "
                             "plausible='off' keeps only 30×)")
     assert in_flags(message).endswith("; --plausible F widens the 3× band, --plausible off keeps only 30×)")
+
+
+def test_meshes_copy_is_a_keyword_to_the_library(tmp_path: Path) -> None:
+    from pincal.io.mesh_files import plan_meshes
+
+    text = ("<robot name='arm'><link name='base'><visual><geometry><mesh filename='package://nowhere/base.stl'/>"
+            "</geometry></visual></link></robot>")
+    with pytest.raises(NotFoundError, match=r"^meshes='copy': mesh 'package://nowhere/base.stl' is not found on this "
+                                            r"machine; give ROS_PACKAGE_PATH, or use meshes='keep'$") as caught:
+        plan_meshes(text, tmp_path, tmp_path / "out" / "cal.urdf", "copy")
+    assert caught.value.option == "meshes"
