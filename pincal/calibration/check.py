@@ -452,7 +452,7 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     nominal_name = nominal_path or provenance.robot
     if nominal_name is None:
         raise DataError(f"MODEL '{model_path}' records no nominal robot (no pincal provenance in it): give the robot "
-                        "it was calibrated from with --nominal ROBOT")
+                        "it was calibrated from with nominal_path=ROBOT", option="nominal_path")
     nominal = load_robot(nominal_name)
     check_nominal(model_path, nominal_path, nominal, provenance)
     job = read_job(data_path) if data_path.endswith(".toml") else None
@@ -494,5 +494,5 @@ def rows_of_set(dataset: Dataset, name: str, data_path: str) -> Dataset:
     if not chosen.n_samples:
         counts = ", ".join(f"{s} {dataset.sets.count(s)}" for s in sorted(set(dataset.sets)))
         raise DataError(f"DATA '{data_path}' has no set={name} row ({counts}): mark the rows to check in its 'set' "
-                        "column, or a job file's held_out, or leave --set out to check every row")
+                        "column, or a job file's held_out, or leave rows out to check every row", option="rows")
     return chosen

@@ -132,8 +132,8 @@ def check_nominal(model: str, given: str | None, nominal: Robot, recorded: Recor
     names = {given, Path(given).stem, nominal.name} | ({source.stem} if source is not None else set())
     if recorded.robot in names or Path(recorded.robot).stem in names:
         return
-    raise DataError(f"--nominal '{given}' is not the robot MODEL was calibrated from ('{recorded.robot}', as "
-                    f"'{model}' records): leave --nominal out, or give that robot")
+    raise DataError(f"nominal_path='{given}' is not the robot MODEL was calibrated from ('{recorded.robot}', as "
+                    f"'{model}' records): leave it out, or give that robot", option="nominal_path")
 
 
 def check_arguments(model: str, data: str) -> None:
@@ -217,7 +217,8 @@ def _rebuilt(path: str, nominal: Robot, dataset: Dataset) -> CheckedModel:
                         f"{', '.join(report.measurements) or 'nothing'}: {exc}") from None
     if len(parameters) != len(names):
         raise DataError(f"MODEL '{path}': {len(names)} parameters, of which robot '{nominal.name}' has "
-                        f"{len(parameters)}: is --nominal the robot it was calibrated from?")
+                        f"{len(parameters)}: is '{nominal.name}' the robot it was calibrated from?",
+                        option="nominal_path")
     x = np.array([float(report.parameters[name].value) for name in parameters.names])
     text, _ = calibrated_robot_text(nominal, source_text(nominal), parameters, x, read_joints=read_joints(models),
                                     markers=declared_markers(models))

@@ -101,8 +101,8 @@ def file_setup(problem: CalibrationProblem, register: bool) -> Array:
         elif not register:
             readings, placed = parameter_kind(kind).check_words
             raise DataError(f"MODEL has no link '{link}' (where a calibrated URDF holds its {kind}): without it the "
-                            f"model cannot predict the {readings} readings as it stands; check with --register, which "
-                            f"places the {placed} on DATA")
+                            f"model cannot predict the {readings} readings as it stands; check with register=True, "
+                            f"which places the {placed} on DATA", option="register")
     return x
 
 
@@ -137,6 +137,7 @@ def model_intrinsics(cameras: dict[str, CameraRecord] | None, dataset: Dataset, 
             camera = f"the camera on '{owner}'" if owner else "the fixed camera"
             raise DataError(f"MODEL carries no intrinsics of {camera} (a calibrated URDF or report of pincal "
                             "calibrate on pixels does): give DATA the camera's intrinsics held (detect "
-                            "--camera-file), or check with --register, which estimates them on DATA")
+                            "--camera-file), or check with register=True, which estimates them on DATA",
+                            option="register")
     return Dataset(dataset.joint_names, dataset.joints, dataset.measurements, dataset.sample_ids, dataset.sets,
                    metadata)

@@ -220,7 +220,7 @@ QUOTES = ("'", '"')
 def in_flags(message: str, flags: Mapping[str, str] | None = None) -> str:
     """A library message in the command line's words: each option it writes as a keyword and value
     (``select='bic'``, ``cv_seed=5``, ``frame=NAME``) written as its flag and value (``--select bic``,
-    ``--cv-seed 5``, ``--frame NAME``).
+    ``--cv-seed 5``, ``--frame NAME``), a switch given as True as its flag alone (``register=True``: ``--register``).
 
     Args:
         message: The library's message.
@@ -237,7 +237,7 @@ def in_flags(message: str, flags: Mapping[str, str] | None = None) -> str:
             return match.group(0)
         if value[:1] in QUOTES:
             value = value[1:-1]
-        return f"{known[name]} {value}"
+        return known[name] if value == "True" else f"{known[name]} {value}"  # a switch: register=True, --register
 
     return _KEYWORD.sub(flag, message)
 

@@ -203,8 +203,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     from pincal.io.files import json_text, write_texts
 
     outputs = [(what, path) for what, path in (("--report", args.report), ("--html", args.html)) if path]
-    check, content = run_check(args.model, args.data, args.nominal, given_options(args), args.register, outputs,
-                               args.set)
+    check, content = run_check(args.model, args.data, args.nominal_path, given_options(args), args.register,
+                               outputs, args.rows)
     print(summary_text(content))
     texts = []
     if args.report:
@@ -243,12 +243,12 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                        help="calibrated URDF (its .corrections.json beside it is read), a known robot name, or the "
                             "report JSON of 'pincal calibrate --report'")
     check.add_argument("data", metavar="DATA", help="measurement CSV (docs/dataset.md) or job file JOB.toml")
-    check.add_argument("--nominal", metavar="ROBOT",
+    check.add_argument("--nominal", metavar="ROBOT", dest="nominal_path",
                        help="the nominal robot (URDF or known name; default: the one MODEL records)")
     check.add_argument("--register", action="store_true",
                        help=f"re-estimate the measurement setup ({SETUP_HELD}) of both robots on DATA, their "
                             "geometry held")
-    check.add_argument("--set", choices=("train", "test"),
+    check.add_argument("--set", choices=("train", "test"), dest="rows",
                        help="check only the rows of this set (a CSV's 'set' column; a job file's held_out rows are "
                             "'test'): calibrate on train, check on test (default: every row)")
     check.add_argument("--report", metavar="R.json", help="report JSON to write (SI units)")

@@ -329,8 +329,8 @@ def test_a_nominal_robot_other_than_the_one_model_records_is_refused(tmp_path: P
     lines = (tmp_path / "sim" / "measurements.csv").read_text(encoding="utf-8").splitlines(keepends=True)
     data.write_text("".join(line for line in lines if not line.startswith("# robot:")), encoding="utf-8")
     line = _error_line(run_pincal("check", str(model), str(data), "--nominal", "ur5"))
-    assert line == (f"pincal: error: --nominal 'ur5' is not the robot MODEL was calibrated from ('ur10', as '{model}' "
-                    "records): leave --nominal out, or give that robot")
+    assert line == (f"pincal: error: --nominal ur5 is not the robot MODEL was calibrated from ('ur10', as '{model}' "
+                    "records): leave it out, or give that robot")
     copy = tmp_path / "elsewhere.urdf"
     copy.write_bytes(Path(str(pincal.load_robot("ur10").source)).read_bytes())
     for nominal in ("ur10", str(copy)):

@@ -104,3 +104,21 @@ def test_meshes_copy_is_a_keyword_to_the_library(tmp_path: Path) -> None:
                                             r"machine; give ROS_PACKAGE_PATH, or use meshes='keep'$") as caught:
         plan_meshes(text, tmp_path, tmp_path / "out" / "cal.urdf", "copy")
     assert caught.value.option == "meshes"
+
+
+def test_check_names_its_arguments_by_keyword() -> None:
+    import numpy as np
+
+    from pincal.calibration.check import rows_of_set
+    from pincal.cli.check_data import cmd_check
+    from pincal.io.dataset import Dataset
+
+    trained = Dataset(["j1"], np.zeros((2, 1)), {}, ["a", "b"], ["train", "train"])
+    with pytest.raises(DataError, match=r"^DATA 'd.csv' has no set=test row \(train 2\): .* or leave rows out to "
+                                        r"check every row$") as caught:
+        rows_of_set(trained, "test", "d.csv")
+    assert caught.value.option == "rows"
+    flags = command_flags(build_parser(), cmd_check)
+    assert (flags["nominal_path"], flags["rows"], flags["register"]) == ("--nominal", "--set", "--register")
+    assert in_flags("check with register=True; nominal_path=ROBOT; no set=test row", flags) == \
+        "check with --register; --nominal ROBOT; no set=test row"
