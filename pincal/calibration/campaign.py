@@ -148,18 +148,18 @@ def simulate(robot: Robot, kinds: Sequence[str], n_train: int, n_test: int = 0, 
         qa[failed], _ = random_actuated(robot, len(failed), rng, spread=spread)  # drawn again, checked again
     errors = f"true errors of σ {perturb:g} (m, rad)" + "".join(f" and {name} shifted by {value:g}"
                                                                    for name, value in (shift or {}).items())
-    smaller = "smaller errors (--perturb" + (", --shift)" if shift else ")")
+    smaller = f"errors smaller than perturb={perturb:g}" + (" and shift=NAME=VALUE" if shift else "")
     if failed:
         tried = "" if len(failed) == len(qa) else f" after {REDRAWS} redraws"
         raise ConvergenceError(f"the simulated robot, with {errors}, cannot be assembled at {len(failed)} of "
                                f"{len(qa)} random postures of '{robot.name}' that the nominal robot assembles{tried}: "
-                               f"give {smaller} or a smaller spread about the reference (--spread)")
+                               f"give {smaller}, or a smaller spread=S about the reference", option="perturb")
     try:
         obs = simulate_observations(robot, pset, x_true, models, qa, rng, noise=noise, joint_noise=joint_noise,
                                     payload=payload)
     except ConvergenceError as exc:
         raise ConvergenceError(f"the simulated robot, with {errors}, cannot be assembled: {exc}; give "
-                               f"{smaller}") from None
+                               f"{smaller}", option="perturb") from None
     joint_names = list(robot.actuated_joints)
     joints = [obs.actuated]
     measured: dict[str, Array] = {}

@@ -147,8 +147,8 @@ def read_inputs(command: str, robot_or_job: str, data: str | None, options: Mapp
             raise PincalError(f"{command}: '{robot_or_job}' is a job file, which names its own data; give no DATA "
                               f"(got '{data}'), or a robot: pincal {command} ROBOT DATA")
         if options.get("markers", "each") != "each":
-            raise PincalError(f"{command}: --markers cluster applies to a dataset named on the command line, not yet "
-                              "to a job file")
+            raise PincalError(f"{command}: markers='cluster' applies to a dataset named on the command line, not "
+                              "yet to a job file", option="markers")
         job = read_job(robot_or_job).overridden(options={k: v for k, v in options.items() if k != "markers"})
         given = options_given(job.options, job.path)
         robot = load_job_robot(job)

@@ -153,8 +153,8 @@ def ur_kinematics(robot: Robot, nominal: Robot, base: str = "base", tool: str = 
     """
     ids, nominal_ids = _joint_ids(robot), _joint_ids(nominal)
     for r in (robot, nominal):
-        r.frame_id(base, "--format ur: ")
-        r.frame_id(tool, "--format ur: ")
+        r.frame_id(base, "format='ur': ")
+        r.frame_id(tool, "format='ur': ")
     layout = _layout(nominal, base, tool, nominal_ids)
     zero = np.zeros(6)
     ur_frames = compose(nominal_entries(*layout), zero)
