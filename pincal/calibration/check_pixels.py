@@ -17,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.calibration.propagation import LEVEL, norm_quantiles, row_sigmas
-from pincal.calibration.report_sections import PixelPredictions, PredictedImage
+from pincal.calibration.report_sections import PixelAccount, PixelPredictions, PredictedImage
 from pincal.identification.measurements import KIND_CLASSES, Measurement
 from pincal.identification.measurements.pixels import Pixel
 from pincal.identification.metrics import pixel_error_norms, rms
@@ -124,19 +124,19 @@ class PixelBounds:
         return {"pixel_bound": number(self.bound[k]), "pixel_model_bound": number(self.model_bound[k]),
                 "pixel_bound_at_board": number(self.bound[k] * self.scale[k])}
 
-    def account(self, errors: Array | None) -> dict[str, Any]:
+    def account(self, errors: Array | None) -> PixelAccount:
         """How many images' reprojection errors ``errors`` (N,) [px] lie within their bound, and the median bound [px]
         and at the board [m]."""
         known = np.isfinite(self.bound) & (np.isfinite(errors) if errors is not None else False)
         within = known & (np.nan_to_num(errors, nan=np.inf) <= self.bound) if errors is not None else known & False
         inside = int(np.count_nonzero(within))
         at_board = self.bound * self.scale
-        return {"level": LEVEL, "unit": "px", "inside": inside, "images": int(np.count_nonzero(known)),
-                "median_bound": _median(self.bound), "median_model_bound": _median(self.model_bound),
-                "median_bound_at_board": _median(at_board)}
+        return PixelAccount(level=LEVEL, unit="px", inside=inside, images=int(np.count_nonzero(known)),
+                            median_bound=_median(self.bound), median_model_bound=_median(self.model_bound),
+                            median_bound_at_board=_median(at_board))
 
 
-def pixel_account(bounds: PixelBounds | None, errors: Array | None) -> dict[str, Any] | None:
+def pixel_account(bounds: PixelBounds | None, errors: Array | None) -> PixelAccount | None:
     """:meth:`PixelBounds.account` of the images' reprojection errors ``errors`` (N,) [px]; None without bounds."""
     return bounds.account(errors) if bounds is not None else None
 
@@ -220,6 +220,6 @@ def held_out_pixels(problem: CalibrationProblem, covariance: Array, columns: lis
     found = image_errors(errors, len(ids))
     if bounds is None or found is None:
         return None
-    return PixelPredictions(**bounds.account(found),
+    return PixelPredictions(**bounds.account(found).as_dict(),
                             images_predicted=[PredictedImage(sample=s, pixel_error=number(found[k]), **bounds.entry(k))
                                               for k, s in enumerate(ids)])

@@ -229,17 +229,16 @@ class PredictedImage(Section):
 
 
 @dataclass(frozen=True)
-class PixelPredictions(Section):
-    """The held-out images' predicted reprojection bounds and how many of their errors the bounds hold
-    (:func:`pincal.calibration.check_pixels.held_out_pixels`).
+class PixelAccount(Section):
+    """Images' predicted reprojection bounds and how many of their errors the bounds hold
+    (:meth:`pincal.calibration.check_pixels.PixelBounds.account`): ``pincal check``'s ``pixel_predicted``.
 
     Attributes:
         level: The probability the bounds hold [1] (0.95).
         unit: The bounds' unit (``px``).
         inside: Images whose error is within their bound, of ``images`` (those with a bound and an error).
         median_bound: The bounds' median [px]; ``median_model_bound`` the model's part alone; None: none known.
-        median_bound_at_board: The bounds' median at the board [m].
-        images_predicted: Each image's error and bounds.
+        median_bound_at_board: The bounds' median at the board [m]; None: none known.
     """
 
     level: float = 0.95
@@ -249,6 +248,17 @@ class PixelPredictions(Section):
     median_bound: float | None = None
     median_model_bound: float | None = None
     median_bound_at_board: float | None = None
+
+
+@dataclass(frozen=True)
+class PixelPredictions(PixelAccount):
+    """The held-out images' :class:`PixelAccount` and each image's error beside its bounds
+    (:func:`pincal.calibration.check_pixels.held_out_pixels`).
+
+    Attributes:
+        images_predicted: Each image's error and bounds.
+    """
+
     images_predicted: list[PredictedImage] = field(default_factory=list, metadata=nested(listed(PredictedImage)))
 
 

@@ -5,10 +5,13 @@ from __future__ import annotations
 import argparse
 import math
 import textwrap
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pincal.calibration.options import OPTIONS
 from pincal.cli.arguments import add_calibration_options, given_options
+
+if TYPE_CHECKING:
+    from pincal.calibration.report_sections import PixelAccount
 
 #: The calibration options ``check`` takes: the weights, the registration's solver and iteration limit, and the
 #: plausibility factor of calibrate's checks of the data.
@@ -106,12 +109,12 @@ def _pixel_lines(content: dict[str, Any]) -> list[str]:
     if not content.get("pixels"):
         return []
     lines = [f"reprojection: {_pair(content['pixels'], '', 'px')} (over {content['pixels']['n_corners']} corners)"]
-    predicted = content.get("pixel_predicted")
-    if predicted and predicted["median_bound"] is not None:
-        lines.append(f"predicted 95 % bound of an image's reprojection error: median {predicted['median_bound']:.3f} px"
-                     f"{_at_board(predicted['median_bound_at_board'])} (MODEL's prediction alone "
-                     f"{predicted['median_model_bound']:.3f} px, the rest the corners' noise); "
-                     f"{predicted['inside']} of {predicted['images']} images of MODEL within their bound")
+    predicted: PixelAccount | None = content.get("pixel_predicted")
+    if predicted and predicted.median_bound is not None:
+        lines.append(f"predicted 95 % bound of an image's reprojection error: median {predicted.median_bound:.3f} px"
+                     f"{_at_board(predicted.median_bound_at_board)} (MODEL's prediction alone "
+                     f"{predicted.median_model_bound:.3f} px, the rest the corners' noise); "
+                     f"{predicted.inside} of {predicted.images} images of MODEL within their bound")
     lines.append("  per image (RMS of its corners): MODEL, nominal" + (", predicted bound" if predicted else ""))
     images = [s for s in content["samples"] if "pixel_error" in s]
     lines += [f"  {s['sample']}: {_shown(s['pixel_error'], 'px')}, {_shown(s['nominal_pixel_error'], 'px')}"

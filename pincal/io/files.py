@@ -332,5 +332,14 @@ def _locked_temporary(target: Path) -> tuple[int, str]:
 
 
 def json_text(content: dict[str, Any]) -> str:
-    """``content`` as the indented JSON text of pincal's report files (keys in the order given)."""
-    return json.dumps(content, indent=2, sort_keys=False) + "\n"
+    """``content`` as the indented JSON text of pincal's report files (keys in the order given); a record in it (an
+    object with ``as_dict``, such as a report section) written as the JSON object it gives."""
+    return json.dumps(content, indent=2, sort_keys=False, default=_json_object) + "\n"
+
+
+def _json_object(value: Any) -> Any:
+    """A record's JSON object (its ``as_dict()``), for :func:`json.dumps`; TypeError for anything else."""
+    as_dict = getattr(value, "as_dict", None)
+    if as_dict is None:
+        raise TypeError(f"{type(value).__name__} is not JSON serializable")
+    return as_dict()
