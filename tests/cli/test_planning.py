@@ -140,7 +140,7 @@ def test_bad_requests_exit_2_with_one_line(args: list[str], capsys: pytest.Captu
     assert captured.out == ""
     assert len(captured.err.splitlines()) == 1 and captured.err.startswith("pincal: error: ")
     assert ("known robots are: delta" in captured.err or "frames are: base" in captured.err
-            or "cannot choose 20 of 10" in captured.err)
+            or "cannot choose --poses 20 of --candidates 10" in captured.err)
 
 
 @pytest.mark.parametrize("command", ["design", "montecarlo"])

@@ -144,7 +144,7 @@ def test_intrinsics_held_at_a_camera_file(images: Path, tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(("args", "message"), [
     (["--board", "chess:8x6", "--measure", "pixel:tool0"], "board 'chess:8x6' is not charuco:COLSxROWS"),
-    (["--board", BOARD, "--measure", "pose:tool0"], "--measure 'pose:tool0' is not pixel:<frame>"),
+    (["--board", BOARD, "--measure", "pose:tool0"], "--measure pose:tool0 is not pixel:<frame>"),
     (["--board", "charuco:8x6:0.03:0.022:DICT_9X9_1", "--measure", "pixel:tool0"],
      "board dictionary 'DICT_9X9_1' is not one of OpenCV's"),
 ])
