@@ -74,11 +74,9 @@ def command(side: str, parameters: tuple[str, ...] | None, cv: str) -> str:
 def run_line(job: Job, side: str, model: str, parameters: tuple[str, ...] | None, cv: str) -> Line:
     """Calibrate one line as the command does: the job's robot, data and options, the line's parameters and cv."""
     robot = load_job_robot(job)
-    options = dict(job.options, cv=cv)
-    if parameters:
-        options["parameter_spec"] = list(parameters)
+    options = job.options.over({"cv": cv, "parameter_spec": list(parameters) if parameters else None}).calibration
     start = time.perf_counter()
-    report = calibrate(robot, job_dataset(job, robot), **options).report
+    report = calibrate(robot, job_dataset(job, robot), options).report
     return Line(side, model, command(side, parameters, cv), report, time.perf_counter() - start)
 
 

@@ -16,11 +16,11 @@ from __future__ import annotations
 
 import concurrent.futures
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
+from pincal.calibration.options import GivenOptions
 from pincal.calibration.report import CalibrationReport
 from pincal.errors import PincalError
 from pincal.io.files import check_directory
@@ -40,8 +40,8 @@ class FleetJob:
         data: Measurement CSV, or a job file (``.toml``) naming its own robot and data.
         out_urdf: Where to write the calibrated URDF (optional).
         report: Where to write the report JSON (optional).
-        options: Keyword options of :func:`pincal.calibration.calibrate` (fields of
-            :class:`~pincal.calibration.options.CalibrationOptions`); over a job file's own.
+        options: Options of :func:`pincal.calibration.calibrate` given for this robot, each at its source
+            (:class:`~pincal.calibration.options.GivenOptions`); over a job file's own.
     """
 
     name: str
@@ -49,7 +49,7 @@ class FleetJob:
     data: str
     out_urdf: str | None = None
     report: str | None = None
-    options: dict[str, Any] = field(default_factory=dict)
+    options: GivenOptions = field(default_factory=GivenOptions)
 
 
 @dataclass(frozen=True)
@@ -70,13 +70,11 @@ def run_job(job: FleetJob) -> FleetResult:
     """Calibrate one robot (runs in a worker process; a top-level function so it pickles)."""
     from pincal.calibration.from_files import calibrate_files, calibrate_job
     from pincal.calibration.job import read_job
-    from pincal.calibration.options import options_given
-
     try:
         if job.data.endswith(JOB_SUFFIX):
             cal = calibrate_job(read_job(job.data).overridden(job.out_urdf, job.report, job.options))
         else:
-            cal = calibrate_files(job.robot, job.data, job.out_urdf, job.report, options=options_given(job.options))
+            cal = calibrate_files(job.robot, job.data, job.out_urdf, job.report, options=job.options.calibration)
     except PincalError as exc:
         return FleetResult(job.name, None, f"{type(exc).__name__}: {exc}")
     return FleetResult(job.name, cal.report, None)
@@ -113,11 +111,11 @@ def _gathered(results: Iterable[FleetResult], bar: Progress) -> list[FleetResult
 
 
 def jobs_from_directory(robot: str, directory: str | Path, out: str | Path,
-                        options: Mapping[str, Any] | None = None) -> list[FleetJob]:
+                        options: GivenOptions | None = None) -> list[FleetJob]:
     """One job per ``*.csv`` in ``directory`` on the nominal ``robot``, and one per job file ``*.toml`` (its own robot
-    and data), sorted by name; outputs named after each file in ``out``; ``options`` (keywords of
-    :class:`~pincal.calibration.options.CalibrationOptions`, those given) for every job."""
-    options = {} if options is None else dict(options)
+    and data), sorted by name; outputs named after each file in ``out``; ``options`` (those given, each at its
+    source: :class:`~pincal.calibration.options.GivenOptions`) for every job."""
+    options = GivenOptions() if options is None else options
     out_dir = check_directory(out, "--out")
     files = sorted([*Path(directory).glob("*.csv"), *Path(directory).glob(f"*{JOB_SUFFIX}")])
     return [FleetJob(p.stem, robot, str(p), str(out_dir / f"{p.stem}.urdf"), str(out_dir / f"{p.stem}.json"), options)

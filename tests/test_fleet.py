@@ -11,6 +11,7 @@ from dask.distributed import Client, LocalCluster
 
 import pincal
 from pincal.calibration.campaign import simulate
+from pincal.calibration.options import GivenOptions
 from pincal.fleet import FleetJob, calibrate_fleet, jobs_from_directory
 from pincal.io.dataset import write_dataset
 
@@ -25,7 +26,8 @@ def fleet(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[FleetJob
         sim = simulate(robot, ["position"], 25, 5, perturb=1e-3, noise=1e-5, seed=100 + k, parameter_spec=["model24i"])
         write_dataset(sim.dataset, data / f"delta_{k:02d}.csv")
     (data / "delta_99.csv").write_text("arm_1_joint,arm_2_joint\n0,0\n0.1,0\n")  # a broken file in the lot
-    return root, jobs_from_directory("delta", data, root / "out", {"parameter_spec": ["model24i"]})
+    return root, jobs_from_directory("delta", data, root / "out",
+                                     GivenOptions.of({"parameter_spec": ["model24i"]}))
 
 
 def _reports(results: list) -> list:

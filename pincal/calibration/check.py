@@ -52,7 +52,7 @@ from pincal.calibration.check_setup import (
     nominal_means,
     prepare_setup,
 )
-from pincal.calibration.options import CalibrationOptions
+from pincal.calibration.options import CalibrationOptions, GivenOptions
 from pincal.calibration.pipeline import check_units
 from pincal.calibration.predicted import PredictedErrors, coverage
 from pincal.calibration.samples import held_out_outside_range
@@ -420,14 +420,14 @@ def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
     return content
 
 
-def run_check(model_path: str, data_path: str, nominal_path: str | None, options: dict[str, Any],
+def run_check(model_path: str, data_path: str, nominal_path: str | None, options: GivenOptions,
               register: bool = False, outputs: Sequence[tuple[str, str]] = (),
               rows: str | None = None) -> tuple[Check, dict[str, Any]]:
     """``pincal check`` from files: MODEL (a calibrated URDF, a robot name or a report JSON), DATA (a CSV or a job
-    file, whose options apply under ``options``), the nominal robot (``nominal_path``, else the one MODEL records);
-    ``rows`` the set checked (``train`` or ``test``: a CSV's ``set`` column, a job's ``held_out`` rows; None: every
-    row); ``outputs`` (``(what, path)``) are checked before any work (never over an input). Returns the check and
-    its report content.
+    file, whose options apply under ``options``, those given with where each was given), the nominal robot
+    (``nominal_path``, else the one MODEL records); ``rows`` the set checked (``train`` or ``test``: a CSV's ``set``
+    column, a job's ``held_out`` rows; None: every row); ``outputs`` (``(what, path)``) are checked before any work
+    (never over an input). Returns the check and its report content.
 
     Raises:
         DataError: no nominal robot given or recorded, or one given that MODEL does not record; no row of set
@@ -459,8 +459,7 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     inputs: list[str | Path] = [model_path, corrections_path(model_path), data_path, *(job.files if job else ()),
                                 *(p for p in (nominal.source, provenance.data) if p is not None)]
     check_outputs(outputs, inputs)
-    if job is not None:
-        options = {**job.options, **options}
+    given = job.options.over(options) if job is not None else options
     dataset = job_dataset(job, nominal) if job is not None else read_robot_dataset(data_path, nominal)
     n_rows = dataset.n_samples
     if rows is not None:
@@ -469,13 +468,13 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     fitted, note = fitted_data(model, nominal)
     changed = (nominal_path is None and provenance.robot_sha256 and nominal.source is not None
                and sha256(nominal.source) != provenance.robot_sha256)
-    result = check_model(model, nominal, dataset, CalibrationOptions(**options), register, fitted, note)
+    result = check_model(model, nominal, dataset, CalibrationOptions(**given.values), register, fitted, note)
     result = replace(result, n_samples_in_file=n_rows)
     nominal_file = nominal_name if Path(nominal_name).is_file() else None  # else a known robot, by its name
     sources = {"model": model_path, "nominal": nominal_name,
                "nominal_given": nominal_path is not None, "data": data_path, "rows": rows or "all",
                "provenance": {"pincal_version": version(),
-                              "options": {**options, "register": register, "set": rows},
+                              "options": {**given.values, "register": register, "set": rows},
                               "sha256": file_digests(model_path, corrections_path(model_path), data_path,
                                                      *(job.files if job else ()), nominal_file)}}
     content = check_content(result, sources)

@@ -13,7 +13,7 @@ from typing import Any
 from pincal import validation
 from pincal.calibration.job import Job, load_job_robot, read_job
 from pincal.calibration.job_data import job_dataset
-from pincal.calibration.options import CalibrationOptions, OptionSource, options_given
+from pincal.calibration.options import CalibrationOptions, GivenOptions, options_given
 from pincal.calibration.pipeline import Calibration, calibrate
 from pincal.calibration.provenance import Provenance, file_source, options_dict, robot_source, with_provenance
 from pincal.calibration.report import CalibrationReport
@@ -100,13 +100,10 @@ def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -
     whole or not at all; ``meshes`` as for :func:`calibrate_files`; ``progress`` as for :func:`calibrate`."""
     validation.instance("job", job, Job, "a Job (pincal.calibration.job.read_job)")
 
-    def source(option: str) -> OptionSource:  # the command line's value in place of the job's, or the job's own
-        return "command line" if option in job.overrides else job.path
-
-    options = options_given(job.options, source)
+    options = job.options.calibration  # errors worded as each option was given: the command line or the job file
     robot = load_job_robot(job)
-    payload = job.options.get("payload")
-    if payload is not None and "payload" not in job.overrides:  # the job's own: name the file
+    payload = options.payload
+    if payload is not None and job.options.source("payload") == job.path:  # the job's own: name the file
         try:
             payload.check(robot)
         except NotFoundError as exc:  # the same culprit, the job file named
@@ -149,8 +146,9 @@ def read_inputs(command: str, robot_or_job: str, data: str | None, options: Mapp
         if options.get("markers", "each") != "each":
             raise PincalError(f"{command}: markers='cluster' applies to a dataset named on the command line, not "
                               "yet to a job file", option="markers")
-        job = read_job(robot_or_job).overridden(options={k: v for k, v in options.items() if k != "markers"})
-        given = options_given(job.options, job.path)
+        cli = GivenOptions.of({k: v for k, v in options.items() if k != "markers"}, "command line")
+        job = read_job(robot_or_job).overridden(options=cli)
+        given = options_given(job.options.values, job.path)
         robot = load_job_robot(job)
         return Inputs(robot, job_dataset(job, robot), given, [job.path, *job.files], str(job.robot))
     if data is None:

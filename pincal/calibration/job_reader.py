@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pincal.calibration.options import JOB_OPTIONS, OPTIONS
+from pincal.calibration.options import JOB_OPTIONS, OPTIONS, GivenOptions
 from pincal.errors import DataError, NotFoundError, PincalError, listing, not_found
 from pincal.identification.corrections import Payload, payload_from_dict
 from pincal.io.files import input_problem
@@ -75,9 +75,10 @@ class Job:
         file_names: Each data file as the job writes it (messages, sample ids).
         out: The calibrated URDF to write, or None.
         report: The report JSON to write, or None.
-        options: Keyword arguments of :func:`pincal.calibration.calibrate` (``parameter_spec``, ``select``, ``loss``,
-            ``solver``, ``sigma`` [m], ``max_iter``, ``formulation``, ``cv``, ``cv_seed``, ``payload``), those the
-            job gives.
+        options: The options of :func:`pincal.calibration.calibrate` the job gives (``parameters``, ``select``,
+            ``loss``, ``solver``, ``sigma`` [m], ``max_iter``, ``formulation``, ``cv``, ``cv_seed``, ``payload``), each
+            with where it was given (the job file, or the command line in place of the job's):
+            :class:`~pincal.calibration.options.GivenOptions`.
         length_unit: The data files' length unit (a key of :data:`LENGTH_UNIT_SIZES`).
         angle_unit: The data files' angle unit (a key of :data:`ANGLE_UNIT_SIZES`).
         held_out: Which rows are held out, or None.
@@ -89,7 +90,6 @@ class Job:
         joint_units: Joint name -> the unit its readings are written in (a key of :data:`LENGTH_UNIT_SIZES` or
             :data:`ANGLE_UNIT_SIZES`), those the job states; the others are in ``length_unit`` or ``angle_unit``.
         measures: The measurements and their columns.
-        overrides: The options given elsewhere (the command line) in place of the job's, by name.
         bag: The ROS bag the data come from (a ``[bag]`` table, :mod:`pincal.calibration.job_bag`), or None.
     """
 
@@ -99,7 +99,7 @@ class Job:
     file_names: tuple[str, ...]
     out: Path | None = None
     report: Path | None = None
-    options: dict[str, Any] = field(default_factory=dict)
+    options: GivenOptions = field(default_factory=GivenOptions)
     length_unit: str = "m"
     angle_unit: str = "rad"
     held_out: HeldOut | None = None
@@ -107,28 +107,18 @@ class Job:
     ignore: tuple[Column, ...] = ()
     joints: dict[str, Column] = field(default_factory=dict)
     measures: tuple[MeasureColumns, ...] = ()
-    overrides: tuple[str, ...] = ()
     bag: BagSource | None = None
     header: str = "names"
     joint_units: dict[str, str] = field(default_factory=dict)
 
     def overridden(self, out: str | Path | None = None, report: str | Path | None = None,
-                   options: Mapping[str, Any] | None = None) -> Job:
-        """This job with outputs and :func:`~pincal.calibration.calibrate` options (keywords of
-        :class:`~pincal.calibration.options.CalibrationOptions`) given elsewhere (the command line) in place of its
-        own; None keeps the job's.
-
-        Raises:
-            NotFoundError: an option that :func:`~pincal.calibration.calibrate` does not have.
-        """
-        options = {} if options is None else options
-        for name in options:
-            if name not in OPTIONS:
-                raise not_found("option", name, OPTIONS, " of calibrate()")
-        given = {k: v for k, v in options.items() if v is not None}
+                   options: GivenOptions | None = None) -> Job:
+        """This job with outputs and :func:`~pincal.calibration.calibrate` options given elsewhere (the command line:
+        :class:`~pincal.calibration.options.GivenOptions`, each at its source) in place of its own; None keeps the
+        job's."""
         return replace(self, out=Path(out) if out is not None else self.out,
                        report=Path(report) if report is not None else self.report,
-                       options={**self.options, **given}, overrides=tuple(sorted({*self.overrides, *given})))
+                       options=self.options if options is None else self.options.over(options))
 
 
 class JobReader:
@@ -232,9 +222,10 @@ class JobReader:
                                     "relative to its directory)")
         return path, written
 
-    def options(self, doc: dict[str, Any]) -> dict[str, Any]:
+    def options(self, doc: dict[str, Any]) -> GivenOptions:
         """The calibration options the job gives, each read as its :class:`~pincal.calibration.options.Option`
-        says (its key, kind and choices), by keyword; an error names the option (its ``option`` field)."""
+        says (its key, kind and choices), given at the job file; an error names the option (its ``option``
+        field)."""
         options: dict[str, Any] = {}
         for name, option in OPTIONS.items():
             if option.key is None or option.key not in doc:
@@ -248,7 +239,7 @@ class JobReader:
             except PincalError as exc:
                 exc.option = name
                 raise
-        return options
+        return GivenOptions.of(options, self.path)
 
     def option_texts(self, value: Any, key: str) -> list[str]:
         """An option of strings (``parameters``): one string or a list of them."""

@@ -15,7 +15,7 @@ import re
 from collections.abc import Callable, Mapping
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal, get_args
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, get_args
 
 from pincal import validation
 from pincal.errors import ArgumentError, DataError, NotFoundError, PincalError, listing, not_found
@@ -315,6 +315,76 @@ def options_given(values: Mapping[str, Any], sources: OptionSources = "keyword")
                 check_cv_seed(cv, seed, where("cv"), where("cv_seed"))
                 check_select_cv(select, cv, where("select"), where("cv"))
         raise
+
+
+class GivenOption(NamedTuple):
+    """One option a user gave: its keyword (a field of :class:`CalibrationOptions`), its value and where it was
+    given."""
+
+    name: str
+    value: Any
+    source: OptionSource
+
+
+@dataclass(frozen=True)
+class GivenOptions:
+    """The options a user gave (in a job file, on the command line, as keywords), each with where it was given; the
+    others stand at their defaults. The :class:`CalibrationOptions` they make are checked when first read
+    (:attr:`calibration`), once every source is laid over the others, so a job file's seed may go with a plan the
+    command line gives.
+
+    Attributes:
+        given: Each option given, in the order first given, with the value and source last given.
+    """
+
+    given: tuple[GivenOption, ...] = ()
+
+    @classmethod
+    def of(cls, values: Mapping[str, Any], source: OptionSource = "keyword") -> GivenOptions:
+        """The options ``values`` give (keywords of :class:`CalibrationOptions`; a None is not given) at
+        ``source``.
+
+        Raises:
+            NotFoundError: a name that is not an option.
+        """
+        return cls().over(values, source)
+
+    def over(self, values: Mapping[str, Any] | GivenOptions, source: OptionSource = "keyword") -> GivenOptions:
+        """These options with ``values`` (keywords at ``source``, a None not given; or other given options, each
+        at its own source) in place of theirs.
+
+        Raises:
+            NotFoundError: a name that is not an option.
+        """
+        if isinstance(values, GivenOptions):
+            laid = values.given
+        else:
+            for name in values:
+                if name not in OPTIONS:
+                    raise not_found("option", name, OPTIONS, " of calibrate()")
+            laid = tuple(GivenOption(k, v, source) for k, v in values.items() if v is not None)
+        merged = {option.name: option for option in self.given} | {option.name: option for option in laid}
+        return GivenOptions(tuple(merged.values()))  # as a dict merges: a name given again keeps its place
+
+    @property
+    def values(self) -> dict[str, Any]:
+        """Each given option's value, by keyword (as a provenance records them)."""
+        return {option.name: option.value for option in self.given}
+
+    def source(self, name: str) -> OptionSource:
+        """Where option ``name`` was given (``"keyword"`` for one not given)."""
+        return next((option.source for option in self.given if option.name == name), "keyword")
+
+    @functools.cached_property
+    def calibration(self) -> CalibrationOptions:
+        """The :class:`CalibrationOptions` these give over the defaults (:func:`options_given`), errors worded as
+        each option was written at its source.
+
+        Raises:
+            NotFoundError: a name that is not an option.
+            DataError: a value out of range, naming the option.
+        """
+        return options_given(self.values, self.source)
 
 
 def check_cv_seed(cv: str | None, cv_seed: int, cv_source: OptionSource = "keyword",

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
-from pincal.calibration.options import options_given
+from pincal.calibration.options import GivenOptions, options_given
 from pincal.cli import (
     assemble,
     bag_import,
@@ -180,9 +180,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         if options.pop("markers", "each") != "each":
             raise PincalError("calibrate: --markers cluster applies to a dataset named on the command line, not yet to "
                               "a job file")
-        job = read_job(args.robot).overridden(args.out, args.report, options)
+        job = read_job(args.robot).overridden(args.out, args.report, GivenOptions.of(options, "command line"))
         cal = calibrate_job(job, args.meshes, progress=True)
-        out, report_path, spec = job.out, job.report, job.options.get("parameter_spec")
+        out, report_path, spec = job.out, job.report, job.options.calibration.parameter_spec
     else:
         given = options_given(options, "command line")  # checked before any work, errors in the flags' words
         spec = options.get("parameter_spec")
@@ -272,7 +272,8 @@ def cmd_fleet(args: argparse.Namespace) -> int:
     options_given(given_options(args), "command line")  # checked before any job, errors in the flags' words
     if args.scheduler:
         check_scheduler(args.scheduler)
-    jobs = jobs_from_directory(args.robot, args.data_dir, args.out, given_options(args))
+    given = GivenOptions.of(given_options(args), "command line")
+    jobs = jobs_from_directory(args.robot, args.data_dir, args.out, given)
     if not jobs:
         raise DataError(f"no *.csv or *{JOB_SUFFIX} files in '{args.data_dir}'")
     if args.scheduler:

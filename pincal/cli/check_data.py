@@ -7,7 +7,7 @@ import math
 import textwrap
 from typing import TYPE_CHECKING, Any
 
-from pincal.calibration.options import OPTIONS
+from pincal.calibration.options import OPTIONS, GivenOptions
 from pincal.cli.arguments import add_calibration_options, given_options
 
 if TYPE_CHECKING:
@@ -206,8 +206,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     from pincal.io.files import json_text, write_texts
 
     outputs = [(what, path) for what, path in (("--report", args.report), ("--html", args.html)) if path]
-    check, content = run_check(args.model, args.data, args.nominal_path, given_options(args), args.register,
-                               outputs, args.rows)
+    given = GivenOptions.of(given_options(args), "command line")
+    check, content = run_check(args.model, args.data, args.nominal_path, given, args.register, outputs, args.rows)
     print(summary_text(content))
     texts = []
     if args.report:

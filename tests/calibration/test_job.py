@@ -15,6 +15,7 @@ from conftest import ROOT, run_pincal
 import pincal
 from pincal.calibration.job import Job, read_job
 from pincal.calibration.job_data import job_dataset
+from pincal.calibration.options import GivenOption, GivenOptions
 from pincal.errors import DataError, NotFoundError, PincalError
 from pincal.identification.corrections import Payload
 from pincal.io.dataset_reader import read_dataset
@@ -67,7 +68,7 @@ def write_csv(path: Path, header: list[str], rows: list[list[str]], preamble: st
 def test_the_example_job_reads_the_raw_file_as_the_converted_one(tiago: pincal.Robot) -> None:
     """examples/tiago_job.toml on the raw file gives, bit for bit, the samples the converted CSV holds."""
     job = read_job(EXAMPLE)
-    assert job.files == (EXAMPLE.parent / "data" / "tiago_mocap_raw.csv",) and job.options["select"] == "auto"
+    assert job.files == (EXAMPLE.parent / "data" / "tiago_mocap_raw.csv",) and job.options.calibration.select == "auto"
     ours, theirs = job_dataset(job, tiago), read_dataset(CONVERTED)
     assert ours.sample_ids == theirs.sample_ids and ours.sets == theirs.sets
     assert sorted(ours.joint_names) == sorted(theirs.joint_names)
@@ -157,22 +158,27 @@ def test_joint_columns_named_otherwise_are_mapped(tmp_path: Path, tiago: pincal.
 
 def test_options_given_elsewhere_override_the_job(tmp_path: Path) -> None:
     job = read_job(write_job(tmp_path, top='cv = "5x4"\nselect = "bic"\nout = "cal.urdf"'))
-    assert job.options == {"cv": "5x4", "select": "bic"} and job.out == tmp_path / "cal.urdf"
-    again = job.overridden("other.urdf", None, {"cv": "loo", "select": None, "solver": "tsvd"})
-    assert again.options == {"cv": "loo", "select": "bic", "solver": "tsvd"}
+    assert job.options.given == (GivenOption("select", "bic", job.path), GivenOption("cv", "5x4", job.path))
+    assert job.out == tmp_path / "cal.urdf"
+    command_line = GivenOptions.of({"cv": "loo", "select": None, "solver": "tsvd"}, "command line")
+    again = job.overridden("other.urdf", None, command_line)
+    made = again.options.calibration
+    assert (made.cv, made.select, made.solver, made.loss) == ("loo", "bic", "tsvd", "auto")
+    assert [again.options.source(name) for name in ("cv", "select", "solver", "loss")] == [
+        "command line", job.path, "command line", "keyword"]
     assert again.out == Path("other.urdf") and again.report is None
     with pytest.raises(NotFoundError, match=r"option 'colour' does not exist of calibrate\(\); options are: param"):
-        job.overridden(options={"colour": "red"})
+        GivenOptions.of({"colour": "red"}, "command line")
 
 
 def test_a_payload_is_read_and_overridden(tmp_path: Path) -> None:
     job = read_job(write_job(tmp_path, top='payload = { mass = 1.5, frame = "arm_7_link", offset = [0, 0, 0.1] }'))
-    assert job.options == {"payload": Payload(1.5, "arm_7_link", (0.0, 0.0, 0.1))}
-    assert read_job(write_job(tmp_path, top='payload = { mass = 2, frame = "arm_7_link" }')).options == {
-        "payload": Payload(2.0, "arm_7_link")}
-    heavier = {"payload": Payload(3.0, "arm_6_link")}
+    assert job.options.given == (GivenOption("payload", Payload(1.5, "arm_7_link", (0.0, 0.0, 0.1)), job.path),)
+    again = read_job(write_job(tmp_path, top='payload = { mass = 2, frame = "arm_7_link" }'))
+    assert again.options.calibration.payload == Payload(2.0, "arm_7_link")
+    heavier = GivenOptions.of({"payload": Payload(3.0, "arm_6_link")}, "command line")
     assert job.overridden(options=heavier).options == heavier
-    assert job.overridden(options={"payload": None}).options == job.options
+    assert job.overridden(options=GivenOptions.of({"payload": None}, "command line")).options == job.options
 
 
 # --- what the job refuses: its own keys and values -----------------------------------------------------------------
@@ -407,9 +413,12 @@ def test_the_fuller_example_of_docs_job_file_is_a_valid_job(tmp_path: Path) -> N
         (tmp_path / name).write_text("", encoding="utf-8")
     job = read_job(write_job(tmp_path, text=text))
     assert job.robot == str(tmp_path / "urdf" / "my_arm.urdf") and job.file_names == ("day1.csv", "day2.csv")
-    assert job.options == {"parameter_spec": ["default", "!base.*"], "select": "auto", "cv": "5x4", "cv_seed": 0,
-                           "loss": "auto", "solver": "lm", "formulation": "fkm", "max_iter": 100,
-                           "plausible": 1.0, "prior": 1.0}
+    assert [given.name for given in job.options.given] == ["parameter_spec", "select", "loss", "solver", "max_iter",
+                                                           "formulation", "cv", "cv_seed", "plausible", "prior"]
+    made = job.options.calibration
+    assert (made.parameter_spec, made.select, made.cv, made.cv_seed, made.loss, made.solver, made.formulation,
+            made.max_iter, made.plausible, made.prior) == (("default", "!base.*"), "auto", "5x4", 0, "auto", "lm",
+                                                           "fkm", 100, 1.0, 1.0)
     assert (job.length_unit, job.angle_unit, job.sample, job.ignore) == ("mm", "deg", "pose_id",
                                                                          ("timestamp", "marker_quality"))
     assert job.joints == {"shoulder_pan_joint": "J1", "shoulder_lift_joint": "J2"}

@@ -82,8 +82,9 @@ def test_the_job_file_reads_every_option_it_has_a_key_for(tmp_path: Path) -> Non
     assert set(values) == set(keyed.values())
     job = write_job(tmp_path, top="\n".join(f"{k} = {v}" for k, v in values.items()))
     options = read_job(job).options
-    assert set(options) == set(keyed)
-    made = options_given(options, job)
+    assert {given.name for given in options.given} == set(keyed)
+    assert {options.source(name) for name in keyed} == {job}
+    made = options.calibration
     for name in keyed:
         expected = OTHER[name][1]
         if expected is not None:
