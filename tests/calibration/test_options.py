@@ -14,7 +14,7 @@ from test_job import write_job
 
 import pincal
 from pincal.calibration.job import JOB_KEYS, read_job
-from pincal.calibration.options import DEFAULTS, OPTIONS, CalibrationOptions, options_given
+from pincal.calibration.options import DEFAULTS, OPTIONS, CalibrationOptions, GivenOptions, options_given
 from pincal.cli.app import build_parser
 from pincal.errors import DataError, NotFoundError
 
@@ -174,6 +174,22 @@ def test_a_seed_without_its_plan_is_refused_as_the_options_are_made_in_the_words
     with pytest.raises(DataError, match=r"^--select cv with --cv loo would repeat"):
         options_given({"select": "cv", "cv": "loo"}, "command line")
     assert options_given({"cv": "5x2", "cv_seed": 3}, "command line") == CalibrationOptions(cv="5x2", cv_seed=3)
+
+
+def test_options_given_at_two_sources_are_checked_together_each_worded_where_given() -> None:
+    """A job file's seed goes with the plan the command line gives; a seed that seeds nothing is blamed on the job
+    file and a plan that has no shuffle on the flag, each as the user wrote it."""
+    job = Path("job.toml")
+    from_job = GivenOptions.of({"cv_seed": 3, "select": "bic"}, job)
+    assert from_job.over(GivenOptions.of({"cv": "5x2"}, "command line")).calibration == CalibrationOptions(
+        select="bic", cv="5x2", cv_seed=3)
+    with pytest.raises(DataError) as raised:
+        _ = from_job.calibration
+    assert str(raised.value).startswith("job.toml: cv_seed: 3 seeds the shuffles of a K-fold cross-validation")
+    with pytest.raises(DataError) as raised:
+        _ = from_job.over(GivenOptions.of({"cv": "loo"}, "command line")).calibration
+    assert str(raised.value).startswith("job.toml: cv_seed: 3 seeds the shuffles of K-fold plans; --cv loo has none")
+    assert (raised.value.option, raised.value.file) == ("cv_seed", "job.toml")
 
 
 def test_no_module_but_the_options_runs_the_cross_validation_checks() -> None:
