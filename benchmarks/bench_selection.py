@@ -77,7 +77,7 @@ def main(argv: list[str] | None = None) -> None:
     rows = []
     for name, (robot_or_job, data) in REAL.items():
         inputs = read_inputs("calibrate", str(ROOT / robot_or_job) if robot_or_job.endswith(".toml") else robot_or_job,
-                             str(ROOT / data) if data else None, {})
+                             str(ROOT / data) if data else None)
         errors, times = {}, {}
         for model, keywords in MODELS.items():
             options = inputs.options.replace(**keywords)

@@ -180,7 +180,7 @@ def hold_outs(robot: pincal.Robot, dataset: Dataset, options: CalibrationOptions
 def run_real(name: str, robot_or_job: str, data: str | None, quick: bool) -> dict[str, Any]:
     """A real file's hold-outs, pooled: per model the RMS and coverage inside and beyond the fitted range."""
     inputs = read_inputs("calibrate", str(ROOT / robot_or_job) if robot_or_job.endswith(".toml") else robot_or_job,
-                         str(ROOT / data) if data else None, {})
+                         str(ROOT / data) if data else None)
     dataset, options = inputs.dataset, inputs.options.replace(cv=None)
     found, seconds, failed = pools(), 0.0, 0
     folds = hold_outs(inputs.robot, dataset, options, quick)

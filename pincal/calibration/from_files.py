@@ -5,10 +5,8 @@ at all, each recording its provenance (:mod:`pincal.calibration.provenance`) —
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
 from pincal import validation
 from pincal.calibration.job import Job, load_job_robot, read_job
@@ -131,29 +129,29 @@ class Inputs:
     robot_given: str = ""
 
 
-def read_inputs(command: str, robot_or_job: str, data: str | None, options: Mapping[str, Any]) -> Inputs:
+def read_inputs(command: str, robot_or_job: str, data: str | None, options: GivenOptions | None = None) -> Inputs:
     """The robot and dataset of ``pincal COMMAND ROBOT DATA`` or ``pincal COMMAND JOB.toml`` (its robot, its data
-    read into SI units, its options with ``options`` over them), the options checked.
+    read into SI units, its options with ``options``, those given and where, over them), the options checked.
 
     Raises:
         PincalError: a job file with DATA, or a robot without; an option the job file or the command line cannot
             take (naming which).
     """
+    options = GivenOptions() if options is None else options
     if robot_or_job.endswith(JOB_SUFFIX):
         if data is not None:
             raise PincalError(f"{command}: '{robot_or_job}' is a job file, which names its own data; give no DATA "
                               f"(got '{data}'), or a robot: pincal {command} ROBOT DATA")
-        if options.get("markers", "each") != "each":
+        if options.value("markers", "each") != "each":
             raise PincalError(f"{command}: markers='cluster' applies to a dataset named on the command line, not "
                               "yet to a job file", option="markers")
-        cli = GivenOptions.of({k: v for k, v in options.items() if k != "markers"}, "command line")
-        job = read_job(robot_or_job).overridden(options=cli)
+        job = read_job(robot_or_job).overridden(options=options.without("markers"))
         given = options_given(job.options.values, job.path)
         robot = load_job_robot(job)
         return Inputs(robot, job_dataset(job, robot), given, [job.path, *job.files], str(job.robot))
     if data is None:
         raise PincalError(f"{command}: DATA is missing: give pincal {command} ROBOT DATA.csv, or a job file "
                           f"JOB{JOB_SUFFIX} (docs/job_file.md); got only '{robot_or_job}'")
-    given = options_given(options, "command line")
+    given = options.calibration
     robot = load_robot(robot_or_job)
     return Inputs(robot, read_robot_dataset(data, robot), given, [Path(data)], robot_or_job)

@@ -371,6 +371,14 @@ class GivenOptions:
         """Each given option's value, by keyword (as a provenance records them)."""
         return {option.name: option.value for option in self.given}
 
+    def value(self, name: str, default: Any = None) -> Any:
+        """The value given for option ``name`` (a keyword of :class:`CalibrationOptions`), else ``default``."""
+        return next((option.value for option in self.given if option.name == name), default)
+
+    def without(self, name: str) -> GivenOptions:
+        """These options but ``name``, as if it was not given."""
+        return GivenOptions(tuple(option for option in self.given if option.name != name))
+
     def source(self, name: str) -> OptionSource:
         """Where option ``name`` was given (``"keyword"`` for one not given)."""
         return next((option.source for option in self.given if option.name == name), "keyword")

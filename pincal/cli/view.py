@@ -8,7 +8,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pincal.calibration.options import OPTIONS
+from pincal.calibration.options import OPTIONS, GivenOptions
 from pincal.cli.arguments import add_calibration_options, add_robot, given_options
 from pincal.errors import DataError, PincalError
 
@@ -33,7 +33,7 @@ def load_view(args: argparse.Namespace) -> tuple[CalibrationView, Calibration | 
     from pincal.io.files import check_outputs
     from pincal.viz.scene import CalibrationView, check_same_data
 
-    read = read_inputs(args.command, args.robot, args.data, given_options(args))
+    read = read_inputs(args.command, args.robot, args.data, GivenOptions.of(given_options(args), "command line"))
     robot, dataset, options = read.robot, read.dataset, read.options
     provenance = page_provenance(read, args)
     inputs = (*robot_files(robot), *read.files, args.result, getattr(args, "truth", None))

@@ -126,13 +126,14 @@ def test_check_names_its_arguments_by_keyword() -> None:
 
 def test_markers_cluster_on_a_job_file_is_a_keyword_to_the_library_and_a_flag_to_the_user(tmp_path: Path) -> None:
     from pincal.calibration.from_files import read_inputs
+    from pincal.calibration.options import GivenOptions
     from pincal.errors import PincalError
 
     job = tmp_path / "job.toml"
     job.write_text("robot = 'five_bar'\n", encoding="utf-8")
     with pytest.raises(PincalError, match=r"^calibrate: markers='cluster' applies to a dataset named on the command "
                                           r"line, not yet to a job file$") as caught:
-        read_inputs("calibrate", str(job), None, {"markers": "cluster"})
+        read_inputs("calibrate", str(job), None, GivenOptions.of({"markers": "cluster"}))
     assert caught.value.option == "markers"
     done = run_pincal("calibrate", str(job), "--markers", "cluster")
     assert done.returncode == 2 and done.stderr == "pincal: error: calibrate: --markers cluster applies to a dataset " \
