@@ -116,7 +116,7 @@ def jobs_from_directory(robot: str, directory: str | Path, out: str | Path,
     and data), sorted by name; outputs named after each file in ``out``; ``options`` (those given, each at its
     source: :class:`~pincal.calibration.options.GivenOptions`) for every job."""
     options = GivenOptions() if options is None else options
-    out_dir = check_directory(out, "--out")
+    out_dir = check_directory(out, "out", option="out")
     files = sorted([*Path(directory).glob("*.csv"), *Path(directory).glob(f"*{JOB_SUFFIX}")])
     return [FleetJob(p.stem, robot, str(p), str(out_dir / f"{p.stem}.urdf"), str(out_dir / f"{p.stem}.json"), options)
             for p in files]

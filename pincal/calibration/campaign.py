@@ -235,10 +235,10 @@ def simulation_outputs(robot: Robot, out: str | Path, meshes: MeshMode = "keep")
         NotFoundError: ``meshes`` is ``copy`` and a mesh of the robot is found nowhere here.
     """
     copies = _mesh_plan(robot, Path(out) / SIMULATION_FILES[1], meshes).copies  # a mesh found nowhere: no folder made
-    folder = check_directory(out, "--out")
+    folder = check_directory(out, "out", option="out")
     paths = [folder / name for name in SIMULATION_FILES]
-    check_outputs([("--out", p) for p in paths] + [("--meshes copy", dest) for _, dest in copies],
-                  [p for p in (robot.source, *(found for found, _ in copies)) if p is not None])
+    check_outputs([("out", p) for p in paths] + [("meshes='copy'", dest) for _, dest in copies],
+                  [p for p in (robot.source, *(found for found, _ in copies)) if p is not None], keywords=True)
     return paths
 
 

@@ -33,16 +33,17 @@ def _mesh_plan(robot: Robot, out: str | Path | None, meshes: MeshMode) -> MeshPl
 
 
 def _checked_outputs(robot: Robot, out: str | Path | None, report: str | Path | None, meshes: MeshMode,
-                     inputs: list[str | Path], flags: tuple[str, str]) -> tuple[MeshPlan, Path | None]:
+                     inputs: list[str | Path], names: tuple[str, str], keywords: bool) -> tuple[MeshPlan, Path | None]:
     """The mesh plan and the corrections file of a calibration's outputs, every output checked before the fit (none
-    over an input, parents created); ``flags`` name the URDF and report outputs in messages."""
+    over an input, parents created); ``names`` name the URDF and report outputs in messages: the library's keywords
+    (with ``keywords``: the error's ``option`` field names them) or a job file's keys."""
     beside = corrections_path(out) if out else None
     plan = _mesh_plan(robot, out, meshes)
     outputs: list[tuple[str, str | Path]] = [
-        (what, path) for what, path in ((flags[0], out), (flags[1], report),
-                                        (f"{flags[0]} (its corrections file)", beside)) if path]
-    outputs += [("--meshes copy", dest) for _, dest in plan.copies]
-    check_outputs(outputs, [*robot_files(robot), *inputs, *(f for f, _ in plan.copies)])
+        (what, path) for what, path in ((names[0], out), (names[1], report),
+                                        (f"{names[0]} (its corrections file)", beside)) if path]
+    outputs += [("meshes='copy'" if keywords else "--meshes copy", dest) for _, dest in plan.copies]
+    check_outputs(outputs, [*robot_files(robot), *inputs, *(f for f, _ in plan.copies)], keywords=keywords)
     return plan, beside
 
 
@@ -86,7 +87,8 @@ def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, repor
     options = CalibrationOptions() if options is None else options
     validation.instance("options", options, CalibrationOptions, "CalibrationOptions or None")
     robot = load_robot(robot_path)
-    plan, beside = _checked_outputs(robot, out_urdf, report_path, meshes, [data_path], ("--out", "--report"))
+    plan, beside = _checked_outputs(robot, out_urdf, report_path, meshes, [data_path], ("out_urdf", "report_path"),
+                                    keywords=True)
     cal = calibrate(robot, read_robot_dataset(data_path, robot), options, progress=progress)
     provenance = Provenance(robot_source(robot_path, robot), [file_source(data_path)], options_dict(options))
     return _written(cal, robot, provenance, out_urdf, report_path, beside, plan, options.force)
@@ -106,7 +108,8 @@ def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -
             payload.check(robot)
         except NotFoundError as exc:  # the same culprit, the job file named
             raise NotFoundError(f"{job.path}: {exc}", exc.kind, exc.name, exc.choices) from None
-    plan, beside = _checked_outputs(robot, job.out, job.report, meshes, [job.path, *job.files], ("out", "report"))
+    plan, beside = _checked_outputs(robot, job.out, job.report, meshes, [job.path, *job.files], ("out", "report"),
+                                    keywords=False)
     cal = calibrate(robot, job_dataset(job, robot), options, progress=progress)
     provenance = Provenance(robot_source(str(job.robot), robot), [file_source(p) for p in (job.path, *job.files)],
                             options_dict(options))

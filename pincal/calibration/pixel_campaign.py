@@ -236,8 +236,8 @@ def camera_outputs(out: Path, images: Path) -> list[Path]:
     """The files a camera simulation with images writes besides the simulation's: ``out/joints.csv`` and one PNG
     per image in ``images``; refused before any work (:func:`~pincal.io.files.check_outputs`)."""
     joints = out / "joints.csv"
-    check_outputs([("--out", joints)])
-    check_directory(images, "--images")
+    check_outputs([("out", joints)], keywords=True)
+    check_directory(images, "images", option="images")
     return [joints]
 
 
@@ -252,7 +252,7 @@ def write_images(sim: PixelSimulation, out: Path, images: Path, seed: int = 0) -
         raise DataError("the simulation has no board")
     rng = np.random.default_rng(seed + 1)
     rays = pixel_rays(sim.intrinsics, sim.image_size)
-    make_directory(images, "--images")
+    make_directory(images, "images")
     paths = []
     for sample, view in zip(sim.dataset.sample_ids, sim.views, strict=True):
         path = images / f"{sample}.png"

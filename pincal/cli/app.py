@@ -45,10 +45,11 @@ from pincal.cli.arguments import (
     in_flags,
     non_negative_float,
     non_negative_int,
+    output_in_flags,
     parameter_shift,
     positive_int,
 )
-from pincal.errors import DataError, PincalError
+from pincal.errors import DataError, OutputError, PincalError
 from pincal.plugins import load_plugins
 
 if TYPE_CHECKING:
@@ -459,7 +460,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         say_replaced()
         # a library error names an option by its keyword (not a job file's: those name their file); the user gave
         # its flag
-        shown = in_flags(str(exc), command_flags(parser, args.func)) if exc.file is None else str(exc)
+        flags = command_flags(parser, args.func)
+        shown = str(exc)
+        if exc.file is None:
+            shown = in_flags(shown, flags)
+            if isinstance(exc, OutputError):  # an output named by its library keyword: out 'cal.urdf' …
+                shown = output_in_flags(shown, exc.option, flags)
         print(f"pincal: error: {shown}", file=sys.stderr)
         return EXIT_ERROR
     except KeyboardInterrupt:

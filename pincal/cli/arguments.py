@@ -242,6 +242,23 @@ def in_flags(message: str, flags: Mapping[str, str] | None = None) -> str:
     return _KEYWORD.sub(flag, message)
 
 
+#: The library keywords of outputs whose command-line option has another name (:func:`calibrate_files`' ``out_urdf``
+#: and ``report_path`` are ``calibrate``'s ``--out`` and ``--report``).
+OUTPUT_KEYWORDS = {"out_urdf": "out", "report_path": "report"}
+
+
+def output_in_flags(message: str, option: str | None, flags: Mapping[str, str]) -> str:
+    """An output's error in the command line's words: the library keyword ``option`` its message starts with (``out
+    'cal.urdf' is the input file …``, ``images: …``) written as the command's flag (``--out 'cal.urdf' …``), the path
+    left quoted. The message as it is when it starts with no keyword the command knows."""
+    if option is None:
+        return message
+    name = OUTPUT_KEYWORDS.get(option, option)
+    if name not in flags or not re.match(rf"{re.escape(option)}\b(?!=)", message):
+        return message
+    return flags[name] + message[len(option):]
+
+
 def command_flags(parser: argparse.ArgumentParser, func: Any) -> dict[str, str]:
     """The options of the (sub)command whose ``func`` default is ``func``, keyword (argparse dest) to its long flag:
     how the command line spells an option a library error names by keyword. Empty when no subcommand has it."""

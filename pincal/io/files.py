@@ -28,7 +28,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-from pincal.errors import OutputError
+from pincal.errors import Culprit, OutputError
 
 try:
     import fcntl
@@ -55,13 +55,17 @@ def resolved(path: str | Path) -> Path:
         return Path(path).expanduser().absolute()
 
 
-def check_outputs(outputs: Iterable[tuple[str, str | Path]], inputs: Iterable[str | Path] = ()) -> None:
+def check_outputs(outputs: Iterable[tuple[str, str | Path]], inputs: Iterable[str | Path] = (),
+                  keywords: bool = False) -> None:
     """Refuse unusable outputs before any work, and check that their missing parent directories can be created
     (:func:`check_directory`: nothing is created here, so a command refused later leaves no empty directory).
 
     Args:
         outputs: (what, path) pairs, e.g. ``("--out", "cal.urdf")``: the files to be written.
         inputs: Paths that will be read (robot file, data file, result JSON); an output may be none of them.
+        keywords: Each ``what`` starts with the keyword of the library argument that gave the path (``out``,
+            ``meshes='copy'``): the error's ``option`` field names it (:func:`output_option`), so that the command
+            line can show its flag.
 
     Raises:
         OutputError: an output is an input, two outputs are the same file, an output is a directory, or its
@@ -70,15 +74,24 @@ def check_outputs(outputs: Iterable[tuple[str, str | Path]], inputs: Iterable[st
     read = {resolved(p): str(p) for p in inputs}
     seen: dict[Path, str] = {}
     for what, path in outputs:
-        target = resolved(path)
-        if target in read:
-            raise OutputError(f"{what} '{path}' is the input file '{read[target]}': pincal never writes over its "
-                              "input; choose another output name")
-        if target in seen:
-            raise OutputError(f"{what} '{path}' is the same file as {seen[target]}; give each output its own name")
-        seen[target] = f"{what} '{path}'"
-        _refuse_non_file(target, f"{what} '{path}'")
-        check_directory(target.parent, f"{what} '{path}'")
+        with Culprit(option=output_option(what) if keywords else None):
+            target = resolved(path)
+            if target in read:
+                raise OutputError(f"{what} '{path}' is the input file '{read[target]}': pincal never writes over "
+                                  "its input; choose another output name")
+            if target in seen:
+                raise OutputError(f"{what} '{path}' is the same file as {seen[target]}; give each output its own "
+                                  "name")
+            seen[target] = f"{what} '{path}'"
+            _refuse_non_file(target, f"{what} '{path}'")
+            check_directory(target.parent, f"{what} '{path}'")
+
+
+def output_option(what: str) -> str | None:
+    """The library keyword an output's label ``what`` starts with (``out``, ``meshes`` of ``meshes='copy'``), or None
+    when it starts with none (a flag, ``--out``)."""
+    found = re.match(r"([a-z][a-z0-9_]*)\b", what)
+    return found.group(1) if found else None
 
 
 def input_problem(path: Path) -> str | None:
@@ -114,13 +127,20 @@ def _refuse_non_file(target: Path, what: str) -> None:
                           "only: give a file name")
 
 
-def check_directory(directory: str | Path, what: str) -> Path:
+def check_directory(directory: str | Path, what: str, option: str | None = None) -> Path:
     """``directory``, checked to be a writable directory or to be creatable as one, without creating anything:
-    the nearest part of it that exists must be a directory in which a file can be written and removed.
+    the nearest part of it that exists must be a directory in which a file can be written and removed. ``what``
+    names it in messages; ``option``: the library keyword that gave it, the error's ``option`` field.
 
     Raises:
         OutputError: it or a part of it is a file, or it cannot be created, or cannot be written.
     """
+    with Culprit(option=option):
+        return _checked_directory(directory, what)
+
+
+def _checked_directory(directory: str | Path, what: str) -> Path:
+    """:func:`check_directory`'s checks."""
     folder = Path(directory)
     if folder.exists() and not folder.is_dir():
         raise OutputError(f"{what}: '{folder}' is a file, not a directory")

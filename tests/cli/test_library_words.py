@@ -138,3 +138,28 @@ def test_markers_cluster_on_a_job_file_is_a_keyword_to_the_library_and_a_flag_to
     done = run_pincal("calibrate", str(job), "--markers", "cluster")
     assert done.returncode == 2 and done.stderr == "pincal: error: calibrate: --markers cluster applies to a dataset " \
                                                    "named on the command line, not yet to a job file\n", done.stderr
+
+
+def test_outputs_are_named_by_their_library_keyword_and_shown_as_flags(tmp_path: Path) -> None:
+    from pincal.calibration.from_files import calibrate_files
+    from pincal.errors import OutputError
+    from pincal.fleet import jobs_from_directory
+
+    data = str(ROOT / "examples" / "data" / "tiago_mocap_marker1.csv")
+    with pytest.raises(OutputError, match=r"^out_urdf '.*' is the input file ") as caught:
+        calibrate_files("tiago_no_hand", data, data, None)
+    assert caught.value.option == "out_urdf"
+    with pytest.raises(OutputError, match=r"^report_path '.*' is the input file ") as caught:
+        calibrate_files("tiago_no_hand", data, None, data)
+    assert caught.value.option == "report_path"
+    with pytest.raises(OutputError, match=r"^out: '.*' is a file, not a directory$") as caught:
+        jobs_from_directory("ur10", tmp_path, data)
+    assert caught.value.option == "out"
+    # the same outputs through the command line: the flags the user typed, the paths quoted as before
+    done = run_pincal("calibrate", "tiago_no_hand", data, "--report", data, cwd=tmp_path)
+    assert done.returncode == 2 and done.stderr.splitlines() == [
+        f"pincal: error: --report '{data}' is the input file '{data}': pincal never writes over its input; choose "
+        "another output name"], done.stderr
+    done = run_pincal("fleet", "ur10", str(tmp_path), "--out", data, cwd=tmp_path)
+    assert done.returncode == 2 and done.stderr.splitlines() == [
+        f"pincal: error: --out: '{data}' is a file, not a directory"], done.stderr
