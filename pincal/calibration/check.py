@@ -468,7 +468,7 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     fitted, note = fitted_data(model, nominal)
     changed = (nominal_path is None and provenance.robot_sha256 and nominal.source is not None
                and sha256(nominal.source) != provenance.robot_sha256)
-    result = check_model(model, nominal, dataset, CalibrationOptions(**given.values), register, fitted, note)
+    result = check_model(model, nominal, dataset, given.calibration, register, fitted, note)
     result = replace(result, n_samples_in_file=n_rows)
     nominal_file = nominal_name if Path(nominal_name).is_file() else None  # else a known robot, by its name
     sources = {"model": model_path, "nominal": nominal_name,

@@ -11,7 +11,7 @@ from pathlib import Path
 from pincal import validation
 from pincal.calibration.job import Job, load_job_robot, read_job
 from pincal.calibration.job_data import job_dataset
-from pincal.calibration.options import CalibrationOptions, GivenOptions, options_given
+from pincal.calibration.options import CalibrationOptions, GivenOptions
 from pincal.calibration.pipeline import Calibration, calibrate
 from pincal.calibration.provenance import Provenance, file_source, options_dict, robot_source, with_provenance
 from pincal.calibration.report import CalibrationReport
@@ -149,7 +149,7 @@ def read_inputs(command: str, robot_or_job: str, data: str | None, options: Give
             raise PincalError(f"{command}: markers='cluster' applies to a dataset named on the command line, not "
                               "yet to a job file", option="markers")
         job = read_job(robot_or_job).overridden(options=options.without("markers"))
-        given = options_given(job.options.values, job.path)
+        given = job.options.calibration
         robot = load_job_robot(job)
         return Inputs(robot, job_dataset(job, robot), given, [job.path, *job.files], str(job.robot))
     if data is None:

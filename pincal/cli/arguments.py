@@ -242,21 +242,24 @@ def in_flags(message: str, flags: Mapping[str, str] | None = None) -> str:
     return _KEYWORD.sub(flag, message)
 
 
-#: The library keywords of outputs whose command-line option has another name (:func:`calibrate_files`' ``out_urdf``
-#: and ``report_path`` are ``calibrate``'s ``--out`` and ``--report``).
-OUTPUT_KEYWORDS = {"out_urdf": "out", "report_path": "report"}
+#: The library keywords that name outputs in :class:`~pincal.errors.OutputError` messages (:func:`output_in_flags`),
+#: each with the command-line option it is (:func:`calibrate_files`' ``out_urdf`` and ``report_path`` are
+#: ``calibrate``'s ``--out`` and ``--report``).
+OUTPUT_KEYWORDS = {"out": "out", "out_urdf": "out", "report_path": "report", "images": "images"}
 
 
 def output_in_flags(message: str, option: str | None, flags: Mapping[str, str]) -> str:
-    """An output's error in the command line's words: the library keyword ``option`` its message starts with (``out
-    'cal.urdf' is the input file …``, ``images: …``) written as the command's flag (``--out 'cal.urdf' …``), the path
-    left quoted. The message as it is when it starts with no keyword the command knows."""
+    """An output's error in the command line's words: each library keyword of :data:`OUTPUT_KEYWORDS` that labels an
+    output in it (``out 'cal.urdf' is the input file …``, ``images: …``, ``… the same file as out_urdf '…'``)
+    written as the command's flag (``--out 'cal.urdf' …``), the paths left quoted. ``option``: the error's; a message
+    with none is left as it is, as is a keyword the command has no flag for."""
     if option is None:
         return message
-    name = OUTPUT_KEYWORDS.get(option, option)
-    if name not in flags or not re.match(rf"{re.escape(option)}\b(?!=)", message):
+    names = {k: flags[v] for k, v in OUTPUT_KEYWORDS.items() if v in flags}
+    if not names:
         return message
-    return flags[name] + message[len(option):]
+    label = "|".join(re.escape(k) for k in sorted(names, key=len, reverse=True))
+    return re.sub(rf"(?<![\w=-])({label})(?=:| '| \(its)", lambda m: names[m.group(1)], message)
 
 
 def command_flags(parser: argparse.ArgumentParser, func: Any) -> dict[str, str]:

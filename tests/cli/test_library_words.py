@@ -163,3 +163,11 @@ def test_outputs_are_named_by_their_library_keyword_and_shown_as_flags(tmp_path:
     done = run_pincal("fleet", "ur10", str(tmp_path), "--out", data, cwd=tmp_path)
     assert done.returncode == 2 and done.stderr.splitlines() == [
         f"pincal: error: --out: '{data}' is a file, not a directory"], done.stderr
+
+
+def test_an_option_a_flag_gives_over_a_job_file_is_named_as_the_flag(tmp_path: Path) -> None:
+    job = str(ROOT / "examples" / "data" / "talos_table_contact" / "left_job.toml")
+    done = run_pincal("report", job, "--cv-seed", "3", "--out", str(tmp_path / "r.html"), cwd=tmp_path)
+    assert done.returncode == 2 and done.stderr.splitlines() == [
+        "pincal: error: --cv-seed 3 seeds the shuffles of --cv; give --cv too (e.g. --cv 5x4)"], done.stderr
+    assert not (tmp_path / "r.html").exists()
