@@ -41,15 +41,14 @@ from pincal.cli.arguments import (
     add_robot,
     add_spread,
     command_flags,
+    error_in_flags,
     given_options,
-    in_flags,
     non_negative_float,
     non_negative_int,
-    output_in_flags,
     parameter_shift,
     positive_int,
 )
-from pincal.errors import DataError, OutputError, PincalError
+from pincal.errors import DataError, PincalError
 from pincal.plugins import load_plugins
 
 if TYPE_CHECKING:
@@ -458,15 +457,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.debug:
             raise
         say_replaced()
-        # a library error names an option by its keyword (not a job file's: those name their file); the user gave
-        # its flag
-        flags = command_flags(parser, args.func)
-        shown = str(exc)
-        if exc.file is None:
-            shown = in_flags(shown, flags)
-            if isinstance(exc, OutputError):  # an output named by its library keyword: out 'cal.urdf' …
-                shown = output_in_flags(shown, exc.option, flags)
-        print(f"pincal: error: {shown}", file=sys.stderr)
+        print(f"pincal: error: {error_in_flags(exc, command_flags(parser, args.func))}", file=sys.stderr)
         return EXIT_ERROR
     except KeyboardInterrupt:
         print("pincal: interrupted", file=sys.stderr)

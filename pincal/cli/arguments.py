@@ -13,7 +13,7 @@ from collections.abc import Collection, Mapping
 from typing import TYPE_CHECKING, Any
 
 from pincal.calibration.options import OPTIONS, PARAMETERS_HELP
-from pincal.errors import DataError
+from pincal.errors import DataError, OutputError, PincalError
 
 if TYPE_CHECKING:
     from pincal.identification.corrections import Payload
@@ -260,6 +260,16 @@ def output_in_flags(message: str, option: str | None, flags: Mapping[str, str]) 
         return message
     label = "|".join(re.escape(k) for k in sorted(names, key=len, reverse=True))
     return re.sub(rf"(?<![\w=-])({label})(?=:| '| \(its)", lambda m: names[m.group(1)], message)
+
+
+def error_in_flags(error: PincalError, flags: Mapping[str, str]) -> str:
+    """A library error's message as the command line shows it: each option it names by its keyword written as the
+    command's flag (:func:`in_flags`; an output's label too, :func:`output_in_flags`), unless it names its file (a job
+    file's errors name the file's own keys)."""
+    if error.file is not None:
+        return str(error)
+    shown = in_flags(str(error), flags)
+    return output_in_flags(shown, error.option, flags) if isinstance(error, OutputError) else shown
 
 
 def command_flags(parser: argparse.ArgumentParser, func: Any) -> dict[str, str]:
