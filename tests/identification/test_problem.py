@@ -12,6 +12,7 @@ from pincal.errors import DataError
 from pincal.identification import measurements as ms
 from pincal.identification.parameters import ParameterSet, candidate_parameters, cluster_parameters, marker_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
+from pincal.model.robot import Robot
 from pincal.study.simulation import random_actuated, simulate_observations
 
 DEVICE = ("device_incl_x", "device_incl_y", "device_lvdt", "device_rotary")
@@ -148,13 +149,7 @@ def test_the_unit_check_and_the_fit_share_the_start_s_evaluation(name: str, solv
     from pincal.identification import predictions
     from pincal.identification.solver import identify
 
-    robot = pincal.load_robot(name)
-    models = [ms.position(robot.end_effector)]
-    pset = candidate_parameters(robot).subset(list(range(14)))
-    rng = np.random.default_rng(4)
-    qa, _ = random_actuated(robot, 40, rng)
-    observations = simulate_observations(robot, pset, rng.normal(scale=1e-3, size=len(pset)), models, qa, rng,
-                                         noise=1e-5)
+    robot, models, pset, observations, _ = _end_effector_campaign(name, seed=4, n=40)
     observations.values[models[0].key][7] += 5e-3
     made = _counted_predictions(monkeypatch)
     fresh_problem = CalibrationProblem(robot, pset, models, observations)
@@ -184,6 +179,20 @@ def test_the_unit_check_and_the_fit_share_the_start_s_evaluation(name: str, solv
         assert made["count"] == before + drops
 
 
+def _end_effector_campaign(name: str, seed: int, n: int) -> tuple[Robot, list[ms.Measurement], ParameterSet,
+                                                                   Observations, np.random.Generator]:
+    """Robot ``name`` measured at its end effector's position in ``n`` random postures: its 14 first candidates
+    perturbed by 1 mm or mrad, noise 10 µm; with the generator seeded by ``seed``, to draw on from there."""
+    robot = pincal.load_robot(name)
+    models: list[ms.Measurement] = [ms.position(robot.end_effector)]
+    pset = candidate_parameters(robot).subset(list(range(14)))
+    rng = np.random.default_rng(seed)
+    qa, _ = random_actuated(robot, n, rng)
+    observations = simulate_observations(robot, pset, rng.normal(scale=1e-3, size=len(pset)), models, qa, rng,
+                                         noise=1e-5)
+    return robot, models, pset, observations, rng
+
+
 def _counted_predictions(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
     """The number of times a problem computes its predictions (a tree's or a loop robot's), counted from now on in
     the returned dict's ``count``."""
@@ -207,13 +216,7 @@ def test_a_tree_s_evaluations_are_recalled(name: str, monkeypatch: pytest.Monkey
     computes: its solves follow their warm starts), giving what a problem nothing evaluated before computes there, to
     the last bit, Jacobian (with spare rows of zeros) or not; what it hands out is a copy the caller may change."""
 
-    robot = pincal.load_robot(name)
-    models = [ms.position(robot.end_effector)]
-    pset = candidate_parameters(robot).subset(list(range(14)))
-    rng = np.random.default_rng(5)
-    qa, _ = random_actuated(robot, 12, rng)
-    observations = simulate_observations(robot, pset, rng.normal(scale=1e-3, size=len(pset)), models, qa, rng,
-                                         noise=1e-5)
+    robot, models, pset, observations, rng = _end_effector_campaign(name, seed=5, n=12)
     made = _counted_predictions(monkeypatch)
     xs = [rng.normal(scale=1e-3, size=len(pset)) for _ in range(3)]
     problem = CalibrationProblem(robot, pset, models, observations)
