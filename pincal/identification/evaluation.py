@@ -73,7 +73,9 @@ class Prediction:
 
 
 #: Evaluations a tree's problem keeps (:class:`Recalled`): a fit's refits start where earlier fits started or ended, and
-#: a third of a cross-validation's evaluations were at a vector the same problem had evaluated already.
+#: a third of a cross-validation's evaluations were at a vector the same problem had evaluated already. The start's
+#: is kept besides them: the refits of model selection and the setup's fit for "before" start there again after a
+#: fit's steps have pushed it out.
 RECALLED = 4
 
 
@@ -82,7 +84,8 @@ def _copied(arrays: dict[str, Array]) -> dict[str, Array]:
 
 
 class Recalled:
-    """A tree's last :data:`RECALLED` evaluations, by their parameter vector (its bytes: the same numbers exactly).
+    """A tree's last :data:`RECALLED` evaluations, by their parameter vector (its bytes: the same numbers exactly), and
+    the start's (:meth:`keep` with ``start``).
 
     A tree's evaluation is a function of the vector alone (a closed-loop robot's follows its samples' warm starts,
     and is never recalled), so an evaluation recalled is the one computed anew, to the last bit. What is kept and
@@ -91,11 +94,15 @@ class Recalled:
 
     def __init__(self) -> None:
         self._kept: dict[bytes, Prediction] = {}
+        self._start: tuple[bytes, Prediction] | None = None
 
     def recall(self, x: Array, jacobian: bool, spare_rows: int) -> Prediction | None:
         """The kept evaluation at ``x`` as :meth:`CalibrationProblem.evaluate` gives it (the Jacobian, if asked,
         with ``spare_rows`` rows of zeros after its own), else None (not kept, or kept without a Jacobian asked)."""
-        kept = self._kept.get(x.tobytes())
+        key = x.tobytes()
+        kept = self._kept.get(key)
+        if kept is None and self._start is not None and self._start[0] == key:
+            kept = self._start[1]
         if kept is None or (jacobian and kept.jacobian is None):
             return None
         full = None
@@ -104,15 +111,18 @@ class Recalled:
             full[:kept.jacobian.shape[0]] = kept.jacobian
         return Prediction(kept.residual.copy(), full, _copied(kept.errors), _copied(kept.predicted))
 
-    def keep(self, x: Array, prediction: Prediction, spare_rows: int) -> None:
+    def keep(self, x: Array, prediction: Prediction, spare_rows: int, start: bool = False) -> None:
         """Keep a copy of ``prediction``, the evaluation at ``x`` (its Jacobian without the ``spare_rows`` last rows),
-        forgetting the oldest beyond :data:`RECALLED`."""
+        forgetting the oldest beyond :data:`RECALLED`; ``start``: ``x`` is the problem's start, kept until another
+        start's evaluation with its Jacobian replaces it."""
         jacobian = prediction.jacobian
         rows = None if jacobian is None else jacobian[:jacobian.shape[0] - spare_rows].copy()
         key = x.tobytes()
+        copy = Prediction(prediction.residual.copy(), rows, _copied(prediction.errors), _copied(prediction.predicted))
+        if start and (self._start is None or self._start[1].jacobian is None or rows is not None):
+            self._start = (key, copy)
         self._kept.pop(key, None)
-        self._kept[key] = Prediction(prediction.residual.copy(), rows, _copied(prediction.errors),
-                                     _copied(prediction.predicted))
+        self._kept[key] = copy
         while len(self._kept) > RECALLED:
             del self._kept[next(iter(self._kept))]
 

@@ -336,7 +336,8 @@ class CalibrationProblem:
             return recalled
         prediction = self._evaluated(given, jacobian, spare_rows)
         if self._recalled is not None:
-            self._recalled.keep(given, prediction, spare_rows)
+            start = self._initial is not None and np.array_equal(given, self._initial)
+            self._recalled.keep(given, prediction, spare_rows, start)
         return prediction
 
     def _evaluated(self, x: Array, jacobian: bool, spare_rows: int) -> Prediction:

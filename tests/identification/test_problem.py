@@ -10,6 +10,7 @@ from conftest import finite_difference_jacobian
 import pincal
 from pincal.errors import DataError
 from pincal.identification import measurements as ms
+from pincal.identification.evaluation import RECALLED
 from pincal.identification.parameters import ParameterSet, candidate_parameters, cluster_parameters, marker_parameters
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.model.robot import Robot
@@ -267,3 +268,21 @@ def test_the_problem_s_robot_is_rebuilt_only_when_the_kinematic_deviations_move(
         ours, theirs = problem.evaluate(step), again.evaluate(step)
         assert ours.jacobian is not None and theirs.jacobian is not None
         assert np.array_equal(ours.residual, theirs.residual) and np.array_equal(ours.jacobian, theirs.jacobian)
+
+
+def test_a_tree_s_start_is_recalled_after_later_evaluations(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The start's evaluation outlives the last few a tree's problem keeps: a refit from the start (model selection's,
+    the setup's fit for "before") after a fit's steps evaluates there without computing, to the last bit."""
+    robot, models, pset, observations, rng = _end_effector_campaign("ur10", seed=5, n=12)
+    problem = CalibrationProblem(robot, pset, models, observations)
+    start = problem.initial_guess()
+    first = problem.evaluate(start, spare_rows=2)
+    for _ in range(RECALLED + 2):  # more than the last evaluations kept
+        problem.evaluate(start + rng.normal(scale=1e-4, size=start.size))
+    made = _counted_predictions(monkeypatch)
+    again = problem.evaluate(start, spare_rows=1)
+    assert problem.evaluate(start, jacobian=False).jacobian is None
+    assert made["count"] == 0
+    np.testing.assert_array_equal(again.residual, first.residual)
+    np.testing.assert_array_equal(again.jacobian[:-1], first.jacobian[:-2])
+    assert not again.jacobian[-1].any()
