@@ -7,7 +7,7 @@
     result = identify / select_and_fit(fit.problem, ...)    # Levenberg–Marquardt on analytic Jacobians
     before = register_setup(...)                           # "before": the nominal robot, its setup fitted
     held = evaluate_held_out(fit, dataset, ...)             # "before" and "after" on the held-out samples
-    report = CalibrationReport(...)                         # every figure, once
+    report = CalibrationReport(...)                         # every figure, once; its extras when first read
 
 SI units throughout: m, rad.
 """
@@ -32,6 +32,7 @@ from pincal.calibration.export_proof import calibrated_proof, with_comment
 from pincal.calibration.growth import ErrorGrowth, estimate_growth
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, Registration, evaluate_held_out, register_setup
 from pincal.calibration.noise import provisional_noise, with_noise
+from pincal.calibration.on_demand import Pending, defer, on_demand
 from pincal.calibration.options import CalibrationOptions
 from pincal.calibration.plausibility import (
     explains_nothing,
@@ -85,11 +86,13 @@ Array = npt.NDArray[np.float64]
 UNIDENTIFIABLE_LINES = 10
 
 
+@on_demand("urdf_text")
 @dataclass
 class Calibration:
     """One calibration: its preparation (the fitted samples, with the parameters kept), the problem, the
     identification result, the held-out evaluation (None without held-out samples), the typed report, the
-    calibrated URDF text and the corrections the URDF cannot hold."""
+    calibrated URDF text (made when first read: it carries the report's bound growth, itself computed on demand)
+    and the corrections the URDF cannot hold."""
 
     prepared: Prepared
     problem: CalibrationProblem
@@ -172,10 +175,13 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         text = with_comment(text, proof)
         corrections = corrections_of(robot, kept.parameters, result.x, options.payload)
         before = register_setup(fitted.problem, result.x0, options.fitting)
-        growth = error_growth(kept, fitted, options, before.x)
+        growth = Pending(lambda: error_growth(kept, fitted, options, before.x))
+        if fitted.problem.robot.loops:  # its evaluations follow the warm starts: in this order, whoever reads it
+            growth.value()
         held = evaluate_held_out(kept, dataset, kept.parameters, before.x, result.x,
                                  trusted=result.sigma2 <= NOISE_CONTRADICTED, result=result,
-                                 x_start=result.x0 if before.registered else None, growth=growth)
+                                 x_start=result.x0 if before.registered else None,
+                                 growth=growth.value() if "test" in dataset.sets else None)
         content = report_content(fit, fitted, held, dataset, options, x_true, shifts, corrections, before, growth)
         content.update(checked)
         content["estimated_sigma"] = estimated or None
@@ -185,8 +191,9 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
                                        select=options.selection, options=options.fitting, progress=progress,
                                        payload=options.payload)
     report = CalibrationReport(**content)
-    return Calibration(kept, fitted.problem, result, held, report, with_carried(text, report), corrections, before,
-                       proof)
+    calibration = Calibration(kept, fitted.problem, result, held, report, "", corrections, before, proof)
+    defer(calibration, "urdf_text", lambda: with_carried(text, report))
+    return calibration
 
 
 @contextlib.contextmanager
@@ -314,9 +321,10 @@ def _checked_truth(x_true: Any, names: Sequence[str]) -> Array | None:
 def report_content(fit: Prepared, fitted: SelectedFit, held: HeldOut | None, dataset: Dataset,
                    options: CalibrationOptions, x_true: Array | None, shifts: dict[str, Any],
                    corrections: Corrections | None, before: Registration,
-                   growth: ErrorGrowth | None) -> dict[str, Any]:
+                   growth: Pending[ErrorGrowth | None]) -> dict[str, Any]:
     """The fields of the :class:`~pincal.calibration.report.CalibrationReport` of one calibration (all but ``cv``);
-    "before" is ``before``, the nominal robot with its setup registered."""
+    "before" is ``before``, the nominal robot with its setup registered; the bound's ``growth`` and what reads it
+    computed when the report's field is first read."""
     problem, result, first, removed = fitted.problem, fitted.result, fitted.first, fitted.removed
     if x_true is not None and removed:  # the truth of the parameters kept
         x_true = x_true[[fit.parameters.index(name) for name in problem.parameters.names]]
@@ -414,20 +422,21 @@ def error_growth(fit: Prepared, fitted: SelectedFit, options: CalibrationOptions
 
 
 def prediction_content(fit: Prepared, result: CalibrationResult, held: HeldOut | None, x_before: Array,
-                       growth: ErrorGrowth | None) -> dict[str, Any]:
+                       growth: Pending[ErrorGrowth | None]) -> dict[str, Any]:
     """The report's predicted accuracy (:mod:`pincal.calibration.predicted`): the fitted joint ranges, the bound's
-    growth beyond them, the predicted error over the workspace, and the held-out samples' predicted bounds with their
-    coverage."""
+    growth beyond them and the predicted error over the workspace (both :class:`Pending`: computed when the report's
+    field is first read), and the held-out samples' predicted bounds with their coverage."""
     ranges = fitted_ranges(fit.robot, fit.problem.observations.actuated, moving_joints(fit))
-    covariance = FitCovariance.of_result(result, growth)
-    out: dict[str, Any] = {"fitted_range": ranges,
-                           "error_growth": growth,
-                           "predicted_workspace": workspace_prediction(fit.problem, covariance, result.x, ranges)}
+    workspace = Pending(lambda: workspace_prediction(fit.problem, FitCovariance.of_result(result, growth.value()),
+                                                     result.x, ranges))
+    out: dict[str, Any] = {"fitted_range": ranges, "error_growth": growth, "predicted_workspace": workspace}
     if held is not None and held.predicted is not None:
         out["predicted_held_out"] = held_out_predictions(held.prepared.samples.sample_ids, held.predicted,
                                                          held.sample_errors()[1])
+    covariance = FitCovariance.of_result(result) if held else None  # its growth is not read
     pixels = held_out_pixels(held.prepared.problem, covariance.matrix, covariance.columns, covariance.sigma2,
-                             result.x, held.errors_after, held.prepared.samples.sample_ids) if held else None
+                             result.x, held.errors_after, held.prepared.samples.sample_ids) \
+        if held and covariance is not None else None
     if pixels is not None:  # each held-out image's predicted reprojection error [px]
         out["predicted_held_out"] = replace(out.get("predicted_held_out") or HeldOutPredictions(), pixels=pixels)
     return out

@@ -24,6 +24,7 @@ import numpy.typing as npt
 
 from pincal.calibration.covariance import parameter_covariance
 from pincal.calibration.growth import ErrorGrowth
+from pincal.calibration.on_demand import on_demand
 from pincal.calibration.report_sections import (
     BadJointReading,
     CameraRecord,
@@ -87,6 +88,7 @@ def _read_payload(value: Any, where: str) -> Payload | None:
     return payload_from_dict(value, f"{where}: ")
 
 
+@on_demand("error_growth", "predicted_workspace")
 @dataclass(frozen=True)
 class CalibrationReport:
     """A calibration's figures and account; every length in m, every angle in rad.
@@ -110,7 +112,8 @@ class CalibrationReport:
     [min, max] [rad or m] in the fitted samples (those that move what is measured); ``predicted_held_out`` the held-out
     samples' predicted errors (σ per length row and the 95 % bound [m], widened beyond the fitted range) and how many
     errors lie within their bound, ``predicted_workspace`` the predicted 95 % bound [m] at postures drawn within the
-    joint limits (:mod:`pincal.calibration.predicted`).
+    joint limits (:mod:`pincal.calibration.predicted`). ``error_growth`` and ``predicted_workspace`` are computed when
+    first read (:mod:`pincal.calibration.on_demand`): a caller that reads neither does not pay for them.
     ``declared_markers`` holds the nominal offset [m, in its frame] of each declared marker (``<frame>@<marker>``) the
     calibration read, as the data declared it (zero when they did not): the calibrated robot's marker links are these
     plus the ``marker.*``/``cluster.*`` estimates.
