@@ -79,7 +79,7 @@ def on_demand(*names: str) -> Callable[[C], C]:
     return decorate
 
 
-def defer(instance: Any, name: str, compute: Callable[[], Any]) -> None:
+def defer(instance: Any, name: str, compute: Callable[[], Any] | Pending[Any]) -> None:
     """Give the on-demand field ``name`` of ``instance`` the value ``compute()`` (or a :class:`Pending`'s) when
     first read.
 

@@ -86,13 +86,15 @@ Array = npt.NDArray[np.float64]
 UNIDENTIFIABLE_LINES = 10
 
 
-@on_demand("urdf_text")
+@on_demand("urdf_text", "proof")
 @dataclass
 class Calibration:
     """One calibration: its preparation (the fitted samples, with the parameters kept), the problem, the
     identification result, the held-out evaluation (None without held-out samples), the typed report, the
-    calibrated URDF text (made when first read: it carries the report's bound growth, itself computed on demand)
-    and the corrections the URDF cannot hold."""
+    calibrated URDF text, the corrections the URDF cannot hold, "before" and the proof of the URDF (the line
+    :func:`~pincal.calibration.export_proof.calibrated_proof` gives, written in its header). The URDF text and its
+    proof are made when first read (the text carries the report's bound growth, itself computed on demand); a
+    PincalError of the proof (the URDF does not hold the calibrated model) is raised there."""
 
     prepared: Prepared
     problem: CalibrationProblem
@@ -171,8 +173,9 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
                                              note=f"{status}calibrated by pincal from {fit.samples.n_samples} samples "
                                                   f"({', '.join(m.key for m in fit.models)})",
                                              read_joints=read_joints(fit.models), markers=declared_markers(fit.models))
-        proof = calibrated_proof(text, robot_from_urdf_text(text), list(fit.samples.joint_names), fit.samples.joints)
-        text = with_comment(text, proof)
+        samples = fit.samples
+        proof = Pending(lambda: calibrated_proof(text, robot_from_urdf_text(text), list(samples.joint_names),
+                                                 samples.joints))
         corrections = corrections_of(robot, kept.parameters, result.x, options.payload)
         before = register_setup(fitted.problem, result.x0, options.fitting)
         growth = Pending(lambda: error_growth(kept, fitted, options, before.x))
@@ -191,8 +194,9 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
                                        select=options.selection, options=options.fitting, progress=progress,
                                        payload=options.payload)
     report = CalibrationReport(**content)
-    calibration = Calibration(kept, fitted.problem, result, held, report, "", corrections, before, proof)
-    defer(calibration, "urdf_text", lambda: with_carried(text, report))
+    calibration = Calibration(kept, fitted.problem, result, held, report, "", corrections, before)
+    defer(calibration, "proof", proof)
+    defer(calibration, "urdf_text", lambda: with_carried(with_comment(text, proof.value()), report))
     return calibration
 
 

@@ -15,6 +15,7 @@ import pincal
 from pincal.calibration.on_demand import Pending, defer, on_demand, pending_fields
 from pincal.calibration.pipeline import Calibration
 from pincal.calibration.report import CalibrationReport
+from pincal.errors import PincalError
 
 
 @pytest.fixture(scope="module")
@@ -55,17 +56,34 @@ def test_the_report_s_extras_wait_for_a_reader_and_give_the_same_bytes(
         ur10_campaign: tuple[pincal.Robot, pincal.Dataset]) -> None:
     robot, dataset = ur10_campaign
     eager = pincal.calibrate(robot, dataset)
-    eager_growth, eager_urdf = eager.report.error_growth, eager.urdf_text  # read at once
+    eager_growth, eager_urdf, eager_proof = eager.report.error_growth, eager.urdf_text, eager.proof  # read at once
     lazy = pincal.calibrate(robot, dataset)
     assert pending_fields(lazy.report) == ["error_growth", "predicted_workspace"]
-    assert pending_fields(lazy) == ["urdf_text"]
+    assert pending_fields(lazy) == ["urdf_text", "proof"]
     x = lazy.result.x
     for scale in (0.5, 2.0, 0.0):  # the problem evaluated elsewhere before the extras are read
         lazy.problem.evaluate(x * scale)
     assert lazy.report.to_json() == eager.report.to_json()
     assert lazy.report.error_growth == eager_growth is not None
     assert lazy.urdf_text == eager_urdf
+    assert lazy.proof == eager_proof and lazy.proof in lazy.urdf_text
     assert pending_fields(lazy.report) == [] and pending_fields(lazy) == []
+
+
+def test_the_urdf_s_proof_refuses_when_the_text_is_read(ur10_campaign: tuple[pincal.Robot, pincal.Dataset],
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A calibrated URDF that does not hold the calibrated model is never handed out: its text raises, once read."""
+    from pincal.calibration import pipeline
+
+    def refused(*args: object) -> str:
+        raise PincalError("calibrate: Pinocchio reads the calibrated URDF 1e-06 m away: not written")
+
+    monkeypatch.setattr(pipeline, "calibrated_proof", refused)
+    calibration = pincal.calibrate(*ur10_campaign)
+    assert calibration.report.converged
+    for name in ("urdf_text", "proof"):
+        with pytest.raises(PincalError, match="not written"):
+            getattr(calibration, name)
 
 
 def test_a_report_pickles_with_its_extras_computed(ur10_campaign: tuple[pincal.Robot, pincal.Dataset]) -> None:
