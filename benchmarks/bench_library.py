@@ -11,9 +11,11 @@ The floor: the bare Pinocchio calls a per-sample evaluation needs, in a Python l
 (``computeJointJacobians`` + ``updateFramePlacements`` + ``getFrameJacobian(LOCAL)`` of the measured frame, at random
 configurations), per sample. Printed: the median CPU time of ``calibrate()`` and of the floor per sample, measured in
 the same process, and their ratio, as ``× (N × floor)`` (N the samples) and as floor units (calibrate time / floor
-time per sample). Each revision's ``pincal/`` runs in its own process, the two alternating round by round, with one
-BLAS thread; the data are simulated once, by the working tree. ``--phases N``: where the working tree's UR10 call
-spends its time instead (each phase timed as the pipeline calls it, mean of N calls).
+time per sample); and the median CPU time of ``calibrate()`` with everything it gives read (``report.to_json()`` and
+``urdf_text``: what a revision computes on demand included, as the command reads it). Each revision's ``pincal/``
+runs in its own process, the two alternating round by round, with one BLAS thread; the data are simulated once, by
+the working tree. ``--phases N``: where the working tree's UR10 call spends its time instead, its report and URDF read
+(each phase timed as the pipeline calls it, mean of N calls).
 """
 
 from __future__ import annotations
@@ -49,12 +51,14 @@ for name, (robot_name, path, keywords) in cases.items():
             pin.computeJointJacobians(model, data, qk)
             pin.updateFramePlacements(model, data)
             pin.getFrameJacobian(model, data, frame, pin.LOCAL)
-    times, floors = [], []
+    times, read, floors = [], [], []
     for _ in range(runs):
         start = time.process_time(); floor(); floors.append(time.process_time() - start)
         start = time.process_time(); calibrate(robot, dataset, **keywords); times.append(time.process_time() - start)
+        start = time.process_time(); done = calibrate(robot, dataset, **keywords)
+        done.report.to_json(); done.urdf_text; read.append(time.process_time() - start)
     out[name] = {"calibrate": statistics.median(times), "floor": statistics.median(floors) / dataset.n_samples,
-                 "n": dataset.n_samples}
+                 "read": statistics.median(read), "n": dataset.n_samples}
 print(json.dumps(out))
 """
 
@@ -82,11 +86,11 @@ def timed_method(module, cls, name, label):
 PIPELINE, SELECTION = "pincal.calibration.pipeline", "pincal.identification.selection"
 timed_method("pincal.identification.prior", "WithPrior", "evaluate", "the fit/of which its model evaluations")
 timed_method("pincal.identification.steps", "Steps", "__init__", "the fit/of which its QR reductions and their SVDs")
-timed("pincal.calibration.propagation", "chi2_upper", "χ² quantiles (every bound: held out, workspace, growth)")
+timed(SELECTION, "range_guard", "the fit/of which the range guard (hold-out refits)")
+timed("pincal.calibration.propagation", "chi2_upper", "inside/χ² quantiles (every bound: held out, workspace, growth)")
 timed(PIPELINE, "prepare", "preparation (usable samples, parameters, idle candidates, problem)")
 timed(PIPELINE, "check_units", "unit check (positions' spread at the start)")
-timed(SELECTION, "identify", "the fit (Levenberg-Marquardt, outlier test, identifiability, covariance)")
-timed(SELECTION, "select_groups", "model selection's group scores")
+timed(PIPELINE, "fit_prepared", "the fit (Levenberg-Marquardt, outlier test, model selection, range guard)")
 timed(PIPELINE, "calibrated_robot_text", "calibrated URDF text")
 timed(PIPELINE, "workspace_prediction", "predicted accuracy over the workspace (100 postures)")
 timed(PIPELINE, "estimate_growth", "the bound's growth beyond the fitted range (hold-out refits)")
@@ -98,11 +102,16 @@ robot, dataset = pincal.load_robot("ur10"), pincal.read_dataset(path)
 for _ in range(3):
     calibrate(robot, dataset)
 spent.clear()
-start = time.process_time()
+total = read = 0.0
 for _ in range(calls):
-    calibrate(robot, dataset)
-total = time.process_time() - start
-print(json.dumps({"total": total / calls, **{k: v / calls for k, v in spent.items()}}))
+    start = time.process_time()
+    done = calibrate(robot, dataset)
+    total += time.process_time() - start
+    done.report.to_json(); done.urdf_text  # what calibrate() left for its reader
+    read += time.process_time() - start
+extras = {k: v / calls for k, v in spent.items()}
+spent.clear()
+print(json.dumps({"total": total / calls, "read": read / calls, **extras}))
 """
 
 
@@ -117,8 +126,9 @@ def phases(calls: int) -> None:
         done = subprocess.run([sys.executable, "-c", PHASES, cases["UR10, 1000 positions"][1], str(calls)], env=env,
                               capture_output=True, text=True, check=True, cwd=work)
     spent = json.loads(done.stdout)
-    total = spent.pop("total")
-    print(f"UR10, 1000 positions: calibrate() {total * 1e3:.1f} ms CPU, mean of {calls} calls; its phases:")
+    total, read = spent.pop("total"), spent.pop("read")
+    print(f"UR10, 1000 positions: calibrate() {total * 1e3:.1f} ms CPU, {read * 1e3:.1f} ms with its report JSON and "
+          f"URDF text read, mean of {calls} calls; the phases of both (the extras computed on demand included):")
     print("| phase | ms |\n|---|---|")
     parts = {label: seconds for label, seconds in spent.items() if "/" not in label}
     for label, seconds in sorted(parts.items(), key=lambda item: -item[1]):
@@ -126,7 +136,10 @@ def phases(calls: int) -> None:
         for inner in sorted((k for k in spent if "/" in k and label.startswith(k.split("/")[0])),
                             key=lambda k: -spent[k]):
             print(f"| {inner.split('/')[1]} | {spent[inner] * 1e3:.1f} |")
-    print(f"| the rest (report figures, plausibility, held-out set, ...) | {(total - sum(parts.values())) * 1e3:.1f} |")
+    print(f"| the rest (report figures, plausibility, held-out set, JSON text, ...) | "
+          f"{(read - sum(parts.values())) * 1e3:.1f} |")
+    for label in (k for k in spent if k.startswith("inside/")):
+        print(f"| inside the phases above: {label.split('/')[1]} | {spent[label] * 1e3:.1f} |")
 
 
 def simulate(work: Path, after: Path) -> dict[str, tuple[str, str, dict[str, list[str]]]]:
@@ -165,15 +178,18 @@ def main() -> None:
                 rounds[which].append(json.loads(done.stdout))
     print(f"python {sys.version.split()[0]}, {os.cpu_count()} cores; before = {args.before}, after = the working "
           f"tree; medians of {args.repeats} rounds of {args.runs} calls, CPU time")
-    print("| case | calibrate() before | after | floor per sample | after / (N × floor) | after, floor units |")
-    print("|---|---|---|---|---|---|")
+    print("| case | calibrate() before | after | floor per sample | after / (N × floor) | after, floor units | "
+          "all read: before | all read: after |")
+    print("|---|---|---|---|---|---|---|---|")
     for name in cases:
-        before = statistics.median(r[name]["calibrate"] for r in rounds["before"])
-        after = statistics.median(r[name]["calibrate"] for r in rounds["after"])
+        before, after, read_before, read_after = (
+            statistics.median(r[name][what] for r in rounds[which])
+            for which, what in (("before", "calibrate"), ("after", "calibrate"), ("before", "read"), ("after", "read")))
         floor = statistics.median(r[name]["floor"] for r in rounds["after"])
         n = rounds["after"][0][name]["n"]
         print(f"| {name} | {before * 1e3:.1f} ms | {after * 1e3:.1f} ms | {floor * 1e6:.2f} µs | "
-              f"{after / (n * floor):.0f} × | {after / floor:,.0f} |")
+              f"{after / (n * floor):.0f} × | {after / floor:,.0f} | {read_before * 1e3:.1f} ms | "
+              f"{read_after * 1e3:.1f} ms |")
 
 
 if __name__ == "__main__":
