@@ -73,7 +73,7 @@ from pincal.identification.problem import CalibrationProblem
 from pincal.identification.readings import BadReading
 from pincal.identification.result import CalibrationResult
 from pincal.identification.selection import SelectedFit, fold_prior, select_and_fit
-from pincal.identification.solver import identify_with
+from pincal.identification.solver import identify_with, one_blas_thread
 from pincal.io.calibrated_urdf import calibrated_robot_text, declared_markers, source_text
 from pincal.io.corrections_file import Corrections, corrections_of
 from pincal.io.dataset import Dataset
@@ -140,7 +140,10 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     # the stages on stderr when it is a terminal; the cross-validation after them has its own bar
     models = dataset_models(robot, dataset, options)
     check_moving_frames(robot, models)  # before the samples are solved
-    with Progress("calibrate: prepare, fit, evaluate", 3, quiet=not progress) as stages:
+    # BLAS on one thread for the whole of it, as the command line starts: the algebra is small (tens of columns), and
+    # model selection, the range guard and the bound's hold-outs run outside identify's own limit (benchmarks/
+    # bench_threads.py: a library call on this 2-core machine, loaded, several times the CPU on two threads)
+    with one_blas_thread(), Progress("calibrate: prepare, fit, evaluate", 3, quiet=not progress) as stages:
         try:
             fit = prepare(robot, dataset, options)
         except DataError:  # none usable: perhaps none within the joint limits as the columns are read
@@ -190,9 +193,10 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         content["estimated_sigma"] = estimated or None
         stages.advance()
     if folds is not None and every is not None:
-        content["cv"] = cross_validate(robot, fit.parameters, fit.models, every.problem.observations, folds,
-                                       select=options.selection, options=options.fitting, progress=progress,
-                                       payload=options.payload)
+        with one_blas_thread():
+            content["cv"] = cross_validate(robot, fit.parameters, fit.models, every.problem.observations, folds,
+                                           select=options.selection, options=options.fitting,
+                                           progress=progress, payload=options.payload)
     report = CalibrationReport(**content)
     calibration = Calibration(kept, fitted.problem, result, held, report, "", corrections, before)
     defer(calibration, "proof", proof)

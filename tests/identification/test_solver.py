@@ -287,8 +287,8 @@ def test_blas_runs_on_one_thread_while_identifying(monkeypatch: pytest.MonkeyPat
 
     for name in solver.ONE_THREAD:
         monkeypatch.setenv(name, "1")
-    assert isinstance(solver._one_blas_thread(), contextlib.nullcontext)
+    assert isinstance(solver.one_blas_thread(), contextlib.nullcontext)
     monkeypatch.delenv("OPENBLAS_NUM_THREADS")
     solver._threadpools.cache_clear()  # the libraries loaded now (found once per process: a test may load more)
-    with threadpool_limits(limits=2, user_api="blas"), solver._one_blas_thread():
+    with threadpool_limits(limits=2, user_api="blas"), solver.one_blas_thread():
         assert {pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"} == {1}
