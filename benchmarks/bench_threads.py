@@ -3,7 +3,8 @@ after, side by side.
 
 Run: ``python benchmarks/bench_threads.py`` (``--before REV``, default ``7a3a1be``: main before ``calibrate()`` held
 BLAS at one thread for its whole work; ``--repeats K``, default 5 rounds; ``--busy B``, default 1: B processes that
-spin on a core of their own while it measures, as another user's job loads a shared machine; 0 for none). The ``pincal`` command starts its libraries
+spin on a core of their own while it measures, as another user's job loads a shared machine; 0 for none). The
+``pincal`` command starts its libraries
 on one thread (``pincal/__main__.py``), and ``identify`` limits them while it fits; a script that imports pincal
 starts them with as many threads as the machine has, and the rest of ``calibrate()`` (model selection, the range
 guard, the bound's hold-outs: hundreds of small eigen-decompositions) ran on them. Each case is one process per
@@ -96,9 +97,9 @@ def measure(args: argparse.Namespace) -> None:
                      for side, found in runs.items()}
             wall = statistics.median(w for r in runs["after"] for w in r["wall"][1:])  # type: ignore[attr-defined]
             same = runs["before"][0]["report"] == runs["after"][0]["report"]
+            ratios = f"{first['after'] / first['before']:.2f} / {later['after'] / later['before']:.2f}"
             print(f"| {name} | {first['before']:.2f} / {later['before']:.2f} | {first['after']:.2f} / "
-                  f"{later['after']:.2f} | {first['after'] / first['before']:.2f} / {later['after'] / later['before']:.2f}"
-                  f" | {wall:.2f} | {'yes' if same else 'NO'} |")
+                  f"{later['after']:.2f} | {ratios} | {wall:.2f} | {'yes' if same else 'NO'} |")
 
 
 if __name__ == "__main__":

@@ -52,6 +52,7 @@ from pincal.calibration.report_sections import (
     OutsideRange,
     RangeGuard,
     SampleError,
+    WorkspacePrediction,
 )
 from pincal.calibration.samples import (
     LENGTH_SCALE_RATIO,
@@ -426,7 +427,8 @@ def error_growth(fit: Prepared, fitted: SelectedFit, options: CalibrationOptions
         else prior_sigma(problem.parameters, options.fitting.fixed_prior())
     moving = moving_joints(fit)
     columns = [k for k, j in enumerate(fit.robot.actuated_joints) if j in moving]
-    return estimate_growth(problem, fitted.result, prior, columns, x_before, fold_prior(fitted))
+    with one_blas_thread():  # also when the report's field is first read, after calibrate() returned
+        return estimate_growth(problem, fitted.result, prior, columns, x_before, fold_prior(fitted))
 
 
 def prediction_content(fit: Prepared, result: CalibrationResult, held: HeldOut | None, x_before: Array,
@@ -435,9 +437,12 @@ def prediction_content(fit: Prepared, result: CalibrationResult, held: HeldOut |
     growth beyond them and the predicted error over the workspace (both :class:`Pending`: computed when the report's
     field is first read), and the held-out samples' predicted bounds with their coverage."""
     ranges = fitted_ranges(fit.robot, fit.problem.observations.actuated, moving_joints(fit))
-    workspace = Pending(lambda: workspace_prediction(fit.problem, FitCovariance.of_result(result, growth.value()),
-                                                     result.x, ranges))
-    out: dict[str, Any] = {"fitted_range": ranges, "error_growth": growth, "predicted_workspace": workspace}
+
+    def workspace() -> WorkspacePrediction | None:  # when first read: BLAS on one thread, as in calibrate()
+        with one_blas_thread():
+            return workspace_prediction(fit.problem, FitCovariance.of_result(result, growth.value()), result.x, ranges)
+
+    out: dict[str, Any] = {"fitted_range": ranges, "error_growth": growth, "predicted_workspace": Pending(workspace)}
     if held is not None and held.predicted is not None:
         out["predicted_held_out"] = held_out_predictions(held.prepared.samples.sample_ids, held.predicted,
                                                          held.sample_errors()[1])
