@@ -4,10 +4,10 @@ after, side by side.
 Run: ``python benchmarks/bench_threads.py`` (``--before REV``, default ``7a3a1be``: main before ``calibrate()`` held
 BLAS at one thread for its whole work; ``--repeats K``, default 5 rounds; ``--busy B``, default 1: B processes that
 spin on a core of their own while it measures, as another user's job loads a shared machine; 0 for none). The
-``pincal`` command starts its libraries
-on one thread (``pincal/__main__.py``), and ``identify`` limits them while it fits; a script that imports pincal
-starts them with as many threads as the machine has, and the rest of ``calibrate()`` (model selection, the range
-guard, the bound's hold-outs: hundreds of small eigen-decompositions) ran on them. Each case is one process per
+``pincal`` command starts its libraries on one thread (``pincal/__main__.py``), and ``identify`` limits them while it
+fits; a script that imports pincal starts them with as many threads as the machine has, and the rest of
+``calibrate()`` (model selection, the range guard, the bound's hold-outs: hundreds of small eigen-decompositions) ran
+on them. Each case is one process per
 round, each revision's ``pincal/`` alternating, with no thread variable set (:func:`bench_commands.environment`).
 
 Cases (real data shipped in ``examples/``): the TIAGo job (34 postures, motion capture) and the TALOS left arm's
