@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -64,10 +64,11 @@ from pincal.identification.parameters import influencing_joints, read_joints
 from pincal.identification.solver import identify_with
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Side:
     """One robot's predictions of the checked samples.
 
@@ -90,7 +91,7 @@ class Side:
         return {name: float(v) for name, v in zip(self.prepared.parameters.names, self.x, strict=True)}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Check:
     """A model checked on data, beside the nominal robot.
 

@@ -10,7 +10,6 @@ holds them); the nominal robot with its camera registered on the data (placement
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -22,6 +21,7 @@ from pincal.identification.measurements import KIND_CLASSES, Measurement
 from pincal.identification.measurements.pixels import Pixel
 from pincal.identification.metrics import pixel_error_norms, rms
 from pincal.identification.problem import CalibrationProblem
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -96,7 +96,7 @@ def pixels_worse(model: dict[str, Array], nominal: dict[str, Array], same: float
     return bool(figures["rms"] > (1.0 + same) * figures["nominal_rms"])
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PixelBounds:
     """Each image's predicted 95 % bound of its reprojection error under MODEL, from the calibration's covariance.
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -37,6 +37,7 @@ from pincal.identification.problem import CalibrationProblem
 from pincal.io.adapters import observations_from
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
+from pincal.records import record
 
 if TYPE_CHECKING:
     from pincal.calibration.setup import Prepared
@@ -61,7 +62,7 @@ MIRRORED: tuple[str, ...] = ()
 SAME_START = 1.5
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Start:
     """The nominal robot's start on some samples: how many of them it can use (within the joint limits, assembled), and
     its RMS position error [m] on them (inf with fewer than three)."""
@@ -70,7 +71,7 @@ class Start:
     rms: float
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ColumnMistake:
     """A joint column read with the other sign (``joints`` one name), or two joints' columns exchanged (two names),
     and the nominal robot's start as read and as corrected, on ``probed`` samples; ``others``: the other columns'

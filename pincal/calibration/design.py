@@ -16,7 +16,6 @@ the two counts are told apart in words.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -29,6 +28,7 @@ from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.io.dataset import MAX_SAMPLES
 from pincal.model.robot import Robot
+from pincal.records import record
 from pincal.study.pose_selection import (
     PoseSelection,
     condition_number,
@@ -79,7 +79,7 @@ def random_set_baseline(blocks: Array, k: int, selection: PoseSelection, scales:
     return float(np.median(kappas)), float(np.median(logdets))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class OffNominal:
     """What the candidates identify on the robot off its nominal geometry, when more than on the nominal.
 
@@ -145,7 +145,7 @@ def off_nominal(problem: CalibrationProblem, difference: bool, nominal: int, see
     return OffNominal(count, OFF_NOMINAL, parallel_axes(problem.robot, frames))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Design:
     """A chosen set of postures.
 

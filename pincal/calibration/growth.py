@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from typing import Any
 
 import numpy as np
@@ -47,6 +47,7 @@ from pincal.identification.holdouts import FOLDS, SEED, Linearised, range_halves
 from pincal.identification.parameters import joint_unit
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -59,7 +60,7 @@ MIN_WIDTH = 0.05
 MIN_SAMPLES = 8
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ErrorGrowth:
     """What the hold-outs show: the factor on the covariance's bound inside the fitted range, and the nominal robot's
     own 95 % error bound ``E₀ + E₁ u`` [m], by which the bound grows beyond it.

@@ -12,7 +12,7 @@ The report's held-out figures, the HTML page's figures and tables, ``view`` and 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -42,6 +42,7 @@ from pincal.identification.result import CalibrationResult
 from pincal.identification.solver import identify_with
 from pincal.io.dataset import Dataset
 from pincal.model.assemblable import assemble
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -66,7 +67,7 @@ def worse_than_nominal(before: dict[str, Array], after: dict[str, Array], n: int
     return bool(rms(per_after[keep]) > (1 + SAME_ERROR) * rms(per_before[keep]))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Registration:
     """The nominal robot with its setup registered on the training samples: the calibration's "before".
 
@@ -115,7 +116,7 @@ def register_setup(problem: CalibrationProblem, x0: Array, options: FitOptions) 
     return Registration(x, errors, start, True)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class HeldOut:
     """A fit evaluated on held-out samples.
 

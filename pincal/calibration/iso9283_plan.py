@@ -23,7 +23,6 @@ Positions [m] in the robot's base frame.
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -37,6 +36,7 @@ from pincal.errors import Culprit, DataError
 from pincal.io.targets import Targets
 from pincal.model.batch_ik import Goals, actuated_newton
 from pincal.model.robot import Robot
+from pincal.records import record
 from pincal.study.simulation import random_actuated
 
 Array = npt.NDArray[np.float64]
@@ -64,7 +64,7 @@ AXES = {"x": 0, "y": 1, "z": 2}
 APPROACH = 0.1
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Cube:
     """The test cube: its centre [m] in the base frame and its side [m]."""
 
@@ -90,7 +90,7 @@ class Cube:
         return np.asarray(self.centre + steps * self.side, dtype=float)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Plan:
     """A planned ISO 9283 test.
 

@@ -16,7 +16,6 @@ docs/predicted_accuracy.md explains the choice. Every length in m, every angle i
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -41,6 +40,7 @@ from pincal.identification.problem import CalibrationProblem, Observations, Pred
 from pincal.identification.result import CalibrationResult
 from pincal.model.assemblable import assemble
 from pincal.model.robot import Robot
+from pincal.records import record
 from pincal.study.simulation import random_actuated
 
 Array = npt.NDArray[np.float64]
@@ -53,7 +53,7 @@ __all__ = ["LEVEL", "MIN_WIDTH", "WORKSPACE_POSTURES", "FitCovariance", "Predict
 WORKSPACE_POSTURES = 100
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PredictedErrors:
     """The predicted length-type error of each sample of a problem.
 
@@ -84,7 +84,7 @@ class PredictedErrors:
         return np.isfinite(errors) & np.isfinite(self.bound) & (errors <= self.bound)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class FitCovariance:
     """The covariance a fit gives its estimates, and how its bound grows, as the predictions use them.
 

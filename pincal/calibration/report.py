@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Collection
-from dataclasses import dataclass, field, fields
+from dataclasses import field, fields
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +53,7 @@ from pincal.identification.parameters import ParameterSet, kinds_where, paramete
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
 from pincal.io.files import json_text
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -87,7 +88,7 @@ def _read_payload(value: Any, where: str) -> Payload | None:
     return payload_from_dict(value, f"{where}: ")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class CalibrationReport:
     """A calibration's figures and account; every length in m, every angle in rad.
 

@@ -9,7 +9,6 @@ import csv
 import math
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +34,7 @@ from pincal.io.dataset import (
     parse_measurement_key,
 )
 from pincal.io.files import input_problem
+from pincal.records import record
 
 #: The csv module's longest cell [characters]: a line shorter cannot hold a cell it refuses.
 FIELD_LIMIT = csv.field_size_limit()
@@ -43,7 +43,7 @@ Array = npt.NDArray[np.float64]
 
 
 # --- reading ------------------------------------------------------------------------------------
-@dataclass
+@record
 class _Layout:
     """Where each quantity sits among the file's columns."""
 
@@ -390,7 +390,7 @@ def _check_units(data: Dataset, lines: list[int], kinds: dict[str, str]) -> None
 
 
 # --- other column layouts (a job file's, pincal.calibration.job) -------------------------------------------
-@dataclass
+@record
 class Table:
     """A CSV file's cells before any column is given a meaning.
 

@@ -13,7 +13,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
@@ -21,13 +21,14 @@ import numpy.typing as npt
 
 from pincal.errors import DataError
 from pincal.progress import Progress
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
 Trial = Callable[[int, Any], Mapping[str, float]]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class TrialRecord:
     """One trial: its level, seed, metrics, and wall time [s] (not part of the reproducible result)."""
 
@@ -37,7 +38,7 @@ class TrialRecord:
     seconds: float
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Summary:
     """Statistics of one metric at one level over the seeds (NaN values are left out and counted)."""
 
@@ -50,7 +51,7 @@ class Summary:
     n_nan: int = 0
 
 
-@dataclass
+@record
 class MonteCarloResult:
     """All trial records of a study, in (level, seed) order."""
 
