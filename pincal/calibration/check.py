@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.calibration import check_pixels as pixel_check
 from pincal.calibration.check_groups import (
     SAME_ERROR,
@@ -242,7 +243,7 @@ class Check:
         finite = self.predicted.bound[np.isfinite(self.predicted.bound)]
         return {"known": True, "level": 0.95,
                 **coverage(self.predicted, errors if errors is not None else np.full(len(self.sample_ids), np.nan)),
-                "median_bound": _number(float(np.median(finite))) if finite.size else None,
+                "median_bound": _number(float(linalg.median(finite))) if finite.size else None,
                 "beyond": [s for s, u in zip(self.sample_ids, self.predicted.distance, strict=True) if u > 0.0]}
 
 

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, PincalError
 from pincal.identification.measurements import Measurement
 from pincal.identification.parameters import choose_parameters, influencing_joints, joint_unit, read_joints
@@ -253,7 +254,7 @@ def check_columns(fit: Prepared, part: Dataset, plausible: float | str) -> None:
         points = points[np.all(np.isfinite(points), axis=1)]
         if np.isfinite(squares).any() and len(points):
             rms = float(np.sqrt(np.nanmean(squares)))
-            spread = float(np.median(np.linalg.norm(points - np.median(points, axis=0), axis=1)))
+            spread = float(linalg.median(np.linalg.norm(points - linalg.median(points, axis=0), axis=1)))
     if start_looks_wrong(rms, spread, outside, part.n_samples):
         refuse_column_mistake(fit.robot, part, fit.models, plausible)
 

@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal import linalg
 from pincal.calibration.setup import measurement_models, parameters_for
 from pincal.errors import DataError, PincalError, listing
 from pincal.identification.measurements import Measurement
@@ -76,7 +77,7 @@ def random_set_baseline(blocks: Array, k: int, selection: PoseSelection, scales:
         indices = rng.choice(n, k, replace=False)
         kappas.append(condition_number(blocks, indices, scales, selection.columns, difference))
         logdets.append(log_det(blocks, indices, scales, selection.columns, difference))
-    return float(np.median(kappas)), float(np.median(logdets))
+    return float(linalg.median(kappas)), float(linalg.median(logdets))
 
 
 @record(frozen=True)

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.predicted import (
     FitCovariance,
@@ -62,7 +63,7 @@ def worse_than_nominal(before: dict[str, Array], after: dict[str, Array], n: int
     per_before, per_after = sample_length_errors(before, n), sample_length_errors(after, n)
     if per_before is None or per_after is None:
         return bool(rms(error_norms(after)) > (1 + SAME_ERROR) * rms(error_norms(before)))
-    keep = np.setdiff1d(np.arange(n), strange) if len(strange) < n else np.arange(n)
+    keep = linalg.complement(n, strange) if len(strange) < n else np.arange(n)
     keep = keep[np.isfinite(per_after[keep]) & np.isfinite(per_before[keep])]  # samples with a length reading
     return bool(rms(per_after[keep]) > (1 + SAME_ERROR) * rms(per_before[keep]))
 

@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal import validation
+from pincal import linalg, validation
 from pincal.calibration.compensate import Compensation, compensate, load_model
 from pincal.calibration.joint_commands import CommandSolver, Model
 from pincal.calibration.provenance import version
@@ -194,7 +194,7 @@ def largest_cube(robot: Robot, frame: str, orientation: Array | None, region: Ar
     inside = cloud[_inside(cloud, region)]
     if not len(inside):
         return None
-    order = np.argsort(np.linalg.norm(inside - np.median(inside, axis=0), axis=1), kind="stable")
+    order = np.argsort(np.linalg.norm(inside - linalg.median(inside, axis=0), axis=1), kind="stable")
     centres = inside[order[np.linspace(0, len(order) - 1, min(CENTRES, len(order))).astype(int)]]
     solver = CommandSolver(Model(robot), frame, REACH_TOLERANCE, seed)
     commands = solver.solve(_goals(centres, orientation))

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.calibration.covariance import parameter_covariance
 from pincal.calibration.growth import MIN_WIDTH, ErrorGrowth, extrapolation_distance
 from pincal.calibration.propagation import LEVEL, length_covariances, length_layout, norm_quantile, norm_quantiles
@@ -239,7 +240,7 @@ def workspace_prediction(problem: CalibrationProblem, fit: FitCovariance, x: Arr
                                bounds=bounds.tolist(), distance=distances.tolist(),
                                outside_fitted_range=int(np.count_nonzero(distances > 0.0)),
                                capped=int(np.count_nonzero(predicted.capped)),
-                               median_bound=float(np.median(finite)) if finite.size else None,
+                               median_bound=float(linalg.median(finite)) if finite.size else None,
                                max_bound=float(np.max(finite)) if finite.size else None)
 
 
@@ -312,7 +313,7 @@ def held_out_predictions(ids: list[str], predicted: PredictedErrors, errors: Arr
     every, in_range, beyond_range = coverages(predicted, errors)
     return HeldOutPredictions(
         level=LEVEL, inside=every.inside, samples=every.samples, fraction=every.fraction, in_range=in_range,
-        beyond_range=beyond_range, median_bound=float(np.median(finite)) if finite.size else None, beyond=beyond,
+        beyond_range=beyond_range, median_bound=float(linalg.median(finite)) if finite.size else None, beyond=beyond,
         samples_predicted=[PredictedSample(sample=s, sigma=[None if not np.isfinite(v) else float(v) for v in sig],
                                            bound=float(b) if np.isfinite(b) else None,
                                            linear_bound=float(lb) if np.isfinite(lb) else None,

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from pincal import validation
+from pincal import linalg, validation
 from pincal.errors import ArgumentError, ConvergenceError
 from pincal.identification import fitting
 from pincal.identification.choices import Loss, Solver
@@ -213,7 +213,7 @@ def _median_sample_residual(problem: Problem, fit: CalibrationResult) -> float:
     if pred is None:
         return math.inf
     squares, dims = sample_squares(problem, pred.residual)
-    return float(np.median(squares[dims > 0]))
+    return float(linalg.median(squares[dims > 0]))
 
 
 #: Refits after samples were found off the reference assembly (each refit starts where the last ended).

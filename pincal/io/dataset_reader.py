@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from pincal import validation
+from pincal import linalg, validation
 from pincal.errors import DataError, listing
 from pincal.identification.measurements import KIND_CLASSES, QUATERNION
 from pincal.io.dataset import (
@@ -377,8 +377,8 @@ def _check_units(data: Dataset, lines: list[int], kinds: dict[str, str]) -> None
     for c, name in enumerate(data.joint_names):
         column = np.abs(data.joints[:, c])
         joint_kind = kinds.get(name)
-        if joint_kind == "prismatic" and float(np.median(column)) > MAX_PLAUSIBLE_LENGTH:
-            raise DataError(f"column '{name}' (prismatic joint): median |reading| {float(np.median(column)):g} "
+        if joint_kind == "prismatic" and float(linalg.median(column)) > MAX_PLAUSIBLE_LENGTH:
+            raise DataError(f"column '{name}' (prismatic joint): median |reading| {float(linalg.median(column)):g} "
                             f"{mm} (median > {MAX_PLAUSIBLE_LENGTH:g} m)")
         if joint_kind == "revolute":
             big = np.flatnonzero(column > MAX_PLAUSIBLE_ANGLE)

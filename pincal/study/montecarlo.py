@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.errors import DataError
 from pincal.progress import Progress
 from pincal.records import record
@@ -77,7 +78,7 @@ class MonteCarloResult:
         ok = v[np.isfinite(v)]
         if not ok.size:
             return Summary(math.nan, math.nan, math.nan, math.nan, math.nan, 0, int(v.size))
-        return Summary(float(ok.mean()), float(ok.std(ddof=1)) if ok.size > 1 else 0.0, float(np.median(ok)),
+        return Summary(float(ok.mean()), float(ok.std(ddof=1)) if ok.size > 1 else 0.0, float(linalg.median(ok)),
                        float(ok.min()), float(ok.max()), int(ok.size), int(v.size - ok.size))
 
     def table(self, metrics: Sequence[str] | None = None, level_label: Callable[[Any], str] = repr,
