@@ -255,16 +255,21 @@ def test_the_qr_factors_are_scipy_s_bit_for_bit(shape: tuple[int, int]) -> None:
     np.testing.assert_array_equal(linalg.orthonormal_basis(a), scipy.linalg.qr(a, mode="economic")[0])
 
 
+def _printed_fresh(probe: str) -> list[str]:
+    """The words ``probe`` prints, run in an interpreter of its own."""
+    done = subprocess.run([sys.executable, "-P", "-c", probe], capture_output=True, text=True, timeout=120,
+                          check=False)
+    assert done.returncode == 0, done.stderr
+    return done.stdout.split()
+
+
 def test_the_lapack_bindings_load_without_scipy_linalg() -> None:
     """:func:`linalg.lapack` is SciPy's own module of LAPACK routines, loaded without ``scipy.linalg``'s Python layer
     (checked in a fresh interpreter); imported later, ``scipy.linalg`` takes the same module."""
     probe = ("import sys; from pincal import linalg; bindings = linalg.lapack(); "
              "loaded = 'scipy.linalg' in sys.modules; import scipy.linalg.lapack; "
              " print(loaded, bindings.dgeqp3 is scipy.linalg.lapack.dgeqp3)")
-    done = subprocess.run([sys.executable, "-P", "-c", probe], capture_output=True, text=True, timeout=120,
-                          check=False)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["False", "True"]
+    assert _printed_fresh(probe) == ["False", "True"]
     assert linalg.lapack().dgesv is scipy.linalg.lapack.dgesv
 
 
@@ -297,7 +302,4 @@ def test_median_and_complement_load_no_masked_arrays() -> None:
     probe = ("import sys; from pincal.linalg import complement, median; import numpy as np; "
              "print(median(np.array([1.0, np.nan, 2.0])), median(np.ones((3, 2)), axis=0), complement(3, [1]), "
              "'numpy.ma' in sys.modules)")
-    done = subprocess.run([sys.executable, "-P", "-c", probe], capture_output=True, text=True, timeout=120,
-                          check=False)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["nan", "[1.", "1.]", "[0", "2]", "False"]
+    assert _printed_fresh(probe) == ["nan", "[1.", "1.]", "[0", "2]", "False"]
