@@ -17,7 +17,7 @@ from __future__ import annotations
 import concurrent.futures
 import os
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 
 from pincal.calibration.options import GivenOptions
@@ -25,12 +25,13 @@ from pincal.calibration.report import CalibrationReport
 from pincal.errors import PincalError
 from pincal.io.files import check_directory
 from pincal.progress import Progress
+from pincal.records import record
 
 #: A file named so is a job file (docs/job_file.md).
 JOB_SUFFIX = ".toml"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class FleetJob:
     """One robot of the fleet.
 
@@ -52,7 +53,7 @@ class FleetJob:
     options: GivenOptions = field(default_factory=GivenOptions)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class FleetResult:
     """The outcome of one job: the report, or the error that stopped it."""
 

@@ -14,9 +14,9 @@ PACKAGE = Path(__file__).resolve().parents[1] / "pincal"
 
 #: Layer of each top-level part of pincal, from the bottom; a module imports only parts of a lower layer or
 #: modules of its own part (``pincal.__version__`` is a constant of the package root).
-LAYERS = {"errors": 0, "__version__": 0, "lazy": 0, "validation": 1, "linalg": 1, "progress": 1, "plugins": 1,
-          "model": 2, "identification": 3, "study": 4, "io": 4, "calibration": 5, "fleet": 6, "viz": 6, "cli": 7,
-          "__main__": 8}
+LAYERS = {"errors": 0, "__version__": 0, "lazy": 0, "records": 0, "validation": 1, "linalg": 1, "progress": 1,
+          "plugins": 1, "model": 2, "identification": 3, "study": 4, "io": 4, "calibration": 5, "fleet": 6, "viz": 6,
+          "cli": 7, "__main__": 8}
 
 
 def _part(module: str) -> str:

@@ -42,18 +42,19 @@ def _python_parts() -> tuple[set[str], set[str]]:
     return packages, modules
 
 
-def test_seven_sub_packages_the_fleet_module_and_six_shared_modules() -> None:
+def test_seven_sub_packages_the_fleet_module_and_seven_shared_modules() -> None:
     packages, modules = _python_parts()
-    assert "pincal is seven sub-packages, the `fleet` module and six shared modules" in ARCHITECTURE
+    assert "pincal is seven sub-packages, the `fleet` module and seven shared modules" in ARCHITECTURE
     assert packages == {"model", "identification", "study", "io", "calibration", "viz", "cli"}
     assert "fleet" in modules
-    assert modules - {"fleet"} == {"errors", "lazy", "validation", "linalg", "progress", "plugins"}
+    assert modules - {"fleet"} == {"errors", "lazy", "records", "validation", "linalg", "progress", "plugins"}
 
 
 @pytest.mark.parametrize("module", ["pincal", "pincal.calibration", "pincal.identification", "pincal.io",
                                     "pincal.study", "pincal.cli", "pincal.cli.app", "pincal.calibration.options",
                                     "pincal.identification.choices", "pincal.study.criteria", "pincal.errors",
-                                    "pincal.lazy", "pincal.validation", "pincal.progress", "pincal.plugins"])
+                                    "pincal.lazy", "pincal.records", "pincal.validation", "pincal.progress",
+                                    "pincal.plugins"])
 def test_a_light_import_loads_no_numerical_library(module: str) -> None:
     """The lazy packages, the command line's parser and the light modules it reads load none of NumPy, SciPy and
     Pinocchio."""
@@ -82,7 +83,7 @@ def test_the_command_line_loads_at_its_top_only_the_modules_the_page_names() -> 
     """``cli/app.py`` imports the command modules and the light modules their parsers read; the work's modules load
     when a command runs."""
     named = {"calibration.options", "identification.choices", "identification.fit_options", "study.criteria", "plugins",
-             "validation", "errors", "lazy"}
+             "validation", "errors", "lazy", "records"}
     for name in named:
         assert f"`{name}`" in ARCHITECTURE
     loaded = {m.removeprefix("pincal.") for m in _loaded_by("pincal.cli.app") if m.startswith("pincal.")}

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import warnings
 from collections.abc import Iterator
 
 import numpy as np
@@ -254,14 +255,51 @@ def test_the_qr_factors_are_scipy_s_bit_for_bit(shape: tuple[int, int]) -> None:
     np.testing.assert_array_equal(linalg.orthonormal_basis(a), scipy.linalg.qr(a, mode="economic")[0])
 
 
+def _printed_fresh(probe: str) -> list[str]:
+    """The words ``probe`` prints, run in an interpreter of its own."""
+    done = subprocess.run([sys.executable, "-P", "-c", probe], capture_output=True, text=True, timeout=120,
+                          check=False)
+    assert done.returncode == 0, done.stderr
+    return done.stdout.split()
+
+
 def test_the_lapack_bindings_load_without_scipy_linalg() -> None:
     """:func:`linalg.lapack` is SciPy's own module of LAPACK routines, loaded without ``scipy.linalg``'s Python layer
     (checked in a fresh interpreter); imported later, ``scipy.linalg`` takes the same module."""
     probe = ("import sys; from pincal import linalg; bindings = linalg.lapack(); "
              "loaded = 'scipy.linalg' in sys.modules; import scipy.linalg.lapack; "
              " print(loaded, bindings.dgeqp3 is scipy.linalg.lapack.dgeqp3)")
-    done = subprocess.run([sys.executable, "-P", "-c", probe], capture_output=True, text=True, timeout=120,
-                          check=False)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["False", "True"]
+    assert _printed_fresh(probe) == ["False", "True"]
     assert linalg.lapack().dgesv is scipy.linalg.lapack.dgesv
+
+
+@pytest.mark.parametrize("shape", [(0,), (1,), (2,), (5,), (6,), (7, 3), (8, 4), (3, 0), (5, 1)])
+@pytest.mark.parametrize("with_nan", [False, True])
+def test_median_is_numpys_to_the_bit(shape: tuple[int, ...], with_nan: bool) -> None:
+    rng = np.random.default_rng(len(shape) * 10 + sum(shape))
+    values = rng.standard_normal(shape)
+    if with_nan and values.size:
+        values.flat[rng.integers(values.size)] = np.nan
+    for axis in [None, *range(-len(shape), len(shape))]:
+        with warnings.catch_warnings():  # the mean of an empty slice warns in both
+            warnings.simplefilter("ignore", RuntimeWarning)
+            expected, got = np.median(values, axis=axis), linalg.median(values, axis=axis)
+        assert type(got) is type(expected) and np.asarray(got).tobytes() == np.asarray(expected).tobytes()
+    assert linalg.median([3, 1, 2, 4]) == np.median([3, 1, 2, 4]) == 2.5
+
+
+@pytest.mark.parametrize("n", [0, 1, 5, 12])
+def test_complement_is_setdiff1d_of_the_range(n: int) -> None:
+    rng = np.random.default_rng(n)
+    for size in range(8):
+        held = rng.integers(-3, n + 3, size=size)
+        expected, got = np.setdiff1d(np.arange(n), held), linalg.complement(n, held)
+        assert got.dtype == expected.dtype and np.array_equal(got, expected)
+    assert np.array_equal(linalg.complement(n, []), np.arange(n))
+
+
+def test_median_and_complement_load_no_masked_arrays() -> None:
+    probe = ("import sys; from pincal.linalg import complement, median; import numpy as np; "
+             "print(median(np.array([1.0, np.nan, 2.0])), median(np.ones((3, 2)), axis=0), complement(3, [1]), "
+             "'numpy.ma' in sys.modules)")
+    assert _printed_fresh(probe) == ["nan", "[1.", "1.]", "[0", "2]", "False"]

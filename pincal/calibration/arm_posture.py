@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -31,6 +30,7 @@ import pinocchio as pin
 from pincal.io.programs import Edit, NamedPosture
 from pincal.model.joint_motion import joint_motion
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -40,7 +40,7 @@ SLACK = 1e-6
 WRIST_GAP = 1e-3
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ArmSigns:
     """What the postures are read from, at one configuration.
 

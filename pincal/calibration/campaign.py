@@ -9,7 +9,6 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -31,11 +30,12 @@ from pincal.io.files import check_directory, check_outputs, json_text, write_tex
 from pincal.io.mesh_files import MeshMode, MeshPlan, plan_meshes
 from pincal.model.assemblable import unusable_samples
 from pincal.model.robot import Robot
+from pincal.records import record
 from pincal.study.simulation import perturbation, random_actuated, simulate_observations
 
 Array = npt.NDArray[np.float64]
 
-@dataclass
+@record
 class Simulation:
     """A simulated campaign: the nominal robot, the parameters and their true values ``x_true`` [m, rad], the
     dataset and the measurement models; the payload the robot carried."""

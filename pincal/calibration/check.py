@@ -23,13 +23,14 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.calibration import check_pixels as pixel_check
 from pincal.calibration.check_groups import (
     SAME_ERROR,
@@ -64,10 +65,11 @@ from pincal.identification.parameters import influencing_joints, read_joints
 from pincal.identification.solver import identify_with
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Side:
     """One robot's predictions of the checked samples.
 
@@ -90,7 +92,7 @@ class Side:
         return {name: float(v) for name, v in zip(self.prepared.parameters.names, self.x, strict=True)}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Check:
     """A model checked on data, beside the nominal robot.
 
@@ -241,7 +243,7 @@ class Check:
         finite = self.predicted.bound[np.isfinite(self.predicted.bound)]
         return {"known": True, "level": 0.95,
                 **coverage(self.predicted, errors if errors is not None else np.full(len(self.sample_ids), np.nan)),
-                "median_bound": _number(float(np.median(finite))) if finite.size else None,
+                "median_bound": _number(float(linalg.median(finite))) if finite.size else None,
                 "beyond": [s for s, u in zip(self.sample_ids, self.predicted.distance, strict=True) if u > 0.0]}
 
 

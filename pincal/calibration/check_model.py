@@ -8,7 +8,7 @@ its instrumented passive joints' sensors (docs/calibrated_urdf.md). SI units: m,
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 
 import numpy as np
@@ -32,10 +32,11 @@ from pincal.io.corrections_file import (
 )
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot, load_robot, robot_from_urdf_text
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class CheckedModel:
     """The model ``check`` predicts with.
 

@@ -10,18 +10,19 @@ holds them); the nominal robot with its camera registered on the data (placement
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.calibration.propagation import LEVEL, norm_quantiles, row_sigmas
 from pincal.calibration.report_sections import PixelAccount, PixelPredictions, PredictedImage
 from pincal.identification.measurements import KIND_CLASSES, Measurement
 from pincal.identification.measurements.pixels import Pixel
 from pincal.identification.metrics import pixel_error_norms, rms
 from pincal.identification.problem import CalibrationProblem
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -96,7 +97,7 @@ def pixels_worse(model: dict[str, Array], nominal: dict[str, Array], same: float
     return bool(figures["rms"] > (1.0 + same) * figures["nominal_rms"])
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PixelBounds:
     """Each image's predicted 95 % bound of its reprojection error under MODEL, from the calibration's covariance.
 
@@ -143,7 +144,7 @@ def pixel_account(bounds: PixelBounds | None, errors: Array | None) -> PixelAcco
 
 def _median(values: Array) -> float | None:
     finite = values[np.isfinite(values)]
-    return float(np.median(finite)) if finite.size else None
+    return float(linalg.median(finite)) if finite.size else None
 
 
 def pixel_bounds(problem: CalibrationProblem, covariance: Array, columns: list[int], sigma2: float,
@@ -208,7 +209,7 @@ def metres_per_pixel(pixels: list[Pixel], predicted: dict[str, Array], k: int) -
     i, j = np.triu_indices(len(b), 1)
     apart = np.linalg.norm(p[i] - p[j], axis=1)
     keep = apart > 0.0
-    return float(np.median(np.linalg.norm(b[i] - b[j], axis=1)[keep] / apart[keep])) if keep.any() else float("nan")
+    return float(linalg.median(np.linalg.norm(b[i] - b[j], axis=1)[keep] / apart[keep])) if keep.any() else float("nan")
 
 
 def held_out_pixels(problem: CalibrationProblem, covariance: Array, columns: list[int], sigma2: float, x: Array,

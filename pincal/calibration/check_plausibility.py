@@ -19,7 +19,7 @@ Units: SI (m, rad).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import field, replace
 from typing import Any
 
 from pincal.calibration.options import CalibrationOptions, plausible_factor
@@ -29,13 +29,14 @@ from pincal.identification.measurements import Measurement
 from pincal.identification.parameters.kinds import PLACEMENT_PLAUSIBLE
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
+from pincal.records import record
 
 #: The likely cause when no calibration on the data can say more (calibrate's causes, together).
 UNKNOWN_CAUSE = ("a wrong robot model (the data of another robot), lengths in another unit, swapped or mislabelled "
                  "joint columns, or a joint read with the other sign")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Beyond:
     """The nominal robot's errors on the checked data, beyond what a robot of its model can be off by.
 
@@ -51,7 +52,7 @@ class Beyond:
     limit: float
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Implausible:
     """Data that a robot of the nominal model cannot have produced, and the likely cause.
 

@@ -23,12 +23,13 @@ from __future__ import annotations
 import contextlib
 import itertools
 from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.errors import ConvergenceError, DataError, PincalError
 from pincal.identification.measurements import Measurement
 from pincal.identification.parameters import choose_parameters, influencing_joints, joint_unit, read_joints
@@ -37,6 +38,7 @@ from pincal.identification.problem import CalibrationProblem
 from pincal.io.adapters import observations_from
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
+from pincal.records import record
 
 if TYPE_CHECKING:
     from pincal.calibration.setup import Prepared
@@ -61,7 +63,7 @@ MIRRORED: tuple[str, ...] = ()
 SAME_START = 1.5
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Start:
     """The nominal robot's start on some samples: how many of them it can use (within the joint limits, assembled), and
     its RMS position error [m] on them (inf with fewer than three)."""
@@ -70,7 +72,7 @@ class Start:
     rms: float
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ColumnMistake:
     """A joint column read with the other sign (``joints`` one name), or two joints' columns exchanged (two names),
     and the nominal robot's start as read and as corrected, on ``probed`` samples; ``others``: the other columns'
@@ -252,7 +254,7 @@ def check_columns(fit: Prepared, part: Dataset, plausible: float | str) -> None:
         points = points[np.all(np.isfinite(points), axis=1)]
         if np.isfinite(squares).any() and len(points):
             rms = float(np.sqrt(np.nanmean(squares)))
-            spread = float(np.median(np.linalg.norm(points - np.median(points, axis=0), axis=1)))
+            spread = float(linalg.median(np.linalg.norm(points - linalg.median(points, axis=0), axis=1)))
     if start_looks_wrong(rms, spread, outside, part.n_samples):
         refuse_column_mistake(fit.robot, part, fit.models, plausible)
 

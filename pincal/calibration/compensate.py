@@ -11,7 +11,6 @@ solved together, a progress bar advancing as targets are done.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +31,7 @@ from pincal.model.frame_kinematics import frame_kinematics
 from pincal.model.robot import SOLVE_TOLERANCE, Robot, load_robot
 from pincal.model.rotations import quaternion_matrices
 from pincal.progress import Progress
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -196,7 +196,7 @@ def goals(targets: Targets, world_from_targets: pin.SE3) -> Goals:
     return Goals(positions, rotation @ quaternion_matrices(quaternions))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Compensation:
     """Commands for targets, one row per target in file order.
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -23,10 +22,11 @@ from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.selection import select_and_fit
 from pincal.model.robot import Robot
 from pincal.progress import Progress
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Folds:
     """A cross-validation plan: ``k`` folds (``k`` = the sample count for leave-one-out), ``repeats`` shuffles, the
     ``r``-th drawn from a permutation seeded ``seed + r``."""

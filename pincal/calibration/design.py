@@ -16,12 +16,12 @@ the two counts are told apart in words.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal import linalg
 from pincal.calibration.setup import measurement_models, parameters_for
 from pincal.errors import DataError, PincalError, listing
 from pincal.identification.measurements import Measurement
@@ -29,6 +29,7 @@ from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.io.dataset import MAX_SAMPLES
 from pincal.model.robot import Robot
+from pincal.records import record
 from pincal.study.pose_selection import (
     PoseSelection,
     condition_number,
@@ -76,10 +77,10 @@ def random_set_baseline(blocks: Array, k: int, selection: PoseSelection, scales:
         indices = rng.choice(n, k, replace=False)
         kappas.append(condition_number(blocks, indices, scales, selection.columns, difference))
         logdets.append(log_det(blocks, indices, scales, selection.columns, difference))
-    return float(np.median(kappas)), float(np.median(logdets))
+    return float(linalg.median(kappas)), float(linalg.median(logdets))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class OffNominal:
     """What the candidates identify on the robot off its nominal geometry, when more than on the nominal.
 
@@ -145,7 +146,7 @@ def off_nominal(problem: CalibrationProblem, difference: bool, nominal: int, see
     return OffNominal(count, OFF_NOMINAL, parallel_axes(problem.robot, frames))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Design:
     """A chosen set of postures.
 

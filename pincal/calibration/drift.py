@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, field, replace
 from typing import Any
 
 import numpy as np
@@ -48,6 +48,7 @@ from pincal.identification.solver import identify_with
 from pincal.io.dataset import Dataset
 from pincal.linalg import svd
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -55,7 +56,7 @@ Array = npt.NDArray[np.float64]
 RANK_CUT = 1e-9
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class GroupShift:
     """A parameter group that moved in a session.
 
@@ -76,7 +77,7 @@ class GroupShift:
     dof: int
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class SessionDrift:
     """One session judged against the calibration.
 
@@ -111,7 +112,7 @@ class SessionDrift:
     unit: str = "m"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Drift:
     """Sessions of a calibrated robot judged in time order.
 

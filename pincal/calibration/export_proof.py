@@ -19,7 +19,6 @@ import io
 import json
 import math
 import re
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +29,7 @@ from pincal.errors import PincalError, RobotFileError
 from pincal.model.dh import Convention, DHRow, DHTable, chain_joints
 from pincal.model.robot import Robot, robot_from_urdf_text
 from pincal.model.urdf import read_extensions
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 #: Links are body frames: a joint may bear a link's name.
@@ -41,7 +41,7 @@ TOLERANCE = 1e-9
 POSTURES = 100
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Deviation:
     """How far a reader's reading of an export is from the model: largest distance [m] and angle [rad]."""
 
@@ -50,7 +50,7 @@ class Deviation:
     orientation: float
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Postures:
     """The postures an export is checked at: (N, nq) configurations of the model, the first ``fitted`` the calibration
     data's."""

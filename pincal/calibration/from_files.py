@@ -5,7 +5,7 @@ at all, each recording its provenance (:mod:`pincal.calibration.provenance`) —
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 from pincal import validation
@@ -23,6 +23,7 @@ from pincal.io.dataset import Dataset
 from pincal.io.files import check_outputs, json_text, write_texts
 from pincal.io.mesh_files import MeshMode, MeshPlan, plan_meshes
 from pincal.model.robot import Robot, load_robot
+from pincal.records import record
 
 
 def _mesh_plan(robot: Robot, out: str | Path | None, meshes: MeshMode) -> MeshPlan:
@@ -120,7 +121,7 @@ def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -
 JOB_SUFFIX = ".toml"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Inputs:
     """What a command calibrates: the robot, the dataset (in SI units), the options, the files read, and the robot
     as the command or the job file named it."""

@@ -35,18 +35,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.calibration.propagation import LengthLayout, length_layout, row_sigmas, sample_bounds
 from pincal.calibration.samples import RANGE_MARGIN
 from pincal.identification.holdouts import FOLDS, SEED, Linearised, range_halves, shuffled_folds
 from pincal.identification.parameters import joint_unit
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -59,7 +61,7 @@ MIN_WIDTH = 0.05
 MIN_SAMPLES = 8
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ErrorGrowth:
     """What the hold-outs show: the factor on the covariance's bound inside the fitted range, and the nominal robot's
     own 95 % error bound ``E₀ + E₁ u`` [m], by which the bound grows beyond it.
@@ -173,7 +175,7 @@ def estimate_growth(problem: CalibrationProblem, result: CalibrationResult, prio
     ratios: list[Array] = []
     for held in shuffled:
         linear = calibrated if fold_prior is None else Linearised.of_fit(
-            problem, result, final.residual, final.jacobian, fold_prior(np.setdiff1d(np.arange(n), held)))
+            problem, result, final.residual, final.jacobian, fold_prior(linalg.complement(n, held)))
         residual, inverse, out = linear.refit(held)
         scales = problem.parameters.scales
         covariance = result.sigma2 * inverse * np.outer(scales, scales)  # [parameter units²]: x = scale · z
@@ -212,7 +214,7 @@ def _nominal_bound(problem: CalibrationProblem, result: CalibrationResult, x_bef
     for held in halves:
         residual, _, out = nominal.refit(held)
         length = _sample_lengths(problem, layout, held, out, residual)
-        train = np.setdiff1d(np.arange(actuated.shape[0]), held)
+        train = linalg.complement(actuated.shape[0], held)
         ranges = [(float(np.min(actuated[train, c])), float(np.max(actuated[train, c]))) for c in columns]
         distance = extrapolation_distance(actuated[held], columns, ranges, angular)
         keep = np.isfinite(length) & (distance > 0.0)

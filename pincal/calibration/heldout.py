@@ -12,12 +12,13 @@ The report's held-out figures, the HTML page's figures and tables, ``view`` and 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.predicted import (
     FitCovariance,
@@ -42,6 +43,7 @@ from pincal.identification.result import CalibrationResult
 from pincal.identification.solver import identify_with
 from pincal.io.dataset import Dataset
 from pincal.model.assemblable import assemble
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -61,12 +63,12 @@ def worse_than_nominal(before: dict[str, Array], after: dict[str, Array], n: int
     per_before, per_after = sample_length_errors(before, n), sample_length_errors(after, n)
     if per_before is None or per_after is None:
         return bool(rms(error_norms(after)) > (1 + SAME_ERROR) * rms(error_norms(before)))
-    keep = np.setdiff1d(np.arange(n), strange) if len(strange) < n else np.arange(n)
+    keep = linalg.complement(n, strange) if len(strange) < n else np.arange(n)
     keep = keep[np.isfinite(per_after[keep]) & np.isfinite(per_before[keep])]  # samples with a length reading
     return bool(rms(per_after[keep]) > (1 + SAME_ERROR) * rms(per_before[keep]))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Registration:
     """The nominal robot with its setup registered on the training samples: the calibration's "before".
 
@@ -115,7 +117,7 @@ def register_setup(problem: CalibrationProblem, x0: Array, options: FitOptions) 
     return Registration(x, errors, start, True)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class HeldOut:
     """A fit evaluated on held-out samples.
 

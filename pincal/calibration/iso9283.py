@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import itertools
 import re
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from typing import Any
 
 import numpy as np
@@ -18,6 +18,7 @@ import numpy.typing as npt
 
 from pincal.errors import DataError, listing
 from pincal.io.iso_runs import Runs
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -30,7 +31,7 @@ COMMAND_TOLERANCE = 1e-6
 ORIENTATION_PLAUSIBLE = 0.1
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PoseFigures:
     """Pose accuracy and repeatability of one pose (ISO 9283:1998, 7.2.1 and 7.2.2).
 
@@ -61,7 +62,7 @@ class PoseFigures:
     rp_abc: list[float] | None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class DistanceFigures:
     """Distance accuracy and repeatability between two poses (ISO 9283:1998, 7.4.1 and 7.4.2).
 
@@ -84,7 +85,7 @@ class DistanceFigures:
     rd: float
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class VariationFigures:
     """Multi-directional pose accuracy variation of one pose (ISO 9283:1998, 7.3).
 
@@ -101,7 +102,7 @@ class VariationFigures:
     vap_abc: list[float] | None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Iso9283Figures:
     """The ISO 9283 figures of a runs file.
 

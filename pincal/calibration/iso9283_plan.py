@@ -23,13 +23,12 @@ Positions [m] in the robot's base frame.
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from pincal import validation
+from pincal import linalg, validation
 from pincal.calibration.compensate import Compensation, compensate, load_model
 from pincal.calibration.joint_commands import CommandSolver, Model
 from pincal.calibration.provenance import version
@@ -37,6 +36,7 @@ from pincal.errors import Culprit, DataError
 from pincal.io.targets import Targets
 from pincal.model.batch_ik import Goals, actuated_newton
 from pincal.model.robot import Robot
+from pincal.records import record
 from pincal.study.simulation import random_actuated
 
 Array = npt.NDArray[np.float64]
@@ -64,7 +64,7 @@ AXES = {"x": 0, "y": 1, "z": 2}
 APPROACH = 0.1
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Cube:
     """The test cube: its centre [m] in the base frame and its side [m]."""
 
@@ -90,7 +90,7 @@ class Cube:
         return np.asarray(self.centre + steps * self.side, dtype=float)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Plan:
     """A planned ISO 9283 test.
 
@@ -194,7 +194,7 @@ def largest_cube(robot: Robot, frame: str, orientation: Array | None, region: Ar
     inside = cloud[_inside(cloud, region)]
     if not len(inside):
         return None
-    order = np.argsort(np.linalg.norm(inside - np.median(inside, axis=0), axis=1), kind="stable")
+    order = np.argsort(np.linalg.norm(inside - linalg.median(inside, axis=0), axis=1), kind="stable")
     centres = inside[order[np.linspace(0, len(order) - 1, min(CENTRES, len(order))).astype(int)]]
     solver = CommandSolver(Model(robot), frame, REACH_TOLERANCE, seed)
     commands = solver.solve(_goals(centres, orientation))

@@ -5,7 +5,6 @@ out."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -18,13 +17,14 @@ from pincal.identification.measurements import KIND_CLASSES, parse_key
 from pincal.io.dataset import MAX_SAMPLES, OCCLUDABLE_KINDS, Dataset
 from pincal.io.dataset_reader import Table, cell_number, check_dataset, read_table
 from pincal.model.robot import Robot, joint_unit
+from pincal.records import record
 
 #: Cells of a held-out column that hold a row out, and those that keep it for the fit.
 HELD_WORDS = {"test": True, "true": True, "yes": True, "1": True, "train": False, "false": False, "no": False,
               "0": False}
 
 
-@dataclass
+@record
 class _Columns:
     """Where a data file holds each quantity of the job: column indices."""
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -19,6 +19,7 @@ from pincal.calibration.options import JOB_OPTIONS, OPTIONS, GivenOptions
 from pincal.errors import DataError, NotFoundError, PincalError, listing, not_found
 from pincal.identification.corrections import Payload, payload_from_dict
 from pincal.io.files import input_problem
+from pincal.records import record
 
 if TYPE_CHECKING:
     from pincal.io.bag_dataset import BagSource
@@ -30,7 +31,7 @@ PAYLOAD_KEYS = ("mass", "frame", "offset")
 Column = str | int
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MeasureColumns:
     """One ``[[measure]]`` entry: a measurement and the data columns of its components.
 
@@ -53,7 +54,7 @@ class MeasureColumns:
     length_unit: str | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class HeldOut:
     """Which rows are held out: every ``every``-th from ``start``, the rows ``rows``, or those a ``column`` marks."""
 
@@ -64,7 +65,7 @@ class HeldOut:
     column: str | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Job:
     """A job file, read and checked (docs/job_file.md); paths resolved against its directory.
 

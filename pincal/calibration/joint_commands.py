@@ -19,7 +19,6 @@ order change it.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +30,7 @@ from pincal.io.targets import OK, UNREACHABLE
 from pincal.model.batch_ik import Goals, actuated_newton, solve_ik
 from pincal.model.frame_kinematics import FrameState, frame_kinematics
 from pincal.model.robot import SOLVE_TOLERANCE, Robot, joint_unit
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -44,7 +44,7 @@ NEAR_SINGULAR = 1e-2
 LIMIT_SLACK = 1e-9
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Model:
     """The model commands are computed on: the robot, and the corrections its raw commands go through.
 
@@ -78,7 +78,7 @@ class Model:
         return raw_commands(self.corrections, self.torque_robot or self.robot, wanted)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Commands:
     """The answers for N targets, in their order.
 

@@ -13,7 +13,7 @@ import functools
 import math
 import re
 from collections.abc import Callable, Mapping
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import MISSING, field, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, NamedTuple, get_args
 
@@ -21,6 +21,7 @@ from pincal import validation
 from pincal.errors import ArgumentError, DataError, NotFoundError, PincalError, listing, not_found
 from pincal.identification.choices import LOSSES, MARKER_FITS, SOLVERS, Loss, MarkerFit, Solver
 from pincal.identification.fit_options import AUTO_PRIOR, FitOptions
+from pincal.records import record
 
 if TYPE_CHECKING:
     from pincal.identification.corrections import Payload
@@ -54,7 +55,7 @@ FORCE_HELP = ("write the calibrated URDF even of a fit that explains nothing (re
               "stays 1 (docs/calibrated_urdf.md, 'A fit that explains nothing')")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Option:
     """How one option is written where a user gives it.
 
@@ -85,7 +86,7 @@ def _how(**how: Any) -> dict[str, Option]:
     return {"option": Option(**how)}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class CalibrationOptions:
     """Every option of a calibration, with its default; the same for the API, the CLI and job files.
 
@@ -326,7 +327,7 @@ class GivenOption(NamedTuple):
     source: OptionSource
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class GivenOptions:
     """The options a user gave (in a job file, on the command line, as keywords), each with where it was given; the
     others stand at their defaults. The :class:`CalibrationOptions` they make are checked when first read

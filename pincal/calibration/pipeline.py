@@ -17,7 +17,7 @@ from __future__ import annotations
 import contextlib
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -80,6 +80,7 @@ from pincal.io.corrections_file import Corrections, corrections_of
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot, robot_from_urdf_text
 from pincal.progress import Progress
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -88,7 +89,7 @@ UNIDENTIFIABLE_LINES = 10
 
 
 @on_demand("urdf_text", "proof")
-@dataclass
+@record
 class Calibration:
     """One calibration: its preparation (the fitted samples, with the parameters kept), the problem, the
     identification result, the held-out evaluation (None without held-out samples), the typed report, the

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +37,7 @@ from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.io.dataset import Dataset, dataset_text
 from pincal.io.files import check_directory, check_outputs, make_directory, write_texts
 from pincal.model.robot import Robot
+from pincal.records import record
 from pincal.study.simulation import perturbation
 
 Array = npt.NDArray[np.float64]
@@ -53,7 +53,7 @@ ROLL = np.radians(25.0)
 TRIES = 200
 
 
-@dataclass
+@record
 class PixelSimulation(Simulation):
     """A simulated camera campaign: a :class:`~pincal.calibration.campaign.Simulation` with its camera.
 

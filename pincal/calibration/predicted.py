@@ -16,12 +16,12 @@ docs/predicted_accuracy.md explains the choice. Every length in m, every angle i
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.calibration.covariance import parameter_covariance
 from pincal.calibration.growth import MIN_WIDTH, ErrorGrowth, extrapolation_distance
 from pincal.calibration.propagation import LEVEL, length_covariances, length_layout, norm_quantile, norm_quantiles
@@ -41,6 +41,7 @@ from pincal.identification.problem import CalibrationProblem, Observations, Pred
 from pincal.identification.result import CalibrationResult
 from pincal.model.assemblable import assemble
 from pincal.model.robot import Robot
+from pincal.records import record
 from pincal.study.simulation import random_actuated
 
 Array = npt.NDArray[np.float64]
@@ -53,7 +54,7 @@ __all__ = ["LEVEL", "MIN_WIDTH", "WORKSPACE_POSTURES", "FitCovariance", "Predict
 WORKSPACE_POSTURES = 100
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PredictedErrors:
     """The predicted length-type error of each sample of a problem.
 
@@ -84,7 +85,7 @@ class PredictedErrors:
         return np.isfinite(errors) & np.isfinite(self.bound) & (errors <= self.bound)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class FitCovariance:
     """The covariance a fit gives its estimates, and how its bound grows, as the predictions use them.
 
@@ -239,7 +240,7 @@ def workspace_prediction(problem: CalibrationProblem, fit: FitCovariance, x: Arr
                                bounds=bounds.tolist(), distance=distances.tolist(),
                                outside_fitted_range=int(np.count_nonzero(distances > 0.0)),
                                capped=int(np.count_nonzero(predicted.capped)),
-                               median_bound=float(np.median(finite)) if finite.size else None,
+                               median_bound=float(linalg.median(finite)) if finite.size else None,
                                max_bound=float(np.max(finite)) if finite.size else None)
 
 
@@ -312,7 +313,7 @@ def held_out_predictions(ids: list[str], predicted: PredictedErrors, errors: Arr
     every, in_range, beyond_range = coverages(predicted, errors)
     return HeldOutPredictions(
         level=LEVEL, inside=every.inside, samples=every.samples, fraction=every.fraction, in_range=in_range,
-        beyond_range=beyond_range, median_bound=float(np.median(finite)) if finite.size else None, beyond=beyond,
+        beyond_range=beyond_range, median_bound=float(linalg.median(finite)) if finite.size else None, beyond=beyond,
         samples_predicted=[PredictedSample(sample=s, sigma=[None if not np.isfinite(v) else float(v) for v in sig],
                                            bound=float(b) if np.isfinite(b) else None,
                                            linear_bound=float(lb) if np.isfinite(lb) else None,

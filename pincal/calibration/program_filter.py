@@ -23,7 +23,7 @@ tool or frame is left as written, with its reason.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +37,7 @@ from pincal.io.programs import Edit, Program, Target, rewritten
 from pincal.io.targets import OK
 from pincal.model.batch_ik import Goals
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -54,7 +55,7 @@ BASES = ("base",)
 __all__ = ["BRANCH", "TOLERANCE", "Filtered", "ProgramFilter", "default_frames", "filter_program"]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Filtered:
     """One Cartesian target's outcome.
 
@@ -80,7 +81,7 @@ class Filtered:
     posture: tuple[list[Edit], str | None] = ([], None)
 
 
-@dataclass
+@record
 class ProgramFilter:
     """A program filtered: its targets' outcomes in program order, the texts to write, the frames used."""
 

@@ -15,14 +15,13 @@ approximation ``eᵀe ≈ a χ²_ν`` with ``a = tr(S²)/tr(S)``, ``ν = tr(S)²
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import numpy.typing as npt
 
 from pincal.identification.chi2 import chi2_upper
 from pincal.identification.metrics import length_columns
 from pincal.identification.problem import CalibrationProblem
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -53,7 +52,7 @@ def row_sigmas(problem: CalibrationProblem) -> Array:
                            for m in problem.measurements])
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class LengthLayout:
     """Each sample's length rows in :meth:`evaluate`'s order (measurements in order, then their components), padded
     to the most a sample has (w).

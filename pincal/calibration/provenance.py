@@ -17,7 +17,7 @@ import os
 import re
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +26,7 @@ from pincal.calibration.report_sections import FileDigest, ProvenanceRecord
 from pincal.errors import DataError
 from pincal.model.catalog import installed_version
 from pincal.model.robot import Robot
+from pincal.records import record
 
 #: The element of a calibrated URDF that holds its provenance.
 ELEMENT = "pincal_provenance"
@@ -64,7 +65,7 @@ def options_dict(options: CalibrationOptions) -> dict[str, Any]:
     return out
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Source:
     """An input file: as the user named it (``name``: a catalog robot's name, or a path) and its SHA-256."""
 
@@ -95,7 +96,7 @@ def file_source(path: str | Path) -> Source:
     return Source(str(path), Path(path), sha256(path))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Provenance:
     """What made an output: the pincal version, the robot, the data (the files read: a job file and its data
     files), and the options."""
@@ -151,7 +152,7 @@ def with_provenance(urdf_text: str, provenance: Provenance, folder: Path,
     return f"{text[:start.end()]}\n  {provenance.urdf_element(folder, corrections)}{text[start.end():]}"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Recorded:
     """What an output records of its inputs: the nominal robot (a known name, or a URDF path resolved against the
     output's folder) and the data (the data file, or the job file, resolved likewise), each with its SHA-256; None

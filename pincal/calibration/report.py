@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Collection
-from dataclasses import dataclass, field, fields
+from dataclasses import field, fields
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +54,7 @@ from pincal.identification.parameters import ParameterSet, kinds_where, paramete
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
 from pincal.io.files import json_text
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -89,7 +90,7 @@ def _read_payload(value: Any, where: str) -> Payload | None:
 
 
 @on_demand("error_growth", "predicted_workspace")
-@dataclass(frozen=True)
+@record(frozen=True)
 class CalibrationReport:
     """A calibration's figures and account; every length in m, every angle in rad.
 

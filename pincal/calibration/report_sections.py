@@ -10,13 +10,14 @@ holds them. Units: SI (m, rad), as each record's docstring says.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 from pincal.calibration.section import OPTIONAL, Section, listed, nested
+from pincal.records import record
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ParameterEstimate(Section):
     """One parameter's estimate.
 
@@ -32,7 +33,7 @@ class ParameterEstimate(Section):
     identified: bool = False
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class CrossValidation(Section):
     """The cross-validation's account (``--cv``): each fold fitted without its samples predicts them.
 
@@ -57,7 +58,7 @@ class CrossValidation(Section):
     rms_angle: float | None = field(default=None, metadata=OPTIONAL)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class RangeGuard(Section):
     """What the range guard found (:mod:`pincal.identification.guard`): the automatic prior held firmer when it
     predicts each joint's range halves worse than the nominal robot.
@@ -77,7 +78,7 @@ class RangeGuard(Section):
     scores: list[list[float]] = field(default_factory=list)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ModelSelection(Section):
     """What model selection did (``--select``) and the prior it holds (``--prior``).
 
@@ -101,7 +102,7 @@ class ModelSelection(Section):
     prior: float | str | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ImplausibleCorrection(Section):
     """A correction beyond what a robot of this model plausibly needs (:mod:`pincal.calibration.plausibility`).
 
@@ -122,7 +123,7 @@ class ImplausibleCorrection(Section):
     unit: str
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ImplausibleScale(Section):
     """A measured position whose spread differs from the nominal robot's beyond the plausible band.
 
@@ -137,7 +138,7 @@ class ImplausibleScale(Section):
     limit: float
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class SampleError(Section):
     """One sample's error before and after calibration.
 
@@ -174,7 +175,7 @@ class SampleError(Section):
         return dataclasses.replace(read, imaged="pixel_before" in value or "pixel_after" in value)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Coverage(Section):
     """How many errors lie within their predicted 95 % bound.
 
@@ -189,7 +190,7 @@ class Coverage(Section):
     fraction: float | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PredictedSample(Section):
     """A held-out sample's predicted error (:mod:`pincal.calibration.predicted`).
 
@@ -210,7 +211,7 @@ class PredictedSample(Section):
     capped: bool = False
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PredictedImage(Section):
     """A held-out image's reprojection error beside its predicted bound.
 
@@ -228,7 +229,7 @@ class PredictedImage(Section):
     pixel_bound_at_board: float | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PixelAccount(Section):
     """Images' predicted reprojection bounds and how many of their errors the bounds hold
     (:meth:`pincal.calibration.check_pixels.PixelBounds.account`): ``pincal check``'s ``pixel_predicted``.
@@ -250,7 +251,7 @@ class PixelAccount(Section):
     median_bound_at_board: float | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PixelPredictions(PixelAccount):
     """The held-out images' :class:`PixelAccount` and each image's error beside its bounds
     (:func:`pincal.calibration.check_pixels.held_out_pixels`).
@@ -262,7 +263,7 @@ class PixelPredictions(PixelAccount):
     images_predicted: list[PredictedImage] = field(default_factory=list, metadata=nested(listed(PredictedImage)))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class HeldOutPredictions(Section):
     """The held-out samples' predicted errors and how many of their errors the bounds hold.
 
@@ -292,7 +293,7 @@ class HeldOutPredictions(Section):
     pixels: PixelPredictions | None = field(default=None, metadata=nested(PixelPredictions.from_json, **OPTIONAL))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class WorkspacePrediction(Section):
     """The predicted error over the workspace: postures drawn within the joint limits.
 
@@ -319,7 +320,7 @@ class WorkspacePrediction(Section):
     max_bound: float | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class DroppedSample(Section):
     """A sample of the file left out before the fit, and why.
 
@@ -332,7 +333,7 @@ class DroppedSample(Section):
     reason: str = ""
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class DownWeighted(Section):
     """A fitted sample the robust loss down-weighted.
 
@@ -347,7 +348,7 @@ class DownWeighted(Section):
     error_after: float | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class BadJointReading(Section):
     """A fitted sample left out (weight 0) because one wrong joint reading explains its error
     (:mod:`pincal.identification.readings`).
@@ -367,7 +368,7 @@ class BadJointReading(Section):
     explained: float = 0.0
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class OutsideRange(Section):
     """A held-out sample's actuated-joint reading outside the range the calibration fitted (its error measures
     extrapolation).
@@ -385,7 +386,7 @@ class OutsideRange(Section):
     range: list[float] = field(default_factory=list)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Covariance(Section):
     """The estimates' covariance over the identified parameters, as the fit gives it.
 
@@ -399,7 +400,7 @@ class Covariance(Section):
     matrix: list[list[float | None]] = field(default_factory=list)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class EstimatedSigma(Section):
     """The σ of one measurement's readings estimated from the data, where no ``# sigma`` line states it
     (:mod:`pincal.calibration.noise`).
@@ -417,7 +418,7 @@ class EstimatedSigma(Section):
     angle: float | None = field(default=None, metadata=OPTIONAL)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PixelErrors(Section):
     """The RMS reprojection error of the pixel readings, before and after calibration.
 
@@ -430,7 +431,7 @@ class PixelErrors(Section):
     rms_after: float | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class CameraRecord(Section):
     """A camera that pixel readings see, as the calibration left it.
 
@@ -450,7 +451,7 @@ class CameraRecord(Section):
     std: dict[str, float | None] = field(default_factory=dict)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class FileDigest(Section):
     """An input file as an output records it.
 
@@ -463,7 +464,7 @@ class FileDigest(Section):
     sha256: str | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ProvenanceRecord(Section):
     """What made the report (:mod:`pincal.calibration.provenance`).
 

@@ -281,7 +281,7 @@ def check_length_scale(problem: CalibrationProblem, metadata: Mapping[str, str] 
         rows = np.all(np.isfinite(measured), axis=1) & np.all(np.isfinite(nominal), axis=1)
         if np.count_nonzero(rows) < 3:
             continue
-        spread_measured, spread_nominal = (float(np.median(np.linalg.norm(a[rows] - np.median(a[rows], axis=0),
+        spread_measured, spread_nominal = (float(linalg.median(np.linalg.norm(a[rows] - linalg.median(a[rows], axis=0),
                                                                           axis=1))) for a in (measured, nominal))
         if spread_nominal < 1e-3:
             continue

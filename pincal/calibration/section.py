@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, fields
+from dataclasses import fields
 from typing import Any, TypeVar
 
 from pincal.errors import DataError
+from pincal.records import record
 
 S = TypeVar("S", bound="Section")
 
@@ -32,7 +33,7 @@ def nested(reader: Callable[[Any, str], Any], **metadata: Any) -> dict[str, Any]
     return {"read": reader, **metadata}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Section:
     """A nested part of the report JSON as a record: its fields are the JSON object's keys, in order."""
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Collection, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import field, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -29,6 +29,7 @@ from pincal.io.adapters import joints_at_reference, measurements_for, observatio
 from pincal.io.dataset import Dataset
 from pincal.model.measured_frame import frame_moves
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -143,7 +144,7 @@ def idle_parameters(problem: CalibrationProblem, x: npt.NDArray[np.float64]) -> 
     return np.asarray(norms <= NO_EFFECT * max(float(norms.max(initial=0.0)), np.finfo(float).tiny))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Prepared:
     """One part of a dataset made into a calibration problem.
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -24,6 +23,7 @@ from pincal.identification.choices import Solver
 from pincal.identification.fit_options import FitOptions
 from pincal.identification.metrics import calibration_gain
 from pincal.model.robot import Robot, load_robot
+from pincal.records import record
 
 
 @functools.lru_cache(maxsize=8)
@@ -32,7 +32,7 @@ def _robot(name_or_path: str) -> Robot:
     return load_robot(name_or_path)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class SimulatedCalibration:
     """A simulated calibration campaign as a Monte Carlo trial; ``level`` is the noise σ [m, rad].
 

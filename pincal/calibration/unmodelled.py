@@ -19,7 +19,6 @@ is made of such campaigns. SI units: m, rad.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -31,6 +30,7 @@ from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.io.dataset import Dataset
 from pincal.model.assemblable import assemble
 from pincal.model.robot import Robot
+from pincal.records import record
 from pincal.study.simulation import actuated_ranges, simulate_observations
 
 Array = npt.NDArray[np.float64]
@@ -41,7 +41,7 @@ DRAWS_PER_POSTURE = 200
 THERMAL_STEPS = 10
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Effects:
     """What the true robot holds beyond its geometric errors.
 
@@ -62,7 +62,7 @@ class Effects:
             (["*.sin2", "*.cos2"] if self.harmonics else [])
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class NarrowBand:
     """A narrow-band campaign.
 

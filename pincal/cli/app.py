@@ -32,6 +32,7 @@ from pincal.cli import (
     view,
 )
 from pincal.cli.arguments import (
+    Subcommands,
     add_calibration_options,
     add_measurement,
     add_meshes,
@@ -335,8 +336,9 @@ class _Version(argparse.Action):
         parser.exit(0)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The ``pincal`` argument parser, with every subcommand."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``pincal`` argument parser, with every subcommand; given the command a command line runs (its first word
+    that is no option), with that subcommand alone, when it is one (else every subcommand: the error lists them)."""
     parser = _Parser(
         prog="pincal",
         description="Geometric calibration of closed-loop and serial robots described in URDF.",
@@ -344,7 +346,9 @@ def build_parser() -> argparse.ArgumentParser:
                "five_bar, ucr3, ur10, panda.")
     parser.add_argument("--version", action=_Version, help="print the installed pincal's version and exit")
     parser.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command", required=True, action=Subcommands)
+    assert isinstance(sub, Subcommands)
+    sub.only = command
     info = sub.add_parser("info", help="describe a robot: joints, loops, actuation, mobility",
                           description="Print links, joints, loops, actuated joints, mobility and the "
                                       "closure residual at the reference configuration.",
@@ -429,6 +433,8 @@ def build_parser() -> argparse.ArgumentParser:
     for module in (view, report_page, planning, check_data, compensation, export_formats, filter_program, bag_import,
                    assemble, robots, iso_commands, drift_check, images):  # command groups of their own
         module.register(sub)
+    if command is not None and command not in sub.choices:  # no command of that name: every one, to list them
+        return build_parser()
     return parser
 
 
@@ -443,8 +449,9 @@ def say_replaced() -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``pincal`` console script; returns the exit code."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    words = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(next((w for w in words if not w.startswith("-")), None))  # pincal's options take no value
+    args = parser.parse_args(words)
     files = sys.modules.get("pincal.io.files")
     if files is not None:
         files.take_replaced()  # what the library replaced before this command is not this command's to say

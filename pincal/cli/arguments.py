@@ -290,3 +290,27 @@ def command_flags(parser: argparse.ArgumentParser, func: Any) -> dict[str, str]:
 def given_options(args: argparse.Namespace) -> dict[str, Any]:
     """The calibration options given on the command line (those not given left out), by keyword."""
     return {name: getattr(args, name) for name in OPTIONS if getattr(args, name, None) is not None}
+
+
+class _Unbuilt:
+    """The parser of a subcommand the command line does not run, not built: whatever is asked of it (an argument, a
+    group, defaults, a subcommand), it answers with itself."""
+
+    def __getattr__(self, name: str) -> _Unbuilt:
+        return self
+
+    def __call__(self, *args: Any, **kwargs: Any) -> _Unbuilt:
+        return self
+
+
+class Subcommands(argparse._SubParsersAction):  # type: ignore[type-arg]
+    """argparse's subcommands, which build the parser of ``only`` alone when it is set: the twenty others' parsers
+    (their arguments, their help) are a tenth of a command's start that its run never reads."""
+
+    only: str | None = None
+
+    def add_parser(self, name: str, **kwargs: Any) -> argparse.ArgumentParser:
+        """argparse's ``add_parser``; for a command other than :attr:`only`, a stand-in that builds nothing."""
+        if self.only is not None and name != self.only:
+            return _Unbuilt()  # type: ignore[return-value]  # answers every call register() makes on a parser
+        return super().add_parser(name, **kwargs)  # type: ignore[no-any-return]

@@ -121,6 +121,8 @@ def bound_lines(ids: list[str], bounds: tuple[Any, Any] | None) -> list[str]:
     calibrated model's bound exceeds the nominal robot's own (docs/predicted_accuracy.md)."""
     import numpy as np
 
+    from pincal import linalg
+
     if bounds is None:
         return ["predicted bounds: not known (MODEL carries no calibration, or its nominal robot is not found: give "
                 "--nominal ROBOT)"]
@@ -129,7 +131,7 @@ def bound_lines(ids: list[str], bounds: tuple[Any, Any] | None) -> list[str]:
     if not known.any():
         return []
     lines = [f"predicted 95 % bound at the targets (the calibration's measured point at each command): median "
-             f"{np.median(bound[known]) * 1e3:.4f} mm, largest {np.max(bound[known]) * 1e3:.4f} mm"]
+             f"{linalg.median(bound[known]) * 1e3:.4f} mm, largest {np.max(bound[known]) * 1e3:.4f} mm"]
     worse = np.flatnonzero(known & np.isfinite(own) & (bound > own))
     if worse.size:
         shown = ", ".join(ids[k] for k in worse[:8]) + (" …" if worse.size > 8 else "")

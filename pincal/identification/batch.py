@@ -9,7 +9,7 @@ its Jacobian rows with one product per model (:meth:`BatchContext.derivative`). 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -17,6 +17,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.model.rotations import skew
+from pincal.records import record
 
 if TYPE_CHECKING:
     from pincal.identification.measurements.context import SampleContext
@@ -24,7 +25,7 @@ if TYPE_CHECKING:
 Array = npt.NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class SpatialJacobian:
     """A frame's spatial twists per unit parameter for every sample, factored as ``W = left · right``.
 
@@ -96,7 +97,7 @@ class Workspace:
         return held
 
 
-@dataclass
+@record
 class BatchContext:
     """What a measurement model predicts every sample from at once (a tree's batched evaluation).
 

@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import textwrap
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import DataError
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -49,7 +50,7 @@ SAME_EFFECT = 1e-6
 """Two parameters move the measurements the same way (or opposite ways) when ``|k| = 1`` within this."""
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Combination:
     """One direction the data cannot see, on the few parameters it involves.
 

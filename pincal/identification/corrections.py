@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -33,6 +32,7 @@ import pinocchio as pin
 from pincal.errors import DataError, listing
 from pincal.model.jacobians import computed_frame_jacobian
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -50,7 +50,7 @@ def harmonic_regressor(readings: Array, term: str) -> Array:
     raise DataError(f"unknown harmonic term '{term}'; terms are: {', '.join(t[0] for t in HARMONIC_TERMS)}")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Payload:
     """A point mass the robot carries: ``mass`` [kg] on frame ``frame``, at ``offset`` [m] in that frame.
 

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -35,6 +34,7 @@ import numpy.typing as npt
 from pincal import linalg
 from pincal.identification.identifiability import RANK_TOLERANCE
 from pincal.identification.parameters import Parameter
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -107,7 +107,7 @@ def _independent(triangle: Array, columns: list[int], scale: float) -> list[int]
     return sorted(columns[k] for k in pivots[:rank])
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Selection:
     """The outcome of :func:`select_groups`.
 

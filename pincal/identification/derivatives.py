@@ -12,7 +12,6 @@ Through the loops (implicit-function theorem, actuated joints held): with closur
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -30,11 +29,12 @@ from pincal.identification.parameters import AnchorPlacement, MarkerOffset, Para
 from pincal.identification.parameters.candidates import _descends
 from pincal.identification.parameters.kinds import CameraIntrinsics
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Probe:
     """A frame rigidly attached to ``joint`` at ``placement`` (relative to the joint), on link frame
     ``link_frame`` (for the frame-tree descent test of fixed-joint parameters)."""

@@ -11,7 +11,6 @@ them on the problem.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
@@ -25,12 +24,13 @@ from pincal.identification.parameters import ParameterSet
 from pincal.identification.tree_batch import TreeBatch
 from pincal.model.kinematics import CONTINUATION_STEP
 from pincal.model.robot import SOLVE_TOLERANCE, Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
 
-@dataclass
+@record
 class Observations:
     """What was read and measured, one row per sample.
 
@@ -62,7 +62,7 @@ class Observations:
         return cls(actuated, {m.key: m.neutral(actuated.shape[0]) for m in measurements})
 
 
-@dataclass
+@record
 class Prediction:
     """Residuals (weighted), their Jacobian, and unweighted errors per sample and measurement."""
 

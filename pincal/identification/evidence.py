@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -42,6 +41,7 @@ from pincal.identification.corrections import gravity_torques
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.problem import CalibrationProblem
 from pincal.linalg import lapack
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -55,7 +55,7 @@ LEFT_OUT = 1.5
 SETUP_RANK = 1e-10
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class EvidenceChoice:
     """The prior the evidence chooses.
 
@@ -96,7 +96,7 @@ def base_sigma(problem: CalibrationProblem) -> Array:
     return sigma
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class _Linear:
     """The linear model the evidence is computed on, in scaled parameters (``δ / scale``), with the setup's flat
     directions projected out of the rows (the restricted likelihood: with one noise variance, the projection is

@@ -10,11 +10,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING, Literal
 
 from pincal.errors import ArgumentError
 from pincal.identification.choices import Loss, Solver
+from pincal.records import record
 
 if TYPE_CHECKING:
     from typing import TypeAlias
@@ -30,7 +31,7 @@ if TYPE_CHECKING:
 AUTO_PRIOR: Literal["auto"] = "auto"
 
 
-@dataclass(frozen=True, kw_only=True)
+@record(frozen=True, kw_only=True)
 class StepOptions:
     """The options that shape a method's steps (:class:`~pincal.identification.steps.Method`).
 
@@ -54,7 +55,7 @@ class StepOptions:
     ridge: float = 1e-6
 
 
-@dataclass(frozen=True, kw_only=True)
+@record(frozen=True, kw_only=True)
 class FitOptions(StepOptions):
     """Every option of an identification, with its default; the step options (:class:`StepOptions`) included.
 

@@ -22,7 +22,6 @@ score; the fit is then made again with it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -33,6 +32,7 @@ from pincal.identification.holdouts import Linearised, range_halves, shuffled_fo
 from pincal.identification.parameters import influencing_joints, read_joints
 from pincal.identification.problem import CalibrationProblem
 from pincal.identification.result import CalibrationResult
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -47,7 +47,7 @@ TIE = 1e-6
 SIGNIFICANT = 2.0
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Guard:
     """What the range guard found.
 

@@ -17,13 +17,13 @@ rows [σ units].
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from pincal.identification.problem import Problem
 from pincal.identification.result import CalibrationResult
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -52,7 +52,7 @@ def range_halves(actuated: Array, columns: Sequence[int]) -> list[IntArray]:
     return out
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Linearised:
     """A fit linearised at a point, in scaled parameters (``x / scale``).
 

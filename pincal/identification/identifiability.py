@@ -21,7 +21,7 @@ calibration index and taxonomy for robot kinematic calibration methods", §"scal
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 from functools import cached_property
 
 import numpy as np
@@ -38,6 +38,7 @@ from pincal.identification.combinations import (
     unit_from_name,
     wrapped,
 )
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -50,7 +51,7 @@ rank; 1e-8 sits well above that noise and well below any direction a calibration
 1e-4 to call only practically identifiable parameters identifiable."""
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Identifiability:
     """What an identification Jacobian can identify.
 

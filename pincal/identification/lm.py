@@ -17,7 +17,6 @@ asked before a trial is spent on it).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import ClassVar, Self
 
 import numpy as np
@@ -25,6 +24,7 @@ import numpy.typing as npt
 
 from pincal.identification.problem import Problem
 from pincal.identification.steps import Method, StepOptions, Steps, at_floor, evaluated
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -45,7 +45,7 @@ CAUTIOUS_SIGMA = 1e-6
 PRACTICAL_INFORMATION = 1.0
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class LevenbergMarquardt(Method):
     """Levenberg–Marquardt on the directions the data can see: damping ``μ = λ s₁²``; after a rejected trial λ ×10
     and geodesic acceleration from then on (:func:`accelerated`); :func:`settled` may end the fit before a trial.

@@ -22,8 +22,6 @@ numbers one sample at a time with Pinocchio; tests/identification/test_loop_batc
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
@@ -34,11 +32,12 @@ from pincal.identification.derivatives import KinematicSensitivity, Probe
 from pincal.model.batch_frames import JointPlacements, LoopSystem, passive_gains
 from pincal.model.batch_kinematics import BatchKinematics
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class LoopDerivatives:
     """A block of samples' configurations' response to the parameters.
 

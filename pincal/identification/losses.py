@@ -16,6 +16,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.identification.chi2 import chi2_upper
 from pincal.identification.problem import Prediction, Problem
 
@@ -40,7 +41,7 @@ TRIM_KEEP = 0.5
 def cauchy(norms: Array, used: BoolArray) -> Array:
     """Cauchy weights ``w = 1 / (1 + (e / (c·s))²)``, ``s`` the median norm over the samples with rows / 0.6745
     (a robust standard deviation) and ``c`` = :data:`CAUCHY_C`."""
-    scale = float(np.median(norms[used] if used.any() else norms)) / 0.6745
+    scale = float(linalg.median(norms[used] if used.any() else norms)) / 0.6745
     scale = max(scale, 1e-300)
     return np.asarray(1.0 / (1.0 + (norms / (CAUCHY_C * scale)) ** 2), dtype=np.float64)
 
@@ -81,7 +82,7 @@ def sample_weights(problem: Problem, pred: Prediction, weighting: Weighting | No
     else:
         squares, dims = sample_squares(problem, pred.residual)
         used = dims > 0
-        typical = float(np.median(dims[used])) if used.any() else 1.0
+        typical = float(linalg.median(dims[used])) if used.any() else 1.0
         norms = np.sqrt(squares * typical / np.maximum(dims, 1))
         weights = weighting(norms, used)
     weights[list(left_out)] = 0.0
@@ -102,7 +103,7 @@ def noise_scale(problem: Problem, residual: Array, n_fitted: int = 0) -> float:
     used = dims > 0
     if used.sum() < 3:
         return 0.0
-    scale2 = float(np.median(sq[used] / chi2_upper(0.5, dims[used])))
+    scale2 = float(linalg.median(sq[used] / chi2_upper(0.5, dims[used])))
     rows = int(dims.sum())
     if rows > n_fitted:  # fitted residuals are smaller than the noise by the fitted degrees of freedom
         scale2 *= rows / (rows - n_fitted)

@@ -25,7 +25,6 @@ estimate by degrees (a Delta's rod pitches). ``s²`` is the noise scale the data
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -37,6 +36,7 @@ from pincal.identification.losses import noise_scale, outlier_samples, sample_sq
 from pincal.identification.parameters import ParameterSet, ReadingOffset, joint_unit, offset_parameter
 from pincal.identification.problem import CalibrationProblem, Observations, Prediction, Problem
 from pincal.identification.result import CalibrationResult
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -61,7 +61,7 @@ READING_ITERATIONS = 8
 SCREEN_MARGIN = 4.0
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class BadReading:
     """One sample's wrong joint reading.
 

@@ -3,18 +3,19 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 import numpy.typing as npt
 
 from pincal.identification.identifiability import Identifiability
 from pincal.identification.problem import Prediction
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
 
-@dataclass
+@record
 class CalibrationResult:
     """What identification found, and how well.
 

@@ -4,13 +4,13 @@ parameter in scaled units; a rejected trial halves the step.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar, Self
 
 from pincal.identification.steps import Method, StepOptions
+from pincal.records import record
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Ridge(Method):
     """Every singular value kept, each damped by ``μ``: ``δz = -Σ_i v_i s_i/(s_i² + μ) u_iᵀ r``.
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
@@ -39,6 +39,7 @@ from pincal.identification.predictions import carry_over
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.identification.result import CalibrationResult
 from pincal.identification.solver import identify_with
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -52,7 +53,7 @@ CV_FOLDS = 5
 CV_SEED = 0
 
 
-@dataclass
+@record
 class SelectedFit:
     """A fit after model selection.
 

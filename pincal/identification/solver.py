@@ -218,7 +218,7 @@ def _median_sample_residual(problem: Problem, fit: CalibrationResult) -> float:
     if pred is None:
         return math.inf
     squares, dims = sample_squares(problem, pred.residual)
-    return float(np.median(squares[dims > 0]))
+    return float(linalg.median(squares[dims > 0]))
 
 
 #: Refits after samples were found off the reference assembly (each refit starts where the last ended).

@@ -24,7 +24,6 @@ another kind above a measured frame (a free-flyer, a spherical joint) is evaluat
 from __future__ import annotations
 
 import weakref
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -34,11 +33,12 @@ from pincal.identification.batch import SpatialJacobian, Workspace
 from pincal.identification.derivatives import KinematicSensitivity, Probe
 from pincal.model.joint_motion import JointMotion, joint_motion, joint_value
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Placements:
     """One frame's placement in the world for every sample, kept as the top rows of its adjoint.
 

@@ -4,13 +4,13 @@ scaled Jacobian above ``tsvd_rcond · s₁``, ``δz = -Σ_i v_i / s_i u_iᵀ r``
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar, Self
 
 from pincal.identification.steps import Method, StepOptions
+from pincal.records import record
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class TruncatedSVD(Method):
     """Gauss–Newton on the singular values above ``rcond · s₁``, no damping; a rejected trial halves the step.
 

@@ -4,7 +4,6 @@ with its reason, recorded as ``# posture <n>: ...`` lines in the dataset's heade
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 from pincal import validation
@@ -14,9 +13,10 @@ from pincal.io.bags import MeasurementSource, read_bag
 from pincal.io.dataset import Dataset
 from pincal.io.postures import DEFAULT_RULE, Posture, StillRule, find_postures, postures_dataset
 from pincal.model.robot import Robot
+from pincal.records import record
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class BagSource:
     """A bag and what to read from it, as a job file's ``[bag]`` table gives them (docs/bags.md).
 
@@ -44,7 +44,7 @@ class BagSource:
         return bag_dataset(robot, self.path, self.joints_topic, self.source, self.frame, self.rule)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class BagImport:
     """What a bag gave.
 

@@ -17,7 +17,6 @@ import itertools
 import math
 import struct
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -27,6 +26,7 @@ import numpy.typing as npt
 from pincal import validation
 from pincal.errors import ArgumentError, Culprit, DataError, listing, not_found
 from pincal.progress import Progress
+from pincal.records import record
 
 if TYPE_CHECKING:
     from rosbags.highlevel import AnyReader
@@ -41,7 +41,7 @@ MESSAGE_TYPES: dict[str, str] = {"pose": "geometry_msgs/msg/PoseStamped", "tf": 
 TF_TOPIC = "/tf"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MeasurementSource:
     """Where a bag holds the measurement.
 
@@ -85,7 +85,7 @@ class MeasurementSource:
         return f"{MESSAGE_TYPES[self.kind].rpartition('/')[2]} {self.topic}"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class JointStates:
     """The joint-state messages of one topic, in time order.
 
@@ -124,7 +124,7 @@ class JointStates:
                             column=names[int(np.flatnonzero(bad[row])[0])])
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MeasurementStream:
     """The measurement's readings, in time order.
 

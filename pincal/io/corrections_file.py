@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 import os
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +28,7 @@ from pincal.identification.corrections import HARMONIC_TERMS, Payload, correctio
 from pincal.identification.parameters import ParameterSet
 from pincal.model.catalog import known_robot_names, robot_path
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -37,7 +37,7 @@ TERMS = (*(t[0] for t in HARMONIC_TERMS), "compliance")
 FORMULA = "q = q_r + sin1 sin(q_r) + cos1 cos(q_r) + sin2 sin(2 q_r) + cos2 cos(2 q_r) + compliance tau_g(q_r)"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Corrections:
     """Per actuated joint, its correction coefficients: term (``sin1``, ``cos1``, ``sin2``, ``cos2`` [rad or m],
     ``compliance`` [rad/(N m) or m/N]) -> value; the payload whose torque the compliances multiply with the

@@ -35,7 +35,7 @@ import csv
 import io
 import math
 from collections.abc import Collection, Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 
 import numpy as np
@@ -45,6 +45,7 @@ from pincal import validation
 from pincal.errors import DataError, listing
 from pincal.identification.measurements import KIND_CLASSES, parse_key
 from pincal.io.files import write_text
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -137,7 +138,7 @@ def _rebased_increments(increments: Array, indices: npt.NDArray[np.intp]) -> Arr
     return out
 
 
-@dataclass
+@record
 class Dataset:
     """Joint readings and measurements, one row per sample.
 

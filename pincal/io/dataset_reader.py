@@ -9,13 +9,12 @@ import csv
 import math
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
-from pincal import validation
+from pincal import linalg, validation
 from pincal.errors import DataError, listing
 from pincal.identification.measurements import KIND_CLASSES, QUATERNION
 from pincal.io.dataset import (
@@ -35,6 +34,7 @@ from pincal.io.dataset import (
     parse_measurement_key,
 )
 from pincal.io.files import input_problem
+from pincal.records import record
 
 #: The csv module's longest cell [characters]: a line shorter cannot hold a cell it refuses.
 FIELD_LIMIT = csv.field_size_limit()
@@ -43,7 +43,7 @@ Array = npt.NDArray[np.float64]
 
 
 # --- reading ------------------------------------------------------------------------------------
-@dataclass
+@record
 class _Layout:
     """Where each quantity sits among the file's columns."""
 
@@ -377,8 +377,8 @@ def _check_units(data: Dataset, lines: list[int], kinds: dict[str, str]) -> None
     for c, name in enumerate(data.joint_names):
         column = np.abs(data.joints[:, c])
         joint_kind = kinds.get(name)
-        if joint_kind == "prismatic" and float(np.median(column)) > MAX_PLAUSIBLE_LENGTH:
-            raise DataError(f"column '{name}' (prismatic joint): median |reading| {float(np.median(column)):g} "
+        if joint_kind == "prismatic" and float(linalg.median(column)) > MAX_PLAUSIBLE_LENGTH:
+            raise DataError(f"column '{name}' (prismatic joint): median |reading| {float(linalg.median(column)):g} "
                             f"{mm} (median > {MAX_PLAUSIBLE_LENGTH:g} m)")
         if joint_kind == "revolute":
             big = np.flatnonzero(column > MAX_PLAUSIBLE_ANGLE)
@@ -390,7 +390,7 @@ def _check_units(data: Dataset, lines: list[int], kinds: dict[str, str]) -> None
 
 
 # --- other column layouts (a job file's, pincal.calibration.job) -------------------------------------------
-@dataclass
+@record
 class Table:
     """A CSV file's cells before any column is given a meaning.
 

@@ -13,7 +13,7 @@ held (``# intrinsics <frame> held: …``).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +23,7 @@ from pincal.errors import Culprit, DataError, listing
 from pincal.identification.measurements import Board
 from pincal.io.dataset import Dataset
 from pincal.io.vision import Detections, intrinsics_text
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -31,7 +32,7 @@ Array = npt.NDArray[np.float64]
 PIXEL_KINDS = ("pixel", "board_pixel", "cross_pixel")
 
 
-@dataclass
+@record
 class Paired:
     """The detections paired with the joints.
 

@@ -22,7 +22,6 @@ import json
 import re
 import unicodedata
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
 from typing import Literal
 
 import pinocchio as pin
@@ -31,6 +30,7 @@ from pincal import validation
 from pincal.errors import RobotFileError
 from pincal.model.dh import CONVENTIONS, Convention, DHTable, Residual, conversion_residual, dh_table
 from pincal.model.robot import Robot
+from pincal.records import record
 
 ExportFormat = Literal["yaml", "dh", "mdh", "hayati", "ur"]
 #: The formats, the default first (``ur``: :mod:`pincal.io.ur_kinematics`).
@@ -182,7 +182,7 @@ def default_base(urdf_text: str) -> str:
     return root
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class DHExport:
     """A DH table, its conversion residual and its YAML text."""
 

@@ -14,7 +14,7 @@ Other columns (``step``, joint commands of the plan) are read past. SI units: m.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +23,7 @@ import numpy.typing as npt
 from pincal.errors import DataError, listing
 from pincal.io.dataset import MAX_PLAUSIBLE_LENGTH, QUATERNION_NORM_TOLERANCE
 from pincal.io.dataset_reader import cell_number, check_si_units, read_table
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -33,7 +34,7 @@ COMMANDED = "cmd_"
 MAX_RUNS = 100_000
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Runs:
     """The attained poses of an ISO 9283 test, one row per measurement in file order.
 

@@ -38,13 +38,14 @@ import stat
 import struct
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 from typing import Literal
 
 from pincal.errors import NotFoundError, RobotFileError, listing
 from pincal.io.files import resolved
 from pincal.model.catalog import package_directories
+from pincal.records import record
 
 MeshMode = Literal["keep", "copy"]
 #: The choices of ``--meshes``, the default first.
@@ -57,7 +58,7 @@ def mesh_folder(out: str | Path) -> Path:
     return path.parent / f"{path.stem}_meshes"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MeshPlan:
     """What a written URDF's meshes become.
 

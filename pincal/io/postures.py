@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -26,6 +25,7 @@ from pincal import validation
 from pincal.errors import ArgumentError
 from pincal.io.bags import JointStates, MeasurementStream
 from pincal.io.dataset import Dataset
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -42,7 +42,7 @@ SHORT_FRACTION = 0.2
 LARGEST_GAP = 0.5
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class StillRule:
     """What counts as a static posture.
 
@@ -71,7 +71,7 @@ class StillRule:
 DEFAULT_RULE = StillRule()
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Posture:
     """One stop of the robot found in the recording.
 

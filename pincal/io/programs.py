@@ -16,7 +16,7 @@ import itertools
 import math
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +24,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import DataError
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -33,7 +34,7 @@ LANGUAGES = {".script": "urscript", ".urscript": "urscript", ".src": "krl", ".mo
 MAX_CHARACTERS = 20_000_000
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Edit:
     """Text ``text`` in place of characters ``start:end`` of file ``file``."""
 
@@ -43,7 +44,7 @@ class Edit:
     text: str
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class NamedPosture:
     """The posture a Cartesian target names, as written (docs/filter.md, "Posture"): KRL's status and turn, RAPID's
     configuration.
@@ -61,7 +62,7 @@ class NamedPosture:
     binary: frozenset[str] = frozenset()
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Target:
     """One target of a program.
 
@@ -102,7 +103,7 @@ class Target:
         return self.pose is not None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Problem:
     """A construct a reader does not read: left as written, with a warning."""
 
@@ -111,7 +112,7 @@ class Problem:
     what: str
 
 
-@dataclass
+@record
 class Program:
     """A program read: its files' texts (the first the program itself), its targets in order, its problems."""
 

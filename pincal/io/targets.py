@@ -18,7 +18,7 @@ import csv
 import io
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +28,7 @@ from pincal.errors import DataError, listing
 from pincal.identification.measurements.context import split_target
 from pincal.io.dataset import MAX_PLAUSIBLE_LENGTH, QUATERNION_NORM_TOLERANCE, SAMPLE_COLUMN, SET_COLUMN
 from pincal.io.dataset_reader import cell_number, check_si_units, read_table
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -50,7 +51,7 @@ BOUND = "bound"
 NOMINAL_BOUND = "nominal_bound"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Targets:
     """Targets read from a file.
 

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -27,6 +26,7 @@ import pinocchio as pin
 
 from pincal.errors import RobotFileError, listing
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -120,7 +120,7 @@ def _joint_ids(robot: Robot) -> list[int]:
     return ids
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class URKinematics:
     """A calibrated UR's ur_description kinematics.
 

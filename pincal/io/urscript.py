@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
@@ -32,6 +31,7 @@ from pincal.io.programs import (
     split_top,
     stripped,
 )
+from pincal.records import record
 
 #: The moves read, and how many of their first arguments are targets.
 MOVES = {"movej": 1, "movel": 1, "movep": 1, "servoj": 1, "movec": 2}
@@ -72,7 +72,7 @@ def code_mask(text: str) -> np.ndarray:
     return mask
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class _Literal:
     """A pose or joint literal: its values and the numbers' spans."""
 

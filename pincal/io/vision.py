@@ -10,7 +10,7 @@ from __future__ import annotations
 import hashlib
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +20,7 @@ import pinocchio as pin
 
 from pincal.errors import DataError, PincalError
 from pincal.identification.measurements import INTRINSICS, Board
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -141,7 +142,7 @@ def write_image(path: Path, image: npt.NDArray[np.uint8]) -> None:
         raise DataError(f"could not write image {path}")
 
 
-@dataclass
+@record
 class Detections:
     """The corners found in images.
 

@@ -11,13 +11,13 @@ condition number exceeds a bound: the actuated readings do not determine its pas
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from pincal import linalg
 from pincal.model.robot import SOLVE_TOLERANCE, Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -25,7 +25,7 @@ Array = npt.NDArray[np.float64]
 MAX_CONDITION = 1e5
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Assembled:
     """Samples solved: their configurations (N, nq) on the reference assembly (a row of a sample that does not close:
     undefined) and why each unusable sample cannot be used (sample row -> reason)."""

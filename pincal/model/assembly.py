@@ -15,7 +15,6 @@ the passive joints closes (lengths that do not fit) is refused with its residual
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -34,6 +33,7 @@ from pincal.model.parts import (
 from pincal.model.robot import MAX_JOINTS, robot_from_urdf_text
 from pincal.model.urdf import LoopSpec, check_finite_origins, origin_to_se3, parse_urdf, read_extensions
 from pincal.model.urdf_writer import calibrated_urdf_text
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -43,7 +43,7 @@ CLOSED = 1e-13
 MAX_STEPS = 100
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class JointShift:
     """How assembling moved one passive joint's origin.
 
@@ -63,7 +63,7 @@ class JointShift:
     unit: str = "rad"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Assembly:
     """A URDF assembled by :func:`assemble_urdf`.
 

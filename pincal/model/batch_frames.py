@@ -5,19 +5,18 @@ linearised, and the small stacked operations they share (C_p⁺, cross products,
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import numpy.typing as npt
 
 from pincal.model.rotations import skew
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.intp]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class JointPlacements:
     """Every joint's turned frame in the world for N samples: ``oMi[j] · Q_j``, Q_j the constant rotation taking z to
     the joint's axis (joint 0, the world, not turned), so that each joint turns about or slides along its frame's z.
@@ -44,7 +43,7 @@ class JointPlacements:
         return JointPlacements(self.frames[:, rows])
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class LoopFrames:
     """One loop's anchor frames for N samples: c1 (predecessor), c2 (successor) in the world, ``c1Mc2 = (R, p)``.
 
@@ -67,7 +66,7 @@ class LoopFrames:
     gap: Array
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class LoopState:
     """The loops of N samples at their configurations: residual, Jacobian (if asked), anchor frames."""
 
@@ -78,7 +77,7 @@ class LoopState:
     axes: Array | None  # (N, 6, nv) each velocity coordinate's spatial twist
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Geometry:
     """The placements one robot's parameters give, read once from its model and loops (the constants of
     :meth:`~pincal.model.batch_loops.BatchLoops.forward` and :meth:`~pincal.model.batch_loops.BatchLoops.loop_frames`).
@@ -97,7 +96,7 @@ class Geometry:
     constants: Array
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class LoopSystem:
     """The loops of N samples linearised at closed configurations
     (:meth:`~pincal.model.batch_kinematics.BatchKinematics.linearised`).

@@ -21,7 +21,6 @@ per-sample solver itself, row after row, the same steps without the stacked arra
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
@@ -29,6 +28,7 @@ import pinocchio as pin
 from pincal.model.batch_frames import Array, BoolArray, IntArray
 from pincal.model.frame_kinematics import SMALL_BATCH, FrameKinematics, FrameState
 from pincal.model.rotations import jlog3, log3
+from pincal.records import record
 
 #: Damping of the inverse kinematics' Gauss–Newton steps (relative, as the per-sample solver's).
 IK_DAMPING = 1e-10
@@ -40,7 +40,7 @@ WAYPOINT_STEP = 0.05
 ACTUATED_RCOND = 1e-10
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Goals:
     """Targets of a frame, one per row, in the world frame.
 
@@ -93,7 +93,7 @@ class Goals:
         return out
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Solved:
     """Rows solved: (N, nq) configurations, (N,) the largest residual component reached [m, rad], (N,) which
     converged."""

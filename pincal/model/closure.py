@@ -16,7 +16,6 @@ body twist ``(v_b, ω_b)`` of c2, and ``dp = R v_b``, ``dR = R [ω_b]×``.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -25,6 +24,7 @@ import pinocchio as pin
 
 from pincal.errors import LoopError, listing
 from pincal.model.urdf import LoopSpec
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -53,7 +53,7 @@ def link_anchor(model: pin.Model, link: str, origin: pin.SE3, loop: str) -> tupl
     return int(frame.parentJoint), frame.placement * origin
 
 
-@dataclass
+@record
 class _Loop:
     spec: LoopSpec
     model: pin.Model

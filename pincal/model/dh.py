@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -40,6 +39,7 @@ import pinocchio as pin
 from pincal.errors import DataError, NotFoundError, RobotFileError, listing
 from pincal.model.jacobians import joint_jacobian
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 Convention = Literal["dh", "mdh", "hayati"]
@@ -55,7 +55,7 @@ NEAR_PARALLEL = 1e-2
 MEET = 1e-12
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class DHRow:
     """One joint's row. ``dh``: a_i, α_i, d_i, θ_i; ``mdh``: a_{i-1}, α_{i-1}, d_i, θ_i. [m, rad]
 
@@ -82,7 +82,7 @@ class DHRow:
         return out * pin.SE3(_rot("y", self.beta), np.zeros(3)) if self.beta else out
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class DHTable:
     """A chain as a DH table (module docstring).
 
@@ -347,7 +347,7 @@ def chain_configuration(robot: Robot, joints: list[int], values: Array) -> Array
     return np.asarray(q, dtype=float)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Residual:
     """How far a table's forward kinematics is from the URDF's (Pinocchio's) over random postures.
 

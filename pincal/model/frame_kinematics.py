@@ -12,7 +12,6 @@ alone. Units: m, rad.
 from __future__ import annotations
 
 import abc
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -20,6 +19,7 @@ import pinocchio as pin
 
 from pincal.model.batch_frames import Array, BoolArray, cross, passive_gains
 from pincal.model.kinematics import ClosedLoopKinematics
+from pincal.records import record
 
 if TYPE_CHECKING:
     from pincal.model.batch_kinematics import BatchKinematics
@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 SMALL_BATCH = 24
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class FrameState:
     """The frame and the loops at N configurations.
 

@@ -8,11 +8,13 @@ motion per unit value of its source joint. Batched forward kinematics (:mod:`pin
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
+
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -23,7 +25,7 @@ MOTION_TOLERANCE = 1e-12
 TEST_VALUES = (0.5, -1.3, 2.1)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class JointMotion:
     """How a joint with one coordinate moves: ``start · exp6(ξ v)``, v the value of joint ``source`` (the joint
     itself, or the leader of a ``<mimic>`` follower, whose scaling is in ξ and offset in ``start``).

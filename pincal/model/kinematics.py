@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -28,6 +27,7 @@ import pinocchio as pin
 from pincal import linalg
 from pincal.model.closure import LoopClosure
 from pincal.model.jacobians import frame_jacobian as pin_frame_jacobian
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -92,7 +92,7 @@ def damped_gauss_newton_step(jac: Array, residual: Array, damping: float = 1e-12
     return -step
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class SolveReport:
     """Outcome of one Newton solve: the configuration, the residual reached and the iterations."""
 
@@ -102,7 +102,7 @@ class SolveReport:
     converged: bool
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ActuatedJoint:
     """Where one actuated joint sits in ``q`` and ``v``; ``nq`` is 2 for unbounded revolutes."""
 

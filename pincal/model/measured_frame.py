@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import itertools
 import re
-from dataclasses import dataclass
 from typing import Protocol, Self
 
 import numpy as np
@@ -30,6 +29,7 @@ from pincal.errors import NotFoundError, listing
 from pincal.model.jacobians import frame_jacobian
 from pincal.model.kinematics import ClosedLoopKinematics, SolveReport
 from pincal.model.parts import RobotParts, Whole
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -78,7 +78,7 @@ MOTION_TOLERANCE = 1e-9
 MOTION_STEP = 0.01
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class FrameChoice:
     """The default measured frame of a robot, or why there is none.
 

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Generic, Protocol, Self, TypeVar
 
 import numpy as np
@@ -28,6 +27,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.model.urdf import LoopSpec
+from pincal.records import record
 
 IntArray = npt.NDArray[np.intp]
 
@@ -105,7 +105,7 @@ def has_mimic_joints(model: pin.Model) -> bool:
     return any(model.joints[j].shortname().startswith("JointModelMimic") for j in range(1, model.njoints))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ReducedModel:
     """The model of some joints of a robot and of their frames, the other joints left out.
 
@@ -171,7 +171,7 @@ def reduced_model(model: pin.Model, joints: frozenset[int],
     return ReducedModel(out, kept, np.array(q_index, dtype=np.intp), np.array(v_index, dtype=np.intp), False)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Part(Generic[W]):
     """Some of a robot's joints with the loops they close, as a robot of its own.
 

@@ -6,14 +6,13 @@ reads a name through the catalog: this table stands above both.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from pincal.errors import PincalError
 from pincal.model.catalog import EXAMPLE_ROBOT_DATA, known_robot_names, robot_path, shipped_robots
 from pincal.model.robot import load_robot
+from pincal.records import record
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class KnownRobot:
     """A robot reachable by name, as ``pincal robots`` lists it.
 

@@ -18,13 +18,13 @@ import contextlib
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
-from dataclasses import dataclass
 from xml.parsers import expat
 
 import numpy as np
 import pinocchio as pin
 
 from pincal.errors import LoopError, PincalError, RobotFileError, listing
+from pincal.records import record
 
 #: Loop types and the number of closure rows each contributes.
 LOOP_ROWS: dict[str, int] = {"spherical": 3, "revolute": 5, "prismatic": 5, "fixed": 6}
@@ -33,7 +33,7 @@ LOOP_ROWS: dict[str, int] = {"spherical": 3, "revolute": 5, "prismatic": 5, "fix
 SCALAR_JOINT_TYPES = ("revolute", "continuous", "prismatic")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class LoopSpec:
     """One loop closure as declared in the file.
 
@@ -66,7 +66,7 @@ class LoopSpec:
                         self.successor, successor_origin.copy(), self.axis.copy())
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class UrdfExtensions:
     """What pincal reads from a URDF beyond the tree: loops, actuated joints and the link/joint names."""
 

@@ -17,13 +17,14 @@ import functools
 import re
 import xml.parsers.expat
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
 from pincal.errors import RobotFileError, listing
+from pincal.records import record
 
 ANCHOR_ROLES = ("predecessor", "successor")
 #: The comment written before new ``<joint_sensor>`` elements.
@@ -48,7 +49,7 @@ def origin_attributes(placement: pin.SE3) -> tuple[str, str]:
     return xyz, rpy
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class FixedLink:
     """A link to add to a URDF, attached to the tree by a new fixed joint.
 
@@ -72,7 +73,7 @@ class FixedLink:
     comment: str = ""
 
 
-@dataclass
+@record
 class _Element:
     """Byte spans of an element found in the source: its start tag and its first ``<origin>``."""
 
@@ -83,7 +84,7 @@ class _Element:
     self_closing: bool = False
 
 
-@dataclass
+@record
 class _Index:
     joints: dict[str, _Element] = field(default_factory=dict)
     anchors: dict[tuple[str, str], _Element] = field(default_factory=dict)

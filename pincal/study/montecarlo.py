@@ -13,21 +13,23 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from pincal import linalg
 from pincal.errors import DataError
 from pincal.progress import Progress
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
 Trial = Callable[[int, Any], Mapping[str, float]]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class TrialRecord:
     """One trial: its level, seed, metrics, and wall time [s] (not part of the reproducible result)."""
 
@@ -37,7 +39,7 @@ class TrialRecord:
     seconds: float
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Summary:
     """Statistics of one metric at one level over the seeds (NaN values are left out and counted)."""
 
@@ -50,7 +52,7 @@ class Summary:
     n_nan: int = 0
 
 
-@dataclass
+@record
 class MonteCarloResult:
     """All trial records of a study, in (level, seed) order."""
 
@@ -76,7 +78,7 @@ class MonteCarloResult:
         ok = v[np.isfinite(v)]
         if not ok.size:
             return Summary(math.nan, math.nan, math.nan, math.nan, math.nan, 0, int(v.size))
-        return Summary(float(ok.mean()), float(ok.std(ddof=1)) if ok.size > 1 else 0.0, float(np.median(ok)),
+        return Summary(float(ok.mean()), float(ok.std(ddof=1)) if ok.size > 1 else 0.0, float(linalg.median(ok)),
                        float(ok.min()), float(ok.max()), int(ok.size), int(v.size - ok.size))
 
     def table(self, metrics: Sequence[str] | None = None, level_label: Callable[[Any], str] = repr,

@@ -27,7 +27,7 @@ from __future__ import annotations
 import concurrent.futures
 import itertools
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +39,7 @@ from pincal.errors import DataError
 from pincal.identification.identifiability import base_parameters
 from pincal.identification.problem import CalibrationProblem
 from pincal.progress import Progress
+from pincal.records import record
 from pincal.study.criteria import CRITERIA
 
 Array = npt.NDArray[np.float64]
@@ -105,7 +106,7 @@ def _blocks_job(job: tuple[str, Any, Any, Any, Array | None, bool]) -> Array:
     return jacobian_blocks(CalibrationProblem(robot, parameters, measurements, observations), x, weighted)
 
 
-@dataclass
+@record
 class PoseSelection:
     """The chosen poses and how well they condition the identification.
 

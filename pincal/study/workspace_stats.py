@@ -20,7 +20,6 @@ dimensionless quaternion components for orientations, with every parameter error
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -28,12 +27,13 @@ import pinocchio as pin
 
 from pincal.errors import DataError
 from pincal.identification.problem import CalibrationProblem
+from pincal.records import record
 from pincal.study.pose_selection import jacobian_blocks
 
 Array = npt.NDArray[np.float64]
 
 
-@dataclass
+@record
 class StatisticalSensitivity:
     """Sensitivity of the pose to each parameter over the workspace.
 

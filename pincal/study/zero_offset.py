@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 import numpy.typing as npt
@@ -35,6 +35,7 @@ from pincal.identification.measurements import Measurement
 from pincal.identification.parameters import ParameterSet, ReadingOffset
 from pincal.identification.problem import CalibrationProblem, Observations
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -42,7 +43,7 @@ Array = npt.NDArray[np.float64]
 MU0 = math.radians(0.1)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ZeroOffsetStep:
     """One identification j.
 
@@ -63,7 +64,7 @@ class ZeroOffsetStep:
     rms_residual: float
 
 
-@dataclass
+@record
 class ZeroOffsetResult:
     """The compensation found and how it was reached.
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 import html
 import json
 import math
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +24,7 @@ from pincal.calibration.summary import bad_reading_text, correction, report_robo
 from pincal.errors import DataError
 from pincal.io.files import make_directory, write_text
 from pincal.progress import Progress
+from pincal.records import record
 from pincal.viz.page_style import SCENE_LISTENER
 from pincal.viz.page_style import STYLE as STYLE  # check_page reads it here
 from pincal.viz.scene import CalibrationView, static_scene, workspace_points
@@ -33,7 +33,7 @@ from pincal.viz.static_page import provenance_html, workspace_text
 Array = npt.NDArray[np.float64]
 
 
-@dataclass
+@record
 class ReportContent:
     """Everything the report shows.
 

@@ -14,7 +14,6 @@ identity base, the calibrated one at its calibrated base.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -33,6 +32,7 @@ from pincal.identification.problem import CalibrationProblem
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
 from pincal.progress import Progress
+from pincal.records import record
 from pincal.viz.camera_scene import camera_placements, draw_cameras
 from pincal.viz.static_page import SceneSummary, StaticScene, scene_page
 from pincal.viz.visuals import (
@@ -59,7 +59,7 @@ SEGMENT_FRACTION = 0.08
 
 
 # --- what a calibration shows ----------------------------------------------------------------------
-@dataclass
+@record
 class CalibrationView:
     """One calibration as the scene and the report show it.
 

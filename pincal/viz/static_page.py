@@ -12,7 +12,6 @@ import base64
 import gzip
 import html
 import json
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -20,13 +19,14 @@ import numpy as np
 import numpy.typing as npt
 
 from pincal.errors import PincalError
+from pincal.records import record
 from pincal.viz import colormaps
 from pincal.viz.visuals import CALIBRATED_COLOR, ERROR_COLORMAP, NOMINAL_COLOR, POINT_COLOR, lean_meshcat
 
 Array = npt.NDArray[np.float64]
 
 
-@dataclass
+@record
 class SceneSummary:
     """What :func:`pincal.viz.scene.draw_calibration` drew: what the legend shows and the browser test checks.
 

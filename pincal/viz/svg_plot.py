@@ -11,10 +11,12 @@ from __future__ import annotations
 import html
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 import numpy.typing as npt
+
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -74,7 +76,7 @@ def log_ticks(low: float, high: float) -> list[tuple[float, str]]:
     return ticks
 
 
-@dataclass
+@record
 class Axis:
     """One axis: its scale (``linear`` or ``log``) and limits, from the data drawn unless set."""
 
@@ -127,7 +129,7 @@ class Axis:
         return log_ticks(low, high) if self.scale == "log" else linear_ticks(low, high)
 
 
-@dataclass
+@record
 class LegendEntry:
     """A legend line: a marker (``o``, ``s``, ``x``, ``bar``, ``line``, ``errorbar``) in a colour, its label."""
 

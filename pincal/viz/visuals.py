@@ -14,7 +14,6 @@ import importlib.util
 import math
 import sys
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -27,6 +26,7 @@ from pincal.errors import RobotFileError
 from pincal.model.catalog import resolve_mesh_file
 from pincal.model.robot import Robot
 from pincal.model.urdf import origin_to_se3
+from pincal.records import record
 from pincal.viz.colormaps import colormap
 
 Array = npt.NDArray[np.float64]
@@ -61,7 +61,7 @@ def bound_colors(values: Array, low: float, high: float) -> Array:
     return colormap(BOUND_COLORMAP, np.clip((np.asarray(values) - low) / span, 0.0, 1.0))[:, :3]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Visual:
     """One shape fixed to a Pinocchio frame.
 

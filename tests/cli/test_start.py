@@ -4,6 +4,7 @@ runs."""
 
 from __future__ import annotations
 
+import argparse
 import os
 import subprocess
 import sys
@@ -11,6 +12,8 @@ from pathlib import Path
 
 import pytest
 from conftest import PINCAL
+
+from pincal.cli.app import build_parser
 
 HEAVY = ("pinocchio", "scipy", "matplotlib", "meshcat", "numpy", "rosbags")
 
@@ -118,3 +121,20 @@ def test_the_console_script_takes_ctrl_c_before_importing_anything() -> None:
                           check=False)
     assert done.returncode == 0, done.stderr
     assert set(eval(done.stdout)) <= {"__future__", "pincal", "pincal.__main__", "pincal.errors", "pincal.lazy"}
+
+
+def _commands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(action.choices)
+
+
+def test_a_command_line_builds_the_parser_of_its_command_alone() -> None:
+    """The other commands' parsers are not built; what the command's parser reads is what the whole parser reads."""
+    every = _commands(build_parser())
+    assert list(_commands(build_parser("calibrate"))) == ["calibrate"]
+    assert list(_commands(build_parser("iso9283"))) == ["iso9283"]
+    assert list(_commands(build_parser("nonesuch"))) == list(every)  # the error lists every command
+    for argv in (["calibrate", "delta", "data.csv", "--cv", "5x4", "--out", "cal.urdf"],
+                 ["iso9283", "plan", "ur10", "--out", "plan.csv"], ["robots"]):
+        assert vars(build_parser(argv[0]).parse_args(argv)) == vars(build_parser().parse_args(argv))
+        assert _commands(build_parser(argv[0]))[argv[0]].format_help() == every[argv[0]].format_help()

@@ -25,7 +25,7 @@ import math
 import re
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import field, replace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -36,6 +36,7 @@ from pincal.errors import DataError
 from pincal.identification.batch import BatchContext
 from pincal.identification.measurements.context import SampleContext
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -57,7 +58,7 @@ QUATERNION = "quaternion"
 PLACEMENT_COMPONENTS = ("tx", "ty", "tz", "rx", "ry", "rz")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Attachment:
     """A placement a measurement model carries whose parameters the set estimates (a camera, a target).
 
@@ -74,7 +75,7 @@ class Attachment:
     components: tuple[str, ...] = PLACEMENT_COMPONENTS
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class NominalReadings:
     """What a kind's closed-form start reads of one of its models (:meth:`Measurement.start_placements`): the nominal
     robot's placement [m, rad] of each of the model's frames in the world at each sample the model reads, and its
@@ -89,7 +90,7 @@ class NominalReadings:
 StartPlacements = dict[str, "pin.SE3 | str"]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Measurement(ABC):
     """Base class: ``key`` names the data columns, ``size`` the values per sample, ``sigma`` the
     standard deviation of each value (same units) used to weight the residual.

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -15,11 +14,12 @@ from pincal.identification.measurements.base import PLACEMENT_COMPONENTS, Attach
 from pincal.identification.measurements.context import WORLD_TARGET, SampleContext, camera_name
 from pincal.identification.measurements.poses import Pose, _orientation_rows, _orientation_rows_batch
 from pincal.model.rotations import cross_columns, rotate
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class CameraPose(Pose):
     """Eye-in-hand: a camera fixed on ``frame`` sees a pose target fixed in the world; the values are the target's
     pose in the camera's frame, position [m] then orientation (quaternion columns, the rotation vector
@@ -102,7 +102,7 @@ class CameraPose(Pose):
 
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class CameraPoint(Measurement):
     """Eye-in-hand with a point target: a camera fixed on ``frame`` sees a point fixed in the world; the values are
     the point's position [m] in the camera's frame. Key ``camera_point:<frame>``.

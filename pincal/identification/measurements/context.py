@@ -18,15 +18,17 @@ cameras (``target.*``, world ← target; a point target uses its translation onl
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal.records import record
+
 Array = npt.NDArray[np.float64]
 
-@dataclass
+@record
 class MarkerPoint:
     """A measured point fixed on a frame at one parameter estimate.
 
@@ -41,7 +43,7 @@ class MarkerPoint:
     derivative: Array = field(default_factory=lambda: np.zeros((3, 0)))
 
 
-@dataclass
+@record
 class AttachedPlacement:
     """A placement the measurement models carry (a camera, a target) at one parameter estimate.
 
@@ -62,7 +64,7 @@ class AttachedPlacement:
                           dtype=np.float64)
 
 
-@dataclass
+@record
 class IntrinsicTerms:
     """A camera's intrinsics parameters at one estimate.
 
@@ -98,7 +100,7 @@ def split_target(target: str) -> tuple[str, str]:
     return (frame, marker) if at else (target, "")
 
 
-@dataclass
+@record
 class SampleContext:
     """What a measurement model predicts from: one sample's kinematic state and the parameter columns.
 

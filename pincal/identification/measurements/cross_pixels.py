@@ -11,7 +11,6 @@ measurement frame plays no part (no ``base.*``): the camera sees the robot from 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -23,11 +22,12 @@ from pincal.identification.batch import BatchContext, point_rows
 from pincal.identification.measurements.base import Attachment, Measurement
 from pincal.identification.measurements.context import SampleContext, camera_name, target_name
 from pincal.identification.measurements.pixels import BOARD, INTRINSICS, Pixel, project
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class CrossPixel(Pixel):
     """A camera on ``frame`` sees corner ``corner`` of a board on ``board_frame`` (another chain of the same robot);
     the values are its ``u``, ``v`` [px]. Key ``cross_pixel:<frame>-<board_frame>@<corner>``."""

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -13,11 +12,12 @@ from pincal.identification.batch import BatchContext, point_rows
 from pincal.identification.measurements.base import Measurement, point_derivative
 from pincal.identification.measurements.context import SampleContext
 from pincal.model.rotations import rotate
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Distance(Measurement):
     """Distance between two frames' origins [m]; ``increment`` for a scale reset between readings
     (each value is the change since the previous sample, so the scale's zero drops out)."""

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -15,11 +14,12 @@ from pincal.identification.batch import BatchContext
 from pincal.identification.measurements.base import Measurement
 from pincal.identification.measurements.context import SampleContext
 from pincal.model.robot import Robot
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class JointReading(Measurement):
     """A passive joint's encoder (or an instrumented measuring chain's sensor) [rad or m]."""
 

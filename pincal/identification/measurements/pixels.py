@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import ClassVar, NamedTuple
 
 import numpy as np
@@ -46,6 +46,7 @@ from pincal.identification.measurements.context import (
     target_name,
 )
 from pincal.model.rotations import cross_columns, rotate
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -59,7 +60,7 @@ BOARD_DEFAULT = "charuco:8x6:0.03:0.022:DICT_4X4_50"
 _BOARD = re.compile(r"(charuco|aruco):(\d+)x(\d+):([0-9.eE+-]+):([0-9.eE+-]+):(\w+)")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Board:
     """A calibration board, as OpenCV draws it: a ChArUco board (``kind`` ``charuco``: ``cols`` × ``rows`` squares of
     side ``square`` [m] with ArUco markers of side ``marker`` [m]; its corners the inner chessboard corners) or a grid
@@ -201,7 +202,7 @@ def declared_intrinsics(metadata: Mapping[str, str], owner: str) -> tuple[tuple[
     return None, False
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Pixel(Measurement):
     """Eye-in-hand: a camera on ``frame`` sees corner ``corner`` of a board fixed in the world; the values are its
     ``u``, ``v`` [px] (both empty: not seen). Key ``pixel:<frame>@<corner>``."""
@@ -374,7 +375,7 @@ class CameraView(NamedTuple):
             jac[:, :, self.columns] += self.dk[:, :, self.components]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class BoardPixel(Pixel):
     """Eye-to-hand: a camera fixed in the cell (the measurement frame) sees corner ``corner`` of a board fixed on
     ``frame``; the values are its ``u``, ``v`` [px]. Key ``board_pixel:<frame>@<corner>``."""

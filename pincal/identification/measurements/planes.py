@@ -18,7 +18,7 @@ Two kinds, both with the contact frame ``F`` expressed in the support's frame, `
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import ClassVar
 
 import numpy as np
@@ -31,6 +31,7 @@ from pincal.identification.batch import BatchContext
 from pincal.identification.measurements.base import Attachment, Measurement, NominalReadings, StartPlacements
 from pincal.identification.measurements.context import AttachedPlacement, SampleContext, split_target
 from pincal.model.rotations import rotate, skew
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -47,7 +48,7 @@ def plane_name(support: str) -> str:
     return f"{PLANE}.{support}" if support else PLANE
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PlanePoint(Measurement):
     """A frame's origin lies on an unknown plane: the signed distance [m] from the plane (key
     ``plane_point:<frame>`` for a plane fixed in the world, ``plane_point:<frame>@<support>`` for one fixed on the
@@ -117,7 +118,7 @@ class PlanePoint(Measurement):
         _predict_batch(self, batch, out, jac)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PlaneContact(PlanePoint):
     """A frame lies flush on an unknown plane, its z axis along the plane's normal (key ``plane:<frame>`` or
     ``plane:<frame>@<support>``): the signed distance [m], then the x and y components of the frame's z axis in the
@@ -151,7 +152,7 @@ class PlaneContact(PlanePoint):
         return np.array([self.sigma, self.sigma_angle, self.sigma_angle])
 
 
-@dataclass
+@record
 class _ContactState:
     """One sample's contact frame against its plane: what the rows and their derivatives are made of."""
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import ClassVar
 
 import numpy as np
@@ -15,11 +15,12 @@ from pincal.identification.batch import BatchContext, point_rows
 from pincal.identification.measurements.base import MARKER_NAME, QUATERNION, Attachment, Measurement
 from pincal.identification.measurements.context import AttachedPlacement, SampleContext, split_target, target_name
 from pincal.model.rotations import jlog3, log3, quaternion_matrices, rotate
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Pose(Measurement):
     """6D pose of a frame, or of pose target ``target`` fixed on it (key ``pose:<frame>@<target>``: e.g. a camera
     fixed in the world, the measurement frame, sees a target on the robot, eye-to-hand): position [m] then the

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import ClassVar
 
 import numpy as np
@@ -15,11 +15,12 @@ from pincal.identification.batch import BatchContext, point_rows
 from pincal.identification.measurements.base import MARKER_NAME, Measurement, point_derivative
 from pincal.identification.measurements.context import SampleContext, split_target
 from pincal.model.rotations import rotate
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Position(Measurement):
     """3D position of a point on a frame, e.g. a laser tracker's reflector or a mocap marker: the frame's origin
     plus its marker offset (key ``position:<frame>``), or declared marker ``marker`` fixed on the frame (key

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import fnmatch
 from collections.abc import Iterable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 import numpy.typing as npt
@@ -43,6 +43,7 @@ from pincal.identification.parameters.kinds import (
     parameter_kind,
 )
 from pincal.model.robot import Unit
+from pincal.records import record
 
 Array = npt.NDArray[np.float64]
 
@@ -62,7 +63,7 @@ TORQUE_SCALE = 10.0
 FORCE_SCALE = 100.0
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Parameter:
     """One scalar unknown.
 
@@ -167,7 +168,7 @@ def attached_name(kind: str, owner: str) -> str:
     return parameter_kind(kind).prefix(owner)
 
 
-@dataclass
+@record
 class ParameterSet:
     """An ordered set of parameters; its vectors hold deviations from the nominal robot."""
 
