@@ -55,7 +55,9 @@ print(json.dumps({"cpu": cpu, "wall": wall, "report": done.report.to_json()}))
 
 
 def once(source: Path, job: Path) -> dict[str, object]:
-    done = subprocess.run([sys.executable, "-c", RUN, str(job), str(CALLS)], env=environment(source), cwd=ROOT,
+    """One process of ``source``'s ``pincal/`` (started in its parent folder, not in ROOT: ``python -c`` puts the
+    folder it starts in first on the path, and ROOT's ``pincal/`` would be imported instead)."""
+    done = subprocess.run([sys.executable, "-c", RUN, str(job), str(CALLS)], env=environment(source), cwd=source,
                           capture_output=True, text=True, check=False)
     if done.returncode != 0:
         raise SystemExit(f"calibrate() of {job} failed:\n{done.stderr}")
