@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -109,6 +109,9 @@ class _Linear:
         rows: The rows left, m less the setup's rank.
         base: (q,) those columns' σ at factor 1, scaled.
         members: Per group, its columns among them.
+        base2: (q,) ``base²``, and ``group``: (q,) each column's group (its index in ``members``), what every round of
+            :func:`_optimise` builds the prior's variances from (q columns of one group each).
+        identity: (q, q) the identity the rounds solve for ``K⁻¹`` (never written to).
     """
 
     gram: Array
@@ -117,22 +120,36 @@ class _Linear:
     rows: int
     base: Array
     members: list[npt.NDArray[np.intp]]
+    base2: Array = field(init=False, repr=False)
+    group: npt.NDArray[np.intp] = field(init=False, repr=False)
+    identity: Array = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        group = np.zeros(self.base.size, dtype=np.intp)
+        for g, columns in enumerate(self.members):
+            group[columns] = g
+        object.__setattr__(self, "base2", self.base**2)
+        object.__setattr__(self, "group", group)
+        object.__setattr__(self, "identity", np.eye(self.base.size))
+
+    def variance(self, log_factor2: Array) -> Array:
+        """(q,) the prior's variance of each column [scaled units²] at the groups' log-factors ``ln f_g²``:
+        ``base² · f_g²`` (one ``exp`` per group)."""
+        factor2 = np.array([math.exp(t) for t in log_factor2[:len(self.members)]])
+        return np.asarray(self.base2 * factor2[self.group], dtype=float)
 
 
 def _terms(linear: _Linear, log_factor2: Array, log_noise: float) -> tuple[float, Array, Array]:
     """−2 ln L and its gradient with respect to (ln f_g², ln s²); and μ (the linear model's estimate, scaled)."""
-    q = linear.base.size
     s2 = math.exp(log_noise)
-    variance = np.empty(q)
-    for g, columns in enumerate(linear.members):
-        variance[columns] = linear.base[columns] ** 2 * math.exp(log_factor2[g])
+    variance = linear.variance(log_factor2)
     precision = 1.0 / variance
     factor = _cholesky(linear.gram / s2 + np.diag(precision))
     b = linear.jz / s2
     mu = _cho_solve(factor, b)
     log_det_k = 2.0 * float(np.sum(np.log(np.diag(factor[0]))))
     value = linear.rows * log_noise + float(np.sum(np.log(variance))) + log_det_k + linear.zz / s2 - float(b @ mu)
-    k_inv = _cho_solve(factor, np.eye(q))
+    k_inv = _cho_solve(factor, linear.identity)
     grad = np.zeros(len(linear.members) + 1)
     for g, columns in enumerate(linear.members):
         grad[g] = columns.size - float(np.sum((np.diag(k_inv)[columns] + mu[columns] ** 2) * precision[columns]))
@@ -153,9 +170,14 @@ def _cholesky(matrix: Array) -> tuple[Array, bool]:
     wrappers, a fifth of a cross-validation's evidence (thousands of small factorisations)."""
     if not matrix.size:
         return np.zeros(matrix.shape), False
-    top = float(np.max(np.diag(matrix), initial=0.0))
-    for jitter in (0.0, *JITTER):
-        factor, info = lapack().dpotrf(matrix + jitter * top * np.eye(len(matrix)), lower=0, clean=0, overwrite_a=1)
+    top = float(np.max(matrix.diagonal(), initial=0.0))
+    potrf = lapack().dpotrf
+    # no jitter first: the matrix plus a zero of the sign of 0 · top, as the jittered sums below are made
+    factor, info = potrf(matrix + 0.0 * top, lower=0, clean=0, overwrite_a=1)
+    if info == 0:
+        return np.asarray(factor, dtype=float), False
+    for jitter in JITTER:
+        factor, info = potrf(matrix + jitter * top * np.eye(len(matrix)), lower=0, clean=0, overwrite_a=1)
         if info == 0:
             return np.asarray(factor, dtype=float), False
     raise DataError("the evidence's matrix is not positive definite: the data and the prior leave a direction free")
@@ -285,25 +307,24 @@ def _optimise(linear: _Linear, n_groups: int, accelerated: bool = False) -> tupl
 
 def _fixed_point(linear: _Linear, theta: Array) -> Array:
     """One round of :func:`_optimise`'s fixed point from the log-parameters ``theta`` (ln f_g², then ln s²)."""
-    q = linear.base.size
     s2 = math.exp(theta[-1])
-    variance = np.empty(q)
-    for g, columns in enumerate(linear.members):
-        variance[columns] = linear.base[columns] ** 2 * math.exp(theta[g])
+    variance = linear.variance(theta)
     factor = _cholesky(linear.gram / s2 + np.diag(1.0 / variance))
     mu = _cho_solve(factor, linear.jz / s2)
-    k_inv = _cho_solve(factor, np.eye(q))
-    diag = np.diag(k_inv)
+    k_inv = _cho_solve(factor, linear.identity)
+    diag = k_inv.diagonal()
     residual2 = max(linear.zz - 2.0 * float(mu @ linear.jz) + float(mu @ linear.gram @ mu), 0.0)
+    determined_terms = 1.0 - diag / variance
+    signal_terms = mu**2 / linear.base2
     out = theta.copy()
     determined = 0.0
     for g, columns in enumerate(linear.members):
-        gamma = float(np.sum(1.0 - diag[columns] / variance[columns]))
-        signal = float(np.sum(mu[columns] ** 2 / linear.base[columns] ** 2))
+        gamma = float(np.sum(determined_terms[columns]))
+        signal = float(np.sum(signal_terms[columns]))
         if gamma > 1e-6 and signal > 0.0:
             out[g] = math.log(signal / gamma)
         else:  # the expectation-maximisation step
-            out[g] = math.log(max(float(np.sum((mu[columns] ** 2 + diag[columns]) / linear.base[columns] ** 2))
+            out[g] = math.log(max(float(np.sum((mu[columns] ** 2 + diag[columns]) / linear.base2[columns]))
                                   / columns.size, 1e-300))
         determined += gamma
     free = linear.rows - determined
