@@ -30,9 +30,10 @@ over the samples' gravity torques.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -109,9 +110,6 @@ class _Linear:
         rows: The rows left, m less the setup's rank.
         base: (q,) those columns' σ at factor 1, scaled.
         members: Per group, its columns among them.
-        base2: (q,) ``base²``, and ``group``: (q,) each column's group (its index in ``members``), what every round of
-            :func:`_optimise` builds the prior's variances from (q columns of one group each).
-        identity: (q, q) the identity the rounds solve for ``K⁻¹`` (never written to).
     """
 
     gram: Array
@@ -120,17 +118,24 @@ class _Linear:
     rows: int
     base: Array
     members: list[npt.NDArray[np.intp]]
-    base2: Array = field(init=False, repr=False)
-    group: npt.NDArray[np.intp] = field(init=False, repr=False)
-    identity: Array = field(init=False, repr=False)
 
-    def __post_init__(self) -> None:
+    @functools.cached_property
+    def base2(self) -> Array:
+        """(q,) ``base²``, each round's variances at factor 1."""
+        return np.asarray(self.base**2, dtype=float)
+
+    @functools.cached_property
+    def group(self) -> npt.NDArray[np.intp]:
+        """(q,) each column's group, its index in ``members``."""
         group = np.zeros(self.base.size, dtype=np.intp)
         for g, columns in enumerate(self.members):
             group[columns] = g
-        object.__setattr__(self, "base2", self.base**2)
-        object.__setattr__(self, "group", group)
-        object.__setattr__(self, "identity", np.eye(self.base.size))
+        return group
+
+    @functools.cached_property
+    def identity(self) -> Array:
+        """(q, q) the identity each round solves for ``K⁻¹`` (never written to)."""
+        return np.eye(self.base.size)
 
     def variance(self, log_factor2: Array) -> Array:
         """(q,) the prior's variance of each column [scaled units²] at the groups' log-factors ``ln f_g²``:
@@ -170,7 +175,7 @@ def _cholesky(matrix: Array) -> tuple[Array, bool]:
     wrappers, a fifth of a cross-validation's evidence (thousands of small factorisations)."""
     if not matrix.size:
         return np.zeros(matrix.shape), False
-    top = float(np.max(matrix.diagonal(), initial=0.0))
+    top = max(float(matrix.diagonal().max()), 0.0)  # NaN stays NaN, as with np.max(..., initial=0.0)
     potrf = lapack().dpotrf
     # no jitter first: the matrix plus a zero of the sign of 0 · top, as the jittered sums below are made
     factor, info = potrf(matrix + 0.0 * top, lower=0, clean=0, overwrite_a=1)
@@ -271,16 +276,17 @@ def _optimise(linear: _Linear, n_groups: int, accelerated: bool = False) -> tupl
     low, high = (2.0 * math.log(v) for v in FACTOR_RANGE)
     noise = math.log(max(linear.zz / max(linear.rows, 1), 1e-300))
     noise_low, noise_high = noise - 30.0, noise + 10.0
+    lows, highs = np.array([low] * n_groups + [noise_low]), np.array([high] * n_groups + [noise_high])
 
-    def bounded(t: Array) -> Array:
-        return np.concatenate([np.clip(t[:-1], low, high), [min(max(float(t[-1]), noise_low), noise_high)]])
+    def bounded(t: Array) -> Array:  # as np.clip, NaN kept
+        return np.asarray(np.minimum(np.maximum(t, lows), highs), dtype=float)
 
     theta = np.concatenate([np.zeros(n_groups), [noise]])
     rounds = 0
     while rounds < ROUNDS:
         first = bounded(_fixed_point(linear, theta))
         change = first - theta
-        if np.max(np.abs(change)) < SETTLED:
+        if abs(change).max() < SETTLED:
             theta = first
             break
         if not accelerated:
@@ -318,9 +324,9 @@ def _fixed_point(linear: _Linear, theta: Array) -> Array:
     signal_terms = mu**2 / linear.base2
     out = theta.copy()
     determined = 0.0
-    for g, columns in enumerate(linear.members):
-        gamma = float(np.sum(determined_terms[columns]))
-        signal = float(np.sum(signal_terms[columns]))
+    for g, columns in enumerate(linear.members):  # sums as np.sum makes them (add.reduce), without its wrapper
+        gamma = float(determined_terms[columns].sum())
+        signal = float(signal_terms[columns].sum())
         if gamma > 1e-6 and signal > 0.0:
             out[g] = math.log(signal / gamma)
         else:  # the expectation-maximisation step
