@@ -30,6 +30,7 @@ over the samples' gravity torques.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 
@@ -118,21 +119,42 @@ class _Linear:
     base: Array
     members: list[npt.NDArray[np.intp]]
 
+    @functools.cached_property
+    def base2(self) -> Array:
+        """(q,) ``base²``, each round's variances at factor 1."""
+        return np.asarray(self.base**2, dtype=float)
+
+    @functools.cached_property
+    def group(self) -> npt.NDArray[np.intp]:
+        """(q,) each column's group, its index in ``members``."""
+        group = np.zeros(self.base.size, dtype=np.intp)
+        for g, columns in enumerate(self.members):
+            group[columns] = g
+        return group
+
+    @functools.cached_property
+    def identity(self) -> Array:
+        """(q, q) the identity each round solves for ``K⁻¹`` (never written to)."""
+        return np.eye(self.base.size)
+
+    def variance(self, log_factor2: Array) -> Array:
+        """(q,) the prior's variance of each column [scaled units²] at the groups' log-factors ``ln f_g²``:
+        ``base² · f_g²`` (one ``exp`` per group)."""
+        factor2 = np.array([math.exp(t) for t in log_factor2[:len(self.members)]])
+        return np.asarray(self.base2 * factor2[self.group], dtype=float)
+
 
 def _terms(linear: _Linear, log_factor2: Array, log_noise: float) -> tuple[float, Array, Array]:
     """−2 ln L and its gradient with respect to (ln f_g², ln s²); and μ (the linear model's estimate, scaled)."""
-    q = linear.base.size
     s2 = math.exp(log_noise)
-    variance = np.empty(q)
-    for g, columns in enumerate(linear.members):
-        variance[columns] = linear.base[columns] ** 2 * math.exp(log_factor2[g])
+    variance = linear.variance(log_factor2)
     precision = 1.0 / variance
     factor = _cholesky(linear.gram / s2 + np.diag(precision))
     b = linear.jz / s2
     mu = _cho_solve(factor, b)
     log_det_k = 2.0 * float(np.sum(np.log(np.diag(factor[0]))))
     value = linear.rows * log_noise + float(np.sum(np.log(variance))) + log_det_k + linear.zz / s2 - float(b @ mu)
-    k_inv = _cho_solve(factor, np.eye(q))
+    k_inv = _cho_solve(factor, linear.identity)
     grad = np.zeros(len(linear.members) + 1)
     for g, columns in enumerate(linear.members):
         grad[g] = columns.size - float(np.sum((np.diag(k_inv)[columns] + mu[columns] ** 2) * precision[columns]))
@@ -153,9 +175,14 @@ def _cholesky(matrix: Array) -> tuple[Array, bool]:
     wrappers, a fifth of a cross-validation's evidence (thousands of small factorisations)."""
     if not matrix.size:
         return np.zeros(matrix.shape), False
-    top = float(np.max(np.diag(matrix), initial=0.0))
-    for jitter in (0.0, *JITTER):
-        factor, info = lapack().dpotrf(matrix + jitter * top * np.eye(len(matrix)), lower=0, clean=0, overwrite_a=1)
+    top = max(float(matrix.diagonal().max()), 0.0)  # NaN stays NaN, as with np.max(..., initial=0.0)
+    potrf = lapack().dpotrf
+    # no jitter first: the matrix plus a zero of the sign of 0 · top, as the jittered sums below are made
+    factor, info = potrf(matrix + 0.0 * top, lower=0, clean=0, overwrite_a=1)
+    if info == 0:
+        return np.asarray(factor, dtype=float), False
+    for jitter in JITTER:
+        factor, info = potrf(matrix + jitter * top * np.eye(len(matrix)), lower=0, clean=0, overwrite_a=1)
         if info == 0:
             return np.asarray(factor, dtype=float), False
     raise DataError("the evidence's matrix is not positive definite: the data and the prior leave a direction free")
@@ -249,16 +276,17 @@ def _optimise(linear: _Linear, n_groups: int, accelerated: bool = False) -> tupl
     low, high = (2.0 * math.log(v) for v in FACTOR_RANGE)
     noise = math.log(max(linear.zz / max(linear.rows, 1), 1e-300))
     noise_low, noise_high = noise - 30.0, noise + 10.0
+    lows, highs = np.array([low] * n_groups + [noise_low]), np.array([high] * n_groups + [noise_high])
 
-    def bounded(t: Array) -> Array:
-        return np.concatenate([np.clip(t[:-1], low, high), [min(max(float(t[-1]), noise_low), noise_high)]])
+    def bounded(t: Array) -> Array:  # as np.clip, NaN kept
+        return np.asarray(np.minimum(np.maximum(t, lows), highs), dtype=float)
 
     theta = np.concatenate([np.zeros(n_groups), [noise]])
     rounds = 0
     while rounds < ROUNDS:
         first = bounded(_fixed_point(linear, theta))
         change = first - theta
-        if np.max(np.abs(change)) < SETTLED:
+        if abs(change).max() < SETTLED:
             theta = first
             break
         if not accelerated:
@@ -285,25 +313,24 @@ def _optimise(linear: _Linear, n_groups: int, accelerated: bool = False) -> tupl
 
 def _fixed_point(linear: _Linear, theta: Array) -> Array:
     """One round of :func:`_optimise`'s fixed point from the log-parameters ``theta`` (ln f_g², then ln s²)."""
-    q = linear.base.size
     s2 = math.exp(theta[-1])
-    variance = np.empty(q)
-    for g, columns in enumerate(linear.members):
-        variance[columns] = linear.base[columns] ** 2 * math.exp(theta[g])
+    variance = linear.variance(theta)
     factor = _cholesky(linear.gram / s2 + np.diag(1.0 / variance))
     mu = _cho_solve(factor, linear.jz / s2)
-    k_inv = _cho_solve(factor, np.eye(q))
-    diag = np.diag(k_inv)
+    k_inv = _cho_solve(factor, linear.identity)
+    diag = k_inv.diagonal()
     residual2 = max(linear.zz - 2.0 * float(mu @ linear.jz) + float(mu @ linear.gram @ mu), 0.0)
+    determined_terms = 1.0 - diag / variance
+    signal_terms = mu**2 / linear.base2
     out = theta.copy()
     determined = 0.0
-    for g, columns in enumerate(linear.members):
-        gamma = float(np.sum(1.0 - diag[columns] / variance[columns]))
-        signal = float(np.sum(mu[columns] ** 2 / linear.base[columns] ** 2))
+    for g, columns in enumerate(linear.members):  # sums as np.sum makes them (add.reduce), without its wrapper
+        gamma = float(determined_terms[columns].sum())
+        signal = float(signal_terms[columns].sum())
         if gamma > 1e-6 and signal > 0.0:
             out[g] = math.log(signal / gamma)
         else:  # the expectation-maximisation step
-            out[g] = math.log(max(float(np.sum((mu[columns] ** 2 + diag[columns]) / linear.base[columns] ** 2))
+            out[g] = math.log(max(float(np.sum((mu[columns] ** 2 + diag[columns]) / linear.base2[columns]))
                                   / columns.size, 1e-300))
         determined += gamma
     free = linear.rows - determined

@@ -106,8 +106,9 @@ def range_guard(problem: CalibrationProblem, result: CalibrationResult, prior: A
                          linear.x[~robot], linear.rows)
     nominal_squares = _squares(nominal, beyond)
     nominal_beyond = _score(nominal_squares)
-    tried = [(1.0, *scores(1.0))]
-    if not _worse(_squares(linear, beyond), nominal_squares):
+    fitted_beyond = _squares(linear, beyond)  # the divisor 1's hold-outs beyond the range, scored and tested once
+    tried = [(1.0, _score(_squares(linear, inside)), _score(fitted_beyond))]
+    if not _worse(fitted_beyond, nominal_squares):
         return Guard(1.0, tried[0][2], tried[0][1], nominal_beyond, tuple(tried))
     tried += [(d, *scores(d)) for d in FIRMER]
     limit = nominal_beyond * (1.0 + TIE)

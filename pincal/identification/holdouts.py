@@ -16,6 +16,7 @@ rows [σ units].
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 
 import numpy as np
@@ -85,14 +86,28 @@ class Linearised:
         point = (result.x[chosen] if x is None else x) / scales
         return cls(jacobian * scales, residual, result.sample_weights[rows], precision, point, rows)
 
+    @functools.cached_property
+    def weighted(self) -> Array:
+        """(rows, q) ``W J``: the Jacobian's rows times their robust weights, the same for every hold-out."""
+        return np.asarray(self.jacobian * self.weights[:, None], dtype=float)
+
+    def held_rows(self, held: IntArray) -> npt.NDArray[np.bool_]:
+        """(rows,) which rows belong to the samples ``held`` (``np.isin(rows, held)``, by a look-up table)."""
+        if not self.rows.size or not np.size(held):
+            return np.zeros(self.rows.size, dtype=bool)
+        member = np.zeros(max(int(self.rows.max()), int(np.max(held))) + 1, dtype=bool)
+        member[held] = True
+        return np.asarray(member[self.rows], dtype=bool)
+
     def refit(self, held: IntArray) -> tuple[Array, Array, npt.NDArray[np.bool_]]:
         """The held-out samples' rows after one Gauss–Newton solve without them, toward the prior: their weighted
         residual, the refit's scaled covariance factor ``(JᵀWJ + P)⁺``, and which rows are held out."""
-        out = np.isin(self.rows, held)
-        weighted = self.jacobian * self.weights[:, None]
-        normal = self.jacobian[~out].T @ weighted[~out] + np.diag(self.precision)
+        out = self.held_rows(held)
+        kept = ~out
+        weighted = self.weighted[kept]
+        normal = self.jacobian[kept].T @ weighted + np.diag(self.precision)
         inverse = pseudo_inverse(normal)
-        step = -inverse @ (weighted[~out].T @ self.residual[~out] + self.precision * self.x)
+        step = -inverse @ (weighted.T @ self.residual[kept] + self.precision * self.x)
         return self.residual[out] + self.jacobian[out] @ step, inverse, out
 
 
