@@ -71,11 +71,14 @@ def run_job(job: FleetJob) -> FleetResult:
     """Calibrate one robot (runs in a worker process; a top-level function so it pickles)."""
     from pincal.calibration.from_files import calibrate_files, calibrate_job
     from pincal.calibration.job import read_job
+    from pincal.calibration.on_demand import pending_fields
     try:
         if job.data.endswith(JOB_SUFFIX):
             cal = calibrate_job(read_job(job.data).overridden(job.out_urdf, job.report, job.options))
         else:
             cal = calibrate_files(job.robot, job.data, job.out_urdf, job.report, options=job.options.calibration)
+        for name in pending_fields(cal.report):  # computed here: the result kept holds no fit alive
+            getattr(cal.report, name)
     except PincalError as exc:
         return FleetResult(job.name, None, f"{type(exc).__name__}: {exc}")
     return FleetResult(job.name, cal.report, None)

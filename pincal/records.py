@@ -8,7 +8,9 @@ defines some 120 of them). :func:`record` lets ``dataclasses`` make ``__init__``
 fields' names without compiling anything; they return what the generated ones return (the same text, the same
 comparisons of the same field tuples, the same hashes), and a class that defines one of them keeps its own, as
 under ``dataclasses``. ``dataclasses.fields``, ``replace``, ``asdict`` and ``is_dataclass`` read a record as a
-dataclass.
+dataclass. ``__eq__`` compares the field tuples, as ``dataclasses`` does up to Python 3.12 (from 3.13 it compares field
+by field, so that one NaN or one array held by both no longer counts as equal to itself; a record keeps the tuple's
+identity shortcut on every version).
 """
 
 from __future__ import annotations
@@ -39,6 +41,8 @@ def _methods(cls: type, frozen: bool) -> None:
     shown = tuple(f.name for f in fields if f.repr)
     compared = _getter(tuple(f.name for f in fields if f.compare))
     hashed = _getter(tuple(f.name for f in fields if (f.compare if f.hash is None else f.hash)))
+    own_eq = "__eq__" in cls.__dict__  # read before any method is installed: the table below asks of the class's own
+    own_hash = cls.__dict__.get("__hash__", dataclasses.MISSING)
     if "__repr__" not in cls.__dict__:
         @reprlib.recursive_repr(fillvalue="...")
         def __repr__(self: Any) -> str:
@@ -46,7 +50,7 @@ def _methods(cls: type, frozen: bool) -> None:
             return text + "(" + ", ".join(f"{name}={getattr(self, name)!r}" for name in shown) + ")"
 
         _install(cls, __repr__)
-    if "__eq__" not in cls.__dict__:
+    if not own_eq:
         def __eq__(self: Any, other: object) -> bool:
             if other.__class__ is self.__class__:
                 return compared(self) == compared(other)
@@ -55,8 +59,7 @@ def _methods(cls: type, frozen: bool) -> None:
         _install(cls, __eq__)
     # dataclasses' table for eq=True without unsafe_hash: a hash of the compared fields when frozen, none otherwise,
     # unless the class defines its own (a ``__hash__ = None`` beside its own ``__eq__`` is no definition).
-    own_hash = cls.__dict__.get("__hash__", dataclasses.MISSING)
-    if own_hash is dataclasses.MISSING or (own_hash is None and "__eq__" in cls.__dict__):
+    if own_hash is dataclasses.MISSING or (own_hash is None and own_eq):
         if frozen:
             def __hash__(self: Any) -> int:
                 return hash(hashed(self))

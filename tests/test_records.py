@@ -120,3 +120,20 @@ def test_record_compiles_only_what_dataclasses_needs(monkeypatch: pytest.MonkeyP
     monkeypatch.setattr(builtins, "exec", counting)
     _pair(frozen=True)
     assert len(compiled) == 3 + 6  # the record's three, the dataclass's six
+
+
+def test_an_explicit_hash_none_beside_an_inherited_eq_stays_unhashable() -> None:
+    """A frozen class that says ``__hash__ = None`` without its own ``__eq__`` is unhashable, as under dataclasses."""
+    @dataclasses.dataclass(frozen=True)
+    class Plain:
+        a: int
+        __hash__ = None  # type: ignore[assignment]
+
+    @record(frozen=True)
+    class Record:
+        a: int
+        __hash__ = None  # type: ignore[assignment]
+
+    for cls in (Plain, Record):
+        with pytest.raises(TypeError, match="unhashable"):
+            hash(cls(1))

@@ -102,6 +102,9 @@ class CalibrationReport:
     samples left out (weight 0) because one wrong joint reading explains their error; each nested part is a record
     of :mod:`~pincal.calibration.report_sections`, with its units;
     ``cv`` is the cross-validation's account (:class:`~pincal.calibration.report_sections.CrossValidation`).
+    ``error_growth`` and ``predicted_workspace`` may be computed when first read (:mod:`~pincal.calibration.on_demand`,
+    from :func:`~pincal.calibration.pipeline.calibrate`): until then the report holds the fit they are computed from
+    (read them, or write the JSON, before keeping many reports).
     ``length_scale`` is each measured position's spread over the nominal robot's at the same readings; ``implausible``
     and ``implausible_scale`` list the corrections and the scales beyond what a robot of this model plausibly needs
     (the factor ``plausible`` on the documented limits, :mod:`pincal.calibration.plausibility`), and

@@ -15,7 +15,8 @@ import contextlib
 import functools
 import math
 import os
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
@@ -63,11 +64,35 @@ def _threadpools() -> ThreadpoolController:
 def one_blas_thread() -> contextlib.AbstractContextManager[Any]:
     """BLAS on one thread while identifying (and, from :func:`~pincal.calibration.pipeline.calibrate`, for the whole
     calibration): nothing to do where the environment gave it one from the start
-    (:data:`ONE_THREAD`, as the command line does), else threadpoolctl's limit."""
+    (:data:`ONE_THREAD`, as the command line does), else threadpoolctl's limit, held once for the process however many
+    threads are inside (:func:`_held_limit`)."""
     if all(os.environ.get(name) == "1" for name in ONE_THREAD):
         return contextlib.nullcontext()
-    limited: contextlib.AbstractContextManager[Any] = _threadpools().limit(limits=1, user_api="blas")
-    return limited
+    return _held_limit()
+
+
+#: The process's one limit: the lock, and [how many callers are inside, threadpoolctl's limiter or None].
+_LIMIT_LOCK = threading.Lock()
+_LIMIT: list[Any] = [0, None]
+
+
+@contextlib.contextmanager
+def _held_limit() -> Iterator[None]:
+    """BLAS on one thread from the first caller's entry to the last one's exit. threadpoolctl's limits are the
+    process's, and each limiter restores what it saw on entry: two calibrations overlapping in threads (a fleet on a
+    thread pool) would otherwise leave the caller's BLAS on one thread for good."""
+    with _LIMIT_LOCK:
+        if _LIMIT[0] == 0:
+            _LIMIT[1] = _threadpools().limit(limits=1, user_api="blas")
+        _LIMIT[0] += 1
+    try:
+        yield
+    finally:
+        with _LIMIT_LOCK:
+            _LIMIT[0] -= 1
+            if _LIMIT[0] == 0:
+                _LIMIT[1].restore_original_limits()
+                _LIMIT[1] = None
 
 
 def _check_arguments(problem: Any, x0: Any, options: FitOptions) -> None:

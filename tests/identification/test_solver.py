@@ -292,3 +292,27 @@ def test_blas_runs_on_one_thread_while_identifying(monkeypatch: pytest.MonkeyPat
     solver._threadpools.cache_clear()  # the libraries loaded now (found once per process: a test may load more)
     with threadpool_limits(limits=2, user_api="blas"), solver.one_blas_thread():
         assert {pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"} == {1}
+
+
+def test_overlapping_limits_give_the_caller_its_threads_back(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two calibrations that overlap in threads (the first leaves while the second is still inside) hold BLAS at one
+    thread until the last one leaves, then give back what the caller had."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from pincal.identification import solver
+
+    def blas_threads() -> set[int]:
+        return {pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"}
+
+    for name in solver.ONE_THREAD:
+        monkeypatch.delenv(name, raising=False)
+    solver._threadpools.cache_clear()
+    with threadpool_limits(limits=2, user_api="blas"):
+        first, second = solver.one_blas_thread(), solver.one_blas_thread()
+        first.__enter__()
+        second.__enter__()
+        assert blas_threads() == {1}
+        first.__exit__(None, None, None)
+        assert blas_threads() == {1}
+        second.__exit__(None, None, None)
+        assert blas_threads() == {2}
