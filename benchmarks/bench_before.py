@@ -16,7 +16,6 @@ medians, the largest gap between the two estimates, and what the ratio makes of 
 from __future__ import annotations
 
 import argparse
-import os
 import platform
 import statistics
 import subprocess
@@ -25,6 +24,9 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from workers import start_worker, stop_workers
 
 ROOT = Path(__file__).resolve().parent.parent
 ISSUE_14_FILED = "b8a351c"  # main when issue 14 was filed
@@ -63,15 +65,7 @@ def export(revision: str, into: Path) -> None:
 
 def worker(source: Path, data: Path) -> subprocess.Popen[str]:
     """A process fitting ``data`` with the ``pincal`` under ``source``, one fit per line it reads."""
-    env = dict(os.environ, PYTHONPATH=str(source), OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1",
-               MKL_NUM_THREADS="1")
-    process = subprocess.Popen([sys.executable, "-c", WORKER, str(data)], env=env, cwd=data.parent,  # not ROOT
-                               stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-    assert process.stdout is not None
-    loaded = process.stdout.readline().strip()
-    if not loaded.startswith(str(source)):
-        raise SystemExit(f"the worker for {source} imported pincal from {loaded}")
-    return process
+    return start_worker(WORKER, source, data.parent, str(data))
 
 
 def one_fit(process: subprocess.Popen[str]) -> tuple[float, int, np.ndarray]:
@@ -118,10 +112,7 @@ def main() -> None:
             for name, process in workers.items():
                 last[name] = one_fit(process)
                 times[name].append(last[name][0])
-        for process in workers.values():
-            assert process.stdin is not None
-            process.stdin.close()
-            process.wait()
+        stop_workers(workers.values())
 
     print(f"pincal today {pincal.__version__}, numpy {np.__version__}, Python {platform.python_version()}, "
           f"{platform.machine()}\n")

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import os
 import platform
 import statistics
 import subprocess
@@ -27,6 +26,9 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from workers import start_worker, stop_workers
 
 ROOT = Path(__file__).resolve().parent.parent
 ISSUE_36_FILED = "10551e0"  # main when issue 36 was filed
@@ -58,15 +60,7 @@ def export(revision: str, into: Path) -> None:
 
 def worker(source: Path, folder: Path) -> subprocess.Popen[str]:
     """A process running compensate with the ``pincal`` under ``source``, one run per line it reads."""
-    env = dict(os.environ, PYTHONPATH=str(source), OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1",
-               MKL_NUM_THREADS="1")
-    process = subprocess.Popen([sys.executable, "-c", WORKER], env=env, cwd=folder,  # not ROOT
-                               stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-    assert process.stdout is not None
-    loaded = process.stdout.readline().strip()
-    if not loaded.startswith(str(source)):
-        raise SystemExit(f"the worker for {source} imported pincal from {loaded}")
-    return process
+    return start_worker(WORKER, source, folder)
 
 
 def one_run(process: subprocess.Popen[str], robot: str, path: Path) -> tuple[float, int]:
@@ -142,10 +136,7 @@ def main() -> None:
                 for name, process in workers.items():
                     seconds, reached[label, name] = one_run(process, robot, path)
                     times.setdefault((label, name), []).append(seconds)
-        for process in workers.values():
-            assert process.stdin is not None
-            process.stdin.close()
-            process.wait()
+        stop_workers(workers.values())
 
     print(f"pincal today {pincal.__version__}, numpy {np.__version__}, Python {platform.python_version()}, "
           f"{platform.machine()}; before = {names['before']}, today = {names['today']}; {args.repeats} runs each, in "

@@ -22,6 +22,9 @@ import sys
 import tempfile
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from workers import start_worker, stop_workers
+
 ROOT = Path(__file__).resolve().parent.parent
 BEFORE = "12634f7"  # main before Pixel.view_batch
 WORKER = r"""
@@ -65,15 +68,7 @@ def export(revision: str, into: Path) -> None:
 
 def worker(source: Path, cwd: Path) -> subprocess.Popen[str]:
     """A process evaluating the campaigns with the ``pincal`` under ``source``, one campaign per line it reads."""
-    env = dict(os.environ, PYTHONPATH=str(source), OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1",
-               MKL_NUM_THREADS="1")
-    process = subprocess.Popen([sys.executable, "-c", WORKER], env=env, cwd=cwd, stdin=subprocess.PIPE,
-                               stdout=subprocess.PIPE, text=True)
-    assert process.stdout is not None
-    loaded = process.stdout.readline().strip()
-    if not loaded.startswith(str(source)):
-        raise SystemExit(f"the worker for {source} imported pincal from {loaded}")
-    return process
+    return start_worker(WORKER, source, cwd)
 
 
 def one_turn(process: subprocess.Popen[str], name: str) -> tuple[float, str]:
@@ -105,10 +100,7 @@ def main() -> None:
                     digests.setdefault((name, side), []).append(digest)
                     if turn:
                         times.setdefault((name, side), []).append(seconds)
-        for process in workers.values():
-            assert process.stdin is not None
-            process.stdin.close()
-            process.wait()
+        stop_workers(workers.values())
     print(f"python {platform.python_version()}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}; "
           f"medians of {args.repeats} turns of 20 evaluations; before = {args.before}, after = the working tree\n")
     print("| campaign (40 images, 35 corners) | CPU before [ms] | CPU after [ms] | after / before | same bytes |")
