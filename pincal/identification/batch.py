@@ -16,6 +16,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from pincal.model.per_thread import per_thread
 from pincal.model.rotations import skew
 from pincal.records import record
 
@@ -80,20 +81,25 @@ class Workspace:
     the like) are therefore kept, keyed by what they hold, and handed out again while their shape is unchanged. An
     array from :meth:`array` is overwritten by the next evaluation: nothing returned to a caller may be one. At most
     :data:`WORKSPACE_ARRAYS` are kept (a robot's workspace serves problems of many sizes): past that, all are dropped.
+    The arrays are one set per thread (:mod:`pincal.model.per_thread`): a robot's workspace serves each thread that
+    evaluates on it with arrays of its own.
     """
 
-    def __init__(self) -> None:
-        self._arrays: dict[tuple[object, tuple[int, ...]], Array] = {}
+    @per_thread
+    def _arrays(self) -> dict[tuple[object, tuple[int, ...]], Array]:
+        """This thread's arrays, by key and shape."""
+        return {}
 
     def array(self, key: object, shape: tuple[int, ...]) -> Array:
-        """An array of ``shape`` for ``key``: the same memory as the last one for ``key`` and this shape (its contents
-        as the last user left them), else a new one filled with zeros."""
-        held = self._arrays.get((key, shape))
+        """An array of ``shape`` for ``key``: the same memory as the last one for ``key`` and this shape in this thread
+        (its contents as the thread's last user left them), else a new one filled with zeros."""
+        arrays = self._arrays
+        held = arrays.get((key, shape))
         if held is None:
-            if len(self._arrays) >= WORKSPACE_ARRAYS:
-                self._arrays.clear()
+            if len(arrays) >= WORKSPACE_ARRAYS:
+                arrays.clear()
             held = np.zeros(shape)
-            self._arrays[(key, shape)] = held
+            arrays[(key, shape)] = held
         return held
 
 

@@ -23,6 +23,7 @@ another kind above a measured frame (a free-flyer, a spherical joint) is evaluat
 
 from __future__ import annotations
 
+import threading
 import weakref
 
 import numpy as np
@@ -251,15 +252,20 @@ class TreeBatch:
 _BUILT: weakref.WeakKeyDictionary[Robot, dict[tuple[tuple[str, int], ...], TreeBatch]] = weakref.WeakKeyDictionary()
 
 
+_BUILDING = threading.Lock()
+
+
 def tree_batch(robot: Robot, frame_ids: dict[str, int]) -> TreeBatch:
     """The :class:`TreeBatch` of ``robot`` (the nominal one, no loops) for the measured frames ``frame_ids`` (name ->
-    Pinocchio frame id), built on first use and shared afterwards: it keeps the robot's structure only, and its scratch
-    arrays are overwritten by each evaluation, whichever problem makes it (a Robot is one thread's)."""
-    built = _BUILT.setdefault(robot, {})
+    Pinocchio frame id), built on first use and shared afterwards, by every thread: it keeps the robot's structure
+    only, and its scratch arrays, one set per thread, are overwritten by each evaluation in that thread, whichever
+    problem makes it."""
     key = tuple(sorted(frame_ids.items()))
-    if key not in built:
-        built[key] = TreeBatch(robot, frame_ids)
-    return built[key]
+    with _BUILDING:
+        built = _BUILT.setdefault(robot, {})
+        if key not in built:
+            built[key] = TreeBatch(robot, frame_ids)
+        return built[key]
 
 
 def _write_adjoint(out: Array, placement: Placements) -> None:

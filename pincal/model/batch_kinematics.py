@@ -31,7 +31,8 @@ from pincal.model.batch_frames import (
 )
 from pincal.model.batch_loops import BatchLoops
 from pincal.model.closure import LoopClosure
-from pincal.model.kinematics import CONTINUATION_STEP, MAX_CONTINUATION_STEPS, ClosedLoopKinematics
+from pincal.model.kinematics import CONTINUATION_STEP, MAX_CONTINUATION_STEPS
+from pincal.model.per_thread import per_thread
 
 __all__ = ["BatchKinematics", "BatchLoops", "Geometry", "JointPlacements", "LoopFrames", "LoopState", "LoopSystem",
            "passive_gains"]
@@ -47,6 +48,16 @@ DIVERGED = 1e3
 FIRST_SOLVE_TOLERANCE = 1e-13
 
 
+class _KeptPasses:
+    """The kinematics of a thread's last Newton pass, when it closed every sample (``last_pass``: the placements and
+    loop frames), and of its last warm solve that did so (``closed``: its model and loops, held so that they stay the
+    same objects, the answers, the placements and frames), for :meth:`BatchKinematics.linearised` to reuse."""
+
+    def __init__(self) -> None:
+        self.last_pass: tuple[JointPlacements, list[LoopFrames]] | None = None
+        self.closed: tuple[pin.Model, LoopClosure, Array, JointPlacements, list[LoopFrames]] | None = None
+
+
 class BatchKinematics(BatchLoops):
     """Batched closed-loop kinematics for one robot structure: :class:`~pincal.model.batch_loops.BatchLoops`, and the
     loops closed for every sample at once (Newton, warm starts, continuation from the reference).
@@ -57,18 +68,17 @@ class BatchKinematics(BatchLoops):
             (a robot at other parameters).
     """
 
-    def __init__(self, kinematics: ClosedLoopKinematics) -> None:
-        # the kinematics of the last Newton pass, when it closed every sample, and of the last warm solve that did so
-        # (its model and loops, held so that they stay the same objects, the answers, the placements and frames)
-        self._last_pass: tuple[JointPlacements, list[LoopFrames]] | None = None
-        self._closed: tuple[pin.Model, LoopClosure, Array, JointPlacements, list[LoopFrames]] | None = None
-        super().__init__(kinematics)
+    @per_thread
+    def _kept(self) -> _KeptPasses:
+        """What this thread's last solves left (:class:`_KeptPasses`): one per thread, as the solves that write it."""
+        return _KeptPasses()
 
     def linearised(self, model: pin.Model, closure: LoopClosure, q: Array) -> LoopSystem:
         """The loops at closed configurations ``q`` (N, nq), for the implicit-function theorem: placements, anchor
         frames, and ``C_p`` with the spherical loops' rows in the world frame (:meth:`solver_rows`)."""
         geometry = self.geometry(model, closure)
-        closed, self._closed = self._closed, None
+        kept = self._kept
+        closed, kept.closed = kept.closed, None
         if closed is not None and closed[0] is model and closed[1] is closure and np.array_equal(closed[2], q):
             placements, frames = closed[3], closed[4]  # the last warm solve's final pass, at these very q
         else:
@@ -113,7 +123,8 @@ class BatchKinematics(BatchLoops):
         converged = np.zeros(n, dtype=bool)
         start = q.copy() if origin is None else origin  # where max_move is measured from
         active = np.arange(n)
-        self._last_pass = None
+        kept = self._kept
+        kept.last_pass = None
         for it in range(max_iter + 1):
             if not active.size:
                 break
@@ -126,7 +137,7 @@ class BatchKinematics(BatchLoops):
             going = ~done & np.isfinite(norm) & (norm <= DIVERGED) & (it < max_iter)
             if not np.any(going):
                 # every sample closed in this pass: its kinematics are the answers' (kept for linearised)
-                self._last_pass = (placements, frames) if active.size == n and np.all(done) else None
+                kept.last_pass = (placements, frames) if active.size == n and np.all(done) else None
                 break
             if not np.all(going):
                 placements = placements.take(going)
@@ -180,8 +191,9 @@ class BatchKinematics(BatchLoops):
                                                      max_move=CONTINUATION_STEP, origin=origin)
             q[rows] = solved
             ok[rows] = converged
-            if self._last_pass is not None:
-                self._closed = (model, closure, solved, *self._last_pass)
+            kept = self._kept
+            if kept.last_pass is not None:
+                kept.closed = (model, closure, solved, *kept.last_pass)
         return q, ok
 
     def continuation(self, model: pin.Model, closure: LoopClosure, q_actuated: Array, tol: float

@@ -23,6 +23,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from pincal.errors import LoopError, listing
+from pincal.model.per_thread import per_thread
 from pincal.model.urdf import LoopSpec
 from pincal.records import record
 
@@ -69,13 +70,14 @@ class _Loop:
         self.spherical = self.spec.type == "spherical"
 
     # Pinocchio's constraint model and data, made on first use: the batched kinematics reads only the anchors, and a
-    # robot at new parameters (one per identification step) need not pay for them
+    # robot at new parameters (one per identification step) need not pay for them. The data, which each evaluation
+    # writes, are one per thread (:mod:`pincal.model.per_thread`)
     @functools.cached_property
     def cmodel(self) -> Any:
         kind = pin.PointAnchorConstraintModel if self.spherical else pin.FrameAnchorConstraintModel
         return kind(self.model, *self.anchors)
 
-    @functools.cached_property
+    @per_thread
     def cdata(self) -> Any:
         return self.cmodel.createData()
 

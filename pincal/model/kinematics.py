@@ -27,6 +27,7 @@ import pinocchio as pin
 from pincal import linalg
 from pincal.model.closure import LoopClosure
 from pincal.model.jacobians import frame_jacobian as pin_frame_jacobian
+from pincal.model.per_thread import per_thread
 from pincal.records import record
 
 Array = npt.NDArray[np.float64]
@@ -139,11 +140,12 @@ class ClosedLoopKinematics:
         self._all_scalar = all(a.nq == 1 for a in actuated)
         self._continuous = np.array([a.nq == 2 for a in actuated], dtype=bool)
 
-    @functools.cached_property
+    @per_thread
     def data(self) -> pin.Data:
-        """Pinocchio's working data of the model, made on first use: they hold nv³ numbers (second-derivative tensors,
-        250 MB for 198 velocities), which a robot described or checked part by part (:mod:`pincal.model.parts`) never
-        needs. ``pinocchio.Data(model)``, not ``model.createData()``, which holds a second copy while it returns."""
+        """Pinocchio's working data of the model, one per thread (:mod:`pincal.model.per_thread`: every method writes
+        them), made on first use: they hold nv³ numbers (second-derivative tensors, 250 MB for 198 velocities), which a
+        robot described or checked part by part (:mod:`pincal.model.parts`) never needs. ``pinocchio.Data(model)``, not
+        ``model.createData()``, which holds a second copy while it returns."""
         return pin.Data(self.model)
 
     # --- actuated coordinates -------------------------------------------------------------------

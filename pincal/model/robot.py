@@ -54,7 +54,9 @@ class Robot:
         notes: What the file says that pincal ignores, and why (a transmission on a fixed joint, ...).
         q_reference: The reference configuration (Pinocchio's neutral, where the file is assembled).
 
-    A Robot owns one ``pinocchio.Data``: its methods are not thread-safe; use one Robot per thread.
+    One Robot may serve several threads at once: the scratch its methods write (Pinocchio's ``Data``, ...) is one per
+    thread (:mod:`pincal.model.per_thread`), and its model, loops and actuated joints are only read, which a caller
+    must not change while another thread uses it (a robot at other parameters is a new Robot).
     """
 
     def __init__(self, model: pin.Model, loops: list[LoopSpec], actuated_joints: list[str],
