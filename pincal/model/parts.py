@@ -245,8 +245,10 @@ class RobotParts(Generic[W]):
         return [(self.moving([frames[p] for p in positions]), positions) for positions in touched.values()]
 
     def _part(self, joints: frozenset[int]) -> Part[W]:
-        """The part of the joints ``joints`` (closed towards the root and under the blocks), made once."""
-        if joints not in self._cache:
+        """The part of the joints ``joints`` (closed towards the root and under the blocks), made once (threads that
+        make it at the same time all keep the first one stored)."""
+        held = self._cache.get(joints)
+        if held is None:
             robot = self.robot
             reduced = reduced_model(robot.model, joints, self._frames)
             loops = tuple(k for k, support in self._supports.items() if support <= joints)
@@ -255,5 +257,6 @@ class RobotParts(Generic[W]):
             else:
                 actuated = [name for name in robot.actuated_joints if robot.model.getJointId(name) in joints]
                 part_robot = robot.reduced(reduced.model, [robot.loops[k] for k in loops], actuated)
-            self._cache[joints] = Part(part_robot, loops, reduced.q_index, reduced.v_index, reduced.whole)
-        return self._cache[joints]
+            held = self._cache.setdefault(joints, Part(part_robot, loops, reduced.q_index, reduced.v_index,
+                                                       reduced.whole))
+        return held
