@@ -327,6 +327,22 @@ def recalibration_command(model: str, session: str, parameters: Sequence[str], s
             f"--out {stem}_recalibrated.urdf")
 
 
+def statistic_text(statistic: float) -> str:
+    """A session's test statistic T [dimensionless] as the command and the page print it: one decimal below 1000,
+    two significant digits above, enough to say how far beyond its threshold it lies (a changed session's T of
+    thousands varies in its third digit with the BLAS build, through the calibration it is judged against: 5164, 5167
+    and 5168 on three OpenBLAS kernels)."""
+    if not math.isfinite(statistic) or abs(statistic) < 1000.0:
+        return f"{statistic:.1f}"
+    return f"{round(statistic, 1 - math.floor(math.log10(abs(statistic)))):.0f}"
+
+
+def shift_text(shift: float, std: float) -> str:
+    """A named parameter's shift and its σ [m or rad] as the command and the page print them: ``+1.996 ± 0.028`` [mm
+    or mrad], to the micrometre or microradian (the fourth decimal varies with the BLAS build)."""
+    return f"{shift * 1e3:+.3f} ± {std * 1e3:.3f}"
+
+
 def check_level(level: float) -> None:
     """Refuse a level outside (0, 0.5).
 

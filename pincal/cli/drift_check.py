@@ -14,11 +14,13 @@ EXIT_CHANGED = 1
 
 
 def _moved(session: dict[str, object]) -> str:
+    from pincal.calibration.drift import shift_text
+
     groups = session["moved"]
     assert isinstance(groups, list)
     parts = []
     for g in groups:
-        shifts = ", ".join(f"{n.rsplit('.', 1)[1]} {v * 1e3:+.4f} ± {s * 1e3:.4f}"
+        shifts = ", ".join(f"{n.rsplit('.', 1)[1]} {shift_text(v, s)}"
                            for n, v, s in zip(g["parameters"], g["shifts"], g["std"], strict=True))
         parts.append(f"{g['group']} ({shifts})")
     return "; ".join(parts) if parts else "no group named"
@@ -26,7 +28,7 @@ def _moved(session: dict[str, object]) -> str:
 
 def cmd_drift(args: argparse.Namespace) -> int:
     """``pincal drift``: print each session's judgement and the advice; exit 1 when some session changed."""
-    from pincal.calibration.drift import run_drift
+    from pincal.calibration.drift import run_drift, statistic_text
     from pincal.io.files import check_outputs, json_text, write_texts
 
     outputs = [(flag, path) for flag, path in (("--report", args.report), ("--html", args.html)) if path]
@@ -42,7 +44,7 @@ def cmd_drift(args: argparse.Namespace) -> int:
         verdict = f"CHANGED: {_moved(content['sessions'][drift.sessions.index(s)])}" if s.changed else "unchanged"
         scale = 1.0 if s.unit == "px" else 1e3  # a camera's reprojection errors in px, lengths in mm
         print(f"{s.source:<{width}}  {s.n_samples:>7}  {s.rms * scale:.4f}  {s.expected_rms * scale:.4f}    "
-              f"{s.statistic:>8.1f} / {s.dof:<5} {verdict}")
+              f"{statistic_text(s.statistic):>8} / {s.dof:<5} {verdict}")
     for warning in content["warnings"]:
         print(f"warning: {warning}")
     if drift.parameters:

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from pincal.calibration.drift import shift_text, statistic_text
 from pincal.viz.html_report import STYLE
 from pincal.viz.plots import png_bytes
 from pincal.viz.static_page import provenance_html
@@ -53,7 +54,7 @@ def _moved(session: dict[str, Any]) -> str:
     if not session["changed"]:
         return "unchanged"
     parts = [f"{html.escape(g['group'])}: " + ", ".join(
-        f"{html.escape(n)} {v * 1e3:+.4f} ± {s * 1e3:.4f}" for n, v, s in zip(g["parameters"], g["shifts"], g["std"],
+        f"{html.escape(n)} {shift_text(v, s)}" for n, v, s in zip(g["parameters"], g["shifts"], g["std"],
                                                                               strict=True))
              for g in session["moved"]]
     return "<b>changed</b>" + (f" ({'; '.join(parts)} mm or mrad)" if parts else "")
@@ -65,7 +66,8 @@ def drift_page(content: dict[str, Any]) -> str:
     scale, unit = _unit(sessions)
     rows = "".join(
         f"<tr><td><code>{html.escape(s['source'])}</code></td><td>{s['n_samples']}</td><td>{s['rms'] * scale:.4f}</td>"
-        f"<td>{s['expected_rms'] * scale:.4f}</td><td>{s['statistic']:.1f} / {s['dof']}</td><td>{_moved(s)}</td></tr>"
+        f"<td>{s['expected_rms'] * scale:.4f}</td><td>{statistic_text(s['statistic'])} / {s['dof']}</td>"
+        f"<td>{_moved(s)}</td></tr>"
         for s in sessions)
     if content["groups"]:
         advice = (f"<p class=\"warn\">Recalibrate {html.escape(', '.join(content['groups']))}: "

@@ -6,7 +6,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pincal.calibration.drift import _fit, _named_groups, check_level, group_of, recalibration_command
+from pincal.calibration.drift import (
+    _fit,
+    _named_groups,
+    check_level,
+    group_of,
+    recalibration_command,
+    shift_text,
+    statistic_text,
+)
 from pincal.errors import DataError
 
 
@@ -48,3 +56,12 @@ def test_the_recalibration_command_names_the_groups_and_the_setups_kinds() -> No
 def test_a_level_outside_0_to_half_is_refused(level: float) -> None:
     with pytest.raises(DataError, match=r"must lie between 0 and 0\.5"):
         check_level(level)
+
+
+def test_the_statistic_is_printed_to_four_significant_digits() -> None:
+    """T as `pincal drift` and its page print it: one decimal below 1000, two significant digits above (a changed
+    session's T of thousands varies in its third digit with the BLAS build: 5164 on one kernel, 5168.2 on another);
+    a shift and its σ to the micrometre or microradian."""
+    assert [statistic_text(t) for t in (95.24, 102.0, 999.94, 5164.0, 5168.2, 51675.0, float("inf"))] == \
+        ["95.2", "102.0", "999.9", "5200", "5200", "52000", "inf"]
+    assert shift_text(0.0019957, 0.000028) == "+1.996 ± 0.028" and shift_text(-0.0019954, 0.0000281) == "-1.995 ± 0.028"
