@@ -28,7 +28,7 @@ from pincal.records import record
 
 @functools.lru_cache(maxsize=8)
 def _robot(name_or_path: str) -> Robot:
-    """One Robot per process and name (a Robot owns its Data: never shared between threads)."""
+    """One Robot per process and name, shared by the threads of a pool (its scratch is one per thread)."""
     return load_robot(name_or_path)
 
 

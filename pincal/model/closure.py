@@ -121,11 +121,12 @@ class LoopClosure:
         r = np.empty(self.rows)
         model = self.model
         for lp in self._loops:
-            lp.cmodel.calc(model, data, lp.cdata)
+            cdata = lp.cdata  # this thread's, read once
+            lp.cmodel.calc(model, data, cdata)
             if lp.spherical:
-                r[lp.start:lp.stop] = lp.cdata.c1Mc2.translation
+                r[lp.start:lp.stop] = cdata.c1Mc2.translation
             else:
-                r[lp.start:lp.stop] = self._rows(lp, lp.cdata.c1Mc2)
+                r[lp.start:lp.stop] = self._rows(lp, cdata.c1Mc2)
         return r
 
     def _rows(self, lp: _Loop, m: pin.SE3) -> Array:
@@ -147,10 +148,11 @@ class LoopClosure:
         r = np.empty(self.rows)
         jac = np.empty((self.rows, self.model.nv))
         for lp in self._loops:
-            lp.cmodel.calc(self.model, data, lp.cdata)
-            m = lp.cdata.c1Mc2
+            cdata = lp.cdata  # this thread's, read once
+            lp.cmodel.calc(self.model, data, cdata)
+            m = cdata.c1Mc2
             rows = slice(lp.start, lp.stop)
-            j = lp.cmodel.jacobian(self.model, data, lp.cdata)
+            j = lp.cmodel.jacobian(self.model, data, cdata)
             if lp.spherical:
                 r[rows] = m.translation
                 jac[rows] = j

@@ -2,8 +2,10 @@
 
 Pinocchio's ``Data``, a loop's constraint data, the batched evaluation's arrays and the last Newton pass are
 overwritten by every call that uses them. Kept one per thread (:class:`per_thread`), they let one
-:class:`~pincal.model.robot.Robot` serve several threads at once (a thread pool calibrating on it, ``pincal.fleet`` on
-threads): each thread works in its own, and within a thread a call finds what the previous one left, as before.
+:class:`~pincal.model.robot.Robot` serve several threads at once (a thread pool calibrating on it, a Monte Carlo study
+on threads sharing its cached robot): each thread works in its own, and within a thread a call finds what the previous
+one left, as before. Each thread that has used a robot holds its own copy while both live (Pinocchio's ``Data`` grows
+as nv³).
 """
 
 from __future__ import annotations
@@ -60,3 +62,9 @@ class per_thread(Generic[T]):  # a decorator, named as functools.cached_property
             value = self.make(instance)
             setattr(values, self.name, value)
         return value
+
+
+def made(instance: object, name: str) -> bool:
+    """Whether the calling thread has made ``instance``'s :class:`per_thread` value ``name``."""
+    values = instance.__dict__.get(VALUES)
+    return values is not None and name in vars(values)

@@ -4,8 +4,10 @@ answer is the one the same call gives alone."""
 from __future__ import annotations
 
 import copy
+import gc
 import pickle
 import threading
+import weakref
 
 import numpy as np
 import pytest
@@ -51,6 +53,25 @@ def test_a_per_thread_value_goes_with_its_thread() -> None:
     thread.join()
     assert held.scratch == []
     assert held.made == 2
+
+
+class _Scratch:
+    """A value a weak reference can follow."""
+
+
+class Held:
+    @per_thread
+    def scratch(self) -> _Scratch:
+        return _Scratch()
+
+
+def test_a_thread_s_value_is_freed_when_the_thread_ends() -> None:
+    held, seen = Held(), []
+    thread = threading.Thread(target=lambda: seen.append(weakref.ref(held.scratch)))
+    thread.start()
+    thread.join()
+    gc.collect()
+    assert len(seen) == 1 and seen[0]() is None and held.scratch is not None
 
 
 def test_deep_copies_and_pickles_start_without_the_values() -> None:
