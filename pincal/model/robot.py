@@ -55,9 +55,8 @@ class Robot:
         q_reference: The reference configuration (Pinocchio's neutral, where the file is assembled).
 
     One Robot may serve several threads at once: the scratch its methods write (Pinocchio's ``Data``, ...) is one per
-    thread (:mod:`pincal.model.per_thread`; each thread's copy lives as long as the thread and the robot), and its
-    model, loops and actuated joints are only read, which a caller must not change while another thread uses it (a
-    robot at other parameters is a new Robot).
+    thread (:mod:`pincal.model.per_thread`; kept while the thread and the robot live), and its model, loops and
+    actuated joints are only read, which no caller may change while another thread uses them (a new Robot instead).
     """
 
     def __init__(self, model: pin.Model, loops: list[LoopSpec], actuated_joints: list[str],
