@@ -108,7 +108,7 @@ def _generated_init(cls: type, frozen: bool) -> Callable[..., None]:
     same fields (names, types, defaults and factories, ``init`` and ``kw_only`` flags) and ``__post_init__``, frozen
     as ``cls`` is (a frozen record's ``__init__`` assigns through ``object.__setattr__``), then named as ``cls``'s."""
     namespace: dict[str, Any] = {"__module__": cls.__module__, "__qualname__": cls.__qualname__,
-                                 "__annotations__": {}}
+                                 "__annotations__": {}, "__doc__": "a twin"}  # no docstring made from a signature
     for f in dataclasses.fields(cls):
         namespace["__annotations__"][f.name] = f.type
         namespace[f.name] = dataclasses.field(default=f.default, default_factory=f.default_factory, init=f.init,
