@@ -7,9 +7,10 @@ class is defined: six compilations for a frozen class (``__init__``, ``__repr__`
 some 120 of them, and creates instances of fewer than half). :func:`record` lets ``dataclasses`` read the fields
 (``dataclasses.fields``, ``replace``, ``asdict`` and ``is_dataclass`` read a record as a dataclass) and compiles
 nothing then: a frozen class's ``__setattr__`` and ``__delattr__`` and every class's ``__repr__``, ``__eq__`` and
-``__hash__`` are built from its fields' names without compiling, and ``__init__`` is the one ``dataclasses`` generates,
-made when the class is first instantiated or its ``__init__`` first read (``inspect.signature`` and ``help`` see the
-generated one). They answer as the generated ones do (the same text, the same comparisons of the same field tuples, the
+``__hash__`` are built from its fields' names without compiling, and ``__init__``, written as ``dataclasses`` writes it
+and compiled once, is made when the class is first instantiated or its ``__init__`` first read (``inspect.signature``
+and ``help`` see it, and a class without a docstring gets the one ``dataclasses`` would give it).
+They answer as the generated ones do (the same text, the same comparisons of the same field tuples, the
 same hashes, the same errors on assignment to a frozen record), and a class that defines one of them keeps its own, as
 under ``dataclasses``. ``__eq__`` compares the field tuples, as ``dataclasses`` does up to Python 3.12 (from 3.13 it
 compares field by field, so that one NaN or one array held by both no longer counts as equal to itself; a record keeps
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import reprlib
+import sys
 import threading
 from collections.abc import Callable
 from operator import attrgetter
@@ -103,20 +105,75 @@ def _frozen_methods(cls: type) -> None:
         _install(cls, method)
 
 
+#: What ``dataclasses`` names in the ``__init__`` it writes: the default of a field with a default factory (shown
+#: ``<factory>`` in the signature), and the kind of an ``InitVar`` pseudo-field; None where a version lacks them.
+_FACTORY = getattr(dataclasses, "_HAS_DEFAULT_FACTORY", None)
+_INITVAR = getattr(dataclasses, "_FIELD_INITVAR", None)
+
+
 def _generated_init(cls: type, frozen: bool) -> Callable[..., None]:
-    """The ``__init__`` ``dataclasses`` generates for ``cls`` (a record): made by ``dataclasses`` on a class of the
-    same fields (names, types, defaults and factories, ``init`` and ``kw_only`` flags) and ``__post_init__``, frozen
-    as ``cls`` is (a frozen record's ``__init__`` assigns through ``object.__setattr__``), then named as ``cls``'s."""
+    """The ``__init__`` ``dataclasses.dataclass(frozen=frozen)`` generates for ``cls`` (a record), written as it
+    writes it (the same parameters, annotations, defaults and factories, keyword-only fields after ``*``, the fields
+    assigned in order, through ``object.__setattr__`` when frozen, then ``__post_init__``) and compiled once; a class
+    with ``InitVar`` pseudo-fields gets its ``__init__`` from ``dataclasses`` itself (:func:`_twin_init`)."""
+    if _FACTORY is None or _INITVAR is None \
+            or any(f._field_type is _INITVAR for f in cls.__dataclass_fields__.values()):  # type: ignore[attr-defined]
+        return _twin_init(cls, frozen)
+    fields = dataclasses.fields(cls)
+    me = "__dataclass_self__" if any(f.name == "self" for f in fields) else "self"
+    names: dict[str, Any] = {"__dataclass_builtins_object__": object, "__dataclass_HAS_DEFAULT_FACTORY__": _FACTORY,
+                             "__dataclass_return_type__": None}
+    positional: list[str] = []
+    keywords: list[str] = []
+    body: list[str] = []
+    for f in fields:
+        names[f"__dataclass_type_{f.name}__"] = f.type
+        default, value = "", f.name
+        if f.default_factory is not dataclasses.MISSING:
+            names[f"__dataclass_dflt_{f.name}__"] = f.default_factory
+            default = "=__dataclass_HAS_DEFAULT_FACTORY__"
+            value = (f"__dataclass_dflt_{f.name}__() if {f.name} is __dataclass_HAS_DEFAULT_FACTORY__ else {f.name}"
+                     if f.init else f"__dataclass_dflt_{f.name}__()")
+        elif f.default is not dataclasses.MISSING:
+            names[f"__dataclass_dflt_{f.name}__"] = f.default
+            default = f"=__dataclass_dflt_{f.name}__"
+        if f.init:
+            (keywords if f.kw_only else positional).append(f"{f.name}:__dataclass_type_{f.name}__{default}")
+        elif f.default_factory is dataclasses.MISSING:
+            continue  # the class attribute holds its default (or __post_init__ sets it)
+        body.append(f"__dataclass_builtins_object__.__setattr__({me},{f.name!r},{value})" if frozen
+                    else f"{me}.{f.name}={value}")
+    if hasattr(cls, "__post_init__"):
+        body.append(f"{me}.__post_init__()")
+    parameters = ",".join([me, *positional, *(["*", *keywords] if keywords else [])])
+    lines = "\n".join(f"  {line}" for line in body or ["pass"])
+    source = (f"def __create_fn__({', '.join(names)}):\n def __init__({parameters})->__dataclass_return_type__:\n"
+              f"{lines}\n return __init__")
+    module = sys.modules.get(cls.__module__)
+    scope: dict[str, Any] = {}
+    code = compile(source, "<string>", "exec", dont_inherit=True)  # not this module's postponed annotations
+    exec(code, module.__dict__ if module is not None else {}, scope)  # dataclasses' own way
+    init: Callable[..., None] = scope["__create_fn__"](**names)
+    init.__qualname__ = f"{cls.__qualname__}.__init__"
+    return init
+
+
+def _twin_init(cls: type, frozen: bool) -> Callable[..., None]:
+    """The ``__init__`` ``dataclasses`` generates for ``cls``, made by ``dataclasses`` on a class of the same fields
+    (names, types, defaults and factories, ``init`` and ``kw_only`` flags) and ``__post_init__``, then named as
+    ``cls``'s."""
     namespace: dict[str, Any] = {"__module__": cls.__module__, "__qualname__": cls.__qualname__,
                                  "__annotations__": {}, "__doc__": "a twin"}  # no docstring made from a signature
-    for f in dataclasses.fields(cls):
+    for f in cls.__dataclass_fields__.values():  # type: ignore[attr-defined]
+        if f._field_type is dataclasses._FIELD_CLASSVAR:  # type: ignore[attr-defined]
+            continue
         namespace["__annotations__"][f.name] = f.type
         namespace[f.name] = dataclasses.field(default=f.default, default_factory=f.default_factory, init=f.init,
                                               kw_only=f.kw_only)
     if hasattr(cls, "__post_init__"):
         namespace["__post_init__"] = cls.__post_init__
     twin: type = dataclasses.dataclass(type(cls.__name__, (), namespace), repr=False, eq=False, frozen=frozen,
-                                 match_args=False)
+                                       match_args=False)
     init: Callable[..., None] = twin.__dict__["__init__"]
     init.__qualname__ = f"{cls.__qualname__}.__init__"
     return init
@@ -172,6 +229,19 @@ def _hierarchy_frozen(cls: type) -> bool | None:
     return frozen
 
 
+def _check_defaults(cls: type) -> None:
+    """Refuse, as ``dataclasses`` does when it writes ``__init__``, a field without a default after one with a default
+    among the positional fields of ``__init__``."""
+    seen = False
+    for f in dataclasses.fields(cls):
+        if not f.init or f.kw_only:
+            continue
+        if f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING:
+            seen = True
+        elif seen:
+            raise TypeError(f"non-default argument {f.name!r} follows default argument")
+
+
 @overload
 def record(cls: T, /) -> T: ...
 @overload
@@ -196,6 +266,7 @@ def record(cls: T | None = None, /, *, frozen: bool = False, kw_only: bool = Fal
         finally:
             _DEFINING.active = outer
         made.__dataclass_params__ = _Params(made.__dataclass_params__, frozen)  # type: ignore[attr-defined]
+        _check_defaults(made)
         if frozen:
             _frozen_methods(made)
         _methods(made, frozen)
