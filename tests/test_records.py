@@ -242,5 +242,10 @@ def test_every_record_a_calibration_loads_gets_the_init_dataclasses_writes() -> 
     assert len(records) > 100
     for cls in records:
         frozen = cls.__dataclass_params__.frozen
-        assert inspect.signature(cls.__init__) == inspect.signature(_twin_init(cls, frozen)), cls
+        ours, theirs = inspect.signature(cls.__init__), inspect.signature(_twin_init(cls, frozen))
+        assert ours.return_annotation == theirs.return_annotation, cls
+        assert [(p.name, p.kind, p.annotation) for p in ours.parameters.values()] == \
+            [(p.name, p.kind, p.annotation) for p in theirs.parameters.values()], cls
+        assert all(a.default is b.default for a, b in zip(ours.parameters.values(), theirs.parameters.values(),
+                                                          strict=True)), cls  # the same objects (a NaN included)
         assert cls.__init__.__qualname__ == f"{cls.__qualname__}.__init__"
