@@ -1,9 +1,10 @@
-"""``records.record`` answers as ``dataclasses.dataclass`` does; its repr, eq and hash are not compiled."""
+"""``records.record`` answers as ``dataclasses.dataclass`` does; nothing is compiled when a record is defined."""
 
 from __future__ import annotations
 
 import builtins
 import dataclasses
+import inspect
 import pickle
 from dataclasses import dataclass, field
 from typing import Any
@@ -43,6 +44,7 @@ def test_repr_eq_and_hash_answer_as_the_generated_ones(frozen: bool) -> None:
     assert made("a") != plain("a") and made("a").__eq__(1) is NotImplemented
     assert (made.__hash__ is None) == (plain.__hash__ is None) == (not frozen)
     assert made.__repr__.__qualname__ == "Thing.__repr__"
+    assert made.__doc__ == plain.__doc__  # an undocumented class's, from the generated __init__'s signature
 
 
 def test_a_frozen_record_refuses_assignment_and_keeps_its_dataclass_contract() -> None:
@@ -108,18 +110,101 @@ def test_a_record_that_holds_itself_shows_dots() -> None:
     assert repr(node) == f"{Node.__qualname__}(next=...)"
 
 
-def test_record_compiles_only_what_dataclasses_needs(monkeypatch: pytest.MonkeyPatch) -> None:
-    """``__init__`` (and a frozen class's ``__setattr__``, ``__delattr__``): three compilations, not six."""
+def test_record_compiles_nothing_until_an_instance_is_made(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A documented class: no source compiled when it is defined; one, its ``__init__``, when the first instance is
+    made, and none for the next."""
     compiled: list[str] = []
-    real = builtins.exec
+    real_exec, real_compile = builtins.exec, builtins.compile
 
-    def counting(source: Any, *args: Any) -> None:
+    def executing(source: Any, *args: Any) -> None:
+        if isinstance(source, str):
+            compiled.append(source)
+        real_exec(source, *args)
+
+    def compiling(source: Any, *args: Any, **kwargs: Any) -> Any:
         compiled.append(str(source))
-        real(source, *args)
+        return real_compile(source, *args, **kwargs)
 
-    monkeypatch.setattr(builtins, "exec", counting)
-    _pair(frozen=True)
-    assert len(compiled) == 3 + 6  # the record's three, the dataclass's six
+    monkeypatch.setattr(builtins, "exec", executing)
+    monkeypatch.setattr(builtins, "compile", compiling)
+
+    @record(frozen=True)
+    class Point:
+        """A point with a name."""
+
+        x: float
+        name: str = "p"
+
+    assert compiled == []
+    first = Point(1.0)
+    assert len(compiled) == 1 and "def __init__" in compiled[0]
+    assert Point(2.0, "q") != first and len(compiled) == 1
+    with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign to field 'x'"):
+        first.x = 3.0  # type: ignore[misc]
+
+
+@pytest.mark.parametrize("frozen", [True, False])
+@pytest.mark.parametrize("kw_only", [True, False])
+def test_the_init_made_on_first_use_is_the_generated_one(frozen: bool, kw_only: bool) -> None:
+    """Its signature before any instance (what ``inspect`` and ``help`` read), its defaults and factories, an
+    ``init=False`` field, ``__post_init__`` and a subclass's fields in order, as under ``dataclasses``."""
+    def pair() -> tuple[type, type]:
+        def body() -> dict[str, Any]:
+            def __post_init__(self: Any) -> None:
+                object.__setattr__(self, "total", self.a + len(self.items))
+
+            return {"__annotations__": {"a": "int", "items": "list[int]", "total": "int"}, "a": 1,
+                    "items": field(default_factory=lambda: [1, 2]), "total": field(default=0, init=False),
+                    "__post_init__": __post_init__, "__doc__": "A documented class."}
+
+        plain = dataclass(frozen=frozen, kw_only=kw_only)(type("Base", (), body()))
+        made = record(frozen=frozen, kw_only=kw_only)(type("Base", (), body()))
+        return plain, made
+
+    plain, made = pair()
+    assert str(inspect.signature(made)) == str(inspect.signature(plain))
+    assert made.__init__.__qualname__ == "Base.__init__"
+    plain_child = dataclass(frozen=frozen)(type("Child", (plain,), {"__annotations__": {"b": "str"}, "b": "x"}))
+    made_child = record(frozen=frozen)(type("Child", (made,), {"__annotations__": {"b": "str"}, "b": "x"}))
+    assert str(inspect.signature(made_child)) == str(inspect.signature(plain_child))
+    for cls in (made, made_child):
+        one, two = cls(a=3), cls(a=3)
+        assert one.items == [1, 2] and one.items is not two.items and one.total == 5
+    assert repr(made_child(a=2, b="y")) == repr(plain_child(a=2, b="y"))
+
+
+def test_frozen_and_unfrozen_records_do_not_mix_as_under_dataclasses() -> None:
+    @record(frozen=True)
+    class Frozen:
+        """Frozen."""
+
+        a: int = 0
+
+    @record
+    class Loose:
+        """Not frozen."""
+
+        a: int = 0
+
+    with pytest.raises(TypeError, match="cannot inherit non-frozen dataclass from a frozen one"):
+        record(type("Child", (Frozen,), {"__doc__": "A child."}))
+    with pytest.raises(TypeError, match="cannot inherit frozen dataclass from a non-frozen one"):
+        record(frozen=True)(type("Child", (Loose,), {"__doc__": "A child."}))
+    with pytest.raises(TypeError, match="non-default argument 'b' follows default argument"):
+        record(type("Late", (), {"__doc__": "Late.", "__annotations__": {"a": "int", "b": "int"}, "a": 0}))
+    with pytest.raises(TypeError, match="Cannot overwrite attribute __setattr__"):
+        record(frozen=True)(type("Own", (), {"__doc__": "Its own.", "__setattr__": object.__setattr__}))
+    thing = Frozen()
+    with pytest.raises(dataclasses.FrozenInstanceError, match="cannot delete field 'a'"):
+        del thing.a
+    # a dataclass derived from a record (a measurement kind of a plugin) is judged as if the record were a dataclass
+    plain = dataclass(frozen=True)(type("Plain", (Frozen,), {"__annotations__": {"b": "int"}, "b": 1}))
+    assert plain(2, 3).a == 2 and dataclasses.fields(plain)[1].name == "b"
+    assert plain.__dataclass_params__.frozen and not Loose.__dataclass_params__.frozen
+    with pytest.raises(TypeError, match="cannot inherit non-frozen dataclass from a frozen one"):
+        dataclass(type("Unfrozen", (Frozen,), {}))
+    with pytest.raises(TypeError, match="cannot inherit frozen dataclass from a non-frozen one"):
+        dataclass(frozen=True)(type("Refrozen", (Loose,), {}))
 
 
 def test_an_explicit_hash_none_beside_an_inherited_eq_stays_unhashable() -> None:
@@ -137,3 +222,30 @@ def test_an_explicit_hash_none_beside_an_inherited_eq_stays_unhashable() -> None
     for cls in (Plain, Record):
         with pytest.raises(TypeError, match="unhashable"):
             hash(cls(1))
+
+
+def test_every_record_a_calibration_loads_gets_the_init_dataclasses_writes() -> None:
+    """Each record of the modules a calibration loads: its ``__init__`` (signature: names, kinds, annotations,
+    defaults) is the one ``dataclasses`` makes for the same fields, and a frozen record's assigns without its
+    ``__setattr__``."""
+    import importlib
+    import sys
+
+    from pincal.records import _Params, _twin_init
+
+    for name in ("pincal.calibration.from_files", "pincal.calibration.pipeline", "pincal.calibration.summary",
+                 "pincal.calibration.crossval", "pincal.cli.app"):
+        importlib.import_module(name)
+    records = {value for module in list(sys.modules.values()) if module and module.__name__.startswith("pincal")
+               for value in vars(module).values()
+               if isinstance(value, type) and isinstance(value.__dict__.get("__dataclass_params__"), _Params)}
+    assert len(records) > 100
+    for cls in records:
+        frozen = cls.__dataclass_params__.frozen
+        ours, theirs = inspect.signature(cls.__init__), inspect.signature(_twin_init(cls, frozen))
+        assert ours.return_annotation == theirs.return_annotation, cls
+        assert [(p.name, p.kind, p.annotation) for p in ours.parameters.values()] == \
+            [(p.name, p.kind, p.annotation) for p in theirs.parameters.values()], cls
+        assert all(a.default is b.default for a, b in zip(ours.parameters.values(), theirs.parameters.values(),
+                                                          strict=True)), cls  # the same objects (a NaN included)
+        assert cls.__init__.__qualname__ == f"{cls.__qualname__}.__init__"

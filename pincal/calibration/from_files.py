@@ -7,10 +7,9 @@ from __future__ import annotations
 import hashlib
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pincal import validation
-from pincal.calibration.job import Job, load_job_robot, read_job
-from pincal.calibration.job_data import job_dataset
 from pincal.calibration.options import CalibrationOptions, GivenOptions
 from pincal.calibration.pipeline import Calibration, calibrate
 from pincal.calibration.provenance import Provenance, file_source, options_dict, robot_source, with_provenance
@@ -24,6 +23,9 @@ from pincal.io.files import check_outputs, json_text, write_texts
 from pincal.io.mesh_files import MeshMode, MeshPlan, plan_meshes
 from pincal.model.robot import Robot, load_robot
 from pincal.records import record
+
+if TYPE_CHECKING:
+    from pincal.calibration.job import Job
 
 
 def _mesh_plan(robot: Robot, out: str | Path | None, meshes: MeshMode) -> MeshPlan:
@@ -99,6 +101,9 @@ def calibrate_job(job: Job, meshes: MeshMode = "keep", progress: bool = False) -
     """:func:`calibrate` as a job file says (:mod:`pincal.calibration.job`): its robot, its data read into SI units, its
     options; the outputs are checked before the fit (never over an input, the job file included) and each is written
     whole or not at all; ``meshes`` as for :func:`calibrate_files`; ``progress`` as for :func:`calibrate`."""
+    from pincal.calibration.job import Job, load_job_robot  # here: a calibration from a robot and a CSV reads no job
+    from pincal.calibration.job_data import job_dataset
+
     validation.instance("job", job, Job, "a Job (pincal.calibration.job.read_job)")
 
     options = job.options.calibration  # errors worded as each option was given: the command line or the job file
@@ -143,6 +148,9 @@ def read_inputs(command: str, robot_or_job: str, data: str | None, options: Give
     """
     options = GivenOptions() if options is None else options
     if robot_or_job.endswith(JOB_SUFFIX):
+        from pincal.calibration.job import load_job_robot, read_job  # here: a robot and a CSV read no job
+        from pincal.calibration.job_data import job_dataset
+
         if data is not None:
             raise PincalError(f"{command}: '{robot_or_job}' is a job file, which names its own data; give no DATA "
                               f"(got '{data}'), or a robot: pincal {command} ROBOT DATA")

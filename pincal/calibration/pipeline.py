@@ -18,7 +18,7 @@ import contextlib
 import math
 from collections.abc import Iterator, Sequence
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -27,8 +27,6 @@ from pincal import validation
 from pincal.calibration.carried import with_carried
 from pincal.calibration.check_pixels import held_out_pixels, image_errors
 from pincal.calibration.columns import check_columns, column_mistake, mistake_named, refuse_column_mistake
-from pincal.calibration.crossval import Folds, check_cross_validation, cross_validate, parse_cv
-from pincal.calibration.export_proof import calibrated_proof, with_comment
 from pincal.calibration.growth import ErrorGrowth, estimate_growth
 from pincal.calibration.heldout import NOISE_CONTRADICTED, HeldOut, Registration, evaluate_held_out, register_setup
 from pincal.calibration.noise import provisional_noise, with_noise
@@ -81,6 +79,9 @@ from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot, robot_from_urdf_text
 from pincal.progress import Progress
 from pincal.records import record
+
+if TYPE_CHECKING:
+    from pincal.calibration.crossval import Folds
 
 Array = npt.NDArray[np.float64]
 
@@ -179,8 +180,7 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
                                                   f"({', '.join(m.key for m in fit.models)})",
                                              read_joints=read_joints(fit.models), markers=declared_markers(fit.models))
         samples = fit.samples
-        proof = Pending(lambda: calibrated_proof(text, robot_from_urdf_text(text), list(samples.joint_names),
-                                                 samples.joints))
+        proof = Pending(lambda: _proof(text, samples.joint_names, samples.joints))
         corrections = corrections_of(robot, kept.parameters, result.x, options.payload)
         before = register_setup(fitted.problem, result.x0, options.fitting)
         growth = Pending(lambda: error_growth(kept, fitted, options, before.x))
@@ -195,6 +195,8 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         content["estimated_sigma"] = estimated or None
         stages.advance()
     if folds is not None and every is not None:
+        from pincal.calibration.crossval import cross_validate
+
         with one_blas_thread():
             content["cv"] = cross_validate(robot, fit.parameters, fit.models, every.problem.observations, folds,
                                            select=options.selection, options=options.fitting,
@@ -202,8 +204,24 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
     report = CalibrationReport(**content)
     calibration = Calibration(kept, fitted.problem, result, held, report, "", corrections, before)
     defer(calibration, "proof", proof)
-    defer(calibration, "urdf_text", lambda: with_carried(with_comment(text, proof.value()), report))
+    defer(calibration, "urdf_text", lambda: with_carried(_with_proof(text, proof.value()), report))
     return calibration
+
+
+def _proof(text: str, joint_names: Sequence[str], joints: Array) -> str:
+    """:func:`~pincal.calibration.export_proof.calibrated_proof` of the calibrated URDF ``text`` at the fitted samples'
+    joint readings (``joints`` [rad or m], columns ``joint_names``): its module imported when a proof is read (a
+    calibration whose URDF is not written needs none)."""
+    from pincal.calibration.export_proof import calibrated_proof
+
+    return calibrated_proof(text, robot_from_urdf_text(text), list(joint_names), joints)
+
+
+def _with_proof(text: str, proof: str) -> str:
+    """:func:`~pincal.calibration.export_proof.with_comment`: ``text`` with ``proof`` in its header."""
+    from pincal.calibration.export_proof import with_comment
+
+    return with_comment(text, proof)
 
 
 @contextlib.contextmanager
@@ -261,6 +279,8 @@ def cross_validation_folds(fit: Prepared, dataset: Dataset,
                         "use select='none' or select='auto'", option="select")
     if options.cv is None:
         return None, None
+    from pincal.calibration.crossval import check_cross_validation, parse_cv  # here: only a cross-validation needs it
+
     check_cross_validation(fit.models, options.formulation, options.cv)
     every = fit.on(dataset)
     return every, parse_cv(options.cv, every.samples.n_samples, options.cv_seed)

@@ -164,7 +164,6 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     summary and write the calibrated URDF and the report; exit status 1 when the result is not usable (not converged,
     or worse than nominal on the held-out samples)."""
     from pincal.calibration.from_files import calibrate_files, calibrate_job, writes_urdf
-    from pincal.calibration.job import read_job
     from pincal.calibration.summary import summary_text
     from pincal.io.corrections_file import corrections_path
     from pincal.io.mesh_files import mesh_folder
@@ -178,6 +177,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         raise PincalError(f"calibrate: DATA is missing: give pincal calibrate ROBOT DATA.csv, or a job file "
                           f"JOB{JOB_SUFFIX} (docs/job_file.md); got only '{args.robot}'")
     if job_file:
+        from pincal.calibration.job import read_job  # here: a robot and a CSV read no job file
+
         if options.pop("markers", "each") != "each":
             raise PincalError("calibrate: --markers cluster applies to a dataset named on the command line, not yet to "
                               "a job file")

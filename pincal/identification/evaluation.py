@@ -11,7 +11,7 @@ them on the problem.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -144,6 +144,10 @@ class SolveState:
         response: (N, n_passive, p) every sample's passive joints' response to the parameters there, ``dv_p/dθ``
             [rad or m per unit parameter], from the last evaluation with the Jacobian (closed loops batched), or
             None: the next warm starts move along it (a first-order prediction, Newton then closes).
+        twists: The last closed-loop evaluation's measured-frame placements, twists and joint velocities per unit
+            parameter (read-only arrays), with the robot and the block's configurations they were computed at, or
+            None: an evaluation at the same robot and configurations, bit for bit, takes them again
+            (:func:`pincal.identification.predictions.predict_loops`).
     """
 
     def __init__(self, n_samples: int, continuous: BoolArray) -> None:
@@ -152,6 +156,7 @@ class SolveState:
         self.travel = np.zeros(n_samples)
         self.solved_at: Array | None = None
         self.response: Array | None = None
+        self.twists: tuple[Any, tuple[int, bytes], Any] | None = None
 
     def solve(self, robot: Robot, k: int, qa: Array) -> Array:
         """Sample ``k``'s configuration on the reference assembly of ``robot`` for actuated values ``qa`` [rad or m].

@@ -60,10 +60,7 @@ def predict_loops(problem: Evaluated, robot: Robot, sens: KinematicSensitivity |
             placements = {f: loops.placement(joints, probe.joint, probe.placement) for f, probe in probes.items()}
             twists: dict[str, SpatialJacobian] = {}
         else:
-            system = loops.kinematics.linearised(model, robot.closure, q)
-            placements, twists, response = loops.twists(robot, sens, q, system, terms, probes, start,
-                                                         SINGULAR_GAIN)
-            velocities = response.velocities
+            placements, twists, velocities = _loop_twists(problem, robot, sens, q, terms, probes, start)
             passive = loops.kinematics.passive_v
             shape = (n, passive.size, velocities.shape[2])
             if problem.solves.response is None or problem.solves.response.shape != shape:
@@ -79,6 +76,32 @@ def predict_loops(problem: Evaluated, robot: Robot, sens: KinematicSensitivity |
             m.predict_batch(batch, preds[m.key][rows], dpreds[m.key][rows] if sens is not None else None)
         if one_by_one:
             predict_one_by_one(problem, robot, one_by_one, ctx, batch, preds, dpreds)
+
+
+def _loop_twists(problem: Evaluated, robot: Robot, sens: KinematicSensitivity, q: Array,
+                 terms: list[tuple[int, int, Array]], probes: dict[str, Probe], start: int
+                 ) -> tuple[dict[str, tuple[Array, Array]], dict[str, SpatialJacobian], Array]:
+    """The measured frames' placements, spatial twists per unit parameter and every joint's velocity per unit
+    parameter of the block of samples from ``start`` at configurations ``q`` (:meth:`LoopBatch.twists
+    <pincal.identification.loop_batch.LoopBatch.twists>`), or the last evaluation's when they are the same: the robot
+    built for the same kinematic deviations (:meth:`placed_robot <pincal.identification.problem.CalibrationProblem.
+    placed_robot>`: the same object) and the same configurations, bit for bit. A fit of the measurement setup alone
+    (the nominal robot's registration) moves only parameters these do not depend on; its arrays are kept read-only."""
+    assert problem.loop_batch is not None
+    key = (start, q.tobytes())
+    kept = problem.solves.twists
+    if kept is not None and kept[0] is robot and kept[1] == key:
+        again: tuple[dict[str, tuple[Array, Array]], dict[str, SpatialJacobian], Array] = kept[2]
+        return again
+    system = problem.loop_batch.kinematics.linearised(robot.model, robot.closure, q)
+    placements, twists, response = problem.loop_batch.twists(robot, sens, q, system, terms, probes, start,
+                                                              SINGULAR_GAIN)
+    made = (placements, twists, response.velocities)
+    for array in (response.velocities, *(a for pair in placements.values() for a in pair),
+                  *(t.left for t in twists.values())):
+        array.flags.writeable = False
+    problem.solves.twists = (robot, key, made)
+    return made
 
 
 def predict_samples(problem: Evaluated, robot: Robot, sens: KinematicSensitivity | None, ctx: SampleContext,

@@ -73,12 +73,12 @@ def test_the_report_s_extras_wait_for_a_reader_and_give_the_same_bytes(
 def test_the_urdf_s_proof_refuses_when_the_text_is_read(ur10_campaign: tuple[pincal.Robot, pincal.Dataset],
                                                         monkeypatch: pytest.MonkeyPatch) -> None:
     """A calibrated URDF that does not hold the calibrated model is never handed out: its text raises, once read."""
-    from pincal.calibration import pipeline
+    from pincal.calibration import export_proof
 
     def refused(*args: object) -> str:
         raise PincalError("calibrate: Pinocchio reads the calibrated URDF 1e-06 m away: not written")
 
-    monkeypatch.setattr(pipeline, "calibrated_proof", refused)
+    monkeypatch.setattr(export_proof, "calibrated_proof", refused)
     calibration = pincal.calibrate(*ur10_campaign)
     assert calibration.report.converged
     for name in ("urdf_text", "proof"):

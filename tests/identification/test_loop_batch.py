@@ -205,3 +205,24 @@ def test_warm_starts_moved_along_the_response_stay_on_the_assembly(name: str, mo
             continue
         _compare(batched.evaluate(moved), reference, batched.parameters.names, AGREEMENT)
         x = moved
+
+
+@pytest.mark.parametrize("name", ["delta", "hexapod"])
+def test_an_evaluation_that_moves_only_the_setup_takes_the_loops_twists_again(name: str) -> None:
+    """At the same kinematic deviations and configurations (a step of the base, the markers and the offsets' readings
+    left as they were) the loops' placements and twists are taken again, not recomputed: the same residual and
+    Jacobian, bit for bit, as a problem that recomputes them; a step of a joint's placement recomputes them."""
+    kept, fresh, x = _problems(name, None)
+    fresh._batched_loops = True  # both batched: one keeps the loops' twists, the other forgets them each time
+    setup = np.array([p.kind in ("base", "marker", "cluster") for p in kept.parameters])
+    moved = x + np.where(setup, 1e-3, 0.0)
+    joint = x + np.where(np.array([p.kind == "joint" for p in kept.parameters]), 1e-4, 0.0)
+    for step in (x, moved, joint, moved):
+        before = kept.solves.twists
+        a = kept.evaluate(step)
+        fresh.solves.twists = None
+        b = fresh.evaluate(step)
+        assert np.array_equal(a.residual, b.residual) and np.array_equal(a.jacobian, b.jacobian)
+        again = before is not None and kept.solves.twists is before
+        assert again == (step is moved and before[0] is kept.placed_robot(step))  # type: ignore[index]
+    assert setup.any()

@@ -72,6 +72,17 @@ def test_the_chi2_quantiles_are_scipy_stats_ones() -> None:
     assert np.all(np.isnan(chi2_upper(0.5, np.array([1e-6, np.inf, np.nan]))))
 
 
+def test_the_chi2_start_takes_the_normal_quantile_of_statistics_to_the_bit() -> None:
+    """Wilson–Hilferty's start reads the normal quantile from the function ``statistics.NormalDist.inv_cdf`` calls:
+    the same value to the bit over tails from 1e-15 to 0.9999."""
+    from statistics import NormalDist
+
+    from pincal.identification import chi2
+
+    tails = [*np.exp(np.random.default_rng(1).uniform(np.log(1e-15), np.log(0.9999), 200)).tolist(), 0.05, 0.5]
+    assert [chi2._normal_dist_inv_cdf(t, 0.0, 1.0) for t in tails] == [NormalDist().inv_cdf(t) for t in tails]
+
+
 def test_many_degrees_of_freedom_started_from_their_neighbours_are_scipy_s() -> None:
     """The predicted bounds' call, one tail at many close fractional ν (each solve started from its neighbours' and
     often ended after one Halley step), gives ``scipy.special.chdtri``'s quantiles as the solve from Wilson–Hilferty
