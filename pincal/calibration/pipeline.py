@@ -60,7 +60,7 @@ from pincal.calibration.samples import (
     dropped_account,
 )
 from pincal.calibration.setup import Prepared, check_movable, dataset_models, prepare
-from pincal.errors import ArgumentError, DataError
+from pincal.errors import ArgumentError, ConvergenceError, DataError
 from pincal.identification.combinations import describe_unidentifiable, digest
 from pincal.identification.corrections import moving_mass
 from pincal.identification.guard import Guard
@@ -175,24 +175,26 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
             status += "IMPLAUSIBLE (corrections beyond what a robot of this model needs; the report's implausible): "
         if checked["explains_nothing"]:
             status += f"EXPLAINS NOTHING (residuals {result.sigma2 ** 0.5:.3g} × σ after calibration: not a result): "
-        text, shifts = calibrated_robot_text(robot, source_text(robot), kept.parameters, result.x,
-                                             note=f"{status}calibrated by pincal from {fit.samples.n_samples} samples "
-                                                  f"({', '.join(m.key for m in fit.models)})",
-                                             read_joints=read_joints(fit.models), markers=declared_markers(fit.models))
-        samples = fit.samples
-        proof = Pending(lambda: _proof(text, samples.joint_names, samples.joints))
-        corrections = corrections_of(robot, kept.parameters, result.x, options.payload)
-        before = register_setup(fitted.problem, result.x0, options.fitting)
-        growth = Pending(lambda: error_growth(kept, fitted, options, before.x))
-        if fitted.problem.robot.loops:  # its evaluations follow the warm starts: in this order, whoever reads it
-            growth.value()
-        held = evaluate_held_out(kept, dataset, kept.parameters, before.x, result.x,
-                                 trusted=result.sigma2 <= NOISE_CONTRADICTED, result=result,
-                                 x_start=result.x0 if before.registered else None,
-                                 growth=growth.value() if "test" in dataset.sets else None)
-        content = report_content(fit, fitted, held, dataset, options, x_true, shifts, corrections, before, growth)
-        content.update(checked)
-        content["estimated_sigma"] = estimated or None
+        with nothing_explained(checked["explains_nothing"], result.sigma2):  # its estimate may not even evaluate
+            text, shifts = calibrated_robot_text(robot, source_text(robot), kept.parameters, result.x,
+                                                 note=f"{status}calibrated by pincal from {fit.samples.n_samples} "
+                                                      f"samples ({', '.join(m.key for m in fit.models)})",
+                                                 read_joints=read_joints(fit.models),
+                                                 markers=declared_markers(fit.models))
+            samples = fit.samples
+            proof = Pending(lambda: _proof(text, samples.joint_names, samples.joints))
+            corrections = corrections_of(robot, kept.parameters, result.x, options.payload)
+            before = register_setup(fitted.problem, result.x0, options.fitting)
+            growth = Pending(lambda: error_growth(kept, fitted, options, before.x))
+            if fitted.problem.robot.loops:  # its evaluations follow the warm starts: in this order, whoever reads it
+                growth.value()
+            held = evaluate_held_out(kept, dataset, kept.parameters, before.x, result.x,
+                                     trusted=result.sigma2 <= NOISE_CONTRADICTED, result=result,
+                                     x_start=result.x0 if before.registered else None,
+                                     growth=growth.value() if "test" in dataset.sets else None)
+            content = report_content(fit, fitted, held, dataset, options, x_true, shifts, corrections, before, growth)
+            content.update(checked)
+            content["estimated_sigma"] = estimated or None
         stages.advance()
     if folds is not None and every is not None:
         from pincal.calibration.crossval import cross_validate
@@ -222,6 +224,25 @@ def _with_proof(text: str, proof: str) -> str:
     from pincal.calibration.export_proof import with_comment
 
     return with_comment(text, proof)
+
+
+@contextlib.contextmanager
+def nothing_explained(explains_nothing: bool, sigma2: float) -> Iterator[None]:
+    """A fit that explains nothing (``explains_nothing``, its variance factor ``sigma2``) whose estimate then fails to
+    evaluate (a Delta's loops that no longer close, a sample's kinematics that no longer converge): the error says the
+    verdict first, as its summary would have (the estimate is not a result; whether it evaluates depends on digits a
+    BLAS build changes).
+
+    Raises:
+        ConvergenceError: the error met, the verdict first.
+    """
+    try:
+        yield
+    except ConvergenceError as exc:
+        if not explains_nothing:
+            raise
+        raise ConvergenceError(f"the fit explains nothing (residuals {sigma2 ** 0.5:.3g} × σ after calibration: not "
+                               f"a result), and its estimate cannot be evaluated: {exc}") from None
 
 
 @contextlib.contextmanager
