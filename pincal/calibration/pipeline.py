@@ -37,6 +37,7 @@ from pincal.calibration.plausibility import (
     implausible_corrections,
     implausible_scales,
     likely_cause,
+    nothing_explained,
     scale_limit,
 )
 from pincal.calibration.predicted import FitCovariance, fitted_ranges, held_out_predictions, workspace_prediction
@@ -60,7 +61,7 @@ from pincal.calibration.samples import (
     dropped_account,
 )
 from pincal.calibration.setup import Prepared, check_movable, dataset_models, prepare
-from pincal.errors import ArgumentError, ConvergenceError, DataError
+from pincal.errors import ArgumentError, DataError
 from pincal.identification.combinations import describe_unidentifiable, digest
 from pincal.identification.corrections import moving_mass
 from pincal.identification.guard import Guard
@@ -92,12 +93,11 @@ UNIDENTIFIABLE_LINES = 10
 @on_demand("urdf_text", "proof")
 @record
 class Calibration:
-    """One calibration: its preparation (the fitted samples, with the parameters kept), the problem, the
-    identification result, the held-out evaluation (None without held-out samples), the typed report, the
-    calibrated URDF text, the corrections the URDF cannot hold, "before" and the proof of the URDF (the line
-    :func:`~pincal.calibration.export_proof.calibrated_proof` gives, written in its header). The URDF text and its
-    proof are made when first read (the text carries the report's bound growth, itself computed on demand); a
-    PincalError of the proof (the URDF does not hold the calibrated model) is raised there."""
+    """One calibration: its preparation (the fitted samples, with the parameters kept), the problem, the identification
+    result, the held-out evaluation (None without held-out samples), the typed report, the calibrated URDF text, the
+    corrections the URDF cannot hold, "before" and the proof of the URDF (the line :func:`~pincal.calibration.
+    export_proof.calibrated_proof` gives, written in its header). The URDF text and its proof are made when first read
+    (the text carries the report's bound growth, computed on demand); a PincalError of the proof is raised there."""
 
     prepared: Prepared
     problem: CalibrationProblem
@@ -176,11 +176,10 @@ def calibrate(robot: Robot, dataset: Dataset, options: CalibrationOptions | None
         if checked["explains_nothing"]:
             status += f"EXPLAINS NOTHING (residuals {result.sigma2 ** 0.5:.3g} × σ after calibration: not a result): "
         with nothing_explained(checked["explains_nothing"], result.sigma2):  # its estimate may not even evaluate
-            text, shifts = calibrated_robot_text(robot, source_text(robot), kept.parameters, result.x,
-                                                 note=f"{status}calibrated by pincal from {fit.samples.n_samples} "
-                                                      f"samples ({', '.join(m.key for m in fit.models)})",
-                                                 read_joints=read_joints(fit.models),
-                                                 markers=declared_markers(fit.models))
+            text, shifts = calibrated_robot_text(
+                robot, source_text(robot), kept.parameters, result.x, read_joints=read_joints(fit.models),
+                markers=declared_markers(fit.models), note=f"{status}calibrated by pincal from {fit.samples.n_samples} "
+                f"samples ({', '.join(m.key for m in fit.models)})")
             samples = fit.samples
             proof = Pending(lambda: _proof(text, samples.joint_names, samples.joints))
             corrections = corrections_of(robot, kept.parameters, result.x, options.payload)
@@ -224,25 +223,6 @@ def _with_proof(text: str, proof: str) -> str:
     from pincal.calibration.export_proof import with_comment
 
     return with_comment(text, proof)
-
-
-@contextlib.contextmanager
-def nothing_explained(explains_nothing: bool, sigma2: float) -> Iterator[None]:
-    """A fit that explains nothing (``explains_nothing``, its variance factor ``sigma2``) whose estimate then fails to
-    evaluate (a Delta's loops that no longer close, a sample's kinematics that no longer converge): the error says the
-    verdict first, as its summary would have (the estimate is not a result; whether it evaluates depends on digits a
-    BLAS build changes).
-
-    Raises:
-        ConvergenceError: the error met, the verdict first.
-    """
-    try:
-        yield
-    except ConvergenceError as exc:
-        if not explains_nothing:
-            raise
-        raise ConvergenceError(f"the fit explains nothing (residuals {sigma2 ** 0.5:.3g} × σ after calibration: not "
-                               f"a result), and its estimate cannot be evaluated: {exc}") from None
 
 
 @contextlib.contextmanager

@@ -19,7 +19,9 @@ millimetres. Two checks find them:
 
 from __future__ import annotations
 
+import contextlib
 import math
+from collections.abc import Iterator
 
 import numpy as np
 import numpy.typing as npt
@@ -27,6 +29,7 @@ import numpy.typing as npt
 from pincal.calibration.columns import ColumnMistake
 from pincal.calibration.options import plausible_factor
 from pincal.calibration.report_sections import ImplausibleCorrection, ImplausibleScale
+from pincal.errors import ConvergenceError
 from pincal.identification.parameters import ParameterSet
 from pincal.identification.result import CalibrationResult
 
@@ -153,3 +156,22 @@ def likely_cause(corrections: list[ImplausibleCorrection], scales: list[Implausi
                 f"line){size}")
     return ("swapped or mislabelled joint columns, or a joint read with the other sign, or a wrong robot model: the "
             f"fit does not reach the noise even with these corrections{size}")
+
+
+@contextlib.contextmanager
+def nothing_explained(explains_nothing: bool, sigma2: float) -> Iterator[None]:
+    """A fit that explains nothing (``explains_nothing``, its variance factor ``sigma2``) whose estimate then fails to
+    evaluate (a Delta's loops that no longer close, a sample's kinematics that no longer converge): the error says the
+    verdict first, as its summary would have (the estimate is not a result; whether it evaluates depends on digits a
+    BLAS build changes).
+
+    Raises:
+        ConvergenceError: the error met, the verdict first.
+    """
+    try:
+        yield
+    except ConvergenceError as exc:
+        if not explains_nothing:
+            raise
+        raise ConvergenceError(f"the fit explains nothing (residuals {sigma2 ** 0.5:.3g} × σ after calibration: not "
+                               f"a result), and its estimate cannot be evaluated: {exc}") from None
