@@ -35,6 +35,12 @@ def clean(values: np.ndarray | tuple[float, ...]) -> tuple[float, ...]:
     return tuple(0.0 if abs(float(v)) < 1e-15 else float(v) for v in values)
 
 
+def product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b`` of 3 × 3 matrices with each entry's sum correctly rounded (``math.fsum``), not by BLAS, whose
+    summation order, and so the last digits written, depends on the build."""
+    return np.array([[math.fsum(a[i, k] * b[k, j] for k in range(3)) for j in range(3)] for i in range(3)])
+
+
 def rpy_from_matrix(rot: np.ndarray) -> tuple[float, ...]:
     """URDF rpy [rad] of a rotation matrix, R = Rz(yaw) Ry(pitch) Rx(roll)."""
     pitch = math.asin(-max(-1.0, min(1.0, float(rot[2, 0]))))
@@ -54,7 +60,7 @@ def limb_geometry(phi: float) -> dict[str, np.ndarray | float]:
     base_point = R_BASE * radial
     platform_point = np.array([0.0, 0.0, HEIGHT]) + R_PLATFORM * radial
     along = platform_point - base_point
-    length = float(np.linalg.norm(along))
+    length = math.hypot(*along)  # not BLAS: the file is the same whichever BLAS build writes it
     z = along / length
     rot = np.column_stack([tangent, np.cross(z, tangent), z])
     mount = np.column_stack([radial, tangent, [0.0, 0.0, 1.0]])  # platform-side U frame (x radial)
@@ -130,7 +136,7 @@ def build() -> UrdfWriter:
         w.joint(f"limb_{i}_u_limb", "revolute", f"limb_{i}_rod", f"limb_{i}_cross", xyz=(0, 0, length),
                 axis=(1, 0, 0), limits=(-math.pi, math.pi))
         # The platform-side fork: its frame is the U frame at a_i (x radial, z along the platform normal).
-        mount_in_limb = limb["rot"].T @ limb["mount"]
+        mount_in_limb = product(limb["rot"].T, limb["mount"])
         w.link(f"limb_{i}_fork", sphere(0.01), mass=0.02)
         w.joint(f"limb_{i}_u_platform", "revolute", f"limb_{i}_cross", f"limb_{i}_fork",
                 rpy=rpy_from_matrix(mount_in_limb), axis=(1, 0, 0), limits=(-math.pi, math.pi))
