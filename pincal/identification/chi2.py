@@ -23,8 +23,11 @@ Array = npt.NDArray[np.float64]
 
 try:  # the C function ``statistics.NormalDist.inv_cdf`` calls, without importing ``statistics`` (and its ``fractions``
     from _statistics import _normal_dist_inv_cdf  # and ``decimal``: 2 ms of a calibration's start)
-except ImportError:  # an interpreter without the accelerator: the module's own, the same function in Python
-    from statistics import _normal_dist_inv_cdf  # type: ignore[attr-defined]
+except ImportError:  # an interpreter without that private accelerator: the public API, the same values
+    from statistics import NormalDist
+
+    def _normal_dist_inv_cdf(p: float, mu: float, sigma: float) -> float:
+        return NormalDist(mu, sigma).inv_cdf(p)
 
 #: Most Halley steps, and the terms of a series or a continued fraction beyond the ``TERMS_PER_ROOT · √a`` it needs.
 MAX_TERMS = 1000
