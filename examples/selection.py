@@ -318,7 +318,7 @@ def failures(benches: list[Bench]) -> list[str]:
             continue
         first = next(fs[0] for fs in (b.failures or {}).values() if fs)
         same = len(lost) == len(MODELS) and all(folds == lost["default"] for folds in lost.values())
-        out.append(f"- {b.name}: " + (f"the fold fits that failed ({', '.join(lost['default'])}) are the same for "
+        out.append(f"- {b.name}: " + (f"the fold fits that failed ({'; '.join(lost['default'])}) are the same for "
                                       "every model, so every figure of the row leaves out the same predictions"
                                       if same else "the fold fits that failed are not the same for every model")
                    + f"; the first's reason: \"{first.split(': ', 1)[1]}\".")
@@ -337,7 +337,7 @@ def told(benches: list[Bench]) -> list[str]:
         out.append(f"- {given.name}: without its `# sigma` lines the default's held-out RMS is "
                    f"{_mm(b.held['default'])} mm, against {_mm(given.held['default'])} mm when the data state σ "
                    f"({100 * change:+.1f} %); the two runs differ only in the σ the data are weighed by.")
-    return [*out, ""] if out else []
+    return out
 
 
 def seed_table(runs: dict[str, list[dict[str, Any]]]) -> list[str]:
@@ -385,8 +385,8 @@ def page(real: list[Bench], cameras: list[Bench], runs: dict[str, list[dict[str,
     if floor:
         lines += [f"- {'; '.join(floor)}: every estimate is {PIXEL_DEFAULT:g} px, where the simulated noise is "
                   f"{NOISE:g} px: {PIXEL_DEFAULT:g} px is the pixel model's default σ, below which "
-                  "`pincal.calibration.noise` never takes an estimate.", ""]
-    lines += ["## Commands and what each selection left out", "",
+                  "`pincal.calibration.noise` never takes an estimate."]
+    lines += ["", "## Commands and what each selection left out", "",
               "| benchmark | command (plus the model's options) | left out: default / bic / cv / before |",
               "|---|---|---|"]
     lines += [f"| {b.name} | `{b.command}` | " + " / ".join(b.left_out[m] for m in MODELS) + " |" for b in real]
