@@ -44,7 +44,17 @@ from pincal.calibration.report_sections import (
     SampleError,
     WorkspacePrediction,
 )
-from pincal.calibration.section import OPTIONAL, Section, by_name, listed, nested
+from pincal.calibration.section import (
+    OPTIONAL,
+    Section,
+    at_least,
+    by_name,
+    listed,
+    nested,
+    numbers_by_name,
+    positive_lists_by_name,
+    ranges_by_name,
+)
 from pincal.calibration.setup_parameters import setup_columns
 from pincal.errors import DataError
 from pincal.identification.corrections import Payload, payload_from_dict
@@ -77,6 +87,15 @@ def _read_growth(value: Any, where: str) -> ErrorGrowth:
     if growth is None:
         raise DataError(f"{where} is not an object of numbers 'rho0', 'nominal0', 'nominal1', 'reach', 'inside', "
                         "'beyond': expected a report written by 'pincal calibrate --report'")
+    given = {"rho0": growth.rho0, "nominal1": growth.nominal1, "reach": growth.reach, "inside": growth.inside,
+             "beyond": growth.beyond}
+    if value.get("nominal0") is not None:  # null: the nominal robot's bound not known
+        given["nominal0"] = growth.nominal0
+    bad = [key for key, v in given.items() if not math.isfinite(v) or v < 0 or (key == "rho0" and v == 0)]
+    if bad:
+        raise DataError(f"{where}['{bad[0]}'] is {value.get(bad[0])!r}, not a finite number "
+                        f"{'> 0' if bad[0] == 'rho0' else '≥ 0'}: expected a report written by 'pincal calibrate "
+                        "--report'")
     return growth
 
 
@@ -143,7 +162,7 @@ class CalibrationReport:
     max_before: float | None = None
     max_after: float | None = None
     before_means: str = ""
-    before_parameters: dict[str, float] = field(default_factory=dict)
+    before_parameters: dict[str, float] = field(default_factory=dict, metadata=nested(numbers_by_name))
     rms_start: float | None = field(default=None, metadata=OPTIONAL)
     rms_angle_start: float | None = field(default=None, metadata=OPTIONAL)
     start_means: str = ""
@@ -152,7 +171,7 @@ class CalibrationReport:
     message: str = ""
     solver: str = ""
     loss: str = ""
-    sigma2: float | None = None
+    sigma2: float | None = field(default=None, metadata=nested(at_least(0.0)))
     cost_history: list[float] = field(default_factory=list)
     parameters: dict[str, ParameterEstimate] = field(default_factory=dict,
                                                      metadata=nested(by_name(ParameterEstimate)))
@@ -221,9 +240,9 @@ class CalibrationReport:
                                                               metadata=nested(by_name(EstimatedSigma), **OPTIONAL))
     sample_errors: list[SampleError] = field(default_factory=list, metadata=nested(listed(SampleError)))
     covariance: Covariance | None = field(default=None, metadata=nested(Covariance.from_json, **OPTIONAL))
-    fitted_range: dict[str, list[float]] = field(default_factory=dict)
+    fitted_range: dict[str, list[float]] = field(default_factory=dict, metadata=nested(ranges_by_name))
     error_growth: ErrorGrowth | None = field(default=None, metadata=nested(_read_growth, **OPTIONAL))
-    row_sigma: dict[str, list[float]] = field(default_factory=dict)
+    row_sigma: dict[str, list[float]] = field(default_factory=dict, metadata=nested(positive_lists_by_name))
     predicted_workspace: WorkspacePrediction | None = field(default=None,
                                                             metadata=nested(WorkspacePrediction.from_json, **OPTIONAL))
     predicted_held_out: HeldOutPredictions | None = field(default=None,

@@ -13,6 +13,7 @@ import json
 import math
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -335,3 +336,59 @@ def test_a_nominal_robot_other_than_the_one_model_records_is_refused(tmp_path: P
     copy.write_bytes(Path(str(pincal.load_robot("ur10").source)).read_bytes())
     for nominal in ("ur10", str(copy)):
         assert _check(str(model), str(data), "--nominal", nominal, where=tmp_path)["rms"] < 3 * NOISE
+
+
+_BAD_FIELDS = [  # a calibration's field made what no calibration writes, and the words naming it
+    ("sigma2", lambda c: c.update(sigma2="x"), "'sigma2'"),
+    ("sigma2", lambda c: c.update(sigma2=-1.0), "'sigma2'"),
+    ("fitted_range", lambda c: c["fitted_range"].update(arm_1_joint="wide"), "'fitted_range'"),
+    ("fitted_range", lambda c: c["fitted_range"].update(arm_1_joint=[0.5, -0.5]), "'fitted_range'"),
+    ("before_parameters", lambda c: c["before_parameters"].update({"base.tx": "x"}), "'before_parameters'"),
+    ("covariance", lambda c: c["covariance"].update(matrix="x"), "'covariance'"),
+    ("error_growth", lambda c: c["error_growth"].update(nominal0=-1.0), "'error_growth'"),
+    ("error_growth", lambda c: c["error_growth"].update(rho0=float("nan")), "'error_growth'"),
+    ("row_sigma", lambda c: c["row_sigma"].update({"position:end_effector": ["x", 1, 1]}), "'row_sigma'"),
+]
+
+
+@pytest.mark.parametrize(("field", "spoil", "named"), _BAD_FIELDS)
+def test_a_calibration_with_a_bad_field_is_named_in_one_line(delta: Path, tmp_path: Path, field: str, spoil: Any,
+                                                             named: str) -> None:
+    """A report JSON, or a calibrated URDF's <pincal_calibration> element, whose field holds what no calibration
+    writes (a word for a number, a negative variance, a range upside down, a NaN growth) is refused in one line that
+    names the file and the field, by check and compensate: not an internal error, not a bound printed from it (a
+    negative one), and not "MODEL carries no calibration"."""
+    report = json.loads((delta / "D" / "r.json").read_text(encoding="utf-8"))
+    assert field in report and report["covariance"]["matrix"]
+    report["provenance"]["data"][0]["file"] = str(delta / "D" / "measurements.csv")
+    spoil(report)
+    bad_json = tmp_path / "r.json"
+    bad_json.write_text(json.dumps(report), encoding="utf-8")
+    line = _error_line(run_pincal("check", str(bad_json), str(delta / "new.csv"), "--nominal", "delta"))
+    assert str(bad_json) in line and named in line
+    text = (delta / "D" / "cal.urdf").read_text(encoding="utf-8")
+    held = re.search(r"<pincal_calibration>(.*?)</pincal_calibration>", text, re.DOTALL)
+    assert held is not None
+    carried = json.loads(held.group(1).replace("&lt;", "<").replace("&gt;", ">").replace("&amp;", "&"))
+    spoil(carried)
+    escaped = json.dumps(carried).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    bad_urdf = tmp_path / "cal.urdf"
+    bad_urdf.write_text(text[:held.start(1)] + escaped + text[held.end(1):], encoding="utf-8")
+    line = _error_line(run_pincal("check", str(bad_urdf), str(delta / "new.csv"), "--nominal", "delta"))
+    assert "pincal_calibration" in line and str(bad_urdf) in line and named in line
+    targets = tmp_path / "targets.csv"
+    targets.write_text("position:end_effector:x,position:end_effector:y,position:end_effector:z\n0,0,-0.8\n",
+                       encoding="utf-8")
+    line = _error_line(run_pincal("compensate", str(bad_urdf), str(targets), "--out", str(tmp_path / "c.csv")))
+    assert "pincal_calibration" in line and named in line
+
+
+def test_a_calibrated_urdf_whose_calibration_is_not_json_is_named_so(delta: Path, tmp_path: Path) -> None:
+    """A <pincal_calibration> element cut short is said to be unreadable, naming the element, not taken for a URDF
+    written before pincal carried its calibration."""
+    text = (delta / "D" / "cal.urdf").read_text(encoding="utf-8")
+    cut = tmp_path / "cal.urdf"
+    cut.write_text(re.sub(r"<pincal_calibration>(.{200}).*?</pincal_calibration>",
+                          r"<pincal_calibration>\1</pincal_calibration>", text, flags=re.DOTALL), encoding="utf-8")
+    line = _error_line(run_pincal("check", str(cut), str(delta / "new.csv"), "--nominal", "delta"))
+    assert "pincal_calibration" in line and "not" in line and "JSON" in line
