@@ -56,6 +56,7 @@ from pincal.calibration.check_setup import (
 from pincal.calibration.options import CalibrationOptions, GivenOptions
 from pincal.calibration.pipeline import check_units
 from pincal.calibration.predicted import PredictedErrors, coverage
+from pincal.calibration.provenance import labelled
 from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
 from pincal.errors import DataError
@@ -394,8 +395,9 @@ def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
         **dict(sources),
         "registered": check.registered,
         "model_means": model_means(check.model.prepared.parameters, check.registered),
-        "nominal_means": NOMINAL_AS_CALIBRATED if check.nominal.converged is None and not check.registered
-        else nominal_means(check.nominal.prepared.parameters),
+        "nominal_means": labelled(NOMINAL_AS_CALIBRATED if check.nominal.converged is None and not check.registered
+                                  else nominal_means(check.nominal.prepared.parameters),
+                                  check.nominal.prepared.robot.source),
         "registration_notes": {side: s.note for side, s in (("model", check.model), ("nominal", check.nominal))
                                if s.note},
         "n_samples_in_file": check.n_samples_in_file,

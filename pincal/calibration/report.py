@@ -25,6 +25,7 @@ import numpy.typing as npt
 from pincal.calibration.covariance import parameter_covariance
 from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.on_demand import on_demand
+from pincal.calibration.provenance import labelled
 from pincal.calibration.report_sections import (
     BadJointReading,
     CameraRecord,
@@ -380,18 +381,19 @@ def before_figures(problem: CalibrationProblem, before: Any) -> dict[str, Any]:
     registration moved off it."""
     norms, angles = error_norms(before.errors), angle_error_norms(before.errors)
     columns = setup_columns(problem.parameters)
+    source = problem.robot.source  # a calibrated URDF given as the robot is named so, not "the nominal robot"
     out: dict[str, Any] = {
         "rms_before": _clean(rms(norms)), "max_before": _clean(float(norms.max())) if norms.size else None,
         "before_parameters": {problem.parameters.names[k]: float(before.x[k]) for k in columns},
-        "before_means": registered_means(problem.parameters, columns) if before.registered
-        else "; ".join(filter(None, [before_means(problem), before.note]))}
+        "before_means": labelled(registered_means(problem.parameters, columns) if before.registered
+                                 else "; ".join(filter(None, [before_means(problem), before.note])), source)}
     if angles.size:
         out.update({"rms_angle_before": _clean(rms(angles)), "max_angle_before": _clean(float(angles.max()))})
     if pixel_error_norms(before.errors).size:  # the registered robot's reprojection error, beside the fit's after
         out["pixels_before"] = _clean(rms(pixel_error_norms(before.errors)))
     if before.registered:
         start, start_angles = error_norms(before.start_errors), angle_error_norms(before.start_errors)
-        out.update({"rms_start": _clean(rms(start)), "start_means": before_means(problem),
+        out.update({"rms_start": _clean(rms(start)), "start_means": labelled(before_means(problem), source),
                     "rms_angle_start": _clean(rms(start_angles)) if start_angles.size else None})
     return out
 

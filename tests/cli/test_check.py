@@ -392,3 +392,25 @@ def test_a_calibrated_urdf_whose_calibration_is_not_json_is_named_so(delta: Path
                           r"<pincal_calibration>\1</pincal_calibration>", text, flags=re.DOTALL), encoding="utf-8")
     line = _error_line(run_pincal("check", str(cut), str(delta / "new.csv"), "--nominal", "delta"))
     assert "pincal_calibration" in line and "not" in line and "JSON" in line
+
+
+def test_a_calibrated_urdf_given_as_the_robot_is_labelled_so(delta: Path, tmp_path: Path) -> None:
+    """Calibrating again from a calibrated URDF (ROBOT D/cal.urdf): calibrate's "before" and the fit's start, and
+    check's reference robot (the one the new MODEL records), are that calibration, and say so, not "the nominal
+    robot" (issue 37, item 4); a nominal URDF keeps its words."""
+    again = tmp_path / "again.urdf"
+    done = run_pincal("calibrate", str(delta / "D" / "cal.urdf"), str(delta / "D" / "measurements.csv"), "--out",
+                      str(again))
+    assert done.returncode in (0, 1), done.stderr
+    said = " ".join(done.stdout.split())
+    before = said.split("(before: ", 1)[1]
+    assert before.startswith("the calibrated URDF 'cal.urdf' given as the robot (a calibration, not a nominal "
+                             "robot)"), before
+    if "(the fit's start, " in said:
+        assert said.split("(the fit's start, ", 1)[1].startswith("the calibrated URDF 'cal.urdf' given as the robot")
+    content = _check(str(again), str(delta / "new.csv"), where=tmp_path, code=None)
+    assert content["nominal_means"].startswith("the calibrated URDF 'cal.urdf' given as the robot")
+    assert "nominal: '" in content["stdout"] and ", the calibrated URDF 'cal.urdf' given as the robot" \
+        in content["stdout"]
+    plain = _check(str(delta / "D" / "cal.urdf"), str(delta / "new.csv"), where=tmp_path, code=None)
+    assert plain["nominal_means"].startswith("the nominal robot")
