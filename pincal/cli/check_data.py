@@ -62,7 +62,7 @@ def summary_text(content: dict[str, Any]) -> str:
     lines += _pixel_lines(content)
     dropped = content["dropped_samples"]
     if dropped:
-        lines.append(f"samples left out ({len(dropped)}):")
+        lines.append(f"samples left out ({len({d['sample'] for d in dropped})}):")  # a reason per robot, one sample
         lines += [f"  {d['sample']}: {d['reason']}" for d in dropped[:10]]
         if len(dropped) > 10:
             lines.append(f"  … and {len(dropped) - 10} more (the report's 'dropped_samples')")

@@ -414,3 +414,15 @@ def test_a_calibrated_urdf_given_as_the_robot_is_labelled_so(delta: Path, tmp_pa
         in content["stdout"]
     plain = _check(str(delta / "D" / "cal.urdf"), str(delta / "new.csv"), where=tmp_path, code=None)
     assert plain["nominal_means"].startswith("the nominal robot")
+
+
+def test_a_sample_both_robots_leave_out_is_counted_once(delta: Path, tmp_path: Path) -> None:
+    """A posture outside the URDF limits is left out by MODEL and by the nominal robot: two reasons, one sample."""
+    data = read_dataset(delta / "new.csv")
+    data.joints[3, 0] = 100.0  # [rad] far outside arm_1_joint's limits
+    bad = tmp_path / "bad.csv"
+    bad.write_text(dataset_text(data), encoding="utf-8")
+    content = _check(str(delta / "D" / "cal.urdf"), str(bad), "--nominal", "delta", where=tmp_path)
+    assert {d["sample"] for d in content["dropped_samples"]} == {data.sample_ids[3]}
+    assert len(content["dropped_samples"]) == 2 and content["n_samples"] == 29
+    assert "samples left out (1):" in content["stdout"]
