@@ -47,6 +47,7 @@ from pincal.calibration.check_pixels import number as _number
 from pincal.calibration.check_plausibility import Beyond, Implausible, beyond_plausible, implausible_data
 from pincal.calibration.check_setup import (
     NOMINAL_AS_CALIBRATED,
+    check_exceeds_setup,
     file_setup,
     model_intrinsics,
     model_means,
@@ -290,15 +291,18 @@ def weighted_rms(side: Side) -> float:
     return rms(values)
 
 
-def _side(prepared: Prepared, x: Array, register: bool, options: CalibrationOptions) -> Side:
-    """A robot's predictions at ``x``, or, with ``register``, at its setup re-estimated from ``x`` by σ-weighted least
-    squares (the solver and iteration limit of ``options``); the start kept, and said so, where the fit ends above
-    it."""
+def _side(prepared: Prepared, x: Array, register: bool, options: CalibrationOptions,
+          which: str = "the nominal robot") -> Side:
+    """A robot's (``which``: MODEL or the nominal robot) predictions at ``x``, or, with ``register``, at its setup
+    re-estimated from ``x`` by σ-weighted least squares (the solver and iteration limit of ``options``); the start
+    kept, and said so, where the fit ends above it; refused where DATA's readings are no more than the setup's
+    parameters estimated (:func:`~pincal.calibration.check_setup.check_exceeds_setup`)."""
     problem = prepared.problem
     start = Side(prepared, x, problem.evaluate(x, jacobian=False).errors)
     if not register or not len(prepared.parameters):
         return start
     result = identify_with(problem, replace(options.fitting, loss="linear"), x)  # least squares
+    check_exceeds_setup(which, problem, len(result.identified))
     side = Side(prepared, result.x, problem.evaluate(result.x, jacobian=False).errors, bool(result.converged))
     if weighted_rms(side) > weighted_rms(start):
         return replace(start, converged=side.converged,
@@ -347,7 +351,7 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
     x_model = file_setup(model_prepared.problem, register)
     if register:
         x_model = model_prepared.problem.initial_guess(x_model)
-    model_side = _side(model_prepared, x_model, register, options)
+    model_side = _side(model_prepared, x_model, register, options, "MODEL")
     recorded = recorded_before(model, nominal_prepared) if not register else None
     nominal_side = _side(nominal_prepared, recorded, False, options) if recorded is not None \
         else _side(nominal_prepared, nominal_prepared.problem.initial_guess(), True, options)

@@ -102,3 +102,24 @@ def test_a_calibrated_urdf_carries_what_each_bound_needs(split: Path, tmp_path: 
 
     assert pin.buildModelFromUrdf(str(cal)).nq == pincal.load_robot("tiago_no_hand").model.nq  # fixed links added only
     assert "arm_1_joint" in yourdfpy.URDF.load(str(cal), load_meshes=False).joint_names
+
+
+def test_a_registration_that_fits_data_exactly_is_refused(split: Path, tmp_path: Path) -> None:
+    """Three TIAGo postures are 9 readings, as many as the setup --register re-estimates (mocap frame and marker, all 9
+    seen by them): both sides then fit DATA exactly (0.0000 mm against 0.0000 mm) and "no worse, exit 0" would say
+    nothing of MODEL. One line says so (exit 2); a fourth posture leaves the comparison to be made."""
+    cal = tmp_path / "cal.urdf"
+    assert run_pincal("calibrate", "tiago_no_hand", str(split / "low.csv"), "--out", str(cal)).returncode == 0
+    data = pincal.read_dataset(str(split / "all.csv"))
+    for n in (3, 4):
+        few = tmp_path / f"few{n}.csv"
+        few.write_text(dataset_text(data.subset(np.arange(n))))
+        done = run_pincal("check", str(cal), str(few), "--register")
+        if n == 3:
+            lines = done.stderr.strip().splitlines()
+            assert done.returncode == 2 and len(lines) == 1, done.stdout + done.stderr
+            assert lines[0].startswith("pincal: error: ") and "9 readings" in lines[0] and "9 " in lines[0]
+            assert "--register" in lines[0]
+        else:
+            assert done.returncode in (0, 1), done.stderr
+            assert "verdict: MODEL predicts DATA" in done.stdout
