@@ -426,3 +426,19 @@ def test_a_sample_both_robots_leave_out_is_counted_once(delta: Path, tmp_path: P
     assert {d["sample"] for d in content["dropped_samples"]} == {data.sample_ids[3]}
     assert len(content["dropped_samples"]) == 2 and content["n_samples"] == 29
     assert "samples left out (1):" in content["stdout"]
+
+
+def test_a_json_that_is_not_a_calibration_s_report_is_named_for_what_it_is(delta: Path, tmp_path: Path) -> None:
+    """A corrections file, or the report of a check, given as MODEL is named as such (and the corrections file's
+    calibrated URDF is pointed to), not as a report JSON that lacks its parameters."""
+    corrections = tmp_path / "cal.corrections.json"
+    corrections.write_text(json.dumps({"format": "pincal joint corrections 1", "robot": "delta", "joints": {}}),
+                           encoding="utf-8")
+    line = _error_line(run_pincal("check", str(corrections), str(delta / "new.csv"), "--nominal", "delta"))
+    assert f"MODEL '{corrections}' is a pincal corrections file" in line
+    assert f"'{tmp_path / 'cal.urdf'}'" in line and "no 'parameters'" not in line
+    checked = _check(str(delta / "D" / "cal.urdf"), str(delta / "new.csv"), where=tmp_path)
+    assert checked["format"] == "pincal check 1"
+    report = next(tmp_path.glob("check-*.json"))
+    line = _error_line(run_pincal("check", str(report), str(delta / "new.csv"), "--nominal", "delta"))
+    assert f"MODEL '{report}' is the report of a pincal check" in line and "no 'parameters'" not in line
