@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
-from pincal.calibration.options import GivenOptions, options_given
+from pincal.calibration.options import CalibrationOptions, GivenOptions, options_given
 from pincal.cli import (
     assemble,
     bag_import,
@@ -217,8 +217,11 @@ DEMO_TEXT = """pincal demo: geometric calibration of the Delta robot of study 00
 def cmd_demo(args: argparse.Namespace) -> int:
     """``pincal demo``: simulate and calibrate the Delta robot (``model24`` parameters, platform positions) and
     write the calibrated URDF, an offline HTML report and the simulated data."""
+    from dataclasses import replace
+
     from pincal.calibration.campaign import simulate, write_simulation
     from pincal.calibration.pipeline import calibrate
+    from pincal.calibration.provenance import Provenance, file_source, options_dict, robot_source, with_provenance
     from pincal.calibration.summary import summary_text
     from pincal.io.files import check_directory, write_text
     from pincal.model.catalog import robot_path
@@ -234,9 +237,14 @@ def cmd_demo(args: argparse.Namespace) -> int:
                        seed=args.seed, parameter_spec=["model24"])
         write_simulation(sim, out)
         progress.advance()
-        cal = calibrate(robot, sim.dataset, parameter_spec=["model24"], x_true=sim.x_true)
+        options = CalibrationOptions(parameter_spec=("model24",))
+        cal = calibrate(robot, sim.dataset, options, x_true=sim.x_true)
         progress.advance()
-    write_text(out / "delta_calibrated.urdf", cal.urdf_text)
+    # what the files came from, as calibrate records it: check and compensate then find the robot and the data
+    provenance = Provenance(robot_source("delta", robot), [file_source(out / "measurements.csv")],
+                            options_dict(options), fitted_range=cal.report.fitted_range)
+    cal.report = replace(cal.report, provenance=provenance.record(out))
+    write_text(out / "delta_calibrated.urdf", with_provenance(cal.urdf_text, provenance, out))
     write_text(out / "report.json", cal.report.to_json())
     report_html = write_demo_report(cal, out, quiet=False)  # reads out/truth.json, written above; its own bars
     print(summary_text(cal.report, cal.result.seconds, str(out / "report.json")))

@@ -442,3 +442,19 @@ def test_a_json_that_is_not_a_calibration_s_report_is_named_for_what_it_is(delta
     report = next(tmp_path.glob("check-*.json"))
     line = _error_line(run_pincal("check", str(report), str(delta / "new.csv"), "--nominal", "delta"))
     assert f"MODEL '{report}' is the report of a pincal check" in line and "no 'parameters'" not in line
+
+
+def test_the_demo_s_calibration_is_checked_without_naming_its_robot(tmp_path: Path) -> None:
+    """``pincal demo`` then ``pincal check`` on its held-out rows, as a new user runs them: the calibrated URDF and the
+    report record the robot and the data (as calibrate's do), so check needs no --nominal, and finds the held-out
+    error the demo reported."""
+    done = run_pincal("demo", "--samples", "30", "--test-samples", "10", "--out", str(tmp_path / "demo"))
+    assert done.returncode == 0, done.stderr
+    demo = tmp_path / "demo"
+    written = json.loads((demo / "report.json").read_text(encoding="utf-8"))
+    assert written["provenance"]["robot"]["file"] == "delta"
+    for model in ("delta_calibrated.urdf", "report.json"):
+        content = _check(str(demo / model), str(demo / "measurements.csv"), "--set", "test", where=tmp_path)
+        assert content["nominal"] == "delta" and not content["nominal_given"]
+        assert content["rms"] == pytest.approx(written["test_rms_after"], rel=1e-6)
+        assert content["outside_range"]["known"]
