@@ -292,17 +292,19 @@ def weighted_rms(side: Side) -> float:
 
 
 def _side(prepared: Prepared, x: Array, register: bool, options: CalibrationOptions,
-          which: str = "the nominal robot") -> Side:
-    """A robot's (``which``: MODEL or the nominal robot) predictions at ``x``, or, with ``register``, at its setup
-    re-estimated from ``x`` by σ-weighted least squares (the solver and iteration limit of ``options``); the start
-    kept, and said so, where the fit ends above it; refused where DATA's readings are no more than the setup's
-    parameters estimated (:func:`~pincal.calibration.check_setup.check_exceeds_setup`)."""
+          which: str | None = None) -> Side:
+    """A robot's predictions at ``x``, or, with ``register``, at its setup re-estimated from ``x`` by σ-weighted least
+    squares (the solver and iteration limit of ``options``); the start kept, and said so, where the fit ends above
+    it; refused where DATA's readings are no more than the setup's parameters estimated on them
+    (:func:`~pincal.calibration.check_setup.check_exceeds_setup`: ``which``, MODEL or the nominal robot, names the
+    side; None, a probe of plausibility, is not refused)."""
     problem = prepared.problem
     start = Side(prepared, x, problem.evaluate(x, jacobian=False).errors)
     if not register or not len(prepared.parameters):
         return start
     result = identify_with(problem, replace(options.fitting, loss="linear"), x)  # least squares
-    check_exceeds_setup(which, problem, len(result.identified))
+    if which is not None:
+        check_exceeds_setup(which, problem, len(result.identified))
     side = Side(prepared, result.x, problem.evaluate(result.x, jacobian=False).errors, bool(result.converged))
     if weighted_rms(side) > weighted_rms(start):
         return replace(start, converged=side.converged,
@@ -354,7 +356,7 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
     model_side = _side(model_prepared, x_model, register, options, "MODEL")
     recorded = recorded_before(model, nominal_prepared) if not register else None
     nominal_side = _side(nominal_prepared, recorded, False, options) if recorded is not None \
-        else _side(nominal_prepared, nominal_prepared.problem.initial_guess(), True, options)
+        else _side(nominal_prepared, nominal_prepared.problem.initial_guess(), True, options, "the nominal robot")
     outside: list[dict[str, Any]] = []
     moving = influencing_joints(nominal, sorted({f for m in nominal_prepared.models for f in m.frames}),
                                 read_joints(nominal_prepared.models))
@@ -368,15 +370,15 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
         range_note = None
     predicted, note, pixels = predicted_check(model, nominal_prepared)
     return Check(model_side, nominal_side, register, dropped, outside, range_note, dataset.n_samples, predicted, note,
-                 _plausibility(nominal_side, recorded is None, options),
+                 _plausibility(nominal_side, model_side, recorded is None, options),
                  nominal_bounds(model, predicted) if predicted is not None else None, pixels)
 
 
-def _plausibility(nominal: Side, register: bool, options: CalibrationOptions) -> Implausible | None:
+def _plausibility(nominal: Side, model: Side, register: bool, options: CalibrationOptions) -> Implausible | None:
     """Whether DATA can be of the nominal robot, as ``calibrate`` judges it
     (:mod:`pincal.calibration.check_plausibility`), when its errors with its setup fitted to DATA are beyond a robot of
     its model (registered here for that when the check does not register: a setup placed in closed form may be what
-    is off)."""
+    is off); MODEL's errors within those limits say that a calibrated robot of this model explains them."""
     def beyond(side: Side) -> Beyond | None:
         return beyond_plausible(rms(_length_norms(side.errors)), rms(_angle_norms(side.errors)), options.plausible)
 
@@ -384,7 +386,7 @@ def _plausibility(nominal: Side, register: bool, options: CalibrationOptions) ->
     if found is not None and not register:
         found = beyond(_side(nominal.prepared, nominal.x, True, options))
     return None if found is None else implausible_data(found, nominal.prepared.robot, nominal.prepared.samples,
-                                                       nominal.prepared.models, options)
+                                                       nominal.prepared.models, options, beyond(model) is None)
 
 
 def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
