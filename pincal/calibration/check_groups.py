@@ -62,6 +62,18 @@ def group_verdicts(model_errors: dict[str, Array], nominal_errors: dict[str, Arr
     return out
 
 
+def beyond_verdict(content: dict[str, Any]) -> str | None:
+    """The verdict on the postures beyond the fitted range, in words, of a check's report ``content`` (its ``groups``;
+    lengths shown in mm) when MODEL predicts them worse than the nominal robot and DATA are plausible; else None. The
+    terminal and the page say the same sentence."""
+    beyond = (content.get("groups") or {}).get("beyond") or {}
+    if content.get("implausible") is not None or not beyond.get("worse"):
+        return None
+    return (f"MODEL predicts the {beyond['n']} postures beyond its fitted joint range WORSE than the nominal robot "
+            f"({beyond['rms'] * 1e3:.4f} mm against {beyond['nominal_rms'] * 1e3:.4f} mm RMS), whatever the total: "
+            "do not use MODEL there (calibrate over postures that cover them)")
+
+
 def predicted_check(model: CheckedModel, nominal: Prepared
                     ) -> tuple[PredictedErrors | None, str | None, PixelBounds | None]:
     """Each checked sample's predicted error under MODEL (:mod:`pincal.calibration.predicted`): the calibration's

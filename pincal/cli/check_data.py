@@ -94,13 +94,11 @@ def summary_text(content: dict[str, Any]) -> str:
     hint = _register_hint(content)
     if hint:
         lines.append(f"  hint: {hint}")
-    beyond = (content.get("groups") or {}).get("beyond") or {}
-    if content["implausible"] is None and beyond.get("worse"):
-        lines += textwrap.wrap(
-            f"verdict beyond the fitted range: MODEL predicts the {beyond['n']} postures beyond its fitted joint range "
-            f"WORSE than the nominal robot ({_shown(beyond['rms'], 'm')} against {_shown(beyond['nominal_rms'], 'm')} "
-            "RMS), whatever the total: do not use MODEL there (calibrate over postures that cover them)", 120,
-            subsequent_indent="  ")
+    from pincal.calibration.check_groups import beyond_verdict
+
+    beyond = beyond_verdict(content)
+    if beyond is not None:
+        lines += textwrap.wrap(f"verdict beyond the fitted range: {beyond}", 120, subsequent_indent="  ")
     return "\n".join(lines)
 
 

@@ -3,7 +3,9 @@ on the same data, and gives each posture's predicted bound from a calibrated URD
 
 from __future__ import annotations
 
+import html
 import json
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -123,3 +125,19 @@ def test_a_registration_that_fits_data_exactly_is_refused(split: Path, tmp_path:
         else:
             assert done.returncode in (0, 1), done.stderr
             assert "verdict: MODEL predicts DATA" in done.stdout
+
+
+def test_the_page_gives_the_verdict_beyond_the_fitted_range(split: Path, tmp_path: Path) -> None:
+    """The check page of a MODEL better in total but worse beyond its fitted range states that verdict, as the
+    terminal does (exit 1), not only "no worse than the nominal robot"."""
+    cal = tmp_path / "cal.urdf"
+    assert run_pincal("calibrate", "tiago_no_hand", str(split / "low.csv"), "--select", "none", "--prior", "1",
+                      "--out", str(cal)).returncode == 0
+    page = tmp_path / "check.html"
+    done = run_pincal("check", str(cal), str(split / "all.csv"), "--register", "--html", str(page))
+    assert done.returncode == 1, done.stdout + done.stderr
+    said = " ".join(done.stdout.split())
+    verdict = said.split("verdict beyond the fitted range: ", 1)[1].split(" wrote ", 1)[0]
+    assert verdict.startswith("MODEL predicts the 15 postures beyond its fitted joint range WORSE")
+    text = " ".join(html.unescape(re.sub(r"<[^>]+>", "", page.read_text(encoding="utf-8"))).split())
+    assert f"Verdict beyond the fitted range: {verdict}" in text
