@@ -362,12 +362,12 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
                                 read_joints(nominal_prepared.models))
     ranges = model.calibration.fitted_range if model.calibration is not None else None
     ranges = ranges or model.provenance.fitted_range
-    if fitted is not None:
-        train = fitted.of_set("train") if "train" in fitted.sets else fitted
-        outside = held_out_outside_range(nominal, train, nominal_prepared.samples, joints=moving)
-    elif ranges:  # the ranges MODEL records, where its data are not at hand
+    if ranges:  # the ranges of the samples the calibration fitted (not of rows it dropped), as the bounds read them
         outside = outside_recorded(nominal, ranges, nominal_prepared.samples, moving)
         range_note = None
+    elif fitted is not None:  # a MODEL written before it recorded them: its data's training rows
+        train = fitted.of_set("train") if "train" in fitted.sets else fitted
+        outside = held_out_outside_range(nominal, train, nominal_prepared.samples, joints=moving)
     predicted, note, pixels = predicted_check(model, nominal_prepared)
     return Check(model_side, nominal_side, register, dropped, outside, range_note, dataset.n_samples, predicted, note,
                  _plausibility(nominal_side, model_side, recorded is None, options),

@@ -141,3 +141,31 @@ def test_the_page_gives_the_verdict_beyond_the_fitted_range(split: Path, tmp_pat
     assert verdict.startswith("MODEL predicts the 15 postures beyond its fitted joint range WORSE")
     text = " ".join(html.unescape(re.sub(r"<[^>]+>", "", page.read_text(encoding="utf-8"))).split())
     assert f"Verdict beyond the fitted range: {verdict}" in text
+
+
+def test_a_sample_calibrate_dropped_does_not_widen_the_fitted_range(split: Path, tmp_path: Path) -> None:
+    """A training row whose marker was not seen (its cells empty) with arm_1_joint at 2.0 rad, far beyond the other
+    rows: calibrate drops it, so the fitted range is that of the 17 fitted postures. check flags and judges the same
+    15 postures beyond it as the bounds grow for (and as without the row), not the 5 beyond a range the dropped row
+    widened."""
+    lines = (split / "low.csv").read_text(encoding="utf-8").splitlines()
+    header = next(k for k, line in enumerate(lines) if line.startswith("sample,"))
+    names, row = lines[header].split(","), lines[header + 1].split(",")
+    row[0], row[names.index("arm_1_joint")] = "99", "2.0"
+    for axis in "xyz":
+        row[names.index(f"position:wrist_ft_tool_link:{axis}")] = ""
+    unseen = tmp_path / "low.csv"
+    unseen.write_text("\n".join([*lines, ",".join(row)]) + "\n", encoding="utf-8")
+    flagged = []
+    for data in (split / "low.csv", unseen):
+        cal, report = tmp_path / data.parent.name / "cal.urdf", tmp_path / f"{data.parent.name}.json"
+        done = run_pincal("calibrate", "tiago_no_hand", str(data), "--select", "none", "--prior", "1", "--out",
+                          str(cal))
+        assert done.returncode == 0, done.stderr
+        done = run_pincal("check", str(cal), str(split / "all.csv"), "--register", "--report", str(report))
+        assert done.returncode == 1, done.stdout + done.stderr
+        content = json.loads(report.read_text(encoding="utf-8"))
+        outside = content["outside_range"]["samples"]
+        assert outside == content["predicted"]["beyond"] and content["groups"]["beyond"]["n"] == len(outside)
+        flagged.append(outside)
+    assert flagged[0] == flagged[1] and len(flagged[0]) == 15
