@@ -74,6 +74,19 @@ def beyond_verdict(content: dict[str, Any]) -> str | None:
             "do not use MODEL there (calibrate over postures that cover them)")
 
 
+def beyond_note(content: dict[str, Any]) -> str | None:
+    """Why postures beyond the fitted range that MODEL predicts worse than the nominal robot do not fail the check:
+    fewer than :data:`MIN_GROUP` of them (lengths shown in mm); None otherwise."""
+    beyond = (content.get("groups") or {}).get("beyond") or {}
+    n, model, nominal = beyond.get("n") or 0, beyond.get("rms"), beyond.get("nominal_rms")
+    if content.get("implausible") is not None or not 0 < n < MIN_GROUP or model is None or nominal is None \
+            or not model > (1.0 + SAME_ERROR) * nominal:
+        return None
+    return (f"MODEL predicts the {n} posture{'s' if n > 1 else ''} beyond its fitted joint range worse than the "
+            f"nominal robot ({model * 1e3:.4f} mm against {nominal * 1e3:.4f} mm RMS), too few (fewer than "
+            f"{MIN_GROUP}) for a verdict of their own")
+
+
 def predicted_check(model: CheckedModel, nominal: Prepared
                     ) -> tuple[PredictedErrors | None, str | None, PixelBounds | None]:
     """Each checked sample's predicted error under MODEL (:mod:`pincal.calibration.predicted`): the calibration's

@@ -94,11 +94,13 @@ def summary_text(content: dict[str, Any]) -> str:
     hint = _register_hint(content)
     if hint:
         lines.append(f"  hint: {hint}")
-    from pincal.calibration.check_groups import beyond_verdict
+    from pincal.calibration.check_groups import beyond_note, beyond_verdict
 
-    beyond = beyond_verdict(content)
+    beyond, few = beyond_verdict(content), beyond_note(content)
     if beyond is not None:
         lines += textwrap.wrap(f"verdict beyond the fitted range: {beyond}", 120, subsequent_indent="  ")
+    elif few is not None:
+        lines += textwrap.wrap(f"note: {few}", 120, subsequent_indent="  ")
     return "\n".join(lines)
 
 

@@ -169,3 +169,27 @@ def test_a_sample_calibrate_dropped_does_not_widen_the_fitted_range(split: Path,
         assert outside == content["predicted"]["beyond"] and content["groups"]["beyond"]["n"] == len(outside)
         flagged.append(outside)
     assert flagged[0] == flagged[1] and len(flagged[0]) == 15
+
+
+def test_two_postures_beyond_predicted_worse_are_said_too_few_for_a_verdict(split: Path, tmp_path: Path) -> None:
+    """Two postures beyond the fitted range predicted worse than by the nominal robot are too few (3 are needed) for a
+    verdict of their own: exit 0 on the total, and a note says why they do not fail the check."""
+    cal = tmp_path / "cal.urdf"
+    assert run_pincal("calibrate", "tiago_no_hand", str(split / "low.csv"), "--select", "none", "--prior", "1",
+                      "--out", str(cal)).returncode == 0
+    every = tmp_path / "every.json"
+    assert run_pincal("check", str(cal), str(split / "all.csv"), "--register", "--report", str(every)).returncode == 1
+    samples = json.loads(every.read_text(encoding="utf-8"))["samples"]
+    worst = sorted((s for s in samples if s["outside_range"]), key=lambda s: s["nominal_error"] - s["error"])[:2]
+    keep = {s["sample"] for s in samples if not s["outside_range"]} | {s["sample"] for s in worst}
+    data = pincal.read_dataset(str(split / "all.csv"))
+    two = tmp_path / "two.csv"
+    two.write_text(dataset_text(data.subset(np.array([k for k, s in enumerate(data.sample_ids) if s in keep]))))
+    report = tmp_path / "two.json"
+    done = run_pincal("check", str(cal), str(two), "--register", "--report", str(report))
+    beyond = json.loads(report.read_text(encoding="utf-8"))["groups"]["beyond"]
+    assert beyond["n"] == 2 and beyond["rms"] > 1.01 * beyond["nominal_rms"] and not beyond["worse"]
+    assert done.returncode == 0 and "verdict beyond the fitted range" not in done.stdout
+    said = " ".join(done.stdout.split())
+    assert "note: MODEL predicts the 2 postures beyond its fitted joint range worse than the nominal robot" in said
+    assert "too few (fewer than 3) for a verdict of their own" in said
