@@ -9,6 +9,7 @@ motion of the new positions) spoils the model as it stands, and ``--register`` r
 from __future__ import annotations
 
 import hashlib
+import html
 import json
 import math
 import re
@@ -414,6 +415,14 @@ def test_a_calibrated_urdf_given_as_the_robot_is_labelled_so(delta: Path, tmp_pa
         in content["stdout"]
     plain = _check(str(delta / "D" / "cal.urdf"), str(delta / "new.csv"), where=tmp_path, code=None)
     assert plain["nominal_means"].startswith("the nominal robot")
+    page = tmp_path / "again.html"
+    done = run_pincal("report", str(delta / "D" / "cal.urdf"), str(delta / "D" / "measurements.csv"), "--out",
+                      str(page), "--quiet")
+    assert done.returncode in (0, 1), done.stderr
+    text = " ".join(html.unescape(page.read_text(encoding="utf-8")).split())
+    assert "than the nominal model" not in text and "blue ghost: the nominal one" not in text
+    assert "than the calibrated URDF 'cal.urdf' it started from" in text
+    assert "blue ghost: the calibrated URDF 'cal.urdf' it started from" in text
 
 
 def test_a_sample_both_robots_leave_out_is_counted_once(delta: Path, tmp_path: Path) -> None:
