@@ -443,14 +443,13 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
         DataError: no nominal robot given or recorded, or one given that MODEL does not record; no row of set
             ``rows``; as :func:`check_model`.
     """
-    from pincal.calibration.check_model import check_arguments, check_nominal, is_report, load_model
+    from pincal.calibration.check_model import check_arguments, is_report, load_model, load_nominal
     from pincal.calibration.job import read_job
     from pincal.calibration.job_data import job_dataset
     from pincal.calibration.provenance import file_digests, read_provenance, sha256, version
     from pincal.calibration.samples import read_robot_dataset
     from pincal.io.corrections_file import corrections_path
     from pincal.io.files import check_outputs
-    from pincal.model.robot import load_robot
 
     check_arguments(model_path, data_path)
     if is_report(model_path):  # an unreadable report is named as such, not as one that records nothing
@@ -463,8 +462,7 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     if nominal_name is None:
         raise DataError(f"MODEL '{model_path}' records no nominal robot (no pincal provenance in it): give the robot "
                         "it was calibrated from with nominal_path=ROBOT", option="nominal_path")
-    nominal = load_robot(nominal_name)
-    check_nominal(model_path, nominal_path, nominal, provenance)
+    nominal = load_nominal(model_path, nominal_path, nominal_name, provenance)
     job = read_job(data_path) if data_path.endswith(".toml") else None
     inputs: list[str | Path] = [model_path, corrections_path(model_path), data_path, *(job.files if job else ()),
                                 *(p for p in (nominal.source, provenance.data) if p is not None)]

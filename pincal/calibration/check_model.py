@@ -138,6 +138,24 @@ def check_nominal(model: str, given: str | None, nominal: Robot, recorded: Recor
                     f"'{model}' records): leave it out, or give that robot", option="nominal_path")
 
 
+def load_nominal(model: str, given: str | None, name: str, recorded: Recorded) -> Robot:
+    """The nominal robot ``name``: ``given`` (``--nominal``), else the one MODEL records (``recorded``), checked by
+    :func:`check_nominal`.
+
+    Raises:
+        DataError: the URDF MODEL records (relative to MODEL's folder) is not there: MODEL moved without it; or as
+            :func:`check_nominal`.
+        RobotFileError, NotFoundError: the robot cannot be loaded.
+    """
+    if given is None and (Path(name).suffix or "/" in name) and not Path(name).is_file():
+        raise DataError(f"MODEL '{model}' records its nominal robot as '{name}' (its URDF, relative to MODEL's "
+                        "folder), which is not there: give the robot it was calibrated from with nominal_path=ROBOT",
+                        option="nominal_path")
+    nominal = load_robot(name)
+    check_nominal(model, given, nominal, recorded)
+    return nominal
+
+
 def check_arguments(model: str, data: str) -> None:
     """Refuse a MODEL or DATA argument that is not what ``pincal check`` reads, before anything is read: MODEL a
     directory, a device or pipe, data (a CSV or a job file), a text or binary file that is no URDF, a file that does

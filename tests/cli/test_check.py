@@ -467,3 +467,19 @@ def test_the_demo_s_calibration_is_checked_without_naming_its_robot(tmp_path: Pa
         assert content["nominal"] == "delta" and not content["nominal_given"]
         assert content["rms"] == pytest.approx(written["test_rms_after"], rel=1e-6)
         assert content["outside_range"]["known"]
+
+
+def test_a_recorded_nominal_urdf_that_is_not_there_is_named_as_model_s_record(delta: Path, tmp_path: Path) -> None:
+    """A calibrated URDF copied to another folder records its nominal URDF relative to its own: when that file is not
+    there, the line says that MODEL records it, where it was looked for, and that --nominal gives it."""
+    robot = tmp_path / "mydelta.urdf"
+    robot.write_bytes(Path(str(pincal.load_robot("delta").source)).read_bytes())
+    cal = tmp_path / "cal.urdf"
+    _ok(run_pincal("calibrate", str(robot), str(delta / "D" / "measurements.csv"), "--out", str(cal)))
+    moved = tmp_path / "a" / "b" / "cal.urdf"
+    moved.parent.mkdir(parents=True)
+    moved.write_bytes(cal.read_bytes())
+    line = _error_line(run_pincal("check", str(moved), str(delta / "new.csv")))
+    assert f"MODEL '{moved}' records its nominal robot as" in line and "mydelta.urdf" in line
+    assert "--nominal" in line
+    _check(str(moved), str(delta / "new.csv"), "--nominal", str(robot), where=tmp_path)
