@@ -193,3 +193,19 @@ def test_two_postures_beyond_predicted_worse_are_said_too_few_for_a_verdict(spli
     said = " ".join(done.stdout.split())
     assert "note: MODEL predicts the 2 postures beyond its fitted joint range worse than the nominal robot" in said
     assert "too few (fewer than 3) for a verdict of their own" in said
+
+
+def test_a_calibrated_urdf_is_calibrated_again_on_data_of_its_robot(split: Path, tmp_path: Path) -> None:
+    """Data whose '# robot:' line names the robot a calibrated URDF was calibrated from (tiago_no_hand, the URDF's
+    <robot name> being 'tiago') are that robot's: calibrating again from the calibrated URDF takes them; a line naming
+    another robot is still refused."""
+    cal = tmp_path / "cal.urdf"
+    assert run_pincal("calibrate", "tiago_no_hand", str(split / "low.csv"), "--out", str(cal)).returncode == 0
+    assert "# robot: tiago_no_hand" in (split / "low.csv").read_text(encoding="utf-8")
+    done = run_pincal("calibrate", str(cal), str(split / "low.csv"), "--out", str(tmp_path / "again.urdf"))
+    assert done.returncode in (0, 1), done.stderr
+    other = tmp_path / "other.csv"
+    other.write_text((split / "low.csv").read_text(encoding="utf-8").replace("# robot: tiago_no_hand",
+                                                                             "# robot: ur10"), encoding="utf-8")
+    done = run_pincal("calibrate", str(cal), str(other))
+    assert done.returncode == 2 and "'# robot: ur10' line says the data are of robot 'ur10'" in done.stderr
