@@ -196,13 +196,14 @@ NOMINAL_WORDS = "the nominal robot"
 
 
 def is_calibrated_urdf(path: str | Path) -> bool:
-    """Whether the file at ``path`` is a URDF pincal calibrated: it carries a ``<pincal_provenance>`` or a
-    ``<pincal_calibration>`` element (False for a file that cannot be read)."""
+    """Whether the file at ``path`` is a URDF pincal calibrated: it carries a ``<pincal_calibration>`` element, or a
+    ``<pincal_provenance>`` that records the data it was calibrated from (a simulation's ``truth.urdf`` records none);
+    False for a file that cannot be read."""
     try:
         text = Path(path).read_text(encoding="utf-8", errors="replace")
     except OSError:
         return False
-    return re.search(r"<pincal_(?:provenance|calibration)\b", text) is not None
+    return re.search(r"<pincal_calibration\b|<pincal_provenance\b[^>]*\sdata=\"[^\"]", text) is not None
 
 
 def labelled(means: str, source: str | Path | None) -> str:

@@ -415,6 +415,9 @@ def test_a_calibrated_urdf_given_as_the_robot_is_labelled_so(delta: Path, tmp_pa
         in content["stdout"]
     plain = _check(str(delta / "D" / "cal.urdf"), str(delta / "new.csv"), where=tmp_path, code=None)
     assert plain["nominal_means"].startswith("the nominal robot")
+    truth = run_pincal("calibrate", str(delta / "D" / "truth.urdf"), str(delta / "D" / "measurements.csv"))
+    assert truth.returncode in (0, 1), truth.stderr  # a simulation's truth records no calibration data: not one
+    assert " ".join(truth.stdout.split()).split("(before: ", 1)[1].startswith("the nominal robot")
     page = tmp_path / "again.html"
     done = run_pincal("report", str(delta / "D" / "cal.urdf"), str(delta / "D" / "measurements.csv"), "--out",
                       str(page), "--quiet")
