@@ -34,10 +34,10 @@ from pincal import linalg
 from pincal.calibration import check_pixels as pixel_check
 from pincal.calibration.check_groups import (
     SAME_ERROR,
+    beyond_fitted_range,
     fitted_data,
     group_verdicts,
     nominal_bounds,
-    outside_recorded,
     predicted_check,
     recorded_before,
 )
@@ -58,12 +58,10 @@ from pincal.calibration.options import CalibrationOptions, GivenOptions
 from pincal.calibration.pipeline import check_units
 from pincal.calibration.predicted import PredictedErrors, coverage
 from pincal.calibration.provenance import labelled
-from pincal.calibration.samples import held_out_outside_range
 from pincal.calibration.setup import Prepared
 from pincal.errors import DataError
 from pincal.identification.measurements import Measurement
 from pincal.identification.metrics import angle_columns, length_columns, rms, sample_length_errors
-from pincal.identification.parameters import influencing_joints, read_joints
 from pincal.identification.solver import identify_with
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
@@ -295,16 +293,13 @@ def _side(prepared: Prepared, x: Array, register: bool, options: CalibrationOpti
           which: str | None = None) -> Side:
     """A robot's predictions at ``x``, or, with ``register``, at its setup re-estimated from ``x`` by σ-weighted least
     squares (the solver and iteration limit of ``options``); the start kept, and said so, where the fit ends above
-    it; refused where DATA's readings are no more than the setup's parameters estimated on them
-    (:func:`~pincal.calibration.check_setup.check_exceeds_setup`: ``which``, MODEL or the nominal robot, names the
-    side; None, a probe of plausibility, is not refused)."""
+    it; a fit of DATA exactly refused for side ``which`` (None: a probe) by :func:`check_exceeds_setup`."""
     problem = prepared.problem
     start = Side(prepared, x, problem.evaluate(x, jacobian=False).errors)
     if not register or not len(prepared.parameters):
         return start
     result = identify_with(problem, replace(options.fitting, loss="linear"), x)  # least squares
-    if which is not None:
-        check_exceeds_setup(which, problem, len(result.identified))
+    check_exceeds_setup(which, problem, len(result.identified))
     side = Side(prepared, result.x, problem.evaluate(result.x, jacobian=False).errors, bool(result.converged))
     if weighted_rms(side) > weighted_rms(start):
         return replace(start, converged=side.converged,
@@ -357,17 +352,7 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
     recorded = recorded_before(model, nominal_prepared) if not register else None
     nominal_side = _side(nominal_prepared, recorded, False, options) if recorded is not None \
         else _side(nominal_prepared, nominal_prepared.problem.initial_guess(), True, options, "the nominal robot")
-    outside: list[dict[str, Any]] = []
-    moving = influencing_joints(nominal, sorted({f for m in nominal_prepared.models for f in m.frames}),
-                                read_joints(nominal_prepared.models))
-    ranges = model.calibration.fitted_range if model.calibration is not None else None
-    ranges = ranges or model.provenance.fitted_range
-    if ranges:  # the ranges of the samples the calibration fitted (not of rows it dropped), as the bounds read them
-        outside = outside_recorded(nominal, ranges, nominal_prepared.samples, moving)
-        range_note = None
-    elif fitted is not None:  # a MODEL written before it recorded them: its data's training rows
-        train = fitted.of_set("train") if "train" in fitted.sets else fitted
-        outside = held_out_outside_range(nominal, train, nominal_prepared.samples, joints=moving)
+    outside, range_note = beyond_fitted_range(model, nominal, nominal_prepared, fitted, range_note)
     predicted, note, pixels = predicted_check(model, nominal_prepared)
     return Check(model_side, nominal_side, register, dropped, outside, range_note, dataset.n_samples, predicted, note,
                  _plausibility(nominal_side, model_side, recorded is None, options),

@@ -137,6 +137,26 @@ def outside_recorded(robot: Robot, ranges: dict[str, list[float]], samples: Data
     return held_out_outside_range(robot, bounds, samples, joints=names)
 
 
+def beyond_fitted_range(model: CheckedModel, nominal: Robot, checked: Prepared, fitted: Dataset | None,
+                        note: str | None) -> tuple[list[dict[str, Any]], str | None]:
+    """The readings of the ``checked`` samples beyond the fitted range (as
+    :func:`~pincal.calibration.samples.held_out_outside_range` lists them), and why the range is not known (``note``,
+    None when it is): the range MODEL records, of the samples the calibration fitted (not of rows it dropped), as the
+    bounds read it; for a MODEL written before it recorded one, the training rows of its data (``fitted``)."""
+    from pincal.identification.parameters import influencing_joints, read_joints
+
+    moving = influencing_joints(nominal, sorted({f for m in checked.models for f in m.frames}),
+                                read_joints(checked.models))
+    ranges = model.calibration.fitted_range if model.calibration is not None else None
+    ranges = ranges or model.provenance.fitted_range
+    if ranges:
+        return outside_recorded(nominal, ranges, checked.samples, moving), None
+    if fitted is not None:
+        train = fitted.of_set("train") if "train" in fitted.sets else fitted
+        return held_out_outside_range(nominal, train, checked.samples, joints=moving), note
+    return [], note
+
+
 def fitted_data(model: CheckedModel, nominal: Robot) -> tuple[Dataset | None, str | None]:
     """The data the calibration fitted, as the model's provenance records it, or None and why not (no record, the
     file gone or changed since, or unreadable)."""

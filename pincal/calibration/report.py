@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration import section
 from pincal.calibration.covariance import parameter_covariance
 from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.on_demand import on_demand
@@ -45,17 +46,7 @@ from pincal.calibration.report_sections import (
     SampleError,
     WorkspacePrediction,
 )
-from pincal.calibration.section import (
-    OPTIONAL,
-    Section,
-    at_least,
-    by_name,
-    listed,
-    nested,
-    numbers_by_name,
-    positive_lists_by_name,
-    ranges_by_name,
-)
+from pincal.calibration.section import OPTIONAL, Section, by_name, listed, nested
 from pincal.calibration.setup_parameters import setup_columns
 from pincal.errors import DataError
 from pincal.identification.corrections import Payload, payload_from_dict
@@ -163,7 +154,7 @@ class CalibrationReport:
     max_before: float | None = None
     max_after: float | None = None
     before_means: str = ""
-    before_parameters: dict[str, float] = field(default_factory=dict, metadata=nested(numbers_by_name))
+    before_parameters: dict[str, float] = field(default_factory=dict, metadata=nested(section.numbers_by_name))
     rms_start: float | None = field(default=None, metadata=OPTIONAL)
     rms_angle_start: float | None = field(default=None, metadata=OPTIONAL)
     start_means: str = ""
@@ -172,7 +163,7 @@ class CalibrationReport:
     message: str = ""
     solver: str = ""
     loss: str = ""
-    sigma2: float | None = field(default=None, metadata=nested(at_least(0.0)))
+    sigma2: float | None = field(default=None, metadata=nested(section.at_least(0.0)))
     cost_history: list[float] = field(default_factory=list)
     parameters: dict[str, ParameterEstimate] = field(default_factory=dict,
                                                      metadata=nested(by_name(ParameterEstimate)))
@@ -241,9 +232,9 @@ class CalibrationReport:
                                                               metadata=nested(by_name(EstimatedSigma), **OPTIONAL))
     sample_errors: list[SampleError] = field(default_factory=list, metadata=nested(listed(SampleError)))
     covariance: Covariance | None = field(default=None, metadata=nested(Covariance.from_json, **OPTIONAL))
-    fitted_range: dict[str, list[float]] = field(default_factory=dict, metadata=nested(ranges_by_name))
+    fitted_range: dict[str, list[float]] = field(default_factory=dict, metadata=nested(section.ranges_by_name))
     error_growth: ErrorGrowth | None = field(default=None, metadata=nested(_read_growth, **OPTIONAL))
-    row_sigma: dict[str, list[float]] = field(default_factory=dict, metadata=nested(positive_lists_by_name))
+    row_sigma: dict[str, list[float]] = field(default_factory=dict, metadata=nested(section.positive_lists_by_name))
     predicted_workspace: WorkspacePrediction | None = field(default=None,
                                                             metadata=nested(WorkspacePrediction.from_json, **OPTIONAL))
     predicted_held_out: HeldOutPredictions | None = field(default=None,

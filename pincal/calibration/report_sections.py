@@ -10,12 +10,10 @@ holds them. Units: SI (m, rad), as each record's docstring says.
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import field
 from typing import Any
 
-from pincal.calibration.section import EXPECTED, OPTIONAL, Section, listed, nested
-from pincal.errors import DataError
+from pincal.calibration.section import OPTIONAL, Section, listed, nested, square
 from pincal.records import record
 
 
@@ -403,22 +401,11 @@ class Covariance(Section):
 
     @classmethod
     def from_json(cls, value: Any, where: str) -> Covariance:
-        """The covariance of a JSON object: its parameters' names and an n × n matrix of numbers (null where not
-        given).
-
-        Raises:
-            DataError: anything else.
+        """The covariance of a JSON object: n names and an n × n matrix (:func:`~pincal.calibration.section.square`).
         """
-        read = Section.from_json.__func__(cls, value, where)  # type: ignore[attr-defined]
-        names, matrix = read.parameters, read.matrix
-        n = len(names) if isinstance(names, list) else -1
-        if n < 0 or not all(isinstance(name, str) for name in names) or not isinstance(matrix, list) \
-                or len(matrix) != n or not all(isinstance(row, list) and len(row) == n and all(
-                    v is None or (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v))
-                    for v in row) for row in matrix):
-            raise DataError(f"{where} is not an object of 'parameters' (n names) and 'matrix' (n × n numbers or null): "
-                            f"{EXPECTED}")
-        return read  # type: ignore[no-any-return]
+        read: Covariance = Section.from_json.__func__(cls, value, where)  # type: ignore[attr-defined]
+        square(read.parameters, read.matrix, where)
+        return read
 
 
 @record(frozen=True)

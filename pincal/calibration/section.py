@@ -67,6 +67,19 @@ def ranges_by_name(value: Any, where: str) -> dict[str, list[float]]:
     return {name: [float(item[0]), float(item[1])] for name, item in content.items()}
 
 
+def square(names: Any, matrix: Any, where: str) -> None:
+    """Refuse what is not ``n`` names and an ``n × n`` matrix of finite numbers or null (a covariance's).
+
+    Raises:
+        DataError: naming ``where``.
+    """
+    n = len(names) if isinstance(names, list) and all(isinstance(name, str) for name in names) else -1
+    if n < 0 or not isinstance(matrix, list) or len(matrix) != n or not all(
+            isinstance(row, list) and len(row) == n and all(v is None or _finite(v) for v in row) for row in matrix):
+        raise DataError(f"{where} is not an object of 'parameters' (n names) and 'matrix' (n × n numbers or null): "
+                        f"{EXPECTED}")
+
+
 def positive_lists_by_name(value: Any, where: str) -> dict[str, list[float]]:
     """The reader of a JSON object of lists of finite numbers > 0 by name (each measurement's row σ)."""
     content = _expect_mapping(value, where)

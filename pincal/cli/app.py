@@ -215,15 +215,12 @@ DEMO_TEXT = """pincal demo: geometric calibration of the Delta robot of study 00
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    """``pincal demo``: simulate and calibrate the Delta robot (``model24`` parameters, platform positions) and
-    write the calibrated URDF, an offline HTML report and the simulated data."""
-    from dataclasses import replace
-
+    """``pincal demo``: simulate and calibrate the Delta (``model24``, platform positions); write its files and page."""
     from pincal.calibration.campaign import simulate, write_simulation
+    from pincal.calibration.from_files import write_recorded
     from pincal.calibration.pipeline import calibrate
-    from pincal.calibration.provenance import Provenance, file_source, options_dict, robot_source, with_provenance
     from pincal.calibration.summary import summary_text
-    from pincal.io.files import check_directory, write_text
+    from pincal.io.files import check_directory
     from pincal.model.catalog import robot_path
     from pincal.model.robot import load_robot
     from pincal.progress import Progress
@@ -240,12 +237,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         options = CalibrationOptions(parameter_spec=("model24",))
         cal = calibrate(robot, sim.dataset, options, x_true=sim.x_true)
         progress.advance()
-    # what the files came from, as calibrate records it: check and compensate then find the robot and the data
-    provenance = Provenance(robot_source("delta", robot), [file_source(out / "measurements.csv")],
-                            options_dict(options), fitted_range=cal.report.fitted_range)
-    cal.report = replace(cal.report, provenance=provenance.record(out))
-    write_text(out / "delta_calibrated.urdf", with_provenance(cal.urdf_text, provenance, out))
-    write_text(out / "report.json", cal.report.to_json())
+    write_recorded(cal, "delta", options, out / "measurements.csv", out / "delta_calibrated.urdf", out / "report.json")
     report_html = write_demo_report(cal, out, quiet=False)  # reads out/truth.json, written above; its own bars
     print(summary_text(cal.report, cal.result.seconds, str(out / "report.json")))
     print(cal.proof)
