@@ -54,15 +54,22 @@ def with_carried(urdf_text: str, report: CalibrationReport) -> str:
 
 def read_carried(path: str | Path) -> CalibrationReport | None:
     """The calibration a URDF at ``path`` carries (a report of :data:`CARRIED`'s fields), or None when it carries none
-    or it cannot be read as one."""
+    (a URDF written before pincal carried it; a file that is no XML, which the URDF's reader names).
+
+    Raises:
+        DataError: the element is there but is not a calibration's: not JSON, or a field holding what no calibration
+            writes (:meth:`~pincal.calibration.report.CalibrationReport.from_json`), naming the file and the field.
+    """
     try:
         element = ET.parse(str(path)).getroot().find(ELEMENT)
     except (OSError, ET.ParseError):
         return None
     if element is None or not element.text:
         return None
+    where = f"the <{ELEMENT}> element of '{path}'"
     try:
         content: Any = json.loads(element.text)
-        return CalibrationReport.from_json(content, f"the {ELEMENT} element of '{path}'")
-    except (json.JSONDecodeError, DataError):
-        return None
+    except json.JSONDecodeError as exc:
+        raise DataError(f"{where} is not JSON ({exc}): a calibrated URDF carries its calibration there as "
+                        "'pincal calibrate --out' wrote it; write the file again, or remove the element") from None
+    return CalibrationReport.from_json(content, where)

@@ -34,10 +34,10 @@ from pincal import linalg
 from pincal.calibration import check_pixels as pixel_check
 from pincal.calibration.check_groups import (
     SAME_ERROR,
+    beyond_fitted_range,
     fitted_data,
     group_verdicts,
     nominal_bounds,
-    outside_recorded,
     predicted_check,
     recorded_before,
 )
@@ -47,6 +47,7 @@ from pincal.calibration.check_pixels import number as _number
 from pincal.calibration.check_plausibility import Beyond, Implausible, beyond_plausible, implausible_data
 from pincal.calibration.check_setup import (
     NOMINAL_AS_CALIBRATED,
+    check_exceeds_setup,
     file_setup,
     model_intrinsics,
     model_means,
@@ -56,12 +57,11 @@ from pincal.calibration.check_setup import (
 from pincal.calibration.options import CalibrationOptions, GivenOptions
 from pincal.calibration.pipeline import check_units
 from pincal.calibration.predicted import PredictedErrors, coverage
-from pincal.calibration.samples import held_out_outside_range
+from pincal.calibration.provenance import labelled
 from pincal.calibration.setup import Prepared
 from pincal.errors import DataError
 from pincal.identification.measurements import Measurement
 from pincal.identification.metrics import angle_columns, length_columns, rms, sample_length_errors
-from pincal.identification.parameters import influencing_joints, read_joints
 from pincal.identification.solver import identify_with
 from pincal.io.dataset import Dataset
 from pincal.model.robot import Robot
@@ -289,15 +289,17 @@ def weighted_rms(side: Side) -> float:
     return rms(values)
 
 
-def _side(prepared: Prepared, x: Array, register: bool, options: CalibrationOptions) -> Side:
+def _side(prepared: Prepared, x: Array, register: bool, options: CalibrationOptions,
+          which: str | None = None) -> Side:
     """A robot's predictions at ``x``, or, with ``register``, at its setup re-estimated from ``x`` by σ-weighted least
     squares (the solver and iteration limit of ``options``); the start kept, and said so, where the fit ends above
-    it."""
+    it; a fit of DATA exactly refused for side ``which`` (None: a probe) by :func:`check_exceeds_setup`."""
     problem = prepared.problem
     start = Side(prepared, x, problem.evaluate(x, jacobian=False).errors)
     if not register or not len(prepared.parameters):
         return start
     result = identify_with(problem, replace(options.fitting, loss="linear"), x)  # least squares
+    check_exceeds_setup(which, problem, len(result.identified))
     side = Side(prepared, result.x, problem.evaluate(result.x, jacobian=False).errors, bool(result.converged))
     if weighted_rms(side) > weighted_rms(start):
         return replace(start, converged=side.converged,
@@ -346,32 +348,22 @@ def check_model(model: CheckedModel, nominal: Robot, dataset: Dataset, options: 
     x_model = file_setup(model_prepared.problem, register)
     if register:
         x_model = model_prepared.problem.initial_guess(x_model)
-    model_side = _side(model_prepared, x_model, register, options)
+    model_side = _side(model_prepared, x_model, register, options, "MODEL")
     recorded = recorded_before(model, nominal_prepared) if not register else None
     nominal_side = _side(nominal_prepared, recorded, False, options) if recorded is not None \
-        else _side(nominal_prepared, nominal_prepared.problem.initial_guess(), True, options)
-    outside: list[dict[str, Any]] = []
-    moving = influencing_joints(nominal, sorted({f for m in nominal_prepared.models for f in m.frames}),
-                                read_joints(nominal_prepared.models))
-    ranges = model.calibration.fitted_range if model.calibration is not None else None
-    ranges = ranges or model.provenance.fitted_range
-    if fitted is not None:
-        train = fitted.of_set("train") if "train" in fitted.sets else fitted
-        outside = held_out_outside_range(nominal, train, nominal_prepared.samples, joints=moving)
-    elif ranges:  # the ranges MODEL records, where its data are not at hand
-        outside = outside_recorded(nominal, ranges, nominal_prepared.samples, moving)
-        range_note = None
+        else _side(nominal_prepared, nominal_prepared.problem.initial_guess(), True, options, "the nominal robot")
+    outside, range_note = beyond_fitted_range(model, nominal, nominal_prepared, fitted, range_note)
     predicted, note, pixels = predicted_check(model, nominal_prepared)
     return Check(model_side, nominal_side, register, dropped, outside, range_note, dataset.n_samples, predicted, note,
-                 _plausibility(nominal_side, recorded is None, options),
+                 _plausibility(nominal_side, model_side, recorded is None, options),
                  nominal_bounds(model, predicted) if predicted is not None else None, pixels)
 
 
-def _plausibility(nominal: Side, register: bool, options: CalibrationOptions) -> Implausible | None:
+def _plausibility(nominal: Side, model: Side, register: bool, options: CalibrationOptions) -> Implausible | None:
     """Whether DATA can be of the nominal robot, as ``calibrate`` judges it
     (:mod:`pincal.calibration.check_plausibility`), when its errors with its setup fitted to DATA are beyond a robot of
     its model (registered here for that when the check does not register: a setup placed in closed form may be what
-    is off)."""
+    is off); MODEL's errors within those limits say that a calibrated robot of this model explains them."""
     def beyond(side: Side) -> Beyond | None:
         return beyond_plausible(rms(_length_norms(side.errors)), rms(_angle_norms(side.errors)), options.plausible)
 
@@ -379,7 +371,7 @@ def _plausibility(nominal: Side, register: bool, options: CalibrationOptions) ->
     if found is not None and not register:
         found = beyond(_side(nominal.prepared, nominal.x, True, options))
     return None if found is None else implausible_data(found, nominal.prepared.robot, nominal.prepared.samples,
-                                                       nominal.prepared.models, options)
+                                                       nominal.prepared.models, options, beyond(model) is None)
 
 
 def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
@@ -394,8 +386,9 @@ def check_content(check: Check, sources: Mapping[str, Any]) -> dict[str, Any]:
         **dict(sources),
         "registered": check.registered,
         "model_means": model_means(check.model.prepared.parameters, check.registered),
-        "nominal_means": NOMINAL_AS_CALIBRATED if check.nominal.converged is None and not check.registered
-        else nominal_means(check.nominal.prepared.parameters),
+        "nominal_means": labelled(NOMINAL_AS_CALIBRATED if check.nominal.converged is None and not check.registered
+                                  else nominal_means(check.nominal.prepared.parameters),
+                                  check.nominal.prepared.robot.source),
         "registration_notes": {side: s.note for side, s in (("model", check.model), ("nominal", check.nominal))
                                if s.note},
         "n_samples_in_file": check.n_samples_in_file,
@@ -435,14 +428,13 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
         DataError: no nominal robot given or recorded, or one given that MODEL does not record; no row of set
             ``rows``; as :func:`check_model`.
     """
-    from pincal.calibration.check_model import check_arguments, check_nominal, is_report, load_model
+    from pincal.calibration.check_model import check_arguments, is_report, load_model, load_nominal
     from pincal.calibration.job import read_job
     from pincal.calibration.job_data import job_dataset
     from pincal.calibration.provenance import file_digests, read_provenance, sha256, version
     from pincal.calibration.samples import read_robot_dataset
     from pincal.io.corrections_file import corrections_path
     from pincal.io.files import check_outputs
-    from pincal.model.robot import load_robot
 
     check_arguments(model_path, data_path)
     if is_report(model_path):  # an unreadable report is named as such, not as one that records nothing
@@ -455,8 +447,7 @@ def run_check(model_path: str, data_path: str, nominal_path: str | None, options
     if nominal_name is None:
         raise DataError(f"MODEL '{model_path}' records no nominal robot (no pincal provenance in it): give the robot "
                         "it was calibrated from with nominal_path=ROBOT", option="nominal_path")
-    nominal = load_robot(nominal_name)
-    check_nominal(model_path, nominal_path, nominal, provenance)
+    nominal = load_nominal(model_path, nominal_path, nominal_name, provenance)
     job = read_job(data_path) if data_path.endswith(".toml") else None
     inputs: list[str | Path] = [model_path, corrections_path(model_path), data_path, *(job.files if job else ()),
                                 *(p for p in (nominal.source, provenance.data) if p is not None)]

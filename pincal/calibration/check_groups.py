@@ -62,6 +62,31 @@ def group_verdicts(model_errors: dict[str, Array], nominal_errors: dict[str, Arr
     return out
 
 
+def beyond_verdict(content: dict[str, Any]) -> str | None:
+    """The verdict on the postures beyond the fitted range, in words, of a check's report ``content`` (its ``groups``;
+    lengths shown in mm) when MODEL predicts them worse than the nominal robot and DATA are plausible; else None. The
+    terminal and the page say the same sentence."""
+    beyond = (content.get("groups") or {}).get("beyond") or {}
+    if content.get("implausible") is not None or not beyond.get("worse"):
+        return None
+    return (f"MODEL predicts the {beyond['n']} postures beyond its fitted joint range WORSE than the nominal robot "
+            f"({beyond['rms'] * 1e3:.4f} mm against {beyond['nominal_rms'] * 1e3:.4f} mm RMS), whatever the total: "
+            "do not use MODEL there (calibrate over postures that cover them)")
+
+
+def beyond_note(content: dict[str, Any]) -> str | None:
+    """Why postures beyond the fitted range that MODEL predicts worse than the nominal robot do not fail the check:
+    fewer than :data:`MIN_GROUP` of them (lengths shown in mm); None otherwise."""
+    beyond = (content.get("groups") or {}).get("beyond") or {}
+    n, model, nominal = beyond.get("n") or 0, beyond.get("rms"), beyond.get("nominal_rms")
+    if content.get("implausible") is not None or not 0 < n < MIN_GROUP or model is None or nominal is None \
+            or not model > (1.0 + SAME_ERROR) * nominal:
+        return None
+    return (f"MODEL predicts the {n} posture{'s' if n > 1 else ''} beyond its fitted joint range worse than the "
+            f"nominal robot ({model * 1e3:.4f} mm against {nominal * 1e3:.4f} mm RMS), too few (fewer than "
+            f"{MIN_GROUP}) for a verdict of their own")
+
+
 def predicted_check(model: CheckedModel, nominal: Prepared
                     ) -> tuple[PredictedErrors | None, str | None, PixelBounds | None]:
     """Each checked sample's predicted error under MODEL (:mod:`pincal.calibration.predicted`): the calibration's
@@ -110,6 +135,26 @@ def outside_recorded(robot: Robot, ranges: dict[str, list[float]], samples: Data
     limits = np.array([[ranges[j][0] for j in names], [ranges[j][1] for j in names]])
     bounds = Dataset(names, limits, {}, ["min", "max"], ["train", "train"], {})
     return held_out_outside_range(robot, bounds, samples, joints=names)
+
+
+def beyond_fitted_range(model: CheckedModel, nominal: Robot, checked: Prepared, fitted: Dataset | None,
+                        note: str | None) -> tuple[list[dict[str, Any]], str | None]:
+    """The readings of the ``checked`` samples beyond the fitted range (as
+    :func:`~pincal.calibration.samples.held_out_outside_range` lists them), and why the range is not known (``note``,
+    None when it is): the range MODEL records, of the samples the calibration fitted (not of rows it dropped), as the
+    bounds read it; for a MODEL written before it recorded one, the training rows of its data (``fitted``)."""
+    from pincal.identification.parameters import influencing_joints, read_joints
+
+    moving = influencing_joints(nominal, sorted({f for m in checked.models for f in m.frames}),
+                                read_joints(checked.models))
+    ranges = model.calibration.fitted_range if model.calibration is not None else None
+    ranges = ranges or model.provenance.fitted_range
+    if ranges:
+        return outside_recorded(nominal, ranges, checked.samples, moving), None
+    if fitted is not None:
+        train = fitted.of_set("train") if "train" in fitted.sets else fitted
+        return held_out_outside_range(nominal, train, checked.samples, joints=moving), note
+    return [], note
 
 
 def fitted_data(model: CheckedModel, nominal: Robot) -> tuple[Dataset | None, str | None]:

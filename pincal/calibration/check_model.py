@@ -8,6 +8,7 @@ its instrumented passive joints' sensors (docs/calibrated_urdf.md). SI units: m,
 
 from __future__ import annotations
 
+import json
 from dataclasses import field
 from pathlib import Path
 
@@ -137,6 +138,24 @@ def check_nominal(model: str, given: str | None, nominal: Robot, recorded: Recor
                     f"'{model}' records): leave it out, or give that robot", option="nominal_path")
 
 
+def load_nominal(model: str, given: str | None, name: str, recorded: Recorded) -> Robot:
+    """The nominal robot ``name``: ``given`` (``--nominal``), else the one MODEL records (``recorded``), checked by
+    :func:`check_nominal`.
+
+    Raises:
+        DataError: the URDF MODEL records (relative to MODEL's folder) is not there: MODEL moved without it; or as
+            :func:`check_nominal`.
+        RobotFileError, NotFoundError: the robot cannot be loaded.
+    """
+    if given is None and (Path(name).suffix or "/" in name) and not Path(name).is_file():
+        raise DataError(f"MODEL '{model}' records its nominal robot as '{name}' (its URDF, relative to MODEL's "
+                        "folder), which is not there: give the robot it was calibrated from with nominal_path=ROBOT",
+                        option="nominal_path")
+    nominal = load_robot(name)
+    check_nominal(model, given, nominal, recorded)
+    return nominal
+
+
 def check_arguments(model: str, data: str) -> None:
     """Refuse a MODEL or DATA argument that is not what ``pincal check`` reads, before anything is read: MODEL a
     directory, a device or pipe, data (a CSV or a job file), a text or binary file that is no URDF, a file that does
@@ -163,11 +182,41 @@ def check_arguments(model: str, data: str) -> None:
     elif kind == "json" and Path(model).suffix.lower() != ".json":
         raise DataError(f"MODEL '{model}' is JSON text not named *.json (a report JSON is told by its suffix): "
                         f"{MODEL_AND_DATA}")
+    elif kind == "json":
+        _check_report_format(model)
     problem = input_problem(Path(data))
     if problem is not None:
         raise DataError(f"DATA '{data}' {problem}, where data were expected: {MODEL_AND_DATA}")
     if (kind := file_kind(Path(data))) in ("urdf", "xml", "json"):
         raise DataError(f"DATA '{data}' is {KIND_WORDS[kind]}, where data were expected: {MODEL_AND_DATA}")
+
+
+#: The JSON files of pincal that are not a calibration's report, by their ``format``: what each is.
+OTHER_JSON = {"pincal joint corrections 1": "a pincal corrections file",
+              "pincal check 1": "the report of a pincal check"}
+
+
+def _check_report_format(path: str) -> None:
+    """Refuse a MODEL JSON that pincal wrote as something else than a calibration's report (its ``format``): a
+    corrections file (its calibrated URDF, ``<stem>.urdf`` beside it, pointed to), a check's report. A file that
+    cannot be read as JSON is left to the report's reader, which names it.
+
+    Raises:
+        DataError: naming the file and what it is.
+    """
+    try:
+        content = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return
+    written = content.get("format") if isinstance(content, dict) else None
+    if written not in OTHER_JSON:
+        return
+    hint = ""
+    if written == "pincal joint corrections 1":
+        stem = Path(path).name.removesuffix(".json").removesuffix(".corrections")
+        hint = f": give the calibrated URDF it sits beside ('{Path(path).with_name(stem + '.urdf')}')"
+    raise DataError(f"MODEL '{path}' is {OTHER_JSON[written]} (format '{written}'), not a calibration's report{hint}; "
+                    f"{MODEL_AND_DATA}")
 
 
 def is_report(path: str | Path) -> bool:

@@ -54,6 +54,23 @@ def nominal_means(parameters: ParameterSet) -> str:
             "on DATA by least squares from its placement in closed form")
 
 
+def check_exceeds_setup(side: str | None, problem: CalibrationProblem, estimated: int) -> None:
+    """Refuse a registration that fits DATA exactly: ``side`` (``MODEL``, ``the nominal robot``) had ``estimated`` of
+    its setup's parameters re-estimated on DATA's readings (``problem``'s residual rows), and no more readings than
+    those leaves the errors zero whatever the robot: the comparison would say nothing of MODEL. ``side`` None: a
+    probe (the plausibility's registration), never refused.
+
+    Raises:
+        DataError: the readings are no more than the setup parameters estimated on them.
+    """
+    rows = int(problem.row_samples().size)
+    if side is not None and estimated and rows <= estimated:
+        raise DataError(f"DATA's {rows} readings are no more than the {estimated} parameters of {side}'s measurement "
+                        f"setup ({setup_phrase(p.kind for p in problem.parameters)}) registered on them: the "
+                        "registration fits DATA exactly, and the errors say nothing of MODEL; check on more samples"
+                        + (", or without --register (MODEL's setup as its file holds it)" if side == "MODEL" else ""))
+
+
 NOMINAL_AS_CALIBRATED = ("the nominal robot with the measurement setup the calibration registered for it on its own "
                          "data (calibrate's 'before', recorded in MODEL), as it stands, as MODEL is")
 

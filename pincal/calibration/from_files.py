@@ -81,6 +81,18 @@ def _written(cal: Calibration, robot: Robot, provenance: Provenance, out: str | 
     return cal
 
 
+def write_recorded(cal: Calibration, robot_given: str, options: CalibrationOptions, data_path: Path, out: Path,
+                   report: Path) -> None:
+    """Write ``cal`` (a calibration of the robot ``robot_given``, a name or a URDF path, on the data file ``data_path``,
+    with ``options``) as the calibrated URDF ``out`` and the report ``report``, with the provenance
+    :func:`calibrate_files` records (``cal`` takes the report's): what ``pincal demo`` writes, so that ``check`` and
+    ``compensate`` find its robot and data."""
+    provenance = Provenance(robot_source(robot_given, cal.problem.robot), [file_source(data_path)],
+                            options_dict(options), fitted_range=cal.report.fitted_range)
+    cal.report = replace(cal.report, provenance=provenance.record(report.parent))
+    write_texts([(out, with_provenance(cal.urdf_text, provenance, out.parent)), (report, cal.report.to_json())])
+
+
 def calibrate_files(robot_path: str, data_path: str, out_urdf: str | None, report_path: str | None,
                     meshes: MeshMode = "keep", options: CalibrationOptions | None = None,
                     progress: bool = False) -> Calibration:

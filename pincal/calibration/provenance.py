@@ -191,6 +191,31 @@ def _resolved(entry: str, folder: Path) -> str:
     return str(candidate) if candidate.is_file() or Path(entry).suffix or "/" in entry else entry
 
 
+#: What the summaries call the robot a calibration starts from, when it is one.
+NOMINAL_WORDS = "the nominal robot"
+
+
+def is_calibrated_urdf(path: str | Path) -> bool:
+    """Whether the file at ``path`` is a URDF pincal calibrated: it carries a ``<pincal_calibration>`` element, or a
+    ``<pincal_provenance>`` that records the data it was calibrated from (a simulation's ``truth.urdf`` records none);
+    False for a file that cannot be read."""
+    try:
+        text = Path(path).read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return False
+    return re.search(r"<pincal_calibration\b|<pincal_provenance\b[^>]*\sdata=\"[^\"]", text) is not None
+
+
+def labelled(means: str, source: str | Path | None) -> str:
+    """``means``, words about the robot a calibration or check starts from (``"the nominal robot, …"``), with that
+    robot named for what it is when its file ``source`` is a calibrated URDF given as the robot: a calibration, not a
+    nominal robot (issue 37). Other words are returned as they are."""
+    if source is None or not means.startswith(NOMINAL_WORDS) or not is_calibrated_urdf(source):
+        return means
+    return (f"the calibrated URDF '{Path(source).name}' given as the robot (a calibration, not a nominal robot)"
+            + means[len(NOMINAL_WORDS):])
+
+
 def read_provenance(path: str | Path) -> Recorded:
     """The provenance a calibrated URDF (its ``<pincal_provenance>`` element) or a report JSON (its ``provenance``)
     records; an empty one when it records none or cannot be read."""

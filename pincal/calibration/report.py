@@ -22,9 +22,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pincal.calibration import section
 from pincal.calibration.covariance import parameter_covariance
 from pincal.calibration.growth import ErrorGrowth
 from pincal.calibration.on_demand import on_demand
+from pincal.calibration.provenance import labelled
 from pincal.calibration.report_sections import (
     BadJointReading,
     CameraRecord,
@@ -77,6 +79,15 @@ def _read_growth(value: Any, where: str) -> ErrorGrowth:
     if growth is None:
         raise DataError(f"{where} is not an object of numbers 'rho0', 'nominal0', 'nominal1', 'reach', 'inside', "
                         "'beyond': expected a report written by 'pincal calibrate --report'")
+    given = {"rho0": growth.rho0, "nominal1": growth.nominal1, "reach": growth.reach, "inside": growth.inside,
+             "beyond": growth.beyond}
+    if value.get("nominal0") is not None:  # null: the nominal robot's bound not known
+        given["nominal0"] = growth.nominal0
+    bad = [key for key, v in given.items() if not math.isfinite(v) or v < 0 or (key == "rho0" and v == 0)]
+    if bad:
+        raise DataError(f"{where}['{bad[0]}'] is {value.get(bad[0])!r}, not a finite number "
+                        f"{'> 0' if bad[0] == 'rho0' else '≥ 0'}: expected a report written by 'pincal calibrate "
+                        "--report'")
     return growth
 
 
@@ -143,7 +154,7 @@ class CalibrationReport:
     max_before: float | None = None
     max_after: float | None = None
     before_means: str = ""
-    before_parameters: dict[str, float] = field(default_factory=dict)
+    before_parameters: dict[str, float] = field(default_factory=dict, metadata=nested(section.numbers_by_name))
     rms_start: float | None = field(default=None, metadata=OPTIONAL)
     rms_angle_start: float | None = field(default=None, metadata=OPTIONAL)
     start_means: str = ""
@@ -152,7 +163,7 @@ class CalibrationReport:
     message: str = ""
     solver: str = ""
     loss: str = ""
-    sigma2: float | None = None
+    sigma2: float | None = field(default=None, metadata=nested(section.at_least(0.0)))
     cost_history: list[float] = field(default_factory=list)
     parameters: dict[str, ParameterEstimate] = field(default_factory=dict,
                                                      metadata=nested(by_name(ParameterEstimate)))
@@ -221,9 +232,9 @@ class CalibrationReport:
                                                               metadata=nested(by_name(EstimatedSigma), **OPTIONAL))
     sample_errors: list[SampleError] = field(default_factory=list, metadata=nested(listed(SampleError)))
     covariance: Covariance | None = field(default=None, metadata=nested(Covariance.from_json, **OPTIONAL))
-    fitted_range: dict[str, list[float]] = field(default_factory=dict)
+    fitted_range: dict[str, list[float]] = field(default_factory=dict, metadata=nested(section.ranges_by_name))
     error_growth: ErrorGrowth | None = field(default=None, metadata=nested(_read_growth, **OPTIONAL))
-    row_sigma: dict[str, list[float]] = field(default_factory=dict)
+    row_sigma: dict[str, list[float]] = field(default_factory=dict, metadata=nested(section.positive_lists_by_name))
     predicted_workspace: WorkspacePrediction | None = field(default=None,
                                                             metadata=nested(WorkspacePrediction.from_json, **OPTIONAL))
     predicted_held_out: HeldOutPredictions | None = field(default=None,
@@ -361,18 +372,19 @@ def before_figures(problem: CalibrationProblem, before: Any) -> dict[str, Any]:
     registration moved off it."""
     norms, angles = error_norms(before.errors), angle_error_norms(before.errors)
     columns = setup_columns(problem.parameters)
+    source = problem.robot.source  # a calibrated URDF given as the robot is named so, not "the nominal robot"
     out: dict[str, Any] = {
         "rms_before": _clean(rms(norms)), "max_before": _clean(float(norms.max())) if norms.size else None,
         "before_parameters": {problem.parameters.names[k]: float(before.x[k]) for k in columns},
-        "before_means": registered_means(problem.parameters, columns) if before.registered
-        else "; ".join(filter(None, [before_means(problem), before.note]))}
+        "before_means": labelled(registered_means(problem.parameters, columns) if before.registered
+                                 else "; ".join(filter(None, [before_means(problem), before.note])), source)}
     if angles.size:
         out.update({"rms_angle_before": _clean(rms(angles)), "max_angle_before": _clean(float(angles.max()))})
     if pixel_error_norms(before.errors).size:  # the registered robot's reprojection error, beside the fit's after
         out["pixels_before"] = _clean(rms(pixel_error_norms(before.errors)))
     if before.registered:
         start, start_angles = error_norms(before.start_errors), angle_error_norms(before.start_errors)
-        out.update({"rms_start": _clean(rms(start)), "start_means": before_means(problem),
+        out.update({"rms_start": _clean(rms(start)), "start_means": labelled(before_means(problem), source),
                     "rms_angle_start": _clean(rms(start_angles)) if start_angles.size else None})
     return out
 

@@ -13,7 +13,7 @@ import dataclasses
 from dataclasses import field
 from typing import Any
 
-from pincal.calibration.section import OPTIONAL, Section, listed, nested
+from pincal.calibration.section import OPTIONAL, Section, listed, nested, square
 from pincal.records import record
 
 
@@ -398,6 +398,14 @@ class Covariance(Section):
 
     parameters: list[str] = field(default_factory=list)
     matrix: list[list[float | None]] = field(default_factory=list)
+
+    @classmethod
+    def from_json(cls, value: Any, where: str) -> Covariance:
+        """The covariance of a JSON object: n names and an n × n matrix (:func:`~pincal.calibration.section.square`).
+        """
+        read: Covariance = Section.from_json.__func__(cls, value, where)  # type: ignore[attr-defined]
+        square(read.parameters, read.matrix, where)
+        return read
 
 
 @record(frozen=True)

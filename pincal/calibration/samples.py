@@ -56,17 +56,24 @@ def read_robot_dataset(path: str | Path, robot: Robot, min_samples: int = 2) -> 
 
 def check_recorded_robot(metadata: Mapping[str, str], robot: Robot, path: str | Path) -> None:
     """Refuse a file whose ``# robot:`` line names another robot than ``robot`` (its URDF's ``<robot name>`` or file
-    name).
+    name, or for a calibrated URDF the robot it was calibrated from, as its provenance records it).
 
     Raises:
         DataError: naming the file and both robots.
     """
+    from pincal.calibration.provenance import read_provenance
+
     recorded = metadata.get("robot")
     names = {robot.name} | ({robot.source.stem} if robot.source is not None else set())
+    calibrated_from = (read_provenance(robot.source).robot
+                       if recorded is not None and recorded not in names and robot.source else None)
+    if calibrated_from:  # a calibrated URDF: the data of the robot it was calibrated from are its own
+        names |= {calibrated_from, Path(calibrated_from).stem}
     if recorded is not None and recorded not in names:
         raise DataError(f"{path}: its '# robot: {recorded}' line says the data are of robot '{recorded}', not of "
-                        f"{' or '.join(repr(n) for n in sorted(names))} (the URDF's <robot name> or file name); give "
-                        "the robot the data were taken on, or correct that line")
+                        f"{' or '.join(repr(n) for n in sorted(names))} (the URDF's <robot name> or file name"
+                        f"{', or the robot it was calibrated from' if calibrated_from else ''}); give the robot the "
+                        "data were taken on, or correct that line")
 
 
 def check_moving_frames(robot: Robot, models: Sequence[Measurement]) -> None:

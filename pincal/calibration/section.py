@@ -9,6 +9,7 @@ know are left out, keys an older file lacks take their default, values are kept 
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import fields
 from typing import Any, TypeVar
@@ -22,10 +23,70 @@ S = TypeVar("S", bound="Section")
 OPTIONAL = {"optional": True}
 
 
+#: What a value that no calibration writes is told to be instead.
+EXPECTED = "expected a report written by 'pincal calibrate --report'"
+
+
 def _expect_mapping(value: Any, where: str) -> Mapping[str, Any]:
     if not isinstance(value, dict):
-        raise DataError(f"{where} is not a JSON object: expected a report written by 'pincal calibrate --report'")
+        raise DataError(f"{where} is not a JSON object: {EXPECTED}")
     return value
+
+
+def _finite(value: Any) -> bool:
+    """Whether ``value`` is a finite JSON number (not a boolean)."""
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def at_least(minimum: float) -> Callable[[Any, str], float]:
+    """The reader of a finite number ≥ ``minimum`` (a variance factor: ≥ 0)."""
+
+    def read(value: Any, where: str) -> float:
+        if not _finite(value) or value < minimum:
+            raise DataError(f"{where} is {value!r}, not a finite number ≥ {minimum:g}: {EXPECTED}")
+        return float(value)
+
+    return read
+
+
+def numbers_by_name(value: Any, where: str) -> dict[str, float]:
+    """The reader of a JSON object of finite numbers by name (a setup's values [m, rad])."""
+    content = _expect_mapping(value, where)
+    bad = [name for name, item in content.items() if not _finite(item)]
+    if bad:
+        raise DataError(f"{where}['{bad[0]}'] is {content[bad[0]]!r}, not a finite number: {EXPECTED}")
+    return {name: float(item) for name, item in content.items()}
+
+
+def ranges_by_name(value: Any, where: str) -> dict[str, list[float]]:
+    """The reader of a JSON object of ranges ``[min, max]`` by name (finite numbers, min ≤ max: joint ranges)."""
+    content = _expect_mapping(value, where)
+    for name, item in content.items():
+        if not (isinstance(item, list) and len(item) == 2 and all(_finite(v) for v in item) and item[0] <= item[1]):
+            raise DataError(f"{where}['{name}'] is {item!r}, not a range [min, max] of finite numbers: {EXPECTED}")
+    return {name: [float(item[0]), float(item[1])] for name, item in content.items()}
+
+
+def square(names: Any, matrix: Any, where: str) -> None:
+    """Refuse what is not ``n`` names and an ``n × n`` matrix of finite numbers or null (a covariance's).
+
+    Raises:
+        DataError: naming ``where``.
+    """
+    n = len(names) if isinstance(names, list) and all(isinstance(name, str) for name in names) else -1
+    if n < 0 or not isinstance(matrix, list) or len(matrix) != n or not all(
+            isinstance(row, list) and len(row) == n and all(v is None or _finite(v) for v in row) for row in matrix):
+        raise DataError(f"{where} is not an object of 'parameters' (n names) and 'matrix' (n × n numbers or null): "
+                        f"{EXPECTED}")
+
+
+def positive_lists_by_name(value: Any, where: str) -> dict[str, list[float]]:
+    """The reader of a JSON object of lists of finite numbers > 0 by name (each measurement's row σ)."""
+    content = _expect_mapping(value, where)
+    for name, item in content.items():
+        if not (isinstance(item, list) and item and all(_finite(v) and v > 0 for v in item)):
+            raise DataError(f"{where}['{name}'] is {item!r}, not a list of finite numbers > 0: {EXPECTED}")
+    return {name: [float(v) for v in item] for name, item in content.items()}
 
 
 def nested(reader: Callable[[Any, str], Any], **metadata: Any) -> dict[str, Any]:

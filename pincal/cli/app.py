@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
-from pincal.calibration.options import GivenOptions, options_given
+from pincal.calibration.options import CalibrationOptions, GivenOptions, options_given
 from pincal.cli import (
     assemble,
     bag_import,
@@ -215,12 +215,12 @@ DEMO_TEXT = """pincal demo: geometric calibration of the Delta robot of study 00
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    """``pincal demo``: simulate and calibrate the Delta robot (``model24`` parameters, platform positions) and
-    write the calibrated URDF, an offline HTML report and the simulated data."""
+    """``pincal demo``: simulate and calibrate the Delta (``model24``, platform positions); write its files and page."""
     from pincal.calibration.campaign import simulate, write_simulation
+    from pincal.calibration.from_files import write_recorded
     from pincal.calibration.pipeline import calibrate
     from pincal.calibration.summary import summary_text
-    from pincal.io.files import check_directory, write_text
+    from pincal.io.files import check_directory
     from pincal.model.catalog import robot_path
     from pincal.model.robot import load_robot
     from pincal.progress import Progress
@@ -234,10 +234,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
                        seed=args.seed, parameter_spec=["model24"])
         write_simulation(sim, out)
         progress.advance()
-        cal = calibrate(robot, sim.dataset, parameter_spec=["model24"], x_true=sim.x_true)
+        options = CalibrationOptions(parameter_spec=("model24",))
+        cal = calibrate(robot, sim.dataset, options, x_true=sim.x_true)
         progress.advance()
-    write_text(out / "delta_calibrated.urdf", cal.urdf_text)
-    write_text(out / "report.json", cal.report.to_json())
+    write_recorded(cal, "delta", options, out / "measurements.csv", out / "delta_calibrated.urdf", out / "report.json")
     report_html = write_demo_report(cal, out, quiet=False)  # reads out/truth.json, written above; its own bars
     print(summary_text(cal.report, cal.result.seconds, str(out / "report.json")))
     print(cal.proof)

@@ -62,7 +62,7 @@ def summary_text(content: dict[str, Any]) -> str:
     lines += _pixel_lines(content)
     dropped = content["dropped_samples"]
     if dropped:
-        lines.append(f"samples left out ({len(dropped)}):")
+        lines.append(f"samples left out ({len({d['sample'] for d in dropped})}):")  # a reason per robot, one sample
         lines += [f"  {d['sample']}: {d['reason']}" for d in dropped[:10]]
         if len(dropped) > 10:
             lines.append(f"  … and {len(dropped) - 10} more (the report's 'dropped_samples')")
@@ -94,13 +94,13 @@ def summary_text(content: dict[str, Any]) -> str:
     hint = _register_hint(content)
     if hint:
         lines.append(f"  hint: {hint}")
-    beyond = (content.get("groups") or {}).get("beyond") or {}
-    if content["implausible"] is None and beyond.get("worse"):
-        lines += textwrap.wrap(
-            f"verdict beyond the fitted range: MODEL predicts the {beyond['n']} postures beyond its fitted joint range "
-            f"WORSE than the nominal robot ({_shown(beyond['rms'], 'm')} against {_shown(beyond['nominal_rms'], 'm')} "
-            "RMS), whatever the total: do not use MODEL there (calibrate over postures that cover them)", 120,
-            subsequent_indent="  ")
+    from pincal.calibration.check_groups import beyond_note, beyond_verdict
+
+    beyond, few = beyond_verdict(content), beyond_note(content)
+    if beyond is not None:
+        lines += textwrap.wrap(f"verdict beyond the fitted range: {beyond}", 120, subsequent_indent="  ")
+    elif few is not None:
+        lines += textwrap.wrap(f"note: {few}", 120, subsequent_indent="  ")
     return "\n".join(lines)
 
 

@@ -23,6 +23,7 @@ def cmd_compensate(args: argparse.Namespace) -> int:
     unreachable."""
     import numpy as np
 
+    from pincal.calibration.check_model import KIND_WORDS, file_kind
     from pincal.calibration.compensate import (
         TOLERANCE,
         beyond_fitted_range,
@@ -46,6 +47,10 @@ def cmd_compensate(args: argparse.Namespace) -> int:
                             "records none (no pincal provenance in it); give it with --nominal ROBOT")
     inputs = [p for p in (args.model, args.targets, nominal_name) if p and Path(p).is_file()]
     check_outputs([("--out", args.out)], inputs)
+    kind = file_kind(Path(args.targets)) if Path(args.targets).is_file() else None
+    if kind in ("job", "json", "urdf", "xml", "binary"):  # not parsed as a CSV whose cells miss its header
+        raise DataError(f"TARGETS '{args.targets}' is {KIND_WORDS[kind]}, where a targets CSV was expected: 'sample' "
+                        "and the columns of one position or pose (docs/compensate.md)")
     targets = read_targets(args.targets)  # its size checked before the model is loaded
     nominal = load_robot(nominal_name) if nominal_name else None
     model = load_model(args.model, nominal)

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from pincal.calibration.check_groups import beyond_verdict
 from pincal.viz.html_report import STYLE
 from pincal.viz.plots import png_bytes
 from pincal.viz.static_page import provenance_html
@@ -73,6 +74,9 @@ def check_page(content: dict[str, Any]) -> str:
     if implausible:  # DATA no robot of this model gives as they stand: no verdict on MODEL (docs/check.md)
         verdict = (f'<p class="warn"><b>IMPLAUSIBLE</b>: DATA are not of a robot of this model; likely cause: '
                    f'{html.escape(implausible["cause"])}. No verdict on MODEL.</p>')
+    beyond = beyond_verdict(content)  # the postures beyond the fitted range, judged apart (docs/check.md)
+    if beyond is not None:
+        verdict += f'<p class="warn"><b>Verdict beyond the fitted range</b>: {html.escape(beyond)}</p>'
     outside = content["outside_range"]
     if not outside["known"]:
         range_text = f"Fitted range not known: {html.escape(str(outside['note']))}."

@@ -11,6 +11,7 @@ from __future__ import annotations
 import html
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -164,8 +165,16 @@ def _verdict(report: CalibrationReport) -> str:
     change = (1 - after / before) * 100 if before else 0.0
     kind = "verdict" if after < before else "warn"
     return (f'<p class="{kind}">The calibrated model predicts the robot\'s positions with an error '
-            f"{_ratio(before, after) or 'as large'} than the nominal model {where}: RMS {mm_text(before)} → "
+            f"{_ratio(before, after) or 'as large'} than {html.escape(_started_from(report))} {where}: RMS "
+            f"{mm_text(before)} → "
             f"{mm_text(after)} ({abs(change):.1f} % {'less' if change >= 0 else 'more'}).</p>")
+
+
+def _started_from(report: CalibrationReport) -> str:
+    """What the calibration started from, in the page's words: "the nominal model", or a calibrated URDF given as the
+    robot (its "before" says so: :func:`~pincal.calibration.provenance.labelled`), named so."""
+    found = re.match(r"the calibrated URDF '([^']*)' given as the robot", report.before_means or "")
+    return f"the calibrated URDF '{found.group(1)}' it started from" if found else "the nominal model"
 
 
 def _summary_table(report: CalibrationReport, n_test: int | None) -> str:
@@ -418,6 +427,7 @@ def render_report(content: ReportContent, quiet: bool = True) -> str:
     elsewhere = "camera below" if report.cameras else "parameter estimates"
     named, note = report_robot(report) if report.robot else (problem.robot.name, "")
     title = f"Calibration of {named}"
+    ghost = "the nominal one" if _started_from(report) == "the nominal model" else _started_from(report)
     sources = " · ".join(html.escape(s) for s in content.sources)
     magnified = (f"errors magnified ×{summary.magnification:g}, coloured by size on the scale of the largest error "
                  f"({summary.error_scale * 1e3:.3g} mm)") if summary.has_points else "no 3D measurements"
@@ -433,7 +443,7 @@ pincal {__version__}{' · ' + sources if sources else ''}{' · ' + html.escape(n
 {_explains_nothing(report)}{_implausible(report)}{_verdict(report)}
 <h2>The robot in 3D</h2>
 <iframe id="scene" title="3D scene: nominal and calibrated robot with the sample errors" srcdoc="{srcdoc}"></iframe>
-<p class="caption">Orange: the calibrated robot; blue ghost: the nominal one, both in the measurement frame
+<p class="caption">Orange: the calibrated robot; blue ghost: {html.escape(ghost)}, both in the measurement frame
 ({html.escape(_difference_text(summary.robot_difference))});
 black dots: measured points; segments: each sample's error, {magnified}. Use the slider (or ← →) to step through
 the samples; drag to orbit, scroll to zoom.{' ' + html.escape(dots[:1].upper() + dots[1:]) + ' mm.' if dots else ''}</p>

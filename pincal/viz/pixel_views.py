@@ -139,7 +139,6 @@ def camera_section(view: CalibrationView, truth: dict[str, float] | None) -> str
     parts.append("<p>Each fitted corner's residual (predicted − measured) drawn from where it was seen: after "
                  "calibration, arrows of one direction over a region of the image point to a distortion the model "
                  "misses; a pattern that turns about the centre, to a principal point or a rotation left "
-                 "unseparated. Before: the fit's start, the nominal robot with its camera and intrinsics placed in "
-                 "closed form (Zhang, then hand-eye).</p>")
+                 f"unseparated. Before: {html.escape(report.before_means or 'the nominal robot')}.</p>")
     parts.append(intrinsics_table(report.cameras, truth))
     return "<h2>Camera</h2>\n" + "\n".join(parts)

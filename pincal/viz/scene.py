@@ -66,9 +66,11 @@ class CalibrationView:
     Attributes:
         problem: The calibration samples (the usable ``train`` samples) and models.
         x: Estimated deviations [m, rad], in ``problem.parameters`` order.
-        x0: The fit's start [m, rad] ("before": the nominal robot, its measurement frame registered where estimated).
+        x0: "Before" [m, rad]: the nominal robot with its measurement setup registered on the fitted samples, as the
+            report's "before" figures are (``report.before_parameters``; the fit's start where nothing was
+            registered).
         report: The typed report (:class:`~pincal.calibration.report.CalibrationReport`).
-        errors_before, errors_after: Per measurement key, (N, rows) errors [m, rad] at the fit's start and at ``x``.
+        errors_before, errors_after: Per measurement key, (N, rows) errors [m, rad] at ``x0`` and at ``x``.
         held_out: The held-out samples' evaluation (:func:`~pincal.calibration.heldout.evaluate_held_out`), or None.
     """
 
@@ -83,16 +85,20 @@ class CalibrationView:
     @classmethod
     def from_calibration(cls, calibration: Calibration) -> CalibrationView:
         """From a :class:`~pincal.calibration.pipeline.Calibration`."""
-        result = calibration.result
-        return cls(calibration.problem, result.x, calibration.report, result.errors_before, result.errors_after,
-                   result.x0, calibration.held_out)
+        result, before = calibration.result, calibration.before
+        if before is None:  # a calibration that registered nothing: "before" is its start
+            return cls(calibration.problem, result.x, calibration.report, result.errors_before, result.errors_after,
+                       result.x0, calibration.held_out)
+        return cls(calibration.problem, result.x, calibration.report, before.errors, result.errors_after, before.x,
+                   calibration.held_out)
 
     @classmethod
     def from_result(cls, robot: Robot, dataset: Dataset, report: CalibrationReport,
                     options: CalibrationOptions) -> CalibrationView:
         """From a report written earlier (``pincal calibrate --report``) and its dataset, prepared as the calibration
         was (:func:`~pincal.calibration.setup.prepare`, less the parameters model selection left out); the payload of
-        the compliances is the one the report records. "Before" is the calibration's start.
+        the compliances is the one the report records. "Before" is the nominal robot with the setup the report
+        records for it (``before_parameters``), else the calibration's start.
 
         Raises:
             DataError: the report's parameters are not those chosen by ``options`` (pass the same ``--parameters``
@@ -111,6 +117,8 @@ class CalibrationView:
                             "--parameters and --markers as for the calibration")
         x = np.array([float(report.parameters[name].value) for name in pset.names])
         x0 = fit.problem.initial_guess()
+        registered = report.before_parameters
+        x0 = np.array([float(registered.get(name, v)) for name, v in zip(pset.names, x0, strict=True)])
         before = fit.problem.evaluate(x0, jacobian=False).errors
         after = fit.problem.evaluate(x, jacobian=False).errors
         held = evaluate_held_out(fit, dataset, pset, x0, x) if part is not None else None
@@ -254,7 +262,7 @@ def draw_calibration(vis: Any, view: CalibrationView, quiet: bool = True,
     frame_ids = sorted({v.frame_id for v in visuals})
     names = {fid: str(nominal.model.frames[fid].name).replace("/", "_") for fid in frame_ids}
     base = view.base_placement().homogeneous
-    # both robots in the measurement frame: the nominal one where "before" places it (the fit's start)
+    # both robots in the measurement frame: the nominal one where "before" places it (its setup registered)
     poses = {"robot_nominal": _frame_poses(nominal, q_nominal, frame_ids, view.base_placement(view.x0).homogeneous),
              "robot_calibrated": _frame_poses(calibrated, q_calibrated, frame_ids, base)}
     apart = [np.linalg.norm(poses["robot_nominal"][f][:, :3, 3] - poses["robot_calibrated"][f][:, :3, 3], axis=1)

@@ -9,10 +9,12 @@ motion of the new positions) spoils the model as it stands, and ``--register`` r
 from __future__ import annotations
 
 import hashlib
+import html
 import json
 import math
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -335,3 +337,152 @@ def test_a_nominal_robot_other_than_the_one_model_records_is_refused(tmp_path: P
     copy.write_bytes(Path(str(pincal.load_robot("ur10").source)).read_bytes())
     for nominal in ("ur10", str(copy)):
         assert _check(str(model), str(data), "--nominal", nominal, where=tmp_path)["rms"] < 3 * NOISE
+
+
+_BAD_FIELDS = [  # a calibration's field made what no calibration writes, and the words naming it
+    ("sigma2", lambda c: c.update(sigma2="x"), "'sigma2'"),
+    ("sigma2", lambda c: c.update(sigma2=-1.0), "'sigma2'"),
+    ("fitted_range", lambda c: c["fitted_range"].update(arm_1_joint="wide"), "'fitted_range'"),
+    ("fitted_range", lambda c: c["fitted_range"].update(arm_1_joint=[0.5, -0.5]), "'fitted_range'"),
+    ("before_parameters", lambda c: c["before_parameters"].update({"base.tx": "x"}), "'before_parameters'"),
+    ("covariance", lambda c: c["covariance"].update(matrix="x"), "'covariance'"),
+    ("error_growth", lambda c: c["error_growth"].update(nominal0=-1.0), "'error_growth'"),
+    ("error_growth", lambda c: c["error_growth"].update(rho0=float("nan")), "'error_growth'"),
+    ("row_sigma", lambda c: c["row_sigma"].update({"position:end_effector": ["x", 1, 1]}), "'row_sigma'"),
+]
+
+
+@pytest.mark.parametrize(("field", "spoil", "named"), _BAD_FIELDS)
+def test_a_calibration_with_a_bad_field_is_named_in_one_line(delta: Path, tmp_path: Path, field: str, spoil: Any,
+                                                             named: str) -> None:
+    """A report JSON, or a calibrated URDF's <pincal_calibration> element, whose field holds what no calibration
+    writes (a word for a number, a negative variance, a range upside down, a NaN growth) is refused in one line that
+    names the file and the field, by check and compensate: not an internal error, not a bound printed from it (a
+    negative one), and not "MODEL carries no calibration"."""
+    report = json.loads((delta / "D" / "r.json").read_text(encoding="utf-8"))
+    assert field in report and report["covariance"]["matrix"]
+    report["provenance"]["data"][0]["file"] = str(delta / "D" / "measurements.csv")
+    spoil(report)
+    bad_json = tmp_path / "r.json"
+    bad_json.write_text(json.dumps(report), encoding="utf-8")
+    line = _error_line(run_pincal("check", str(bad_json), str(delta / "new.csv"), "--nominal", "delta"))
+    assert str(bad_json) in line and named in line
+    text = (delta / "D" / "cal.urdf").read_text(encoding="utf-8")
+    held = re.search(r"<pincal_calibration>(.*?)</pincal_calibration>", text, re.DOTALL)
+    assert held is not None
+    carried = json.loads(held.group(1).replace("&lt;", "<").replace("&gt;", ">").replace("&amp;", "&"))
+    spoil(carried)
+    escaped = json.dumps(carried).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    bad_urdf = tmp_path / "cal.urdf"
+    bad_urdf.write_text(text[:held.start(1)] + escaped + text[held.end(1):], encoding="utf-8")
+    line = _error_line(run_pincal("check", str(bad_urdf), str(delta / "new.csv"), "--nominal", "delta"))
+    assert "pincal_calibration" in line and str(bad_urdf) in line and named in line
+    targets = tmp_path / "targets.csv"
+    targets.write_text("position:end_effector:x,position:end_effector:y,position:end_effector:z\n0,0,-0.8\n",
+                       encoding="utf-8")
+    line = _error_line(run_pincal("compensate", str(bad_urdf), str(targets), "--out", str(tmp_path / "c.csv")))
+    assert "pincal_calibration" in line and named in line
+
+
+def test_a_calibrated_urdf_whose_calibration_is_not_json_is_named_so(delta: Path, tmp_path: Path) -> None:
+    """A <pincal_calibration> element cut short is said to be unreadable, naming the element, not taken for a URDF
+    written before pincal carried its calibration."""
+    text = (delta / "D" / "cal.urdf").read_text(encoding="utf-8")
+    cut = tmp_path / "cal.urdf"
+    cut.write_text(re.sub(r"<pincal_calibration>(.{200}).*?</pincal_calibration>",
+                          r"<pincal_calibration>\1</pincal_calibration>", text, flags=re.DOTALL), encoding="utf-8")
+    line = _error_line(run_pincal("check", str(cut), str(delta / "new.csv"), "--nominal", "delta"))
+    assert "pincal_calibration" in line and "not" in line and "JSON" in line
+
+
+def test_a_calibrated_urdf_given_as_the_robot_is_labelled_so(delta: Path, tmp_path: Path) -> None:
+    """Calibrating again from a calibrated URDF (ROBOT D/cal.urdf): calibrate's "before" and the fit's start, and
+    check's reference robot (the one the new MODEL records), are that calibration, and say so, not "the nominal
+    robot" (issue 37, item 4); a nominal URDF keeps its words."""
+    again = tmp_path / "again.urdf"
+    done = run_pincal("calibrate", str(delta / "D" / "cal.urdf"), str(delta / "D" / "measurements.csv"), "--out",
+                      str(again))
+    assert done.returncode in (0, 1), done.stderr
+    said = " ".join(done.stdout.split())
+    before = said.split("(before: ", 1)[1]
+    assert before.startswith("the calibrated URDF 'cal.urdf' given as the robot (a calibration, not a nominal "
+                             "robot)"), before
+    if "(the fit's start, " in said:
+        assert said.split("(the fit's start, ", 1)[1].startswith("the calibrated URDF 'cal.urdf' given as the robot")
+    content = _check(str(again), str(delta / "new.csv"), where=tmp_path, code=None)
+    assert content["nominal_means"].startswith("the calibrated URDF 'cal.urdf' given as the robot")
+    assert "nominal: '" in content["stdout"] and ", the calibrated URDF 'cal.urdf' given as the robot" \
+        in content["stdout"]
+    plain = _check(str(delta / "D" / "cal.urdf"), str(delta / "new.csv"), where=tmp_path, code=None)
+    assert plain["nominal_means"].startswith("the nominal robot")
+    truth = run_pincal("calibrate", str(delta / "D" / "truth.urdf"), str(delta / "D" / "measurements.csv"))
+    assert truth.returncode in (0, 1), truth.stderr  # a simulation's truth records no calibration data: not one
+    assert " ".join(truth.stdout.split()).split("(before: ", 1)[1].startswith("the nominal robot")
+    page = tmp_path / "again.html"
+    done = run_pincal("report", str(delta / "D" / "cal.urdf"), str(delta / "D" / "measurements.csv"), "--out",
+                      str(page), "--quiet")
+    assert done.returncode in (0, 1), done.stderr
+    text = " ".join(html.unescape(page.read_text(encoding="utf-8")).split())
+    assert "than the nominal model" not in text and "blue ghost: the nominal one" not in text
+    assert "than the calibrated URDF 'cal.urdf' it started from" in text
+    assert "blue ghost: the calibrated URDF 'cal.urdf' it started from" in text
+
+
+def test_a_sample_both_robots_leave_out_is_counted_once(delta: Path, tmp_path: Path) -> None:
+    """A posture outside the URDF limits is left out by MODEL and by the nominal robot: two reasons, one sample."""
+    data = read_dataset(delta / "new.csv")
+    data.joints[3, 0] = 100.0  # [rad] far outside arm_1_joint's limits
+    bad = tmp_path / "bad.csv"
+    bad.write_text(dataset_text(data), encoding="utf-8")
+    content = _check(str(delta / "D" / "cal.urdf"), str(bad), "--nominal", "delta", where=tmp_path)
+    assert {d["sample"] for d in content["dropped_samples"]} == {data.sample_ids[3]}
+    assert len(content["dropped_samples"]) == 2 and content["n_samples"] == 29
+    assert "samples left out (1):" in content["stdout"]
+
+
+def test_a_json_that_is_not_a_calibration_s_report_is_named_for_what_it_is(delta: Path, tmp_path: Path) -> None:
+    """A corrections file, or the report of a check, given as MODEL is named as such (and the corrections file's
+    calibrated URDF is pointed to), not as a report JSON that lacks its parameters."""
+    corrections = tmp_path / "cal.corrections.json"
+    corrections.write_text(json.dumps({"format": "pincal joint corrections 1", "robot": "delta", "joints": {}}),
+                           encoding="utf-8")
+    line = _error_line(run_pincal("check", str(corrections), str(delta / "new.csv"), "--nominal", "delta"))
+    assert f"MODEL '{corrections}' is a pincal corrections file" in line
+    assert f"'{tmp_path / 'cal.urdf'}'" in line and "no 'parameters'" not in line
+    checked = _check(str(delta / "D" / "cal.urdf"), str(delta / "new.csv"), where=tmp_path)
+    assert checked["format"] == "pincal check 1"
+    report = next(tmp_path.glob("check-*.json"))
+    line = _error_line(run_pincal("check", str(report), str(delta / "new.csv"), "--nominal", "delta"))
+    assert f"MODEL '{report}' is the report of a pincal check" in line and "no 'parameters'" not in line
+
+
+def test_the_demo_s_calibration_is_checked_without_naming_its_robot(tmp_path: Path) -> None:
+    """``pincal demo`` then ``pincal check`` on its held-out rows, as a new user runs them: the calibrated URDF and the
+    report record the robot and the data (as calibrate's do), so check needs no --nominal, and finds the held-out
+    error the demo reported."""
+    done = run_pincal("demo", "--samples", "30", "--test-samples", "10", "--out", str(tmp_path / "demo"))
+    assert done.returncode == 0, done.stderr
+    demo = tmp_path / "demo"
+    written = json.loads((demo / "report.json").read_text(encoding="utf-8"))
+    assert written["provenance"]["robot"]["file"] == "delta"
+    for model in ("delta_calibrated.urdf", "report.json"):
+        content = _check(str(demo / model), str(demo / "measurements.csv"), "--set", "test", where=tmp_path)
+        assert content["nominal"] == "delta" and not content["nominal_given"]
+        assert content["rms"] == pytest.approx(written["test_rms_after"], rel=1e-6)
+        assert content["outside_range"]["known"]
+
+
+def test_a_recorded_nominal_urdf_that_is_not_there_is_named_as_model_s_record(delta: Path, tmp_path: Path) -> None:
+    """A calibrated URDF copied to another folder records its nominal URDF relative to its own: when that file is not
+    there, the line says that MODEL records it, where it was looked for, and that --nominal gives it."""
+    robot = tmp_path / "mydelta.urdf"
+    robot.write_bytes(Path(str(pincal.load_robot("delta").source)).read_bytes())
+    cal = tmp_path / "cal.urdf"
+    _ok(run_pincal("calibrate", str(robot), str(delta / "D" / "measurements.csv"), "--out", str(cal)))
+    moved = tmp_path / "a" / "b" / "cal.urdf"
+    moved.parent.mkdir(parents=True)
+    moved.write_bytes(cal.read_bytes())
+    line = _error_line(run_pincal("check", str(moved), str(delta / "new.csv")))
+    assert f"MODEL '{moved}' records its nominal robot as" in line and "mydelta.urdf" in line
+    assert "--nominal" in line
+    _check(str(moved), str(delta / "new.csv"), "--nominal", str(robot), where=tmp_path)

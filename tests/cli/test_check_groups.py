@@ -3,7 +3,9 @@ on the same data, and gives each posture's predicted bound from a calibrated URD
 
 from __future__ import annotations
 
+import html
 import json
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -102,3 +104,108 @@ def test_a_calibrated_urdf_carries_what_each_bound_needs(split: Path, tmp_path: 
 
     assert pin.buildModelFromUrdf(str(cal)).nq == pincal.load_robot("tiago_no_hand").model.nq  # fixed links added only
     assert "arm_1_joint" in yourdfpy.URDF.load(str(cal), load_meshes=False).joint_names
+
+
+def test_a_registration_that_fits_data_exactly_is_refused(split: Path, tmp_path: Path) -> None:
+    """Three TIAGo postures are 9 readings, as many as the setup --register re-estimates (mocap frame and marker, all 9
+    seen by them): both sides then fit DATA exactly (0.0000 mm against 0.0000 mm) and "no worse, exit 0" would say
+    nothing of MODEL. One line says so (exit 2); a fourth posture leaves the comparison to be made."""
+    cal = tmp_path / "cal.urdf"
+    assert run_pincal("calibrate", "tiago_no_hand", str(split / "low.csv"), "--out", str(cal)).returncode == 0
+    data = pincal.read_dataset(str(split / "all.csv"))
+    for n in (3, 4):
+        few = tmp_path / f"few{n}.csv"
+        few.write_text(dataset_text(data.subset(np.arange(n))))
+        done = run_pincal("check", str(cal), str(few), "--register")
+        if n == 3:
+            lines = done.stderr.strip().splitlines()
+            assert done.returncode == 2 and len(lines) == 1, done.stdout + done.stderr
+            assert lines[0].startswith("pincal: error: ") and "9 readings" in lines[0] and "9 " in lines[0]
+            assert "--register" in lines[0]
+        else:
+            assert done.returncode in (0, 1), done.stderr
+            assert "verdict: MODEL predicts DATA" in done.stdout
+
+
+def test_the_page_gives_the_verdict_beyond_the_fitted_range(split: Path, tmp_path: Path) -> None:
+    """The check page of a MODEL better in total but worse beyond its fitted range states that verdict, as the
+    terminal does (exit 1), not only "no worse than the nominal robot"."""
+    cal = tmp_path / "cal.urdf"
+    assert run_pincal("calibrate", "tiago_no_hand", str(split / "low.csv"), "--select", "none", "--prior", "1",
+                      "--out", str(cal)).returncode == 0
+    page = tmp_path / "check.html"
+    done = run_pincal("check", str(cal), str(split / "all.csv"), "--register", "--html", str(page))
+    assert done.returncode == 1, done.stdout + done.stderr
+    said = " ".join(done.stdout.split())
+    verdict = said.split("verdict beyond the fitted range: ", 1)[1].split(" wrote ", 1)[0]
+    assert verdict.startswith("MODEL predicts the 15 postures beyond its fitted joint range WORSE")
+    text = " ".join(html.unescape(re.sub(r"<[^>]+>", "", page.read_text(encoding="utf-8"))).split())
+    assert f"Verdict beyond the fitted range: {verdict}" in text
+
+
+def test_a_sample_calibrate_dropped_does_not_widen_the_fitted_range(split: Path, tmp_path: Path) -> None:
+    """A training row whose marker was not seen (its cells empty) with arm_1_joint at 2.0 rad, far beyond the other
+    rows: calibrate drops it, so the fitted range is that of the 17 fitted postures. check flags and judges the same
+    15 postures beyond it as the bounds grow for (and as without the row), not the 5 beyond a range the dropped row
+    widened."""
+    lines = (split / "low.csv").read_text(encoding="utf-8").splitlines()
+    header = next(k for k, line in enumerate(lines) if line.startswith("sample,"))
+    names, row = lines[header].split(","), lines[header + 1].split(",")
+    row[0], row[names.index("arm_1_joint")] = "99", "2.0"
+    for axis in "xyz":
+        row[names.index(f"position:wrist_ft_tool_link:{axis}")] = ""
+    unseen = tmp_path / "low.csv"
+    unseen.write_text("\n".join([*lines, ",".join(row)]) + "\n", encoding="utf-8")
+    flagged = []
+    for data in (split / "low.csv", unseen):
+        cal, report = tmp_path / data.parent.name / "cal.urdf", tmp_path / f"{data.parent.name}.json"
+        done = run_pincal("calibrate", "tiago_no_hand", str(data), "--select", "none", "--prior", "1", "--out",
+                          str(cal))
+        assert done.returncode == 0, done.stderr
+        done = run_pincal("check", str(cal), str(split / "all.csv"), "--register", "--report", str(report))
+        assert done.returncode == 1, done.stdout + done.stderr
+        content = json.loads(report.read_text(encoding="utf-8"))
+        outside = content["outside_range"]["samples"]
+        assert outside == content["predicted"]["beyond"] and content["groups"]["beyond"]["n"] == len(outside)
+        flagged.append(outside)
+    assert flagged[0] == flagged[1] and len(flagged[0]) == 15
+
+
+def test_two_postures_beyond_predicted_worse_are_said_too_few_for_a_verdict(split: Path, tmp_path: Path) -> None:
+    """Two postures beyond the fitted range predicted worse than by the nominal robot are too few (3 are needed) for a
+    verdict of their own: exit 0 on the total, and a note says why they do not fail the check."""
+    cal = tmp_path / "cal.urdf"
+    assert run_pincal("calibrate", "tiago_no_hand", str(split / "low.csv"), "--select", "none", "--prior", "1",
+                      "--out", str(cal)).returncode == 0
+    every = tmp_path / "every.json"
+    assert run_pincal("check", str(cal), str(split / "all.csv"), "--register", "--report", str(every)).returncode == 1
+    samples = json.loads(every.read_text(encoding="utf-8"))["samples"]
+    worst = sorted((s for s in samples if s["outside_range"]), key=lambda s: s["nominal_error"] - s["error"])[:2]
+    keep = {s["sample"] for s in samples if not s["outside_range"]} | {s["sample"] for s in worst}
+    data = pincal.read_dataset(str(split / "all.csv"))
+    two = tmp_path / "two.csv"
+    two.write_text(dataset_text(data.subset(np.array([k for k, s in enumerate(data.sample_ids) if s in keep]))))
+    report = tmp_path / "two.json"
+    done = run_pincal("check", str(cal), str(two), "--register", "--report", str(report))
+    beyond = json.loads(report.read_text(encoding="utf-8"))["groups"]["beyond"]
+    assert beyond["n"] == 2 and beyond["rms"] > 1.01 * beyond["nominal_rms"] and not beyond["worse"]
+    assert done.returncode == 0 and "verdict beyond the fitted range" not in done.stdout
+    said = " ".join(done.stdout.split())
+    assert "note: MODEL predicts the 2 postures beyond its fitted joint range worse than the nominal robot" in said
+    assert "too few (fewer than 3) for a verdict of their own" in said
+
+
+def test_a_calibrated_urdf_is_calibrated_again_on_data_of_its_robot(split: Path, tmp_path: Path) -> None:
+    """Data whose '# robot:' line names the robot a calibrated URDF was calibrated from (tiago_no_hand, the URDF's
+    <robot name> being 'tiago') are that robot's: calibrating again from the calibrated URDF takes them; a line naming
+    another robot is still refused."""
+    cal = tmp_path / "cal.urdf"
+    assert run_pincal("calibrate", "tiago_no_hand", str(split / "low.csv"), "--out", str(cal)).returncode == 0
+    assert "# robot: tiago_no_hand" in (split / "low.csv").read_text(encoding="utf-8")
+    done = run_pincal("calibrate", str(cal), str(split / "low.csv"), "--out", str(tmp_path / "again.urdf"))
+    assert done.returncode in (0, 1), done.stderr
+    other = tmp_path / "other.csv"
+    other.write_text((split / "low.csv").read_text(encoding="utf-8").replace("# robot: tiago_no_hand",
+                                                                             "# robot: ur10"), encoding="utf-8")
+    done = run_pincal("calibrate", str(cal), str(other))
+    assert done.returncode == 2 and "'# robot: ur10' line says the data are of robot 'ur10'" in done.stderr

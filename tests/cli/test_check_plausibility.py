@@ -148,3 +148,29 @@ def test_positions_ten_times_too_large_are_refused_before_any_work_as_calibrate_
     assert checked.returncode == 2 and len(lines) == 1 and not checked.stdout, checked.stdout + checked.stderr
     assert "'position:tool0'" in lines[0] and "10× as much" in lines[0]
     assert calibrated.returncode == 2 and lines == calibrated.stderr.strip().splitlines()  # the same line
+
+
+def test_few_samples_that_model_explains_are_not_called_another_robot_s(tmp_path: Path) -> None:
+    """The TALOS left arm calibrated from its job file, checked on its own 4 held-out rows: too few to calibrate on
+    alone (12 readings, 98 parameters) and the nominal robot's tilt beyond 2°, but MODEL, a calibrated robot of this
+    model, predicts them within the limits: DATA are plausible, and the verdict is MODEL's against the nominal robot,
+    not "DATA are not of a robot of this model". A UR5's 4 positions on a UR10 calibration stay implausible: MODEL
+    is as far off them as the nominal robot."""
+    job = Path(__file__).resolve().parents[2] / "examples" / "data" / "talos_table_contact" / "left_job.toml"
+    cal = tmp_path / "cal.urdf"
+    _ok(run_pincal("calibrate", str(job), "--out", str(cal)), 0, 1)
+    report = tmp_path / "check.json"
+    done = run_pincal("check", str(cal), str(job), "--set", "test", "--report", str(report))
+    content = json.loads(report.read_text(encoding="utf-8"))
+    assert content["n_samples"] == 4 and content["implausible"] is None, done.stdout
+    assert content["nominal_rms_angle"] > 0.0349 > content["rms_angle"]  # [rad]: the nominal robot beyond 2°
+    assert done.returncode == 0 and "verdict: MODEL predicts DATA no worse than the nominal robot" in done.stdout
+
+
+def test_a_few_positions_of_another_robot_stay_implausible(ur10: Path) -> None:
+    lines = (ur10 / "ur5.csv").read_text(encoding="utf-8").splitlines()
+    header = next(k for k, line in enumerate(lines) if line.startswith("sample,"))
+    few = ur10 / "ur5_few.csv"
+    few.write_text("\n".join(lines[:header + 5]) + "\n", encoding="utf-8")
+    out = _check(ur10, few, codes=(1,))
+    assert out["n_samples"] == 4 and out["implausible"] is not None and "verdict: none" in out["stdout"]

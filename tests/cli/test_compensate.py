@@ -275,6 +275,21 @@ def test_a_report_json_is_not_a_model_to_command(tmp_path: Path) -> None:
     assert "compensate takes the calibrated URDF" in done.stderr
 
 
+@pytest.mark.parametrize(("name", "text", "words"), [
+    ("job.toml", 'robot = "delta"\n\n[data]\nfile = "m.csv"\n', "a job file (TOML)"),
+    ("r.json", '{"parameters": {}}\n', "a JSON file"),
+    ("cal.urdf", '<?xml version="1.0"?>\n<robot name="delta">\n</robot>\n', "a URDF"),
+])
+def test_targets_of_the_wrong_kind_are_named_in_one_line(tmp_path: Path, name: str, text: str, words: str) -> None:
+    """A job file, a report or a URDF given as TARGETS is named for what it is, not parsed as a CSV whose cells do not
+    match its header."""
+    given = tmp_path / name
+    given.write_text(text, encoding="utf-8")
+    done = run_pincal("compensate", "delta", str(given), "--out", str(tmp_path / "out.csv"))
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert f"TARGETS '{given}' is {words}" in done.stderr and "where a targets CSV was expected" in done.stderr
+
+
 def test_the_output_never_overwrites_an_input(tmp_path: Path) -> None:
     targets = tmp_path / "targets.csv"
     targets.write_text("sample,position:end_effector:x,position:end_effector:y,position:end_effector:z\n"

@@ -94,3 +94,16 @@ def test_the_scene_caption_states_how_far_apart_the_robots_are_drawn(pages: tupl
     # measurement frame and the robot's, which drawing the nominal robot in its own frame once showed
     assert 0.0 < apart < (50.0 if report["robot"] == "delta" else 300.0)
     assert "they differ by millimetres" not in page
+
+
+def test_the_per_sample_figure_draws_the_before_the_json_states(pages: tuple[dict, str]) -> None:
+    """Each sample's "before" on the page is the report's: the nominal robot with its setup registered (on the TIAGo,
+    its largest fit error 8.6 mm), not the fit's start with the marker at its nominal offset (128 mm there), which the
+    histograms' legend would otherwise mislabel with the registered RMS."""
+    report, page = pages
+    alts = [html.unescape(a) for a in re.findall(r'<svg [^>]*aria-label="([^"]*)"', page)]
+    each = next(a for a in alts if a.startswith("position error of each sample before and after calibration"))
+    assert f"fit samples, largest before {_mm(report['max_before'])}, after {_mm(report['max_after'])}" in each
+    assert f"held out, largest before {_mm(report['test_max_before'])}, after {_mm(report['test_max_after'])}" in each
+    befores = {e["sample"]: e["before"] for e in report["sample_errors"]}
+    assert max(befores.values()) == pytest.approx(max(report["max_before"], report["test_max_before"]), rel=1e-12)
