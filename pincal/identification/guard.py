@@ -111,8 +111,7 @@ def range_guard(problem: CalibrationProblem, result: CalibrationResult, prior: A
     def held(divisor: float) -> tuple[tuple[Array, Array], tuple[Array, Array]]:
         precision = linear.precision.copy()
         precision[robot] *= divisor**2
-        firmer = Linearised(linear.jacobian, linear.residual, linear.weights, precision, linear.x, linear.rows)
-        return _squares(firmer, inside), _squares(firmer, beyond)
+        return _squares(linear, inside, precision), _squares(linear, beyond, precision)
 
     # the nominal robot: the robot's parameters back at nominal (0), the setup alone refitted
     at_nominal = linear.residual - linear.jacobian[:, robot] @ linear.x[robot]
@@ -162,13 +161,14 @@ def _score(squares: tuple[Array, Array]) -> float:
     return float(np.sum(squares[0]) / max(int(np.sum(squares[1])), 1))
 
 
-def _squares(linear: Linearised, folds: list[npt.NDArray[np.intp]]) -> tuple[Array, Array]:
-    """Per held-out sample of each of ``folds``, fold after fold: the sum of the squares of its rows' weighted
-    residuals [σ²], each times its robust weight (a sample the robust loss set aside weighs on no score), and its
-    number of rows."""
+def _squares(linear: Linearised, folds: list[npt.NDArray[np.intp]], precision: Array | None = None
+             ) -> tuple[Array, Array]:
+    """Per held-out sample of each of ``folds``, fold after fold, refitted with the prior's scaled ``precision``
+    (default: ``linear``'s): the sum of the squares of its rows' weighted residuals [σ²], each times its robust weight
+    (a sample the robust loss set aside weighs on no score), and its number of rows."""
     sums, counts = [], []
     for held in folds:
-        residual, _, out = linear.refit(held)
+        residual, _, out = linear.refit(held, precision)
         _, sample = np.unique(linear.rows[out], return_inverse=True)
         sums.append(np.bincount(sample, weights=linear.weights[out] * residual**2))
         counts.append(np.bincount(sample).astype(float))
