@@ -61,7 +61,8 @@ class CrossValidation(Section):
 @record(frozen=True)
 class RangeGuard(Section):
     """What the range guard found (:mod:`pincal.identification.guard`): the automatic prior held firmer when it
-    predicts each joint's range halves worse than the nominal robot.
+    predicts each joint's range halves worse than the nominal robot, or when a firmer one predicts the hold-outs (range
+    halves and shuffled folds) better beyond chance.
 
     Attributes:
         firmer: The divisor applied to the robot parameters' prior σ [1] (1: the chosen prior kept).

@@ -59,9 +59,13 @@ def selection_lines(report: CalibrationReport) -> list[str]:
     held = ", ".join(f"{group} {factor:.2g}×" for group, factor in factors.items() if factor > 0.0)
     guard = selection.guard
     firmer = guard.firmer if guard is not None else 1.0
-    guarded = (f"; the range guard holds them {firmer:g}× firmer than the evidence says (each joint's range halves "
-               f"predicted each other {guard.beyond:.3g} σ² mean square, the nominal robot "
-               f"{guard.nominal_beyond:.3g})" if guard is not None and firmer != 1.0 else "")
+    guarded = ""
+    if guard is not None and firmer != 1.0:
+        _, inside, beyond = guard.scores[0]  # the evidence's own prior (divisor 1)
+        guarded = (f"; the range guard holds them {firmer:g}× firmer than the evidence says (each joint's range halves "
+                   f"predicted each other {guard.beyond:.3g} σ² mean square, the evidence's prior {beyond:.3g}, the "
+                   f"nominal robot {guard.nominal_beyond:.3g}; five shuffled folds {guard.inside:.3g}, the evidence's "
+                   f"prior {inside:.3g})")
     if selection.policy == "evidence":
         words = f"left out the {', '.join(selection.removed_groups)} ({len(removed)} parameters at nominal); " \
             if removed else ""

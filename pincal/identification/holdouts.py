@@ -99,16 +99,27 @@ class Linearised:
         member[held] = True
         return np.asarray(member[self.rows], dtype=bool)
 
-    def refit(self, held: IntArray) -> tuple[Array, Array, npt.NDArray[np.bool_]]:
-        """The held-out samples' rows after one Gauss–Newton solve without them, toward the prior: their weighted
-        residual, the refit's scaled covariance factor ``(JᵀWJ + P)⁺``, and which rows are held out."""
-        out = self.held_rows(held)
-        kept = ~out
-        weighted = self.weighted[kept]
-        normal = self.jacobian[kept].T @ weighted + np.diag(self.precision)
-        inverse = pseudo_inverse(normal)
-        step = -inverse @ (weighted.T @ self.residual[kept] + self.precision * self.x)
+    def refit(self, held: IntArray, precision: Array | None = None) -> tuple[Array, Array, npt.NDArray[np.bool_]]:
+        """The held-out samples' rows after one Gauss–Newton solve without them, toward the prior (its precision
+        ``precision``, scaled; default :attr:`precision`): their weighted residual, the refit's scaled covariance factor
+        ``(JᵀWJ + P)⁺``, and which rows are held out."""
+        out, normal, gradient = self._terms(held)
+        prior = self.precision if precision is None else precision
+        inverse = pseudo_inverse(normal + np.diag(prior))
+        step = -inverse @ (gradient + prior * self.x)
         return self.residual[out] + self.jacobian[out] @ step, inverse, out
+
+    def _terms(self, held: IntArray) -> tuple[npt.NDArray[np.bool_], Array, Array]:
+        """The rows of the samples ``held``, and the rest's ``JᵀWJ`` and ``JᵀWr``: computed once per hold-out, for
+        every prior it is refitted with."""
+        cache: dict[bytes, tuple[npt.NDArray[np.bool_], Array, Array]] = self.__dict__.setdefault("_terms_of", {})
+        key = np.asarray(held, dtype=np.intp).tobytes()
+        if key not in cache:
+            out = self.held_rows(held)
+            kept = ~out
+            weighted = self.weighted[kept]
+            cache[key] = (out, self.jacobian[kept].T @ weighted, weighted.T @ self.residual[kept])
+        return cache[key]
 
 
 def pseudo_inverse(matrix: Array) -> Array:

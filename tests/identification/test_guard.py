@@ -13,7 +13,7 @@ from pincal.calibration import CalibrationOptions
 from pincal.calibration.setup import prepare
 from pincal.calibration.unmodelled import Effects, narrow_band
 from pincal.identification.criterion import group_of
-from pincal.identification.guard import FIRMER, moving_columns, range_guard
+from pincal.identification.guard import FIRMER, _better, moving_columns, range_guard
 from pincal.identification.prior import prior_sigma
 from pincal.identification.selection import _reduced
 from pincal.identification.solver import identify
@@ -50,8 +50,11 @@ def test_a_prior_that_finds_real_errors_is_kept() -> None:
     problem = _problem(1e-3)
     sigma = prior_sigma(problem.parameters, 1.0)
     guard = range_guard(problem, identify(problem, prior=sigma), sigma)
-    assert guard is not None and guard.firmer == 1.0 and len(guard.scores) == 1
+    assert guard is not None and guard.firmer == 1.0 and len(guard.scores) == 1 + len(FIRMER)
     assert guard.beyond < 0.1 * guard.nominal_beyond
+    _, inside, beyond = (np.array(column) for column in zip(*guard.scores, strict=True))
+    sums = inside + beyond  # no firmer prior predicts the hold-outs materially better, the firmest far worse
+    assert sums.min() > 0.9 * sums[0] and sums[-1] > 10.0 * sums[0]
 
 
 def test_the_nominal_robots_score_is_that_of_its_setup_refitted_on_each_half() -> None:
@@ -76,3 +79,22 @@ def test_the_nominal_robots_score_is_that_of_its_setup_refitted_on_each_half() -
             total += float(residual @ residual)
             rows += residual.size
     assert guard.nominal_beyond == pytest.approx(total / rows, rel=0.05)
+
+
+def test_a_firmer_prior_is_taken_only_when_its_hold_outs_are_better_beyond_chance() -> None:
+    """The choice among the divisors when the evidence's prior is no worse than the nominal robot: the one of the least
+    sum of scores, kept only when its squares, sample by sample inside and beyond, are below the evidence's prior's by
+    more than BETTER standard errors and MATERIAL of their mean."""
+    rng = np.random.default_rng(0)
+    inside, beyond = rng.chisquare(3, 40), rng.chisquare(3, 60)
+    rows_in, rows_out = np.full(40, 3.0), np.full(60, 3.0)
+    prior = ((inside, rows_in), (beyond, rows_out))
+    halved = ((0.5 * inside, rows_in), (0.5 * beyond, rows_out))  # every sample better: far beyond chance
+    assert _better(halved, prior)
+    noise = rng.normal(0.0, 1.0, 100)
+    noise -= noise.mean()  # better on the mean by a tenth of the differences' standard deviation: chance
+    shifted = ((inside - 0.1 - noise[:40], rows_in), (beyond - 0.1 - noise[40:], rows_out))
+    assert not _better(shifted, prior)
+    steady = ((0.97 * inside, rows_in), (0.97 * beyond, rows_out))  # every sample 3 % better: real, but not material
+    assert not _better(steady, prior)
+    assert not _better(prior, prior)
