@@ -169,7 +169,7 @@ def _squares(linear: Linearised, folds: list[npt.NDArray[np.intp]], precision: A
     sums, counts = [], []
     for held in folds:
         residual, _, out = linear.refit(held, precision)
-        _, sample = np.unique(linear.rows[out], return_inverse=True)
+        sample = linear.held_samples(held)
         sums.append(np.bincount(sample, weights=linear.weights[out] * residual**2))
         counts.append(np.bincount(sample).astype(float))
     if not sums:
