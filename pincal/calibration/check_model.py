@@ -209,7 +209,7 @@ def _check_report_format(path: str) -> None:
     except (OSError, UnicodeDecodeError, json.JSONDecodeError):
         return
     written = content.get("format") if isinstance(content, dict) else None
-    if written not in OTHER_JSON:
+    if not isinstance(written, str) or written not in OTHER_JSON:
         return
     hint = ""
     if written == "pincal joint corrections 1":

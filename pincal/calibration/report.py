@@ -76,6 +76,9 @@ def _read_growth(value: Any, where: str) -> ErrorGrowth:
         DataError: not an object of its keys and numbers.
     """
     growth = ErrorGrowth.from_dict(value) if isinstance(value, dict) else None
+    numbers = ("rho0", "nominal0", "nominal1", "reach", "inside", "beyond")
+    if growth is not None and any(isinstance(value.get(key), (bool, str)) for key in numbers):
+        growth = None  # a word or a truth value where a number belongs: not a report pincal wrote
     if growth is None:
         raise DataError(f"{where} is not an object of numbers 'rho0', 'nominal0', 'nominal1', 'reach', 'inside', "
                         "'beyond': expected a report written by 'pincal calibrate --report'")

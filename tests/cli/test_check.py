@@ -348,6 +348,8 @@ _BAD_FIELDS = [  # a calibration's field made what no calibration writes, and th
     ("covariance", lambda c: c["covariance"].update(matrix="x"), "'covariance'"),
     ("error_growth", lambda c: c["error_growth"].update(nominal0=-1.0), "'error_growth'"),
     ("error_growth", lambda c: c["error_growth"].update(rho0=float("nan")), "'error_growth'"),
+    ("error_growth", lambda c: c["error_growth"].update(rho0="1"), "'error_growth'"),
+    ("error_growth", lambda c: c["error_growth"].update(rho0=True), "'error_growth'"),
     ("row_sigma", lambda c: c["row_sigma"].update({"position:end_effector": ["x", 1, 1]}), "'row_sigma'"),
 ]
 
@@ -407,8 +409,8 @@ def test_a_calibrated_urdf_given_as_the_robot_is_labelled_so(delta: Path, tmp_pa
     before = said.split("(before: ", 1)[1]
     assert before.startswith("the calibrated URDF 'cal.urdf' given as the robot (a calibration, not a nominal "
                              "robot)"), before
-    if "(the fit's start, " in said:
-        assert said.split("(the fit's start, ", 1)[1].startswith("the calibrated URDF 'cal.urdf' given as the robot")
+    assert "(the fit's start, " in said  # the Delta's measurement frame starts in closed form: a start of its own
+    assert said.split("(the fit's start, ", 1)[1].startswith("the calibrated URDF 'cal.urdf' given as the robot")
     content = _check(str(again), str(delta / "new.csv"), where=tmp_path, code=None)
     assert content["nominal_means"].startswith("the calibrated URDF 'cal.urdf' given as the robot")
     assert "nominal: '" in content["stdout"] and ", the calibrated URDF 'cal.urdf' given as the robot" \
@@ -454,6 +456,10 @@ def test_a_json_that_is_not_a_calibration_s_report_is_named_for_what_it_is(delta
     report = next(tmp_path.glob("check-*.json"))
     line = _error_line(run_pincal("check", str(report), str(delta / "new.csv"), "--nominal", "delta"))
     assert f"MODEL '{report}' is the report of a pincal check" in line and "no 'parameters'" not in line
+    for odd in ({"a": 1}, ["pincal check 1"]):  # a format that is no name at all: the report's reader names the file
+        other = tmp_path / "odd.json"
+        other.write_text(json.dumps({"format": odd}), encoding="utf-8")
+        assert str(other) in _error_line(run_pincal("check", str(other), str(delta / "new.csv"), "--nominal", "delta"))
 
 
 def test_the_demo_s_calibration_is_checked_without_naming_its_robot(tmp_path: Path) -> None:
