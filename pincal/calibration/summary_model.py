@@ -64,7 +64,7 @@ def selection_lines(report: CalibrationReport) -> list[str]:
         _, inside, beyond = guard.scores[0]  # the evidence's own prior (divisor 1)
         guarded = (f"; the range guard holds them {firmer:g}× firmer than the evidence says (each joint's range halves "
                    f"predicted each other {guard.beyond:.3g} σ² mean square, the evidence's prior {beyond:.3g}, the "
-                   f"nominal robot {guard.nominal_beyond:.3g}; five shuffled folds {guard.inside:.3g}, the evidence's "
+                   f"nominal robot {guard.nominal_beyond:.3g}; shuffled folds {guard.inside:.3g}, the evidence's "
                    f"prior {inside:.3g})")
     if selection.policy == "evidence":
         words = f"left out the {', '.join(selection.removed_groups)} ({len(removed)} parameters at nominal); " \

@@ -11,16 +11,17 @@ with the hold-outs of :mod:`pincal.identification.holdouts` (one linearised solv
 - *inside*: five folds of one seeded shuffle (:func:`~pincal.identification.holdouts.shuffled_folds`).
 
 Each score is the mean square of the held-out rows' weighted residuals [σ²], each times its sample's robust weight. The
-nominal robot's is that of the same refits with the robot held at nominal (its setup alone refitted). Every robot
-parameter's prior σ is divided by one of 1 (the evidence's prior kept) and :data:`FIRMER`, each scored both ways:
+nominal robot's is that of the same refits with the robot held at nominal (its setup alone refitted). When the chosen
+prior's beyond score is not above the nominal robot's, it stays. Otherwise every robot parameter's prior σ is divided by
+one of 1 (the evidence's prior kept) and :data:`FIRMER`, each scored both ways:
 
 - when the chosen prior's *beyond* squares exceed the nominal robot's beyond chance (their mean difference, held-out
   sample by held-out sample, above :data:`SIGNIFICANT` standard errors), by the divisor of the least sum of both scores
   among those whose beyond score is not above the nominal robot's, or, when none is (the linear picture of the refits
   does not reach the nominal robot's), by the one of the least beyond score;
-- otherwise by the divisor of the least sum of both scores, when its squares (inside and beyond, held-out sample by
-  held-out sample) are below the evidence's prior's by more than :data:`BETTER` standard errors of their mean
-  difference and by more than :data:`MATERIAL` of their mean; else the prior stays as the evidence chose it.
+- otherwise by the divisor of the least sum of both scores, when it lowers that sum beyond chance and materially
+  (:func:`_better`: each sample's part of the change one difference, their mean above :data:`BETTER` standard errors,
+  the change above :data:`MATERIAL` of the evidence's prior's sum); else the prior stays as the evidence chose it.
 
 The fit is then made again with it.
 """
@@ -41,6 +42,7 @@ from pincal.identification.result import CalibrationResult
 from pincal.records import record
 
 Array = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
 
 #: Fewest samples the guard judges (fewer: the prior is kept).
 MIN_SAMPLES = 4
@@ -51,13 +53,12 @@ TIE = 1e-6
 #: The chosen prior's held-out squares are worse than the nominal robot's when their mean difference, sample by sample,
 #: is above this many standard errors of it.
 SIGNIFICANT = 2.0
-#: A firmer prior predicts the hold-outs better than the evidence's when the mean difference of their squares, sample by
-#: sample inside and beyond, is above this many standard errors of it (the six divisors are tried on the same samples:
-#: a stricter test than :data:`SIGNIFICANT`'s, so that a prior the data support is not moved by the noise of the
-#: choice).
+#: A firmer prior predicts the hold-outs better than the evidence's when the mean of each sample's part of the change in
+#: the sum of both scores is above this many standard errors of it (the six divisors are tried on the same samples: a
+#: stricter test than :data:`SIGNIFICANT`'s, so that a prior the data support is not moved by the noise of the choice).
 BETTER = 3.0
-#: ... and by more than this share of the evidence's prior's own squares: a firmer prior that shrinks every prediction a
-#: little is consistently, but not materially, better.
+#: ... and when the change is more than this share of the evidence's prior's sum of both scores: a firmer prior that
+#: shrinks every prediction a little is consistently, but not materially, better.
 MATERIAL = 0.1
 
 
@@ -119,7 +120,11 @@ def range_guard(problem: CalibrationProblem, result: CalibrationResult, prior: A
                          linear.x[~robot], linear.rows)
     nominal_squares = _squares(nominal, beyond)
     nominal_beyond = _score(nominal_squares)
-    squares = {1.0: (_squares(linear, inside), _squares(linear, beyond))} | {d: held(d) for d in FIRMER}
+    squares = {1.0: (_squares(linear, inside), _squares(linear, beyond))}
+    if _score(squares[1.0][1]) <= nominal_beyond * (1.0 + TIE):  # better than the nominal robot beyond: kept
+        tried = [(1.0, _score(squares[1.0][0]), _score(squares[1.0][1]))]
+        return Guard(1.0, tried[0][2], tried[0][1], nominal_beyond, tuple(tried))
+    squares |= {d: held(d) for d in FIRMER}
     tried = [(d, _score(both[0]), _score(both[1])) for d, both in squares.items()]
     if _worse(squares[1.0][1], nominal_squares):
         limit = nominal_beyond * (1.0 + TIE)
@@ -127,7 +132,8 @@ def range_guard(problem: CalibrationProblem, result: CalibrationResult, prior: A
         divisor, score_in, score_out = min(safe, key=lambda t: (t[1] + t[2], t[0]))
     else:
         divisor, score_in, score_out = min(tried, key=lambda t: (t[1] + t[2], t[0]))
-        if divisor != 1.0 and not _better(squares[divisor], squares[1.0]):
+        if divisor != 1.0 and not _better(squares[divisor], squares[1.0], (_samples(linear, inside),
+                                                                           _samples(linear, beyond))):
             divisor, score_in, score_out = tried[0]
     return Guard(divisor, score_out, score_in, nominal_beyond, tuple(tried))
 
@@ -144,16 +150,24 @@ def _worse(squares: tuple[Array, Array], nominal: tuple[Array, Array]) -> bool:
 
 
 def _better(squares: tuple[tuple[Array, Array], tuple[Array, Array]],
-            than: tuple[tuple[Array, Array], tuple[Array, Array]]) -> bool:
-    """Whether the held-out squares ``squares`` (inside, beyond) are below ``than``'s beyond chance and materially: the
-    mean of their differences, held-out sample by held-out sample over both, above :data:`BETTER` standard errors of it
-    and above :data:`MATERIAL` of ``than``'s mean."""
-    before = np.concatenate([than[0][0], than[1][0]])
-    differences = before - np.concatenate([squares[0][0], squares[1][0]])
+            than: tuple[tuple[Array, Array], tuple[Array, Array]], samples: tuple[IntArray, IntArray]) -> bool:
+    """Whether the held-out squares ``squares`` (inside, beyond; the entries' samples ``samples``) lower the sum of the
+    two scores below ``than``'s beyond chance and materially. Each sample's part of that sum's change (its entries in
+    both, over each score's rows) is one difference: their mean above :data:`BETTER` standard errors of it (a sample
+    held out in several range halves is one sample, not several), and the change above :data:`MATERIAL` of ``than``'s
+    sum."""
+    rows_in, rows_out = max(float(np.sum(than[0][1])), 1.0), max(float(np.sum(than[1][1])), 1.0)
+    parts = np.concatenate([(than[0][0] - squares[0][0]) / rows_in, (than[1][0] - squares[1][0]) / rows_out])
+    owners = np.concatenate(samples)
+    if parts.size == 0:
+        return False
+    _, which = np.unique(owners, return_inverse=True)
+    differences = np.bincount(which, weights=parts)
     if differences.size < 2:
         return False
     error = float(np.std(differences, ddof=1)) / math.sqrt(differences.size)
-    return float(np.mean(differences)) > max(BETTER * error, MATERIAL * float(np.mean(before)))
+    gain = float(np.sum(differences))
+    return float(np.mean(differences)) > BETTER * error and gain > MATERIAL * (_score(than[0]) + _score(than[1]))
 
 
 def _score(squares: tuple[Array, Array]) -> float:
@@ -169,9 +183,15 @@ def _squares(linear: Linearised, folds: list[npt.NDArray[np.intp]], precision: A
     sums, counts = [], []
     for held in folds:
         residual, _, out = linear.refit(held, precision)
-        sample = linear.held_samples(held)
+        _, sample = linear.held_samples(held)
         sums.append(np.bincount(sample, weights=linear.weights[out] * residual**2))
         counts.append(np.bincount(sample).astype(float))
     if not sums:
         return np.zeros(0), np.zeros(0)
     return np.concatenate(sums), np.concatenate(counts)
+
+
+def _samples(linear: Linearised, folds: list[npt.NDArray[np.intp]]) -> IntArray:
+    """The sample of each entry of :func:`_squares`' arrays for ``folds``."""
+    ids = [linear.held_samples(held)[0] for held in folds]
+    return np.concatenate(ids) if ids else np.zeros(0, dtype=np.intp)

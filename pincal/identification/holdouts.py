@@ -109,14 +109,15 @@ class Linearised:
         step = -inverse @ (gradient + prior * self.x)
         return self.residual[out] + self.jacobian[out] @ step, inverse, out
 
-    def held_samples(self, held: IntArray) -> IntArray:
-        """(rows held,) each held-out row's position among the samples ``held`` whose rows it holds (``np.unique``'s
-        inverse), computed once per hold-out."""
-        cache: dict[bytes, IntArray] = self.__dict__.setdefault("_samples_of", {})
+    def held_samples(self, held: IntArray) -> tuple[IntArray, IntArray]:
+        """The samples ``held`` whose rows are held out, sorted, and each held-out row's position among them
+        (``np.unique``'s values and inverse), computed once per hold-out."""
+        cache: dict[bytes, tuple[IntArray, IntArray]] = self.__dict__.setdefault("_samples_of", {})
         key = np.asarray(held, dtype=np.intp).tobytes()
         if key not in cache:
             out = self._terms(held)[0]
-            cache[key] = np.asarray(np.unique(self.rows[out], return_inverse=True)[1], dtype=np.intp)
+            ids, inverse = np.unique(self.rows[out], return_inverse=True)
+            cache[key] = (np.asarray(ids, dtype=np.intp), np.asarray(inverse, dtype=np.intp))
         return cache[key]
 
     def _terms(self, held: IntArray) -> tuple[npt.NDArray[np.bool_], Array, Array]:
