@@ -62,10 +62,15 @@ def summary_text(content: dict[str, Any]) -> str:
     lines += _pixel_lines(content)
     dropped = content["dropped_samples"]
     if dropped:
-        lines.append(f"samples left out ({len({d['sample'] for d in dropped})}):")  # a reason per robot, one sample
-        lines += [f"  {d['sample']}: {d['reason']}" for d in dropped[:10]]
-        if len(dropped) > 10:
-            lines.append(f"  … and {len(dropped) - 10} more (the report's 'dropped_samples')")
+        reasons: dict[str, list[str]] = {}  # a reason per robot that left it out, one line per sample
+        for d in dropped:
+            said = reasons.setdefault(str(d["sample"]), [])
+            if d["reason"] not in said:
+                said.append(d["reason"])
+        lines.append(f"samples left out ({len(reasons)}):")
+        lines += [f"  {sample}: {'; '.join(why)}" for sample, why in list(reasons.items())[:10]]
+        if len(reasons) > 10:
+            lines.append(f"  … and {len(reasons) - 10} more (the report's 'dropped_samples')")
     outside = content["outside_range"]
     if not outside["known"]:
         lines.append(f"fitted range: not known: {outside['note']}")

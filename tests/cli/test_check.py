@@ -440,6 +440,13 @@ def test_a_sample_both_robots_leave_out_is_counted_once(delta: Path, tmp_path: P
     assert {d["sample"] for d in content["dropped_samples"]} == {data.sample_ids[3]}
     assert len(content["dropped_samples"]) == 2 and content["n_samples"] == 29
     assert "samples left out (1):" in content["stdout"]
+    assert sum(line.startswith(f"  {data.sample_ids[3]}: ") for line in content["stdout"].splitlines()) == 1
+    data.joints[:12, 0] = 100.0  # twelve samples, each left out by both: ten listed, "2 more", as the header counts
+    bad.write_text(dataset_text(data), encoding="utf-8")
+    many = _check(str(delta / "D" / "cal.urdf"), str(bad), "--nominal", "delta", where=tmp_path)
+    listed = many["stdout"].split("samples left out (12):\n", 1)[1].splitlines()
+    assert all(line.startswith("  ") for line in listed[:11]) and listed[10].startswith("  … and 2 more")
+    assert len({line.split(":")[0] for line in listed[:10]}) == 10
 
 
 def test_a_json_that_is_not_a_calibration_s_report_is_named_for_what_it_is(delta: Path, tmp_path: Path) -> None:
