@@ -15,14 +15,20 @@ from conftest import run_pincal
 TALOS = Path(__file__).resolve().parents[2] / "examples" / "data" / "talos_table_contact"
 
 
-def test_the_guard_holds_a_prior_that_extrapolates_worse_than_nominal(tmp_path: Path) -> None:
+def _right_arm_job(tmp_path: Path, held_out: list[int]) -> Path:
+    """The TALOS right arm's job in ``tmp_path``, the rows ``held_out`` (counted from 0) held out."""
     shutil.copy(TALOS / "right_train.csv", tmp_path / "right_train.csv")
     job = (TALOS / "right_job.toml").read_text(encoding="utf-8")
-    job, count = re.subn(r"^held_out = .*$", "held_out = [2, 12, 23, 24]", job, flags=re.M)
+    job, count = re.subn(r"^held_out = .*$", f"held_out = {held_out}", job, flags=re.M)
     assert count == 1
     (tmp_path / "job.toml").write_text(job, encoding="utf-8")
+    return tmp_path / "job.toml"
+
+
+def test_the_guard_holds_a_prior_that_extrapolates_worse_than_nominal(tmp_path: Path) -> None:
+    job = _right_arm_job(tmp_path, [2, 12, 23, 24])
     report = tmp_path / "r.json"
-    done = run_pincal("calibrate", str(tmp_path / "job.toml"), "--out", str(tmp_path / "cal.urdf"), "--report",
+    done = run_pincal("calibrate", str(job), "--out", str(tmp_path / "cal.urdf"), "--report",
                       str(report))
     assert done.returncode == 0, done.stdout + done.stderr
     text = " ".join(done.stdout.split())  # the summary wraps its lines at 120 columns
@@ -44,13 +50,9 @@ def test_the_guard_holds_a_prior_firmer_that_predicts_its_hold_outs_better(tmp_p
     """The TALOS right arm with six other rows held out: the evidence's prior predicts the range halves no worse than
     the nominal robot beyond chance, but a firmer one predicts the halves and the shuffled folds better beyond chance;
     the guard takes it, says so, and the held-out rows are predicted better than by the nominal robot."""
-    shutil.copy(TALOS / "right_train.csv", tmp_path / "right_train.csv")
-    job = (TALOS / "right_job.toml").read_text(encoding="utf-8")
-    job, count = re.subn(r"^held_out = .*$", "held_out = [3, 4, 12, 17, 24, 28]", job, flags=re.M)
-    assert count == 1
-    (tmp_path / "job.toml").write_text(job, encoding="utf-8")
+    job = _right_arm_job(tmp_path, [3, 4, 12, 17, 24, 28])
     report = tmp_path / "r.json"
-    done = run_pincal("calibrate", str(tmp_path / "job.toml"), "--report", str(report), "--out",
+    done = run_pincal("calibrate", str(job), "--report", str(report), "--out",
                       str(tmp_path / "cal.urdf"))
     assert done.returncode == 0, done.stdout + done.stderr
     text = " ".join(done.stdout.split())
