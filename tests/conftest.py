@@ -39,6 +39,20 @@ def readme_four_bar() -> str:
     return blocks[0].split("```")[0]
 
 
+def page_elsewhere(script: Path, published: Path, tmp_path: Path, *args: str,
+                   timeout: float | None = None) -> str:
+    """Run a results page's ``script`` (with ``args``, e.g. ``--quick``) writing its page into ``tmp_path / "page"``,
+    on one BLAS thread; check it succeeds and leaves the ``published`` page untouched (only ``--publish`` writes into
+    docs/); the page it wrote."""
+    before = published.read_bytes()
+    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+    done = subprocess.run([sys.executable, str(script), *args, "--out", str(tmp_path / "page")], capture_output=True,
+                          text=True, timeout=timeout, env=env, cwd=tmp_path, check=False)
+    assert done.returncode == 0, done.stderr
+    assert published.read_bytes() == before  # only --publish writes into docs/
+    return (tmp_path / "page" / published.name).read_text(encoding="utf-8")
+
+
 def run_pincal(*args: str, timeout: float = 300, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
     """``pincal ARGS`` as a user runs it, in a process of its own (in ``cwd``, made if missing), output captured as
     text; ``subprocess.TimeoutExpired`` after ``timeout`` seconds, as ``subprocess.run`` raises it.

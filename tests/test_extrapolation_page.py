@@ -3,26 +3,18 @@ form elsewhere, and the TIAGo file's range hold-outs, rerun, give the published 
 
 from __future__ import annotations
 
-import os
 import re
-import subprocess
 import sys
 from pathlib import Path
 
-from conftest import ROOT
+from conftest import ROOT, page_elsewhere
 
 PAGE = ROOT / "docs" / "results" / "extrapolation.md"
 SCRIPT = ROOT / "examples" / "extrapolation.py"
-ENV = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
 
 
 def test_the_quick_run_writes_the_page_elsewhere(tmp_path: Path) -> None:
-    published = PAGE.read_bytes()
-    done = subprocess.run([sys.executable, str(SCRIPT), "--quick", "--out", str(tmp_path / "page")],
-                          capture_output=True, text=True, env=ENV, cwd=tmp_path, check=False)
-    assert done.returncode == 0, done.stderr
-    assert PAGE.read_bytes() == published  # only --publish writes into docs/
-    page = (tmp_path / "page" / "extrapolation.md").read_text(encoding="utf-8")
+    page = page_elsewhere(SCRIPT, PAGE, tmp_path, "--quick")
     row = next(line for line in page.splitlines() if line.startswith("| UR10"))
     assert "| 80 / 80 |" in row  # two seeds of 40 held-out postures inside the band and 40 beyond
     verdicts = re.findall(r"predicts (no worse than|WORSE than) the nominal robot", page)

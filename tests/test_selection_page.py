@@ -3,17 +3,13 @@ elsewhere (never into docs/), and every judgment on it follows from the figures 
 
 from __future__ import annotations
 
-import os
 import re
-import subprocess
-import sys
 from pathlib import Path
 
-from conftest import ROOT
+from conftest import ROOT, page_elsewhere
 
 PAGE = ROOT / "docs" / "results" / "selection.md"
 SCRIPT = ROOT / "examples" / "selection.py"
-ENV = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
 #: A row of the main table: the benchmark, four held-out RMS [mm], the loss [%] and its judgment, four CPU times [s],
 #: their ratio and its judgment.
 ROW = re.compile(r"^\| (?P<name>[^|]+) \| (?P<held>[0-9.]+ / [0-9.]+ / [0-9.]+ / [0-9.]+)"
@@ -51,12 +47,7 @@ def check_judgments(page: str) -> list[re.Match[str]]:
 
 
 def test_the_quick_run_writes_a_page_whose_judgments_follow_from_its_figures(tmp_path: Path) -> None:
-    published = PAGE.read_bytes()
-    done = subprocess.run([sys.executable, str(SCRIPT), "--quick", "--out", str(tmp_path / "page")],
-                          capture_output=True, text=True, env=ENV, cwd=tmp_path, check=False)
-    assert done.returncode == 0, done.stderr
-    assert PAGE.read_bytes() == published  # only --publish writes into docs/
-    page = (tmp_path / "page" / "selection.md").read_text(encoding="utf-8")
+    page = page_elsewhere(SCRIPT, PAGE, tmp_path, "--quick")
     assert "**a quick run**" in page
     found = check_judgments(page)
     assert [r["name"] for r in found] == ["TIAGo, one marker (34 postures)", "UR10, eye-in-hand, seed 1"]
