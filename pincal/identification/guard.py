@@ -158,10 +158,7 @@ def _better(squares: tuple[tuple[Array, Array], tuple[Array, Array]],
     sum."""
     rows_in, rows_out = max(float(np.sum(than[0][1])), 1.0), max(float(np.sum(than[1][1])), 1.0)
     parts = np.concatenate([(than[0][0] - squares[0][0]) / rows_in, (than[1][0] - squares[1][0]) / rows_out])
-    owners = np.concatenate(samples)
-    if parts.size == 0:
-        return False
-    _, which = np.unique(owners, return_inverse=True)
+    _, which = np.unique(np.concatenate(samples), return_inverse=True)
     differences = np.bincount(which, weights=parts)
     if differences.size < 2:
         return False
